@@ -1,0 +1,36 @@
+"""raycast_shade: the classic local-illumination models, by ray casting.
+
+Embree finds the hits, Numba shades them: flat, Gouraud and Phong shading with
+Lambert and Phong/Blinn-Phong reflection, per-channel colour and the lecture's
+attenuation laws.
+
+>>> import raycast_shade as rs
+>>> scene = rs.Scene(
+...     [rs.Model(rs.shapes.icosphere(3), rs.Material(kd=(0.8, 0.3, 0.2), ks=0.5, shininess=40))],
+...     lights=[rs.PointLight((2, 3, 4), intensity=20, attenuation="inverse_square")],
+...     camera=rs.Camera(eye=(0, 0, 4), width=320, height=240),
+... )
+>>> frame = rs.render(scene, shading="phong")
+>>> frame.image.shape
+(240, 320, 3)
+"""
+
+from . import shapes
+from .camera import Camera
+from .cast import cast_camera, cast_rays
+from .frame import Frame
+from .hits import HitBuffer
+from .lights import DirectionalLight, PointLight
+from .material import Material
+from .mesh import Mesh
+from .render import render
+from .scene import Model, Scene
+from .shading import SHADINGS, shade, shading_normals
+from .tonemap import read_pfm, to_uint8, write_pfm
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Camera", "DirectionalLight", "Frame", "HitBuffer", "Material", "Mesh", "Model", "PointLight", "Scene",
+    "SHADINGS", "cast_camera", "cast_rays", "read_pfm", "render", "shade", "shading_normals", "shapes", "to_uint8", "write_pfm",
+]

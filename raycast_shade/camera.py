@@ -1,0 +1,98 @@
+"""Cameras: perspective and orthographic look-at, with the image size."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._validate import as_choice, as_int, as_scalar, as_vec3
+
+__all__ = ["Camera", "PROJECTIONS"]
+
+PROJECTIONS = ("perspective", "orthographic")
+
+
+@dataclass(frozen=True, eq=False)
+class Camera:
+    """A look-at camera.
+
+    Pixel ``(x, y)`` (``y`` down) has its centre at ``(x + 0.5, y + 0.5)``.
+
+    Parameters
+    ----------
+    eye, target : (3,) float
+        Must differ.
+    up : (3,) float
+        Must not be parallel to ``target - eye``.
+    fov : float
+        Vertical field of view in degrees, in (0, 180) (perspective).
+    width, height : int
+        Image size in pixels, ``> 0``.
+    projection : {"perspective", "orthographic"}
+    ortho_height : float
+        Height of the view in world units (orthographic), ``> 0``.
+    """
+
+    eye: np.ndarray
+    target: np.ndarray = (0.0, 0.0, 0.0)
+    up: np.ndarray = (0.0, 1.0, 0.0)
+    fov: float = 45.0
+    width: int = 640
+    height: int = 480
+    projection: str = "perspective"
+    ortho_height: float = 2.0
+
+    def __post_init__(self):
+        set_ = object.__setattr__
+        eye = as_vec3(self.eye, "camera.eye")
+        target = as_vec3(self.target, "camera.target")
+        up = as_vec3(self.up, "camera.up", nonzero=True)
+        set_(self, "eye", eye)
+        set_(self, "target", target)
+        set_(self, "up", up)
+        fwd = target - eye
+        dist = np.linalg.norm(fwd)
+        scale = max(np.abs(eye).max(), np.abs(target).max(), 1.0)
+        if not dist > 1e-12 * scale:
+            raise ValueError("camera.eye: eye and target coincide; the view direction is undefined")
+        fwd = fwd / dist
+        side = np.cross(fwd, up / np.linalg.norm(up))
+        if not np.linalg.norm(side) > 1e-9:
+            raise ValueError("camera.up: parallel to the view direction (target - eye)")
+        set_(self, "fov", as_scalar(self.fov, "camera.fov", minimum=0.0, exclusive=True))
+        if not self.fov < 180.0:
+            raise ValueError(f"camera.fov: must be < 180 degrees, got {self.fov}")
+        set_(self, "width", as_int(self.width, "camera.width", minimum=1))
+        set_(self, "height", as_int(self.height, "camera.height", minimum=1))
+        set_(self, "projection", as_choice(self.projection, "camera.projection", PROJECTIONS))
+        set_(self, "ortho_height", as_scalar(self.ortho_height, "camera.ortho_height", minimum=0.0, exclusive=True))
+
+    @property
+    def basis(self):
+        """Orthonormal ``(right, up, forward)``, each (3,) float64."""
+        fwd = self.target - self.eye
+        fwd = fwd / np.linalg.norm(fwd)
+        right = np.cross(fwd, self.up)
+        right /= np.linalg.norm(right)
+        up = np.cross(right, fwd)
+        return right, up, fwd
+
+    @property
+    def orthographic(self) -> bool:
+        return self.projection == "orthographic"
+
+    def half_extents(self):
+        """Half the image plane's width and height at unit distance
+        (perspective) or in world units (orthographic)."""
+        aspect = self.width / self.height
+        if self.orthographic:
+            h = 0.5 * self.ortho_height
+        else:
+            h = float(np.tan(np.radians(self.fov) / 2.0))
+        return h * aspect, h
+
+    def replace(self, **changes) -> "Camera":
+        from dataclasses import replace
+
+        return replace(self, **changes)

@@ -1,0 +1,245 @@
+"""Ray casting into a hit buffer.
+
+Two casters fill the same :class:`HitBuffer`:
+
+``"embree"`` (default)
+    One parallel Numba kernel generates the camera rays in 4x2-pixel tiles,
+    traces each tile as an 8-ray packet with ``rtcIntersect8`` (coherent
+    primary rays share BVH traversal) and unpacks the hits. Nothing crosses
+    into Python per ray or per chunk.
+``"embreex"``
+    Rays from a Numba kernel, then embreex's ``EmbreeScene.run`` over chunks
+    in two Python threads (its loop releases the GIL). The fallback where the
+    bundled library cannot be bound, and the baseline in the benchmarks.
+"""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+from numba import njit, prange
+
+from . import _embree
+from .hits import HitBuffer
+from .rays import camera_frame, generate_rays, pixel_ray
+
+__all__ = ["cast_camera", "cast_rays", "CASTERS"]
+
+CASTERS = ("embree", "embreex")
+
+_RAY = 24  # float32 slots in one RTCRayHit (96 bytes, room for instPrimID)
+_TILE_W = 4
+_TILE_H = 2
+
+
+@njit(cache=True, parallel=True)
+def _cast_camera_kernel(scene, cam, prim, geom, u, v, t):
+    w = prim.shape[1]
+    h = prim.shape[0]
+    ntx = (w + _TILE_W - 1) // _TILE_W
+    nty = (h + _TILE_H - 1) // _TILE_H
+    for ty in prange(nty):
+        # Per-row scratch: an 8-wide RTCRayHit8 (32-byte aligned) and its valid mask.
+        buf = np.empty(8 * _RAY + 8, np.float32)
+        base = buf.ctypes.data
+        off = ((32 - base % 32) % 32) // 4
+        ib = buf.view(np.uint32)
+        vbuf = np.empty(16, np.int32)
+        vbase = vbuf.ctypes.data
+        voff = ((32 - vbase % 32) % 32) // 4
+        for tx in range(ntx):
+            for k in range(8):
+                x = tx * _TILE_W + (k & 3)
+                y = ty * _TILE_H + (k >> 2)
+                if x < w and y < h:
+                    vbuf[voff + k] = -1
+                    ox, oy, oz, dx, dy, dz = pixel_ray(cam, x, y)
+                else:
+                    vbuf[voff + k] = 0
+                    ox, oy, oz, dx, dy, dz = 0.0, 0.0, 0.0, 0.0, 0.0, 1.0
+                buf[off + 0 * 8 + k] = ox
+                buf[off + 1 * 8 + k] = oy
+                buf[off + 2 * 8 + k] = oz
+                buf[off + 3 * 8 + k] = 0.0  # tnear
+                buf[off + 4 * 8 + k] = dx
+                buf[off + 5 * 8 + k] = dy
+                buf[off + 6 * 8 + k] = dz
+                buf[off + 7 * 8 + k] = 0.0  # time
+                buf[off + 8 * 8 + k] = np.inf  # tfar
+                ib[off + 9 * 8 + k] = 0xFFFFFFFF  # mask
+                ib[off + 10 * 8 + k] = 0  # id
+                ib[off + 11 * 8 + k] = 0  # flags
+                ib[off + 17 * 8 + k] = 0xFFFFFFFF  # primID
+                ib[off + 18 * 8 + k] = 0xFFFFFFFF  # geomID
+            _embree.intersect8(vbase + voff * 4, scene, base + off * 4, 0)
+            for k in range(8):
+                x = tx * _TILE_W + (k & 3)
+                y = ty * _TILE_H + (k >> 2)
+                if x < w and y < h:
+                    g = ib[off + 18 * 8 + k]
+                    if g != 0xFFFFFFFF:
+                        geom[y, x] = np.int32(g)
+                        prim[y, x] = np.int32(ib[off + 17 * 8 + k])
+                        u[y, x] = buf[off + 15 * 8 + k]
+                        v[y, x] = buf[off + 16 * 8 + k]
+                        t[y, x] = buf[off + 8 * 8 + k]
+                    else:
+                        geom[y, x] = -1
+                        prim[y, x] = -1
+                        u[y, x] = 0.0
+                        v[y, x] = 0.0
+                        t[y, x] = np.inf
+
+
+@njit(cache=True, parallel=True)
+def _cast_rays_kernel(scene, origins, directions, tnear, tfar, prim, geom, u, v, t):
+    n = origins.shape[0]
+    chunk = 256
+    nchunks = (n + chunk - 1) // chunk
+    for c in prange(nchunks):
+        buf = np.empty(_RAY + 4, np.float32)
+        base = buf.ctypes.data
+        off = ((16 - base % 16) % 16) // 4
+        ib = buf.view(np.uint32)
+        for i in range(c * chunk, min(n, (c + 1) * chunk)):
+            for j in range(3):
+                buf[off + j] = origins[i, j]
+                buf[off + 4 + j] = directions[i, j]
+            buf[off + 3] = tnear[i]
+            buf[off + 7] = 0.0
+            buf[off + 8] = tfar[i]
+            ib[off + 9] = 0xFFFFFFFF
+            ib[off + 10] = 0
+            ib[off + 11] = 0
+            ib[off + 17] = 0xFFFFFFFF
+            ib[off + 18] = 0xFFFFFFFF
+            _embree.intersect1(scene, base + off * 4, 0)
+            g = ib[off + 18]
+            if g != 0xFFFFFFFF:
+                geom[i] = np.int32(g)
+                prim[i] = np.int32(ib[off + 17])
+                u[i] = buf[off + 15]
+                v[i] = buf[off + 16]
+                t[i] = buf[off + 8]
+            else:
+                geom[i] = -1
+                prim[i] = -1
+                u[i] = 0.0
+                v[i] = 0.0
+                t[i] = np.inf
+
+
+def _resolve_caster(caster: str) -> str:
+    if caster not in CASTERS and caster != "auto":
+        raise ValueError(f"caster: expected one of {list(CASTERS)} or 'auto', got {caster!r}")
+    if caster == "auto":
+        return "embree" if _embree.available() else "embreex"
+    if caster == "embree" and not _embree.available():
+        raise RuntimeError(f"caster 'embree' is unavailable: {_embree._load()[1]}")
+    return caster
+
+
+def cast_camera(geometry, camera, caster: str = "auto", threads: int = 2) -> HitBuffer:
+    """Cast one ray through every pixel centre.
+
+    Parameters
+    ----------
+    geometry : SceneGeometry
+    camera : Camera
+    caster : {"auto", "embree", "embreex"}
+    threads : int
+        Python threads for the ``"embreex"`` caster.
+
+    Returns
+    -------
+    HitBuffer
+    """
+    caster = _resolve_caster(caster)
+    h, w = camera.height, camera.width
+    cam = camera_frame(camera, geometry.origin)
+    if caster == "embree":
+        hits = HitBuffer(
+            prim=np.empty((h, w), np.int32),
+            geom=np.empty((h, w), np.int32),
+            u=np.empty((h, w), np.float32),
+            v=np.empty((h, w), np.float32),
+            t=np.empty((h, w), np.float32),
+        )
+        _cast_camera_kernel(geometry.accel.handle, cam, hits.prim, hits.geom, hits.u, hits.v, hits.t)
+        return hits
+    origins, directions = generate_rays(camera, geometry.origin)
+    res = run_embreex(geometry.embreex_scene, origins, directions, threads)
+    miss = res["geomID"] < 0
+    return HitBuffer(
+        prim=np.where(miss, -1, res["primID"]).astype(np.int32).reshape(h, w),
+        geom=np.where(miss, -1, res["geomID"]).astype(np.int32).reshape(h, w),
+        u=np.where(miss, 0.0, res["u"]).astype(np.float32).reshape(h, w),
+        v=np.where(miss, 0.0, res["v"]).astype(np.float32).reshape(h, w),
+        t=np.where(miss, np.inf, res["tfar"]).astype(np.float32).reshape(h, w),
+    )
+
+
+def run_embreex(embreex_scene, origins, directions, threads: int = 2):
+    """embreex ``run(output=1)`` over contiguous chunks in Python threads.
+
+    Parameters
+    ----------
+    origins, directions : (N, 3) float32, C-contiguous
+
+    Returns
+    -------
+    dict of (N,) arrays: ``u``, ``v``, ``tfar``, ``primID``, ``geomID``
+    """
+    n = len(origins)
+    threads = max(1, min(int(threads), n))
+    bounds = np.linspace(0, n, threads + 1).astype(int)
+    parts = [None] * threads
+
+    def work(i):
+        a, b = bounds[i], bounds[i + 1]
+        parts[i] = embreex_scene.run(origins[a:b], directions[a:b], output=1)
+
+    if threads == 1:
+        work(0)
+    else:
+        pool = [threading.Thread(target=work, args=(i,)) for i in range(threads)]
+        for th in pool:
+            th.start()
+        for th in pool:
+            th.join()
+    keys = ("u", "v", "tfar", "primID", "geomID")
+    return {k: np.concatenate([p[k] for p in parts]) for k in keys}
+
+
+def cast_rays(geometry, origins, directions, tnear=0.0, tfar=np.inf):
+    """Trace arbitrary rays in the scene's world coordinates (direct Embree).
+
+    Parameters
+    ----------
+    geometry : SceneGeometry
+    origins, directions : (N, 3) float
+        World coordinates; directions need not be unit (``t`` is in units of
+        ``|direction|``).
+    tnear, tfar : float or (N,) float
+
+    Returns
+    -------
+    prim, geom : (N,) int32
+        ``-1`` on a miss.
+    u, v, t : (N,) float32
+        ``t`` is ``inf`` on a miss.
+    """
+    o = np.ascontiguousarray(np.asarray(origins, np.float64) - geometry.origin)
+    d = np.ascontiguousarray(directions, np.float64)
+    n = len(o)
+    tn = np.broadcast_to(np.asarray(tnear, np.float64), (n,)).copy()
+    tf = np.broadcast_to(np.asarray(tfar, np.float64), (n,)).copy()
+    prim = np.empty(n, np.int32)
+    geom = np.empty(n, np.int32)
+    u = np.empty(n, np.float32)
+    v = np.empty(n, np.float32)
+    t = np.empty(n, np.float32)
+    if n:
+        _cast_rays_kernel(geometry.accel.handle, o, d, tn, tf, prim, geom, u, v, t)
+    return prim, geom, u, v, t

@@ -1,0 +1,85 @@
+"""A rendered frame: the linear image, the buffers behind it, and timings."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+
+from .hits import HitBuffer
+from .tonemap import to_uint8, write_pfm
+
+__all__ = ["Frame"]
+
+
+@dataclass(frozen=True, eq=False)
+class Frame:
+    """The result of :func:`raycast_shade.render`.
+
+    Attributes
+    ----------
+    image : (H, W, 3) float32
+        Linear RGB, finite and non-negative; zero on the background.
+    hits : HitBuffer
+        Primitive, model, barycentrics and distance per pixel.
+    shading : str
+    timings : dict of str to float
+        Seconds per stage: ``build`` (packing and BVH, first frame of a scene
+        only), ``cast``, ``shade``, ``total``.
+    """
+
+    image: np.ndarray
+    hits: HitBuffer
+    shading: str
+    scene: object = None
+    camera: object = None
+    timings: dict = field(default_factory=dict)
+
+    @cached_property
+    def normal(self) -> np.ndarray:
+        """(H, W, 3) float32 unit normal each pixel was shaded with, turned to
+        the viewer (world axes); zero on the background. Computed on first
+        access: most frames never need it, and it is 12 bytes a pixel."""
+        from .shading import shading_normals
+
+        return shading_normals(self.scene, self.camera, self.hits, self.shading)
+
+    @property
+    def mask(self) -> np.ndarray:
+        """(H, W) bool: pixels that see a surface."""
+        return self.hits.prim >= 0
+
+    @property
+    def depth(self) -> np.ndarray:
+        """(H, W) float32 ray distance; 0 where nothing was hit (see ``mask``)."""
+        return np.where(self.mask, self.hits.t, np.float32(0.0))
+
+    @property
+    def prim_id(self) -> np.ndarray:
+        """(H, W) int32 triangle index within its model; -1 on the background."""
+        return self.hits.prim
+
+    @property
+    def model_id(self) -> np.ndarray:
+        """(H, W) int32 model index; -1 on the background."""
+        return self.hits.geom
+
+    def to_uint8(self, **kwargs) -> np.ndarray:
+        """8-bit sRGB image; see :func:`raycast_shade.tonemap.to_uint8`."""
+        return to_uint8(self.image, **kwargs)
+
+    def save(self, path, **kwargs) -> None:
+        """Write the image: ``.pfm`` (float32) or ``.npy`` losslessly,
+        anything else (PNG, JPEG, ...) through imageio after tone mapping."""
+        path = os.fspath(path)
+        ext = os.path.splitext(path)[1].lower()
+        if ext == ".pfm":
+            write_pfm(path, self.image)
+        elif ext == ".npy":
+            np.save(path, self.image)
+        else:
+            import imageio.v3 as iio
+
+            iio.imwrite(path, self.to_uint8(**kwargs))

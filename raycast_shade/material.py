@@ -1,0 +1,58 @@
+"""Surface reflectance: the lecture's ka, kd, Ks and shininess t, per channel."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._validate import as_choice, as_rgb, as_scalar
+
+__all__ = ["Material", "SPECULAR_MODELS"]
+
+SPECULAR_MODELS = ("phong", "blinn")
+
+
+@dataclass(frozen=True, eq=False)
+class Material:
+    """Coefficients of ``I = Ia ka + sum_i att(d) Ii (kd (n.s) + Ks (r.v)^t)``.
+
+    Every coefficient is a scalar or an RGB triple (the lecture's
+    ``k(lambda)`` sampled at three wavelengths) and must be ``>= 0``.
+
+    Parameters
+    ----------
+    kd : float or (3,) float
+        Diffuse albedo (Lambert).
+    ka : float or (3,) float
+        Ambient coefficient, multiplied by the scene's ambient intensity ``Ia``.
+    ks : float or (3,) float
+        Specular coefficient ``Ks``.
+    shininess : float
+        Exponent ``t > 0``.
+    specular : {"phong", "blinn"}
+        ``(r.v)^t`` as in the lecture, or Blinn-Phong ``(n.h)^t``.
+    name : str
+    """
+
+    kd: object = 0.8
+    ka: object = 1.0
+    ks: object = 0.0
+    shininess: float = 32.0
+    specular: str = "phong"
+    name: str = "material"
+
+    def __post_init__(self):
+        set_ = object.__setattr__
+        for field in ("kd", "ka", "ks"):
+            set_(self, field, as_rgb(getattr(self, field), f"{self.name}.{field}"))
+        set_(self, "shininess", as_scalar(self.shininess, f"{self.name}.shininess", minimum=0.0, exclusive=True))
+        set_(self, "specular", as_choice(self.specular, f"{self.name}.specular", SPECULAR_MODELS))
+
+    @property
+    def has_specular(self) -> bool:
+        return bool(np.any(self.ks > 0))
+
+    def packed(self) -> np.ndarray:
+        """(11,) float64: ka(3), kd(3), ks(3), t, blinn flag; the kernels' row."""
+        return np.concatenate([self.ka, self.kd, self.ks, [self.shininess, 1.0 if self.specular == "blinn" else 0.0]])

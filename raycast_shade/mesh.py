@@ -1,0 +1,179 @@
+"""Triangle meshes: validated arrays, file loading, shading-ready normals."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import NamedTuple
+
+import numpy as np
+
+from ._validate import as_array, as_choice, as_scalar
+from .normals import WEIGHTINGS, face_normals, vertex_normals
+
+__all__ = ["Mesh", "PreparedMesh"]
+
+
+class PreparedMesh(NamedTuple):
+    """The arrays the renderer uses, after normals are resolved.
+
+    Attributes
+    ----------
+    vertices : (V, 3) float64
+    faces : (F, 3) int64
+    normals : (V, 3) float64
+        Unit vertex normals, or zero where none is defined.
+    uvs : (V, 2) float64 or None
+    face_normals : (F, 3) float64
+        True geometric normals (right-hand rule), zero for degenerate faces.
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    normals: np.ndarray
+    uvs: np.ndarray | None
+    face_normals: np.ndarray
+
+
+def _readonly(a):
+    if a is not None:
+        a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class Mesh:
+    """A triangle mesh.
+
+    Parameters
+    ----------
+    vertices : (V, 3) array_like of float
+        Finite positions.
+    faces : (F, 3) array_like of int
+        Vertex indices, ``0 <= i < V``, counter-clockwise seen from the front.
+    normals : (V, 3) array_like of float, optional
+        Vertex normals. When absent they are averaged from the faces.
+    uvs : (V, 2) array_like of float, optional
+        Per-vertex texture coordinates.
+    weighting : {"angle", "area", "uniform"}
+        Weight of each face in a computed vertex normal.
+    crease_angle : float, optional
+        Degrees in (0, 180]. Split vertices where faces meet at a sharper
+        angle, so hard edges stay hard. Ignored when ``normals`` is given.
+    name : str
+        For messages and reports.
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    normals: np.ndarray | None = None
+    uvs: np.ndarray | None = None
+    weighting: str = "angle"
+    crease_angle: float | None = None
+    name: str = field(default="mesh")
+
+    def __post_init__(self):
+        set_ = object.__setattr__
+        v = as_array(self.vertices, f"{self.name}.vertices", dtype=np.float64, shape=(None, 3))
+        if v.shape[0] == 0:
+            raise ValueError(f"{self.name}.vertices: the mesh has no vertices")
+        f = as_array(self.faces, f"{self.name}.faces", dtype=np.int64, shape=(None, 3))
+        if f.shape[0] == 0:
+            raise ValueError(f"{self.name}.faces: the mesh has no faces")
+        if f.min() < 0:
+            i = int(np.argmin(f.min(axis=1)))
+            raise ValueError(f"{self.name}.faces: negative vertex index in face {i}: {f[i].tolist()}")
+        if f.max() >= v.shape[0]:
+            i = int(np.argmax(f.max(axis=1)))
+            raise ValueError(
+                f"{self.name}.faces: face {i} indexes vertex {int(f[i].max())}, "
+                f"but there are only {v.shape[0]} vertices"
+            )
+        set_(self, "vertices", _readonly(v))
+        set_(self, "faces", _readonly(f))
+        if self.normals is not None:
+            n = as_array(self.normals, f"{self.name}.normals", dtype=np.float64, shape=(v.shape[0], 3))
+            set_(self, "normals", _readonly(n))
+        if self.uvs is not None:
+            uv = as_array(self.uvs, f"{self.name}.uvs", dtype=np.float64, shape=(v.shape[0], 2))
+            set_(self, "uvs", _readonly(uv))
+        set_(self, "weighting", as_choice(self.weighting, f"{self.name}.weighting", WEIGHTINGS))
+        if self.crease_angle is not None:
+            set_(
+                self,
+                "crease_angle",
+                as_scalar(self.crease_angle, f"{self.name}.crease_angle", minimum=0.0, exclusive=True, maximum=180.0),
+            )
+
+    # -- construction -----------------------------------------------------------------
+    @classmethod
+    def from_trimesh(cls, tm, *, use_normals: bool | None = None, **kwargs) -> "Mesh":
+        """Wrap a :class:`trimesh.Trimesh`.
+
+        ``use_normals=None`` keeps vertex normals only when the source file
+        supplied them; ``True`` always takes trimesh's, ``False`` never.
+        UVs come from ``tm.visual.uv`` when present.
+        """
+        import trimesh
+
+        if isinstance(tm, trimesh.Scene):
+            tm = tm.dump(concatenate=True)
+        if not isinstance(tm, trimesh.Trimesh):
+            raise TypeError(f"expected a trimesh.Trimesh, got {type(tm).__name__}")
+        normals = None
+        file_normals = "vertex_normals" in tm._cache.cache
+        if use_normals or (use_normals is None and file_normals):
+            normals = np.asarray(tm.vertex_normals, dtype=np.float64)
+        uvs = None
+        uv = getattr(getattr(tm, "visual", None), "uv", None)
+        if uv is not None and len(uv) == len(tm.vertices):
+            uvs = np.asarray(uv, dtype=np.float64)
+        return cls(tm.vertices, tm.faces, normals=normals, uvs=uvs, **kwargs)
+
+    @classmethod
+    def load(cls, path, **kwargs) -> "Mesh":
+        """Load any file trimesh reads (OBJ, PLY, STL, OFF, GLB/glTF, ...).
+
+        Raises
+        ------
+        ValueError
+            When the file is missing, unreadable or holds no triangles.
+        """
+        import trimesh
+
+        path = os.fspath(path)
+        if not os.path.exists(path):
+            raise ValueError(f"mesh file not found: {path}")
+        try:
+            tm = trimesh.load(path, force="mesh")
+        except Exception as exc:
+            raise ValueError(f"cannot read mesh file {path}: {exc}") from None
+        if not isinstance(tm, trimesh.Trimesh) or len(tm.faces) == 0:
+            raise ValueError(f"mesh file {path} holds no triangles")
+        kwargs.setdefault("name", os.path.basename(path))
+        return cls.from_trimesh(tm, **kwargs)
+
+    # -- derived ------------------------------------------------------------------------
+    @property
+    def bounds(self) -> np.ndarray:
+        """(2, 3) float64 axis-aligned bounding box."""
+        return np.stack([self.vertices.min(axis=0), self.vertices.max(axis=0)])
+
+    @cached_property
+    def prepared(self) -> PreparedMesh:
+        """Normals resolved (given, or averaged with weighting and crease)."""
+        if self.normals is not None:
+            length = np.linalg.norm(self.normals, axis=1, keepdims=True)
+            normals = np.divide(self.normals, length, out=np.zeros_like(self.normals), where=length > 0)
+            verts, faces, uvs = self.vertices, self.faces, self.uvs
+        else:
+            verts, faces, normals, source = vertex_normals(
+                self.vertices, self.faces, self.weighting, self.crease_angle
+            )
+            uvs = None if self.uvs is None else self.uvs[source]
+        fn, _ = face_normals(verts, faces)
+        return PreparedMesh(verts, faces, normals, uvs, fn)
+
+    def __repr__(self) -> str:
+        return f"Mesh(name={self.name!r}, vertices={len(self.vertices)}, faces={len(self.faces)})"

@@ -1,0 +1,205 @@
+"""Face normals and averaged vertex normals, with a crease angle.
+
+The lecture's Gouraud normal is "the average of the normals of the polygons
+that meet at a vertex". Three weightings are offered (uniform, area, angle);
+zero-area faces carry no direction and are left out of every average, so a
+sliver cannot poison its neighbours. With a crease angle, each face corner
+averages only the faces within that angle of its own face, and vertices are
+split where their corners disagree: a cube with a 30 degree crease stays a cube.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+__all__ = ["face_normals", "vertex_normals", "WEIGHTINGS"]
+
+WEIGHTINGS = ("uniform", "area", "angle")
+_WEIGHT_CODE = {"uniform": 0, "area": 1, "angle": 2}
+
+
+def face_normals(vertices: np.ndarray, faces: np.ndarray):
+    """Unit face normals by the right-hand rule, and face areas.
+
+    Parameters
+    ----------
+    vertices : (V, 3) float64
+    faces : (F, 3) int
+
+    Returns
+    -------
+    normals : (F, 3) float64
+        Unit normals; exactly zero for zero-area faces.
+    areas : (F,) float64
+    """
+    v0 = vertices[faces[:, 0]]
+    cross = np.cross(vertices[faces[:, 1]] - v0, vertices[faces[:, 2]] - v0)
+    length = np.linalg.norm(cross, axis=1)
+    # Relative threshold: a face is degenerate when its cross product is tiny
+    # compared with its edge lengths (float64 rounding of collinear points).
+    scale = np.maximum(
+        np.einsum("ij,ij->i", vertices[faces[:, 1]] - v0, vertices[faces[:, 1]] - v0),
+        np.einsum("ij,ij->i", vertices[faces[:, 2]] - v0, vertices[faces[:, 2]] - v0),
+    )
+    ok = length > 1e-14 * scale
+    normals = np.zeros_like(cross)
+    normals[ok] = cross[ok] / length[ok, None]
+    areas = np.where(ok, 0.5 * length, 0.0)
+    return normals, areas
+
+
+def _corner_weights(vertices, faces, fnormals, areas, weighting: str) -> np.ndarray:
+    """(F, 3) weight of each face corner in its vertex's average."""
+    valid = np.any(fnormals != 0.0, axis=1)
+    if weighting == "uniform":
+        w = np.repeat(valid.astype(np.float64)[:, None], 3, axis=1)
+    elif weighting == "area":
+        w = np.repeat(areas[:, None], 3, axis=1)
+    else:  # angle at each corner, robust form atan2(|a x b|, a.b)
+        p = vertices[faces]
+        w = np.empty(faces.shape, np.float64)
+        for k in range(3):
+            a = p[:, (k + 1) % 3] - p[:, k]
+            b = p[:, (k + 2) % 3] - p[:, k]
+            w[:, k] = np.arctan2(np.linalg.norm(np.cross(a, b), axis=1), np.einsum("ij,ij->i", a, b))
+        w[~valid] = 0.0
+    return w
+
+
+@njit(cache=True)
+def _corner_normals_kernel(faces, fnormals, weights, order, starts, cos_crease):
+    """Sum, for each corner, the weighted normals of the faces at its vertex
+    that lie within the crease angle of the corner's own face."""
+    nf = faces.shape[0]
+    out = np.zeros((nf * 3, 3), np.float64)
+    nv = starts.shape[0] - 1
+    for v in range(nv):
+        lo = starts[v]
+        hi = starts[v + 1]
+        for a in range(lo, hi):
+            ca = order[a]
+            fa = ca // 3
+            na0 = fnormals[fa, 0]
+            na1 = fnormals[fa, 1]
+            na2 = fnormals[fa, 2]
+            own_zero = na0 == 0.0 and na1 == 0.0 and na2 == 0.0
+            s0 = 0.0
+            s1 = 0.0
+            s2 = 0.0
+            for b in range(lo, hi):
+                cb = order[b]
+                fb = cb // 3
+                w = weights[fb, cb % 3]
+                if w == 0.0:
+                    continue
+                # A zero-area face has no direction of its own: it takes the
+                # plain average of its neighbours.
+                if not own_zero:
+                    c = na0 * fnormals[fb, 0] + na1 * fnormals[fb, 1] + na2 * fnormals[fb, 2]
+                    if c < cos_crease:
+                        continue
+                s0 += w * fnormals[fb, 0]
+                s1 += w * fnormals[fb, 1]
+                s2 += w * fnormals[fb, 2]
+            out[ca, 0] = s0
+            out[ca, 1] = s1
+            out[ca, 2] = s2
+    return out
+
+
+@njit(cache=True)
+def _split_kernel(corner_normals, order, starts):
+    """Give every (vertex, distinct corner normal) pair its own new vertex.
+
+    Returns the new vertex index of each corner and, for each new vertex, the
+    original vertex it copies.
+    """
+    nc = corner_normals.shape[0]
+    new_index = np.empty(nc, np.int64)
+    source = np.empty(nc + starts.shape[0], np.int64)
+    count = 0
+    nv = starts.shape[0] - 1
+    for v in range(nv):
+        lo = starts[v]
+        hi = starts[v + 1]
+        for a in range(lo, hi):
+            ca = order[a]
+            found = -1
+            for b in range(lo, a):
+                cb = order[b]
+                if (
+                    corner_normals[cb, 0] == corner_normals[ca, 0]
+                    and corner_normals[cb, 1] == corner_normals[ca, 1]
+                    and corner_normals[cb, 2] == corner_normals[ca, 2]
+                ):
+                    found = new_index[cb]
+                    break
+            if found >= 0:
+                new_index[ca] = found
+            else:
+                new_index[ca] = count
+                source[count] = v
+                count += 1
+        if hi == lo:  # unreferenced vertex: keep it so indices stay meaningful
+            source[count] = v
+            count += 1
+    return new_index, source[:count]
+
+
+def _normalize_rows(n: np.ndarray) -> np.ndarray:
+    length = np.linalg.norm(n, axis=1)
+    out = np.zeros_like(n)
+    ok = length > 0
+    out[ok] = n[ok] / length[ok, None]
+    return out
+
+
+def vertex_normals(vertices, faces, weighting: str = "angle", crease_angle: float | None = None):
+    """Averaged vertex normals, optionally split at creases.
+
+    Parameters
+    ----------
+    vertices : (V, 3) float64
+    faces : (F, 3) int64
+    weighting : {"uniform", "area", "angle"}
+        How each face's normal is weighted in the average at a vertex.
+    crease_angle : float, optional
+        Degrees. Faces whose normals differ by more than this do not share a
+        normal: the vertex is split. ``None`` averages every face at a vertex.
+
+    Returns
+    -------
+    vertices : (V', 3) float64
+        ``V' >= V``; equal to the input when nothing was split.
+    faces : (F, 3) int64
+        Re-indexed into the split vertices.
+    normals : (V', 3) float64
+        Unit normals; zero where no face with an area meets a vertex (the
+        shading kernels then fall back to the geometric normal).
+    source : (V',) int64
+        The input vertex each output vertex copies.
+    """
+    fn, areas = face_normals(vertices, faces)
+    w = _corner_weights(vertices, faces, fn, areas, weighting)
+    nv = vertices.shape[0]
+    flat = faces.ravel()
+    if crease_angle is None:
+        acc = np.zeros((nv, 3))
+        for k in range(3):
+            contrib = fn * w[:, k : k + 1]
+            for c in range(3):
+                acc[:, c] += np.bincount(faces[:, k], weights=contrib[:, c], minlength=nv)
+        return vertices, faces, _normalize_rows(acc), np.arange(nv)
+    order = np.argsort(flat, kind="stable")
+    starts = np.zeros(nv + 1, np.int64)
+    np.cumsum(np.bincount(flat, minlength=nv), out=starts[1:])
+    cos_crease = float(np.cos(np.radians(crease_angle)))
+    # Tolerance so that coplanar neighbours (cos = 1 - rounding) always merge.
+    cos_crease = min(cos_crease, 1.0 - 1e-12)
+    corner = _corner_normals_kernel(faces, fn, w, order, starts, cos_crease)
+    new_index, source = _split_kernel(corner, order, starts)
+    new_faces = new_index.reshape(-1, 3)
+    normals = np.zeros((source.shape[0], 3))
+    normals[new_index] = corner
+    return vertices[source], new_faces, _normalize_rows(normals), source

@@ -1,0 +1,206 @@
+"""Scenes: models (mesh + material), lights, ambient light and a camera.
+
+A scene packs its geometry once (re-centred, float64 for shading, float32 for
+Embree) and builds its Embree BVH once; :meth:`Scene.replace` with the same
+models, e.g. a new camera or new lights, reuses both.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from ._validate import as_rgb
+from .camera import Camera
+from .lights import ATT_CODE, DirectionalLight, PointLight
+from .material import Material
+from .mesh import Mesh
+
+__all__ = ["Model", "Scene", "SceneGeometry"]
+
+
+@dataclass(frozen=True, eq=False)
+class Model:
+    """A mesh with its material."""
+
+    mesh: Mesh
+    material: Material = dataclasses.field(default_factory=Material)
+
+    def __post_init__(self):
+        if not isinstance(self.mesh, Mesh):
+            raise TypeError(f"model.mesh: expected a Mesh, got {type(self.mesh).__name__}")
+        if not isinstance(self.material, Material):
+            raise TypeError(f"model.material: expected a Material, got {type(self.material).__name__}")
+
+
+class SceneGeometry:
+    """All models packed into flat arrays, re-centred on the scene's box.
+
+    Geometry far from the origin loses float32 precision in Embree; subtracting
+    the bounding-box centre in float64 first makes a scene at 1e5 render like
+    one at the origin.
+
+    Attributes
+    ----------
+    origin : (3,) float64
+        The re-centring offset (world = local + origin).
+    scale : float
+        Bounding-box diagonal, ``> 0``.
+    vertices : (V, 3) float64
+        Re-centred positions (after crease splitting).
+    normals : (V, 3) float64
+        Unit vertex normals (zero where undefined).
+    uvs : (V, 2) float64 or None
+    faces : (F, 3) int64
+        Global vertex indices.
+    face_normals : (F, 3) float64
+    vertex_offsets, face_offsets : (G + 1,) int64
+        Range of each model.
+    materials : (G, 11) float64
+        One packed material row per model (see :meth:`Material.packed`).
+    face_model, vertex_model : (F,) int32, (V,) int32
+        The model each face and vertex belongs to.
+    """
+
+    def __init__(self, models):
+        preps = [m.mesh.prepared for m in models]
+        nv = [len(p.vertices) for p in preps]
+        nf = [len(p.faces) for p in preps]
+        self.vertex_offsets = np.concatenate([[0], np.cumsum(nv)]).astype(np.int64)
+        self.face_offsets = np.concatenate([[0], np.cumsum(nf)]).astype(np.int64)
+        world = np.concatenate([p.vertices for p in preps])
+        lo, hi = world.min(axis=0), world.max(axis=0)
+        self.origin = 0.5 * (lo + hi)
+        self.scale = float(max(np.linalg.norm(hi - lo), 1e-30))
+        self.vertices = world - self.origin
+        self.normals = np.concatenate([p.normals for p in preps])
+        self.local_faces = np.concatenate([p.faces for p in preps])
+        self.faces = self.local_faces + np.repeat(self.vertex_offsets[:-1], nf)[:, None]
+        self.face_normals = np.concatenate([p.face_normals for p in preps])
+        if all(p.uvs is not None for p in preps):
+            self.uvs = np.concatenate([p.uvs for p in preps])
+        else:
+            self.uvs = None
+        self.materials = np.stack([m.material.packed() for m in models])
+        self.face_model = np.repeat(np.arange(len(models), dtype=np.int32), nf)
+        self.vertex_model = np.repeat(np.arange(len(models), dtype=np.int32), nv)
+        self.n_models = len(models)
+
+    @cached_property
+    def accel(self):
+        """The Embree scene (built on first use, then reused)."""
+        from ._embree import EmbreeAccel
+
+        v4 = np.zeros((len(self.vertices), 4), np.float32)
+        v4[:, :3] = self.vertices
+        faces = np.ascontiguousarray(self.local_faces, dtype=np.uint32)
+        return EmbreeAccel(v4, faces, self.vertex_offsets, self.face_offsets)
+
+    @cached_property
+    def embreex_scene(self):
+        """The same geometry through embreex's own API (the fallback caster)."""
+        from embreex import rtcore_scene
+        from embreex.mesh_construction import TriangleMesh
+
+        scene = rtcore_scene.EmbreeScene()
+        v32 = self.vertices.astype(np.float32)
+        for g in range(self.n_models):
+            v0, v1 = self.vertex_offsets[g], self.vertex_offsets[g + 1]
+            f0, f1 = self.face_offsets[g], self.face_offsets[g + 1]
+            TriangleMesh(scene, v32[v0:v1], self.local_faces[f0:f1].astype(np.int32))
+        return scene
+
+
+def _as_model(item, i):
+    if isinstance(item, Model):
+        return item
+    if isinstance(item, Mesh):
+        return Model(item)
+    if isinstance(item, tuple) and len(item) == 2:
+        return Model(*item)
+    raise TypeError(f"scene.models[{i}]: expected a Model, a Mesh or a (Mesh, Material) pair, got {type(item).__name__}")
+
+
+@dataclass(frozen=True, eq=False)
+class Scene:
+    """What to render.
+
+    Parameters
+    ----------
+    models : sequence of Model, Mesh or (Mesh, Material)
+        At least one.
+    lights : sequence of PointLight or DirectionalLight
+    camera : Camera
+    ambient : float or (3,) float
+        The scene's ambient intensity ``Ia`` (multiplies each material's ``ka``).
+    """
+
+    models: tuple
+    lights: tuple = ()
+    camera: Camera | None = None
+    ambient: object = 0.1
+
+    def __post_init__(self):
+        set_ = object.__setattr__
+        if isinstance(self.models, (Mesh, Model)):
+            set_(self, "models", (self.models,))
+        models = tuple(_as_model(m, i) for i, m in enumerate(self.models))
+        if not models:
+            raise ValueError("scene.models: a scene needs at least one model")
+        set_(self, "models", models)
+        lights = tuple(self.lights)
+        for i, light in enumerate(lights):
+            if not isinstance(light, (PointLight, DirectionalLight)):
+                raise TypeError(f"scene.lights[{i}]: expected a PointLight or DirectionalLight, got {type(light).__name__}")
+        set_(self, "lights", lights)
+        if self.camera is not None and not isinstance(self.camera, Camera):
+            raise TypeError(f"scene.camera: expected a Camera, got {type(self.camera).__name__}")
+        set_(self, "ambient", as_rgb(self.ambient, "scene.ambient"))
+
+    @cached_property
+    def geometry(self) -> SceneGeometry:
+        return SceneGeometry(self.models)
+
+    def replace(self, **changes) -> "Scene":
+        """A copy with some fields changed; keeps the packed geometry and
+        Embree BVH when ``models`` is unchanged."""
+        new = dataclasses.replace(self, **changes)
+        if "models" not in changes and "geometry" in self.__dict__:
+            new.__dict__["geometry"] = self.__dict__["geometry"]
+        return new
+
+    def packed_lights(self):
+        """Light arrays for the kernels, positions re-centred like the geometry.
+
+        Returns
+        -------
+        kind : (L,) int32
+            0 point, 1 directional.
+        vec : (L, 3) float64
+            Point: re-centred position. Directional: unit vector towards the light.
+        radiance : (L, 3) float64
+            ``Ii * color``.
+        att : (L,) int32
+            0 none, 1 inverse square, 2 heuristic.
+        k : (L,) float64
+        """
+        n = len(self.lights)
+        kind = np.zeros(n, np.int32)
+        vec = np.zeros((n, 3))
+        rad = np.zeros((n, 3))
+        att = np.zeros(n, np.int32)
+        k = np.ones(n)
+        origin = self.geometry.origin
+        for i, light in enumerate(self.lights):
+            rad[i] = light.radiance
+            if isinstance(light, PointLight):
+                vec[i] = light.position - origin
+                att[i] = ATT_CODE[light.attenuation]
+                k[i] = light.k
+            else:
+                kind[i] = 1
+                vec[i] = -light.direction
+        return kind, vec, rad, att, k

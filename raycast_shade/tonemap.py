@@ -1,0 +1,81 @@
+"""From linear radiance to 8-bit pixels, and lossless float output.
+
+The 8-bit mapping, in order:
+
+1. exposure: multiply by ``exposure`` (default 1);
+2. range: ``"clamp"`` cuts at 1 (default; values up to 1 are untouched, so
+   intensities read back exactly), ``"reinhard"`` maps ``x / (1 + x)``, and
+   ``"exponential"`` maps ``1 - exp(-x)``;
+3. encoding: ``gamma="srgb"`` (default, the IEC 61966-2-1 curve), a number
+   ``g`` for ``x ** (1/g)``, or ``1`` for linear;
+4. round to nearest of 0..255.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+__all__ = ["to_uint8", "write_pfm", "read_pfm", "TONEMAPS"]
+
+TONEMAPS = ("clamp", "reinhard", "exponential")
+
+
+def to_uint8(image, exposure: float = 1.0, tonemap: str = "clamp", gamma="srgb") -> np.ndarray:
+    """Tone-map a linear image.
+
+    Parameters
+    ----------
+    image : (H, W, 3) float
+        Linear, non-negative.
+    exposure : float
+    tonemap : {"clamp", "reinhard", "exponential"}
+    gamma : "srgb" or float
+
+    Returns
+    -------
+    (H, W, 3) uint8
+    """
+    if tonemap not in TONEMAPS:
+        raise ValueError(f"tonemap: expected one of {list(TONEMAPS)}, got {tonemap!r}")
+    if not (np.isfinite(exposure) and exposure > 0):
+        raise ValueError(f"exposure: must be a finite number > 0, got {exposure}")
+    x = np.asarray(image, np.float64) * exposure
+    if tonemap == "reinhard":
+        x = x / (1.0 + x)
+    elif tonemap == "exponential":
+        x = -np.expm1(-x)
+    x = np.clip(x, 0.0, 1.0)
+    if isinstance(gamma, str):
+        if gamma != "srgb":
+            raise ValueError(f"gamma: expected 'srgb' or a number, got {gamma!r}")
+        x = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
+    else:
+        if not (np.isfinite(gamma) and gamma > 0):
+            raise ValueError(f"gamma: must be > 0, got {gamma}")
+        x = np.power(x, 1.0 / gamma)
+    return np.rint(x * 255.0).astype(np.uint8)
+
+
+def write_pfm(path, image) -> None:
+    """Write a float32 RGB image as PFM (lossless, little-endian, bottom row first)."""
+    img = np.asarray(image, np.float32)
+    if img.ndim != 3 or img.shape[2] != 3:
+        raise ValueError(f"image: expected (H, W, 3), got {img.shape}")
+    h, w, _ = img.shape
+    with open(os.fspath(path), "wb") as fh:
+        fh.write(f"PF\n{w} {h}\n-1.0\n".encode("ascii"))
+        fh.write(np.ascontiguousarray(img[::-1]).astype("<f4").tobytes())
+
+
+def read_pfm(path) -> np.ndarray:
+    """Read a PFM written by :func:`write_pfm` (or any colour PFM)."""
+    with open(os.fspath(path), "rb") as fh:
+        if fh.readline().strip() != b"PF":
+            raise ValueError(f"{path}: not a colour PFM file")
+        w, h = (int(t) for t in fh.readline().split())
+        scale = float(fh.readline())
+        dtype = "<f4" if scale < 0 else ">f4"
+        data = np.frombuffer(fh.read(w * h * 12), dtype=dtype)
+    return data.reshape(h, w, 3)[::-1].astype(np.float32)
