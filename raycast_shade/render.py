@@ -13,7 +13,12 @@ from .shading import SHADINGS, shade
 __all__ = ["render"]
 
 
-def render(scene: Scene, shading: str = "phong", *, camera: Camera | None = None, caster: str = "auto") -> Frame:
+BACKENDS = ("raycast", "raster")
+INTERPOLATIONS = ("perspective", "screen")
+
+
+def render(scene: Scene, shading: str = "phong", *, camera: Camera | None = None, backend: str = "raycast",
+           interpolation: str = "perspective", caster: str = "auto") -> Frame:
     """Render a scene.
 
     Parameters
@@ -22,6 +27,14 @@ def render(scene: Scene, shading: str = "phong", *, camera: Camera | None = None
     shading : {"flat", "gouraud", "phong"}
     camera : Camera, optional
         Overrides ``scene.camera``.
+    backend : {"raycast", "raster"}
+        Visibility by Embree ray casting, or by the reference z-buffer
+        rasterizer (:mod:`raycast_shade.raster`). Both fill the same hit
+        buffer and share every shading kernel.
+    interpolation : {"perspective", "screen"}
+        The lecture's "3D or 2D": barycentrics of the 3D hit point
+        (perspective-correct), or weights affine in screen space (classic
+        scanline Gouraud, :mod:`raycast_shade.interpolation`).
     caster : {"auto", "embree", "embreex"}
         ``"auto"`` is the direct, packet-traced Embree path when available.
 
@@ -40,6 +53,10 @@ def render(scene: Scene, shading: str = "phong", *, camera: Camera | None = None
     if not isinstance(shading, str) or shading.lower() not in SHADINGS:
         raise ValueError(f"shading: expected one of {list(SHADINGS)}, got {shading!r}")
     shading = shading.lower()
+    if backend not in BACKENDS:
+        raise ValueError(f"backend: expected one of {list(BACKENDS)}, got {backend!r}")
+    if interpolation not in INTERPOLATIONS:
+        raise ValueError(f"interpolation: expected one of {list(INTERPOLATIONS)}, got {interpolation!r}")
     camera = camera if camera is not None else scene.camera
     if camera is None:
         raise ValueError("camera: the scene has no camera and none was passed")
@@ -47,14 +64,23 @@ def render(scene: Scene, shading: str = "phong", *, camera: Camera | None = None
         raise TypeError(f"camera: expected a Camera, got {type(camera).__name__}")
     timings = {}
     fresh = "geometry" not in scene.__dict__ or "accel" not in scene.geometry.__dict__
-    if fresh and caster != "embreex":
+    if fresh and caster != "embreex" and backend == "raycast":
         tb = time.perf_counter()
         scene.geometry.accel  # noqa: B018 - build now so that the cast is timed alone
         timings["build"] = time.perf_counter() - tb
     tc = time.perf_counter()
-    hits = cast_camera(scene.geometry, camera, caster)
+    if backend == "raycast":
+        hits = cast_camera(scene.geometry, camera, caster)
+    else:
+        from .raster import rasterize
+
+        hits = rasterize(scene.geometry, camera)
+    if interpolation == "screen":
+        from .interpolation import to_screen_space
+
+        hits = to_screen_space(hits, scene.geometry, camera)
     ts = time.perf_counter()
-    timings["cast"] = ts - tc
+    timings["cast" if backend == "raycast" else "raster"] = ts - tc
     image = shade(scene, camera, hits, shading)
     te = time.perf_counter()
     timings["shade"] = te - ts
