@@ -15,7 +15,8 @@ attenuation laws.
 (240, 320, 3)
 """
 
-from . import shapes
+from . import bump, shapes
+from .bump import HeightMap
 from .camera import Camera
 from .cast import cast_camera, cast_rays
 from .frame import Frame
@@ -31,6 +32,6 @@ from .tonemap import read_pfm, to_uint8, write_pfm
 __version__ = "0.1.0"
 
 __all__ = [
-    "Camera", "DirectionalLight", "Frame", "HitBuffer", "Material", "Mesh", "Model", "PointLight", "Scene",
+    "Camera", "DirectionalLight", "HeightMap", "bump", "Frame", "HitBuffer", "Material", "Mesh", "Model", "PointLight", "Scene",
     "SHADINGS", "cast_camera", "cast_rays", "read_pfm", "render", "shade", "shading_normals", "shapes", "to_uint8", "write_pfm",
 ]

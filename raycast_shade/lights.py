@@ -14,6 +14,12 @@ ATTENUATIONS = ("none", "inverse_square", "heuristic")
 ATT_CODE = {"none": 0, "inverse_square": 1, "heuristic": 2}
 
 
+def _as_bool(value, name):
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name}: expected True or False, got {type(value).__name__}")
+    return bool(value)
+
+
 @dataclass(frozen=True, eq=False)
 class PointLight:
     """A point source at ``position``.
@@ -37,6 +43,8 @@ class PointLight:
     attenuation : {"none", "inverse_square", "heuristic"}
     k : float
         Heuristic constant, used by ``"heuristic"`` only; must be ``> 0``.
+    shadows : bool
+        Trace a shadow ray from every shaded point to this light.
     """
 
     position: np.ndarray
@@ -44,6 +52,7 @@ class PointLight:
     color: object = 1.0
     attenuation: str = "none"
     k: float = 1.0
+    shadows: bool = False
     name: str = "point_light"
 
     def __post_init__(self):
@@ -56,6 +65,7 @@ class PointLight:
         if self.attenuation == "heuristic" and not k > 0:
             raise ValueError(f"{self.name}.k: heuristic attenuation needs k > 0, got {k}")
         set_(self, "k", k)
+        set_(self, "shadows", _as_bool(self.shadows, f"{self.name}.shadows"))
 
     @property
     def radiance(self) -> np.ndarray:
@@ -73,11 +83,14 @@ class DirectionalLight:
         Non-zero; normalised on construction.
     intensity : float
     color : float or (3,) float
+    shadows : bool
+        Trace a shadow ray from every shaded point towards the light.
     """
 
     direction: np.ndarray
     intensity: float = 1.0
     color: object = 1.0
+    shadows: bool = False
     name: str = "directional_light"
 
     def __post_init__(self):
@@ -88,6 +101,7 @@ class DirectionalLight:
         set_(self, "direction", d)
         set_(self, "intensity", as_scalar(self.intensity, f"{self.name}.intensity", minimum=0.0))
         set_(self, "color", as_rgb(self.color, f"{self.name}.color"))
+        set_(self, "shadows", _as_bool(self.shadows, f"{self.name}.shadows"))
 
     @property
     def radiance(self) -> np.ndarray:

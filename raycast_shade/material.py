@@ -32,6 +32,13 @@ class Material:
         Exponent ``t > 0``.
     specular : {"phong", "blinn"}
         ``(r.v)^t`` as in the lecture, or Blinn-Phong ``(n.h)^t``.
+    reflectivity : float
+        Mirror fraction ``rho`` in [0, 1]: the pixel shows
+        ``(1 - rho) * local + rho * reflected`` (see ``render(max_depth=...)``).
+        0 is a matt/specular surface, 1 a perfect mirror.
+    bump : HeightMap, optional
+        Blinn bump map; needs per-vertex UVs on the mesh. Applies in Phong
+        shading and to mirror reflections (see :mod:`raycast_shade.bump`).
     name : str
     """
 
@@ -40,6 +47,8 @@ class Material:
     ks: object = 0.0
     shininess: float = 32.0
     specular: str = "phong"
+    reflectivity: float = 0.0
+    bump: object = None
     name: str = "material"
 
     def __post_init__(self):
@@ -48,11 +57,19 @@ class Material:
             set_(self, field, as_rgb(getattr(self, field), f"{self.name}.{field}"))
         set_(self, "shininess", as_scalar(self.shininess, f"{self.name}.shininess", minimum=0.0, exclusive=True))
         set_(self, "specular", as_choice(self.specular, f"{self.name}.specular", SPECULAR_MODELS))
+        set_(self, "reflectivity", as_scalar(self.reflectivity, f"{self.name}.reflectivity", minimum=0.0, maximum=1.0))
+        if self.bump is not None:
+            from .bump import HeightMap
+
+            if not isinstance(self.bump, HeightMap):
+                raise TypeError(f"{self.name}.bump: expected a HeightMap, got {type(self.bump).__name__}")
 
     @property
     def has_specular(self) -> bool:
         return bool(np.any(self.ks > 0))
 
     def packed(self) -> np.ndarray:
-        """(11,) float64: ka(3), kd(3), ks(3), t, blinn flag; the kernels' row."""
-        return np.concatenate([self.ka, self.kd, self.ks, [self.shininess, 1.0 if self.specular == "blinn" else 0.0]])
+        """(12,) float64: ka(3), kd(3), ks(3), t, blinn flag, reflectivity; the kernels' row."""
+        return np.concatenate(
+            [self.ka, self.kd, self.ks, [self.shininess, 1.0 if self.specular == "blinn" else 0.0, self.reflectivity]]
+        )

@@ -8,7 +8,7 @@ from .camera import Camera
 from .cast import cast_camera
 from .frame import Frame
 from .scene import Scene
-from .shading import SHADINGS, shade
+from .shading import SHADINGS, shade, trace_mirrors
 
 __all__ = ["render"]
 
@@ -18,7 +18,7 @@ INTERPOLATIONS = ("perspective", "screen")
 
 
 def render(scene: Scene, shading: str = "phong", *, camera: Camera | None = None, backend: str = "raycast",
-           interpolation: str = "perspective", caster: str = "auto") -> Frame:
+           interpolation: str = "perspective", caster: str = "auto", max_depth: int = 3) -> Frame:
     """Render a scene.
 
     Parameters
@@ -37,6 +37,8 @@ def render(scene: Scene, shading: str = "phong", *, camera: Camera | None = None
         scanline Gouraud, :mod:`raycast_shade.interpolation`).
     caster : {"auto", "embree", "embreex"}
         ``"auto"`` is the direct, packet-traced Embree path when available.
+    max_depth : int
+        Mirror bounces traced for reflective materials (0: none).
 
     Returns
     -------
@@ -57,6 +59,8 @@ def render(scene: Scene, shading: str = "phong", *, camera: Camera | None = None
         raise ValueError(f"backend: expected one of {list(BACKENDS)}, got {backend!r}")
     if interpolation not in INTERPOLATIONS:
         raise ValueError(f"interpolation: expected one of {list(INTERPOLATIONS)}, got {interpolation!r}")
+    if isinstance(max_depth, bool) or not isinstance(max_depth, int) or max_depth < 0:
+        raise ValueError(f"max_depth: expected an integer >= 0, got {max_depth!r}")
     camera = camera if camera is not None else scene.camera
     if camera is None:
         raise ValueError("camera: the scene has no camera and none was passed")
@@ -84,5 +88,9 @@ def render(scene: Scene, shading: str = "phong", *, camera: Camera | None = None
     image = shade(scene, camera, hits, shading)
     te = time.perf_counter()
     timings["shade"] = te - ts
+    if scene.geometry.reflective and max_depth > 0:
+        trace_mirrors(scene, camera, hits, image, max_depth)
+        timings["mirror"] = time.perf_counter() - te
+        te = time.perf_counter()
     timings["total"] = te - t0
     return Frame(image=image, hits=hits, shading=shading, scene=scene, camera=camera, timings=timings)

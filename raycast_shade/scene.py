@@ -53,7 +53,8 @@ class SceneGeometry:
         Re-centred positions (after crease splitting).
     normals : (V, 3) float64
         Unit vertex normals (zero where undefined).
-    uvs : (V, 2) float64 or None
+    uvs : (V, 2) float64
+        Zero for models without UVs.
     faces : (F, 3) int64
         Global vertex indices.
     face_normals : (F, 3) float64
@@ -63,6 +64,11 @@ class SceneGeometry:
         One packed material row per model (see :meth:`Material.packed`).
     face_model, vertex_model : (F,) int32, (V,) int32
         The model each face and vertex belongs to.
+    bump_index : (G,) int32
+        Row of each model's height map in ``bump_info``, or -1.
+    bump_texels : (T,) float32
+    bump_info : (B, 7) float64
+        See :meth:`HeightMap.packed_info`.
     """
 
     def __init__(self, models):
@@ -80,14 +86,45 @@ class SceneGeometry:
         self.local_faces = np.concatenate([p.faces for p in preps])
         self.faces = self.local_faces + np.repeat(self.vertex_offsets[:-1], nf)[:, None]
         self.face_normals = np.concatenate([p.face_normals for p in preps])
-        if all(p.uvs is not None for p in preps):
-            self.uvs = np.concatenate([p.uvs for p in preps])
-        else:
-            self.uvs = None
+        # Zero UVs stand in where a model has none; only bump-mapped models
+        # read them, and those are checked to have real ones.
+        self.uvs = np.concatenate([p.uvs if p.uvs is not None else np.zeros((len(p.vertices), 2)) for p in preps])
         self.materials = np.stack([m.material.packed() for m in models])
+        self.reflective = bool(np.any(self.materials[:, 11] > 0))
+        # Bump maps: all texels in one flat array, one info row per map.
+        bump_index = np.full(len(models), -1, np.int32)
+        texels, info, maps = [], [], {}
+        for g, m in enumerate(models):
+            hm = m.material.bump
+            if hm is None:
+                continue
+            if preps[g].uvs is None:
+                raise ValueError(
+                    f"scene.models[{g}] ({m.mesh.name}): material {m.material.name!r} has a bump map "
+                    "but the mesh has no UVs (see raycast_shade.bump.spherical_uvs and friends)"
+                )
+            if id(hm) not in maps:
+                maps[id(hm)] = len(info)
+                offset = sum(t.size for t in texels)
+                texels.append(hm.heights.ravel())
+                info.append(hm.packed_info(offset))
+            bump_index[g] = maps[id(hm)]
+        self.bump_index = bump_index
+        self.bump_texels = np.concatenate(texels).astype(np.float32) if texels else np.zeros(1, np.float32)
+        self.bump_info = np.stack(info) if info else np.zeros((1, 7))
+        self.has_bump = bool(info)
         self.face_model = np.repeat(np.arange(len(models), dtype=np.int32), nf)
         self.vertex_model = np.repeat(np.arange(len(models), dtype=np.int32), nv)
         self.n_models = len(models)
+
+    @cached_property
+    def tangents(self) -> np.ndarray:
+        """(F, 6) float64 per-face ``Pu, Pv`` for bump mapping (zeros if no bumps)."""
+        if not self.has_bump:
+            return np.zeros((1, 6))
+        from .bump import tangent_frames
+
+        return tangent_frames(self.vertices, self.faces, self.uvs, self.face_normals)
 
     @cached_property
     def accel(self):
@@ -136,12 +173,15 @@ class Scene:
     camera : Camera
     ambient : float or (3,) float
         The scene's ambient intensity ``Ia`` (multiplies each material's ``ka``).
+    background : float or (3,) float
+        Linear colour where nothing is hit (also what a mirror shows there).
     """
 
     models: tuple
     lights: tuple = ()
     camera: Camera | None = None
     ambient: object = 0.1
+    background: object = 0.0
 
     def __post_init__(self):
         set_ = object.__setattr__
@@ -159,6 +199,7 @@ class Scene:
         if self.camera is not None and not isinstance(self.camera, Camera):
             raise TypeError(f"scene.camera: expected a Camera, got {type(self.camera).__name__}")
         set_(self, "ambient", as_rgb(self.ambient, "scene.ambient"))
+        set_(self, "background", as_rgb(self.background, "scene.background"))
 
     @cached_property
     def geometry(self) -> SceneGeometry:
@@ -186,6 +227,8 @@ class Scene:
         att : (L,) int32
             0 none, 1 inverse square, 2 heuristic.
         k : (L,) float64
+        shadows : (L,) int32
+            1 where the light casts shadows.
         """
         n = len(self.lights)
         kind = np.zeros(n, np.int32)
@@ -193,9 +236,11 @@ class Scene:
         rad = np.zeros((n, 3))
         att = np.zeros(n, np.int32)
         k = np.ones(n)
+        shadows = np.zeros(n, np.int32)
         origin = self.geometry.origin
         for i, light in enumerate(self.lights):
             rad[i] = light.radiance
+            shadows[i] = int(light.shadows)
             if isinstance(light, PointLight):
                 vec[i] = light.position - origin
                 att[i] = ATT_CODE[light.attenuation]
@@ -203,4 +248,4 @@ class Scene:
             else:
                 kind[i] = 1
                 vec[i] = -light.direction
-        return kind, vec, rad, att, k
+        return kind, vec, rad, att, k, shadows

@@ -2,11 +2,12 @@
 
 Every mode evaluates the lecture's reflectance equation, per channel::
 
-    I = Ia ka + sum_i att_i(d) Ii (kd max(n.s, 0) + Ks max(r.v, 0)^t)
+    I = Ia ka + sum_i vis_i att_i(d) Ii (kd max(n.s, 0) + Ks max(r.v, 0)^t)
 
 with ``r = 2 (n.s) n - s`` (or Blinn-Phong ``(n.h)^t``), no specular term
-where ``n.s <= 0``, and ``att`` one of ``1``, ``1/d^2``, ``1/(d + k)``. The
-viewer's distance never enters: only the direction ``v`` to the eye does.
+where ``n.s <= 0``, ``att`` one of ``1``, ``1/d^2``, ``1/(d + k)``, and
+``vis`` 0 or 1 from a shadow ray for lights that cast shadows. The viewer's
+distance never enters: only the direction ``v`` to the eye does.
 
 What differs is *where* the equation is evaluated:
 
@@ -17,7 +18,12 @@ Gouraud
     barycentrics;
 Phong
     at each pixel, at the true 3D hit point, with the normal interpolated
-    (``a = n1 + mu1 (n2 - n1) + mu2 (n3 - n1)``) and renormalised.
+    (``a = n1 + mu1 (n2 - n1) + mu2 (n3 - n1)``), renormalised, and perturbed
+    by the material's bump map if it has one.
+
+Shadows follow the same rule: a shadow ray leaves the point where the model
+is evaluated (face centre, vertex, or pixel), so Gouraud's shadows are as
+coarse as its highlights.
 
 Orientation (two-sided lighting): the geometric normal ``ng`` is turned to
 the viewer; a shading normal seen from the back is negated with it, and one
@@ -27,27 +33,107 @@ which is continuous where plain negation would jump. An interpolated normal
 that cancels (``|a| < 1e-6``) falls back to ``ng``. Gouraud lights a vertex
 from whichever side the viewer sees its triangle (both sides are shaded).
 
-Kernels are private, parallel over rows, and work in float64; their plain-
-NumPy twins live in :mod:`raycast_shade.reference`.
+Shadow rays start at the shading point pushed off the surface along ``ng``
+by a few hundred float32 ulps of its coordinates (Wachter and Binder, Ray
+Tracing Gems ch. 6), which scales with the scene; point-light rays stop just
+short of the light. In Phong mode the start point is first lifted onto the
+vertices' tangent planes (Hanika, Ray Tracing Gems II ch. 4) so that coarse
+meshes with smooth normals do not shadow themselves at the terminator.
+
+Kernels are private, parallel, and work in float64; their plain-NumPy twins
+live in :mod:`raycast_shade.reference`.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit, prange
 
-__all__ = ["SHADINGS", "shade"]
+from . import _embree
+
+__all__ = ["SHADINGS", "shade", "shading_normals", "kernel_inputs"]
 
 SHADINGS = ("flat", "gouraud", "phong")
 _CANCEL = 1e-6  # |interpolated normal| below this counts as cancelled
+_SHADOW_TFAR = 1.0 - 1e-5  # point-light shadow rays stop just short of the light
+_SCRATCH = 24  # float32 slots: one RTCRay (12) plus alignment slack
 
+# No nnan/ninf: misses and degenerate cases must compare as written.
 _jit = dict(cache=True, error_model="numpy", fastmath={"nsz", "arcp", "contract", "afn", "reassoc"})
 
 
-def _illuminate_py(px, py, pz, nx, ny, nz, vx, vy, vz, mats, mi, ambient, lkind, lvec, lrad, latt, lk, dmin):
-    """RGB reflected towards unit ``v`` at point ``p`` with unit normal ``n``,
-    for material row ``mats[mi]`` (indexed, not sliced: a slice per pixel
-    would cost an atomic reference count shared by all threads)."""
+# ----------------------------------------------------------------------------------
+# shadow rays
+
+
+@njit(inline="always", **_jit)
+def _scratch():
+    """A per-task RTCRay buffer: (float view, uint view, aligned offset, address)."""
+    buf = np.empty(_SCRATCH, np.float32)
+    base = buf.ctypes.data
+    off = ((16 - base % 16) % 16) // 4
+    return buf, buf.view(np.uint32), off, base + off * 4
+
+
+@njit(inline="always", **_jit)
+def _nudge(p, n):
+    """Move coordinate ``p`` by 256 float32 ulps along normal component ``n``
+    (an absolute 1/65536 near zero, where ulps vanish)."""
+    if abs(p) < 1.0 / 32.0:
+        return p + n * (1.0 / 65536.0)
+    _, e = math.frexp(p)
+    return p + n * math.ldexp(256.0, e - 24)
+
+
+@njit(inline="always", **_jit)
+def _occluded(handle, buf, ib, off, addr, px, py, pz, gx, gy, gz, sx, sy, sz, lx, ly, lz, is_point):
+    """True if the scene blocks the way from p towards the light."""
+    side = 1.0 if gx * sx + gy * sy + gz * sz >= 0.0 else -1.0
+    ox = _nudge(px, side * gx)
+    oy = _nudge(py, side * gy)
+    oz = _nudge(pz, side * gz)
+    if is_point:
+        dx = lx - ox
+        dy = ly - oy
+        dz = lz - oz
+        tfar = _SHADOW_TFAR
+    else:
+        dx = sx
+        dy = sy
+        dz = sz
+        tfar = np.inf
+    buf[off + 0] = ox
+    buf[off + 1] = oy
+    buf[off + 2] = oz
+    buf[off + 3] = 0.0
+    buf[off + 4] = dx
+    buf[off + 5] = dy
+    buf[off + 6] = dz
+    buf[off + 7] = 0.0
+    buf[off + 8] = tfar
+    ib[off + 9] = 0xFFFFFFFF
+    ib[off + 10] = 0
+    ib[off + 11] = 0
+    _embree.occluded1(handle, addr, 0)
+    return buf[off + 8] < 0.0  # Embree sets tfar to -inf on a hit
+
+
+# ----------------------------------------------------------------------------------
+# the reflectance equation
+
+
+def _illuminate_py(px, py, pz, nx, ny, nz, vx, vy, vz, mats, mi, L, S, ox, oy, oz, gx, gy, gz):
+    """RGB reflected towards unit ``v`` at point ``p`` with unit normal ``n``.
+
+    ``mats[mi]`` is the material row (indexed, not sliced: a slice per pixel
+    would cost an atomic reference count shared by all threads). ``L`` is
+    the packed lights tuple, ``S`` the shadow-ray scratch; shadow rays start
+    at ``o`` pushed off along ``g``.
+    """
+    ambient, lkind, lvec, lrad, latt, lk, lshadow, dmin, handle = L
+    buf, ib, off, addr = S
     r = ambient[0] * mats[mi, 0]
     g = ambient[1] * mats[mi, 1]
     b = ambient[2] * mats[mi, 2]
@@ -55,7 +141,8 @@ def _illuminate_py(px, py, pz, nx, ny, nz, vx, vy, vz, mats, mi, ambient, lkind,
     blinn = mats[mi, 10] != 0.0
     has_spec = mats[mi, 6] > 0.0 or mats[mi, 7] > 0.0 or mats[mi, 8] > 0.0
     for i in range(lkind.shape[0]):
-        if lkind[i] == 1:
+        is_point = lkind[i] == 0
+        if not is_point:
             sx = lvec[i, 0]
             sy = lvec[i, 1]
             sz = lvec[i, 2]
@@ -82,6 +169,10 @@ def _illuminate_py(px, py, pz, nx, ny, nz, vx, vy, vz, mats, mi, ambient, lkind,
             continue
         if ndots > 1.0:
             ndots = 1.0
+        if lshadow[i] != 0 and handle != 0:
+            if _occluded(handle, buf, ib, off, addr, ox, oy, oz, gx, gy, gz, sx, sy, sz,
+                         lvec[i, 0], lvec[i, 1], lvec[i, 2], is_point):
+                continue
         spec = 0.0
         if has_spec:
             if blinn:
@@ -103,10 +194,14 @@ def _illuminate_py(px, py, pz, nx, ny, nz, vx, vy, vz, mats, mi, ambient, lkind,
     return r, g, b
 
 
-# Inlined into the hot loops (each kernel inlines it exactly once, which keeps
-# compile time in check); the called variant serves rare fallback branches.
+# Inlined into the hot loops (each kernel inlines it once, which keeps compile
+# time in check); the called variant serves rare fallback branches.
 _illuminate = njit(inline="always", **_jit)(_illuminate_py)
 _illuminate_call = njit(**_jit)(_illuminate_py)
+
+
+# ----------------------------------------------------------------------------------
+# geometry at a hit
 
 
 @njit(inline="always", **_jit)
@@ -167,32 +262,160 @@ def _hit_point(verts, i0, i1, i2, b1, b2):
     return px, py, pz
 
 
+@njit(inline="always", **_jit)
+def _terminator_point(verts, normals, i0, i1, i2, b1, b2, px, py, pz, sgn):
+    """Hanika's shadow-ray origin: p lifted onto the vertices' tangent planes
+    (only upwards), so a flat facet under a smooth normal does not shadow
+    itself near the terminator."""
+    b0 = 1.0 - b1 - b2
+    qx = px
+    qy = py
+    qz = pz
+    for k in range(3):
+        i = i0 if k == 0 else (i1 if k == 1 else i2)
+        w = b0 if k == 0 else (b1 if k == 1 else b2)
+        nx = sgn * normals[i, 0]
+        ny = sgn * normals[i, 1]
+        nz = sgn * normals[i, 2]
+        d = (px - verts[i, 0]) * nx + (py - verts[i, 1]) * ny + (pz - verts[i, 2]) * nz
+        if d < 0.0:
+            qx -= w * d * nx
+            qy -= w * d * ny
+            qz -= w * d * nz
+    return qx, qy, qz
+
+
+@njit(inline="always", **_jit)
+def _bilinear(tex, base, rows, cols, clamp, x, y):
+    """Bilinear sample at texel coordinates (x, y) (texel centres at integers)."""
+    j0 = math.floor(x)
+    i0 = math.floor(y)
+    tx = x - j0
+    ty = y - i0
+    j0 = int(j0)
+    i0 = int(i0)
+    j1 = j0 + 1
+    i1 = i0 + 1
+    if clamp:
+        j0 = min(max(j0, 0), cols - 1)
+        j1 = min(max(j1, 0), cols - 1)
+        i0 = min(max(i0, 0), rows - 1)
+        i1 = min(max(i1, 0), rows - 1)
+    else:
+        j0 %= cols
+        j1 %= cols
+        i0 %= rows
+        i1 %= rows
+    a = tex[base + i0 * cols + j0] * (1.0 - tx) + tex[base + i0 * cols + j1] * tx
+    b = tex[base + i1 * cols + j0] * (1.0 - tx) + tex[base + i1 * cols + j1] * tx
+    return a * (1.0 - ty) + b * ty
+
+
+@njit(inline="always", **_jit)
+def _bump(nx, ny, nz, f, gm, i0, i1, i2, b1, b2, B):
+    """Blinn's perturbed normal N' = N + (Bu (N x Pv) - Bv (N x Pu)) / |N|,
+    with N = n |Pu x Pv| along the (oriented) shading normal n."""
+    uvs, tangents, bump_index, texels, info = B
+    k = bump_index[gm]
+    if k < 0:
+        return nx, ny, nz
+    b0 = 1.0 - b1 - b2
+    tu = b0 * uvs[i0, 0] + b1 * uvs[i1, 0] + b2 * uvs[i2, 0]
+    tv = b0 * uvs[i0, 1] + b1 * uvs[i1, 1] + b2 * uvs[i2, 1]
+    base = int(info[k, 0])
+    rows = int(info[k, 1])
+    cols = int(info[k, 2])
+    clamp = info[k, 3] != 0.0
+    su = info[k, 4]
+    sv = info[k, 5]
+    scale = info[k, 6]
+    x = tu * su * cols - 0.5
+    y = tv * sv * rows - 0.5
+    # Central differences one texel wide: exact for heights linear in u, v.
+    bu = (_bilinear(texels, base, rows, cols, clamp, x + 0.5, y)
+          - _bilinear(texels, base, rows, cols, clamp, x - 0.5, y)) * cols * su * scale
+    bv = (_bilinear(texels, base, rows, cols, clamp, x, y + 0.5)
+          - _bilinear(texels, base, rows, cols, clamp, x, y - 0.5)) * rows * sv * scale
+    pux = tangents[f, 0]
+    puy = tangents[f, 1]
+    puz = tangents[f, 2]
+    pvx = tangents[f, 3]
+    pvy = tangents[f, 4]
+    pvz = tangents[f, 5]
+    cx = puy * pvz - puz * pvy
+    cy = puz * pvx - pux * pvz
+    cz = pux * pvy - puy * pvx
+    area = np.sqrt(cx * cx + cy * cy + cz * cz)  # |N| = |Pu x Pv|
+    # (N x Pv) / |N| = n x Pv, likewise for Pu
+    ax = area * nx + bu * (ny * pvz - nz * pvy) - bv * (ny * puz - nz * puy)
+    ay = area * ny + bu * (nz * pvx - nx * pvz) - bv * (nz * pux - nx * puz)
+    az = area * nz + bu * (nx * pvy - ny * pvx) - bv * (nx * puy - ny * pux)
+    al = np.sqrt(ax * ax + ay * ay + az * az)
+    if not (al > 0.0 and al < np.inf):
+        return nx, ny, nz
+    return ax / al, ay / al, az / al
+
+
+@njit(inline="always", **_jit)
+def _surface(G, B, cam, f, gm, b1, b2, use_dir, dx, dy, dz):
+    """Everything about a hit that shading needs.
+
+    The view vector is towards the eye, or ``-d`` for a secondary ray.
+    Returns p, v, oriented geometric normal g, its sign, and the oriented
+    (and bumped) shading normal n.
+    """
+    verts, normals, faces, fnormals = G
+    i0 = faces[f, 0]
+    i1 = faces[f, 1]
+    i2 = faces[f, 2]
+    px, py, pz = _hit_point(verts, i0, i1, i2, b1, b2)
+    if use_dir:
+        vx = -dx
+        vy = -dy
+        vz = -dz
+    else:
+        vx, vy, vz = _view(cam, px, py, pz)
+    gx, gy, gz, sgn = _facing(fnormals, f, vx, vy, vz)
+    nx, ny, nz = _shading_normal(normals, i0, i1, i2, b1, b2, gx, gy, gz, sgn)
+    nx, ny, nz = _bump(nx, ny, nz, f, gm, i0, i1, i2, b1, b2, B)
+    return px, py, pz, vx, vy, vz, gx, gy, gz, sgn, nx, ny, nz
+
+
+@njit(inline="always", **_jit)
+def _shade_surface(G, B, L, S, materials, cam, f, gm, b1, b2, use_dir, dx, dy, dz):
+    """Phong shading of one hit: colour, plus the point and normals for mirrors."""
+    verts, normals, faces, fnormals = G
+    px, py, pz, vx, vy, vz, gx, gy, gz, sgn, nx, ny, nz = _surface(G, B, cam, f, gm, b1, b2, use_dir, dx, dy, dz)
+    ox = px
+    oy = py
+    oz = pz
+    if L[8] != 0:  # shadow rays will be traced: start them past the terminator
+        ox, oy, oz = _terminator_point(verts, normals, faces[f, 0], faces[f, 1], faces[f, 2], b1, b2, px, py, pz, sgn)
+    r, g, b = _illuminate(px, py, pz, nx, ny, nz, vx, vy, vz, materials, gm, L, S, ox, oy, oz, gx, gy, gz)
+    return r, g, b, px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz
+
+
+# ----------------------------------------------------------------------------------
+# kernels
+
+
 @njit(parallel=True, **_jit)
-def _shade_phong_kernel(prim, geom, u, v, verts, normals, faces, fnormals, face_off, materials, cam,
-                        ambient, lkind, lvec, lrad, latt, lk, dmin, image):
+def _shade_phong_kernel(prim, geom, u, v, G, B, L, face_off, materials, cam, background, image):
     h, w = prim.shape
     for y in prange(h):
+        S = _scratch()
         for x in range(w):
             p = prim[y, x]
             if p < 0:
                 for c in range(3):
-                    image[y, x, c] = 0.0
+                    image[y, x, c] = background[c]
                 continue
-            g = geom[y, x]
-            f = face_off[g] + p
-            i0 = faces[f, 0]
-            i1 = faces[f, 1]
-            i2 = faces[f, 2]
-            b1 = np.float64(u[y, x])
-            b2 = np.float64(v[y, x])
-            px, py, pz = _hit_point(verts, i0, i1, i2, b1, b2)
-            vx, vy, vz = _view(cam, px, py, pz)
-            gx, gy, gz, sgn = _facing(fnormals, f, vx, vy, vz)
-            nx, ny, nz = _shading_normal(normals, i0, i1, i2, b1, b2, gx, gy, gz, sgn)
-            r, gg, b = _illuminate(px, py, pz, nx, ny, nz, vx, vy, vz, materials, g, ambient,
-                                   lkind, lvec, lrad, latt, lk, dmin)
+            gm = geom[y, x]
+            f = face_off[gm] + p
+            r, g, b, _, _, _, _, _, _, _, _, _, _, _, _ = _shade_surface(
+                G, B, L, S, materials, cam, f, gm, np.float64(u[y, x]), np.float64(v[y, x]), False, 0.0, 0.0, 0.0)
             image[y, x, 0] = r
-            image[y, x, 1] = gg
+            image[y, x, 1] = g
             image[y, x, 2] = b
 
 
@@ -212,71 +435,79 @@ def _visible_kernel(prim, geom, faces, face_off, face_flags, vertex_flags):
                 vertex_flags[faces[f, 2]] = 1
 
 
+_CHUNK = 1024
+
+
 @njit(parallel=True, **_jit)
-def _shade_faces_kernel(face_flags, verts, faces, fnormals, face_model, materials, cam,
-                        ambient, lkind, lvec, lrad, latt, lk, dmin, out):
+def _shade_faces_kernel(face_flags, verts, faces, fnormals, face_model, materials, cam, L, out):
     """Flat shading: one shade per visible face, at its centre."""
-    for f in prange(faces.shape[0]):
-        if face_flags[f] == 0:
-            continue
-        i0 = faces[f, 0]
-        i1 = faces[f, 1]
-        i2 = faces[f, 2]
-        third = 1.0 / 3.0
-        px, py, pz = _hit_point(verts, i0, i1, i2, third, third)
-        vx, vy, vz = _view(cam, px, py, pz)
-        gx, gy, gz, sgn = _facing(fnormals, f, vx, vy, vz)
-        r, g, b = _illuminate(px, py, pz, gx, gy, gz, vx, vy, vz, materials, face_model[f], ambient,
-                              lkind, lvec, lrad, latt, lk, dmin)
-        out[f, 0] = r
-        out[f, 1] = g
-        out[f, 2] = b
+    n = faces.shape[0]
+    for c in prange((n + _CHUNK - 1) // _CHUNK):
+        S = _scratch()
+        for f in range(c * _CHUNK, min(n, (c + 1) * _CHUNK)):
+            if face_flags[f] == 0:
+                continue
+            third = 1.0 / 3.0
+            px, py, pz = _hit_point(verts, faces[f, 0], faces[f, 1], faces[f, 2], third, third)
+            vx, vy, vz = _view(cam, px, py, pz)
+            gx, gy, gz, sgn = _facing(fnormals, f, vx, vy, vz)
+            r, g, b = _illuminate(px, py, pz, gx, gy, gz, vx, vy, vz, materials, face_model[f], L, S,
+                                  px, py, pz, gx, gy, gz)
+            out[f, 0] = r
+            out[f, 1] = g
+            out[f, 2] = b
 
 
 @njit(parallel=True, **_jit)
-def _shade_vertices_kernel(vertex_flags, verts, normals, vertex_model, materials, cam,
-                           ambient, lkind, lvec, lrad, latt, lk, dmin, out):
+def _shade_vertices_kernel(vertex_flags, verts, normals, vertex_model, materials, cam, L, out):
     """Gouraud: the shade of each visible vertex, lit from the front (normal)
     and from the back (negated normal)."""
-    for i in prange(verts.shape[0]):
-        if vertex_flags[i] == 0:
-            continue
-        px = verts[i, 0]
-        py = verts[i, 1]
-        pz = verts[i, 2]
-        vx, vy, vz = _view(cam, px, py, pz)
-        m = vertex_model[i]
-        for side in range(2):
-            sg = 1.0 - 2.0 * side
-            r, g, b = _illuminate(px, py, pz, sg * normals[i, 0], sg * normals[i, 1], sg * normals[i, 2],
-                                  vx, vy, vz, materials, m, ambient, lkind, lvec, lrad, latt, lk, dmin)
-            out[i, side, 0] = r
-            out[i, side, 1] = g
-            out[i, side, 2] = b
+    n = verts.shape[0]
+    for c in prange((n + _CHUNK - 1) // _CHUNK):
+        S = _scratch()
+        for i in range(c * _CHUNK, min(n, (c + 1) * _CHUNK)):
+            if vertex_flags[i] == 0:
+                continue
+            px = verts[i, 0]
+            py = verts[i, 1]
+            pz = verts[i, 2]
+            vx, vy, vz = _view(cam, px, py, pz)
+            m = vertex_model[i]
+            for side in range(2):
+                sg = 1.0 - 2.0 * side
+                nx = sg * normals[i, 0]
+                ny = sg * normals[i, 1]
+                nz = sg * normals[i, 2]
+                r, g, b = _illuminate(px, py, pz, nx, ny, nz, vx, vy, vz, materials, m, L, S,
+                                      px, py, pz, nx, ny, nz)
+                out[i, side, 0] = r
+                out[i, side, 1] = g
+                out[i, side, 2] = b
 
 
 @njit(inline="always", **_jit)
-def _corner_shade(vcol, normals, verts, i, side, gx, gy, gz, materials, m, cam, ambient, lkind, lvec, lrad, latt, lk, dmin):
+def _corner_shade(vcol, normals, verts, i, side, gx, gy, gz, materials, m, cam, L, S):
     """A vertex's Gouraud shade; a vertex without a normal borrows the face's."""
     if normals[i, 0] == 0.0 and normals[i, 1] == 0.0 and normals[i, 2] == 0.0:
         px = verts[i, 0]
         py = verts[i, 1]
         pz = verts[i, 2]
         vx, vy, vz = _view(cam, px, py, pz)
-        return _illuminate_call(px, py, pz, gx, gy, gz, vx, vy, vz, materials, m, ambient, lkind, lvec, lrad, latt, lk, dmin)
+        return _illuminate_call(px, py, pz, gx, gy, gz, vx, vy, vz, materials, m, L, S, px, py, pz, gx, gy, gz)
     return vcol[i, side, 0], vcol[i, side, 1], vcol[i, side, 2]
 
 
 @njit(parallel=True, **_jit)
-def _interp_gouraud_kernel(prim, geom, u, v, verts, normals, faces, fnormals, face_off, materials, cam,
-                           ambient, lkind, lvec, lrad, latt, lk, dmin, vcol, image):
+def _interp_gouraud_kernel(prim, geom, u, v, verts, normals, faces, fnormals, face_off, materials, cam, L,
+                           background, vcol, image):
     h, w = prim.shape
     for y in prange(h):
+        S = _scratch()
         for x in range(w):
             p = prim[y, x]
             if p < 0:
                 for c in range(3):
-                    image[y, x, c] = 0.0
+                    image[y, x, c] = background[c]
                 continue
             g = geom[y, x]
             f = face_off[g] + p
@@ -290,24 +521,23 @@ def _interp_gouraud_kernel(prim, geom, u, v, verts, normals, faces, fnormals, fa
             vx, vy, vz = _view(cam, px, py, pz)
             gx, gy, gz, sgn = _facing(fnormals, f, vx, vy, vz)
             side = 0 if sgn > 0.0 else 1
-            m = g
-            r0, g0, c0 = _corner_shade(vcol, normals, verts, i0, side, gx, gy, gz, materials, m, cam, ambient, lkind, lvec, lrad, latt, lk, dmin)
-            r1, g1, c1 = _corner_shade(vcol, normals, verts, i1, side, gx, gy, gz, materials, m, cam, ambient, lkind, lvec, lrad, latt, lk, dmin)
-            r2, g2, c2 = _corner_shade(vcol, normals, verts, i2, side, gx, gy, gz, materials, m, cam, ambient, lkind, lvec, lrad, latt, lk, dmin)
+            r0, g0, c0 = _corner_shade(vcol, normals, verts, i0, side, gx, gy, gz, materials, g, cam, L, S)
+            r1, g1, c1 = _corner_shade(vcol, normals, verts, i1, side, gx, gy, gz, materials, g, cam, L, S)
+            r2, g2, c2 = _corner_shade(vcol, normals, verts, i2, side, gx, gy, gz, materials, g, cam, L, S)
             image[y, x, 0] = b0 * r0 + b1 * r1 + b2 * r2
             image[y, x, 1] = b0 * g0 + b1 * g1 + b2 * g2
             image[y, x, 2] = b0 * c0 + b1 * c1 + b2 * c2
 
 
 @njit(parallel=True, **_jit)
-def _lookup_flat_kernel(prim, geom, face_off, fcol, image):
+def _lookup_flat_kernel(prim, geom, face_off, fcol, background, image):
     h, w = prim.shape
     for y in prange(h):
         for x in range(w):
             p = prim[y, x]
             if p < 0:
                 for c in range(3):
-                    image[y, x, c] = 0.0
+                    image[y, x, c] = background[c]
                 continue
             f = face_off[geom[y, x]] + p
             for c in range(3):
@@ -315,7 +545,7 @@ def _lookup_flat_kernel(prim, geom, face_off, fcol, image):
 
 
 @njit(parallel=True, **_jit)
-def _normals_kernel(prim, geom, u, v, verts, normals, faces, fnormals, face_off, cam, flat, nbuf):
+def _normals_kernel(prim, geom, u, v, G, B, face_off, cam, flat, nbuf):
     """The unit normal each pixel is shaded with, turned to the viewer."""
     h, w = prim.shape
     for y in prange(h):
@@ -325,22 +555,102 @@ def _normals_kernel(prim, geom, u, v, verts, normals, faces, fnormals, face_off,
                 for c in range(3):
                     nbuf[y, x, c] = 0.0
                 continue
-            f = face_off[geom[y, x]] + p
-            i0 = faces[f, 0]
-            i1 = faces[f, 1]
-            i2 = faces[f, 2]
-            b1 = np.float64(u[y, x])
-            b2 = np.float64(v[y, x])
-            px, py, pz = _hit_point(verts, i0, i1, i2, b1, b2)
-            vx, vy, vz = _view(cam, px, py, pz)
-            gx, gy, gz, sgn = _facing(fnormals, f, vx, vy, vz)
+            gm = geom[y, x]
+            f = face_off[gm] + p
+            _, _, _, _, _, _, gx, gy, gz, _, nx, ny, nz = _surface(
+                G, B, cam, f, gm, np.float64(u[y, x]), np.float64(v[y, x]), False, 0.0, 0.0, 0.0)
             if flat:
                 nx, ny, nz = gx, gy, gz
-            else:
-                nx, ny, nz = _shading_normal(normals, i0, i1, i2, b1, b2, gx, gy, gz, sgn)
             nbuf[y, x, 0] = nx
             nbuf[y, x, 1] = ny
             nbuf[y, x, 2] = nz
+
+
+@njit(inline="always", **_jit)
+def _mirror_ray(px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz):
+    """Reflect the incoming direction d = -v about n: r = d - 2 (d.n) n,
+    kept above the geometric surface, from an origin pushed off along g."""
+    dn = -(vx * nx + vy * ny + vz * nz)
+    rx = -vx - 2.0 * dn * nx
+    ry = -vy - 2.0 * dn * ny
+    rz = -vz - 2.0 * dn * nz
+    c = rx * gx + ry * gy + rz * gz
+    if c < 0.0:  # a bent shading normal sent it below the surface
+        rx -= 2.0 * c * gx
+        ry -= 2.0 * c * gy
+        rz -= 2.0 * c * gz
+    return _nudge(px, gx), _nudge(py, gy), _nudge(pz, gz), rx, ry, rz
+
+
+@njit(parallel=True, **_jit)
+def _reflect_primary_kernel(prim, geom, u, v, G, B, face_off, materials, cam, origins, dirs, active):
+    """Mirror rays from every pixel whose surface reflects."""
+    h, w = prim.shape
+    for y in prange(h):
+        for x in range(w):
+            i = y * w + x
+            p = prim[y, x]
+            active[i] = False
+            if p < 0:
+                continue
+            gm = geom[y, x]
+            if materials[gm, 11] <= 0.0:
+                continue
+            f = face_off[gm] + p
+            px, py, pz, vx, vy, vz, gx, gy, gz, _, nx, ny, nz = _surface(
+                G, B, cam, f, gm, np.float64(u[y, x]), np.float64(v[y, x]), False, 0.0, 0.0, 0.0)
+            ox, oy, oz, rx, ry, rz = _mirror_ray(px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz)
+            origins[i, 0] = ox
+            origins[i, 1] = oy
+            origins[i, 2] = oz
+            dirs[i, 0] = rx
+            dirs[i, 1] = ry
+            dirs[i, 2] = rz
+            active[i] = True
+
+
+@njit(parallel=True, **_jit)
+def _shade_points_kernel(prim, geom, u, v, dirs, G, B, L, face_off, materials, cam, background, last,
+                         colour, origins, next_dirs, active):
+    """Phong-shade secondary hits seen along ``dirs``; emit the next mirror rays.
+
+    A reflective surface keeps ``1 - rho`` of its local shade and passes
+    ``rho`` on, except at the last bounce, where it shows its local shade.
+    """
+    n = prim.shape[0]
+    for c in prange((n + _CHUNK - 1) // _CHUNK):
+        S = _scratch()
+        for i in range(c * _CHUNK, min(n, (c + 1) * _CHUNK)):
+            active[i] = False
+            p = prim[i]
+            if p < 0:
+                for k in range(3):
+                    colour[i, k] = background[k]
+                continue
+            gm = geom[i]
+            f = face_off[gm] + p
+            r, g, b, px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz = _shade_surface(
+                G, B, L, S, materials, cam, f, gm, np.float64(u[i]), np.float64(v[i]), True,
+                dirs[i, 0], dirs[i, 1], dirs[i, 2])
+            rho = materials[gm, 11]
+            keep = 1.0
+            if rho > 0.0 and not last:
+                keep = 1.0 - rho
+                ox, oy, oz, rx, ry, rz = _mirror_ray(px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz)
+                origins[i, 0] = ox
+                origins[i, 1] = oy
+                origins[i, 2] = oz
+                next_dirs[i, 0] = rx
+                next_dirs[i, 1] = ry
+                next_dirs[i, 2] = rz
+                active[i] = True
+            colour[i, 0] = keep * r
+            colour[i, 1] = keep * g
+            colour[i, 2] = keep * b
+
+
+# ----------------------------------------------------------------------------------
+# public wrappers
 
 
 def kernel_inputs(scene, camera):
@@ -349,20 +659,25 @@ def kernel_inputs(scene, camera):
     Returns
     -------
     dict
-        ``verts (V,3) f8, normals (V,3) f8, faces (F,3) i8, fnormals (F,3) f8,
-        face_off (G+1,) i8, materials (G,11) f8, cam (16,) f8, ambient (3,) f8,
-        lkind (L,) i4, lvec (L,3) f8, lrad (L,3) f8, latt (L,) i4, lk (L,) f8,
-        dmin float``.
+        ``G`` = (verts (V,3) f8, normals (V,3) f8, faces (F,3) i8, fnormals (F,3) f8);
+        ``B`` = (uvs (V,2) f8, tangents (F,6) f8, bump_index (G,) i4, texels (T,) f4, info (B,7) f8);
+        ``L`` = (ambient (3,) f8, kind (L,) i4, vec (L,3) f8, radiance (L,3) f8,
+        attenuation (L,) i4, k (L,) f8, shadows (L,) i4, dmin f8, scene handle uintp
+        or 0 when no light casts shadows);
+        ``face_off`` (G+1,) i8, ``materials`` (G,12) f8, ``cam`` (16,) f8, ``background`` (3,) f8.
     """
     from .rays import camera_frame
 
     geo = scene.geometry
-    lkind, lvec, lrad, latt, lk = scene.packed_lights()
+    lkind, lvec, lrad, latt, lk, lshadow = scene.packed_lights()
+    handle = geo.accel.handle if lshadow.any() else 0
     return dict(
-        verts=geo.vertices, normals=geo.normals, faces=geo.faces, fnormals=geo.face_normals,
+        G=(geo.vertices, geo.normals, geo.faces, geo.face_normals),
+        B=(geo.uvs, geo.tangents, geo.bump_index, geo.bump_texels, geo.bump_info),
+        L=(np.asarray(scene.ambient, np.float64), lkind, lvec, lrad, latt, lk, lshadow, 1e-6 * geo.scale,
+           np.uintp(handle)),
         face_off=geo.face_offsets, materials=geo.materials, cam=camera_frame(camera, geo.origin),
-        ambient=np.asarray(scene.ambient, np.float64), lkind=lkind, lvec=lvec, lrad=lrad, latt=latt, lk=lk,
-        dmin=1e-6 * geo.scale,
+        background=np.asarray(scene.background, np.float64),
     )
 
 
@@ -379,7 +694,7 @@ def shade(scene, camera, hits, shading: str = "phong") -> np.ndarray:
     Returns
     -------
     image : (H, W, 3) float32
-        Linear RGB; zero where nothing was hit.
+        Linear RGB; ``scene.background`` where nothing was hit.
     """
     if shading not in SHADINGS:
         raise ValueError(f"shading: expected one of {list(SHADINGS)}, got {shading!r}")
@@ -387,25 +702,25 @@ def shade(scene, camera, hits, shading: str = "phong") -> np.ndarray:
     geo = scene.geometry
     h, w = hits.shape
     image = np.empty((h, w, 3), np.float32)
-    light = (k["ambient"], k["lkind"], k["lvec"], k["lrad"], k["latt"], k["lk"], k["dmin"])
     if shading == "phong":
-        _shade_phong_kernel(hits.prim, hits.geom, hits.u, hits.v, k["verts"], k["normals"], k["faces"], k["fnormals"],
-                            k["face_off"], k["materials"], k["cam"], *light, image)
+        _shade_phong_kernel(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["face_off"],
+                            k["materials"], k["cam"], k["background"], image)
         return image
     face_flags = np.zeros(len(geo.faces), np.uint8)
     vertex_flags = np.zeros(len(geo.vertices), np.uint8)
-    _visible_kernel(hits.prim, hits.geom, k["faces"], k["face_off"], face_flags, vertex_flags)
+    _visible_kernel(hits.prim, hits.geom, geo.faces, k["face_off"], face_flags, vertex_flags)
     if shading == "flat":
         fcol = np.zeros((len(geo.faces), 3), np.float64)
-        _shade_faces_kernel(face_flags, k["verts"], k["faces"], k["fnormals"], geo.face_model, k["materials"],
-                            k["cam"], *light, fcol)
-        _lookup_flat_kernel(hits.prim, hits.geom, k["face_off"], fcol, image)
+        _shade_faces_kernel(face_flags, geo.vertices, geo.faces, geo.face_normals, geo.face_model, k["materials"],
+                            k["cam"], k["L"], fcol)
+        _lookup_flat_kernel(hits.prim, hits.geom, k["face_off"], fcol, k["background"], image)
         return image
     vcol = np.zeros((len(geo.vertices), 2, 3), np.float64)
-    _shade_vertices_kernel(vertex_flags, k["verts"], k["normals"], geo.vertex_model, k["materials"], k["cam"],
-                           *light, vcol)
-    _interp_gouraud_kernel(hits.prim, hits.geom, hits.u, hits.v, k["verts"], k["normals"], k["faces"], k["fnormals"],
-                           k["face_off"], k["materials"], k["cam"], *light, vcol, image)
+    _shade_vertices_kernel(vertex_flags, geo.vertices, geo.normals, geo.vertex_model, k["materials"], k["cam"],
+                           k["L"], vcol)
+    _interp_gouraud_kernel(hits.prim, hits.geom, hits.u, hits.v, geo.vertices, geo.normals, geo.faces,
+                           geo.face_normals, k["face_off"], k["materials"], k["cam"], k["L"], k["background"],
+                           vcol, image)
     return image
 
 
@@ -416,12 +731,71 @@ def shading_normals(scene, camera, hits, shading: str = "phong") -> np.ndarray:
     -------
     (H, W, 3) float32
         Unit normals turned to the viewer (flat: the face normal; otherwise
-        the interpolated, renormalised vertex normal); zero on the background.
+        the interpolated, renormalised vertex normal, bumped in Phong mode);
+        zero on the background.
     """
     geo = scene.geometry
     from .rays import camera_frame
 
+    B = (geo.uvs, geo.tangents, geo.bump_index, geo.bump_texels, geo.bump_info)
+    if shading != "phong":  # bumps only apply where the normal is per pixel
+        B = (geo.uvs, geo.tangents, np.full_like(geo.bump_index, -1), geo.bump_texels, geo.bump_info)
     nbuf = np.empty(hits.shape + (3,), np.float32)
-    _normals_kernel(hits.prim, hits.geom, hits.u, hits.v, geo.vertices, geo.normals, geo.faces, geo.face_normals,
-                    geo.face_offsets, camera_frame(camera, geo.origin), shading == "flat", nbuf)
+    _normals_kernel(hits.prim, hits.geom, hits.u, hits.v, (geo.vertices, geo.normals, geo.faces, geo.face_normals),
+                    B, geo.face_offsets, camera_frame(camera, geo.origin), shading == "flat", nbuf)
     return nbuf
+
+
+def trace_mirrors(scene, camera, hits, image, max_depth: int = 3) -> np.ndarray:
+    """Blend mirror reflections into a shaded image.
+
+    Each reflective pixel becomes ``(1 - rho) local + rho reflected``, the
+    reflected colour traced recursively (Phong-shaded at every bounce, seen
+    along the bouncing ray) to ``max_depth`` bounces; the last bounce shows
+    its local shade. ``max_depth=0`` is the same image as no mirror at all.
+
+    Parameters
+    ----------
+    image : (H, W, 3) float32
+        Local shading of ``hits``; updated in place and returned.
+    """
+    geo = scene.geometry
+    if max_depth <= 0 or not geo.reflective:
+        return image
+    from .cast import _cast_rays_kernel
+
+    k = kernel_inputs(scene, camera)
+    h, w = hits.shape
+    n = h * w
+    origins = np.empty((n, 3))
+    dirs = np.empty((n, 3))
+    active = np.empty(n, np.bool_)
+    _reflect_primary_kernel(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["face_off"], k["materials"],
+                            k["cam"], origins, dirs, active)
+    idx = np.flatnonzero(active)
+    flat = image.reshape(-1, 3)
+    rho = geo.materials[hits.geom.reshape(-1)[idx], 11]
+    flat[idx] *= (1.0 - rho)[:, None].astype(np.float32)
+    weight = rho
+    origins, dirs = origins[idx], dirs[idx]
+    accel = geo.accel.handle
+    for depth in range(1, max_depth + 1):
+        m = len(idx)
+        if m == 0:
+            break
+        prim = np.empty(m, np.int32)
+        gm = np.empty(m, np.int32)
+        u = np.empty(m, np.float32)
+        v = np.empty(m, np.float32)
+        t = np.empty(m, np.float32)
+        _cast_rays_kernel(accel, origins, dirs, np.zeros(m), np.full(m, np.inf), prim, gm, u, v, t)
+        colour = np.empty((m, 3))
+        next_o = np.empty((m, 3))
+        next_d = np.empty((m, 3))
+        more = np.empty(m, np.bool_)
+        _shade_points_kernel(prim, gm, u, v, dirs, k["G"], k["B"], k["L"], k["face_off"], k["materials"], k["cam"],
+                             k["background"], depth == max_depth, colour, next_o, next_d, more)
+        flat[idx] += (weight[:, None] * colour).astype(np.float32)
+        weight = weight[more] * geo.materials[gm[more], 11]
+        idx, origins, dirs = idx[more], next_o[more], next_d[more]
+    return image
