@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 
 from .camera import Camera
-from .cast import cast_camera
+from .cast import CASTERS, cast_camera
 from .frame import Frame
 from .scene import Scene
 from .shading import SHADINGS, shade, trace_mirrors
@@ -59,6 +59,8 @@ def render(scene: Scene, shading: str = "phong", *, camera: Camera | None = None
         raise ValueError(f"backend: expected one of {list(BACKENDS)}, got {backend!r}")
     if interpolation not in INTERPOLATIONS:
         raise ValueError(f"interpolation: expected one of {list(INTERPOLATIONS)}, got {interpolation!r}")
+    if not isinstance(caster, str) or (caster not in CASTERS and caster != "auto"):
+        raise ValueError(f"caster: expected one of {list(CASTERS)} or 'auto', got {caster!r}")
     if isinstance(max_depth, bool) or not isinstance(max_depth, int) or max_depth < 0:
         raise ValueError(f"max_depth: expected an integer >= 0, got {max_depth!r}")
     camera = camera if camera is not None else scene.camera

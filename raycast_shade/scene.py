@@ -117,6 +117,14 @@ class SceneGeometry:
         self.vertex_model = np.repeat(np.arange(len(models), dtype=np.int32), nv)
         self.n_models = len(models)
 
+    def __getstate__(self):
+        """Pickle the packed arrays only: the Embree handles (``accel``,
+        ``embreex_scene``) cannot travel and are rebuilt on first use."""
+        state = dict(self.__dict__)
+        state.pop("accel", None)
+        state.pop("embreex_scene", None)
+        return state
+
     @cached_property
     def tangents(self) -> np.ndarray:
         """(F, 6) float64 per-face ``Pu, Pv`` for bump mapping (zeros if no bumps)."""
@@ -149,6 +157,15 @@ class SceneGeometry:
             f0, f1 = self.face_offsets[g], self.face_offsets[g + 1]
             TriangleMesh(scene, v32[v0:v1], self.local_faces[f0:f1].astype(np.int32))
         return scene
+
+
+def _as_sequence(value, name):
+    if isinstance(value, (str, bytes)):
+        raise TypeError(f"{name}: expected a sequence, got {type(value).__name__}")
+    try:
+        return tuple(value)
+    except TypeError:
+        raise TypeError(f"{name}: expected a sequence, got {type(value).__name__}") from None
 
 
 def _as_model(item, i):
@@ -187,11 +204,14 @@ class Scene:
         set_ = object.__setattr__
         if isinstance(self.models, (Mesh, Model)):
             set_(self, "models", (self.models,))
-        models = tuple(_as_model(m, i) for i, m in enumerate(self.models))
+        models = tuple(_as_model(m, i) for i, m in enumerate(_as_sequence(self.models, "scene.models")))
         if not models:
             raise ValueError("scene.models: a scene needs at least one model")
         set_(self, "models", models)
-        lights = tuple(self.lights)
+        lights = self.lights
+        if isinstance(lights, (PointLight, DirectionalLight)):
+            lights = (lights,)
+        lights = _as_sequence(lights, "scene.lights")
         for i, light in enumerate(lights):
             if not isinstance(light, (PointLight, DirectionalLight)):
                 raise TypeError(f"scene.lights[{i}]: expected a PointLight or DirectionalLight, got {type(light).__name__}")
@@ -204,6 +224,14 @@ class Scene:
     @cached_property
     def geometry(self) -> SceneGeometry:
         return SceneGeometry(self.models)
+
+    def __getstate__(self):
+        """Pickle the definition only (models, lights, camera, ambient,
+        background): the packed geometry and its Embree BVH are rebuilt once,
+        on first render, wherever the scene is unpickled."""
+        state = dict(self.__dict__)
+        state.pop("geometry", None)
+        return state
 
     def replace(self, **changes) -> "Scene":
         """A copy with some fields changed; keeps the packed geometry and

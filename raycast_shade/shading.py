@@ -35,8 +35,10 @@ from whichever side the viewer sees its triangle (both sides are shaded).
 
 Shadow rays start at the shading point pushed off the surface along ``ng``
 by a few hundred float32 ulps of its coordinates (Wachter and Binder, Ray
-Tracing Gems ch. 6), which scales with the scene; point-light rays stop just
-short of the light. In Phong mode the start point is first lifted onto the
+Tracing Gems ch. 6), and near zero by a fixed fraction of the scene's size
+(their absolute constants, in units of the scene), so the offset scales with
+the scene; point-light rays stop just short of the light. Mirror rays start
+from the same kind of offset point. In Phong mode the start point is first lifted onto the
 vertices' tangent planes (Hanika, Ray Tracing Gems II ch. 4) so that coarse
 meshes with smooth normals do not shadow themselves at the terminator.
 
@@ -78,22 +80,28 @@ def _scratch():
 
 
 @njit(inline="always", **_jit)
-def _nudge(p, n):
-    """Move coordinate ``p`` by 256 float32 ulps along normal component ``n``
-    (an absolute 1/65536 near zero, where ulps vanish)."""
-    if abs(p) < 1.0 / 32.0:
-        return p + n * (1.0 / 65536.0)
+def _nudge(p, n, unit):
+    """Move coordinate ``p`` by 256 float32 ulps along normal component ``n``.
+
+    Near zero, where ulps vanish but the triangles around the point still
+    carry the float32 error of their (larger) vertex coordinates, the move is
+    ``unit / 65536`` instead: Wachter and Binder's constants (1/32, 1/65536)
+    measured in ``unit``, the scene's size (bounding-box diagonal), rather
+    than in absolute units, so that a scene at scale 1e5 is as safe as one
+    at scale 1."""
+    if abs(p) < unit * (1.0 / 32.0):
+        return p + n * (unit * (1.0 / 65536.0))
     _, e = math.frexp(p)
     return p + n * math.ldexp(256.0, e - 24)
 
 
 @njit(inline="always", **_jit)
-def _occluded(handle, buf, ib, off, addr, px, py, pz, gx, gy, gz, sx, sy, sz, lx, ly, lz, is_point):
+def _occluded(handle, buf, ib, off, addr, px, py, pz, gx, gy, gz, sx, sy, sz, lx, ly, lz, is_point, unit):
     """True if the scene blocks the way from p towards the light."""
     side = 1.0 if gx * sx + gy * sy + gz * sz >= 0.0 else -1.0
-    ox = _nudge(px, side * gx)
-    oy = _nudge(py, side * gy)
-    oz = _nudge(pz, side * gz)
+    ox = _nudge(px, side * gx, unit)
+    oy = _nudge(py, side * gy, unit)
+    oz = _nudge(pz, side * gz, unit)
     if is_point:
         dx = lx - ox
         dy = ly - oy
@@ -132,7 +140,7 @@ def _illuminate_py(px, py, pz, nx, ny, nz, vx, vy, vz, mats, mi, L, S, ox, oy, o
     the packed lights tuple, ``S`` the shadow-ray scratch; shadow rays start
     at ``o`` pushed off along ``g``.
     """
-    ambient, lkind, lvec, lrad, latt, lk, lshadow, dmin, handle = L
+    ambient, lkind, lvec, lrad, latt, lk, lshadow, dmin, handle, unit = L
     buf, ib, off, addr = S
     r = ambient[0] * mats[mi, 0]
     g = ambient[1] * mats[mi, 1]
@@ -171,7 +179,7 @@ def _illuminate_py(px, py, pz, nx, ny, nz, vx, vy, vz, mats, mi, L, S, ox, oy, o
             ndots = 1.0
         if lshadow[i] != 0 and handle != 0:
             if _occluded(handle, buf, ib, off, addr, ox, oy, oz, gx, gy, gz, sx, sy, sz,
-                         lvec[i, 0], lvec[i, 1], lvec[i, 2], is_point):
+                         lvec[i, 0], lvec[i, 1], lvec[i, 2], is_point, unit):
                 continue
         spec = 0.0
         if has_spec:
@@ -312,9 +320,14 @@ def _bilinear(tex, base, rows, cols, clamp, x, y):
 
 
 @njit(inline="always", **_jit)
-def _bump(nx, ny, nz, f, gm, i0, i1, i2, b1, b2, B):
+def _bump(nx, ny, nz, f, gm, i0, i1, i2, b1, b2, B, fx, fy, fz):
     """Blinn's perturbed normal N' = N + (Bu (N x Pv) - Bv (N x Pu)) / |N|,
-    with N = n |Pu x Pv| along the (oriented) shading normal n."""
+    with N = n |Pu x Pv| along the (oriented) shading normal n.
+
+    The surface is displaced along its front (winding) normal ``f``, not
+    along ``Pu x Pv``: where the UV map is left-handed (``(Pu x Pv).f < 0``,
+    e.g. the spherical mapping seen from outside), the perturbation changes
+    sign, so a negative height is a dent on every mesh."""
     uvs, tangents, bump_index, texels, info = B
     k = bump_index[gm]
     if k < 0:
@@ -346,6 +359,9 @@ def _bump(nx, ny, nz, f, gm, i0, i1, i2, b1, b2, B):
     cy = puz * pvx - pux * pvz
     cz = pux * pvy - puy * pvx
     area = np.sqrt(cx * cx + cy * cy + cz * cz)  # |N| = |Pu x Pv|
+    if cx * fx + cy * fy + cz * fz < 0.0:  # left-handed UVs: Pu x Pv points inwards
+        bu = -bu
+        bv = -bv
     # (N x Pv) / |N| = n x Pv, likewise for Pu
     ax = area * nx + bu * (ny * pvz - nz * pvy) - bv * (ny * puz - nz * puy)
     ay = area * ny + bu * (nz * pvx - nx * pvz) - bv * (nz * pux - nx * puz)
@@ -377,7 +393,7 @@ def _surface(G, B, cam, f, gm, b1, b2, use_dir, dx, dy, dz):
         vx, vy, vz = _view(cam, px, py, pz)
     gx, gy, gz, sgn = _facing(fnormals, f, vx, vy, vz)
     nx, ny, nz = _shading_normal(normals, i0, i1, i2, b1, b2, gx, gy, gz, sgn)
-    nx, ny, nz = _bump(nx, ny, nz, f, gm, i0, i1, i2, b1, b2, B)
+    nx, ny, nz = _bump(nx, ny, nz, f, gm, i0, i1, i2, b1, b2, B, sgn * gx, sgn * gy, sgn * gz)
     return px, py, pz, vx, vy, vz, gx, gy, gz, sgn, nx, ny, nz
 
 
@@ -567,7 +583,7 @@ def _normals_kernel(prim, geom, u, v, G, B, face_off, cam, flat, nbuf):
 
 
 @njit(inline="always", **_jit)
-def _mirror_ray(px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz):
+def _mirror_ray(px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz, unit):
     """Reflect the incoming direction d = -v about n: r = d - 2 (d.n) n,
     kept above the geometric surface, from an origin pushed off along g."""
     dn = -(vx * nx + vy * ny + vz * nz)
@@ -579,11 +595,11 @@ def _mirror_ray(px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz):
         rx -= 2.0 * c * gx
         ry -= 2.0 * c * gy
         rz -= 2.0 * c * gz
-    return _nudge(px, gx), _nudge(py, gy), _nudge(pz, gz), rx, ry, rz
+    return _nudge(px, gx, unit), _nudge(py, gy, unit), _nudge(pz, gz, unit), rx, ry, rz
 
 
 @njit(parallel=True, **_jit)
-def _reflect_primary_kernel(prim, geom, u, v, G, B, face_off, materials, cam, origins, dirs, active):
+def _reflect_primary_kernel(prim, geom, u, v, G, B, face_off, materials, cam, unit, origins, dirs, active):
     """Mirror rays from every pixel whose surface reflects."""
     h, w = prim.shape
     for y in prange(h):
@@ -599,7 +615,7 @@ def _reflect_primary_kernel(prim, geom, u, v, G, B, face_off, materials, cam, or
             f = face_off[gm] + p
             px, py, pz, vx, vy, vz, gx, gy, gz, _, nx, ny, nz = _surface(
                 G, B, cam, f, gm, np.float64(u[y, x]), np.float64(v[y, x]), False, 0.0, 0.0, 0.0)
-            ox, oy, oz, rx, ry, rz = _mirror_ray(px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz)
+            ox, oy, oz, rx, ry, rz = _mirror_ray(px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz, unit)
             origins[i, 0] = ox
             origins[i, 1] = oy
             origins[i, 2] = oz
@@ -636,7 +652,7 @@ def _shade_points_kernel(prim, geom, u, v, dirs, G, B, L, face_off, materials, c
             keep = 1.0
             if rho > 0.0 and not last:
                 keep = 1.0 - rho
-                ox, oy, oz, rx, ry, rz = _mirror_ray(px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz)
+                ox, oy, oz, rx, ry, rz = _mirror_ray(px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz, L[9])
                 origins[i, 0] = ox
                 origins[i, 1] = oy
                 origins[i, 2] = oz
@@ -663,7 +679,7 @@ def kernel_inputs(scene, camera):
         ``B`` = (uvs (V,2) f8, tangents (F,6) f8, bump_index (G,) i4, texels (T,) f4, info (B,7) f8);
         ``L`` = (ambient (3,) f8, kind (L,) i4, vec (L,3) f8, radiance (L,3) f8,
         attenuation (L,) i4, k (L,) f8, shadows (L,) i4, dmin f8, scene handle uintp
-        or 0 when no light casts shadows);
+        or 0 when no light casts shadows, unit f8 = the scene's size for ray offsets);
         ``face_off`` (G+1,) i8, ``materials`` (G,12) f8, ``cam`` (16,) f8, ``background`` (3,) f8.
     """
     from .rays import camera_frame
@@ -675,7 +691,7 @@ def kernel_inputs(scene, camera):
         G=(geo.vertices, geo.normals, geo.faces, geo.face_normals),
         B=(geo.uvs, geo.tangents, geo.bump_index, geo.bump_texels, geo.bump_info),
         L=(np.asarray(scene.ambient, np.float64), lkind, lvec, lrad, latt, lk, lshadow, 1e-6 * geo.scale,
-           np.uintp(handle)),
+           np.uintp(handle), float(geo.scale)),
         face_off=geo.face_offsets, materials=geo.materials, cam=camera_frame(camera, geo.origin),
         background=np.asarray(scene.background, np.float64),
     )
@@ -734,6 +750,8 @@ def shading_normals(scene, camera, hits, shading: str = "phong") -> np.ndarray:
         the interpolated, renormalised vertex normal, bumped in Phong mode);
         zero on the background.
     """
+    if shading not in SHADINGS:
+        raise ValueError(f"shading: expected one of {list(SHADINGS)}, got {shading!r}")
     geo = scene.geometry
     from .rays import camera_frame
 
@@ -771,7 +789,7 @@ def trace_mirrors(scene, camera, hits, image, max_depth: int = 3) -> np.ndarray:
     dirs = np.empty((n, 3))
     active = np.empty(n, np.bool_)
     _reflect_primary_kernel(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["face_off"], k["materials"],
-                            k["cam"], origins, dirs, active)
+                            k["cam"], float(geo.scale), origins, dirs, active)
     idx = np.flatnonzero(active)
     flat = image.reshape(-1, 3)
     rho = geo.materials[hits.geom.reshape(-1)[idx], 11]

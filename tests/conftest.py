@@ -1,0 +1,51 @@
+"""Small helpers shared by the core renderer's tests."""
+
+from __future__ import annotations
+
+import numpy as np
+
+import raycast_shade as rs
+from raycast_shade.rays import generate_rays_numpy
+
+# Tolerance for "equal up to float32 rounding" of quantities computed through
+# float32 hit buffers (barycentrics, t) into a float32 image (eps = 1.2e-7).
+RTOL32 = 2e-6
+
+
+def camera_rays(camera):
+    """World-space rays of every pixel centre, float64.
+
+    Returns
+    -------
+    origins, directions : (H, W, 3) float64
+        Unit directions.
+    """
+    o, d = generate_rays_numpy(camera)
+    shape = (camera.height, camera.width, 3)
+    return o.reshape(shape), d.reshape(shape)
+
+
+def plane_hits(camera, z0=0.0):
+    """Exact intersection of every camera ray with the plane ``z = z0``.
+
+    Returns
+    -------
+    points : (H, W, 3) float64
+    t : (H, W) float64
+        Distance along the unit ray (NaN where the ray is parallel).
+    """
+    o, d = camera_rays(camera)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (z0 - o[..., 2]) / d[..., 2]
+    return o + t[..., None] * d, t
+
+
+def lit_scene(mesh, material=None, lights=(), camera=None, ambient=0.0):
+    """A one-model scene."""
+    return rs.Scene([rs.Model(mesh, material or rs.Material())], lights=list(lights), camera=camera, ambient=ambient)
+
+
+def down_camera(eye=(0.0, 0.0, 3.0), target=(0.0, 0.0, 0.0), width=81, height=61, projection="perspective", **kw):
+    """A small camera looking at the xy plane from above (+z)."""
+    return rs.Camera(eye=eye, target=target, up=(0.0, 1.0, 0.0), width=width, height=height,
+                     projection=projection, **kw)

@@ -1,0 +1,233 @@
+"""Face normals, averaged vertex normals (uniform / area / angle) and crease splitting."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import raycast_shade as rs
+from raycast_shade.normals import face_normals, vertex_normals
+
+SQ3 = 1.0 / np.sqrt(3.0)
+
+
+def _unit(v):
+    v = np.asarray(v, float)
+    return v / np.linalg.norm(v)
+
+
+def brute_force_normals(vertices, faces, weighting):
+    """Vertex normals by explicit loops over faces (no crease), an independent twin."""
+    out = np.zeros_like(vertices, dtype=float)
+    for f in faces:
+        p = vertices[f]
+        cross = np.cross(p[1] - p[0], p[2] - p[0])
+        area2 = np.linalg.norm(cross)
+        if area2 == 0:
+            continue
+        n = cross / area2
+        for k in range(3):
+            if weighting == "uniform":
+                w = 1.0
+            elif weighting == "area":
+                w = area2 / 2
+            else:
+                a = p[(k + 1) % 3] - p[k]
+                b = p[(k + 2) % 3] - p[k]
+                w = np.arccos(np.clip(a @ b / np.linalg.norm(a) / np.linalg.norm(b), -1, 1))
+            out[f[k]] += w * n
+    length = np.linalg.norm(out, axis=1, keepdims=True)
+    return np.divide(out, length, out=np.zeros_like(out), where=length > 0)
+
+
+# Two triangles at the origin: A in z = 0 (area 2, 45 degrees at the origin),
+# B in x = 0 (area 1/2, 90 degrees at the origin).
+TENT_V = np.array([[0, 0, 0], [2, 0, 0], [2, 2, 0], [0, 1, 0], [0, 0, 1]], float)
+TENT_F = np.array([[0, 1, 2], [0, 3, 4]])
+
+
+@pytest.mark.parametrize("weighting, expected", [
+    ("uniform", _unit([1, 0, 1])),          # normals +z and +x, equal weight
+    ("area", _unit([0.5, 0, 2])),           # weights 1/2 (B) and 2 (A)
+    ("angle", _unit([np.pi / 2, 0, np.pi / 4])),  # weights 90 (B) and 45 (A) degrees
+])
+def test_weightings_on_a_known_vertex(weighting, expected):
+    fn, areas = face_normals(TENT_V, TENT_F)
+    np.testing.assert_allclose(fn, [[0, 0, 1], [1, 0, 0]], atol=1e-15)
+    np.testing.assert_allclose(areas, [2.0, 0.5])
+    _, _, n, _ = vertex_normals(TENT_V, TENT_F, weighting)
+    np.testing.assert_allclose(n[0], expected, atol=1e-12)
+    # Vertices of one face only take that face's normal.
+    np.testing.assert_allclose(n[1:3], [[0, 0, 1]] * 2, atol=1e-15)
+    np.testing.assert_allclose(n[3:5], [[1, 0, 0]] * 2, atol=1e-15)
+
+
+def test_angle_weighting_gives_cube_corners_the_diagonal():
+    """Each corner of a triangulated cube meets three quads; whatever the
+    split, the angles per quad sum to 90 degrees, so the angle-weighted normal
+    is (+-1, +-1, +-1) / sqrt 3. Counting triangles (uniform, area) is biased by
+    the triangulation."""
+    cube = rs.shapes.cube(crease_angle=None)
+    v = cube.vertices
+    _, _, n, _ = vertex_normals(v, cube.faces, "angle")
+    np.testing.assert_allclose(n, np.sign(v) * SQ3, atol=1e-12)
+    for weighting in ("uniform", "area"):
+        _, _, nu, _ = vertex_normals(v, cube.faces, weighting)
+        assert np.abs(nu - np.sign(v) * SQ3).max() > 0.1
+        np.testing.assert_allclose(nu, brute_force_normals(v, cube.faces, weighting), atol=1e-12)
+    # The mesh's prepared normals use the same code path.
+    np.testing.assert_allclose(cube.prepared.normals, n, atol=1e-15)
+
+
+@pytest.mark.parametrize("weighting", ["uniform", "area", "angle"])
+def test_weightings_match_brute_force_on_a_torus(weighting):
+    t = rs.shapes.torus(1.0, 0.4, 12, 7)
+    _, _, n, _ = vertex_normals(t.vertices, t.faces, weighting)
+    np.testing.assert_allclose(n, brute_force_normals(t.vertices, t.faces, weighting), atol=1e-12)
+    # Close to the exact normals of the torus, away from its (unwelded) seams.
+    interior = np.all((t.uvs > 0) & (t.uvs < 1), axis=1)
+    assert interior.sum() == 11 * 6
+    assert np.einsum("ij,ij->i", n, t.normals)[interior].min() > 0.97
+
+
+@pytest.mark.parametrize("weighting", ["uniform", "area", "angle"])
+@pytest.mark.parametrize("crease", [None, 30.0])
+def test_zero_area_faces_do_not_poison_the_average(weighting, crease):
+    """Degenerate faces (repeated index, collinear corners) add nothing: every
+    real face sees the same corner normals as without them, all finite."""
+    cube = rs.shapes.cube(crease_angle=None)
+    v = np.vstack([cube.vertices, 0.5 * (cube.vertices[0] + cube.vertices[1])])  # vertex 8: midpoint of an edge
+    clean = cube.faces
+    dirty = np.vstack([clean, [[0, 0, 7], [3, 5, 3], [0, 8, 1], [1, 8, 0]]])
+    fn, areas = face_normals(v, dirty)
+    assert (fn[12:] == 0).all() and (areas[12:] == 0).all()
+    vc, fc, nc, _ = vertex_normals(v[:8], clean, weighting, crease)
+    vd, fd, nd, _ = vertex_normals(v, dirty, weighting, crease)
+    assert np.isfinite(nd).all()
+    # Corner normals of the twelve real faces, and their positions, unchanged.
+    np.testing.assert_allclose(nd[fd[:12]], nc[fc], atol=1e-12)
+    np.testing.assert_array_equal(vd[fd[:12]], vc[fc])
+    if crease is None:
+        np.testing.assert_allclose(nd[:8], nc, atol=1e-12)
+        np.testing.assert_array_equal(nd[8], 0.0)  # only on zero-area faces: no normal at all
+    # A Mesh built with them renders finite.
+    mesh = rs.Mesh(v, dirty, weighting=weighting, crease_angle=crease)
+    cam = rs.Camera(eye=(2.0, 1.5, 2.5), width=24, height=18)
+    scene = rs.Scene([mesh], lights=[rs.PointLight((1, 2, 3), 5.0, attenuation="inverse_square")], camera=cam)
+    for shading in rs.SHADINGS:
+        img = rs.render(scene, shading).image
+        assert np.isfinite(img).all() and img.min() >= 0 and img.max() > 0.2
+
+
+def test_crease_splits_the_cube_into_24_vertices():
+    cube = rs.shapes.cube()  # crease 30
+    prep = cube.prepared
+    assert len(cube.vertices) == 8
+    assert len(prep.vertices) == 24 and len(prep.faces) == 12
+    # Every corner normal is its own face's normal (hard edges), and axis-aligned.
+    np.testing.assert_allclose(prep.normals[prep.faces], np.repeat(prep.face_normals[:, None], 3, 1), atol=1e-12)
+    assert np.all(np.sort(np.abs(prep.normals), axis=1)[:, :2] == 0)
+    # Positions are copies of the original corners, and every face keeps its corners.
+    np.testing.assert_array_equal(prep.vertices[prep.faces], cube.vertices[cube.faces])
+    # Without the crease, nothing is split.
+    assert len(rs.shapes.cube(crease_angle=None).prepared.vertices) == 8
+
+
+def test_crease_keeps_a_cylinder_side_smooth_and_its_rims_sharp():
+    """trimesh's 32-segment cylinder: 2 cap centres + 2 x 32 rim vertices; each
+    rim vertex splits into a cap copy and a side copy: 130 vertices."""
+    cyl = rs.shapes.cylinder(segments=32)
+    prep = cyl.prepared
+    assert len(cyl.vertices) == 66
+    assert len(prep.vertices) == 2 + 2 * 32 * 2
+    n = prep.normals
+    cap = np.abs(np.abs(n[:, 1]) - 1) < 1e-12
+    side = np.abs(n[:, 1]) < 1e-12
+    assert cap.sum() == 2 + 2 * 32 and side.sum() == 2 * 32
+    radial = prep.vertices[side][:, [0, 2]]
+    np.testing.assert_allclose(n[side][:, [0, 2]], radial / np.linalg.norm(radial, axis=1, keepdims=True), atol=1e-12)
+
+
+@pytest.mark.parametrize("fold_degrees", [20.0, 40.0, 100.0])
+def test_crease_threshold_on_a_folded_pair(fold_degrees):
+    """Two triangles sharing an edge, their normals fold_degrees apart: the
+    shared edge's vertices are split exactly when the crease angle is smaller."""
+    a = np.radians(fold_degrees)
+    v = np.array([[0, 0, 0], [1, 0, 0], [0.5, -1, 0], [0.5, np.cos(a), np.sin(a)]], float)
+    f = np.array([[0, 1, 3], [1, 0, 2]])
+    fn, _ = face_normals(v, f)
+    np.testing.assert_allclose(np.degrees(np.arccos(fn[0] @ fn[1])), fold_degrees, atol=1e-9)
+    merged = vertex_normals(v, f, "angle", fold_degrees + 1.0)
+    split = vertex_normals(v, f, "angle", fold_degrees - 1.0)
+    assert len(merged[0]) == 4 and len(split[0]) == 6
+    np.testing.assert_allclose(merged[2][0], _unit(fn[0] + fn[1]), atol=1e-12)
+    np.testing.assert_allclose(split[2][split[1][0]], [fn[0]] * 3, atol=1e-12)
+    np.testing.assert_allclose(split[2][split[1][1]], [fn[1]] * 3, atol=1e-12)
+
+
+def test_face_normals_right_hand_rule_and_degenerate_zero():
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [2, 0, 0]], float)
+    f = np.array([[0, 1, 2], [0, 2, 1], [0, 1, 3], [0, 0, 2]])
+    n, area = face_normals(v, f)
+    np.testing.assert_array_equal(n, [[0, 0, 1], [0, 0, -1], [0, 0, 0], [0, 0, 0]])
+    np.testing.assert_allclose(area, [0.5, 0.5, 0, 0])
+
+
+def test_given_normals_are_normalised_and_zero_kept():
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float)
+    normals = np.array([[0, 0, 2.0], [0, 3.0, 4.0], [0, 0, 0]])
+    prep = rs.Mesh(v, [[0, 1, 2]], normals=normals, crease_angle=10.0).prepared
+    np.testing.assert_allclose(prep.normals, [[0, 0, 1], [0, 0.6, 0.8], [0, 0, 0]])
+    assert len(prep.vertices) == 3  # given normals: the crease is ignored
+
+
+@pytest.mark.parametrize("mesh", [rs.shapes.icosphere(2, radius=2.0, center=(1, 2, 3)),
+                                  rs.shapes.uv_sphere(6, 10, radius=2.0, center=(1, 2, 3)),
+                                  rs.shapes.torus(1.0, 0.3, 10, 6)], ids=["icosphere", "uv_sphere", "torus"])
+def test_procedural_shapes_have_exact_outward_normals(mesh):
+    prep = mesh.prepared
+    np.testing.assert_allclose(np.linalg.norm(prep.normals, axis=1), 1.0, atol=1e-12)
+    # Faces wound counter-clockwise from outside: face normal agrees with the vertex normals.
+    corner_mean = prep.normals[prep.faces].mean(axis=1)
+    assert np.einsum("ij,ij->i", prep.face_normals, corner_mean).min() > 0.8
+    if mesh.name.startswith(("icosphere", "uv_sphere")):
+        np.testing.assert_allclose(prep.normals, (prep.vertices - (1, 2, 3)) / 2.0, atol=1e-12)
+
+
+def test_uvs_follow_split_vertices():
+    cube = rs.shapes.cube(crease_angle=None)
+    uvs = np.arange(16, dtype=float).reshape(8, 2)
+    mesh = rs.Mesh(cube.vertices, cube.faces, uvs=uvs, crease_angle=30.0)
+    prep = mesh.prepared
+    assert len(prep.uvs) == 24
+    # Every split copy carries its source vertex's UV.
+    src = [int(np.flatnonzero((cube.vertices == p).all(1))[0]) for p in prep.vertices]
+    np.testing.assert_array_equal(prep.uvs, uvs[src])
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), nv=st.integers(3, 12), nf=st.integers(1, 20),
+       weighting=st.sampled_from(["uniform", "area", "angle"]),
+       crease=st.one_of(st.none(), st.floats(1.0, 180.0)))
+def test_vertex_normals_random_meshes(seed, nv, nf, weighting, crease):
+    """Any mesh (degenerate faces and repeated indices included): normals are
+    unit or zero, split vertices copy their sources, faces keep their corners."""
+    rng = np.random.default_rng(seed)
+    v = rng.integers(-3, 4, size=(nv, 3)).astype(float)  # small integer grid: many degeneracies
+    f = rng.integers(0, nv, size=(nf, 3))
+    vs, fs, n, source = vertex_normals(v, f, weighting, crease)
+    assert np.isfinite(n).all()
+    length = np.linalg.norm(n, axis=1)
+    assert np.all((np.abs(length - 1) < 1e-12) | (length == 0))
+    np.testing.assert_array_equal(vs, v[source])
+    np.testing.assert_array_equal(source[fs], f)
+    if crease is None:
+        np.testing.assert_allclose(n, brute_force_normals(v, f, weighting), atol=1e-9)
+    elif crease < 90.0:
+        # Below 90 degrees a real face's corners average only faces leaning its
+        # way, so their normals never point against it.
+        fn, _ = face_normals(v, f)
+        good = np.any(fn != 0, axis=1)
+        assert (np.einsum("ijk,ik->ij", n[fs[good]], fn[good]) > 0).all()

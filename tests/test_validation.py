@@ -1,0 +1,249 @@
+"""Every bad input is refused with a ValueError or TypeError naming its field,
+before any kernel runs (Embree silently ignores non-finite triangles and
+out-of-range indices, so nothing of the kind may reach it)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import raycast_shade as rs
+
+TRI_V = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]
+TRI_F = [[0, 1, 2]]
+
+
+def fresh_scene(**kw):
+    kw.setdefault("camera", rs.Camera(eye=(0.0, 0.0, 3.0), width=8, height=6))
+    return rs.Scene([rs.Mesh(TRI_V, TRI_F)], lights=[rs.PointLight((0, 0, 2))], **kw)
+
+
+# -- meshes ------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("vertices, faces, exc, match", [
+    ([[0, 0, 0], [1, np.nan, 0], [0, 1, 0]], TRI_F, ValueError, r"mesh\.vertices: non-finite value at index \(1, 1\)"),
+    ([[0, 0, 0], [1, np.inf, 0], [0, 1, 0]], TRI_F, ValueError, r"mesh\.vertices: non-finite"),
+    (TRI_V, [[0, 1, 3]], ValueError, r"mesh\.faces: face 0 indexes vertex 3, but there are only 3 vertices"),
+    (TRI_V, [[0, 1, 2], [0, -1, 2]], ValueError, r"mesh\.faces: negative vertex index in face 1"),
+    ([[0, 0], [1, 0], [0, 1]], TRI_F, ValueError, r"mesh\.vertices: expected shape \(N, 3\), got \(3, 2\)"),
+    (TRI_V, [[0, 1, 2, 0]], ValueError, r"mesh\.faces: expected shape \(N, 3\), got \(1, 4\)"),
+    (TRI_V, [0, 1, 2], ValueError, r"mesh\.faces: expected shape \(N, 3\), got \(3,\)"),
+    (np.zeros((2, 3, 3)), TRI_F, ValueError, r"mesh\.vertices: expected shape"),
+    ([["a", "b", "c"]] * 3, TRI_F, TypeError, r"mesh\.vertices: expected numbers"),
+    (TRI_V, [["0", "1", "2"]], TypeError, r"mesh\.faces: expected numbers"),
+    ([[0, 0, 0], [1, 0], [0, 1, 0]], TRI_F, TypeError, r"mesh\.vertices: cannot be converted"),
+    (TRI_V, [[0, 1], [0, 1, 2]], TypeError, r"mesh\.faces: cannot be converted"),
+    ([[0, 0, 0], [1, 0, 0], [0, 1, object()]], TRI_F, TypeError, r"mesh\.vertices"),
+    (None, TRI_F, TypeError, r"mesh\.vertices: expected an array, got None"),
+    (TRI_V, None, TypeError, r"mesh\.faces: expected an array, got None"),
+    (TRI_V, [[0, 1, 2.5]], TypeError, r"mesh\.faces: expected integers"),
+    (TRI_V, [[True, False, True]], TypeError, r"mesh\.faces: expected integers, got booleans"),
+    (np.zeros((0, 3)), np.zeros((0, 3), int), ValueError, r"mesh\.vertices: the mesh has no vertices"),
+    (TRI_V, np.zeros((0, 3), int), ValueError, r"mesh\.faces: the mesh has no faces"),
+    ([], [], ValueError, r"mesh\.vertices"),
+])
+def test_bad_mesh_arrays(vertices, faces, exc, match):
+    with pytest.raises(exc, match=match):
+        rs.Mesh(vertices, faces)
+
+
+def test_mesh_messages_use_its_name():
+    with pytest.raises(ValueError, match=r"bunny\.faces: face 0 indexes vertex 9"):
+        rs.Mesh(TRI_V, [[0, 1, 9]], name="bunny")
+
+
+@pytest.mark.parametrize("kwargs, exc, match", [
+    (dict(normals=[[0, 0, 1]] * 2), ValueError, r"mesh\.normals: expected shape \(3, 3\)"),
+    (dict(normals=[[0, 0, np.nan]] * 3), ValueError, r"mesh\.normals: non-finite"),
+    (dict(uvs=[[0, 0, 0]] * 3), ValueError, r"mesh\.uvs: expected shape \(3, 2\)"),
+    (dict(uvs=[["u", "v"]] * 3), TypeError, r"mesh\.uvs: expected numbers"),
+    (dict(weighting="mean"), ValueError, r"mesh\.weighting: expected one of"),
+    (dict(weighting=2), TypeError, r"mesh\.weighting"),
+    (dict(crease_angle=0.0), ValueError, r"mesh\.crease_angle: must be > 0"),
+    (dict(crease_angle=-10.0), ValueError, r"mesh\.crease_angle"),
+    (dict(crease_angle=200.0), ValueError, r"mesh\.crease_angle: must be <= 180"),
+    (dict(crease_angle=np.nan), ValueError, r"mesh\.crease_angle: must be finite"),
+    (dict(crease_angle="30"), TypeError, r"mesh\.crease_angle: expected a number"),
+])
+def test_bad_mesh_options(kwargs, exc, match):
+    with pytest.raises(exc, match=match):
+        rs.Mesh(TRI_V, TRI_F, **kwargs)
+
+
+def test_missing_mesh_file(tmp_path):
+    with pytest.raises(ValueError, match="mesh file not found"):
+        rs.Mesh.load(tmp_path / "nope.obj")
+
+
+# -- camera ------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("kwargs, exc, match", [
+    (dict(width=0), ValueError, r"camera\.width: must be >= 1, got 0"),
+    (dict(width=-4), ValueError, r"camera\.width: must be >= 1"),
+    (dict(height=0), ValueError, r"camera\.height: must be >= 1"),
+    (dict(height=-1), ValueError, r"camera\.height"),
+    (dict(width=32.5), TypeError, r"camera\.width: expected an integer"),
+    (dict(height=True), TypeError, r"camera\.height: expected an integer"),
+    (dict(target=(0.0, 0.0, 3.0)), ValueError, r"camera\.eye: eye and target coincide"),
+    (dict(up=(0.0, 0.0, 5.0)), ValueError, r"camera\.up: parallel to the view direction"),
+    (dict(up=(0.0, 0.0, -1.0)), ValueError, r"camera\.up: parallel"),
+    (dict(up=(0.0, 0.0, 0.0)), ValueError, r"camera\.up: must not be the zero vector"),
+    (dict(eye=(0.0, np.nan, 3.0)), ValueError, r"camera\.eye: non-finite"),
+    (dict(target=(0.0, 0.0)), ValueError, r"camera\.target: expected shape \(3\)"),
+    (dict(fov=0.0), ValueError, r"camera\.fov: must be > 0"),
+    (dict(fov=180.0), ValueError, r"camera\.fov: must be < 180"),
+    (dict(fov=-30.0), ValueError, r"camera\.fov"),
+    (dict(projection="fisheye"), ValueError, r"camera\.projection: expected one of"),
+    (dict(ortho_height=0.0), ValueError, r"camera\.ortho_height: must be > 0"),
+])
+def test_bad_camera(kwargs, exc, match):
+    kwargs = {"eye": (0.0, 0.0, 3.0), **kwargs}
+    with pytest.raises(exc, match=match):
+        rs.Camera(**kwargs)
+
+
+def test_degenerate_camera_far_from_origin():
+    """Coincidence is judged relative to the coordinates' magnitude."""
+    with pytest.raises(ValueError, match=r"camera\.eye"):
+        rs.Camera(eye=(1e6, 0.0, 0.0), target=(1e6 + 1e-8, 0.0, 0.0))
+    rs.Camera(eye=(1e6, 0.0, 0.0), target=(1e6 + 1.0, 0.0, 0.0), up=(0, 0, 1))  # fine
+
+
+# -- materials and lights ------------------------------------------------------------------------------
+@pytest.mark.parametrize("kwargs, exc, match", [
+    (dict(kd=-0.1), ValueError, r"material\.kd: must be >= 0"),
+    (dict(ka=(0.1, -1.0, 0.2)), ValueError, r"material\.ka: must be >= 0"),
+    (dict(ks=-1), ValueError, r"material\.ks: must be >= 0"),
+    (dict(kd=(0.1, 0.2)), ValueError, r"material\.kd: expected a scalar or 3 values"),
+    (dict(kd="red"), TypeError, r"material\.kd: expected numbers"),
+    (dict(kd=np.nan), ValueError, r"material\.kd: must be finite"),
+    (dict(shininess=0.0), ValueError, r"material\.shininess: must be > 0"),
+    (dict(shininess=-5.0), ValueError, r"material\.shininess: must be > 0"),
+    (dict(shininess=np.inf), ValueError, r"material\.shininess: must be finite"),
+    (dict(shininess="high"), TypeError, r"material\.shininess: expected a number"),
+    (dict(specular="cook-torrance"), ValueError, r"material\.specular: expected one of"),
+])
+def test_bad_material(kwargs, exc, match):
+    with pytest.raises(exc, match=match):
+        rs.Material(**kwargs)
+
+
+@pytest.mark.parametrize("kwargs, exc, match", [
+    (dict(intensity=-1.0), ValueError, r"point_light\.intensity: must be >= 0"),
+    (dict(color=(1.0, -0.5, 1.0)), ValueError, r"point_light\.color: must be >= 0"),
+    (dict(attenuation="inverse_cube"), ValueError, r"point_light\.attenuation: expected one of"),
+    (dict(attenuation="heuristic", k=0.0), ValueError, r"point_light\.k: heuristic attenuation needs k > 0"),
+    (dict(attenuation="heuristic", k=-2.0), ValueError, r"point_light\.k: heuristic attenuation needs k > 0"),
+    (dict(k=np.nan), ValueError, r"point_light\.k: must be finite"),
+    (dict(position=(0.0, np.inf, 0.0)), ValueError, r"point_light\.position: non-finite"),
+    (dict(position=(0.0, 1.0)), ValueError, r"point_light\.position: expected shape"),
+])
+def test_bad_point_light(kwargs, exc, match):
+    kwargs = {"position": (0.0, 0.0, 1.0), **kwargs}
+    with pytest.raises(exc, match=match):
+        rs.PointLight(**kwargs)
+
+
+@pytest.mark.parametrize("kwargs, exc, match", [
+    (dict(direction=(0.0, 0.0, 0.0)), ValueError, r"directional_light\.direction: must not be the zero vector"),
+    (dict(direction=(0.0, np.nan, 1.0)), ValueError, r"directional_light\.direction: non-finite"),
+    (dict(intensity=-0.5), ValueError, r"directional_light\.intensity: must be >= 0"),
+    (dict(color=-1.0), ValueError, r"directional_light\.color: must be >= 0"),
+])
+def test_bad_directional_light(kwargs, exc, match):
+    kwargs = {"direction": (0.0, 0.0, -1.0), **kwargs}
+    with pytest.raises(exc, match=match):
+        rs.DirectionalLight(**kwargs)
+
+
+# -- scenes ------------------------------------------------------------------------------------------
+def test_bad_scene_fields():
+    mesh = rs.Mesh(TRI_V, TRI_F)
+    with pytest.raises(ValueError, match=r"scene\.models: a scene needs at least one model"):
+        rs.Scene([])
+    with pytest.raises(TypeError, match=r"scene\.models\[1\]: expected a Model"):
+        rs.Scene([mesh, "teapot"])
+    with pytest.raises(TypeError, match=r"model\.mesh: expected a Mesh"):
+        rs.Model(np.zeros((3, 3)))
+    with pytest.raises(TypeError, match=r"model\.material: expected a Material"):
+        rs.Model(mesh, {"kd": 0.5})
+    with pytest.raises(TypeError, match=r"scene\.lights\[0\]: expected a PointLight or DirectionalLight"):
+        rs.Scene([mesh], lights=[(0, 0, 1)])
+    with pytest.raises(TypeError, match=r"scene\.lights"):
+        rs.Scene([mesh], lights=5)
+    with pytest.raises(TypeError, match=r"scene\.camera: expected a Camera"):
+        rs.Scene([mesh], camera=(0, 0, 3))
+    with pytest.raises(ValueError, match=r"scene\.ambient: must be >= 0"):
+        rs.Scene([mesh], ambient=-0.1)
+    with pytest.raises(ValueError, match=r"scene\.ambient: expected a scalar or 3 values"):
+        rs.Scene([mesh], ambient=(0.1, 0.1))
+
+
+def test_a_single_light_is_accepted_like_a_single_model():
+    light = rs.PointLight((0, 0, 2))
+    scene = rs.Scene(rs.Mesh(TRI_V, TRI_F), lights=light)
+    assert scene.lights == (light,)
+    assert len(scene.models) == 1
+
+
+# -- render and friends: refused before anything is packed, built or cast -----------------------------------
+@pytest.mark.parametrize("kwargs, exc, match", [
+    (dict(shading="smooth"), ValueError, r"shading: expected one of \['flat', 'gouraud', 'phong'\], got 'smooth'"),
+    (dict(shading=None), ValueError, r"shading: expected one of"),
+    (dict(shading=3), ValueError, r"shading: expected one of"),
+    (dict(backend="gpu"), ValueError, r"backend: expected one of"),
+    (dict(interpolation="cubic"), ValueError, r"interpolation: expected one of"),
+    (dict(caster="optix"), ValueError, r"caster: expected one of"),
+    (dict(caster=None), ValueError, r"caster: expected one of"),
+    (dict(camera="front"), TypeError, r"camera: expected a Camera"),
+])
+def test_bad_render_arguments_fail_before_any_work(kwargs, exc, match):
+    scene = fresh_scene()
+    with pytest.raises(exc, match=match):
+        rs.render(scene, **kwargs)
+    assert "geometry" not in scene.__dict__  # nothing packed, no BVH built, no kernel run
+
+
+def test_render_without_camera():
+    scene = fresh_scene(camera=None)
+    with pytest.raises(ValueError, match=r"camera: the scene has no camera"):
+        rs.render(scene)
+    assert "geometry" not in scene.__dict__
+
+
+def test_render_needs_a_scene():
+    with pytest.raises(TypeError, match=r"scene: expected a Scene, got Mesh"):
+        rs.render(rs.Mesh(TRI_V, TRI_F))
+
+
+def test_bad_names_in_lower_level_functions():
+    scene = fresh_scene()
+    hits = rs.HitBuffer.empty(6, 8)
+    with pytest.raises(ValueError, match=r"shading: expected one of"):
+        rs.shade(scene, scene.camera, hits, "toon")
+    with pytest.raises(ValueError, match=r"shading: expected one of"):
+        rs.shading_normals(scene, scene.camera, hits, "toon")
+    with pytest.raises(ValueError, match=r"caster: expected one of"):
+        rs.cast_camera(scene.geometry, scene.camera, caster="cuda")
+    with pytest.raises(ValueError, match=r"shape: expected one of"):
+        rs.shapes.make("teapot")
+    with pytest.raises(ValueError, match=r"shape 'plane'"):
+        rs.shapes.make("plane", radius=2.0)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(tonemap="aces"), r"tonemap: expected one of"),
+    (dict(exposure=0.0), r"exposure: must be a finite number > 0"),
+    (dict(exposure=np.nan), r"exposure"),
+    (dict(gamma="linear"), r"gamma: expected 'srgb' or a number"),
+    (dict(gamma=-2.2), r"gamma: must be > 0"),
+])
+def test_bad_tonemap_arguments(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        rs.to_uint8(np.zeros((2, 2, 3)), **kwargs)
+
+
+def test_bad_pfm(tmp_path):
+    with pytest.raises(ValueError, match=r"image: expected \(H, W, 3\)"):
+        rs.write_pfm(tmp_path / "x.pfm", np.zeros((4, 4)))
+    (tmp_path / "y.pfm").write_bytes(b"P6\n1 1\n255\n\x00\x00\x00")
+    with pytest.raises(ValueError, match="not a colour PFM"):
+        rs.read_pfm(tmp_path / "y.pfm")
