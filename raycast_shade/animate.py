@@ -1,0 +1,559 @@
+"""Animations: camera turntables and light orbits, as GIF, MP4 or PNG frames.
+
+:func:`orbit_cameras` turns a camera around its target; :func:`orbit_light`
+moves one light of a scene around it (the scenes share one geometry and
+BVH). :func:`animate` renders either through :func:`raycast_shade.batch.iter_batch`
+(in this process, on a local Dask cluster or on an existing one) and writes
+the frames with :func:`write_animation` or as a numbered PNG sequence.
+
+The command line ``raycast-shade animate`` is :func:`register_cli` and
+:func:`run_cli`::
+
+    raycast-shade animate scene.toml --orbit camera --frames 36 -o turntable.gif
+    raycast-shade animate scene.toml --orbit light --light-index 0 --frames 48 --shading gouraud -o sweep.mp4
+    raycast-shade animate scene.toml --orbit camera --frames 360 -o frames/ --workers 2
+
+>>> import raycast_shade as rs
+>>> scene = rs.Scene([rs.shapes.icosphere(2)], lights=[rs.PointLight((2, 3, 4), intensity=20)],
+...                  camera=rs.Camera(eye=(0, 0, 4), width=32, height=24))
+>>> [round(float(c.eye[0]), 6) for c in orbit_cameras(scene.camera, 4)]
+[0.0, 4.0, 0.0, -4.0]
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import dataclasses
+import os
+import time
+import uuid
+
+import numpy as np
+
+from .camera import Camera
+from .lights import DirectionalLight, PointLight
+from .scene import Scene
+
+__all__ = ["orbit_cameras", "orbit_light", "write_animation", "animate", "output_kind", "register_cli", "run_cli",
+           "ORBITS", "VIDEO_EXTS"]
+
+ORBITS = ("camera", "light")
+VIDEO_EXTS = (".mp4", ".m4v", ".mov", ".mkv")
+FRAME_PATTERN = "frame_{:05d}.png"
+
+
+# -- orbits ----------------------------------------------------------------------------------------------
+
+
+def _rotation(axis, degrees: float) -> np.ndarray:
+    """(3, 3) rotation by ``degrees`` about the unit ``axis`` (right-handed)."""
+    x, y, z = axis
+    a = np.radians(degrees)
+    c, s = np.cos(a), np.sin(a)
+    k = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+    return c * np.eye(3) + s * k + (1.0 - c) * np.outer(axis, axis)
+
+
+def _unit_axis(axis, name: str) -> np.ndarray:
+    a = np.asarray(axis, dtype=np.float64)
+    if a.shape != (3,) or not np.all(np.isfinite(a)):
+        raise ValueError(f"{name}: expected 3 finite numbers, got {axis!r}")
+    n = np.linalg.norm(a)
+    if not n > 0:
+        raise ValueError(f"{name}: must be non-zero")
+    return a / n
+
+
+def _check_frames(frames) -> int:
+    if isinstance(frames, bool) or not isinstance(frames, (int, np.integer)):
+        raise TypeError(f"frames: expected an integer, got {type(frames).__name__}")
+    if frames < 1:
+        raise ValueError(f"frames: expected an integer > 0, got {frames}")
+    return int(frames)
+
+
+def _check_degrees(degrees) -> float:
+    if isinstance(degrees, bool) or not isinstance(degrees, (int, float, np.integer, np.floating)):
+        raise TypeError(f"degrees: expected a number, got {type(degrees).__name__}")
+    if not np.isfinite(degrees):
+        raise ValueError(f"degrees: must be finite, got {degrees}")
+    return float(degrees)
+
+
+def _angles(frames: int, degrees: float) -> np.ndarray:
+    # Frame i at degrees * i / frames: a full turn loops without repeating a frame.
+    return degrees * np.arange(frames) / frames
+
+
+def orbit_cameras(camera: Camera, frames: int, *, degrees: float = 360.0, axis=None, center=None) -> list:
+    """A turntable: the camera's eye circles about an axis through the target.
+
+    Parameters
+    ----------
+    camera : Camera
+        Frame 0's camera.
+    frames : int
+        Number of cameras, ``> 0``.
+    degrees : float
+        Total turn; frame ``i`` is turned by ``degrees * i / frames``, so a
+        full turn loops seamlessly. Positive turns are counter-clockwise seen
+        from the tip of ``axis``.
+    axis : (3,) float, optional
+        Rotation axis (default: ``camera.up``).
+    center : (3,) float, optional
+        A point on the axis (default: ``camera.target``); the target turns
+        about it too.
+
+    Returns
+    -------
+    list of Camera
+    """
+    if not isinstance(camera, Camera):
+        raise TypeError(f"camera: expected a Camera, got {type(camera).__name__}")
+    frames, degrees = _check_frames(frames), _check_degrees(degrees)
+    axis = _unit_axis(camera.up if axis is None else axis, "axis")
+    c = camera.target if center is None else np.asarray(center, dtype=np.float64)
+    if c.shape != (3,) or not np.all(np.isfinite(c)):
+        raise ValueError(f"center: expected 3 finite numbers, got {center!r}")
+    cams = []
+    for a in _angles(frames, degrees):
+        r = _rotation(axis, a)
+        eye = c + r @ (camera.eye - c)
+        target = c + r @ (camera.target - c)
+        up = camera.up if np.allclose(np.cross(camera.up, axis), 0.0) else r @ camera.up
+        cams.append(camera.replace(eye=eye, target=target, up=up))
+    return cams
+
+
+def _scene_center(scene: Scene) -> np.ndarray:
+    lo = np.min([m.mesh.vertices.min(axis=0) for m in scene.models], axis=0)
+    hi = np.max([m.mesh.vertices.max(axis=0) for m in scene.models], axis=0)
+    return 0.5 * (lo + hi)
+
+
+def orbit_light(scene: Scene, frames: int, *, light_index: int = 0, degrees: float = 360.0, axis=None,
+                center=None) -> list:
+    """One light circles the scene; everything else stays.
+
+    A point light's position turns about an axis through ``center``; a
+    directional light's direction turns about ``axis``.
+
+    Parameters
+    ----------
+    scene : Scene
+    frames : int
+        Number of scenes, ``> 0``.
+    light_index : int
+        Which of ``scene.lights`` moves.
+    degrees : float
+        Total turn; frame ``i`` is turned by ``degrees * i / frames``.
+    axis : (3,) float, optional
+        Default: the camera's up vector, or +y without a camera.
+    center : (3,) float, optional
+        Default: the centre of the models' bounding box.
+
+    Returns
+    -------
+    list of Scene
+        Made with :meth:`Scene.replace`: they share the models, hence one
+        geometry and one BVH.
+    """
+    if not isinstance(scene, Scene):
+        raise TypeError(f"scene: expected a Scene, got {type(scene).__name__}")
+    frames, degrees = _check_frames(frames), _check_degrees(degrees)
+    if isinstance(light_index, bool) or not isinstance(light_index, (int, np.integer)):
+        raise TypeError(f"light_index: expected an integer, got {type(light_index).__name__}")
+    n = len(scene.lights)
+    if n == 0:
+        raise ValueError("light_index: the scene has no lights to orbit")
+    if not 0 <= light_index < n:
+        raise ValueError(f"light_index: the scene has {n} light(s), so 0..{n - 1}; got {light_index}")
+    default_axis = scene.camera.up if scene.camera is not None else (0.0, 1.0, 0.0)
+    axis = _unit_axis(default_axis if axis is None else axis, "axis")
+    c = _scene_center(scene) if center is None else np.asarray(center, dtype=np.float64)
+    if c.shape != (3,) or not np.all(np.isfinite(c)):
+        raise ValueError(f"center: expected 3 finite numbers, got {center!r}")
+    light = scene.lights[light_index]
+    scenes = []
+    for a in _angles(frames, degrees):
+        r = _rotation(axis, a)
+        if isinstance(light, PointLight):
+            moved = dataclasses.replace(light, position=c + r @ (light.position - c))
+        elif isinstance(light, DirectionalLight):
+            moved = dataclasses.replace(light, direction=r @ light.direction)
+        else:  # pragma: no cover - Scene admits only these two
+            raise TypeError(f"scene.lights[{light_index}]: cannot orbit a {type(light).__name__}")
+        lights = list(scene.lights)
+        lights[light_index] = moved
+        scenes.append(scene.replace(lights=lights))
+    return scenes
+
+
+# -- writing ---------------------------------------------------------------------------------------------
+
+
+def output_kind(output) -> str:
+    """What an output path asks for: ``"gif"``, ``"video"`` or ``"frames"``.
+
+    A path ending in a separator, an existing folder or a name without an
+    extension is a folder of numbered PNG frames.
+
+    Raises
+    ------
+    ValueError
+        For any other extension.
+    """
+    if not isinstance(output, (str, os.PathLike)):
+        raise TypeError(f"output: expected a path, got {type(output).__name__}")
+    path = os.fspath(output)
+    if path.endswith(("/", os.sep)) or os.path.isdir(path):
+        return "frames"
+    ext = os.path.splitext(path)[1].lower()
+    if not ext:
+        return "frames"
+    if ext == ".gif":
+        return "gif"
+    if ext in VIDEO_EXTS:
+        return "video"
+    raise ValueError(f"output: {path!r}: expected .gif, one of {list(VIDEO_EXTS)}, or a folder for PNG frames")
+
+
+def _to_uint8(image, tone: dict) -> np.ndarray:
+    a = np.asarray(image)
+    if a.ndim != 3 or a.shape[2] != 3:
+        raise ValueError(f"images: expected (H, W, 3) frames, got shape {a.shape}")
+    if a.dtype == np.uint8:
+        return a
+    from .tonemap import to_uint8
+
+    return to_uint8(a, **tone)
+
+
+@contextlib.contextmanager
+def _atomic_target(path: str):
+    """A temporary path beside ``path`` (same extension); moved onto it on success."""
+    folder, name = os.path.split(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        raise ValueError(f"output: folder {folder} does not exist")
+    tmp = os.path.join(folder, f".{name}.{uuid.uuid4().hex[:12]}.tmp{os.path.splitext(name)[1].lower()}")
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+def write_animation(images, output, *, fps: float = 12.0, tone: dict | None = None, loop: int = 0) -> int:
+    """Write frames as an animated GIF or a video, atomically.
+
+    Parameters
+    ----------
+    images : iterable of (H, W, 3) arrays
+        uint8 sRGB frames as they are, or linear float frames (tone-mapped
+        with ``tone``). Consumed one at a time: a video never holds more
+        than one frame (a GIF holds its 8-bit frames until it is encoded).
+    output : str or path-like
+        ``.gif`` (Pillow), or ``.mp4``/``.m4v``/``.mov``/``.mkv`` (H.264
+        through imageio-ffmpeg; odd sizes are padded by one pixel).
+    fps : float
+        Frames per second, ``> 0``.
+    tone : dict, optional
+        :func:`raycast_shade.to_uint8` options.
+    loop : int
+        GIF repetitions; 0 loops forever.
+
+    Returns
+    -------
+    int
+        The number of frames written.
+    """
+    kind = output_kind(output)
+    if kind == "frames":
+        raise ValueError(f"output: {os.fspath(output)!r} is a folder; write_animation writes .gif or video files")
+    if isinstance(fps, bool) or not isinstance(fps, (int, float, np.integer, np.floating)) or not (0 < fps < np.inf):
+        raise ValueError(f"fps: expected a finite number > 0, got {fps!r}")
+    tone = dict(tone or {})
+    path = os.fspath(output)
+    count = 0
+    with _atomic_target(path) as tmp:
+        if kind == "gif":
+            import imageio.v3 as iio
+
+            frames = [_to_uint8(im, tone) for im in images]
+            if not frames:
+                raise ValueError("images: no frames to write")
+            if any(f.shape != frames[0].shape for f in frames):
+                raise ValueError("images: all frames must have the same size")
+            iio.imwrite(tmp, np.stack(frames), extension=".gif", plugin="pillow", duration=1000.0 / fps, loop=loop)
+            count = len(frames)
+        else:
+            try:
+                import imageio.v2 as iio2
+                import imageio_ffmpeg  # noqa: F401 - the FFMPEG plugin's backend
+            except ImportError as exc:
+                raise ImportError("video output needs imageio-ffmpeg; pip install 'raycast_shade[scale]'") from exc
+            writer = None
+            try:
+                shape = None
+                for im in images:
+                    frame = _to_uint8(im, tone)
+                    if shape is None:
+                        shape = frame.shape
+                        writer = iio2.get_writer(tmp, format="FFMPEG", mode="I", fps=float(fps), codec="libx264",
+                                                 pixelformat="yuv420p", macro_block_size=1, quality=8,
+                                                 ffmpeg_log_level="error")
+                    elif frame.shape != shape:
+                        raise ValueError("images: all frames must have the same size")
+                    h, w = frame.shape[:2]
+                    if h % 2 or w % 2:  # yuv420p needs even sizes
+                        frame = np.pad(frame, ((0, h % 2), (0, w % 2), (0, 0)), mode="edge")
+                    writer.append_data(frame)
+                    count += 1
+                if count == 0:
+                    raise ValueError("images: no frames to write")
+            finally:
+                if writer is not None:
+                    writer.close()
+    return count
+
+
+# -- one call ------------------------------------------------------------------------------------------
+
+
+def animate(scene: Scene, output, *, orbit: str = "camera", frames: int = 36, light_index: int = 0,
+            degrees: float = 360.0, axis=None, shading: str = "phong", fps: float = 12.0, tone: dict | None = None,
+            workers: int | None = None, scheduler=None, progress: bool = True, resume: bool = True,
+            frames_per_task: int = 1, **render_kwargs) -> dict:
+    """Render an orbit animation and write it.
+
+    Parameters
+    ----------
+    scene : Scene
+        With a camera.
+    output : str or path-like
+        ``.gif``, a video (``.mp4``, ...), or a folder (a path ending in
+        ``/``, an existing folder, or a name without an extension) for
+        ``frame_00000.png``, ... . A folder resumes: frames already there
+        are not rendered again.
+    orbit : {"camera", "light"}
+        Turntable (:func:`orbit_cameras`) or a moving light (:func:`orbit_light`).
+    frames : int
+    light_index : int
+        The light that moves (``orbit="light"``).
+    degrees : float
+        Total turn.
+    axis : (3,) float, optional
+        Default: the camera's up vector.
+    shading : {"flat", "gouraud", "phong"}
+    fps : float
+        Playback rate of GIF and video.
+    tone : dict, optional
+        :func:`raycast_shade.to_uint8` options.
+    workers, scheduler, progress, resume, frames_per_task, **render_kwargs
+        As in :func:`raycast_shade.batch.render_batch`.
+
+    Returns
+    -------
+    dict
+        ``output``, ``kind`` (``"gif"``, ``"video"``, ``"frames"``),
+        ``frames`` and ``seconds``.
+    """
+    from .batch import iter_batch, render_batch
+
+    t0 = time.perf_counter()
+    if not isinstance(scene, Scene):
+        raise TypeError(f"scene: expected a Scene, got {type(scene).__name__}")
+    if scene.camera is None:
+        raise ValueError("scene.camera: an animation needs a camera")
+    if orbit not in ORBITS:
+        raise ValueError(f"orbit: expected one of {list(ORBITS)}, got {orbit!r}")
+    kind = output_kind(output)
+    if isinstance(fps, bool) or not isinstance(fps, (int, float, np.integer, np.floating)) or not (0 < fps < np.inf):
+        raise ValueError(f"fps: expected a finite number > 0, got {fps!r}")
+    if orbit == "camera":
+        batch = dict(scene_or_scenes=scene, cameras=orbit_cameras(scene.camera, frames, degrees=degrees, axis=axis))
+    else:
+        batch = dict(scene_or_scenes=orbit_light(scene, frames, light_index=light_index, degrees=degrees, axis=axis))
+    common = dict(shading=shading, workers=workers, scheduler=scheduler, progress=progress, tone=tone,
+                  frames_per_task=frames_per_task, **render_kwargs)
+    path = os.fspath(output)
+    if kind == "frames":
+        written = render_batch(**batch, out_dir=path, pattern=FRAME_PATTERN, resume=resume, **common)
+        count = len(written)
+    else:
+        folder = os.path.dirname(os.path.abspath(path))
+        if not os.path.isdir(folder):
+            raise ValueError(f"output: folder {folder} does not exist")
+        count = write_animation(iter_batch(**batch, **common), path, fps=fps, tone=tone)
+    return {"output": path, "kind": kind, "frames": count, "seconds": time.perf_counter() - t0}
+
+
+# -- command line ----------------------------------------------------------------------------------------
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer > 0, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected an integer > 0, got {text!r}")
+    return value
+
+
+def _index(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}")
+    return value
+
+
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}") from None
+    if not 0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text!r}")
+    return value
+
+
+def _finite_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not np.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return value
+
+
+def _gamma(text: str):
+    if text.lower() == "srgb":
+        return "srgb"
+    try:
+        return _positive_float(text)
+    except argparse.ArgumentTypeError:
+        raise argparse.ArgumentTypeError(f"expected 'srgb' or a number > 0, got {text!r}") from None
+
+
+_CLI_EPILOG = """\
+examples:
+  raycast-shade animate scene.toml --orbit camera --frames 36 -o turntable.gif
+  raycast-shade animate scene.toml --orbit light --light-index 0 --frames 48 --shading gouraud -o sweep.mp4
+  raycast-shade animate scene.toml --frames 360 --width 1280 --height 720 -o frames/ --workers 2
+  raycast-shade animate scene.toml --frames 360 -o frames/ --scheduler tcp://10.0.0.5:8786
+
+A folder output (frames/) is resumable: frames already written are skipped on a re-run.
+"""
+
+
+def register_cli(subparsers):
+    """Add the ``animate`` command to the ``raycast-shade`` parser.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        What ``parser.add_subparsers()`` returned.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The ``animate`` parser; dispatch its parsed arguments to :func:`run_cli`.
+    """
+    p = subparsers.add_parser(
+        "animate", help="render a camera turntable or a light orbit as GIF, MP4 or PNG frames",
+        description="Render an orbit animation of a TOML scene file: the camera turns about its target "
+                    "(--orbit camera) or one light circles the scene (--orbit light). Frames render in this "
+                    "process, on a local Dask cluster (--workers N) or on an existing one (--scheduler ADDR).",
+        epilog=_CLI_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("scene", metavar="SCENE.toml", help="scene file")
+    p.add_argument("--orbit", choices=ORBITS, default="camera", help="what moves (default: camera)")
+    p.add_argument("--light-index", type=_index, default=0, metavar="I",
+                   help="the light that moves with --orbit light, from 0 (default: 0)")
+    p.add_argument("--frames", type=_positive_int, default=36, metavar="N", help="number of frames (default: 36)")
+    p.add_argument("--degrees", type=_finite_float, default=360.0, metavar="D",
+                   help="total turn in degrees (default: 360, a seamless loop)")
+    p.add_argument("--shading", choices=("flat", "gouraud", "phong"),
+                   help="shading mode (default: the file's [render] shading, else phong)")
+    p.add_argument("--width", type=_positive_int, metavar="W", help="image width in pixels")
+    p.add_argument("--height", type=_positive_int, metavar="H", help="image height in pixels")
+    p.add_argument("-o", "--output", metavar="PATH",
+                   help="out.gif, out.mp4 (.m4v, .mov, .mkv) or a folder/ for numbered PNG frames "
+                        "(default: the scene file's name + _ORBIT.gif, here)")
+    p.add_argument("--fps", type=_positive_float, default=12.0, metavar="F",
+                   help="frames per second of GIF and video (default: 12)")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=_positive_int, metavar="N",
+                       help="render on a local Dask cluster of N single-threaded worker processes")
+    where.add_argument("--scheduler", metavar="ADDR", help="render on an existing Dask cluster, e.g. tcp://host:8786")
+    p.add_argument("--frames-per-task", type=_positive_int, default=1, metavar="K",
+                   help="frames rendered by one Dask task (default: 1; more spreads Dask's per-task cost)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    tone = p.add_argument_group("tone mapping")
+    tone.add_argument("--exposure", type=_positive_float, metavar="E", help="multiply the radiance by E (default: 1)")
+    tone.add_argument("--tonemap", choices=("clamp", "reinhard", "exponential"), help="range compression (default: clamp)")
+    tone.add_argument("--gamma", type=_gamma, metavar="G|srgb", help="encoding: srgb (default), or x**(1/G)")
+    return p
+
+
+def run_cli(args) -> int:
+    """Run ``raycast-shade animate`` with parsed arguments.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        From the parser :func:`register_cli` added.
+
+    Returns
+    -------
+    int
+        0 on success.
+
+    Raises
+    ------
+    ValueError, TypeError, OSError
+        For anything the user can fix (the caller prints it on one line).
+    """
+    from .scenefile import load_scene
+
+    scene, options = load_scene(args.scene)
+    camera = scene.camera
+    size = {k: v for k, v in (("width", args.width), ("height", args.height)) if v is not None}
+    if size:
+        camera = camera.replace(**size)
+        scene = scene.replace(camera=camera)
+    if args.orbit == "light":
+        n = len(scene.lights)
+        if n == 0:
+            raise ValueError(f"--orbit light: {args.scene} has no [[light]] to move")
+        if args.light_index >= n:
+            raise ValueError(f"--light-index: {args.scene} has {n} light(s), so 0..{n - 1}; got {args.light_index}")
+    shading = args.shading or options.get("shading", "phong")
+    tone = {}
+    for key in ("exposure", "tonemap", "gamma"):
+        value = getattr(args, key, None)
+        if value is None:
+            value = options.get(key)
+        if value is not None:
+            tone[key] = value
+    output = args.output
+    if output is None:
+        output = f"{os.path.splitext(os.path.basename(args.scene))[0]}_{args.orbit}.gif"
+    result = animate(scene, output, orbit=args.orbit, frames=args.frames, light_index=args.light_index,
+                     degrees=args.degrees, shading=shading, fps=args.fps, tone=tone, workers=args.workers,
+                     scheduler=args.scheduler, progress=not args.no_progress,
+                     frames_per_task=getattr(args, "frames_per_task", 1))
+    where = (f"{args.workers} local workers" if args.workers else
+             f"cluster {args.scheduler}" if args.scheduler else "this process")
+    secs = result["seconds"]
+    print(f"wrote {result['output']} ({result['frames']} frames, {camera.width}x{camera.height}, {shading}, "
+          f"{args.orbit} orbit, {where}): {secs:.1f} s, {result['frames'] / secs:.1f} frames/s")
+    return 0
