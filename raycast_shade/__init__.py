@@ -26,6 +26,7 @@ from .material import Material
 from .mesh import Mesh
 from .render import render
 from .scene import Model, Scene
+from .auto import choose_methods
 from .shading import SHADINGS, shade, shading_normals
 from .tonemap import read_pfm, to_uint8, write_pfm
 
@@ -33,5 +34,5 @@ __version__ = "0.1.0"
 
 __all__ = [
     "Camera", "DirectionalLight", "HeightMap", "bump", "Frame", "HitBuffer", "Material", "Mesh", "Model", "PointLight", "Scene",
-    "SHADINGS", "cast_camera", "cast_rays", "read_pfm", "render", "shade", "shading_normals", "shapes", "to_uint8", "write_pfm",
+    "SHADINGS", "cast_camera", "cast_rays", "read_pfm", "render", "choose_methods", "shade", "shading_normals", "shapes", "to_uint8", "write_pfm",
 ]

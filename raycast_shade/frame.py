@@ -24,10 +24,14 @@ class Frame:
         Linear RGB, finite and non-negative; zero on the background.
     hits : HitBuffer
         Primitive, model, barycentrics and distance per pixel.
-    shading : str
+    shading : str or tuple of str
+        The method of every model, or one per model (``shading="auto"``
+        resolves to the latter).
     timings : dict of str to float
         Seconds per stage: ``build`` (packing and BVH, first frame of a scene
         only), ``cast``, ``shade``, ``total``.
+    decisions : tuple of Decision
+        With ``shading="auto"``: each model's method and the reason.
     """
 
     image: np.ndarray
@@ -36,6 +40,16 @@ class Frame:
     scene: object = None
     camera: object = None
     timings: dict = field(default_factory=dict)
+    decisions: tuple = ()
+
+    @property
+    def method(self) -> np.ndarray:
+        """(H, W) int8: the method that shaded each pixel: 0 flat, 1 Gouraud,
+        2 Phong; -1 on the background."""
+        from .shading import resolve_methods
+
+        codes = resolve_methods(self.scene, self.shading)
+        return np.where(self.hits.geom >= 0, codes[np.maximum(self.hits.geom, 0)], -1).astype(np.int8)
 
     @cached_property
     def normal(self) -> np.ndarray:

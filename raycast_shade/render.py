@@ -8,7 +8,8 @@ from .camera import Camera
 from .cast import CASTERS, cast_camera
 from .frame import Frame
 from .scene import Scene
-from .shading import SHADINGS, shade, trace_mirrors
+from .auto import choose_methods
+from .shading import SHADINGS, resolve_methods, shade, trace_mirrors
 
 __all__ = ["render"]
 
@@ -17,14 +18,19 @@ BACKENDS = ("raycast", "raster")
 INTERPOLATIONS = ("perspective", "screen")
 
 
-def render(scene: Scene, shading: str = "phong", *, camera: Camera | None = None, backend: str = "raycast",
-           interpolation: str = "perspective", caster: str = "auto", max_depth: int = 3) -> Frame:
+def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backend: str = "raycast",
+           interpolation: str = "perspective", caster: str = "auto", max_depth: int = 3,
+           tolerance: float = 0.01) -> Frame:
     """Render a scene.
 
     Parameters
     ----------
     scene : Scene
-    shading : {"flat", "gouraud", "phong"}
+    shading : {"flat", "gouraud", "phong", "auto"} or sequence
+        One method for every model, one per model, or ``"auto"``: per model,
+        the cheapest method whose predicted error is under ``tolerance``
+        (:mod:`raycast_shade.auto`; the choices and reasons are on
+        ``frame.decisions``).
     camera : Camera, optional
         Overrides ``scene.camera``.
     backend : {"raycast", "raster"}
@@ -39,6 +45,8 @@ def render(scene: Scene, shading: str = "phong", *, camera: Camera | None = None
         ``"auto"`` is the direct, packet-traced Embree path when available.
     max_depth : int
         Mirror bounces traced for reflective materials (0: none).
+    tolerance : float
+        Error budget of ``shading="auto"``, in linear intensity.
 
     Returns
     -------
@@ -52,9 +60,12 @@ def render(scene: Scene, shading: str = "phong", *, camera: Camera | None = None
     t0 = time.perf_counter()
     if not isinstance(scene, Scene):
         raise TypeError(f"scene: expected a Scene, got {type(scene).__name__}")
-    if not isinstance(shading, str) or shading.lower() not in SHADINGS:
-        raise ValueError(f"shading: expected one of {list(SHADINGS)}, got {shading!r}")
-    shading = shading.lower()
+    if isinstance(shading, str):
+        if shading.lower() not in SHADINGS + ("auto",):
+            raise ValueError(f"shading: expected one of {list(SHADINGS) + ['auto']}, got {shading!r}")
+        shading = shading.lower()
+    else:
+        resolve_methods(scene, shading)  # validates one name per model
     if backend not in BACKENDS:
         raise ValueError(f"backend: expected one of {list(BACKENDS)}, got {backend!r}")
     if interpolation not in INTERPOLATIONS:
@@ -68,6 +79,12 @@ def render(scene: Scene, shading: str = "phong", *, camera: Camera | None = None
         raise ValueError("camera: the scene has no camera and none was passed")
     if not isinstance(camera, Camera):
         raise TypeError(f"camera: expected a Camera, got {type(camera).__name__}")
+    decisions = ()
+    if isinstance(shading, str) and shading == "auto":
+        decisions = tuple(choose_methods(scene, camera, tolerance))
+        shading = tuple(d.method for d in decisions)
+    elif not isinstance(shading, str):
+        shading = tuple(m.lower() for m in shading)
     timings = {}
     fresh = "geometry" not in scene.__dict__ or "accel" not in scene.geometry.__dict__
     if fresh and caster != "embreex" and backend == "raycast":
@@ -95,4 +112,5 @@ def render(scene: Scene, shading: str = "phong", *, camera: Camera | None = None
         timings["mirror"] = time.perf_counter() - te
         te = time.perf_counter()
     timings["total"] = te - t0
-    return Frame(image=image, hits=hits, shading=shading, scene=scene, camera=camera, timings=timings)
+    return Frame(image=image, hits=hits, shading=shading, scene=scene, camera=camera, timings=timings,
+                 decisions=decisions)

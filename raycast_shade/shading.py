@@ -55,9 +55,10 @@ from numba import njit, prange
 
 from . import _embree
 
-__all__ = ["SHADINGS", "shade", "shading_normals", "kernel_inputs"]
+__all__ = ["SHADINGS", "METHODS", "shade", "shading_normals", "kernel_inputs", "resolve_methods"]
 
 SHADINGS = ("flat", "gouraud", "phong")
+METHODS = {"flat": 0, "gouraud": 1, "phong": 2}
 _CANCEL = 1e-6  # |interpolated normal| below this counts as cancelled
 _SHADOW_TFAR = 1.0 - 1e-5  # point-light shadow rays stop just short of the light
 _SCRATCH = 24  # float32 slots: one RTCRay (12) plus alignment slack
@@ -132,13 +133,15 @@ def _occluded(handle, buf, ib, off, addr, px, py, pz, gx, gy, gz, sx, sy, sz, lx
 # the reflectance equation
 
 
-def _illuminate_py(px, py, pz, nx, ny, nz, vx, vy, vz, mats, mi, L, S, ox, oy, oz, gx, gy, gz):
+def _illuminate_py(px, py, pz, nx, ny, nz, vx, vy, vz, mats, mi, L, S, ox, oy, oz, gx, gy, gz, spec_on, att_on):
     """RGB reflected towards unit ``v`` at point ``p`` with unit normal ``n``.
 
     ``mats[mi]`` is the material row (indexed, not sliced: a slice per pixel
     would cost an atomic reference count shared by all threads). ``L`` is
     the packed lights tuple, ``S`` the shadow-ray scratch; shadow rays start
-    at ``o`` pushed off along ``g``.
+    at ``o`` pushed off along ``g``. ``spec_on`` and ``att_on`` are
+    compile-time constants (see :func:`_make_kernels`): a scene with no
+    specular material or no attenuating light compiles without that arithmetic.
     """
     ambient, lkind, lvec, lrad, latt, lk, lshadow, dmin, handle, unit = L
     buf, ib, off, addr = S
@@ -165,13 +168,13 @@ def _illuminate_py(px, py, pz, nx, ny, nz, vx, vy, vz, mats, mi, L, S, ox, oy, o
             sx = dx / d
             sy = dy / d
             sz = dz / d
-            if latt[i] == 1:
-                dd = max(d, dmin)
-                att = 1.0 / (dd * dd)
-            elif latt[i] == 2:
-                att = 1.0 / (d + lk[i])
-            else:
-                att = 1.0
+            att = 1.0
+            if att_on:
+                if latt[i] == 1:
+                    dd = max(d, dmin)
+                    att = 1.0 / (dd * dd)
+                elif latt[i] == 2:
+                    att = 1.0 / (d + lk[i])
         ndots = nx * sx + ny * sy + nz * sz
         if ndots <= 0.0:
             continue
@@ -182,7 +185,7 @@ def _illuminate_py(px, py, pz, nx, ny, nz, vx, vy, vz, mats, mi, L, S, ox, oy, o
                          lvec[i, 0], lvec[i, 1], lvec[i, 2], is_point, unit):
                 continue
         spec = 0.0
-        if has_spec:
+        if spec_on and has_spec:
             if blinn:
                 hx = sx + vx
                 hy = sy + vy
@@ -398,7 +401,7 @@ def _surface(G, B, cam, f, gm, b1, b2, use_dir, dx, dy, dz):
 
 
 @njit(inline="always", **_jit)
-def _shade_surface(G, B, L, S, materials, cam, f, gm, b1, b2, use_dir, dx, dy, dz):
+def _shade_surface(G, B, L, S, materials, cam, f, gm, b1, b2, use_dir, dx, dy, dz, spec_on, att_on):
     """Phong shading of one hit: colour, plus the point and normals for mirrors."""
     verts, normals, faces, fnormals = G
     px, py, pz, vx, vy, vz, gx, gy, gz, sgn, nx, ny, nz = _surface(G, B, cam, f, gm, b1, b2, use_dir, dx, dy, dz)
@@ -407,7 +410,8 @@ def _shade_surface(G, B, L, S, materials, cam, f, gm, b1, b2, use_dir, dx, dy, d
     oz = pz
     if L[8] != 0:  # shadow rays will be traced: start them past the terminator
         ox, oy, oz = _terminator_point(verts, normals, faces[f, 0], faces[f, 1], faces[f, 2], b1, b2, px, py, pz, sgn)
-    r, g, b = _illuminate(px, py, pz, nx, ny, nz, vx, vy, vz, materials, gm, L, S, ox, oy, oz, gx, gy, gz)
+    r, g, b = _illuminate(px, py, pz, nx, ny, nz, vx, vy, vz, materials, gm, L, S, ox, oy, oz, gx, gy, gz,
+                          spec_on, att_on)
     return r, g, b, px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz
 
 
@@ -416,109 +420,46 @@ def _shade_surface(G, B, L, S, materials, cam, f, gm, b1, b2, use_dir, dx, dy, d
 
 
 @njit(parallel=True, **_jit)
-def _shade_phong_kernel(prim, geom, u, v, G, B, L, face_off, materials, cam, background, image):
-    h, w = prim.shape
-    for y in prange(h):
-        S = _scratch()
-        for x in range(w):
-            p = prim[y, x]
-            if p < 0:
-                for c in range(3):
-                    image[y, x, c] = background[c]
-                continue
-            gm = geom[y, x]
-            f = face_off[gm] + p
-            r, g, b, _, _, _, _, _, _, _, _, _, _, _, _ = _shade_surface(
-                G, B, L, S, materials, cam, f, gm, np.float64(u[y, x]), np.float64(v[y, x]), False, 0.0, 0.0, 0.0)
-            image[y, x, 0] = r
-            image[y, x, 1] = g
-            image[y, x, 2] = b
-
-
-@njit(parallel=True, **_jit)
-def _visible_kernel(prim, geom, faces, face_off, face_flags, vertex_flags):
-    """Mark the faces (and their vertices) that some pixel sees."""
+def _visible_kernel(prim, geom, faces, face_off, modes, face_flags, vertex_flags):
+    """Mark the faces of flat-shaded models and the vertices of Gouraud-shaded
+    ones that some pixel sees: only those get shaded."""
     h, w = prim.shape
     for y in prange(h):
         for x in range(w):
             p = prim[y, x]
             if p >= 0:
-                f = face_off[geom[y, x]] + p
+                g = geom[y, x]
+                f = face_off[g] + p
                 # Racy, but every writer stores the same 1.
-                face_flags[f] = 1
-                vertex_flags[faces[f, 0]] = 1
-                vertex_flags[faces[f, 1]] = 1
-                vertex_flags[faces[f, 2]] = 1
+                if modes[g] == 0:
+                    face_flags[f] = 1
+                elif modes[g] == 1:
+                    vertex_flags[faces[f, 0]] = 1
+                    vertex_flags[faces[f, 1]] = 1
+                    vertex_flags[faces[f, 2]] = 1
 
 
 _CHUNK = 1024
 
 
-@njit(parallel=True, **_jit)
-def _shade_faces_kernel(face_flags, verts, faces, fnormals, face_model, materials, cam, L, out):
-    """Flat shading: one shade per visible face, at its centre."""
-    n = faces.shape[0]
-    for c in prange((n + _CHUNK - 1) // _CHUNK):
-        S = _scratch()
-        for f in range(c * _CHUNK, min(n, (c + 1) * _CHUNK)):
-            if face_flags[f] == 0:
-                continue
-            third = 1.0 / 3.0
-            px, py, pz = _hit_point(verts, faces[f, 0], faces[f, 1], faces[f, 2], third, third)
-            vx, vy, vz = _view(cam, px, py, pz)
-            gx, gy, gz, sgn = _facing(fnormals, f, vx, vy, vz)
-            r, g, b = _illuminate(px, py, pz, gx, gy, gz, vx, vy, vz, materials, face_model[f], L, S,
-                                  px, py, pz, gx, gy, gz)
-            out[f, 0] = r
-            out[f, 1] = g
-            out[f, 2] = b
-
-
-@njit(parallel=True, **_jit)
-def _shade_vertices_kernel(vertex_flags, verts, normals, vertex_model, materials, cam, L, out):
-    """Gouraud: the shade of each visible vertex, lit from the front (normal)
-    and from the back (negated normal)."""
-    n = verts.shape[0]
-    for c in prange((n + _CHUNK - 1) // _CHUNK):
-        S = _scratch()
-        for i in range(c * _CHUNK, min(n, (c + 1) * _CHUNK)):
-            if vertex_flags[i] == 0:
-                continue
-            px = verts[i, 0]
-            py = verts[i, 1]
-            pz = verts[i, 2]
-            vx, vy, vz = _view(cam, px, py, pz)
-            m = vertex_model[i]
-            for side in range(2):
-                sg = 1.0 - 2.0 * side
-                nx = sg * normals[i, 0]
-                ny = sg * normals[i, 1]
-                nz = sg * normals[i, 2]
-                r, g, b = _illuminate(px, py, pz, nx, ny, nz, vx, vy, vz, materials, m, L, S,
-                                      px, py, pz, nx, ny, nz)
-                out[i, side, 0] = r
-                out[i, side, 1] = g
-                out[i, side, 2] = b
-
-
 @njit(inline="always", **_jit)
-def _corner_shade(vcol, normals, verts, i, side, gx, gy, gz, materials, m, cam, L, S):
+def _corner_shade(vcol, normals, verts, i, side, gx, gy, gz, materials, m, cam, L, S, spec_on, att_on):
     """A vertex's Gouraud shade; a vertex without a normal borrows the face's."""
     if normals[i, 0] == 0.0 and normals[i, 1] == 0.0 and normals[i, 2] == 0.0:
         px = verts[i, 0]
         py = verts[i, 1]
         pz = verts[i, 2]
         vx, vy, vz = _view(cam, px, py, pz)
-        return _illuminate_call(px, py, pz, gx, gy, gz, vx, vy, vz, materials, m, L, S, px, py, pz, gx, gy, gz)
+        return _illuminate_call(px, py, pz, gx, gy, gz, vx, vy, vz, materials, m, L, S, px, py, pz, gx, gy, gz,
+                                spec_on, att_on)
     return vcol[i, side, 0], vcol[i, side, 1], vcol[i, side, 2]
 
 
 @njit(parallel=True, **_jit)
-def _interp_gouraud_kernel(prim, geom, u, v, verts, normals, faces, fnormals, face_off, materials, cam, L,
-                           background, vcol, image):
+def _lookup_flat_kernel(prim, geom, face_off, fcol, background, modes, image):
+    """Flat: each pixel of the models whose method is 0 takes its face's shade."""
     h, w = prim.shape
     for y in prange(h):
-        S = _scratch()
         for x in range(w):
             p = prim[y, x]
             if p < 0:
@@ -526,42 +467,15 @@ def _interp_gouraud_kernel(prim, geom, u, v, verts, normals, faces, fnormals, fa
                     image[y, x, c] = background[c]
                 continue
             g = geom[y, x]
-            f = face_off[g] + p
-            i0 = faces[f, 0]
-            i1 = faces[f, 1]
-            i2 = faces[f, 2]
-            b1 = np.float64(u[y, x])
-            b2 = np.float64(v[y, x])
-            b0 = 1.0 - b1 - b2
-            px, py, pz = _hit_point(verts, i0, i1, i2, b1, b2)
-            vx, vy, vz = _view(cam, px, py, pz)
-            gx, gy, gz, sgn = _facing(fnormals, f, vx, vy, vz)
-            side = 0 if sgn > 0.0 else 1
-            r0, g0, c0 = _corner_shade(vcol, normals, verts, i0, side, gx, gy, gz, materials, g, cam, L, S)
-            r1, g1, c1 = _corner_shade(vcol, normals, verts, i1, side, gx, gy, gz, materials, g, cam, L, S)
-            r2, g2, c2 = _corner_shade(vcol, normals, verts, i2, side, gx, gy, gz, materials, g, cam, L, S)
-            image[y, x, 0] = b0 * r0 + b1 * r1 + b2 * r2
-            image[y, x, 1] = b0 * g0 + b1 * g1 + b2 * g2
-            image[y, x, 2] = b0 * c0 + b1 * c1 + b2 * c2
-
-
-@njit(parallel=True, **_jit)
-def _lookup_flat_kernel(prim, geom, face_off, fcol, background, image):
-    h, w = prim.shape
-    for y in prange(h):
-        for x in range(w):
-            p = prim[y, x]
-            if p < 0:
-                for c in range(3):
-                    image[y, x, c] = background[c]
+            if modes[g] != 0:
                 continue
-            f = face_off[geom[y, x]] + p
+            f = face_off[g] + p
             for c in range(3):
                 image[y, x, c] = fcol[f, c]
 
 
 @njit(parallel=True, **_jit)
-def _normals_kernel(prim, geom, u, v, G, B, face_off, cam, flat, nbuf):
+def _normals_kernel(prim, geom, u, v, G, B, face_off, cam, modes, nbuf):
     """The unit normal each pixel is shaded with, turned to the viewer."""
     h, w = prim.shape
     for y in prange(h):
@@ -575,7 +489,7 @@ def _normals_kernel(prim, geom, u, v, G, B, face_off, cam, flat, nbuf):
             f = face_off[gm] + p
             _, _, _, _, _, _, gx, gy, gz, _, nx, ny, nz = _surface(
                 G, B, cam, f, gm, np.float64(u[y, x]), np.float64(v[y, x]), False, 0.0, 0.0, 0.0)
-            if flat:
+            if modes[gm] == 0:
                 nx, ny, nz = gx, gy, gz
             nbuf[y, x, 0] = nx
             nbuf[y, x, 1] = ny
@@ -625,44 +539,178 @@ def _reflect_primary_kernel(prim, geom, u, v, G, B, face_off, materials, cam, un
             active[i] = True
 
 
-@njit(parallel=True, **_jit)
-def _shade_points_kernel(prim, geom, u, v, dirs, G, B, L, face_off, materials, cam, background, last,
-                         colour, origins, next_dirs, active):
-    """Phong-shade secondary hits seen along ``dirs``; emit the next mirror rays.
+def _make_kernels(spec_on: bool, att_on: bool):
+    """The kernels that evaluate the reflectance equation, compiled for one
+    scene variant: ``spec_on`` (some material has a specular term) and
+    ``att_on`` (some light attenuates) are closure constants, so a variant
+    without them carries none of that arithmetic. Each variant is cached on
+    disk separately; only the variants a program uses are ever compiled.
 
-    A reflective surface keeps ``1 - rho`` of its local shade and passes
-    ``rho`` on, except at the last bounce, where it shows its local shade.
+    Returns
+    -------
+    dict of str to dispatcher
+        ``phong``, ``faces``, ``vertices``, ``gouraud``, ``points``.
     """
-    n = prim.shape[0]
-    for c in prange((n + _CHUNK - 1) // _CHUNK):
-        S = _scratch()
-        for i in range(c * _CHUNK, min(n, (c + 1) * _CHUNK)):
-            active[i] = False
-            p = prim[i]
-            if p < 0:
-                for k in range(3):
-                    colour[i, k] = background[k]
-                continue
-            gm = geom[i]
-            f = face_off[gm] + p
-            r, g, b, px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz = _shade_surface(
-                G, B, L, S, materials, cam, f, gm, np.float64(u[i]), np.float64(v[i]), True,
-                dirs[i, 0], dirs[i, 1], dirs[i, 2])
-            rho = materials[gm, 11]
-            keep = 1.0
-            if rho > 0.0 and not last:
-                keep = 1.0 - rho
-                ox, oy, oz, rx, ry, rz = _mirror_ray(px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz, L[9])
-                origins[i, 0] = ox
-                origins[i, 1] = oy
-                origins[i, 2] = oz
-                next_dirs[i, 0] = rx
-                next_dirs[i, 1] = ry
-                next_dirs[i, 2] = rz
-                active[i] = True
-            colour[i, 0] = keep * r
-            colour[i, 1] = keep * g
-            colour[i, 2] = keep * b
+
+    @njit(parallel=True, **_jit)
+    def _shade_phong_kernel(prim, geom, u, v, G, B, L, face_off, materials, cam, background, modes, image):
+        """Phong: shade every pixel of the models whose method is 2."""
+        h, w = prim.shape
+        for y in prange(h):
+            S = _scratch()
+            for x in range(w):
+                p = prim[y, x]
+                if p < 0:
+                    for c in range(3):
+                        image[y, x, c] = background[c]
+                    continue
+                gm = geom[y, x]
+                if modes[gm] != 2:
+                    continue
+                f = face_off[gm] + p
+                r, g, b, _, _, _, _, _, _, _, _, _, _, _, _ = _shade_surface(
+                    G, B, L, S, materials, cam, f, gm, np.float64(u[y, x]), np.float64(v[y, x]), False, 0.0, 0.0, 0.0,
+                    spec_on, att_on)
+                image[y, x, 0] = r
+                image[y, x, 1] = g
+                image[y, x, 2] = b
+
+
+    @njit(parallel=True, **_jit)
+    def _shade_faces_kernel(face_flags, verts, faces, fnormals, face_model, materials, cam, L, out):
+        """Flat shading: one shade per visible face, at its centre."""
+        n = faces.shape[0]
+        for c in prange((n + _CHUNK - 1) // _CHUNK):
+            S = _scratch()
+            for f in range(c * _CHUNK, min(n, (c + 1) * _CHUNK)):
+                if face_flags[f] == 0:
+                    continue
+                third = 1.0 / 3.0
+                px, py, pz = _hit_point(verts, faces[f, 0], faces[f, 1], faces[f, 2], third, third)
+                vx, vy, vz = _view(cam, px, py, pz)
+                gx, gy, gz, sgn = _facing(fnormals, f, vx, vy, vz)
+                r, g, b = _illuminate(px, py, pz, gx, gy, gz, vx, vy, vz, materials, face_model[f], L, S,
+                                      px, py, pz, gx, gy, gz, spec_on, att_on)
+                out[f, 0] = r
+                out[f, 1] = g
+                out[f, 2] = b
+
+
+    @njit(parallel=True, **_jit)
+    def _shade_vertices_kernel(vertex_flags, verts, normals, vertex_model, materials, cam, L, out):
+        """Gouraud: the shade of each visible vertex, lit from the front (normal)
+        and from the back (negated normal)."""
+        n = verts.shape[0]
+        for c in prange((n + _CHUNK - 1) // _CHUNK):
+            S = _scratch()
+            for i in range(c * _CHUNK, min(n, (c + 1) * _CHUNK)):
+                if vertex_flags[i] == 0:
+                    continue
+                px = verts[i, 0]
+                py = verts[i, 1]
+                pz = verts[i, 2]
+                vx, vy, vz = _view(cam, px, py, pz)
+                m = vertex_model[i]
+                for side in range(2):
+                    sg = 1.0 - 2.0 * side
+                    nx = sg * normals[i, 0]
+                    ny = sg * normals[i, 1]
+                    nz = sg * normals[i, 2]
+                    r, g, b = _illuminate(px, py, pz, nx, ny, nz, vx, vy, vz, materials, m, L, S,
+                                          px, py, pz, nx, ny, nz, spec_on, att_on)
+                    out[i, side, 0] = r
+                    out[i, side, 1] = g
+                    out[i, side, 2] = b
+
+
+    @njit(parallel=True, **_jit)
+    def _interp_gouraud_kernel(prim, geom, u, v, verts, normals, faces, fnormals, face_off, materials, cam, L,
+                               background, modes, vcol, image):
+        """Gouraud: interpolate vertex shades over the models whose method is 1."""
+        h, w = prim.shape
+        for y in prange(h):
+            S = _scratch()
+            for x in range(w):
+                p = prim[y, x]
+                if p < 0:
+                    for c in range(3):
+                        image[y, x, c] = background[c]
+                    continue
+                g = geom[y, x]
+                if modes[g] != 1:
+                    continue
+                f = face_off[g] + p
+                i0 = faces[f, 0]
+                i1 = faces[f, 1]
+                i2 = faces[f, 2]
+                b1 = np.float64(u[y, x])
+                b2 = np.float64(v[y, x])
+                b0 = 1.0 - b1 - b2
+                px, py, pz = _hit_point(verts, i0, i1, i2, b1, b2)
+                vx, vy, vz = _view(cam, px, py, pz)
+                gx, gy, gz, sgn = _facing(fnormals, f, vx, vy, vz)
+                side = 0 if sgn > 0.0 else 1
+                r0, g0, c0 = _corner_shade(vcol, normals, verts, i0, side, gx, gy, gz, materials, g, cam, L, S,
+                                                spec_on, att_on)
+                r1, g1, c1 = _corner_shade(vcol, normals, verts, i1, side, gx, gy, gz, materials, g, cam, L, S,
+                                                spec_on, att_on)
+                r2, g2, c2 = _corner_shade(vcol, normals, verts, i2, side, gx, gy, gz, materials, g, cam, L, S,
+                                                spec_on, att_on)
+                image[y, x, 0] = b0 * r0 + b1 * r1 + b2 * r2
+                image[y, x, 1] = b0 * g0 + b1 * g1 + b2 * g2
+                image[y, x, 2] = b0 * c0 + b1 * c1 + b2 * c2
+
+
+    @njit(parallel=True, **_jit)
+    def _shade_points_kernel(prim, geom, u, v, dirs, G, B, L, face_off, materials, cam, background, last,
+                             colour, origins, next_dirs, active):
+        """Phong-shade secondary hits seen along ``dirs``; emit the next mirror rays.
+
+        A reflective surface keeps ``1 - rho`` of its local shade and passes
+        ``rho`` on, except at the last bounce, where it shows its local shade.
+        """
+        n = prim.shape[0]
+        for c in prange((n + _CHUNK - 1) // _CHUNK):
+            S = _scratch()
+            for i in range(c * _CHUNK, min(n, (c + 1) * _CHUNK)):
+                active[i] = False
+                p = prim[i]
+                if p < 0:
+                    for k in range(3):
+                        colour[i, k] = background[k]
+                    continue
+                gm = geom[i]
+                f = face_off[gm] + p
+                r, g, b, px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz = _shade_surface(
+                    G, B, L, S, materials, cam, f, gm, np.float64(u[i]), np.float64(v[i]), True,
+                    dirs[i, 0], dirs[i, 1], dirs[i, 2], spec_on, att_on)
+                rho = materials[gm, 11]
+                keep = 1.0
+                if rho > 0.0 and not last:
+                    keep = 1.0 - rho
+                    ox, oy, oz, rx, ry, rz = _mirror_ray(px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz, L[9])
+                    origins[i, 0] = ox
+                    origins[i, 1] = oy
+                    origins[i, 2] = oz
+                    next_dirs[i, 0] = rx
+                    next_dirs[i, 1] = ry
+                    next_dirs[i, 2] = rz
+                    active[i] = True
+                colour[i, 0] = keep * r
+                colour[i, 1] = keep * g
+                colour[i, 2] = keep * b
+
+
+    return dict(phong=_shade_phong_kernel, faces=_shade_faces_kernel, vertices=_shade_vertices_kernel,
+                gouraud=_interp_gouraud_kernel, points=_shade_points_kernel)
+
+
+_VARIANTS = {(s, a): _make_kernels(s, a) for s in (False, True) for a in (False, True)}
+
+
+def _kernels(k):
+    """The kernels of a frame's variant (see :func:`_make_kernels`)."""
+    return _VARIANTS[(k["spec_on"], k["att_on"])]
 
 
 # ----------------------------------------------------------------------------------
@@ -680,7 +728,9 @@ def kernel_inputs(scene, camera):
         ``L`` = (ambient (3,) f8, kind (L,) i4, vec (L,3) f8, radiance (L,3) f8,
         attenuation (L,) i4, k (L,) f8, shadows (L,) i4, dmin f8, scene handle uintp
         or 0 when no light casts shadows, unit f8 = the scene's size for ray offsets);
-        ``face_off`` (G+1,) i8, ``materials`` (G,12) f8, ``cam`` (16,) f8, ``background`` (3,) f8.
+        ``face_off`` (G+1,) i8, ``materials`` (G,12) f8, ``cam`` (16,) f8, ``background`` (3,) f8;
+        ``spec_on``, ``att_on`` bool: whether any material has a specular term and any
+        light attenuates (the kernels compile a variant for each combination).
     """
     from .rays import camera_frame
 
@@ -690,14 +740,47 @@ def kernel_inputs(scene, camera):
     return dict(
         G=(geo.vertices, geo.normals, geo.faces, geo.face_normals),
         B=(geo.uvs, geo.tangents, geo.bump_index, geo.bump_texels, geo.bump_info),
-        L=(np.asarray(scene.ambient, np.float64), lkind, lvec, lrad, latt, lk, lshadow, 1e-6 * geo.scale,
+        L=(np.array(scene.ambient, np.float64), lkind, lvec, lrad, latt, lk, lshadow, 1e-6 * geo.scale,
            np.uintp(handle), float(geo.scale)),
         face_off=geo.face_offsets, materials=geo.materials, cam=camera_frame(camera, geo.origin),
-        background=np.asarray(scene.background, np.float64),
+        background=np.array(scene.background, np.float64),
+        # Compile-time variants: drop the arithmetic a scene does not need.
+        spec_on=bool(np.any(geo.materials[:, 6:9] > 0)),
+        att_on=bool(np.any((lkind == 0) & (latt != 0))),
     )
 
 
-def shade(scene, camera, hits, shading: str = "phong") -> np.ndarray:
+def resolve_methods(scene, shading) -> np.ndarray:
+    """Per-model method codes from a name or one name per model.
+
+    Parameters
+    ----------
+    shading : str or sequence of str
+        ``"flat"``, ``"gouraud"`` or ``"phong"`` for every model, or one of
+        those per model (in ``scene.models`` order).
+
+    Returns
+    -------
+    (G,) int8
+        0 flat, 1 Gouraud, 2 Phong.
+    """
+    n = len(scene.models)
+    if isinstance(shading, str):
+        names = [shading] * n
+    else:
+        names = list(shading)
+        if len(names) != n:
+            raise ValueError(f"shading: expected {n} methods (one per model), got {len(names)}")
+    codes = np.empty(n, np.int8)
+    for i, name in enumerate(names):
+        if not isinstance(name, str) or name.lower() not in METHODS:
+            where = "shading" if isinstance(shading, str) else f"shading[{i}]"
+            raise ValueError(f"{where}: expected one of {list(SHADINGS)}, got {name!r}")
+        codes[i] = METHODS[name.lower()]
+    return codes
+
+
+def shade(scene, camera, hits, shading="phong") -> np.ndarray:
     """Shade a hit buffer.
 
     Parameters
@@ -705,43 +788,51 @@ def shade(scene, camera, hits, shading: str = "phong") -> np.ndarray:
     scene : Scene
     camera : Camera
     hits : HitBuffer
-    shading : {"flat", "gouraud", "phong"}
+    shading : {"flat", "gouraud", "phong"} or sequence of them
+        One method for all models, or one per model.
 
     Returns
     -------
     image : (H, W, 3) float32
         Linear RGB; ``scene.background`` where nothing was hit.
     """
-    if shading not in SHADINGS:
-        raise ValueError(f"shading: expected one of {list(SHADINGS)}, got {shading!r}")
+    modes = resolve_methods(scene, shading)
     k = kernel_inputs(scene, camera)
+    kern = _kernels(k)
     geo = scene.geometry
     h, w = hits.shape
     image = np.empty((h, w, 3), np.float32)
-    if shading == "phong":
-        _shade_phong_kernel(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["face_off"],
-                            k["materials"], k["cam"], k["background"], image)
-        return image
-    face_flags = np.zeros(len(geo.faces), np.uint8)
-    vertex_flags = np.zeros(len(geo.vertices), np.uint8)
-    _visible_kernel(hits.prim, hits.geom, geo.faces, k["face_off"], face_flags, vertex_flags)
-    if shading == "flat":
+    flat, gouraud = bool(np.any(modes == 0)), bool(np.any(modes == 1))
+    if flat or gouraud:
+        face_flags = np.zeros(len(geo.faces) if flat else 1, np.uint8)
+        vertex_flags = np.zeros(len(geo.vertices) if gouraud else 1, np.uint8)
+        _visible_kernel(hits.prim, hits.geom, geo.faces, k["face_off"], modes, face_flags, vertex_flags)
+    # Each pixel kernel writes only the pixels of its own method's models
+    # (and the background), so a mixed frame runs just the kernels it needs.
+    if flat:
         fcol = np.zeros((len(geo.faces), 3), np.float64)
-        _shade_faces_kernel(face_flags, geo.vertices, geo.faces, geo.face_normals, geo.face_model, k["materials"],
-                            k["cam"], k["L"], fcol)
-        _lookup_flat_kernel(hits.prim, hits.geom, k["face_off"], fcol, k["background"], image)
-        return image
-    vcol = np.zeros((len(geo.vertices), 2, 3), np.float64)
-    _shade_vertices_kernel(vertex_flags, geo.vertices, geo.normals, geo.vertex_model, k["materials"], k["cam"],
-                           k["L"], vcol)
-    _interp_gouraud_kernel(hits.prim, hits.geom, hits.u, hits.v, geo.vertices, geo.normals, geo.faces,
-                           geo.face_normals, k["face_off"], k["materials"], k["cam"], k["L"], k["background"],
-                           vcol, image)
+        kern["faces"](face_flags, geo.vertices, geo.faces, geo.face_normals, geo.face_model, k["materials"],
+                      k["cam"], k["L"], fcol)
+        _lookup_flat_kernel(hits.prim, hits.geom, k["face_off"], fcol, k["background"], modes, image)
+    if gouraud:
+        vcol = np.zeros((len(geo.vertices), 2, 3), np.float64)
+        kern["vertices"](vertex_flags, geo.vertices, geo.normals, geo.vertex_model, k["materials"], k["cam"],
+                         k["L"], vcol)
+        kern["gouraud"](hits.prim, hits.geom, hits.u, hits.v, geo.vertices, geo.normals, geo.faces,
+                        geo.face_normals, k["face_off"], k["materials"], k["cam"], k["L"], k["background"], modes,
+                        vcol, image)
+    if np.any(modes == 2):
+        kern["phong"](hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["face_off"], k["materials"],
+                      k["cam"], k["background"], modes, image)
     return image
 
 
-def shading_normals(scene, camera, hits, shading: str = "phong") -> np.ndarray:
+def shading_normals(scene, camera, hits, shading="phong") -> np.ndarray:
     """The normal each pixel is shaded with.
+
+    Parameters
+    ----------
+    shading : {"flat", "gouraud", "phong"} or sequence of them (one per model)
 
     Returns
     -------
@@ -750,17 +841,16 @@ def shading_normals(scene, camera, hits, shading: str = "phong") -> np.ndarray:
         the interpolated, renormalised vertex normal, bumped in Phong mode);
         zero on the background.
     """
-    if shading not in SHADINGS:
-        raise ValueError(f"shading: expected one of {list(SHADINGS)}, got {shading!r}")
+    modes = resolve_methods(scene, shading)
     geo = scene.geometry
     from .rays import camera_frame
 
-    B = (geo.uvs, geo.tangents, geo.bump_index, geo.bump_texels, geo.bump_info)
-    if shading != "phong":  # bumps only apply where the normal is per pixel
-        B = (geo.uvs, geo.tangents, np.full_like(geo.bump_index, -1), geo.bump_texels, geo.bump_info)
+    # Bumps only apply where the normal is per pixel.
+    bump_index = np.where(modes == 2, geo.bump_index, -1).astype(np.int32)
+    B = (geo.uvs, geo.tangents, bump_index, geo.bump_texels, geo.bump_info)
     nbuf = np.empty(hits.shape + (3,), np.float32)
     _normals_kernel(hits.prim, hits.geom, hits.u, hits.v, (geo.vertices, geo.normals, geo.faces, geo.face_normals),
-                    B, geo.face_offsets, camera_frame(camera, geo.origin), shading == "flat", nbuf)
+                    B, geo.face_offsets, camera_frame(camera, geo.origin), modes, nbuf)
     return nbuf
 
 
@@ -783,6 +873,7 @@ def trace_mirrors(scene, camera, hits, image, max_depth: int = 3) -> np.ndarray:
     from .cast import _cast_rays_kernel
 
     k = kernel_inputs(scene, camera)
+    points_kernel = _kernels(k)["points"]
     h, w = hits.shape
     n = h * w
     origins = np.empty((n, 3))
@@ -811,8 +902,8 @@ def trace_mirrors(scene, camera, hits, image, max_depth: int = 3) -> np.ndarray:
         next_o = np.empty((m, 3))
         next_d = np.empty((m, 3))
         more = np.empty(m, np.bool_)
-        _shade_points_kernel(prim, gm, u, v, dirs, k["G"], k["B"], k["L"], k["face_off"], k["materials"], k["cam"],
-                             k["background"], depth == max_depth, colour, next_o, next_d, more)
+        points_kernel(prim, gm, u, v, dirs, k["G"], k["B"], k["L"], k["face_off"], k["materials"], k["cam"],
+                      k["background"], depth == max_depth, colour, next_o, next_d, more)
         flat[idx] += (weight[:, None] * colour).astype(np.float32)
         weight = weight[more] * geo.materials[gm[more], 11]
         idx, origins, dirs = idx[more], next_o[more], next_d[more]

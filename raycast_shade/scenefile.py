@@ -1,0 +1,361 @@
+"""Scenes from TOML files.
+
+A scene file describes one :class:`~raycast_shade.Scene` and, optionally, how
+to render it. The full reference is ``docs/scene-files.md``; in short::
+
+    ambient = 0.08                      # Ia: scalar or [r, g, b]
+    background = 0.0                    # colour where nothing is hit
+
+    [camera]                            # required
+    eye = [0.0, 1.5, 6.0]               # required
+    target = [0.0, 0.0, 0.0]            # also up, fov, projection,
+    width = 640                         # ortho_height
+    height = 480
+
+    [[object]]                          # one table per model, at least one
+    shape = "icosphere"                 # a procedural shape (shapes.SHAPES) ...
+    subdivisions = 1                    # ... with its own parameters
+    radius = 1.0
+    [object.material]                   # kd, ka, ks: scalar or [r, g, b];
+    kd = [0.8, 0.25, 0.2]               # shininess, specular = "phong" | "blinn",
+    ks = 0.6                            # reflectivity
+    shininess = 40
+
+    [[object]]
+    mesh = "meshes/knot.obj"            # a file trimesh reads, relative to this file
+    crease_angle = 40                   # also normals, weighting, name,
+    translate = [2.0, 0.0, 0.0]         # scale, rotate
+
+    [[light]]
+    type = "point"                      # position, intensity, color, shadows,
+    position = [3.0, 4.0, 5.0]          # attenuation = "none" | "inverse_square"
+    intensity = 40.0                    #   | "heuristic", k
+    attenuation = "inverse_square"
+
+    [[light]]
+    type = "directional"                # direction, intensity, color, shadows
+    direction = [-1.0, -0.5, -1.0]
+    color = [0.3, 0.4, 1.0]
+
+    [render]                            # optional: shading, width, height,
+    shading = "phong"                   # max_depth, exposure, tonemap, gamma
+
+Unknown keys are errors, and every error names the table and key it comes
+from, e.g. ``object[1].material: unknown key 'shinyness' (did you mean
+'shininess'?)``; arrays of tables count from 0.
+"""
+
+from __future__ import annotations
+
+import difflib
+import inspect
+import os
+
+import numpy as np
+
+try:
+    import tomllib
+except ModuleNotFoundError:  # pragma: no cover - Python 3.10
+    import tomli as tomllib
+
+from . import shapes as _shapes
+from ._validate import as_choice, as_int, as_rgb, as_scalar, as_vec3
+from .camera import Camera
+from .lights import DirectionalLight, PointLight
+from .material import Material
+from .mesh import Mesh
+from .normals import WEIGHTINGS
+from .scene import Model, Scene
+from .shading import SHADINGS
+from .tonemap import TONEMAPS
+
+__all__ = ["load_scene", "scene_from_dict", "SceneFileError"]
+
+_TOP_KEYS = ("ambient", "background", "camera", "object", "light", "render")
+_CAMERA_KEYS = ("eye", "target", "up", "fov", "width", "height", "projection", "ortho_height")
+_OBJECT_KEYS = ("shape", "mesh", "name", "normals", "weighting", "crease_angle", "scale", "rotate", "translate",
+                "material")
+_MATERIAL_KEYS = ("kd", "ka", "ks", "shininess", "specular", "reflectivity", "name")
+_LIGHT_KEYS = {
+    "point": ("type", "position", "intensity", "color", "attenuation", "k", "shadows", "name"),
+    "directional": ("type", "direction", "intensity", "color", "shadows", "name"),
+}
+_RENDER_KEYS = ("shading", "width", "height", "max_depth", "exposure", "tonemap", "gamma")
+_NORMALS = ("auto", "computed")
+
+
+class SceneFileError(ValueError):
+    """A scene file that does not describe a valid scene.
+
+    The message names the file, then the table and key at fault.
+    """
+
+
+class _Invalid(Exception):
+    """Internal: a problem at ``where``, turned into a SceneFileError with the file name."""
+
+    def __init__(self, where: str, message: str):
+        super().__init__(f"{where}: {message}" if where else message)
+
+
+def _call(where: str, fn, *args, **kwargs):
+    """Run a library constructor; its ValueError/TypeError gets the table path in front.
+
+    Constructors that were given ``name=where`` already start their messages
+    with it, so the path is not repeated.
+    """
+    try:
+        return fn(*args, **kwargs)
+    except (ValueError, TypeError) as exc:
+        msg = str(exc)
+        raise _Invalid("" if msg.startswith(where) else where, msg) from None
+
+
+def _check_keys(table, where: str, allowed, what: str = ""):
+    for key in table:
+        if key not in allowed:
+            hint = difflib.get_close_matches(key, allowed, n=1)
+            tail = f" (did you mean {hint[0]!r}?)" if hint else f" (expected one of: {', '.join(allowed)})"
+            raise _Invalid(where, f"unknown key {key!r}{what}{tail}")
+
+
+def _table(value, where: str) -> dict:
+    if not isinstance(value, dict):
+        raise _Invalid(where, f"expected a table, got {_kind(value)}")
+    return value
+
+
+def _tables(data: dict, key: str) -> list:
+    """An array of tables (``[[key]]``); a single ``[key]`` table is a common slip."""
+    value = data.get(key, [])
+    if isinstance(value, dict):
+        raise _Invalid(key, f"expected an array of tables: write [[{key}]], not [{key}]")
+    if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
+        raise _Invalid(key, f"expected an array of tables ([[{key}]]), got {_kind(value)}")
+    return value
+
+
+def _kind(value) -> str:
+    return "a table" if isinstance(value, dict) else "an array" if isinstance(value, list) else type(value).__name__
+
+
+def _string(value, where: str) -> str:
+    if not isinstance(value, str):
+        raise _Invalid(where, f"expected a string, got {_kind(value)}")
+    return value
+
+
+def _camera(table, render) -> Camera:
+    cam = dict(_table(table, "camera"))
+    _check_keys(cam, "camera", _CAMERA_KEYS)
+    if "eye" not in cam:
+        raise _Invalid("camera", "missing key 'eye'")
+    # [render] width/height override the camera's, so one camera block can
+    # serve several output sizes.
+    for key in ("width", "height"):
+        if key in render:
+            cam[key] = render[key]
+    return _call("camera", Camera, **cam)
+
+
+def _shape_params(shape: str) -> tuple:
+    sig = inspect.signature(_shapes.SHAPES[shape])
+    return tuple(p.name for p in sig.parameters.values() if p.kind is not p.VAR_KEYWORD)
+
+
+def _rotation(degrees) -> np.ndarray:
+    """``Rz @ Ry @ Rx``: rotate about x first, then y, then z (fixed axes)."""
+    rx, ry, rz = np.radians(degrees)
+    cx, sx, cy, sy, cz, sz = np.cos(rx), np.sin(rx), np.cos(ry), np.sin(ry), np.cos(rz), np.sin(rz)
+    mx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    my = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+    mz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+    return mz @ my @ mx
+
+
+def _mesh(obj: dict, where: str, base_dir: str) -> Mesh:
+    has_shape, has_mesh = "shape" in obj, "mesh" in obj
+    if has_shape == has_mesh:
+        raise _Invalid(where, "needs exactly one of 'shape' (a procedural shape) or 'mesh' (a file)")
+    if has_shape:
+        shape = _string(obj["shape"], f"{where}.shape")
+        if shape not in _shapes.SHAPES:
+            raise _Invalid(f"{where}.shape", f"expected one of {sorted(_shapes.SHAPES)}, got {shape!r}")
+        params = _shape_params(shape)
+        _check_keys(obj, where, _OBJECT_KEYS + params, f" for shape {shape!r}")
+    else:
+        _check_keys(obj, where, _OBJECT_KEYS, " for a mesh file")
+    normals = _choice(obj.get("normals", "auto"), f"{where}.normals", _NORMALS)
+    # Checked here, not by Mesh, so that messages name the table.
+    mesh_kw = {}
+    if "weighting" in obj:
+        mesh_kw["weighting"] = _choice(obj["weighting"], f"{where}.weighting", WEIGHTINGS)
+    if "crease_angle" in obj:
+        mesh_kw["crease_angle"] = _call(where, as_scalar, obj["crease_angle"], f"{where}.crease_angle",
+                                        minimum=0.0, exclusive=True, maximum=180.0)
+    if "name" in obj:
+        mesh_kw["name"] = _string(obj["name"], f"{where}.name")
+    if has_shape:
+        kwargs = {k: obj[k] for k in params if k in obj}
+        if "center" in kwargs:
+            kwargs["center"] = _call(where, as_vec3, kwargs["center"], f"{where}.center")
+        kwargs.update(mesh_kw)
+        mesh = _call(where, _shapes.make, shape, **kwargs)
+        if normals == "computed" and mesh.normals is not None:
+            # Drop the shape's exact normals: average them from the faces instead.
+            mesh = _call(where, Mesh, mesh.vertices, mesh.faces, uvs=mesh.uvs, weighting=mesh.weighting,
+                         crease_angle=mesh.crease_angle, name=mesh.name)
+    else:
+        rel = os.path.expanduser(_string(obj["mesh"], f"{where}.mesh"))
+        path = os.path.normpath(os.path.join(base_dir, rel))
+        use_normals = None if normals == "auto" else False
+        mesh = _call(f"{where}.mesh", Mesh.load, path, use_normals=use_normals, **mesh_kw)
+    if any(k in obj for k in ("scale", "rotate", "translate")):
+        s = _call(where, as_scalar, obj.get("scale", 1.0), f"{where}.scale", minimum=0.0, exclusive=True)
+        r = _rotation(_call(where, as_vec3, obj.get("rotate", (0.0, 0.0, 0.0)), f"{where}.rotate"))
+        t = _call(where, as_vec3, obj.get("translate", (0.0, 0.0, 0.0)), f"{where}.translate")
+        # A uniform positive scale and a rotation keep normals unit and outward.
+        n = None if mesh.normals is None else mesh.normals @ r.T
+        mesh = _call(where, Mesh, (mesh.vertices * s) @ r.T + t, mesh.faces, normals=n, uvs=mesh.uvs,
+                     weighting=mesh.weighting, crease_angle=mesh.crease_angle, name=mesh.name)
+    return mesh
+
+
+def _choice(value, where: str, choices) -> str:
+    return _call(where, as_choice, value, where, choices)
+
+
+def _material(table, where: str) -> Material:
+    mat = dict(_table(table, where))
+    _check_keys(mat, where, _MATERIAL_KEYS)
+    mat.setdefault("name", where)
+    return _call(where, Material, **mat)
+
+
+def _light(table: dict, where: str):
+    if "type" not in table:
+        raise _Invalid(where, "missing key 'type' (expected 'point' or 'directional')")
+    kind = _choice(table["type"], f"{where}.type", tuple(_LIGHT_KEYS))
+    _check_keys(table, where, _LIGHT_KEYS[kind], f" for a {kind} light")
+    kw = {k: v for k, v in table.items() if k != "type"}
+    kw.setdefault("name", where)
+    if kind == "point":
+        if "position" not in kw:
+            raise _Invalid(where, "missing key 'position'")
+        return _call(where, PointLight, **kw)
+    if "direction" not in kw:
+        raise _Invalid(where, "missing key 'direction'")
+    return _call(where, DirectionalLight, **kw)
+
+
+def _render_options(table) -> dict:
+    opts = dict(_table(table, "render"))
+    _check_keys(opts, "render", _RENDER_KEYS)
+    out = {}
+    if "shading" in opts:
+        out["shading"] = _choice(opts["shading"], "render.shading", SHADINGS + ("auto",))
+    for key in ("width", "height"):
+        if key in opts:
+            out[key] = _call("render", as_int, opts[key], f"render.{key}", minimum=1)
+    if "max_depth" in opts:
+        out["max_depth"] = _call("render", as_int, opts["max_depth"], "render.max_depth", minimum=0)
+    if "exposure" in opts:
+        out["exposure"] = _call("render", as_scalar, opts["exposure"], "render.exposure", minimum=0.0, exclusive=True)
+    if "tonemap" in opts:
+        out["tonemap"] = _choice(opts["tonemap"], "render.tonemap", TONEMAPS)
+    if "gamma" in opts:
+        g = opts["gamma"]
+        if isinstance(g, str):
+            out["gamma"] = _choice(g, "render.gamma", ("srgb",))
+        else:
+            out["gamma"] = _call("render", as_scalar, g, "render.gamma", minimum=0.0, exclusive=True)
+    return out
+
+
+def _build(data: dict, base_dir: str):
+    _check_keys(data, "", _TOP_KEYS, " at the top level")
+    if "camera" not in data:
+        raise _Invalid("", "missing [camera] table")
+    options = _render_options(data.get("render", {}))
+    camera = _camera(data["camera"], options)
+    objects = _tables(data, "object")
+    if not objects:
+        raise _Invalid("", "no [[object]] tables: a scene needs at least one object")
+    models = []
+    for i, obj in enumerate(objects):
+        where = f"object[{i}]"
+        mesh = _mesh(obj, where, base_dir)
+        material = _material(obj.get("material", {}), f"{where}.material")
+        models.append(Model(mesh, material))
+    lights = [_light(t, f"light[{i}]") for i, t in enumerate(_tables(data, "light"))]
+    ambient = _call("ambient", as_rgb, data.get("ambient", 0.1), "ambient")
+    background = _call("background", as_rgb, data.get("background", 0.0), "background")
+    return Scene(models, lights=lights, camera=camera, ambient=ambient, background=background), options
+
+
+def scene_from_dict(data: dict, base_dir=".", source: str = "<scene>"):
+    """Build a scene from an already parsed scene-file table.
+
+    Parameters
+    ----------
+    data : dict
+        What :func:`tomllib.load` returns for a scene file.
+    base_dir : str or path-like
+        Folder that relative ``mesh`` paths start from.
+    source : str
+        Name used at the start of error messages.
+
+    Returns
+    -------
+    scene : Scene
+    options : dict
+        The ``[render]`` entries that were given, validated: ``shading``,
+        ``width``, ``height``, ``exposure``, ``tonemap``, ``gamma``.
+
+    Raises
+    ------
+    SceneFileError
+        For any invalid table, key or value; the message names the table.
+    """
+    try:
+        return _build(_table(data, "scene"), os.fspath(base_dir))
+    except _Invalid as exc:
+        raise SceneFileError(f"{source}: {exc}") from None
+
+
+def load_scene(path):
+    """Read a TOML scene file.
+
+    Parameters
+    ----------
+    path : str or path-like
+
+    Returns
+    -------
+    scene : Scene
+        With the camera sized by ``[render]`` width/height when given.
+    options : dict
+        The validated ``[render]`` entries (only those present).
+
+    Raises
+    ------
+    FileNotFoundError, OSError
+        When the file cannot be read.
+    SceneFileError
+        For invalid TOML or an invalid scene; a ``ValueError``.
+
+    Examples
+    --------
+    >>> scene, options = load_scene("examples/shapes.toml")  # doctest: +SKIP
+    >>> frame = render(scene, shading=options.get("shading", "phong"))  # doctest: +SKIP
+    """
+    path = os.fspath(path)
+    with open(path, "rb") as fh:
+        raw = fh.read()
+    try:
+        data = tomllib.loads(raw.decode("utf-8"))
+    except UnicodeDecodeError as exc:
+        raise SceneFileError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneFileError(f"{path}: invalid TOML: {exc}") from None
+    return scene_from_dict(data, os.path.dirname(os.path.abspath(path)), source=path)
