@@ -768,7 +768,12 @@ def resolve_methods(scene, shading) -> np.ndarray:
     if isinstance(shading, str):
         names = [shading] * n
     else:
-        names = list(shading)
+        try:
+            names = list(shading)
+        except TypeError:
+            raise ValueError(
+                f"shading: expected one of {list(SHADINGS) + ['auto']} or one per model, got {shading!r}"
+            ) from None
         if len(names) != n:
             raise ValueError(f"shading: expected {n} methods (one per model), got {len(names)}")
     codes = np.empty(n, np.int8)

@@ -186,7 +186,7 @@ def test_a_single_light_is_accepted_like_a_single_model():
 
 # -- render and friends: refused before anything is packed, built or cast -----------------------------------
 @pytest.mark.parametrize("kwargs, exc, match", [
-    (dict(shading="smooth"), ValueError, r"shading: expected one of \['flat', 'gouraud', 'phong'\], got 'smooth'"),
+    (dict(shading="smooth"), ValueError, r"shading: expected one of \['flat', 'gouraud', 'phong', 'auto'\], got 'smooth'"),
     (dict(shading=None), ValueError, r"shading: expected one of"),
     (dict(shading=3), ValueError, r"shading: expected one of"),
     (dict(backend="gpu"), ValueError, r"backend: expected one of"),
