@@ -16,25 +16,38 @@ convergence orders measured in ``docs/accuracy.md``:
     centre.
 
 =========  =============================================================
-flat       ``D Δ/2 + S min(1, 0.6 sqrt(t) Δ/2)`` (first order: the
-           normal is off by up to Δ/2; a highlight's slope is ~0.6 sqrt(t))
-Gouraud    ``D Δ²/8 + S min(1, t Δ²/8)`` (linear interpolation of a
-           function with second derivative D, or S t at a highlight's peak;
-           a highlight narrower than a triangle is lost whole)
-Phong      ``(D + 0.6 S sqrt(t)) Δn²/8`` with ``Δn`` the normal step alone:
-           ``s`` and ``v`` are exact at every pixel, and the interpolated
-           normal is off by O(Δn²)
+flat       ``D Δ/√3 + S min(1, 0.6 k sqrt(t) Δ/√3)`` (first order: the
+           normal is off by up to a circumradius, Δ/√3; a highlight's slope is ~0.6 sqrt(t)
+           per radian of lobe angle, and the lobe turns ``k`` times as fast
+           as the normal: ``k = 2`` for Phong's ``r.v``, 1 for Blinn's ``n.h``)
+Gouraud    ``D max(Δ/4, Δ²/8) + S min(1, t k² Δ²/8)`` (linear
+           interpolation across the terminator's kink in ``max(0, n.s)``
+           is off by D Δ/4; a function with second derivative D by D Δ²/8;
+           S t k² at a highlight's peak; a highlight narrower than a
+           triangle is lost whole)
+Phong      ``(D/3 + 0.6 k S sqrt(t)/8) Δn²`` with ``Δn`` the normal step
+           alone: ``s`` and ``v`` are exact at every pixel, and the
+           interpolated normal is off by O(Δn²) (D/3 rather than D/8: the
+           ray meets the chord, not the surface)
 =========  =============================================================
+
+``Δ`` includes the turn of the view direction only where there is a
+specular term, and of the light direction only for point lights: a faceted,
+diffuse-only model under directional light is exact with flat shading.
+(Constants revised against the analytic ground truth; see ``docs/auto.md``.)
 
 Overrides: a bump-mapped model needs per-pixel normals, so Phong; a model
 whose triangles project to at most ``max_pixels`` pixels is Gouraud-shaded
-(interpolation inside a pixel is invisible). Phong is the fallback when no
+when Gouraud's predicted error meets the tolerance (a highlight narrower
+than a triangle is lost however small the triangle is on screen) and flat's
+does not (flat is cheaper still). Phong is the fallback when no
 method meets the tolerance. The decision and its reason are reported per
 model on the frame (``frame.decisions``); ``frame.method`` says per pixel.
 """
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -89,20 +102,57 @@ def _normal_step(prep) -> float:
     return float(np.median(np.arccos(c)))
 
 
+# Per-mesh geometry summaries (centre, mean edge, normal step): a mesh and its
+# prepared arrays never change, and on an 80k-triangle mesh the normal step
+# alone costs ~70 ms, several times a 320x240 frame (benchmarks/bench_auto.py).
+_GEOMETRY: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+def _geometry(mesh):
+    """(centre, mean edge length, normal step) of a mesh, computed once."""
+    try:
+        return _GEOMETRY[mesh]
+    except (KeyError, TypeError):
+        pass
+    prep = mesh.prepared
+    centre = 0.5 * (prep.vertices.min(axis=0) + prep.vertices.max(axis=0))
+    e = prep.vertices[prep.faces]
+    edge = float(np.mean(np.linalg.norm(e[:, 1] - e[:, 0], axis=1)))
+    out = (centre, edge, _normal_step(prep))
+    try:
+        _GEOMETRY[mesh] = out
+    except TypeError:  # not weak-referenceable: no cache
+        pass
+    return out
+
+
 def predicted_errors(normal_step: float, turn_step: float, diffuse: float, specular: float,
-                     shininess: float) -> dict:
+                     shininess: float, lobe: float = 2.0) -> dict:
     """Predicted error of each method; see the module docstring.
 
     ``normal_step`` is the angle between neighbouring vertex normals,
     ``turn_step`` how far the light and view directions turn across a
     triangle (both radians); flat and Gouraud feel their sum, Phong only the
-    first."""
+    first. ``lobe`` is how fast the specular lobe's angle moves with the
+    normal: 2 for Phong's ``r.v`` (turning ``n`` by δ turns ``r`` by 2δ),
+    1 for Blinn's ``n.h``."""
     root_t = np.sqrt(shininess)
     step = normal_step + turn_step
     return {
-        "flat": diffuse * step / 2 + specular * min(1.0, 0.6 * root_t * step / 2),
-        "gouraud": diffuse * step**2 / 8 + specular * min(1.0, shininess * step**2 / 8),
-        "phong": (diffuse + 0.6 * specular * root_t) * normal_step**2 / 8,
+        # Δ/√3, not Δ/2: the face normal belongs to the centroid, and a
+        # corner is a circumradius (Δ/√3 on an equilateral triangle) away
+        # (measured: 1.02-1.07 x Δ/2 on icospheres).
+        "flat": diffuse * step / np.sqrt(3) + specular * min(1.0, 0.6 * root_t * lobe * step / np.sqrt(3)),
+        # The diffuse term is first order at the terminator: max(0, n.s) has
+        # a kink of slope D there, and linear interpolation across it is off
+        # by up to D Δ/4 (measured: 0.020 at Δ = 0.14 rad, D = 0.7).
+        "gouraud": diffuse * max(step / 4, step**2 / 8)
+        + specular * min(1.0, shininess * lobe**2 * step**2 / 8),
+        # Δn²/3 rather than /8: the ray meets the chord, not the surface, so
+        # the interpolated normal is also off by the sagitta's sideways shift
+        # (~Δ²/6 tan of the view angle); calibrated on the interior (2-px rim)
+        # maximum error of icospheres at 160x120.
+        "phong": (diffuse / 3 + 0.6 * lobe * specular * root_t / 8) * normal_step**2,
     }
 
 
@@ -130,11 +180,8 @@ def choose_methods(scene, camera, tolerance: float = 0.01, max_pixels: float = 2
     hw, hh = camera.half_extents()
     decisions = []
     for i, model in enumerate(scene.models):
-        prep = model.mesh.prepared
         mat = model.material
-        centre = 0.5 * (prep.vertices.min(axis=0) + prep.vertices.max(axis=0))
-        e = prep.vertices[prep.faces]
-        edge = float(np.mean(np.linalg.norm(e[:, 1] - e[:, 0], axis=1)))
+        centre, edge, normal_step = _geometry(model.mesh)
         # Distance to the eye along the view axis, for the projected size.
         depth = max(float(np.dot(centre - camera.eye, fwd)), 1e-12)
         if camera.orthographic:
@@ -144,24 +191,30 @@ def choose_methods(scene, camera, tolerance: float = 0.01, max_pixels: float = 2
             pixels = edge / (2 * hh * depth) * camera.height
             near = float(np.linalg.norm(centre - camera.eye))
         diffuse = specular = 0.0
+        near_light = np.inf
         for light in scene.lights:
             att = 1.0
             if isinstance(light, PointLight):
                 d = float(np.linalg.norm(light.position - centre))
-                near = min(near, d)
+                near_light = min(near_light, d)
                 if light.attenuation == "inverse_square":
                     att = 1.0 / max(d, 1e-12) ** 2
                 elif light.attenuation == "heuristic":
                     att = 1.0 / (d + light.k)
             diffuse += float(np.max(mat.kd * light.radiance)) * att
             specular += float(np.max(mat.ks * light.radiance)) * att
-        normal_step = _normal_step(prep)
+        # Only a point light's direction turns across a triangle; the view
+        # direction matters only to the specular term.
+        if specular == 0.0:
+            near = np.inf
+        near = min(near, near_light)
         turn_step = edge / near if np.isfinite(near) and near > 0 else 0.0
         step = normal_step + turn_step
-        pred = predicted_errors(normal_step, turn_step, diffuse, specular, mat.shininess)
+        pred = predicted_errors(normal_step, turn_step, diffuse, specular, mat.shininess,
+                                1.0 if mat.specular == "blinn" else 2.0)
         if mat.bump is not None:
             method, reason = "phong", "bump map: needs a normal per pixel"
-        elif pixels <= max_pixels:
+        elif pixels <= max_pixels and pred["gouraud"] <= tolerance < pred["flat"]:
             method, reason = "gouraud", f"triangles project to {pixels:.2g} px: interpolation is sub-pixel"
         else:
             method = next((m for m in _ORDER if pred[m] <= tolerance), "phong")
