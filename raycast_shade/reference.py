@@ -268,7 +268,8 @@ def shade_reference(scene, camera, hits, shading: str = "phong") -> np.ndarray:
     gouraud
         The shade at each corner vertex from its normal, ``+n`` when the pixel
         sees the triangle's front and ``-n`` when it sees the back (a vertex
-        with a zero normal uses the face's normal turned to the viewer),
+        with a zero normal uses the face's normal turned to the viewer; one
+        pointing to the far side of the face is reflected across its plane),
         interpolated with the barycentrics.
     phong
         The shade at the hit point with the interpolated shading normal.
@@ -311,6 +312,9 @@ def shade_reference(scene, camera, hits, shading: str = "phong") -> np.ndarray:
                 nv = geo.normals[idx]
                 missing = ~np.any(nv != 0.0, axis=1)
                 n = np.where(missing[:, None], g, sgn[:, None] * nv)
+                # A normal on the far side of the face is reflected into its hemisphere.
+                c = np.minimum(np.einsum("ij,ij->i", n, g), 0.0)
+                n = n - 2.0 * c[:, None] * g
                 colour = illuminate_reference(q, n, _view(eye, fwd, ortho, q), model, mats, lights, ambient, dmin)
                 acc += bary[:, k, None] * colour
             image[mask] = acc

@@ -444,15 +444,34 @@ _CHUNK = 1024
 
 @njit(inline="always", **_jit)
 def _corner_shade(vcol, normals, verts, i, side, gx, gy, gz, materials, m, cam, L, S, spec_on, att_on):
-    """A vertex's Gouraud shade; a vertex without a normal borrows the face's."""
-    if normals[i, 0] == 0.0 and normals[i, 1] == 0.0 and normals[i, 2] == 0.0:
-        px = verts[i, 0]
-        py = verts[i, 1]
-        pz = verts[i, 2]
-        vx, vy, vz = _view(cam, px, py, pz)
-        return _illuminate_call(px, py, pz, gx, gy, gz, vx, vy, vz, materials, m, L, S, px, py, pz, gx, gy, gz,
-                                spec_on, att_on)
-    return vcol[i, side, 0], vcol[i, side, 1], vcol[i, side, 2]
+    """A vertex's Gouraud shade for a face seen from ``side``.
+
+    The precomputed shade serves when the vertex normal (negated on the back
+    side) lies in the face's viewer hemisphere, as on consistent data. A
+    vertex without a normal borrows the face's; one whose normal points to
+    the far side of this face (opposite normals, a wrongly wound face) is
+    reflected across the face's plane, Phong's rule at the vertex, instead
+    of being lit from behind. Both are rare, so they are shaded on the spot.
+    """
+    sg = 1.0 - 2.0 * side
+    nx = sg * normals[i, 0]
+    ny = sg * normals[i, 1]
+    nz = sg * normals[i, 2]
+    c = nx * gx + ny * gy + nz * gz
+    if nx == 0.0 and ny == 0.0 and nz == 0.0:
+        nx, ny, nz = gx, gy, gz
+    elif c < 0.0:
+        nx -= 2.0 * c * gx
+        ny -= 2.0 * c * gy
+        nz -= 2.0 * c * gz
+    else:
+        return vcol[i, side, 0], vcol[i, side, 1], vcol[i, side, 2]
+    px = verts[i, 0]
+    py = verts[i, 1]
+    pz = verts[i, 2]
+    vx, vy, vz = _view(cam, px, py, pz)
+    return _illuminate_call(px, py, pz, nx, ny, nz, vx, vy, vz, materials, m, L, S, px, py, pz, gx, gy, gz,
+                            spec_on, att_on)
 
 
 @njit(parallel=True, **_jit)

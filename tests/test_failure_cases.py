@@ -8,11 +8,10 @@ fallback, or the measured size of an error that belongs to the method itself
 docstrings were measured on the scenes below; the pictures are made by
 ``benchmarks/make_failure_figures.py``.
 
-One behaviour of the kernels is marked ``xfail(strict=True)``: Gouraud lights
-a corner whose vertex normal points to the far side of its face from behind, a
-bug in :mod:`raycast_shade.shading` described in the test and in
-``docs/failure-cases.md`` with a proposed fix. The holes at shared vertices
-found by case 9 are fixed in :mod:`raycast_shade.cast`.
+Two bugs this catalogue found are fixed: Gouraud lit a corner whose vertex
+normal points to the far side of its face from behind (now reflected into the
+face's hemisphere, Phong's rule at the vertex; case 3/6), and rays through
+shared vertices could slip between triangles (case 9, :mod:`raycast_shade.cast`).
 
 The last section is a property test (hypothesis) over random, degenerate
 scenes.
@@ -254,7 +253,7 @@ def test_3_opposite_vertex_normals_are_turned_to_the_face():
     interpolated normal is +-z or zero. Phong negates nothing (the grid is
     seen from its front) and reflects -z across the tangent plane to +z: the
     normal buffer is the face normal everywhere, and the image is flat
-    shading's (measured max difference 0). Gouraud: see the xfail test
+    shading's (measured max difference 0). Gouraud: see
     ``test_3_6_gouraud_orients_corner_normals_like_phong``."""
     xs = np.linspace(-1.0, 1.0, 7)
     sign = np.where((np.add.outer(np.arange(7), np.arange(7)) % 2) == 0, 1.0, -1.0).ravel()
@@ -627,7 +626,7 @@ def test_6_inconsistent_winding_with_given_normals_mirrors_phongs_tilt():
     faces the normal is exactly the exact normal's mirror image (checked
     below), an error of twice the angle between exact and face normal:
     measured RMSE 0.021 (vs 0.0030 consistent), p95 normal error 6.5 degrees.
-    Gouraud is worse, see the xfail test below."""
+    Gouraud: see the test below."""
     ico, bad, sel = _flipped_sphere(normals=True)
     scene = _sphere_scene(bad)
     frame = rs.render(scene, "phong")
@@ -648,12 +647,6 @@ def test_6_inconsistent_winding_with_given_normals_mirrors_phongs_tilt():
     assert e_good < 0.005 and e_bad < 0.05
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "shading.py bug: a Gouraud corner whose vertex normal points to the far side of its face (opposite "
-    "normals, a wrongly wound face) is lit from behind; Phong reflects such normals into the face's "
-    "hemisphere. Proposed fix: in _interp_gouraud_kernel, when sgn * (n_k . ng) < 0 for a corner, shade "
-    "that corner on the fly (like _corner_shade's zero-normal fallback) with n_k reflected across the "
-    "tangent plane, i.e. Phong's rule at the vertex."))
 def test_3_6_gouraud_orients_corner_normals_like_phong():
     """Gouraud and Phong agree at the vertices for consistent data (see
     test_shading_modes); they should for inconsistent data too. Measured now:
