@@ -38,8 +38,6 @@ REGISTRY = [
          csv=["raster*{s}.csv"], images=["raster*{s}.png"]),
     dict(name="accuracy", module="benchmarks.accuracy", title="Speed against accuracy",
          csv=["accuracy*{s}.csv"], images=["speed_vs_accuracy{s}.png", "convergence{s}.png"]),
-    dict(name="surfaces", module="benchmarks.bench_surfaces", title="Shadows and mirrors: extra casts",
-         csv=["surfaces{s}.csv"], images=[]),
     dict(name="auto", module="benchmarks.bench_auto", title="Auto mode against single methods",
          csv=["auto{s}.csv"], images=[]),
     dict(name="batch", module="benchmarks.bench_batch", title="Batch rendering: serial against Dask workers",

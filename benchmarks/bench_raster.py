@@ -1,0 +1,290 @@
+"""Ray casting against z-buffer rasterization, same Phong shading.
+
+A rasterizer's cost grows with the triangles (every one is projected, set up
+and binned), a ray caster's with the pixels (one BVH descent each); this
+script measures where they cross over.
+
+For each icosphere (subdivisions 3..8: 1,280 to 1,310,720 triangles) and each
+resolution (640x480, 1920x1080) it times, as the median of ``--repeats``
+runs after a JIT warm-up:
+
+* ``visibility``: ``cast_camera`` (Embree) or ``rasterize`` (the hit buffer);
+* ``shade``: Phong shading of that hit buffer (the same kernel for both);
+* ``build``: the Embree BVH build, once per mesh (the rasterizer needs none),
+  which a one-shot frame pays and an animation amortises.
+
+JIT compilation is timed apart: from scratch in a fresh interpreter with an
+empty, temporary Numba cache (the project's cache is not touched), and the
+first calls of this process (cache loads) before any timing. Results go to a
+CSV and a two-panel log-log chart (visibility alone; the whole frame).
+
+Usage::
+
+    python benchmarks/bench_raster.py            # the full run (minutes)
+    python benchmarks/bench_raster.py --quick    # small sizes, a smoke test
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+import raycast_shade as rs  # noqa: E402
+from raycast_shade.raster import rasterize  # noqa: E402
+from raycast_shade.shading import shade  # noqa: E402
+
+FULL_SUBDIVISIONS = (3, 4, 5, 6, 7, 8)
+FULL_RESOLUTIONS = ((640, 480), (1920, 1080))
+QUICK_SUBDIVISIONS = (2, 3, 4)
+QUICK_RESOLUTIONS = ((160, 120), (320, 240))
+
+FIELDS = ["subdivisions", "triangles", "width", "height", "method", "visibility_s", "shade_s", "frame_s",
+          "build_s", "frame_with_build_s", "repeats", "threads", "compile_s", "shade_compile_s"]
+
+
+def make_scene(subdivisions):
+    mesh = rs.shapes.icosphere(subdivisions)
+    material = rs.Material(kd=(0.8, 0.4, 0.2), ks=0.5, shininess=40.0)
+    light = rs.PointLight((2.0, 3.0, 4.0), intensity=20.0, attenuation="inverse_square")
+    return rs.Scene([rs.Model(mesh, material)], lights=[light], ambient=0.05)
+
+
+def make_camera(width, height):
+    return rs.Camera(eye=(0.3, 0.5, 3.0), target=(0.0, 0.0, 0.0), width=width, height=height, fov=45.0)
+
+
+def median_time(fn, repeats):
+    times = []
+    out = None
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t0)
+    return float(np.median(times)), out
+
+
+def warm_up():
+    """First calls on a tiny scene: JIT compilation or cache load, timed apart."""
+    scene = make_scene(1)
+    camera = make_camera(32, 24)
+    geo = scene.geometry
+    geo.accel  # noqa: B018 - Embree itself is not JIT-compiled
+    first = {}
+    for name, fn in (("raycast", lambda: rs.cast_camera(geo, camera)), ("raster", lambda: rasterize(geo, camera))):
+        t0 = time.perf_counter()
+        hits = fn()
+        first[name] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        fn()
+        first[name] -= time.perf_counter() - t0
+    t0 = time.perf_counter()
+    shade(scene, camera, hits, "phong")
+    first["shade"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    shade(scene, camera, hits, "phong")
+    first["shade"] -= time.perf_counter() - t0
+    return first
+
+
+_COLD = """
+import json, sys, time
+sys.path.insert(0, {root!r})
+t0 = time.perf_counter()
+import raycast_shade as rs
+from raycast_shade.raster import rasterize
+from raycast_shade.shading import shade
+out = {{"import": time.perf_counter() - t0}}
+scene = rs.Scene([rs.Model(rs.shapes.icosphere(1))], lights=[rs.PointLight((2.0, 3.0, 4.0))])
+camera = rs.Camera(eye=(0.3, 0.5, 3.0), width=32, height=24)
+scene.geometry.accel
+for name, fn in (("raycast", lambda: rs.cast_camera(scene.geometry, camera)),
+                 ("raster", lambda: rasterize(scene.geometry, camera))):
+    t0 = time.perf_counter()
+    hits = fn()
+    out[name] = time.perf_counter() - t0
+t0 = time.perf_counter()
+shade(scene, camera, hits, "phong")
+out["shade"] = time.perf_counter() - t0
+print(json.dumps(out))
+"""
+
+
+def cold_compile():
+    """JIT compile times from scratch: a fresh interpreter with an empty,
+    temporary Numba cache (the project's cache is left alone)."""
+    import json
+    import subprocess
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        env = dict(os.environ, NUMBA_CACHE_DIR=tmp)
+        res = subprocess.run([sys.executable, "-c", _COLD.format(root=str(ROOT))], env=env, capture_output=True,
+                             text=True, check=True)
+    return json.loads(res.stdout.strip().splitlines()[-1])
+
+
+def run(subdivisions, resolutions, repeats, log=print):
+    import numba
+
+    threads = numba.get_num_threads()
+    rows = []
+    for sub in subdivisions:
+        scene = make_scene(sub)
+        geo = scene.geometry
+        t0 = time.perf_counter()
+        geo.accel  # noqa: B018 - the BVH, built once per mesh
+        build = time.perf_counter() - t0
+        ntri = len(geo.faces)
+        for width, height in resolutions:
+            camera = make_camera(width, height)
+            for method, fn in (("raycast", lambda: rs.cast_camera(geo, camera)),
+                               ("raster", lambda: rasterize(geo, camera))):
+                fn()  # first call at this size: page in the buffers
+                vis, hits = median_time(fn, repeats)
+                sh, _ = median_time(lambda: shade(scene, camera, hits, "phong"), repeats)
+                b = build if method == "raycast" else 0.0
+                rows.append(dict(subdivisions=sub, triangles=ntri, width=width, height=height, method=method,
+                                 visibility_s=vis, shade_s=sh, frame_s=vis + sh, build_s=b,
+                                 frame_with_build_s=vis + sh + b, repeats=repeats, threads=threads))
+                log(f"  {ntri:>9,d} tris {width}x{height} {method:8s} visibility {vis * 1e3:8.2f} ms"
+                    f"  shade {sh * 1e3:7.2f} ms  build {b * 1e3:7.2f} ms")
+    return rows
+
+
+def crossovers(rows, key="frame_s"):
+    """Triangle counts where the rasterizer stops winning, per resolution
+    (log-log interpolation between the measured sizes); None if it never
+    crosses in the range."""
+    out = {}
+    for res in sorted({(r["width"], r["height"]) for r in rows}):
+        sel = [r for r in rows if (r["width"], r["height"]) == res]
+        tris = sorted({r["triangles"] for r in sel})
+        ratio = []
+        for n in tris:
+            rc = next(r[key] for r in sel if r["triangles"] == n and r["method"] == "raycast")
+            ra = next(r[key] for r in sel if r["triangles"] == n and r["method"] == "raster")
+            ratio.append(np.log(ra / rc))
+        out[res] = None
+        for i in range(len(tris) - 1):
+            if ratio[i] < 0 <= ratio[i + 1]:
+                a, b = np.log(tris[i]), np.log(tris[i + 1])
+                out[res] = float(np.exp(a + (b - a) * (-ratio[i]) / (ratio[i + 1] - ratio[i])))
+                break
+    return out
+
+
+def write_csv(rows, path):
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=FIELDS, restval="")
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in r.items()})
+
+
+def plot(rows, path, first_calls=None, title_note=""):
+    """Two log-log panels: visibility alone, and the whole frame."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.ticker import FuncFormatter
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig, axes = plt.subplots(1, 2, figsize=(12.0, 5.2), dpi=110)
+    colours = {"raycast": "tab:blue", "raster": "tab:red"}
+    styles = ["-", "--", ":", "-."]
+    resolutions = sorted({(r["width"], r["height"]) for r in rows}, key=lambda wh: wh[0] * wh[1])
+    for ax, key, label in ((axes[0], "visibility_s", "visibility only (hit buffer), ms"),
+                           (axes[1], "frame_s", "frame: visibility + Phong shading, ms")):
+        for k, res in enumerate(resolutions):
+            ls = styles[k % len(styles)]
+            for method in ("raycast", "raster"):
+                sel = sorted((r for r in rows if (r["width"], r["height"]) == res and r["method"] == method),
+                             key=lambda r: r["triangles"])
+                x = [r["triangles"] for r in sel]
+                ax.plot(x, [r[key] * 1e3 for r in sel], ls, marker="o", ms=4, color=colours[method],
+                        label=f"{method} {res[0]}x{res[1]}")
+                if method == "raycast":
+                    ax.plot(x, [(r[key] + r["build_s"]) * 1e3 for r in sel], ls, color=colours[method],
+                            alpha=0.35, lw=1, label=f"raycast + BVH build {res[0]}x{res[1]}")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        fmt = FuncFormatter(lambda v, _: f"{v:g}")
+        ax.yaxis.set_major_formatter(fmt)
+        ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:,.0f}"))
+        bottom = ax.get_ylim()[0]
+        cross = crossovers(rows, key)
+        for k, res in enumerate(resolutions):
+            if cross.get(res):
+                ax.axvline(cross[res], color="grey", ls=styles[k % len(styles)], lw=0.8)
+                ax.annotate(f"crossover {res[0]}x{res[1]}\n~{cross[res]:,.0f} triangles", (cross[res], bottom),
+                            xytext=(4, 8 + 26 * k), textcoords="offset points", fontsize=7, color="dimgrey")
+        ax.set_xlabel("triangles (icosphere)")
+        ax.set_ylabel(label)
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0].legend(fontsize=7, ncol=2)
+    note = ""
+    if first_calls:
+        note = "; JIT compile apart: " + ", ".join(f"{k} {v:.1f} s" for k, v in first_calls.items())
+    threads = rows[0]["threads"] if rows else "?"
+    fig.suptitle(f"Ray casting (Embree) vs z-buffer rasterization{title_note}: median of repeats after warm-up, "
+                 f"{threads} threads{note}", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--quick", action="store_true", help="small meshes and images only (a smoke test)")
+    ap.add_argument("--compile", action="store_true", help="measure cold JIT compile times in --quick mode too")
+    ap.add_argument("--no-compile", action="store_true", help="skip the cold JIT compile measurement")
+    ap.add_argument("--repeats", type=int, default=None, help="timed runs per point (default 7, quick 3)")
+    ap.add_argument("--csv", default=None, help="output CSV (default benchmarks/results/raster_vs_raycast[_quick].csv)")
+    ap.add_argument("--png", default=None, help="output chart (default docs/images/raster_vs_raycast[_quick].png)")
+    args = ap.parse_args(argv)
+    suffix = "_quick" if args.quick else ""
+    csv_path = args.csv or ROOT / "benchmarks" / "results" / f"raster_vs_raycast{suffix}.csv"
+    png_path = args.png or ROOT / "docs" / "images" / f"raster_vs_raycast{suffix}.png"
+    repeats = args.repeats or (3 if args.quick else 7)
+    if repeats < 1:
+        ap.error("--repeats: must be >= 1")
+    subs = QUICK_SUBDIVISIONS if args.quick else FULL_SUBDIVISIONS
+    resolutions = QUICK_RESOLUTIONS if args.quick else FULL_RESOLUTIONS
+    if args.compile or (not args.quick and not args.no_compile):
+        cold = cold_compile()
+        print("JIT compile from scratch (fresh process, empty cache): "
+              + ", ".join(f"{k} {v:.1f} s" for k, v in cold.items() if k != "import"))
+    else:
+        cold = None
+    warm = warm_up()
+    print("first calls in this process (cache load), apart from the timings: "
+          + ", ".join(f"{k} {v:.2f} s" for k, v in warm.items()))
+    first = {k: v for k, v in cold.items() if k != "import"} if cold else None
+    rows = run(subs, resolutions, repeats)
+    if cold:
+        for r in rows:
+            r["compile_s"] = cold[r["method"]]
+            r["shade_compile_s"] = cold["shade"]
+    write_csv(rows, csv_path)
+    plot(rows, png_path, first, " (quick)" if args.quick else "")
+    for res, n in crossovers(rows).items():
+        where = f"~{n:,.0f} triangles" if n else "not within the measured range"
+        print(f"crossover at {res[0]}x{res[1]}: {where}")
+    print(f"wrote {os.path.relpath(csv_path)} and {os.path.relpath(png_path)}")
+
+
+if __name__ == "__main__":
+    main()
