@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .bump import HeightMap
 from .camera import Camera
 from .lights import DirectionalLight, PointLight
 from .material import Material
@@ -58,9 +59,10 @@ def demo_scene(width: int = DEFAULT_WIDTH, height: int = DEFAULT_HEIGHT) -> Scen
     """Three coarse, glossy objects on a floor, under four coloured lights.
 
     Left to right: a red low-poly sphere (8 rings x 12 segments), an orange
-    egg (a 10 x 14 sphere stretched along y) and a blue torus tilted towards
-    the camera (16 x 8 segments), each with a Phong specular term; then a
-    grey, slightly glossy floor of 8 x 8 squares.
+    egg (a 10 x 14 sphere stretched along y, dimpled by a bump map) and a
+    blue torus tilted towards the camera (16 x 8 segments), each with a Phong
+    specular term; a grey, slightly glossy floor of 8 x 8 squares, and a
+    square mirror behind the egg. The key light casts shadows.
 
     Parameters
     ----------
@@ -78,9 +80,14 @@ def demo_scene(width: int = DEFAULT_WIDTH, height: int = DEFAULT_HEIGHT) -> Scen
     floor = plane(size=14.0, subdivisions=8, center=(0.0, 0.0, -3.0), normal="+y", name="floor")
     models = [
         Model(sphere, Material(kd=(0.85, 0.18, 0.12), ka=(0.85, 0.18, 0.12), ks=0.7, shininess=40)),
-        Model(egg, Material(kd=(0.95, 0.62, 0.12), ka=(0.95, 0.62, 0.12), ks=0.6, shininess=60)),
+        # Dimpled by a Blinn bump map: only Phong, which has a normal per pixel, shows it.
+        Model(egg, Material(kd=(0.95, 0.62, 0.12), ka=(0.95, 0.62, 0.12), ks=0.6, shininess=60,
+                            bump=HeightMap.dimples(6, 0.35, resolution=256, scale=-0.012, tiling=(2.0, 2.0)))),
         Model(ring, Material(kd=(0.15, 0.4, 0.9), ka=(0.15, 0.4, 0.9), ks=0.8, shininess=30)),
         Model(floor, Material(kd=0.4, ka=0.4, ks=0.3, shininess=20)),
+        # A mirror behind the egg shows the objects' backs (traced per point in every mode).
+        Model(plane(size=2.6, center=(0.0, 1.3, -2.4), normal="+z", name="mirror"),
+              Material(kd=0.05, ka=0.05, ks=0.0, reflectivity=0.85)),
     ]
     lights = [
         PointLight((2.0, 5.0, 3.0), intensity=30.0, color=(1.0, 0.92, 0.78), attenuation="inverse_square", shadows=True,

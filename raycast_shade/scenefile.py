@@ -75,7 +75,14 @@ _TOP_KEYS = ("ambient", "background", "camera", "object", "light", "render")
 _CAMERA_KEYS = ("eye", "target", "up", "fov", "width", "height", "projection", "ortho_height")
 _OBJECT_KEYS = ("shape", "mesh", "name", "normals", "weighting", "crease_angle", "scale", "rotate", "translate",
                 "material")
-_MATERIAL_KEYS = ("kd", "ka", "ks", "shininess", "specular", "reflectivity", "name")
+_MATERIAL_KEYS = ("kd", "ka", "ks", "shininess", "specular", "reflectivity", "bump", "name")
+# [object.material.bump]: a height map from an image file or a procedural pattern.
+_BUMP_COMMON = ("scale", "wrap", "tiling")
+_BUMP_KEYS = {
+    "image": ("image",) + _BUMP_COMMON,
+    "dimples": ("pattern", "count", "radius", "resolution") + _BUMP_COMMON,
+    "wrinkles": ("pattern", "frequency", "octaves", "seed", "resolution") + _BUMP_COMMON,
+}
 _LIGHT_KEYS = {
     "point": ("type", "position", "intensity", "color", "attenuation", "k", "shadows", "name"),
     "directional": ("type", "direction", "intensity", "color", "shadows", "name"),
@@ -225,10 +232,27 @@ def _choice(value, where: str, choices) -> str:
     return _call(where, as_choice, value, where, choices)
 
 
-def _material(table, where: str) -> Material:
+def _bump(table, where: str, base_dir: str):
+    from .bump import HeightMap
+
+    bump = dict(_table(table, where))
+    if "image" in bump:
+        _check_keys(bump, where, _BUMP_KEYS["image"])
+        path = os.path.normpath(os.path.join(base_dir, bump.pop("image")))
+        return _call(where, HeightMap.from_image, path, **bump)
+    if "pattern" not in bump:
+        raise _Invalid(where, "needs 'image = \"path\"' or 'pattern = \"dimples\"' / 'pattern = \"wrinkles\"'")
+    kind = _choice(bump.pop("pattern"), f"{where}.pattern", ("dimples", "wrinkles"))
+    _check_keys(dict(bump, pattern=kind), where, _BUMP_KEYS[kind])
+    return _call(where, getattr(HeightMap, kind), **bump)
+
+
+def _material(table, where: str, base_dir: str = ".") -> Material:
     mat = dict(_table(table, where))
     _check_keys(mat, where, _MATERIAL_KEYS)
     mat.setdefault("name", where)
+    if "bump" in mat:
+        mat["bump"] = _bump(mat["bump"], f"{where}.bump", base_dir)
     return _call(where, Material, **mat)
 
 
@@ -285,7 +309,7 @@ def _build(data: dict, base_dir: str):
     for i, obj in enumerate(objects):
         where = f"object[{i}]"
         mesh = _mesh(obj, where, base_dir)
-        material = _material(obj.get("material", {}), f"{where}.material")
+        material = _material(obj.get("material", {}), f"{where}.material", base_dir)
         models.append(Model(mesh, material))
     lights = [_light(t, f"light[{i}]") for i, t in enumerate(_tables(data, "light"))]
     ambient = _call("ambient", as_rgb, data.get("ambient", 0.1), "ambient")

@@ -338,3 +338,62 @@ def test_missing_scene_file(tmp_path):
 
 def test_scene_file_error_is_a_value_error():
     assert issubclass(SceneFileError, ValueError)
+
+
+BUMPED = MINIMAL.replace('shape = "icosphere"', 'shape = "uv_sphere"').replace("subdivisions = 1", "rings = 8\nsegments = 16")
+
+
+def test_bump_pattern_equals_python_construction(write):
+    path = write(BUMPED + """
+[[light]]
+type = "directional"
+direction = [-1.0, -1.0, -1.0]
+
+[object.material]
+ks = 0.5
+[object.material.bump]
+pattern = "dimples"
+count = 5
+radius = 0.3
+resolution = 64
+scale = -0.02
+tiling = [2.0, 1.0]
+""")
+    scene, _ = load_scene(path)
+    hm = scene.models[0].material.bump
+    ref = rs.HeightMap.dimples(5, 0.3, resolution=64, scale=-0.02, tiling=(2.0, 1.0))
+    np.testing.assert_array_equal(hm.heights, ref.heights)
+    assert (hm.scale, hm.tiling, hm.wrap) == (-0.02, (2.0, 1.0), "repeat")
+    # it renders, and the bump shows in Phong only
+    flat = rs.render(scene, "flat").image
+    plain = rs.render(scene.replace(models=(rs.Model(scene.models[0].mesh, rs.Material(ks=0.5)),)), "phong").image
+    assert np.abs(rs.render(scene, "phong").image - plain).max() > 1e-3
+    assert np.isfinite(flat).all()
+
+
+def test_bump_image_relative_to_scene_file(write, tmp_path):
+    import imageio.v3 as iio
+
+    img = (np.add.outer(np.arange(16), np.arange(16)) * 8).astype(np.uint8)
+    iio.imwrite(tmp_path / "h.png", img)
+    path = write(BUMPED + """
+[object.material.bump]
+image = "h.png"
+wrap = "clamp"
+""")
+    scene, _ = load_scene(path)
+    ref = rs.HeightMap.from_image(tmp_path / "h.png", wrap="clamp")
+    np.testing.assert_array_equal(scene.models[0].material.bump.heights, ref.heights)
+
+
+@pytest.mark.parametrize("table, match", [
+    ('pattern = "ripples"', r"object\[0\]\.material\.bump\.pattern"),
+    ('pattern = "dimples"\nfrequency = 3', r"object\[0\]\.material\.bump: unknown key 'frequency'"),
+    ("scale = 0.1", r"object\[0\]\.material\.bump: needs 'image"),
+    ('image = "missing.png"', r"image not found"),
+    ('pattern = "wrinkles"\noctaves = 0', r"octaves"),
+])
+def test_bad_bump_tables(write, table, match):
+    path = write(BUMPED + "\n[object.material.bump]\n" + table + "\n")
+    with pytest.raises(SceneFileError, match=match):
+        load_scene(path)
