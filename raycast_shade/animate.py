@@ -394,36 +394,6 @@ def animate(scene: Scene, output, *, orbit: str = "camera", frames: int = 36, li
 # -- command line ----------------------------------------------------------------------------------------
 
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer > 0, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected an integer > 0, got {text!r}")
-    return value
-
-
-def _index(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}")
-    return value
-
-
-def _positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}") from None
-    if not 0 < value < float("inf"):
-        raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text!r}")
-    return value
-
-
 def _finite_float(text: str) -> float:
     try:
         value = float(text)
@@ -467,6 +437,10 @@ def register_cli(subparsers):
     argparse.ArgumentParser
         The ``animate`` parser; dispatch its parsed arguments to :func:`run_cli`.
     """
+    # The CLI's own argument types (cli imports this module lazily: no cycle).
+    from .cli import _nonnegative_int as _index
+    from .cli import _positive_float, _positive_int
+
     p = subparsers.add_parser(
         "animate", help="render a camera turntable or a light orbit as GIF, MP4 or PNG frames",
         description="Render an orbit animation of a TOML scene file: the camera turns about its target "
