@@ -42,6 +42,9 @@ REGISTRY = [
          csv=["auto{s}.csv"], images=[]),
     dict(name="batch", module="benchmarks.bench_batch", title="Batch rendering: serial against Dask workers",
          csv=["batch{s}.csv"], images=[]),
+    dict(name="surfaces", module="benchmarks.bench_surfaces",
+         title="Surfaces: two shadowing lights and a mirror against the primary-only frame",
+         csv=["surfaces{s}.csv"], images=[]),
 ]
 
 

@@ -82,7 +82,7 @@ def demo_scene(width: int = DEFAULT_WIDTH, height: int = DEFAULT_HEIGHT) -> Scen
         Model(sphere, Material(kd=(0.85, 0.18, 0.12), ka=(0.85, 0.18, 0.12), ks=0.7, shininess=40)),
         # Dimpled by a Blinn bump map: only Phong, which has a normal per pixel, shows it.
         Model(egg, Material(kd=(0.95, 0.62, 0.12), ka=(0.95, 0.62, 0.12), ks=0.6, shininess=60,
-                            bump=HeightMap.dimples(6, 0.35, resolution=256, scale=-0.012, tiling=(2.0, 2.0)))),
+                            bump=HeightMap.dimples(6, 0.35, resolution=256, scale=0.012, tiling=(2.0, 2.0)))),
         Model(ring, Material(kd=(0.15, 0.4, 0.9), ka=(0.15, 0.4, 0.9), ks=0.8, shininess=30)),
         Model(floor, Material(kd=0.4, ka=0.4, ks=0.3, shininess=20)),
         # A mirror behind the egg shows the objects' backs (traced per point in every mode).

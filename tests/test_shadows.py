@@ -281,7 +281,7 @@ def test_terminator_fix_removes_false_shadows(name, mesh, light_pos):
     MEASURED[name, light_pos] = (lit, with_fix, without_fix)
     assert lit > 1000
     # Without the fix a coarse sphere shadows itself along the whole
-    # terminator: at least 2.5% of its lit pixels (measured 3.6-14%).
+    # terminator: at least 2.5% of its lit pixels (measured 4.6-14.2% at 160x160).
     assert without_fix > 0.025 * lit, (without_fix, lit)
     # The NumPy replica of the fixed shadow rays agrees with the renderer ...
     assert abs(replica - with_fix) <= max(2, 0.001 * lit)
