@@ -404,15 +404,6 @@ def _finite_float(text: str) -> float:
     return value
 
 
-def _gamma(text: str):
-    if text.lower() == "srgb":
-        return "srgb"
-    try:
-        return _positive_float(text)
-    except argparse.ArgumentTypeError:
-        raise argparse.ArgumentTypeError(f"expected 'srgb' or a number > 0, got {text!r}") from None
-
-
 _CLI_EPILOG = """\
 examples:
   raycast-shade animate scene.toml --orbit camera --frames 36 -o turntable.gif
@@ -438,8 +429,8 @@ def register_cli(subparsers):
         The ``animate`` parser; dispatch its parsed arguments to :func:`run_cli`.
     """
     # The CLI's own argument types (cli imports this module lazily: no cycle).
+    from .cli import _gamma, _positive_float, _positive_int
     from .cli import _nonnegative_int as _index
-    from .cli import _positive_float, _positive_int
 
     p = subparsers.add_parser(
         "animate", help="render a camera turntable or a light orbit as GIF, MP4 or PNG frames",

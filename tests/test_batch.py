@@ -440,3 +440,21 @@ def iio_shape(path):
     import imageio.v3 as iio
 
     return iio.imread(path).shape
+
+
+def test_cli_animate_tone_options(tmp_path):
+    """--gamma and --exposure parse through the real raycast-shade parser and
+    change the written frames (linear gamma darkens mid-tones against sRGB)."""
+    import imageio.v3 as iio
+
+    from raycast_shade.cli import main
+
+    path = tmp_path / "ball.toml"
+    path.write_text(SCENE_TOML)
+    common = ["animate", str(path), "--frames", "2", "--width", "32", "--height", "24", "--no-progress"]
+    assert main(common + ["-o", str(tmp_path / "srgb.gif")]) == 0
+    assert main(common + ["--gamma", "1", "--exposure", "1.0", "-o", str(tmp_path / "lin.gif")]) == 0
+    srgb = iio.imread(tmp_path / "srgb.gif").astype(int)
+    lin = iio.imread(tmp_path / "lin.gif").astype(int)
+    assert srgb.shape == lin.shape and srgb.sum() > lin.sum()
+    assert main(common + ["--gamma", "bright", "-o", str(tmp_path / "bad.gif")]) == 2
