@@ -13,6 +13,11 @@ it directly:
   declared as external symbols for Numba, so ray generation, traversal and
   hit unpacking run in one parallel kernel, with no Python per ray or chunk.
   Symbols (not addresses) keep ``cache=True`` valid across processes.
+* camera packets pass ``RTCIntersectArguments`` with
+  ``RTC_RAY_QUERY_FLAG_COHERENT``: without it (a NULL argument means
+  "incoherent") Embree never takes its coherent packet path, and primary
+  rays cost about twice as much (measured: 90 ms against 47 ms for a 1080p
+  frame of an 81,920-triangle sphere on 2 cores; the hits are bit-identical).
 
 Struct layouts (Embree 4 ``rtcore_ray.h``), as float32 slots:
 ``RTCRayHit`` = org xyz, tnear, dir xyz, time, tfar, mask, id, flags |
@@ -43,6 +48,12 @@ _RTC_GEOMETRY_TYPE_TRIANGLE = 0
 _RTC_SCENE_FLAG_ROBUST = 1 << 2
 _RTC_BUILD_QUALITY_HIGH = 2
 _RTC_DEVICE_PROPERTY_VERSION = 0
+# RTCIntersectArguments (rtcore_scene.h): flags, feature_mask, then three
+# pointers (context, filter, intersect), all zero = Embree's defaults.
+# 16 uint32 slots cover it, with room for the optional minWidth float.
+ARGS_SLOTS = 16
+RAY_QUERY_FLAG_COHERENT = 1 << 16
+FEATURE_FLAG_ALL = 0xFFFFFFFF
 _ERRORS = {
     0: "none",
     1: "unknown error",

@@ -4,8 +4,9 @@ Two casters fill the same :class:`HitBuffer`:
 
 ``"embree"`` (default)
     One parallel Numba kernel generates the camera rays in 4x2-pixel tiles,
-    traces each tile as an 8-ray packet with ``rtcIntersect8`` (coherent
-    primary rays share BVH traversal) and unpacks the hits. Nothing crosses
+    traces each tile as an 8-ray packet with ``rtcIntersect8``, flagged
+    coherent so that the primary rays share BVH traversal, and unpacks the
+    hits. Nothing crosses
     into Python per ray or per chunk.
 ``"embreex"``
     Rays from a Numba kernel, then embreex's ``EmbreeScene.run`` over chunks
@@ -59,6 +60,13 @@ def _cast_camera_kernel(scene, cam, prim, geom, u, v, t):
         vbuf = np.empty(16, np.int32)
         vbase = vbuf.ctypes.data
         voff = ((32 - vbase % 32) % 32) // 4
+        # RTCIntersectArguments (8-byte aligned): the coherent flag lets
+        # Embree trace the tile's rays as one frustum.
+        abuf = np.zeros(_embree.ARGS_SLOTS + 2, np.uint32)
+        aoff = ((8 - abuf.ctypes.data % 8) % 8) // 4
+        abuf[aoff] = _embree.RAY_QUERY_FLAG_COHERENT
+        abuf[aoff + 1] = _embree.FEATURE_FLAG_ALL
+        args = abuf.ctypes.data + aoff * 4
         for tx in range(ntx):
             for k in range(8):
                 x = tx * _TILE_W + (k & 3)
@@ -83,7 +91,7 @@ def _cast_camera_kernel(scene, cam, prim, geom, u, v, t):
                 ib[off + 11 * 8 + k] = 0  # flags
                 ib[off + 17 * 8 + k] = 0xFFFFFFFF  # primID
                 ib[off + 18 * 8 + k] = 0xFFFFFFFF  # geomID
-            _embree.intersect8(vbase + voff * 4, scene, base + off * 4, 0)
+            _embree.intersect8(vbase + voff * 4, scene, base + off * 4, args)
             for k in range(8):
                 x = tx * _TILE_W + (k & 3)
                 y = ty * _TILE_H + (k >> 2)
@@ -197,6 +205,28 @@ def cast_camera(geometry, camera, caster: str = "auto", threads: int = 2) -> Hit
 _JITTER = (1e-3, 1e-2)  # pixels: the re-cast rays' distance from the pixel centre, per round
 
 
+@njit(cache=True, parallel=True)
+def _count_isolated_kernel(prim):
+    """How many pixels :func:`_isolated_misses` would flag.
+
+    Nearly every frame has none, so the renderer asks this parallel count
+    first (about 0.3 ms at 1080p, where the NumPy mask and ``nonzero``
+    cost about 6 ms) and builds the mask only when it is not zero."""
+    h, w = prim.shape
+    rows = np.zeros(h, np.int64)
+    for y in prange(h):
+        row = 0
+        for x in range(w):
+            if prim[y, x] >= 0:
+                continue
+            if 0 < x < w - 1 and prim[y, x - 1] >= 0 and prim[y, x + 1] >= 0:
+                row += 1
+            elif 0 < y < h - 1 and prim[y - 1, x] >= 0 and prim[y + 1, x] >= 0:
+                row += 1
+        rows[y] = row
+    return rows.sum()
+
+
 def _isolated_misses(prim):
     """(H, W) bool: misses between hits, left and right or above and below."""
     hit = np.pad(prim >= 0, 1, constant_values=False)
@@ -220,6 +250,8 @@ def _rays_at(cam, xs, ys):
 
 def _fill_holes(geometry, cam, hits, caster):
     """Re-cast isolated misses (see the module docstring); updates ``hits`` in place."""
+    if _count_isolated_kernel(hits.prim) == 0:
+        return
     ys, xs = np.nonzero(_isolated_misses(hits.prim))
     for jitter in _JITTER:
         if len(ys) == 0:

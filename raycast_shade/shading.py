@@ -44,6 +44,15 @@ meshes with smooth normals do not shadow themselves at the terminator.
 
 Kernels are private, parallel, and work in float64; their plain-NumPy twins
 live in :mod:`raycast_shade.reference`.
+
+Speed notes. The kernels take the packed tuples of :func:`kernel_inputs` but
+unpack them once, outside the pixel loop, and hand plain arrays to the inlined
+helpers: unpacking a tuple of arrays inside the loop makes Numba take and drop
+a reference on every array for every pixel (atomic operations on counters
+that both threads share), which cost more than the shading arithmetic
+(a 1080p Phong frame: 36 ms before, see ``benchmarks/results/core.csv``).
+Integer shininess, the usual case, is raised by repeated squaring rather than
+``pow``.
 """
 
 from __future__ import annotations
@@ -97,8 +106,12 @@ def _nudge(p, n, unit):
 
 
 @njit(inline="always", **_jit)
-def _occluded(handle, buf, ib, off, addr, px, py, pz, gx, gy, gz, sx, sy, sz, lx, ly, lz, is_point, unit):
-    """True if the scene blocks the way from p towards the light."""
+def _occluded(handle, S, px, py, pz, gx, gy, gz, sx, sy, sz, lx, ly, lz, is_point, unit):
+    """True if the scene blocks the way from p towards the light.
+
+    ``S`` is the scratch from :func:`_scratch`, unpacked only here: shadow
+    rays are the rare path, and the unpacking costs reference counting."""
+    buf, ib, off, addr = S
     side = 1.0 if gx * sx + gy * sy + gz * sz >= 0.0 else -1.0
     ox = _nudge(px, side * gx, unit)
     oy = _nudge(py, side * gy, unit)
@@ -133,35 +146,53 @@ def _occluded(handle, buf, ib, off, addr, px, py, pz, gx, gy, gz, sx, sy, sz, lx
 # the reflectance equation
 
 
-def _illuminate_py(px, py, pz, nx, ny, nz, vx, vy, vz, mats, mi, L, S, ox, oy, oz, gx, gy, gz, spec_on, att_on):
+@njit(inline="always", **_jit)
+def _power(c, t):
+    """``c ** t`` for ``0 <= c <= 1``: repeated squaring when ``t`` is a whole
+    number up to 4096 (a few multiplications, within a few ulps of ``pow``,
+    which costs several times more), ``pow`` otherwise."""
+    n = int(t)
+    if n != t or n > 4096:
+        return c ** t
+    r = 1.0
+    while n > 0:
+        if n & 1:
+            r *= c
+        c *= c
+        n >>= 1
+    return r
+
+
+def _illuminate_py(px, py, pz, nx, ny, nz, vx, vy, vz, mats, mi, ambient, lights, dmin, handle, unit, S,
+                   ox, oy, oz, gx, gy, gz, spec_on, att_on):
     """RGB reflected towards unit ``v`` at point ``p`` with unit normal ``n``.
 
     ``mats[mi]`` is the material row (indexed, not sliced: a slice per pixel
-    would cost an atomic reference count shared by all threads). ``L`` is
-    the packed lights tuple, ``S`` the shadow-ray scratch; shadow rays start
-    at ``o`` pushed off along ``g``. ``spec_on`` and ``att_on`` are
-    compile-time constants (see :func:`_make_kernels`): a scene with no
-    specular material or no attenuating light compiles without that arithmetic.
+    would cost an atomic reference count shared by all threads).
+    ``ambient`` (3,), ``lights`` (L, 10), ``dmin``, ``handle`` and ``unit`` are
+    the unpacked ``L`` of :func:`kernel_inputs`; ``S`` is the shadow-ray
+    scratch; shadow rays start at ``o`` pushed off along ``g``. ``spec_on``
+    and ``att_on`` are compile-time constants (see :func:`_make_kernels`): a
+    scene with no specular material or no attenuating light compiles without
+    that arithmetic.
     """
-    ambient, lkind, lvec, lrad, latt, lk, lshadow, dmin, handle, unit = L
-    buf, ib, off, addr = S
     r = ambient[0] * mats[mi, 0]
     g = ambient[1] * mats[mi, 1]
     b = ambient[2] * mats[mi, 2]
     shin = mats[mi, 9]
     blinn = mats[mi, 10] != 0.0
     has_spec = mats[mi, 6] > 0.0 or mats[mi, 7] > 0.0 or mats[mi, 8] > 0.0
-    for i in range(lkind.shape[0]):
-        is_point = lkind[i] == 0
+    for i in range(lights.shape[0]):
+        is_point = lights[i, 0] == 0.0
         if not is_point:
-            sx = lvec[i, 0]
-            sy = lvec[i, 1]
-            sz = lvec[i, 2]
+            sx = lights[i, 1]
+            sy = lights[i, 2]
+            sz = lights[i, 3]
             att = 1.0
         else:
-            dx = lvec[i, 0] - px
-            dy = lvec[i, 1] - py
-            dz = lvec[i, 2] - pz
+            dx = lights[i, 1] - px
+            dy = lights[i, 2] - py
+            dz = lights[i, 3] - pz
             d = np.sqrt(dx * dx + dy * dy + dz * dz)
             if d == 0.0:
                 continue  # light on the surface point: no direction, no light
@@ -170,19 +201,19 @@ def _illuminate_py(px, py, pz, nx, ny, nz, vx, vy, vz, mats, mi, L, S, ox, oy, o
             sz = dz / d
             att = 1.0
             if att_on:
-                if latt[i] == 1:
+                if lights[i, 7] == 1.0:
                     dd = max(d, dmin)
                     att = 1.0 / (dd * dd)
-                elif latt[i] == 2:
-                    att = 1.0 / (d + lk[i])
+                elif lights[i, 7] == 2.0:
+                    att = 1.0 / (d + lights[i, 8])
         ndots = nx * sx + ny * sy + nz * sz
         if ndots <= 0.0:
             continue
         if ndots > 1.0:
             ndots = 1.0
-        if lshadow[i] != 0 and handle != 0:
-            if _occluded(handle, buf, ib, off, addr, ox, oy, oz, gx, gy, gz, sx, sy, sz,
-                         lvec[i, 0], lvec[i, 1], lvec[i, 2], is_point, unit):
+        if lights[i, 9] != 0.0 and handle != 0:
+            if _occluded(handle, S, ox, oy, oz, gx, gy, gz, sx, sy, sz,
+                         lights[i, 1], lights[i, 2], lights[i, 3], is_point, unit):
                 continue
         spec = 0.0
         if spec_on and has_spec:
@@ -198,10 +229,10 @@ def _illuminate_py(px, py, pz, nx, ny, nz, vx, vy, vz, mats, mi, L, S, ox, oy, o
                 rz = 2.0 * ndots * nz - sz
                 c = rx * vx + ry * vy + rz * vz
             if c > 0.0:
-                spec = min(c, 1.0) ** shin
-        r += att * lrad[i, 0] * (mats[mi, 3] * ndots + mats[mi, 6] * spec)
-        g += att * lrad[i, 1] * (mats[mi, 4] * ndots + mats[mi, 7] * spec)
-        b += att * lrad[i, 2] * (mats[mi, 5] * ndots + mats[mi, 8] * spec)
+                spec = _power(min(c, 1.0), shin)
+        r += att * lights[i, 4] * (mats[mi, 3] * ndots + mats[mi, 6] * spec)
+        g += att * lights[i, 5] * (mats[mi, 4] * ndots + mats[mi, 7] * spec)
+        b += att * lights[i, 6] * (mats[mi, 5] * ndots + mats[mi, 8] * spec)
     return r, g, b
 
 
@@ -323,15 +354,15 @@ def _bilinear(tex, base, rows, cols, clamp, x, y):
 
 
 @njit(inline="always", **_jit)
-def _bump(nx, ny, nz, f, gm, i0, i1, i2, b1, b2, B, fx, fy, fz):
+def _bump(nx, ny, nz, f, gm, i0, i1, i2, b1, b2, uvs, tangents, bump_index, texels, info, fx, fy, fz):
     """Blinn's perturbed normal N' = N + (Bu (N x Pv) - Bv (N x Pu)) / |N|,
     with N = n |Pu x Pv| along the (oriented) shading normal n.
 
     The surface is displaced along its front (winding) normal ``f``, not
     along ``Pu x Pv``: where the UV map is left-handed (``(Pu x Pv).f < 0``,
     e.g. the spherical mapping seen from outside), the perturbation changes
-    sign, so a negative height is a dent on every mesh."""
-    uvs, tangents, bump_index, texels, info = B
+    sign, so a negative height is a dent on every mesh. The arrays are the
+    unpacked ``B`` of :func:`kernel_inputs`."""
     k = bump_index[gm]
     if k < 0:
         return nx, ny, nz
@@ -376,14 +407,15 @@ def _bump(nx, ny, nz, f, gm, i0, i1, i2, b1, b2, B, fx, fy, fz):
 
 
 @njit(inline="always", **_jit)
-def _surface(G, B, cam, f, gm, b1, b2, use_dir, dx, dy, dz):
+def _surface(verts, normals, faces, fnormals, uvs, tangents, bump_index, texels, info, cam, f, gm, b1, b2,
+             use_dir, dx, dy, dz):
     """Everything about a hit that shading needs.
 
+    The arrays are the unpacked ``G`` and ``B`` of :func:`kernel_inputs`.
     The view vector is towards the eye, or ``-d`` for a secondary ray.
     Returns p, v, oriented geometric normal g, its sign, and the oriented
     (and bumped) shading normal n.
     """
-    verts, normals, faces, fnormals = G
     i0 = faces[f, 0]
     i1 = faces[f, 1]
     i2 = faces[f, 2]
@@ -396,22 +428,29 @@ def _surface(G, B, cam, f, gm, b1, b2, use_dir, dx, dy, dz):
         vx, vy, vz = _view(cam, px, py, pz)
     gx, gy, gz, sgn = _facing(fnormals, f, vx, vy, vz)
     nx, ny, nz = _shading_normal(normals, i0, i1, i2, b1, b2, gx, gy, gz, sgn)
-    nx, ny, nz = _bump(nx, ny, nz, f, gm, i0, i1, i2, b1, b2, B, sgn * gx, sgn * gy, sgn * gz)
+    nx, ny, nz = _bump(nx, ny, nz, f, gm, i0, i1, i2, b1, b2, uvs, tangents, bump_index, texels, info,
+                       sgn * gx, sgn * gy, sgn * gz)
     return px, py, pz, vx, vy, vz, gx, gy, gz, sgn, nx, ny, nz
 
 
 @njit(inline="always", **_jit)
-def _shade_surface(G, B, L, S, materials, cam, f, gm, b1, b2, use_dir, dx, dy, dz, spec_on, att_on):
-    """Phong shading of one hit: colour, plus the point and normals for mirrors."""
-    verts, normals, faces, fnormals = G
-    px, py, pz, vx, vy, vz, gx, gy, gz, sgn, nx, ny, nz = _surface(G, B, cam, f, gm, b1, b2, use_dir, dx, dy, dz)
+def _shade_surface(verts, normals, faces, fnormals, uvs, tangents, bump_index, texels, info,
+                   ambient, lights, dmin, handle, unit, S, materials, cam, f, gm, b1, b2, use_dir, dx, dy, dz,
+                   spec_on, att_on):
+    """Phong shading of one hit: colour, plus the point and normals for mirrors.
+
+    The arrays and scalars before ``S`` are the unpacked ``G``, ``B`` and
+    ``L`` of :func:`kernel_inputs`."""
+    px, py, pz, vx, vy, vz, gx, gy, gz, sgn, nx, ny, nz = _surface(
+        verts, normals, faces, fnormals, uvs, tangents, bump_index, texels, info, cam, f, gm, b1, b2,
+        use_dir, dx, dy, dz)
     ox = px
     oy = py
     oz = pz
-    if L[8] != 0:  # shadow rays will be traced: start them past the terminator
+    if handle != 0:  # shadow rays will be traced: start them past the terminator
         ox, oy, oz = _terminator_point(verts, normals, faces[f, 0], faces[f, 1], faces[f, 2], b1, b2, px, py, pz, sgn)
-    r, g, b = _illuminate(px, py, pz, nx, ny, nz, vx, vy, vz, materials, gm, L, S, ox, oy, oz, gx, gy, gz,
-                          spec_on, att_on)
+    r, g, b = _illuminate(px, py, pz, nx, ny, nz, vx, vy, vz, materials, gm, ambient, lights, dmin, handle, unit, S,
+                          ox, oy, oz, gx, gy, gz, spec_on, att_on)
     return r, g, b, px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz
 
 
@@ -443,7 +482,8 @@ _CHUNK = 1024
 
 
 @njit(inline="always", **_jit)
-def _corner_shade(vcol, normals, verts, i, side, gx, gy, gz, materials, m, cam, L, S, spec_on, att_on):
+def _corner_shade(vcol, normals, verts, i, side, gx, gy, gz, materials, m, cam, ambient, lights, dmin, handle, unit,
+                  S, spec_on, att_on):
     """A vertex's Gouraud shade for a face seen from ``side``.
 
     The precomputed shade serves when the vertex normal (negated on the back
@@ -470,8 +510,8 @@ def _corner_shade(vcol, normals, verts, i, side, gx, gy, gz, materials, m, cam, 
     py = verts[i, 1]
     pz = verts[i, 2]
     vx, vy, vz = _view(cam, px, py, pz)
-    return _illuminate_call(px, py, pz, nx, ny, nz, vx, vy, vz, materials, m, L, S, px, py, pz, gx, gy, gz,
-                            spec_on, att_on)
+    return _illuminate_call(px, py, pz, nx, ny, nz, vx, vy, vz, materials, m, ambient, lights, dmin, handle, unit,
+                            S, px, py, pz, gx, gy, gz, spec_on, att_on)
 
 
 @njit(parallel=True, **_jit)
@@ -496,6 +536,8 @@ def _lookup_flat_kernel(prim, geom, face_off, fcol, background, modes, image):
 @njit(parallel=True, **_jit)
 def _normals_kernel(prim, geom, u, v, G, B, face_off, cam, modes, nbuf):
     """The unit normal each pixel is shaded with, turned to the viewer."""
+    verts, normals, faces, fnormals = G
+    uvs, tangents, bump_index, texels, info = B
     h, w = prim.shape
     for y in prange(h):
         for x in range(w):
@@ -507,7 +549,8 @@ def _normals_kernel(prim, geom, u, v, G, B, face_off, cam, modes, nbuf):
             gm = geom[y, x]
             f = face_off[gm] + p
             _, _, _, _, _, _, gx, gy, gz, _, nx, ny, nz = _surface(
-                G, B, cam, f, gm, np.float64(u[y, x]), np.float64(v[y, x]), False, 0.0, 0.0, 0.0)
+                verts, normals, faces, fnormals, uvs, tangents, bump_index, texels, info, cam, f, gm,
+                np.float64(u[y, x]), np.float64(v[y, x]), False, 0.0, 0.0, 0.0)
             if modes[gm] == 0:
                 nx, ny, nz = gx, gy, gz
             nbuf[y, x, 0] = nx
@@ -534,6 +577,8 @@ def _mirror_ray(px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz, unit):
 @njit(parallel=True, **_jit)
 def _reflect_primary_kernel(prim, geom, u, v, G, B, face_off, materials, cam, unit, origins, dirs, active):
     """Mirror rays from every pixel whose surface reflects."""
+    verts, normals, faces, fnormals = G
+    uvs, tangents, bump_index, texels, info = B
     h, w = prim.shape
     for y in prange(h):
         for x in range(w):
@@ -547,7 +592,8 @@ def _reflect_primary_kernel(prim, geom, u, v, G, B, face_off, materials, cam, un
                 continue
             f = face_off[gm] + p
             px, py, pz, vx, vy, vz, gx, gy, gz, _, nx, ny, nz = _surface(
-                G, B, cam, f, gm, np.float64(u[y, x]), np.float64(v[y, x]), False, 0.0, 0.0, 0.0)
+                verts, normals, faces, fnormals, uvs, tangents, bump_index, texels, info, cam, f, gm,
+                np.float64(u[y, x]), np.float64(v[y, x]), False, 0.0, 0.0, 0.0)
             ox, oy, oz, rx, ry, rz = _mirror_ray(px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz, unit)
             origins[i, 0] = ox
             origins[i, 1] = oy
@@ -574,6 +620,9 @@ def _make_kernels(spec_on: bool, att_on: bool):
     @njit(parallel=True, **_jit)
     def _shade_phong_kernel(prim, geom, u, v, G, B, L, face_off, materials, cam, background, modes, image):
         """Phong: shade every pixel of the models whose method is 2."""
+        verts, normals, faces, fnormals = G
+        uvs, tangents, bump_index, texels, info = B
+        ambient, lights, dmin, handle, unit = L
         h, w = prim.shape
         for y in prange(h):
             S = _scratch()
@@ -588,8 +637,9 @@ def _make_kernels(spec_on: bool, att_on: bool):
                     continue
                 f = face_off[gm] + p
                 r, g, b, _, _, _, _, _, _, _, _, _, _, _, _ = _shade_surface(
-                    G, B, L, S, materials, cam, f, gm, np.float64(u[y, x]), np.float64(v[y, x]), False, 0.0, 0.0, 0.0,
-                    spec_on, att_on)
+                    verts, normals, faces, fnormals, uvs, tangents, bump_index, texels, info,
+                    ambient, lights, dmin, handle, unit, S, materials, cam, f, gm,
+                    np.float64(u[y, x]), np.float64(v[y, x]), False, 0.0, 0.0, 0.0, spec_on, att_on)
                 image[y, x, 0] = r
                 image[y, x, 1] = g
                 image[y, x, 2] = b
@@ -598,6 +648,7 @@ def _make_kernels(spec_on: bool, att_on: bool):
     @njit(parallel=True, **_jit)
     def _shade_faces_kernel(face_flags, verts, faces, fnormals, face_model, materials, cam, L, out):
         """Flat shading: one shade per visible face, at its centre."""
+        ambient, lights, dmin, handle, unit = L
         n = faces.shape[0]
         for c in prange((n + _CHUNK - 1) // _CHUNK):
             S = _scratch()
@@ -608,8 +659,9 @@ def _make_kernels(spec_on: bool, att_on: bool):
                 px, py, pz = _hit_point(verts, faces[f, 0], faces[f, 1], faces[f, 2], third, third)
                 vx, vy, vz = _view(cam, px, py, pz)
                 gx, gy, gz, sgn = _facing(fnormals, f, vx, vy, vz)
-                r, g, b = _illuminate(px, py, pz, gx, gy, gz, vx, vy, vz, materials, face_model[f], L, S,
-                                      px, py, pz, gx, gy, gz, spec_on, att_on)
+                r, g, b = _illuminate(px, py, pz, gx, gy, gz, vx, vy, vz, materials, face_model[f],
+                                      ambient, lights, dmin, handle, unit, S, px, py, pz, gx, gy, gz,
+                                      spec_on, att_on)
                 out[f, 0] = r
                 out[f, 1] = g
                 out[f, 2] = b
@@ -619,6 +671,7 @@ def _make_kernels(spec_on: bool, att_on: bool):
     def _shade_vertices_kernel(vertex_flags, verts, normals, vertex_model, materials, cam, L, out):
         """Gouraud: the shade of each visible vertex, lit from the front (normal)
         and from the back (negated normal)."""
+        ambient, lights, dmin, handle, unit = L
         n = verts.shape[0]
         for c in prange((n + _CHUNK - 1) // _CHUNK):
             S = _scratch()
@@ -635,8 +688,9 @@ def _make_kernels(spec_on: bool, att_on: bool):
                     nx = sg * normals[i, 0]
                     ny = sg * normals[i, 1]
                     nz = sg * normals[i, 2]
-                    r, g, b = _illuminate(px, py, pz, nx, ny, nz, vx, vy, vz, materials, m, L, S,
-                                          px, py, pz, nx, ny, nz, spec_on, att_on)
+                    r, g, b = _illuminate(px, py, pz, nx, ny, nz, vx, vy, vz, materials, m,
+                                          ambient, lights, dmin, handle, unit, S, px, py, pz, nx, ny, nz,
+                                          spec_on, att_on)
                     out[i, side, 0] = r
                     out[i, side, 1] = g
                     out[i, side, 2] = b
@@ -646,6 +700,7 @@ def _make_kernels(spec_on: bool, att_on: bool):
     def _interp_gouraud_kernel(prim, geom, u, v, verts, normals, faces, fnormals, face_off, materials, cam, L,
                                background, modes, vcol, image):
         """Gouraud: interpolate vertex shades over the models whose method is 1."""
+        ambient, lights, dmin, handle, unit = L
         h, w = prim.shape
         for y in prange(h):
             S = _scratch()
@@ -669,12 +724,12 @@ def _make_kernels(spec_on: bool, att_on: bool):
                 vx, vy, vz = _view(cam, px, py, pz)
                 gx, gy, gz, sgn = _facing(fnormals, f, vx, vy, vz)
                 side = 0 if sgn > 0.0 else 1
-                r0, g0, c0 = _corner_shade(vcol, normals, verts, i0, side, gx, gy, gz, materials, g, cam, L, S,
-                                                spec_on, att_on)
-                r1, g1, c1 = _corner_shade(vcol, normals, verts, i1, side, gx, gy, gz, materials, g, cam, L, S,
-                                                spec_on, att_on)
-                r2, g2, c2 = _corner_shade(vcol, normals, verts, i2, side, gx, gy, gz, materials, g, cam, L, S,
-                                                spec_on, att_on)
+                r0, g0, c0 = _corner_shade(vcol, normals, verts, i0, side, gx, gy, gz, materials, g, cam,
+                                             ambient, lights, dmin, handle, unit, S, spec_on, att_on)
+                r1, g1, c1 = _corner_shade(vcol, normals, verts, i1, side, gx, gy, gz, materials, g, cam,
+                                             ambient, lights, dmin, handle, unit, S, spec_on, att_on)
+                r2, g2, c2 = _corner_shade(vcol, normals, verts, i2, side, gx, gy, gz, materials, g, cam,
+                                             ambient, lights, dmin, handle, unit, S, spec_on, att_on)
                 image[y, x, 0] = b0 * r0 + b1 * r1 + b2 * r2
                 image[y, x, 1] = b0 * g0 + b1 * g1 + b2 * g2
                 image[y, x, 2] = b0 * c0 + b1 * c1 + b2 * c2
@@ -688,6 +743,9 @@ def _make_kernels(spec_on: bool, att_on: bool):
         A reflective surface keeps ``1 - rho`` of its local shade and passes
         ``rho`` on, except at the last bounce, where it shows its local shade.
         """
+        verts, normals, faces, fnormals = G
+        uvs, tangents, bump_index, texels, info = B
+        ambient, lights, dmin, handle, unit = L
         n = prim.shape[0]
         for c in prange((n + _CHUNK - 1) // _CHUNK):
             S = _scratch()
@@ -701,13 +759,14 @@ def _make_kernels(spec_on: bool, att_on: bool):
                 gm = geom[i]
                 f = face_off[gm] + p
                 r, g, b, px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz = _shade_surface(
-                    G, B, L, S, materials, cam, f, gm, np.float64(u[i]), np.float64(v[i]), True,
-                    dirs[i, 0], dirs[i, 1], dirs[i, 2], spec_on, att_on)
+                    verts, normals, faces, fnormals, uvs, tangents, bump_index, texels, info,
+                    ambient, lights, dmin, handle, unit, S, materials, cam, f, gm,
+                    np.float64(u[i]), np.float64(v[i]), True, dirs[i, 0], dirs[i, 1], dirs[i, 2], spec_on, att_on)
                 rho = materials[gm, 11]
                 keep = 1.0
                 if rho > 0.0 and not last:
                     keep = 1.0 - rho
-                    ox, oy, oz, rx, ry, rz = _mirror_ray(px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz, L[9])
+                    ox, oy, oz, rx, ry, rz = _mirror_ray(px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz, unit)
                     origins[i, 0] = ox
                     origins[i, 1] = oy
                     origins[i, 2] = oz
@@ -744,9 +803,11 @@ def kernel_inputs(scene, camera):
     dict
         ``G`` = (verts (V,3) f8, normals (V,3) f8, faces (F,3) i8, fnormals (F,3) f8);
         ``B`` = (uvs (V,2) f8, tangents (F,6) f8, bump_index (G,) i4, texels (T,) f4, info (B,7) f8);
-        ``L`` = (ambient (3,) f8, kind (L,) i4, vec (L,3) f8, radiance (L,3) f8,
-        attenuation (L,) i4, k (L,) f8, shadows (L,) i4, dmin f8, scene handle uintp
-        or 0 when no light casts shadows, unit f8 = the scene's size for ray offsets);
+        ``L`` = (ambient (3,) f8, lights (L,10) f8, dmin f8, scene handle uintp or 0
+        when no light casts shadows, unit f8 = the scene's size for ray offsets), where
+        a row of ``lights`` is kind (0 point, 1 directional), position or direction
+        to the light (3), radiance (3), attenuation code (0 none, 1 1/d^2,
+        2 1/(d+k)), k, casts shadows (0/1);
         ``face_off`` (G+1,) i8, ``materials`` (G,12) f8, ``cam`` (16,) f8, ``background`` (3,) f8;
         ``spec_on``, ``att_on`` bool: whether any material has a specular term and any
         light attenuates (the kernels compile a variant for each combination).
@@ -756,11 +817,13 @@ def kernel_inputs(scene, camera):
     geo = scene.geometry
     lkind, lvec, lrad, latt, lk, lshadow = scene.packed_lights()
     handle = geo.accel.handle if lshadow.any() else 0
+    # One array for the lights: the kernels index it per pixel and light, and
+    # every separate array would be one more argument to thread through.
+    lights = np.column_stack([lkind, lvec, lrad, latt, lk, lshadow]).astype(np.float64).reshape(-1, 10)
     return dict(
         G=(geo.vertices, geo.normals, geo.faces, geo.face_normals),
         B=(geo.uvs, geo.tangents, geo.bump_index, geo.bump_texels, geo.bump_info),
-        L=(np.array(scene.ambient, np.float64), lkind, lvec, lrad, latt, lk, lshadow, 1e-6 * geo.scale,
-           np.uintp(handle), float(geo.scale)),
+        L=(np.array(scene.ambient, np.float64), lights, 1e-6 * geo.scale, np.uintp(handle), float(geo.scale)),
         face_off=geo.face_offsets, materials=geo.materials, cam=camera_frame(camera, geo.origin),
         background=np.array(scene.background, np.float64),
         # Compile-time variants: drop the arithmetic a scene does not need.

@@ -272,3 +272,17 @@ def test_pixel_rays_are_unit_and_through_pixel_centres():
     np.testing.assert_allclose(np.linalg.norm(d, axis=-1), 1.0, rtol=1e-12)
     axis = (cam.target - cam.eye) / np.linalg.norm(cam.target - cam.eye)
     np.testing.assert_allclose(d[4, 5], axis, atol=1e-12)
+
+
+@pytest.mark.parametrize("t", [1.0, 2.0, 5.0, 40.0, 200.0, 4096.0, 7.5, 0.3, 5000.0])
+def test_specular_power_matches_pow(t):
+    """Whole shininess values are raised by repeated squaring: within a few
+    ulps per squaring of ``c ** t`` (the error of ``pow`` of a rounded cosine
+    is of the same order); other values go to ``pow`` itself."""
+    from raycast_shade.shading import _power
+
+    c = np.linspace(0.0, 1.0, 1001)
+    got = np.array([_power(x, t) for x in c])
+    np.testing.assert_allclose(got, c**t, rtol=t * 4.5e-16 + 1e-15, atol=1e-300)
+    assert _power(0.5, 40.0) == 2.0**-40  # squaring a power of two is exact
+    assert _power(1.0, t) == 1.0 and _power(0.0, t) == 0.0
