@@ -194,9 +194,11 @@ def vertex_normals(vertices, faces, weighting: str = "angle", crease_angle: floa
     order = np.argsort(flat, kind="stable")
     starts = np.zeros(nv + 1, np.int64)
     np.cumsum(np.bincount(flat, minlength=nv), out=starts[1:])
-    cos_crease = float(np.cos(np.radians(crease_angle)))
-    # Tolerance so that coplanar neighbours (cos = 1 - rounding) always merge.
-    cos_crease = min(cos_crease, 1.0 - 1e-12)
+    # "Differ by more than the crease angle" splits; a tolerance of 1e-12 in
+    # the cosine keeps faces at exactly the angle (a cube at 90 degrees, where
+    # cos rounds to 6e-17 > 0) and coplanar neighbours (cos = 1 - rounding)
+    # together.
+    cos_crease = float(np.cos(np.radians(crease_angle))) - 1e-12
     corner = _corner_normals_kernel(faces, fn, w, order, starts, cos_crease)
     new_index, source = _split_kernel(corner, order, starts)
     new_faces = new_index.reshape(-1, 3)

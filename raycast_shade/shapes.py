@@ -22,6 +22,17 @@ def _orient_outward(vertices, faces, outward):
     return faces[:, ::-1].copy() if d.sum() < 0 else faces
 
 
+def _positive(name: str, value) -> float:
+    """``value`` as a float, or a ValueError naming ``name`` unless finite and > 0."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name}: expected a number, got {value!r}") from None
+    if not (np.isfinite(x) and x > 0):
+        raise ValueError(f"{name}: must be a finite number > 0, got {value!r}")
+    return x
+
+
 def _grid_faces(rows: int, cols: int) -> np.ndarray:
     """Two triangles per cell of a (rows+1) x (cols+1) vertex grid."""
     i, j = np.mgrid[0:rows, 0:cols]
@@ -40,8 +51,7 @@ def icosphere(subdivisions: int = 3, radius: float = 1.0, center=(0.0, 0.0, 0.0)
 
     if int(subdivisions) != subdivisions or subdivisions < 0 or subdivisions > 9:
         raise ValueError(f"subdivisions: expected an integer in 0..9, got {subdivisions}")
-    if not radius > 0:
-        raise ValueError(f"radius: must be > 0, got {radius}")
+    radius = _positive("radius", radius)
     tm = trimesh.creation.icosphere(subdivisions=int(subdivisions), radius=1.0)
     unit = tm.vertices / np.linalg.norm(tm.vertices, axis=1, keepdims=True)
     faces = _orient_outward(unit, np.asarray(tm.faces, np.int64), unit)
@@ -58,8 +68,7 @@ def uv_sphere(rings: int = 16, segments: int = 32, radius: float = 1.0, center=(
     """
     if rings < 2 or segments < 3:
         raise ValueError(f"rings >= 2 and segments >= 3 required, got {rings}, {segments}")
-    if not radius > 0:
-        raise ValueError(f"radius: must be > 0, got {radius}")
+    radius = _positive("radius", radius)
     theta = np.linspace(0.0, np.pi, rings + 1)
     phi = np.linspace(0.0, 2 * np.pi, segments + 1)
     th, ph = np.meshgrid(theta, phi, indexing="ij")
@@ -105,6 +114,7 @@ def plane(size: float = 2.0, subdivisions: int = 1, center=(0.0, 0.0, 0.0), norm
     n = int(subdivisions)
     if n < 1:
         raise ValueError(f"subdivisions: must be >= 1, got {subdivisions}")
+    size = _positive("size", size)
     s = np.linspace(-size / 2, size / 2, n + 1)
     uu, vv = np.meshgrid(s, s, indexing="ij")
     local = np.stack([uu.ravel(), vv.ravel(), np.zeros(uu.size)], 1)  # in xy, facing +z
@@ -128,6 +138,7 @@ def cube(size: float = 1.0, center=(0.0, 0.0, 0.0), crease_angle: float | None =
     """
     import trimesh
 
+    size = _positive("size", size)
     tm = trimesh.creation.box(extents=(size, size, size))
     verts = np.asarray(tm.vertices, float)
     faces = _orient_outward(verts, np.asarray(tm.faces, np.int64), verts)
@@ -140,6 +151,10 @@ def cylinder(radius: float = 0.5, height: float = 1.0, segments: int = 32, cente
     """A capped cylinder along y; the crease keeps the rims sharp and the side smooth."""
     import trimesh
 
+    radius = _positive("radius", radius)
+    height = _positive("height", height)
+    if int(segments) != segments or segments < 3:
+        raise ValueError(f"segments: expected an integer >= 3, got {segments}")
     tm = trimesh.creation.cylinder(radius=radius, height=height, sections=int(segments))
     verts = np.asarray(tm.vertices, float)[:, [0, 2, 1]]  # trimesh's axis is z
     faces = _orient_outward(verts, np.asarray(tm.faces, np.int64)[:, ::-1], verts)

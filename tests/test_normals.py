@@ -133,6 +133,10 @@ def test_crease_splits_the_cube_into_24_vertices():
     np.testing.assert_array_equal(prep.vertices[prep.faces], cube.vertices[cube.faces])
     # Without the crease, nothing is split.
     assert len(rs.shapes.cube(crease_angle=None).prepared.vertices) == 8
+    # Faces at exactly the crease angle share a normal ("split where they differ by
+    # more"): at 90 degrees the cube's faces all meet within it, just above they split.
+    assert len(rs.shapes.cube(crease_angle=90.0).prepared.vertices) == 8
+    assert len(rs.shapes.cube(crease_angle=89.999).prepared.vertices) == 24
 
 
 def test_crease_keeps_a_cylinder_side_smooth_and_its_rims_sharp():

@@ -247,3 +247,20 @@ def test_bad_pfm(tmp_path):
     (tmp_path / "y.pfm").write_bytes(b"P6\n1 1\n255\n\x00\x00\x00")
     with pytest.raises(ValueError, match="not a colour PFM"):
         rs.read_pfm(tmp_path / "y.pfm")
+
+
+@pytest.mark.parametrize("make, field", [
+    (lambda: rs.shapes.plane(size=-1.0), "size"),
+    (lambda: rs.shapes.plane(size=float("nan")), "size"),
+    (lambda: rs.shapes.cube(size=0.0), "size"),
+    (lambda: rs.shapes.icosphere(2, radius=float("inf")), "radius"),
+    (lambda: rs.shapes.uv_sphere(radius=-2.0), "radius"),
+    (lambda: rs.shapes.cylinder(height=0.0), "height"),
+    (lambda: rs.shapes.cylinder(radius=-0.5), "radius"),
+    (lambda: rs.shapes.cylinder(segments=2), "segments"),
+])
+def test_bad_procedural_shape_sizes(make, field):
+    """A shape of negative, zero or non-finite size is an error naming the field,
+    not a mirrored or empty mesh."""
+    with pytest.raises(ValueError, match=field):
+        make()
