@@ -189,12 +189,17 @@ def main(argv=None):
     import numba
 
     rows = []
-    for n in (int(x) for x in args.threads.split(",")):
-        numba.set_num_threads(n or numba.config.NUMBA_NUM_THREADS)
-        part = run(args.quick, args.repeats)
-        for r in part:
-            r["numba_threads"] = numba.get_num_threads()
-        rows += part
+    saved = numba.get_num_threads()
+    try:
+        for n in (int(x) for x in args.threads.split(",")):
+            numba.set_num_threads(n or numba.config.NUMBA_NUM_THREADS)
+            part = run(args.quick, args.repeats)
+            for r in part:
+                r["numba_threads"] = numba.get_num_threads()
+            rows += part
+    finally:
+        # The suite runs the next benchmark in this process: it must not inherit one thread.
+        numba.set_num_threads(saved)
     os.makedirs(RESULTS, exist_ok=True)
     path = args.out or os.path.join(RESULTS, f"auto{'_quick' if args.quick else ''}.csv")
     with open(path, "w", newline="") as fh:
