@@ -134,8 +134,13 @@ def write_doc(status, quick: bool, path=DOC):
     for entry in REGISTRY:
         name = entry["name"]
         parts += ["", f"## {entry['title']} (`{name}`)", ""]
-        st = status.get(name, "not run this time")
-        if st != "ok":
+        st = status.get(name)
+        if st is None:
+            # A partial run (--only) keeps the other benchmarks' files from earlier runs.
+            parts.append("_Not run in this invocation: the results below are the files on disk from an "
+                         "earlier run in this mode._")
+            parts.append("")
+        elif st != "ok":
             parts.append(f"_Status: {st}._")
             parts.append("")
         if name == "accuracy":
