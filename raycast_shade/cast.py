@@ -33,6 +33,7 @@ import numpy as np
 from numba import njit, prange
 
 from . import _embree
+from ._schedule import BLOCK_ROWS, spread_step
 from .hits import HitBuffer
 from .rays import camera_frame, generate_rays, pixel_ray
 
@@ -51,64 +52,68 @@ def _cast_camera_kernel(scene, cam, prim, geom, u, v, t):
     h = prim.shape[0]
     ntx = (w + _TILE_W - 1) // _TILE_W
     nty = (h + _TILE_H - 1) // _TILE_H
-    for ty in prange(nty):
-        # Per-row scratch: an 8-wide RTCRayHit8 (32-byte aligned) and its valid mask.
-        buf = np.empty(8 * _RAY + 8, np.float32)
-        base = buf.ctypes.data
-        off = ((32 - base % 32) % 32) // 4
-        ib = buf.view(np.uint32)
-        vbuf = np.empty(16, np.int32)
-        vbase = vbuf.ctypes.data
-        voff = ((32 - vbase % 32) % 32) // 4
-        # RTCIntersectArguments (8-byte aligned): the coherent flag lets
-        # Embree trace the tile's rays as one frustum.
-        abuf = np.zeros(_embree.ARGS_SLOTS + 2, np.uint32)
-        aoff = ((8 - abuf.ctypes.data % 8) % 8) // 4
-        abuf[aoff] = _embree.RAY_QUERY_FLAG_COHERENT
-        abuf[aoff + 1] = _embree.FEATURE_FLAG_ALL
-        args = abuf.ctypes.data + aoff * 4
-        for tx in range(ntx):
-            for k in range(8):
-                x = tx * _TILE_W + (k & 3)
-                y = ty * _TILE_H + (k >> 2)
-                if x < w and y < h:
-                    vbuf[voff + k] = -1
-                    ox, oy, oz, dx, dy, dz = pixel_ray(cam, x, y)
-                else:
-                    vbuf[voff + k] = 0
-                    ox, oy, oz, dx, dy, dz = 0.0, 0.0, 0.0, 0.0, 0.0, 1.0
-                buf[off + 0 * 8 + k] = ox
-                buf[off + 1 * 8 + k] = oy
-                buf[off + 2 * 8 + k] = oz
-                buf[off + 3 * 8 + k] = 0.0  # tnear
-                buf[off + 4 * 8 + k] = dx
-                buf[off + 5 * 8 + k] = dy
-                buf[off + 6 * 8 + k] = dz
-                buf[off + 7 * 8 + k] = 0.0  # time
-                buf[off + 8 * 8 + k] = np.inf  # tfar
-                ib[off + 9 * 8 + k] = 0xFFFFFFFF  # mask
-                ib[off + 10 * 8 + k] = 0  # id
-                ib[off + 11 * 8 + k] = 0  # flags
-                ib[off + 17 * 8 + k] = 0xFFFFFFFF  # primID
-                ib[off + 18 * 8 + k] = 0xFFFFFFFF  # geomID
-            _embree.intersect8(vbase + voff * 4, scene, base + off * 4, args)
-            for k in range(8):
-                x = tx * _TILE_W + (k & 3)
-                y = ty * _TILE_H + (k >> 2)
-                if x < w and y < h:
-                    g = ib[off + 18 * 8 + k]
-                    if g != 0xFFFFFFFF:
-                        geom[y, x] = np.int32(g)
-                        prim[y, x] = np.int32(ib[off + 17 * 8 + k])
-                        u[y, x] = buf[off + 15 * 8 + k]
-                        v[y, x] = buf[off + 16 * 8 + k]
-                        t[y, x] = buf[off + 8 * 8 + k]
+    nblk = (nty + BLOCK_ROWS - 1) // BLOCK_ROWS
+    step = spread_step(nblk)
+    for it in prange(nblk):  # blocks of rows in a balanced order (see _schedule)
+        blk = (it * step) % nblk
+        for ty in range(blk * BLOCK_ROWS, min(nty, (blk + 1) * BLOCK_ROWS)):
+            # Per-row scratch: an 8-wide RTCRayHit8 (32-byte aligned) and its valid mask.
+            buf = np.empty(8 * _RAY + 8, np.float32)
+            base = buf.ctypes.data
+            off = ((32 - base % 32) % 32) // 4
+            ib = buf.view(np.uint32)
+            vbuf = np.empty(16, np.int32)
+            vbase = vbuf.ctypes.data
+            voff = ((32 - vbase % 32) % 32) // 4
+            # RTCIntersectArguments (8-byte aligned): the coherent flag lets
+            # Embree trace the tile's rays as one frustum.
+            abuf = np.zeros(_embree.ARGS_SLOTS + 2, np.uint32)
+            aoff = ((8 - abuf.ctypes.data % 8) % 8) // 4
+            abuf[aoff] = _embree.RAY_QUERY_FLAG_COHERENT
+            abuf[aoff + 1] = _embree.FEATURE_FLAG_ALL
+            args = abuf.ctypes.data + aoff * 4
+            for tx in range(ntx):
+                for k in range(8):
+                    x = tx * _TILE_W + (k & 3)
+                    y = ty * _TILE_H + (k >> 2)
+                    if x < w and y < h:
+                        vbuf[voff + k] = -1
+                        ox, oy, oz, dx, dy, dz = pixel_ray(cam, x, y)
                     else:
-                        geom[y, x] = -1
-                        prim[y, x] = -1
-                        u[y, x] = 0.0
-                        v[y, x] = 0.0
-                        t[y, x] = np.inf
+                        vbuf[voff + k] = 0
+                        ox, oy, oz, dx, dy, dz = 0.0, 0.0, 0.0, 0.0, 0.0, 1.0
+                    buf[off + 0 * 8 + k] = ox
+                    buf[off + 1 * 8 + k] = oy
+                    buf[off + 2 * 8 + k] = oz
+                    buf[off + 3 * 8 + k] = 0.0  # tnear
+                    buf[off + 4 * 8 + k] = dx
+                    buf[off + 5 * 8 + k] = dy
+                    buf[off + 6 * 8 + k] = dz
+                    buf[off + 7 * 8 + k] = 0.0  # time
+                    buf[off + 8 * 8 + k] = np.inf  # tfar
+                    ib[off + 9 * 8 + k] = 0xFFFFFFFF  # mask
+                    ib[off + 10 * 8 + k] = 0  # id
+                    ib[off + 11 * 8 + k] = 0  # flags
+                    ib[off + 17 * 8 + k] = 0xFFFFFFFF  # primID
+                    ib[off + 18 * 8 + k] = 0xFFFFFFFF  # geomID
+                _embree.intersect8(vbase + voff * 4, scene, base + off * 4, args)
+                for k in range(8):
+                    x = tx * _TILE_W + (k & 3)
+                    y = ty * _TILE_H + (k >> 2)
+                    if x < w and y < h:
+                        g = ib[off + 18 * 8 + k]
+                        if g != 0xFFFFFFFF:
+                            geom[y, x] = np.int32(g)
+                            prim[y, x] = np.int32(ib[off + 17 * 8 + k])
+                            u[y, x] = buf[off + 15 * 8 + k]
+                            v[y, x] = buf[off + 16 * 8 + k]
+                            t[y, x] = buf[off + 8 * 8 + k]
+                        else:
+                            geom[y, x] = -1
+                            prim[y, x] = -1
+                            u[y, x] = 0.0
+                            v[y, x] = 0.0
+                            t[y, x] = np.inf
 
 
 @njit(cache=True, parallel=True)
@@ -116,7 +121,10 @@ def _cast_rays_kernel(scene, origins, directions, tnear, tfar, prim, geom, u, v,
     n = origins.shape[0]
     chunk = 256
     nchunks = (n + chunk - 1) // chunk
-    for c in prange(nchunks):
+    nchunk = nchunks
+    step = spread_step(nchunk)
+    for it in prange(nchunk):  # chunks in a balanced order (see _schedule)
+        c = (it * step) % nchunk
         buf = np.empty(_RAY + 4, np.float32)
         base = buf.ctypes.data
         off = ((16 - base % 16) % 16) // 4

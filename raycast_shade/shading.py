@@ -65,6 +65,7 @@ import numpy as np
 from numba import njit, prange
 
 from . import _embree
+from ._schedule import BLOCK_ROWS, spread_step
 
 __all__ = ["SHADINGS", "METHODS", "shade", "shading_normals", "kernel_inputs", "resolve_methods"]
 
@@ -541,23 +542,27 @@ def _normals_kernel(prim, geom, u, v, G, B, face_off, cam, modes, nbuf):
     verts, normals, faces, fnormals = G
     uvs, tangents, bump_index, texels, info = B
     h, w = prim.shape
-    for y in prange(h):
-        for x in range(w):
-            p = prim[y, x]
-            if p < 0:
-                for c in range(3):
-                    nbuf[y, x, c] = 0.0
-                continue
-            gm = geom[y, x]
-            f = face_off[gm] + p
-            _, _, _, _, _, _, gx, gy, gz, _, nx, ny, nz = _surface(
-                verts, normals, faces, fnormals, uvs, tangents, bump_index, texels, info, cam, f, gm,
-                np.float64(u[y, x]), np.float64(v[y, x]), False, 0.0, 0.0, 0.0)
-            if modes[gm] == 0:
-                nx, ny, nz = gx, gy, gz
-            nbuf[y, x, 0] = nx
-            nbuf[y, x, 1] = ny
-            nbuf[y, x, 2] = nz
+    nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
+    step = spread_step(nblk)
+    for it in prange(nblk):  # blocks of rows in a balanced order (see _schedule)
+        blk = (it * step) % nblk
+        for y in range(blk * BLOCK_ROWS, min(h, (blk + 1) * BLOCK_ROWS)):
+            for x in range(w):
+                p = prim[y, x]
+                if p < 0:
+                    for c in range(3):
+                        nbuf[y, x, c] = 0.0
+                    continue
+                gm = geom[y, x]
+                f = face_off[gm] + p
+                _, _, _, _, _, _, gx, gy, gz, _, nx, ny, nz = _surface(
+                    verts, normals, faces, fnormals, uvs, tangents, bump_index, texels, info, cam, f, gm,
+                    np.float64(u[y, x]), np.float64(v[y, x]), False, 0.0, 0.0, 0.0)
+                if modes[gm] == 0:
+                    nx, ny, nz = gx, gy, gz
+                nbuf[y, x, 0] = nx
+                nbuf[y, x, 1] = ny
+                nbuf[y, x, 2] = nz
 
 
 @njit(inline="always", **_jit)
@@ -577,33 +582,53 @@ def _mirror_ray(px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz, unit):
 
 
 @njit(parallel=True, **_jit)
-def _reflect_primary_kernel(prim, geom, u, v, G, B, face_off, materials, cam, unit, origins, dirs, active):
-    """Mirror rays from every pixel whose surface reflects."""
+def _mirror_rows_kernel(prim, geom, materials, counts):
+    """``counts[y]``: how many pixels of row ``y`` see a reflective surface."""
+    h, w = prim.shape
+    for y in prange(h):
+        c = 0
+        for x in range(w):
+            if prim[y, x] >= 0 and materials[geom[y, x], 11] > 0.0:
+                c += 1
+        counts[y] = c
+
+
+@njit(parallel=True, **_jit)
+def _reflect_primary_kernel(prim, geom, u, v, G, B, face_off, materials, cam, unit, starts, pixel, origins, dirs):
+    """Mirror rays from every pixel whose surface reflects, packed: row ``y``'s
+    rays go from ``starts[y]`` on (see :func:`_mirror_rows_kernel`), with
+    their flat pixel index in ``pixel``. Packed arrays hold the mirror pixels
+    only, not the whole image (at 1080p, 96 MB of mostly untouched memory
+    that cost more in page faults than the mirror rays themselves)."""
     verts, normals, faces, fnormals = G
     uvs, tangents, bump_index, texels, info = B
     h, w = prim.shape
-    for y in prange(h):
-        for x in range(w):
-            i = y * w + x
-            p = prim[y, x]
-            active[i] = False
-            if p < 0:
-                continue
-            gm = geom[y, x]
-            if materials[gm, 11] <= 0.0:
-                continue
-            f = face_off[gm] + p
-            px, py, pz, vx, vy, vz, gx, gy, gz, _, nx, ny, nz = _surface(
-                verts, normals, faces, fnormals, uvs, tangents, bump_index, texels, info, cam, f, gm,
-                np.float64(u[y, x]), np.float64(v[y, x]), False, 0.0, 0.0, 0.0)
-            ox, oy, oz, rx, ry, rz = _mirror_ray(px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz, unit)
-            origins[i, 0] = ox
-            origins[i, 1] = oy
-            origins[i, 2] = oz
-            dirs[i, 0] = rx
-            dirs[i, 1] = ry
-            dirs[i, 2] = rz
-            active[i] = True
+    nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
+    step = spread_step(nblk)
+    for it in prange(nblk):  # blocks of rows in a balanced order (see _schedule)
+        blk = (it * step) % nblk
+        for y in range(blk * BLOCK_ROWS, min(h, (blk + 1) * BLOCK_ROWS)):
+            j = starts[y]
+            for x in range(w):
+                p = prim[y, x]
+                if p < 0:
+                    continue
+                gm = geom[y, x]
+                if materials[gm, 11] <= 0.0:
+                    continue
+                f = face_off[gm] + p
+                px, py, pz, vx, vy, vz, gx, gy, gz, _, nx, ny, nz = _surface(
+                    verts, normals, faces, fnormals, uvs, tangents, bump_index, texels, info, cam, f, gm,
+                    np.float64(u[y, x]), np.float64(v[y, x]), False, 0.0, 0.0, 0.0)
+                ox, oy, oz, rx, ry, rz = _mirror_ray(px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz, unit)
+                pixel[j] = y * w + x
+                origins[j, 0] = ox
+                origins[j, 1] = oy
+                origins[j, 2] = oz
+                dirs[j, 0] = rx
+                dirs[j, 1] = ry
+                dirs[j, 2] = rz
+                j += 1
 
 
 def _make_kernels(spec_on: bool, att_on: bool):
@@ -626,25 +651,29 @@ def _make_kernels(spec_on: bool, att_on: bool):
         uvs, tangents, bump_index, texels, info = B
         ambient, lights, dmin, handle, unit = L
         h, w = prim.shape
-        for y in prange(h):
-            S = _scratch()
-            for x in range(w):
-                p = prim[y, x]
-                if p < 0:
-                    for c in range(3):
-                        image[y, x, c] = background[c]
-                    continue
-                gm = geom[y, x]
-                if modes[gm] != 2:
-                    continue
-                f = face_off[gm] + p
-                r, g, b, _, _, _, _, _, _, _, _, _, _, _, _ = _shade_surface(
-                    verts, normals, faces, fnormals, uvs, tangents, bump_index, texels, info,
-                    ambient, lights, dmin, handle, unit, S, materials, cam, f, gm,
-                    np.float64(u[y, x]), np.float64(v[y, x]), False, 0.0, 0.0, 0.0, spec_on, att_on)
-                image[y, x, 0] = r
-                image[y, x, 1] = g
-                image[y, x, 2] = b
+        nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
+        step = spread_step(nblk)
+        for it in prange(nblk):  # blocks of rows in a balanced order (see _schedule)
+            blk = (it * step) % nblk
+            for y in range(blk * BLOCK_ROWS, min(h, (blk + 1) * BLOCK_ROWS)):
+                S = _scratch()
+                for x in range(w):
+                    p = prim[y, x]
+                    if p < 0:
+                        for c in range(3):
+                            image[y, x, c] = background[c]
+                        continue
+                    gm = geom[y, x]
+                    if modes[gm] != 2:
+                        continue
+                    f = face_off[gm] + p
+                    r, g, b, _, _, _, _, _, _, _, _, _, _, _, _ = _shade_surface(
+                        verts, normals, faces, fnormals, uvs, tangents, bump_index, texels, info,
+                        ambient, lights, dmin, handle, unit, S, materials, cam, f, gm,
+                        np.float64(u[y, x]), np.float64(v[y, x]), False, 0.0, 0.0, 0.0, spec_on, att_on)
+                    image[y, x, 0] = r
+                    image[y, x, 1] = g
+                    image[y, x, 2] = b
 
 
     @njit(parallel=True, **_jit)
@@ -652,7 +681,10 @@ def _make_kernels(spec_on: bool, att_on: bool):
         """Flat shading: one shade per visible face, at its centre."""
         ambient, lights, dmin, handle, unit = L
         n = faces.shape[0]
-        for c in prange((n + _CHUNK - 1) // _CHUNK):
+        nchunk = (n + _CHUNK - 1) // _CHUNK
+        step = spread_step(nchunk)
+        for it in prange(nchunk):  # chunks in a balanced order (see _schedule)
+            c = (it * step) % nchunk
             S = _scratch()
             for f in range(c * _CHUNK, min(n, (c + 1) * _CHUNK)):
                 if face_flags[f] == 0:
@@ -675,7 +707,10 @@ def _make_kernels(spec_on: bool, att_on: bool):
         and from the back (negated normal)."""
         ambient, lights, dmin, handle, unit = L
         n = verts.shape[0]
-        for c in prange((n + _CHUNK - 1) // _CHUNK):
+        nchunk = (n + _CHUNK - 1) // _CHUNK
+        step = spread_step(nchunk)
+        for it in prange(nchunk):  # chunks in a balanced order (see _schedule)
+            c = (it * step) % nchunk
             S = _scratch()
             for i in range(c * _CHUNK, min(n, (c + 1) * _CHUNK)):
                 if vertex_flags[i] == 0:
@@ -704,37 +739,41 @@ def _make_kernels(spec_on: bool, att_on: bool):
         """Gouraud: interpolate vertex shades over the models whose method is 1."""
         ambient, lights, dmin, handle, unit = L
         h, w = prim.shape
-        for y in prange(h):
-            S = _scratch()
-            for x in range(w):
-                p = prim[y, x]
-                if p < 0:
-                    for c in range(3):
-                        image[y, x, c] = background[c]
-                    continue
-                g = geom[y, x]
-                if modes[g] != 1:
-                    continue
-                f = face_off[g] + p
-                i0 = faces[f, 0]
-                i1 = faces[f, 1]
-                i2 = faces[f, 2]
-                b1 = np.float64(u[y, x])
-                b2 = np.float64(v[y, x])
-                b0 = 1.0 - b1 - b2
-                px, py, pz = _hit_point(verts, i0, i1, i2, b1, b2)
-                vx, vy, vz = _view(cam, px, py, pz)
-                gx, gy, gz, sgn = _facing(fnormals, f, vx, vy, vz)
-                side = 0 if sgn > 0.0 else 1
-                r0, g0, c0 = _corner_shade(vcol, normals, verts, i0, side, gx, gy, gz, materials, g, cam,
-                                             ambient, lights, dmin, handle, unit, S, spec_on, att_on)
-                r1, g1, c1 = _corner_shade(vcol, normals, verts, i1, side, gx, gy, gz, materials, g, cam,
-                                             ambient, lights, dmin, handle, unit, S, spec_on, att_on)
-                r2, g2, c2 = _corner_shade(vcol, normals, verts, i2, side, gx, gy, gz, materials, g, cam,
-                                             ambient, lights, dmin, handle, unit, S, spec_on, att_on)
-                image[y, x, 0] = b0 * r0 + b1 * r1 + b2 * r2
-                image[y, x, 1] = b0 * g0 + b1 * g1 + b2 * g2
-                image[y, x, 2] = b0 * c0 + b1 * c1 + b2 * c2
+        nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
+        step = spread_step(nblk)
+        for it in prange(nblk):  # blocks of rows in a balanced order (see _schedule)
+            blk = (it * step) % nblk
+            for y in range(blk * BLOCK_ROWS, min(h, (blk + 1) * BLOCK_ROWS)):
+                S = _scratch()
+                for x in range(w):
+                    p = prim[y, x]
+                    if p < 0:
+                        for c in range(3):
+                            image[y, x, c] = background[c]
+                        continue
+                    g = geom[y, x]
+                    if modes[g] != 1:
+                        continue
+                    f = face_off[g] + p
+                    i0 = faces[f, 0]
+                    i1 = faces[f, 1]
+                    i2 = faces[f, 2]
+                    b1 = np.float64(u[y, x])
+                    b2 = np.float64(v[y, x])
+                    b0 = 1.0 - b1 - b2
+                    px, py, pz = _hit_point(verts, i0, i1, i2, b1, b2)
+                    vx, vy, vz = _view(cam, px, py, pz)
+                    gx, gy, gz, sgn = _facing(fnormals, f, vx, vy, vz)
+                    side = 0 if sgn > 0.0 else 1
+                    r0, g0, c0 = _corner_shade(vcol, normals, verts, i0, side, gx, gy, gz, materials, g, cam,
+                                                 ambient, lights, dmin, handle, unit, S, spec_on, att_on)
+                    r1, g1, c1 = _corner_shade(vcol, normals, verts, i1, side, gx, gy, gz, materials, g, cam,
+                                                 ambient, lights, dmin, handle, unit, S, spec_on, att_on)
+                    r2, g2, c2 = _corner_shade(vcol, normals, verts, i2, side, gx, gy, gz, materials, g, cam,
+                                                 ambient, lights, dmin, handle, unit, S, spec_on, att_on)
+                    image[y, x, 0] = b0 * r0 + b1 * r1 + b2 * r2
+                    image[y, x, 1] = b0 * g0 + b1 * g1 + b2 * g2
+                    image[y, x, 2] = b0 * c0 + b1 * c1 + b2 * c2
 
 
     @njit(parallel=True, **_jit)
@@ -749,7 +788,10 @@ def _make_kernels(spec_on: bool, att_on: bool):
         uvs, tangents, bump_index, texels, info = B
         ambient, lights, dmin, handle, unit = L
         n = prim.shape[0]
-        for c in prange((n + _CHUNK - 1) // _CHUNK):
+        nchunk = (n + _CHUNK - 1) // _CHUNK
+        step = spread_step(nchunk)
+        for it in prange(nchunk):  # chunks in a balanced order (see _schedule)
+            c = (it * step) % nchunk
             S = _scratch()
             for i in range(c * _CHUNK, min(n, (c + 1) * _CHUNK)):
                 active[i] = False
@@ -964,18 +1006,20 @@ def trace_mirrors(scene, camera, hits, image, max_depth: int = 3) -> np.ndarray:
     k = kernel_inputs(scene, camera)
     points_kernel = _kernels(k)["points"]
     h, w = hits.shape
-    n = h * w
-    origins = np.empty((n, 3))
-    dirs = np.empty((n, 3))
-    active = np.empty(n, np.bool_)
+    counts = np.empty(h, np.int64)
+    _mirror_rows_kernel(hits.prim, hits.geom, k["materials"], counts)
+    starts = np.zeros(h + 1, np.int64)
+    np.cumsum(counts, out=starts[1:])
+    m = int(starts[-1])
+    idx = np.empty(m, np.int64)
+    origins = np.empty((m, 3))
+    dirs = np.empty((m, 3))
     _reflect_primary_kernel(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["face_off"], k["materials"],
-                            k["cam"], float(geo.scale), origins, dirs, active)
-    idx = np.flatnonzero(active)
+                            k["cam"], float(geo.scale), starts, idx, origins, dirs)
     flat = image.reshape(-1, 3)
     rho = geo.materials[hits.geom.reshape(-1)[idx], 11]
     flat[idx] *= (1.0 - rho)[:, None].astype(np.float32)
     weight = rho
-    origins, dirs = origins[idx], dirs[idx]
     accel = geo.accel.handle
     for depth in range(1, max_depth + 1):
         m = len(idx)

@@ -312,3 +312,22 @@ def test_random_scenes_never_produce_nan_inf_or_negative(scene):
         n = frame.normal
         assert np.isfinite(n).all()
         np.testing.assert_allclose(np.linalg.norm(n[frame.mask], axis=-1), 1.0, atol=1e-5)
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 7, 68, 135, 270, 1000])
+def test_balanced_row_order_is_a_permutation_that_spreads_each_share(n):
+    """The kernels visit row blocks as (t * step) mod n: every block exactly
+    once, and each thread's contiguous share of t (halves and quarters here)
+    takes blocks from all over the image, not one region of it."""
+    from raycast_shade._schedule import spread_step
+
+    step = spread_step(n)
+    order = (np.arange(n) * step) % n
+    assert sorted(order) == list(range(n))
+    for parts in (2, 4):
+        for share in np.array_split(order, parts):
+            if len(share) < 8:
+                continue
+            # Of a share, the blocks in each half of the image: close to even.
+            top = (share < n / 2).sum()
+            assert abs(top - len(share) / 2) <= 0.1 * len(share) + 1
