@@ -9,17 +9,51 @@ The 8-bit mapping, in order:
 3. encoding: ``gamma="srgb"`` (default, the IEC 61966-2-1 curve), a number
    ``g`` for ``x ** (1/g)``, or ``1`` for linear;
 4. round to nearest of 0..255.
+
+:func:`to_uint8` runs the mapping in one parallel Numba pass, in float64 as
+its plain-NumPy twin :func:`_to_uint8_numpy` does (tested equal): NumPy's
+``power`` over a 960 x 844 image took 100-180 ms, a tenth of
+``raycast-shade demo``.
 """
 
 from __future__ import annotations
 
+import math
 import os
 
 import numpy as np
+from numba import njit, prange
 
 __all__ = ["to_uint8", "write_pfm", "read_pfm", "TONEMAPS"]
 
 TONEMAPS = ("clamp", "reinhard", "exponential")
+_CHUNK = 1 << 16  # values per parallel work item
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _to_uint8_kernel(x, exposure, curve, inv_gamma, out):
+    """Tone-map ``x`` (N,) float32/float64 into ``out`` (N,) uint8.
+
+    ``curve``: 0 clamp, 1 reinhard, 2 exponential; ``inv_gamma`` 0 selects
+    sRGB. NaN maps to 0 (NumPy's cast of NaN to uint8 is undefined).
+    """
+    n = x.shape[0]
+    for c in prange((n + _CHUNK - 1) // _CHUNK):
+        for i in range(c * _CHUNK, min(n, (c + 1) * _CHUNK)):
+            v = np.float64(x[i]) * exposure
+            if curve == 1:
+                v = v / (1.0 + v)
+            elif curve == 2:
+                v = -math.expm1(-v)
+            if not v > 0.0:  # negatives, -0 and NaN
+                v = 0.0
+            elif v > 1.0:
+                v = 1.0
+            if inv_gamma == 0.0:
+                v = 12.92 * v if v <= 0.0031308 else 1.055 * v ** (1.0 / 2.4) - 0.055
+            elif inv_gamma != 1.0:
+                v = v ** inv_gamma
+            out[i] = np.uint8(np.rint(v * 255.0))
 
 
 def to_uint8(image, exposure: float = 1.0, tonemap: str = "clamp", gamma="srgb") -> np.ndarray:
@@ -28,7 +62,7 @@ def to_uint8(image, exposure: float = 1.0, tonemap: str = "clamp", gamma="srgb")
     Parameters
     ----------
     image : (H, W, 3) float
-        Linear, non-negative.
+        Linear, non-negative (negatives and NaN give 0). Any shape works.
     exposure : float
     tonemap : {"clamp", "reinhard", "exponential"}
     gamma : "srgb" or float
@@ -41,20 +75,40 @@ def to_uint8(image, exposure: float = 1.0, tonemap: str = "clamp", gamma="srgb")
         raise ValueError(f"tonemap: expected one of {list(TONEMAPS)}, got {tonemap!r}")
     if not (np.isfinite(exposure) and exposure > 0):
         raise ValueError(f"exposure: must be a finite number > 0, got {exposure}")
+    inv_gamma = _check_gamma(gamma)
+    img = np.asarray(image)
+    if img.dtype != np.float32:
+        img = img.astype(np.float64, copy=False)
+    flat = np.ascontiguousarray(img).reshape(-1)
+    out = np.empty(flat.shape[0], np.uint8)
+    _to_uint8_kernel(flat, float(exposure), TONEMAPS.index(tonemap), inv_gamma, out)
+    return out.reshape(img.shape)
+
+
+def _check_gamma(gamma) -> float:
+    """``1 / gamma``, or 0.0 for sRGB."""
+    if isinstance(gamma, str):
+        if gamma != "srgb":
+            raise ValueError(f"gamma: expected 'srgb' or a number, got {gamma!r}")
+        return 0.0
+    if not (np.isfinite(gamma) and gamma > 0):
+        raise ValueError(f"gamma: must be > 0, got {gamma}")
+    return 1.0 / float(gamma)
+
+
+def _to_uint8_numpy(image, exposure: float = 1.0, tonemap: str = "clamp", gamma="srgb") -> np.ndarray:
+    """Plain-NumPy twin of :func:`to_uint8`, for tests."""
     x = np.asarray(image, np.float64) * exposure
     if tonemap == "reinhard":
         x = x / (1.0 + x)
     elif tonemap == "exponential":
         x = -np.expm1(-x)
     x = np.clip(x, 0.0, 1.0)
-    if isinstance(gamma, str):
-        if gamma != "srgb":
-            raise ValueError(f"gamma: expected 'srgb' or a number, got {gamma!r}")
+    inv_gamma = _check_gamma(gamma)
+    if inv_gamma == 0.0:
         x = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
     else:
-        if not (np.isfinite(gamma) and gamma > 0):
-            raise ValueError(f"gamma: must be > 0, got {gamma}")
-        x = np.power(x, 1.0 / gamma)
+        x = np.power(x, inv_gamma)
     return np.rint(x * 255.0).astype(np.uint8)
 
 

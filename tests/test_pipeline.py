@@ -331,3 +331,28 @@ def test_balanced_row_order_is_a_permutation_that_spreads_each_share(n):
             # Of a share, the blocks in each half of the image: close to even.
             top = (share < n / 2).sum()
             assert abs(top - len(share) / 2) <= 0.1 * len(share) + 1
+
+
+@pytest.mark.parametrize("tonemap", ["clamp", "reinhard", "exponential"])
+@pytest.mark.parametrize("gamma", ["srgb", 2.2, 1.0])
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_to_uint8_kernel_matches_numpy_twin(tonemap, gamma, dtype):
+    from raycast_shade.tonemap import _to_uint8_numpy
+
+    rng = np.random.default_rng(7)
+    x = np.concatenate([rng.uniform(-0.5, 3.0, 30000), rng.uniform(0.0, 0.01, 10000),
+                        [0.0, -0.0, 0.0031308, 1.0, 1e30]])
+    # Values whose code sits exactly on a rounding boundary of the linear curve.
+    x = np.concatenate([x, (np.arange(256) + 0.5) / 255.0])
+    img = x.astype(dtype).reshape(1, -1, 1)
+    exposure = 1.7 if tonemap != "clamp" else 1.0
+    got = rs.to_uint8(img, exposure=exposure, tonemap=tonemap, gamma=gamma)
+    assert got.dtype == np.uint8 and got.shape == img.shape
+    np.testing.assert_array_equal(got, _to_uint8_numpy(img, exposure=exposure, tonemap=tonemap, gamma=gamma))
+
+
+def test_to_uint8_takes_strided_and_integer_input():
+    img = np.linspace(0.0, 1.0, 60, dtype=np.float64).reshape(4, 5, 3)
+    np.testing.assert_array_equal(rs.to_uint8(img[:, ::2]), rs.to_uint8(np.ascontiguousarray(img[:, ::2])))
+    assert rs.to_uint8(np.ones((2, 2, 3), np.int64)).min() == 255
+    assert rs.to_uint8(np.zeros((0, 4, 3), np.float32)).shape == (0, 4, 3)
