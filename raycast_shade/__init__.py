@@ -24,6 +24,7 @@ from .hits import HitBuffer
 from .lights import DirectionalLight, PointLight
 from .material import Material
 from .mesh import Mesh
+from .normals import WindingWarning, winding_conflicts
 from .render import render
 from .scene import Model, Scene
 from .auto import choose_methods
@@ -35,4 +36,5 @@ __version__ = "0.1.0"
 __all__ = [
     "Camera", "DirectionalLight", "HeightMap", "bump", "Frame", "HitBuffer", "Material", "Mesh", "Model", "PointLight", "Scene",
     "SHADINGS", "cast_camera", "cast_rays", "read_pfm", "render", "choose_methods", "shade", "shading_normals", "shapes", "to_uint8", "write_pfm",
+    "WindingWarning", "winding_conflicts",
 ]

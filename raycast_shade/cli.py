@@ -15,6 +15,7 @@ import argparse
 import os
 import sys
 import time
+import warnings
 
 __all__ = ["main", "build_parser"]
 
@@ -341,6 +342,11 @@ def _one_line(exc: BaseException) -> str:
     return " ".join(str(exc).split()) or type(exc).__name__
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """Print a warning (an inconsistently wound mesh, say) as one line, like errors."""
+    print(f"{PROG}: warning: {_one_line(message)}", file=sys.stderr)
+
+
 def main(argv=None) -> int:
     """Run the command line.
 
@@ -364,7 +370,9 @@ def main(argv=None) -> int:
             from .animate import run_cli as command
         else:
             command = {"demo": _cmd_demo, "render": _cmd_render, "info": _cmd_info}[args.command]
-        return command(args)
+        with warnings.catch_warnings():  # restores showwarning on the way out
+            warnings.showwarning = _show_warning
+            return command(args)
     except (_UsageError, ValueError, TypeError, OSError, RuntimeError) as exc:
         print(f"{PROG}: error: {_one_line(exc)}", file=sys.stderr)
         return 2

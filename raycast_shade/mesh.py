@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import warnings
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import NamedTuple
@@ -10,7 +11,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ._validate import as_array, as_choice, as_scalar
-from .normals import WEIGHTINGS, face_normals, vertex_normals
+from .normals import WEIGHTINGS, WindingWarning, face_normals, vertex_normals, winding_conflicts
 
 __all__ = ["Mesh", "PreparedMesh"]
 
@@ -168,10 +169,22 @@ class Mesh:
             normals = np.divide(self.normals, length, out=np.zeros_like(self.normals), where=length > 0)
             verts, faces, uvs = self.vertices, self.faces, self.uvs
         else:
+            face_data = face_normals(self.vertices, self.faces)
+            conflicts = winding_conflicts(self.vertices, self.faces, face_data[0])
+            if conflicts:
+                warnings.warn(
+                    f"{self.name}: {conflicts} edge(s) join faces wound in opposite directions, so the "
+                    "computed vertex normals cancel there; make the winding consistent first (for "
+                    "example trimesh.repair.fix_winding) or pass normals",
+                    WindingWarning,
+                    stacklevel=2,
+                )
             verts, faces, normals, source = vertex_normals(
-                self.vertices, self.faces, self.weighting, self.crease_angle
+                self.vertices, self.faces, self.weighting, self.crease_angle, face_data=face_data
             )
             uvs = None if self.uvs is None else self.uvs[source]
+            # Split vertices copy positions, so each face keeps its normal.
+            return PreparedMesh(verts, faces, normals, uvs, face_data[0])
         fn, _ = face_normals(verts, faces)
         return PreparedMesh(verts, faces, normals, uvs, fn)
 

@@ -6,6 +6,11 @@ zero-area faces carry no direction and are left out of every average, so a
 sliver cannot poison its neighbours. With a crease angle, each face corner
 averages only the faces within that angle of its own face, and vertices are
 split where their corners disagree: a cube with a 30 degree crease stays a cube.
+
+Right-hand face normals only average well when neighbouring faces are wound
+the same way; :func:`winding_conflicts` counts the edges where they are not,
+so that :class:`~raycast_shade.mesh.Mesh` can warn instead of rendering
+cancelled normals without a word.
 """
 
 from __future__ import annotations
@@ -13,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["face_normals", "vertex_normals", "WEIGHTINGS"]
+__all__ = ["face_normals", "vertex_normals", "winding_conflicts", "WindingWarning", "WEIGHTINGS"]
 
 WEIGHTINGS = ("uniform", "area", "angle")
 _WEIGHT_CODE = {"uniform": 0, "area": 1, "angle": 2}
@@ -147,6 +152,72 @@ def _split_kernel(corner_normals, order, starts):
     return new_index, source[:count]
 
 
+class WindingWarning(UserWarning):
+    """Computed vertex normals meet faces wound in opposite directions."""
+
+
+@njit(cache=True)
+def _winding_conflicts_kernel(faces, valid, nv):
+    """Count directed edges a -> b that two distinct valid faces both use.
+
+    Edges are bucketed by their start vertex (a counting sort, O(F)); a
+    vertex has few outgoing edges, so the pairs within a bucket are compared
+    directly. A repeated face (same third vertex) is not a conflict.
+    """
+    nf = faces.shape[0]
+    starts = np.zeros(nv + 1, np.int64)
+    for f in range(nf):
+        if valid[f]:
+            for k in range(3):
+                starts[faces[f, k] + 1] += 1
+    for v in range(nv):
+        starts[v + 1] += starts[v]
+    fill = starts[:-1].copy()
+    dest = np.empty(starts[nv], np.int64)
+    third = np.empty(starts[nv], np.int64)
+    for f in range(nf):
+        if valid[f]:
+            for k in range(3):
+                a = faces[f, k]
+                dest[fill[a]] = faces[f, (k + 1) % 3]
+                third[fill[a]] = faces[f, (k + 2) % 3]
+                fill[a] += 1
+    conflicts = 0
+    for v in range(nv):
+        for i in range(starts[v], starts[v + 1]):
+            for j in range(i + 1, starts[v + 1]):
+                if dest[i] == dest[j] and third[i] != third[j]:
+                    conflicts += 1
+    return conflicts
+
+
+def winding_conflicts(vertices, faces, fnormals=None) -> int:
+    """Number of edges two faces traverse in the same direction.
+
+    On a consistently wound (orientable) surface every interior edge is
+    traversed once each way; an edge used twice the same way joins faces
+    whose right-hand normals point to opposite sides, and averaged vertex
+    normals cancel there. Zero-area faces carry no normal and are ignored;
+    so are exact duplicates of a face.
+
+    Parameters
+    ----------
+    vertices : (V, 3) float64
+    faces : (F, 3) int64
+    fnormals : (F, 3) float64, optional
+        :func:`face_normals` of the mesh, when already at hand.
+
+    Returns
+    -------
+    int
+        0 for a consistently wound mesh.
+    """
+    faces = np.asarray(faces, np.int64)
+    fn = face_normals(vertices, faces)[0] if fnormals is None else fnormals
+    valid = np.any(fn != 0.0, axis=1)
+    return int(_winding_conflicts_kernel(faces, valid, vertices.shape[0]))
+
+
 def _normalize_rows(n: np.ndarray) -> np.ndarray:
     length = np.linalg.norm(n, axis=1)
     out = np.zeros_like(n)
@@ -155,7 +226,8 @@ def _normalize_rows(n: np.ndarray) -> np.ndarray:
     return out
 
 
-def vertex_normals(vertices, faces, weighting: str = "angle", crease_angle: float | None = None):
+def vertex_normals(vertices, faces, weighting: str = "angle", crease_angle: float | None = None, *,
+                   face_data=None):
     """Averaged vertex normals, optionally split at creases.
 
     Parameters
@@ -167,6 +239,8 @@ def vertex_normals(vertices, faces, weighting: str = "angle", crease_angle: floa
     crease_angle : float, optional
         Degrees. Faces whose normals differ by more than this do not share a
         normal: the vertex is split. ``None`` averages every face at a vertex.
+    face_data : tuple, optional
+        ``face_normals(vertices, faces)``, when already at hand.
 
     Returns
     -------
@@ -180,7 +254,7 @@ def vertex_normals(vertices, faces, weighting: str = "angle", crease_angle: floa
     source : (V',) int64
         The input vertex each output vertex copies.
     """
-    fn, areas = face_normals(vertices, faces)
+    fn, areas = face_normals(vertices, faces) if face_data is None else face_data
     w = _corner_weights(vertices, faces, fn, areas, weighting)
     nv = vertices.shape[0]
     flat = faces.ravel()

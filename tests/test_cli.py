@@ -255,3 +255,19 @@ def test_subprocess(tmp_path):
                          capture_output=True, text=True, timeout=300)
     assert res.returncode == 2 and res.stdout == ""
     assert res.stderr.startswith("raycast-shade: error: ") and res.stderr.count("\n") == 1
+
+
+def test_render_warns_in_one_line_about_inconsistent_winding(capsys, tmp_path, scene_file):
+    """A mesh file whose faces disagree on their winding renders, and says why it may look wrong."""
+    ico = rs.shapes.icosphere(2)
+    faces = ico.faces.copy()
+    faces[::5] = faces[::5, ::-1]
+    lines = [f"v {x:.9f} {y:.9f} {z:.9f}" for x, y, z in ico.vertices]
+    lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in faces]
+    (tmp_path / "bad.obj").write_text("\n".join(lines) + "\n")
+    text = scene_file().read_text().replace('shape = "uv_sphere"\nrings = 8\nsegments = 12', 'mesh = "bad.obj"')
+    (tmp_path / "scene.toml").write_text(text)
+    code, out, err = run(capsys, "render", tmp_path / "scene.toml", "-o", tmp_path / "x.png", "--shading", "phong")
+    assert code == 0 and (tmp_path / "x.png").exists()
+    assert err.startswith("raycast-shade: warning: bad.obj: ") and err.count("\n") == 1, err
+    assert "wound in opposite directions" in err and "Traceback" not in err

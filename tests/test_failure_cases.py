@@ -566,7 +566,8 @@ def test_6_duplicate_vertices_split_the_average_like_a_crease():
     # Double-sided sheet.
     plane = rs.shapes.plane(size=2.0, subdivisions=4)
     sheet = rs.Mesh(plane.vertices, np.vstack([plane.faces, plane.faces[:, ::-1]]))
-    assert (sheet.prepared.normals == 0).all()
+    with pytest.warns(rs.WindingWarning, match="wound in opposite directions"):
+        assert (sheet.prepared.normals == 0).all()
     one = _render_all(_lamp_scene(rs.Mesh(plane.vertices, plane.faces)))
     two = _render_all(_lamp_scene(sheet))
     for shading in rs.SHADINGS:
@@ -600,11 +601,14 @@ def test_6_inconsistent_winding_with_computed_normals_needs_repair():
     and Gouraud stay finite but are wrong (measured RMSE against the exact
     sphere: Phong 0.141 vs 0.0030 consistent, Gouraud 0.230 vs 0.0114; normal
     error p95 69 degrees). The remedy is to fix the winding before building
-    the Mesh (trimesh.repair.fix_winding), which restores the image."""
+    the Mesh (trimesh.repair.fix_winding), which restores the image. The
+    Mesh says so: a WindingWarning when its normals are computed."""
     import trimesh
 
     ico, bad, _ = _flipped_sphere()
     good = _render_all(_sphere_scene(rs.Mesh(ico.vertices, ico.faces)))
+    with pytest.warns(rs.WindingWarning, match="trimesh.repair.fix_winding"):
+        bad.prepared  # noqa: B018
     broken = _render_all(_sphere_scene(bad))
     np.testing.assert_allclose(broken["flat"].image, good["flat"].image, rtol=1e-6, atol=1e-7)
     for shading in rs.SHADINGS:
@@ -1154,6 +1158,7 @@ def degenerate_scene(draw):
     return _scene([rs.Model(mesh, material)], lights, camera, ambient=draw(st.floats(0, 1)), background=background)
 
 
+@pytest.mark.filterwarnings("ignore::raycast_shade.WindingWarning")  # random faces: expected, and tested elsewhere
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 @given(scene=degenerate_scene())
 def test_property_random_degenerate_scenes(scene):

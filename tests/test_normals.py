@@ -235,3 +235,77 @@ def test_vertex_normals_random_meshes(seed, nv, nf, weighting, crease):
         fn, _ = face_normals(v, f)
         good = np.any(fn != 0, axis=1)
         assert (np.einsum("ijk,ik->ij", n[fs[good]], fn[good]) > 0).all()
+
+
+# -- winding consistency ----------------------------------------------------------------------------
+def _expected_conflicts(faces, flipped):
+    """Edges whose two faces disagree on being flipped (closed surface: two faces per edge)."""
+    edges = np.sort(np.stack([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]], axis=1), axis=2).reshape(-1, 2)
+    owner = np.repeat(np.arange(len(faces)), 3)
+    order = np.lexsort((edges[:, 1], edges[:, 0]))
+    pairs = owner[order].reshape(-1, 2)  # each undirected edge twice, adjacent after the sort
+    assert (edges[order][0::2] == edges[order][1::2]).all()
+    return int((flipped[pairs[:, 0]] != flipped[pairs[:, 1]]).sum())
+
+
+@pytest.mark.parametrize("fraction", [0.0, 0.05, 0.3, 1.0])
+def test_winding_conflicts_counts_edges_between_flipped_and_kept_faces(fraction):
+    ico = rs.shapes.icosphere(3)
+    rng = np.random.default_rng(3)
+    flipped = rng.random(len(ico.faces)) < fraction
+    faces = ico.faces.copy()
+    faces[flipped] = faces[flipped][:, ::-1]
+    got = rs.winding_conflicts(ico.vertices, faces)
+    assert got == _expected_conflicts(ico.faces, flipped)
+    assert (got == 0) == (fraction in (0.0, 1.0))  # all flipped is consistent again
+
+
+def test_built_in_shapes_are_consistently_wound():
+    for mesh in (rs.shapes.cube(), rs.shapes.cylinder(), rs.shapes.icosphere(2), rs.shapes.plane(subdivisions=3),
+                 rs.shapes.torus(), rs.shapes.uv_sphere()):
+        assert rs.winding_conflicts(mesh.vertices, mesh.faces) == 0, mesh.name
+
+
+def test_winding_conflicts_ignore_duplicates_and_zero_area_faces():
+    plane = rs.shapes.plane(subdivisions=2)
+    v, f = plane.vertices, plane.faces
+    # An exact duplicate of a face and a zero-area face against the grain: no conflict.
+    degenerate = np.array([[f[0, 1], f[0, 0], f[0, 1]]])
+    assert rs.winding_conflicts(v, np.vstack([f, f[:1], degenerate])) == 0
+    # One face turned over inside the grid: each of its 3 edges conflicts.
+    g = f.copy()
+    g[3] = g[3, ::-1]
+    interior = _expected_conflicts_open(f, 3)
+    assert interior == 3
+    assert rs.winding_conflicts(v, g) == interior
+
+
+def _expected_conflicts_open(faces, face):
+    """Edges face ``face`` shares with another face (open surface)."""
+    e = {tuple(sorted((faces[face, k], faces[face, (k + 1) % 3]))) for k in range(3)}
+    shared = 0
+    for i in range(len(faces)):
+        if i != face:
+            shared += len(e & {tuple(sorted((faces[i, k], faces[i, (k + 1) % 3]))) for k in range(3)})
+    return shared
+
+
+def test_mesh_warns_about_inconsistent_winding_only_when_it_computes_normals():
+    import warnings
+
+    ico = rs.shapes.icosphere(2)
+    faces = ico.faces.copy()
+    faces[::7] = faces[::7, ::-1]
+    with pytest.warns(rs.WindingWarning, match=r"bad: \d+ edge\(s\) join faces wound in opposite directions"):
+        rs.Mesh(ico.vertices, faces, name="bad").prepared  # noqa: B018
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        rs.Mesh(ico.vertices, faces, normals=ico.normals).prepared  # noqa: B018 - normals given: no average
+        rs.Mesh(ico.vertices, ico.faces).prepared  # noqa: B018
+
+
+@pytest.mark.parametrize("crease", [None, 30.0])
+def test_prepared_face_normals_are_those_of_the_split_mesh(crease):
+    mesh = rs.Mesh(rs.shapes.cube().vertices, rs.shapes.cube().faces, crease_angle=crease)
+    p = mesh.prepared
+    np.testing.assert_array_equal(p.face_normals, face_normals(p.vertices, p.faces)[0])

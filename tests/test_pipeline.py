@@ -296,6 +296,7 @@ def random_scene(draw):
     return rs.Scene([rs.Model(mesh, material)], lights=lights, camera=camera, ambient=draw(st.floats(0, 1)))
 
 
+@pytest.mark.filterwarnings("ignore::raycast_shade.WindingWarning")  # random faces: expected, and tested elsewhere
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 @given(scene=random_scene())
 def test_random_scenes_never_produce_nan_inf_or_negative(scene):
