@@ -169,8 +169,7 @@ class Mesh:
             normals = np.divide(self.normals, length, out=np.zeros_like(self.normals), where=length > 0)
             verts, faces, uvs = self.vertices, self.faces, self.uvs
         else:
-            face_data = face_normals(self.vertices, self.faces)
-            conflicts = winding_conflicts(self.vertices, self.faces, face_data[0])
+            conflicts = winding_conflicts(self.vertices, self.faces)
             if conflicts:
                 warnings.warn(
                     f"{self.name}: {conflicts} edge(s) join faces wound in opposite directions, so the "
@@ -180,11 +179,9 @@ class Mesh:
                     stacklevel=2,
                 )
             verts, faces, normals, source = vertex_normals(
-                self.vertices, self.faces, self.weighting, self.crease_angle, face_data=face_data
+                self.vertices, self.faces, self.weighting, self.crease_angle
             )
             uvs = None if self.uvs is None else self.uvs[source]
-            # Split vertices copy positions, so each face keeps its normal.
-            return PreparedMesh(verts, faces, normals, uvs, face_data[0])
         fn, _ = face_normals(verts, faces)
         return PreparedMesh(verts, faces, normals, uvs, fn)
 

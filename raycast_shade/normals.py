@@ -15,8 +15,10 @@ cancelled normals without a word.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 __all__ = ["face_normals", "vertex_normals", "winding_conflicts", "WindingWarning", "WEIGHTINGS"]
 
@@ -24,8 +26,82 @@ WEIGHTINGS = ("uniform", "area", "angle")
 _WEIGHT_CODE = {"uniform": 0, "area": 1, "angle": 2}
 
 
+@njit(cache=True, parallel=True)
+def _faces_kernel(vertices, faces, weighting):
+    """Face normals, areas and corner weights in one pass over the faces.
+
+    ``weighting``: 0 uniform, 1 area, 2 angle (see :func:`_corner_weights_numpy`,
+    whose arithmetic this follows).
+    """
+    nf = faces.shape[0]
+    normals = np.zeros((nf, 3), np.float64)
+    areas = np.zeros(nf, np.float64)
+    weights = np.zeros((nf, 3), np.float64)
+    for f in prange(nf):
+        i0 = faces[f, 0]
+        i1 = faces[f, 1]
+        i2 = faces[f, 2]
+        a0 = vertices[i1, 0] - vertices[i0, 0]
+        a1 = vertices[i1, 1] - vertices[i0, 1]
+        a2 = vertices[i1, 2] - vertices[i0, 2]
+        b0 = vertices[i2, 0] - vertices[i0, 0]
+        b1 = vertices[i2, 1] - vertices[i0, 1]
+        b2 = vertices[i2, 2] - vertices[i0, 2]
+        c0 = a1 * b2 - a2 * b1
+        c1 = a2 * b0 - a0 * b2
+        c2 = a0 * b1 - a1 * b0
+        length = math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
+        # Relative threshold: degenerate when the cross product is tiny next
+        # to the edge lengths (float64 rounding of collinear points).
+        scale = max(a0 * a0 + a1 * a1 + a2 * a2, b0 * b0 + b1 * b1 + b2 * b2)
+        if not length > 1e-14 * scale:
+            continue  # zero normal, area and weights
+        normals[f, 0] = c0 / length
+        normals[f, 1] = c1 / length
+        normals[f, 2] = c2 / length
+        areas[f] = 0.5 * length
+        for k in range(3):
+            if weighting == 0:
+                weights[f, k] = 1.0
+            elif weighting == 1:
+                weights[f, k] = 0.5 * length
+            else:  # the angle at corner k, robust form atan2(|e x g|, e.g)
+                p = faces[f, k]
+                q = faces[f, (k + 1) % 3]
+                r = faces[f, (k + 2) % 3]
+                e0 = vertices[q, 0] - vertices[p, 0]
+                e1 = vertices[q, 1] - vertices[p, 1]
+                e2 = vertices[q, 2] - vertices[p, 2]
+                g0 = vertices[r, 0] - vertices[p, 0]
+                g1 = vertices[r, 1] - vertices[p, 1]
+                g2 = vertices[r, 2] - vertices[p, 2]
+                x0 = e1 * g2 - e2 * g1
+                x1 = e2 * g0 - e0 * g2
+                x2 = e0 * g1 - e1 * g0
+                weights[f, k] = math.atan2(math.sqrt(x0 * x0 + x1 * x1 + x2 * x2), e0 * g0 + e1 * g1 + e2 * g2)
+    return normals, areas, weights
+
+
 def face_normals(vertices: np.ndarray, faces: np.ndarray):
     """Unit face normals by the right-hand rule, and face areas.
+
+    Parameters
+    ----------
+    vertices : (V, 3) float64
+    faces : (F, 3) int
+
+    Returns
+    -------
+    normals : (F, 3) float64
+        Unit normals; exactly zero for zero-area faces.
+    areas : (F,) float64
+    """
+    normals, areas, _ = _faces_kernel(np.asarray(vertices, np.float64), np.asarray(faces, np.int64), 0)
+    return normals, areas
+
+
+def _face_normals_numpy(vertices: np.ndarray, faces: np.ndarray):
+    """Plain-NumPy twin of :func:`face_normals`, for tests.
 
     Parameters
     ----------
@@ -54,8 +130,8 @@ def face_normals(vertices: np.ndarray, faces: np.ndarray):
     return normals, areas
 
 
-def _corner_weights(vertices, faces, fnormals, areas, weighting: str) -> np.ndarray:
-    """(F, 3) weight of each face corner in its vertex's average."""
+def _corner_weights_numpy(vertices, faces, fnormals, areas, weighting: str) -> np.ndarray:
+    """(F, 3) weight of each face corner in its vertex's average (plain-NumPy twin of :func:`_faces_kernel`)."""
     valid = np.any(fnormals != 0.0, axis=1)
     if weighting == "uniform":
         w = np.repeat(valid.astype(np.float64)[:, None], 3, axis=1)
@@ -70,6 +146,47 @@ def _corner_weights(vertices, faces, fnormals, areas, weighting: str) -> np.ndar
             w[:, k] = np.arctan2(np.linalg.norm(np.cross(a, b), axis=1), np.einsum("ij,ij->i", a, b))
         w[~valid] = 0.0
     return w
+
+
+@njit(cache=True)
+def _corners_by_vertex(flat, nv):
+    """Corners grouped by vertex: a stable counting sort, O(F).
+
+    Returns ``order`` (3F,), equal to ``np.argsort(flat, kind="stable")``,
+    and ``starts`` (V + 1,): vertex v's corners are ``order[starts[v]:starts[v + 1]]``.
+    """
+    starts = np.zeros(nv + 1, np.int64)
+    for c in range(flat.shape[0]):
+        starts[flat[c] + 1] += 1
+    for v in range(nv):
+        starts[v + 1] += starts[v]
+    fill = starts[:-1].copy()
+    order = np.empty(flat.shape[0], np.int64)
+    for c in range(flat.shape[0]):
+        order[fill[flat[c]]] = c
+        fill[flat[c]] += 1
+    return order, starts
+
+
+@njit(cache=True)
+def _accumulate_kernel(faces, fnormals, weights, nv):
+    """(V, 3) sum of weighted face normals at each vertex.
+
+    Summed corner slot by corner slot, each in face order, as
+    ``np.bincount`` over ``faces[:, k]`` does (the twin in the tests).
+    """
+    acc = np.zeros((nv, 3), np.float64)
+    part = np.empty((nv, 3), np.float64)
+    for k in range(3):
+        part[:] = 0.0
+        for f in range(faces.shape[0]):
+            v = faces[f, k]
+            for c in range(3):
+                part[v, c] += fnormals[f, c] * weights[f, k]
+        for v in range(nv):
+            for c in range(3):
+                acc[v, c] += part[v, c]
+    return acc
 
 
 @njit(cache=True)
@@ -226,8 +343,7 @@ def _normalize_rows(n: np.ndarray) -> np.ndarray:
     return out
 
 
-def vertex_normals(vertices, faces, weighting: str = "angle", crease_angle: float | None = None, *,
-                   face_data=None):
+def vertex_normals(vertices, faces, weighting: str = "angle", crease_angle: float | None = None):
     """Averaged vertex normals, optionally split at creases.
 
     Parameters
@@ -239,8 +355,6 @@ def vertex_normals(vertices, faces, weighting: str = "angle", crease_angle: floa
     crease_angle : float, optional
         Degrees. Faces whose normals differ by more than this do not share a
         normal: the vertex is split. ``None`` averages every face at a vertex.
-    face_data : tuple, optional
-        ``face_normals(vertices, faces)``, when already at hand.
 
     Returns
     -------
@@ -254,20 +368,14 @@ def vertex_normals(vertices, faces, weighting: str = "angle", crease_angle: floa
     source : (V',) int64
         The input vertex each output vertex copies.
     """
-    fn, areas = face_normals(vertices, faces) if face_data is None else face_data
-    w = _corner_weights(vertices, faces, fn, areas, weighting)
+    vertices = np.asarray(vertices, np.float64)
+    faces = np.asarray(faces, np.int64)
+    fn, _, w = _faces_kernel(vertices, faces, _WEIGHT_CODE[weighting])
     nv = vertices.shape[0]
     flat = faces.ravel()
     if crease_angle is None:
-        acc = np.zeros((nv, 3))
-        for k in range(3):
-            contrib = fn * w[:, k : k + 1]
-            for c in range(3):
-                acc[:, c] += np.bincount(faces[:, k], weights=contrib[:, c], minlength=nv)
-        return vertices, faces, _normalize_rows(acc), np.arange(nv)
-    order = np.argsort(flat, kind="stable")
-    starts = np.zeros(nv + 1, np.int64)
-    np.cumsum(np.bincount(flat, minlength=nv), out=starts[1:])
+        return vertices, faces, _normalize_rows(_accumulate_kernel(faces, fn, w, nv)), np.arange(nv)
+    order, starts = _corners_by_vertex(flat, nv)
     # "Differ by more than the crease angle" splits; a tolerance of 1e-12 in
     # the cosine keeps faces at exactly the angle (a cube at 90 degrees, where
     # cos rounds to 6e-17 > 0) and coplanar neighbours (cos = 1 - rounding)

@@ -257,6 +257,7 @@ def test_subprocess(tmp_path):
     assert res.stderr.startswith("raycast-shade: error: ") and res.stderr.count("\n") == 1
 
 
+@pytest.mark.filterwarnings("default::raycast_shade.WindingWarning")  # shown, even under -W error
 def test_render_warns_in_one_line_about_inconsistent_winding(capsys, tmp_path, scene_file):
     """A mesh file whose faces disagree on their winding renders, and says why it may look wrong."""
     ico = rs.shapes.icosphere(2)

@@ -304,8 +304,51 @@ def test_mesh_warns_about_inconsistent_winding_only_when_it_computes_normals():
         rs.Mesh(ico.vertices, ico.faces).prepared  # noqa: B018
 
 
-@pytest.mark.parametrize("crease", [None, 30.0])
-def test_prepared_face_normals_are_those_of_the_split_mesh(crease):
-    mesh = rs.Mesh(rs.shapes.cube().vertices, rs.shapes.cube().faces, crease_angle=crease)
-    p = mesh.prepared
-    np.testing.assert_array_equal(p.face_normals, face_normals(p.vertices, p.faces)[0])
+def _random_mesh(seed, nv=60, nf=200):
+    rng = np.random.default_rng(seed)
+    v = rng.normal(size=(nv, 3))
+    v[:5] = v[0]  # coincident points: zero-area faces
+    v[5:10] = v[10] + np.outer(np.linspace(0, 1, 5), [1.0, 2.0, 3.0])  # collinear points
+    f = rng.integers(0, nv, size=(nf, 3))
+    f[:10, 2] = f[:10, 0]  # repeated indices
+    return v, f
+
+
+@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("weighting", ["uniform", "area", "angle"])
+def test_face_kernel_matches_numpy_twins(seed, weighting):
+    from raycast_shade.normals import _WEIGHT_CODE, _corner_weights_numpy, _face_normals_numpy, _faces_kernel
+
+    v, f = _random_mesh(seed)
+    fn, areas, w = _faces_kernel(v, f, _WEIGHT_CODE[weighting])
+    fn_np, areas_np = _face_normals_numpy(v, f)
+    np.testing.assert_array_equal(fn == 0, fn_np == 0)  # the same faces are degenerate
+    np.testing.assert_allclose(fn, fn_np, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(areas, areas_np, rtol=1e-15, atol=0)
+    np.testing.assert_allclose(w, _corner_weights_numpy(v, f, fn_np, areas_np, weighting), rtol=1e-14, atol=0)
+    assert (fn == 0).all(axis=1).sum() >= 10
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_accumulated_normals_match_bincount(seed):
+    from raycast_shade.normals import _accumulate_kernel
+
+    v, f = _random_mesh(seed)
+    rng = np.random.default_rng(seed)
+    fn, w = rng.normal(size=(len(f), 3)), rng.random((len(f), 3))
+    want = np.zeros((len(v), 3))
+    for k in range(3):  # np.bincount sums in input order: the kernel must too, bit for bit
+        for c in range(3):
+            want[:, c] += np.bincount(f[:, k], weights=fn[:, c] * w[:, k], minlength=len(v))
+    np.testing.assert_array_equal(_accumulate_kernel(f, fn, w, len(v)), want)
+
+
+def test_corners_by_vertex_is_a_stable_argsort():
+    from raycast_shade.normals import _corners_by_vertex
+
+    v, f = _random_mesh(5, nv=40, nf=300)
+    flat = f.ravel()
+    order, starts = _corners_by_vertex(flat, 45)  # 5 unreferenced vertices at the end
+    np.testing.assert_array_equal(order, np.argsort(flat, kind="stable"))
+    np.testing.assert_array_equal(np.diff(starts), np.bincount(flat, minlength=45))
+    assert starts[0] == 0 and starts[-1] == len(flat)
