@@ -29,6 +29,7 @@ ROOT = os.path.dirname(HERE)
 RESULTS = os.path.join(HERE, "results")
 IMAGES = os.path.join(ROOT, "docs", "images")
 DOC = os.path.join(ROOT, "docs", "benchmarks.md")
+DOC_QUICK = os.path.join(ROOT, "docs", "benchmarks_quick.md")  # a quick check never overwrites the full tables
 
 # name, module, title, CSV and chart name patterns ({s} is the mode suffix)
 REGISTRY = [
@@ -37,7 +38,8 @@ REGISTRY = [
     dict(name="raster", module="benchmarks.bench_raster", title="Ray casting against the reference rasterizer",
          csv=["raster*{s}.csv"], images=["raster*{s}.png"]),
     dict(name="accuracy", module="benchmarks.accuracy", title="Speed against accuracy",
-         csv=["accuracy*{s}.csv"], images=["speed_vs_accuracy{s}.png", "convergence{s}.png"]),
+         csv=["accuracy*{s}.csv"], images=["speed_vs_accuracy{s}.png", "convergence{s}.png"],
+         doc_flag="--no-docs"),  # it also rewrites a block of docs/accuracy.md
     dict(name="auto", module="benchmarks.bench_auto", title="Auto mode against single methods",
          csv=["auto{s}.csv"], images=[]),
     dict(name="batch", module="benchmarks.bench_batch", title="Batch rendering: serial against Dask workers",
@@ -54,10 +56,10 @@ def _is_missing_extra(exc: BaseException) -> bool:
     return isinstance(exc, MissingExtraError)
 
 
-def _call(mod, quick: bool):
+def _call(mod, quick: bool, extra=()):
     """Run one benchmark module; returns whatever it returned."""
     if hasattr(mod, "main"):
-        out = mod.main(["--quick"] if quick else [])
+        out = mod.main((["--quick"] if quick else []) + list(extra))
         if isinstance(out, int) and not isinstance(out, bool) and out != 0:
             if out == 2:  # the argparse / missing-dependency convention: the module said why
                 raise ImportError("main() returned exit status 2 (a missing optional dependency; see above)")
@@ -114,8 +116,9 @@ def _csv_table(path, max_rows=30):
     return "\n".join(lines)
 
 
-def write_doc(status, quick: bool, path=DOC):
-    """Regenerate ``docs/benchmarks.md`` from the CSVs and charts on disk."""
+def write_doc(status, quick: bool, path=None):
+    """Regenerate ``docs/benchmarks.md`` (``benchmarks_quick.md`` in quick mode) from the CSVs and charts on disk."""
+    path = path or (DOC_QUICK if quick else DOC)
     suffix = "_quick" if quick else ""
     mode = "quick (`--quick`: small sizes, few repeats)" if quick else "full"
     parts = [
@@ -170,7 +173,7 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true", help="small sizes, few repeats (< 2 minutes on 2 cores)")
     ap.add_argument("--only", nargs="+", metavar="NAME", choices=[e["name"] for e in REGISTRY],
                     help="run only these benchmarks")
-    ap.add_argument("--no-docs", action="store_true", help="do not regenerate docs/benchmarks.md")
+    ap.add_argument("--no-docs", action="store_true", help="do not regenerate docs/benchmarks.md or benchmarks_quick.md (nor the fitted orders in docs/accuracy.md)")
     args = ap.parse_args(argv)
 
     status = {}
@@ -197,7 +200,8 @@ def main(argv=None) -> int:
             continue
         t0 = time.perf_counter()
         try:
-            out = _call(mod, args.quick)
+            extra = [entry["doc_flag"]] if args.no_docs and "doc_flag" in entry else []
+            out = _call(mod, args.quick, extra)
         except Exception as exc:  # noqa: BLE001 - one failing benchmark must not stop the suite
             if _is_missing_extra(exc) or isinstance(exc, ImportError):
                 msg = f"skipped: {exc}"
@@ -215,7 +219,7 @@ def main(argv=None) -> int:
         print(f"   done in {time.perf_counter() - t0:.1f} s", file=sys.stderr, flush=True)
     if not args.no_docs:
         write_doc(status, args.quick)
-        print(f"wrote {os.path.relpath(DOC, ROOT)}", file=sys.stderr)
+        print(f"wrote {os.path.relpath(DOC_QUICK if args.quick else DOC, ROOT)}", file=sys.stderr)
     print(f"benchmarks: {time.perf_counter() - t_all:.1f} s in all; "
           + ", ".join(f"{k}: {v}" for k, v in status.items()), file=sys.stderr)
     return code

@@ -32,7 +32,8 @@ Outputs (``_quick`` is appended to every name in ``--quick`` mode):
   icosphere levels, one curve per method, Pareto front marked) and
   ``docs/images/convergence.png`` (RMSE against the angular step, fitted
   slopes in the legend);
-* the block of fitted orders in ``docs/accuracy.md``.
+* the block of fitted orders in ``docs/accuracy.md`` (full runs only, and not
+  with ``--no-docs``).
 """
 
 from __future__ import annotations
@@ -724,7 +725,7 @@ def summary_markdown(results_dir=RESULTS, suffix=""):
     return "\n\n".join(parts) + "\n"
 
 
-def update_accuracy_doc(orders, path=ACCURACY_DOC, quick=False):
+def update_accuracy_doc(orders, path=ACCURACY_DOC):
     """Replace the generated block of fitted orders in ``docs/accuracy.md``."""
     begin, end = "<!-- orders:begin -->", "<!-- orders:end -->"
     if not os.path.exists(path):
@@ -733,8 +734,7 @@ def update_accuracy_doc(orders, path=ACCURACY_DOC, quick=False):
         text = fh.read()
     if begin not in text or end not in text:
         return
-    note = "_(from a `--quick` run: low resolution, few levels)_\n\n" if quick else ""
-    block = f"{begin}\n{note}{orders_markdown(orders, 'rmse')}\n\n{orders_markdown(orders, 'rmse_interior')}\n{end}"
+    block = f"{begin}\n{orders_markdown(orders, 'rmse')}\n\n{orders_markdown(orders, 'rmse_interior')}\n{end}"
     a = text.index(begin)
     b = text.index(end) + len(end)
     with open(path, "w") as fh:
@@ -795,8 +795,8 @@ def run(quick: bool = False, progress: bool = True, results_dir: str = RESULTS, 
               os.path.join(images_dir, f"convergence{suffix}.png")]
     chart_speed(rows, images[0])
     chart_convergence(rows, orders, images[1])
-    if docs:
-        update_accuracy_doc(orders, quick=quick)
+    if docs and not quick:  # a quick run never overwrites the full run's table
+        update_accuracy_doc(orders)
     return {"csv": list(paths.values()), "images": images, "orders": orders, "run_s": run_s}
 
 
@@ -805,11 +805,13 @@ def main(argv=None):
     ap.add_argument("--quick", action="store_true", help="small images, fewer levels (< 2 minutes on 2 cores)")
     ap.add_argument("--no-peers", action="store_true", help="skip the peer pipelines")
     ap.add_argument("--no-progress", action="store_true", help="no progress bar")
+    ap.add_argument("--no-docs", action="store_true", help="do not rewrite the fitted orders in docs/accuracy.md")
     args = ap.parse_args(argv)
     from raycast_shade.metrics import MissingExtraError
 
     try:
-        out = run(quick=args.quick, progress=not args.no_progress, with_peers=not args.no_peers)
+        out = run(quick=args.quick, progress=not args.no_progress, with_peers=not args.no_peers,
+                  docs=not args.no_docs)
     except MissingExtraError as exc:
         print(f"accuracy: {exc}", file=sys.stderr)
         return 2
