@@ -26,6 +26,20 @@ WEIGHTINGS = ("uniform", "area", "angle")
 _WEIGHT_CODE = {"uniform": 0, "area": 1, "angle": 2}
 
 
+@njit(cache=True)
+def _corner(vertices, p, q, r):
+    """At corner ``p`` of triangle (p, q, r), with a = q - p and b = r - p:
+    a x b (3 floats), |a|^2, |b|^2 and a.b."""
+    a0 = vertices[q, 0] - vertices[p, 0]
+    a1 = vertices[q, 1] - vertices[p, 1]
+    a2 = vertices[q, 2] - vertices[p, 2]
+    b0 = vertices[r, 0] - vertices[p, 0]
+    b1 = vertices[r, 1] - vertices[p, 1]
+    b2 = vertices[r, 2] - vertices[p, 2]
+    return (a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0,
+            a0 * a0 + a1 * a1 + a2 * a2, b0 * b0 + b1 * b1 + b2 * b2, a0 * b0 + a1 * b1 + a2 * b2)
+
+
 @njit(cache=True, parallel=True)
 def _faces_kernel(vertices, faces, weighting):
     """Face normals, areas and corner weights in one pass over the faces.
@@ -38,22 +52,11 @@ def _faces_kernel(vertices, faces, weighting):
     areas = np.zeros(nf, np.float64)
     weights = np.zeros((nf, 3), np.float64)
     for f in prange(nf):
-        i0 = faces[f, 0]
-        i1 = faces[f, 1]
-        i2 = faces[f, 2]
-        a0 = vertices[i1, 0] - vertices[i0, 0]
-        a1 = vertices[i1, 1] - vertices[i0, 1]
-        a2 = vertices[i1, 2] - vertices[i0, 2]
-        b0 = vertices[i2, 0] - vertices[i0, 0]
-        b1 = vertices[i2, 1] - vertices[i0, 1]
-        b2 = vertices[i2, 2] - vertices[i0, 2]
-        c0 = a1 * b2 - a2 * b1
-        c1 = a2 * b0 - a0 * b2
-        c2 = a0 * b1 - a1 * b0
+        c0, c1, c2, ea, eb, dot = _corner(vertices, faces[f, 0], faces[f, 1], faces[f, 2])
         length = math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
         # Relative threshold: degenerate when the cross product is tiny next
         # to the edge lengths (float64 rounding of collinear points).
-        scale = max(a0 * a0 + a1 * a1 + a2 * a2, b0 * b0 + b1 * b1 + b2 * b2)
+        scale = max(ea, eb)
         if not length > 1e-14 * scale:
             continue  # zero normal, area and weights
         normals[f, 0] = c0 / length
@@ -65,20 +68,9 @@ def _faces_kernel(vertices, faces, weighting):
                 weights[f, k] = 1.0
             elif weighting == 1:
                 weights[f, k] = 0.5 * length
-            else:  # the angle at corner k, robust form atan2(|e x g|, e.g)
-                p = faces[f, k]
-                q = faces[f, (k + 1) % 3]
-                r = faces[f, (k + 2) % 3]
-                e0 = vertices[q, 0] - vertices[p, 0]
-                e1 = vertices[q, 1] - vertices[p, 1]
-                e2 = vertices[q, 2] - vertices[p, 2]
-                g0 = vertices[r, 0] - vertices[p, 0]
-                g1 = vertices[r, 1] - vertices[p, 1]
-                g2 = vertices[r, 2] - vertices[p, 2]
-                x0 = e1 * g2 - e2 * g1
-                x1 = e2 * g0 - e0 * g2
-                x2 = e0 * g1 - e1 * g0
-                weights[f, k] = math.atan2(math.sqrt(x0 * x0 + x1 * x1 + x2 * x2), e0 * g0 + e1 * g1 + e2 * g2)
+            else:  # the angle at corner k, robust form atan2(|a x b|, a.b)
+                x0, x1, x2, _, _, dot = _corner(vertices, faces[f, k], faces[f, (k + 1) % 3], faces[f, (k + 2) % 3])
+                weights[f, k] = math.atan2(math.sqrt(x0 * x0 + x1 * x1 + x2 * x2), dot)
     return normals, areas, weights
 
 
