@@ -48,6 +48,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .camera import Camera
+from .imagefile import check_image_path
+from .imagefile import write_image as _write_file
 from .lights import DirectionalLight, PointLight
 from .scene import Scene
 
@@ -56,7 +58,6 @@ __all__ = ["FrameJob", "BatchOptions", "render_batch", "iter_batch", "plan_batch
 
 RENDER_KWARGS = ("backend", "interpolation", "caster", "max_depth")
 TONE_KWARGS = ("exposure", "tonemap", "gamma")
-LINEAR_EXTS = (".pfm", ".npy")
 WINDOW_BYTES = 256 << 20  # default bound on the images in flight or awaiting their turn (iter_batch)
 _TMP_RE = re.compile(r"^\.(?P<name>.+)\.[0-9a-f]{12}\.tmp(\.[^.]*)?$")
 
@@ -238,14 +239,7 @@ def _check_pattern(pattern):
         raise ValueError(f"pattern: {pattern!r} gives the same name to every frame; put a field like {{:05d}} in it")
     if os.path.basename(a) != a or a in (".", ".."):
         raise ValueError(f"pattern: must name a file inside out_dir, not a path: {pattern!r}")
-    ext = os.path.splitext(a)[1].lower()
-    if not ext:
-        raise ValueError(f"pattern: {pattern!r} has no extension; use .png, .jpg, .pfm or .npy")
-    if ext not in LINEAR_EXTS:
-        from imageio.config import known_extensions
-
-        if ext not in known_extensions:
-            raise ValueError(f"pattern: unknown image format {ext!r}")
+    check_image_path(a, "pattern")
     return pattern
 
 
@@ -359,8 +353,8 @@ def write_image(path, image, **tone) -> str:
     Parameters
     ----------
     path : str or path-like
-        ``.pfm`` or ``.npy``: float32, lossless; any other imageio format
-        (``.png``, ``.jpg``, ...): 8-bit after :func:`raycast_shade.to_uint8`.
+        ``.pfm`` or ``.npy``: float32, lossless; ``.png``, ``.jpg``, ... (see
+        :mod:`raycast_shade.imagefile`): 8-bit after :func:`raycast_shade.to_uint8`.
     image : (H, W, 3) float array
     **tone
         ``exposure``, ``tonemap``, ``gamma`` for 8-bit formats.
@@ -371,23 +365,11 @@ def write_image(path, image, **tone) -> str:
         ``path``.
     """
     path = os.fspath(path)
+    ext = check_image_path(path)
     folder, name = os.path.split(os.path.abspath(path))
-    ext = os.path.splitext(name)[1].lower()
     tmp = os.path.join(folder, f".{name}.{uuid.uuid4().hex[:12]}.tmp{ext}")
     try:
-        if ext == ".pfm":
-            from .tonemap import write_pfm
-
-            write_pfm(tmp, image)
-        elif ext == ".npy":
-            with open(tmp, "wb") as fh:
-                np.save(fh, np.asarray(image, np.float32))
-        else:
-            import imageio.v3 as iio
-
-            from .tonemap import to_uint8
-
-            iio.imwrite(tmp, to_uint8(image, **tone), extension=ext)
+        _write_file(tmp, image, **tone)
         fd = os.open(tmp, os.O_RDONLY)
         try:
             os.fsync(fd)

@@ -2,14 +2,14 @@
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
 
 from .hits import HitBuffer
-from .tonemap import to_uint8, write_pfm
+from .imagefile import write_image
+from .tonemap import to_uint8
 
 __all__ = ["Frame"]
 
@@ -85,15 +85,12 @@ class Frame:
         return to_uint8(self.image, **kwargs)
 
     def save(self, path, **kwargs) -> None:
-        """Write the image: ``.pfm`` (float32) or ``.npy`` losslessly,
-        anything else (PNG, JPEG, ...) through imageio after tone mapping."""
-        path = os.fspath(path)
-        ext = os.path.splitext(path)[1].lower()
-        if ext == ".pfm":
-            write_pfm(path, self.image)
-        elif ext == ".npy":
-            np.save(path, self.image)
-        else:
-            import imageio.v3 as iio
+        """Write the image: ``.pfm`` (float32) or ``.npy`` losslessly; PNG, JPEG,
+        BMP, TIFF, GIF or WebP in 8 bits after :meth:`to_uint8` with ``kwargs``.
 
-            iio.imwrite(path, self.to_uint8(**kwargs))
+        Raises
+        ------
+        ValueError
+            For any other extension (see :mod:`raycast_shade.imagefile`).
+        """
+        write_image(path, self.image, **kwargs)

@@ -118,6 +118,8 @@ def test_bad_input_names_the_field(scene, client):
         batch.render_batch(scene, cams, out_dir="unused", pattern="frame.png", progress=False)
     with pytest.raises(ValueError, match="pattern"):
         batch.render_batch(scene, out_dir="unused", pattern="sub/frame_{:03d}.png", progress=False)
+    with pytest.raises(ValueError, match=r"pattern: 'frame_000.exr': .exr is not written"):
+        batch.render_batch(scene, out_dir="unused", pattern="frame_{:03d}.exr", progress=False)
     with pytest.raises(ValueError, match="exposure"):
         batch.render_batch(scene, tone={"exposure": -1.0}, progress=False)
     with pytest.raises(ValueError, match="frames_per_task"):

@@ -13,7 +13,8 @@ import pytest
 
 import raycast_shade as rs
 from raycast_shade import demo
-from raycast_shade.cli import _write_png, main
+from raycast_shade.cli import main
+from raycast_shade.imagefile import write_png as _write_png
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
@@ -200,6 +201,7 @@ def test_missing_files(capsys, tmp_path, scene_file):
     (["demo", "--tonemap", "aces"], "argument --tonemap: invalid choice: 'aces'"),
     (["demo", "-o", "demo"], "has no extension"),
     (["demo", "-o", "demo.xyz"], "unknown image format '.xyz'"),
+    (["demo", "-o", "demo.exr"], ".exr is not written; use .pfm or .npy"),
     (["demo", "-o", "no/such/folder/demo.png"], "does not exist"),
     (["render", "SCENE", "--shading", "smooth"], "argument --shading: invalid choice: 'smooth'"),
     (["render", "SCENE", "--caster", "optix"], "argument --caster: invalid choice"),

@@ -3,6 +3,8 @@ their files, tone mapping, arbitrary rays, and a property test over random scene
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, assume, event, given, settings
@@ -166,6 +168,36 @@ def test_frame_save_png_pfm_npy(tmp_path):
     # Exposure reaches the PNG.
     frame.save(tmp_path / "dark.png", exposure=0.25)
     assert iio.imread(tmp_path / "dark.png").astype(int).sum() < png.astype(int).sum()
+
+
+@pytest.mark.parametrize("ext", [".bmp", ".tif", ".tiff", ".gif", ".webp", ".jpg", ".jpeg"])
+def test_frame_save_eight_bit_formats(tmp_path, ext):
+    import imageio.v3 as iio
+    from PIL import Image
+
+    frame = rs.render(scene_at(np.zeros(3), 40, 30), "phong")
+    path = tmp_path / f"f{ext}"
+    frame.save(path)
+    fmt = {".bmp": "BMP", ".tif": "TIFF", ".tiff": "TIFF", ".gif": "GIF", ".webp": "WEBP", ".jpg": "JPEG",
+           ".jpeg": "JPEG"}[ext]
+    with Image.open(path) as im:
+        assert im.format == fmt and im.size == (40, 30)
+    if ext in (".bmp", ".tif", ".tiff"):  # lossless 8-bit RGB
+        np.testing.assert_array_equal(iio.imread(path), frame.to_uint8())
+
+
+@pytest.mark.parametrize("name, fragment", [
+    ("f.exr", ".exr is not written; use .pfm or .npy"),
+    ("f.hdr", ".hdr is not written"),
+    ("f.xyz", "unknown image format '.xyz'"),
+    ("f", "has no extension"),
+])
+def test_frame_save_refuses_formats_it_would_get_wrong(tmp_path, name, fragment):
+    """imageio writes an 8-bit TIFF for extensions it has no writer for: out.exr would be a TIFF."""
+    frame = rs.render(scene_at(np.zeros(3), 8, 6), "flat")
+    with pytest.raises(ValueError, match="path: .*" + re.escape(fragment)):
+        frame.save(tmp_path / name)
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_pfm_round_trip_is_exact(tmp_path):
