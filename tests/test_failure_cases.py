@@ -1217,7 +1217,12 @@ def test_property_random_degenerate_scenes(scene):
             assert (t[hit] <= near[hit] + tol).all()
             rows = np.flatnonzero(hit)
             _, ins = _ray_triangle(o[rows], d[rows], geo.vertices[f])
-            assert (np.diagonal(ins) > -tol).all()
+            # A re-cast ray starts up to 1e-2 * sqrt(2) pixel from the centre; on a face seen at
+            # a grazing angle its hit lands that far / |cos| across the face from the centre ray's.
+            tri_f = geo.vertices[f]
+            nf = np.cross(tri_f[:, 1] - tri_f[:, 0], tri_f[:, 2] - tri_f[:, 0])
+            cos = np.abs(_dot(d[rows], nf)) / np.maximum(np.linalg.norm(nf, axis=1), 1e-300)
+            assert (np.diagonal(ins) > -(tol + 0.015 * pixel / np.maximum(cos, 1e-6))).all()
         n = frame.normal
         assert np.isfinite(n).all()
         np.testing.assert_allclose(np.linalg.norm(n[frame.mask], axis=-1), 1.0, atol=1e-5)
