@@ -267,11 +267,13 @@ class WindingWarning(UserWarning):
 
 @njit(cache=True)
 def _winding_conflicts_kernel(faces, valid, nv):
-    """Count directed edges a -> b that two distinct valid faces both use.
+    """Count edges that exactly two distinct valid faces traverse, both a -> b.
 
     Edges are bucketed by their start vertex (a counting sort, O(F)); a
-    vertex has few outgoing edges, so the pairs within a bucket are compared
-    directly. A repeated face (same third vertex) is not a conflict.
+    vertex has few outgoing edges, so the entries of a bucket are compared
+    directly. Repeats of a face (same third vertex) count once. Edges with
+    three or more faces (non-manifold: fins, internal walls) are left out:
+    no winding makes them consistent, and fixing the winding would not help.
     """
     nf = faces.shape[0]
     starts = np.zeros(nv + 1, np.int64)
@@ -292,22 +294,46 @@ def _winding_conflicts_kernel(faces, valid, nv):
                 third[fill[a]] = faces[f, (k + 2) % 3]
                 fill[a] += 1
     conflicts = 0
-    for v in range(nv):
-        for i in range(starts[v], starts[v + 1]):
-            for j in range(i + 1, starts[v + 1]):
-                if dest[i] == dest[j] and third[i] != third[j]:
-                    conflicts += 1
+    for a in range(nv):
+        for i in range(starts[a], starts[a + 1]):
+            b = dest[i]
+            first = True
+            for j in range(starts[a], i):
+                if dest[j] == b:
+                    first = False
+                    break
+            if first and _distinct_faces(dest, third, starts[a], starts[a + 1], b) == 2 \
+                    and _distinct_faces(dest, third, starts[b], starts[b + 1], a) == 0:
+                conflicts += 1
     return conflicts
+
+
+@njit(cache=True)
+def _distinct_faces(dest, third, lo, hi, b):
+    """How many distinct faces (by third vertex) in bucket ``lo:hi`` go to ``b``."""
+    n = 0
+    for i in range(lo, hi):
+        if dest[i] != b:
+            continue
+        new = True
+        for j in range(lo, i):
+            if dest[j] == b and third[j] == third[i]:
+                new = False
+                break
+        if new:
+            n += 1
+    return n
 
 
 def winding_conflicts(vertices, faces, fnormals=None) -> int:
     """Number of edges two faces traverse in the same direction.
 
     On a consistently wound (orientable) surface every interior edge is
-    traversed once each way; an edge used twice the same way joins faces
-    whose right-hand normals point to opposite sides, and averaged vertex
-    normals cancel there. Zero-area faces carry no normal and are ignored;
-    so are exact duplicates of a face.
+    traversed once each way; an edge that its two faces both traverse the
+    same way joins faces whose right-hand normals point to opposite sides,
+    and averaged vertex normals cancel there. Zero-area faces carry no
+    normal and are ignored; so are exact duplicates of a face, and edges
+    with three or more faces (non-manifold), which no winding fixes.
 
     Parameters
     ----------

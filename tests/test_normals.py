@@ -290,6 +290,18 @@ def test_winding_conflicts_ignore_duplicates_and_zero_area_faces():
     assert rs.winding_conflicts(v, g) == interior
 
 
+def test_winding_conflicts_leave_non_manifold_edges_alone():
+    """Three faces on one edge (a fin on a sheet): two of them must traverse it
+    the same way whatever the winding, so it is not counted; the open edges
+    around a conflicting pair still are."""
+    v = np.array([[0, 0, 0], [1, 0, 0], [0.5, 1, 0], [0.5, -1, 0], [0.5, 0, 1]], float)
+    fin = np.array([[0, 1, 2], [1, 0, 3], [0, 1, 4]])  # edge 0-1: 0->1 twice, 1->0 once
+    assert rs.winding_conflicts(v, fin) == 0
+    pair = np.array([[0, 1, 2], [0, 1, 3]])  # two faces, both 0 -> 1: one conflicting edge
+    assert rs.winding_conflicts(v, pair) == 1
+    assert rs.winding_conflicts(v, np.array([[0, 1, 2], [1, 0, 3]])) == 0
+
+
 def _expected_conflicts_open(faces, face):
     """Edges face ``face`` shares with another face (open surface)."""
     e = {tuple(sorted((faces[face, k], faces[face, (k + 1) % 3]))) for k in range(3)}
