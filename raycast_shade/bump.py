@@ -20,6 +20,7 @@ chosen resolution), so the kernels have one code path.
 from __future__ import annotations
 
 import os
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -79,7 +80,10 @@ class HeightMap:
         if not os.path.exists(path):
             raise ValueError(f"heightmap: image not found: {path}")
         try:
-            img = np.asarray(iio.imread(path))
+            with warnings.catch_warnings():
+                # An unreadable file makes imageio try every plugin, legacy ones with a DeprecationWarning.
+                warnings.simplefilter("ignore", DeprecationWarning)
+                img = np.asarray(iio.imread(path))
         except Exception as exc:
             raise ValueError(f"heightmap: cannot read image {path}: {exc}") from None
         top = np.iinfo(img.dtype).max if img.dtype.kind in "ui" else 1.0
