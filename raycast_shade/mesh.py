@@ -110,31 +110,44 @@ class Mesh:
     # -- construction -----------------------------------------------------------------
     @classmethod
     def from_trimesh(cls, tm, *, use_normals: bool | None = None, **kwargs) -> "Mesh":
-        """Wrap a :class:`trimesh.Trimesh`.
+        """Wrap a :class:`trimesh.Trimesh`, or flatten a :class:`trimesh.Scene`.
 
         ``use_normals=None`` keeps vertex normals only when the source file
-        supplied them; ``True`` always takes trimesh's, ``False`` never.
-        UVs come from ``tm.visual.uv`` when present.
+        supplied them (for a scene: every mesh in it); ``True`` always takes
+        trimesh's, ``False`` never. UVs come from ``visual.uv`` when every
+        mesh has them. A scene's meshes are placed by their node transforms,
+        normals by the inverse transpose, and the faces of a mirrored
+        instance are turned over so that they keep facing out.
         """
         import trimesh
 
-        if isinstance(tm, trimesh.Scene):
-            tm = tm.dump(concatenate=True)
-        if not isinstance(tm, trimesh.Trimesh):
-            raise TypeError(f"expected a trimesh.Trimesh, got {type(tm).__name__}")
-        normals = None
-        file_normals = "vertex_normals" in tm._cache.cache
-        if use_normals or (use_normals is None and file_normals):
-            normals = np.asarray(tm.vertex_normals, dtype=np.float64)
-        uvs = None
-        uv = getattr(getattr(tm, "visual", None), "uv", None)
-        if uv is not None and len(uv) == len(tm.vertices):
-            uvs = np.asarray(uv, dtype=np.float64)
-        return cls(tm.vertices, tm.faces, normals=normals, uvs=uvs, **kwargs)
+        if isinstance(tm, trimesh.Trimesh):
+            instances = [(tm, np.eye(4))]
+        elif isinstance(tm, trimesh.Scene):
+            instances = []
+            for node in tm.graph.nodes_geometry:
+                transform, geometry_name = tm.graph[node]
+                geometry = tm.geometry.get(geometry_name)
+                if isinstance(geometry, trimesh.Trimesh) and len(geometry.faces):
+                    instances.append((geometry, np.asarray(transform, np.float64)))
+            if not instances:
+                raise ValueError("the trimesh scene holds no triangle meshes")
+        else:
+            raise TypeError(f"expected a trimesh.Trimesh or trimesh.Scene, got {type(tm).__name__}")
+        parts = [_instance(g, m, use_normals) for g, m in instances]
+        offsets = np.cumsum([0] + [len(p[0]) for p in parts[:-1]])
+        vertices = np.concatenate([p[0] for p in parts])
+        faces = np.concatenate([p[1] + o for p, o in zip(parts, offsets)])
+        normals = np.concatenate([p[2] for p in parts]) if all(p[2] is not None for p in parts) else None
+        uvs = np.concatenate([p[3] for p in parts]) if all(p[3] is not None for p in parts) else None
+        return cls(vertices, faces, normals=normals, uvs=uvs, **kwargs)
 
     @classmethod
     def load(cls, path, **kwargs) -> "Mesh":
         """Load any file trimesh reads (OBJ, PLY, STL, OFF, GLB/glTF, ...).
+
+        Vertex normals stored in the file are kept (``use_normals=None``,
+        see :meth:`from_trimesh`); a file with several meshes becomes one.
 
         Raises
         ------
@@ -147,13 +160,20 @@ class Mesh:
         if not os.path.exists(path):
             raise ValueError(f"mesh file not found: {path}")
         try:
-            tm = trimesh.load(path, force="mesh")
+            # Not force="mesh": trimesh 5 then concatenates through a scene and drops the file's normals.
+            tm = trimesh.load(path)
         except Exception as exc:
             raise ValueError(f"cannot read mesh file {path}: {exc}") from None
-        if not isinstance(tm, trimesh.Trimesh) or len(tm.faces) == 0:
+        if not isinstance(tm, (trimesh.Trimesh, trimesh.Scene)) or (
+                isinstance(tm, trimesh.Trimesh) and len(tm.faces) == 0):
             raise ValueError(f"mesh file {path} holds no triangles")
         kwargs.setdefault("name", os.path.basename(path))
-        return cls.from_trimesh(tm, **kwargs)
+        try:
+            return cls.from_trimesh(tm, **kwargs)
+        except ValueError as exc:
+            if "holds no triangle" in str(exc):
+                raise ValueError(f"mesh file {path} holds no triangles") from None
+            raise
 
     # -- derived ------------------------------------------------------------------------
     @property
@@ -187,3 +207,24 @@ class Mesh:
 
     def __repr__(self) -> str:
         return f"Mesh(name={self.name!r}, vertices={len(self.vertices)}, faces={len(self.faces)})"
+
+
+def _instance(tm, transform, use_normals):
+    """One placed trimesh: (vertices, faces, normals or None, uvs or None) as float64/int64."""
+    rot = transform[:3, :3]
+    vertices = np.asarray(tm.vertices, np.float64) @ rot.T + transform[:3, 3]
+    faces = np.asarray(tm.faces, np.int64)
+    if np.linalg.det(rot) < 0:
+        faces = faces[:, ::-1]  # a mirror turns the right-hand rule inside out
+    normals = None
+    # In trimesh's cache only when the file (or the user) gave normals; "in" first drops stale entries.
+    cached = tm._cache.cache.get("vertex_normals") if "vertex_normals" in tm._cache else None
+    if use_normals or (use_normals is None and cached is not None and cached.shape == tm.vertices.shape):
+        n = np.asarray(tm.vertex_normals, np.float64) @ np.linalg.inv(rot)
+        length = np.linalg.norm(n, axis=1, keepdims=True)
+        normals = np.divide(n, length, out=np.zeros_like(n), where=length > 0)
+    uvs = None
+    uv = getattr(getattr(tm, "visual", None), "uv", None)
+    if uv is not None and len(uv) == len(tm.vertices):
+        uvs = np.asarray(uv, dtype=np.float64)
+    return vertices, faces, normals, uvs
