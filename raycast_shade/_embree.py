@@ -51,6 +51,22 @@ _RTC_DEVICE_PROPERTY_VERSION = 0
 # RTCIntersectArguments (rtcore_scene.h): flags, feature_mask, then three
 # pointers (context, filter, intersect), all zero = Embree's defaults.
 # 16 uint32 slots cover it, with room for the optional minWidth float.
+# Embree intersects in float32 and multiplies coordinates together (edge cross products), so
+# beyond about 1e19 from the scene's centre those products overflow and triangles are missed
+# without a word (measured: a triangle of size 1e18 renders, 1e19 does not). Geometry and ray
+# origins, re-centred, must stay within this bound.
+MAX_COORDINATE = 1e18
+
+
+def check_range(extent: float, name: str) -> None:
+    """Raise ``ValueError`` naming ``name`` when ``extent`` (re-centred, world units) is too far for Embree."""
+    if not extent <= MAX_COORDINATE:
+        raise ValueError(
+            f"{name}: reaches {extent:.3g} from the scene's centre; Embree's float32 ray-triangle test overflows "
+            f"beyond about 1e19 and misses every triangle there, so the limit is {MAX_COORDINATE:.0e}: "
+            "scale the scene (vertices, camera and lights) down")
+
+
 ARGS_SLOTS = 16
 RAY_QUERY_FLAG_COHERENT = 1 << 16
 FEATURE_FLAG_ALL = 0xFFFFFFFF

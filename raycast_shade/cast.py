@@ -34,6 +34,7 @@ from numba import njit, prange
 
 from . import _embree
 from ._schedule import BLOCK_ROWS, spread_step
+from ._validate import as_array
 from .hits import HitBuffer
 from .rays import camera_frame, generate_rays, pixel_ray
 
@@ -184,6 +185,10 @@ def cast_camera(geometry, camera, caster: str = "auto", threads: int = 2) -> Hit
     """
     caster = _resolve_caster(caster)
     h, w = camera.height, camera.width
+    reach = float(np.abs(camera.eye - geometry.origin).max())
+    if camera.orthographic:  # rays start across the whole view plane
+        reach += 0.5 * camera.ortho_height * max(1.0, w / h) * 1.7321  # sqrt(3): any axis
+    _embree.check_range(reach, "camera.eye")
     cam = camera_frame(camera, geometry.origin)
     if caster == "embree":
         hits = HitBuffer(
@@ -326,6 +331,18 @@ def run_embreex(embreex_scene, origins, directions, threads: int = 2):
     return {k: np.concatenate([p[k] for p in parts]) for k in keys}
 
 
+def _ray_bound(value, name: str, n: int) -> np.ndarray:
+    """``tnear``/``tfar`` as (n,) float64: a scalar or one value per ray; NaN refused, inf allowed."""
+    arr = as_array(value, name, dtype=np.float64, finite=False)
+    if np.ndim(value) == 0:
+        arr = arr.reshape(())
+    if np.isnan(arr).any():
+        raise ValueError(f"{name}: NaN")
+    if arr.ndim > 1 or (arr.ndim == 1 and len(arr) != n):
+        raise ValueError(f"{name}: expected a number or {n} values, got shape {arr.shape}")
+    return np.broadcast_to(arr, (n,)).copy()
+
+
 def cast_rays(geometry, origins, directions, tnear=0.0, tfar=np.inf):
     """Trace arbitrary rays in the scene's world coordinates (direct Embree).
 
@@ -343,12 +360,28 @@ def cast_rays(geometry, origins, directions, tnear=0.0, tfar=np.inf):
         ``-1`` on a miss.
     u, v, t : (N,) float32
         ``t`` is ``inf`` on a miss.
+
+    Raises
+    ------
+    TypeError, ValueError
+        Naming the argument, before Embree sees it: wrong shapes, non-finite
+        origins or directions, zero directions, NaN or negative bounds,
+        ``tfar < tnear``, origins beyond Embree's float32 range.
     """
-    o = np.ascontiguousarray(np.asarray(origins, np.float64) - geometry.origin)
-    d = np.ascontiguousarray(directions, np.float64)
+    o = as_array(origins, "origins", dtype=np.float64, shape=(None, 3)) - geometry.origin
+    d = as_array(directions, "directions", dtype=np.float64, shape=(None, 3))
     n = len(o)
-    tn = np.broadcast_to(np.asarray(tnear, np.float64), (n,)).copy()
-    tf = np.broadcast_to(np.asarray(tfar, np.float64), (n,)).copy()
+    if len(d) != n:
+        raise ValueError(f"directions: expected {n} rows like origins, got {len(d)}")
+    if n and not (np.abs(d).max(axis=1) > 0).all():
+        raise ValueError(f"directions: row {int(np.argmin(np.abs(d).max(axis=1)))} is the zero vector")
+    tn, tf = (_ray_bound(value, name, n) for value, name in ((tnear, "tnear"), (tfar, "tfar")))
+    if np.isinf(tn).any() or (tn < 0).any():
+        raise ValueError("tnear: expected finite values >= 0")
+    if (tf < tn).any():
+        raise ValueError(f"tfar: row {int(np.argmax(tf < tn))} is below tnear")
+    if n:
+        _embree.check_range(float(np.abs(o).max()), "origins")
     prim = np.empty(n, np.int32)
     geom = np.empty(n, np.int32)
     u = np.empty(n, np.float32)

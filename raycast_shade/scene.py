@@ -49,6 +49,9 @@ class SceneGeometry:
         The re-centring offset (world = local + origin).
     scale : float
         Bounding-box diagonal, ``> 0``.
+    reach : float
+        Largest absolute re-centred coordinate; Embree takes at most
+        ``_embree.MAX_COORDINATE``.
     vertices : (V, 3) float64
         Re-centred positions (after crease splitting).
     normals : (V, 3) float64
@@ -81,6 +84,7 @@ class SceneGeometry:
         lo, hi = world.min(axis=0), world.max(axis=0)
         self.origin = 0.5 * (lo + hi)
         self.scale = float(max(np.linalg.norm(hi - lo), 1e-30))
+        self.reach = float(np.max(np.maximum(hi - self.origin, self.origin - lo)))  # max |re-centred coordinate|
         self.vertices = world - self.origin
         self.normals = np.concatenate([p.normals for p in preps])
         self.local_faces = np.concatenate([p.faces for p in preps])
@@ -137,8 +141,9 @@ class SceneGeometry:
     @cached_property
     def accel(self):
         """The Embree scene (built on first use, then reused)."""
-        from ._embree import EmbreeAccel
+        from ._embree import EmbreeAccel, check_range
 
+        check_range(self.reach, "scene vertices")
         v4 = np.zeros((len(self.vertices), 4), np.float32)
         v4[:, :3] = self.vertices
         faces = np.ascontiguousarray(self.local_faces, dtype=np.uint32)
@@ -150,6 +155,9 @@ class SceneGeometry:
         from embreex import rtcore_scene
         from embreex.mesh_construction import TriangleMesh
 
+        from ._embree import check_range
+
+        check_range(self.reach, "scene vertices")
         scene = rtcore_scene.EmbreeScene()
         v32 = self.vertices.astype(np.float32)
         for g in range(self.n_models):

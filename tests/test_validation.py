@@ -264,3 +264,56 @@ def test_bad_procedural_shape_sizes(make, field):
     not a mirrored or empty mesh."""
     with pytest.raises(ValueError, match=field):
         make()
+
+
+def _far_triangle(scale, eye_factor=1.0):
+    v = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]) * scale
+    cam = rs.Camera(eye=(0.3 * scale, 0.3 * scale, eye_factor * scale), target=(0.3 * scale, 0.3 * scale, 0.0),
+                    width=16, height=16)
+    return rs.Scene([rs.Model(rs.Mesh(v, [[0, 1, 2]]))], lights=[rs.DirectionalLight((0, 0, -1))], camera=cam)
+
+
+def test_coordinates_beyond_embrees_float32_range_are_refused():
+    """Embree multiplies float32 coordinates together: a triangle of size 1e19 came back
+    as an empty image without a word. The ray caster now refuses such scenes (and far
+    cameras) before any kernel runs; at 1e18 it still agrees with the rasterizer, which
+    computes in float64 and keeps working beyond."""
+    ok = _far_triangle(1e18)
+    mask = rs.render(ok).mask
+    assert mask.sum() > 100
+    np.testing.assert_array_equal(mask, rs.render(ok, backend="raster").mask)
+    far = _far_triangle(1e19)
+    with pytest.raises(ValueError, match=r"scene vertices: reaches 5e\+18 from the scene's centre.*scale the scene"):
+        rs.render(far)
+    with pytest.raises(ValueError, match=r"reaches [0-9.e+]+ from the scene's centre"):
+        rs.render(far, caster="embreex")  # the fallback caster: the camera is checked first
+    with pytest.raises(ValueError, match=r"scene vertices: reaches 5e\+18"):
+        far.geometry.embreex_scene  # noqa: B018
+    assert rs.render(far, backend="raster").mask.sum() > 100
+    with pytest.raises(ValueError, match=r"camera.eye: reaches 2e\+18"):
+        rs.render(_far_triangle(1.0, eye_factor=2e18))
+    with pytest.raises(ValueError, match="scene vertices"):  # float32 overflow: inf vertices would vanish
+        rs.render(_far_triangle(1e39))
+
+
+@pytest.mark.parametrize("kwargs, error, match", [
+    (dict(origins=np.zeros((2, 2))), ValueError, r"origins: expected shape \(N, 3\)"),
+    (dict(origins=[[0.0, 0.0, np.nan]] * 2), ValueError, "origins: non-finite"),
+    (dict(directions=[[0.0, 0.0, -1.0]]), ValueError, "directions: expected 2 rows"),
+    (dict(directions=[[0.0, 0.0, -1.0], [0.0, 0.0, 0.0]]), ValueError, "directions: row 1 is the zero vector"),
+    (dict(directions=[["a", "b", "c"]] * 2), TypeError, "directions: expected numbers"),
+    (dict(tnear=-1.0), ValueError, "tnear: expected finite values >= 0"),
+    (dict(tnear=np.inf), ValueError, "tnear: expected finite values >= 0"),
+    (dict(tnear=[0.0, 0.0, 0.0]), ValueError, r"tnear: expected a number or 2 values"),
+    (dict(tfar=np.nan), ValueError, "tfar: NaN"),
+    (dict(tnear=5.0, tfar=[9.0, 1.0]), ValueError, "tfar: row 1 is below tnear"),
+    (dict(origins=[[0.0, 0.0, 2e18]] * 2), ValueError, r"origins: reaches 2e\+18"),
+])
+def test_cast_rays_validates_before_embree(kwargs, error, match):
+    geo = rs.Scene([rs.Model(rs.shapes.icosphere(1))]).geometry
+    args = dict(origins=[[0.0, 0.0, 5.0]] * 2, directions=[[0.0, 0.0, -1.0]] * 2)
+    args.update(kwargs)
+    with pytest.raises(error, match=match):
+        rs.cast_rays(geo, **args)
+    prim, *_ = rs.cast_rays(geo, [[0.0, 0.0, 5.0]] * 2, [[0.0, 0.0, -1.0]] * 2, tnear=[0.0, 1.0], tfar=np.inf)
+    assert (prim >= 0).all()
