@@ -56,10 +56,18 @@ _RTC_DEVICE_PROPERTY_VERSION = 0
 # without a word (measured: a triangle of size 1e18 renders, 1e19 does not). Geometry and ray
 # origins, re-centred, must stay within this bound.
 MAX_COORDINATE = 1e18
+# The same products underflow below about 1e-19: a scene that small is missed entirely.
+MIN_EXTENT = 1e-18
 
 
-def check_range(extent: float, name: str) -> None:
-    """Raise ``ValueError`` naming ``name`` when ``extent`` (re-centred, world units) is too far for Embree."""
+def check_range(extent: float, name: str, *, scene: bool = False) -> None:
+    """Raise ``ValueError`` naming ``name`` when ``extent`` (re-centred, world units) is out of Embree's
+    float32 range: too far always, and with ``scene`` also too small (a scene's half-size)."""
+    if scene and 0.0 < extent < MIN_EXTENT:
+        raise ValueError(
+            f"{name}: the scene spans only {extent:.3g} from its centre; Embree's float32 ray-triangle test "
+            f"underflows below about 1e-19 and misses every triangle, so the limit is {MIN_EXTENT:.0e}: "
+            "scale the scene (vertices, camera and lights) up")
     if not extent <= MAX_COORDINATE:
         raise ValueError(
             f"{name}: reaches {extent:.3g} from the scene's centre; Embree's float32 ray-triangle test overflows "

@@ -53,7 +53,8 @@ class Camera:
         set_(self, "up", up)
         fwd = target - eye
         dist = np.linalg.norm(fwd)
-        scale = max(np.abs(eye).max(), np.abs(target).max(), 1.0)
+        # Relative to the coordinates only: a scene 1e-12 across is a scene, not a coincidence.
+        scale = max(np.abs(eye).max(), np.abs(target).max())
         if not dist > 1e-12 * scale:
             raise ValueError("camera.eye: eye and target coincide; the view direction is undefined")
         fwd = fwd / dist

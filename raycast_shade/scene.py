@@ -143,7 +143,7 @@ class SceneGeometry:
         """The Embree scene (built on first use, then reused)."""
         from ._embree import EmbreeAccel, check_range
 
-        check_range(self.reach, "scene vertices")
+        check_range(self.reach, "scene vertices", scene=True)
         v4 = np.zeros((len(self.vertices), 4), np.float32)
         v4[:, :3] = self.vertices
         faces = np.ascontiguousarray(self.local_faces, dtype=np.uint32)
@@ -157,7 +157,7 @@ class SceneGeometry:
 
         from ._embree import check_range
 
-        check_range(self.reach, "scene vertices")
+        check_range(self.reach, "scene vertices", scene=True)
         scene = rtcore_scene.EmbreeScene()
         v32 = self.vertices.astype(np.float32)
         for g in range(self.n_models):

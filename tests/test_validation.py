@@ -296,6 +296,19 @@ def test_coordinates_beyond_embrees_float32_range_are_refused():
         rs.render(_far_triangle(1e39))
 
 
+def test_scenes_too_small_for_embrees_float32_range_are_refused():
+    """The same products underflow below about 1e-19: a scene 1e-20 across came back
+    empty. 1e-15 renders (the camera check is relative, so such a small camera is
+    valid) and agrees with the rasterizer; 1e-20 is refused with the remedy."""
+    small = _far_triangle(1e-15)
+    mask = rs.render(small).mask
+    assert mask.sum() > 100
+    np.testing.assert_array_equal(mask, rs.render(small, backend="raster").mask)
+    with pytest.raises(ValueError, match=r"scene vertices: the scene spans only 5e-21 .*scale the scene .* up"):
+        rs.render(_far_triangle(1e-20))
+    assert rs.render(_far_triangle(1e-20), backend="raster").mask.sum() > 100
+
+
 @pytest.mark.parametrize("kwargs, error, match", [
     (dict(origins=np.zeros((2, 2))), ValueError, r"origins: expected shape \(N, 3\)"),
     (dict(origins=[[0.0, 0.0, np.nan]] * 2), ValueError, "origins: non-finite"),
