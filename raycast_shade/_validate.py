@@ -11,7 +11,13 @@ import numbers
 
 import numpy as np
 
+# Intensities, colours, coefficients, ambient and background are bounded so that their
+# products (times attenuation, summed over lights) stay finite in float64; the kernels then
+# saturate at float32's maximum when storing, so no input makes the image inf or NaN.
+MAX_RADIANCE = 1e30
+
 __all__ = [
+    "MAX_RADIANCE",
     "as_array",
     "as_vec3",
     "as_rgb",
@@ -89,6 +95,8 @@ def as_rgb(value, name: str, *, nonnegative: bool = True) -> np.ndarray:
         raise ValueError(f"{name}: must be finite, got {v.tolist()}")
     if nonnegative and np.any(v < 0):
         raise ValueError(f"{name}: must be >= 0, got {v.tolist()}")
+    if np.any(np.abs(v) > MAX_RADIANCE):
+        raise ValueError(f"{name}: must be <= {MAX_RADIANCE:g}, got {v.tolist()}")
     v.setflags(write=False)
     return v
 

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._validate import as_choice, as_rgb, as_scalar, as_vec3
+from ._validate import MAX_RADIANCE, as_choice, as_rgb, as_scalar, as_vec3
 
 __all__ = ["PointLight", "DirectionalLight", "ATTENUATIONS"]
 
@@ -58,7 +58,7 @@ class PointLight:
     def __post_init__(self):
         set_ = object.__setattr__
         set_(self, "position", as_vec3(self.position, f"{self.name}.position"))
-        set_(self, "intensity", as_scalar(self.intensity, f"{self.name}.intensity", minimum=0.0))
+        set_(self, "intensity", as_scalar(self.intensity, f"{self.name}.intensity", minimum=0.0, maximum=MAX_RADIANCE))
         set_(self, "color", as_rgb(self.color, f"{self.name}.color"))
         set_(self, "attenuation", as_choice(self.attenuation, f"{self.name}.attenuation", ATTENUATIONS))
         k = as_scalar(self.k, f"{self.name}.k")
@@ -99,7 +99,7 @@ class DirectionalLight:
         d = d / np.linalg.norm(d)
         d.setflags(write=False)
         set_(self, "direction", d)
-        set_(self, "intensity", as_scalar(self.intensity, f"{self.name}.intensity", minimum=0.0))
+        set_(self, "intensity", as_scalar(self.intensity, f"{self.name}.intensity", minimum=0.0, maximum=MAX_RADIANCE))
         set_(self, "color", as_rgb(self.color, f"{self.name}.color"))
         set_(self, "shadows", _as_bool(self.shadows, f"{self.name}.shadows"))
 

@@ -76,6 +76,7 @@ _SHADOW_TFAR = 1.0 - 1e-5  # point-light shadow rays stop just short of the ligh
 _SCRATCH = 24  # float32 slots: one RTCRay (12) plus alignment slack
 
 # No nnan/ninf: misses and degenerate cases must compare as written.
+_FLT32_MAX = float(np.finfo(np.float32).max)  # radiance saturates here instead of becoming inf
 _jit = dict(cache=True, error_model="numpy", fastmath={"nsz", "arcp", "contract", "afn", "reassoc"})
 
 
@@ -533,7 +534,7 @@ def _lookup_flat_kernel(prim, geom, face_off, fcol, background, modes, image):
                 continue
             f = face_off[g] + p
             for c in range(3):
-                image[y, x, c] = fcol[f, c]
+                image[y, x, c] = min(fcol[f, c], _FLT32_MAX)
 
 
 @njit(parallel=True, **_jit)
@@ -671,9 +672,9 @@ def _make_kernels(spec_on: bool, att_on: bool):
                         verts, normals, faces, fnormals, uvs, tangents, bump_index, texels, info,
                         ambient, lights, dmin, handle, unit, S, materials, cam, f, gm,
                         np.float64(u[y, x]), np.float64(v[y, x]), False, 0.0, 0.0, 0.0, spec_on, att_on)
-                    image[y, x, 0] = r
-                    image[y, x, 1] = g
-                    image[y, x, 2] = b
+                    image[y, x, 0] = min(r, _FLT32_MAX)
+                    image[y, x, 1] = min(g, _FLT32_MAX)
+                    image[y, x, 2] = min(b, _FLT32_MAX)
 
 
     @njit(parallel=True, **_jit)
@@ -771,9 +772,9 @@ def _make_kernels(spec_on: bool, att_on: bool):
                                                  ambient, lights, dmin, handle, unit, S, spec_on, att_on)
                     r2, g2, c2 = _corner_shade(vcol, normals, verts, i2, side, gx, gy, gz, materials, g, cam,
                                                  ambient, lights, dmin, handle, unit, S, spec_on, att_on)
-                    image[y, x, 0] = b0 * r0 + b1 * r1 + b2 * r2
-                    image[y, x, 1] = b0 * g0 + b1 * g1 + b2 * g2
-                    image[y, x, 2] = b0 * c0 + b1 * c1 + b2 * c2
+                    image[y, x, 0] = min(b0 * r0 + b1 * r1 + b2 * r2, _FLT32_MAX)
+                    image[y, x, 1] = min(b0 * g0 + b1 * g1 + b2 * g2, _FLT32_MAX)
+                    image[y, x, 2] = min(b0 * c0 + b1 * c1 + b2 * c2, _FLT32_MAX)
 
 
     @njit(parallel=True, **_jit)
@@ -1037,7 +1038,7 @@ def trace_mirrors(scene, camera, hits, image, max_depth: int = 3) -> np.ndarray:
         more = np.empty(m, np.bool_)
         points_kernel(prim, gm, u, v, dirs, k["G"], k["B"], k["L"], k["face_off"], k["materials"], k["cam"],
                       k["background"], depth == max_depth, colour, next_o, next_d, more)
-        flat[idx] += (weight[:, None] * colour).astype(np.float32)
+        flat[idx] = np.minimum(flat[idx] + weight[:, None] * colour, _FLT32_MAX).astype(np.float32)
         weight = weight[more] * geo.materials[gm[more], 11]
         idx, origins, dirs = idx[more], next_o[more], next_d[more]
     return image

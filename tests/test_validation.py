@@ -4,6 +4,8 @@ out-of-range indices, so nothing of the kind may reach it)."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -330,3 +332,33 @@ def test_cast_rays_validates_before_embree(kwargs, error, match):
         rs.cast_rays(geo, **args)
     prim, *_ = rs.cast_rays(geo, [[0.0, 0.0, 5.0]] * 2, [[0.0, 0.0, -1.0]] * 2, tnear=[0.0, 1.0], tfar=np.inf)
     assert (prim >= 0).all()
+
+
+def test_extreme_radiance_saturates_instead_of_overflowing():
+    """Every radiometric input may be up to 1e30; products of them overflowed float32 to
+    inf (intensity 1e30 times kd 1e30). The kernels now store at most float32's maximum, in
+    every mode, backend and through mirrors; more than 1e30 is refused up front."""
+    big = 1e30
+    ico = rs.shapes.icosphere(2)
+    floor = rs.shapes.plane(size=6.0, center=(0.0, -1.2, 0.0), normal="+y")
+    mirror = rs.shapes.plane(size=3.0, center=(0.0, 0.0, -2.0), normal="+z")
+    mat = rs.Material(kd=big, ks=big, ka=big)
+    scene = rs.Scene([rs.Model(ico, mat), rs.Model(floor, mat),
+                      rs.Model(mirror, rs.Material(kd=big, reflectivity=0.9))],
+                     lights=[rs.PointLight((0.0, 1.0001, 0.0), intensity=big, attenuation="inverse_square"),
+                             rs.DirectionalLight((0.0, -1.0, 0.0), intensity=big)],
+                     camera=rs.Camera(eye=(0.0, 0.0, 4.0), width=16, height=16), ambient=big, background=big)
+    top = float(np.finfo(np.float32).max)
+    for backend in ("raycast", "raster"):
+        for shading in rs.SHADINGS:
+            img = rs.render(scene, shading, backend=backend).image
+            assert np.isfinite(img).all(), (backend, shading)
+            assert img.max() == np.float32(top)  # saturated, not wrapped or NaN
+            assert img.min() >= np.float32(big)  # ambient * ka alone is 1e60
+    for make, field in ((lambda: rs.PointLight((0, 0, 1), intensity=1.1e30), "point_light.intensity"),
+                        (lambda: rs.DirectionalLight((0, 0, 1), intensity=2e30), "directional_light.intensity"),
+                        (lambda: rs.Material(ks=(0.0, 0.0, 1e31)), "material.ks"),
+                        (lambda: rs.PointLight((0, 0, 1), color=(1e31, 0, 0)), "point_light.color"),
+                        (lambda: rs.Scene([rs.Model(ico)], background=1e31), "scene.background")):
+        with pytest.raises(ValueError, match=re.escape(field) + ": must be <= 1e"):
+            make()
