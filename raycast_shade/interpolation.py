@@ -34,8 +34,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from .camera import Camera
-from .hits import HitBuffer
+from .hits import HitBuffer, check_hits
 
 __all__ = ["to_screen_space", "to_screen_space_numpy", "provoking_vertex", "shade_flat", "FLAT_CONVENTIONS",
            "vertex_depths"]
@@ -68,33 +67,7 @@ def _screen_kernel(prim, geom, u, v, faces, face_off, w, uo, vo):
 
 
 def _check(hits, geometry, camera):
-    from .scene import Scene, SceneGeometry
-
-    if not isinstance(hits, HitBuffer):
-        raise TypeError(f"hits: expected a HitBuffer, got {type(hits).__name__}")
-    if isinstance(geometry, Scene):
-        geometry = geometry.geometry
-    if not isinstance(geometry, SceneGeometry):
-        raise TypeError(f"geometry: expected a SceneGeometry (scene.geometry), got {type(geometry).__name__}")
-    if camera is not None and not isinstance(camera, Camera):
-        raise TypeError(f"camera: expected a Camera, got {type(camera).__name__}")
-    shape = hits.prim.shape
-    for name in ("prim", "geom", "u", "v", "t"):
-        arr = getattr(hits, name)
-        if not isinstance(arr, np.ndarray) or arr.shape != shape or arr.ndim != 2:
-            raise ValueError(f"hits.{name}: expected a 2-D array of shape {shape}, got "
-                             f"{getattr(arr, 'shape', type(arr).__name__)}")
-    if camera is not None and shape != (camera.height, camera.width):
-        raise ValueError(f"hits: shape {shape} does not match the camera's {camera.height}x{camera.width} image")
-    hit = hits.prim >= 0
-    if hit.any():
-        g = hits.geom[hit]
-        if g.min() < 0 or g.max() >= geometry.n_models:
-            raise ValueError(f"hits.geom: model index outside 0..{geometry.n_models - 1}")
-        nfaces = np.diff(geometry.face_offsets)
-        if np.any(hits.prim[hit] >= nfaces[g]):
-            raise ValueError("hits.prim: triangle index beyond its model's face count")
-    return geometry
+    return check_hits(hits, geometry, camera)
 
 
 def vertex_depths(geometry, camera) -> np.ndarray:

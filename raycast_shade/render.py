@@ -9,7 +9,7 @@ from .cast import CASTERS, cast_camera
 from .frame import Frame
 from .scene import Scene
 from .auto import choose_methods
-from .shading import SHADINGS, resolve_methods, shade, trace_mirrors
+from .shading import SHADINGS, _shade, resolve_methods, trace_mirrors
 
 __all__ = ["render"]
 
@@ -104,7 +104,7 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
         hits = to_screen_space(hits, scene.geometry, camera)
     ts = time.perf_counter()
     timings["cast" if backend == "raycast" else "raster"] = ts - tc
-    image = shade(scene, camera, hits, shading)
+    image = _shade(scene, camera, hits, shading)  # hits from our caster or rasterizer: valid by construction
     te = time.perf_counter()
     timings["shade"] = te - ts
     if scene.geometry.reflective and max_depth > 0:

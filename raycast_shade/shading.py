@@ -66,6 +66,7 @@ from numba import njit, prange
 
 from . import _embree
 from ._schedule import BLOCK_ROWS, spread_step
+from .hits import check_hits
 
 __all__ = ["SHADINGS", "METHODS", "shade", "shading_normals", "kernel_inputs", "resolve_methods"]
 
@@ -927,7 +928,24 @@ def shade(scene, camera, hits, shading="phong") -> np.ndarray:
     -------
     image : (H, W, 3) float32
         Linear RGB; ``scene.background`` where nothing was hit.
+
+    Raises
+    ------
+    TypeError, ValueError
+        For a hit buffer that does not fit the scene
+        (:func:`~raycast_shade.hits.check_hits`), before any kernel runs.
     """
+    from .camera import Camera
+
+    if not isinstance(camera, Camera):
+        raise TypeError(f"camera: expected a Camera, got {type(camera).__name__}")
+    # Any shape of buffer is fine (the camera supplies the eye, not pixel positions); its indices are not.
+    check_hits(hits, scene.geometry)
+    return _shade(scene, camera, hits, shading)
+
+
+def _shade(scene, camera, hits, shading="phong") -> np.ndarray:
+    """:func:`shade` for hit buffers made by this package's casters and rasterizer (valid by construction)."""
     modes = resolve_methods(scene, shading)
     k = kernel_inputs(scene, camera)
     kern = _kernels(k)

@@ -362,3 +362,39 @@ def test_extreme_radiance_saturates_instead_of_overflowing():
                         (lambda: rs.Scene([rs.Model(ico)], background=1e31), "scene.background")):
         with pytest.raises(ValueError, match=re.escape(field) + ": must be <= 1e"):
             make()
+
+
+def test_shade_refuses_hit_buffers_that_would_read_outside_the_scene():
+    """rs.shade takes any HitBuffer; a triangle or model index out of range made the
+    kernels read outside their arrays (a segmentation fault). Now a ValueError names
+    the field first; a buffer of any shape with valid indices is still shaded."""
+    scene = rs.Scene([rs.Model(rs.shapes.icosphere(1))], lights=[rs.PointLight((2.0, 3.0, 4.0))],
+                     camera=rs.Camera(eye=(0.0, 0.0, 4.0), width=8, height=6))
+    hits = rs.cast_camera(scene.geometry, scene.camera)
+    n_faces = len(scene.geometry.faces)
+
+    def buf(**kw):
+        d = dict(prim=hits.prim, geom=hits.geom, u=hits.u, v=hits.v, t=hits.t)
+        d.update(kw)
+        return rs.HitBuffer(**d)
+
+    hit = hits.mask
+    cases = [
+        (dict(prim=np.where(hit, n_faces, -1).astype(np.int32)), ValueError, "hits.prim: 12 hit pixel"),
+        (dict(geom=np.where(hit, 1, -1).astype(np.int32)), ValueError, r"hits.geom: 12 hit pixel\(s\) name a model outside 0..0"),
+        (dict(geom=np.full(hits.shape, -1, np.int32)), ValueError, "hits.geom"),
+        (dict(u=np.where(hit, np.nan, 0).astype(np.float32)), ValueError, "hits.u, hits.v: 12 hit pixel"),
+        (dict(prim=hits.prim.astype(np.float32)), TypeError, "hits.prim: expected integers"),
+        (dict(v=np.zeros((2, 2), np.float32)), ValueError, r"hits.v: expected a 2-D array of shape \(6, 8\)"),
+    ]
+    assert hit.sum() == 12
+    for kw, error, match in cases:
+        with pytest.raises(error, match=match):
+            rs.shade(scene, scene.camera, buf(**kw), "phong")
+    with pytest.raises(TypeError, match="camera"):
+        rs.shade(scene, "camera", hits, "phong")
+    # A strip of hits unrelated to the camera's image size: shaded, as before.
+    strip = rs.HitBuffer(prim=np.arange(5, dtype=np.int32)[None], geom=np.zeros((1, 5), np.int32),
+                         u=np.full((1, 5), 0.3, np.float32), v=np.full((1, 5), 0.3, np.float32),
+                         t=np.ones((1, 5), np.float32))
+    assert np.isfinite(rs.shade(scene, scene.camera, strip, "gouraud")).all()
