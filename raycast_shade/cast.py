@@ -173,7 +173,7 @@ def cast_camera(geometry, camera, caster: str = "auto", threads: int = 2) -> Hit
 
     Parameters
     ----------
-    geometry : SceneGeometry
+    geometry : SceneGeometry or Scene
     camera : Camera
     caster : {"auto", "embree", "embreex"}
     threads : int
@@ -183,6 +183,12 @@ def cast_camera(geometry, camera, caster: str = "auto", threads: int = 2) -> Hit
     -------
     HitBuffer
     """
+    from .camera import Camera
+    from .scene import as_geometry
+
+    geometry = as_geometry(geometry)
+    if not isinstance(camera, Camera):
+        raise TypeError(f"camera: expected a Camera, got {type(camera).__name__}")
     caster = _resolve_caster(caster)
     h, w = camera.height, camera.width
     reach = float(np.abs(camera.eye - geometry.origin).max())
@@ -348,7 +354,7 @@ def cast_rays(geometry, origins, directions, tnear=0.0, tfar=np.inf):
 
     Parameters
     ----------
-    geometry : SceneGeometry
+    geometry : SceneGeometry or Scene
     origins, directions : (N, 3) float
         World coordinates; directions need not be unit (``t`` is in units of
         ``|direction|``).
@@ -368,6 +374,9 @@ def cast_rays(geometry, origins, directions, tnear=0.0, tfar=np.inf):
         origins or directions, zero directions, NaN or negative bounds,
         ``tfar < tnear``, origins beyond Embree's float32 range.
     """
+    from .scene import as_geometry
+
+    geometry = as_geometry(geometry)
     o = as_array(origins, "origins", dtype=np.float64, shape=(None, 3)) - geometry.origin
     d = as_array(directions, "directions", dtype=np.float64, shape=(None, 3))
     n = len(o)

@@ -110,14 +110,11 @@ def check_hits(hits, geometry, camera=None):
         Naming the offending field.
     """
     from .camera import Camera
-    from .scene import Scene, SceneGeometry
+    from .scene import as_geometry
 
     if not isinstance(hits, HitBuffer):
         raise TypeError(f"hits: expected a HitBuffer, got {type(hits).__name__}")
-    if isinstance(geometry, Scene):
-        geometry = geometry.geometry
-    if not isinstance(geometry, SceneGeometry):
-        raise TypeError(f"geometry: expected a SceneGeometry (scene.geometry), got {type(geometry).__name__}")
+    geometry = as_geometry(geometry)
     if camera is not None and not isinstance(camera, Camera):
         raise TypeError(f"camera: expected a Camera, got {type(camera).__name__}")
     shape = getattr(hits.prim, "shape", None)

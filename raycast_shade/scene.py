@@ -167,6 +167,15 @@ class SceneGeometry:
         return scene
 
 
+def as_geometry(value, name: str = "geometry") -> SceneGeometry:
+    """A scene's packed geometry: ``scene.geometry``, or a Scene standing for it."""
+    if isinstance(value, Scene):
+        return value.geometry
+    if not isinstance(value, SceneGeometry):
+        raise TypeError(f"{name}: expected a SceneGeometry (scene.geometry) or a Scene, got {type(value).__name__}")
+    return value
+
+
 def _as_sequence(value, name):
     if isinstance(value, (str, bytes)):
         raise TypeError(f"{name}: expected a sequence, got {type(value).__name__}")

@@ -935,13 +935,21 @@ def shade(scene, camera, hits, shading="phong") -> np.ndarray:
         For a hit buffer that does not fit the scene
         (:func:`~raycast_shade.hits.check_hits`), before any kernel runs.
     """
-    from .camera import Camera
+    _check_inputs(scene, camera, hits)
+    return _shade(scene, camera, hits, shading)
 
+
+def _check_inputs(scene, camera, hits) -> None:
+    """Types, and a hit buffer whose indices fit the scene. Any shape of buffer is
+    fine (the camera supplies the eye, not pixel positions); its indices are not."""
+    from .camera import Camera
+    from .scene import Scene
+
+    if not isinstance(scene, Scene):
+        raise TypeError(f"scene: expected a Scene, got {type(scene).__name__}")
     if not isinstance(camera, Camera):
         raise TypeError(f"camera: expected a Camera, got {type(camera).__name__}")
-    # Any shape of buffer is fine (the camera supplies the eye, not pixel positions); its indices are not.
     check_hits(hits, scene.geometry)
-    return _shade(scene, camera, hits, shading)
 
 
 def _shade(scene, camera, hits, shading="phong") -> np.ndarray:
@@ -990,7 +998,13 @@ def shading_normals(scene, camera, hits, shading="phong") -> np.ndarray:
         Unit normals turned to the viewer (flat: the face normal; otherwise
         the interpolated, renormalised vertex normal, bumped in Phong mode);
         zero on the background.
+
+    Raises
+    ------
+    TypeError, ValueError
+        As :func:`shade`, before any kernel runs.
     """
+    _check_inputs(scene, camera, hits)
     modes = resolve_methods(scene, shading)
     geo = scene.geometry
     from .rays import camera_frame

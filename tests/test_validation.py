@@ -398,3 +398,28 @@ def test_shade_refuses_hit_buffers_that_would_read_outside_the_scene():
                          u=np.full((1, 5), 0.3, np.float32), v=np.full((1, 5), 0.3, np.float32),
                          t=np.ones((1, 5), np.float32))
     assert np.isfinite(rs.shade(scene, scene.camera, strip, "gouraud")).all()
+
+
+def test_public_casting_and_shading_functions_check_their_arguments():
+    """AttributeErrors (a str for the geometry) and a segmentation fault
+    (shading_normals with an out-of-range triangle index) became errors naming
+    the argument; a Scene is accepted wherever its geometry is."""
+    scene = rs.Scene([rs.Model(rs.shapes.icosphere(1))], lights=[rs.PointLight((2.0, 3.0, 4.0))],
+                     camera=rs.Camera(eye=(0.0, 0.0, 4.0), width=8, height=6))
+    with pytest.raises(TypeError, match="geometry: expected a SceneGeometry"):
+        rs.cast_camera("geo", scene.camera)
+    with pytest.raises(TypeError, match="camera: expected a Camera"):
+        rs.cast_camera(scene.geometry, "camera")
+    with pytest.raises(TypeError, match="geometry: expected a SceneGeometry"):
+        rs.cast_rays(None, [[0.0, 0.0, 5.0]], [[0.0, 0.0, -1.0]])
+    hits = rs.cast_camera(scene, scene.camera)  # the Scene stands for its geometry
+    np.testing.assert_array_equal(hits.prim, rs.cast_camera(scene.geometry, scene.camera).prim)
+    assert rs.cast_rays(scene, [[0.0, 0.0, 5.0]], [[0.0, 0.0, -1.0]])[0][0] >= 0
+    bad = rs.HitBuffer(prim=np.where(hits.mask, 10 ** 6, -1).astype(np.int32), geom=hits.geom, u=hits.u, v=hits.v,
+                       t=hits.t)
+    with pytest.raises(ValueError, match="hits.prim"):
+        rs.shading_normals(scene, scene.camera, bad)
+    with pytest.raises(TypeError, match="scene: expected a Scene"):
+        rs.shading_normals(scene.geometry, scene.camera, hits)
+    n = rs.shading_normals(scene, scene.camera, hits)
+    np.testing.assert_allclose(np.linalg.norm(n[hits.mask], axis=1), 1.0, atol=1e-5)
