@@ -164,16 +164,11 @@ class Mesh:
             tm = trimesh.load(path)
         except Exception as exc:
             raise ValueError(f"cannot read mesh file {path}: {exc}") from None
-        if not isinstance(tm, (trimesh.Trimesh, trimesh.Scene)) or (
-                isinstance(tm, trimesh.Trimesh) and len(tm.faces) == 0):
+        meshes = tm.geometry.values() if isinstance(tm, trimesh.Scene) else [tm]
+        if not any(isinstance(m, trimesh.Trimesh) and len(m.faces) for m in meshes):
             raise ValueError(f"mesh file {path} holds no triangles")
         kwargs.setdefault("name", os.path.basename(path))
-        try:
-            return cls.from_trimesh(tm, **kwargs)
-        except ValueError as exc:
-            if "holds no triangle" in str(exc):
-                raise ValueError(f"mesh file {path} holds no triangles") from None
-            raise
+        return cls.from_trimesh(tm, **kwargs)
 
     # -- derived ------------------------------------------------------------------------
     @property
@@ -189,7 +184,10 @@ class Mesh:
             normals = np.divide(self.normals, length, out=np.zeros_like(self.normals), where=length > 0)
             verts, faces, uvs = self.vertices, self.faces, self.uvs
         else:
-            conflicts = winding_conflicts(self.vertices, self.faces)
+            # Split vertices copy positions and faces keep their corners, so these
+            # face normals are also the split mesh's.
+            fn, _ = face_normals(self.vertices, self.faces)
+            conflicts = winding_conflicts(self.vertices, self.faces, fn)
             if conflicts:
                 warnings.warn(
                     f"{self.name}: {conflicts} edge(s) join faces wound in opposite directions, so the "
@@ -202,6 +200,7 @@ class Mesh:
                 self.vertices, self.faces, self.weighting, self.crease_angle
             )
             uvs = None if self.uvs is None else self.uvs[source]
+            return PreparedMesh(verts, faces, normals, uvs, fn)
         fn, _ = face_normals(verts, faces)
         return PreparedMesh(verts, faces, normals, uvs, fn)
 

@@ -141,23 +141,35 @@ def _corner_weights_numpy(vertices, faces, fnormals, areas, weighting: str) -> n
 
 
 @njit(cache=True)
-def _corners_by_vertex(flat, nv):
+def _corners_by_vertex(faces, nv):
     """Corners grouped by vertex: a stable counting sort, O(F).
 
-    Returns ``order`` (3F,), equal to ``np.argsort(flat, kind="stable")``,
-    and ``starts`` (V + 1,): vertex v's corners are ``order[starts[v]:starts[v + 1]]``.
+    Returns ``order`` (3F,), corner ids ``3 f + k`` equal to
+    ``np.argsort(faces.ravel(), kind="stable")``; ``starts`` (V + 1,), so that
+    vertex v's corners are ``order[starts[v]:starts[v + 1]]``; and, in the same
+    order, each corner's ``dest`` (the next vertex around its face: the corner
+    is the directed edge v -> dest) and ``third`` vertex (3F,), written here
+    from face order because gathering them afterwards costs twice as much.
     """
+    nf = faces.shape[0]
     starts = np.zeros(nv + 1, np.int64)
-    for c in range(flat.shape[0]):
-        starts[flat[c] + 1] += 1
+    for f in range(nf):
+        for k in range(3):
+            starts[faces[f, k] + 1] += 1
     for v in range(nv):
         starts[v + 1] += starts[v]
     fill = starts[:-1].copy()
-    order = np.empty(flat.shape[0], np.int64)
-    for c in range(flat.shape[0]):
-        order[fill[flat[c]]] = c
-        fill[flat[c]] += 1
-    return order, starts
+    order = np.empty(3 * nf, np.int64)
+    dest = np.empty(3 * nf, np.int64)
+    third = np.empty(3 * nf, np.int64)
+    for f in range(nf):
+        for k in range(3):
+            i = fill[faces[f, k]]
+            order[i] = 3 * f + k
+            dest[i] = faces[f, (k + 1) % 3]
+            third[i] = faces[f, (k + 2) % 3]
+            fill[faces[f, k]] = i + 1
+    return order, starts, dest, third
 
 
 @njit(cache=True)
@@ -266,58 +278,42 @@ class WindingWarning(UserWarning):
 
 
 @njit(cache=True)
-def _winding_conflicts_kernel(faces, valid, nv):
+def _winding_conflicts_kernel(order, starts, dest, third, valid):
     """Count edges that exactly two distinct valid faces traverse, both a -> b.
 
-    Edges are bucketed by their start vertex (a counting sort, O(F)); a
-    vertex has few outgoing edges, so the entries of a bucket are compared
-    directly. Repeats of a face (same third vertex) count once. Edges with
-    three or more faces (non-manifold: fins, internal walls) are left out:
-    no winding makes them consistent, and fixing the winding would not help.
+    The corners come grouped by vertex a (:func:`_corners_by_vertex`); a vertex
+    has few, so they are compared directly. Repeats of a face (same third
+    vertex) count once. Edges with three or more faces (non-manifold: fins,
+    internal walls) are left out: no winding makes them consistent, and
+    fixing the winding would not help.
     """
-    nf = faces.shape[0]
-    starts = np.zeros(nv + 1, np.int64)
-    for f in range(nf):
-        if valid[f]:
-            for k in range(3):
-                starts[faces[f, k] + 1] += 1
-    for v in range(nv):
-        starts[v + 1] += starts[v]
-    fill = starts[:-1].copy()
-    dest = np.empty(starts[nv], np.int64)
-    third = np.empty(starts[nv], np.int64)
-    for f in range(nf):
-        if valid[f]:
-            for k in range(3):
-                a = faces[f, k]
-                dest[fill[a]] = faces[f, (k + 1) % 3]
-                third[fill[a]] = faces[f, (k + 2) % 3]
-                fill[a] += 1
     conflicts = 0
-    for a in range(nv):
+    for a in range(starts.shape[0] - 1):
         for i in range(starts[a], starts[a + 1]):
+            if not valid[order[i] // 3]:
+                continue
             b = dest[i]
-            first = True
+            first = True  # count each directed edge once, at its first valid corner
             for j in range(starts[a], i):
-                if dest[j] == b:
+                if valid[order[j] // 3] and dest[j] == b:
                     first = False
                     break
-            if first and _distinct_faces(dest, third, starts[a], starts[a + 1], b) == 2 \
-                    and _distinct_faces(dest, third, starts[b], starts[b + 1], a) == 0:
+            if first and _distinct_faces(order, dest, third, valid, starts[a], starts[a + 1], b) == 2 \
+                    and _distinct_faces(order, dest, third, valid, starts[b], starts[b + 1], a) == 0:
                 conflicts += 1
     return conflicts
 
 
 @njit(cache=True)
-def _distinct_faces(dest, third, lo, hi, b):
-    """How many distinct faces (by third vertex) in bucket ``lo:hi`` go to ``b``."""
+def _distinct_faces(order, dest, third, valid, lo, hi, b):
+    """How many distinct valid faces (by third vertex) among corners ``lo:hi`` go on to ``b``."""
     n = 0
     for i in range(lo, hi):
-        if dest[i] != b:
+        if dest[i] != b or not valid[order[i] // 3]:
             continue
         new = True
         for j in range(lo, i):
-            if dest[j] == b and third[j] == third[i]:
+            if dest[j] == b and third[j] == third[i] and valid[order[j] // 3]:
                 new = False
                 break
         if new:
@@ -350,7 +346,8 @@ def winding_conflicts(vertices, faces, fnormals=None) -> int:
     faces = np.asarray(faces, np.int64)
     fn = face_normals(vertices, faces)[0] if fnormals is None else fnormals
     valid = np.any(fn != 0.0, axis=1)
-    return int(_winding_conflicts_kernel(faces, valid, vertices.shape[0]))
+    order, starts, dest, third = _corners_by_vertex(faces, vertices.shape[0])
+    return int(_winding_conflicts_kernel(order, starts, dest, third, valid))
 
 
 def _normalize_rows(n: np.ndarray) -> np.ndarray:
@@ -390,10 +387,9 @@ def vertex_normals(vertices, faces, weighting: str = "angle", crease_angle: floa
     faces = np.asarray(faces, np.int64)
     fn, _, w = _faces_kernel(vertices, faces, _WEIGHT_CODE[weighting])
     nv = vertices.shape[0]
-    flat = faces.ravel()
     if crease_angle is None:
         return vertices, faces, _normalize_rows(_accumulate_kernel(faces, fn, w, nv)), np.arange(nv)
-    order, starts = _corners_by_vertex(flat, nv)
+    order, starts, _, _ = _corners_by_vertex(faces, nv)
     # "Differ by more than the crease angle" splits; a tolerance of 1e-12 in
     # the cosine keeps faces at exactly the angle (a cube at 90 degrees, where
     # cos rounds to 6e-17 > 0) and coplanar neighbours (cos = 1 - rounding)

@@ -370,7 +370,19 @@ def test_corners_by_vertex_is_a_stable_argsort():
 
     v, f = _random_mesh(5, nv=40, nf=300)
     flat = f.ravel()
-    order, starts = _corners_by_vertex(flat, 45)  # 5 unreferenced vertices at the end
+    order, starts, dest, third = _corners_by_vertex(f, 45)  # 5 unreferenced vertices at the end
     np.testing.assert_array_equal(order, np.argsort(flat, kind="stable"))
     np.testing.assert_array_equal(np.diff(starts), np.bincount(flat, minlength=45))
     assert starts[0] == 0 and starts[-1] == len(flat)
+    face, k = np.divmod(order, 3)  # each corner's next and third vertex around its face
+    np.testing.assert_array_equal(dest, f[face, (k + 1) % 3])
+    np.testing.assert_array_equal(third, f[face, (k + 2) % 3])
+
+
+@pytest.mark.parametrize("crease", [None, 30.0])
+def test_prepared_face_normals_are_those_of_the_split_mesh(crease):
+    """Mesh.prepared computes face normals once, before any split: they must be the split mesh's."""
+    cube = rs.shapes.cube()
+    p = rs.Mesh(cube.vertices, cube.faces, crease_angle=crease).prepared
+    assert len(p.vertices) == (8 if crease is None else 24)
+    np.testing.assert_array_equal(p.face_normals, face_normals(p.vertices, p.faces)[0])
