@@ -48,9 +48,6 @@ _RTC_GEOMETRY_TYPE_TRIANGLE = 0
 _RTC_SCENE_FLAG_ROBUST = 1 << 2
 _RTC_BUILD_QUALITY_HIGH = 2
 _RTC_DEVICE_PROPERTY_VERSION = 0
-# RTCIntersectArguments (rtcore_scene.h): flags, feature_mask, then three
-# pointers (context, filter, intersect), all zero = Embree's defaults.
-# 16 uint32 slots cover it, with room for the optional minWidth float.
 # Embree intersects in float32 and multiplies coordinates together (edge cross products), so
 # beyond about 1e19 from the scene's centre those products overflow and triangles are missed
 # without a word (measured: a triangle of size 1e18 renders, 1e19 does not). Geometry and ray
@@ -58,6 +55,21 @@ _RTC_DEVICE_PROPERTY_VERSION = 0
 MAX_COORDINATE = 1e18
 # The same products underflow below about 1e-19: a scene that small is missed entirely.
 MIN_EXTENT = 1e-18
+# RTCIntersectArguments (rtcore_scene.h): flags, feature_mask, then three
+# pointers (context, filter, intersect), all zero = Embree's defaults.
+# 16 uint32 slots cover it, with room for the optional minWidth float.
+ARGS_SLOTS = 16
+RAY_QUERY_FLAG_COHERENT = 1 << 16
+FEATURE_FLAG_ALL = 0xFFFFFFFF
+_ERRORS = {
+    0: "none",
+    1: "unknown error",
+    2: "invalid argument",
+    3: "invalid operation",
+    4: "out of memory",
+    5: "unsupported CPU",
+    6: "cancelled",
+}
 
 
 def check_range(extent: float, name: str, *, scene: bool = False) -> None:
@@ -73,20 +85,6 @@ def check_range(extent: float, name: str, *, scene: bool = False) -> None:
             f"{name}: reaches {extent:.3g} from the scene's centre; Embree's float32 ray-triangle test overflows "
             f"beyond about 1e19 and misses every triangle there, so the limit is {MAX_COORDINATE:.0e}: "
             "scale the scene (vertices, camera and lights) down")
-
-
-ARGS_SLOTS = 16
-RAY_QUERY_FLAG_COHERENT = 1 << 16
-FEATURE_FLAG_ALL = 0xFFFFFFFF
-_ERRORS = {
-    0: "none",
-    1: "unknown error",
-    2: "invalid argument",
-    3: "invalid operation",
-    4: "out of memory",
-    5: "unsupported CPU",
-    6: "cancelled",
-}
 
 
 def _candidate_paths():

@@ -192,8 +192,8 @@ def cast_camera(geometry, camera, caster: str = "auto", threads: int = 2) -> Hit
     caster = _resolve_caster(caster)
     h, w = camera.height, camera.width
     reach = float(np.abs(camera.eye - geometry.origin).max())
-    if camera.orthographic:  # rays start across the whole view plane
-        reach += 0.5 * camera.ortho_height * max(1.0, w / h) * 1.7321  # sqrt(3): any axis
+    if camera.orthographic:  # rays start anywhere on the view rectangle around the eye
+        reach += 0.5 * camera.ortho_height * float(np.hypot(w / h, 1.0))
     _embree.check_range(reach, "camera.eye")
     cam = camera_frame(camera, geometry.origin)
     if caster == "embree":

@@ -294,6 +294,12 @@ def test_coordinates_beyond_embrees_float32_range_are_refused():
     assert rs.render(far, backend="raster").mask.sum() > 100
     with pytest.raises(ValueError, match=r"camera.eye: reaches 2e\+18"):
         rs.render(_far_triangle(1.0, eye_factor=2e18))
+    # Orthographic rays start across the view rectangle: its half-diagonal counts too.
+    ortho = _far_triangle(1.0, eye_factor=0.9e18)
+    wide = ortho.camera.replace(projection="orthographic", ortho_height=0.3e18)  # half-diagonal 0.21e18
+    with pytest.raises(ValueError, match=r"camera.eye: reaches 1.1\de\+18"):
+        rs.render(ortho, camera=wide)
+    assert np.isfinite(rs.render(ortho, camera=wide.replace(ortho_height=0.1e18)).image).all()  # within: accepted
     with pytest.raises(ValueError, match="scene vertices"):  # float32 overflow: inf vertices would vanish
         rs.render(_far_triangle(1e39))
 
