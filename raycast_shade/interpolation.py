@@ -66,10 +66,6 @@ def _screen_kernel(prim, geom, u, v, faces, face_off, w, uo, vo):
             vo[y, x] = b2
 
 
-def _check(hits, geometry, camera):
-    return check_hits(hits, geometry, camera)
-
-
 def vertex_depths(geometry, camera) -> np.ndarray:
     """Clip-space ``w`` of every vertex: its depth along the view axis.
 
@@ -114,7 +110,7 @@ def to_screen_space(hits, geometry, camera) -> HitBuffer:
     TypeError, ValueError
         For a bad argument (the message names it).
     """
-    geometry = _check(hits, geometry, camera)
+    geometry = check_hits(hits, geometry, camera)
     if camera.orthographic:
         return HitBuffer(prim=hits.prim, geom=hits.geom, u=hits.u.copy(), v=hits.v.copy(), t=hits.t)
     w = vertex_depths(geometry, camera)
@@ -128,7 +124,7 @@ def to_screen_space(hits, geometry, camera) -> HitBuffer:
 
 def to_screen_space_numpy(hits, geometry, camera) -> HitBuffer:
     """Plain-NumPy twin of :func:`to_screen_space` (for tests)."""
-    geometry = _check(hits, geometry, camera)
+    geometry = check_hits(hits, geometry, camera)
     u = hits.u.astype(np.float64)
     v = hits.v.astype(np.float64)
     if not camera.orthographic:
