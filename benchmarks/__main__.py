@@ -51,7 +51,7 @@ REGISTRY = [
 
 
 def _is_missing_extra(exc: BaseException) -> bool:
-    from raycast_shade.metrics import MissingExtraError
+    from raycast_shade.study.metrics import MissingExtraError
 
     return isinstance(exc, MissingExtraError)
 

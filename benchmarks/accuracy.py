@@ -3,7 +3,7 @@
 Run ``python -m benchmarks.accuracy [--quick]`` (or the whole suite with
 ``python -m benchmarks``). For each analytic surface (a unit sphere and a
 torus with R = 1, r = 0.4) the ground truth is rendered exactly
-(:mod:`raycast_shade.analytic`); the same scene is then rendered from
+(:mod:`raycast_shade.study.analytic`); the same scene is then rendered from
 tessellations of increasing resolution (icosphere subdivisions, UV spheres
 of N x 2N and tori of N x N/2 segments, all with exact vertex normals) with
 
@@ -14,7 +14,7 @@ of N x 2N and tori of N x N/2 segments, all with exact vertex normals) with
 for shininess t in {1, 8, 64, 512} at two resolutions. Each frame is timed
 (median of repeats after a warm-up render, the repeats of the methods
 interleaved; the JIT warm-up of the whole process is measured apart) and
-compared on the pixels both images cover (:func:`raycast_shade.metrics.compare`).
+compared on the pixels both images cover (:func:`raycast_shade.study.metrics.compare`).
 
 Outputs (``_quick`` is appended to every name in ``--quick`` mode):
 
@@ -48,6 +48,8 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
+
+from raycast_shade.visibility.accel import embreex_scene
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
@@ -105,7 +107,7 @@ FULL = Config(quick=False, resolutions=(256, 512), ico_levels=(0, 1, 2, 3, 4, 5,
 
 def surfaces():
     """The analytic shapes and the camera that frames each: name -> (surface, eye, fov)."""
-    from raycast_shade.analytic import Sphere, Torus
+    from raycast_shade.study.analytic import Sphere, Torus
 
     return {
         "sphere": (Sphere(), (0.0, 0.0, 4.0), 35.0),
@@ -155,8 +157,8 @@ def mesh_cases(cfg: Config):
 def warm_up():
     """Compile (or load from cache) every kernel the run uses; seconds, per part."""
     import raycast_shade as rs
-    from raycast_shade import metrics
-    from raycast_shade.analytic import Sphere, Torus, render_exact
+    from raycast_shade.study import metrics
+    from raycast_shade.study.analytic import Sphere, Torus, render_exact
 
     out = {}
     cam = rs.Camera(eye=(0.0, 0.0, 4.0), width=16, height=16)
@@ -191,8 +193,8 @@ def _have_flip():
 def sweep(cfg: Config, progress: bool = True):
     """Render and compare every case; one dict per frame (see ``ROW_KEYS``)."""
     import raycast_shade as rs
-    from raycast_shade import metrics
-    from raycast_shade.analytic import render_exact
+    from raycast_shade.study import metrics
+    from raycast_shade.study.analytic import render_exact
 
     from tqdm.auto import tqdm
 
@@ -261,7 +263,7 @@ def _metric_fields(cmp):
 def fit_orders(rows, metrics_=("rmse", "rmse_interior")):
     """Fitted orders of each error metric against the angular step, one dict
     per fit (see ``ORDER_KEYS``)."""
-    from raycast_shade.metrics import convergence_order
+    from raycast_shade.study.metrics import convergence_order
 
     groups = {}
     for r in rows:
@@ -290,7 +292,7 @@ def fit_orders(rows, metrics_=("rmse", "rmse_interior")):
 # -- peers -------------------------------------------------------------------------------------------------
 
 def _hitbuffer(h, w, prim, u, v, t, miss):
-    from raycast_shade.hits import HitBuffer
+    from raycast_shade.visibility.hits import HitBuffer
 
     prim = np.where(miss, -1, prim).astype(np.int32).reshape(h, w)
     return HitBuffer(prim=prim, geom=np.where(prim >= 0, 0, -1).astype(np.int32),
@@ -302,7 +304,7 @@ def _hitbuffer(h, w, prim, u, v, t, miss):
 def _numpy_shading():
     """The NumPy shading twin, or None."""
     try:
-        from raycast_shade.reference import shade_reference
+        from raycast_shade.study.reference import shade_reference
     except ImportError:
         return None
     return shade_reference
@@ -314,8 +316,8 @@ def peer_pipelines(scene, cam, mode):
     Each frame function renders the whole frame (rays, cast, shading) and
     returns the (H, W, 3) image and its (H, W) coverage mask.
     """
-    from raycast_shade.rays import generate_rays, generate_rays_numpy
-    from raycast_shade.shading import shade
+    from raycast_shade.visibility.rays import generate_rays, generate_rays_numpy
+    from raycast_shade.shading.kernels import shade
 
     geo = scene.geometry
     h, w = cam.height, cam.width
@@ -324,10 +326,10 @@ def peer_pipelines(scene, cam, mode):
 
     # 1. naive: NumPy rays, embreex's run on one thread, NumPy shading.
     if numpy_shade is None:
-        out["naive"] = "raycast_shade.reference (the NumPy shading) is not available"
+        out["naive"] = "raycast_shade.study.reference (the NumPy shading) is not available"
     else:
         t0 = time.perf_counter()
-        ex_scene = geo.embreex_scene
+        ex_scene = embreex_scene(geo)
         setup = time.perf_counter() - t0
 
         def naive():
@@ -347,7 +349,7 @@ def peer_pipelines(scene, cam, mode):
         out["trimesh"] = f"trimesh's embree ray interface is not available ({exc})"
     else:
         if numpy_shade is None:
-            out["trimesh"] = "raycast_shade.reference (the NumPy shading) is not available"
+            out["trimesh"] = "raycast_shade.study.reference (the NumPy shading) is not available"
         else:
             t0 = time.perf_counter()
             tm = trimesh.Trimesh(geo.vertices, geo.local_faces, process=False)
@@ -404,8 +406,9 @@ def peer_pipelines(scene, cam, mode):
 def peers(cfg: Config, progress: bool = True):
     """Our Phong frames against the peer pipelines, same scene, same process."""
     import raycast_shade as rs
-    from raycast_shade import metrics, shapes
-    from raycast_shade.analytic import render_exact
+    from raycast_shade import shapes
+    from raycast_shade.study import metrics
+    from raycast_shade.study.analytic import render_exact
 
     from tqdm.auto import tqdm
 
@@ -763,7 +766,7 @@ def run(quick: bool = False, progress: bool = True, results_dir: str = RESULTS, 
     dict
         ``csv`` and ``images``: lists of the paths written; ``orders``: the fits.
     """
-    from raycast_shade.metrics import MissingExtraError
+    from raycast_shade.study.metrics import MissingExtraError
 
     cfg = QUICK if quick else FULL
     suffix = "_quick" if quick else ""
@@ -807,7 +810,7 @@ def main(argv=None):
     ap.add_argument("--no-progress", action="store_true", help="no progress bar")
     ap.add_argument("--no-docs", action="store_true", help="do not rewrite the fitted orders in docs/accuracy.md")
     args = ap.parse_args(argv)
-    from raycast_shade.metrics import MissingExtraError
+    from raycast_shade.study.metrics import MissingExtraError
 
     try:
         out = run(quick=args.quick, progress=not args.no_progress, with_peers=not args.no_peers,

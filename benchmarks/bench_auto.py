@@ -10,7 +10,7 @@ analytic twin), every mode -- ``auto`` and each single method -- is
   interleaved so that a burst of load elsewhere hits them alike; median and
   minimum of the repeats are both reported (on a shared machine the median
   is noisy: each parallel kernel launch can wait ~8 ms for a busy core);
-* measured against the exact image (:mod:`raycast_shade.analytic`), per
+* measured against the exact image (:mod:`raycast_shade.study.analytic`), per
   model: the largest absolute error on the pixels both images give the
   model, leaving out a 2-pixel rim (``interior``: the shading error proper;
   the rim holds the silhouette's geometric error, which no shading method
@@ -49,7 +49,7 @@ FIELDS = ["numba_threads", "scene", "tolerance", "width", "height", "mode", "mod
 def _scenes(width: int, height: int):
     """name -> (scene, analytic surfaces, tolerance)."""
     import raycast_shade as rs
-    from raycast_shade.analytic import Plane, Sphere
+    from raycast_shade.study.analytic import Plane, Sphere
 
     def cam(eye, fov):
         return rs.Camera(eye=eye, target=(0, 0, 0), width=width, height=height, fov=fov)
@@ -94,7 +94,7 @@ def _scenes(width: int, height: int):
 
 
 def _errors(exact, frame, g, rim=2):
-    from raycast_shade.metrics import interior_mask
+    from raycast_shade.study.metrics import interior_mask
 
     both = exact.mask & frame.mask & (exact.model_id == g) & (frame.model_id == g)
     if not both.any():
@@ -108,8 +108,8 @@ def _errors(exact, frame, g, rim=2):
 def run(quick: bool = False, repeats: int | None = None):
     """Measure every scene; returns the CSV rows (list of dict)."""
     import raycast_shade as rs
-    from raycast_shade.analytic import exact_for_scene
-    from raycast_shade.auto import choose_methods
+    from raycast_shade.study.analytic import exact_for_scene
+    from raycast_shade.study.auto import choose_methods
 
     width, height = (320, 240) if quick else (640, 480)
     repeats = repeats or (15 if quick else 25)

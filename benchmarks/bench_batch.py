@@ -5,7 +5,7 @@ icosphere (20,480 triangles, two lights, Phong) is rendered
 
 * serially, in this process (Numba on every core, one BVH for all frames);
 * on a local Dask cluster of 2 single-threaded worker processes, each with
-  one Numba thread (``raycast_shade.batch.local_cluster(2)``);
+  one Numba thread (``raycast_shade.apps.batch.local_cluster(2)``);
 
 at a small and a medium resolution. Both are timed after a warm-up batch
 (JIT cache loaded, BVH built, on every worker), so the numbers are steady
@@ -66,8 +66,8 @@ def bench_throughput(cases, frames: int, repeats: int):
     """Serial against 2 workers; one cluster for all cases."""
     import numba
 
-    from raycast_shade.animate import orbit_cameras
-    from raycast_shade.batch import local_cluster, render_batch
+    from raycast_shade.apps.animate import orbit_cameras
+    from raycast_shade.apps.batch import local_cluster, render_batch
 
     rows = []
     jobs = []
@@ -99,8 +99,8 @@ def bench_overhead(frames: int, repeats: int):
     """Per-frame cost of Dask on frames that cost almost nothing to render."""
     import numba
 
-    from raycast_shade.animate import orbit_cameras
-    from raycast_shade.batch import local_cluster, render_batch
+    from raycast_shade.apps.animate import orbit_cameras
+    from raycast_shade.apps.batch import local_cluster, render_batch
 
     w, h = 16, 12
     scene = _scene(w, h)

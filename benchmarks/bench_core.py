@@ -8,7 +8,7 @@ with 81,920 and 1,310,720 triangles) and resolution (640x480, 1920x1080):
 * embreex ``run`` on one thread and on two Python threads over chunks, the
   cast alone (rays given);
 * the naive pipeline: NumPy rays + embreex ``run`` (one thread) + NumPy
-  shading (:mod:`raycast_shade.reference`);
+  shading (:mod:`raycast_shade.study.reference`);
 * scene build: ours (shared buffers + BVH) against Embree's own BVH build
   (``rtcCommitScene``) and against embreex's ``TriangleMesh`` + commit.
 
@@ -57,9 +57,9 @@ def _scene(subdivisions: int, width: int, height: int):
 def bench_frame(subdivisions: int, width: int, height: int, repeats: int, naive: bool):
     """Stage medians (ms) for one mesh and resolution."""
     import raycast_shade as rs
-    from raycast_shade.cast import cast_camera, run_embreex
-    from raycast_shade.rays import generate_rays, generate_rays_numpy
-    from raycast_shade.shading import shade
+    from raycast_shade.visibility.cast import cast_camera, run_embreex
+    from raycast_shade.visibility.rays import generate_rays, generate_rays_numpy
+    from raycast_shade.shading.kernels import shade
 
     scene = _scene(subdivisions, width, height)
     geo = scene.geometry
@@ -82,13 +82,13 @@ def bench_frame(subdivisions: int, width: int, height: int, repeats: int, naive:
         row("raycast_shade", f"total_{mode}", _median_ms(lambda: rs.render(scene, mode), repeats))
 
     origins, directions = generate_rays(cam, geo.origin)
-    ex = geo.embreex_scene
+    ex = embreex_scene(geo)
     run_embreex(ex, origins[:16], directions[:16], 1)  # commit outside the timing
     row("embreex", "cast_1thread", _median_ms(lambda: run_embreex(ex, origins, directions, 1), repeats))
     row("embreex", "cast_2threads", _median_ms(lambda: run_embreex(ex, origins, directions, 2), repeats))
 
     if naive:
-        from raycast_shade.reference import shade_reference
+        from raycast_shade.study.reference import shade_reference
 
         def naive_frame():
             o, d = generate_rays_numpy(cam, geo.origin)
@@ -113,7 +113,7 @@ def bench_build(subdivisions: int, repeats: int):
     from embreex.mesh_construction import TriangleMesh
 
     import raycast_shade as rs
-    from raycast_shade.scene import SceneGeometry
+    from raycast_shade.scene.scene import SceneGeometry
 
     mesh = rs.shapes.icosphere(subdivisions)
     model = rs.Model(mesh)
@@ -123,7 +123,7 @@ def bench_build(subdivisions: int, repeats: int):
     for _ in range(repeats):
         t0 = time.perf_counter()
         geo = SceneGeometry([model])
-        acc = geo.accel
+        acc = embree_accel(geo)
         ours.append(time.perf_counter() - t0)
         bvh.append(acc.build_seconds)
         del acc, geo
@@ -150,6 +150,7 @@ _CHILD = """
 import time
 t0 = time.perf_counter()
 import raycast_shade as rs
+from raycast_shade.visibility.accel import embree_accel, embreex_scene
 t1 = time.perf_counter()
 s = rs.Scene([rs.Model(rs.shapes.icosphere(3), rs.Material(ks=0.5))], lights=[rs.PointLight((2, 3, 4))],
              camera=rs.Camera(eye=(0, 0, 3), width=64, height=48))

@@ -39,8 +39,9 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import raycast_shade as rs  # noqa: E402
-from raycast_shade.raster import rasterize  # noqa: E402
-from raycast_shade.shading import shade  # noqa: E402
+from raycast_shade.visibility.accel import embree_accel  # noqa: E402
+from raycast_shade.visibility.raster import rasterize  # noqa: E402
+from raycast_shade.shading.kernels import shade  # noqa: E402
 
 FULL_SUBDIVISIONS = (3, 4, 5, 6, 7, 8)
 FULL_RESOLUTIONS = ((640, 480), (1920, 1080))
@@ -77,7 +78,7 @@ def warm_up():
     scene = make_scene(1)
     camera = make_camera(32, 24)
     geo = scene.geometry
-    geo.accel  # noqa: B018 - Embree itself is not JIT-compiled
+    embree_accel(geo)  # Embree itself is not JIT-compiled
     first = {}
     for name, fn in (("raycast", lambda: rs.cast_camera(geo, camera)), ("raster", lambda: rasterize(geo, camera))):
         t0 = time.perf_counter()
@@ -100,12 +101,12 @@ import json, sys, time
 sys.path.insert(0, {root!r})
 t0 = time.perf_counter()
 import raycast_shade as rs
-from raycast_shade.raster import rasterize
-from raycast_shade.shading import shade
+from raycast_shade.visibility.raster import rasterize
+from raycast_shade.shading.kernels import shade
 out = {{"import": time.perf_counter() - t0}}
 scene = rs.Scene([rs.Model(rs.shapes.icosphere(1))], lights=[rs.PointLight((2.0, 3.0, 4.0))])
 camera = rs.Camera(eye=(0.3, 0.5, 3.0), width=32, height=24)
-scene.geometry.accel
+embree_accel(scene.geometry)
 for name, fn in (("raycast", lambda: rs.cast_camera(scene.geometry, camera)),
                  ("raster", lambda: rasterize(scene.geometry, camera))):
     t0 = time.perf_counter()
@@ -141,7 +142,7 @@ def run(subdivisions, resolutions, repeats, log=print):
         scene = make_scene(sub)
         geo = scene.geometry
         t0 = time.perf_counter()
-        geo.accel  # noqa: B018 - the BVH, built once per mesh
+        embree_accel(geo)  # the BVH, built once per mesh
         build = time.perf_counter() - t0
         ntri = len(geo.faces)
         for width, height in resolutions:

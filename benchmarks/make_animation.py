@@ -32,7 +32,7 @@ def orbit_scenes(frames: int = 24, width: int = 160, height: int = 120):
     list of Scene
     """
     import raycast_shade as rs
-    from raycast_shade.animate import orbit_light
+    from raycast_shade.apps.animate import orbit_light
 
     scene = rs.Scene(
         [rs.Model(rs.shapes.icosphere(2), rs.Material(kd=(0.75, 0.28, 0.18), ks=0.8, shininess=60))],
@@ -45,7 +45,7 @@ def orbit_scenes(frames: int = 24, width: int = 160, height: int = 120):
 
 def side_by_side(left, right, labels=("GOURAUD", "PHONG"), gap: int = 2) -> np.ndarray:
     """Two linear float panels, left | right, labelled, with a black gap."""
-    from raycast_shade.demo import draw_text
+    from raycast_shade.apps.demo import draw_text
 
     panels = []
     for img, label in zip((left, right), labels):
@@ -77,8 +77,8 @@ def make(output: str = OUTPUT, frames: int = 24, width: int = 160, height: int =
     dict
         ``output``, ``frames``, ``bytes``, ``seconds``.
     """
-    from raycast_shade.animate import write_animation
-    from raycast_shade.batch import local_cluster, render_batch
+    from raycast_shade.apps.animate import write_animation
+    from raycast_shade.apps.batch import local_cluster, render_batch
 
     t0 = time.perf_counter()
     scenes = orbit_scenes(frames, width, height)

@@ -25,9 +25,9 @@ RESULTS = os.path.join(HERE, "results")
 IMAGES = os.path.join(ROOT, "docs", "images")
 
 import raycast_shade as rs  # noqa: E402
-from raycast_shade.analytic import Plane, Sphere, exact_for_scene  # noqa: E402
-from raycast_shade.metrics import angular_step, compare, convergence_order, normal_angles, rmse  # noqa: E402
-from raycast_shade.reference import hit_points, illuminate_reference  # noqa: E402
+from raycast_shade.study.analytic import Plane, Sphere, exact_for_scene  # noqa: E402
+from raycast_shade.study.metrics import angular_step, compare, convergence_order, normal_angles, rmse  # noqa: E402
+from raycast_shade.study.reference import hit_points, illuminate_reference  # noqa: E402
 
 ROWS: list[tuple[str, str, float]] = []
 
@@ -132,7 +132,7 @@ def _shade_with(scene, frame, normals):
     """The reflectance equation at every hit pixel with the given normals (NumPy reference)."""
     geo = scene.geometry
     _, _, v, p = _raw_normals(scene, frame)
-    from raycast_shade.reference import _lights, _materials
+    from raycast_shade.study.reference import _lights, _materials
 
     out = np.zeros(frame.image.shape)
     out[frame.mask] = illuminate_reference(p, normals, v, geo.face_model[geo.face_offsets[frame.hits.geom[frame.mask]]
@@ -373,7 +373,7 @@ def _sliver_fan(n):
 
 
 def _plane_points(camera, z0=0.0):
-    from raycast_shade.rays import generate_rays_numpy
+    from raycast_shade.visibility.rays import generate_rays_numpy
 
     o, d = generate_rays_numpy(camera)
     t = (z0 - o[:, 2]) / d[:, 2]
@@ -507,7 +507,7 @@ def case_8():
 # -- 9 -------------------------------------------------------------------------------------------------
 
 def _grid_at_pixel_rays(cam, step):
-    from raycast_shade.rays import camera_frame
+    from raycast_shade.visibility.rays import camera_frame
 
     w, h = cam.width, cam.height
     cf = camera_frame(cam)
@@ -527,8 +527,8 @@ def _grid_at_pixel_rays(cam, step):
 
 
 def case_9():
-    from raycast_shade import _embree
-    from raycast_shade import cast as cast_mod
+    from raycast_shade.visibility import embree as _embree
+    from raycast_shade.visibility import cast as cast_mod
 
     items = []
     saved_flag, saved_jitter = _embree._RTC_SCENE_FLAG_ROBUST, cast_mod._JITTER

@@ -15,23 +15,24 @@ attenuation laws.
 (240, 320, 3)
 """
 
-from . import bump, shapes
-from .bump import HeightMap
-from .camera import Camera
-from .cast import cast_camera, cast_rays
-from .frame import Frame
-from .hits import HitBuffer
-from .lights import DirectionalLight, PointLight
-from .material import Material
-from .mesh import Mesh
-from .normals import WindingWarning, winding_conflicts
+from .scene import heightmap as bump
+from .scene import shapes
+from .scene.heightmap import HeightMap
+from .scene.camera import Camera
+from .visibility.cast import cast_camera, cast_rays
+from .output.frame import Frame
+from .visibility.hits import HitBuffer
+from .scene.lights import DirectionalLight, PointLight
+from .scene.material import Material
+from .scene.mesh import Mesh
+from .scene.normals import WindingWarning, winding_conflicts
 from .render import render
-from .scene import Model, Scene
-from .auto import choose_methods
-from .shading import SHADINGS, shade, shading_normals
-from .tonemap import read_pfm, to_uint8, write_pfm
+from .scene.scene import Model, Scene
+from .study.auto import choose_methods
+from .shading.kernels import SHADINGS, shade, shading_normals
+from .output.tonemap import read_pfm, to_uint8, write_pfm
+from .common.version import __version__
 
-__version__ = "0.1.0"
 
 __all__ = [
     "Camera", "DirectionalLight", "HeightMap", "bump", "Frame", "HitBuffer", "Material", "Mesh", "Model", "PointLight", "Scene",

@@ -1,5 +1,5 @@
 """``python -m raycast_shade``: the same as the ``raycast-shade`` command."""
 
-from .cli import main
+from .apps.cli import main
 
 raise SystemExit(main())

@@ -4,18 +4,18 @@ from __future__ import annotations
 
 import time
 
-from .camera import Camera
-from .cast import CASTERS, cast_camera
-from .frame import Frame
-from .scene import Scene
-from .auto import choose_methods
-from .shading import SHADINGS, _shade, resolve_methods, trace_mirrors
+from .scene.camera import Camera
+from .visibility.accel import embree_accel, has_embree_accel
+from .visibility.cast import cast_camera
+from .output.frame import Frame
+from .scene.scene import Scene
+from .study.auto import choose_methods
+from .common.choices import BACKENDS, CASTERS, INTERPOLATIONS, SHADINGS
+from .shading.kernels import resolve_methods, shade_hits, trace_mirrors
 
 __all__ = ["render"]
 
 
-BACKENDS = ("raycast", "raster")
-INTERPOLATIONS = ("perspective", "screen")
 
 
 def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backend: str = "raycast",
@@ -86,25 +86,25 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
     elif not isinstance(shading, str):
         shading = tuple(m.lower() for m in shading)
     timings = {}
-    fresh = "geometry" not in scene.__dict__ or "accel" not in scene.geometry.__dict__
+    fresh = "geometry" not in scene.__dict__ or not has_embree_accel(scene.geometry)
     if fresh and caster != "embreex" and backend == "raycast":
         tb = time.perf_counter()
-        scene.geometry.accel  # noqa: B018 - build now so that the cast is timed alone
+        embree_accel(scene.geometry)  # build now so that the cast is timed alone
         timings["build"] = time.perf_counter() - tb
     tc = time.perf_counter()
     if backend == "raycast":
         hits = cast_camera(scene.geometry, camera, caster)
     else:
-        from .raster import rasterize
+        from .visibility.raster import rasterize
 
         hits = rasterize(scene.geometry, camera)
     if interpolation == "screen":
-        from .interpolation import to_screen_space
+        from .visibility.interpolation import to_screen_space
 
         hits = to_screen_space(hits, scene.geometry, camera)
     ts = time.perf_counter()
     timings["cast" if backend == "raycast" else "raster"] = ts - tc
-    image = _shade(scene, camera, hits, shading)  # hits from our caster or rasterizer: valid by construction
+    image = shade_hits(scene, camera, hits, shading)  # hits from our caster or rasterizer: valid by construction
     te = time.perf_counter()
     timings["shade"] = te - ts
     if scene.geometry.reflective and max_depth > 0:

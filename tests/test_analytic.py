@@ -1,4 +1,4 @@
-"""The exact renderer (raycast_shade.analytic) against closed forms."""
+"""The exact renderer (raycast_shade.study.analytic) against closed forms."""
 
 from __future__ import annotations
 
@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import raycast_shade as rs
-from raycast_shade.analytic import Plane, Sphere, Torus, exact_for_scene, intersect, render_exact
-from raycast_shade.rays import generate_rays_numpy
+from raycast_shade.study.analytic import Plane, Sphere, Torus, exact_for_scene, intersect, render_exact
+from raycast_shade.visibility.rays import generate_rays_numpy
 
 
 def _centre_camera(n=33, **kw):

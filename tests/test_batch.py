@@ -16,7 +16,9 @@ import numpy as np
 import pytest
 
 import raycast_shade as rs
-from raycast_shade import animate, batch
+from raycast_shade.visibility.accel import embree_accel, embreex_scene, has_embree_accel
+from raycast_shade.apps import animate
+from raycast_shade.apps import batch
 
 distributed = pytest.importorskip("distributed")  # a test dependency: only skipped where it is missing
 
@@ -61,7 +63,7 @@ def _worker_totals(client):
 
 def test_scene_pickles_without_geometry(scene):
     s = scene.replace()  # shares the built geometry and BVH
-    assert "accel" in s.geometry.__dict__
+    assert has_embree_accel(s.geometry)
     data = pickle.dumps(s)
     back = pickle.loads(data)
     assert "geometry" not in back.__dict__
@@ -70,7 +72,7 @@ def test_scene_pickles_without_geometry(scene):
     back = back.replace(camera=dataclasses.replace(back.camera), ambient=back.ambient)
     assert np.array_equal(rs.render(back, "phong").image, rs.render(s, "phong").image)
     geom = pickle.loads(pickle.dumps(s.geometry))
-    assert "accel" not in geom.__dict__ and np.array_equal(geom.vertices, s.geometry.vertices)
+    assert not has_embree_accel(geom) and np.array_equal(geom.vertices, s.geometry.vertices)
 
 
 def test_meshes_do_not_travel_with_frames(scene):
@@ -261,7 +263,7 @@ def test_png_frames_are_tone_mapped(scene, tmp_path):
 
 
 def test_write_is_atomic(tmp_path, monkeypatch):
-    import raycast_shade.tonemap as tm
+    import raycast_shade.output.tonemap as tm
 
     target = tmp_path / "img.pfm"
     image = np.full((4, 5, 3), 0.5, np.float32)
@@ -291,7 +293,7 @@ def _kill_once_plugin(marker, log, kill_at):
         """Kills the worker process that first starts frame ``kill_at``; logs every render."""
 
         def setup(self, worker):
-            from raycast_shade import batch as b
+            from raycast_shade.apps import batch as b
 
             original = b.__dict__.get("_unpatched_render_image", b._render_image)
             b._unpatched_render_image = original
@@ -313,7 +315,7 @@ def _kill_once_plugin(marker, log, kill_at):
             b._render_image = render_image
 
         def teardown(self, worker):
-            from raycast_shade import batch as b
+            from raycast_shade.apps import batch as b
 
             b._render_image = b.__dict__.pop("_unpatched_render_image", b._render_image)
 
@@ -422,7 +424,7 @@ attenuation = "inverse_square"
 
 
 def test_cli_animate(tmp_path, capsys):
-    pytest.importorskip("raycast_shade.scenefile")
+    pytest.importorskip("raycast_shade.scene.scenefile")
     path = tmp_path / "ball.toml"
     path.write_text(SCENE_TOML)
     parser = argparse.ArgumentParser(prog="raycast-shade")
@@ -449,7 +451,7 @@ def test_cli_animate_tone_options(tmp_path):
     change the written frames (linear gamma darkens mid-tones against sRGB)."""
     import imageio.v3 as iio
 
-    from raycast_shade.cli import main
+    from raycast_shade.apps.cli import main
 
     path = tmp_path / "ball.toml"
     path.write_text(SCENE_TOML)

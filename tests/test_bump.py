@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 import raycast_shade as rs
-from raycast_shade.bump import tangent_frames
+from raycast_shade.scene.heightmap import tangent_frames
 
 from conftest import down_camera, plane_hits
 

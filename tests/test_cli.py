@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 import raycast_shade as rs
-from raycast_shade import demo
-from raycast_shade.cli import main
-from raycast_shade.imagefile import write_png as _write_png
+from raycast_shade.apps import demo
+from raycast_shade.apps.cli import main
+from raycast_shade.output.imagefile import write_png as _write_png
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
@@ -218,7 +218,7 @@ def test_bad_arguments(capsys, scene_file, argv, fragment):
 
 
 def test_info(capsys):
-    from raycast_shade import _embree
+    from raycast_shade.visibility import embree as _embree
 
     code, out, err = run(capsys, "info")
     assert code == 0 and err == ""
@@ -245,7 +245,7 @@ def test_help_and_version(capsys):
 def test_subprocess(tmp_path):
     out = tmp_path / "d.png"
     # The demo path must not import trimesh (half a second of start-up).
-    code = ("import sys; from raycast_shade.cli import main; "
+    code = ("import sys; from raycast_shade.apps.cli import main; "
             f"rc = main(['demo', '-o', {str(out)!r}, '--width', '48', '--height', '24']); "
             "print('trimesh' in sys.modules); sys.exit(rc)")
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)

@@ -11,7 +11,7 @@ docstrings were measured on the scenes below; the pictures are made by
 Two bugs this catalogue found are fixed: Gouraud lit a corner whose vertex
 normal points to the far side of its face from behind (now reflected into the
 face's hemisphere, Phong's rule at the vertex; case 3/6), and rays through
-shared vertices could slip between triangles (case 9, :mod:`raycast_shade.cast`).
+shared vertices could slip between triangles (case 9, :mod:`raycast_shade.visibility.cast`).
 
 The last section is a property test (hypothesis) over random, degenerate
 scenes.
@@ -27,10 +27,10 @@ from hypothesis import HealthCheck, assume, event, given, settings
 from hypothesis import strategies as st
 
 import raycast_shade as rs
-from raycast_shade.analytic import Plane, Sphere, exact_for_scene
-from raycast_shade.metrics import compare, convergence_order, angular_step, highlight_position, normal_angles, rmse
-from raycast_shade.reference import hit_points, illuminate_reference, shade_reference
-from raycast_shade.rays import camera_frame
+from raycast_shade.study.analytic import Plane, Sphere, exact_for_scene
+from raycast_shade.study.metrics import compare, convergence_order, angular_step, highlight_position, normal_angles, rmse
+from raycast_shade.study.reference import hit_points, illuminate_reference, shade_reference
+from raycast_shade.visibility.rays import camera_frame
 
 from conftest import RTOL32, camera_rays, plane_hits
 
@@ -862,7 +862,7 @@ def test_9_no_holes_in_a_grid_of_perspective_rays(step, caster, eye, fov):
     (to rounding) through a vertex or an edge. Embree's robust mode alone
     leaves holes at vertices (measured misses with step 1 / 2 / 3 pixels:
     55 / 8 / 4 of 12288, and 136 with a distant narrow-angle eye); the
-    caster re-casts such isolated misses (raycast_shade.cast): 0 misses."""
+    caster re-casts such isolated misses (raycast_shade.visibility.cast): 0 misses."""
     w, h = 128, 96
     cam = rs.Camera(eye=eye, target=(0.0, 0.2, 0.0), width=w, height=h, fov=fov)
     cf = camera_frame(cam)
@@ -891,7 +891,7 @@ def test_9_hole_filling_moves_nothing_else():
     a pixel-wide gap between two squares stays open (its rays pass 0.5 pixel
     from either square), a real pinhole in a mesh (a missing face) stays a
     hole, and every other pixel is the plain packet cast's."""
-    from raycast_shade import cast as cast_mod
+    from raycast_shade.visibility import cast as cast_mod
 
     w, h, pitch = 64, 48, 1.0 / 16.0
     left = rs.shapes.plane(size=1.0, center=(-0.5, 0.0, 0.0))  # up to x = 0

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 import raycast_shade as rs
-from raycast_shade.reference import hit_points, shade_reference
+from raycast_shade.study.reference import hit_points, shade_reference
 
 from conftest import RTOL32, camera_rays, down_camera, lit_scene, plane_hits
 
@@ -279,7 +279,7 @@ def test_specular_power_matches_pow(t):
     """Whole shininess values are raised by repeated squaring: within a few
     ulps per squaring of ``c ** t`` (the error of ``pow`` of a rounded cosine
     is of the same order); other values go to ``pow`` itself."""
-    from raycast_shade.shading import _power
+    from raycast_shade.shading.kernels import _power
 
     c = np.linspace(0.0, 1.0, 1001)
     got = np.array([_power(x, t) for x in c])

@@ -9,6 +9,7 @@ import pytest
 import trimesh
 
 import raycast_shade as rs
+from raycast_shade.scene.normals import face_normals
 
 
 def _triangles(vertices, faces):
@@ -30,7 +31,7 @@ def test_every_named_format_loads_the_same_triangles(tmp_path, ext):
     assert len(mesh.vertices) == 162  # STL stores a triangle soup: trimesh welds it on load
     assert _triangles(mesh.vertices, mesh.faces) == _triangles(src.vertices, src.faces)
     # Wound as in the source: every face normal points out of the sphere.
-    fn, _ = rs.normals.face_normals(mesh.vertices, mesh.faces)
+    fn, _ = face_normals(mesh.vertices, mesh.faces)
     centres = mesh.vertices[mesh.faces].mean(axis=1)
     assert (np.einsum("ij,ij->i", fn, centres) > 0).all()
 
@@ -108,7 +109,7 @@ def test_a_scene_file_is_flattened_with_its_transforms(tmp_path):
     radial = mesh.vertices - centre
     np.testing.assert_allclose(mesh.normals, radial / np.linalg.norm(radial, axis=1, keepdims=True), atol=1e-6)
     # Faces wound outwards in both instances, and consistently.
-    fn, _ = rs.normals.face_normals(mesh.vertices, mesh.faces)
+    fn, _ = face_normals(mesh.vertices, mesh.faces)
     out = mesh.vertices[mesh.faces].mean(axis=1) - centre[mesh.faces[:, 0]]
     assert (np.einsum("ij,ij->i", fn, out) > 0).all()
     assert rs.winding_conflicts(mesh.vertices, mesh.faces) == 0

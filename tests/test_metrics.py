@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import raycast_shade as rs
-from raycast_shade import metrics as M
-from raycast_shade.analytic import Sphere, render_exact
+from raycast_shade.study import metrics as M
+from raycast_shade.study.analytic import Sphere, render_exact
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 

@@ -8,7 +8,7 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 import raycast_shade as rs
-from raycast_shade.normals import face_normals, vertex_normals
+from raycast_shade.scene.normals import face_normals, vertex_normals
 
 SQ3 = 1.0 / np.sqrt(3.0)
 
@@ -339,7 +339,7 @@ def _random_mesh(seed, nv=60, nf=200):
 @pytest.mark.parametrize("seed", range(4))
 @pytest.mark.parametrize("weighting", ["uniform", "area", "angle"])
 def test_face_kernel_matches_numpy_twins(seed, weighting):
-    from raycast_shade.normals import _WEIGHT_CODE, _corner_weights_numpy, _face_normals_numpy, _faces_kernel
+    from raycast_shade.scene.normals import _WEIGHT_CODE, _corner_weights_numpy, _face_normals_numpy, _faces_kernel
 
     v, f = _random_mesh(seed)
     fn, areas, w = _faces_kernel(v, f, _WEIGHT_CODE[weighting])
@@ -353,7 +353,7 @@ def test_face_kernel_matches_numpy_twins(seed, weighting):
 
 @pytest.mark.parametrize("seed", range(3))
 def test_accumulated_normals_match_bincount(seed):
-    from raycast_shade.normals import _accumulate_kernel
+    from raycast_shade.scene.normals import _accumulate_kernel
 
     v, f = _random_mesh(seed)
     rng = np.random.default_rng(seed)
@@ -366,7 +366,7 @@ def test_accumulated_normals_match_bincount(seed):
 
 
 def test_corners_by_vertex_is_a_stable_argsort():
-    from raycast_shade.normals import _corners_by_vertex
+    from raycast_shade.scene.normals import _corners_by_vertex
 
     v, f = _random_mesh(5, nv=40, nf=300)
     flat = f.ravel()

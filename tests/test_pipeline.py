@@ -11,7 +11,8 @@ from hypothesis import HealthCheck, assume, event, given, settings
 from hypothesis import strategies as st
 
 import raycast_shade as rs
-from raycast_shade.reference import hit_points
+from raycast_shade.visibility.accel import embree_accel, embreex_scene, has_embree_accel
+from raycast_shade.study.reference import hit_points
 
 from conftest import camera_rays
 
@@ -69,7 +70,7 @@ def test_the_two_casters_agree():
 def test_isolated_miss_count_matches_the_numpy_mask(density):
     """The parallel count that lets a frame skip the hole re-cast agrees with
     the NumPy mask it stands in for, borders included."""
-    from raycast_shade import cast as cast_mod
+    from raycast_shade.visibility import cast as cast_mod
 
     rng = np.random.default_rng(int(density * 100))
     for shape in [(1, 1), (1, 7), (7, 1), (3, 3), (37, 53)]:
@@ -113,19 +114,19 @@ def test_replace_camera_reuses_the_bvh():
     scene = scene_at(np.zeros(3), 48, 36)
     first = rs.render(scene, "phong")
     assert "build" in first.timings
-    accel = scene.geometry.accel
+    accel = embree_accel(scene.geometry)
     cam2 = rs.Camera(eye=(-1.0, 2.0, 3.5), width=40, height=30)
     moved = scene.replace(camera=cam2)
-    assert moved.geometry is scene.geometry and moved.geometry.accel is accel
+    assert moved.geometry is scene.geometry and embree_accel(moved.geometry) is accel
     second = rs.render(moved, "phong")
     assert "build" not in second.timings
-    assert moved.geometry.accel is accel
+    assert embree_accel(moved.geometry) is accel
     # ... and renders exactly what a fresh scene with that camera renders.
     fresh = scene_at(np.zeros(3), 48, 36).replace(camera=cam2)
     np.testing.assert_array_equal(second.image, rs.render(fresh, "phong").image)
     # New lights keep the BVH too; new models do not.
     relit = scene.replace(lights=[rs.DirectionalLight((0, 0, -1))])
-    assert relit.geometry.accel is accel
+    assert embree_accel(relit.geometry) is accel
     remodelled = scene.replace(models=[rs.shapes.cube()])
     assert remodelled.geometry is not scene.geometry
     assert len(remodelled.geometry.faces) == 12
@@ -352,7 +353,7 @@ def test_balanced_row_order_is_a_permutation_that_spreads_each_share(n):
     """The kernels visit row blocks as (t * step) mod n: every block exactly
     once, and each thread's contiguous share of t (halves and quarters here)
     takes blocks from all over the image, not one region of it."""
-    from raycast_shade._schedule import spread_step
+    from raycast_shade.common.schedule import spread_step
 
     step = spread_step(n)
     order = (np.arange(n) * step) % n
@@ -370,7 +371,7 @@ def test_balanced_row_order_is_a_permutation_that_spreads_each_share(n):
 @pytest.mark.parametrize("gamma", ["srgb", 2.2, 1.0])
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
 def test_to_uint8_kernel_matches_numpy_twin(tonemap, gamma, dtype):
-    from raycast_shade.tonemap import _to_uint8_numpy
+    from raycast_shade.output.tonemap import _to_uint8_numpy
 
     rng = np.random.default_rng(7)
     x = np.concatenate([rng.uniform(-0.5, 3.0, 30000), rng.uniform(0.0, 0.01, 10000),

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import raycast_shade as rs
-from raycast_shade.scenefile import SceneFileError, load_scene, scene_from_dict
+from raycast_shade.scene.scenefile import SceneFileError, load_scene, scene_from_dict
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import raycast_shade as rs
-from raycast_shade.reference import hit_points, shade_reference, shading_normals_reference
+from raycast_shade.study.reference import hit_points, shade_reference, shading_normals_reference
 
 from conftest import RTOL32, camera_rays, lit_scene
 

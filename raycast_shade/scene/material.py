@@ -6,11 +6,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._validate import as_choice, as_rgb, as_scalar
+from ..common.choices import SPECULAR_MODELS
+from ..common.validate import as_choice, as_rgb, as_scalar
 
 __all__ = ["Material", "SPECULAR_MODELS"]
 
-SPECULAR_MODELS = ("phong", "blinn")
 
 
 @dataclass(frozen=True, eq=False)
@@ -59,7 +59,7 @@ class Material:
         set_(self, "specular", as_choice(self.specular, f"{self.name}.specular", SPECULAR_MODELS))
         set_(self, "reflectivity", as_scalar(self.reflectivity, f"{self.name}.reflectivity", minimum=0.0, maximum=1.0))
         if self.bump is not None:
-            from .bump import HeightMap
+            from .heightmap import HeightMap
 
             if not isinstance(self.bump, HeightMap):
                 raise TypeError(f"{self.name}.bump: expected a HeightMap, got {type(self.bump).__name__}")

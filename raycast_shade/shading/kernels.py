@@ -64,13 +64,14 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from . import _embree
-from ._schedule import BLOCK_ROWS, spread_step
-from .hits import check_hits
+from ..common.choices import SHADINGS
+from ..visibility import embree
+from ..visibility.accel import embree_accel
+from ..common.schedule import BLOCK_ROWS, spread_step
+from ..visibility.hits import check_hits
 
 __all__ = ["SHADINGS", "METHODS", "shade", "shading_normals", "kernel_inputs", "resolve_methods"]
 
-SHADINGS = ("flat", "gouraud", "phong")
 METHODS = {"flat": 0, "gouraud": 1, "phong": 2}
 _CANCEL = 1e-6  # |interpolated normal| below this counts as cancelled
 _SHADOW_TFAR = 1.0 - 1e-5  # point-light shadow rays stop just short of the light
@@ -143,7 +144,7 @@ def _occluded(handle, S, px, py, pz, gx, gy, gz, sx, sy, sz, lx, ly, lz, is_poin
     ib[off + 9] = 0xFFFFFFFF
     ib[off + 10] = 0
     ib[off + 11] = 0
-    _embree.occluded1(handle, addr, 0)
+    embree.occluded1(handle, addr, 0)
     return buf[off + 8] < 0.0  # Embree sets tfar to -inf on a hit
 
 
@@ -858,11 +859,11 @@ def kernel_inputs(scene, camera):
         ``spec_on``, ``att_on`` bool: whether any material has a specular term and any
         light attenuates (the kernels compile a variant for each combination).
     """
-    from .rays import camera_frame
+    from ..visibility.rays import camera_frame
 
     geo = scene.geometry
     lkind, lvec, lrad, latt, lk, lshadow = scene.packed_lights()
-    handle = geo.accel.handle if lshadow.any() else 0
+    handle = embree_accel(geo).handle if lshadow.any() else 0
     # One array for the lights: the kernels index it per pixel and light, and
     # every separate array would be one more argument to thread through.
     lights = np.column_stack([lkind, lvec, lrad, latt, lk, lshadow]).astype(np.float64).reshape(-1, 10)
@@ -936,14 +937,14 @@ def shade(scene, camera, hits, shading="phong") -> np.ndarray:
         (:func:`~raycast_shade.hits.check_hits`), before any kernel runs.
     """
     _check_inputs(scene, camera, hits)
-    return _shade(scene, camera, hits, shading)
+    return shade_hits(scene, camera, hits, shading)
 
 
 def _check_inputs(scene, camera, hits) -> None:
     """Types, and a hit buffer whose indices fit the scene. Any shape of buffer is
     fine (the camera supplies the eye, not pixel positions); its indices are not."""
-    from .camera import Camera
-    from .scene import Scene
+    from ..scene.camera import Camera
+    from ..scene.scene import Scene
 
     if not isinstance(scene, Scene):
         raise TypeError(f"scene: expected a Scene, got {type(scene).__name__}")
@@ -952,8 +953,9 @@ def _check_inputs(scene, camera, hits) -> None:
     check_hits(hits, scene.geometry)
 
 
-def _shade(scene, camera, hits, shading="phong") -> np.ndarray:
-    """:func:`shade` for hit buffers made by this package's casters and rasterizer (valid by construction)."""
+def shade_hits(scene, camera, hits, shading="phong") -> np.ndarray:
+    """:func:`shade` without the hit-buffer check, for buffers made by this package's casters and
+    rasterizer (valid by construction; a hand-made buffer with bad indices would crash a kernel)."""
     modes = resolve_methods(scene, shading)
     k = kernel_inputs(scene, camera)
     kern = _kernels(k)
@@ -1007,7 +1009,7 @@ def shading_normals(scene, camera, hits, shading="phong") -> np.ndarray:
     _check_inputs(scene, camera, hits)
     modes = resolve_methods(scene, shading)
     geo = scene.geometry
-    from .rays import camera_frame
+    from ..visibility.rays import camera_frame
 
     # Bumps only apply where the normal is per pixel.
     bump_index = np.where(modes == 2, geo.bump_index, -1).astype(np.int32)
@@ -1034,7 +1036,7 @@ def trace_mirrors(scene, camera, hits, image, max_depth: int = 3) -> np.ndarray:
     geo = scene.geometry
     if max_depth <= 0 or not geo.reflective:
         return image
-    from .cast import _cast_rays_kernel
+    from ..visibility.cast import cast_rays_kernel
 
     k = kernel_inputs(scene, camera)
     points_kernel = _kernels(k)["points"]
@@ -1053,7 +1055,7 @@ def trace_mirrors(scene, camera, hits, image, max_depth: int = 3) -> np.ndarray:
     rho = geo.materials[hits.geom.reshape(-1)[idx], 11]
     flat[idx] *= (1.0 - rho)[:, None].astype(np.float32)
     weight = rho
-    accel = geo.accel.handle
+    accel = embree_accel(geo).handle
     for depth in range(1, max_depth + 1):
         m = len(idx)
         if m == 0:
@@ -1063,7 +1065,7 @@ def trace_mirrors(scene, camera, hits, image, max_depth: int = 3) -> np.ndarray:
         u = np.empty(m, np.float32)
         v = np.empty(m, np.float32)
         t = np.empty(m, np.float32)
-        _cast_rays_kernel(accel, origins, dirs, np.zeros(m), np.full(m, np.inf), prim, gm, u, v, t)
+        cast_rays_kernel(accel, origins, dirs, np.zeros(m), np.full(m, np.inf), prim, gm, u, v, t)
         colour = np.empty((m, 3))
         next_o = np.empty((m, 3))
         next_d = np.empty((m, 3))

@@ -25,11 +25,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._validate import as_array, as_choice, as_int, as_scalar
+from ..common.choices import WRAPS
+from ..common.validate import as_array, as_choice, as_int, as_scalar
 
 __all__ = ["HeightMap", "spherical_uvs", "cylindrical_uvs", "planar_uvs", "tangent_frames", "WRAPS"]
 
-WRAPS = ("repeat", "clamp")
 
 
 @dataclass(frozen=True, eq=False)

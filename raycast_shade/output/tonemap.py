@@ -26,7 +26,7 @@ from numba import njit, prange
 
 __all__ = ["to_uint8", "write_pfm", "read_pfm", "TONEMAPS"]
 
-TONEMAPS = ("clamp", "reinhard", "exponential")
+from ..common.choices import TONEMAPS
 _CHUNK = 1 << 16  # values per parallel work item
 
 

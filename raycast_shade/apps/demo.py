@@ -27,13 +27,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from .bump import HeightMap
-from .camera import Camera
-from .lights import DirectionalLight, PointLight
-from .material import Material
-from .mesh import Mesh
-from .scene import Model, Scene
-from .shapes import plane, torus, uv_sphere
+from ..scene.heightmap import HeightMap
+from ..scene.camera import Camera
+from ..scene.lights import DirectionalLight, PointLight
+from ..scene.material import Material
+from ..scene.mesh import Mesh
+from ..scene.scene import Model, Scene
+from ..scene.shapes import plane, torus, uv_sphere
 
 __all__ = ["demo_scene", "render_demo", "render_demo_frames", "compose", "draw_text", "LABELS", "MODES"]
 
@@ -119,7 +119,7 @@ def render_demo_frames(width: int = DEFAULT_WIDTH, height: int = DEFAULT_HEIGHT,
     list of Frame
         In the order of :data:`LABELS`.
     """
-    from .render import render
+    from ..render import render
 
     scene = demo_scene(width, height)
     return [render(scene, mode, caster=caster) for mode in MODES]

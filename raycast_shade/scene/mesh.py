@@ -10,7 +10,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ._validate import as_array, as_choice, as_scalar
+from ..common.validate import as_array, as_choice, as_scalar
 from .normals import WEIGHTINGS, WindingWarning, face_normals, vertex_normals, winding_conflicts
 
 __all__ = ["Mesh", "PreparedMesh"]

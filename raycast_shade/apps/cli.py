@@ -98,7 +98,7 @@ def _add_output_options(p, default_output: str | None):
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser (exposed for documentation tools and tests)."""
-    from . import __version__
+    from ..common.version import __version__
     from .demo import DEFAULT_HEIGHT, DEFAULT_WIDTH
 
     parser = _Parser(
@@ -174,7 +174,7 @@ def _timing_line(out: str, what: str, timings: dict) -> str:
 
 def _check_output(path: str) -> str:
     """Fail before rendering, not after, on an output that cannot be written."""
-    from .imagefile import check_image_path
+    from ..output.imagefile import check_image_path
 
     check_image_path(path, "output")
     folder = os.path.dirname(os.path.abspath(path))
@@ -196,7 +196,7 @@ def _tone_kwargs(args, options: dict) -> dict:
 
 def _save(path: str, image, tone: dict) -> float:
     """Write a linear float image like :meth:`Frame.save`; returns seconds."""
-    from .imagefile import write_image
+    from ..output.imagefile import write_image
 
     t0 = time.perf_counter()
     write_image(path, image, **tone)
@@ -224,8 +224,8 @@ def _cmd_demo(args) -> int:
 
 
 def _cmd_render(args) -> int:
-    from .render import render
-    from .scenefile import load_scene
+    from ..render import render
+    from ..scene.scenefile import load_scene
 
     out = _check_output(args.output or os.path.splitext(os.path.basename(args.scene))[0] + ".png")
     t0 = time.perf_counter()
@@ -261,7 +261,8 @@ def _cmd_info(args) -> int:
     import platform
     from importlib import metadata
 
-    from . import __version__, _embree
+    from ..common.version import __version__
+    from ..visibility import embree
 
     def version(dist):
         try:
@@ -271,11 +272,11 @@ def _cmd_info(args) -> int:
 
     rows = [("raycast_shade", __version__), ("python", platform.python_version())]
     rows += [(d, version(d)) for d in ("numpy", "numba", "llvmlite", "embreex", "trimesh", "scipy", "imageio")]
-    if _embree.available():
-        rows += [("embree", _embree.embree_version()), ("embree library", _embree.library_path()),
+    if embree.available():
+        rows += [("embree", embree.embree_version()), ("embree library", embree.library_path()),
                  ("caster", "embree (direct, packet traced)")]
     else:
-        rows += [("embree", f"unavailable: {_embree._load()[1]}"), ("caster", "embreex (fallback)")]
+        rows += [("embree", f"unavailable: {embree._load()[1]}"), ("caster", "embreex (fallback)")]
     import numba
 
     rows.append(("numba threads", str(numba.config.NUMBA_NUM_THREADS)))

@@ -109,8 +109,8 @@ def check_hits(hits, geometry, camera=None):
     TypeError, ValueError
         Naming the offending field.
     """
-    from .camera import Camera
-    from .scene import as_geometry
+    from ..scene.camera import Camera
+    from ..scene.scene import as_geometry
 
     if not isinstance(hits, HitBuffer):
         raise TypeError(f"hits: expected a HitBuffer, got {type(hits).__name__}")

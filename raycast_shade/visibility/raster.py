@@ -73,7 +73,7 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from .camera import Camera
+from ..scene.camera import Camera
 from .hits import HitBuffer
 
 __all__ = ["rasterize", "coverage_count", "NEAR_FRACTION", "BAND_HEIGHT"]
@@ -549,7 +549,7 @@ _bin_fill_ser = njit(cache=True)(_bin_fill)
 
 
 def _check(geometry, camera, near):
-    from .scene import Scene, SceneGeometry
+    from ..scene.scene import Scene, SceneGeometry
 
     if isinstance(geometry, Scene):
         geometry = geometry.geometry

@@ -8,14 +8,16 @@ models, e.g. a new camera or new lights, reuses both.
 from __future__ import annotations
 
 import dataclasses
+import threading
 from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
 
-from ._validate import as_rgb
+from ..common.validate import as_rgb
 from .camera import Camera
-from .lights import ATT_CODE, DirectionalLight, PointLight
+from ..common.layout import ATT_CODE
+from .lights import DirectionalLight, PointLight
 from .material import Material
 from .mesh import Mesh
 
@@ -51,7 +53,7 @@ class SceneGeometry:
         Bounding-box diagonal, ``> 0``.
     reach : float
         Largest absolute re-centred coordinate; Embree takes at most
-        ``_embree.MAX_COORDINATE``.
+        ``embree.MAX_COORDINATE``.
     vertices : (V, 3) float64
         Re-centred positions (after crease splitting).
     normals : (V, 3) float64
@@ -120,51 +122,51 @@ class SceneGeometry:
         self.face_model = np.repeat(np.arange(len(models), dtype=np.int32), nf)
         self.vertex_model = np.repeat(np.arange(len(models), dtype=np.int32), nv)
         self.n_models = len(models)
+        self._memo = {}
+        self._memo_lock = threading.Lock()
+
+    def memo(self, key: str, build):
+        """``build(self)``, computed once per ``key`` and kept with the geometry.
+
+        Thread-safe: concurrent first callers wait for the one build instead of
+        each making their own (an Embree BVH built twice would leave one
+        thread holding the handle of a scene freed under it). The acceleration
+        structures of :mod:`raycast_shade.visibility.accel` live here, so they
+        share the geometry's lifetime.
+        """
+        memo = self._memo
+        if key in memo:
+            return memo[key]
+        with self._memo_lock:
+            if key not in memo:
+                memo[key] = build(self)
+            return memo[key]
+
+    def memoized(self, key: str) -> bool:
+        """True once :meth:`memo` has built ``key``."""
+        return key in self._memo
 
     def __getstate__(self):
-        """Pickle the packed arrays only: the Embree handles (``accel``,
-        ``embreex_scene``) cannot travel and are rebuilt on first use."""
+        """Pickle the packed arrays only: the Embree handles in the memo cannot
+        travel and are rebuilt on first use."""
         state = dict(self.__dict__)
-        state.pop("accel", None)
-        state.pop("embreex_scene", None)
+        state.pop("_memo", None)
+        state.pop("_memo_lock", None)
         return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        self._memo = {}
+        self._memo_lock = threading.Lock()
 
     @cached_property
     def tangents(self) -> np.ndarray:
         """(F, 6) float64 per-face ``Pu, Pv`` for bump mapping (zeros if no bumps)."""
         if not self.has_bump:
             return np.zeros((1, 6))
-        from .bump import tangent_frames
+        from .heightmap import tangent_frames
 
         return tangent_frames(self.vertices, self.faces, self.uvs, self.face_normals)
-
-    @cached_property
-    def accel(self):
-        """The Embree scene (built on first use, then reused)."""
-        from ._embree import EmbreeAccel, check_range
-
-        check_range(self.reach, "scene vertices", scene=True)
-        v4 = np.zeros((len(self.vertices), 4), np.float32)
-        v4[:, :3] = self.vertices
-        faces = np.ascontiguousarray(self.local_faces, dtype=np.uint32)
-        return EmbreeAccel(v4, faces, self.vertex_offsets, self.face_offsets)
-
-    @cached_property
-    def embreex_scene(self):
-        """The same geometry through embreex's own API (the fallback caster)."""
-        from embreex import rtcore_scene
-        from embreex.mesh_construction import TriangleMesh
-
-        from ._embree import check_range
-
-        check_range(self.reach, "scene vertices", scene=True)
-        scene = rtcore_scene.EmbreeScene()
-        v32 = self.vertices.astype(np.float32)
-        for g in range(self.n_models):
-            v0, v1 = self.vertex_offsets[g], self.vertex_offsets[g + 1]
-            f0, f1 = self.face_offsets[g], self.face_offsets[g + 1]
-            TriangleMesh(scene, v32[v0:v1], self.local_faces[f0:f1].astype(np.int32))
-        return scene
 
 
 def as_geometry(value, name: str = "geometry") -> SceneGeometry:

@@ -22,7 +22,7 @@ from numba import njit, prange
 
 __all__ = ["face_normals", "vertex_normals", "winding_conflicts", "WindingWarning", "WEIGHTINGS"]
 
-WEIGHTINGS = ("uniform", "area", "angle")
+from ..common.choices import WEIGHTINGS
 _WEIGHT_CODE = {"uniform": 0, "area": 1, "angle": 2}
 
 

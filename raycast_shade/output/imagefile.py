@@ -19,8 +19,7 @@ import numpy as np
 
 __all__ = ["LINEAR_EXTS", "EIGHT_BIT_EXTS", "check_image_path", "write_image", "write_png"]
 
-LINEAR_EXTS = (".pfm", ".npy")
-EIGHT_BIT_EXTS = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".gif", ".webp")
+from ..common.choices import EIGHT_BIT_EXTS, LINEAR_EXTS
 _FLOAT_FORMATS = (".exr", ".hdr", ".rgbe", ".fits", ".fit")
 
 

@@ -32,15 +32,16 @@ import threading
 import numpy as np
 from numba import njit, prange
 
-from . import _embree
-from ._schedule import BLOCK_ROWS, spread_step
-from ._validate import as_array
+from ..common.choices import CASTERS
+from . import embree
+from .accel import embree_accel, embreex_scene
+from ..common.schedule import BLOCK_ROWS, spread_step
+from ..common.validate import as_array
 from .hits import HitBuffer
 from .rays import camera_frame, generate_rays, pixel_ray
 
 __all__ = ["cast_camera", "cast_rays", "CASTERS"]
 
-CASTERS = ("embree", "embreex")
 
 _RAY = 24  # float32 slots in one RTCRayHit (96 bytes, room for instPrimID)
 _TILE_W = 4
@@ -68,10 +69,10 @@ def _cast_camera_kernel(scene, cam, prim, geom, u, v, t):
             voff = ((32 - vbase % 32) % 32) // 4
             # RTCIntersectArguments (8-byte aligned): the coherent flag lets
             # Embree trace the tile's rays as one frustum.
-            abuf = np.zeros(_embree.ARGS_SLOTS + 2, np.uint32)
+            abuf = np.zeros(embree.ARGS_SLOTS + 2, np.uint32)
             aoff = ((8 - abuf.ctypes.data % 8) % 8) // 4
-            abuf[aoff] = _embree.RAY_QUERY_FLAG_COHERENT
-            abuf[aoff + 1] = _embree.FEATURE_FLAG_ALL
+            abuf[aoff] = embree.RAY_QUERY_FLAG_COHERENT
+            abuf[aoff + 1] = embree.FEATURE_FLAG_ALL
             args = abuf.ctypes.data + aoff * 4
             for tx in range(ntx):
                 for k in range(8):
@@ -97,7 +98,7 @@ def _cast_camera_kernel(scene, cam, prim, geom, u, v, t):
                     ib[off + 11 * 8 + k] = 0  # flags
                     ib[off + 17 * 8 + k] = 0xFFFFFFFF  # primID
                     ib[off + 18 * 8 + k] = 0xFFFFFFFF  # geomID
-                _embree.intersect8(vbase + voff * 4, scene, base + off * 4, args)
+                embree.intersect8(vbase + voff * 4, scene, base + off * 4, args)
                 for k in range(8):
                     x = tx * _TILE_W + (k & 3)
                     y = ty * _TILE_H + (k >> 2)
@@ -118,7 +119,7 @@ def _cast_camera_kernel(scene, cam, prim, geom, u, v, t):
 
 
 @njit(cache=True, parallel=True)
-def _cast_rays_kernel(scene, origins, directions, tnear, tfar, prim, geom, u, v, t):
+def cast_rays_kernel(scene, origins, directions, tnear, tfar, prim, geom, u, v, t):
     n = origins.shape[0]
     chunk = 256
     nchunks = (n + chunk - 1) // chunk
@@ -142,7 +143,7 @@ def _cast_rays_kernel(scene, origins, directions, tnear, tfar, prim, geom, u, v,
             ib[off + 11] = 0
             ib[off + 17] = 0xFFFFFFFF
             ib[off + 18] = 0xFFFFFFFF
-            _embree.intersect1(scene, base + off * 4, 0)
+            embree.intersect1(scene, base + off * 4, 0)
             g = ib[off + 18]
             if g != 0xFFFFFFFF:
                 geom[i] = np.int32(g)
@@ -162,9 +163,9 @@ def _resolve_caster(caster: str) -> str:
     if caster not in CASTERS and caster != "auto":
         raise ValueError(f"caster: expected one of {list(CASTERS)} or 'auto', got {caster!r}")
     if caster == "auto":
-        return "embree" if _embree.available() else "embreex"
-    if caster == "embree" and not _embree.available():
-        raise RuntimeError(f"caster 'embree' is unavailable: {_embree._load()[1]}")
+        return "embree" if embree.available() else "embreex"
+    if caster == "embree" and not embree.available():
+        raise RuntimeError(f"caster 'embree' is unavailable: {embree._load()[1]}")
     return caster
 
 
@@ -183,8 +184,8 @@ def cast_camera(geometry, camera, caster: str = "auto", threads: int = 2) -> Hit
     -------
     HitBuffer
     """
-    from .camera import Camera
-    from .scene import as_geometry
+    from ..scene.camera import Camera
+    from ..scene.scene import as_geometry
 
     geometry = as_geometry(geometry)
     if not isinstance(camera, Camera):
@@ -194,7 +195,7 @@ def cast_camera(geometry, camera, caster: str = "auto", threads: int = 2) -> Hit
     reach = float(np.abs(camera.eye - geometry.origin).max())
     if camera.orthographic:  # rays start anywhere on the view rectangle around the eye
         reach += 0.5 * camera.ortho_height * float(np.hypot(w / h, 1.0))
-    _embree.check_range(reach, "camera.eye")
+    embree.check_range(reach, "camera.eye")
     cam = camera_frame(camera, geometry.origin)
     if caster == "embree":
         hits = HitBuffer(
@@ -204,11 +205,11 @@ def cast_camera(geometry, camera, caster: str = "auto", threads: int = 2) -> Hit
             v=np.empty((h, w), np.float32),
             t=np.empty((h, w), np.float32),
         )
-        _cast_camera_kernel(geometry.accel.handle, cam, hits.prim, hits.geom, hits.u, hits.v, hits.t)
+        _cast_camera_kernel(embree_accel(geometry).handle, cam, hits.prim, hits.geom, hits.u, hits.v, hits.t)
         _fill_holes(geometry, cam, hits, caster)
         return hits
     origins, directions = generate_rays(camera, geometry.origin)
-    res = run_embreex(geometry.embreex_scene, origins, directions, threads)
+    res = run_embreex(embreex_scene(geometry), origins, directions, threads)
     miss = res["geomID"] < 0
     hits = HitBuffer(
         prim=np.where(miss, -1, res["primID"]).astype(np.int32).reshape(h, w),
@@ -286,9 +287,9 @@ def _fill_holes(geometry, cam, hits, caster):
                 u = np.empty(n, np.float32)
                 v = np.empty(n, np.float32)
                 t = np.empty(n, np.float32)
-                _cast_rays_kernel(geometry.accel.handle, o, d, np.zeros(n), np.full(n, np.inf), prim, geom, u, v, t)
+                cast_rays_kernel(embree_accel(geometry).handle, o, d, np.zeros(n), np.full(n, np.inf), prim, geom, u, v, t)
             else:
-                res = run_embreex(geometry.embreex_scene, o.astype(np.float32), d.astype(np.float32), 1)
+                res = run_embreex(embreex_scene(geometry), o.astype(np.float32), d.astype(np.float32), 1)
                 geom = res["geomID"].astype(np.int32)
                 prim = np.where(geom < 0, -1, res["primID"]).astype(np.int32)
                 u, v, t = res["u"], res["v"], np.where(geom < 0, np.inf, res["tfar"])
@@ -374,7 +375,7 @@ def cast_rays(geometry, origins, directions, tnear=0.0, tfar=np.inf):
         origins or directions, zero directions, NaN or negative bounds,
         ``tfar < tnear``, origins beyond Embree's float32 range.
     """
-    from .scene import as_geometry
+    from ..scene.scene import as_geometry
 
     geometry = as_geometry(geometry)
     o = as_array(origins, "origins", dtype=np.float64, shape=(None, 3)) - geometry.origin
@@ -390,12 +391,12 @@ def cast_rays(geometry, origins, directions, tnear=0.0, tfar=np.inf):
     if (tf < tn).any():
         raise ValueError(f"tfar: row {int(np.argmax(tf < tn))} is below tnear")
     if n:
-        _embree.check_range(float(np.abs(o).max()), "origins")
+        embree.check_range(float(np.abs(o).max()), "origins")
     prim = np.empty(n, np.int32)
     geom = np.empty(n, np.int32)
     u = np.empty(n, np.float32)
     v = np.empty(n, np.float32)
     t = np.empty(n, np.float32)
     if n:
-        _cast_rays_kernel(geometry.accel.handle, o, d, tn, tf, prim, geom, u, v, t)
+        cast_rays_kernel(embree_accel(geometry).handle, o, d, tn, tf, prim, geom, u, v, t)
     return prim, geom, u, v, t

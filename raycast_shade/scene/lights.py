@@ -6,12 +6,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._validate import MAX_RADIANCE, as_choice, as_rgb, as_scalar, as_vec3
+from ..common.choices import ATTENUATIONS
+from ..common.validate import MAX_RADIANCE, as_choice, as_rgb, as_scalar, as_vec3
 
 __all__ = ["PointLight", "DirectionalLight", "ATTENUATIONS"]
 
-ATTENUATIONS = ("none", "inverse_square", "heuristic")
-ATT_CODE = {"none": 0, "inverse_square": 1, "heuristic": 2}
 
 
 def _as_bool(value, name):

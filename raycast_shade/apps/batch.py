@@ -47,11 +47,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .camera import Camera
-from .imagefile import check_image_path
-from .imagefile import write_image as _write_file
-from .lights import DirectionalLight, PointLight
-from .scene import Scene
+from ..scene.camera import Camera
+from ..output.imagefile import check_image_path
+from ..output.imagefile import write_image as _write_file
+from ..scene.lights import DirectionalLight, PointLight
+from ..scene.scene import Scene
+from ..visibility.accel import embree_accel
 
 __all__ = ["FrameJob", "BatchOptions", "render_batch", "iter_batch", "plan_batch", "local_cluster", "scene_key",
            "write_image", "worker_stats"]
@@ -244,9 +245,8 @@ def _check_pattern(pattern):
 
 
 def _check_options(shading, render_kwargs, tone, resume):
-    from .render import BACKENDS, INTERPOLATIONS
-    from .shading import SHADINGS
-    from .tonemap import to_uint8
+    from ..common.choices import BACKENDS, INTERPOLATIONS, SHADINGS
+    from ..output.tonemap import to_uint8
 
     if not isinstance(shading, str) or shading.lower() not in SHADINGS:
         raise ValueError(f"shading: expected one of {list(SHADINGS)}, got {shading!r}")
@@ -434,14 +434,14 @@ def _cached_base(key: str, scene: Scene) -> Scene:
 
 def _render_image(job: FrameJob, base: Scene, options: BatchOptions) -> np.ndarray:
     """Render one job on its base scene, reusing (or building once) its geometry."""
-    from .render import render
+    from ..render import render
 
     if "geometry" not in base.__dict__:
         with _LOCK:
             _STATS["builds"] += 1
     geometry = base.geometry  # packs once; Scene.replace below shares it
     if options.render_kwargs.get("caster", "auto") != "embreex" and options.render_kwargs.get("backend") != "raster":
-        geometry.accel  # noqa: B018 - the BVH, built once per process and mesh set
+        embree_accel(geometry)  # the BVH, built once per process and mesh set
     scene = base.replace(lights=job.lights, camera=job.camera, ambient=job.ambient, background=job.background)
     frame = render(scene, options.shading, camera=job.camera, **options.render_kwargs)
     with _LOCK:

@@ -48,11 +48,11 @@ from functools import cached_property
 import numpy as np
 from numba import njit, prange
 
-from ._validate import as_rgb, as_scalar, as_vec3
-from .camera import Camera
-from .lights import DirectionalLight, PointLight
-from .material import Material
-from .rays import camera_frame, pixel_ray
+from ..common.validate import as_rgb, as_scalar, as_vec3
+from ..scene.camera import Camera
+from ..scene.lights import DirectionalLight, PointLight
+from ..scene.material import Material
+from ..visibility.rays import camera_frame, pixel_ray
 
 __all__ = ["Sphere", "Torus", "Plane", "ExactFrame", "render_exact", "exact_for_scene", "intersect"]
 

@@ -59,15 +59,13 @@ except ModuleNotFoundError:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
 from . import shapes as _shapes
-from ._validate import as_choice, as_int, as_rgb, as_scalar, as_vec3
+from ..common.choices import SHADINGS, TONEMAPS, WEIGHTINGS
+from ..common.validate import as_choice, as_int, as_rgb, as_scalar, as_vec3
 from .camera import Camera
 from .lights import DirectionalLight, PointLight
 from .material import Material
 from .mesh import Mesh
-from .normals import WEIGHTINGS
 from .scene import Model, Scene
-from .shading import SHADINGS
-from .tonemap import TONEMAPS
 
 __all__ = ["load_scene", "scene_from_dict", "SceneFileError"]
 
@@ -233,7 +231,7 @@ def _choice(value, where: str, choices) -> str:
 
 
 def _bump(table, where: str, base_dir: str):
-    from .bump import HeightMap
+    from .heightmap import HeightMap
 
     bump = dict(_table(table, where))
     if "image" in bump:

@@ -31,15 +31,14 @@ import uuid
 
 import numpy as np
 
-from .camera import Camera
-from .lights import DirectionalLight, PointLight
-from .scene import Scene
+from ..common.choices import ORBITS, VIDEO_EXTS
+from ..scene.camera import Camera
+from ..scene.lights import DirectionalLight, PointLight
+from ..scene.scene import Scene
 
 __all__ = ["orbit_cameras", "orbit_light", "write_animation", "animate", "output_kind", "register_cli", "run_cli",
            "ORBITS", "VIDEO_EXTS"]
 
-ORBITS = ("camera", "light")
-VIDEO_EXTS = (".mp4", ".m4v", ".mov", ".mkv")
 FRAME_PATTERN = "frame_{:05d}.png"
 
 
@@ -225,7 +224,7 @@ def _to_uint8(image, tone: dict) -> np.ndarray:
         raise ValueError(f"images: expected (H, W, 3) frames, got shape {a.shape}")
     if a.dtype == np.uint8:
         return a
-    from .tonemap import to_uint8
+    from ..output.tonemap import to_uint8
 
     return to_uint8(a, **tone)
 
@@ -487,7 +486,7 @@ def run_cli(args) -> int:
     ValueError, TypeError, OSError
         For anything the user can fix (the caller prints it on one line).
     """
-    from .scenefile import load_scene
+    from ..scene.scenefile import load_scene
 
     scene, options = load_scene(args.scene)
     camera = scene.camera

@@ -6,11 +6,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._validate import as_choice, as_int, as_scalar, as_vec3
+from ..common.choices import PROJECTIONS
+from ..common.validate import as_choice, as_int, as_scalar, as_vec3
 
 __all__ = ["Camera", "PROJECTIONS"]
 
-PROJECTIONS = ("perspective", "orthographic")
 
 
 @dataclass(frozen=True, eq=False)

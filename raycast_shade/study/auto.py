@@ -52,7 +52,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .lights import PointLight
+from ..scene.lights import PointLight
 
 __all__ = ["Decision", "choose_methods", "predicted_errors"]
 

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .lights import DirectionalLight
+from ..scene.lights import DirectionalLight
 
 __all__ = ["shade_reference", "shading_normals_reference", "hit_points", "illuminate_reference"]
 

@@ -36,10 +36,7 @@ from numba import njit, prange
 
 from .hits import HitBuffer, check_hits
 
-__all__ = ["to_screen_space", "to_screen_space_numpy", "provoking_vertex", "shade_flat", "FLAT_CONVENTIONS",
-           "vertex_depths"]
-
-FLAT_CONVENTIONS = ("centre", "first", "last")
+__all__ = ["to_screen_space", "to_screen_space_numpy", "provoking_vertex", "vertex_depths"]
 
 
 @njit(cache=True, parallel=True)
@@ -166,31 +163,3 @@ def provoking_vertex(hits, vertex: str = "last") -> HitBuffer:
     if vertex == "last":
         v[hits.prim >= 0] = 1.0
     return HitBuffer(prim=hits.prim, geom=hits.geom, u=u, v=v, t=hits.t)
-
-
-def shade_flat(scene, camera, hits, convention: str = "centre") -> np.ndarray:
-    """Flat shading under either convention.
-
-    Parameters
-    ----------
-    scene : Scene
-    camera : Camera
-    hits : HitBuffer
-    convention : {"centre", "first", "last"}
-        ``"centre"``: the lecture's, one shade per polygon at its centre with
-        its true normal (``shade(..., "flat")``). ``"last"`` / ``"first"``:
-        OpenGL's / Direct3D's provoking vertex, the Gouraud shade of that
-        vertex (its averaged normal) over the whole triangle.
-
-    Returns
-    -------
-    (H, W, 3) float32
-        Linear RGB, as :func:`raycast_shade.shading.shade`.
-    """
-    from .shading import shade
-
-    if convention not in FLAT_CONVENTIONS:
-        raise ValueError(f"convention: expected one of {list(FLAT_CONVENTIONS)}, got {convention!r}")
-    if convention == "centre":
-        return shade(scene, camera, hits, "flat")
-    return shade(scene, camera, provoking_vertex(hits, convention), "gouraud")

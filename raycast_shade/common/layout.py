@@ -1,0 +1,70 @@
+"""The packed rows the kernels read, each defined once.
+
+Kernels take flat float64 rows rather than objects; these named slots are the
+only place their layout is written down. Numba freezes module-level integers
+as compile-time constants, so ``cam[CAM_ORTHO]`` compiles exactly as
+``cam[12]`` did. :mod:`tests.test_architecture` checks every packer against
+these sizes.
+
+Camera row, ``(CAM_SIZE,) = (16,)`` float64 (:func:`raycast_shade.visibility.rays.camera_frame`):
+    eye (3, re-centred), right * half width (3), up * half height (3),
+    forward (3), orthographic flag, width, height, unused.
+Light rows, ``(L, LIGHT_SIZE) = (L, 10)`` float64 (:func:`raycast_shade.shading.inputs.kernel_inputs`):
+    kind (0 point, 1 directional), position or unit direction towards the
+    light (3), radiance ``Ii * color`` (3), attenuation code
+    (:data:`ATT_CODE`), heuristic ``k``, casts shadows (0/1).
+Material rows, ``(G, MAT_SIZE) = (G, 12)`` float64 (:meth:`raycast_shade.Material.packed`):
+    ka (3), kd (3), ks (3), shininess, Blinn flag, reflectivity.
+Height-map rows, ``(B, BUMP_SIZE) = (B, 7)`` float64 (:meth:`raycast_shade.HeightMap.packed_info`):
+    texel offset, rows, cols, clamp flag, tiling u, tiling v, height scale.
+"""
+
+from __future__ import annotations
+
+__all__ = [name for name in dir() if name.isupper()]
+
+# camera row
+CAM_EYE = 0  # 0:3
+CAM_RIGHT = 3  # 3:6, scaled by the half width of the image plane
+CAM_UP = 6  # 6:9, scaled by the half height
+CAM_FORWARD = 9  # 9:12, unit
+CAM_ORTHO = 12
+CAM_WIDTH = 13
+CAM_HEIGHT = 14
+CAM_SIZE = 16
+
+# light rows
+LIGHT_KIND = 0
+LIGHT_VEC = 1  # 1:4
+LIGHT_RADIANCE = 4  # 4:7
+LIGHT_ATT = 7
+LIGHT_K = 8
+LIGHT_SHADOWS = 9
+LIGHT_SIZE = 10
+LIGHT_POINT = 0  # LIGHT_KIND values
+LIGHT_DIRECTIONAL = 1
+ATT_CODE = {"none": 0, "inverse_square": 1, "heuristic": 2}  # LIGHT_ATT values
+ATT_NONE = 0
+ATT_INVERSE_SQUARE = 1
+ATT_HEURISTIC = 2
+
+# material rows
+MAT_KA = 0  # 0:3
+MAT_KD = 3  # 3:6
+MAT_KS = 6  # 6:9
+MAT_SHININESS = 9
+MAT_BLINN = 10
+MAT_REFLECTIVITY = 11
+MAT_SIZE = 12
+
+# height-map rows
+BUMP_OFFSET = 0
+BUMP_ROWS = 1
+BUMP_COLS = 2
+BUMP_CLAMP = 3
+BUMP_TILE_U = 4
+BUMP_TILE_V = 5
+BUMP_SCALE = 6
+BUMP_SIZE = 7
+
+__all__ = [name for name in dir() if name.isupper()]
