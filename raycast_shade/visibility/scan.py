@@ -1,0 +1,474 @@
+"""The rasterizer's scan-conversion kernels (the driver is :mod:`.raster`).
+
+Vertex projection, per-face set-up and binning into bands, near-plane
+clipping, the edge-function scan of one triangle in one band and the resolve
+of a band's winners into barycentrics and ``t``; the conventions (fill rule,
+clipping, depth keys) are written down in :mod:`.raster`'s docstring.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+_CHUNK = 4096  # faces per set-up and binning task
+
+# ----------------------------------------------------------------------------------
+# small inlined helpers
+
+
+@njit(cache=True, inline="always")
+def _to_screen(xc, yc, zc, ortho, W, H, hw, hh):
+    """Camera space to pixel coordinates (centre of pixel (x, y) at x+.5, y+.5)."""
+    if ortho:
+        sx = xc / hw
+        sy = yc / hh
+    else:
+        sx = xc / (zc * hw)
+        sy = yc / (zc * hh)
+    return 0.5 * W * (1.0 + sx), 0.5 * H * (1.0 - sy)
+
+
+@njit(cache=True, inline="always")
+def _pixel_range(lo, hi, n):
+    """Indices ``i`` in ``[0, n)`` whose centre ``i + 0.5`` lies in ``[lo, hi]``
+    (empty when the first exceeds the second)."""
+    a = math.ceil(lo - 0.5)
+    b = math.floor(hi - 0.5)
+    if not a >= 0.0:
+        a = 0.0
+    if not b <= n - 1.0:
+        b = n - 1.0
+    if a > b:
+        return 1, 0
+    return int(a), int(b)
+
+
+@njit(cache=True, inline="always")
+def _top_left(dx, dy):
+    """Top or left edge, for an edge direction of a triangle whose inside is
+    where the edge function is positive (pixel coordinates, y down)."""
+    return dy < 0.0 or (dy == 0.0 and dx > 0.0)
+
+
+@njit(cache=True, inline="always")
+def _edges(x0, y0, x1, y1, x2, y2):
+    """Edge set-up of a triangle in pixel coordinates.
+
+    The triangle is reordered (vertices 1 and 2 swapped if need be) so that
+    its inside is where every edge function ``(a - p) x (b - p)`` is
+    positive; ``tl`` says whether an edge is a top or left edge. ``ok`` is
+    False for a zero-area triangle.
+
+    Returns
+    -------
+    ok, then ``ax, ay, bx, by, tl`` for the edges ``0 -> 1``, ``1 -> 2``,
+    ``2 -> 0`` of the reordered triangle.
+    """
+    area = (x0 - x2) * (y1 - y2) - (y0 - y2) * (x1 - x2)  # edge 0 -> 1 at vertex 2
+    ok = area > 0.0 or area < 0.0
+    if area < 0.0:
+        x1, y1, x2, y2 = x2, y2, x1, y1
+    return (ok, x0, y0, x1, y1, _top_left(x1 - x0, y1 - y0), x1, y1, x2, y2, _top_left(x2 - x1, y2 - y1),
+            x2, y2, x0, y0, _top_left(x0 - x2, y0 - y2))
+
+
+@njit(cache=True, inline="always")
+def _inside(ax, ay, bx, by, tl, X, Y):
+    """Pixel centre ``(X, Y)`` on the inner side of the edge ``a -> b``, or on
+    the edge itself if it is a top or left edge.
+
+    The edge function ``(a - p) x (b - p)`` is exactly antisymmetric in
+    ``a, b`` (products commute, differences change sign exactly), so the two
+    triangles of a shared edge compute bit-identical values of opposite
+    sign, and a pixel centre on the edge goes to exactly one of them."""
+    e = (ax - X) * (by - Y) - (ay - Y) * (bx - X)
+    return e > 0.0 or (e == 0.0 and tl)
+
+
+@njit(cache=True)
+def _clip(faces, vx, cs, f, near, ortho, W, H, hw, hh, px, py, pq):
+    """Face ``f`` clipped to ``z > near``, in pixel coordinates.
+
+    Writes the polygon's vertices to ``px, py`` and their depth keys to
+    ``pq``, and returns their number: 0 (all behind), 3 or 4. Unclipped
+    vertices are copied from the projected vertex array, so a vertex has the
+    same bits in every triangle; a clip point is computed from its edge's
+    lexicographically smaller end point, so both triangles of an edge get
+    the same point.
+    """
+    n = 0
+    for k in range(3):
+        a = faces[f, k]
+        b = faces[f, (k + 1) % 3]
+        ina = vx[a, 2] > near
+        inb = vx[b, 2] > near
+        if ina:
+            px[n] = vx[a, 0]
+            py[n] = vx[a, 1]
+            pq[n] = vx[a, 3]
+            n += 1
+        if ina != inb:
+            lo = a
+            hi = b
+            if cs[b, 0] < cs[a, 0] or (cs[b, 0] == cs[a, 0] and (cs[b, 1] < cs[a, 1] or (
+                    cs[b, 1] == cs[a, 1] and cs[b, 2] < cs[a, 2]))):
+                lo = b
+                hi = a
+            s = (near - cs[lo, 2]) / (cs[hi, 2] - cs[lo, 2])
+            xc = cs[lo, 0] + s * (cs[hi, 0] - cs[lo, 0])
+            yc = cs[lo, 1] + s * (cs[hi, 1] - cs[lo, 1])
+            X, Y = _to_screen(xc, yc, near, ortho, W, H, hw, hh)
+            px[n] = X
+            py[n] = Y
+            pq[n] = near if ortho else -1.0 / near
+            n += 1
+    return n
+
+
+@njit(cache=True)
+def _plane3d(faces, cs, f, ortho, W, H, hw, hh):
+    """Depth key of face ``f``'s plane as ``(A, B, C)``, key = ``A X + B Y + C``
+    in pixel coordinates (perspective ``-1/z``, orthographic ``z``), from its
+    camera-space vertices; ``ok`` False for a plane seen edge-on."""
+    i0 = faces[f, 0]
+    i1 = faces[f, 1]
+    i2 = faces[f, 2]
+    e1x = cs[i1, 0] - cs[i0, 0]
+    e1y = cs[i1, 1] - cs[i0, 1]
+    e1z = cs[i1, 2] - cs[i0, 2]
+    e2x = cs[i2, 0] - cs[i0, 0]
+    e2y = cs[i2, 1] - cs[i0, 1]
+    e2z = cs[i2, 2] - cs[i0, 2]
+    nx = e1y * e2z - e1z * e2y
+    ny = e1z * e2x - e1x * e2z
+    nz = e1x * e2y - e1y * e2x
+    pn = cs[i0, 0] * nx + cs[i0, 1] * ny + cs[i0, 2] * nz
+    if ortho:
+        # z = (P0.n - ox nx - oy ny) / nz with o = (sx hw, sy hh, 0)
+        if nz == 0.0:
+            return 0.0, 0.0, 0.0, False
+        return -(2.0 * hw * nx / W) / nz, (2.0 * hh * ny / H) / nz, (pn + hw * nx - hh * ny) / nz, True
+    # -1/z = -(d.n) / (P0.n) with d = (sx hw, sy hh, 1)
+    if pn == 0.0:
+        return 0.0, 0.0, 0.0, False
+    return -(2.0 * hw * nx / W) / pn, (2.0 * hh * ny / H) / pn, -(nz - hw * nx + hh * ny) / pn, True
+
+
+# ----------------------------------------------------------------------------------
+# scan conversion of one triangle in one band
+
+
+@njit(cache=True)
+def _scan_triangle(x0, y0, q0, x1, y1, q1, x2, y2, q2, rlo, rhi, W, f, given, zA, zB, zC,
+                   fid, zbuf, count, count_mode):
+    """Fill the pixels of rows ``rlo..rhi`` whose centres the triangle covers.
+
+    ``(x_i, y_i)`` are pixel coordinates, ``q_i`` depth keys. Depth mode: the
+    fragment's key ``zA X + zB Y + zC`` (the plane through the three
+    ``(x, y, q)`` unless ``given``), clamped to the vertices' range, replaces
+    the band's z-buffer entry (row ``y - rlo``) where smaller, and ``f`` goes
+    to ``fid``. Count mode: ``count[y, x]`` is incremented.
+    """
+    ya, yb = _pixel_range(min(y0, y1, y2), max(y0, y1, y2), rhi + 1)
+    ya = max(ya, rlo)
+    if ya > yb:
+        return
+    xa, xb = _pixel_range(min(x0, x1, x2), max(x0, x1, x2), W)
+    if xa > xb:
+        return
+    ok, ax0, ay0, bx0, by0, tl0, ax1, ay1, bx1, by1, tl1, ax2, ay2, bx2, by2, tl2 = _edges(x0, y0, x1, y1, x2, y2)
+    if not ok:
+        return
+    kmin = min(q0, q1, q2)
+    kmax = max(q0, q1, q2)
+    ready = given or count_mode  # the depth plane is set up at the first covered pixel
+    wide = xb - xa >= 4
+    for y in range(ya, yb + 1):
+        Y = y + 0.5
+        xs = xa
+        xe = xb
+        if wide:
+            # The row's span solved from the three edge functions, each
+            # linear in X with slope ay - by, widened by a pixel on each side;
+            # the exact test below has the last word.
+            lo = -np.inf
+            hi = np.inf
+            for e in range(3):
+                if e == 0:
+                    ax, ay, bx, by = ax0, ay0, bx0, by0
+                elif e == 1:
+                    ax, ay, bx, by = ax1, ay1, bx1, by1
+                else:
+                    ax, ay, bx, by = ax2, ay2, bx2, by2
+                slope = ay - by
+                if slope != 0.0:
+                    root = ((ay - Y) * bx - ax * (by - Y)) / slope
+                    if slope > 0.0:
+                        lo = max(lo, root)
+                    else:
+                        hi = min(hi, root)
+            lo = min(max(lo, -2.0), W + 2.0)
+            hi = min(max(hi, -2.0), W + 2.0)
+            xs = max(int(math.ceil(lo - 0.5)) - 1, xa)
+            xe = min(int(math.floor(hi - 0.5)) + 1, xb)
+        rowz = zB * Y + zC
+        for x in range(xs, xe + 1):
+            X = x + 0.5
+            if (_inside(ax0, ay0, bx0, by0, tl0, X, Y) and _inside(ax1, ay1, bx1, by1, tl1, X, Y)
+                    and _inside(ax2, ay2, bx2, by2, tl2, X, Y)):
+                if count_mode:
+                    count[y, x] += 1
+                else:
+                    if not ready:
+                        det = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
+                        if det == 0.0:
+                            return
+                        zA = ((q1 - q0) * (y2 - y0) - (q2 - q0) * (y1 - y0)) / det
+                        zB = ((q2 - q0) * (x1 - x0) - (q1 - q0) * (x2 - x0)) / det
+                        zC = q0 - zA * x0 - zB * y0
+                        rowz = zB * Y + zC
+                        ready = True
+                    z = zA * X + rowz
+                    if z < kmin:
+                        z = kmin
+                    elif z > kmax:
+                        z = kmax
+                    if z < zbuf[y - rlo, x]:
+                        zbuf[y - rlo, x] = z
+                        fid[y - rlo, x] = f
+
+
+# ----------------------------------------------------------------------------------
+# kernels
+
+
+def _project(verts, view, near, ortho, W, H, hw, hh, cs, vx):
+    """Camera-space coordinates ``cs`` of every vertex, and ``vx`` = pixel
+    coordinates, camera depth and depth key (NaN but the depth for a
+    perspective vertex at or behind the near plane)."""
+    for i in prange(verts.shape[0]):
+        dx = verts[i, 0] - view[0, 0]
+        dy = verts[i, 1] - view[0, 1]
+        dz = verts[i, 2] - view[0, 2]
+        xc = dx * view[1, 0] + dy * view[1, 1] + dz * view[1, 2]
+        yc = dx * view[2, 0] + dy * view[2, 1] + dz * view[2, 2]
+        zc = dx * view[3, 0] + dy * view[3, 1] + dz * view[3, 2]
+        cs[i, 0] = xc
+        cs[i, 1] = yc
+        cs[i, 2] = zc
+        vx[i, 2] = zc
+        if ortho or zc > near:
+            X, Y = _to_screen(xc, yc, zc, ortho, W, H, hw, hh)
+            vx[i, 0] = X
+            vx[i, 1] = Y
+            vx[i, 3] = zc if ortho else -1.0 / zc
+        else:
+            vx[i, 0] = np.nan
+            vx[i, 1] = np.nan
+            vx[i, 3] = np.nan
+
+
+def _setup(faces, vx, cs, near, ortho, W, H, hw, hh, band_h, ylo, yhi, counts):
+    """Rows ``ylo[f]..yhi[f]`` of pixel centres in face ``f``'s (clipped)
+    bounding box, or ``ylo[f] = -1`` when it holds no pixel centre; and
+    ``counts[c, b]``, the faces of chunk ``c`` that touch band ``b``."""
+    nf = faces.shape[0]
+    for c in prange(counts.shape[0]):
+        px = np.empty(4)
+        py = np.empty(4)
+        pq = np.empty(4)
+        for f in range(c * _CHUNK, min(nf, (c + 1) * _CHUNK)):
+            i0 = faces[f, 0]
+            i1 = faces[f, 1]
+            i2 = faces[f, 2]
+            ylo[f] = -1
+            yhi[f] = -1
+            if vx[i0, 2] > near and vx[i1, 2] > near and vx[i2, 2] > near:
+                x0 = vx[i0, 0]
+                y0 = vx[i0, 1]
+                x1 = vx[i1, 0]
+                y1 = vx[i1, 1]
+                x2 = vx[i2, 0]
+                y2 = vx[i2, 1]
+                xa, xb = _pixel_range(min(x0, x1, x2), max(x0, x1, x2), W)
+                if xa > xb:
+                    continue
+                ya, yb = _pixel_range(min(y0, y1, y2), max(y0, y1, y2), H)
+                if ya > yb:
+                    continue
+                if xa == xb and ya == yb:
+                    # One candidate pixel centre, the common case in a dense
+                    # mesh: test it now, exactly as the scan would.
+                    ok, ax0, ay0, bx0, by0, tl0, ax1, ay1, bx1, by1, tl1, ax2, ay2, bx2, by2, tl2 = _edges(
+                        x0, y0, x1, y1, x2, y2)
+                    X = xa + 0.5
+                    Y = ya + 0.5
+                    if not (ok and _inside(ax0, ay0, bx0, by0, tl0, X, Y) and _inside(ax1, ay1, bx1, by1, tl1, X, Y)
+                            and _inside(ax2, ay2, bx2, by2, tl2, X, Y)):
+                        continue
+            else:
+                n = _clip(faces, vx, cs, f, near, ortho, W, H, hw, hh, px, py, pq)
+                if n == 0:
+                    continue
+                x_lo = px[0]
+                x_hi = px[0]
+                y_lo = py[0]
+                y_hi = py[0]
+                for k in range(1, n):
+                    x_lo = min(x_lo, px[k])
+                    x_hi = max(x_hi, px[k])
+                    y_lo = min(y_lo, py[k])
+                    y_hi = max(y_hi, py[k])
+                xa, xb = _pixel_range(x_lo, x_hi, W)
+                ya, yb = _pixel_range(y_lo, y_hi, H)
+                if xa > xb or ya > yb:
+                    continue
+            ylo[f] = ya
+            yhi[f] = yb
+            for b in range(ya // band_h, yb // band_h + 1):
+                counts[c, b] += 1
+
+
+def _bin_fill(ylo, yhi, band_h, pos, out):
+    """Write each face into its bands' lists, at the slots ``pos`` reserved
+    for its chunk, keeping face order within a band."""
+    nf = ylo.shape[0]
+    for c in prange(pos.shape[0]):
+        for f in range(c * _CHUNK, min(nf, (c + 1) * _CHUNK)):
+            if ylo[f] >= 0:
+                for b in range(ylo[f] // band_h, yhi[f] // band_h + 1):
+                    out[pos[c, b]] = f
+                    pos[c, b] += 1
+
+
+@njit(cache=True, parallel=True)
+def _raster_kernel(faces, vx, cs, near, ortho, W, H, hw, hh, band_h, band_start, band_tris, count_mode,
+                   face_model, face_off, count, prim, geom, u, v, t):
+    """Scan-convert every band's faces into the band's own z-buffer, then
+    resolve the band's rows into the hit buffer (depth mode), or count the
+    covering faces (count mode)."""
+    nbands = band_start.shape[0] - 1
+    iw = int(W)
+    ih = int(H)
+    for b in prange(nbands):
+        px = np.empty(4)
+        py = np.empty(4)
+        pq = np.empty(4)
+        rlo = b * band_h
+        rhi = min(ih, rlo + band_h) - 1
+        rows = 0 if count_mode else rhi - rlo + 1
+        fid = np.full((rows, iw), -1, np.int32)
+        zbuf = np.full((rows, iw), np.inf)
+        for k in range(band_start[b], band_start[b + 1]):
+            f = band_tris[k]
+            i0 = faces[f, 0]
+            i1 = faces[f, 1]
+            i2 = faces[f, 2]
+            if vx[i0, 2] > near and vx[i1, 2] > near and vx[i2, 2] > near:
+                _scan_triangle(vx[i0, 0], vx[i0, 1], vx[i0, 3], vx[i1, 0], vx[i1, 1], vx[i1, 3],
+                               vx[i2, 0], vx[i2, 1], vx[i2, 3], rlo, rhi, W, f, False, 0.0, 0.0, 0.0,
+                               fid, zbuf, count, count_mode)
+                continue
+            n = _clip(faces, vx, cs, f, near, ortho, W, H, hw, hh, px, py, pq)
+            zA = 0.0
+            zB = 0.0
+            zC = 0.0
+            if not count_mode:
+                # Clip points may lie far off screen: take the depth plane from
+                # the triangle itself, not from the clipped polygon.
+                zA, zB, zC, ok = _plane3d(faces, cs, f, ortho, W, H, hw, hh)
+                if not ok:
+                    continue
+            for j in range(1, n - 1):
+                _scan_triangle(px[0], py[0], pq[0], px[j], py[j], pq[j], px[j + 1], py[j + 1], pq[j + 1],
+                               rlo, rhi, W, f, True, zA, zB, zC, fid, zbuf, count, count_mode)
+        if not count_mode:
+            _resolve_rows(fid, rlo, faces, cs, face_model, face_off, ortho, W, H, hw, hh, prim, geom, u, v, t)
+
+
+@njit(cache=True)
+def _resolve_rows(fid, rlo, faces, cs, face_model, face_off, ortho, W, H, hw, hh, prim, geom, u, v, t):
+    """Barycentrics and distance of each pixel's ray on its winning face, for
+    the rows ``rlo ..`` of a band (``fid`` holds the band's winners)."""
+    for r in range(fid.shape[0]):
+        y = rlo + r
+        sy = 1.0 - 2.0 * (y + 0.5) / H
+        for x in range(fid.shape[1]):
+            f = fid[r, x]
+            if f < 0:
+                prim[y, x] = -1
+                geom[y, x] = -1
+                u[y, x] = 0.0
+                v[y, x] = 0.0
+                t[y, x] = np.inf
+                continue
+            sx = 2.0 * (x + 0.5) / W - 1.0
+            i0 = faces[f, 0]
+            i1 = faces[f, 1]
+            i2 = faces[f, 2]
+            e1x = cs[i1, 0] - cs[i0, 0]
+            e1y = cs[i1, 1] - cs[i0, 1]
+            e1z = cs[i1, 2] - cs[i0, 2]
+            e2x = cs[i2, 0] - cs[i0, 0]
+            e2y = cs[i2, 1] - cs[i0, 1]
+            e2z = cs[i2, 2] - cs[i0, 2]
+            # Ray o + s d against P0 + b1 e1 + b2 e2, with q = P0 - o.
+            if ortho:
+                dx = 0.0
+                dy = 0.0
+                qx = cs[i0, 0] - sx * hw
+                qy = cs[i0, 1] - sy * hh
+            else:
+                dx = sx * hw
+                dy = sy * hh
+                qx = cs[i0, 0]
+                qy = cs[i0, 1]
+            dz = 1.0
+            qz = cs[i0, 2]
+            nx = e1y * e2z - e1z * e2y
+            ny = e1z * e2x - e1x * e2z
+            nz = e1x * e2y - e1y * e2x
+            dn = dx * nx + dy * ny + dz * nz
+            if dn != 0.0:
+                # b1 = d.(e2 x q) / d.n, b2 = d.(q x e1) / d.n, s = q.n / d.n
+                inv = 1.0 / dn
+                cx = e2y * qz - e2z * qy
+                cy = e2z * qx - e2x * qz
+                cz = e2x * qy - e2y * qx
+                b1 = (dx * cx + dy * cy + dz * cz) * inv
+                cx = qy * e1z - qz * e1y
+                cy = qz * e1x - qx * e1z
+                cz = qx * e1y - qy * e1x
+                b2 = (dx * cx + dy * cy + dz * cz) * inv
+                s = (qx * nx + qy * ny + qz * nz) * inv
+            else:  # edge-on: cannot win a pixel in exact arithmetic
+                b1 = 1.0 / 3.0
+                b2 = 1.0 / 3.0
+                s = (cs[i0, 2] + cs[i1, 2] + cs[i2, 2]) / 3.0
+            if b1 < 0.0:
+                b1 = 0.0
+            if b2 < 0.0:
+                b2 = 0.0
+            sb = b1 + b2
+            if sb > 1.0:
+                b1 /= sb
+                b2 /= sb
+            if not ortho:
+                s *= math.sqrt(dx * dx + dy * dy + 1.0)
+            g = face_model[f]
+            geom[y, x] = g
+            prim[y, x] = f - face_off[g]
+            u[y, x] = b1
+            v[y, x] = b2
+            t[y, x] = s
+
+
+_project_par = njit(cache=True, parallel=True)(_project)
+_project_ser = njit(cache=True)(_project)
+_setup_par = njit(cache=True, parallel=True)(_setup)
+_setup_ser = njit(cache=True)(_setup)
+_bin_fill_par = njit(cache=True, parallel=True)(_bin_fill)
+_bin_fill_ser = njit(cache=True)(_bin_fill)
