@@ -239,18 +239,37 @@ class Scene:
             raise TypeError(f"scene.camera: expected a Camera, got {type(self.camera).__name__}")
         set_(self, "ambient", as_rgb(self.ambient, "scene.ambient"))
         set_(self, "background", as_rgb(self.background, "scene.background"))
+        set_(self, "_geometry_lock", threading.Lock())
 
-    @cached_property
+    @property
     def geometry(self) -> SceneGeometry:
-        return SceneGeometry(self.models)
+        """The packed geometry, built on first use and kept (``__dict__["geometry"]``).
+
+        Built once under the scene's lock: threads rendering a new scene at
+        once share one :class:`SceneGeometry`, hence one Embree BVH (its
+        :meth:`~SceneGeometry.memo`), instead of racing to build and replace it.
+        """
+        geo = self.__dict__.get("geometry")
+        if geo is None:
+            with self._geometry_lock:
+                geo = self.__dict__.get("geometry")
+                if geo is None:
+                    geo = SceneGeometry(self.models)
+                    self.__dict__["geometry"] = geo
+        return geo
 
     def __getstate__(self):
         """Pickle the definition only (models, lights, camera, ambient,
         background): the packed geometry and its Embree BVH are rebuilt once,
-        on first render, wherever the scene is unpickled."""
+        on first render, wherever the scene is unpickled; the lock is new there."""
         state = dict(self.__dict__)
         state.pop("geometry", None)
+        state.pop("_geometry_lock", None)
         return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        self.__dict__["_geometry_lock"] = threading.Lock()
 
     def replace(self, **changes) -> "Scene":
         """A copy with some fields changed; keeps the packed geometry and
