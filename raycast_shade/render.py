@@ -6,7 +6,7 @@ import time
 
 from .scene.camera import Camera
 from .visibility.accel import embree_accel, has_embree_accel
-from .visibility.cast import cast_camera
+from .visibility.cast import cast_camera, resolve_caster, secondary_rays
 from .output.frame import Frame
 from .scene.scene import Scene
 from .study.auto import choose_methods
@@ -42,7 +42,10 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
         (perspective-correct), or weights affine in screen space (classic
         scanline Gouraud, :mod:`raycast_shade.interpolation`).
     caster : {"auto", "embree", "embreex"}
-        ``"auto"`` is the direct, packet-traced Embree path when available.
+        Camera rays: ``"auto"`` is the direct, packet-traced Embree path when
+        available, else embreex's API for a frame that traces no shadow or
+        mirror ray (those need the direct binding:
+        :func:`raycast_shade.visibility.cast.resolve_caster`).
     max_depth : int
         Mirror bounces traced for reflective materials (0: none).
     tolerance : float
@@ -56,6 +59,9 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
     ------
     TypeError, ValueError
         For a bad argument, before any kernel runs.
+    RuntimeError
+        When the frame needs the direct Embree binding and it is unavailable
+        (the message says why), before any kernel runs.
     """
     t0 = time.perf_counter()
     if not isinstance(scene, Scene):
@@ -79,6 +85,8 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
         raise ValueError("camera: the scene has no camera and none was passed")
     if not isinstance(camera, Camera):
         raise TypeError(f"camera: expected a Camera, got {type(camera).__name__}")
+    # Shadow and mirror rays need the direct binding whatever the caster: refuse now, before any kernel.
+    caster = resolve_caster(caster if backend == "raycast" else "auto", secondary_rays(scene, max_depth))
     decisions = ()
     if isinstance(shading, str) and shading == "auto":
         decisions = tuple(choose_methods(scene, camera, tolerance))

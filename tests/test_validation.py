@@ -421,7 +421,7 @@ def test_public_casting_and_shading_functions_check_their_arguments():
         rs.cast_rays(None, [[0.0, 0.0, 5.0]], [[0.0, 0.0, -1.0]])
     hits = rs.cast_camera(scene, scene.camera)  # the Scene stands for its geometry
     np.testing.assert_array_equal(hits.prim, rs.cast_camera(scene.geometry, scene.camera).prim)
-    assert rs.cast_rays(scene, [[0.0, 0.0, 5.0]], [[0.0, 0.0, -1.0]])[0][0] >= 0
+    assert rs.cast_rays(scene, [[0.0, 0.0, 5.0]], [[0.0, 0.0, -1.0]]).prim[0] >= 0
     bad = rs.HitBuffer(prim=np.where(hits.mask, 10 ** 6, -1).astype(np.int32), geom=hits.geom, u=hits.u, v=hits.v,
                        t=hits.t)
     with pytest.raises(ValueError, match="hits.prim"):

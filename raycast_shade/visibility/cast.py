@@ -1,6 +1,6 @@
 """Ray casting into a hit buffer.
 
-Two casters fill the same :class:`HitBuffer`:
+Two casters fill the same :class:`HitBuffer` with the camera's rays:
 
 ``"embree"`` (default)
     One parallel Numba kernel generates the camera rays in 4x2-pixel tiles,
@@ -10,8 +10,18 @@ Two casters fill the same :class:`HitBuffer`:
     into Python per ray or per chunk.
 ``"embreex"``
     Rays from a Numba kernel, then embreex's ``EmbreeScene.run`` over chunks
-    in two Python threads (its loop releases the GIL). The fallback where the
-    bundled library cannot be bound, and the baseline in the benchmarks.
+    in two Python threads (its loop releases the GIL): the baseline in the
+    benchmarks, for camera rays only.
+
+What works without the direct binding (:func:`.embree.unavailable_reason`):
+camera rays, through embreex, and nothing else. :func:`cast_rays`, shadow
+rays and mirror rays exist only on the direct binding. So ``caster="auto"``
+(:func:`resolve_caster`) is ``"embree"`` when the binding loads; otherwise it
+falls back to ``"embreex"`` for a frame that traces no other ray (no light
+casting shadows, no mirror bounce: :func:`secondary_rays`), and refuses any
+other frame with one ``RuntimeError`` naming what needs the binding and why it
+is unavailable, before any kernel runs. ``caster="embree"`` without the
+binding, and :func:`cast_rays` without it, raise the same way.
 
 Holes. Embree's robust mode is watertight across shared edges but not quite
 at shared vertices: a ray that passes (to float32 rounding) through a vertex
@@ -40,7 +50,7 @@ from ..common.validate import as_array
 from .hits import HitBuffer
 from .rays import camera_frame, generate_rays, pixel_ray
 
-__all__ = ["cast_camera", "cast_rays", "CASTERS"]
+__all__ = ["cast_camera", "cast_rays", "resolve_caster", "secondary_rays", "CASTERS"]
 
 
 _RAY = 24  # float32 slots in one RTCRayHit (96 bytes, room for instPrimID)
@@ -60,20 +70,18 @@ def _cast_camera_kernel(scene, cam, prim, geom, u, v, t):
         blk = (it * step) % nblk
         for ty in range(blk * BLOCK_ROWS, min(nty, (blk + 1) * BLOCK_ROWS)):
             # Per-row scratch: an 8-wide RTCRayHit8 (32-byte aligned) and its valid mask.
+            # Addresses are taken only to align; Embree gets the arrays (see embree.intersect8_packet).
             buf = np.empty(8 * _RAY + 8, np.float32)
-            base = buf.ctypes.data
-            off = ((32 - base % 32) % 32) // 4
+            off = ((32 - buf.ctypes.data % 32) % 32) // 4
             ib = buf.view(np.uint32)
             vbuf = np.empty(16, np.int32)
-            vbase = vbuf.ctypes.data
-            voff = ((32 - vbase % 32) % 32) // 4
+            voff = ((32 - vbuf.ctypes.data % 32) % 32) // 4
             # RTCIntersectArguments (8-byte aligned): the coherent flag lets
             # Embree trace the tile's rays as one frustum.
             abuf = np.zeros(embree.ARGS_SLOTS + 2, np.uint32)
             aoff = ((8 - abuf.ctypes.data % 8) % 8) // 4
             abuf[aoff] = embree.RAY_QUERY_FLAG_COHERENT
             abuf[aoff + 1] = embree.FEATURE_FLAG_ALL
-            args = abuf.ctypes.data + aoff * 4
             for tx in range(ntx):
                 for k in range(8):
                     x = tx * _TILE_W + (k & 3)
@@ -98,7 +106,7 @@ def _cast_camera_kernel(scene, cam, prim, geom, u, v, t):
                     ib[off + 11 * 8 + k] = 0  # flags
                     ib[off + 17 * 8 + k] = 0xFFFFFFFF  # primID
                     ib[off + 18 * 8 + k] = 0xFFFFFFFF  # geomID
-                embree.intersect8(vbase + voff * 4, scene, base + off * 4, args)
+                embree.intersect8_packet(vbuf[voff:], scene, buf[off:], abuf[aoff:])
                 for k in range(8):
                     x = tx * _TILE_W + (k & 3)
                     y = ty * _TILE_H + (k >> 2)
@@ -128,8 +136,7 @@ def cast_rays_kernel(scene, origins, directions, tnear, tfar, prim, geom, u, v, 
     for it in prange(nchunk):  # chunks in a balanced order (see _schedule)
         c = (it * step) % nchunk
         buf = np.empty(_RAY + 4, np.float32)
-        base = buf.ctypes.data
-        off = ((16 - base % 16) % 16) // 4
+        off = ((16 - buf.ctypes.data % 16) % 16) // 4  # RTCRayHit is 16-byte aligned
         ib = buf.view(np.uint32)
         for i in range(c * chunk, min(n, (c + 1) * chunk)):
             for j in range(3):
@@ -143,7 +150,7 @@ def cast_rays_kernel(scene, origins, directions, tnear, tfar, prim, geom, u, v, 
             ib[off + 11] = 0
             ib[off + 17] = 0xFFFFFFFF
             ib[off + 18] = 0xFFFFFFFF
-            embree.intersect1(scene, base + off * 4, 0)
+            embree.intersect1_ray(scene, buf[off:])
             g = ib[off + 18]
             if g != 0xFFFFFFFF:
                 geom[i] = np.int32(g)
@@ -159,14 +166,60 @@ def cast_rays_kernel(scene, origins, directions, tnear, tfar, prim, geom, u, v, 
                 t[i] = np.inf
 
 
-def _resolve_caster(caster: str) -> str:
-    if caster not in CASTERS and caster != "auto":
+def secondary_rays(scene, max_depth: int) -> tuple[str, ...]:
+    """What a frame of ``scene`` traces besides its camera rays, named for an error.
+
+    Parameters
+    ----------
+    scene : Scene
+    max_depth : int
+        Mirror bounces (``render(max_depth=...)``).
+
+    Returns
+    -------
+    tuple of str
+        ``"shadow rays (scene.lights[i])"`` for each light that casts
+        shadows, and ``"mirror rays (scene.models[g])"`` for each reflective
+        model when ``max_depth > 0``; empty when the frame needs camera rays
+        alone. Each needs the direct binding.
+    """
+    needs = [f"shadow rays (scene.lights[{i}])" for i, light in enumerate(scene.lights) if light.shadows]
+    if max_depth > 0:
+        needs += [f"mirror rays (scene.models[{g}])" for g, m in enumerate(scene.models) if m.material.reflectivity > 0]
+    return tuple(needs)
+
+
+def resolve_caster(caster: str, needs: tuple[str, ...] = ()) -> str:
+    """The camera-ray caster that will run: ``"embree"`` or ``"embreex"``.
+
+    Parameters
+    ----------
+    caster : {"auto", "embree", "embreex"}
+    needs : tuple of str
+        What else the frame traces (:func:`secondary_rays`); each needs the
+        direct binding whatever the caster.
+
+    Raises
+    ------
+    ValueError
+        For an unknown caster.
+    RuntimeError
+        When the direct binding is unavailable and ``caster`` is
+        ``"embree"`` or ``needs`` is not empty; the message names both what
+        needs it and why it is unavailable.
+    """
+    if not isinstance(caster, str) or (caster not in CASTERS and caster != "auto"):
         raise ValueError(f"caster: expected one of {list(CASTERS)} or 'auto', got {caster!r}")
-    if caster == "auto":
-        return "embree" if embree.available() else "embreex"
-    if caster == "embree" and not embree.available():
-        raise RuntimeError(f"caster 'embree' is unavailable: {embree._load()[1]}")
-    return caster
+    if embree.available():
+        return "embree" if caster == "auto" else caster
+    why = embree.unavailable_reason()
+    if needs:
+        shown = ", ".join(needs[:3]) + (f" and {len(needs) - 3} more" if len(needs) > 3 else "")
+        raise RuntimeError(f"{shown} need the direct Embree binding (embreex's API casts camera rays only), "
+                           f"which is unavailable: {why}")
+    if caster == "embree":
+        raise RuntimeError(f"caster 'embree' is unavailable: {why}")
+    return "embreex"
 
 
 def cast_camera(geometry, camera, caster: str = "auto", threads: int = 2) -> HitBuffer:
@@ -177,12 +230,21 @@ def cast_camera(geometry, camera, caster: str = "auto", threads: int = 2) -> Hit
     geometry : SceneGeometry or Scene
     camera : Camera
     caster : {"auto", "embree", "embreex"}
+        See :func:`resolve_caster`: ``"auto"`` is ``"embreex"`` when the
+        direct binding is unavailable.
     threads : int
         Python threads for the ``"embreex"`` caster.
 
     Returns
     -------
     HitBuffer
+        (H, W) arrays.
+
+    Raises
+    ------
+    RuntimeError
+        ``caster="embree"`` without the direct binding (the reason is in the
+        message), before any kernel runs.
     """
     from ..scene.camera import Camera
     from ..scene.scene import as_geometry
@@ -190,7 +252,7 @@ def cast_camera(geometry, camera, caster: str = "auto", threads: int = 2) -> Hit
     geometry = as_geometry(geometry)
     if not isinstance(camera, Camera):
         raise TypeError(f"camera: expected a Camera, got {type(camera).__name__}")
-    caster = _resolve_caster(caster)
+    caster = resolve_caster(caster)
     h, w = camera.height, camera.width
     reach = float(np.abs(camera.eye - geometry.origin).max())
     if camera.orthographic:  # rays start anywhere on the view rectangle around the eye
@@ -350,7 +412,7 @@ def _ray_bound(value, name: str, n: int) -> np.ndarray:
     return np.broadcast_to(arr, (n,)).copy()
 
 
-def cast_rays(geometry, origins, directions, tnear=0.0, tfar=np.inf):
+def cast_rays(geometry, origins, directions, tnear=0.0, tfar=np.inf) -> HitBuffer:
     """Trace arbitrary rays in the scene's world coordinates (direct Embree).
 
     Parameters
@@ -363,10 +425,10 @@ def cast_rays(geometry, origins, directions, tnear=0.0, tfar=np.inf):
 
     Returns
     -------
-    prim, geom : (N,) int32
-        ``-1`` on a miss.
-    u, v, t : (N,) float32
-        ``t`` is ``inf`` on a miss.
+    HitBuffer
+        (N,) arrays: ``prim``, ``geom`` int32 (``-1`` on a miss), ``u``,
+        ``v``, ``t`` float32 (``t`` is ``inf`` on a miss). It unpacks as
+        ``prim, geom, u, v, t = cast_rays(...)``.
 
     Raises
     ------
@@ -374,6 +436,9 @@ def cast_rays(geometry, origins, directions, tnear=0.0, tfar=np.inf):
         Naming the argument, before Embree sees it: wrong shapes, non-finite
         origins or directions, zero directions, NaN or negative bounds,
         ``tfar < tnear``, origins beyond Embree's float32 range.
+    RuntimeError
+        When the direct binding is unavailable (embreex has no route for
+        these rays), naming the reason, before any kernel runs.
     """
     from ..scene.scene import as_geometry
 
@@ -392,11 +457,11 @@ def cast_rays(geometry, origins, directions, tnear=0.0, tfar=np.inf):
         raise ValueError(f"tfar: row {int(np.argmax(tf < tn))} is below tnear")
     if n:
         embree.check_range(float(np.abs(o).max()), "origins")
-    prim = np.empty(n, np.int32)
-    geom = np.empty(n, np.int32)
-    u = np.empty(n, np.float32)
-    v = np.empty(n, np.float32)
-    t = np.empty(n, np.float32)
+    if not embree.available():
+        raise RuntimeError(f"cast_rays needs the direct Embree binding, which is unavailable: "
+                           f"{embree.unavailable_reason()}")
+    hits = HitBuffer(prim=np.empty(n, np.int32), geom=np.empty(n, np.int32), u=np.empty(n, np.float32),
+                     v=np.empty(n, np.float32), t=np.empty(n, np.float32))
     if n:
-        cast_rays_kernel(embree_accel(geometry).handle, o, d, tn, tf, prim, geom, u, v, t)
-    return prim, geom, u, v, t
+        cast_rays_kernel(embree_accel(geometry).handle, o, d, tn, tf, *hits)
+    return hits

@@ -7,12 +7,18 @@ arrays per call. The shared library it bundles is a plain Embree 4, so we use
 it directly:
 
 * scene building: ``rtcSetSharedGeometryBuffer`` points Embree at our own
-  NumPy arrays (kept alive by :class:`EmbreeAccel`), so building costs the BVH
-  build alone;
+  NumPy arrays (held by :class:`EmbreeAccel` for as long as its scene
+  exists), so building costs the BVH build alone;
 * traversal: ``rtcIntersect1`` / ``rtcIntersect8`` / ``rtcOccluded1`` are
   declared as external symbols for Numba, so ray generation, traversal and
   hit unpacking run in one parallel kernel, with no Python per ray or chunk.
   Symbols (not addresses) keep ``cache=True`` valid across processes.
+* kernels call them through :func:`intersect1_ray`, :func:`intersect8_packet`
+  and :func:`occluded1_ray`, which take the scratch *arrays*, not their
+  addresses: an address is a bare integer, and once a kernel has taken it
+  Numba is free to free the array (it drops each array after its last use
+  in the IR). Passed as arguments, the arrays are held by the caller until
+  Embree has returned, whatever the caller's liveness, parallel or not.
 * camera packets pass ``RTCIntersectArguments`` with
   ``RTC_RAY_QUERY_FLAG_COHERENT``: without it (a NULL argument means
   "incoherent") Embree never takes its coherent packet path, and primary
@@ -23,6 +29,15 @@ Struct layouts (Embree 4 ``rtcore_ray.h``), as float32 slots:
 ``RTCRayHit`` = org xyz, tnear, dir xyz, time, tfar, mask, id, flags |
 Ng xyz, u, v, primID, geomID, instID[1], (instPrimID[1]); 16-byte aligned.
 The packet form ``RTCRayHit8`` has the same fields, each an array of 8.
+``RTCIntersectArguments`` (``rtcore_scene.h``) = flags, feature_mask, then
+three pointers. These layouts and the ``rtcIntersect*(scene, ray, args)``
+signatures are Embree 4's (Embree 3 takes a context first), so the binding
+reads the library's version and is unavailable, with that reason, for any
+other major version (:func:`unavailable_reason`).
+
+What needs this binding: the ``"embree"`` caster, :func:`~raycast_shade.cast_rays`,
+shadow rays and mirror rays. Only camera rays have a second route, embreex's
+own API (:mod:`raycast_shade.visibility.cast`).
 """
 
 from __future__ import annotations
@@ -33,9 +48,10 @@ import glob
 import os
 
 import numpy as np
-from numba import types
+from numba import njit, types
 
-__all__ = ["available", "library_path", "EmbreeAccel", "intersect1", "intersect8", "occluded1", "INVALID_ID"]
+__all__ = ["available", "unavailable_reason", "library_path", "embree_version", "EmbreeAccel", "intersect1",
+           "intersect8", "occluded1", "intersect1_ray", "intersect8_packet", "occluded1_ray", "INVALID_ID"]
 
 INVALID_ID = 0xFFFFFFFF
 
@@ -48,6 +64,7 @@ _RTC_GEOMETRY_TYPE_TRIANGLE = 0
 _RTC_SCENE_FLAG_ROBUST = 1 << 2
 _RTC_BUILD_QUALITY_HIGH = 2
 _RTC_DEVICE_PROPERTY_VERSION = 0
+_LAYOUT_MAJOR = 4  # the Embree major version whose struct layouts and signatures the kernels hard-code
 # Embree intersects in float32 and multiplies coordinates together (edge cross products), so
 # beyond about 1e19 from the scene's centre those products overflow and triangles are missed
 # without a word (measured: a triangle of size 1e18 renders, 1e19 does not). Geometry and ray
@@ -104,7 +121,7 @@ def _candidate_paths():
 
 
 @functools.lru_cache(maxsize=1)
-def _load():
+def _open():
     """Load the bundled Embree once per process; returns (ctypes lib, path) or (None, reason)."""
     paths = _candidate_paths()
     if not paths:
@@ -146,19 +163,9 @@ def _load():
     return lib, path
 
 
-def available() -> bool:
-    """True when the direct Embree path can be used in this process."""
-    return _load()[0] is not None
-
-
-def library_path() -> str | None:
-    lib, path = _load()
-    return path if lib is not None else None
-
-
 @functools.lru_cache(maxsize=1)
 def _device():
-    lib, why = _load()
+    lib, why = _open()
     if lib is None:
         raise RuntimeError(why)
     dev = lib.rtcNewDevice(b"verbose=0")
@@ -167,10 +174,57 @@ def _device():
     return dev
 
 
-def embree_version() -> str:
-    lib, _ = _load()
-    v = lib.rtcGetDeviceProperty(_device(), _RTC_DEVICE_PROPERTY_VERSION)
+def _read_version(lib, dev) -> int:
+    """``RTC_DEVICE_PROPERTY_VERSION``: major * 10000 + minor * 100 + patch."""
+    return int(lib.rtcGetDeviceProperty(dev, _RTC_DEVICE_PROPERTY_VERSION))
+
+
+def _format_version(v: int) -> str:
     return f"{v // 10000}.{(v // 100) % 100}.{v % 100}"
+
+
+@functools.lru_cache(maxsize=1)
+def _load():
+    """The binding, once per process: (ctypes lib, path) when the kernels can use
+    it, else (None, reason) -- the library is missing, does not load, or is not
+    the Embree major version whose structs the kernels hard-code."""
+    lib, path = _open()
+    if lib is None:
+        return None, path
+    try:
+        dev = _device()
+    except RuntimeError as exc:  # pragma: no cover - depends on the machine
+        return None, f"{path}: {exc}"
+    version = _read_version(lib, dev)
+    if version // 10000 != _LAYOUT_MAJOR:
+        return None, (f"Embree {_format_version(version)} found in {path}; the kernels hard-code Embree "
+                      f"{_LAYOUT_MAJOR}'s struct layouts (RTCRayHit, RTCRayHit8, RTCIntersectArguments) "
+                      "and rtcIntersect signatures")
+    return lib, path
+
+
+def available() -> bool:
+    """True when the direct Embree path can be used in this process."""
+    return _load()[0] is not None
+
+
+def unavailable_reason() -> str | None:
+    """Why the direct Embree path cannot be used (None when it can)."""
+    lib, why = _load()
+    return None if lib is not None else why
+
+
+def library_path() -> str | None:
+    lib, path = _load()
+    return path if lib is not None else None
+
+
+def embree_version() -> str:
+    """The loaded library's version, e.g. ``"4.3.3"``."""
+    lib, why = _open()
+    if lib is None:
+        raise RuntimeError(why)
+    return _format_version(_read_version(lib, _device()))
 
 
 def _check(lib, dev, what: str):
@@ -206,13 +260,16 @@ class EmbreeAccel:
 
         lib, why = _load()
         if lib is None:
-            raise RuntimeError(why)
+            raise RuntimeError(f"the direct Embree binding is unavailable: {why}")
         if vertices.dtype != np.float32 or vertices.ndim != 2 or vertices.shape[1] != 4 or not vertices.flags.c_contiguous:
             raise TypeError("vertices: expected C-contiguous (V, 4) float32")
         if faces.dtype != np.uint32 or faces.ndim != 2 or faces.shape[1] != 3 or not faces.flags.c_contiguous:
             raise TypeError("faces: expected C-contiguous (F, 3) uint32")
         self._lib = lib
-        self._arrays = (vertices, faces)  # Embree holds raw pointers into these
+        # Embree keeps raw pointers into these for the scene's lifetime: held
+        # here before any pointer is taken, dropped only after __del__ has
+        # released the scene.
+        self._arrays = (vertices, faces)
         dev = _device()
         scene = lib.rtcNewScene(dev)
         _check(lib, dev, "rtcNewScene")
@@ -245,13 +302,62 @@ class EmbreeAccel:
 
 
 # Pointers travel as uintp: the same register class as a C pointer on every
-# 64-bit ABI Numba supports.
+# 64-bit ABI Numba supports. Kernels do not call these with addresses of their
+# own: they go through the array wrappers below.
 intersect1 = types.ExternalFunction("rtcIntersect1", types.void(types.uintp, types.uintp, types.uintp))
 intersect8 = types.ExternalFunction(
     "rtcIntersect8", types.void(types.uintp, types.uintp, types.uintp, types.uintp)
 )
 occluded1 = types.ExternalFunction("rtcOccluded1", types.void(types.uintp, types.uintp, types.uintp))
 
+
+@njit(cache=True)
+def intersect1_ray(scene, rayhit):
+    """``rtcIntersect1(scene, rayhit, NULL)``.
+
+    Parameters
+    ----------
+    scene : uintp
+        ``EmbreeAccel.handle``.
+    rayhit : (>= 24,) float32 or uint32
+        Starts at a 16-byte aligned ``RTCRayHit`` (e.g. ``buf[off:]``); its
+        hit fields are written in place.
+
+    The array, not its address, crosses this call, so the caller holds it
+    until Embree returns (see the module docstring)."""
+    intersect1(scene, rayhit.ctypes.data, 0)
+
+
+@njit(cache=True)
+def intersect8_packet(valid, scene, rayhit, args):
+    """``rtcIntersect8(valid, scene, rayhit, args)``.
+
+    Parameters
+    ----------
+    valid : (>= 8,) int32
+        Starts at a 32-byte boundary: -1 for an active ray, 0 for an inactive one.
+    scene : uintp
+    rayhit : (>= 192,) float32 or uint32
+        Starts at a 32-byte aligned ``RTCRayHit8``; hit fields written in place.
+    args : (>= ARGS_SLOTS,) uint32
+        Starts at an 8-byte aligned ``RTCIntersectArguments``.
+
+    Each array stays alive for the whole call (held by the caller)."""
+    intersect8(valid.ctypes.data, scene, rayhit.ctypes.data, args.ctypes.data)
+
+
+@njit(cache=True)
+def occluded1_ray(scene, ray):
+    """``rtcOccluded1(scene, ray, NULL)``: sets ``tfar`` (slot 8) to ``-inf`` when blocked.
+
+    Parameters
+    ----------
+    scene : uintp
+    ray : (>= 12,) float32 or uint32
+        Starts at a 16-byte aligned ``RTCRay``; held by the caller for the call."""
+    occluded1(scene, ray.ctypes.data, 0)
+
+
 # Make the symbols resolvable before any kernel that calls them is compiled
 # or loaded from the cache.
-_load()
+_open()

@@ -18,22 +18,27 @@ __all__ = ["HitBuffer", "check_hits"]
 
 @dataclass(frozen=True, eq=False)
 class HitBuffer:
-    """Per-pixel visibility.
+    """Per-pixel (or per-ray) visibility.
 
     The hit point is ``(1 - u - v) p0 + u p1 + v p2`` for the triangle's
     vertices ``p0, p1, p2`` (Embree's convention, the lecture's ``mu1, mu2``).
+    The five arrays share one shape: ``(H, W)`` from a camera (the casters,
+    the rasterizer; what shading takes) or ``(N,)`` from
+    :func:`~raycast_shade.cast_rays`. A buffer unpacks as
+    ``prim, geom, u, v, t = hits``.
 
     Attributes
     ----------
-    prim : (H, W) int32
+    prim : (H, W) or (N,) int32
         Triangle index within its model, ``-1`` where nothing was hit.
-    geom : (H, W) int32
+    geom : (H, W) or (N,) int32
         Model index in the scene, ``-1`` where nothing was hit.
-    u, v : (H, W) float32
+    u, v : (H, W) or (N,) float32
         Barycentrics of vertices 1 and 2; zero where nothing was hit.
-    t : (H, W) float32
+    t : (H, W) or (N,) float32
         Distance from the camera along the unit ray (orthographic: from the
-        image plane); ``inf`` where nothing was hit.
+        image plane; :func:`~raycast_shade.cast_rays`: in units of each
+        ray's direction); ``inf`` where nothing was hit.
     """
 
     prim: np.ndarray
@@ -59,8 +64,12 @@ class HitBuffer:
 
     @property
     def mask(self) -> np.ndarray:
-        """(H, W) bool, True where a triangle was hit."""
+        """bool of :attr:`shape`, True where a triangle was hit."""
         return self.prim >= 0
+
+    def __iter__(self):
+        """``prim, geom, u, v, t``: unpacks like the tuple ``cast_rays`` once returned."""
+        return iter((self.prim, self.geom, self.u, self.v, self.t))
 
 
 @njit(cache=True, parallel=True)
