@@ -148,6 +148,20 @@ def test_serial_batch_in_order_and_builds_once():
     assert not np.array_equal(images[0], images[1])  # frames differ, so order is checked
 
 
+def test_serial_runs_own_their_cache():
+    """No state outlives a call: each run counts in its own cache (a new one unless one is passed)."""
+    s = _scene()
+    cams = animate.orbit_cameras(s.camera, 2)
+    first, second = batch.SceneCache(), batch.SceneCache()
+    batch.render_batch(s, cams, progress=False, cache=first)
+    batch.render_batch(s, cams, progress=False)  # its own cache: touches neither
+    batch.render_batch(s, cams, progress=False, cache=second)
+    assert first.stats() == {"builds": 1, "renders": 2, "skipped": 0, "cached": 1}
+    assert second.stats() == {"builds": 0, "renders": 2, "skipped": 0, "cached": 1}  # geometry kept on the scene
+    with pytest.raises(TypeError, match="cache"):
+        batch.render_batch(s, progress=False, cache={})
+
+
 def test_serial_broadcasts_and_zips(scene):
     cams = animate.orbit_cameras(scene.camera, 3)
     light_sets = [[rs.PointLight((x, 2.0, 3.0), intensity=15.0)] for x in (-2.0, 0.0, 2.0)]
@@ -187,6 +201,17 @@ def test_cluster_matches_serial_bitwise(scene, client):
     assert all(np.array_equal(a, b) for a, b in zip(got, ref))
     totals, per_worker = _worker_totals(client)
     assert totals["renders"] == 6 and totals["builds"] == 0  # the workers kept the geometry from above
+
+
+def test_cluster_takes_auto_and_one_method_per_model(scene, client):
+    cams = animate.orbit_cameras(scene.camera, 3)
+    for shading in ("Auto", ("flat", "Phong")):
+        got = batch.render_batch(scene, cams, shading=shading, scheduler=client, progress=False, tolerance=0.02)
+        canonical = shading.lower() if isinstance(shading, str) else tuple(m.lower() for m in shading)
+        ref = [rs.render(scene, canonical, camera=c, tolerance=0.02).image for c in cams]
+        assert all(np.array_equal(a, b) for a, b in zip(got, ref))
+    with pytest.raises(ValueError, match="cache"):
+        batch.render_batch(scene, scheduler=client, progress=False, cache=batch.SceneCache())
 
 
 def test_cluster_streams_in_order(scene, client):
