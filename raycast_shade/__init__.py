@@ -26,7 +26,7 @@ from .scene.lights import DirectionalLight, PointLight
 from .scene.material import Material
 from .scene.mesh import Mesh
 from .scene.normals import WindingWarning, winding_conflicts
-from .render import render
+from .render import render, render_file
 from .scene.scene import Model, Scene
 from .study.auto import choose_methods
 from .shading.kernels import SHADINGS, shade, shading_normals
@@ -36,6 +36,6 @@ from .common.version import __version__
 
 __all__ = [
     "Camera", "DirectionalLight", "HeightMap", "bump", "Frame", "HitBuffer", "Material", "Mesh", "Model", "PointLight", "Scene",
-    "SHADINGS", "cast_camera", "cast_rays", "read_pfm", "render", "choose_methods", "shade", "shading_normals", "shapes", "to_uint8", "write_pfm",
+    "SHADINGS", "cast_camera", "cast_rays", "read_pfm", "render", "render_file", "choose_methods", "shade", "shading_normals", "shapes", "to_uint8", "write_pfm",
     "WindingWarning", "winding_conflicts",
 ]

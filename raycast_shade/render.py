@@ -13,7 +13,7 @@ from .study.auto import choose_methods
 from .common.choices import BACKENDS, CASTERS, INTERPOLATIONS, SHADINGS
 from .shading.kernels import resolve_methods, shade_hits, trace_mirrors
 
-__all__ = ["render"]
+__all__ = ["render", "render_file"]
 
 
 
@@ -122,3 +122,47 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
     timings["total"] = te - t0
     return Frame(image=image, hits=hits, shading=shading, scene=scene, camera=camera, timings=timings,
                  decisions=decisions)
+
+
+def render_file(path, **overrides) -> Frame:
+    """Render a TOML scene file with its own ``[render]`` options, in one call.
+
+    The same as::
+
+        scene, kwargs, tone = load_for_render(path, **overrides)  # scene.scenefile
+        frame = render(scene, **kwargs)
+
+    (``load_scene`` then the file's ``[render]`` options, overridden), with
+    the tone options kept on the frame. ``raycast-shade render`` renders
+    exactly this.
+
+    Parameters
+    ----------
+    path : str or path-like
+        A scene file (``docs/scene-files.md``).
+    **overrides
+        Any ``[render]`` entry, beating the file's: ``shading`` (a method,
+        ``"auto"`` or one per ``[[object]]``), ``width``, ``height``,
+        ``max_depth``, ``backend``, ``interpolation``, ``caster``,
+        ``tolerance``, and the tone options ``exposure``, ``tonemap``,
+        ``gamma``. ``None`` keeps the file's value.
+
+    Returns
+    -------
+    Frame
+        ``frame.tone`` holds the tone options (the file's, overridden):
+        ``frame.save("out.png")`` and ``frame.to_uint8()`` apply them.
+
+    Raises
+    ------
+    SceneFileError
+        For an invalid scene file (a ``ValueError`` naming the file and table).
+    TypeError, ValueError
+        For an unknown or invalid override, naming it, before rendering.
+    """
+    import dataclasses
+
+    from .scene.scenefile import load_for_render
+
+    scene, kwargs, tone = load_for_render(path, **overrides)
+    return dataclasses.replace(render(scene, **kwargs), tone=tone)

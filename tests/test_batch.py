@@ -19,6 +19,7 @@ import raycast_shade as rs
 from raycast_shade.visibility.accel import embree_accel, embreex_scene, has_embree_accel
 from raycast_shade.apps import animate
 from raycast_shade.apps import batch
+from raycast_shade.output.imagefile import write_image
 
 distributed = pytest.importorskip("distributed")  # a test dependency: only skipped where it is missing
 
@@ -54,7 +55,7 @@ def _serial(scenes, cameras, shading="phong"):
 
 
 def _worker_totals(client):
-    stats = client.run(batch.worker_stats)
+    stats = batch.worker_stats(client)
     return {k: sum(s[k] for s in stats.values()) for k in ("builds", "renders", "skipped")}, stats
 
 
@@ -139,12 +140,26 @@ def test_bad_input_names_the_field(scene, client):
 def test_serial_batch_in_order_and_builds_once():
     s = _scene()  # fresh: nothing built yet
     cams = animate.orbit_cameras(s.camera, 6)
-    batch._reset_stats()
-    images = batch.render_batch(s, cams, shading="gouraud", progress=False)
-    assert batch.worker_stats()["builds"] == 1 and batch.worker_stats()["renders"] == 6
+    cache = batch.SceneCache()  # the run's cache and counters, owned by the caller
+    images = batch.render_batch(s, cams, shading="gouraud", progress=False, cache=cache)
+    assert cache.stats()["builds"] == 1 and cache.stats()["renders"] == 6
     ref = _serial([s] * 6, cams, "gouraud")
     assert all(np.array_equal(a, b) for a, b in zip(images, ref))
     assert not np.array_equal(images[0], images[1])  # frames differ, so order is checked
+
+
+def test_serial_runs_own_their_cache():
+    """No state outlives a call: each run counts in its own cache (a new one unless one is passed)."""
+    s = _scene()
+    cams = animate.orbit_cameras(s.camera, 2)
+    first, second = batch.SceneCache(), batch.SceneCache()
+    batch.render_batch(s, cams, progress=False, cache=first)
+    batch.render_batch(s, cams, progress=False)  # its own cache: touches neither
+    batch.render_batch(s, cams, progress=False, cache=second)
+    assert first.stats() == {"builds": 1, "renders": 2, "skipped": 0, "cached": 1}
+    assert second.stats() == {"builds": 0, "renders": 2, "skipped": 0, "cached": 1}  # geometry kept on the scene
+    with pytest.raises(TypeError, match="cache"):
+        batch.render_batch(s, progress=False, cache={})
 
 
 def test_serial_broadcasts_and_zips(scene):
@@ -167,7 +182,7 @@ def test_cluster_workers_are_single_threaded(client):
 
 
 def test_cluster_matches_serial_bitwise(scene, client):
-    client.run(batch._reset_stats)
+    batch.reset_worker_stats(client)
     cams = animate.orbit_cameras(scene.camera, 8)
     got = batch.render_batch(scene, cams, shading="phong", scheduler=client, progress=False)
     ref = _serial([scene] * 8, cams, "phong")
@@ -180,12 +195,23 @@ def test_cluster_matches_serial_bitwise(scene, client):
 
     # A light orbit is a list of scenes sharing one mesh set: still one build per worker.
     scenes = animate.orbit_light(scene, 6)
-    client.run(batch._reset_stats)
+    batch.reset_worker_stats(client)
     got = batch.render_batch(scenes, shading="gouraud", scheduler=client, progress=False, window=3)
     ref = _serial(scenes, [scene.camera] * 6, "gouraud")
     assert all(np.array_equal(a, b) for a, b in zip(got, ref))
     totals, per_worker = _worker_totals(client)
     assert totals["renders"] == 6 and totals["builds"] == 0  # the workers kept the geometry from above
+
+
+def test_cluster_takes_auto_and_one_method_per_model(scene, client):
+    cams = animate.orbit_cameras(scene.camera, 3)
+    for shading in ("Auto", ("flat", "Phong")):
+        got = batch.render_batch(scene, cams, shading=shading, scheduler=client, progress=False, tolerance=0.02)
+        canonical = shading.lower() if isinstance(shading, str) else tuple(m.lower() for m in shading)
+        ref = [rs.render(scene, canonical, camera=c, tolerance=0.02).image for c in cams]
+        assert all(np.array_equal(a, b) for a, b in zip(got, ref))
+    with pytest.raises(ValueError, match="cache"):
+        batch.render_batch(scene, scheduler=client, progress=False, cache=batch.SceneCache())
 
 
 def test_cluster_streams_in_order(scene, client):
@@ -230,7 +256,7 @@ def test_resume_renders_only_missing_frames(scene, client, tmp_path):
     os.remove(paths[4])
     stale = out / ".f_001.npy.0123456789ab.tmp.npy"  # what a writer killed mid-file leaves behind
     stale.write_bytes(b"half a fi")
-    client.run(batch._reset_stats)
+    batch.reset_worker_stats(client)
     again = batch.render_batch(scene, cams, out_dir=out, pattern="f_{:03d}.npy", scheduler=client, progress=False)
     assert again == paths
     totals, _ = _worker_totals(client)
@@ -243,12 +269,12 @@ def test_resume_renders_only_missing_frames(scene, client, tmp_path):
 
     # Serial resume too; resume=False re-renders everything.
     os.remove(paths[0])
-    batch._reset_stats()
-    batch.render_batch(scene, cams, out_dir=out, pattern="f_{:03d}.npy", progress=False)
-    assert batch.worker_stats()["renders"] == 1
-    batch._reset_stats()
-    batch.render_batch(scene, cams, out_dir=out, pattern="f_{:03d}.npy", progress=False, resume=False)
-    assert batch.worker_stats()["renders"] == 6
+    cache = batch.SceneCache()
+    batch.render_batch(scene, cams, out_dir=out, pattern="f_{:03d}.npy", progress=False, cache=cache)
+    assert cache.stats()["renders"] == 1
+    cache.reset_stats()
+    batch.render_batch(scene, cams, out_dir=out, pattern="f_{:03d}.npy", progress=False, resume=False, cache=cache)
+    assert cache.stats()["renders"] == 6
 
 
 def test_png_frames_are_tone_mapped(scene, tmp_path):
@@ -267,7 +293,7 @@ def test_write_is_atomic(tmp_path, monkeypatch):
 
     target = tmp_path / "img.pfm"
     image = np.full((4, 5, 3), 0.5, np.float32)
-    batch.write_image(target, image)
+    write_image(target, image, atomic=True)
     before = target.read_bytes()
     real = tm.write_pfm
 
@@ -278,11 +304,11 @@ def test_write_is_atomic(tmp_path, monkeypatch):
 
     monkeypatch.setattr(tm, "write_pfm", dies_half_way)
     with pytest.raises(OSError, match="disk full"):
-        batch.write_image(target, image * 2)
+        write_image(target, image * 2, atomic=True)
     assert target.read_bytes() == before  # the old frame, whole
     assert _names(tmp_path) == ["img.pfm"]  # no temporary left
     monkeypatch.setattr(tm, "write_pfm", real)
-    batch.write_image(target, image * 2)
+    write_image(target, image * 2, atomic=True)
     assert np.array_equal(rs.read_pfm(target), image * 2) and _names(tmp_path) == ["img.pfm"]
 
 
@@ -293,12 +319,12 @@ def _kill_once_plugin(marker, log, kill_at):
         """Kills the worker process that first starts frame ``kill_at``; logs every render."""
 
         def setup(self, worker):
-            from raycast_shade.apps import batch as b
+            from raycast_shade.apps.batch import cache as b
 
-            original = b.__dict__.get("_unpatched_render_image", b._render_image)
+            original = b.__dict__.get("_unpatched_render_image", b.render_image)
             b._unpatched_render_image = original
 
-            def render_image(job, base, options):
+            def render_image(job, base, options, cache):
                 if job.index == kill_at:
                     try:
                         fd = os.open(marker, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
@@ -307,17 +333,17 @@ def _kill_once_plugin(marker, log, kill_at):
                     else:
                         os.close(fd)
                         os._exit(1)  # the worker dies mid-batch, its task unfinished
-                image = original(job, base, options)
+                image = original(job, base, options, cache)
                 with open(log, "a") as fh:
                     fh.write(f"{job.index}\n")
                 return image
 
-            b._render_image = render_image
+            b.render_image = render_image
 
         def teardown(self, worker):
-            from raycast_shade.apps import batch as b
+            from raycast_shade.apps.batch import cache as b
 
-            b._render_image = b.__dict__.pop("_unpatched_render_image", b._render_image)
+            b.render_image = b.__dict__.pop("_unpatched_render_image", b.render_image)
 
     return KillOnce()
 

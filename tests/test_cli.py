@@ -15,6 +15,7 @@ import raycast_shade as rs
 from raycast_shade.apps import demo
 from raycast_shade.apps.cli import main
 from raycast_shade.output.imagefile import write_png as _write_png
+from raycast_shade.scene.scenefile import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
@@ -153,6 +154,18 @@ def test_render_outputs_and_overrides(capsys, tmp_path, scene_file):
                      "--exposure", 2, "--tonemap", "reinhard", "--gamma", 2.2)
     assert code == 0
     np.testing.assert_array_equal(iio.imread(png), rs.to_uint8(linear, exposure=2.0, tonemap="reinhard", gamma=2.2))
+
+
+def test_render_choices_are_case_insensitive(capsys, tmp_path, scene_file):
+    """Python takes shading="Phong"; so does the command line, and every other choice too."""
+    path = scene_file('[object.material]\nks = 0.5\n')
+    out = tmp_path / "a.npy"
+    code, stdout, err = run(capsys, "render", path, "-o", out, "--shading", "Gouraud", "--backend", "Raster",
+                            "--interpolation", "SCREEN", "--caster", "Embree", "--tonemap", "Reinhard")
+    assert code == 0 and err == "" and "(64x48, gouraud)" in stdout
+    scene, _ = load_scene(path)
+    expected = rs.render(scene, "gouraud", backend="raster", interpolation="screen", caster="embree").image
+    np.testing.assert_array_equal(np.load(out), expected)
 
 
 def test_render_default_output_name(capsys, tmp_path, scene_file, monkeypatch):

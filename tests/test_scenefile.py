@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 import raycast_shade as rs
-from raycast_shade.scene.scenefile import SceneFileError, load_scene, scene_from_dict
+from raycast_shade.scene.scenefile import (RENDER_KEYS, SceneFileError, check_render_options, load_scene,
+                                           scene_from_dict, split_options)
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
@@ -317,6 +318,12 @@ ERRORS = [
     ("ambient", "ambient = -1\n" + MINIMAL, "ambient: must be >= 0"),
     ("render shading", MINIMAL + '[render]\nshading = "smooth"\n', "render.shading: expected one of"),
     ("render key", MINIMAL + "[render]\nsamples = 4\n", "render: unknown key 'samples'"),
+    ("render per object", MINIMAL + '[render]\nshading = ["flat", "phong"]\n',
+     "render.shading: expected one method per [[object]] (1), got 2"),
+    ("render auto per object", MINIMAL + '[render]\nshading = ["auto"]\n', "render.shading[0]: expected one of"),
+    ("render backend", MINIMAL + '[render]\nbackend = "gpu"\n', "render.backend: expected one of"),
+    ("render tolerance", MINIMAL + "[render]\ntolerance = 0\n", "render.tolerance: must be > 0"),
+    ("render shading type", MINIMAL + "[render]\nshading = 3\n", "render.shading: expected one of"),
 ]
 
 
@@ -397,3 +404,43 @@ def test_bad_bump_tables(write, table, match):
     path = write(BUMPED + "\n[object.material.bump]\n" + table + "\n")
     with pytest.raises(SceneFileError, match=match):
         load_scene(path)
+
+
+def test_render_table_takes_every_option_in_any_case(write):
+    text = MINIMAL + """
+[[object]]
+shape = "icosphere"
+subdivisions = 2
+[render]
+shading = ["Flat", "PHONG"]
+backend = "Raster"
+interpolation = "Screen"
+caster = "EmbreeX"
+tolerance = 0.05
+max_depth = 0
+tonemap = "Reinhard"
+gamma = "sRGB"
+"""
+    scene, options = load_scene(write(text))
+    assert options == {"shading": ("flat", "phong"), "backend": "raster", "interpolation": "screen",
+                       "caster": "embreex", "tolerance": 0.05, "max_depth": 0, "tonemap": "reinhard",
+                       "gamma": "srgb"}
+    size, kwargs, tone = split_options(options)
+    assert size == {} and tone == {"tonemap": "reinhard", "gamma": "srgb"}
+    assert kwargs == {k: options[k] for k in ("shading", "backend", "interpolation", "caster", "tolerance",
+                                              "max_depth")}
+    # The options are render()'s keywords as they are.
+    frame = rs.render(scene, **kwargs)
+    assert frame.method[frame.model_id == 0].tolist() == [0] * int((frame.model_id == 0).sum())
+
+
+def test_check_render_options_is_what_the_file_checks():
+    assert check_render_options({"shading": "Auto", "width": 3}) == {"shading": "auto", "width": 3}
+    assert set(RENDER_KEYS) == {"shading", "width", "height", "max_depth", "backend", "interpolation", "caster",
+                                "tolerance", "exposure", "tonemap", "gamma"}
+    with pytest.raises(ValueError, match=r"^shading\[1\]: expected one of"):
+        check_render_options({"shading": ["flat", "toon"]})
+    with pytest.raises(TypeError, match="unknown option 'widht' .did you mean 'width'"):
+        check_render_options({"widht": 3})
+    with pytest.raises(ValueError, match="^render.gamma: must be > 0"):
+        check_render_options({"gamma": -1.0}, where="render")

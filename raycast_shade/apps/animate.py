@@ -2,7 +2,7 @@
 
 :func:`orbit_cameras` turns a camera around its target; :func:`orbit_light`
 moves one light of a scene around it (the scenes share one geometry and
-BVH). :func:`animate` renders either through :func:`raycast_shade.batch.iter_batch`
+BVH). :func:`animate` renders either through :func:`raycast_shade.apps.batch.iter_batch`
 (in this process, on a local Dask cluster or on an existing one) and writes
 the frames with :func:`write_animation` or as a numbered PNG sequence.
 
@@ -23,18 +23,21 @@ The command line ``raycast-shade animate`` is :func:`register_cli` and
 from __future__ import annotations
 
 import argparse
-import contextlib
 import dataclasses
 import os
 import time
-import uuid
 
 import numpy as np
 
 from ..common.choices import ORBITS, VIDEO_EXTS
+from ..common.validate import as_choice
+from ..output.imagefile import atomic_target
 from ..scene.camera import Camera
 from ..scene.lights import DirectionalLight, PointLight
 from ..scene.scene import Scene
+from .args import (add_render_options, add_tone_options, finite_float, nonnegative_int, overrides, positive_float,
+                   positive_int, shading_label)
+from .batch import iter_batch, render_batch
 
 __all__ = ["orbit_cameras", "orbit_light", "write_animation", "animate", "output_kind", "register_cli", "run_cli",
            "ORBITS", "VIDEO_EXTS"]
@@ -229,22 +232,6 @@ def _to_uint8(image, tone: dict) -> np.ndarray:
     return to_uint8(a, **tone)
 
 
-@contextlib.contextmanager
-def _atomic_target(path: str):
-    """A temporary path beside ``path`` (same extension); moved onto it on success."""
-    folder, name = os.path.split(os.path.abspath(path))
-    if not os.path.isdir(folder):
-        raise ValueError(f"output: folder {folder} does not exist")
-    tmp = os.path.join(folder, f".{name}.{uuid.uuid4().hex[:12]}.tmp{os.path.splitext(name)[1].lower()}")
-    try:
-        yield tmp
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
-
-
 def write_animation(images, output, *, fps: float = 12.0, tone: dict | None = None, loop: int = 0) -> int:
     """Write frames as an animated GIF or a video, atomically.
 
@@ -276,8 +263,11 @@ def write_animation(images, output, *, fps: float = 12.0, tone: dict | None = No
         raise ValueError(f"fps: expected a finite number > 0, got {fps!r}")
     tone = dict(tone or {})
     path = os.fspath(output)
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        raise ValueError(f"output: folder {folder} does not exist")
     count = 0
-    with _atomic_target(path) as tmp:
+    with atomic_target(path) as tmp:
         if kind == "gif":
             import imageio.v3 as iio
 
@@ -323,7 +313,7 @@ def write_animation(images, output, *, fps: float = 12.0, tone: dict | None = No
 
 
 def animate(scene: Scene, output, *, orbit: str = "camera", frames: int = 36, light_index: int = 0,
-            degrees: float = 360.0, axis=None, shading: str = "phong", fps: float = 12.0, tone: dict | None = None,
+            degrees: float = 360.0, axis=None, shading="phong", fps: float = 12.0, tone: dict | None = None,
             workers: int | None = None, scheduler=None, progress: bool = True, resume: bool = True,
             frames_per_task: int = 1, **render_kwargs) -> dict:
     """Render an orbit animation and write it.
@@ -346,13 +336,16 @@ def animate(scene: Scene, output, *, orbit: str = "camera", frames: int = 36, li
         Total turn.
     axis : (3,) float, optional
         Default: the camera's up vector.
-    shading : {"flat", "gouraud", "phong"}
+    shading : str or sequence of str
+        ``"flat"``, ``"gouraud"``, ``"phong"`` or ``"auto"`` (any case), or
+        one method per model, as in :func:`raycast_shade.render`.
     fps : float
         Playback rate of GIF and video.
     tone : dict, optional
         :func:`raycast_shade.to_uint8` options.
     workers, scheduler, progress, resume, frames_per_task, **render_kwargs
-        As in :func:`raycast_shade.batch.render_batch`.
+        As in :func:`raycast_shade.apps.batch.render_batch` (``backend``,
+        ``interpolation``, ``caster``, ``max_depth``, ``tolerance``).
 
     Returns
     -------
@@ -360,15 +353,12 @@ def animate(scene: Scene, output, *, orbit: str = "camera", frames: int = 36, li
         ``output``, ``kind`` (``"gif"``, ``"video"``, ``"frames"``),
         ``frames`` and ``seconds``.
     """
-    from .batch import iter_batch, render_batch
-
     t0 = time.perf_counter()
     if not isinstance(scene, Scene):
         raise TypeError(f"scene: expected a Scene, got {type(scene).__name__}")
     if scene.camera is None:
         raise ValueError("scene.camera: an animation needs a camera")
-    if orbit not in ORBITS:
-        raise ValueError(f"orbit: expected one of {list(ORBITS)}, got {orbit!r}")
+    orbit = as_choice(orbit, "orbit", ORBITS)
     kind = output_kind(output)
     if isinstance(fps, bool) or not isinstance(fps, (int, float, np.integer, np.floating)) or not (0 < fps < np.inf):
         raise ValueError(f"fps: expected a finite number > 0, got {fps!r}")
@@ -391,16 +381,6 @@ def animate(scene: Scene, output, *, orbit: str = "camera", frames: int = 36, li
 
 
 # -- command line ----------------------------------------------------------------------------------------
-
-
-def _finite_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not np.isfinite(value):
-        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
-    return value
 
 
 _CLI_EPILOG = """\
@@ -427,10 +407,6 @@ def register_cli(subparsers):
     argparse.ArgumentParser
         The ``animate`` parser; dispatch its parsed arguments to :func:`run_cli`.
     """
-    # The CLI's own argument types (cli imports this module lazily: no cycle).
-    from .cli import _gamma, _positive_float, _positive_int
-    from .cli import _nonnegative_int as _index
-
     p = subparsers.add_parser(
         "animate", help="render a camera turntable or a light orbit as GIF, MP4 or PNG frames",
         description="Render an orbit animation of a TOML scene file: the camera turns about its target "
@@ -439,41 +415,36 @@ def register_cli(subparsers):
         epilog=_CLI_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("scene", metavar="SCENE.toml", help="scene file")
-    p.add_argument("--orbit", choices=ORBITS, default="camera", help="what moves (default: camera)")
-    p.add_argument("--light-index", type=_index, default=0, metavar="I",
+    p.add_argument("--orbit", type=str.lower, choices=ORBITS, default="camera", help="what moves (default: camera)")
+    p.add_argument("--light-index", type=nonnegative_int, default=0, metavar="I",
                    help="the light that moves with --orbit light, from 0 (default: 0)")
-    p.add_argument("--frames", type=_positive_int, default=36, metavar="N", help="number of frames (default: 36)")
-    p.add_argument("--degrees", type=_finite_float, default=360.0, metavar="D",
+    p.add_argument("--frames", type=positive_int, default=36, metavar="N",
+                   help="number of frames (default: 36)")
+    p.add_argument("--degrees", type=finite_float, default=360.0, metavar="D",
                    help="total turn in degrees (default: 360, a seamless loop)")
-    p.add_argument("--shading", choices=("flat", "gouraud", "phong"),
-                   help="shading mode (default: the file's [render] shading, else phong)")
-    p.add_argument("--width", type=_positive_int, metavar="W", help="image width in pixels")
-    p.add_argument("--height", type=_positive_int, metavar="H", help="image height in pixels")
+    add_render_options(p)
     p.add_argument("-o", "--output", metavar="PATH",
                    help="out.gif, out.mp4 (.m4v, .mov, .mkv) or a folder/ for numbered PNG frames "
                         "(default: the scene file's name + _ORBIT.gif, here)")
-    p.add_argument("--fps", type=_positive_float, default=12.0, metavar="F",
+    p.add_argument("--fps", type=positive_float, default=12.0, metavar="F",
                    help="frames per second of GIF and video (default: 12)")
     where = p.add_mutually_exclusive_group()
-    where.add_argument("--workers", type=_positive_int, metavar="N",
+    where.add_argument("--workers", type=positive_int, metavar="N",
                        help="render on a local Dask cluster of N single-threaded worker processes")
     where.add_argument("--scheduler", metavar="ADDR", help="render on an existing Dask cluster, e.g. tcp://host:8786")
-    p.add_argument("--frames-per-task", type=_positive_int, default=1, metavar="K",
+    p.add_argument("--frames-per-task", type=positive_int, default=1, metavar="K",
                    help="frames rendered by one Dask task (default: 1; more spreads Dask's per-task cost)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    tone = p.add_argument_group("tone mapping")
-    tone.add_argument("--exposure", type=_positive_float, metavar="E", help="multiply the radiance by E (default: 1)")
-    tone.add_argument("--tonemap", choices=("clamp", "reinhard", "exponential"), help="range compression (default: clamp)")
-    tone.add_argument("--gamma", type=_gamma, metavar="G|srgb", help="encoding: srgb (default), or x**(1/G)")
+    add_tone_options(p, "tone mapping")
     return p
 
 
-def run_cli(args) -> int:
+def run_cli(ns) -> int:
     """Run ``raycast-shade animate`` with parsed arguments.
 
     Parameters
     ----------
-    args : argparse.Namespace
+    ns : argparse.Namespace
         From the parser :func:`register_cli` added.
 
     Returns
@@ -486,38 +457,28 @@ def run_cli(args) -> int:
     ValueError, TypeError, OSError
         For anything the user can fix (the caller prints it on one line).
     """
-    from ..scene.scenefile import load_scene
+    from ..scene.scenefile import load_for_render
 
-    scene, options = load_scene(args.scene)
+    scene, render_kwargs, tone = load_for_render(ns.scene, **overrides(ns))
     camera = scene.camera
-    size = {k: v for k, v in (("width", args.width), ("height", args.height)) if v is not None}
-    if size:
-        camera = camera.replace(**size)
-        scene = scene.replace(camera=camera)
-    if args.orbit == "light":
+    if ns.orbit == "light":
         n = len(scene.lights)
         if n == 0:
-            raise ValueError(f"--orbit light: {args.scene} has no [[light]] to move")
-        if args.light_index >= n:
-            raise ValueError(f"--light-index: {args.scene} has {n} light(s), so 0..{n - 1}; got {args.light_index}")
-    shading = args.shading or options.get("shading", "phong")
-    tone = {}
-    for key in ("exposure", "tonemap", "gamma"):
-        value = getattr(args, key, None)
-        if value is None:
-            value = options.get(key)
-        if value is not None:
-            tone[key] = value
-    output = args.output
+            raise ValueError(f"--orbit light: {ns.scene} has no [[light]] to move")
+        if ns.light_index >= n:
+            raise ValueError(f"--light-index: {ns.scene} has {n} light(s), so 0..{n - 1}; got {ns.light_index}")
+    shading = render_kwargs.pop("shading", "phong")
+    output = ns.output
     if output is None:
-        output = f"{os.path.splitext(os.path.basename(args.scene))[0]}_{args.orbit}.gif"
-    result = animate(scene, output, orbit=args.orbit, frames=args.frames, light_index=args.light_index,
-                     degrees=args.degrees, shading=shading, fps=args.fps, tone=tone, workers=args.workers,
-                     scheduler=args.scheduler, progress=not args.no_progress,
-                     frames_per_task=getattr(args, "frames_per_task", 1))
-    where = (f"{args.workers} local workers" if args.workers else
-             f"cluster {args.scheduler}" if args.scheduler else "this process")
+        output = f"{os.path.splitext(os.path.basename(ns.scene))[0]}_{ns.orbit}.gif"
+    result = animate(scene, output, orbit=ns.orbit, frames=ns.frames, light_index=ns.light_index,
+                     degrees=ns.degrees, shading=shading, fps=ns.fps, tone=tone, workers=ns.workers,
+                     scheduler=ns.scheduler, progress=not ns.no_progress,
+                     frames_per_task=getattr(ns, "frames_per_task", 1), **render_kwargs)
+    where = (f"{ns.workers} local workers" if ns.workers else
+             f"cluster {ns.scheduler}" if ns.scheduler else "this process")
     secs = result["seconds"]
-    print(f"wrote {result['output']} ({result['frames']} frames, {camera.width}x{camera.height}, {shading}, "
-          f"{args.orbit} orbit, {where}): {secs:.1f} s, {result['frames'] / secs:.1f} frames/s")
+    print(f"wrote {result['output']} ({result['frames']} frames, {camera.width}x{camera.height}, "
+          f"{shading_label(shading)}, {ns.orbit} orbit, {where}): {secs:.1f} s, "
+          f"{result['frames'] / secs:.1f} frames/s")
     return 0

@@ -17,6 +17,9 @@ import sys
 import time
 import warnings
 
+from ..common.choices import EIGHT_BIT_EXTS, LINEAR_EXTS
+from .args import add_render_options, add_tone_options, overrides, positive_int, shading_label
+
 __all__ = ["main", "build_parser"]
 
 PROG = "raycast-shade"
@@ -46,54 +49,12 @@ class _Parser(argparse.ArgumentParser):
         raise _UsageError(f"{message} (see {self.prog} --help)")
 
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer > 0, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected an integer > 0, got {text!r}")
-    return value
-
-
-def _nonnegative_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}")
-    return value
-
-
-def _positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}") from None
-    if not (value > 0 and value < float("inf")):
-        raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text!r}")
-    return value
-
-
-def _gamma(text: str):
-    if text.lower() == "srgb":
-        return "srgb"
-    try:
-        return _positive_float(text)
-    except argparse.ArgumentTypeError:
-        raise argparse.ArgumentTypeError(f"expected 'srgb' or a number > 0, got {text!r}") from None
-
-
-def _add_output_options(p, default_output: str | None):
+def _add_output_option(p, default_output: str | None):
     default = f" (default: {default_output})" if default_output else " (default: the scene file's name, .png, here)"
     p.add_argument("-o", "--output", metavar="PATH",
-                   help=f"image to write: .png, .jpg, .bmp, .tif, .gif, .webp (tone-mapped 8-bit), .pfm or .npy (linear float32){default}")
-    tone = p.add_argument_group("tone mapping (8-bit formats only)")
-    tone.add_argument("--exposure", type=_positive_float, metavar="E", help="multiply the radiance by E (default: 1)")
-    tone.add_argument("--tonemap", choices=("clamp", "reinhard", "exponential"),
-                      help="range compression (default: clamp, which keeps values <= 1 exact)")
-    tone.add_argument("--gamma", type=_gamma, metavar="G|srgb", help="encoding: srgb (default), or x**(1/G)")
+                   help=f"image to write: {', '.join(EIGHT_BIT_EXTS)} (tone-mapped 8-bit), "
+                        f"{' or '.join(LINEAR_EXTS)} (linear float32){default}")
+    add_tone_options(p)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -117,12 +78,12 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="example:\n  raycast-shade demo -o demo.png --width 640 --height 200",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    demo.add_argument("--width", type=_positive_int, default=DEFAULT_WIDTH, metavar="W",
+    demo.add_argument("--width", type=positive_int, default=DEFAULT_WIDTH, metavar="W",
                       help="panel width (default: %(default)s)")
-    demo.add_argument("--height", type=_positive_int, default=DEFAULT_HEIGHT, metavar="H",
+    demo.add_argument("--height", type=positive_int, default=DEFAULT_HEIGHT, metavar="H",
                       help="panel height; the image is 3 H + 4 pixels tall (default: %(default)s)")
     demo.add_argument("--no-labels", action="store_true", help="leave out the FLAT / GOURAUD / PHONG labels")
-    _add_output_options(demo, "demo.png")
+    _add_output_option(demo, "demo.png")
 
     render = sub.add_parser(
         "render", help="render a TOML scene file",
@@ -135,23 +96,8 @@ def build_parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     render.add_argument("scene", metavar="SCENE.toml", help="scene file")
-    render.add_argument("--shading", choices=("flat", "gouraud", "phong", "auto"),
-                        help="shading mode; auto picks per model the cheapest method within --tolerance "
-                             "(default: the file's [render] shading, else phong)")
-    render.add_argument("--tolerance", type=float, default=0.01, metavar="E",
-                        help="error budget of --shading auto, linear intensity (default: %(default)s)")
-    render.add_argument("--width", type=_positive_int, metavar="W", help="image width in pixels")
-    render.add_argument("--height", type=_positive_int, metavar="H", help="image height in pixels")
-    _add_output_options(render, None)
-    adv = render.add_argument_group("pipeline")
-    adv.add_argument("--caster", choices=("auto", "embree", "embreex"), default="auto",
-                     help="ray caster: direct Embree packets, or embreex's API (default: auto)")
-    adv.add_argument("--backend", choices=("raycast", "raster"), default="raycast",
-                     help="visibility by ray casting or by the reference z-buffer rasterizer (default: raycast)")
-    adv.add_argument("--interpolation", choices=("perspective", "screen"), default="perspective",
-                     help="barycentrics of the 3D hit point, or affine in screen space (default: perspective)")
-    adv.add_argument("--max-depth", type=_nonnegative_int, metavar="N",
-                     help="mirror bounces for reflective materials (default: the file's [render] max_depth, else 3)")
+    add_render_options(render)
+    _add_output_option(render, None)
 
     from .animate import register_cli
 
@@ -183,31 +129,20 @@ def _check_output(path: str) -> str:
     return path
 
 
-def _tone_kwargs(args, options: dict) -> dict:
-    kw = {}
-    for key in ("exposure", "tonemap", "gamma"):
-        value = getattr(args, key)
-        if value is None:
-            value = options.get(key)
-        if value is not None:
-            kw[key] = value
-    return kw
-
-
-def _save(path: str, image, tone: dict) -> float:
-    """Write a linear float image like :meth:`Frame.save`; returns seconds."""
-    from ..output.imagefile import write_image
-
+def _save(path: str, frame) -> float:
+    """Write a frame with its tone options (:meth:`Frame.save`); returns seconds."""
     t0 = time.perf_counter()
-    write_image(path, image, **tone)
+    frame.save(path)
     return time.perf_counter() - t0
 
 
 def _cmd_demo(args) -> int:
+    from ..output.imagefile import write_image
+    from ..scene.scenefile import TONE_KEYS
     from .demo import LABELS, compose, render_demo_frames
 
     out = _check_output(args.output or "demo.png")
-    tone = _tone_kwargs(args, {})
+    tone = {k: v for k, v in overrides(args).items() if k in TONE_KEYS}
     t0 = time.perf_counter()
     frames = render_demo_frames(args.width, args.height)
     image = compose([f.image for f in frames], None if args.no_labels else LABELS)
@@ -216,7 +151,9 @@ def _cmd_demo(args) -> int:
         for k, v in f.timings.items():
             if k != "total":
                 timings[k] = timings.get(k, 0.0) + v
-    timings["save"] = _save(out, image, tone)
+    ts = time.perf_counter()
+    write_image(out, image, **tone)
+    timings["save"] = time.perf_counter() - ts
     timings["total"] = time.perf_counter() - t0
     h, w = image.shape[:2]
     print(_timing_line(out, f"{w}x{h}, flat | gouraud | phong", timings))
@@ -224,34 +161,23 @@ def _cmd_demo(args) -> int:
 
 
 def _cmd_render(args) -> int:
-    from ..render import render
-    from ..scene.scenefile import load_scene
+    from ..render import render_file
 
     out = _check_output(args.output or os.path.splitext(os.path.basename(args.scene))[0] + ".png")
     t0 = time.perf_counter()
-    scene, options = load_scene(args.scene)
-    t_load = time.perf_counter() - t0
-    camera = scene.camera
-    size = {k: v for k, v in (("width", args.width), ("height", args.height)) if v is not None}
-    if size:
-        camera = camera.replace(**size)
-    shading = args.shading or options.get("shading", "phong")
-    tone = _tone_kwargs(args, options)
-    extra = {}
-    max_depth = args.max_depth if args.max_depth is not None else options.get("max_depth")
-    if max_depth is not None:
-        extra["max_depth"] = max_depth
     try:
-        frame = render(scene, shading, camera=camera, backend=args.backend, interpolation=args.interpolation,
-                       caster=args.caster, tolerance=args.tolerance, **extra)
+        frame = render_file(args.scene, **overrides(args))
     except ImportError as exc:
-        raise RuntimeError(f"--backend {args.backend} --interpolation {args.interpolation} is not available in "
-                           f"this installation ({exc})") from None
-    timings = {"load": t_load}
+        raise RuntimeError(f"{args.scene}: its pipeline options are not available in this installation "
+                           f"({exc})") from None
+    # Everything but the render is the loading of the file (and its meshes).
+    timings = {"load": time.perf_counter() - t0 - frame.timings["total"]}
     timings.update((k, v) for k, v in frame.timings.items() if k != "total")
-    timings["save"] = _save(out, frame.image, tone)
+    timings["save"] = _save(out, frame)
     timings["total"] = time.perf_counter() - t0
-    print(_timing_line(out, f"{camera.width}x{camera.height}, {shading}", timings))
+    camera = frame.camera
+    what = "auto" if frame.decisions else shading_label(frame.shading)
+    print(_timing_line(out, f"{camera.width}x{camera.height}, {what}", timings))
     for d in frame.decisions:  # shading="auto": what each model got, and why
         print(f"  {d.name}: {d.method} ({d.reason})")
     return 0

@@ -32,6 +32,10 @@ class Frame:
         only), ``cast``, ``shade``, ``total``.
     decisions : tuple of Decision
         With ``shading="auto"``: each model's method and the reason.
+    tone : dict
+        Default ``exposure``, ``tonemap``, ``gamma`` of :meth:`to_uint8` and
+        :meth:`save` (keywords given there win): a scene file's, from
+        :func:`raycast_shade.render_file`; empty from :func:`raycast_shade.render`.
     """
 
     image: np.ndarray
@@ -41,6 +45,7 @@ class Frame:
     camera: object = None
     timings: dict = field(default_factory=dict)
     decisions: tuple = ()
+    tone: dict = field(default_factory=dict)
 
     @property
     def method(self) -> np.ndarray:
@@ -82,15 +87,16 @@ class Frame:
 
     def to_uint8(self, **kwargs) -> np.ndarray:
         """8-bit sRGB image; see :func:`raycast_shade.tonemap.to_uint8`."""
-        return to_uint8(self.image, **kwargs)
+        return to_uint8(self.image, **{**self.tone, **kwargs})
 
     def save(self, path, **kwargs) -> None:
         """Write the image: ``.pfm`` (float32) or ``.npy`` losslessly; PNG, JPEG,
-        BMP, TIFF, GIF or WebP in 8 bits after :meth:`to_uint8` with ``kwargs``.
+        BMP, TIFF, GIF or WebP in 8 bits after :meth:`to_uint8` with ``kwargs``
+        (over :attr:`tone`).
 
         Raises
         ------
         ValueError
             For any other extension (see :mod:`raycast_shade.imagefile`).
         """
-        write_image(path, self.image, **kwargs)
+        write_image(path, self.image, **{**self.tone, **kwargs})

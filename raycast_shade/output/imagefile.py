@@ -9,18 +9,29 @@
 Anything else is refused before rendering: imageio falls back to TIFF for
 extensions it has no writer for, so ``out.exr`` would otherwise be an 8-bit
 TIFF under a float format's name.
+
+``write_image(path, image, atomic=True)`` writes through a temporary file in
+the destination folder (:func:`atomic_target`), so a reader, or a resumed
+batch, sees the old file or the whole new one, never half a file.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
+import re
+import uuid
 
 import numpy as np
 
-__all__ = ["LINEAR_EXTS", "EIGHT_BIT_EXTS", "check_image_path", "write_image", "write_png"]
-
 from ..common.choices import EIGHT_BIT_EXTS, LINEAR_EXTS
+
+__all__ = ["LINEAR_EXTS", "EIGHT_BIT_EXTS", "check_image_path", "write_image", "write_png", "atomic_target",
+           "remove_stale_temps"]
+
 _FLOAT_FORMATS = (".exr", ".hdr", ".rgbe", ".fits", ".fit")
+# What atomic_target names its temporaries: ".<name>.<12 hex digits>.tmp<ext>".
+_TMP_RE = re.compile(r"^\.(?P<name>.+)\.[0-9a-f]{12}\.tmp(\.[^.]*)?$")
 
 
 def check_image_path(path, field: str = "path") -> str:
@@ -44,7 +55,66 @@ def check_image_path(path, field: str = "path") -> str:
     return ext
 
 
-def write_image(path, image, **tone) -> None:
+@contextlib.contextmanager
+def atomic_target(path):
+    """A temporary path beside ``path``, moved onto it when the block succeeds.
+
+    The temporary has the same extension (writers pick the format by it) and
+    is flushed to disk before one :func:`os.replace`; on any error it is
+    deleted and ``path`` is left as it was.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The destination; its folder must exist.
+
+    Yields
+    ------
+    str
+        The temporary path to write.
+    """
+    folder, name = os.path.split(os.path.abspath(os.fspath(path)))
+    tmp = os.path.join(folder, f".{name}.{uuid.uuid4().hex[:12]}.tmp{os.path.splitext(name)[1].lower()}")
+    try:
+        yield tmp
+        fd = os.open(tmp, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+def remove_stale_temps(folder, names) -> int:
+    """Delete the temporaries that a killed :func:`atomic_target` left for ``names``.
+
+    Parameters
+    ----------
+    folder : str or path-like
+    names : iterable of str
+        Destination file names (without folder) whose temporaries go.
+
+    Returns
+    -------
+    int
+        Files removed.
+    """
+    names = set(names)
+    removed = 0
+    for entry in os.listdir(folder):
+        m = _TMP_RE.match(entry)
+        if m and m.group("name") in names:
+            with contextlib.suppress(OSError):
+                os.unlink(os.path.join(folder, entry))
+                removed += 1
+    return removed
+
+
+def write_image(path, image, *, atomic: bool = False, **tone) -> str:
     """Write ``image`` to ``path`` in the format its extension names.
 
     Parameters
@@ -53,13 +123,31 @@ def write_image(path, image, **tone) -> None:
         See :func:`check_image_path` for the extensions.
     image : (H, W, 3) float
         Linear RGB.
+    atomic : bool
+        Write a temporary file in the same folder, then move it onto
+        ``path`` (:func:`atomic_target`): never half a file at ``path``.
     **tone
         ``exposure``, ``tonemap``, ``gamma`` of :func:`~raycast_shade.tonemap.to_uint8`
         (8-bit formats only).
+
+    Returns
+    -------
+    str
+        ``path``.
     """
+    path = os.fspath(path)
+    check_image_path(path)
+    if atomic:
+        with atomic_target(path) as tmp:
+            _write(tmp, image, tone)
+    else:
+        _write(path, image, tone)
+    return path
+
+
+def _write(path: str, image, tone: dict) -> None:
     from .tonemap import to_uint8, write_pfm
 
-    path = os.fspath(path)
     ext = check_image_path(path)
     if ext == ".pfm":
         write_pfm(path, image)

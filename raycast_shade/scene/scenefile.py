@@ -37,8 +37,10 @@ to render it. The full reference is ``docs/scene-files.md``; in short::
     direction = [-1.0, -0.5, -1.0]
     color = [0.3, 0.4, 1.0]
 
-    [render]                            # optional: shading, width, height,
-    shading = "phong"                   # max_depth, exposure, tonemap, gamma
+    [render]                            # optional: shading (a method, "auto" or
+    shading = "phong"                   # one per object), width, height, max_depth,
+                                        # backend, interpolation, caster, tolerance,
+                                        # exposure, tonemap, gamma
 
 Unknown keys are errors, and every error names the table and key it comes
 from, e.g. ``object[1].material: unknown key 'shinyness' (did you mean
@@ -59,7 +61,8 @@ except ModuleNotFoundError:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
 from . import shapes as _shapes
-from ..common.choices import SHADINGS, TONEMAPS, WEIGHTINGS
+from ..common.choices import (BACKENDS, CASTER_CHOICES, INTERPOLATIONS, SHADING_CHOICES, SHADINGS, TONEMAPS,
+                              WEIGHTINGS)
 from ..common.validate import as_choice, as_int, as_rgb, as_scalar, as_vec3
 from .camera import Camera
 from .lights import DirectionalLight, PointLight
@@ -67,7 +70,8 @@ from .material import Material
 from .mesh import Mesh
 from .scene import Model, Scene
 
-__all__ = ["load_scene", "scene_from_dict", "SceneFileError"]
+__all__ = ["load_scene", "load_for_render", "scene_from_dict", "SceneFileError", "check_render_options",
+           "split_options", "RENDER_KEYS", "SIZE_KEYS", "TONE_KEYS"]
 
 _TOP_KEYS = ("ambient", "background", "camera", "object", "light", "render")
 _CAMERA_KEYS = ("eye", "target", "up", "fov", "width", "height", "projection", "ortho_height")
@@ -85,7 +89,10 @@ _LIGHT_KEYS = {
     "point": ("type", "position", "intensity", "color", "attenuation", "k", "shadows", "name"),
     "directional": ("type", "direction", "intensity", "color", "shadows", "name"),
 }
-_RENDER_KEYS = ("shading", "width", "height", "max_depth", "exposure", "tonemap", "gamma")
+# The [render] table: the camera's size, render()'s options, and to_uint8()'s for 8-bit files.
+SIZE_KEYS = ("width", "height")
+TONE_KEYS = ("exposure", "tonemap", "gamma")
+RENDER_KEYS = ("shading",) + SIZE_KEYS + ("max_depth", "backend", "interpolation", "caster", "tolerance") + TONE_KEYS
 _NORMALS = ("auto", "computed")
 
 
@@ -270,28 +277,105 @@ def _light(table: dict, where: str):
     return _call(where, DirectionalLight, **kw)
 
 
-def _render_options(table) -> dict:
-    opts = dict(_table(table, "render"))
-    _check_keys(opts, "render", _RENDER_KEYS)
+def _shading(value, name: str):
+    """A method name, ``"auto"``, or one method per model (a non-empty sequence)."""
+    if isinstance(value, str):
+        return as_choice(value, name, SHADING_CHOICES)
+    if isinstance(value, (bytes, dict)) or not hasattr(value, "__iter__"):
+        raise TypeError(f"{name}: expected one of {list(SHADING_CHOICES)} or one method per model, "
+                        f"got {type(value).__name__}")
+    names = tuple(value)
+    if not names:
+        raise ValueError(f"{name}: expected one method per model, got an empty list")
+    return tuple(as_choice(m, f"{name}[{i}]", SHADINGS) for i, m in enumerate(names))
+
+
+def _gamma(value, name: str):
+    if isinstance(value, str):
+        return as_choice(value, name, ("srgb",))
+    return as_scalar(value, name, minimum=0.0, exclusive=True)
+
+
+# How each [render] entry (and each override of one) is checked: fn(value, field name) -> value.
+_RENDER_CHECKS = {
+    "shading": _shading,
+    "width": lambda v, name: as_int(v, name, minimum=1),
+    "height": lambda v, name: as_int(v, name, minimum=1),
+    "max_depth": lambda v, name: as_int(v, name, minimum=0),
+    "backend": lambda v, name: as_choice(v, name, BACKENDS),
+    "interpolation": lambda v, name: as_choice(v, name, INTERPOLATIONS),
+    "caster": lambda v, name: as_choice(v, name, CASTER_CHOICES),
+    "tolerance": lambda v, name: as_scalar(v, name, minimum=0.0, exclusive=True),
+    "exposure": lambda v, name: as_scalar(v, name, minimum=0.0, exclusive=True),
+    "tonemap": lambda v, name: as_choice(v, name, TONEMAPS),
+    "gamma": _gamma,
+}
+assert tuple(_RENDER_CHECKS) == RENDER_KEYS
+
+
+def check_render_options(options: dict, where: str = "") -> dict:
+    """Validate ``[render]`` entries, or keyword overrides of them.
+
+    Every front-end (scene files, :func:`raycast_shade.render_file`, the
+    command line, batches and animations) checks its options here, so they
+    accept the same names: choices case-insensitively (returned lower-case),
+    ``shading`` as one method, ``"auto"`` or one method per model.
+
+    Parameters
+    ----------
+    options : dict
+        Keys among :data:`RENDER_KEYS`.
+    where : str
+        Prefix of the field names in messages (``"render"``: ``render.shading``).
+
+    Returns
+    -------
+    dict
+        The entries given, normalised (``shading`` per model as a tuple).
+
+    Raises
+    ------
+    TypeError
+        For an unknown key or a value of the wrong type, naming it.
+    ValueError
+        For a value out of range or not among the choices, naming it.
+    """
+    if not isinstance(options, dict):
+        raise TypeError(f"{where or 'options'}: expected a table of options, got {_kind(options)}")
     out = {}
-    if "shading" in opts:
-        out["shading"] = _choice(opts["shading"], "render.shading", SHADINGS + ("auto",))
-    for key in ("width", "height"):
-        if key in opts:
-            out[key] = _call("render", as_int, opts[key], f"render.{key}", minimum=1)
-    if "max_depth" in opts:
-        out["max_depth"] = _call("render", as_int, opts["max_depth"], "render.max_depth", minimum=0)
-    if "exposure" in opts:
-        out["exposure"] = _call("render", as_scalar, opts["exposure"], "render.exposure", minimum=0.0, exclusive=True)
-    if "tonemap" in opts:
-        out["tonemap"] = _choice(opts["tonemap"], "render.tonemap", TONEMAPS)
-    if "gamma" in opts:
-        g = opts["gamma"]
-        if isinstance(g, str):
-            out["gamma"] = _choice(g, "render.gamma", ("srgb",))
-        else:
-            out["gamma"] = _call("render", as_scalar, g, "render.gamma", minimum=0.0, exclusive=True)
+    for key, value in options.items():
+        name = f"{where}.{key}" if where else key
+        check = _RENDER_CHECKS.get(key)
+        if check is None:
+            hint = difflib.get_close_matches(str(key), RENDER_KEYS, n=1)
+            tail = f"did you mean {hint[0]!r}?" if hint else f"expected some of {', '.join(RENDER_KEYS)}"
+            raise TypeError(f"{where or 'options'}: unknown option {key!r} ({tail})")
+        out[key] = check(value, name)
     return out
+
+
+def split_options(options: dict) -> tuple:
+    """Sort validated ``[render]`` entries by where they apply.
+
+    Returns
+    -------
+    size : dict
+        ``width``, ``height``: the camera's.
+    render : dict
+        Keywords of :func:`raycast_shade.render`: ``shading`` and the pipeline options.
+    tone : dict
+        Keywords of :func:`raycast_shade.to_uint8`: ``exposure``, ``tonemap``, ``gamma``.
+    """
+    size = {k: v for k, v in options.items() if k in SIZE_KEYS}
+    tone = {k: v for k, v in options.items() if k in TONE_KEYS}
+    render = {k: v for k, v in options.items() if k not in SIZE_KEYS + TONE_KEYS}
+    return size, render, tone
+
+
+def _render_options(table) -> dict:
+    opts = _table(table, "render")
+    _check_keys(opts, "render", RENDER_KEYS)
+    return {k: _call("render", _RENDER_CHECKS[k], v, f"render.{k}") for k, v in opts.items()}
 
 
 def _build(data: dict, base_dir: str):
@@ -309,6 +393,9 @@ def _build(data: dict, base_dir: str):
         mesh = _mesh(obj, where, base_dir)
         material = _material(obj.get("material", {}), f"{where}.material", base_dir)
         models.append(Model(mesh, material))
+    shading = options.get("shading")
+    if isinstance(shading, tuple) and len(shading) != len(models):
+        raise _Invalid("render.shading", f"expected one method per [[object]] ({len(models)}), got {len(shading)}")
     lights = [_light(t, f"light[{i}]") for i, t in enumerate(_tables(data, "light"))]
     ambient = _call("ambient", as_rgb, data.get("ambient", 0.1), "ambient")
     background = _call("background", as_rgb, data.get("background", 0.0), "background")
@@ -331,8 +418,8 @@ def scene_from_dict(data: dict, base_dir=".", source: str = "<scene>"):
     -------
     scene : Scene
     options : dict
-        The ``[render]`` entries that were given, validated: ``shading``,
-        ``width``, ``height``, ``exposure``, ``tonemap``, ``gamma``.
+        The ``[render]`` entries that were given, validated (see
+        :func:`check_render_options`; :func:`split_options` sorts them).
 
     Raises
     ------
@@ -369,7 +456,10 @@ def load_scene(path):
     Examples
     --------
     >>> scene, options = load_scene("examples/shapes.toml")  # doctest: +SKIP
-    >>> frame = render(scene, shading=options.get("shading", "phong"))  # doctest: +SKIP
+    >>> size, kwargs, tone = split_options(options)  # doctest: +SKIP
+    >>> frame = render(scene, **kwargs)  # doctest: +SKIP
+
+    :func:`raycast_shade.render_file` does this in one call.
     """
     path = os.fspath(path)
     with open(path, "rb") as fh:
@@ -381,3 +471,47 @@ def load_scene(path):
     except tomllib.TOMLDecodeError as exc:
         raise SceneFileError(f"{path}: invalid TOML: {exc}") from None
     return scene_from_dict(data, os.path.dirname(os.path.abspath(path)), source=path)
+
+
+def load_for_render(path, **overrides):
+    """Read a scene file and apply ``overrides`` to its ``[render]`` options.
+
+    Every front-end that renders a file (:func:`raycast_shade.render_file`,
+    ``raycast-shade render`` and ``animate``) goes through here, so they
+    share one precedence: an override beats ``[render]``, which beats
+    ``[camera]``.
+
+    Parameters
+    ----------
+    path : str or path-like
+    **overrides
+        ``[render]`` entries (see :func:`check_render_options`); ``None``
+        keeps the file's value.
+
+    Returns
+    -------
+    scene : Scene
+        Its camera sized by ``width``/``height``.
+    render_kwargs : dict
+        Keywords of :func:`raycast_shade.render`: ``shading`` and the
+        pipeline options given (file or override).
+    tone : dict
+        ``exposure``, ``tonemap``, ``gamma`` given.
+
+    Raises
+    ------
+    SceneFileError
+        For an invalid file.
+    TypeError, ValueError
+        For an invalid override, naming it; checked before the file is read.
+    """
+    given = check_render_options({k: v for k, v in overrides.items() if v is not None})
+    scene, options = load_scene(path)
+    size, render_kwargs, tone = split_options({**options, **given})
+    shading = render_kwargs.get("shading")
+    if isinstance(shading, tuple) and len(shading) != len(scene.models):
+        raise ValueError(f"shading: expected one method per [[object]] of {os.fspath(path)} "
+                         f"({len(scene.models)}), got {len(shading)}")
+    if size:
+        scene = scene.replace(camera=scene.camera.replace(**size))
+    return scene, render_kwargs, tone

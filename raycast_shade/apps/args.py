@@ -1,0 +1,130 @@
+"""Command-line argument types and the option groups several commands share.
+
+``raycast-shade render`` and ``raycast-shade animate`` take the same render
+options (:func:`add_render_options`) and every command the same tone options
+(:func:`add_tone_options`); their choices come from
+:mod:`raycast_shade.common.choices` and are case-insensitive, and
+:func:`overrides` hands what was given to the scene file's checks
+(:func:`raycast_shade.scene.scenefile.check_render_options`), so the command
+line accepts what a scene file and Python accept.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from ..common.choices import BACKENDS, CASTER_CHOICES, INTERPOLATIONS, SHADING_CHOICES, SHADINGS, TONEMAPS
+from ..scene.scenefile import RENDER_KEYS
+
+__all__ = ["positive_int", "nonnegative_int", "positive_float", "finite_float", "gamma", "shading",
+           "add_render_options", "add_tone_options", "overrides", "shading_label"]
+
+
+def positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer > 0, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected an integer > 0, got {text!r}")
+    return value
+
+
+def nonnegative_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}")
+    return value
+
+
+def positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}") from None
+    if not (value > 0 and value < float("inf")):
+        raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text!r}")
+    return value
+
+
+def finite_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not np.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return value
+
+
+def gamma(text: str):
+    if text.lower() == "srgb":
+        return "srgb"
+    try:
+        return positive_float(text)
+    except argparse.ArgumentTypeError:
+        raise argparse.ArgumentTypeError(f"expected 'srgb' or a number > 0, got {text!r}") from None
+
+
+def shading(text: str):
+    """A method or ``auto`` (any case), or one method per model: ``flat,phong``."""
+    names = [t.strip().lower() for t in text.split(",")]
+    if len(names) == 1 and names[0] in SHADING_CHOICES:
+        return names[0]
+    bad = next((n for n in names if n not in SHADINGS), None) if len(names) > 1 else text
+    if bad is not None:
+        raise argparse.ArgumentTypeError(f"invalid choice: {bad!r} (choose from {', '.join(SHADING_CHOICES)}, "
+                                         f"or one of {', '.join(SHADINGS)} per model, comma-separated)")
+    return tuple(names)
+
+
+def shading_label(value) -> str:
+    """How a shading value reads on the command line."""
+    return value if isinstance(value, str) else ",".join(value)
+
+
+def _choice(parser, flag: str, choices, help: str, default_text: str):
+    parser.add_argument(flag, type=str.lower, choices=choices, help=f"{help} (default: {default_text})")
+
+
+def add_render_options(p) -> None:
+    """--shading, --tolerance, --width, --height and the pipeline group of ``p``.
+
+    Every default is None: the scene file's ``[render]`` value, else the library's.
+    """
+    p.add_argument("--shading", type=shading, metavar="{" + ",".join(SHADING_CHOICES) + "}",
+                   help="shading method, any case; auto picks per model the cheapest method within --tolerance; "
+                        "or one method per [[object]], comma-separated (default: the file's [render] shading, "
+                        "else phong)")
+    p.add_argument("--tolerance", type=positive_float, metavar="E",
+                   help="error budget of --shading auto, linear intensity (default: the file's, else 0.01)")
+    p.add_argument("--width", type=positive_int, metavar="W", help="image width in pixels")
+    p.add_argument("--height", type=positive_int, metavar="H", help="image height in pixels")
+    adv = p.add_argument_group("pipeline")
+    _choice(adv, "--caster", CASTER_CHOICES, "ray caster: direct Embree packets, or embreex's API",
+            "the file's, else auto")
+    _choice(adv, "--backend", BACKENDS,
+            "visibility by ray casting or by the reference z-buffer rasterizer", "the file's, else raycast")
+    _choice(adv, "--interpolation", INTERPOLATIONS,
+            "barycentrics of the 3D hit point, or affine in screen space", "the file's, else perspective")
+    adv.add_argument("--max-depth", type=nonnegative_int, metavar="N",
+                     help="mirror bounces for reflective materials (default: the file's [render] max_depth, else 3)")
+
+
+def add_tone_options(p, title: str = "tone mapping (8-bit formats only)") -> None:
+    """--exposure, --tonemap, --gamma, in their own group of ``p``."""
+    tone = p.add_argument_group(title)
+    tone.add_argument("--exposure", type=positive_float, metavar="E", help="multiply the radiance by E (default: 1)")
+    tone.add_argument("--tonemap", type=str.lower, choices=TONEMAPS,
+                      help="range compression (default: clamp, which keeps values <= 1 exact)")
+    tone.add_argument("--gamma", type=gamma, metavar="G|srgb", help="encoding: srgb (default), or x**(1/G)")
+
+
+def overrides(args) -> dict:
+    """The ``[render]`` options given on the command line (those not None)."""
+    return {k: getattr(args, k) for k in RENDER_KEYS if getattr(args, k, None) is not None}

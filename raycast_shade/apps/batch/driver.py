@@ -1,0 +1,163 @@
+"""The batch entry points: check everything, plan, then run serially or on Dask."""
+
+from __future__ import annotations
+
+import os
+
+from ...output.imagefile import remove_stale_temps
+from .cache import SceneCache
+from .options import check_counts, check_options, check_shading_fits
+from .plan import plan_batch
+from .serial import iter_serial
+
+__all__ = ["iter_batch", "render_batch"]
+
+
+class _NoBar:
+    def update(self, n=1):
+        pass
+
+    def close(self):
+        pass
+
+
+def _progress_bar(enabled, total, initial, desc):
+    if not enabled:
+        return _NoBar()
+    try:
+        from tqdm.auto import tqdm
+    except ImportError:
+        return _NoBar()
+    return tqdm(total=total, initial=initial, desc=desc, unit="frame", dynamic_ncols=True)
+
+
+def _label(shading) -> str:
+    return shading if isinstance(shading, str) else ",".join(shading)
+
+
+def iter_batch(scene_or_scenes, cameras=None, lights=None, *, shading="phong", out_dir=None,
+               pattern: str = "frame_{:05d}.png", workers: int | None = None, scheduler=None, progress: bool = True,
+               retries: int = 2, resume: bool = True, tone: dict | None = None, numba_threads: int | None = None,
+               frames_per_task: int = 1, window: int | None = None, cache: SceneCache | None = None,
+               **render_kwargs):
+    """Render a batch, yielding each frame's result in frame order.
+
+    Same parameters as :func:`render_batch`, plus ``window``: at most that
+    many frames are in flight or held for reordering at once when images
+    are returned from Dask, which bounds memory for long animations
+    streamed to a writer (default: as many as fit in 256 MiB of float32
+    images, and at least 4 tasks per worker).
+
+    Yields
+    ------
+    (H, W, 3) float32 ndarray or str
+        The linear image, or the written path when ``out_dir`` is given.
+    """
+    options = check_options(shading, render_kwargs, tone, resume)
+    check_counts(retries, frames_per_task, window)
+    on_dask = workers is not None or scheduler is not None
+    if cache is not None and on_dask:
+        raise ValueError("cache: only for runs in this process; each Dask worker has its own (see worker_stats)")
+    if cache is not None and not isinstance(cache, SceneCache):
+        raise TypeError(f"cache: expected a SceneCache, got {type(cache).__name__}")
+    bases, jobs = plan_batch(scene_or_scenes, cameras, lights, out_dir=out_dir, pattern=pattern)
+    check_shading_fits(options, bases)
+    done = set()
+    if out_dir is not None:
+        os.makedirs(out_dir, exist_ok=True)
+        remove_stale_temps(out_dir, [os.path.basename(j.path) for j in jobs])
+        if options.resume:
+            done = {j.index for j in jobs if os.path.exists(j.path)}
+    bar = _progress_bar(progress, len(jobs), len(done), f"{_label(options.shading)} frames")
+    try:
+        if not on_dask:
+            yield from iter_serial(bases, jobs, done, options, SceneCache() if cache is None else cache, bar)
+            return
+        from .cluster import connect
+        from .dask_driver import iter_dask
+
+        with connect(workers, scheduler, numba_threads) as client:
+            yield from iter_dask(client, bases, jobs, done, options, retries, window, int(frames_per_task), bar)
+    finally:
+        bar.close()
+
+
+def render_batch(scene_or_scenes, cameras=None, lights=None, *, shading="phong", out_dir=None,
+                 pattern: str = "frame_{:05d}.png", workers: int | None = None, scheduler=None,
+                 progress: bool = True, retries: int = 2, resume: bool = True, tone: dict | None = None,
+                 numba_threads: int | None = None, frames_per_task: int = 1, cache: SceneCache | None = None,
+                 **render_kwargs) -> list:
+    """Render many frames, in order.
+
+    Each of ``scene_or_scenes``, ``cameras`` and ``lights`` is one value
+    (used for every frame) or a sequence with one entry per frame; the
+    sequences given must have equal lengths.
+
+    Parameters
+    ----------
+    scene_or_scenes : Scene or sequence of Scene
+        Scenes that share their models (e.g. made with :meth:`Scene.replace`)
+        share one geometry and BVH; so do scenes with equal models.
+    cameras : Camera or sequence of Camera, optional
+        Default: each scene's camera.
+    lights : sequence of light sets, optional
+        One light set (a sequence of lights, or one light) per frame.
+        Default: each scene's lights.
+    shading : str or sequence of str
+        ``"flat"``, ``"gouraud"``, ``"phong"`` or ``"auto"`` (any case), or
+        one method per model, as in :func:`raycast_shade.render`.
+    out_dir : str or path-like, optional
+        Write frame ``i`` to ``out_dir / pattern.format(i)`` (the folder is
+        created) instead of returning images.
+    pattern : str
+        Frame file name; the extension picks the format: ``.png``,
+        ``.jpg``, ... (8-bit, tone-mapped with ``tone``), ``.pfm`` or
+        ``.npy`` (linear float32).
+    workers : int, optional
+        Render on a local Dask cluster of this many single-threaded worker
+        processes.
+    scheduler : str or distributed.Client, optional
+        Render on an existing Dask cluster: its scheduler address
+        (``"tcp://host:8786"``) or a connected client.
+    progress : bool
+        Show a tqdm progress bar (when tqdm is installed).
+    retries : int
+        Times a frame whose render raised is re-run (Dask only). A frame
+        whose worker died is re-run on another worker regardless (up to
+        Dask's ``distributed.scheduler.allowed-failures``).
+    resume : bool
+        With ``out_dir``: skip frames whose file exists.
+    tone : dict, optional
+        :func:`raycast_shade.to_uint8` options for 8-bit files:
+        ``exposure``, ``tonemap``, ``gamma``.
+    numba_threads : int, optional
+        Numba threads per worker of a ``workers=`` cluster (default: cores
+        divided by workers).
+    frames_per_task : int
+        Consecutive frames rendered by one Dask task. Each task costs a few
+        milliseconds of scheduling and transfer; group small, fast frames
+        to spread that cost (``benchmarks/bench_batch.py`` measures it).
+    cache : SceneCache, optional
+        The scene cache and counters of a run in this process (default: a
+        new one per call); pass one to read its :meth:`~SceneCache.stats`
+        or to share it between batches. On Dask each worker has its own:
+        see :func:`worker_stats`.
+    **render_kwargs
+        ``backend``, ``interpolation``, ``caster``, ``max_depth``,
+        ``tolerance`` of :func:`raycast_shade.render`.
+
+    Returns
+    -------
+    list
+        One entry per frame, in order: the (H, W, 3) float32 linear image,
+        or with ``out_dir`` the path written (or found, when resumed).
+
+    Raises
+    ------
+    TypeError, ValueError
+        For a bad argument, naming it, before any frame renders.
+    """
+    return list(iter_batch(scene_or_scenes, cameras, lights, shading=shading, out_dir=out_dir, pattern=pattern,
+                           workers=workers, scheduler=scheduler, progress=progress, retries=retries, resume=resume,
+                           tone=tone, numba_threads=numba_threads, frames_per_task=frames_per_task, cache=cache,
+                           **render_kwargs))

@@ -1,0 +1,90 @@
+"""How every frame of a batch is rendered and written: the options, checked once.
+
+The values go through :func:`raycast_shade.scene.scenefile.check_render_options`,
+the checks of a scene file's ``[render]`` table, so a batch accepts what a
+scene file, :func:`raycast_shade.render_file` and the command line accept.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...scene.scenefile import RENDER_KEYS, SIZE_KEYS, TONE_KEYS, check_render_options
+
+__all__ = ["BatchOptions", "RENDER_KWARGS", "check_options", "check_counts", "check_shading_fits"]
+
+# render() keywords a batch passes on; the camera (hence the size) is per frame.
+RENDER_KWARGS = tuple(k for k in RENDER_KEYS if k not in ("shading",) + SIZE_KEYS + TONE_KEYS)
+
+
+@dataclass(frozen=True, eq=False)
+class BatchOptions:
+    """How every frame of a batch is rendered and written.
+
+    Attributes
+    ----------
+    shading : str or tuple of str
+        ``"flat"``, ``"gouraud"``, ``"phong"``, ``"auto"``, or one method per
+        model.
+    render_kwargs : dict
+        Extra keywords of :func:`raycast_shade.render` (``backend``,
+        ``interpolation``, ``caster``, ``max_depth``, ``tolerance``).
+    tone : dict
+        Keywords of :func:`raycast_shade.to_uint8` for 8-bit outputs.
+    resume : bool
+        Skip a frame whose output file exists.
+    """
+
+    shading: object = "phong"
+    render_kwargs: dict = dataclasses.field(default_factory=dict)
+    tone: dict = dataclasses.field(default_factory=dict)
+    resume: bool = True
+
+
+def check_options(shading, render_kwargs: dict, tone, resume) -> BatchOptions:
+    """The validated, normalised options of a batch.
+
+    Raises
+    ------
+    TypeError
+        For an unknown keyword or tone key, or a value of the wrong type.
+    ValueError
+        For a bad value, naming it.
+    """
+    for k in render_kwargs:
+        if k not in RENDER_KWARGS:
+            raise TypeError(f"render_batch: unexpected keyword argument {k!r} (render options: {list(RENDER_KWARGS)})")
+    tone = {} if tone is None else tone
+    if not isinstance(tone, dict):
+        raise TypeError(f"tone: expected a dict of to_uint8 options, got {type(tone).__name__}")
+    for k in tone:
+        if k not in TONE_KEYS:
+            raise TypeError(f"tone: unexpected key {k!r} (expected some of {list(TONE_KEYS)})")
+    checked = check_render_options({"shading": shading, **render_kwargs})
+    tone = check_render_options(dict(tone))
+    if not isinstance(resume, (bool, np.bool_)):
+        raise TypeError(f"resume: expected True or False, got {type(resume).__name__}")
+    shading = checked.pop("shading")
+    return BatchOptions(shading, checked, tone, bool(resume))
+
+
+def check_shading_fits(options: BatchOptions, bases: dict) -> None:
+    """One method per model must name every model of every mesh set."""
+    if isinstance(options.shading, str):
+        return
+    for base in bases.values():
+        if len(options.shading) != len(base.models):
+            raise ValueError(f"shading: expected one method per model ({len(base.models)}), "
+                             f"got {len(options.shading)}")
+
+
+def check_counts(retries, frames_per_task, window) -> None:
+    """``retries >= 0``; ``frames_per_task`` and ``window`` (unless None) ``> 0``."""
+    if not isinstance(retries, (int, np.integer)) or isinstance(retries, bool) or retries < 0:
+        raise ValueError(f"retries: expected an integer >= 0, got {retries!r}")
+    for name, value in (("frames_per_task", frames_per_task), ("window", 1 if window is None else window)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+            raise ValueError(f"{name}: expected an integer > 0, got {value!r}")
