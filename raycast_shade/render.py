@@ -78,7 +78,10 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
         raise ValueError(f"caster: expected one of {list(CASTERS)} or 'auto', got {caster!r}")
     max_depth = as_int(max_depth, "max_depth", minimum=0)  # NumPy integers too
     # Checked in every mode, not only by "auto" which uses it: a NaN is a mistake either way.
-    tolerance = as_scalar(tolerance, "tolerance", minimum=0.0, exclusive=True)
+    try:
+        tolerance = as_scalar(tolerance, "tolerance", minimum=0.0, exclusive=True)
+    except TypeError as exc:  # a ValueError for every bad tolerance, as choose_methods has always raised
+        raise ValueError(str(exc)) from None
     camera = camera if camera is not None else scene.camera
     if camera is None:
         raise ValueError("camera: the scene has no camera and none was passed")
