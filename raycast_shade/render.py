@@ -11,6 +11,7 @@ from .output.frame import Frame
 from .scene.scene import Scene
 from .study.auto import choose_methods
 from .common.choices import BACKENDS, CASTERS, INTERPOLATIONS, SHADINGS
+from .common.validate import as_int, as_scalar
 from .shading.kernels import resolve_methods, shade_hits, trace_mirrors
 
 __all__ = ["render", "render_file"]
@@ -49,7 +50,8 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
     max_depth : int
         Mirror bounces traced for reflective materials (0: none).
     tolerance : float
-        Error budget of ``shading="auto"``, in linear intensity.
+        Error budget of ``shading="auto"``, in linear intensity, ``> 0``
+        (checked in every mode).
 
     Returns
     -------
@@ -58,7 +60,9 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
     Raises
     ------
     TypeError, ValueError
-        For a bad argument, before any kernel runs.
+        For a bad argument, before any kernel runs; also for a camera whose
+        frame would need more memory than allowed
+        (:meth:`~raycast_shade.scene.camera.Camera.check_frame_memory`).
     RuntimeError
         When the frame needs the direct Embree binding and it is unavailable
         (the message says why), before any kernel runs.
@@ -78,13 +82,18 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
         raise ValueError(f"interpolation: expected one of {list(INTERPOLATIONS)}, got {interpolation!r}")
     if not isinstance(caster, str) or (caster not in CASTERS and caster != "auto"):
         raise ValueError(f"caster: expected one of {list(CASTERS)} or 'auto', got {caster!r}")
-    if isinstance(max_depth, bool) or not isinstance(max_depth, int) or max_depth < 0:
-        raise ValueError(f"max_depth: expected an integer >= 0, got {max_depth!r}")
+    max_depth = as_int(max_depth, "max_depth", minimum=0)  # NumPy integers too
+    # Checked in every mode, not only by "auto" which uses it: a NaN is a mistake either way.
+    try:
+        tolerance = as_scalar(tolerance, "tolerance", minimum=0.0, exclusive=True)
+    except TypeError as exc:  # a ValueError for every bad tolerance, as choose_methods has always raised
+        raise ValueError(str(exc)) from None
     camera = camera if camera is not None else scene.camera
     if camera is None:
         raise ValueError("camera: the scene has no camera and none was passed")
     if not isinstance(camera, Camera):
         raise TypeError(f"camera: expected a Camera, got {type(camera).__name__}")
+    camera.check_frame_memory()
     # Shadow and mirror rays need the direct binding whatever the caster: refuse now, before any kernel.
     caster = resolve_caster(caster if backend == "raycast" else "auto", secondary_rays(scene, max_depth))
     decisions = ()

@@ -122,7 +122,7 @@ def _check_output(path: str) -> str:
     """Fail before rendering, not after, on an output that cannot be written."""
     from ..output.imagefile import check_image_path
 
-    check_image_path(path, "output")
+    check_image_path(path, "output", writable=True)
     folder = os.path.dirname(os.path.abspath(path))
     if not os.path.isdir(folder):
         raise _UsageError(f"output {path!r}: folder {folder} does not exist")
@@ -242,6 +242,8 @@ def main(argv=None) -> int:
             args = parser.parse_args(argv)
         except SystemExit as exc:  # --help and --version
             return exc.code if isinstance(exc.code, int) else 0
+        if getattr(args, "output", None) == "":  # would fall back to the default name without a word
+            raise _UsageError("argument -o/--output: expected a path, got an empty string")
         if args.command == "animate":
             from .animate import run_cli as command
         else:
@@ -249,8 +251,11 @@ def main(argv=None) -> int:
         with warnings.catch_warnings():  # restores showwarning on the way out
             warnings.showwarning = _show_warning
             return command(args)
-    except (_UsageError, ValueError, TypeError, OSError, RuntimeError) as exc:
+    except (_UsageError, ValueError, TypeError, OSError, RuntimeError, ArithmeticError) as exc:
         print(f"{PROG}: error: {_one_line(exc)}", file=sys.stderr)
+        return 2
+    except MemoryError as exc:  # inputs are checked against memory_limit(); this is what remains
+        print(f"{PROG}: error: out of memory{': ' + _one_line(exc) if str(exc) else ''}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         return 130

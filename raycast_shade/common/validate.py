@@ -8,6 +8,7 @@ and out-of-range indices, so nothing of that kind may reach it.
 from __future__ import annotations
 
 import numbers
+import os
 
 import numpy as np
 
@@ -18,6 +19,9 @@ MAX_RADIANCE = 1e30
 
 __all__ = [
     "MAX_RADIANCE",
+    "memory_limit",
+    "check_memory",
+    "pow2_scaled",
     "as_array",
     "as_vec3",
     "as_rgb",
@@ -27,8 +31,44 @@ __all__ = [
 ]
 
 
-def as_array(value, name: str, *, dtype, ndim: int | None = None, shape=None, finite: bool = True):
+def _has_bool(value) -> bool:
+    """True if a (nested) list or tuple holds a bool anywhere: NumPy would quietly
+    turn ``[True, 0.5, 1]`` into floats. Arrays inside are judged by their dtype."""
+    stack = [value]
+    while stack:
+        item = stack.pop()
+        if isinstance(item, (bool, np.bool_)):
+            return True
+        if isinstance(item, np.ndarray):
+            if item.dtype.kind == "b" or (item.dtype == object and _has_bool(item.tolist())):
+                return True
+        elif isinstance(item, (list, tuple)):
+            stack.extend(item)
+    return False
+
+
+def _has_huge_int(value) -> bool:
+    """True if a (nested) sequence holds a Python int beyond 64 bits (NumPy makes it dtype object)."""
+    stack = [value]
+    while stack:
+        item = stack.pop()
+        if isinstance(item, numbers.Integral) and not isinstance(item, bool) and not -2**63 <= item < 2**64:
+            return True
+        if isinstance(item, np.ndarray):
+            stack.extend(item.ravel().tolist())
+        elif isinstance(item, (list, tuple)):
+            stack.extend(item)
+    return False
+
+
+def as_array(value, name: str, *, dtype, ndim: int | None = None, shape=None, finite: bool = True,
+             copy: bool = False):
     """Convert ``value`` to a C-contiguous array of ``dtype`` or raise naming ``name``.
+
+    Booleans are refused for every dtype (``True`` is not a coordinate, a colour
+    or an index), floats must be integral and every value within range for an
+    integer dtype, and values beyond a float dtype's range are refused rather
+    than turned into inf.
 
     Parameters
     ----------
@@ -36,30 +76,54 @@ def as_array(value, name: str, *, dtype, ndim: int | None = None, shape=None, fi
     name : str
         Field name used in error messages.
     dtype : numpy dtype
-        Target dtype (``np.float64`` or ``np.int64``).
+        Target dtype (``np.float64``, ``np.float32`` or ``np.int64``).
     ndim : int, optional
         Required number of dimensions.
     shape : tuple, optional
         Required shape; ``None`` entries match any length.
     finite : bool
         For float arrays, reject NaN and inf.
+    copy : bool
+        Always return a new array, so that a class keeping it does not share
+        memory with the caller's (frozen classes pass True).
     """
     if value is None:
         raise TypeError(f"{name}: expected an array, got None")
+    if isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name}: expected numbers, got a boolean")
     try:
         raw = np.asarray(value)
     except Exception as exc:  # ragged lists and the like
         raise TypeError(f"{name}: cannot be converted to an array ({exc})") from None
+    if raw.dtype == object and _has_huge_int(value):
+        raise ValueError(f"{name}: an integer beyond the 64-bit range")
     if raw.dtype == object or raw.dtype.kind not in "biuf":
         raise TypeError(f"{name}: expected numbers, got dtype {raw.dtype}")
     target = np.dtype(dtype)
+    if raw.dtype.kind == "b" or (isinstance(value, (list, tuple)) and _has_bool(value)):
+        raise TypeError(f"{name}: expected {'integers' if target.kind in 'iu' else 'numbers'}, got booleans")
     if target.kind in "iu":
+        info = np.iinfo(target)
         if raw.dtype.kind == "f":
             if not np.all(np.isfinite(raw)) or np.any(raw != np.round(raw)):
                 raise TypeError(f"{name}: expected integers, got non-integral floats")
-        elif raw.dtype.kind == "b":
-            raise TypeError(f"{name}: expected integers, got booleans")
-    arr = np.ascontiguousarray(raw, dtype=target)
+        if raw.size and raw.dtype != target:
+            # The cast would wrap (uint64 2**64-1 becomes -1) or be undefined (float 1e20).
+            lo, hi = raw.min(), raw.max()
+            if raw.dtype.kind == "f":  # compare as floats: float(2**63 - 1) rounds up to 2**63
+                too_low, too_high = lo < float(info.min), hi >= float(info.max) + 1.0
+            else:
+                too_low, too_high = lo < info.min, hi > info.max
+            if too_low or too_high:
+                bad = hi if too_high else lo
+                shown = f"{bad:.17g}" if raw.dtype.kind == "f" else str(int(bad))
+                raise ValueError(f"{name}: value {shown} is beyond the {target} range "
+                                 f"[{info.min}, {info.max}]")
+    elif target.kind == "f" and raw.dtype.kind == "f" and raw.dtype.itemsize > target.itemsize and raw.size:
+        top = np.abs(raw[np.isfinite(raw)]).max(initial=0.0)
+        if top > np.finfo(target).max:
+            raise ValueError(f"{name}: value {top:.6g} is beyond the {target} range (+-{np.finfo(target).max:.6g})")
+    arr = np.array(raw, dtype=target, order="C", copy=True) if copy else np.ascontiguousarray(raw, dtype=target)
     if ndim is not None and arr.ndim != ndim:
         raise ValueError(f"{name}: expected {ndim}-D array, got shape {arr.shape}")
     if shape is not None:
@@ -73,20 +137,39 @@ def as_array(value, name: str, *, dtype, ndim: int | None = None, shape=None, fi
 
 
 def as_vec3(value, name: str, *, nonzero: bool = False) -> np.ndarray:
-    """A finite (3,) float64 vector; ``nonzero`` rejects the zero vector."""
-    v = as_array(value, name, dtype=np.float64, shape=(3,))
+    """A finite (3,) float64 vector of its own, read-only; ``nonzero`` rejects the zero vector."""
+    v = as_array(value, name, dtype=np.float64, shape=(3,), copy=True)
     if nonzero and not np.any(v):
         raise ValueError(f"{name}: must not be the zero vector")
     v.setflags(write=False)
     return v
 
 
+def pow2_scaled(v) -> np.ndarray:
+    """``v`` times the power of two that brings its largest ``|component|`` into [0.5, 1).
+
+    Normalising this instead of ``v`` neither overflows (1e308) nor underflows
+    (1e-200: the squares would be 0) in the norm, and since scaling by a power
+    of two is exact, ``s / |s|`` has the same bits as ``v / |v|`` wherever the
+    latter was computable. The zero vector stays zero.
+
+    Parameters
+    ----------
+    v : (..., 3) float64
+        Scaled per row (along the last axis).
+    """
+    v = np.asarray(v, np.float64)
+    top = np.abs(v).max(axis=-1, keepdims=True)
+    _, exponent = np.frexp(top)
+    return np.ldexp(v, -exponent)
+
+
 def as_rgb(value, name: str, *, nonnegative: bool = True) -> np.ndarray:
-    """An RGB triple from a scalar or a length-3 sequence, as (3,) float64."""
-    if isinstance(value, numbers.Real) and not isinstance(value, bool):
-        v = np.full(3, float(value))
+    """An RGB triple from a scalar (Python, NumPy or 0-d array) or 3 values, as (3,) float64."""
+    if isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_)):
+        v = np.full(3, _float(value, name))
     else:
-        v = as_array(value, name, dtype=np.float64)
+        v = as_array(value, name, dtype=np.float64, copy=True)
         if v.shape == ():
             v = np.full(3, float(v))
         elif v.shape != (3,):
@@ -101,11 +184,29 @@ def as_rgb(value, name: str, *, nonnegative: bool = True) -> np.ndarray:
     return v
 
 
+def _float(value, name: str) -> float:
+    try:
+        return float(value)
+    except OverflowError:  # a Python int beyond float64, 10**400 say
+        raise ValueError(f"{name}: must be finite, got an integer of {len(str(abs(int(value))))} digits") from None
+
+
+def _zero_d(value):
+    """A 0-d numeric (not boolean) array as its NumPy scalar; anything else unchanged."""
+    if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf":
+        return value[()]
+    return value
+
+
 def as_scalar(value, name: str, *, minimum=None, exclusive: bool = False, maximum=None) -> float:
-    """A finite real number, optionally bounded below (``> minimum`` if ``exclusive``)."""
-    if isinstance(value, bool) or not isinstance(value, (numbers.Real, np.floating, np.integer)):
+    """A finite real number, optionally bounded below (``> minimum`` if ``exclusive``).
+
+    NumPy scalars and 0-d arrays are numbers; booleans and strings are not.
+    """
+    value = _zero_d(value)
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Real, np.floating, np.integer)):
         raise TypeError(f"{name}: expected a number, got {type(value).__name__}")
-    x = float(value)
+    x = _float(value, name)
     if not np.isfinite(x):
         raise ValueError(f"{name}: must be finite, got {x}")
     if minimum is not None:
@@ -118,13 +219,23 @@ def as_scalar(value, name: str, *, minimum=None, exclusive: bool = False, maximu
     return x
 
 
-def as_int(value, name: str, *, minimum: int | None = None) -> int:
-    """An integer (not a bool, not a float), optionally ``>= minimum``."""
-    if isinstance(value, bool) or not isinstance(value, (numbers.Integral, np.integer)):
-        raise TypeError(f"{name}: expected an integer, got {type(value).__name__}")
+def as_int(value, name: str, *, minimum: int | None = None, maximum: int | None = None) -> int:
+    """An integer (Python, NumPy or 0-d array; not a bool, not a float), within bounds.
+
+    Floats are refused even when integral, so that ``2.7`` is never truncated
+    and ``1e12`` never taken for a count.
+    """
+    value = _zero_d(value)
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Integral, np.integer)):
+        kind = type(value).__name__
+        whole = isinstance(value, (float, np.floating)) and np.isfinite(value) and value == np.round(value)
+        hint = f" ({value!r}; write it without a fraction)" if whole else ""
+        raise TypeError(f"{name}: expected an integer, got {kind}{hint}")
     x = int(value)
     if minimum is not None and x < minimum:
         raise ValueError(f"{name}: must be >= {minimum}, got {x}")
+    if maximum is not None and x > maximum:
+        raise ValueError(f"{name}: must be <= {maximum}, got {x}")
     return x
 
 
@@ -136,3 +247,47 @@ def as_choice(value, name: str, choices) -> str:
     if v not in choices:
         raise ValueError(f"{name}: expected one of {sorted(choices)}, got {value!r}")
     return v
+
+
+def memory_limit() -> int:
+    """Bytes one allocation plan (a frame, a shape, a height map) may need: half
+    the physical memory (``os.sysconf``), or 16 GiB where that is unknown.
+
+    Plans beyond it are refused with the figure before anything is allocated,
+    instead of ending in NumPy's MemoryError (or the machine swapping) later.
+    """
+    try:
+        total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (AttributeError, ValueError, OSError):
+        total = 0
+    return total // 2 if total > 0 else 16 << 30
+
+
+def _bytes(n: float) -> str:
+    for unit, size in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6)):
+        if n >= size:
+            return f"{n / size:.3g} {unit}"
+    return f"{n:.0f} bytes"
+
+
+def check_memory(nbytes: float, what: str, purpose: str) -> None:
+    """Refuse a plan needing more than :func:`memory_limit` bytes.
+
+    Parameters
+    ----------
+    nbytes : float
+        The estimate (a float: it may exceed any integer type).
+    what : str
+        The fields and their values, e.g. ``"camera.width x camera.height: 10 x 10 pixels"``.
+    purpose : str
+        What the memory is for, e.g. ``"a frame"``.
+
+    Raises
+    ------
+    ValueError
+        ``"<what> need about 47 TB for a frame; the limit is ..."``.
+    """
+    limit = memory_limit()
+    if nbytes > limit:
+        raise ValueError(f"{what} need about {_bytes(nbytes)} for {purpose}; the limit is {_bytes(limit)} "
+                         "(half the physical memory)")

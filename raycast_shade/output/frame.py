@@ -7,8 +7,9 @@ from functools import cached_property
 
 import numpy as np
 
+from ..common.validate import as_scalar
 from ..visibility.hits import HitBuffer
-from .imagefile import write_image
+from .imagefile import LINEAR_EXTS, check_image_path, write_image
 from .tonemap import to_uint8
 
 __all__ = ["Frame"]
@@ -94,9 +95,51 @@ class Frame:
         BMP, TIFF, GIF or WebP in 8 bits after :meth:`to_uint8` with ``kwargs``
         (over :attr:`tone`).
 
+        Parameters
+        ----------
+        path : str or path-like
+        **kwargs
+            ``exposure``, ``tonemap``, ``gamma``, 8-bit formats only: the
+            lossless formats store the linear image as is, so tone options
+            with them are refused rather than silently ignored.
+
         Raises
         ------
+        TypeError
+            For an unknown keyword (a typo such as ``exposur``).
         ValueError
-            For any other extension (see :mod:`raycast_shade.imagefile`).
+            For an invalid tone option, tone options with ``.pfm``/``.npy``,
+            or an unknown extension (see :mod:`raycast_shade.output.imagefile`).
         """
-        write_image(path, self.image, **{**self.tone, **kwargs})
+        _check_tone(path, kwargs)
+        # The frame's own tone options (a scene file's [render]) apply where tone applies: 8-bit files.
+        linear = check_image_path(path) in LINEAR_EXTS
+        write_image(path, self.image, **(kwargs if linear else {**self.tone, **kwargs}))
+
+
+_TONE_OPTIONS = ("exposure", "tonemap", "gamma")
+
+
+def _check_tone(path, tone: dict) -> None:
+    """Names and values of ``tone`` (see :meth:`Frame.save`), before any file is touched."""
+    import difflib
+
+
+    for key in tone:
+        if key not in _TONE_OPTIONS:
+            hint = difflib.get_close_matches(key, _TONE_OPTIONS, n=1)
+            tail = f" (did you mean {hint[0]!r}?)" if hint else f"; expected {', '.join(_TONE_OPTIONS)}"
+            raise TypeError(f"save: unexpected keyword argument {key!r}{tail}")
+    # Checked for every format. Types here (to_uint8 would take True for 1 and fail on "2"
+    # inside NumPy); ranges and choices by to_uint8 itself, on one pixel.
+    if "exposure" in tone:
+        as_scalar(tone["exposure"], "exposure", minimum=0.0, exclusive=True)
+    if "gamma" in tone and not isinstance(tone["gamma"], str):
+        as_scalar(tone["gamma"], "gamma", minimum=0.0, exclusive=True)
+    if "tonemap" in tone and not isinstance(tone["tonemap"], str):
+        raise TypeError(f"tonemap: expected a string, got {type(tone['tonemap']).__name__}")
+    to_uint8(np.zeros((1, 1, 3), np.float32), **tone)
+    ext = check_image_path(path)
+    if tone and ext in LINEAR_EXTS:
+        raise ValueError(f"{', '.join(tone)}: tone options do not apply to {ext}, which stores the linear "
+                         "float32 image as is; leave them out, or write an 8-bit format such as .png")

@@ -34,15 +34,31 @@ _FLOAT_FORMATS = (".exr", ".hdr", ".rgbe", ".fits", ".fit")
 _TMP_RE = re.compile(r"^\.(?P<name>.+)\.[0-9a-f]{12}\.tmp(\.[^.]*)?$")
 
 
-def check_image_path(path, field: str = "path") -> str:
+def check_image_path(path, field: str = "path", *, writable: bool = False) -> str:
     """The lower-case extension of ``path``, if it is one we write.
+
+    Parameters
+    ----------
+    path : str or path-like
+    field : str
+        Named in the messages.
+    writable : bool
+        Also check, before any rendering, that the file can be written: the
+        path is not a folder, its parent is an existing folder, and both allow
+        writing (``os.access``; note that root passes that test everywhere
+        except on read-only file systems).
 
     Raises
     ------
     ValueError
-        Naming ``field``, for a missing or unsupported extension.
+        Naming ``field``, for an empty path, a missing or unsupported
+        extension, or (``writable``) a path that cannot be written.
     """
     name = os.fspath(path)
+    if not isinstance(name, str):
+        name = os.fsdecode(name)
+    if not name:
+        raise ValueError(f"{field}: expected a file name, got an empty path")
     ext = os.path.splitext(name)[1].lower()
     formats = ", ".join(EIGHT_BIT_EXTS + LINEAR_EXTS)
     if not ext:
@@ -52,6 +68,16 @@ def check_image_path(path, field: str = "path") -> str:
                          "image, or an 8-bit format such as .png")
     if ext not in EIGHT_BIT_EXTS + LINEAR_EXTS:
         raise ValueError(f"{field}: {name!r}: unknown image format {ext!r}; expected one of {formats}")
+    if writable:
+        folder = os.path.dirname(os.path.abspath(name))
+        if os.path.isdir(name):
+            raise ValueError(f"{field}: {name!r} is a folder, not a file")
+        if not os.path.exists(folder):
+            raise ValueError(f"{field}: {name!r}: folder {folder} does not exist")
+        if not os.path.isdir(folder):
+            raise ValueError(f"{field}: {name!r}: {folder} is not a folder")
+        if not os.access(folder, os.W_OK | os.X_OK) or (os.path.exists(name) and not os.access(name, os.W_OK)):
+            raise ValueError(f"{field}: {name!r} cannot be written (no write permission, or a read-only file system)")
     return ext
 
 

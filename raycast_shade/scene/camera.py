@@ -7,9 +7,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..common.choices import PROJECTIONS
-from ..common.validate import as_choice, as_int, as_scalar, as_vec3
+from ..common.validate import as_choice, as_int, as_scalar, as_vec3, check_memory, pow2_scaled
 
-__all__ = ["Camera", "PROJECTIONS"]
+__all__ = ["Camera", "PROJECTIONS", "FRAME_BYTES_PER_PIXEL"]
+
+# What one rendered frame holds per pixel: the hit buffer 20 (prim, geom int32; u, v, t
+# float32), the linear image 12 (float32 RGB), the shading normals 12 (float32, on first
+# access) and the 8-bit image 3. render() refuses a camera whose frame exceeds
+# common.validate.memory_limit() before allocating any of it.
+FRAME_BYTES_PER_PIXEL = 20 + 12 + 12 + 3
 
 
 
@@ -51,14 +57,19 @@ class Camera:
         set_(self, "eye", eye)
         set_(self, "target", target)
         set_(self, "up", up)
-        fwd = target - eye
-        dist = np.linalg.norm(fwd)
+        with np.errstate(over="ignore"):  # eye 1e308 and target -1e308: the difference is inf
+            fwd = target - eye
+        if not np.all(np.isfinite(fwd)):
+            raise ValueError("camera.eye: target - eye overflows float64; bring eye and target closer")
         # Relative to the coordinates only: a scene 1e-12 across is a scene, not a coincidence.
+        # Max-norm, not the Euclidean one, whose squares underflow to 0 at 1e-200.
         scale = max(np.abs(eye).max(), np.abs(target).max())
-        if not dist > 1e-12 * scale:
+        if not np.abs(fwd).max() > 1e-12 * scale:
             raise ValueError("camera.eye: eye and target coincide; the view direction is undefined")
-        fwd = fwd / dist
-        side = np.cross(fwd, up / np.linalg.norm(up))
+        fwd = pow2_scaled(fwd)
+        fwd = fwd / np.linalg.norm(fwd)
+        up_dir = pow2_scaled(up)
+        side = np.cross(fwd, up_dir / np.linalg.norm(up_dir))
         if not np.linalg.norm(side) > 1e-9:
             raise ValueError("camera.up: parallel to the view direction (target - eye)")
         set_(self, "fov", as_scalar(self.fov, "camera.fov", minimum=0.0, exclusive=True))
@@ -72,12 +83,20 @@ class Camera:
     @property
     def basis(self):
         """Orthonormal ``(right, up, forward)``, each (3,) float64."""
-        fwd = self.target - self.eye
+        # Powers of two first (exact, so the bits are those of the plain formula):
+        # an up of 1e-200 or a view of 1e300 would under/overflow in the norms.
+        fwd = pow2_scaled(self.target - self.eye)
         fwd = fwd / np.linalg.norm(fwd)
-        right = np.cross(fwd, self.up)
+        right = np.cross(fwd, pow2_scaled(self.up))
         right /= np.linalg.norm(right)
         up = np.cross(right, fwd)
         return right, up, fwd
+
+    def check_frame_memory(self) -> None:
+        """Refuse (ValueError, with the figure) a frame larger than
+        :func:`~raycast_shade.common.validate.memory_limit`; see ``FRAME_BYTES_PER_PIXEL``."""
+        check_memory(float(self.width) * float(self.height) * FRAME_BYTES_PER_PIXEL,
+                     f"camera.width x camera.height: {self.width} x {self.height} pixels", "a frame")
 
     @property
     def orthographic(self) -> bool:

@@ -26,9 +26,18 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..common.choices import WRAPS
-from ..common.validate import as_array, as_choice, as_int, as_scalar
+from ..common.validate import as_array, as_choice, as_int, as_scalar, check_memory
 
 __all__ = ["HeightMap", "spherical_uvs", "cylindrical_uvs", "planar_uvs", "tangent_frames", "WRAPS"]
+
+# Baking a procedural map holds about eight float64 grids per texel at once (u, v, the
+# pattern's temporaries, the sum) plus the float32 heights.
+_BAKE_BYTES_PER_TEXEL = 8 * 8 + 4
+
+
+def _check_bake(n: int) -> None:
+    check_memory(float(n) * n * _BAKE_BYTES_PER_TEXEL, f"heightmap.resolution: {n} x {n} texels",
+                 "baking the height map")
 
 
 
@@ -57,7 +66,7 @@ class HeightMap:
 
     def __post_init__(self):
         set_ = object.__setattr__
-        h = as_array(self.heights, "heightmap.heights", dtype=np.float32, ndim=2)
+        h = as_array(self.heights, "heightmap.heights", dtype=np.float32, ndim=2, copy=True)
         if h.shape[0] < 2 or h.shape[1] < 2:
             raise ValueError(f"heightmap.heights: need at least 2x2 texels, got {h.shape}")
         h.setflags(write=False)
@@ -96,6 +105,7 @@ class HeightMap:
     def from_function(cls, fn, resolution: int = 512, **kwargs) -> "HeightMap":
         """Bake ``fn(u, v) -> height`` (vectorised) at texel centres."""
         n = as_int(resolution, "heightmap.resolution", minimum=2)
+        _check_bake(n)
         c = (np.arange(n) + 0.5) / n
         uu, vv = np.meshgrid(c, c)
         return cls(np.asarray(fn(uu, vv), np.float64), **kwargs)
@@ -118,8 +128,14 @@ class HeightMap:
     def wrinkles(cls, frequency: int = 6, octaves: int = 4, seed: int = 0, resolution: int = 512, **kwargs) -> "HeightMap":
         """Tileable value noise summed over octaves (a "wrinkled" surface), in [0, 1]."""
         frequency = as_int(frequency, "heightmap.frequency", minimum=1)
-        octaves = as_int(octaves, "heightmap.octaves", minimum=1)
+        octaves = as_int(octaves, "heightmap.octaves", minimum=1)  # the lattice check below bounds it
         n = as_int(resolution, "heightmap.resolution", minimum=2)
+        _check_bake(n)
+        seed = as_int(seed, "heightmap.seed", minimum=0)
+        # The last octave's lattice has (frequency * 2**(octaves - 1))**2 float64 cells.
+        # (Capped exponents: the figure stays a float, and anything near the caps is refused.)
+        check_memory(min(float(frequency), 1e100) ** 2 * 4.0 ** min(octaves - 1, 400) * 8,
+                     f"heightmap.frequency, heightmap.octaves: {frequency}, {octaves}", "the noise lattice")
         rng = np.random.default_rng(seed)
         c = (np.arange(n) + 0.5) / n
         total = np.zeros((n, n))

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..common.choices import ATTENUATIONS
-from ..common.validate import MAX_RADIANCE, as_choice, as_rgb, as_scalar, as_vec3
+from ..common.validate import MAX_RADIANCE, as_choice, as_rgb, as_scalar, as_vec3, pow2_scaled
 
 __all__ = ["PointLight", "DirectionalLight", "ATTENUATIONS"]
 
@@ -79,7 +79,7 @@ class DirectionalLight:
     Parameters
     ----------
     direction : (3,) float
-        Non-zero; normalised on construction.
+        Non-zero, any finite magnitude; normalised on construction.
     intensity : float
     color : float or (3,) float
     shadows : bool
@@ -94,8 +94,8 @@ class DirectionalLight:
 
     def __post_init__(self):
         set_ = object.__setattr__
-        d = as_vec3(self.direction, f"{self.name}.direction", nonzero=True)
-        d = d / np.linalg.norm(d)
+        d = pow2_scaled(as_vec3(self.direction, f"{self.name}.direction", nonzero=True))
+        d = d / np.linalg.norm(d)  # scaled first: (1e308, 1e308, 0) and (1e-200, 1e-200, 0) stay directions
         d.setflags(write=False)
         set_(self, "direction", d)
         set_(self, "intensity", as_scalar(self.intensity, f"{self.name}.intensity", minimum=0.0, maximum=MAX_RADIANCE))

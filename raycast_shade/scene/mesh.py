@@ -10,10 +10,15 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..common.validate import as_array, as_choice, as_scalar
+from ..common.validate import as_array, as_choice, as_scalar, pow2_scaled
 from .normals import WEIGHTINGS, WindingWarning, face_normals, vertex_normals, winding_conflicts
 
-__all__ = ["Mesh", "PreparedMesh"]
+__all__ = ["Mesh", "PreparedMesh", "ZeroNormalWarning"]
+
+
+class ZeroNormalWarning(UserWarning):
+    """Given vertex normals include zero vectors: the shading falls back to the
+    face normal there (see docs/failure-cases.md, section 3)."""
 
 
 class PreparedMesh(NamedTuple):
@@ -47,6 +52,9 @@ def _readonly(a):
 class Mesh:
     """A triangle mesh.
 
+    Every array is copied on construction and kept read-only: a later change
+    to the caller's array does not reach the mesh.
+
     Parameters
     ----------
     vertices : (V, 3) array_like of float
@@ -54,7 +62,9 @@ class Mesh:
     faces : (F, 3) array_like of int
         Vertex indices, ``0 <= i < V``, counter-clockwise seen from the front.
     normals : (V, 3) array_like of float, optional
-        Vertex normals. When absent they are averaged from the faces.
+        Vertex normals, any non-zero length. When absent they are averaged from
+        the faces. Zero rows are allowed (the face normal is used there) and
+        counted in a :class:`ZeroNormalWarning`.
     uvs : (V, 2) array_like of float, optional
         Per-vertex texture coordinates.
     weighting : {"angle", "area", "uniform"}
@@ -76,10 +86,10 @@ class Mesh:
 
     def __post_init__(self):
         set_ = object.__setattr__
-        v = as_array(self.vertices, f"{self.name}.vertices", dtype=np.float64, shape=(None, 3))
+        v = as_array(self.vertices, f"{self.name}.vertices", dtype=np.float64, shape=(None, 3), copy=True)
         if v.shape[0] == 0:
             raise ValueError(f"{self.name}.vertices: the mesh has no vertices")
-        f = as_array(self.faces, f"{self.name}.faces", dtype=np.int64, shape=(None, 3))
+        f = as_array(self.faces, f"{self.name}.faces", dtype=np.int64, shape=(None, 3), copy=True)
         if f.shape[0] == 0:
             raise ValueError(f"{self.name}.faces: the mesh has no faces")
         if f.min() < 0:
@@ -94,10 +104,14 @@ class Mesh:
         set_(self, "vertices", _readonly(v))
         set_(self, "faces", _readonly(f))
         if self.normals is not None:
-            n = as_array(self.normals, f"{self.name}.normals", dtype=np.float64, shape=(v.shape[0], 3))
+            n = as_array(self.normals, f"{self.name}.normals", dtype=np.float64, shape=(v.shape[0], 3), copy=True)
+            zero = int(np.count_nonzero(~n.any(axis=1)))
+            if zero:
+                warnings.warn(f"{self.name}.normals: {zero} of {len(n)} vertex normal(s) are zero; the face "
+                              "normal is used at those vertices", ZeroNormalWarning, stacklevel=3)
             set_(self, "normals", _readonly(n))
         if self.uvs is not None:
-            uv = as_array(self.uvs, f"{self.name}.uvs", dtype=np.float64, shape=(v.shape[0], 2))
+            uv = as_array(self.uvs, f"{self.name}.uvs", dtype=np.float64, shape=(v.shape[0], 2), copy=True)
             set_(self, "uvs", _readonly(uv))
         set_(self, "weighting", as_choice(self.weighting, f"{self.name}.weighting", WEIGHTINGS))
         if self.crease_angle is not None:
@@ -152,7 +166,8 @@ class Mesh:
         Raises
         ------
         ValueError
-            When the file is missing, unreadable or holds no triangles.
+            When the file is missing, unreadable or holds no triangles, or
+            when vertices are not finite (trimesh would drop their faces).
         """
         import trimesh
 
@@ -161,10 +176,15 @@ class Mesh:
             raise ValueError(f"mesh file not found: {path}")
         try:
             # Not force="mesh": trimesh 5 then concatenates through a scene and drops the file's normals.
-            tm = trimesh.load(path)
+            # Not processed yet: processing drops faces on NaN/inf vertices without a word.
+            tm = trimesh.load(path, process=False)
         except Exception as exc:
             raise ValueError(f"cannot read mesh file {path}: {exc}") from None
         meshes = tm.geometry.values() if isinstance(tm, trimesh.Scene) else [tm]
+        _refuse_non_finite(path, meshes)
+        for m in meshes:
+            if isinstance(m, trimesh.Trimesh):
+                m.process()  # what trimesh.load(path) would have done: merge duplicate vertices
         if not any(isinstance(m, trimesh.Trimesh) and len(m.faces) for m in meshes):
             raise ValueError(f"mesh file {path} holds no triangles")
         kwargs.setdefault("name", os.path.basename(path))
@@ -180,8 +200,10 @@ class Mesh:
     def prepared(self) -> PreparedMesh:
         """Normals resolved (given, or averaged with weighting and crease)."""
         if self.normals is not None:
-            length = np.linalg.norm(self.normals, axis=1, keepdims=True)
-            normals = np.divide(self.normals, length, out=np.zeros_like(self.normals), where=length > 0)
+            # Scaled by powers of two first: normals of length 1e-200 or 1e300 stay directions.
+            scaled = pow2_scaled(self.normals)
+            length = np.linalg.norm(scaled, axis=1, keepdims=True)
+            normals = np.divide(scaled, length, out=np.zeros_like(scaled), where=length > 0)
             verts, faces, uvs = self.vertices, self.faces, self.uvs
         else:
             # Split vertices copy positions and faces keep their corners, so these
@@ -206,6 +228,28 @@ class Mesh:
 
     def __repr__(self) -> str:
         return f"Mesh(name={self.name!r}, vertices={len(self.vertices)}, faces={len(self.faces)})"
+
+
+def _refuse_non_finite(path, meshes) -> None:
+    """A ValueError naming the file and the counts if any vertex is NaN or inf."""
+    bad_vertices = bad_faces = 0
+    for m in meshes:
+        v = np.asarray(getattr(m, "vertices", np.zeros((0, 3))), np.float64)
+        if v.ndim != 2 or not len(v):
+            continue
+        finite = np.isfinite(v).all(axis=1)
+        if finite.all():
+            continue
+        bad_vertices += int(np.count_nonzero(~finite))
+        faces = np.asarray(getattr(m, "faces", np.zeros((0, 3), np.int64)))
+        if faces.ndim == 2 and faces.size:
+            inside = (faces >= 0) & (faces < len(v))
+            touch = ~finite[np.where(inside, faces, 0)] & inside
+            bad_faces += int(np.count_nonzero(touch.any(axis=1)))
+    if bad_vertices:
+        raise ValueError(f"mesh file {path}: {bad_vertices} vertex(es) with non-finite coordinates (NaN or inf), "
+                         f"used by {bad_faces} face(s); fix or remove them in the file (they cannot be rendered, "
+                         "and dropping them would change the mesh without a word)")
 
 
 def _instance(tm, transform, use_normals):

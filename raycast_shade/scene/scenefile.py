@@ -243,7 +243,7 @@ def _bump(table, where: str, base_dir: str):
     bump = dict(_table(table, where))
     if "image" in bump:
         _check_keys(bump, where, _BUMP_KEYS["image"])
-        path = os.path.normpath(os.path.join(base_dir, bump.pop("image")))
+        path = os.path.normpath(os.path.join(base_dir, _string(bump.pop("image"), f"{where}.image")))
         return _call(where, HeightMap.from_image, path, **bump)
     if "pattern" not in bump:
         raise _Invalid(where, "needs 'image = \"path\"' or 'pattern = \"dimples\"' / 'pattern = \"wrinkles\"'")
@@ -255,7 +255,7 @@ def _bump(table, where: str, base_dir: str):
 def _material(table, where: str, base_dir: str = ".") -> Material:
     mat = dict(_table(table, where))
     _check_keys(mat, where, _MATERIAL_KEYS)
-    mat.setdefault("name", where)
+    mat["name"] = _string(mat["name"], f"{where}.name") if "name" in mat else where
     if "bump" in mat:
         mat["bump"] = _bump(mat["bump"], f"{where}.bump", base_dir)
     return _call(where, Material, **mat)
@@ -267,7 +267,7 @@ def _light(table: dict, where: str):
     kind = _choice(table["type"], f"{where}.type", tuple(_LIGHT_KEYS))
     _check_keys(table, where, _LIGHT_KEYS[kind], f" for a {kind} light")
     kw = {k: v for k, v in table.items() if k != "type"}
-    kw.setdefault("name", where)
+    kw["name"] = _string(kw["name"], f"{where}.name") if "name" in kw else where
     if kind == "point":
         if "position" not in kw:
             raise _Invalid(where, "missing key 'position'")

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..common.validate import as_int, as_scalar, as_vec3, check_memory
 from .mesh import Mesh
 
 __all__ = ["icosphere", "uv_sphere", "torus", "plane", "cube", "cylinder", "SHAPES", "make"]
@@ -23,14 +24,24 @@ def _orient_outward(vertices, faces, outward):
 
 
 def _positive(name: str, value) -> float:
-    """``value`` as a float, or a ValueError naming ``name`` unless finite and > 0."""
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise TypeError(f"{name}: expected a number, got {value!r}") from None
-    if not (np.isfinite(x) and x > 0):
-        raise ValueError(f"{name}: must be a finite number > 0, got {value!r}")
-    return x
+    """``value`` as a float: a TypeError naming ``name`` for a non-number (a string,
+    a bool), a ValueError unless finite and > 0."""
+    return as_scalar(value, name, minimum=0.0, exclusive=True)
+
+
+# Peak bytes per vertex and per face while a shape is built (grids, temporaries), plus the
+# mesh's own copies and its packed rows in a scene, rounded up; a shape needing more than
+# common.validate.memory_limit() is refused with the figure before anything is allocated.
+_BYTES_PER_VERTEX = 256
+_BYTES_PER_FACE = 320
+
+
+def _check_size(what: str, vertices: float, faces: float) -> None:
+    check_memory(vertices * _BYTES_PER_VERTEX + faces * _BYTES_PER_FACE, f"{what} ({faces:.3g} faces)", "the mesh")
+
+
+def _center(value) -> np.ndarray:
+    return as_vec3(value, "center")
 
 
 def _grid_faces(rows: int, cols: int) -> np.ndarray:
@@ -49,15 +60,17 @@ def icosphere(subdivisions: int = 3, radius: float = 1.0, center=(0.0, 0.0, 0.0)
     """
     import trimesh
 
-    if int(subdivisions) != subdivisions or subdivisions < 0 or subdivisions > 9:
+    subdivisions = as_int(subdivisions, "subdivisions")
+    if not 0 <= subdivisions <= 9:  # 20 * 4**9 = 5.2 M faces
         raise ValueError(f"subdivisions: expected an integer in 0..9, got {subdivisions}")
     radius = _positive("radius", radius)
+    center = _center(center)
     tm = trimesh.creation.icosphere(subdivisions=int(subdivisions), radius=1.0)
     unit = tm.vertices / np.linalg.norm(tm.vertices, axis=1, keepdims=True)
     faces = _orient_outward(unit, np.asarray(tm.faces, np.int64), unit)
     uvs = np.stack([np.arctan2(unit[:, 0], unit[:, 2]) / (2 * np.pi) + 0.5, np.arccos(np.clip(unit[:, 1], -1, 1)) / np.pi], 1)
     kwargs.setdefault("name", f"icosphere{subdivisions}")
-    return Mesh(unit * radius + np.asarray(center, float), faces, normals=unit, uvs=uvs, **kwargs)
+    return Mesh(unit * radius + center, faces, normals=unit, uvs=uvs, **kwargs)
 
 
 def uv_sphere(rings: int = 16, segments: int = 32, radius: float = 1.0, center=(0.0, 0.0, 0.0), **kwargs) -> Mesh:
@@ -66,9 +79,11 @@ def uv_sphere(rings: int = 16, segments: int = 32, radius: float = 1.0, center=(
     The seam column is duplicated (distinct UVs); pole triangles that would
     have zero area are left out.
     """
-    if rings < 2 or segments < 3:
-        raise ValueError(f"rings >= 2 and segments >= 3 required, got {rings}, {segments}")
+    rings = as_int(rings, "rings", minimum=2)
+    segments = as_int(segments, "segments", minimum=3)
     radius = _positive("radius", radius)
+    center = _center(center)
+    _check_size(f"rings x segments: {rings} x {segments}", float(rings + 1) * (segments + 1), 2.0 * rings * segments)
     theta = np.linspace(0.0, np.pi, rings + 1)
     phi = np.linspace(0.0, 2 * np.pi, segments + 1)
     th, ph = np.meshgrid(theta, phi, indexing="ij")
@@ -83,16 +98,21 @@ def uv_sphere(rings: int = 16, segments: int = 32, radius: float = 1.0, center=(
     faces = faces[area > 1e-12]
     faces = _orient_outward(unit, faces, unit)
     kwargs.setdefault("name", f"uv_sphere{rings}x{segments}")
-    return Mesh(unit * radius + np.asarray(center, float), faces, normals=unit, uvs=uvs, **kwargs)
+    return Mesh(unit * radius + center, faces, normals=unit, uvs=uvs, **kwargs)
 
 
 def torus(major_radius: float = 1.0, minor_radius: float = 0.35, major_segments: int = 48, minor_segments: int = 24,
           center=(0.0, 0.0, 0.0), **kwargs) -> Mesh:
     """Torus around the y axis with exact normals and UVs (seams duplicated)."""
-    if not (major_radius > minor_radius > 0):
-        raise ValueError(f"need major_radius > minor_radius > 0, got {major_radius}, {minor_radius}")
-    if major_segments < 3 or minor_segments < 3:
-        raise ValueError("major_segments and minor_segments must be >= 3")
+    major_radius = _positive("major_radius", major_radius)
+    minor_radius = _positive("minor_radius", minor_radius)
+    if not major_radius > minor_radius:
+        raise ValueError(f"major_radius: must be > minor_radius, got {major_radius}, {minor_radius}")
+    major_segments = as_int(major_segments, "major_segments", minimum=3)
+    minor_segments = as_int(minor_segments, "minor_segments", minimum=3)
+    center = _center(center)
+    _check_size(f"major_segments x minor_segments: {major_segments} x {minor_segments}",
+                float(major_segments + 1) * (minor_segments + 1), 2.0 * major_segments * minor_segments)
     a = np.linspace(0.0, 2 * np.pi, major_segments + 1)
     b = np.linspace(0.0, 2 * np.pi, minor_segments + 1)
     aa, bb = np.meshgrid(a, b, indexing="ij")
@@ -103,18 +123,20 @@ def torus(major_radius: float = 1.0, minor_radius: float = 0.35, major_segments:
     uvs = np.stack([aa / (2 * np.pi), bb / (2 * np.pi)], -1).reshape(-1, 2)
     faces = _orient_outward(verts, _grid_faces(major_segments, minor_segments), normal)
     kwargs.setdefault("name", f"torus{major_segments}x{minor_segments}")
-    return Mesh(verts + np.asarray(center, float), faces, normals=normal, uvs=uvs, **kwargs)
+    return Mesh(verts + center, faces, normals=normal, uvs=uvs, **kwargs)
 
 
 def plane(size: float = 2.0, subdivisions: int = 1, center=(0.0, 0.0, 0.0), normal: str = "+z", **kwargs) -> Mesh:
     """A square facing ``normal`` (one of ``+x -x +y -y +z -z``), UVs in [0, 1]^2."""
     axes = {"x": 0, "y": 1, "z": 2}
+    if not isinstance(normal, str):
+        raise TypeError(f"normal: expected one of +x -x +y -y +z -z, got {type(normal).__name__}")
     if normal not in {f"{s}{a}" for s in "+-" for a in "xyz"}:
         raise ValueError(f"normal: expected one of +x -x +y -y +z -z, got {normal!r}")
-    n = int(subdivisions)
-    if n < 1:
-        raise ValueError(f"subdivisions: must be >= 1, got {subdivisions}")
+    n = as_int(subdivisions, "subdivisions", minimum=1)
     size = _positive("size", size)
+    center = _center(center)
+    _check_size(f"subdivisions: {n} x {n}", float(n + 1) ** 2, 2.0 * n * n)
     s = np.linspace(-size / 2, size / 2, n + 1)
     uu, vv = np.meshgrid(s, s, indexing="ij")
     local = np.stack([uu.ravel(), vv.ravel(), np.zeros(uu.size)], 1)  # in xy, facing +z
@@ -127,7 +149,7 @@ def plane(size: float = 2.0, subdivisions: int = 1, center=(0.0, 0.0, 0.0), norm
     uvs = np.stack([(uu.ravel() + size / 2) / size, (vv.ravel() + size / 2) / size], 1)
     faces = _orient_outward(verts, _grid_faces(n, n), normals)
     kwargs.setdefault("name", f"plane{normal}")
-    return Mesh(verts + np.asarray(center, float), faces, normals=normals, uvs=uvs, **kwargs)
+    return Mesh(verts + center, faces, normals=normals, uvs=uvs, **kwargs)
 
 
 def cube(size: float = 1.0, center=(0.0, 0.0, 0.0), crease_angle: float | None = 30.0, **kwargs) -> Mesh:
@@ -139,11 +161,12 @@ def cube(size: float = 1.0, center=(0.0, 0.0, 0.0), crease_angle: float | None =
     import trimesh
 
     size = _positive("size", size)
+    center = _center(center)
     tm = trimesh.creation.box(extents=(size, size, size))
     verts = np.asarray(tm.vertices, float)
     faces = _orient_outward(verts, np.asarray(tm.faces, np.int64), verts)
     kwargs.setdefault("name", "cube")
-    return Mesh(verts + np.asarray(center, float), faces, crease_angle=crease_angle, **kwargs)
+    return Mesh(verts + center, faces, crease_angle=crease_angle, **kwargs)
 
 
 def cylinder(radius: float = 0.5, height: float = 1.0, segments: int = 32, center=(0.0, 0.0, 0.0),
@@ -153,13 +176,14 @@ def cylinder(radius: float = 0.5, height: float = 1.0, segments: int = 32, cente
 
     radius = _positive("radius", radius)
     height = _positive("height", height)
-    if int(segments) != segments or segments < 3:
-        raise ValueError(f"segments: expected an integer >= 3, got {segments}")
-    tm = trimesh.creation.cylinder(radius=radius, height=height, sections=int(segments))
+    segments = as_int(segments, "segments", minimum=3)
+    center = _center(center)
+    _check_size(f"segments: {segments}", 4.0 * segments + 2, 4.0 * segments)
+    tm = trimesh.creation.cylinder(radius=radius, height=height, sections=segments)
     verts = np.asarray(tm.vertices, float)[:, [0, 2, 1]]  # trimesh's axis is z
     faces = _orient_outward(verts, np.asarray(tm.faces, np.int64)[:, ::-1], verts)
     kwargs.setdefault("name", "cylinder")
-    return Mesh(verts + np.asarray(center, float), faces, crease_angle=crease_angle, **kwargs)
+    return Mesh(verts + center, faces, crease_angle=crease_angle, **kwargs)
 
 
 SHAPES = {

@@ -72,14 +72,21 @@ class HitBuffer:
         return iter((self.prim, self.geom, self.u, self.v, self.t))
 
 
+# Barycentrics may leave the triangle by rounding only: Embree's (and the rasterizer's
+# float64 ones stored in float32) stay within a few float32 ulps of it.
+BARYCENTRIC_SLACK = 8 * float(np.finfo(np.float32).eps)  # 9.5e-7
+
+
 @njit(cache=True, parallel=True)
-def _count_bad_kernel(prim, geom, u, v, nfaces):
+def _count_bad_kernel(prim, geom, u, v, nfaces, slack):
     """Hit pixels with a model index out of range, a triangle index beyond the
-    model's face count, and non-finite barycentrics: three counts."""
+    model's face count, non-finite barycentrics, and barycentrics outside the
+    triangle (``u < 0``, ``v < 0`` or ``u + v > 1`` by more than ``slack``): four counts."""
     h, w = prim.shape
     bad_geom = 0
     bad_prim = 0
     bad_uv = 0
+    outside = 0
     for y in prange(h):
         for x in range(w):
             p = prim[y, x]
@@ -90,16 +97,21 @@ def _count_bad_kernel(prim, geom, u, v, nfaces):
                 bad_geom += 1
             elif p >= nfaces[g]:
                 bad_prim += 1
-            if not (np.isfinite(u[y, x]) and np.isfinite(v[y, x])):
+            a = np.float64(u[y, x])
+            b = np.float64(v[y, x])
+            if not (np.isfinite(a) and np.isfinite(b)):
                 bad_uv += 1
-    return bad_geom, bad_prim, bad_uv
+            elif a < -slack or b < -slack or a + b > 1.0 + slack:
+                outside += 1
+    return bad_geom, bad_prim, bad_uv, outside
 
 
 def check_hits(hits, geometry, camera=None):
     """Validate a hit buffer against a scene before any shading kernel reads it.
 
     A prim or geom index out of range would make a kernel read outside its
-    arrays (a crash, or garbage); the casters never produce one, but a
+    arrays (a crash, or garbage); barycentrics outside the triangle would
+    extrapolate its normals and UVs. The casters never produce either, but a
     hand-made buffer can. One parallel pass: about 0.8 ms at 1080p.
 
     Parameters
@@ -137,11 +149,15 @@ def check_hits(hits, geometry, camera=None):
     if camera is not None and shape != (camera.height, camera.width):
         raise ValueError(f"hits: shape {shape} does not match the camera's {camera.height}x{camera.width} image")
     nfaces = np.diff(geometry.face_offsets).astype(np.int64)
-    bad_geom, bad_prim, bad_uv = _count_bad_kernel(hits.prim, hits.geom, hits.u, hits.v, nfaces)
+    bad_geom, bad_prim, bad_uv, outside = _count_bad_kernel(hits.prim, hits.geom, hits.u, hits.v, nfaces,
+                                                            BARYCENTRIC_SLACK)
     if bad_geom:
         raise ValueError(f"hits.geom: {bad_geom} hit pixel(s) name a model outside 0..{geometry.n_models - 1}")
     if bad_prim:
         raise ValueError(f"hits.prim: {bad_prim} hit pixel(s) name a triangle beyond their model's face count")
     if bad_uv:
         raise ValueError(f"hits.u, hits.v: {bad_uv} hit pixel(s) have non-finite barycentrics")
+    if outside:
+        raise ValueError(f"hits.u, hits.v: {outside} hit pixel(s) lie outside their triangle (u < 0, v < 0 or "
+                         f"u + v > 1 by more than {BARYCENTRIC_SLACK:.2g})")
     return geometry
