@@ -124,7 +124,6 @@ def _check_tone(path, tone: dict) -> None:
     """Names and values of ``tone`` (see :meth:`Frame.save`), before any file is touched."""
     import difflib
 
-
     for key in tone:
         if key not in _TONE_OPTIONS:
             hint = difflib.get_close_matches(key, _TONE_OPTIONS, n=1)
