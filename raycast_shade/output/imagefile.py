@@ -17,7 +17,7 @@ import os
 
 import numpy as np
 
-__all__ = ["LINEAR_EXTS", "EIGHT_BIT_EXTS", "check_image_path", "write_image", "write_png"]
+__all__ = ["LINEAR_EXTS", "EIGHT_BIT_EXTS", "check_image_path", "write_image", "write_png", "png_bytes"]
 
 from ..common.choices import EIGHT_BIT_EXTS, LINEAR_EXTS
 _FLOAT_FORMATS = (".exr", ".hdr", ".rgbe", ".fits", ".fit")
@@ -82,6 +82,13 @@ def write_png(path, rgb) -> None:
     followed by zlib level 6 is 4x faster and the file comes out no larger
     on rendered images.
     """
+    data = png_bytes(rgb)  # encode first: a failure leaves no truncated file
+    with open(os.fspath(path), "wb") as fh:
+        fh.write(data)
+
+
+def png_bytes(rgb) -> bytes:
+    """An (H, W, 3) uint8 image encoded as a PNG file's bytes (see :func:`write_png`)."""
     import struct
     import zlib
 
@@ -96,6 +103,5 @@ def write_png(path, rgb) -> None:
         return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data))
 
     header = struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)  # 8-bit RGB, no interlace
-    with open(os.fspath(path), "wb") as fh:
-        fh.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw.tobytes(), 6))
-                 + chunk(b"IEND", b""))
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw.tobytes(), 6))
+            + chunk(b"IEND", b""))
