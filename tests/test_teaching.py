@@ -293,6 +293,7 @@ def test_bump_map_that_the_method_ignores_warns_unless_silenced():
 @pytest.mark.parametrize("values,warns", [
     (dict(kd=(255, 128, 0)), True), (dict(ka=3.0), True), (dict(ks=(2.0, 2.0, 2.0)), True),
     (dict(kd=(0.8, 0.3, 0.2), ks=1.0), False), (dict(ks=1.5), False), (dict(kd=1.0, ka=1.0), False),
+    (dict(kd=1e30), False),  # not a byte: a saturation test, say
 ])
 def test_colours_that_look_like_bytes_warn(values, warns):
     if warns:
@@ -397,3 +398,10 @@ def test_auto_names_the_diffuse_term_when_it_needs_phong():
     shiny = scene.replace(models=[rs.Model(rs.shapes.icosphere(3), rs.Material(kd=0.8, ks=0.5, shininess=40))])
     (d,) = rs.choose_methods(shiny, shiny.camera, 0.02)
     assert "highlight" in d.reason, d.reason
+
+
+def test_a_double_sided_sheet_is_not_a_crease():
+    plane = rs.shapes.plane(size=2.0, subdivisions=2)
+    faces = np.vstack([plane.faces, plane.faces[:, ::-1]])
+    fn = rs.Mesh(plane.vertices, faces, normals=plane.normals).prepared.face_normals
+    assert sharp_edges(plane.vertices, faces, fn) == 0

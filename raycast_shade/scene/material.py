@@ -16,9 +16,10 @@ __all__ = ["Material", "SPECULAR_MODELS"]
 
 
 def _warn_byte_range(rgb: np.ndarray, name: str, field: str) -> None:
-    """Warn when coefficients look like 0-255 colour values: above 1, and
-    whole numbers or above 2 (a reflectance above 1 reflects more than arrives)."""
-    if rgb.max() > 1.0 and (np.all(rgb == np.round(rgb)) or rgb.max() > 2.0):
+    """Warn when coefficients look like 0-255 colour values: above 1 (up to 255),
+    and whole numbers or above 2 (a reflectance above 1 reflects more than arrives)."""
+    top = rgb.max()
+    if 1.0 < top <= 255.0 and (np.all(rgb == np.round(rgb)) or top > 2.0):
         warnings.warn(
             f"{name} = {rgb.tolist()} looks like 0-255 colour values, but coefficients are fractions "
             f"(1 reflects everything): did you mean {field}={np.round(rgb / 255.0, 4).tolist()} ({field}/255)?",

@@ -23,7 +23,7 @@ import math
 import warnings
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from ..common.warnings import BumpIgnoredWarning, LightInsideWarning, NoLightsWarning
 from .normals import _corners_by_vertex
@@ -48,22 +48,32 @@ def _half_edges(order, starts, dest, lo, hi, b):
 
 
 @njit(cache=True)
-def _sharp_edges_kernel(order, starts, dest, fnormals, cos_limit):
+def _third(faces, f, a, b):
+    """The vertex of face ``f`` other than ``a`` and ``b``."""
+    for k in range(3):
+        if faces[f, k] != a and faces[f, k] != b:
+            return faces[f, k]
+    return -1
+
+
+@njit(cache=True, parallel=True)
+def _sharp_edges_kernel(faces, order, starts, dest, fnormals, cos_limit):
     """Count manifold edges (one face each way) whose face normals meet at cosine < ``cos_limit``.
 
     Each edge is counted once, from its half-edge ``a -> b`` with ``a < b``;
     edges with zero-area faces, three or more faces, or a winding conflict
-    are left out.
+    are left out, and so are a face and its own reverse (a double-sided
+    sheet's rim: no crease that a crease angle would keep).
     """
     count = 0
-    for a in range(starts.shape[0] - 1):
+    for a in prange(starts.shape[0] - 1):
         for i in range(starts[a], starts[a + 1]):
             b = dest[i]
             if b < a:
                 continue
             n_ab, fa = _half_edges(order, starts, dest, starts[a], starts[a + 1], b)
             n_ba, fb = _half_edges(order, starts, dest, starts[b], starts[b + 1], a)
-            if n_ab != 1 or n_ba != 1:
+            if n_ab != 1 or n_ba != 1 or _third(faces, fa, a, b) == _third(faces, fb, a, b):
                 continue
             la = fnormals[fa, 0] ** 2 + fnormals[fa, 1] ** 2 + fnormals[fa, 2] ** 2
             lb = fnormals[fb, 0] ** 2 + fnormals[fb, 1] ** 2 + fnormals[fb, 2] ** 2
@@ -105,8 +115,9 @@ def sharp_edges(vertices: np.ndarray, faces: np.ndarray, fnormals: np.ndarray,
     int
         Counted over manifold, consistently wound edges only.
     """
-    order, starts, dest, _ = _corners_by_vertex(np.asarray(faces, np.int64), vertices.shape[0])
-    return int(_sharp_edges_kernel(order, starts, dest, fnormals, math.cos(math.radians(degrees))))
+    faces = np.asarray(faces, np.int64)
+    order, starts, dest, _ = _corners_by_vertex(faces, vertices.shape[0])
+    return int(_sharp_edges_kernel(faces, order, starts, dest, fnormals, math.cos(math.radians(degrees))))
 
 
 def closed(faces: np.ndarray, n_vertices: int) -> bool:
