@@ -32,10 +32,26 @@ from .study.auto import choose_methods
 from .shading.kernels import SHADINGS, shade, shading_normals
 from .output.tonemap import read_pfm, to_uint8, write_pfm
 from .common.version import __version__
+from .common.warnings import (BumpIgnoredWarning, ColourRangeWarning, CreaseWarning, DroppedOnLoadWarning,
+                              LightInsideWarning, NoLightsWarning, ShadingWarning, ZeroNormalWarning)
 
 
 __all__ = [
     "Camera", "DirectionalLight", "HeightMap", "bump", "Frame", "HitBuffer", "Material", "Mesh", "Model", "PointLight", "Scene",
     "SHADINGS", "cast_camera", "cast_rays", "read_pfm", "render", "render_file", "choose_methods", "shade", "shading_normals", "shapes", "to_uint8", "write_pfm",
     "WindingWarning", "winding_conflicts",
+    "ShadingWarning", "BumpIgnoredWarning", "ColourRangeWarning", "CreaseWarning", "DroppedOnLoadWarning",
+    "LightInsideWarning", "NoLightsWarning", "ZeroNormalWarning", "figures", "overlays",
 ]
+
+# Imported on first access: figures needs matplotlib (the "notebook" extra),
+# and neither belongs on the start-up path of ``raycast-shade demo``.
+_LAZY = {"figures": ".output.figures", "overlays": ".output.overlays"}
+
+
+def __getattr__(name):
+    if name in _LAZY:
+        import importlib
+
+        return importlib.import_module(_LAZY[name], __name__)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

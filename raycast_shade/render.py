@@ -8,6 +8,7 @@ from .scene.camera import Camera
 from .visibility.accel import embree_accel, has_embree_accel
 from .visibility.cast import cast_camera, resolve_caster, secondary_rays
 from .output.frame import Frame
+from .scene.pitfalls import warn_render
 from .scene.scene import Scene
 from .study.auto import choose_methods
 from .common.choices import BACKENDS, CASTERS, INTERPOLATIONS, SHADINGS
@@ -102,6 +103,7 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
         shading = tuple(d.method for d in decisions)
     elif not isinstance(shading, str):
         shading = tuple(m.lower() for m in shading)
+    warn_render(scene, shading)  # no lights, a light inside a closed mesh, a bump map the method ignores
     timings = {}
     fresh = "geometry" not in scene.__dict__ or not has_embree_accel(scene.geometry)
     if fresh and caster != "embreex" and backend == "raycast":

@@ -104,9 +104,9 @@ CASES = [
     (["demo", "--gamma", "0"], "argument --gamma"),
     # render: 4 (empty output, tolerance in a mode that does not use it), 7 (huge frame), 8 (outputs)
     (["render", "good.toml", "-o", ""], "argument -o/--output: expected a path, got an empty string"),
-    (["render", "good.toml", "--tolerance", "nan", "-o", "x.png"], "tolerance: must be finite"),
-    (["render", "good.toml", "--tolerance", "-1", "-o", "x.png"], "tolerance: must be > 0"),
-    (["render", "good.toml", "--tolerance", "0", "--shading", "flat", "-o", "x.png"], "tolerance: must be > 0"),
+    (["render", "good.toml", "--tolerance", "nan", "-o", "x.png"], "--tolerance: expected a finite number > 0, got 'nan'"),
+    (["render", "good.toml", "--tolerance", "-1", "-o", "x.png"], "--tolerance: expected a finite number > 0, got '-1'"),
+    (["render", "good.toml", "--tolerance", "0", "--shading", "flat", "-o", "x.png"], "--tolerance: expected a finite number > 0, got '0'"),
     (["render", "good.toml", *BIG, "-o", "x.png"], HUGE_FRAME),
     (["render", "good.toml", "-o", "folder.png"], "output: 'folder.png' is a folder, not a file"),
     (["render", "good.toml", "-o", "missing/x.png"], "does not exist"),

@@ -119,10 +119,15 @@ def render_demo_frames(width: int = DEFAULT_WIDTH, height: int = DEFAULT_HEIGHT,
     list of Frame
         In the order of :data:`LABELS`.
     """
+    import warnings
+
+    from ..common.warnings import BumpIgnoredWarning
     from ..render import render
 
     scene = demo_scene(width, height)
-    return [render(scene, mode, caster=caster) for mode in MODES]
+    with warnings.catch_warnings():  # the egg's bumps are missing from flat and Gouraud on purpose
+        warnings.simplefilter("ignore", BumpIgnoredWarning)
+        return [render(scene, mode, caster=caster) for mode in MODES]
 
 
 def compose(images, labels=LABELS, gap: int = 2) -> np.ndarray:

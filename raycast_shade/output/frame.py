@@ -9,13 +9,13 @@ import numpy as np
 
 from ..common.validate import as_scalar
 from ..visibility.hits import HitBuffer
-from .imagefile import LINEAR_EXTS, check_image_path, write_image
+from .imagefile import LINEAR_EXTS, check_image_path, png_bytes, write_image
 from .tonemap import to_uint8
 
 __all__ = ["Frame"]
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, repr=False)
 class Frame:
     """The result of :func:`raycast_shade.render`.
 
@@ -89,6 +89,27 @@ class Frame:
     def to_uint8(self, **kwargs) -> np.ndarray:
         """8-bit sRGB image; see :func:`raycast_shade.tonemap.to_uint8`."""
         return to_uint8(self.image, **{**self.tone, **kwargs})
+
+    def __repr__(self) -> str:
+        """One line: size, shading and timings in ms (the image itself is left out)."""
+        h, w = self.image.shape[:2]
+        shading = self.shading if isinstance(self.shading, str) else "/".join(self.shading)
+        times = ", ".join(f"{k} {v * 1e3:.1f}" for k, v in self.timings.items())
+        return f"Frame({w}x{h}, shading={shading!r}" + (f", ms: {times})" if times else ")")
+
+    def _repr_png_(self) -> bytes:
+        """PNG bytes for Jupyter and IPython: the 8-bit image that :meth:`save` writes to a ``.png``."""
+        return png_bytes(self.to_uint8())
+
+    def overlay(self, wireframe: bool = True, vertices: bool = False, normals: bool = False, width: float = 1.0,
+                color=(1.0, 1.0, 1.0), **kwargs) -> np.ndarray:
+        """(H, W, 3) float32: the image with its triangle edges, vertices or normals drawn
+        over it, exactly from the hit buffer; see :func:`raycast_shade.output.overlays.overlay`
+        (``radius``, ``length``, ``image``)."""
+        from .overlays import overlay
+
+        return overlay(self, wireframe=wireframe, vertices=vertices, normals=normals, width=width, color=color,
+                       **kwargs)
 
     def save(self, path, **kwargs) -> None:
         """Write the image: ``.pfm`` (float32) or ``.npy`` losslessly; PNG, JPEG,

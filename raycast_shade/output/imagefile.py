@@ -27,7 +27,7 @@ import numpy as np
 from ..common.choices import EIGHT_BIT_EXTS, LINEAR_EXTS
 
 __all__ = ["LINEAR_EXTS", "EIGHT_BIT_EXTS", "check_image_path", "write_image", "write_png", "atomic_target",
-           "remove_stale_temps"]
+           "remove_stale_temps", "png_bytes"]
 
 _FLOAT_FORMATS = (".exr", ".hdr", ".rgbe", ".fits", ".fit")
 # What atomic_target names its temporaries: ".<name>.<12 hex digits>.tmp<ext>".
@@ -196,6 +196,13 @@ def write_png(path, rgb) -> None:
     followed by zlib level 6 is 4x faster and the file comes out no larger
     on rendered images.
     """
+    data = png_bytes(rgb)  # encode first: a failure leaves no truncated file
+    with open(os.fspath(path), "wb") as fh:
+        fh.write(data)
+
+
+def png_bytes(rgb) -> bytes:
+    """An (H, W, 3) uint8 image encoded as a PNG file's bytes (see :func:`write_png`)."""
     import struct
     import zlib
 
@@ -210,6 +217,5 @@ def write_png(path, rgb) -> None:
         return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data))
 
     header = struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)  # 8-bit RGB, no interlace
-    with open(os.fspath(path), "wb") as fh:
-        fh.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw.tobytes(), 6))
-                 + chunk(b"IEND", b""))
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw.tobytes(), 6))
+            + chunk(b"IEND", b""))

@@ -2,15 +2,28 @@
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..common.choices import SPECULAR_MODELS
 from ..common.validate import as_choice, as_rgb, as_scalar
+from ..common.warnings import ColourRangeWarning
 
 __all__ = ["Material", "SPECULAR_MODELS"]
 
+
+
+def _warn_byte_range(rgb: np.ndarray, name: str, field: str) -> None:
+    """Warn when coefficients look like 0-255 colour values: above 1 (up to 255),
+    and whole numbers or above 2 (a reflectance above 1 reflects more than arrives)."""
+    top = rgb.max()
+    if 1.0 < top <= 255.0 and (np.all(rgb == np.round(rgb)) or top > 2.0):
+        warnings.warn(
+            f"{name} = {rgb.tolist()} looks like 0-255 colour values, but coefficients are fractions "
+            f"(1 reflects everything): did you mean {field}={np.round(rgb / 255.0, 4).tolist()} ({field}/255)?",
+            ColourRangeWarning, stacklevel=4)
 
 
 @dataclass(frozen=True, eq=False)
@@ -55,6 +68,7 @@ class Material:
         set_ = object.__setattr__
         for field in ("kd", "ka", "ks"):
             set_(self, field, as_rgb(getattr(self, field), f"{self.name}.{field}"))
+            _warn_byte_range(getattr(self, field), f"{self.name}.{field}", field)
         set_(self, "shininess", as_scalar(self.shininess, f"{self.name}.shininess", minimum=0.0, exclusive=True))
         set_(self, "specular", as_choice(self.specular, f"{self.name}.specular", SPECULAR_MODELS))
         set_(self, "reflectivity", as_scalar(self.reflectivity, f"{self.name}.reflectivity", minimum=0.0, maximum=1.0))

@@ -11,14 +11,11 @@ from typing import NamedTuple
 import numpy as np
 
 from ..common.validate import as_array, as_choice, as_scalar, pow2_scaled
+from ..common.warnings import CreaseWarning, DroppedOnLoadWarning, ZeroNormalWarning
 from .normals import WEIGHTINGS, WindingWarning, face_normals, vertex_normals, winding_conflicts
+from .pitfalls import SHARP_DEGREES, sharp_edges
 
 __all__ = ["Mesh", "PreparedMesh", "ZeroNormalWarning"]
-
-
-class ZeroNormalWarning(UserWarning):
-    """Given vertex normals include zero vectors: the shading falls back to the
-    face normal there (see docs/failure-cases.md, section 3)."""
 
 
 class PreparedMesh(NamedTuple):
@@ -135,6 +132,7 @@ class Mesh:
         """
         import trimesh
 
+        dropped = []
         if isinstance(tm, trimesh.Trimesh):
             instances = [(tm, np.eye(4))]
         elif isinstance(tm, trimesh.Scene):
@@ -144,6 +142,8 @@ class Mesh:
                 geometry = tm.geometry.get(geometry_name)
                 if isinstance(geometry, trimesh.Trimesh) and len(geometry.faces):
                     instances.append((geometry, np.asarray(transform, np.float64)))
+                else:
+                    dropped.append(f"{geometry_name!r} ({type(geometry).__name__}, no triangles)")
             if not instances:
                 raise ValueError("the trimesh scene holds no triangle meshes")
         else:
@@ -154,6 +154,14 @@ class Mesh:
         faces = np.concatenate([p[1] + o for p, o in zip(parts, offsets)])
         normals = np.concatenate([p[2] for p in parts]) if all(p[2] is not None for p in parts) else None
         uvs = np.concatenate([p[3] for p in parts]) if all(p[3] is not None for p in parts) else None
+        if normals is None and any(p[2] is not None for p in parts):
+            dropped.append("the vertex normals (only some of the meshes have them; they are averaged instead)")
+        if uvs is None and any(p[3] is not None for p in parts):
+            dropped.append("the UVs (only some of the meshes have them)")
+        if dropped:
+            warnings.warn(f"{kwargs.get('name', 'mesh')}: dropped {'; '.join(dropped)}: export the file with "
+                          "triangle meshes only, each with the same attributes, to keep everything",
+                          DroppedOnLoadWarning, stacklevel=2)
         return cls(vertices, faces, normals=normals, uvs=uvs, **kwargs)
 
     @classmethod
@@ -218,6 +226,16 @@ class Mesh:
                     WindingWarning,
                     stacklevel=2,
                 )
+            if self.crease_angle is None:
+                sharp = sharp_edges(self.vertices, self.faces, fn)
+                if sharp:
+                    warnings.warn(
+                        f"{self.name}: {sharp} edge(s) join faces at more than {SHARP_DEGREES:g} degrees, and "
+                        "the computed vertex normals average across them, rounding hard edges off: pass "
+                        "crease_angle=30 (degrees) to keep them hard, or normals",
+                        CreaseWarning,
+                        stacklevel=2,
+                    )
             verts, faces, normals, source = vertex_normals(
                 self.vertices, self.faces, self.weighting, self.crease_angle
             )

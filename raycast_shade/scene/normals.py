@@ -23,6 +23,7 @@ from numba import njit, prange
 __all__ = ["face_normals", "vertex_normals", "winding_conflicts", "WindingWarning", "WEIGHTINGS"]
 
 from ..common.choices import WEIGHTINGS
+from ..common.warnings import ShadingWarning
 _WEIGHT_CODE = {"uniform": 0, "area": 1, "angle": 2}
 
 
@@ -273,8 +274,9 @@ def _split_kernel(corner_normals, order, starts):
     return new_index, source[:count]
 
 
-class WindingWarning(UserWarning):
-    """Computed vertex normals meet faces wound in opposite directions."""
+class WindingWarning(ShadingWarning):
+    """Computed vertex normals meet faces wound in opposite directions (a
+    :class:`UserWarning`, like every :class:`ShadingWarning`)."""
 
 
 @njit(cache=True)

@@ -24,14 +24,26 @@ from .mesh import Mesh
 __all__ = ["Model", "Scene", "SceneGeometry"]
 
 
+def _is_trimesh(value) -> bool:
+    """A trimesh.Trimesh or trimesh.Scene, told by its type's module so trimesh is not imported."""
+    cls = type(value)
+    return cls.__module__.split(".")[0] == "trimesh" and cls.__name__ in ("Trimesh", "Scene")
+
+
 @dataclass(frozen=True, eq=False)
 class Model:
-    """A mesh with its material."""
+    """A mesh with its material.
+
+    ``mesh`` may be a :class:`trimesh.Trimesh` (or ``trimesh.Scene``): it is
+    converted with :meth:`Mesh.from_trimesh`.
+    """
 
     mesh: Mesh
     material: Material = dataclasses.field(default_factory=Material)
 
     def __post_init__(self):
+        if _is_trimesh(self.mesh):
+            object.__setattr__(self, "mesh", Mesh.from_trimesh(self.mesh))
         if not isinstance(self.mesh, Mesh):
             raise TypeError(f"model.mesh: expected a Mesh, got {type(self.mesh).__name__}")
         if not isinstance(self.material, Material):
@@ -190,11 +202,12 @@ def _as_sequence(value, name):
 def _as_model(item, i):
     if isinstance(item, Model):
         return item
-    if isinstance(item, Mesh):
+    if isinstance(item, Mesh) or _is_trimesh(item):
         return Model(item)
     if isinstance(item, tuple) and len(item) == 2:
         return Model(*item)
-    raise TypeError(f"scene.models[{i}]: expected a Model, a Mesh or a (Mesh, Material) pair, got {type(item).__name__}")
+    raise TypeError(f"scene.models[{i}]: expected a Model, a Mesh, a trimesh.Trimesh or a (Mesh, Material) pair, "
+                    f"got {type(item).__name__}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -203,7 +216,7 @@ class Scene:
 
     Parameters
     ----------
-    models : sequence of Model, Mesh or (Mesh, Material)
+    models : sequence of Model, Mesh, trimesh.Trimesh or (Mesh, Material)
         At least one.
     lights : sequence of PointLight or DirectionalLight
     camera : Camera
@@ -221,7 +234,7 @@ class Scene:
 
     def __post_init__(self):
         set_ = object.__setattr__
-        if isinstance(self.models, (Mesh, Model)):
+        if isinstance(self.models, (Mesh, Model)) or _is_trimesh(self.models):
             set_(self, "models", (self.models,))
         models = tuple(_as_model(m, i) for i, m in enumerate(_as_sequence(self.models, "scene.models")))
         if not models:

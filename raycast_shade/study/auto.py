@@ -226,6 +226,9 @@ def choose_methods(scene, camera, tolerance: float = 0.01, max_pixels: float = 2
             elif method == "gouraud":
                 why = "no specular term" if specular == 0.0 else f"highlights wider than the triangles (t={mat.shininess:g})"
                 reason = f"{why}: Gouraud predicts {pred['gouraud']:.3g} <= {tolerance:g}, flat {pred['flat']:.3g}"
+            elif specular == 0.0:  # no highlight to lose: the diffuse term's curvature decides
+                reason = (f"diffuse shading turns too fast for the triangles (step {np.degrees(step):.2g} deg, "
+                          f"no specular term): Gouraud predicts {pred['gouraud']:.3g} > {tolerance:g}")
             else:
                 reason = (f"highlights narrower than the triangles (t={mat.shininess:g}, step {np.degrees(step):.2g} deg): "
                           f"Gouraud predicts {pred['gouraud']:.3g} > {tolerance:g}")

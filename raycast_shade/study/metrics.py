@@ -45,6 +45,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from ..common.extras import MissingExtraError, require
+
 __all__ = [
     "MissingExtraError", "Comparison", "compare", "common_mask", "rmse", "psnr", "max_error", "ssim",
     "normal_angles", "highlight_position", "flip", "silhouette_mismatch", "interior_mask", "angular_step",
@@ -52,20 +54,8 @@ __all__ = [
 ]
 
 
-class MissingExtraError(ImportError):
-    """An optional dependency is not installed; the message says how to get it."""
-
-
 def _require(module: str, package: str, what: str):
-    import importlib
-
-    try:
-        return importlib.import_module(module)
-    except ImportError:
-        raise MissingExtraError(
-            f"{what} needs the optional package {package!r}, which is not installed: "
-            f"pip install 'raycast_shade[bench]' (or pip install {package})"
-        ) from None
+    return require(module, package, what, "bench")
 
 
 def _image(x, name):

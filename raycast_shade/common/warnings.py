@@ -1,0 +1,56 @@
+"""Warnings for silent pitfalls: the image renders, but probably not as meant.
+
+Every class derives from :class:`ShadingWarning`, so one filter silences the
+family::
+
+    warnings.filterwarnings("ignore", category=rs.ShadingWarning)
+
+and one class silences one pitfall, e.g. for a single call that shows it on
+purpose (a lecture showing that only Phong shading shows bump maps)::
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", rs.BumpIgnoredWarning)
+        frame = rs.render(scene, "gouraud")
+
+Each message names the remedy.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "ShadingWarning", "BumpIgnoredWarning", "ColourRangeWarning", "CreaseWarning", "DroppedOnLoadWarning",
+    "LightInsideWarning", "NoLightsWarning", "ZeroNormalWarning",
+]
+
+
+class ShadingWarning(UserWarning):
+    """Base of raycast_shade's warnings about likely mistakes in a scene."""
+
+
+class NoLightsWarning(ShadingWarning):
+    """A scene rendered without lights shows the ambient term alone."""
+
+
+class LightInsideWarning(ShadingWarning):
+    """A point light inside a closed mesh lights only its inside."""
+
+
+class BumpIgnoredWarning(ShadingWarning):
+    """A bump-mapped model shaded flat or Gouraud: the bumps do not show."""
+
+
+class ColourRangeWarning(ShadingWarning):
+    """Material coefficients that look like 0-255 colour values."""
+
+
+class CreaseWarning(ShadingWarning):
+    """Computed vertex normals averaged across sharp edges."""
+
+
+class DroppedOnLoadWarning(ShadingWarning):
+    """Part of a mesh file (geometry, normals, UVs) was not kept."""
+
+
+class ZeroNormalWarning(ShadingWarning):
+    """Given vertex normals include zero vectors: the shading falls back to the
+    face normal there (see docs/failure-cases.md, section 3)."""

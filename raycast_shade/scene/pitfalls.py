@@ -1,0 +1,212 @@
+"""Checks for silent pitfalls: scenes that render, but not as meant.
+
+Each check is cheap next to a frame, and each warning (see
+:mod:`raycast_shade.common.warnings`) names its remedy:
+
+* :func:`sharp_edges`: averaged vertex normals across edges sharper than
+  about 60 degrees round a box into a blob (:class:`CreaseWarning`, from
+  :class:`~raycast_shade.scene.mesh.Mesh`);
+* :func:`closed`, :func:`winding_number`: a point light inside a closed mesh
+  lights only its inside (:class:`LightInsideWarning`);
+* :func:`warn_render`: at :func:`raycast_shade.render`, no lights, a point
+  light inside a closed mesh, or a bump map the shading method ignores.
+
+Only consistently wound, closed meshes (every edge traversed once each way)
+are tested for a light inside: the winding number then is exactly 0 outside
+and +-1 inside. A light outside a model's bounding box is outside without
+further work.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+from numba import njit, prange
+
+from ..common.warnings import BumpIgnoredWarning, LightInsideWarning, NoLightsWarning
+from .normals import _corners_by_vertex
+
+__all__ = ["SHARP_DEGREES", "sharp_edges", "closed", "winding_number", "warn_render"]
+
+# Faces whose normals differ by more than this are a crease, not a curve:
+# averaging across them rounds the edge off.
+SHARP_DEGREES = 60.0
+
+
+@njit(cache=True)
+def _half_edges(order, starts, dest, lo, hi, b):
+    """How many corners among ``order[lo:hi]`` go on to vertex ``b``, and the face of the last."""
+    n = 0
+    face = -1
+    for i in range(lo, hi):
+        if dest[i] == b:
+            n += 1
+            face = order[i] // 3
+    return n, face
+
+
+@njit(cache=True)
+def _third(faces, f, a, b):
+    """The vertex of face ``f`` other than ``a`` and ``b``."""
+    for k in range(3):
+        if faces[f, k] != a and faces[f, k] != b:
+            return faces[f, k]
+    return -1
+
+
+@njit(cache=True, parallel=True)
+def _sharp_edges_kernel(faces, order, starts, dest, fnormals, cos_limit):
+    """Count manifold edges (one face each way) whose face normals meet at cosine < ``cos_limit``.
+
+    Each edge is counted once, from its half-edge ``a -> b`` with ``a < b``;
+    edges with zero-area faces, three or more faces, or a winding conflict
+    are left out, and so are a face and its own reverse (a double-sided
+    sheet's rim: no crease that a crease angle would keep).
+    """
+    count = 0
+    for a in prange(starts.shape[0] - 1):
+        for i in range(starts[a], starts[a + 1]):
+            b = dest[i]
+            if b < a:
+                continue
+            n_ab, fa = _half_edges(order, starts, dest, starts[a], starts[a + 1], b)
+            n_ba, fb = _half_edges(order, starts, dest, starts[b], starts[b + 1], a)
+            if n_ab != 1 or n_ba != 1 or _third(faces, fa, a, b) == _third(faces, fb, a, b):
+                continue
+            la = fnormals[fa, 0] ** 2 + fnormals[fa, 1] ** 2 + fnormals[fa, 2] ** 2
+            lb = fnormals[fb, 0] ** 2 + fnormals[fb, 1] ** 2 + fnormals[fb, 2] ** 2
+            if la == 0.0 or lb == 0.0:
+                continue
+            c = fnormals[fa, 0] * fnormals[fb, 0] + fnormals[fa, 1] * fnormals[fb, 1] + fnormals[fa, 2] * fnormals[fb, 2]
+            if c < cos_limit:
+                count += 1
+    return count
+
+
+@njit(cache=True)
+def _closed_kernel(order, starts, dest):
+    """True when every half-edge ``a -> b`` is unique and has exactly one ``b -> a``."""
+    for a in range(starts.shape[0] - 1):
+        for i in range(starts[a], starts[a + 1]):
+            b = dest[i]
+            n_ab, _ = _half_edges(order, starts, dest, starts[a], starts[a + 1], b)
+            n_ba, _ = _half_edges(order, starts, dest, starts[b], starts[b + 1], a)
+            if n_ab != 1 or n_ba != 1:
+                return False
+    return True
+
+
+def sharp_edges(vertices: np.ndarray, faces: np.ndarray, fnormals: np.ndarray,
+                degrees: float = SHARP_DEGREES) -> int:
+    """Number of edges where the two faces' normals differ by more than ``degrees``.
+
+    Parameters
+    ----------
+    vertices : (V, 3) float64
+    faces : (F, 3) int64
+    fnormals : (F, 3) float64
+        Unit face normals, zero for degenerate faces.
+    degrees : float
+
+    Returns
+    -------
+    int
+        Counted over manifold, consistently wound edges only.
+    """
+    faces = np.asarray(faces, np.int64)
+    order, starts, dest, _ = _corners_by_vertex(faces, vertices.shape[0])
+    return int(_sharp_edges_kernel(faces, order, starts, dest, fnormals, math.cos(math.radians(degrees))))
+
+
+def closed(faces: np.ndarray, n_vertices: int) -> bool:
+    """True for a closed, consistently wound surface: each edge once each way.
+
+    Parameters
+    ----------
+    faces : (F, 3) int64
+    n_vertices : int
+    """
+    order, starts, dest, _ = _corners_by_vertex(np.asarray(faces, np.int64), int(n_vertices))
+    return bool(_closed_kernel(order, starts, dest))
+
+
+def winding_number(vertices: np.ndarray, faces: np.ndarray, point) -> float:
+    """Generalised winding number of ``point`` for a triangle mesh.
+
+    The sum of the solid angles the faces subtend at the point (Van Oosterom
+    and Strackee's formula), over 4 pi: for a closed mesh, 0 outside and 1
+    inside (-1 if it is wound inside out).
+
+    Parameters
+    ----------
+    vertices : (V, 3) float64
+    faces : (F, 3) int64
+    point : (3,) float
+
+    Returns
+    -------
+    float
+    """
+    p = vertices[faces] - np.asarray(point, np.float64)  # (F, 3 corners, 3)
+    a, b, c = p[:, 0], p[:, 1], p[:, 2]
+    la, lb, lc = (np.linalg.norm(x, axis=1) for x in (a, b, c))
+    num = np.einsum("ij,ij->i", a, np.cross(b, c))
+    den = (la * lb * lc + np.einsum("ij,ij->i", a, b) * lc + np.einsum("ij,ij->i", a, c) * lb
+           + np.einsum("ij,ij->i", b, c) * la)
+    return float(np.sum(2.0 * np.arctan2(num, den)) / (4.0 * np.pi))
+
+
+def _lights_inside(scene):
+    """(light name, model index, mesh name) for each point light inside a closed model."""
+    found = []
+    points = [(light.name, light.position) for light in scene.lights if hasattr(light, "position")]
+    if not points:
+        return found
+    for g, model in enumerate(scene.models):
+        mesh = model.mesh
+        lo, hi = mesh.bounds
+        candidates = [(n, p) for n, p in points if np.all(p > lo) and np.all(p < hi)]
+        if not candidates:
+            continue
+        is_closed = scene.geometry.memo(f"pitfalls.closed.{g}", lambda _, m=mesh: closed(m.faces, len(m.vertices)))
+        if not is_closed:
+            continue
+        for name, p in candidates:
+            if abs(winding_number(mesh.vertices, mesh.faces, p)) > 0.5:
+                found.append((name, g, mesh.name))
+    return found
+
+
+def warn_render(scene, methods, stacklevel: int = 3) -> None:
+    """Warn about the pitfalls of rendering ``scene`` with ``methods``.
+
+    Parameters
+    ----------
+    scene : Scene
+    methods : str or sequence of str
+        One of ``"flat"``, ``"gouraud"``, ``"phong"`` for every model, or one per model.
+    stacklevel : int
+        Passed to :func:`warnings.warn`; 3 points at the caller of the function that calls this.
+    """
+    if not scene.lights:
+        warnings.warn(
+            "the scene has no lights, so only the ambient term (Ia ka) shows, one flat colour per "
+            "material: add a PointLight or DirectionalLight to scene.lights",
+            NoLightsWarning, stacklevel=stacklevel)
+    for light, g, name in _lights_inside(scene):
+        warnings.warn(
+            f"{light} is inside the closed mesh scene.models[{g}] ({name}), so it lights only the inside "
+            "(and the mesh shadows everything else from it): move the light outside the mesh",
+            LightInsideWarning, stacklevel=stacklevel)
+    per_model = [methods] * len(scene.models) if isinstance(methods, str) else list(methods)
+    ignored = [(g, m.mesh.name, method) for g, (m, method) in enumerate(zip(scene.models, per_model))
+               if m.material.bump is not None and method in ("flat", "gouraud")]
+    if ignored:
+        which = ", ".join(f"scene.models[{g}] ({name}, {method})" for g, name, method in ignored)
+        warnings.warn(
+            f"{which}: the bump map shows only in Phong shading (flat and Gouraud shading have no normal "
+            "per pixel to perturb): render with shading='phong' or 'auto', or, to show this on purpose, "
+            "ignore raycast_shade.BumpIgnoredWarning in warnings.catch_warnings()",
+            BumpIgnoredWarning, stacklevel=stacklevel)
