@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..common.layout import ATT_NONE, LIGHT_ATT, LIGHT_KIND, LIGHT_POINT, LIGHT_SIZE, MAT_KS
+from ..common.layout import ATT_NONE, LIGHT_ATT, LIGHT_KIND, LIGHT_POINT, LIGHT_SHADOWS, MAT_KS
 from ..visibility.accel import embree_accel
 from ..visibility.rays import camera_frame
 
@@ -20,7 +20,7 @@ def kernel_inputs(scene, camera):
         ``G`` = (verts (V,3) f8, normals (V,3) f8, faces (F,3) i8, fnormals (F,3) f8);
         ``B`` = (uvs (V,2) f8, tangents (F,6) f8, bump_index (G,) i4, texels (T,) f4,
         info (B, BUMP_SIZE) f8);
-        ``L`` = (ambient (3,) f8, lights (L, LIGHT_SIZE) f8,
+        ``L`` = (ambient (3,) f8, lights (L, LIGHT_SIZE) f8 (:meth:`Scene.packed_lights`),
         dmin f8, scene handle uintp or 0 when no light casts shadows, unit f8 = the
         scene's size for ray offsets);
         ``face_off`` (G+1,) i8, ``materials`` (G, MAT_SIZE) f8, ``cam`` (CAM_SIZE,) f8,
@@ -30,11 +30,8 @@ def kernel_inputs(scene, camera):
         The row layouts are those of :mod:`raycast_shade.common.layout`.
     """
     geo = scene.geometry
-    lkind, lvec, lrad, latt, lk, lshadow = scene.packed_lights()
-    handle = embree_accel(geo).handle if lshadow.any() else 0
-    # One array for the lights: the kernels index it per pixel and light, and
-    # every separate array would be one more argument to thread through.
-    lights = np.column_stack([lkind, lvec, lrad, latt, lk, lshadow]).astype(np.float64).reshape(-1, LIGHT_SIZE)
+    lights = scene.packed_lights()
+    handle = embree_accel(geo).handle if lights[:, LIGHT_SHADOWS].any() else 0
     return dict(
         G=(geo.vertices, geo.normals, geo.faces, geo.face_normals),
         B=(geo.uvs, geo.tangents, geo.bump_index, geo.bump_texels, geo.bump_info),
