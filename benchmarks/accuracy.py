@@ -317,7 +317,7 @@ def peer_pipelines(scene, cam, mode):
     returns the (H, W, 3) image and its (H, W) coverage mask.
     """
     from raycast_shade.visibility.rays import generate_rays, generate_rays_numpy
-    from raycast_shade.shading.kernels import shade
+    from raycast_shade.shading.shade import shade
 
     geo = scene.geometry
     h, w = cam.height, cam.width

@@ -59,7 +59,7 @@ def bench_frame(subdivisions: int, width: int, height: int, repeats: int, naive:
     import raycast_shade as rs
     from raycast_shade.visibility.cast import cast_camera, run_embreex
     from raycast_shade.visibility.rays import generate_rays, generate_rays_numpy
-    from raycast_shade.shading.kernels import shade
+    from raycast_shade.shading.shade import shade
 
     scene = _scene(subdivisions, width, height)
     geo = scene.geometry

@@ -41,7 +41,7 @@ sys.path.insert(0, str(ROOT))
 import raycast_shade as rs  # noqa: E402
 from raycast_shade.visibility.accel import embree_accel  # noqa: E402
 from raycast_shade.visibility.raster import rasterize  # noqa: E402
-from raycast_shade.shading.kernels import shade  # noqa: E402
+from raycast_shade.shading.shade import shade  # noqa: E402
 
 FULL_SUBDIVISIONS = (3, 4, 5, 6, 7, 8)
 FULL_RESOLUTIONS = ((640, 480), (1920, 1080))
@@ -102,7 +102,7 @@ sys.path.insert(0, {root!r})
 t0 = time.perf_counter()
 import raycast_shade as rs
 from raycast_shade.visibility.raster import rasterize
-from raycast_shade.shading.kernels import shade
+from raycast_shade.shading.shade import shade
 out = {{"import": time.perf_counter() - t0}}
 scene = rs.Scene([rs.Model(rs.shapes.icosphere(1))], lights=[rs.PointLight((2.0, 3.0, 4.0))])
 camera = rs.Camera(eye=(0.3, 0.5, 3.0), width=32, height=24)

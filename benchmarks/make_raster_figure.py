@@ -29,7 +29,7 @@ sys.path.insert(0, str(ROOT))
 import raycast_shade as rs  # noqa: E402
 from raycast_shade.visibility.interpolation import to_screen_space  # noqa: E402
 from raycast_shade.visibility.raster import rasterize  # noqa: E402
-from raycast_shade.shading.kernels import shade  # noqa: E402
+from raycast_shade.shading.shade import shade  # noqa: E402
 
 LOG_RANGE = (-8.0, -4.0)  # the difference panel's colour scale, log10 of linear intensity
 WIDTH, HEIGHT = 320, 240

@@ -79,7 +79,7 @@ def bump_figure(width=640, height=240):
 
 
 def _nudge(p, n, unit):
-    """NumPy twin of the kernels' ray offset (see raycast_shade.shading.kernels._nudge)."""
+    """NumPy twin of the kernels' ray offset (see raycast_shade.shading.shadows._nudge)."""
     _, e = np.frexp(p)
     return np.where(np.abs(p) < unit / 32.0, p + n * (unit / 65536.0), p + n * np.ldexp(256.0, e - 24))
 

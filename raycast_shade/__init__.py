@@ -29,7 +29,8 @@ from .scene.normals import WindingWarning, winding_conflicts
 from .render import render, render_file
 from .scene.scene import Model, Scene
 from .study.auto import choose_methods
-from .shading.kernels import SHADINGS, shade, shading_normals
+from .shading.normals import shading_normals
+from .shading.shade import SHADINGS, shade
 from .output.tonemap import read_pfm, to_uint8, write_pfm
 from .common.version import __version__
 from .common.warnings import (BumpIgnoredWarning, ColourRangeWarning, CreaseWarning, DroppedOnLoadWarning,

@@ -13,7 +13,8 @@ from .scene.scene import Scene
 from .study.auto import choose_methods
 from .common.choices import BACKENDS, CASTERS, INTERPOLATIONS, SHADINGS
 from .common.validate import as_int, as_scalar
-from .shading.kernels import resolve_methods, shade_hits, trace_mirrors
+from .shading.mirrors import trace_mirrors
+from .shading.shade import resolve_methods, shade_hits
 
 __all__ = ["render", "render_file"]
 

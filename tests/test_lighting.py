@@ -279,7 +279,7 @@ def test_specular_power_matches_pow(t):
     """Whole shininess values are raised by repeated squaring: within a few
     ulps per squaring of ``c ** t`` (the error of ``pow`` of a rounded cosine
     is of the same order); other values go to ``pow`` itself."""
-    from raycast_shade.shading.kernels import _power
+    from raycast_shade.shading.illumination import _power
 
     c = np.linspace(0.0, 1.0, 1001)
     got = np.array([_power(x, t) for x in c])

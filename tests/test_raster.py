@@ -18,7 +18,7 @@ from raycast_shade.shading.conventions import shade_flat
 from raycast_shade.visibility.interpolation import (provoking_vertex, to_screen_space, to_screen_space_numpy,
                                                     vertex_depths)
 from raycast_shade.visibility.raster import coverage_count, rasterize
-from raycast_shade.shading.kernels import shade
+from raycast_shade.shading.shade import shade
 
 MODES = ("flat", "gouraud", "phong")
 INTERPOLATIONS = ("perspective", "screen")

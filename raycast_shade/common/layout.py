@@ -3,13 +3,13 @@
 Kernels take flat float64 rows rather than objects; these named slots are the
 only place their layout is written down. Numba freezes module-level integers
 as compile-time constants, so ``cam[CAM_ORTHO]`` compiles exactly as
-``cam[12]`` did. :mod:`tests.test_architecture` checks every packer against
-these sizes.
+``cam[12]`` did. ``tests/test_layout.py`` checks every packer against
+these sizes and slots.
 
 Camera row, ``(CAM_SIZE,) = (16,)`` float64 (:func:`raycast_shade.visibility.rays.camera_frame`):
     eye (3, re-centred), right * half width (3), up * half height (3),
     forward (3), orthographic flag, width, height, unused.
-Light rows, ``(L, LIGHT_SIZE) = (L, 10)`` float64 (:func:`raycast_shade.shading.inputs.kernel_inputs`):
+Light rows, ``(L, LIGHT_SIZE) = (L, 10)`` float64 (:meth:`raycast_shade.Scene.packed_lights`):
     kind (0 point, 1 directional), position or unit direction towards the
     light (3), radiance ``Ii * color`` (3), attenuation code
     (:data:`ATT_CODE`), heuristic ``k``, casts shadows (0/1).
@@ -17,11 +17,11 @@ Material rows, ``(G, MAT_SIZE) = (G, 12)`` float64 (:meth:`raycast_shade.Materia
     ka (3), kd (3), ks (3), shininess, Blinn flag, reflectivity.
 Height-map rows, ``(B, BUMP_SIZE) = (B, 7)`` float64 (:meth:`raycast_shade.HeightMap.packed_info`):
     texel offset, rows, cols, clamp flag, tiling u, tiling v, height scale.
+
+Components of a 3-vector slot are ``SLOT + 0``, ``SLOT + 1``, ``SLOT + 2``.
 """
 
 from __future__ import annotations
-
-__all__ = [name for name in dir() if name.isupper()]
 
 # camera row
 CAM_EYE = 0  # 0:3

@@ -52,7 +52,7 @@ class Frame:
     def method(self) -> np.ndarray:
         """(H, W) int8: the method that shaded each pixel: 0 flat, 1 Gouraud,
         2 Phong; -1 on the background."""
-        from ..shading.kernels import resolve_methods
+        from ..shading.shade import resolve_methods
 
         codes = resolve_methods(self.scene, self.shading)
         return np.where(self.hits.geom >= 0, codes[np.maximum(self.hits.geom, 0)], -1).astype(np.int8)
@@ -62,7 +62,7 @@ class Frame:
         """(H, W, 3) float32 unit normal each pixel was shaded with, turned to
         the viewer (world axes); zero on the background. Computed on first
         access: most frames never need it, and it is 12 bytes a pixel."""
-        from ..shading.kernels import shading_normals
+        from ..shading.normals import shading_normals
 
         return shading_normals(self.scene, self.camera, self.hits, self.shading)
 

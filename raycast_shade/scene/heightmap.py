@@ -26,6 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..common.choices import WRAPS
+from ..common.layout import (BUMP_CLAMP, BUMP_COLS, BUMP_OFFSET, BUMP_ROWS, BUMP_SCALE, BUMP_SIZE, BUMP_TILE_U,
+                             BUMP_TILE_V)
 from ..common.validate import as_array, as_choice, as_int, as_scalar, check_memory
 
 __all__ = ["HeightMap", "spherical_uvs", "cylindrical_uvs", "planar_uvs", "tangent_frames", "WRAPS"]
@@ -156,9 +158,18 @@ class HeightMap:
         return cls(total / norm, **kwargs)
 
     def packed_info(self, offset: int) -> np.ndarray:
-        """(7,) float64 kernel row: offset, rows, cols, wrap, tile u, tile v, scale."""
+        """(BUMP_SIZE,) = (7,) float64 kernel row: texel offset, rows, cols, clamp flag, tile u, tile v,
+        scale (slots named in :mod:`raycast_shade.common.layout`)."""
         h, w = self.heights.shape
-        return np.array([offset, h, w, 1.0 if self.wrap == "clamp" else 0.0, self.tiling[0], self.tiling[1], self.scale])
+        row = np.empty(BUMP_SIZE)
+        row[BUMP_OFFSET] = offset
+        row[BUMP_ROWS] = h
+        row[BUMP_COLS] = w
+        row[BUMP_CLAMP] = 1.0 if self.wrap == "clamp" else 0.0
+        row[BUMP_TILE_U] = self.tiling[0]
+        row[BUMP_TILE_V] = self.tiling[1]
+        row[BUMP_SCALE] = self.scale
+        return row
 
 
 def spherical_uvs(vertices, center=(0.0, 0.0, 0.0)) -> np.ndarray:

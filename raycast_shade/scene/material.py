@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..common.choices import SPECULAR_MODELS
+from ..common.layout import MAT_BLINN, MAT_KA, MAT_KD, MAT_KS, MAT_REFLECTIVITY, MAT_SHININESS, MAT_SIZE
 from ..common.validate import as_choice, as_rgb, as_scalar
 from ..common.warnings import ColourRangeWarning
 
@@ -83,7 +84,13 @@ class Material:
         return bool(np.any(self.ks > 0))
 
     def packed(self) -> np.ndarray:
-        """(12,) float64: ka(3), kd(3), ks(3), t, blinn flag, reflectivity; the kernels' row."""
-        return np.concatenate(
-            [self.ka, self.kd, self.ks, [self.shininess, 1.0 if self.specular == "blinn" else 0.0, self.reflectivity]]
-        )
+        """(MAT_SIZE,) = (12,) float64: ka(3), kd(3), ks(3), t, blinn flag, reflectivity; the kernels' row
+        (slots named in :mod:`raycast_shade.common.layout`)."""
+        row = np.empty(MAT_SIZE)
+        row[MAT_KA:MAT_KA + 3] = self.ka
+        row[MAT_KD:MAT_KD + 3] = self.kd
+        row[MAT_KS:MAT_KS + 3] = self.ks
+        row[MAT_SHININESS] = self.shininess
+        row[MAT_BLINN] = 1.0 if self.specular == "blinn" else 0.0
+        row[MAT_REFLECTIVITY] = self.reflectivity
+        return row

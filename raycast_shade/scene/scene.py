@@ -16,7 +16,8 @@ import numpy as np
 
 from ..common.validate import as_rgb
 from .camera import Camera
-from ..common.layout import ATT_CODE
+from ..common.layout import (ATT_CODE, BUMP_SIZE, LIGHT_ATT, LIGHT_DIRECTIONAL, LIGHT_K, LIGHT_KIND, LIGHT_RADIANCE,
+                             LIGHT_SHADOWS, LIGHT_SIZE, LIGHT_VEC, MAT_REFLECTIVITY, MAT_SIZE)
 from .lights import DirectionalLight, PointLight
 from .material import Material
 from .mesh import Mesh
@@ -77,14 +78,14 @@ class SceneGeometry:
     face_normals : (F, 3) float64
     vertex_offsets, face_offsets : (G + 1,) int64
         Range of each model.
-    materials : (G, 11) float64
+    materials : (G, MAT_SIZE) = (G, 12) float64
         One packed material row per model (see :meth:`Material.packed`).
     face_model, vertex_model : (F,) int32, (V,) int32
         The model each face and vertex belongs to.
     bump_index : (G,) int32
         Row of each model's height map in ``bump_info``, or -1.
     bump_texels : (T,) float32
-    bump_info : (B, 7) float64
+    bump_info : (B, BUMP_SIZE) = (B, 7) float64
         See :meth:`HeightMap.packed_info`.
     """
 
@@ -108,7 +109,7 @@ class SceneGeometry:
         # read them, and those are checked to have real ones.
         self.uvs = np.concatenate([p.uvs if p.uvs is not None else np.zeros((len(p.vertices), 2)) for p in preps])
         self.materials = np.stack([m.material.packed() for m in models])
-        self.reflective = bool(np.any(self.materials[:, 11] > 0))
+        self.reflective = bool(np.any(self.materials[:, MAT_REFLECTIVITY] > 0))
         # Bump maps: all texels in one flat array, one info row per map.
         bump_index = np.full(len(models), -1, np.int32)
         texels, info, maps = [], [], {}
@@ -129,7 +130,7 @@ class SceneGeometry:
             bump_index[g] = maps[id(hm)]
         self.bump_index = bump_index
         self.bump_texels = np.concatenate(texels).astype(np.float32) if texels else np.zeros(1, np.float32)
-        self.bump_info = np.stack(info) if info else np.zeros((1, 7))
+        self.bump_info = np.stack(info) if info else np.zeros((1, BUMP_SIZE))
         self.has_bump = bool(info)
         self.face_model = np.repeat(np.arange(len(models), dtype=np.int32), nf)
         self.vertex_model = np.repeat(np.arange(len(models), dtype=np.int32), nv)
@@ -292,39 +293,30 @@ class Scene:
             new.__dict__["geometry"] = self.__dict__["geometry"]
         return new
 
-    def packed_lights(self):
-        """Light arrays for the kernels, positions re-centred like the geometry.
+    def packed_lights(self) -> np.ndarray:
+        """The kernels' light rows, positions re-centred like the geometry.
 
         Returns
         -------
-        kind : (L,) int32
-            0 point, 1 directional.
-        vec : (L, 3) float64
-            Point: re-centred position. Directional: unit vector towards the light.
-        radiance : (L, 3) float64
-            ``Ii * color``.
-        att : (L,) int32
-            0 none, 1 inverse square, 2 heuristic.
-        k : (L,) float64
-        shadows : (L,) int32
-            1 where the light casts shadows.
+        (L, LIGHT_SIZE) = (L, 10) float64
+            Per light (slots named in :mod:`raycast_shade.common.layout`):
+            kind (0 point, 1 directional); point: re-centred position,
+            directional: unit vector towards the light (3); radiance
+            ``Ii * color`` (3); attenuation code (0 none, 1 inverse square,
+            2 heuristic); heuristic ``k`` (1 for directional lights); casts
+            shadows (0/1).
         """
-        n = len(self.lights)
-        kind = np.zeros(n, np.int32)
-        vec = np.zeros((n, 3))
-        rad = np.zeros((n, 3))
-        att = np.zeros(n, np.int32)
-        k = np.ones(n)
-        shadows = np.zeros(n, np.int32)
+        rows = np.zeros((len(self.lights), LIGHT_SIZE))
+        rows[:, LIGHT_K] = 1.0
         origin = self.geometry.origin
         for i, light in enumerate(self.lights):
-            rad[i] = light.radiance
-            shadows[i] = int(light.shadows)
+            rows[i, LIGHT_RADIANCE:LIGHT_RADIANCE + 3] = light.radiance
+            rows[i, LIGHT_SHADOWS] = int(light.shadows)
             if isinstance(light, PointLight):
-                vec[i] = light.position - origin
-                att[i] = ATT_CODE[light.attenuation]
-                k[i] = light.k
+                rows[i, LIGHT_VEC:LIGHT_VEC + 3] = light.position - origin
+                rows[i, LIGHT_ATT] = ATT_CODE[light.attenuation]
+                rows[i, LIGHT_K] = light.k
             else:
-                kind[i] = 1
-                vec[i] = -light.direction
-        return kind, vec, rad, att, k, shadows
+                rows[i, LIGHT_KIND] = LIGHT_DIRECTIONAL
+                rows[i, LIGHT_VEC:LIGHT_VEC + 3] = -light.direction
+        return rows

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..visibility.interpolation import provoking_vertex
-from .kernels import shade
+from .shade import shade
 
 __all__ = ["shade_flat", "FLAT_CONVENTIONS"]
 

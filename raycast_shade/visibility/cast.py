@@ -43,6 +43,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..common.choices import CASTERS
+from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH
 from . import embree
 from .accel import embree_accel, embreex_scene
 from ..common.schedule import BLOCK_ROWS, spread_step
@@ -317,16 +318,18 @@ def _isolated_misses(prim):
 
 def _rays_at(cam, xs, ys):
     """Float64 rays through the image points (xs + 0.5, ys + 0.5), as
-    :func:`raycast_shade.rays.pixel_ray` does for pixel centres."""
-    sx = (2.0 * (xs + 0.5) / cam[13] - 1.0)[:, None]
-    sy = (1.0 - 2.0 * (ys + 0.5) / cam[14])[:, None]
-    if cam[12] != 0.0:
-        o = cam[0:3] + sx * cam[3:6] + sy * cam[6:9]
-        d = np.broadcast_to(cam[9:12], o.shape)
+    :func:`raycast_shade.visibility.rays.pixel_ray` does for pixel centres."""
+    eye, right = cam[CAM_EYE:CAM_EYE + 3], cam[CAM_RIGHT:CAM_RIGHT + 3]
+    up, fwd = cam[CAM_UP:CAM_UP + 3], cam[CAM_FORWARD:CAM_FORWARD + 3]
+    sx = (2.0 * (xs + 0.5) / cam[CAM_WIDTH] - 1.0)[:, None]
+    sy = (1.0 - 2.0 * (ys + 0.5) / cam[CAM_HEIGHT])[:, None]
+    if cam[CAM_ORTHO] != 0.0:
+        o = eye + sx * right + sy * up
+        d = np.broadcast_to(fwd, o.shape)
     else:
-        d = cam[9:12] + sx * cam[3:6] + sy * cam[6:9]
+        d = fwd + sx * right + sy * up
         d = d / np.linalg.norm(d, axis=1, keepdims=True)
-        o = np.broadcast_to(cam[0:3], d.shape)
+        o = np.broadcast_to(eye, d.shape)
     return np.ascontiguousarray(o), np.ascontiguousarray(d)
 
 

@@ -10,6 +10,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_SIZE, CAM_UP, CAM_WIDTH
+
 __all__ = ["camera_frame", "generate_rays", "generate_rays_numpy"]
 
 
@@ -24,47 +26,47 @@ def camera_frame(camera, origin=np.zeros(3)):
 
     Returns
     -------
-    (16,) float64
+    (CAM_SIZE,) = (16,) float64
         eye(3), right*half_width(3), up*half_height(3), forward(3),
-        orthographic flag, width, height, unused.
+        orthographic flag, width, height, unused (slots named in
+        :mod:`raycast_shade.common.layout`).
     """
     right, up, fwd = camera.basis
     hw, hh = camera.half_extents()
-    out = np.empty(16)
-    out[0:3] = camera.eye - origin
-    out[3:6] = right * hw
-    out[6:9] = up * hh
-    out[9:12] = fwd
-    out[12] = 1.0 if camera.orthographic else 0.0
-    out[13] = camera.width
-    out[14] = camera.height
-    out[15] = 0.0
+    out = np.zeros(CAM_SIZE)
+    out[CAM_EYE:CAM_EYE + 3] = camera.eye - origin
+    out[CAM_RIGHT:CAM_RIGHT + 3] = right * hw
+    out[CAM_UP:CAM_UP + 3] = up * hh
+    out[CAM_FORWARD:CAM_FORWARD + 3] = fwd
+    out[CAM_ORTHO] = 1.0 if camera.orthographic else 0.0
+    out[CAM_WIDTH] = camera.width
+    out[CAM_HEIGHT] = camera.height
     return out
 
 
 @njit(cache=True, inline="always")
 def pixel_ray(cam, x, y):
     """Origin and unit direction of the ray through pixel centre (x+.5, y+.5)."""
-    w = cam[13]
-    h = cam[14]
+    w = cam[CAM_WIDTH]
+    h = cam[CAM_HEIGHT]
     sx = 2.0 * (x + 0.5) / w - 1.0
     sy = 1.0 - 2.0 * (y + 0.5) / h
-    if cam[12] != 0.0:
-        ox = cam[0] + sx * cam[3] + sy * cam[6]
-        oy = cam[1] + sx * cam[4] + sy * cam[7]
-        oz = cam[2] + sx * cam[5] + sy * cam[8]
-        return ox, oy, oz, cam[9], cam[10], cam[11]
-    dx = cam[9] + sx * cam[3] + sy * cam[6]
-    dy = cam[10] + sx * cam[4] + sy * cam[7]
-    dz = cam[11] + sx * cam[5] + sy * cam[8]
+    if cam[CAM_ORTHO] != 0.0:
+        ox = cam[CAM_EYE + 0] + sx * cam[CAM_RIGHT + 0] + sy * cam[CAM_UP + 0]
+        oy = cam[CAM_EYE + 1] + sx * cam[CAM_RIGHT + 1] + sy * cam[CAM_UP + 1]
+        oz = cam[CAM_EYE + 2] + sx * cam[CAM_RIGHT + 2] + sy * cam[CAM_UP + 2]
+        return ox, oy, oz, cam[CAM_FORWARD + 0], cam[CAM_FORWARD + 1], cam[CAM_FORWARD + 2]
+    dx = cam[CAM_FORWARD + 0] + sx * cam[CAM_RIGHT + 0] + sy * cam[CAM_UP + 0]
+    dy = cam[CAM_FORWARD + 1] + sx * cam[CAM_RIGHT + 1] + sy * cam[CAM_UP + 1]
+    dz = cam[CAM_FORWARD + 2] + sx * cam[CAM_RIGHT + 2] + sy * cam[CAM_UP + 2]
     inv = 1.0 / np.sqrt(dx * dx + dy * dy + dz * dz)
-    return cam[0], cam[1], cam[2], dx * inv, dy * inv, dz * inv
+    return cam[CAM_EYE + 0], cam[CAM_EYE + 1], cam[CAM_EYE + 2], dx * inv, dy * inv, dz * inv
 
 
 @njit(cache=True, parallel=True)
 def _rays_kernel(cam, origins, directions):
-    w = int(cam[13])
-    h = int(cam[14])
+    w = int(cam[CAM_WIDTH])
+    h = int(cam[CAM_HEIGHT])
     for y in prange(h):
         for x in range(w):
             ox, oy, oz, dx, dy, dz = pixel_ray(cam, x, y)
@@ -99,11 +101,13 @@ def generate_rays_numpy(camera, origin=np.zeros(3)):
     ys, xs = np.mgrid[0:h, 0:w]
     sx = (2.0 * (xs + 0.5) / w - 1.0).reshape(-1, 1)
     sy = (1.0 - 2.0 * (ys + 0.5) / h).reshape(-1, 1)
+    eye, right = cam[CAM_EYE:CAM_EYE + 3], cam[CAM_RIGHT:CAM_RIGHT + 3]
+    up, fwd = cam[CAM_UP:CAM_UP + 3], cam[CAM_FORWARD:CAM_FORWARD + 3]
     if camera.orthographic:
-        origins = cam[0:3] + sx * cam[3:6] + sy * cam[6:9]
-        directions = np.broadcast_to(cam[9:12], origins.shape).copy()
+        origins = eye + sx * right + sy * up
+        directions = np.broadcast_to(fwd, origins.shape).copy()
     else:
-        directions = cam[9:12] + sx * cam[3:6] + sy * cam[6:9]
+        directions = fwd + sx * right + sy * up
         directions /= np.linalg.norm(directions, axis=1, keepdims=True)
-        origins = np.broadcast_to(cam[0:3], directions.shape).copy()
+        origins = np.broadcast_to(eye, directions.shape).copy()
     return origins, directions

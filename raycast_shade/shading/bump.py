@@ -1,0 +1,97 @@
+"""Blinn bump mapping: the height map's gradient bends the shading normal.
+
+Height maps are packed as in :meth:`raycast_shade.HeightMap.packed_info`:
+all texels in one flat array, one row of ``BUMP_SIZE`` slots per map
+(:mod:`raycast_shade.common.layout`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ..common.layout import BUMP_CLAMP, BUMP_COLS, BUMP_OFFSET, BUMP_ROWS, BUMP_SCALE, BUMP_TILE_U, BUMP_TILE_V
+from .jit import JIT
+
+__all__ = []
+
+
+@njit(inline="always", **JIT)
+def _bilinear(tex, base, rows, cols, clamp, x, y):
+    """Bilinear sample at texel coordinates (x, y) (texel centres at integers)."""
+    j0 = math.floor(x)
+    i0 = math.floor(y)
+    tx = x - j0
+    ty = y - i0
+    j0 = int(j0)
+    i0 = int(i0)
+    j1 = j0 + 1
+    i1 = i0 + 1
+    if clamp:
+        j0 = min(max(j0, 0), cols - 1)
+        j1 = min(max(j1, 0), cols - 1)
+        i0 = min(max(i0, 0), rows - 1)
+        i1 = min(max(i1, 0), rows - 1)
+    else:
+        j0 %= cols
+        j1 %= cols
+        i0 %= rows
+        i1 %= rows
+    a = tex[base + i0 * cols + j0] * (1.0 - tx) + tex[base + i0 * cols + j1] * tx
+    b = tex[base + i1 * cols + j0] * (1.0 - tx) + tex[base + i1 * cols + j1] * tx
+    return a * (1.0 - ty) + b * ty
+
+
+@njit(inline="always", **JIT)
+def _bump(nx, ny, nz, f, gm, i0, i1, i2, b1, b2, uvs, tangents, bump_index, texels, info, fx, fy, fz):
+    """Blinn's perturbed normal N' = N + (Bu (N x Pv) - Bv (N x Pu)) / |N|,
+    with N = n |Pu x Pv| along the (oriented) shading normal n.
+
+    The surface is displaced along its front (winding) normal ``f``, not
+    along ``Pu x Pv``: where the UV map is left-handed (``(Pu x Pv).f < 0``,
+    e.g. the spherical mapping seen from outside), the perturbation changes
+    sign, so a negative height is a dent on every mesh. The arrays are the
+    unpacked ``B`` of :func:`~raycast_shade.shading.inputs.kernel_inputs`."""
+    k = bump_index[gm]
+    if k < 0:
+        return nx, ny, nz
+    b0 = 1.0 - b1 - b2
+    tu = b0 * uvs[i0, 0] + b1 * uvs[i1, 0] + b2 * uvs[i2, 0]
+    tv = b0 * uvs[i0, 1] + b1 * uvs[i1, 1] + b2 * uvs[i2, 1]
+    base = int(info[k, BUMP_OFFSET])
+    rows = int(info[k, BUMP_ROWS])
+    cols = int(info[k, BUMP_COLS])
+    clamp = info[k, BUMP_CLAMP] != 0.0
+    su = info[k, BUMP_TILE_U]
+    sv = info[k, BUMP_TILE_V]
+    scale = info[k, BUMP_SCALE]
+    x = tu * su * cols - 0.5
+    y = tv * sv * rows - 0.5
+    # Central differences one texel wide: exact for heights linear in u, v.
+    bu = (_bilinear(texels, base, rows, cols, clamp, x + 0.5, y)
+          - _bilinear(texels, base, rows, cols, clamp, x - 0.5, y)) * cols * su * scale
+    bv = (_bilinear(texels, base, rows, cols, clamp, x, y + 0.5)
+          - _bilinear(texels, base, rows, cols, clamp, x, y - 0.5)) * rows * sv * scale
+    pux = tangents[f, 0]
+    puy = tangents[f, 1]
+    puz = tangents[f, 2]
+    pvx = tangents[f, 3]
+    pvy = tangents[f, 4]
+    pvz = tangents[f, 5]
+    cx = puy * pvz - puz * pvy
+    cy = puz * pvx - pux * pvz
+    cz = pux * pvy - puy * pvx
+    area = np.sqrt(cx * cx + cy * cy + cz * cz)  # |N| = |Pu x Pv|
+    if cx * fx + cy * fy + cz * fz < 0.0:  # left-handed UVs: Pu x Pv points inwards
+        bu = -bu
+        bv = -bv
+    # (N x Pv) / |N| = n x Pv, likewise for Pu
+    ax = area * nx + bu * (ny * pvz - nz * pvy) - bv * (ny * puz - nz * puy)
+    ay = area * ny + bu * (nz * pvx - nx * pvz) - bv * (nz * pux - nx * puz)
+    az = area * nz + bu * (nx * pvy - ny * pvx) - bv * (nx * puy - ny * pux)
+    al = np.sqrt(ax * ax + ay * ay + az * az)
+    if not (al > 0.0 and al < np.inf):
+        return nx, ny, nz
+    return ax / al, ay / al, az / al

@@ -1,0 +1,126 @@
+"""The reflectance equation, evaluated at one point.
+
+Per channel::
+
+    I = Ia ka + sum_i vis_i att_i(d) Ii (kd max(n.s, 0) + Ks max(r.v, 0)^t)
+
+with ``r = 2 (n.s) n - s`` (or Blinn-Phong ``(n.h)^t``), no specular term
+where ``n.s <= 0``, ``att`` one of ``1``, ``1/d^2``, ``1/(d + k)``, and
+``vis`` 0 or 1 from a shadow ray (:mod:`.shadows`) for lights that cast
+shadows. The viewer's distance never enters: only the direction ``v`` to the
+eye does. Integer shininess, the usual case, is raised by repeated squaring
+rather than ``pow``.
+
+The material and light rows are read through the named slots of
+:mod:`raycast_shade.common.layout`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ..common.layout import (ATT_HEURISTIC, ATT_INVERSE_SQUARE, LIGHT_ATT, LIGHT_K, LIGHT_KIND, LIGHT_POINT,
+                             LIGHT_RADIANCE, LIGHT_SHADOWS, LIGHT_VEC, MAT_BLINN, MAT_KA, MAT_KD, MAT_KS,
+                             MAT_SHININESS)
+from .jit import JIT
+from .shadows import _occluded
+
+__all__ = []
+
+
+@njit(inline="always", **JIT)
+def _power(c, t):
+    """``c ** t`` for ``0 <= c <= 1``: repeated squaring when ``t`` is a whole
+    number up to 4096 (a few multiplications, within a few ulps of ``pow``,
+    which costs several times more), ``pow`` otherwise."""
+    n = int(t)
+    if n != t or n > 4096:
+        return c ** t
+    r = 1.0
+    while n > 0:
+        if n & 1:
+            r *= c
+        c *= c
+        n >>= 1
+    return r
+
+
+def _illuminate_py(px, py, pz, nx, ny, nz, vx, vy, vz, mats, mi, ambient, lights, dmin, handle, unit, S,
+                   ox, oy, oz, gx, gy, gz, spec_on, att_on):
+    """RGB reflected towards unit ``v`` at point ``p`` with unit normal ``n``.
+
+    ``mats[mi]`` is the material row (indexed, not sliced: a slice per pixel
+    would cost an atomic reference count shared by all threads).
+    ``ambient`` (3,), ``lights`` (L, LIGHT_SIZE), ``dmin``, ``handle`` and
+    ``unit`` are the unpacked ``L`` of
+    :func:`~raycast_shade.shading.inputs.kernel_inputs`; ``S`` is the
+    shadow-ray scratch; shadow rays start at ``o`` pushed off along ``g``.
+    ``spec_on`` and ``att_on`` are compile-time constants (see
+    :mod:`.jit`): a scene with no specular material or no attenuating light
+    compiles without that arithmetic.
+    """
+    r = ambient[0] * mats[mi, MAT_KA + 0]
+    g = ambient[1] * mats[mi, MAT_KA + 1]
+    b = ambient[2] * mats[mi, MAT_KA + 2]
+    shin = mats[mi, MAT_SHININESS]
+    blinn = mats[mi, MAT_BLINN] != 0.0
+    has_spec = mats[mi, MAT_KS + 0] > 0.0 or mats[mi, MAT_KS + 1] > 0.0 or mats[mi, MAT_KS + 2] > 0.0
+    for i in range(lights.shape[0]):
+        is_point = lights[i, LIGHT_KIND] == LIGHT_POINT
+        if not is_point:
+            sx = lights[i, LIGHT_VEC + 0]
+            sy = lights[i, LIGHT_VEC + 1]
+            sz = lights[i, LIGHT_VEC + 2]
+            att = 1.0
+        else:
+            dx = lights[i, LIGHT_VEC + 0] - px
+            dy = lights[i, LIGHT_VEC + 1] - py
+            dz = lights[i, LIGHT_VEC + 2] - pz
+            d = np.sqrt(dx * dx + dy * dy + dz * dz)
+            if d == 0.0:
+                continue  # light on the surface point: no direction, no light
+            sx = dx / d
+            sy = dy / d
+            sz = dz / d
+            att = 1.0
+            if att_on:
+                if lights[i, LIGHT_ATT] == ATT_INVERSE_SQUARE:
+                    dd = max(d, dmin)
+                    att = 1.0 / (dd * dd)
+                elif lights[i, LIGHT_ATT] == ATT_HEURISTIC:
+                    att = 1.0 / (d + lights[i, LIGHT_K])
+        ndots = nx * sx + ny * sy + nz * sz
+        if ndots <= 0.0:
+            continue
+        if ndots > 1.0:
+            ndots = 1.0
+        if lights[i, LIGHT_SHADOWS] != 0.0 and handle != 0:
+            if _occluded(handle, S, ox, oy, oz, gx, gy, gz, sx, sy, sz,
+                         lights[i, LIGHT_VEC + 0], lights[i, LIGHT_VEC + 1], lights[i, LIGHT_VEC + 2], is_point, unit):
+                continue
+        spec = 0.0
+        if spec_on and has_spec:
+            if blinn:
+                hx = sx + vx
+                hy = sy + vy
+                hz = sz + vz
+                hl = np.sqrt(hx * hx + hy * hy + hz * hz)
+                c = (nx * hx + ny * hy + nz * hz) / hl if hl > 0.0 else 0.0
+            else:
+                rx = 2.0 * ndots * nx - sx
+                ry = 2.0 * ndots * ny - sy
+                rz = 2.0 * ndots * nz - sz
+                c = rx * vx + ry * vy + rz * vz
+            if c > 0.0:
+                spec = _power(min(c, 1.0), shin)
+        r += att * lights[i, LIGHT_RADIANCE + 0] * (mats[mi, MAT_KD + 0] * ndots + mats[mi, MAT_KS + 0] * spec)
+        g += att * lights[i, LIGHT_RADIANCE + 1] * (mats[mi, MAT_KD + 1] * ndots + mats[mi, MAT_KS + 1] * spec)
+        b += att * lights[i, LIGHT_RADIANCE + 2] * (mats[mi, MAT_KD + 2] * ndots + mats[mi, MAT_KS + 2] * spec)
+    return r, g, b
+
+
+# Inlined into the hot loops (each kernel inlines it once, which keeps compile
+# time in check); the called variant serves rare fallback branches.
+_illuminate = njit(inline="always", **JIT)(_illuminate_py)
+_illuminate_call = njit(**JIT)(_illuminate_py)

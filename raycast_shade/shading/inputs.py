@@ -1,0 +1,44 @@
+"""Everything the shading kernels read, packed once per frame."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..common.layout import ATT_NONE, LIGHT_ATT, LIGHT_KIND, LIGHT_POINT, LIGHT_SHADOWS, MAT_KS
+from ..visibility.accel import embree_accel
+from ..visibility.rays import camera_frame
+
+__all__ = ["kernel_inputs"]
+
+
+def kernel_inputs(scene, camera):
+    """The kernels' arguments for one frame.
+
+    Returns
+    -------
+    dict
+        ``G`` = (verts (V,3) f8, normals (V,3) f8, faces (F,3) i8, fnormals (F,3) f8);
+        ``B`` = (uvs (V,2) f8, tangents (F,6) f8, bump_index (G,) i4, texels (T,) f4,
+        info (B, BUMP_SIZE) f8);
+        ``L`` = (ambient (3,) f8, lights (L, LIGHT_SIZE) f8 (:meth:`Scene.packed_lights`),
+        dmin f8, scene handle uintp or 0 when no light casts shadows, unit f8 = the
+        scene's size for ray offsets);
+        ``face_off`` (G+1,) i8, ``materials`` (G, MAT_SIZE) f8, ``cam`` (CAM_SIZE,) f8,
+        ``background`` (3,) f8;
+        ``spec_on``, ``att_on`` bool: whether any material has a specular term and any
+        light attenuates (the kernels compile a variant for each combination).
+        The row layouts are those of :mod:`raycast_shade.common.layout`.
+    """
+    geo = scene.geometry
+    lights = scene.packed_lights()
+    handle = embree_accel(geo).handle if lights[:, LIGHT_SHADOWS].any() else 0
+    return dict(
+        G=(geo.vertices, geo.normals, geo.faces, geo.face_normals),
+        B=(geo.uvs, geo.tangents, geo.bump_index, geo.bump_texels, geo.bump_info),
+        L=(np.array(scene.ambient, np.float64), lights, 1e-6 * geo.scale, np.uintp(handle), float(geo.scale)),
+        face_off=geo.face_offsets, materials=geo.materials, cam=camera_frame(camera, geo.origin),
+        background=np.array(scene.background, np.float64),
+        # Compile-time variants: drop the arithmetic a scene does not need.
+        spec_on=bool(np.any(geo.materials[:, MAT_KS:MAT_KS + 3] > 0)),
+        att_on=bool(np.any((lights[:, LIGHT_KIND] == LIGHT_POINT) & (lights[:, LIGHT_ATT] != ATT_NONE))),
+    )

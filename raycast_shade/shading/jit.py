@@ -1,0 +1,40 @@
+"""How the shading kernels compile: one flag set, and compile-time variants.
+
+The flags are the same for every shading kernel. No nnan/ninf: misses and
+degenerate cases must compare as written; the other fast-math flags keep the
+arithmetic the golden images were made with.
+
+A scene with no specular material, or no attenuating light, needs none of
+that arithmetic. The kernels that evaluate the reflectance equation are
+therefore built by a small factory per kernel family, ``make(spec_on,
+att_on)``, whose closure constants Numba folds at compile time: four variants
+per family, each cached on disk separately (Numba keys its cache on the
+closure's values), and compiled only when a frame first needs it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["JIT", "FLT32_MAX", "CHUNK", "compile_variants", "variant"]
+
+JIT = dict(cache=True, error_model="numpy", fastmath={"nsz", "arcp", "contract", "afn", "reassoc"})
+FLT32_MAX = float(np.finfo(np.float32).max)  # radiance saturates here instead of becoming inf
+CHUNK = 1024  # faces, vertices or secondary rays per parallel task
+
+
+def compile_variants(make):
+    """``make(spec_on, att_on)`` for the four combinations.
+
+    Returns
+    -------
+    dict of (bool, bool) to object
+        Keyed by ``(spec_on, att_on)``; the dispatchers compile lazily.
+    """
+    return {(s, a): make(s, a) for s in (False, True) for a in (False, True)}
+
+
+def variant(variants, k):
+    """The entry of :func:`compile_variants`'s table for a frame's
+    :func:`~raycast_shade.shading.inputs.kernel_inputs` ``k``."""
+    return variants[(k["spec_on"], k["att_on"])]

@@ -1,0 +1,74 @@
+"""The normal each pixel is shaded with, as an image (``Frame.normal``)."""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from ..common.schedule import BLOCK_ROWS, spread_step
+from ..visibility.rays import camera_frame
+from .jit import JIT
+from .phong import _surface
+from .shade import _check_inputs, resolve_methods
+
+__all__ = ["shading_normals"]
+
+
+@njit(parallel=True, **JIT)
+def _normals_kernel(prim, geom, u, v, G, B, face_off, cam, modes, nbuf):
+    """The unit normal each pixel is shaded with, turned to the viewer."""
+    verts, normals, faces, fnormals = G
+    uvs, tangents, bump_index, texels, info = B
+    h, w = prim.shape
+    nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
+    step = spread_step(nblk)
+    for it in prange(nblk):  # blocks of rows in a balanced order (see common.schedule)
+        blk = (it * step) % nblk
+        for y in range(blk * BLOCK_ROWS, min(h, (blk + 1) * BLOCK_ROWS)):
+            for x in range(w):
+                p = prim[y, x]
+                if p < 0:
+                    for c in range(3):
+                        nbuf[y, x, c] = 0.0
+                    continue
+                gm = geom[y, x]
+                f = face_off[gm] + p
+                _, _, _, _, _, _, gx, gy, gz, _, nx, ny, nz = _surface(
+                    verts, normals, faces, fnormals, uvs, tangents, bump_index, texels, info, cam, f, gm,
+                    np.float64(u[y, x]), np.float64(v[y, x]), False, 0.0, 0.0, 0.0)
+                if modes[gm] == 0:
+                    nx, ny, nz = gx, gy, gz
+                nbuf[y, x, 0] = nx
+                nbuf[y, x, 1] = ny
+                nbuf[y, x, 2] = nz
+
+
+def shading_normals(scene, camera, hits, shading="phong") -> np.ndarray:
+    """The normal each pixel is shaded with.
+
+    Parameters
+    ----------
+    shading : {"flat", "gouraud", "phong"} or sequence of them (one per model)
+
+    Returns
+    -------
+    (H, W, 3) float32
+        Unit normals turned to the viewer (flat: the face normal; otherwise
+        the interpolated, renormalised vertex normal, bumped in Phong mode);
+        zero on the background.
+
+    Raises
+    ------
+    TypeError, ValueError
+        As :func:`~raycast_shade.shading.shade.shade`, before any kernel runs.
+    """
+    _check_inputs(scene, camera, hits)
+    modes = resolve_methods(scene, shading)
+    geo = scene.geometry
+    # Bumps only apply where the normal is per pixel.
+    bump_index = np.where(modes == 2, geo.bump_index, -1).astype(np.int32)
+    B = (geo.uvs, geo.tangents, bump_index, geo.bump_texels, geo.bump_info)
+    nbuf = np.empty(hits.shape + (3,), np.float32)
+    _normals_kernel(hits.prim, hits.geom, hits.u, hits.v, (geo.vertices, geo.normals, geo.faces, geo.face_normals),
+                    B, geo.face_offsets, camera_frame(camera, geo.origin), modes, nbuf)
+    return nbuf

@@ -1,0 +1,91 @@
+"""Shadow rays: a per-task ray buffer, the offset origin, and the occlusion query.
+
+Shadow rays start at the shading point pushed off the surface along the
+geometric normal by a few hundred float32 ulps of its coordinates (Wachter
+and Binder, Ray Tracing Gems ch. 6), and near zero by a fixed fraction of the
+scene's size (their absolute constants, in units of the scene), so the offset
+scales with the scene; point-light rays stop just short of the light. Mirror
+rays start from the same kind of offset point (:mod:`.mirrors`).
+
+Embree reads the ray through a raw address. That address is computed from
+the buffer in the very expression that calls Embree, and the buffer is read
+again after the call, so the array is live while Embree uses it whatever
+Numba's liveness analysis or parfor hoisting does with locals.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ..visibility import embree
+from .jit import JIT
+
+__all__ = []
+
+_SHADOW_TFAR = 1.0 - 1e-5  # point-light shadow rays stop just short of the light
+_SCRATCH = 24  # float32 slots: one RTCRay (12) plus alignment slack
+
+
+@njit(inline="always", **JIT)
+def _scratch():
+    """A per-task RTCRay buffer: (float view, uint view, 16-byte aligned offset in slots)."""
+    buf = np.empty(_SCRATCH, np.float32)
+    base = buf.ctypes.data
+    off = ((16 - base % 16) % 16) // 4
+    return buf, buf.view(np.uint32), off
+
+
+@njit(inline="always", **JIT)
+def _nudge(p, n, unit):
+    """Move coordinate ``p`` by 256 float32 ulps along normal component ``n``.
+
+    Near zero, where ulps vanish but the triangles around the point still
+    carry the float32 error of their (larger) vertex coordinates, the move is
+    ``unit / 65536`` instead: Wachter and Binder's constants (1/32, 1/65536)
+    measured in ``unit``, the scene's size (bounding-box diagonal), rather
+    than in absolute units, so that a scene at scale 1e5 is as safe as one
+    at scale 1."""
+    if abs(p) < unit * (1.0 / 32.0):
+        return p + n * (unit * (1.0 / 65536.0))
+    _, e = math.frexp(p)
+    return p + n * math.ldexp(256.0, e - 24)
+
+
+@njit(inline="always", **JIT)
+def _occluded(handle, S, px, py, pz, gx, gy, gz, sx, sy, sz, lx, ly, lz, is_point, unit):
+    """True if the scene blocks the way from p towards the light.
+
+    ``S`` is the scratch from :func:`_scratch`, unpacked only here: shadow
+    rays are the rare path, and the unpacking costs reference counting."""
+    buf, ib, off = S
+    side = 1.0 if gx * sx + gy * sy + gz * sz >= 0.0 else -1.0
+    ox = _nudge(px, side * gx, unit)
+    oy = _nudge(py, side * gy, unit)
+    oz = _nudge(pz, side * gz, unit)
+    if is_point:
+        dx = lx - ox
+        dy = ly - oy
+        dz = lz - oz
+        tfar = _SHADOW_TFAR
+    else:
+        dx = sx
+        dy = sy
+        dz = sz
+        tfar = np.inf
+    buf[off + 0] = ox
+    buf[off + 1] = oy
+    buf[off + 2] = oz
+    buf[off + 3] = 0.0
+    buf[off + 4] = dx
+    buf[off + 5] = dy
+    buf[off + 6] = dz
+    buf[off + 7] = 0.0
+    buf[off + 8] = tfar
+    ib[off + 9] = 0xFFFFFFFF
+    ib[off + 10] = 0
+    ib[off + 11] = 0
+    embree.occluded1(handle, buf.ctypes.data + off * 4, 0)  # the address taken from the live array, here
+    return buf[off + 8] < 0.0  # Embree sets tfar to -inf on a hit

@@ -1,0 +1,107 @@
+"""Geometry at a hit: the point, the view vector, and the normals shading uses.
+
+Orientation (two-sided lighting): the geometric normal ``ng`` is turned to
+the viewer; a shading normal seen from the back is negated with it, and one
+that still points into the far hemisphere (coarse silhouettes, inconsistent
+data) is reflected across the tangent plane into the viewer's hemisphere,
+which is continuous where plain negation would jump. An interpolated normal
+that cancels (``|a| < 1e-6``) falls back to ``ng``.
+
+In Phong mode the shadow-ray origin is first lifted onto the vertices'
+tangent planes (Hanika, Ray Tracing Gems II ch. 4) so that coarse meshes
+with smooth normals do not shadow themselves at the terminator.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_ORTHO
+from .jit import JIT
+
+__all__ = []
+
+_CANCEL = 1e-6  # |interpolated normal| below this counts as cancelled
+
+
+@njit(inline="always", **JIT)
+def _view(cam, px, py, pz):
+    """Unit vector from a point to the eye (orthographic: against the view)."""
+    if cam[CAM_ORTHO] != 0.0:
+        return -cam[CAM_FORWARD + 0], -cam[CAM_FORWARD + 1], -cam[CAM_FORWARD + 2]
+    vx = cam[CAM_EYE + 0] - px
+    vy = cam[CAM_EYE + 1] - py
+    vz = cam[CAM_EYE + 2] - pz
+    vl = np.sqrt(vx * vx + vy * vy + vz * vz)
+    if vl == 0.0:
+        return -cam[CAM_FORWARD + 0], -cam[CAM_FORWARD + 1], -cam[CAM_FORWARD + 2]
+    return vx / vl, vy / vl, vz / vl
+
+
+@njit(inline="always", **JIT)
+def _facing(fnormals, f, vx, vy, vz):
+    """Geometric normal turned to the viewer, and the sign that turned it."""
+    gx = fnormals[f, 0]
+    gy = fnormals[f, 1]
+    gz = fnormals[f, 2]
+    if gx == 0.0 and gy == 0.0 and gz == 0.0:  # degenerate face: face the viewer
+        return vx, vy, vz, 1.0
+    if gx * vx + gy * vy + gz * vz < 0.0:
+        return -gx, -gy, -gz, -1.0
+    return gx, gy, gz, 1.0
+
+
+@njit(inline="always", **JIT)
+def _shading_normal(normals, i0, i1, i2, b1, b2, gx, gy, gz, sgn):
+    """Interpolated, renormalised normal, oriented into the viewer's hemisphere."""
+    b0 = 1.0 - b1 - b2
+    ax = b0 * normals[i0, 0] + b1 * normals[i1, 0] + b2 * normals[i2, 0]
+    ay = b0 * normals[i0, 1] + b1 * normals[i1, 1] + b2 * normals[i2, 1]
+    az = b0 * normals[i0, 2] + b1 * normals[i1, 2] + b2 * normals[i2, 2]
+    al = np.sqrt(ax * ax + ay * ay + az * az)
+    if not al >= _CANCEL:
+        return gx, gy, gz
+    s = sgn / al
+    nx = ax * s
+    ny = ay * s
+    nz = az * s
+    c = nx * gx + ny * gy + nz * gz
+    if c < 0.0:
+        nx -= 2.0 * c * gx
+        ny -= 2.0 * c * gy
+        nz -= 2.0 * c * gz
+    return nx, ny, nz
+
+
+@njit(inline="always", **JIT)
+def _hit_point(verts, i0, i1, i2, b1, b2):
+    """The point with barycentrics (1 - b1 - b2, b1, b2) on triangle (i0, i1, i2)."""
+    b0 = 1.0 - b1 - b2
+    px = b0 * verts[i0, 0] + b1 * verts[i1, 0] + b2 * verts[i2, 0]
+    py = b0 * verts[i0, 1] + b1 * verts[i1, 1] + b2 * verts[i2, 1]
+    pz = b0 * verts[i0, 2] + b1 * verts[i1, 2] + b2 * verts[i2, 2]
+    return px, py, pz
+
+
+@njit(inline="always", **JIT)
+def _terminator_point(verts, normals, i0, i1, i2, b1, b2, px, py, pz, sgn):
+    """Hanika's shadow-ray origin: p lifted onto the vertices' tangent planes
+    (only upwards), so a flat facet under a smooth normal does not shadow
+    itself near the terminator."""
+    b0 = 1.0 - b1 - b2
+    qx = px
+    qy = py
+    qz = pz
+    for k in range(3):
+        i = i0 if k == 0 else (i1 if k == 1 else i2)
+        w = b0 if k == 0 else (b1 if k == 1 else b2)
+        nx = sgn * normals[i, 0]
+        ny = sgn * normals[i, 1]
+        nz = sgn * normals[i, 2]
+        d = (px - verts[i, 0]) * nx + (py - verts[i, 1]) * ny + (pz - verts[i, 2]) * nz
+        if d < 0.0:
+            qx -= w * d * nx
+            qy -= w * d * ny
+            qz -= w * d * nz
+    return qx, qy, qz
