@@ -7,6 +7,7 @@ import time
 from .scene.camera import Camera
 from .visibility.accel import embree_accel, has_embree_accel
 from .visibility.cast import cast_camera, resolve_caster, secondary_rays
+from .output.buffers import check_buffers, compute_buffers
 from .output.frame import Frame
 from .scene.scene import Scene
 from .study.auto import choose_methods
@@ -20,7 +21,7 @@ __all__ = ["render", "render_file"]
 
 def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backend: str = "raycast",
            interpolation: str = "perspective", caster: str = "auto", max_depth: int = 3,
-           tolerance: float = 0.01) -> Frame:
+           tolerance: float = 0.01, buffers=()) -> Frame:
     """Render a scene.
 
     Parameters
@@ -50,6 +51,9 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
         Mirror bounces traced for reflective materials (0: none).
     tolerance : float
         Error budget of ``shading="auto"``, in linear intensity.
+    buffers : sequence of str
+        Per-pixel buffers to put on ``frame.buffers`` by name: ``"zdepth"``,
+        ``"position"``, ``"normal_camera"``, ... (:mod:`raycast_shade.output.buffers`).
 
     Returns
     -------
@@ -80,6 +84,7 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
         raise ValueError(f"caster: expected one of {list(CASTERS)} or 'auto', got {caster!r}")
     if isinstance(max_depth, bool) or not isinstance(max_depth, int) or max_depth < 0:
         raise ValueError(f"max_depth: expected an integer >= 0, got {max_depth!r}")
+    buffers = check_buffers(buffers)
     camera = camera if camera is not None else scene.camera
     if camera is None:
         raise ValueError("camera: the scene has no camera and none was passed")
@@ -119,9 +124,13 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
         trace_mirrors(scene, camera, hits, image, max_depth)
         timings["mirror"] = time.perf_counter() - te
         te = time.perf_counter()
+    if buffers:
+        extra = compute_buffers(scene, camera, hits, buffers, shading)
+        timings["buffers"] = time.perf_counter() - te
+        te = time.perf_counter()
     timings["total"] = te - t0
     return Frame(image=image, hits=hits, shading=shading, scene=scene, camera=camera, timings=timings,
-                 decisions=decisions)
+                 decisions=decisions, buffers=extra if buffers else {})
 
 
 def render_file(path, **overrides) -> Frame:

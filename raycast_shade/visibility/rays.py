@@ -26,7 +26,9 @@ def camera_frame(camera, origin=np.zeros(3)):
     -------
     (16,) float64
         eye(3), right*half_width(3), up*half_height(3), forward(3),
-        orthographic flag, width, height, unused.
+        orthographic flag, width, height, unused. With intrinsics
+        (``camera.fx``), ``forward`` (perspective; then not unit) or ``eye``
+        (orthographic) carries the principal point's shift.
     """
     right, up, fwd = camera.basis
     hw, hh = camera.half_extents()
@@ -39,6 +41,16 @@ def camera_frame(camera, origin=np.zeros(3)):
     out[13] = camera.width
     out[14] = camera.height
     out[15] = 0.0
+    if camera.fx is not None:
+        # Intrinsics: the principal point shifts the central ray (perspective:
+        # its direction, d = forward + ox right + oy up + sx R + sy U) or the
+        # ray origins (orthographic); a camera without them keeps its bits.
+        ox, oy = camera.principal_offset()
+        shift = ox * right + oy * up
+        if camera.orthographic:
+            out[0:3] += shift
+        else:
+            out[9:12] += shift
     return out
 
 
