@@ -34,7 +34,7 @@ from .batch.cache import PLUGIN_NAME, SceneCache, cache_of
 from .batch.options import check_options
 from .batch.plan import plan_batch
 
-__all__ = ["render_views", "FORMATS", "INDEX_NAME", "view_files"]
+__all__ = ["render_views", "FORMATS", "INDEX_NAME", "view_files", "register_cli", "run_cli"]
 
 FORMATS = ("npz", "exr", "depth_png")
 INDEX_NAME = "index.json"
@@ -149,7 +149,7 @@ def _iter_dask(client, bases, todo, spec, retries, per_task):
 def _split_by_key(chunk):
     out = []
     for job in chunk:
-        if out and out[-1][0].key != job.key:
+        if out and out[0].key != job.key:
             yield out
             out = []
         out.append(job)
@@ -254,3 +254,63 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
     with atomic_target(path) as tmp, open(tmp, "w") as fh:
         json.dump(index, fh, indent=1)
     return path
+
+
+# -- the command line ------------------------------------------------------------------------------
+
+
+def register_cli(subparsers):
+    """Add the ``views`` command to the ``raycast-shade`` parser; dispatch to :func:`run_cli`."""
+    import argparse
+
+    from .args import add_render_options, add_tone_options, buffer_list, positive_int
+
+    p = subparsers.add_parser(
+        "views", help="render a data set of views: images, buffers and cameras",
+        description="Render a TOML scene file from N cameras orbiting its target: per view the image and "
+                    "the buffers (npz, exr, 16-bit depth png), and index.json with each view's K, R, t "
+                    "(OpenCV's convention) and files. Views already written are skipped.",
+        epilog="examples:\n"
+               "  raycast-shade views examples/shapes.toml --orbit 24 --buffers depth,normal,id -o shapes_views\n"
+               "  raycast-shade views scene.toml --orbit 100 --buffers zdepth,position --formats npz,exr "
+               "--workers 2 -o views",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("scene", metavar="SCENE.toml", help="scene file")
+    p.add_argument("--orbit", type=positive_int, required=True, metavar="N",
+                   help="number of views, the camera turned about its target by 360/N degrees each")
+    p.add_argument("--buffers", type=buffer_list, default=("zdepth", "normal", "model_id", "triangle_id", "mask"),
+                   metavar="NAMES", help="comma-separated buffer names (default: zdepth,normal,id,mask)")
+    p.add_argument("--formats", default="npz", metavar="LIST",
+                   help=f"buffer files per view, comma-separated: {', '.join(FORMATS)} (default: npz)")
+    p.add_argument("--image", default=".png", metavar="EXT",
+                   help="per-view image file extension, or 'none' (default: .png)")
+    p.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder (created)")
+    add_render_options(p)
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=positive_int, metavar="N", help="render on a local Dask cluster of N workers")
+    where.add_argument("--scheduler", metavar="ADDR", help="render on an existing Dask cluster, e.g. tcp://host:8786")
+    add_tone_options(p)
+    return p
+
+
+def run_cli(ns) -> int:
+    """Run ``raycast-shade views``; errors are raised for the caller to print on one line."""
+    import time
+
+    from ..scene.scenefile import load_for_render
+    from .animate import orbit_cameras
+    from .args import overrides
+
+    scene, render_kwargs, tone = load_for_render(ns.scene, **overrides(ns))
+    shading = render_kwargs.pop("shading", "phong")
+    image = None if ns.image.lower() == "none" else (ns.image if ns.image.startswith(".") else "." + ns.image)
+    t0 = time.perf_counter()
+    index = render_views(scene, orbit_cameras(scene.camera, ns.orbit), ns.output, buffers=ns.buffers,
+                         formats=ns.formats, image=image, shading=shading, workers=ns.workers,
+                         scheduler=ns.scheduler, tone=tone, **render_kwargs)
+    secs = time.perf_counter() - t0
+    cam = scene.camera
+    print(f"wrote {index} ({ns.orbit} views, {cam.width}x{cam.height}, buffers {','.join(ns.buffers)}): "
+          f"{secs:.1f} s, {ns.orbit / secs:.2f} views/s")
+    return 0
