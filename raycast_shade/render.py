@@ -3,27 +3,29 @@
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 
 from .scene.camera import Camera
 from .visibility.accel import embree_accel, has_embree_accel
 from .visibility.cast import cast_camera, resolve_caster, secondary_rays
+from .visibility.interpolation import to_screen_space
+from .visibility.raster import rasterize
+from .output.buffers import check_buffers, compute_buffers
 from .output.frame import Frame
 from .scene.pitfalls import warn_render
 from .scene.scene import Scene
 from .study.auto import choose_methods
-from .common.choices import BACKENDS, CASTERS, INTERPOLATIONS, SHADINGS
-from .common.validate import as_int, as_scalar
-from .shading.mirrors import trace_mirrors
+from .common.choices import BACKENDS, CASTER_CHOICES, INTERPOLATIONS, SHADING_CHOICES
+from .common.validate import as_choice, as_int, as_scalar
+from .shading.mirrors import MAX_MIRROR_DEPTH, trace_mirrors
 from .shading.shade import resolve_methods, shade_hits
 
 __all__ = ["render", "render_file"]
 
 
-
-
 def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backend: str = "raycast",
            interpolation: str = "perspective", caster: str = "auto", max_depth: int = 3,
-           tolerance: float = 0.01) -> Frame:
+           tolerance: float = 0.01, buffers=()) -> Frame:
     """Render a scene.
 
     Parameters
@@ -50,10 +52,15 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
         mirror ray (those need the direct binding:
         :func:`raycast_shade.visibility.cast.resolve_caster`).
     max_depth : int
-        Mirror bounces traced for reflective materials (0: none).
+        Mirror bounces traced for reflective materials (0: none), at most
+        ``MAX_MIRROR_DEPTH`` (64); a ray whose remaining weight falls below
+        float32's resolution (2**-24) stops early.
     tolerance : float
         Error budget of ``shading="auto"``, in linear intensity, ``> 0``
         (checked in every mode).
+    buffers : sequence of str
+        Per-pixel buffers to put on ``frame.buffers`` by name: ``"zdepth"``,
+        ``"position"``, ``"normal_camera"``, ... (:mod:`raycast_shade.output.buffers`).
 
     Returns
     -------
@@ -70,26 +77,65 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
         (the message says why), before any kernel runs.
     """
     t0 = time.perf_counter()
+    plan = _plan(scene, shading, camera, backend, interpolation, caster, max_depth, tolerance, buffers)
+    camera, shading = plan.camera, plan.shading
+    warn_render(scene, shading)  # no lights, a light inside a closed mesh, a bump map the method ignores
+    timings = {}
+    hits = _visibility(scene, plan, timings)
+    ts = time.perf_counter()
+    image = shade_hits(scene, camera, hits, shading)  # hits from our caster or rasterizer: valid by construction
+    te = time.perf_counter()
+    timings["shade"] = te - ts
+    if scene.geometry.reflective and plan.max_depth > 0:
+        trace_mirrors(scene, camera, hits, image, plan.max_depth)
+        timings["mirror"] = time.perf_counter() - te
+        te = time.perf_counter()
+    extra = {}
+    if plan.buffers:
+        extra = compute_buffers(scene, camera, hits, plan.buffers, shading)
+        timings["buffers"] = time.perf_counter() - te
+        te = time.perf_counter()
+    timings["total"] = te - t0
+    return Frame(image=image, hits=hits, shading=shading, scene=scene, camera=camera, timings=timings,
+                 decisions=plan.decisions, buffers=extra)
+
+
+@dataclass(frozen=True)
+class _Plan:
+    """render()'s arguments, checked and resolved."""
+
+    shading: object  # a method name, or one per model
+    camera: Camera
+    backend: str
+    interpolation: str
+    caster: str
+    max_depth: int
+    buffers: tuple
+    decisions: tuple
+
+
+def _plan(scene, shading, camera, backend, interpolation, caster, max_depth, tolerance, buffers) -> _Plan:
+    """Every argument checked before any kernel runs (the names as the user spelled them)."""
     if not isinstance(scene, Scene):
         raise TypeError(f"scene: expected a Scene, got {type(scene).__name__}")
     if isinstance(shading, str):
-        if shading.lower() not in SHADINGS + ("auto",):
-            raise ValueError(f"shading: expected one of {list(SHADINGS) + ['auto']}, got {shading!r}")
-        shading = shading.lower()
+        shading = as_choice(shading, "shading", SHADING_CHOICES)
     else:
         resolve_methods(scene, shading)  # validates one name per model
-    if backend not in BACKENDS:
-        raise ValueError(f"backend: expected one of {list(BACKENDS)}, got {backend!r}")
-    if interpolation not in INTERPOLATIONS:
-        raise ValueError(f"interpolation: expected one of {list(INTERPOLATIONS)}, got {interpolation!r}")
-    if not isinstance(caster, str) or (caster not in CASTERS and caster != "auto"):
-        raise ValueError(f"caster: expected one of {list(CASTERS)} or 'auto', got {caster!r}")
+        shading = tuple(m.lower() for m in shading)
+    backend = as_choice(backend, "backend", BACKENDS)
+    interpolation = as_choice(interpolation, "interpolation", INTERPOLATIONS)
+    caster = as_choice(caster, "caster", CASTER_CHOICES)
     max_depth = as_int(max_depth, "max_depth", minimum=0)  # NumPy integers too
+    if max_depth > MAX_MIRROR_DEPTH:
+        raise ValueError(f"max_depth: at most {MAX_MIRROR_DEPTH} mirror bounces, got {max_depth} (a mirror "
+                         "enclosing the camera would bounce every ray that many times)")
     # Checked in every mode, not only by "auto" which uses it: a NaN is a mistake either way.
     try:
         tolerance = as_scalar(tolerance, "tolerance", minimum=0.0, exclusive=True)
     except TypeError as exc:  # a ValueError for every bad tolerance, as choose_methods has always raised
         raise ValueError(str(exc)) from None
+    buffers = check_buffers(buffers)
     camera = camera if camera is not None else scene.camera
     if camera is None:
         raise ValueError("camera: the scene has no camera and none was passed")
@@ -99,41 +145,29 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
     # Shadow and mirror rays need the direct binding whatever the caster: refuse now, before any kernel.
     caster = resolve_caster(caster if backend == "raycast" else "auto", secondary_rays(scene, max_depth))
     decisions = ()
-    if isinstance(shading, str) and shading == "auto":
+    if shading == "auto":
         decisions = tuple(choose_methods(scene, camera, tolerance))
         shading = tuple(d.method for d in decisions)
-    elif not isinstance(shading, str):
-        shading = tuple(m.lower() for m in shading)
-    warn_render(scene, shading)  # no lights, a light inside a closed mesh, a bump map the method ignores
-    timings = {}
+    return _Plan(shading, camera, backend, interpolation, caster, max_depth, buffers, decisions)
+
+
+def _visibility(scene, plan: _Plan, timings: dict):
+    """The hit buffer of ``plan.camera``, by ray casting or rasterization (timed into ``timings``)."""
+    camera = plan.camera
     fresh = "geometry" not in scene.__dict__ or not has_embree_accel(scene.geometry)
-    if fresh and caster != "embreex" and backend == "raycast":
+    if fresh and plan.caster != "embreex" and plan.backend == "raycast":
         tb = time.perf_counter()
         embree_accel(scene.geometry)  # build now so that the cast is timed alone
         timings["build"] = time.perf_counter() - tb
     tc = time.perf_counter()
-    if backend == "raycast":
-        hits = cast_camera(scene.geometry, camera, caster)
+    if plan.backend == "raycast":
+        hits = cast_camera(scene.geometry, camera, plan.caster)
     else:
-        from .visibility.raster import rasterize
-
         hits = rasterize(scene.geometry, camera)
-    if interpolation == "screen":
-        from .visibility.interpolation import to_screen_space
-
+    if plan.interpolation == "screen":
         hits = to_screen_space(hits, scene.geometry, camera)
-    ts = time.perf_counter()
-    timings["cast" if backend == "raycast" else "raster"] = ts - tc
-    image = shade_hits(scene, camera, hits, shading)  # hits from our caster or rasterizer: valid by construction
-    te = time.perf_counter()
-    timings["shade"] = te - ts
-    if scene.geometry.reflective and max_depth > 0:
-        trace_mirrors(scene, camera, hits, image, max_depth)
-        timings["mirror"] = time.perf_counter() - te
-        te = time.perf_counter()
-    timings["total"] = te - t0
-    return Frame(image=image, hits=hits, shading=shading, scene=scene, camera=camera, timings=timings,
-                 decisions=decisions)
+    timings["cast" if plan.backend == "raycast" else "raster"] = time.perf_counter() - tc
+    return hits
 
 
 def render_file(path, **overrides) -> Frame:

@@ -244,3 +244,46 @@ def test_bumped_mirror_distorts_reflections_in_every_mode():
                                    camera=cam, ambient=0.1, background=BACKGROUND), shading).image
                 for mat in (PERFECT, bumpy)]
         assert np.abs(imgs[0] - imgs[1]).max() > 0.05, shading
+
+
+# ---------------------------------------------------------------------------------------------
+# Bounded work: a camera inside a closed mirror (issue: max_depth=10**6 never returned)
+
+
+def _inside_mirror(rho):
+    sphere = rs.shapes.icosphere(2, radius=2.0)
+    inner = rs.shapes.icosphere(1, radius=0.3, center=(0.8, 0.0, 0.0))
+    return rs.Scene([rs.Model(sphere, rs.Material(kd=0.2, ks=0.3, reflectivity=rho)),
+                     rs.Model(inner, rs.Material(kd=(0.9, 0.2, 0.1)))],
+                    lights=[rs.PointLight((0.0, 1.0, 0.5), intensity=1.0)],
+                    camera=rs.Camera(eye=(0.0, 0.0, 0.5), target=(1.0, 0.0, 0.0), width=40, height=30), ambient=0.1)
+
+
+@pytest.mark.parametrize("depth", [65, 10 ** 6, np.int64(10 ** 9)])
+def test_mirror_depth_beyond_the_bound_is_refused_before_rendering(depth):
+    from raycast_shade.shading.mirrors import MAX_MIRROR_DEPTH
+
+    scene = _inside_mirror(1.0)
+    with pytest.raises(ValueError, match=rf"max_depth: at most {MAX_MIRROR_DEPTH} mirror bounces"):
+        rs.render(scene, max_depth=depth)
+    assert "geometry" not in scene.__dict__
+
+
+def test_a_perfect_mirror_around_the_camera_finishes_at_the_bound():
+    """rho = 1: every ray bounces to the last allowed bounce, then shows its local shade."""
+    from raycast_shade.shading.mirrors import MAX_MIRROR_DEPTH
+
+    frame = rs.render(_inside_mirror(1.0), max_depth=MAX_MIRROR_DEPTH)
+    assert np.isfinite(frame.image).all() and (frame.image >= 0).all()
+    assert frame.mask.all()
+
+
+def test_rays_stop_once_their_weight_is_below_float32_resolution():
+    """rho = 1/2: a ray's weight after d bounces is 2**-d; past 24 it stops, so any bound beyond
+    that gives the same image."""
+    scene = _inside_mirror(0.5)
+    a = rs.render(scene, max_depth=30).image
+    b = rs.render(scene, max_depth=64).image
+    c = rs.render(scene, max_depth=10).image
+    np.testing.assert_array_equal(a, b)
+    assert not np.array_equal(a, c)  # the cut is not vacuous: 10 bounces are still visible

@@ -327,3 +327,33 @@ def test_sphere_normal_buffer_is_the_radial_direction(mesh):
     error = np.linalg.norm(n - (p_ray - c) / radius, axis=1).max()
     assert sag < 1e-3
     assert error <= sag + 2e-5
+
+
+def test_gouraud_never_negative_with_the_eye_on_a_vertex():
+    """Embree's u, v stray a few ulps outside the triangle at a vertex seen from the eye on it;
+    with a huge vertex shade next to a point light that once made pixels of -7.9e6."""
+    import warnings
+
+    worst, cases = 0.0, 0
+    for sub in (1, 2):
+        m = rs.shapes.icosphere(sub)
+        F = m.faces
+        for fi in range(0, len(F), max(1, len(F) // 10)):
+            a, b, c = F[fi]
+            for eye_i, light_i in ((a, b), (a, c), (b, c), (b, a)):
+                eye, light = m.vertices[eye_i], m.vertices[light_i]
+                for target in (np.zeros(3), (eye + light) / 2 * 0.9, m.vertices[c] * 0.95):
+                    try:
+                        cam = rs.Camera(eye=eye, target=target, width=64, height=48, fov=150)
+                    except ValueError:
+                        continue
+                    scene = rs.Scene([rs.Model(m, rs.Material(kd=0.8, ks=0.5))], camera=cam,
+                                     lights=[rs.PointLight(light * (1 + 1e-9), intensity=1e3,
+                                                           attenuation="inverse_square")])
+                    with warnings.catch_warnings():
+                        warnings.simplefilter("ignore")
+                        img = rs.render(scene, "gouraud").image
+                    cases += 1
+                    worst = min(worst, float(img.min()))
+    assert cases > 200
+    assert worst >= 0.0

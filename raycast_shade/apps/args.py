@@ -19,7 +19,7 @@ from ..common.choices import BACKENDS, CASTER_CHOICES, INTERPOLATIONS, SHADING_C
 from ..scene.scenefile import RENDER_KEYS
 
 __all__ = ["positive_int", "nonnegative_int", "positive_float", "finite_float", "gamma", "shading",
-           "add_render_options", "add_tone_options", "overrides", "shading_label"]
+           "add_render_options", "add_tone_options", "overrides", "shading_label", "buffer_list"]
 
 
 def positive_int(text: str) -> int:
@@ -128,3 +128,13 @@ def add_tone_options(p, title: str = "tone mapping (8-bit formats only)") -> Non
 def overrides(args) -> dict:
     """The ``[render]`` options given on the command line (those not None)."""
     return {k: getattr(args, k) for k in RENDER_KEYS if getattr(args, k, None) is not None}
+
+
+def buffer_list(text: str) -> tuple:
+    """Comma-separated buffer names (:mod:`raycast_shade.output.buffers`), any case."""
+    from ..output.buffers import check_buffers
+
+    try:
+        return check_buffers(text, "--buffers")
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc).removeprefix("--buffers: ")) from None

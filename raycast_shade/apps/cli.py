@@ -103,6 +103,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     register_cli(sub)
 
+    from .views import register_cli as register_views
+
+    register_views(sub)
+
     sub.add_parser("info", help="versions and the Embree library in use",
                    description="Print the versions of raycast_shade and its engines, and the Embree library path.")
     return parser
@@ -246,6 +250,8 @@ def main(argv=None) -> int:
             raise _UsageError("argument -o/--output: expected a path, got an empty string")
         if args.command == "animate":
             from .animate import run_cli as command
+        elif args.command == "views":
+            from .views import run_cli as command
         else:
             command = {"demo": _cmd_demo, "render": _cmd_render, "info": _cmd_info}[args.command]
         with warnings.catch_warnings():  # restores showwarning on the way out

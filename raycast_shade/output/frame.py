@@ -37,6 +37,9 @@ class Frame:
         Default ``exposure``, ``tonemap``, ``gamma`` of :meth:`to_uint8` and
         :meth:`save` (keywords given there win): a scene file's, from
         :func:`raycast_shade.render_file`; empty from :func:`raycast_shade.render`.
+    buffers : dict of str to ndarray
+        The buffers asked for with ``render(..., buffers=(...))``, by name
+        (:mod:`raycast_shade.output.buffers`); empty otherwise.
     """
 
     image: np.ndarray
@@ -47,6 +50,7 @@ class Frame:
     timings: dict = field(default_factory=dict)
     decisions: tuple = ()
     tone: dict = field(default_factory=dict)
+    buffers: dict = field(default_factory=dict)
 
     @property
     def method(self) -> np.ndarray:

@@ -38,6 +38,13 @@ class Camera:
     projection : {"perspective", "orthographic"}
     ortho_height : float
         Height of the view in world units (orthographic), ``> 0``.
+    fx, fy, cx, cy : float, optional
+        Intrinsics in pixels, OpenCV's convention (pixel centres at integer
+        coordinates; :mod:`raycast_shade.scene.projection`): all four or
+        none. ``fx, fy > 0`` (orthographic: pixels per world unit); the
+        principal point may be anywhere. Given, they define the projection
+        and ``fov`` (``ortho_height``) is set to the vertical extent they
+        imply. See :meth:`from_opencv`, ``docs/vision.md``.
     """
 
     eye: np.ndarray
@@ -48,6 +55,10 @@ class Camera:
     height: int = 480
     projection: str = "perspective"
     ortho_height: float = 2.0
+    fx: float | None = None
+    fy: float | None = None
+    cx: float | None = None
+    cy: float | None = None
 
     def __post_init__(self):
         set_ = object.__setattr__
@@ -79,6 +90,24 @@ class Camera:
         set_(self, "height", as_int(self.height, "camera.height", minimum=1))
         set_(self, "projection", as_choice(self.projection, "camera.projection", PROJECTIONS))
         set_(self, "ortho_height", as_scalar(self.ortho_height, "camera.ortho_height", minimum=0.0, exclusive=True))
+        self._check_intrinsics()
+
+    def _check_intrinsics(self):
+        set_ = object.__setattr__
+        given = [k for k in ("fx", "fy", "cx", "cy") if getattr(self, k) is not None]
+        if not given:
+            return
+        if len(given) != 4:
+            missing = [k for k in ("fx", "fy", "cx", "cy") if k not in given]
+            raise ValueError(f"camera.{missing[0]}: intrinsics need all of fx, fy, cx, cy, got only {given}")
+        for k in ("fx", "fy"):
+            set_(self, k, as_scalar(getattr(self, k), f"camera.{k}", minimum=0.0, exclusive=True))
+        for k in ("cx", "cy"):
+            set_(self, k, as_scalar(getattr(self, k), f"camera.{k}"))
+        if self.orthographic:
+            set_(self, "ortho_height", self.height / self.fy)
+        else:
+            set_(self, "fov", float(np.degrees(2.0 * np.arctan(0.5 * self.height / self.fy))))
 
     @property
     def basis(self):
@@ -105,6 +134,8 @@ class Camera:
     def half_extents(self):
         """Half the image plane's width and height at unit distance
         (perspective) or in world units (orthographic)."""
+        if self.fx is not None:
+            return 0.5 * self.width / self.fx, 0.5 * self.height / self.fy
         aspect = self.width / self.height
         if self.orthographic:
             h = 0.5 * self.ortho_height
@@ -116,3 +147,58 @@ class Camera:
         from dataclasses import replace
 
         return replace(self, **changes)
+
+    # -- matrices (raycast_shade.scene.projection; docs/vision.md) -----------------------------------
+
+    @classmethod
+    def from_opencv(cls, K, R, t, width, height, *, projection="perspective") -> "Camera":
+        """A camera from OpenCV's intrinsics ``K`` (3, 3, zero skew) and
+        world-to-camera ``R`` (3, 3), ``t`` (3,): ``x_cam = R x_world + t``,
+        camera ``x`` right, ``y`` down, ``z`` forward; pixel centres at
+        integer coordinates. :meth:`to_opencv` gives them back."""
+        from .projection import opencv_kwargs
+
+        return cls(width=width, height=height, **opencv_kwargs(K, R, t, projection))
+
+    @classmethod
+    def from_opengl(cls, view, projection, width, height) -> "Camera":
+        """A camera from OpenGL (4, 4) view and projection matrices, as made
+        by :meth:`view_matrix` and :meth:`projection_matrix`."""
+        from .projection import opengl_kwargs
+
+        return cls(width=width, height=height, **opengl_kwargs(view, projection, width, height))
+
+    @property
+    def K(self) -> np.ndarray:
+        """(3, 3) float64 OpenCV intrinsics matrix (derived from ``fov`` when not given)."""
+        from .projection import intrinsics_matrix
+
+        return intrinsics_matrix(self)
+
+    def to_opencv(self):
+        """``(K, R, t)``: (3, 3), (3, 3), (3,) float64, OpenCV's convention."""
+        from .projection import extrinsics, intrinsics_matrix
+
+        R, t = extrinsics(self)
+        return intrinsics_matrix(self), R, t
+
+    def view_matrix(self) -> np.ndarray:
+        """(4, 4) float64 OpenGL world-to-view matrix (looking down ``-z``, ``y`` up)."""
+        from .projection import view_matrix
+
+        return view_matrix(self)
+
+    def projection_matrix(self, near, far) -> np.ndarray:
+        """(4, 4) float64 OpenGL projection matrix; see
+        :func:`raycast_shade.scene.projection.projection_matrix`."""
+        from .projection import projection_matrix
+
+        return projection_matrix(self, near, far)
+
+    def principal_offset(self):
+        """``(ox, oy)``: the principal point's shift of the central ray along
+        ``right`` and ``up`` (zero without intrinsics); see
+        :func:`raycast_shade.scene.projection.principal_offset`."""
+        from .projection import principal_offset
+
+        return principal_offset(self)

@@ -16,7 +16,7 @@ from ..common.schedule import BLOCK_ROWS, spread_step
 from .illumination import _illuminate, _illuminate_call
 from .jit import CHUNK, FLT32_MAX, JIT, compile_variants
 from .shadows import _scratch
-from .surface import _facing, _hit_point, _view
+from .surface import _convex_weights, _facing, _hit_point, _view
 
 __all__ = []
 
@@ -123,7 +123,6 @@ def _make_interpolate(spec_on: bool, att_on: bool):
                     i2 = faces[f, 2]
                     b1 = np.float64(u[y, x])
                     b2 = np.float64(v[y, x])
-                    b0 = 1.0 - b1 - b2
                     px, py, pz = _hit_point(verts, i0, i1, i2, b1, b2)
                     vx, vy, vz = _view(cam, px, py, pz)
                     gx, gy, gz, sgn = _facing(fnormals, f, vx, vy, vz)
@@ -134,6 +133,7 @@ def _make_interpolate(spec_on: bool, att_on: bool):
                                                ambient, lights, dmin, handle, unit, S, spec_on, att_on)
                     r2, g2, c2 = _corner_shade(vcol, normals, verts, i2, side, gx, gy, gz, materials, g, cam,
                                                ambient, lights, dmin, handle, unit, S, spec_on, att_on)
+                    b0, b1, b2 = _convex_weights(b1, b2)
                     image[y, x, 0] = min(b0 * r0 + b1 * r1 + b2 * r2, FLT32_MAX)
                     image[y, x, 1] = min(b0 * g0 + b1 * g1 + b2 * g2, FLT32_MAX)
                     image[y, x, 2] = min(b0 * c0 + b1 * c1 + b2 * c2, FLT32_MAX)

@@ -18,7 +18,14 @@ from .jit import CHUNK, FLT32_MAX, JIT, compile_variants, variant
 from .phong import _shade_surface, _surface
 from .shadows import _nudge, _scratch
 
-__all__ = ["trace_mirrors"]
+__all__ = ["trace_mirrors", "MAX_MIRROR_DEPTH"]
+
+# Bounces per primary ray. A camera inside a closed perfect mirror bounces every ray that many
+# times; the bound keeps such a frame finite (64 bounces of a 1080p frame: seconds, not forever).
+MAX_MIRROR_DEPTH = 64
+# A reflected ray whose weight (the product of the reflectivities it met) is under float32's
+# resolution changes its pixel by less than one part in 2**24 of its colour: it stops.
+_MIN_WEIGHT = 2.0 ** -24
 
 
 @njit(inline="always", **JIT)
@@ -197,4 +204,8 @@ def trace_mirrors(scene, camera, hits, image, max_depth: int = 3) -> np.ndarray:
         flat[idx] = np.minimum(flat[idx] + weight[:, None] * colour, FLT32_MAX).astype(np.float32)
         weight = weight[more] * geo.materials[gm[more], MAT_REFLECTIVITY]
         idx, origins, dirs = idx[more], next_o[more], next_d[more]
+        # A ray that can no longer change a float32 pixel of its own colour's size stops here.
+        keep = weight >= _MIN_WEIGHT
+        if not keep.all():
+            weight, idx, origins, dirs = weight[keep], idx[keep], origins[keep], dirs[keep]
     return image

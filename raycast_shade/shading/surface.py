@@ -75,6 +75,28 @@ def _shading_normal(normals, i0, i1, i2, b1, b2, gx, gy, gz, sgn):
 
 
 @njit(inline="always", **JIT)
+def _convex_weights(b1, b2):
+    """Interpolation weights ``(b0, b1, b2)`` clamped onto the triangle.
+
+    Embree's ``u, v`` can stray a few ulps outside the triangle (at a vertex
+    seen from very close, for one), and a weight of -1e-7 on a vertex shade
+    of 1e11 next to a point light made a Gouraud pixel -1e4: clamped, every
+    interpolated value lies between its vertex values. Weights already inside
+    pass unchanged."""
+    if not (b1 >= 0.0 and b2 >= 0.0 and b1 + b2 <= 1.0):
+        b1 = min(max(b1, 0.0), 1.0)
+        b2 = min(max(b2, 0.0), 1.0)
+        s = b1 + b2
+        if s > 1.0:
+            b1 /= s
+            b2 /= s
+    b0 = 1.0 - b1 - b2
+    if b0 < 0.0:  # b1 + b2 rounded down to 1
+        b0 = 0.0
+    return b0, b1, b2
+
+
+@njit(inline="always", **JIT)
 def _hit_point(verts, i0, i1, i2, b1, b2):
     """The point with barycentrics (1 - b1 - b2, b1, b2) on triangle (i0, i1, i2)."""
     b0 = 1.0 - b1 - b2

@@ -114,6 +114,18 @@ def _run(geometry, camera, near, count_mode):
     right, up, fwd = camera.basis
     hw, hh = camera.half_extents()
     view = np.ascontiguousarray(np.stack([camera.eye - geometry.origin, right, up, fwd]), dtype=np.float64)
+    ox, oy = camera.principal_offset()
+    if camera.fx is not None:
+        # A principal point off the centre: orthographic, a shifted eye;
+        # perspective, camera space sheared to x - ox z, y - oy z, which
+        # keeps z (the depth keys), planes and barycentrics; the resolve
+        # scales t by the unsheared ray length.
+        if ortho:
+            view[0] += ox * right + oy * up
+        else:
+            view[1] -= ox * fwd
+            view[2] -= oy * fwd
+        ox, oy = (0.0, 0.0) if ortho else (ox, oy)
     verts = np.ascontiguousarray(geometry.vertices, dtype=np.float64)
     faces = np.ascontiguousarray(geometry.faces, dtype=np.int64)
     nv, nf = len(verts), len(faces)
@@ -145,8 +157,8 @@ def _run(geometry, camera, near, count_mode):
     face_model = np.ascontiguousarray(geometry.face_model, dtype=np.int32)
     face_off = np.ascontiguousarray(geometry.face_offsets, dtype=np.int64)
     with numba.parallel_chunksize(1):  # bands differ in cost: hand them out one at a time
-        _raster_kernel(faces, vx, cs, near, ortho, Wf, Hf, hw, hh, band_h, band_start, band_tris, count_mode,
-                       face_model, face_off, count, *out)
+        _raster_kernel(faces, vx, cs, near, ortho, Wf, Hf, hw, hh, float(ox), float(oy), band_h, band_start,
+                       band_tris, count_mode, face_model, face_off, count, *out)
     if count_mode:
         return count
     return HitBuffer(prim=out[0], geom=out[1], u=out[2], v=out[3], t=out[4])

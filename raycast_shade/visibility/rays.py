@@ -29,7 +29,9 @@ def camera_frame(camera, origin=np.zeros(3)):
     (CAM_SIZE,) = (16,) float64
         eye(3), right*half_width(3), up*half_height(3), forward(3),
         orthographic flag, width, height, unused (slots named in
-        :mod:`raycast_shade.common.layout`).
+        :mod:`raycast_shade.common.layout`). With intrinsics (``camera.fx``),
+        ``forward`` (perspective; then not unit) or ``eye`` (orthographic)
+        carries the principal point's shift.
     """
     right, up, fwd = camera.basis
     hw, hh = camera.half_extents()
@@ -41,6 +43,16 @@ def camera_frame(camera, origin=np.zeros(3)):
     out[CAM_ORTHO] = 1.0 if camera.orthographic else 0.0
     out[CAM_WIDTH] = camera.width
     out[CAM_HEIGHT] = camera.height
+    if camera.fx is not None:
+        # Intrinsics: the principal point shifts the central ray (perspective:
+        # its direction, d = forward + ox right + oy up + sx R + sy U) or the
+        # ray origins (orthographic); a camera without them keeps its bits.
+        ox, oy = camera.principal_offset()
+        shift = ox * right + oy * up
+        if camera.orthographic:
+            out[CAM_EYE:CAM_EYE + 3] += shift
+        else:
+            out[CAM_FORWARD:CAM_FORWARD + 3] += shift
     return out
 
 

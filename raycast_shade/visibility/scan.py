@@ -345,7 +345,7 @@ def _bin_fill(ylo, yhi, band_h, pos, out):
 
 
 @njit(cache=True, parallel=True)
-def _raster_kernel(faces, vx, cs, near, ortho, W, H, hw, hh, band_h, band_start, band_tris, count_mode,
+def _raster_kernel(faces, vx, cs, near, ortho, W, H, hw, hh, ox, oy, band_h, band_start, band_tris, count_mode,
                    face_model, face_off, count, prim, geom, u, v, t):
     """Scan-convert every band's faces into the band's own z-buffer, then
     resolve the band's rows into the hit buffer (depth mode), or count the
@@ -386,13 +386,15 @@ def _raster_kernel(faces, vx, cs, near, ortho, W, H, hw, hh, band_h, band_start,
                 _scan_triangle(px[0], py[0], pq[0], px[j], py[j], pq[j], px[j + 1], py[j + 1], pq[j + 1],
                                rlo, rhi, W, f, True, zA, zB, zC, fid, zbuf, count, count_mode)
         if not count_mode:
-            _resolve_rows(fid, rlo, faces, cs, face_model, face_off, ortho, W, H, hw, hh, prim, geom, u, v, t)
+            _resolve_rows(fid, rlo, faces, cs, face_model, face_off, ortho, W, H, hw, hh, ox, oy, prim, geom, u, v, t)
 
 
 @njit(cache=True)
-def _resolve_rows(fid, rlo, faces, cs, face_model, face_off, ortho, W, H, hw, hh, prim, geom, u, v, t):
+def _resolve_rows(fid, rlo, faces, cs, face_model, face_off, ortho, W, H, hw, hh, ox, oy, prim, geom, u, v, t):
     """Barycentrics and distance of each pixel's ray on its winning face, for
-    the rows ``rlo ..`` of a band (``fid`` holds the band's winners)."""
+    the rows ``rlo ..`` of a band (``fid`` holds the band's winners).
+    ``ox, oy``: the perspective principal-point shear of camera space (zero
+    without intrinsics), undone in the ray length that turns ``z`` into ``t``."""
     for r in range(fid.shape[0]):
         y = rlo + r
         sy = 1.0 - 2.0 * (y + 0.5) / H
@@ -457,7 +459,7 @@ def _resolve_rows(fid, rlo, faces, cs, face_model, face_off, ortho, W, H, hw, hh
                 b1 /= sb
                 b2 /= sb
             if not ortho:
-                s *= math.sqrt(dx * dx + dy * dy + 1.0)
+                s *= math.sqrt((dx + ox) * (dx + ox) + (dy + oy) * (dy + oy) + 1.0)
             g = face_model[f]
             geom[y, x] = g
             prim[y, x] = f - face_off[g]

@@ -1,0 +1,189 @@
+"""Vision data-set benchmark: buffer files per view, views per second, projection agreement.
+
+Run ``python -m benchmarks.bench_views [--quick]``. Measures
+
+* **files**: one 1920x1080 view of an icosphere (20,480 triangles) with the
+  buffers ``zdepth, position, normal, normal_camera, id, mask``: the size
+  and write time of its ``.npz`` (zlib and plain), its ZIP-compressed
+  multi-channel ``.exr`` and its 16-bit depth PNG (best of 3 writes);
+* **views/s**: :func:`raycast_shade.apps.views.render_views` of an orbit
+  (buffers ``zdepth, normal, id``, npz and PNG per view), serially and on a
+  local Dask cluster of 2 single-threaded workers, after a warm-up run;
+* **projection**: for cameras with ``fx != fy`` and an off-centre principal
+  point, each visible vertex projected with ``cv2.projectPoints``: the
+  pixel's triangle id is one of the vertex's faces (``wrong`` counts the
+  others) on both backends, and ``|OpenGL - OpenCV|`` the largest pixel
+  difference between ``projection_matrix`` and OpenCV;
+* **round trips**: ``K -> Camera -> K`` and ``(R, t) -> Camera -> (R, t)``
+  over 1,000 random poses, the largest absolute error.
+
+Results: ``benchmarks/results/views.csv``. ``--quick`` runs smaller sizes
+and writes to a temporary folder only (nothing tracked changes).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import os
+import shutil
+import tempfile
+import time
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+RESULTS = os.path.join(HERE, "results")
+FIELDS = ["benchmark", "case", "width", "height", "value", "unit", "note"]
+
+
+def _scene(width, height, subdiv=5):
+    import raycast_shade as rs
+
+    return rs.Scene([rs.Model(rs.shapes.icosphere(subdiv), rs.Material(kd=(0.8, 0.3, 0.2), ks=0.5, shininess=40))],
+                    lights=[rs.PointLight((2, 3, 4), intensity=20, attenuation="inverse_square")],
+                    camera=rs.Camera(eye=(0.0, 0.6, 3.2), width=width, height=height))
+
+
+def _best(fn, repeats=3):
+    best = float("inf")
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def bench_files(tmp, width, height):
+    import raycast_shade as rs
+    from raycast_shade.output.bufferfile import save_npz, write_depth_png, write_exr
+
+    scene = _scene(width, height)
+    names = ("zdepth", "position", "normal", "normal_camera", "id", "mask")
+    frame = rs.render(scene, buffers=names)
+    b, rows = frame.buffers, []
+    writers = {
+        "npz_zlib": (os.path.join(tmp, "v.npz"), lambda p: save_npz(p, b, image=frame.image, camera=frame.camera)),
+        "npz_plain": (os.path.join(tmp, "p.npz"), lambda p: save_npz(p, b, image=frame.image, camera=frame.camera,
+                                                                    compressed=False)),
+        "exr_zip": (os.path.join(tmp, "v.exr"), lambda p: write_exr(p, b, image=frame.image)),
+        "depth_png16": (os.path.join(tmp, "d.png"), lambda p: write_depth_png(p, b["zdepth"])),
+    }
+    note = "image + " + ",".join(names)
+    for case, (path, write) in writers.items():
+        seconds = _best(lambda: write(path))
+        rows.append(dict(benchmark="files", case=f"{case} size", width=width, height=height,
+                         value=f"{os.path.getsize(path) / 2**20:.2f}", unit="MiB", note=note))
+        rows.append(dict(benchmark="files", case=f"{case} write", width=width, height=height,
+                         value=f"{seconds * 1e3:.0f}", unit="ms", note=note))
+    rows.append(dict(benchmark="files", case="buffers compute", width=width, height=height,
+                     value=f"{frame.timings['buffers'] * 1e3:.0f}", unit="ms", note=note))
+    return rows
+
+
+def bench_views(tmp, width, height, views):
+    from raycast_shade.apps.animate import orbit_cameras
+    from raycast_shade.apps.batch import local_cluster
+    from raycast_shade.apps.views import render_views
+
+    scene = _scene(width, height)
+    cams = orbit_cameras(scene.camera, views)
+    kw = dict(buffers=("zdepth", "normal", "id"), formats=("npz",))
+    render_views(scene, cams[:2], os.path.join(tmp, "warm"), **kw)
+    rows = []
+    t0 = time.perf_counter()
+    render_views(scene, cams, os.path.join(tmp, "serial"), **kw)
+    serial = time.perf_counter() - t0
+    rows.append(dict(benchmark="views", case="serial", width=width, height=height,
+                     value=f"{views / serial:.2f}", unit="views/s", note=f"{views} views, npz+png"))
+    with local_cluster(2, numba_threads=1) as client:
+        render_views(scene, cams[:4], os.path.join(tmp, "warm2"), scheduler=client, **kw)
+        t0 = time.perf_counter()
+        render_views(scene, cams, os.path.join(tmp, "dask"), scheduler=client, **kw)
+        dask = time.perf_counter() - t0
+    rows.append(dict(benchmark="views", case="2 workers", width=width, height=height,
+                     value=f"{views / dask:.2f}", unit="views/s", note=f"{views} views, 1 Numba thread each"))
+    return rows
+
+
+def _pose(rng, distance=4.0):
+    eye = rng.normal(size=3)
+    eye *= distance / np.linalg.norm(eye)
+    z = -eye / np.linalg.norm(eye)
+    x = np.cross(z, rng.normal(size=3))
+    x /= np.linalg.norm(x)
+    R = np.stack([x, np.cross(z, x), z])
+    return R, -R @ eye
+
+
+def bench_projection(width, height):
+    import cv2
+
+    import raycast_shade as rs
+
+    mesh = rs.shapes.icosphere(2)
+    scene = rs.Scene([rs.Model(mesh)], lights=[rs.PointLight((2, 3, 4), intensity=20)],
+                     camera=rs.Camera(eye=(0, 0, 4), width=width, height=height))
+    faces_of = [set(np.flatnonzero((mesh.faces == i).any(axis=1))) for i in range(len(mesh.vertices))]
+    rows = []
+    rng = np.random.default_rng(0)
+    for k in range(4):
+        fx, fy = width * rng.uniform(0.8, 1.4), width * rng.uniform(0.8, 1.4)
+        K = np.array([[fx, 0, width * rng.uniform(0.35, 0.65)], [0, fy, height * rng.uniform(0.35, 0.65)], [0, 0, 1]])
+        R, t = _pose(rng)
+        cam = rs.Camera.from_opencv(K, R, t, width, height)
+        uv = cv2.projectPoints(mesh.vertices, cv2.Rodrigues(R)[0], t, K, None)[0].reshape(-1, 2)
+        clip = (cam.projection_matrix(0.1, 100) @ cam.view_matrix() @ np.c_[mesh.vertices, np.ones(len(uv))].T).T
+        gl = np.c_[(clip[:, 0] / clip[:, 3] + 1) * width / 2 - 0.5, (1 - clip[:, 1] / clip[:, 3]) * height / 2 - 0.5]
+        eye = -R.T @ t
+        to_eye = eye - mesh.vertices
+        facing = np.einsum("ij,ij->i", mesh.vertices, to_eye) / np.linalg.norm(to_eye, axis=1) > 0.3
+        px = np.rint(uv).astype(int)
+        ok = facing & (px[:, 0] >= 0) & (px[:, 0] < width) & (px[:, 1] >= 0) & (px[:, 1] < height)
+        for backend in ("raycast", "raster"):
+            tri = rs.render(scene, camera=cam, backend=backend, buffers=("triangle_id",)).buffers["triangle_id"]
+            wrong = sum(tri[px[i, 1], px[i, 0]] not in faces_of[i] for i in np.flatnonzero(ok))
+            rows.append(dict(benchmark="projection", case=f"camera {k} {backend} wrong", width=width, height=height,
+                             value=f"{wrong}/{int(ok.sum())}", unit="vertices",
+                             note=f"fx={fx:.1f} fy={fy:.1f} cx={K[0, 2]:.1f} cy={K[1, 2]:.1f}"))
+        rows.append(dict(benchmark="projection", case=f"camera {k} |OpenGL - OpenCV|", width=width, height=height,
+                         value=f"{np.abs(gl - uv).max():.1e}", unit="px", note="projection_matrix vs cv2.projectPoints"))
+    k_err = rt_err = t_err = 0.0
+    for _ in range(1000):
+        R, t = _pose(rng, rng.uniform(0.5, 50))
+        K = np.array([[rng.uniform(50, 2000), 0, rng.uniform(-100, 2000)], [0, rng.uniform(50, 2000),
+                      rng.uniform(-100, 1200)], [0, 0, 1]])
+        K2, R2, t2 = rs.Camera.from_opencv(K, R, t, width, height).to_opencv()
+        k_err, rt_err = max(k_err, np.abs(K2 - K).max()), max(rt_err, np.abs(R2 - R).max())
+        t_err = max(t_err, np.abs(t2 - t).max() / max(1.0, np.abs(t).max()))
+    for case, value in (("K round trip", k_err), ("R round trip", rt_err), ("t round trip (relative)", t_err)):
+        rows.append(dict(benchmark="roundtrip", case=case, width="", height="", value=f"{value:.1e}", unit="abs",
+                         note="1000 random poses"))
+    return rows
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="small sizes; write nothing tracked")
+    args = ap.parse_args(argv)
+    tmp = tempfile.mkdtemp(prefix="bench_views_")
+    try:
+        if args.quick:
+            rows = bench_files(tmp, 320, 180) + bench_views(tmp, 160, 120, 8) + bench_projection(96, 72)
+        else:
+            rows = bench_files(tmp, 1920, 1080) + bench_views(tmp, 640, 480, 32) + bench_projection(320, 240)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    for r in rows:
+        print(f"{r['benchmark']:<10} {r['case']:<32} {r['width']!s:>5}x{r['height']!s:<5} {r['value']:>10} {r['unit']:<8} "
+              f"{r['note']}")
+    out = os.path.join(tempfile.gettempdir(), "views_quick.csv") if args.quick else os.path.join(RESULTS, "views.csv")
+    with open(out, "w", newline="") as fh:
+        w = csv.DictWriter(fh, FIELDS)
+        w.writeheader()
+        w.writerows(rows)
+    print(f"wrote {out}")
+
+
+if __name__ == "__main__":
+    main()
