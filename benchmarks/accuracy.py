@@ -316,7 +316,8 @@ def peer_pipelines(scene, cam, mode):
     Each frame function renders the whole frame (rays, cast, shading) and
     returns the (H, W, 3) image and its (H, W) coverage mask.
     """
-    from raycast_shade.visibility.rays import generate_rays, generate_rays_numpy
+    from raycast_shade.study.twins import generate_rays_numpy
+    from raycast_shade.visibility.rays import generate_rays
     from raycast_shade.shading.kernels import shade
 
     geo = scene.geometry

@@ -58,7 +58,8 @@ def bench_frame(subdivisions: int, width: int, height: int, repeats: int, naive:
     """Stage medians (ms) for one mesh and resolution."""
     import raycast_shade as rs
     from raycast_shade.visibility.cast import cast_camera, run_embreex
-    from raycast_shade.visibility.rays import generate_rays, generate_rays_numpy
+    from raycast_shade.study.twins import generate_rays_numpy
+    from raycast_shade.visibility.rays import generate_rays
     from raycast_shade.shading.kernels import shade
 
     scene = _scene(subdivisions, width, height)

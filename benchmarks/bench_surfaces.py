@@ -77,7 +77,7 @@ def count_rays(sc, frame):
     Returns dict: primary, shadow_primary, mirror, shadow_secondary.
     """
     import raycast_shade as rs
-    from raycast_shade.visibility.rays import generate_rays_numpy
+    from raycast_shade.study.twins import generate_rays_numpy
 
     geo = sc.geometry
     cam = sc.camera
