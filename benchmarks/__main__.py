@@ -4,9 +4,11 @@ Each registered benchmark is a module of this package with ``main(argv)``
 (called with ``["--quick"]`` in quick mode) or ``run(quick: bool)``; one that
 is not there yet is skipped with a message, and one that fails is reported
 without stopping the others. CSVs go to ``benchmarks/results/`` and charts to
-``docs/images/`` (quick-mode files carry a ``_quick`` suffix, so a quick check
-never overwrites a full run's numbers); ``docs/benchmarks.md`` is then
-regenerated from the CSVs of the mode that ran.
+``docs/images/``; ``docs/benchmarks.md`` is then regenerated from the CSVs of
+the mode that ran. A quick run writes the same names into the git-ignored
+``benchmarks/results/quick/``, ``docs/images/quick/`` and
+``docs/benchmarks_quick.md`` (:mod:`benchmarks.outputs`), so it changes no
+tracked file and never overwrites a full run's numbers.
 
 Exit status: 0 when every benchmark that exists ran, 1 when one failed, 2 on
 a missing optional dependency (``pip install 'raycast_shade[bench]'``).
@@ -24,29 +26,24 @@ import sys
 import time
 import traceback
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.dirname(HERE)
-RESULTS = os.path.join(HERE, "results")
-IMAGES = os.path.join(ROOT, "docs", "images")
-DOC = os.path.join(ROOT, "docs", "benchmarks.md")
-DOC_QUICK = os.path.join(ROOT, "docs", "benchmarks_quick.md")  # a quick check never overwrites the full tables
+from benchmarks.outputs import ROOT, doc_path, images_dir, results_dir, results_file
 
-# name, module, title, CSV and chart name patterns ({s} is the mode suffix)
+# name, module, title, CSV and chart name patterns (in results_dir(quick) and images_dir(quick))
 REGISTRY = [
     dict(name="core", module="benchmarks.bench_core", title="Core: one frame, stage by stage, against the baselines",
-         csv=["core{s}.csv"], images=["core_benchmark{s}.png"]),
+         csv=["core.csv"], images=["core_benchmark.png"]),
     dict(name="raster", module="benchmarks.bench_raster", title="Ray casting against the reference rasterizer",
-         csv=["raster*{s}.csv"], images=["raster*{s}.png"]),
+         csv=["raster*.csv"], images=["raster*.png"]),
     dict(name="accuracy", module="benchmarks.accuracy", title="Speed against accuracy",
-         csv=["accuracy*{s}.csv"], images=["speed_vs_accuracy{s}.png", "convergence{s}.png"],
+         csv=["accuracy*.csv"], images=["speed_vs_accuracy.png", "convergence.png"],
          doc_flag="--no-docs"),  # it also rewrites a block of docs/accuracy.md
     dict(name="auto", module="benchmarks.bench_auto", title="Auto mode against single methods",
-         csv=["auto{s}.csv"], images=[]),
+         csv=["auto.csv"], images=[]),
     dict(name="batch", module="benchmarks.bench_batch", title="Batch rendering: serial against Dask workers",
-         csv=["batch{s}.csv"], images=[]),
+         csv=["batch.csv"], images=[]),
     dict(name="surfaces", module="benchmarks.bench_surfaces",
          title="Surfaces: two shadowing lights and a mirror against the primary-only frame",
-         csv=["surfaces{s}.csv"], images=[]),
+         csv=["surfaces.csv"], images=[]),
 ]
 
 
@@ -81,13 +78,10 @@ def _write_rows(rows, path):
         wr.writerows(rows)
 
 
-def _files(patterns, folder, suffix):
+def _files(patterns, folder):
     out = []
     for pat in patterns:
-        for p in sorted(glob.glob(os.path.join(folder, pat.format(s=suffix)))):
-            stem = os.path.splitext(os.path.basename(p))[0]
-            if not suffix and stem.endswith("_quick"):
-                continue  # a full-mode glob must not pick up quick-mode files
+        for p in sorted(glob.glob(os.path.join(folder, pat))):
             if p not in out:
                 out.append(p)
     return out
@@ -118,8 +112,8 @@ def _csv_table(path, max_rows=30):
 
 def write_doc(status, quick: bool, path=None):
     """Regenerate ``docs/benchmarks.md`` (``benchmarks_quick.md`` in quick mode) from the CSVs and charts on disk."""
-    path = path or (DOC_QUICK if quick else DOC)
-    suffix = "_quick" if quick else ""
+    path = path or doc_path(quick)
+    results, images = results_dir(quick), images_dir(quick)
     mode = "quick (`--quick`: small sizes, few repeats)" if quick else "full"
     parts = [
         "# Benchmarks",
@@ -130,8 +124,8 @@ def write_doc(status, quick: bool, path=None):
         "",
         "Run the suite with `python -m benchmarks` (full, under 30 minutes on 2 cores) or "
         "`python -m benchmarks --quick` (under 2 minutes); a single benchmark with "
-        "`python -m benchmarks --only accuracy`. CSVs are in `benchmarks/results/`"
-        + (" (quick-mode files end in `_quick`)" if quick else "") + ".",
+        "`python -m benchmarks --only accuracy`. CSVs are in "
+        f"`{os.path.relpath(results, ROOT)}/`" + (" (quick mode: not tracked by git)" if quick else "") + ".",
         "See [accuracy.md](accuracy.md) for the method behind the accuracy numbers.",
     ]
     for entry in REGISTRY:
@@ -150,18 +144,18 @@ def write_doc(status, quick: bool, path=None):
             try:
                 from benchmarks import accuracy
 
-                parts.append(accuracy.summary_markdown(RESULTS, suffix))
+                parts.append(accuracy.summary_markdown(results))
             except Exception as exc:  # noqa: BLE001 - the doc must still be written
                 parts.append(f"_accuracy summary unavailable: {exc}_")
             csvs = []
         else:
-            csvs = _files(entry["csv"], RESULTS, suffix)
+            csvs = _files(entry["csv"], results)
         for p in csvs:
             parts += [f"`{os.path.relpath(p, ROOT)}`:", "", _csv_table(p), ""]
-        for p in _files(entry["images"], IMAGES, suffix):
+        for p in _files(entry["images"], images):
             rel = os.path.relpath(p, os.path.dirname(path))
             parts += [f"![{name}]({rel})", ""]
-        if not csvs and name != "accuracy" and not _files(entry["images"], IMAGES, suffix):
+        if not csvs and name != "accuracy" and not _files(entry["images"], images):
             parts.append("_No results on disk for this mode._")
     os.makedirs(os.path.dirname(path), exist_ok=True)
     with open(path, "w") as fh:
@@ -214,12 +208,12 @@ def main(argv=None) -> int:
             status[name] = msg
             continue
         if (not hasattr(mod, "main") and isinstance(out, list) and out and all(isinstance(r, dict) for r in out)):
-            _write_rows(out, os.path.join(RESULTS, f"{name}{'_quick' if args.quick else ''}.csv"))
+            _write_rows(out, results_file(f"{name}.csv", args.quick))
         status[name] = "ok"
         print(f"   done in {time.perf_counter() - t0:.1f} s", file=sys.stderr, flush=True)
     if not args.no_docs:
         write_doc(status, args.quick)
-        print(f"wrote {os.path.relpath(DOC_QUICK if args.quick else DOC, ROOT)}", file=sys.stderr)
+        print(f"wrote {os.path.relpath(doc_path(args.quick), ROOT)}", file=sys.stderr)
     print(f"benchmarks: {time.perf_counter() - t_all:.1f} s in all; "
           + ", ".join(f"{k}: {v}" for k, v in status.items()), file=sys.stderr)
     return code

@@ -16,7 +16,8 @@ for shininess t in {1, 8, 64, 512} at two resolutions. Each frame is timed
 interleaved; the JIT warm-up of the whole process is measured apart) and
 compared on the pixels both images cover (:func:`raycast_shade.study.metrics.compare`).
 
-Outputs (``_quick`` is appended to every name in ``--quick`` mode):
+Outputs (in ``quick/`` subfolders of the same folders in ``--quick`` mode, see
+:mod:`benchmarks.outputs`):
 
 * ``benchmarks/results/accuracy.csv``: one row per frame;
 * ``benchmarks/results/accuracy_orders.csv``: fitted convergence orders,
@@ -51,11 +52,12 @@ import numpy as np
 
 from raycast_shade.visibility.accel import embreex_scene
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.dirname(HERE)
-RESULTS = os.path.join(HERE, "results")
-IMAGES = os.path.join(ROOT, "docs", "images")
+from benchmarks.outputs import ROOT, images_dir as _images_dir, results_dir as _results_dir
+
 ACCURACY_DOC = os.path.join(ROOT, "docs", "accuracy.md")
+CSV_NAMES = {"rows": "accuracy.csv", "orders": "accuracy_orders.csv", "peers": "accuracy_peers.csv",
+             "meta": "accuracy_meta.csv"}
+IMAGE_NAMES = ("speed_vs_accuracy.png", "convergence.png")
 
 # method -> (shading mode, specular model)
 METHODS = {
@@ -316,7 +318,8 @@ def peer_pipelines(scene, cam, mode):
     Each frame function renders the whole frame (rays, cast, shading) and
     returns the (H, W, 3) image and its (H, W) coverage mask.
     """
-    from raycast_shade.visibility.rays import generate_rays, generate_rays_numpy
+    from raycast_shade.study.twins import generate_rays_numpy
+    from raycast_shade.visibility.rays import generate_rays
     from raycast_shade.shading.shade import shade
 
     geo = scene.geometry
@@ -671,8 +674,9 @@ def orders_markdown(orders, metric="rmse"):
             + _table(["mesh", "method"] + [f"t = {t:g}" for t in ts], rows))
 
 
-def summary_markdown(results_dir=RESULTS, suffix=""):
-    """The accuracy section of ``docs/benchmarks.md``, from the CSVs of a run."""
+def summary_markdown(results_dir=None, suffix=""):
+    """The accuracy section of ``docs/benchmarks.md``, from the CSVs of a run (default: the full run's)."""
+    results_dir = _results_dir(False) if results_dir is None else results_dir
     path = os.path.join(results_dir, f"accuracy{suffix}.csv")
     if not os.path.exists(path):
         return "_accuracy benchmark: no results yet (run `python -m benchmarks.accuracy`)._\n"
@@ -757,9 +761,17 @@ def _versions():
     return out
 
 
-def run(quick: bool = False, progress: bool = True, results_dir: str = RESULTS, images_dir: str = IMAGES,
+def outputs(quick: bool, results_dir: str | None = None, images_dir: str | None = None) -> list[str]:
+    """The CSVs, then the charts, that :func:`run` writes (default folders: :mod:`benchmarks.outputs`)."""
+    results_dir = _results_dir(quick) if results_dir is None else results_dir
+    images_dir = _images_dir(quick) if images_dir is None else images_dir
+    return ([os.path.join(results_dir, name) for name in CSV_NAMES.values()]
+            + [os.path.join(images_dir, name) for name in IMAGE_NAMES])
+
+
+def run(quick: bool = False, progress: bool = True, results_dir: str | None = None, images_dir: str | None = None,
         docs: bool = True, with_peers: bool = True) -> dict:
-    """Run the benchmark and write its files.
+    """Run the benchmark and write its files (:func:`outputs`).
 
     Returns
     -------
@@ -769,7 +781,6 @@ def run(quick: bool = False, progress: bool = True, results_dir: str = RESULTS, 
     from raycast_shade.study.metrics import MissingExtraError
 
     cfg = QUICK if quick else FULL
-    suffix = "_quick" if quick else ""
     t_start = time.perf_counter()
     import importlib.util
 
@@ -782,20 +793,15 @@ def run(quick: bool = False, progress: bool = True, results_dir: str = RESULTS, 
     orders = fit_orders(rows)
     peer_rows = peers(cfg, progress) if with_peers else []
     run_s = time.perf_counter() - t_start
-    paths = {
-        "rows": os.path.join(results_dir, f"accuracy{suffix}.csv"),
-        "orders": os.path.join(results_dir, f"accuracy_orders{suffix}.csv"),
-        "peers": os.path.join(results_dir, f"accuracy_peers{suffix}.csv"),
-        "meta": os.path.join(results_dir, f"accuracy_meta{suffix}.csv"),
-    }
+    files = outputs(quick, results_dir, images_dir)
+    paths = dict(zip(CSV_NAMES, files))
     write_csv(rows, ROW_KEYS, paths["rows"])
     write_csv(orders, ORDER_KEYS, paths["orders"])
     write_csv(peer_rows, PEER_KEYS, paths["peers"])
     meta = dict(quick=int(quick), frames=len(rows), run_s=run_s, warmup_s=sum(warm.values()),
                 **{f"warmup_{k}_s": v for k, v in warm.items()}, **_versions())
     write_csv([{"key": k, "value": v} for k, v in meta.items()], ["key", "value"], paths["meta"])
-    images = [os.path.join(images_dir, f"speed_vs_accuracy{suffix}.png"),
-              os.path.join(images_dir, f"convergence{suffix}.png")]
+    images = files[len(CSV_NAMES):]
     chart_speed(rows, images[0])
     chart_convergence(rows, orders, images[1])
     if docs and not quick:  # a quick run never overwrites the full run's table

@@ -22,7 +22,7 @@ auto's time relative to that method (target: <= 1.10).
 
 Timed with all Numba threads and with one (``--threads 0,1``, the default).
 
-Results: ``benchmarks/results/auto.csv`` (``auto_quick.csv`` in quick mode):
+Results: ``benchmarks/results/auto.csv`` (``results/quick/auto.csv`` in quick mode):
 one row per scene, mode and model (``model = -1``: the whole frame, with the
 timings and the verdict).
 """
@@ -37,8 +37,8 @@ import time
 
 import numpy as np
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-RESULTS = os.path.join(HERE, "results")
+from benchmarks.outputs import results_file
+
 MODES = ("auto", "flat", "gouraud", "phong")
 
 FIELDS = ["numba_threads", "scene", "tolerance", "width", "height", "mode", "model", "name", "method", "predicted", "interior_max",
@@ -177,6 +177,11 @@ def _print(rows):
                   f" meets={r['meets']}")
 
 
+def outputs(quick: bool) -> list[str]:
+    """The CSV :func:`main` writes by default (see :mod:`benchmarks.outputs`)."""
+    return [results_file("auto.csv", quick)]
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="320x240 instead of 640x480, fewer repeats")
@@ -184,7 +189,7 @@ def main(argv=None):
     ap.add_argument("--threads", default="0,1",
                     help="comma-separated Numba thread counts to run, 0 = all (default '0,1': 1 thread never waits "
                          "for a busy core at a parallel launch, so its times are steady on a shared machine)")
-    ap.add_argument("--out", default=None, help="CSV path (default: results/auto[_quick].csv)")
+    ap.add_argument("--out", default=None, help="CSV path (default: results/auto.csv, results/quick/auto.csv)")
     args = ap.parse_args(argv)
     import numba
 
@@ -200,8 +205,8 @@ def main(argv=None):
     finally:
         # The suite runs the next benchmark in this process: it must not inherit one thread.
         numba.set_num_threads(saved)
-    os.makedirs(RESULTS, exist_ok=True)
-    path = args.out or os.path.join(RESULTS, f"auto{'_quick' if args.quick else ''}.csv")
+    path = args.out or outputs(args.quick)[0]
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
     with open(path, "w", newline="") as fh:
         wr = csv.DictWriter(fh, fieldnames=FIELDS)
         wr.writeheader()

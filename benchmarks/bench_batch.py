@@ -18,7 +18,7 @@ what each frame pays for scheduling, pickling its job and its image, and the
 round trips to the scheduler; ``frames_per_task`` > 1 spreads it over
 several frames.
 
-Results: ``benchmarks/results/batch.csv`` (``batch_quick.csv`` in quick mode).
+Results: ``benchmarks/results/batch.csv`` (``results/quick/batch.csv`` in quick mode).
 """
 
 from __future__ import annotations
@@ -28,8 +28,7 @@ import csv
 import os
 import time
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-RESULTS = os.path.join(HERE, "results")
+from benchmarks.outputs import ROOT, results_file
 
 FIELDS = ["benchmark", "mode", "workers", "numba_threads", "frames_per_task", "width", "height", "frames", "seconds",
           "fps", "ms_per_frame", "speedup", "note"]
@@ -159,13 +158,18 @@ def write(rows, path):
         wr.writerows(rows)
 
 
+def outputs(quick: bool) -> list[str]:
+    """The CSV :func:`main` writes (see :mod:`benchmarks.outputs`)."""
+    return [results_file("batch.csv", quick)]
+
+
 def main(argv=None):
     """Command line: ``python -m benchmarks.bench_batch [--quick]``; returns the rows."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="fewer, smaller frames and repeats")
     args = ap.parse_args(argv)
     rows = run(args.quick)
-    path = os.path.join(RESULTS, f"batch{'_quick' if args.quick else ''}.csv")
+    path, = outputs(args.quick)
     write(rows, path)
     for r in rows:
         size = f"{r.get('width', '')}x{r.get('height', '')}" if r.get("width") else ""
@@ -173,7 +177,7 @@ def main(argv=None):
               f"per_task={r.get('frames_per_task', '')!s:>2} {size:>8} "
               f"fps={r.get('fps', '')!s:>8} ms/frame={r.get('ms_per_frame', '')!s:>8} "
               f"speedup={r.get('speedup', '')!s:>5} {r.get('note', '')}")
-    print(f"wrote {os.path.relpath(path, os.path.dirname(HERE))}")
+    print(f"wrote {os.path.relpath(path, ROOT)}")
     return rows
 
 

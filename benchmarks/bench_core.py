@@ -14,7 +14,8 @@ with 81,920 and 1,310,720 triangles) and resolution (640x480, 1920x1080):
 
 Times are medians of repeats after a warm-up; JIT compile time and the start
 of a fresh process with a warm cache are measured apart, in subprocesses.
-Results: ``benchmarks/results/core.csv`` and ``docs/images/core_benchmark.png``.
+Results: ``benchmarks/results/core.csv`` and ``docs/images/core_benchmark.png`` (in
+``quick/`` subfolders with ``--quick``: :mod:`benchmarks.outputs`).
 """
 
 from __future__ import annotations
@@ -29,10 +30,7 @@ import time
 
 import numpy as np
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.dirname(HERE)
-RESULTS = os.path.join(HERE, "results")
-IMAGES = os.path.join(ROOT, "docs", "images")
+from benchmarks.outputs import image_file, results_file
 
 
 def _median_ms(fn, repeats: int) -> float:
@@ -57,9 +55,11 @@ def _scene(subdivisions: int, width: int, height: int):
 def bench_frame(subdivisions: int, width: int, height: int, repeats: int, naive: bool):
     """Stage medians (ms) for one mesh and resolution."""
     import raycast_shade as rs
-    from raycast_shade.visibility.cast import cast_camera, run_embreex
-    from raycast_shade.visibility.rays import generate_rays, generate_rays_numpy
     from raycast_shade.shading.shade import shade
+    from raycast_shade.study.twins import generate_rays_numpy
+    from raycast_shade.visibility.accel import embreex_scene
+    from raycast_shade.visibility.cast import cast_camera, run_embreex
+    from raycast_shade.visibility.rays import generate_rays
 
     scene = _scene(subdivisions, width, height)
     geo = scene.geometry
@@ -114,6 +114,7 @@ def bench_build(subdivisions: int, repeats: int):
 
     import raycast_shade as rs
     from raycast_shade.scene.scene import SceneGeometry
+    from raycast_shade.visibility.accel import embree_accel
 
     mesh = rs.shapes.icosphere(subdivisions)
     model = rs.Model(mesh)
@@ -275,14 +276,19 @@ def write(rows, path):
         w.writerows(rows)
 
 
+def outputs(quick: bool) -> list[str]:
+    """The CSV and the chart :func:`main` writes (see :mod:`benchmarks.outputs`)."""
+    return [results_file("core.csv", quick), image_file("core_benchmark.png", quick)]
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="small sizes, few repeats")
     args = ap.parse_args(argv)
     rows = run(args.quick)
-    suffix = "_quick" if args.quick else ""
-    write(rows, os.path.join(RESULTS, f"core{suffix}.csv"))
-    chart(rows, os.path.join(IMAGES, f"core_benchmark{suffix}.png"))
+    csv_path, png_path = outputs(args.quick)
+    write(rows, csv_path)
+    chart(rows, png_path)
     for r in rows:
         print(f"{r['benchmark']:8} {r['mesh']:11} {r['width']:>5}x{r['height']:<5} {r['pipeline']:14} {r['stage']:34} {r['median_ms']:>10}")
     return rows

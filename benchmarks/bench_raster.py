@@ -43,6 +43,8 @@ from raycast_shade.visibility.accel import embree_accel  # noqa: E402
 from raycast_shade.visibility.raster import rasterize  # noqa: E402
 from raycast_shade.shading.shade import shade  # noqa: E402
 
+from benchmarks.outputs import image_file, results_file  # noqa: E402
+
 FULL_SUBDIVISIONS = (3, 4, 5, 6, 7, 8)
 FULL_RESOLUTIONS = ((640, 480), (1920, 1080))
 QUICK_SUBDIVISIONS = (2, 3, 4)
@@ -247,18 +249,23 @@ def plot(rows, path, first_calls=None, title_note=""):
     plt.close(fig)
 
 
+def outputs(quick: bool) -> list[str]:
+    """The CSV and the chart :func:`main` writes by default (see :mod:`benchmarks.outputs`)."""
+    return [results_file("raster_vs_raycast.csv", quick), image_file("raster_vs_raycast.png", quick)]
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--quick", action="store_true", help="small meshes and images only (a smoke test)")
     ap.add_argument("--compile", action="store_true", help="measure cold JIT compile times in --quick mode too")
     ap.add_argument("--no-compile", action="store_true", help="skip the cold JIT compile measurement")
     ap.add_argument("--repeats", type=int, default=None, help="timed runs per point (default 7, quick 3)")
-    ap.add_argument("--csv", default=None, help="output CSV (default benchmarks/results/raster_vs_raycast[_quick].csv)")
-    ap.add_argument("--png", default=None, help="output chart (default docs/images/raster_vs_raycast[_quick].png)")
+    ap.add_argument("--csv", default=None, help="output CSV (default benchmarks/results/[quick/]raster_vs_raycast.csv)")
+    ap.add_argument("--png", default=None, help="output chart (default docs/images/[quick/]raster_vs_raycast.png)")
     args = ap.parse_args(argv)
-    suffix = "_quick" if args.quick else ""
-    csv_path = args.csv or ROOT / "benchmarks" / "results" / f"raster_vs_raycast{suffix}.csv"
-    png_path = args.png or ROOT / "docs" / "images" / f"raster_vs_raycast{suffix}.png"
+    default_csv, default_png = outputs(args.quick)
+    csv_path = Path(args.csv or default_csv)
+    png_path = Path(args.png or default_png)
     repeats = args.repeats or (3 if args.quick else 7)
     if repeats < 1:
         ap.error("--repeats: must be >= 1")

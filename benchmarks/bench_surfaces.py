@@ -19,8 +19,8 @@ ways to count the extra casts are reported:
   of primary rays; target ``(1 + that) x``.
 
 Times are medians of repeats after a warm-up (JIT and BVH build excluded).
-Results: ``benchmarks/results/surfaces.csv`` (``surfaces_quick.csv`` with
-``--quick``: 640x480 only, as everywhere in this suite).
+Results: ``benchmarks/results/surfaces.csv`` (``results/quick/surfaces.csv``
+with ``--quick``: 640x480 only, as everywhere in this suite).
 """
 
 from __future__ import annotations
@@ -33,8 +33,7 @@ from dataclasses import replace
 
 import numpy as np
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-RESULTS = os.path.join(HERE, "results")
+from benchmarks.outputs import results_file
 
 
 def scene(width: int, height: int, surfaces: bool = True):
@@ -77,7 +76,7 @@ def count_rays(sc, frame):
     Returns dict: primary, shadow_primary, mirror, shadow_secondary.
     """
     import raycast_shade as rs
-    from raycast_shade.visibility.rays import generate_rays_numpy
+    from raycast_shade.study.twins import generate_rays_numpy
 
     geo = sc.geometry
     cam = sc.camera
@@ -157,12 +156,17 @@ def write(rows, path):
         w.writerows(rows)
 
 
+def outputs(quick: bool) -> list[str]:
+    """The CSV :func:`main` writes (see :mod:`benchmarks.outputs`)."""
+    return [results_file("surfaces.csv", quick)]
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="640x480 only, fewer repeats")
     args = ap.parse_args(argv)
     rows = run(args.quick)
-    path = os.path.join(RESULTS, f"surfaces{'_quick' if args.quick else ''}.csv")
+    path, = outputs(args.quick)
     write(rows, path)
     for r in rows:
         print(f"{r['size']}: primary {r['primary_ms']:.1f} ms, shadows (2 lights) + mirror {r['surfaces_ms']:.1f} ms "

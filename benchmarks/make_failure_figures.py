@@ -373,7 +373,7 @@ def _sliver_fan(n):
 
 
 def _plane_points(camera, z0=0.0):
-    from raycast_shade.visibility.rays import generate_rays_numpy
+    from raycast_shade.study.twins import generate_rays_numpy
 
     o, d = generate_rays_numpy(camera)
     t = (z0 - o[:, 2]) / d[:, 2]

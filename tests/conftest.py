@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 import raycast_shade as rs
-from raycast_shade.visibility.rays import generate_rays_numpy
+from raycast_shade.study.twins import generate_rays_numpy
 
 # Tolerance for "equal up to float32 rounding" of quantities computed through
 # float32 hit buffers (barycentrics, t) into a float32 image (eps = 1.2e-7).

@@ -7,7 +7,7 @@ import pytest
 
 import raycast_shade as rs
 from raycast_shade.study.analytic import Plane, Sphere, Torus, exact_for_scene, intersect, render_exact
-from raycast_shade.visibility.rays import generate_rays_numpy
+from raycast_shade.study.twins import generate_rays_numpy
 
 
 def _centre_camera(n=33, **kw):

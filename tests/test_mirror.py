@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import raycast_shade as rs
-from raycast_shade.visibility.rays import generate_rays_numpy
+from raycast_shade.study.twins import generate_rays_numpy
 
 BACKGROUND = (0.05, 0.1, 0.2)
 MIRROR_N = np.array([0.2, 0.1, 1.0]) / np.linalg.norm([0.2, 0.1, 1.0])

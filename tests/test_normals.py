@@ -339,15 +339,16 @@ def _random_mesh(seed, nv=60, nf=200):
 @pytest.mark.parametrize("seed", range(4))
 @pytest.mark.parametrize("weighting", ["uniform", "area", "angle"])
 def test_face_kernel_matches_numpy_twins(seed, weighting):
-    from raycast_shade.scene.normals import _WEIGHT_CODE, _corner_weights_numpy, _face_normals_numpy, _faces_kernel
+    from raycast_shade.scene.normals import _WEIGHT_CODE, _faces_kernel
+    from raycast_shade.study.twins import corner_weights_numpy, face_normals_numpy
 
     v, f = _random_mesh(seed)
     fn, areas, w = _faces_kernel(v, f, _WEIGHT_CODE[weighting])
-    fn_np, areas_np = _face_normals_numpy(v, f)
+    fn_np, areas_np = face_normals_numpy(v, f)
     np.testing.assert_array_equal(fn == 0, fn_np == 0)  # the same faces are degenerate
     np.testing.assert_allclose(fn, fn_np, rtol=0, atol=1e-15)
     np.testing.assert_allclose(areas, areas_np, rtol=1e-15, atol=0)
-    np.testing.assert_allclose(w, _corner_weights_numpy(v, f, fn_np, areas_np, weighting), rtol=1e-14, atol=0)
+    np.testing.assert_allclose(w, corner_weights_numpy(v, f, fn_np, areas_np, weighting), rtol=1e-14, atol=0)
     assert (fn == 0).all(axis=1).sum() >= 10
 
 

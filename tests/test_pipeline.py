@@ -371,7 +371,7 @@ def test_balanced_row_order_is_a_permutation_that_spreads_each_share(n):
 @pytest.mark.parametrize("gamma", ["srgb", 2.2, 1.0])
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
 def test_to_uint8_kernel_matches_numpy_twin(tonemap, gamma, dtype):
-    from raycast_shade.output.tonemap import _to_uint8_numpy
+    from raycast_shade.study.twins import to_uint8_numpy
 
     rng = np.random.default_rng(7)
     x = np.concatenate([rng.uniform(-0.5, 3.0, 30000), rng.uniform(0.0, 0.01, 10000),
@@ -382,7 +382,7 @@ def test_to_uint8_kernel_matches_numpy_twin(tonemap, gamma, dtype):
     exposure = 1.7 if tonemap != "clamp" else 1.0
     got = rs.to_uint8(img, exposure=exposure, tonemap=tonemap, gamma=gamma)
     assert got.dtype == np.uint8 and got.shape == img.shape
-    np.testing.assert_array_equal(got, _to_uint8_numpy(img, exposure=exposure, tonemap=tonemap, gamma=gamma))
+    np.testing.assert_array_equal(got, to_uint8_numpy(img, exposure=exposure, tonemap=tonemap, gamma=gamma))
 
 
 def test_to_uint8_takes_strided_and_integer_input():

@@ -15,8 +15,8 @@ import pytest
 
 import raycast_shade as rs
 from raycast_shade.shading.conventions import shade_flat
-from raycast_shade.visibility.interpolation import (provoking_vertex, to_screen_space, to_screen_space_numpy,
-                                                    vertex_depths)
+from raycast_shade.study.twins import to_screen_space_numpy
+from raycast_shade.visibility.interpolation import provoking_vertex, to_screen_space, vertex_depths
 from raycast_shade.visibility.raster import coverage_count, rasterize
 from raycast_shade.shading.shade import shade
 
@@ -139,7 +139,7 @@ def test_coverage_matches_caster_on_closed_meshes(name, projection):
 
 def _exact_hits(scene, camera, hits):
     """Float64 ray-triangle intersection of every hit pixel with the triangle ``hits`` names."""
-    from raycast_shade.visibility.rays import generate_rays_numpy
+    from raycast_shade.study.twins import generate_rays_numpy
 
     geo = scene.geometry
     o, d = generate_rays_numpy(camera, geo.origin)
@@ -346,7 +346,7 @@ def test_near_plane_parameter():
     hits = rasterize(scene.geometry, camera, near=3.2)
     assert hits.mask.sum() > 1000
     right, up, fwd = camera.basis
-    from raycast_shade.visibility.rays import generate_rays_numpy
+    from raycast_shade.study.twins import generate_rays_numpy
 
     o, d = generate_rays_numpy(camera)
     tnear = 3.2 / (d @ fwd)  # the near plane z = 3.2, as a distance along each ray

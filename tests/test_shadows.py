@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import raycast_shade as rs
-from raycast_shade.visibility.rays import generate_rays_numpy
+from raycast_shade.study.twins import generate_rays_numpy
 
 # ----------------------------------------------------------------------------------
 # helpers

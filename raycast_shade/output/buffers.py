@@ -73,9 +73,9 @@ def check_buffers(names, field: str = "buffers") -> tuple:
 
 def _unit_rays(camera):
     """(H, W, 3) float64 unit ray directions (world axes), as the casters make them."""
-    from ..visibility.rays import generate_rays_numpy
+    from ..visibility.rays import generate_rays
 
-    _, d = generate_rays_numpy(camera)
+    _, d = generate_rays(camera, dtype=np.float64)
     return d.reshape(camera.height, camera.width, 3)
 
 

@@ -11,9 +11,9 @@ The 8-bit mapping, in order:
 4. round to nearest of 0..255.
 
 :func:`to_uint8` runs the mapping in one parallel Numba pass, in float64 as
-its plain-NumPy twin :func:`_to_uint8_numpy` does (tested equal): NumPy's
-``power`` over a 960 x 844 image took 100-180 ms, a tenth of
-``raycast-shade demo``.
+its plain-NumPy twin :func:`raycast_shade.study.twins.to_uint8_numpy` does
+(tested equal): NumPy's ``power`` over a 960 x 844 image took 100-180 ms, a
+tenth of ``raycast-shade demo``.
 """
 
 from __future__ import annotations
@@ -94,22 +94,6 @@ def _check_gamma(gamma) -> float:
     if not (np.isfinite(gamma) and gamma > 0):
         raise ValueError(f"gamma: must be > 0, got {gamma}")
     return 1.0 / float(gamma)
-
-
-def _to_uint8_numpy(image, exposure: float = 1.0, tonemap: str = "clamp", gamma="srgb") -> np.ndarray:
-    """Plain-NumPy twin of :func:`to_uint8`, for tests."""
-    x = np.asarray(image, np.float64) * exposure
-    if tonemap == "reinhard":
-        x = x / (1.0 + x)
-    elif tonemap == "exponential":
-        x = -np.expm1(-x)
-    x = np.clip(x, 0.0, 1.0)
-    inv_gamma = _check_gamma(gamma)
-    if inv_gamma == 0.0:
-        x = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
-    else:
-        x = np.power(x, inv_gamma)
-    return np.rint(x * 255.0).astype(np.uint8)
 
 
 def write_pfm(path, image) -> None:

@@ -45,8 +45,8 @@ def _corner(vertices, p, q, r):
 def _faces_kernel(vertices, faces, weighting):
     """Face normals, areas and corner weights in one pass over the faces.
 
-    ``weighting``: 0 uniform, 1 area, 2 angle (see :func:`_corner_weights_numpy`,
-    whose arithmetic this follows).
+    ``weighting``: 0 uniform, 1 area, 2 angle (see the twin
+    :func:`raycast_shade.study.twins.corner_weights_numpy`, whose arithmetic this follows).
     """
     nf = faces.shape[0]
     normals = np.zeros((nf, 3), np.float64)
@@ -91,54 +91,6 @@ def face_normals(vertices: np.ndarray, faces: np.ndarray):
     """
     normals, areas, _ = _faces_kernel(np.asarray(vertices, np.float64), np.asarray(faces, np.int64), 0)
     return normals, areas
-
-
-def _face_normals_numpy(vertices: np.ndarray, faces: np.ndarray):
-    """Plain-NumPy twin of :func:`face_normals`, for tests.
-
-    Parameters
-    ----------
-    vertices : (V, 3) float64
-    faces : (F, 3) int
-
-    Returns
-    -------
-    normals : (F, 3) float64
-        Unit normals; exactly zero for zero-area faces.
-    areas : (F,) float64
-    """
-    v0 = vertices[faces[:, 0]]
-    cross = np.cross(vertices[faces[:, 1]] - v0, vertices[faces[:, 2]] - v0)
-    length = np.linalg.norm(cross, axis=1)
-    # Relative threshold: a face is degenerate when its cross product is tiny
-    # compared with its edge lengths (float64 rounding of collinear points).
-    scale = np.maximum(
-        np.einsum("ij,ij->i", vertices[faces[:, 1]] - v0, vertices[faces[:, 1]] - v0),
-        np.einsum("ij,ij->i", vertices[faces[:, 2]] - v0, vertices[faces[:, 2]] - v0),
-    )
-    ok = length > 1e-14 * scale
-    normals = np.zeros_like(cross)
-    normals[ok] = cross[ok] / length[ok, None]
-    areas = np.where(ok, 0.5 * length, 0.0)
-    return normals, areas
-
-
-def _corner_weights_numpy(vertices, faces, fnormals, areas, weighting: str) -> np.ndarray:
-    """(F, 3) weight of each face corner in its vertex's average (plain-NumPy twin of :func:`_faces_kernel`)."""
-    valid = np.any(fnormals != 0.0, axis=1)
-    if weighting == "uniform":
-        w = np.repeat(valid.astype(np.float64)[:, None], 3, axis=1)
-    elif weighting == "area":
-        w = np.repeat(areas[:, None], 3, axis=1)
-    else:  # angle at each corner, robust form atan2(|a x b|, a.b)
-        p = vertices[faces]
-        w = np.empty(faces.shape, np.float64)
-        for k in range(3):
-            a = p[:, (k + 1) % 3] - p[:, k]
-            b = p[:, (k + 2) % 3] - p[:, k]
-            w[:, k] = np.arctan2(np.linalg.norm(np.cross(a, b), axis=1), np.einsum("ij,ij->i", a, b))
-        w[~valid] = 0.0
-    return w
 
 
 @njit(cache=True)

@@ -36,7 +36,7 @@ from numba import njit, prange
 
 from .hits import HitBuffer, check_hits
 
-__all__ = ["to_screen_space", "to_screen_space_numpy", "provoking_vertex", "vertex_depths"]
+__all__ = ["to_screen_space", "provoking_vertex", "vertex_depths"]
 
 
 @njit(cache=True, parallel=True)
@@ -117,25 +117,6 @@ def to_screen_space(hits, geometry, camera) -> HitBuffer:
                    np.ascontiguousarray(hits.v), np.ascontiguousarray(geometry.faces, dtype=np.int64),
                    np.ascontiguousarray(geometry.face_offsets, dtype=np.int64), w, u, v)
     return HitBuffer(prim=hits.prim, geom=hits.geom, u=u, v=v, t=hits.t)
-
-
-def to_screen_space_numpy(hits, geometry, camera) -> HitBuffer:
-    """Plain-NumPy twin of :func:`to_screen_space` (for tests)."""
-    geometry = check_hits(hits, geometry, camera)
-    u = hits.u.astype(np.float64)
-    v = hits.v.astype(np.float64)
-    if not camera.orthographic:
-        hit = hits.prim >= 0
-        f = geometry.face_offsets[hits.geom[hit]] + hits.prim[hit]
-        w = vertex_depths(geometry, camera)[geometry.faces[f]]  # (N, 3)
-        lam = np.stack([1.0 - u[hit] - v[hit], u[hit], v[hit]], axis=1)
-        a = lam * w
-        den = a.sum(axis=1)
-        ok = np.all(w > 0.0, axis=1) & (den > 0.0)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            u[hit] = np.where(ok, a[:, 1] / den, u[hit])
-            v[hit] = np.where(ok, a[:, 2] / den, v[hit])
-    return HitBuffer(prim=hits.prim, geom=hits.geom, u=u.astype(np.float32), v=v.astype(np.float32), t=hits.t)
 
 
 def provoking_vertex(hits, vertex: str = "last") -> HitBuffer:

@@ -2,7 +2,7 @@
 
 The renderer fuses ray generation into its casting kernel; this module keeps
 the same arithmetic as a stand-alone Numba kernel (for the embreex caster and
-the benchmarks) and as a plain-NumPy twin (for tests).
+the benchmarks); its plain-NumPy twin is in :mod:`raycast_shade.study.twins`.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from numba import njit, prange
 
 from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_SIZE, CAM_UP, CAM_WIDTH
 
-__all__ = ["camera_frame", "generate_rays", "generate_rays_numpy"]
+__all__ = ["camera_frame", "generate_rays"]
 
 
 def camera_frame(camera, origin=np.zeros(3)):
@@ -103,23 +103,4 @@ def generate_rays(camera, origin=np.zeros(3), dtype=np.float32):
     origins = np.empty((n, 3), dtype)
     directions = np.empty((n, 3), dtype)
     _rays_kernel(cam, origins, directions)
-    return origins, directions
-
-
-def generate_rays_numpy(camera, origin=np.zeros(3)):
-    """Plain-NumPy twin of :func:`generate_rays` (float64)."""
-    cam = camera_frame(camera, origin)
-    w, h = camera.width, camera.height
-    ys, xs = np.mgrid[0:h, 0:w]
-    sx = (2.0 * (xs + 0.5) / w - 1.0).reshape(-1, 1)
-    sy = (1.0 - 2.0 * (ys + 0.5) / h).reshape(-1, 1)
-    eye, right = cam[CAM_EYE:CAM_EYE + 3], cam[CAM_RIGHT:CAM_RIGHT + 3]
-    up, fwd = cam[CAM_UP:CAM_UP + 3], cam[CAM_FORWARD:CAM_FORWARD + 3]
-    if camera.orthographic:
-        origins = eye + sx * right + sy * up
-        directions = np.broadcast_to(fwd, origins.shape).copy()
-    else:
-        directions = fwd + sx * right + sy * up
-        directions /= np.linalg.norm(directions, axis=1, keepdims=True)
-        origins = np.broadcast_to(eye, directions.shape).copy()
     return origins, directions

@@ -1,0 +1,105 @@
+"""Where the benchmark suite writes, checked without running it.
+
+``python -m benchmarks --quick`` must change no tracked file: every path a
+quick run writes is git-ignored, and every path a full run writes is not
+(the docs quote those). The paths come from each registered benchmark's
+``outputs(quick)``, which its ``main`` writes to (benchmarks/outputs.py).
+"""
+
+from __future__ import annotations
+
+import ast
+import importlib
+import os
+import shutil
+import subprocess
+import sys
+
+import pytest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+if ROOT not in sys.path:
+    sys.path.insert(0, ROOT)
+
+from benchmarks import outputs  # noqa: E402
+from benchmarks.__main__ import REGISTRY  # noqa: E402
+
+
+def _git_checkout():
+    if shutil.which("git") is None:
+        return False
+    out = subprocess.run(["git", "-C", ROOT, "rev-parse", "--show-toplevel"], capture_output=True, text=True)
+    return out.returncode == 0 and os.path.samefile(out.stdout.strip(), ROOT)
+
+
+needs_git = pytest.mark.skipif(not _git_checkout(), reason="not a git checkout of the project")
+
+
+def _ignored(paths):
+    """The subset of ``paths`` that git ignores (tracked files never count as ignored)."""
+    rel = [os.path.relpath(os.path.join(ROOT, p), ROOT) for p in paths]
+    out = subprocess.run(["git", "-C", ROOT, "check-ignore", "--stdin"], input="\n".join(rel) + "\n",
+                         capture_output=True, text=True)
+    assert out.returncode in (0, 1), out.stderr  # 1: none ignored
+    return set(out.stdout.split())
+
+
+def _written(quick):
+    """Every file the registered benchmarks write in this mode, and the generated tables."""
+    paths = []
+    for entry in REGISTRY:
+        mod = importlib.import_module(entry["module"])
+        assert hasattr(mod, "outputs"), f"{entry['module']} must declare its files with outputs(quick)"
+        paths += mod.outputs(quick)
+        # The files write_doc collects, with a sample name for the glob patterns.
+        paths += [os.path.join(outputs.results_dir(quick), p.replace("*", "_x")) for p in entry["csv"]]
+        paths += [os.path.join(outputs.images_dir(quick), p.replace("*", "_x")) for p in entry["images"]]
+    return paths + [outputs.doc_path(quick)]
+
+
+def test_quick_and_full_runs_write_different_files():
+    quick, full = set(_written(True)), set(_written(False))
+    assert quick and full and not quick & full
+    for p in quick - {outputs.doc_path(True)}:
+        assert os.path.dirname(p) in (outputs.results_dir(True), outputs.images_dir(True)), p
+
+
+@needs_git
+def test_every_quick_output_is_ignored_by_git():
+    paths = {os.path.relpath(p, ROOT) for p in _written(True)}
+    not_ignored = sorted(paths - _ignored(paths))
+    assert not not_ignored, f"quick-mode outputs git would track: {not_ignored}"
+
+
+@needs_git
+def test_no_full_output_is_ignored_by_git():
+    ignored = _ignored(_written(False))
+    assert not ignored, f"full-run outputs that git would not track: {sorted(ignored)}"
+
+
+def _path_literals(tree):
+    """String constants used as path parts (os.path.join arguments, pathlib ``/`` operands), and ``"_quick"``."""
+    for node in ast.walk(tree):
+        parts = []
+        if isinstance(node, ast.Call) and getattr(node.func, "attr", None) == "join":
+            parts = node.args
+        elif isinstance(node, ast.BinOp) and isinstance(node.op, ast.Div):
+            parts = [node.left, node.right]
+        elif isinstance(node, ast.Constant) and node.value == "_quick":
+            yield node.lineno, node.value
+        for part in parts:
+            if isinstance(part, ast.Constant) and part.value in ("results", "images"):
+                yield node.lineno, part.value
+
+
+@pytest.mark.parametrize("module", sorted({e["module"] for e in REGISTRY} | {"benchmarks.__main__"}))
+def test_benchmarks_build_no_output_folder_of_their_own(module):
+    """Output folders are named only in benchmarks/outputs.py, so outputs(quick) is the whole story."""
+    path = os.path.join(ROOT, *module.split(".")) + ".py"
+    bad = sorted(_path_literals(ast.parse(open(path, encoding="utf-8").read())))
+    assert not bad, f"{module}: " + "; ".join(f"line {n}: {v!r}" for n, v in bad)
+
+
+def test_the_path_literal_check_is_not_vacuous():
+    old = 'RESULTS = os.path.join(HERE, "results")\nsuffix = "_quick" if quick else ""\np = ROOT / "docs" / "images"\n'
+    assert sorted(v for _, v in _path_literals(ast.parse(old))) == ["_quick", "images", "results"]
