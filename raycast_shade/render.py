@@ -16,7 +16,7 @@ from .scene.pitfalls import warn_render
 from .scene.scene import Scene
 from .study.auto import choose_methods
 from .common.choices import BACKENDS, CASTER_CHOICES, INTERPOLATIONS, SHADING_CHOICES
-from .common.validate import as_choice, as_int, as_scalar
+from .common.validate import as_int, as_scalar
 from .shading.mirrors import MAX_MIRROR_DEPTH, trace_mirrors
 from .shading.shade import resolve_methods, shade_hits
 
@@ -119,13 +119,13 @@ def _plan(scene, shading, camera, backend, interpolation, caster, max_depth, tol
     if not isinstance(scene, Scene):
         raise TypeError(f"scene: expected a Scene, got {type(scene).__name__}")
     if isinstance(shading, str):
-        shading = as_choice(shading, "shading", SHADING_CHOICES)
+        shading = _choice(shading, "shading", SHADING_CHOICES)
     else:
         resolve_methods(scene, shading)  # validates one name per model
         shading = tuple(m.lower() for m in shading)
-    backend = as_choice(backend, "backend", BACKENDS)
-    interpolation = as_choice(interpolation, "interpolation", INTERPOLATIONS)
-    caster = as_choice(caster, "caster", CASTER_CHOICES)
+    backend = _choice(backend, "backend", BACKENDS)
+    interpolation = _choice(interpolation, "interpolation", INTERPOLATIONS)
+    caster = _choice(caster, "caster", CASTER_CHOICES)
     max_depth = as_int(max_depth, "max_depth", minimum=0)  # NumPy integers too
     if max_depth > MAX_MIRROR_DEPTH:
         raise ValueError(f"max_depth: at most {MAX_MIRROR_DEPTH} mirror bounces, got {max_depth} (a mirror "
@@ -149,6 +149,13 @@ def _plan(scene, shading, camera, backend, interpolation, caster, max_depth, tol
         decisions = tuple(choose_methods(scene, camera, tolerance))
         shading = tuple(d.method for d in decisions)
     return _Plan(shading, camera, backend, interpolation, caster, max_depth, buffers, decisions)
+
+
+def _choice(value, name: str, choices) -> str:
+    """``value`` lower-cased if it names one of ``choices``; a ValueError naming the field otherwise."""
+    if not isinstance(value, str) or value.lower() not in choices:
+        raise ValueError(f"{name}: expected one of {list(choices)}, got {value!r}")
+    return value.lower()
 
 
 def _visibility(scene, plan: _Plan, timings: dict):
