@@ -76,7 +76,8 @@ def count(hits, dist):
 
 
 def vertex_study(sub, scale, offset, eyes=8, seed=0, watertight=True):
-    """{"outside": (rays, leaks, misses, entering, entering leaks, entering misses), "inside": (rays, leaks, misses)}."""
+    """{"outside": (rays, leaks, misses, entering, entering leaks, entering misses),
+    "inside": (rays, leaks, misses)}."""
     mesh, scene = sphere_scene(sub, scale, offset)
     rng = np.random.default_rng(seed)
     out = np.zeros(6, np.int64)

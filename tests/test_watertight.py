@@ -120,7 +120,8 @@ def test_embree_alone_misses_from_the_centre():
 def test_rays_aimed_at_vertices_hit_them(seed, kind, sub, log_scale, offset, distance):
     """Random closed meshes (icospheres, cubes) under a random rotation, scale
     and offset, random eyes outside: every ray aimed at a vertex where it enters
-    the mesh (more than 1e-2 in cosine from tangent to its faces there) returns a hit at the vertex's distance, within float32 rounding of
+    the mesh (more than 1e-2 in cosine from tangent to its faces there)
+    returns a hit at the vertex's distance, within float32 rounding of
     the scene's coordinates over the cosine of the most grazing face there."""
     rng = np.random.default_rng(seed)
     scale = 10.0 ** log_scale

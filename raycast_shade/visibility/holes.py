@@ -140,7 +140,8 @@ def fill_holes(geometry, cam, hits, cast_points):
         for jx, jy in ((jitter, jitter), (-jitter, jitter), (jitter, -jitter), (-jitter, -jitter)):
             near = cast_points(xs + jx, ys + jy)
             cand = near.t < limit  # a surface in front of the pixel's hit: its fan is re-tested
-            near = HitBuffer(*(np.where(cand, a, fill).astype(a.dtype) for a, fill in zip(near, (-1, -1, 0, 0, np.inf))))
+            fills = (-1, -1, 0, 0, np.inf)
+            near = HitBuffer(*(np.where(cand, a, fill).astype(a.dtype) for a, fill in zip(near, fills)))
             _keep_nearer(exact, refine(geometry, o, d, np.zeros(n), limit, near), cand)
             _keep_nearer(moved, near, cand)
         # The exact hit where there is one; else, for a miss only, the nearest jittered hit.

@@ -185,7 +185,8 @@ def refine(geometry, origins, directions, tnear, tlimit, candidates) -> HitBuffe
     out = HitBuffer(prim=np.empty(n, np.int32), geom=np.empty(n, np.int32), u=np.empty(n, np.float32),
                     v=np.empty(n, np.float32), t=np.empty(n, np.float32))
     if n:
-        _refine_kernel(fans.vertices, fans.faces, fans.points, fans.face_model, fans.face_offsets, fans.start, fans.around,
+        _refine_kernel(fans.vertices, fans.faces, fans.points, fans.face_model, fans.face_offsets, fans.start,
+                       fans.around,
                        np.ascontiguousarray(origins, np.float64), np.ascontiguousarray(directions, np.float64),
                        np.ascontiguousarray(tnear, np.float64), np.ascontiguousarray(tlimit, np.float64),
                        candidates.geom, candidates.prim, *out)
