@@ -528,7 +528,7 @@ def _grid_at_pixel_rays(cam, step):
 
 def case_9():
     from raycast_shade.visibility import embree as _embree
-    from raycast_shade.visibility import cast as cast_mod
+    from raycast_shade.visibility import holes as cast_mod  # the camera's re-test lives in holes
 
     items = []
     saved_flag, saved_jitter = _embree._RTC_SCENE_FLAG_ROBUST, cast_mod._JITTER
@@ -562,6 +562,59 @@ def case_9():
     record(9, "inside closed spheres (26 views): misses", misses)
     figure("failure_09_holes.png", items, "9. Every ray through a vertex of a grid (perspective, 128 x 96): misses in red",
            width=2.6)
+    vertex_figure()
+
+
+def vertex_figure():
+    """Rays that slip through a vertex and see what lies behind: the grid of case 9
+    with a plane 1 below it (pixels showing the plane in red), before and after
+    the depth-jump re-test; and rays from one eye at every vertex of icosphere(5)
+    (leaks through to the far side in red), Embree alone and ``watertight``.
+    Figures: benchmarks/vertex_rays.py."""
+    from raycast_shade.visibility import holes
+
+    items = []
+    cam = rs.Camera(eye=(3.0, -40.0, 50.0), target=(0.0, 0.2, 0.0), width=128, height=96, fov=2.0)
+    floor = rs.shapes.plane(size=400.0, center=(0.0, 0.0, -1.0), normal="+z")
+    scene = _scene([rs.Model(_grid_at_pixel_rays(cam, 1), rs.Material(kd=0.8)), rs.Model(floor, rs.Material(kd=0.8))],
+                   [rs.DirectionalLight((0.2, -0.3, -1.0))], cam, 0.1)
+    saved = holes._JUMP
+    try:
+        for name, jump in (("misses re-cast (before)", np.inf), ("+ depth-jump re-test", saved)):
+            holes._JUMP = jump
+            fr = rs.render(scene, "flat")
+            img = fr.image.copy()
+            img[fr.hits.geom == 1] = (1.0, 0.0, 0.0)
+            items.append(("img", img, f"{name}: {(fr.hits.geom == 1).sum()} see the plane"))
+    finally:
+        holes._JUMP = saved
+    mesh = rs.shapes.icosphere(5)
+    sph = rs.Scene([rs.Model(mesh)])
+    eye = np.array([2.4, 1.6, 2.8])
+    front = np.einsum("ij,ij->i", mesh.normals, eye - mesh.vertices) > 0
+    target = mesh.vertices[front]
+    d = target - eye
+    dist = np.linalg.norm(d, axis=1)
+    d /= dist[:, None]
+    # Screen coordinates of the vertices, seen from the eye.
+    fwd = -eye / np.linalg.norm(eye)
+    right = _unit(np.cross(fwd, (0.0, 1.0, 0.0)))
+    up = np.cross(right, fwd)
+    sx, sy = d @ right / (d @ fwd), d @ up / (d @ fwd)
+    for wt in (False, True):
+        hits = rs.cast_rays(sph, np.broadcast_to(eye, d.shape).copy(), d, watertight=wt)
+        leak = (hits.prim >= 0) & (hits.t > dist * (1 + 1e-4))
+
+        def plot(ax, leak=leak):
+            ax.scatter(sx[~leak], sy[~leak], s=0.3, c="0.6", lw=0)
+            ax.scatter(sx[leak], sy[leak], s=6, c="red", lw=0)
+            ax.set_aspect("equal")
+            ax.set_xticks([])
+            ax.set_yticks([])
+
+        items.append(("plot", plot, f"{'watertight' if wt else 'Embree alone'}: {leak.sum()} of {len(d)} leak"))
+    figure("failure_09_vertex.png", items, "9b. Rays through vertices that slip through: the plane behind a vertex grid "
+           "(left), the far side of icosphere(5) (right), in red", width=2.6)
 
 
 # -- 10 ------------------------------------------------------------------------------------------------

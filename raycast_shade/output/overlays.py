@@ -34,6 +34,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH
 from ..common.validate import as_rgb, as_scalar
 from ..visibility.rays import camera_frame
 
@@ -43,48 +44,48 @@ __all__ = ["distances", "overlay", "normal_glyphs"]
 @njit(cache=True)
 def _screen(cam, px, py, pz):
     """Pixel coordinates (x, y) of re-centred point ``p``, and its depth along the view axis."""
-    ex = px - cam[0]
-    ey = py - cam[1]
-    ez = pz - cam[2]
-    z = ex * cam[9] + ey * cam[10] + ez * cam[11]
-    r2 = cam[3] * cam[3] + cam[4] * cam[4] + cam[5] * cam[5]
-    u2 = cam[6] * cam[6] + cam[7] * cam[7] + cam[8] * cam[8]
-    sx = (ex * cam[3] + ey * cam[4] + ez * cam[5]) / r2
-    sy = (ex * cam[6] + ey * cam[7] + ez * cam[8]) / u2
-    if cam[12] == 0.0:
+    ex = px - cam[CAM_EYE + 0]
+    ey = py - cam[CAM_EYE + 1]
+    ez = pz - cam[CAM_EYE + 2]
+    z = ex * cam[CAM_FORWARD + 0] + ey * cam[CAM_FORWARD + 1] + ez * cam[CAM_FORWARD + 2]
+    r2 = cam[CAM_RIGHT + 0] * cam[CAM_RIGHT + 0] + cam[CAM_RIGHT + 1] * cam[CAM_RIGHT + 1] + cam[CAM_RIGHT + 2] * cam[CAM_RIGHT + 2]
+    u2 = cam[CAM_UP + 0] * cam[CAM_UP + 0] + cam[CAM_UP + 1] * cam[CAM_UP + 1] + cam[CAM_UP + 2] * cam[CAM_UP + 2]
+    sx = (ex * cam[CAM_RIGHT + 0] + ey * cam[CAM_RIGHT + 1] + ez * cam[CAM_RIGHT + 2]) / r2
+    sy = (ex * cam[CAM_UP + 0] + ey * cam[CAM_UP + 1] + ez * cam[CAM_UP + 2]) / u2
+    if cam[CAM_ORTHO] == 0.0:
         if not z > 0.0:
             return np.inf, np.inf, z
         sx /= z
         sy /= z
-    return 0.5 * (sx + 1.0) * cam[13], 0.5 * (1.0 - sy) * cam[14], z
+    return 0.5 * (sx + 1.0) * cam[CAM_WIDTH], 0.5 * (1.0 - sy) * cam[CAM_HEIGHT], z
 
 
 @njit(cache=True)
 def _edge_distance(cam, vertices, i, j, sx, sy):
     """Distance in pixels from screen point (sx, sy) to the projected line of edge (i, j)."""
-    if cam[12] != 0.0:  # plane through the edge along the view direction
+    if cam[CAM_ORTHO] != 0.0:  # plane through the edge along the view direction
         ax = vertices[j, 0] - vertices[i, 0]
         ay = vertices[j, 1] - vertices[i, 1]
         az = vertices[j, 2] - vertices[i, 2]
-        bx, by, bz = cam[9], cam[10], cam[11]
+        bx, by, bz = cam[CAM_FORWARD + 0], cam[CAM_FORWARD + 1], cam[CAM_FORWARD + 2]
     else:  # plane through the edge and the eye
-        ax = vertices[i, 0] - cam[0]
-        ay = vertices[i, 1] - cam[1]
-        az = vertices[i, 2] - cam[2]
-        bx = vertices[j, 0] - cam[0]
-        by = vertices[j, 1] - cam[1]
-        bz = vertices[j, 2] - cam[2]
+        ax = vertices[i, 0] - cam[CAM_EYE + 0]
+        ay = vertices[i, 1] - cam[CAM_EYE + 1]
+        az = vertices[i, 2] - cam[CAM_EYE + 2]
+        bx = vertices[j, 0] - cam[CAM_EYE + 0]
+        by = vertices[j, 1] - cam[CAM_EYE + 1]
+        bz = vertices[j, 2] - cam[CAM_EYE + 2]
     nx = ay * bz - az * by
     ny = az * bx - ax * bz
     nz = ax * by - ay * bx
-    if cam[12] != 0.0:
-        c = nx * (cam[0] - vertices[i, 0]) + ny * (cam[1] - vertices[i, 1]) + nz * (cam[2] - vertices[i, 2])
+    if cam[CAM_ORTHO] != 0.0:
+        c = nx * (cam[CAM_EYE + 0] - vertices[i, 0]) + ny * (cam[CAM_EYE + 1] - vertices[i, 1]) + nz * (cam[CAM_EYE + 2] - vertices[i, 2])
     else:
-        c = nx * cam[9] + ny * cam[10] + nz * cam[11]
-    a = nx * cam[3] + ny * cam[4] + nz * cam[5]
-    b = nx * cam[6] + ny * cam[7] + nz * cam[8]
-    gx = 2.0 * a / cam[13]  # d f / d pixel x
-    gy = -2.0 * b / cam[14]  # d f / d pixel y (rows go down)
+        c = nx * cam[CAM_FORWARD + 0] + ny * cam[CAM_FORWARD + 1] + nz * cam[CAM_FORWARD + 2]
+    a = nx * cam[CAM_RIGHT + 0] + ny * cam[CAM_RIGHT + 1] + nz * cam[CAM_RIGHT + 2]
+    b = nx * cam[CAM_UP + 0] + ny * cam[CAM_UP + 1] + nz * cam[CAM_UP + 2]
+    gx = 2.0 * a / cam[CAM_WIDTH]  # d f / d pixel x
+    gy = -2.0 * b / cam[CAM_HEIGHT]  # d f / d pixel y (rows go down)
     g = math.sqrt(gx * gx + gy * gy)
     if not g > 0.0:
         return np.inf  # the edge is seen end-on: its line is a point
@@ -98,11 +99,11 @@ def _distances_kernel(prim, geom, face_offsets, faces, vertices, cam):
     edge = np.full((h, w), np.inf)
     corner = np.full((h, w), np.inf)
     for y in prange(h):
-        sy = 1.0 - 2.0 * (y + 0.5) / cam[14]
+        sy = 1.0 - 2.0 * (y + 0.5) / cam[CAM_HEIGHT]
         for x in range(w):
             if prim[y, x] < 0:
                 continue
-            sx = 2.0 * (x + 0.5) / cam[13] - 1.0
+            sx = 2.0 * (x + 0.5) / cam[CAM_WIDTH] - 1.0
             f = face_offsets[geom[y, x]] + prim[y, x]
             best_e = np.inf
             best_c = np.inf
@@ -147,11 +148,11 @@ def _glyphs_kernel(vertices, normals, cam, t, length, half, tolerance, mask):
             continue
         # Visible when nothing nearer covers the vertex's pixel (t is along the unit ray,
         # or from the image plane orthographic).
-        if cam[12] != 0.0:
+        if cam[CAM_ORTHO] != 0.0:
             dist = z0
         else:
-            dist = math.sqrt((vertices[v, 0] - cam[0]) ** 2 + (vertices[v, 1] - cam[1]) ** 2
-                             + (vertices[v, 2] - cam[2]) ** 2)
+            dist = math.sqrt((vertices[v, 0] - cam[CAM_EYE + 0]) ** 2 + (vertices[v, 1] - cam[CAM_EYE + 1]) ** 2
+                             + (vertices[v, 2] - cam[CAM_EYE + 2]) ** 2)
         if t[int(y0), int(x0)] < dist - tolerance:
             continue
         s = length / math.sqrt(n2)

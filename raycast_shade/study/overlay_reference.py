@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH
 from ..visibility.rays import camera_frame
 
 __all__ = ["distances_numpy"]
@@ -24,9 +25,9 @@ def distances_numpy(frame):
     """
     geo = frame.scene.geometry
     cam = camera_frame(frame.camera, geo.origin)
-    eye, r, u, fwd = cam[0:3], cam[3:6], cam[6:9], cam[9:12]
-    ortho = cam[12] != 0.0
-    w, h = int(cam[13]), int(cam[14])
+    eye, r, u, fwd = cam[CAM_EYE:CAM_EYE + 3], cam[CAM_RIGHT:CAM_RIGHT + 3], cam[CAM_UP:CAM_UP + 3], cam[CAM_FORWARD:CAM_FORWARD + 3]
+    ortho = cam[CAM_ORTHO] != 0.0
+    w, h = int(cam[CAM_WIDTH]), int(cam[CAM_HEIGHT])
     hit = frame.hits.prim >= 0
     ys, xs = np.nonzero(hit)
     faces = geo.faces[geo.face_offsets[frame.hits.geom[hit]] + frame.hits.prim[hit]]
