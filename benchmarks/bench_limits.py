@@ -1,0 +1,449 @@
+"""The frame against the machine's limits, memory, load and the cold start.
+
+Run ``python -m benchmarks.bench_limits [--quick] [--only SECTION ...]``.
+Sections (issue 16):
+
+``limit``
+    For each case of :mod:`benchmarks.bench_peers` (same scenes): Embree's
+    raw packet throughput, the camera's 4x2-pixel tiles as coherent 8-ray
+    packets generated beforehand (the renderer's ``RTCRayHit8`` layout, see
+    :mod:`raycast_shade.visibility.cast`) and traced by a small parallel
+    Numba kernel that does nothing but call ``rtcIntersect8`` (no ray
+    generation, no unpacking, no shading; the packets are restored between
+    repeats, untimed); the memory bandwidth of writing the bytes a frame
+    writes (hit buffer 20 B + linear image 12 B per pixel) by a parallel
+    Numba store, into preallocated arrays (the bandwidth) and into fresh
+    ``np.empty`` arrays each time (what the renderer does: first-touch page
+    faults included); the renderer's cast kernel alone (rays, packets,
+    unpacking; no re-cast of isolated misses); and ``rs.render`` itself. Reported: the frame over the
+    sum of packets + preallocated store (issue 16 aims at <= 1.3), the
+    stages of the frame and how many isolated misses it re-casts.
+``memory``
+    Peak resident memory of a 7680x4320 Phong frame, one subprocess per mesh
+    (the high-water mark ``VmHWM`` after a small warm-up frame, after the 8K
+    frame, after its 8-bit image, and the resident size before the frame;
+    ``tracemalloc`` peak of the NumPy allocations).
+``load``
+    The frame with 1 and 2 Numba threads, on the machine as it is and with
+    a busy process spinning on CPU 0, in subprocesses under threading
+    variants: the default layer, ``OMP_WAIT_POLICY=passive`` and ``active``,
+    and ``NUMBA_THREADING_LAYER=workqueue``.
+``cold``
+    ``python -m raycast_shade demo`` in a subprocess with an empty
+    ``NUMBA_CACHE_DIR`` (every kernel compiled), then again with the cache
+    it left (warm).
+
+Every row carries the 1-minute load average when it was measured: this
+machine may be shared. Results: ``benchmarks/results/limits.csv``;
+``--quick`` (small frames, few repeats, no cold compile unless asked) writes
+only under ``benchmarks/results/quick/`` (untracked).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+from numba import njit, prange
+
+from raycast_shade.visibility import embree
+from raycast_shade.visibility.rays import pixel_ray
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+RESULTS = os.path.join(HERE, "results")
+QUICK_DIR = os.path.join(RESULTS, "quick")  # untracked (.gitignore)
+SECTIONS = ("limit", "memory", "load", "cold")
+KEYS = ["section", "mesh", "triangles", "width", "height", "variant", "metric", "value", "unit", "load1"]
+
+_RAY = 24  # float32 slots per ray in a packet (the renderer's RTCRayHit8 stride)
+_PACKET = 8 * _RAY
+FRAME_BYTES = 20 + 12  # per pixel: hit buffer (prim, geom, u, v, t) + linear RGB float32
+
+
+# -- kernels -------------------------------------------------------------------------------------------------
+
+@njit(cache=True, parallel=True)
+def _make_packets(cam, w, h, rays, valid):
+    """Fill ``rays`` (P * 192,) float32 and ``valid`` (P * 8,) int32 with the camera's
+    4x2 tiles, row of tiles after row, as :mod:`raycast_shade.visibility.cast` does."""
+    ntx = (w + 3) // 4
+    nty = (h + 1) // 2
+    ib = rays.view(np.uint32)
+    for ty in prange(nty):
+        for tx in range(ntx):
+            p = ty * ntx + tx
+            o = p * _PACKET
+            for k in range(8):
+                x = tx * 4 + (k & 3)
+                y = ty * 2 + (k >> 2)
+                if x < w and y < h:
+                    valid[p * 8 + k] = -1
+                    ox, oy, oz, dx, dy, dz = pixel_ray(cam, x, y)
+                else:
+                    valid[p * 8 + k] = 0
+                    ox, oy, oz, dx, dy, dz = 0.0, 0.0, 0.0, 0.0, 0.0, 1.0
+                rays[o + 0 * 8 + k] = ox
+                rays[o + 1 * 8 + k] = oy
+                rays[o + 2 * 8 + k] = oz
+                rays[o + 3 * 8 + k] = 0.0
+                rays[o + 4 * 8 + k] = dx
+                rays[o + 5 * 8 + k] = dy
+                rays[o + 6 * 8 + k] = dz
+                rays[o + 7 * 8 + k] = 0.0
+                rays[o + 8 * 8 + k] = np.inf
+                ib[o + 9 * 8 + k] = 0xFFFFFFFF
+                ib[o + 10 * 8 + k] = 0
+                ib[o + 11 * 8 + k] = 0
+                ib[o + 17 * 8 + k] = 0xFFFFFFFF
+                ib[o + 18 * 8 + k] = 0xFFFFFFFF
+
+
+@njit(cache=True, parallel=True)
+def _trace_packets(scene, rays, valid, args, ntx, nty):
+    """``rtcIntersect8`` on every prepared packet, rows of tiles in parallel; nothing else."""
+    for ty in prange(nty):
+        for tx in range(ntx):
+            p = ty * ntx + tx
+            embree.intersect8_packet(valid[p * 8:], scene, rays[p * _PACKET:], args)
+
+
+@njit(cache=True, parallel=True)
+def _store_frame(prim, geom, u, v, t, image):
+    """Write every byte a frame writes (rows in parallel): the bandwidth floor."""
+    h, w = prim.shape
+    for y in prange(h):
+        for x in range(w):
+            prim[y, x] = x
+            geom[y, x] = 0
+            u[y, x] = 0.25
+            v[y, x] = 0.5
+            t[y, x] = 1.0
+            image[y, x, 0] = 0.1
+            image[y, x, 1] = 0.2
+            image[y, x, 2] = 0.3
+
+
+def _aligned(n, dtype, align=32):
+    """(n,) array of ``dtype`` starting at an ``align``-byte boundary."""
+    item = np.dtype(dtype).itemsize
+    raw = np.empty(n + align // item, dtype)
+    off = ((align - raw.ctypes.data % align) % align) // item
+    return raw[off:off + n]
+
+
+def _frame_buffers(h, w):
+    return (np.empty((h, w), np.int32), np.empty((h, w), np.int32), np.empty((h, w), np.float32),
+            np.empty((h, w), np.float32), np.empty((h, w), np.float32), np.empty((h, w, 3), np.float32))
+
+
+def _load():
+    return round(os.getloadavg()[0], 2)
+
+
+# -- sections -----------------------------------------------------------------------------------------------
+
+def limit_case(kind, level, w, h, repeats):
+    """Rows of the ``limit`` section for one case."""
+    import raycast_shade as rs
+    from raycast_shade.visibility.accel import embree_accel
+    from raycast_shade.visibility.cast import _cast_camera_kernel, _count_isolated_kernel
+    from raycast_shade.visibility.rays import camera_frame
+
+    from .bench_peers import make_mesh, make_scene
+
+    scene = make_scene(make_mesh(kind, level), w, h)
+    geo = scene.geometry
+    cam = camera_frame(scene.camera, geo.origin)
+    frame = rs.render(scene, "phong")
+    rs.render(scene, "phong")
+    handle = embree_accel(geo).handle
+    ntx, nty = (w + 3) // 4, (h + 1) // 2
+    pristine = _aligned(ntx * nty * _PACKET, np.float32)
+    valid = _aligned(ntx * nty * 8, np.int32)
+    _make_packets(cam, w, h, pristine, valid)
+    work = _aligned(pristine.size, np.float32)
+    args = _aligned(embree.ARGS_SLOTS, np.uint32, 8)
+    args[:] = 0
+    args[0] = embree.RAY_QUERY_FLAG_COHERENT
+    args[1] = embree.FEATURE_FLAG_ALL
+    pre = _frame_buffers(h, w)
+
+    def packets():
+        _trace_packets(handle, work, valid, args, ntx, nty)
+
+    def cast_kernel():  # the renderer's cast kernel alone: rays + packets + unpacking, no hole re-cast
+        hb = _frame_buffers(h, w)
+        _cast_camera_kernel(handle, cam, *hb[:5])
+
+    def store_pre():
+        _store_frame(*pre)
+
+    def store_fresh():
+        _store_frame(*_frame_buffers(h, w))
+
+    def numpy_fill():
+        for a in pre:
+            a.fill(1)
+
+    stages = {}
+
+    def render():
+        f = rs.render(scene, "phong")
+        for k in ("cast", "shade"):
+            stages.setdefault(k, []).append(f.timings[k])
+
+    fns = dict(packets=packets, cast_kernel=cast_kernel, store_prealloc=store_pre, store_fresh=store_fresh, numpy_fill=numpy_fill,
+               frame=render)
+    for name, fn in fns.items():  # warm-up (JIT, page faults)
+        np.copyto(work, pristine)
+        fn()
+    stages.clear()
+    times = {name: [] for name in fns}
+    load0 = _load()
+    names = list(fns)
+    for r in range(repeats):
+        for name in names[r % len(names):] + names[:r % len(names)]:
+            np.copyto(work, pristine)  # fresh tfar / hit fields, untimed
+            t0 = time.perf_counter()
+            fns[name]()
+            times[name].append(time.perf_counter() - t0)
+    load1 = _load()
+    # The packets really hit what the frame hit.
+    np.copyto(work, pristine)
+    packets()
+    hit_geom = work.view(np.uint32).reshape(-1, _RAY, 8)[:, 18, :]
+    hits_packets = int(np.count_nonzero(hit_geom[valid.reshape(-1, 8) != 0] != 0xFFFFFFFF))
+    med = {name: float(np.median(v)) for name, v in times.items()}
+    tri = len(geo.faces)
+    base = dict(section="limit", mesh=f"{kind}{level}", triangles=tri, width=w, height=h,
+                load1=f"{load0}-{load1}")
+    nbytes = FRAME_BYTES * w * h
+    rows = [dict(base, variant=n, metric="median_ms", value=round(1e3 * m, 3), unit="ms") for n, m in med.items()]
+    rows += [dict(base, variant=n, metric="min_ms", value=round(1e3 * min(v), 3), unit="ms") for n, v in times.items()]
+    rows += [
+        dict(base, variant="packets", metric="mrays_per_s", value=round(w * h / med["packets"] / 1e6, 1), unit="Mray/s"),
+        dict(base, variant="store_prealloc", metric="write_gb_per_s", value=round(nbytes / med["store_prealloc"] / 1e9, 2),
+             unit="GB/s"),
+        dict(base, variant="store_fresh", metric="write_gb_per_s", value=round(nbytes / med["store_fresh"] / 1e9, 2),
+             unit="GB/s"),
+        dict(base, variant="numpy_fill", metric="write_gb_per_s", value=round(nbytes / med["numpy_fill"] / 1e9, 2),
+             unit="GB/s"),
+        dict(base, variant="frame", metric="stage_cast_ms", value=round(1e3 * float(np.median(stages["cast"])), 3), unit="ms"),
+        dict(base, variant="frame", metric="stage_shade_ms", value=round(1e3 * float(np.median(stages["shade"])), 3),
+             unit="ms"),
+        dict(base, variant="frame", metric="isolated_misses", value=int(_count_isolated_kernel(frame.hits.prim)),
+             unit="pixels"),
+        dict(base, variant="frame", metric="hits", value=int(frame.mask.sum()), unit="pixels"),
+        dict(base, variant="packets", metric="hits", value=hits_packets, unit="pixels"),
+        dict(base, variant="ratio", metric="frame_over_packets_plus_store",
+             value=round(med["frame"] / (med["packets"] + med["store_prealloc"]), 3), unit="x"),
+        # Under load a parallel launch can wait for a busy core: the floor is the faster store.
+        dict(base, variant="ratio", metric="frame_over_packets_plus_best_store",
+             value=round(med["frame"] / (med["packets"] + min(med["store_prealloc"], med["numpy_fill"])), 3), unit="x"),
+        dict(base, variant="ratio", metric="frame_over_packets_plus_fresh_store",
+             value=round(med["frame"] / (med["packets"] + med["store_fresh"]), 3), unit="x"),
+    ]
+    print(f"limits: {kind}{level} {w}x{h}: frame {1e3 * med['frame']:.1f} ms, packets {1e3 * med['packets']:.1f}, "
+          f"store {1e3 * med['store_prealloc']:.1f} (fresh {1e3 * med['store_fresh']:.1f}), ratio "
+          f"{med['frame'] / (med['packets'] + med['store_prealloc']):.2f}, load {load0}-{load1}", file=sys.stderr)
+    return rows
+
+
+_MEMORY_CHILD = r"""
+import json, sys, tracemalloc
+import raycast_shade as rs
+from benchmarks.bench_peers import make_mesh, make_scene
+kind, level, w, h = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4])
+def status(key):
+    # VmHWM, not ru_maxrss: Linux carries ru_maxrss over from the parent across fork and exec.
+    with open("/proc/self/status") as fh:
+        return next(int(line.split()[1]) * 1024 for line in fh if line.startswith(key + ":"))
+rss = lambda: status("VmHWM")
+current = lambda: status("VmRSS")
+scene = make_scene(make_mesh(kind, level), 64, 48)
+rs.render(scene, "phong")  # JIT, BVH
+out = dict(baseline=rss(), resident=current())
+tracemalloc.start()
+frame = rs.render(scene, "phong", camera=scene.camera.replace(width=w, height=h))
+out["render"] = rss()
+out["tracemalloc_render"] = tracemalloc.get_traced_memory()[1]
+img = frame.to_uint8()
+out["render_uint8"] = rss()
+out["tracemalloc_uint8"] = tracemalloc.get_traced_memory()[1]
+out["seconds"] = frame.timings["total"]
+print(json.dumps(out))
+"""
+
+
+def memory(cases, w, h):
+    """Rows of the ``memory`` section: one subprocess per mesh."""
+    rows = []
+    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    for kind, level in cases:
+        load = _load()
+        res = subprocess.run([sys.executable, "-c", _MEMORY_CHILD, kind, str(level), str(w), str(h)], cwd=ROOT,
+                             env=env, capture_output=True, text=True)
+        if res.returncode != 0:
+            raise RuntimeError(f"memory child failed: {res.stderr[-2000:]}")
+        out = json.loads(res.stdout.strip().splitlines()[-1])
+        tri = 20 * 4 ** level
+        base = dict(section="memory", mesh=f"{kind}{level}", triangles=tri, width=w, height=h,
+                    load1=f"{load}-{_load()}")
+        gb = lambda b: round(b / 1e9, 3)  # noqa: E731
+        rows += [
+            dict(base, variant="vmhwm", metric="after_warmup_gb", value=gb(out["baseline"]), unit="GB"),
+            dict(base, variant="vmhwm", metric="after_render_gb", value=gb(out["render"]), unit="GB"),
+            dict(base, variant="vmhwm", metric="after_uint8_gb", value=gb(out["render_uint8"]), unit="GB"),
+            dict(base, variant="rss", metric="resident_before_render_gb", value=gb(out["resident"]), unit="GB"),
+            # The frame's own peak, when it sets the high-water mark (an 8K frame does).
+            dict(base, variant="vmhwm", metric="render_minus_resident_gb", value=gb(out["render"] - out["resident"]),
+                 unit="GB"),
+            dict(base, variant="tracemalloc", metric="render_peak_gb", value=gb(out["tracemalloc_render"]), unit="GB"),
+            dict(base, variant="tracemalloc", metric="uint8_peak_gb", value=gb(out["tracemalloc_uint8"]), unit="GB"),
+            dict(base, variant="frame", metric="render_s", value=round(out["seconds"], 3), unit="s"),
+        ]
+        print(f"limits: memory {kind}{level} {w}x{h}: VmHWM {gb(out['baseline'])} -> {gb(out['render'])} -> "
+              f"{gb(out['render_uint8'])} GB", file=sys.stderr)
+    return rows
+
+
+_LOAD_CHILD = r"""
+import json, os, subprocess, sys, time
+import numpy as np, numba
+import raycast_shade as rs
+from benchmarks.bench_peers import make_mesh, make_scene
+kind, level, w, h, repeats = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4]), int(sys.argv[5])
+scene = make_scene(make_mesh(kind, level), w, h)
+for n in (1, 2, 1, 2):
+    numba.set_num_threads(n)
+    rs.render(scene, "phong")
+def measure():
+    times = {1: [], 2: []}
+    for r in range(repeats):
+        for n in ((1, 2) if r % 2 == 0 else (2, 1)):
+            numba.set_num_threads(n)
+            t0 = time.perf_counter()
+            rs.render(scene, "phong")
+            times[n].append(time.perf_counter() - t0)
+    return {n: float(np.median(v)) for n, v in times.items()}
+out = dict(layer=numba.threading_layer(), load_quiet=os.getloadavg()[0])
+out["quiet"] = measure()
+spin = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+try:
+    os.sched_setaffinity(spin.pid, {0})
+    time.sleep(0.5)
+    out["busy"] = measure()
+    out["load_busy"] = os.getloadavg()[0]
+finally:
+    spin.kill()
+    spin.wait()
+print(json.dumps(out))
+"""
+
+LOAD_VARIANTS = [("default", {}), ("omp_passive", {"NUMBA_THREADING_LAYER": "omp", "OMP_WAIT_POLICY": "passive"}),
+                 ("omp_active", {"NUMBA_THREADING_LAYER": "omp", "OMP_WAIT_POLICY": "active"}),
+                 ("workqueue", {"NUMBA_THREADING_LAYER": "workqueue"})]
+
+
+def load_section(cases, repeats):
+    """Rows of the ``load`` section: 1 vs 2 threads, quiet vs one busy core, per threading variant."""
+    rows = []
+    for kind, level, w, h in cases:
+        for name, extra in LOAD_VARIANTS:
+            env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
+            for k in ("OMP_WAIT_POLICY", "NUMBA_THREADING_LAYER"):
+                env.pop(k, None)
+            env.update(extra)
+            res = subprocess.run([sys.executable, "-c", _LOAD_CHILD, kind, str(level), str(w), str(h), str(repeats)],
+                                 cwd=ROOT, env=env, capture_output=True, text=True)
+            if res.returncode != 0:
+                raise RuntimeError(f"load child ({name}) failed: {res.stderr[-2000:]}")
+            out = json.loads(res.stdout.strip().splitlines()[-1])
+            base = dict(section="load", mesh=f"{kind}{level}", triangles=20 * 4 ** level, width=w, height=h,
+                        variant=f"{name} ({out['layer']})")
+            for cond in ("quiet", "busy"):
+                load = round(out["load_quiet" if cond == "quiet" else "load_busy"], 2)
+                t1, t2 = out[cond]["1"], out[cond]["2"]
+                rows += [dict(base, metric=f"{cond}_1thread_ms", value=round(1e3 * t1, 2), unit="ms", load1=load),
+                         dict(base, metric=f"{cond}_2threads_ms", value=round(1e3 * t2, 2), unit="ms", load1=load),
+                         dict(base, metric=f"{cond}_2threads_over_1", value=round(t2 / t1, 3), unit="x", load1=load)]
+                print(f"limits: load {kind}{level} {w}x{h} {name:12} {cond}: 1 thread {1e3 * t1:.1f} ms, "
+                      f"2 threads {1e3 * t2:.1f} ms (load {load})", file=sys.stderr)
+    return rows
+
+
+def cold():
+    """Rows of the ``cold`` section: the demo with an empty, then a warm, kernel cache."""
+    rows = []
+    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    with tempfile.TemporaryDirectory() as tmp:
+        env["NUMBA_CACHE_DIR"] = os.path.join(tmp, "numba")
+        out = os.path.join(tmp, "demo.png")
+        for label in ("cold_cache", "warm_cache"):
+            load = _load()
+            t0 = time.perf_counter()
+            subprocess.run([sys.executable, "-m", "raycast_shade", "demo", "-o", out], cwd=tmp, env=env,
+                           capture_output=True, check=True)
+            wall = time.perf_counter() - t0
+            rows.append(dict(section="cold", mesh="demo", triangles=0, width=960, height=3 * 280 + 4,
+                             variant=label, metric="demo_wall_s", value=round(wall, 2), unit="s",
+                             load1=f"{load}-{_load()}"))
+            print(f"limits: demo {label}: {wall:.1f} s (load {load})", file=sys.stderr)
+    return rows
+
+
+def run(quick=False, only=SECTIONS, repeats=None):
+    from .bench_peers import CASES, QUICK_CASES
+
+    repeats = repeats or (3 if quick else 9)
+    cases = QUICK_CASES if quick else CASES
+    rows = []
+    if "limit" in only:
+        for kind, level, w, h in cases:
+            rows += limit_case(kind, level, w, h, repeats)
+    if "memory" in only:
+        rows += memory([(k, lv) for k, lv, _, _ in cases[::2]] if not quick else [cases[0][:2]],
+                       *((1920, 1080) if quick else (7680, 4320)))
+    if "load" in only:
+        rows += load_section(cases[:1] if quick else cases[:2], repeats)
+    if "cold" in only:
+        rows += cold()
+    return rows
+
+
+def write_csv(rows, path):
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    with open(path, "w", newline="") as fh:
+        wr = csv.DictWriter(fh, fieldnames=KEYS)
+        wr.writeheader()
+        wr.writerows(rows)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="small frames, 3 repeats, no cold compile; untracked output")
+    ap.add_argument("--only", nargs="+", choices=SECTIONS, default=None, help="sections to run (default: all; "
+                    "quick: all but cold)")
+    ap.add_argument("--repeats", type=int, default=None)
+    args = ap.parse_args(argv)
+    only = args.only or (tuple(s for s in SECTIONS if s != "cold") if args.quick else SECTIONS)
+    rows = run(args.quick, only, args.repeats)
+    path = os.path.join(QUICK_DIR if args.quick else RESULTS, "limits.csv")
+    if os.path.exists(path):  # keep the rows of the sections that did not run
+        with open(path, newline="") as fh:
+            kept = [r for r in csv.DictReader(fh) if r["section"] not in only]
+        rows = kept + rows
+    write_csv(rows, path)
+    return rows
+
+
+if __name__ == "__main__":
+    main()
