@@ -29,6 +29,7 @@ from .scene.normals import WindingWarning, winding_conflicts
 from .render import render, render_file
 from .scene.scene import Model, Scene
 from .study.auto import choose_methods
+from .study.explain import explain
 from .shading.normals import shading_normals
 from .shading.shade import SHADINGS, shade
 from .output.tonemap import read_pfm, to_uint8, write_pfm
@@ -42,17 +43,20 @@ __all__ = [
     "SHADINGS", "cast_camera", "cast_rays", "read_pfm", "render", "render_file", "choose_methods", "shade", "shading_normals", "shapes", "to_uint8", "write_pfm",
     "WindingWarning", "winding_conflicts",
     "ShadingWarning", "BumpIgnoredWarning", "ColourRangeWarning", "CreaseWarning", "DroppedOnLoadWarning",
-    "LightInsideWarning", "NoLightsWarning", "ZeroNormalWarning", "figures", "overlays",
+    "LightInsideWarning", "NoLightsWarning", "ZeroNormalWarning", "figures", "overlays", "explain", "explore",
 ]
 
-# Imported on first access: figures needs matplotlib (the "notebook" extra),
-# and neither belongs on the start-up path of ``raycast-shade demo``.
+# Imported on first access: figures needs matplotlib and explore ipywidgets (the
+# "notebook" extra), and none belongs on the start-up path of ``raycast-shade demo``.
 _LAZY = {"figures": ".output.figures", "overlays": ".output.overlays"}
+_LAZY_FUNCTIONS = {"explore": ".apps.explore"}
 
 
 def __getattr__(name):
-    if name in _LAZY:
-        import importlib
+    import importlib
 
+    if name in _LAZY:
         return importlib.import_module(_LAZY[name], __name__)
+    if name in _LAZY_FUNCTIONS:
+        return getattr(importlib.import_module(_LAZY_FUNCTIONS[name], __name__), name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

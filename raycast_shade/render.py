@@ -15,17 +15,19 @@ from .output.frame import Frame
 from .scene.pitfalls import warn_render
 from .scene.scene import Scene
 from .study.auto import choose_methods
+from .study.explain import explain
 from .common.choices import BACKENDS, CASTER_CHOICES, INTERPOLATIONS, SHADING_CHOICES
 from .common.validate import as_int, as_scalar
 from .shading.mirrors import MAX_MIRROR_DEPTH, trace_mirrors
 from .shading.shade import resolve_methods, shade_hits
+from .shading.terms import check_terms, shade_terms
 
 __all__ = ["render", "render_file"]
 
 
 def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backend: str = "raycast",
            interpolation: str = "perspective", caster: str = "auto", max_depth: int = 3,
-           tolerance: float = 0.01, buffers=()) -> Frame:
+           tolerance: float = 0.01, buffers=(), terms=False) -> Frame:
     """Render a scene.
 
     Parameters
@@ -61,6 +63,12 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
     buffers : sequence of str
         Per-pixel buffers to put on ``frame.buffers`` by name: ``"zdepth"``,
         ``"position"``, ``"normal_camera"``, ... (:mod:`raycast_shade.output.buffers`).
+    terms : bool, str or sequence of str
+        ``True``: the reflectance equation's terms as images on ``frame.terms``
+        (ambient, diffuse, specular, reflected, shadow mask; ``"per_light"``
+        adds each light's), which add up to the image
+        (:mod:`raycast_shade.shading.terms`). ``frame.explain(x, y)`` works
+        either way.
 
     Returns
     -------
@@ -78,6 +86,7 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
     """
     t0 = time.perf_counter()
     plan = _plan(scene, shading, camera, backend, interpolation, caster, max_depth, tolerance, buffers)
+    terms = check_terms(terms)
     camera, shading = plan.camera, plan.shading
     warn_render(scene, shading)  # no lights, a light inside a closed mesh, a bump map the method ignores
     timings = {}
@@ -95,9 +104,13 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
         extra = compute_buffers(scene, camera, hits, plan.buffers, shading)
         timings["buffers"] = time.perf_counter() - te
         te = time.perf_counter()
+    parts = {} if terms is None else shade_terms(scene, camera, hits, shading, plan.max_depth, "per_light" in terms)
+    if terms is not None:
+        timings["terms"] = time.perf_counter() - te
+        te = time.perf_counter()
     timings["total"] = te - t0
     return Frame(image=image, hits=hits, shading=shading, scene=scene, camera=camera, timings=timings,
-                 decisions=plan.decisions, buffers=extra)
+                 decisions=plan.decisions, buffers=extra, terms=parts, max_depth=plan.max_depth, explainer=explain)
 
 
 @dataclass(frozen=True)

@@ -40,6 +40,16 @@ class Frame:
     buffers : dict of str to ndarray
         The buffers asked for with ``render(..., buffers=(...))``, by name
         (:mod:`raycast_shade.output.buffers`); empty otherwise.
+    terms : dict of str to ndarray
+        With ``render(..., terms=True)``: the reflectance equation's terms as
+        images, ``ambient``, ``diffuse``, ``specular``, ``reflected``, the
+        shadow mask, ... (:mod:`raycast_shade.shading.terms`); empty otherwise.
+    max_depth : int or None
+        The mirror bounces the frame was rendered with (``None``: unknown).
+    explainer : callable or None
+        ``explainer(frame, x, y)`` behind :meth:`explain`: :func:`raycast_shade.explain`,
+        set by :func:`raycast_shade.render`. It lives in the study layer, above this
+        one, so it is handed in rather than imported.
     """
 
     image: np.ndarray
@@ -51,6 +61,9 @@ class Frame:
     decisions: tuple = ()
     tone: dict = field(default_factory=dict)
     buffers: dict = field(default_factory=dict)
+    terms: dict = field(default_factory=dict)
+    max_depth: int | None = None
+    explainer: object = None
 
     @property
     def method(self) -> np.ndarray:
@@ -89,6 +102,15 @@ class Frame:
     def model_id(self) -> np.ndarray:
         """(H, W) int32 model index; -1 on the background."""
         return self.hits.geom
+
+    def explain(self, x: int, y: int):
+        """The reflectance equation at pixel ``(x, y)`` with its numbers filled in
+        (an :class:`~raycast_shade.study.explain.Explanation`; ``print`` it); see
+        :func:`raycast_shade.explain`."""
+        if self.explainer is None:
+            raise ValueError("explain: this frame was not made by raycast_shade.render; "
+                             "call raycast_shade.explain(frame, x, y)")
+        return self.explainer(self, x, y)
 
     def to_uint8(self, **kwargs) -> np.ndarray:
         """8-bit sRGB image; see :func:`raycast_shade.tonemap.to_uint8`."""

@@ -1,0 +1,586 @@
+"""A pixel explained: the reflectance equation at one pixel, with its numbers.
+
+:func:`explain` follows what the kernels do for that pixel, step by step, in
+float64 NumPy: where the method evaluates the equation (the face centre for
+flat, the three vertices for Gouraud, the pixel's point for Phong), the
+normal it uses (the face's; the vertex's; interpolated, renormalised and
+bumped), and per light the direction ``s``, the distance ``d`` and the
+attenuation, the shadow ray's answer (traced with Embree from the same
+offset origin as the kernels), ``n.s``, ``r`` or ``h`` and the specular
+cosine, and the diffuse and specular terms; mirrors add the reflected part,
+bounce by bounce. The total equals ``frame.image[y, x]`` to float32 rounding.
+
+The geometry helpers are those of the plain-NumPy twin
+(:mod:`raycast_shade.study.reference`); shadow rays, bump maps and mirror
+rays, which the twin leaves out, are followed here for one pixel.
+``str()`` of the result prints the lecture's formula with the numbers
+filled in (:mod:`raycast_shade.study.explain_text`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..common.layout import (BUMP_CLAMP, BUMP_COLS, BUMP_OFFSET, BUMP_ROWS, BUMP_SCALE, BUMP_TILE_U, BUMP_TILE_V,
+                             CAM_EYE, CAM_FORWARD, CAM_ORTHO, MAT_BLINN, MAT_KA, MAT_KD, MAT_KS, MAT_REFLECTIVITY,
+                             MAT_SHININESS)
+from ..common.validate import as_int
+from ..scene.lights import DirectionalLight
+from ..shading.shade import resolve_methods
+from ..visibility import embree
+from ..visibility.accel import embree_accel
+from ..visibility.cast import cast_rays_kernel
+from ..visibility.rays import camera_frame
+from .explain_text import format_explanation
+from .reference import _facing, _interpolated_normal, _view
+
+__all__ = ["explain", "Explanation", "PointShade", "LightTerm", "Bounce"]
+
+_METHOD_NAMES = ("flat", "gouraud", "phong")
+_SHADOW_TFAR = 1.0 - 1e-5  # as the kernels' point-light shadow rays: stop just short of the light
+_MIN_WEIGHT = 2.0 ** -24  # as trace_mirrors: a ray that can no longer change a float32 pixel stops
+
+
+@dataclass(frozen=True)
+class LightTerm:
+    """One light's contribution at one point.
+
+    Attributes
+    ----------
+    index : int
+        The light's index in ``scene.lights``.
+    directional : bool
+    position : (3,) float64 or None
+        World position of a point light.
+    d : float or None
+        Distance to a point light.
+    law : str
+        Attenuation law (``"none"`` for directional lights).
+    att : float
+        Attenuation factor: 1, ``1/max(d, dmin)^2`` or ``1/(d + k)``.
+    radiance : (3,) float64
+        ``Ii * color``.
+    s : (3,) float64 or None
+        Unit vector towards the light (``None`` for a light on the point).
+    ndots : float or None
+        ``n.s`` before clamping.
+    shadow : str
+        ``"lit"`` (the shadow ray got through), ``"blocked"``, ``"no shadows"``
+        (the light casts none) or ``"not traced"`` (the light does not reach
+        the point anyway).
+    specular_model : str
+        ``"phong"`` (``r.v``) or ``"blinn"`` (``n.h``).
+    rh : (3,) float64 or None
+        ``r = 2 (n.s) n - s`` or ``h = (s + v) / |s + v|``.
+    cos : float or None
+        ``r.v`` or ``n.h`` before clamping.
+    spec : float
+        ``min(cos, 1)^t``, 0 where ``cos <= 0``.
+    diffuse, specular : (3,) float64
+        ``att Ii kd (n.s)`` and ``att Ii Ks spec`` (zero where the light does not arrive).
+    """
+
+    index: int
+    directional: bool
+    position: object
+    d: object
+    law: str
+    k: float
+    att: float
+    radiance: np.ndarray
+    s: object
+    ndots: object
+    shadow: str
+    specular_model: str
+    rh: object
+    cos: object
+    spec: float
+    diffuse: np.ndarray
+    specular: np.ndarray
+
+    @property
+    def arrives(self) -> bool:
+        """True where the light lights the point (it faces the light, no shadow)."""
+        return self.shadow in ("lit", "no shadows")
+
+
+@dataclass(frozen=True)
+class PointShade:
+    """The reflectance equation evaluated at one point.
+
+    Attributes
+    ----------
+    where : str
+        ``"pixel"``, ``"face centre"``, ``"vertex 17"``, ``"bounce 1"``.
+    p : (3,) float64
+        The point, world coordinates.
+    n, v : (3,) float64
+        Unit normal used, unit vector towards the viewer.
+    model : int
+    ka, kd, ks : (3,) float64
+    shininess : float
+    ambient : (3,) float64
+        ``Ia ka``.
+    lights : tuple of LightTerm
+    normal_note : str
+        How ``n`` was obtained.
+    """
+
+    where: str
+    p: np.ndarray
+    n: np.ndarray
+    v: np.ndarray
+    model: int
+    ka: np.ndarray
+    kd: np.ndarray
+    ks: np.ndarray
+    shininess: float
+    ia: np.ndarray
+    ambient: np.ndarray
+    lights: tuple
+    normal_note: str = ""
+
+    @property
+    def diffuse(self) -> np.ndarray:
+        return sum((t.diffuse for t in self.lights), np.zeros(3))
+
+    @property
+    def specular(self) -> np.ndarray:
+        return sum((t.specular for t in self.lights), np.zeros(3))
+
+    @property
+    def total(self) -> np.ndarray:
+        """(3,) ``ambient + diffuse + specular``."""
+        return self.ambient + self.diffuse + self.specular
+
+
+@dataclass(frozen=True)
+class Bounce:
+    """One mirror bounce: the ray, what it hit, and what it adds.
+
+    ``colour`` is ``keep`` times the local shade of what the ray sees (or the
+    background on a miss); the pixel gains ``weight * colour``."""
+
+    depth: int
+    origin: np.ndarray
+    direction: np.ndarray
+    weight: float
+    model: int
+    triangle: int
+    shade: object
+    keep: float
+    colour: np.ndarray
+
+
+@dataclass(frozen=True)
+class Explanation:
+    """The model at one pixel with its numbers; ``str()`` prints them as a formula.
+
+    Attributes
+    ----------
+    x, y : int
+    method : str or None
+        ``"flat"``, ``"gouraud"``, ``"phong"``; ``None`` on the background.
+    model : int
+        Model index (-1 on the background); ``model_name`` its mesh's name.
+    triangle : int
+        Triangle index within the model; ``vertex_ids`` its (global) vertices.
+    barycentrics : (3,) float64
+        ``(1 - u - v, u, v)`` from the hit buffer.
+    shades : tuple of PointShade
+        Where the equation was evaluated: one (flat, Phong) or three (Gouraud).
+    weights : (k,) float64
+        The weights that combine ``shades``: (1,) or Gouraud's (3,) clamped
+        barycentrics.
+    ambient, diffuse, specular, local : (3,) float64
+        The weighted terms, and their sum.
+    rho : float
+        Reflectivity of the surface (0: no mirror part).
+    bounces : tuple of Bounce
+    reflected : (3,) float64
+        ``sum weight * colour`` over the bounces.
+    total : (3,) float64
+        ``(1 - rho) local + reflected`` (mirrors), ``local`` otherwise, the
+        background colour where nothing is hit.
+    image : (3,) float32
+        ``frame.image[y, x]``, for comparison.
+    """
+
+    x: int
+    y: int
+    method: object
+    model: int
+    model_name: str
+    triangle: int
+    vertex_ids: tuple
+    barycentrics: np.ndarray
+    shades: tuple
+    weights: np.ndarray
+    ambient: np.ndarray
+    diffuse: np.ndarray
+    specular: np.ndarray
+    local: np.ndarray
+    rho: float
+    bounces: tuple
+    reflected: np.ndarray
+    total: np.ndarray
+    image: np.ndarray
+
+    def __str__(self) -> str:
+        return format_explanation(self)
+
+    def _repr_pretty_(self, p, cycle):  # IPython prints the formula, not the field dump
+        p.text(str(self))
+
+
+# -- the kernels' geometry, for one point -------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class _Context:
+    """What every evaluation of a frame reads."""
+
+    geo: object
+    scene: object
+    eye: np.ndarray
+    fwd: np.ndarray
+    ortho: bool
+    dmin: float
+    unit: float
+    shadow_handle: int
+    spec_on: bool
+
+
+def _context(frame) -> _Context:
+    scene, camera = frame.scene, frame.camera
+    geo = scene.geometry
+    cam = camera_frame(camera, geo.origin)
+    shadows = any(light.shadows for light in scene.lights)
+    return _Context(geo=geo, scene=scene, eye=cam[CAM_EYE:CAM_EYE + 3], fwd=cam[CAM_FORWARD:CAM_FORWARD + 3],
+                    ortho=cam[CAM_ORTHO] != 0.0, dmin=1e-6 * geo.scale, unit=float(geo.scale),
+                    shadow_handle=int(embree_accel(geo).handle) if shadows else 0,
+                    spec_on=bool(np.any(geo.materials[:, MAT_KS:MAT_KS + 3] > 0)))
+
+
+def _unit_view(ctx, p):
+    return _view(ctx.eye, ctx.fwd, ctx.ortho, p[None])[0]
+
+
+def _oriented(ctx, f, v):
+    """The face's geometric normal turned to ``v``, and the sign that turned it."""
+    g, sgn = _facing(ctx.geo.face_normals[f][None], v[None])
+    return g[0], float(sgn[0])
+
+
+def _nudge(p, n, unit):
+    """The kernels' shadow/mirror ray origin offset, one coordinate (shading.shadows)."""
+    if abs(p) < unit * (1.0 / 32.0):
+        return p + n * (unit * (1.0 / 65536.0))
+    _, e = math.frexp(p)
+    return p + n * math.ldexp(256.0, e - 24)
+
+
+def _occluded(ctx, o, g, s, target, is_point) -> bool:
+    """The kernels' shadow ray, traced with rtcOccluded1 from the same float32 ray."""
+    side = 1.0 if float(g @ s) >= 0.0 else -1.0
+    origin = np.array([_nudge(o[k], side * g[k], ctx.unit) for k in range(3)])
+    direction, tfar = (target - origin, _SHADOW_TFAR) if is_point else (s, np.inf)
+    buf = np.zeros(24, np.float32)
+    off = ((16 - buf.ctypes.data % 16) % 16) // 4
+    ray = buf[off:off + 12]
+    ray[0:3] = origin
+    ray[4:7] = direction
+    ray[8] = tfar
+    ints = ray.view(np.uint32)
+    ints[9], ints[10], ints[11] = 0xFFFFFFFF, 0, 0
+    embree.occluded1_ray(np.uintp(ctx.shadow_handle), ray)
+    return bool(ray[8] < 0.0)
+
+
+def _light_term(ctx, i, p, n, v, row, o, g) -> LightTerm:
+    """Light ``i`` at point ``p`` as :func:`raycast_shade.shading.illumination._illuminate_py` sees it."""
+    light = ctx.scene.lights[i]
+    radiance = np.asarray(light.radiance, np.float64)
+    directional = isinstance(light, DirectionalLight)
+    law = "none" if directional else light.attenuation
+    k = 1.0 if directional else float(light.k)
+    blinn = row[MAT_BLINN] != 0.0
+    zero = np.zeros(3)
+    base = dict(index=i, directional=directional, law=law, k=k, radiance=radiance,
+                specular_model="blinn" if blinn else "phong")
+    if directional:
+        target, d, att, s = None, None, 1.0, -np.asarray(light.direction, np.float64)
+    else:
+        target = light.position - ctx.geo.origin
+        dv = target - p
+        d = float(np.sqrt(dv @ dv))
+        if d == 0.0:  # the light on the point: no direction, no light
+            return LightTerm(position=light.position, d=d, att=1.0, s=None, ndots=None, shadow="not traced",
+                             rh=None, cos=None, spec=0.0, diffuse=zero, specular=zero, **base)
+        s = dv / d
+        att = {"none": 1.0, "inverse_square": 1.0 / max(d, ctx.dmin) ** 2, "heuristic": 1.0 / (d + k)}[law]
+    position = None if directional else light.position
+    ndots = float(n @ s)
+    if ndots <= 0.0:
+        return LightTerm(position=position, d=d, att=att, s=s, ndots=ndots, shadow="not traced", rh=None, cos=None,
+                         spec=0.0, diffuse=zero, specular=zero, **base)
+    shadow = "no shadows"
+    if light.shadows and ctx.shadow_handle:
+        shadow = "blocked" if _occluded(ctx, o, g, s, target, not directional) else "lit"
+    cn = min(ndots, 1.0)
+    rh, cos, spec = None, None, 0.0
+    ks, kd = row[MAT_KS:MAT_KS + 3], row[MAT_KD:MAT_KD + 3]
+    if ctx.spec_on and np.any(ks > 0.0):
+        if blinn:
+            hv = s + v
+            hl = float(np.sqrt(hv @ hv))
+            rh = hv / hl if hl > 0.0 else hv
+            cos = float(n @ hv) / hl if hl > 0.0 else 0.0
+        else:
+            rh = 2.0 * cn * n - s
+            cos = float(rh @ v)
+        spec = min(cos, 1.0) ** row[MAT_SHININESS] if cos > 0.0 else 0.0
+    if shadow == "blocked":
+        diffuse, specular = zero, zero
+    else:
+        diffuse, specular = att * radiance * kd * cn, att * radiance * ks * spec
+    return LightTerm(position=position, d=d, att=att, s=s, ndots=ndots, shadow=shadow, rh=rh, cos=cos, spec=spec,
+                     diffuse=diffuse, specular=specular, **base)
+
+
+def _evaluate(ctx, where, p, n, v, model, o, g, note="") -> PointShade:
+    """The reflectance equation at ``p`` (re-centred) with shadow rays from ``o`` offset along ``g``."""
+    row = ctx.geo.materials[model]
+    ia = np.asarray(ctx.scene.ambient, np.float64)
+    lights = tuple(_light_term(ctx, i, p, n, v, row, o, g) for i in range(len(ctx.scene.lights)))
+    return PointShade(where=where, p=p + ctx.geo.origin, n=n, v=v, model=int(model), ka=row[MAT_KA:MAT_KA + 3],
+                      kd=row[MAT_KD:MAT_KD + 3], ks=row[MAT_KS:MAT_KS + 3], shininess=float(row[MAT_SHININESS]),
+                      ia=ia, ambient=ia * row[MAT_KA:MAT_KA + 3], lights=lights, normal_note=note)
+
+
+def _bilinear(tex, base, rows, cols, clamp, x, y):
+    j0, i0 = math.floor(x), math.floor(y)
+    tx, ty = x - j0, y - i0
+    j1, i1 = j0 + 1, i0 + 1
+    if clamp:
+        j0, j1 = min(max(j0, 0), cols - 1), min(max(j1, 0), cols - 1)
+        i0, i1 = min(max(i0, 0), rows - 1), min(max(i1, 0), rows - 1)
+    else:
+        j0, j1, i0, i1 = j0 % cols, j1 % cols, i0 % rows, i1 % rows
+    t = lambda i, j: float(tex[base + i * cols + j])  # noqa: E731
+    a = t(i0, j0) * (1.0 - tx) + t(i0, j1) * tx
+    b = t(i1, j0) * (1.0 - tx) + t(i1, j1) * tx
+    return a * (1.0 - ty) + b * ty
+
+
+def _bumped(geo, n, f, model, tri, bary, front):
+    """Blinn's perturbed normal, as :mod:`raycast_shade.shading.bump` computes it; ``n`` without a bump map."""
+    k = geo.bump_index[model]
+    if k < 0:
+        return n
+    tu, tv = bary @ geo.uvs[tri]
+    info = geo.bump_info[k]
+    base, rows, cols = int(info[BUMP_OFFSET]), int(info[BUMP_ROWS]), int(info[BUMP_COLS])
+    clamp, su, sv, scale = info[BUMP_CLAMP] != 0.0, info[BUMP_TILE_U], info[BUMP_TILE_V], info[BUMP_SCALE]
+    x, y = tu * su * cols - 0.5, tv * sv * rows - 0.5
+    tex = geo.bump_texels
+    bu = (_bilinear(tex, base, rows, cols, clamp, x + 0.5, y)
+          - _bilinear(tex, base, rows, cols, clamp, x - 0.5, y)) * cols * su * scale
+    bv = (_bilinear(tex, base, rows, cols, clamp, x, y + 0.5)
+          - _bilinear(tex, base, rows, cols, clamp, x, y - 0.5)) * rows * sv * scale
+    pu, pv = geo.tangents[f, 0:3], geo.tangents[f, 3:6]
+    c = np.cross(pu, pv)
+    if c @ front < 0.0:  # left-handed UVs
+        bu, bv = -bu, -bv
+    a = np.sqrt(c @ c) * n + bu * np.cross(n, pv) - bv * np.cross(n, pu)
+    al = float(np.sqrt(a @ a))
+    if not (0.0 < al < np.inf):
+        return n
+    return a / al
+
+
+def _terminator(geo, tri, bary, p, sgn):
+    """Hanika's shadow-ray origin (:func:`raycast_shade.shading.surface._terminator_point`)."""
+    q = p.copy()
+    for k in range(3):
+        nk = sgn * geo.normals[tri[k]]
+        d = float((p - geo.vertices[tri[k]]) @ nk)
+        if d < 0.0:
+            q -= bary[k] * d * nk
+    return q
+
+
+def _surface(ctx, f, model, b1, b2, v=None):
+    """Point, view, oriented geometric normal and sign, shading normal (interpolated,
+    renormalised, bumped) and a note on it: the Phong kernels' ``_surface``."""
+    geo = ctx.geo
+    tri = geo.faces[f]
+    bary = np.array([1.0 - b1 - b2, b1, b2])
+    p = bary @ geo.vertices[tri]
+    v = _unit_view(ctx, p) if v is None else v
+    g, sgn = _oriented(ctx, f, v)
+    n = _interpolated_normal(geo.normals, tri[None], bary[None], g[None], np.array([sgn]))[0]
+    a = bary @ geo.normals[tri]
+    note = f"a = sum mu_k n_k = {_short(a)}, |a| = {np.linalg.norm(a):.4g}, n = a / |a|"
+    bumped = _bumped(geo, n, f, model, tri, bary, sgn * g)
+    if bumped is not n:
+        note += f"; bumped (Blinn) from {_short(n)}"
+    return p, v, g, sgn, bumped, tri, bary, note
+
+
+def _short(x):
+    return "(" + ", ".join(f"{c:.4g}" for c in x) + ")"
+
+
+def _convex_weights(b1, b2):
+    """Gouraud's weights clamped onto the triangle (:func:`raycast_shade.shading.surface._convex_weights`)."""
+    if not (b1 >= 0.0 and b2 >= 0.0 and b1 + b2 <= 1.0):
+        b1, b2 = min(max(b1, 0.0), 1.0), min(max(b2, 0.0), 1.0)
+        s = b1 + b2
+        if s > 1.0:
+            b1, b2 = b1 / s, b2 / s
+    return np.array([max(1.0 - b1 - b2, 0.0), b1, b2])
+
+
+# -- the three methods ---------------------------------------------------------------------------------------
+
+def _flat(ctx, f, model):
+    third = 1.0 / 3.0
+    tri = ctx.geo.faces[f]
+    p = np.array([1.0 - third - third, third, third]) @ ctx.geo.vertices[tri]
+    v = _unit_view(ctx, p)
+    g, _ = _oriented(ctx, f, v)
+    return (_evaluate(ctx, "face centre", p, g, v, model, p, g, "the face's normal, turned to the viewer"),), \
+        np.ones(1)
+
+
+def _gouraud(ctx, f, model, b1, b2):
+    geo = ctx.geo
+    tri = geo.faces[f]
+    p = np.array([1.0 - b1 - b2, b1, b2]) @ geo.vertices[tri]
+    g, sgn = _oriented(ctx, f, _unit_view(ctx, p))
+    sg = 1.0 if sgn > 0.0 else -1.0  # the side the pixel sees: front (vertex normal) or back (negated)
+    shades = []
+    for i in tri:
+        q = geo.vertices[i]
+        n = sg * geo.normals[i]
+        c = float(n @ g)
+        if not np.any(n != 0.0):
+            n, gs, note = g, g, "the vertex has no normal: the face's"
+        elif c < 0.0:
+            n, gs, note = n - 2.0 * c * g, g, "the vertex normal, reflected into the face's hemisphere"
+        else:
+            gs, note = n, "the vertex's averaged normal" + (" (negated: back side)" if sg < 0 else "")
+        shades.append(_evaluate(ctx, f"vertex {int(i)}", q, n, _unit_view(ctx, q), model, q, gs, note))
+    return tuple(shades), _convex_weights(b1, b2)
+
+
+def _phong(ctx, f, model, b1, b2, where="pixel", v=None):
+    p, v, g, sgn, n, tri, bary, note = _surface(ctx, f, model, b1, b2, v)
+    o = _terminator(ctx.geo, tri, bary, p, sgn) if ctx.shadow_handle else p
+    return _evaluate(ctx, where, p, n, v, model, o, g, note)
+
+
+def _mirror_ray(ctx, p, v, g, n):
+    """Reflect ``-v`` about ``n``, kept above the surface, from an origin pushed off along ``g``."""
+    dn = -float(v @ n)
+    r = -v - 2.0 * dn * n
+    c = float(r @ g)
+    if c < 0.0:
+        r = r - 2.0 * c * g
+    return np.array([_nudge(p[k], g[k], ctx.unit) for k in range(3)]), r
+
+
+def _bounces(ctx, f, model, b1, b2, max_depth):
+    """The mirror path of one pixel (:func:`raycast_shade.shading.mirrors.trace_mirrors`, one ray)."""
+    geo = ctx.geo
+    p, v, g, _, n, _, _, _ = _surface(ctx, f, model, b1, b2)
+    origin, direction = _mirror_ray(ctx, p, v, g, n)
+    weight = float(geo.materials[model, MAT_REFLECTIVITY])
+    handle = embree_accel(geo).handle
+    out = []
+    for depth in range(1, max_depth + 1):
+        prim, gm = np.empty(1, np.int32), np.empty(1, np.int32)
+        u, w, t = np.empty(1, np.float32), np.empty(1, np.float32), np.empty(1, np.float32)
+        cast_rays_kernel(handle, origin[None], direction[None], np.zeros(1), np.full(1, np.inf), prim, gm, u, w, t)
+        if prim[0] < 0:
+            bg = np.asarray(ctx.scene.background, np.float64)
+            out.append(Bounce(depth, origin + geo.origin, direction, weight, -1, -1, None, 1.0, bg))
+            break
+        m = int(gm[0])
+        f2 = int(geo.face_offsets[m] + prim[0])
+        shade = _phong(ctx, f2, m, float(u[0]), float(w[0]), where=f"bounce {depth}", v=-direction)
+        rho = float(geo.materials[m, MAT_REFLECTIVITY])
+        more = rho > 0.0 and depth < max_depth
+        keep = 1.0 - rho if more else 1.0
+        out.append(Bounce(depth, origin + geo.origin, direction, weight, m, int(prim[0]), shade, keep,
+                          keep * shade.total))
+        if not more:
+            break
+        p2, v2, g2, _, n2, _, _, _ = _surface(ctx, f2, m, float(u[0]), float(w[0]), -direction)
+        origin, direction = _mirror_ray(ctx, p2, v2, g2, n2)
+        weight *= rho
+        if weight < _MIN_WEIGHT:
+            break
+    return tuple(out)
+
+
+def explain(frame, x, y) -> Explanation:
+    """The reflectance equation at pixel ``(x, y)`` of a rendered frame, with its numbers.
+
+    Parameters
+    ----------
+    frame : Frame
+        From :func:`raycast_shade.render` (its scene, camera, hit buffer and shading).
+    x, y : int
+        Column and row, ``0 <= x < width``, ``0 <= y < height``.
+
+    Returns
+    -------
+    Explanation
+        ``.total`` equals ``frame.image[y, x]`` to float32 rounding;
+        ``print()`` it for the formula with the numbers.
+
+    Raises
+    ------
+    TypeError, ValueError
+        For a pixel outside the image or a frame without its scene.
+    """
+    if getattr(frame, "scene", None) is None or getattr(frame, "hits", None) is None:
+        raise TypeError(f"frame: expected a Frame from raycast_shade.render, got {type(frame).__name__}")
+    h, w = frame.hits.shape
+    x = as_int(x, "x", minimum=0, maximum=w - 1)
+    y = as_int(y, "y", minimum=0, maximum=h - 1)
+    ctx = _context(frame)
+    geo, hits = ctx.geo, frame.hits
+    image = np.asarray(frame.image[y, x], np.float32).copy()
+    prim = int(hits.prim[y, x])
+    zero = np.zeros(3)
+    if prim < 0:
+        bg = np.asarray(frame.scene.background, np.float64)
+        return Explanation(x, y, None, -1, "", -1, (), zero, (), np.zeros(0), zero, zero, zero, zero, 0.0, (), zero,
+                           bg, image)
+    model = int(hits.geom[y, x])
+    method = _METHOD_NAMES[int(resolve_methods(frame.scene, frame.shading)[model])]
+    f = int(geo.face_offsets[model] + prim)
+    b1, b2 = float(hits.u[y, x]), float(hits.v[y, x])
+    if method == "flat":
+        shades, weights = _flat(ctx, f, model)
+    elif method == "gouraud":
+        shades, weights = _gouraud(ctx, f, model, b1, b2)
+    else:
+        shades, weights = (_phong(ctx, f, model, b1, b2),), np.ones(1)
+    terms = [sum((wk * getattr(s, name) for wk, s in zip(weights, shades)), np.zeros(3))
+             for name in ("ambient", "diffuse", "specular")]
+    local = sum((wk * s.total for wk, s in zip(weights, shades)), np.zeros(3))
+    rho = float(geo.materials[model, MAT_REFLECTIVITY])
+    depth = frame.max_depth if frame.max_depth is not None else 0
+    bounces = _bounces(ctx, f, model, b1, b2, depth) if rho > 0.0 and depth > 0 else ()
+    reflected = sum((b.weight * b.colour for b in bounces), np.zeros(3))
+    total = (1.0 - rho) * local + reflected if bounces else local
+    name = frame.scene.models[model].mesh.name
+    return Explanation(x, y, method, model, name, prim, tuple(int(i) for i in geo.faces[f]),
+                       np.array([1.0 - b1 - b2, b1, b2]), shades, weights, *terms, local, rho if bounces else 0.0,
+                       bounces, reflected, total, image)
