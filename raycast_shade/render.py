@@ -199,22 +199,25 @@ def _render_samples(scene, plan: _Plan, timings: dict):
     image and the coverage; one sample's buffers are alive at a time."""
     camera = plan.camera
     shader = SampleShading(scene, camera, plan.shading)
-    acc = np.zeros((camera.height, camera.width, 3), np.float64)
-    count = np.zeros((camera.height, camera.width), np.int32)
+    acc = np.empty((camera.height, camera.width, 3), np.float64)
+    count = np.empty((camera.height, camera.width), np.int32)
     mirrors = scene.geometry.reflective and plan.max_depth > 0
-    centre = None
-    for dx, dy in sample_offsets(plan.samples):
+    image = np.empty((camera.height, camera.width, 3), np.float32)
+    offsets = sample_offsets(plan.samples)
+    for i, (dx, dy) in enumerate(offsets):
         hits = _visibility(scene, plan, timings, (dx, dy))
         ts = time.perf_counter()
-        image = shader.shade(hits)
+        shader.shade(hits, out=image)
         te = time.perf_counter()
         timings["shade"] = timings.get("shade", 0.0) + te - ts
         if mirrors:  # per sample: a mirror's reflection is anti-aliased too
             trace_mirrors(scene, camera, hits, image, plan.max_depth)
             timings["mirror"] = timings.get("mirror", 0.0) + time.perf_counter() - te
-        accumulate(image, hits.prim, acc, count)
-        centre = hits if centre is None else centre
-    image, coverage = sample_mean(acc, count, plan.samples)
+        if i == 0:
+            centre = hits
+        if i < len(offsets) - 1:
+            accumulate(image, hits.prim, acc, count, first=i == 0)
+    image, coverage = sample_mean(acc, count, image, hits.prim, plan.samples)  # adds the last sample
     return centre, image, coverage
 
 

@@ -212,11 +212,12 @@ class SampleShading:
                 variant(_VERTICES, k)(new, k["G"], geo.vertex_model, k["materials"], k["cam"], k["L"], self.vcol)
                 self.vertex_done |= new
 
-    def shade(self, hits) -> np.ndarray:
-        """(H, W, 3) float32 linear image of one sample's hit buffer (valid by construction)."""
+    def shade(self, hits, out=None) -> np.ndarray:
+        """(H, W, 3) float32 linear image of one sample's hit buffer (valid by construction),
+        written to ``out`` when given (one buffer serves every sample: no fresh pages each time)."""
         k, geo, modes = self.k, self.geo, self.modes
         h, w = hits.shape
-        image = np.empty((h, w, 3), np.float32)
+        image = np.empty((h, w, 3), np.float32) if out is None else out
         if self.flat or self.gouraud:
             self._share(hits)
         if self.flat:
@@ -231,44 +232,50 @@ class SampleShading:
 
 
 @njit(parallel=True, cache=True)
-def _accumulate_kernel(image, prim, acc, count):
+def _accumulate_kernel(image, prim, acc, count, first):
     h, w = prim.shape
     for y in prange(h):
         for x in range(w):
-            for c in range(3):
-                acc[y, x, c] += image[y, x, c]
-            if prim[y, x] >= 0:
-                count[y, x] += 1
+            hit = 1 if prim[y, x] >= 0 else 0
+            if first:  # no read of the fresh (untouched) accumulator
+                for c in range(3):
+                    acc[y, x, c] = image[y, x, c]
+                count[y, x] = hit
+            else:
+                for c in range(3):
+                    acc[y, x, c] += image[y, x, c]
+                count[y, x] += hit
 
 
-def accumulate(image, prim, acc, count) -> None:
+def accumulate(image, prim, acc, count, first: bool = False) -> None:
     """Add one sample: ``acc += image`` ((H, W, 3) float64 += float32) and
-    ``count += (prim >= 0)`` ((H, W) int32), in place."""
-    _accumulate_kernel(image, prim, acc, count)
+    ``count += (prim >= 0)`` ((H, W) int32), in place; ``first`` sets them instead."""
+    _accumulate_kernel(image, prim, acc, count, first)
 
 
 @njit(parallel=True, cache=True)
-def _mean_kernel(acc, count, n, out, coverage):
+def _mean_kernel(acc, count, image, prim, n, out, coverage):
     h, w = count.shape
     inv = 1.0 / n
     for y in prange(h):
         for x in range(w):
             for c in range(3):
-                out[y, x, c] = acc[y, x, c] / n
-            coverage[y, x] = count[y, x] * inv
+                out[y, x, c] = (acc[y, x, c] + image[y, x, c]) / n
+            coverage[y, x] = (count[y, x] + (1 if prim[y, x] >= 0 else 0)) * inv
 
 
-def sample_mean(acc, count, n: int):
-    """The box filter's result after ``n`` samples.
+def sample_mean(acc, count, image, prim, n: int):
+    """The box filter's result: the last sample (``image``, ``prim``) added to the
+    first ``n - 1`` (``acc``, ``count``), divided by ``n`` (one pass, no write back).
 
     Returns
     -------
     image : (H, W, 3) float32
-        ``acc / n``.
+        ``(acc + image) / n``.
     coverage : (H, W) float32
-        ``count / n``: the fraction of the pixel's samples that hit a surface.
+        The fraction of the pixel's ``n`` samples that hit a surface.
     """
     out = np.empty(acc.shape, np.float32)
     coverage = np.empty(count.shape, np.float32)
-    _mean_kernel(acc, count, float(n), out, coverage)
+    _mean_kernel(acc, count, image, prim, float(n), out, coverage)
     return out, coverage
