@@ -5,11 +5,14 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 
+import numpy as np
+
 from .scene.camera import Camera
 from .visibility.accel import embree_accel, has_embree_accel
 from .visibility.cast import cast_camera, resolve_caster, secondary_rays
 from .visibility.interpolation import to_screen_space
 from .visibility.raster import rasterize
+from .visibility.rays import subpixel_camera
 from .output.buffers import check_buffers, compute_buffers
 from .output.frame import Frame
 from .scene.pitfalls import warn_render
@@ -17,9 +20,10 @@ from .scene.scene import Scene
 from .study.auto import choose_methods
 from .study.explain import explain
 from .common.choices import BACKENDS, CASTER_CHOICES, INTERPOLATIONS, SHADING_CHOICES
+from .common.samples import check_samples, sample_offsets
 from .common.validate import as_int, as_scalar
 from .shading.mirrors import MAX_MIRROR_DEPTH, trace_mirrors
-from .shading.shade import resolve_methods, shade_hits
+from .shading.shade import SampleShading, accumulate, resolve_methods, sample_mean, shade_hits
 from .shading.terms import check_terms, shade_terms
 
 __all__ = ["render", "render_file"]
@@ -27,7 +31,7 @@ __all__ = ["render", "render_file"]
 
 def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backend: str = "raycast",
            interpolation: str = "perspective", caster: str = "auto", max_depth: int = 3,
-           tolerance: float = 0.01, buffers=(), terms=False) -> Frame:
+           tolerance: float = 0.01, buffers=(), terms=False, samples: int = 1) -> Frame:
     """Render a scene.
 
     Parameters
@@ -62,7 +66,16 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
         (checked in every mode).
     buffers : sequence of str
         Per-pixel buffers to put on ``frame.buffers`` by name: ``"zdepth"``,
-        ``"position"``, ``"normal_camera"``, ... (:mod:`raycast_shade.output.buffers`).
+        ``"position"``, ``"normal_camera"``, ``"coverage"``, ...
+        (:mod:`raycast_shade.output.buffers`).
+    samples : int
+        Anti-aliasing rays per pixel, ``1 <= samples <= MAX_SAMPLES`` (1024),
+        on the pattern of :mod:`raycast_shade.common.samples` (sample 0 the
+        pixel centre), each shaded (mirrors too) and averaged with equal
+        weights: a box filter over the pixel. Both backends take them. The
+        hit buffer, depth, normals and ids stay sample 0's, exactly the
+        ``samples=1`` ones; ``"coverage"`` is the fraction of samples that
+        hit. ``samples=1`` is the one-ray-per-pixel frame, bit for bit.
     terms : bool, str or sequence of str
         ``True``: the reflectance equation's terms as images on ``frame.terms``
         (ambient, diffuse, specular, reflected, shadow mask; ``"per_light"``
@@ -85,23 +98,31 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
         (the message says why), before any kernel runs.
     """
     t0 = time.perf_counter()
-    plan = _plan(scene, shading, camera, backend, interpolation, caster, max_depth, tolerance, buffers)
+    plan = _plan(scene, shading, camera, backend, interpolation, caster, max_depth, tolerance, buffers, samples)
     terms = check_terms(terms)
+    if terms is not None and plan.samples > 1:
+        raise ValueError(f"terms: the terms are those of one ray per pixel; with samples={plan.samples} they "
+                         "would not add up to the averaged image: render them with samples=1")
     camera, shading = plan.camera, plan.shading
     warn_render(scene, shading)  # no lights, a light inside a closed mesh, a bump map the method ignores
     timings = {}
-    hits = _visibility(scene, plan, timings)
-    ts = time.perf_counter()
-    image = shade_hits(scene, camera, hits, shading)  # hits from our caster or rasterizer: valid by construction
-    te = time.perf_counter()
-    timings["shade"] = te - ts
-    if scene.geometry.reflective and plan.max_depth > 0:
-        trace_mirrors(scene, camera, hits, image, plan.max_depth)
-        timings["mirror"] = time.perf_counter() - te
+    coverage = None
+    if plan.samples == 1:
+        hits = _visibility(scene, plan, timings)
+        ts = time.perf_counter()
+        image = shade_hits(scene, camera, hits, shading)  # hits from our caster or rasterizer: valid by construction
+        te = time.perf_counter()
+        timings["shade"] = te - ts
+        if scene.geometry.reflective and plan.max_depth > 0:
+            trace_mirrors(scene, camera, hits, image, plan.max_depth)
+            timings["mirror"] = time.perf_counter() - te
+            te = time.perf_counter()
+    else:
+        hits, image, coverage = _render_samples(scene, plan, timings)
         te = time.perf_counter()
     extra = {}
     if plan.buffers:
-        extra = compute_buffers(scene, camera, hits, plan.buffers, shading)
+        extra = compute_buffers(scene, camera, hits, plan.buffers, shading, coverage=coverage)
         timings["buffers"] = time.perf_counter() - te
         te = time.perf_counter()
     parts = {} if terms is None else shade_terms(scene, camera, hits, shading, plan.max_depth, "per_light" in terms)
@@ -110,7 +131,14 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
         te = time.perf_counter()
     timings["total"] = te - t0
     return Frame(image=image, hits=hits, shading=shading, scene=scene, camera=camera, timings=timings,
-                 decisions=plan.decisions, buffers=extra, terms=parts, max_depth=plan.max_depth, explainer=explain)
+                 decisions=plan.decisions, buffers=extra, terms=parts, max_depth=plan.max_depth,
+                 explainer=explain if plan.samples == 1 else _averaged)
+
+
+def _averaged(frame, x, y):
+    """Frame.explain of an anti-aliased frame: its pixels are averages of several models, not one."""
+    raise ValueError(f"explain: pixel ({x}, {y}) averages several samples (render(samples=...)); explain() "
+                     "gives the model of one ray per pixel: render the frame with samples=1")
 
 
 @dataclass(frozen=True)
@@ -125,9 +153,11 @@ class _Plan:
     max_depth: int
     buffers: tuple
     decisions: tuple
+    samples: int = 1
 
 
-def _plan(scene, shading, camera, backend, interpolation, caster, max_depth, tolerance, buffers) -> _Plan:
+def _plan(scene, shading, camera, backend, interpolation, caster, max_depth, tolerance, buffers,
+          samples=1) -> _Plan:
     """Every argument checked before any kernel runs (the names as the user spelled them)."""
     if not isinstance(scene, Scene):
         raise TypeError(f"scene: expected a Scene, got {type(scene).__name__}")
@@ -149,6 +179,7 @@ def _plan(scene, shading, camera, backend, interpolation, caster, max_depth, tol
     except TypeError as exc:  # a ValueError for every bad tolerance, as choose_methods has always raised
         raise ValueError(str(exc)) from None
     buffers = check_buffers(buffers)
+    samples = check_samples(samples)  # NumPy integers too
     camera = camera if camera is not None else scene.camera
     if camera is None:
         raise ValueError("camera: the scene has no camera and none was passed")
@@ -161,7 +192,7 @@ def _plan(scene, shading, camera, backend, interpolation, caster, max_depth, tol
     if shading == "auto":
         decisions = tuple(choose_methods(scene, camera, tolerance))
         shading = tuple(d.method for d in decisions)
-    return _Plan(shading, camera, backend, interpolation, caster, max_depth, buffers, decisions)
+    return _Plan(shading, camera, backend, interpolation, caster, max_depth, buffers, decisions, samples)
 
 
 def _choice(value, name: str, choices) -> str:
@@ -171,9 +202,10 @@ def _choice(value, name: str, choices) -> str:
     return value.lower()
 
 
-def _visibility(scene, plan: _Plan, timings: dict):
-    """The hit buffer of ``plan.camera``, by ray casting or rasterization (timed into ``timings``)."""
-    camera = plan.camera
+def _visibility(scene, plan: _Plan, timings: dict, offset=(0.0, 0.0)):
+    """The hit buffer of ``plan.camera``, by ray casting or rasterization (timed into ``timings``,
+    summed over calls), through the pixel centres or the points ``offset`` pixels off them."""
+    camera = subpixel_camera(plan.camera, *offset)  # plan.camera itself at the centre
     fresh = "geometry" not in scene.__dict__ or not has_embree_accel(scene.geometry)
     if fresh and plan.caster != "embreex" and plan.backend == "raycast":
         tb = time.perf_counter()
@@ -186,8 +218,37 @@ def _visibility(scene, plan: _Plan, timings: dict):
         hits = rasterize(scene.geometry, camera)
     if plan.interpolation == "screen":
         hits = to_screen_space(hits, scene.geometry, camera)
-    timings["cast" if plan.backend == "raycast" else "raster"] = time.perf_counter() - tc
+    key = "cast" if plan.backend == "raycast" else "raster"
+    timings[key] = timings.get(key, 0.0) + time.perf_counter() - tc
     return hits
+
+
+def _render_samples(scene, plan: _Plan, timings: dict):
+    """Anti-aliasing: every sample's hit buffer, shaded (and mirrored) with the per-face and
+    per-vertex work shared, then averaged. Returns sample 0's (the centre's) hits, the mean
+    image and the coverage; one sample's buffers are alive at a time."""
+    camera = plan.camera
+    shader = SampleShading(scene, camera, plan.shading)
+    acc = np.empty((camera.height, camera.width, 3), np.float64)
+    count = np.empty((camera.height, camera.width), np.int32)
+    mirrors = scene.geometry.reflective and plan.max_depth > 0
+    image = np.empty((camera.height, camera.width, 3), np.float32)
+    offsets = sample_offsets(plan.samples)
+    for i, (dx, dy) in enumerate(offsets):
+        hits = _visibility(scene, plan, timings, (dx, dy))
+        ts = time.perf_counter()
+        shader.shade(hits, out=image)
+        te = time.perf_counter()
+        timings["shade"] = timings.get("shade", 0.0) + te - ts
+        if mirrors:  # per sample: a mirror's reflection is anti-aliased too
+            trace_mirrors(scene, camera, hits, image, plan.max_depth)
+            timings["mirror"] = timings.get("mirror", 0.0) + time.perf_counter() - te
+        if i == 0:
+            centre = hits
+        if i < len(offsets) - 1:
+            accumulate(image, hits.prim, acc, count, first=i == 0)
+    image, coverage = sample_mean(acc, count, image, hits.prim, plan.samples)  # adds the last sample
+    return centre, image, coverage
 
 
 def render_file(path, **overrides) -> Frame:
@@ -209,7 +270,7 @@ def render_file(path, **overrides) -> Frame:
     **overrides
         Any ``[render]`` entry, beating the file's: ``shading`` (a method,
         ``"auto"`` or one per ``[[object]]``), ``width``, ``height``,
-        ``max_depth``, ``backend``, ``interpolation``, ``caster``,
+        ``max_depth``, ``samples``, ``backend``, ``interpolation``, ``caster``,
         ``tolerance``, and the tone options ``exposure``, ``tonemap``,
         ``gamma``. ``None`` keeps the file's value.
 

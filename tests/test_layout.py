@@ -20,7 +20,8 @@ ROWS = {
     "CAM": ({"CAM_EYE": 3, "CAM_RIGHT": 3, "CAM_UP": 3, "CAM_FORWARD": 3, "CAM_ORTHO": 1, "CAM_WIDTH": 1,
              "CAM_HEIGHT": 1}, lay.CAM_SIZE),
     "LIGHT": ({"LIGHT_KIND": 1, "LIGHT_VEC": 3, "LIGHT_RADIANCE": 3, "LIGHT_ATT": 1, "LIGHT_K": 1,
-               "LIGHT_SHADOWS": 1}, lay.LIGHT_SIZE),
+               "LIGHT_SHADOWS": 1, "LIGHT_AXIS": 3, "LIGHT_COS_INNER": 1, "LIGHT_COS_OUTER": 1,
+               "LIGHT_EXPONENT": 1}, lay.LIGHT_SIZE),
     "MAT": ({"MAT_KA": 3, "MAT_KD": 3, "MAT_KS": 3, "MAT_SHININESS": 1, "MAT_BLINN": 1, "MAT_REFLECTIVITY": 1},
             lay.MAT_SIZE),
     "BUMP": ({"BUMP_OFFSET": 1, "BUMP_ROWS": 1, "BUMP_COLS": 1, "BUMP_CLAMP": 1, "BUMP_TILE_U": 1,
@@ -39,7 +40,7 @@ def test_the_slots_of_a_row_tile_it(row):
     """Every slot constant of a row is listed, and the slots cover 0 .. SIZE-1 once each
     (the camera row's last slot is the documented unused padding)."""
     widths, size = ROWS[row]
-    values = {"LIGHT_POINT", "LIGHT_DIRECTIONAL"}  # LIGHT_KIND values, not slots
+    values = {"LIGHT_POINT", "LIGHT_DIRECTIONAL", "LIGHT_SPOT"}  # LIGHT_KIND values, not slots
     declared = {n for n in lay.__all__ if n.startswith(row + "_") and n != f"{row}_SIZE"} - values
     assert declared == set(widths)
     covered = sorted(i for name, w in widths.items() for i in range(getattr(lay, name), getattr(lay, name) + w))
@@ -51,7 +52,7 @@ def test_layout_docstring_states_the_constants():
     doc = lay.__doc__
     stated = dict(re.findall(r"\(([A-Z_]+),\) = \((\d+),\)", doc))
     stated.update((name, n) for name, n in re.findall(r"\([A-Z], ([A-Z_]+)\) = \([A-Z], (\d+)\)", doc))
-    assert stated == {"CAM_SIZE": "16", "LIGHT_SIZE": "10", "MAT_SIZE": "12", "BUMP_SIZE": "7"}
+    assert stated == {"CAM_SIZE": "16", "LIGHT_SIZE": "16", "MAT_SIZE": "12", "BUMP_SIZE": "7"}
     for name, n in stated.items():
         assert getattr(lay, name) == int(n), name
 
@@ -137,6 +138,24 @@ def test_light_rows():
     assert rows[0, lay.LIGHT_K] == 0.5
     assert rows[0, lay.LIGHT_SHADOWS] == 1.0 and rows[1, lay.LIGHT_SHADOWS] == 0.0
     assert _scene([]).packed_lights().shape == (0, lay.LIGHT_SIZE)
+    assert not rows[:, lay.LIGHT_AXIS:].any()  # the spot slots stay zero for other lights
+
+
+def test_spot_light_row():
+    """A spot is a point light (position re-centred, attenuation, shadows) plus its cone:
+    the unit axis, the cosines of both half-angles and Warn's exponent."""
+    spot = rs.SpotLight((2, 3, 4), (0, -3, 0), intensity=2.0, attenuation="inverse_square", exponent=8.0,
+                        inner_angle=60.0, outer_angle=90.0, shadows=True)
+    rows = _scene([spot]).packed_lights()
+    assert rows[0, lay.LIGHT_KIND] == lay.LIGHT_SPOT
+    np.testing.assert_allclose(rows[0, lay.LIGHT_VEC:lay.LIGHT_VEC + 3], [2 - 5, 3 + 1, 4 - 2])
+    assert rows[0, lay.LIGHT_ATT] == lay.ATT_INVERSE_SQUARE and rows[0, lay.LIGHT_SHADOWS] == 1.0
+    np.testing.assert_array_equal(rows[0, lay.LIGHT_AXIS:lay.LIGHT_AXIS + 3], [0, -1, 0])
+    assert rows[0, lay.LIGHT_COS_INNER] == pytest.approx(0.5, abs=1e-15)
+    assert rows[0, lay.LIGHT_COS_OUTER] == pytest.approx(0.0, abs=1e-15)
+    assert rows[0, lay.LIGHT_EXPONENT] == 8.0
+    k = kernel_inputs(_scene([spot]), _scene([spot]).camera)
+    assert k["att_on"]  # a spot's attenuation switches the attenuating variant on, as a point light's
 
 
 def test_attenuation_codes_are_the_named_ones():

@@ -317,7 +317,7 @@ ERRORS = [
      "light[0].shadows: expected True or False"),
     ("ambient", "ambient = -1\n" + MINIMAL, "ambient: must be >= 0"),
     ("render shading", MINIMAL + '[render]\nshading = "smooth"\n', "render.shading: expected one of"),
-    ("render key", MINIMAL + "[render]\nsamples = 4\n", "render: unknown key 'samples'"),
+    ("render key", MINIMAL + "[render]\nantialias = 4\n", "render: unknown key 'antialias'"),
     ("render per object", MINIMAL + '[render]\nshading = ["flat", "phong"]\n',
      "render.shading: expected one method per [[object]] (1), got 2"),
     ("render auto per object", MINIMAL + '[render]\nshading = ["auto"]\n', "render.shading[0]: expected one of"),
@@ -436,8 +436,8 @@ gamma = "sRGB"
 
 def test_check_render_options_is_what_the_file_checks():
     assert check_render_options({"shading": "Auto", "width": 3}) == {"shading": "auto", "width": 3}
-    assert set(RENDER_KEYS) == {"shading", "width", "height", "max_depth", "backend", "interpolation", "caster",
-                                "tolerance", "exposure", "tonemap", "gamma"}
+    assert set(RENDER_KEYS) == {"shading", "width", "height", "max_depth", "samples", "backend", "interpolation",
+                                "caster", "tolerance", "exposure", "tonemap", "gamma"}
     with pytest.raises(ValueError, match=r"^shading\[1\]: expected one of"):
         check_render_options({"shading": ["flat", "toon"]})
     with pytest.raises(TypeError, match="unknown option 'widht' .did you mean 'width'"):

@@ -232,8 +232,8 @@ def test_frame_carries_only_what_is_asked(sphere):
 
 def test_unknown_buffer_names_list_the_valid_ones(sphere):
     _, scene = sphere
-    with pytest.raises(ValueError, match="buffers: unknown buffer 'coverage'.*zdepth.*position"):
-        rs.render(scene, buffers=("zdepth", "coverage"))
+    with pytest.raises(ValueError, match="buffers: unknown buffer 'opacity'.*zdepth.*position"):
+        rs.render(scene, buffers=("zdepth", "opacity"))
     with pytest.raises(TypeError, match="buffers"):
         check_buffers([1])
     assert check_buffers("ZDepth, id,zdepth") == ("zdepth", "model_id", "triangle_id")

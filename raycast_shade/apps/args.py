@@ -16,6 +16,7 @@ import argparse
 import numpy as np
 
 from ..common.choices import BACKENDS, CASTER_CHOICES, INTERPOLATIONS, SHADING_CHOICES, SHADINGS, TONEMAPS
+from ..common.samples import MAX_SAMPLES
 from ..scene.scenefile import RENDER_KEYS
 
 __all__ = ["positive_int", "nonnegative_int", "positive_float", "finite_float", "gamma", "shading",
@@ -93,7 +94,7 @@ def _choice(parser, flag: str, choices, help: str, default_text: str):
 
 
 def add_render_options(p) -> None:
-    """--shading, --tolerance, --width, --height and the pipeline group of ``p``.
+    """--shading, --tolerance, --width, --height and the pipeline group (with --samples) of ``p``.
 
     Every default is None: the scene file's ``[render]`` value, else the library's.
     """
@@ -114,6 +115,9 @@ def add_render_options(p) -> None:
             "barycentrics of the 3D hit point, or affine in screen space", "the file's, else perspective")
     adv.add_argument("--max-depth", type=nonnegative_int, metavar="N",
                      help="mirror bounces for reflective materials (default: the file's [render] max_depth, else 3)")
+    adv.add_argument("--samples", type=positive_int, metavar="N",
+                     help=f"anti-aliasing rays per pixel, 1 to {MAX_SAMPLES}, averaged over the pixel (box filter) "
+                          "(default: the file's [render] samples, else 1)")
 
 
 def add_tone_options(p, title: str = "tone mapping (8-bit formats only)") -> None:

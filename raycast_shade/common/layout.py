@@ -9,10 +9,12 @@ these sizes and slots.
 Camera row, ``(CAM_SIZE,) = (16,)`` float64 (:func:`raycast_shade.visibility.rays.camera_frame`):
     eye (3, re-centred), right * half width (3), up * half height (3),
     forward (3), orthographic flag, width, height, unused.
-Light rows, ``(L, LIGHT_SIZE) = (L, 10)`` float64 (:meth:`raycast_shade.Scene.packed_lights`):
-    kind (0 point, 1 directional), position or unit direction towards the
-    light (3), radiance ``Ii * color`` (3), attenuation code
-    (:data:`ATT_CODE`), heuristic ``k``, casts shadows (0/1).
+Light rows, ``(L, LIGHT_SIZE) = (L, 16)`` float64 (:meth:`raycast_shade.Scene.packed_lights`):
+    kind (0 point, 1 directional, 2 spot), position or unit direction towards
+    the light (3), radiance ``Ii * color`` (3), attenuation code
+    (:data:`ATT_CODE`), heuristic ``k``, casts shadows (0/1); spot lights
+    only (zero otherwise): unit axis the spot shines along (3), cosines of the
+    inner and outer cone half-angles, Warn exponent ``n``.
 Material rows, ``(G, MAT_SIZE) = (G, 12)`` float64 (:meth:`raycast_shade.Material.packed`):
     ka (3), kd (3), ks (3), shininess, Blinn flag, reflectivity.
 Height-map rows, ``(B, BUMP_SIZE) = (B, 7)`` float64 (:meth:`raycast_shade.HeightMap.packed_info`):
@@ -40,9 +42,14 @@ LIGHT_RADIANCE = 4  # 4:7
 LIGHT_ATT = 7
 LIGHT_K = 8
 LIGHT_SHADOWS = 9
-LIGHT_SIZE = 10
+LIGHT_AXIS = 10  # 10:13, spot lights: unit direction from the light into its cone
+LIGHT_COS_INNER = 13  # spot lights: full intensity inside this cone
+LIGHT_COS_OUTER = 14  # spot lights: none outside this one
+LIGHT_EXPONENT = 15  # spot lights: Warn's n in cos^n
+LIGHT_SIZE = 16
 LIGHT_POINT = 0  # LIGHT_KIND values
 LIGHT_DIRECTIONAL = 1
+LIGHT_SPOT = 2
 ATT_CODE = {"none": 0, "inverse_square": 1, "heuristic": 2}  # LIGHT_ATT values
 ATT_NONE = 0
 ATT_INVERSE_SQUARE = 1

@@ -22,10 +22,13 @@ Names, shapes and meanings (background: 0, ids -1; camera axes are OpenCV's,
 ``model_id``           (H, W) int32     model index in the scene
 ``triangle_id``        (H, W) int32     triangle index within its model (the mesh's face order)
 ``mask``               (H, W) bool      pixels that see a surface
+``coverage``           (H, W) float32   fraction of the pixel's anti-aliasing samples that hit a
+                                        surface (``render(samples=N)``; with one sample, ``mask``)
 =====================  ===============  ===============================================
 
-``id`` asks for ``model_id`` and ``triangle_id``. There is no coverage
-buffer: each pixel is one ray through its centre, so coverage is ``mask``.
+``id`` asks for ``model_id`` and ``triangle_id``. Every buffer but
+``coverage`` is the pixel centre's (sample 0), whatever the number of
+samples, so masks and ids stay exact.
 """
 
 from __future__ import annotations
@@ -35,7 +38,7 @@ import numpy as np
 __all__ = ["BUFFER_NAMES", "ALIASES", "check_buffers", "compute_buffers"]
 
 BUFFER_NAMES = ("depth", "zdepth", "position", "normal", "normal_camera", "face_normal", "face_normal_camera",
-                "barycentric", "model_id", "triangle_id", "mask")
+                "barycentric", "model_id", "triangle_id", "mask", "coverage")
 ALIASES = {"id": ("model_id", "triangle_id")}
 
 
@@ -79,7 +82,7 @@ def _unit_rays(camera):
     return d.reshape(camera.height, camera.width, 3)
 
 
-def compute_buffers(scene, camera, hits, names, shading="phong") -> dict:
+def compute_buffers(scene, camera, hits, names, shading="phong", coverage=None) -> dict:
     """The named buffers of one frame.
 
     Parameters
@@ -93,6 +96,8 @@ def compute_buffers(scene, camera, hits, names, shading="phong") -> dict:
         Checked names (:func:`check_buffers`).
     shading : str or sequence of str
         The frame's methods (for the shading normals).
+    coverage : (H, W) float32, optional
+        The anti-aliasing samples' hit fraction; ``None``: one sample, the mask.
 
     Returns
     -------
@@ -146,6 +151,8 @@ def compute_buffers(scene, camera, hits, names, shading="phong") -> dict:
             buf = hits.geom.copy()
         elif name == "triangle_id":
             buf = hits.prim.copy()
+        elif name == "coverage":
+            buf = mask.astype(np.float32) if coverage is None else np.array(coverage, np.float32)
         else:  # mask
             buf = mask.copy()
         if buf.dtype.kind == "f":

@@ -1,4 +1,4 @@
-"""Light sources: point lights with the lecture's attenuation laws, and lights at infinity."""
+"""Light sources: point lights with the lecture's attenuation laws, Warn's spot lights, and lights at infinity."""
 
 from __future__ import annotations
 
@@ -9,9 +9,9 @@ import numpy as np
 from ..common.choices import ATTENUATIONS
 from ..common.validate import MAX_RADIANCE, as_choice, as_rgb, as_scalar, as_vec3, pow2_scaled
 
-__all__ = ["PointLight", "DirectionalLight", "ATTENUATIONS"]
+__all__ = ["PointLight", "SpotLight", "DirectionalLight", "ATTENUATIONS", "MAX_SPOT_EXPONENT"]
 
-
+MAX_SPOT_EXPONENT = 1e4  # cos^n: beyond this the beam is a few hundredths of a degree wide
 
 def _as_bool(value, name):
     if not isinstance(value, (bool, np.bool_)):
@@ -105,3 +105,86 @@ class DirectionalLight:
     @property
     def radiance(self) -> np.ndarray:
         return self.intensity * self.color
+
+
+@dataclass(frozen=True, eq=False)
+class SpotLight(PointLight):
+    """Warn's spot light: a point light whose intensity depends on the angle to its axis.
+
+    A point at angle ``a`` from the axis (seen from the light) receives::
+
+        Ii * cos(a)**n * smoothstep(cos(outer), cos(inner), cos(a)) * att(d)
+
+    so ``Ii cos^n a`` inside the inner cone, nothing outside the outer cone,
+    and between them the smooth Hermite step ``3 t^2 - 2 t^3`` of
+    ``t = (cos a - cos outer) / (cos inner - cos outer)`` (``inner_angle ==
+    outer_angle``: a hard edge, the light reaching exactly the points with
+    ``cos a > cos outer``). Attenuation, colour and shadows are those of a
+    :class:`PointLight` (it is one: ``isinstance(spot, PointLight)`` holds).
+
+    Parameters
+    ----------
+    position : (3,) float
+    direction : (3,) float
+        The axis, from the light into its cone; non-zero, normalised on
+        construction.
+    intensity, color, attenuation, k, shadows
+        As for :class:`PointLight`.
+    exponent : float
+        Warn's ``n``, ``0 <= n <= MAX_SPOT_EXPONENT`` (0: a uniform cone).
+    inner_angle, outer_angle : float
+        Cone half-angles in degrees, ``0 <= inner_angle <= outer_angle <= 90``.
+    """
+
+    direction: np.ndarray = (0.0, 0.0, -1.0)
+    exponent: float = 1.0
+    inner_angle: float = 30.0
+    outer_angle: float = 40.0
+    name: str = "spot_light"
+
+    def __init__(self, position, direction=(0.0, 0.0, -1.0), intensity=1.0, color=1.0, attenuation="none", k=1.0,
+                 shadows=False, exponent=1.0, inner_angle=30.0, outer_angle=40.0, name="spot_light"):
+        # Spelled out for the argument order (position, direction, ...): a dataclass
+        # subclass would put its own fields after PointLight's.
+        set_ = object.__setattr__
+        for key, value in (("position", position), ("direction", direction), ("intensity", intensity),
+                           ("color", color), ("attenuation", attenuation), ("k", k), ("shadows", shadows),
+                           ("exponent", exponent), ("inner_angle", inner_angle), ("outer_angle", outer_angle),
+                           ("name", name)):
+            set_(self, key, value)
+        self.__post_init__()
+
+    def __post_init__(self):
+        super().__post_init__()
+        set_ = object.__setattr__
+        d = pow2_scaled(as_vec3(self.direction, f"{self.name}.direction", nonzero=True))
+        d = d / np.linalg.norm(d)
+        d.setflags(write=False)
+        set_(self, "direction", d)
+        set_(self, "exponent", as_scalar(self.exponent, f"{self.name}.exponent", minimum=0.0,
+                                         maximum=MAX_SPOT_EXPONENT))
+        inner = as_scalar(self.inner_angle, f"{self.name}.inner_angle", minimum=0.0, maximum=90.0)
+        outer = as_scalar(self.outer_angle, f"{self.name}.outer_angle", minimum=0.0, maximum=90.0)
+        if inner > outer:
+            raise ValueError(f"{self.name}.inner_angle: must be <= outer_angle ({outer}), got {inner}")
+        set_(self, "inner_angle", inner)
+        set_(self, "outer_angle", outer)
+
+    @property
+    def cos_inner(self) -> float:
+        return float(np.cos(np.radians(self.inner_angle)))
+
+    @property
+    def cos_outer(self) -> float:
+        return float(np.cos(np.radians(self.outer_angle)))
+
+    def falloff(self, cos_angle):
+        """Warn's factor ``cos^n * smoothstep`` for cosines of the angle to the axis (NumPy, any shape)."""
+        c = np.asarray(cos_angle, np.float64)
+        ci, co = self.cos_inner, self.cos_outer
+        if ci > co:
+            t = np.clip((c - co) / (ci - co), 0.0, 1.0)
+            edge = t * t * (3.0 - 2.0 * t)
+        else:
+            edge = (c > co).astype(np.float64)
+        return np.where(c > co, np.maximum(c, 0.0) ** self.exponent * edge, 0.0)

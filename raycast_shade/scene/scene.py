@@ -16,9 +16,10 @@ import numpy as np
 
 from ..common.validate import as_rgb
 from .camera import Camera
-from ..common.layout import (ATT_CODE, BUMP_SIZE, LIGHT_ATT, LIGHT_DIRECTIONAL, LIGHT_K, LIGHT_KIND, LIGHT_RADIANCE,
-                             LIGHT_SHADOWS, LIGHT_SIZE, LIGHT_VEC, MAT_REFLECTIVITY, MAT_SIZE)
-from .lights import DirectionalLight, PointLight
+from ..common.layout import (ATT_CODE, BUMP_SIZE, LIGHT_ATT, LIGHT_AXIS, LIGHT_COS_INNER, LIGHT_COS_OUTER,
+                             LIGHT_DIRECTIONAL, LIGHT_EXPONENT, LIGHT_K, LIGHT_KIND, LIGHT_RADIANCE, LIGHT_SHADOWS,
+                             LIGHT_SIZE, LIGHT_SPOT, LIGHT_VEC, MAT_REFLECTIVITY, MAT_SIZE)
+from .lights import DirectionalLight, PointLight, SpotLight
 from .material import Material
 from .mesh import Mesh
 
@@ -219,7 +220,7 @@ class Scene:
     ----------
     models : sequence of Model, Mesh, trimesh.Trimesh or (Mesh, Material)
         At least one.
-    lights : sequence of PointLight or DirectionalLight
+    lights : sequence of PointLight, SpotLight or DirectionalLight
     camera : Camera
     ambient : float or (3,) float
         The scene's ambient intensity ``Ia`` (multiplies each material's ``ka``).
@@ -298,13 +299,15 @@ class Scene:
 
         Returns
         -------
-        (L, LIGHT_SIZE) = (L, 10) float64
+        (L, LIGHT_SIZE) = (L, 16) float64
             Per light (slots named in :mod:`raycast_shade.common.layout`):
-            kind (0 point, 1 directional); point: re-centred position,
-            directional: unit vector towards the light (3); radiance
-            ``Ii * color`` (3); attenuation code (0 none, 1 inverse square,
-            2 heuristic); heuristic ``k`` (1 for directional lights); casts
-            shadows (0/1).
+            kind (0 point, 1 directional, 2 spot); point and spot:
+            re-centred position, directional: unit vector towards the light
+            (3); radiance ``Ii * color`` (3); attenuation code (0 none,
+            1 inverse square, 2 heuristic); heuristic ``k`` (1 for
+            directional lights); casts shadows (0/1); spot only (else 0):
+            unit axis (3), ``cos(inner_angle)``, ``cos(outer_angle)``,
+            exponent ``n``.
         """
         rows = np.zeros((len(self.lights), LIGHT_SIZE))
         rows[:, LIGHT_K] = 1.0
@@ -316,6 +319,12 @@ class Scene:
                 rows[i, LIGHT_VEC:LIGHT_VEC + 3] = light.position - origin
                 rows[i, LIGHT_ATT] = ATT_CODE[light.attenuation]
                 rows[i, LIGHT_K] = light.k
+                if isinstance(light, SpotLight):
+                    rows[i, LIGHT_KIND] = LIGHT_SPOT
+                    rows[i, LIGHT_AXIS:LIGHT_AXIS + 3] = light.direction
+                    rows[i, LIGHT_COS_INNER] = light.cos_inner
+                    rows[i, LIGHT_COS_OUTER] = light.cos_outer
+                    rows[i, LIGHT_EXPONENT] = light.exponent
             else:
                 rows[i, LIGHT_KIND] = LIGHT_DIRECTIONAL
                 rows[i, LIGHT_VEC:LIGHT_VEC + 3] = -light.direction

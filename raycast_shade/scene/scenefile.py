@@ -33,14 +33,20 @@ to render it. The full reference is ``docs/scene-files.md``; in short::
     attenuation = "inverse_square"
 
     [[light]]
+    type = "spot"                       # the point keys, and direction,
+    position = [0.0, 4.0, 0.0]          # exponent, inner_angle, outer_angle
+    direction = [0.0, -1.0, 0.0]        # (Warn's model: SpotLight)
+    outer_angle = 30.0
+
+    [[light]]
     type = "directional"                # direction, intensity, color, shadows
     direction = [-1.0, -0.5, -1.0]
     color = [0.3, 0.4, 1.0]
 
     [render]                            # optional: shading (a method, "auto" or
     shading = "phong"                   # one per object), width, height, max_depth,
-                                        # backend, interpolation, caster, tolerance,
-                                        # exposure, tonemap, gamma
+                                        # samples, backend, interpolation, caster,
+                                        # tolerance, exposure, tonemap, gamma
 
 Unknown keys are errors, and every error names the table and key it comes
 from, e.g. ``object[1].material: unknown key 'shinyness' (did you mean
@@ -63,9 +69,10 @@ except ModuleNotFoundError:  # pragma: no cover - Python 3.10
 from . import shapes as _shapes
 from ..common.choices import (BACKENDS, CASTER_CHOICES, INTERPOLATIONS, SHADING_CHOICES, SHADINGS, TONEMAPS,
                               WEIGHTINGS)
+from ..common.samples import check_samples
 from ..common.validate import as_choice, as_int, as_rgb, as_scalar, as_vec3
 from .camera import Camera
-from .lights import DirectionalLight, PointLight
+from .lights import DirectionalLight, PointLight, SpotLight
 from .material import Material
 from .mesh import Mesh
 from .scene import Model, Scene
@@ -88,11 +95,14 @@ _BUMP_KEYS = {
 _LIGHT_KEYS = {
     "point": ("type", "position", "intensity", "color", "attenuation", "k", "shadows", "name"),
     "directional": ("type", "direction", "intensity", "color", "shadows", "name"),
+    "spot": ("type", "position", "direction", "intensity", "color", "attenuation", "k", "shadows", "exponent",
+             "inner_angle", "outer_angle", "name"),
 }
 # The [render] table: the camera's size, render()'s options, and to_uint8()'s for 8-bit files.
 SIZE_KEYS = ("width", "height")
 TONE_KEYS = ("exposure", "tonemap", "gamma")
-RENDER_KEYS = ("shading",) + SIZE_KEYS + ("max_depth", "backend", "interpolation", "caster", "tolerance") + TONE_KEYS
+RENDER_KEYS = (("shading",) + SIZE_KEYS + ("max_depth", "samples", "backend", "interpolation", "caster", "tolerance")
+               + TONE_KEYS)
 _NORMALS = ("auto", "computed")
 
 
@@ -263,15 +273,17 @@ def _material(table, where: str, base_dir: str = ".") -> Material:
 
 def _light(table: dict, where: str):
     if "type" not in table:
-        raise _Invalid(where, "missing key 'type' (expected 'point' or 'directional')")
+        raise _Invalid(where, "missing key 'type' (expected 'point', 'spot' or 'directional')")
     kind = _choice(table["type"], f"{where}.type", tuple(_LIGHT_KEYS))
     _check_keys(table, where, _LIGHT_KEYS[kind], f" for a {kind} light")
     kw = {k: v for k, v in table.items() if k != "type"}
     kw["name"] = _string(kw["name"], f"{where}.name") if "name" in kw else where
-    if kind == "point":
+    if kind in ("point", "spot"):
         if "position" not in kw:
             raise _Invalid(where, "missing key 'position'")
-        return _call(where, PointLight, **kw)
+        if kind == "spot" and "direction" not in kw:
+            raise _Invalid(where, "missing key 'direction'")
+        return _call(where, PointLight if kind == "point" else SpotLight, **kw)
     if "direction" not in kw:
         raise _Invalid(where, "missing key 'direction'")
     return _call(where, DirectionalLight, **kw)
@@ -302,6 +314,7 @@ _RENDER_CHECKS = {
     "width": lambda v, name: as_int(v, name, minimum=1),
     "height": lambda v, name: as_int(v, name, minimum=1),
     "max_depth": lambda v, name: as_int(v, name, minimum=0),
+    "samples": check_samples,
     "backend": lambda v, name: as_choice(v, name, BACKENDS),
     "interpolation": lambda v, name: as_choice(v, name, INTERPOLATIONS),
     "caster": lambda v, name: as_choice(v, name, CASTER_CHOICES),

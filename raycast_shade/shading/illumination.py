@@ -7,7 +7,11 @@ Per channel::
 with ``r = 2 (n.s) n - s`` (or Blinn-Phong ``(n.h)^t``), no specular term
 where ``n.s <= 0``, ``att`` one of ``1``, ``1/d^2``, ``1/(d + k)``, and
 ``vis`` 0 or 1 from a shadow ray (:mod:`.shadows`) for lights that cast
-shadows. The viewer's distance never enters: only the direction ``v`` to the
+shadows. A spot light is a point light whose ``att`` also carries Warn's
+factor ``cos^n(a) smoothstep(cos outer, cos inner, cos a)``, ``a`` the angle
+between its axis and the direction from the light to the point
+(:class:`raycast_shade.scene.lights.SpotLight`); outside its outer cone it
+contributes nothing and traces no shadow ray. The viewer's distance never enters: only the direction ``v`` to the
 eye does. Integer shininess, the usual case, is raised by repeated squaring
 rather than ``pow``.
 
@@ -20,8 +24,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..common.layout import (ATT_HEURISTIC, ATT_INVERSE_SQUARE, LIGHT_ATT, LIGHT_K, LIGHT_KIND, LIGHT_POINT,
-                             LIGHT_RADIANCE, LIGHT_SHADOWS, LIGHT_VEC, MAT_BLINN, MAT_KA, MAT_KD, MAT_KS,
+from ..common.layout import (ATT_HEURISTIC, ATT_INVERSE_SQUARE, LIGHT_ATT, LIGHT_AXIS, LIGHT_COS_INNER,
+                             LIGHT_COS_OUTER, LIGHT_DIRECTIONAL, LIGHT_EXPONENT, LIGHT_K, LIGHT_KIND,
+                             LIGHT_RADIANCE, LIGHT_SHADOWS, LIGHT_SPOT, LIGHT_VEC, MAT_BLINN, MAT_KA, MAT_KD, MAT_KS,
                              MAT_SHININESS)
 from .jit import JIT
 from .shadows import _occluded
@@ -46,6 +51,25 @@ def _power(c, t):
     return r
 
 
+@njit(inline="always", **JIT)
+def _spot_factor(lights, i, sx, sy, sz):
+    """Warn's factor of spot light ``i`` for the unit direction ``s`` from the
+    point towards the light: ``cos^n a`` times the smooth step from the outer
+    cone (0) to the inner one (1), with ``cos a = -s . axis``; 0 outside."""
+    c = -(sx * lights[i, LIGHT_AXIS + 0] + sy * lights[i, LIGHT_AXIS + 1] + sz * lights[i, LIGHT_AXIS + 2])
+    co = lights[i, LIGHT_COS_OUTER]
+    if not c > co:
+        return 0.0
+    if c > 1.0:
+        c = 1.0
+    ci = lights[i, LIGHT_COS_INNER]
+    f = _power(c, lights[i, LIGHT_EXPONENT])
+    if c < ci:  # between the cones (never with inner == outer)
+        t = (c - co) / (ci - co)
+        f *= t * t * (3.0 - 2.0 * t)
+    return f
+
+
 def _illuminate_py(px, py, pz, nx, ny, nz, vx, vy, vz, mats, mi, ambient, lights, dmin, handle, unit, S,
                    ox, oy, oz, gx, gy, gz, spec_on, att_on):
     """RGB reflected towards unit ``v`` at point ``p`` with unit normal ``n``.
@@ -67,7 +91,7 @@ def _illuminate_py(px, py, pz, nx, ny, nz, vx, vy, vz, mats, mi, ambient, lights
     blinn = mats[mi, MAT_BLINN] != 0.0
     has_spec = mats[mi, MAT_KS + 0] > 0.0 or mats[mi, MAT_KS + 1] > 0.0 or mats[mi, MAT_KS + 2] > 0.0
     for i in range(lights.shape[0]):
-        is_point = lights[i, LIGHT_KIND] == LIGHT_POINT
+        is_point = lights[i, LIGHT_KIND] != LIGHT_DIRECTIONAL  # spot lights are point lights with a cone
         if not is_point:
             sx = lights[i, LIGHT_VEC + 0]
             sy = lights[i, LIGHT_VEC + 1]
@@ -90,6 +114,11 @@ def _illuminate_py(px, py, pz, nx, ny, nz, vx, vy, vz, mats, mi, ambient, lights
                     att = 1.0 / (dd * dd)
                 elif lights[i, LIGHT_ATT] == ATT_HEURISTIC:
                     att = 1.0 / (d + lights[i, LIGHT_K])
+            if lights[i, LIGHT_KIND] == LIGHT_SPOT:
+                spot = _spot_factor(lights, i, sx, sy, sz)
+                if spot == 0.0:
+                    continue  # outside the cone: no light, no shadow ray
+                att *= spot
         ndots = nx * sx + ny * sy + nz * sz
         if ndots <= 0.0:
             continue

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..common.layout import ATT_NONE, LIGHT_ATT, LIGHT_KIND, LIGHT_POINT, LIGHT_SHADOWS, MAT_KS
+from ..common.layout import ATT_NONE, LIGHT_ATT, LIGHT_DIRECTIONAL, LIGHT_KIND, LIGHT_SHADOWS, MAT_KS
 from ..visibility.accel import embree_accel
 from ..visibility.rays import camera_frame
 
@@ -40,5 +40,5 @@ def kernel_inputs(scene, camera):
         background=np.array(scene.background, np.float64),
         # Compile-time variants: drop the arithmetic a scene does not need.
         spec_on=bool(np.any(geo.materials[:, MAT_KS:MAT_KS + 3] > 0)),
-        att_on=bool(np.any((lights[:, LIGHT_KIND] == LIGHT_POINT) & (lights[:, LIGHT_ATT] != ATT_NONE))),
+        att_on=bool(np.any((lights[:, LIGHT_KIND] != LIGHT_DIRECTIONAL) & (lights[:, LIGHT_ATT] != ATT_NONE))),
     )

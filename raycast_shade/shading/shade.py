@@ -9,6 +9,13 @@ highlights.
 
 Kernels are private, parallel, and work in float64; their plain-NumPy twins
 live in :mod:`raycast_shade.study.reference`.
+
+Anti-aliasing shades several hit buffers of one frame (one per sample
+position) with :class:`SampleShading`: each face's flat colour and each
+vertex's Gouraud colours are computed once per frame, the first time a
+sample sees them, and reused by every later sample; only the per-pixel
+kernels run per sample. :func:`accumulate` and :func:`sample_mean` form the
+box-filtered mean.
 """
 
 from __future__ import annotations
@@ -24,7 +31,8 @@ from .inputs import kernel_inputs
 from .jit import JIT, variant
 from .phong import _PHONG
 
-__all__ = ["SHADINGS", "METHODS", "shade", "shade_hits", "resolve_methods"]
+__all__ = ["SHADINGS", "METHODS", "shade", "shade_hits", "resolve_methods", "SampleShading", "accumulate",
+           "sample_mean"]
 
 METHODS = {"flat": 0, "gouraud": 1, "phong": 2}
 
@@ -151,3 +159,123 @@ def shade_hits(scene, camera, hits, shading="phong") -> np.ndarray:
         variant(_PHONG, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["face_off"],
                            k["materials"], k["cam"], k["background"], modes, image)
     return image
+
+
+class SampleShading:
+    """Shade the hit buffers of one frame's anti-aliasing samples, sharing the
+    per-face (flat) and per-vertex (Gouraud) work between them.
+
+    Parameters
+    ----------
+    scene : Scene
+    camera : Camera
+        The frame's camera (the sub-pixel cameras of the samples have the same
+        eye and axes, so they shade alike).
+    shading : str or sequence of str
+        As for :func:`shade`.
+
+    Notes
+    -----
+    :meth:`shade` of one buffer gives the image :func:`shade_hits` gives,
+    bit for bit: a face's or vertex's colour does not depend on which pixel
+    or sample asked for it.
+    """
+
+    def __init__(self, scene, camera, shading="phong"):
+        self.modes = resolve_methods(scene, shading)
+        self.k = kernel_inputs(scene, camera)
+        self.geo = scene.geometry
+        self.flat = bool(np.any(self.modes == 0))
+        self.gouraud = bool(np.any(self.modes == 1))
+        self.phong = bool(np.any(self.modes == 2))
+        nf = len(self.geo.faces) if self.flat else 1
+        nv = len(self.geo.vertices) if self.gouraud else 1
+        self.face_done = np.zeros(nf, np.uint8)
+        self.vertex_done = np.zeros(nv, np.uint8)
+        self.fcol = np.zeros((len(self.geo.faces), 3), np.float64) if self.flat else None
+        self.vcol = np.zeros((len(self.geo.vertices), 2, 3), np.float64) if self.gouraud else None
+
+    def _share(self, hits):
+        """Shade the faces and vertices ``hits`` sees that no earlier sample saw."""
+        k, geo = self.k, self.geo
+        face_flags = np.zeros_like(self.face_done)
+        vertex_flags = np.zeros_like(self.vertex_done)
+        _visible_kernel(hits.prim, hits.geom, geo.faces, k["face_off"], self.modes, face_flags, vertex_flags)
+        if self.flat:
+            new = face_flags & (1 - self.face_done)
+            if new.any():
+                variant(_FLAT, k)(new, k["G"], geo.face_model, k["materials"], k["cam"], k["L"], self.fcol)
+                self.face_done |= new
+        if self.gouraud:
+            new = vertex_flags & (1 - self.vertex_done)
+            if new.any():
+                variant(_VERTICES, k)(new, k["G"], geo.vertex_model, k["materials"], k["cam"], k["L"], self.vcol)
+                self.vertex_done |= new
+
+    def shade(self, hits, out=None) -> np.ndarray:
+        """(H, W, 3) float32 linear image of one sample's hit buffer (valid by construction),
+        written to ``out`` when given (one buffer serves every sample: no fresh pages each time)."""
+        k, geo, modes = self.k, self.geo, self.modes
+        h, w = hits.shape
+        image = np.empty((h, w, 3), np.float32) if out is None else out
+        if self.flat or self.gouraud:
+            self._share(hits)
+        if self.flat:
+            _lookup_flat_kernel(hits.prim, hits.geom, k["face_off"], self.fcol, k["background"], modes, image)
+        if self.gouraud:
+            variant(_INTERPOLATE, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["face_off"], k["materials"],
+                                     k["cam"], k["L"], k["background"], modes, self.vcol, image)
+        if self.phong:
+            variant(_PHONG, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["face_off"],
+                               k["materials"], k["cam"], k["background"], modes, image)
+        return image
+
+
+@njit(parallel=True, cache=True)
+def _accumulate_kernel(image, prim, acc, count, first):
+    h, w = prim.shape
+    for y in prange(h):
+        for x in range(w):
+            hit = 1 if prim[y, x] >= 0 else 0
+            if first:  # no read of the fresh (untouched) accumulator
+                for c in range(3):
+                    acc[y, x, c] = image[y, x, c]
+                count[y, x] = hit
+            else:
+                for c in range(3):
+                    acc[y, x, c] += image[y, x, c]
+                count[y, x] += hit
+
+
+def accumulate(image, prim, acc, count, first: bool = False) -> None:
+    """Add one sample: ``acc += image`` ((H, W, 3) float64 += float32) and
+    ``count += (prim >= 0)`` ((H, W) int32), in place; ``first`` sets them instead."""
+    _accumulate_kernel(image, prim, acc, count, first)
+
+
+@njit(parallel=True, cache=True)
+def _mean_kernel(acc, count, image, prim, n, out, coverage):
+    h, w = count.shape
+    inv = 1.0 / n
+    for y in prange(h):
+        for x in range(w):
+            for c in range(3):
+                out[y, x, c] = (acc[y, x, c] + image[y, x, c]) / n
+            coverage[y, x] = (count[y, x] + (1 if prim[y, x] >= 0 else 0)) * inv
+
+
+def sample_mean(acc, count, image, prim, n: int):
+    """The box filter's result: the last sample (``image``, ``prim``) added to the
+    first ``n - 1`` (``acc``, ``count``), divided by ``n`` (one pass, no write back).
+
+    Returns
+    -------
+    image : (H, W, 3) float32
+        ``(acc + image) / n``.
+    coverage : (H, W) float32
+        The fraction of the pixel's ``n`` samples that hit a surface.
+    """
+    out = np.empty(acc.shape, np.float32)
+    coverage = np.empty(count.shape, np.float32)
+    _mean_kernel(acc, count, image, prim, float(n), out, coverage)
+    return out, coverage

@@ -51,6 +51,7 @@ from numba import njit, prange
 from ..common.validate import as_rgb, as_scalar, as_vec3
 from ..scene.camera import Camera
 from ..scene.lights import DirectionalLight, PointLight
+from .reference import spot_cone
 from ..scene.material import Material
 from ..visibility.rays import camera_frame, pixel_ray
 
@@ -419,7 +420,7 @@ def _reference_lights(lights):
             out.append((True, -np.asarray(light.direction, np.float64), light.intensity * light.color, "none", 1.0))
         elif isinstance(light, PointLight):
             out.append((False, np.asarray(light.position, np.float64), light.intensity * light.color,
-                        light.attenuation, light.k))
+                        light.attenuation, light.k, spot_cone(light)))  # spot_cone: None but for a SpotLight
         else:
             raise TypeError(f"lights[{i}]: expected a PointLight or DirectionalLight, got {type(light).__name__}")
         if getattr(light, "shadows", False):

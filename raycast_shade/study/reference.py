@@ -11,7 +11,8 @@ executable documentation of the model::
 with ``c = r.v``, ``r = 2 (n.s) n - s`` (Phong) or ``c = n.h``,
 ``h = (s + v) / |s + v|`` (Blinn-Phong), ``n.s`` and ``c`` clamped to
 ``[0, 1]``, no specular term where ``n.s <= 0``, and ``att`` one of ``1``,
-``1 / max(d, dmin)^2`` or ``1 / (d + k)`` with ``dmin = 1e-6 * scale``.
+``1 / max(d, dmin)^2`` or ``1 / (d + k)`` with ``dmin = 1e-6 * scale``,
+times Warn's cone factor for a spot light (:func:`spot_cone`).
 
 Everything is computed in float64 in the scene's re-centred frame (world
 minus ``scene.geometry.origin``), as the kernels do.
@@ -26,9 +27,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..scene.lights import DirectionalLight
+from ..scene.lights import DirectionalLight, SpotLight
 
-__all__ = ["shade_reference", "shading_normals_reference", "hit_points", "illuminate_reference"]
+__all__ = ["shade_reference", "shading_normals_reference", "hit_points", "illuminate_reference", "spot_cone"]
 
 _MODES = ("flat", "gouraud", "phong")
 _CANCEL = 1e-6  # |interpolated normal| below this falls back to the geometric normal
@@ -84,19 +85,44 @@ def _materials(scene):
     )
 
 
+def spot_cone(light):
+    """A spot light's cone as the optional sixth entry of a reference light tuple.
+
+    Returns
+    -------
+    tuple or None
+        ``(axis (3,), cos_inner, cos_outer, exponent)`` for a
+        :class:`~raycast_shade.scene.lights.SpotLight`, ``None`` for any other light.
+    """
+    if not isinstance(light, SpotLight):
+        return None
+    return (np.asarray(light.direction, np.float64), light.cos_inner, light.cos_outer, light.exponent)
+
+
 def _lights(scene, origin):
-    """The scene's lights as plain tuples ``(directional, vec, radiance, attenuation, k)``.
+    """The scene's lights as plain tuples ``(directional, vec, radiance, attenuation, k, cone)``.
 
     ``vec`` is the unit vector towards a directional light, or a point light's
-    re-centred position.
+    re-centred position; ``cone`` is :func:`spot_cone`'s (``None`` but for spots).
     """
     out = []
     for light in scene.lights:
         if isinstance(light, DirectionalLight):
-            out.append((True, -np.asarray(light.direction, np.float64), light.intensity * light.color, "none", 1.0))
+            out.append((True, -np.asarray(light.direction, np.float64), light.intensity * light.color, "none", 1.0,
+                        None))
         else:
-            out.append((False, light.position - origin, light.intensity * light.color, light.attenuation, light.k))
+            out.append((False, light.position - origin, light.intensity * light.color, light.attenuation, light.k,
+                        spot_cone(light)))
     return out
+
+
+def _warn_factor(cone, s):
+    """Warn's factor (N,) for unit directions ``s`` (N, 3) from the points to the light:
+    ``cos^n a * smoothstep(cos outer, cos inner, cos a)``, ``cos a = -s . axis``; 0 outside."""
+    axis, ci, co, n = cone
+    c = np.minimum(-(s @ axis), 1.0)
+    t = np.clip((c - co) / (ci - co), 0.0, 1.0) if ci > co else np.ones_like(c)
+    return np.where(c > co, np.maximum(c, 0.0) ** n * t * t * (3.0 - 2.0 * t), 0.0)
 
 
 def _view(eye, fwd, ortho, p):
@@ -178,7 +204,8 @@ def illuminate_reference(p, n, v, model, materials, lights, ambient, dmin):
     materials : tuple
         ``(ka, kd, ks, shininess, blinn)`` with shapes ``(G, 3) x 3, (G,), (G,)``.
     lights : list of tuple
-        ``(directional, vec, radiance (3,), attenuation, k)``, see :func:`_lights`.
+        ``(directional, vec, radiance (3,), attenuation, k)``, optionally
+        followed by a spot light's cone (:func:`spot_cone`); see :func:`_lights`.
     ambient : (3,) float64
         Scene ambient intensity ``Ia``.
     dmin : float
@@ -193,7 +220,9 @@ def illuminate_reference(p, n, v, model, materials, lights, ambient, dmin):
     ka, kd, ks, shin, blinn = ka[model], kd[model], ks[model], shin[model], blinn[model]
     out = ambient[None, :] * ka
     npts = len(p)
-    for directional, vec, radiance, attenuation, k in lights:
+    for light in lights:
+        directional, vec, radiance, attenuation, k = light[:5]
+        cone = light[5] if len(light) > 5 else None
         if directional:
             s = np.broadcast_to(vec, p.shape)
             att = np.ones(npts)
@@ -207,6 +236,8 @@ def illuminate_reference(p, n, v, model, materials, lights, ambient, dmin):
                 att = 1.0 / (d + k)
             else:
                 att = np.ones(npts)
+            if cone is not None:
+                att = att * _warn_factor(cone, s)
         ndots = _dot(n, s)
         lit = present & (ndots > 0.0)
         ndots = np.clip(ndots, 0.0, 1.0)

@@ -64,7 +64,7 @@ from .hits import HitBuffer
 from .holes import empty_hits, fill_holes, rays_at
 from .holes import _count_isolated_kernel, _isolated_misses  # noqa: F401  (where tests look for them)
 from .watertight import nudged_rays, refine
-from .rays import camera_frame, generate_rays, pixel_ray
+from .rays import camera_frame, generate_rays, offset_pair, pixel_ray, subpixel_camera
 
 __all__ = ["cast_camera", "cast_rays", "cast_recentred", "resolve_caster", "secondary_rays", "CASTERS"]
 
@@ -238,8 +238,8 @@ def resolve_caster(caster: str, needs: tuple[str, ...] = ()) -> str:
     return "embreex"
 
 
-def cast_camera(geometry, camera, caster: str = "auto", threads: int = 2) -> HitBuffer:
-    """Cast one ray through every pixel centre.
+def cast_camera(geometry, camera, caster: str = "auto", threads: int = 2, *, offset=None) -> HitBuffer:
+    """Cast one ray through every pixel centre (or the same point off each centre).
 
     Parameters
     ----------
@@ -250,6 +250,11 @@ def cast_camera(geometry, camera, caster: str = "auto", threads: int = 2) -> Hit
         direct binding is unavailable.
     threads : int
         Python threads for the ``"embreex"`` caster.
+    offset : (dx, dy), optional
+        Sub-pixel offset in pixels (``y`` down): the rays pass through
+        ``(x + 0.5 + dx, y + 0.5 + dy)``, as anti-aliasing needs
+        (:func:`~raycast_shade.visibility.rays.subpixel_camera`). ``None`` or
+        ``(0, 0)``: the pixel centres.
 
     Returns
     -------
@@ -268,6 +273,8 @@ def cast_camera(geometry, camera, caster: str = "auto", threads: int = 2) -> Hit
     geometry = as_geometry(geometry)
     if not isinstance(camera, Camera):
         raise TypeError(f"camera: expected a Camera, got {type(camera).__name__}")
+    if offset is not None:
+        camera = subpixel_camera(camera, *offset_pair(offset))
     caster = resolve_caster(caster)
     h, w = camera.height, camera.width
     reach = float(np.abs(camera.eye - geometry.origin).max())

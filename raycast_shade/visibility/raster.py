@@ -72,6 +72,7 @@ import numpy as np
 
 from ..scene.camera import Camera
 from .hits import HitBuffer
+from .rays import offset_pair, subpixel_camera
 from .scan import (_CHUNK, _bin_fill_par, _bin_fill_ser, _project_par, _project_ser, _raster_kernel, _setup_par,
                    _setup_ser)
 
@@ -164,7 +165,7 @@ def _run(geometry, camera, near, count_mode):
     return HitBuffer(prim=out[0], geom=out[1], u=out[2], v=out[3], t=out[4])
 
 
-def rasterize(geometry, camera, *, near=None) -> HitBuffer:
+def rasterize(geometry, camera, *, near=None, offset=None) -> HitBuffer:
     """Visibility by z-buffer scan conversion: the ray caster's hit buffer.
 
     Parameters
@@ -177,6 +178,11 @@ def rasterize(geometry, camera, *, near=None) -> HitBuffer:
         Perspective near-plane distance in world units, ``> 0``; default
         ``NEAR_FRACTION * geometry.scale``. Ignored for orthographic cameras,
         which clip at the image plane.
+    offset : (dx, dy), optional
+        Sub-pixel offset in pixels (``y`` down): pixel ``(x, y)`` samples the
+        image point ``(x + 0.5 + dx, y + 0.5 + dy)`` (coverage, depth and
+        barycentrics alike), the ray caster's ``cast_camera(..., offset=)``.
+        ``None`` or ``(0, 0)``: the pixel centres.
 
     Returns
     -------
@@ -190,6 +196,8 @@ def rasterize(geometry, camera, *, near=None) -> HitBuffer:
         For a bad argument (the message names it).
     """
     geometry, near = _check(geometry, camera, near)
+    if offset is not None:
+        camera = subpixel_camera(camera, *offset_pair(offset))
     return _run(geometry, camera, near, False)
 
 

@@ -3,6 +3,11 @@
 The renderer fuses ray generation into its casting kernel; this module keeps
 the same arithmetic as a stand-alone Numba kernel (for the embreex caster and
 the benchmarks); its plain-NumPy twin is in :mod:`raycast_shade.study.twins`.
+
+Anti-aliasing rays through other points of the pixel come from
+:func:`subpixel_camera`: the same camera with its principal point moved, so
+that every caster, the rasterizer and the screen-space weights take them
+without a kernel of their own.
 """
 
 from __future__ import annotations
@@ -12,7 +17,7 @@ from numba import njit, prange
 
 from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_SIZE, CAM_UP, CAM_WIDTH
 
-__all__ = ["camera_frame", "generate_rays"]
+__all__ = ["camera_frame", "generate_rays", "subpixel_camera", "offset_pair"]
 
 
 def camera_frame(camera, origin=np.zeros(3)):
@@ -104,3 +109,42 @@ def generate_rays(camera, origin=np.zeros(3), dtype=np.float32):
     directions = np.empty((n, 3), dtype)
     _rays_kernel(cam, origins, directions)
     return origins, directions
+
+
+def subpixel_camera(camera, dx: float, dy: float):
+    """The camera whose pixel ``(x, y)`` ray passes through ``camera``'s image
+    point ``(x + 0.5 + dx, y + 0.5 + dy)`` instead of the pixel centre.
+
+    The principal point moves by ``(-dx, -dy)`` pixels (OpenCV's intrinsics,
+    :mod:`raycast_shade.scene.projection`); eye, axes and focal lengths stay.
+    Perspective rays keep their origin (the eye) and orthographic ones their
+    direction, so a hit seen through either camera is shaded the same way.
+
+    Parameters
+    ----------
+    camera : Camera
+    dx, dy : float
+        Sub-pixel offset in pixels (``y`` down), finite.
+
+    Returns
+    -------
+    Camera
+        ``camera`` itself for ``(0, 0)``.
+    """
+    from ..common.validate import as_scalar
+    from ..scene.projection import intrinsics
+
+    dx, dy = as_scalar(dx, "offset[0]"), as_scalar(dy, "offset[1]")
+    if dx == 0.0 and dy == 0.0:
+        return camera
+    fx, fy, cx, cy = intrinsics(camera)
+    return camera.replace(fx=fx, fy=fy, cx=cx - dx, cy=cy - dy)
+
+
+def offset_pair(offset, name: str = "offset"):
+    """``offset`` as ``(dx, dy)``: two finite numbers (TypeError/ValueError naming ``name``)."""
+    from ..common.validate import as_scalar
+
+    if isinstance(offset, (str, bytes, dict)) or not hasattr(offset, "__len__") or len(offset) != 2:
+        raise TypeError(f"{name}: expected (dx, dy), got {offset!r}")
+    return as_scalar(offset[0], f"{name}[0]"), as_scalar(offset[1], f"{name}[1]")
