@@ -18,11 +18,12 @@ from numba import njit, prange
 
 from ..common.choices import SHADINGS
 from ..visibility.hits import check_hits
-from .flat import _FLAT, _lookup_flat_kernel
-from .gouraud import _INTERPOLATE, _VERTICES
+from .flat import _FLAT, _FLAT_TEX, _lookup_flat_kernel
+from .gouraud import _INTERPOLATE, _INTERPOLATE_TEX, _VERTICES, _VERTICES_TEX
 from .inputs import kernel_inputs
-from .jit import JIT, variant
-from .phong import _PHONG
+from .jit import JIT
+from .phong import _PHONG, _PHONG_TEX
+from .texture import variant_for
 
 __all__ = ["SHADINGS", "METHODS", "shade", "shade_hits", "resolve_methods"]
 
@@ -140,14 +141,18 @@ def shade_hits(scene, camera, hits, shading="phong") -> np.ndarray:
     # (and the background), so a mixed frame runs just the kernels it needs.
     if flat:
         fcol = np.zeros((len(geo.faces), 3), np.float64)
-        variant(_FLAT, k)(face_flags, k["G"], geo.face_model, k["materials"], k["cam"], k["L"], fcol)
+        variant_for(_FLAT, _FLAT_TEX, k)(face_flags, k["G"], geo.face_model, k["materials"], k["cam"], k["L"],
+                                         k["T"], geo.uvs, fcol)
         _lookup_flat_kernel(hits.prim, hits.geom, k["face_off"], fcol, k["background"], modes, image)
     if gouraud:
         vcol = np.zeros((len(geo.vertices), 2, 3), np.float64)
-        variant(_VERTICES, k)(vertex_flags, k["G"], geo.vertex_model, k["materials"], k["cam"], k["L"], vcol)
-        variant(_INTERPOLATE, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["face_off"], k["materials"],
-                                 k["cam"], k["L"], k["background"], modes, vcol, image)
+        vspec = np.zeros((len(geo.vertices) if k["tex_on"] else 1, 2, 3), np.float64)  # modulate path only
+        variant_for(_VERTICES, _VERTICES_TEX, k)(vertex_flags, k["G"], geo.vertex_model, k["materials"], k["cam"],
+                                                 k["L"], k["T"], vcol, vspec)
+        variant_for(_INTERPOLATE, _INTERPOLATE_TEX, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"],
+                                                       k["face_off"], k["materials"], k["cam"], k["L"], k["T"],
+                                                       k["background"], modes, vcol, vspec, image)
     if np.any(modes == 2):
-        variant(_PHONG, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["face_off"],
-                           k["materials"], k["cam"], k["background"], modes, image)
+        variant_for(_PHONG, _PHONG_TEX, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["T"],
+                                           k["face_off"], k["materials"], k["cam"], k["background"], modes, image)
     return image
