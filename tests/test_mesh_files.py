@@ -10,6 +10,8 @@ import trimesh
 
 import raycast_shade as rs
 from raycast_shade.scene.normals import face_normals
+from raycast_shade.scene.scenefile import load_scene
+from raycast_shade.scene.texture import srgb_to_linear
 
 
 def _triangles(vertices, faces):
@@ -203,15 +205,16 @@ def test_obj_mtl_materials_and_textures(tmp_path):
     assert red.shininess == 50 and red.kd_map is None
     wood = by_name["wood"]
     assert wood.material.kd_map is not None and wood.mesh.uvs is not None
-    np.testing.assert_allclose(wood.material.kd_map.texels, rs.scene.texture.srgb_to_linear(img[::-1] / 255),
+    np.testing.assert_allclose(wood.material.kd_map.texels, srgb_to_linear(img[::-1] / 255),
                                rtol=1e-6)
     assert len(by_name["red"].mesh.vertices) == 4
     # Mesh.load keeps the geometry and names what it drops.
     with pytest.warns(rs.DroppedOnLoadWarning, match=r"material\(s\) .*red.*load_models"):
         rs.Mesh.load(tmp_path / "two.obj")
     # Renders with both materials.
-    scene = rs.Scene(models, lights=[rs.DirectionalLight((0, 0, -1))], camera=rs.Camera(eye=(1.5, 0.5, 3)))
-    assert rs.render(scene, width=32, height=16).image.max() > 0
+    scene = rs.Scene(models, lights=[rs.DirectionalLight((0, 0, -1))],
+                     camera=rs.Camera(eye=(1.5, 0.5, 3), width=32, height=16))
+    assert rs.render(scene).image.max() > 0
 
 
 def test_gltf_base_colour_texture_vertex_colours_and_pbr_mapping(tmp_path):
@@ -237,7 +240,7 @@ def test_gltf_base_colour_texture_vertex_colours_and_pbr_mapping(tmp_path):
     np.testing.assert_allclose(m.kd, base * 0.75)
     np.testing.assert_allclose(m.ks, 0.04 * 0.75 + base * 0.25)
     assert m.specular == "blinn" and m.shininess == pytest.approx(2 / 0.25 ** 2 - 2)
-    np.testing.assert_allclose(m.kd_map.texels, rs.scene.texture.srgb_to_linear(img[::-1] / 255), rtol=1e-6)
+    np.testing.assert_allclose(m.kd_map.texels, srgb_to_linear(img[::-1] / 255), rtol=1e-6)
     assert m.ks_map is m.kd_map  # the metallic part of ks is the base colour
     mesh = model.mesh
     assert mesh.color_mode == "vertex" and mesh.uvs is not None
@@ -261,7 +264,7 @@ def test_ply_colours_are_decoded_from_srgb(tmp_path, kind):
         mesh = rs.Mesh.load(tmp_path / "c.ply")
         (model,) = rs.load_models(tmp_path / "c.ply")
     assert mesh.color_mode == kind == model.mesh.color_mode
-    np.testing.assert_allclose(mesh.colors, rs.scene.texture.srgb_to_linear(colours[:, :3] / 255), rtol=1e-12)
+    np.testing.assert_allclose(mesh.colors, srgb_to_linear(colours[:, :3] / 255), rtol=1e-12)
     assert len(mesh.vertices) == 8  # as written
 
 
@@ -270,15 +273,15 @@ def test_a_scene_file_takes_the_file_materials_and_overrides_them(tmp_path):
     (tmp_path / "two.obj").write_text("mtllib two.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nusemtl red\nf 1 2 3\n")
     base = '[camera]\neye = [0.5, 0.5, 3]\ntarget = [0.5, 0.5, 0]\n[[object]]\nmesh = "two.obj"\n'
     (tmp_path / "a.toml").write_text(base)
-    scene, _ = rs.scene.scenefile.load_scene(tmp_path / "a.toml")
+    scene, _ = load_scene(tmp_path / "a.toml")
     m = scene.models[0].material
     np.testing.assert_array_equal(m.kd, [0.8, 0.1, 0.1])
     assert m.shininess == 20 and m.ks.tolist() == [0.5] * 3
     (tmp_path / "b.toml").write_text(base + "[object.material]\nkd = 0.3\n")
-    scene, _ = rs.scene.scenefile.load_scene(tmp_path / "b.toml")
+    scene, _ = load_scene(tmp_path / "b.toml")
     m = scene.models[0].material
     assert m.kd.tolist() == [0.3] * 3 and m.shininess == 20 and m.ks.tolist() == [0.5] * 3
     (tmp_path / "c.toml").write_text(base + 'materials = "none"\n')
     with pytest.warns(rs.DroppedOnLoadWarning, match="red"):
-        scene, _ = rs.scene.scenefile.load_scene(tmp_path / "c.toml")
+        scene, _ = load_scene(tmp_path / "c.toml")
     assert scene.models[0].material.kd.tolist() == [0.8] * 3
