@@ -285,3 +285,13 @@ def test_a_scene_file_takes_the_file_materials_and_overrides_them(tmp_path):
     with pytest.warns(rs.DroppedOnLoadWarning, match="red"):
         scene, _ = load_scene(tmp_path / "c.toml")
     assert scene.models[0].material.kd.tolist() == [0.8] * 3
+
+
+def test_a_duplicate_vertex_in_a_ply_is_kept_unless_merging_is_asked(tmp_path):
+    box = trimesh.creation.box()
+    v = np.vstack([box.vertices, box.vertices[:1]])
+    f = box.faces.copy()
+    f[0, 0] = len(v) - 1  # one face uses the duplicate
+    trimesh.Trimesh(v, f, process=False).export(tmp_path / "d.ply")
+    assert len(rs.Mesh.load(tmp_path / "d.ply").vertices) == 9
+    assert len(rs.Mesh.load(tmp_path / "d.ply", merge=True).vertices) == 8
