@@ -98,7 +98,7 @@ def test_a_finite_mesh_file_loads_as_trimesh_would(tmp_path):
 
     path = write_ply(tmp_path / "ok.ply", SQUARE_V + [[0, 0, 0]], SQUARE_F + [[5, 1, 2]])  # a duplicate vertex
     tm = trimesh.load(path)
-    mesh = rs.Mesh.load(path)
+    mesh = rs.Mesh.load(path, merge=True)  # merging is now asked for (issue 13: kept as written by default)
     np.testing.assert_array_equal(mesh.vertices, tm.vertices)
     np.testing.assert_array_equal(mesh.faces, tm.faces)
     assert len(mesh.vertices) == 5  # merged, as before

@@ -26,6 +26,8 @@ ROWS = {
             lay.MAT_SIZE),
     "BUMP": ({"BUMP_OFFSET": 1, "BUMP_ROWS": 1, "BUMP_COLS": 1, "BUMP_CLAMP": 1, "BUMP_TILE_U": 1,
               "BUMP_TILE_V": 1, "BUMP_SCALE": 1}, lay.BUMP_SIZE),
+    "TEX": ({"TEX_OFFSET": 1, "TEX_WIDTH": 1, "TEX_HEIGHT": 1, "TEX_LEVELS": 1, "TEX_CLAMP": 1, "TEX_TILE_U": 1,
+             "TEX_TILE_V": 1, "TEX_MIPMAP": 1}, lay.TEX_SIZE),
 }
 
 
@@ -52,13 +54,13 @@ def test_layout_docstring_states_the_constants():
     doc = lay.__doc__
     stated = dict(re.findall(r"\(([A-Z_]+),\) = \((\d+),\)", doc))
     stated.update((name, n) for name, n in re.findall(r"\([A-Z], ([A-Z_]+)\) = \([A-Z], (\d+)\)", doc))
-    assert stated == {"CAM_SIZE": "16", "LIGHT_SIZE": "16", "MAT_SIZE": "12", "BUMP_SIZE": "7"}
+    assert stated == {"CAM_SIZE": "16", "LIGHT_SIZE": "16", "MAT_SIZE": "12", "BUMP_SIZE": "7", "TEX_SIZE": "8"}
     for name, n in stated.items():
         assert getattr(lay, name) == int(n), name
 
 
 @pytest.mark.parametrize("obj", [camera_frame, rs.Material.packed, rs.HeightMap.packed_info, rs.Scene.packed_lights,
-                                 SceneGeometry])
+                                 SceneGeometry, rs.Texture.packed_info])
 def test_packer_docstrings_state_the_constants(obj):
     """Where a docstring writes ``NAME = n`` for a size, n is the constant's value."""
     pairs = re.findall(r"\(([^()]*)\) = \(([^()]*)\)", obj.__doc__)
@@ -116,6 +118,35 @@ def test_heightmap_row():
     assert row[lay.BUMP_CLAMP] == 1.0 and rs.HeightMap(np.zeros((2, 2))).packed_info(0)[lay.BUMP_CLAMP] == 0.0
     assert row[lay.BUMP_TILE_U] == 2.0 and row[lay.BUMP_TILE_V] == 3.0
     assert row[lay.BUMP_SCALE] == -0.5
+
+
+def test_texture_row():
+    """Levels stored one after another from the offset: 5 x 3 -> 2 x 1 -> 1 x 1."""
+    tex = rs.Texture(np.ones((3, 5, 3)), wrap="clamp", tiling=(2.0, 4.0))
+    row = tex.packed_info(9)
+    assert row.shape == (lay.TEX_SIZE,) and row.dtype == np.float64
+    assert row[lay.TEX_OFFSET] == 9 and row[lay.TEX_WIDTH] == 5 and row[lay.TEX_HEIGHT] == 3
+    assert row[lay.TEX_LEVELS] == 3 and tex.size == 3 * (15 + 2 + 1) == tex.packed_texels().size
+    assert row[lay.TEX_CLAMP] == 1.0 and row[lay.TEX_TILE_U] == 2.0 and row[lay.TEX_TILE_V] == 4.0
+    assert row[lay.TEX_MIPMAP] == 1.0
+    flat = rs.Texture(np.ones((3, 5, 3)), filter="bilinear").packed_info(0)
+    assert flat[lay.TEX_MIPMAP] == 0.0 and flat[lay.TEX_LEVELS] == 1 and flat[lay.TEX_CLAMP] == 0.0
+
+
+def test_texture_rows_in_the_scene():
+    """A map shared by two slots is packed once; each model's slots name its rows."""
+    tex = rs.Texture.checker(2, 2)
+    other = rs.Texture(np.ones((2, 2, 3)))
+    models = [rs.Model(rs.shapes.plane(), rs.Material(kd_map=tex, ks_map=tex)),
+              rs.Model(rs.shapes.plane(center=(3, 0, 0)), rs.Material(ka_map=other)),
+              rs.Model(rs.shapes.plane(center=(6, 0, 0)))]
+    geo = _scene([], models=models).geometry
+    assert geo.tex_info.shape == (2, lay.TEX_SIZE)
+    assert geo.tex_index.tolist() == [[-1, 0, 0], [1, -1, -1], [-1, -1, -1]]
+    assert geo.tex_index[0, lay.TEXMAP_KD] == 0 and geo.tex_index[1, lay.TEXMAP_KA] == 1
+    assert geo.tex_info[1, lay.TEX_OFFSET] == tex.size == geo.tex_info[0, lay.TEX_OFFSET] + tex.size
+    assert geo.tex_texels.size == tex.size + other.size and geo.textured
+    assert not _scene([]).geometry.textured
 
 
 def test_light_rows():

@@ -10,6 +10,8 @@ import trimesh
 
 import raycast_shade as rs
 from raycast_shade.scene.normals import face_normals
+from raycast_shade.scene.scenefile import load_scene
+from raycast_shade.scene.texture import srgb_to_linear
 
 
 def _triangles(vertices, faces):
@@ -124,3 +126,172 @@ def test_a_file_without_triangles_is_refused(tmp_path):
         rs.Mesh.load(tmp_path / "junk.ply")
     with pytest.raises(TypeError, match="trimesh.Trimesh or trimesh.Scene"):
         rs.Mesh.from_trimesh(np.zeros((3, 3)))
+
+
+# -- vertices as written, colours and materials (issue 13) ---------------------------------------
+
+def _cube_obj(tmp_path, mtl=""):
+    """A unit cube whose six faces each have four vertices of their own (24 `v` lines)."""
+    cube = trimesh.creation.box()
+    lines = [mtl] if mtl else []
+    faces = []
+    for k, (axis, sign) in enumerate([(a, s) for a in range(3) for s in (-1, 1)]):
+        corners = [c for c in np.array(np.meshgrid([-.5, .5], [-.5, .5], [-.5, .5])).reshape(3, -1).T
+                   if c[axis] == sign * 0.5]
+        centre = np.mean(corners, axis=0)
+        a = np.eye(3)[(axis + 1) % 3]
+        corners.sort(key=lambda c: np.arctan2(np.dot(np.cross(a, c - centre), np.eye(3)[axis] * sign),
+                                              np.dot(a, c - centre)))
+        lines += [f"v {c[0]} {c[1]} {c[2]}" for c in corners]
+        faces.append(f"f {4 * k + 1} {4 * k + 2} {4 * k + 3} {4 * k + 4}")
+    del cube
+    path = tmp_path / "cube.obj"
+    path.write_text("\n".join(lines + faces) + "\n")
+    return path
+
+
+def test_split_vertices_are_kept_as_written(tmp_path):
+    """Today's bug: trimesh's default processing welded the 24 vertices into 8, and the
+    averaged normals rounded the cube off. Kept as written, every face is flat."""
+    path = _cube_obj(tmp_path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", rs.CreaseWarning)
+        mesh = rs.Mesh.load(path)
+        assert len(mesh.vertices) == 24 and len(mesh.faces) == 12
+        prep = mesh.prepared
+        fn, _ = face_normals(prep.vertices, prep.faces)
+        for k in range(3):
+            np.testing.assert_allclose(prep.normals[prep.faces[:, k]], fn, atol=1e-12)  # hard edges
+        assert len(rs.Mesh.load(path, merge=True).vertices) == 8
+
+
+MTL = """\
+newmtl red
+Kd 0.8 0.1 0.1
+Ka 0.5 0.5 0.5
+Ks 0.25 0.25 0.25
+Ns 50
+d 0.5
+illum 2
+newmtl wood
+Kd 1 1 1
+Ks 0 0 0
+map_Kd wood.png
+map_Bump bump.png
+"""
+
+
+def test_obj_mtl_materials_and_textures(tmp_path):
+    """Two materials: two models. Kd, Ka, Ks, Ns exact (not trimesh's 8-bit copies), map_Kd
+    decoded from sRGB; 'd 0.5' and 'map_Bump' have no counterpart and are named."""
+    import imageio.v3 as iio
+
+    img = np.random.default_rng(0).integers(0, 256, (4, 6, 3), dtype=np.uint8)
+    iio.imwrite(tmp_path / "wood.png", img)
+    (tmp_path / "two.mtl").write_text(MTL)
+    (tmp_path / "two.obj").write_text(
+        "mtllib two.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 0 0\nv 3 0 0\nv 3 1 0\n"
+        "vt 0 0\nvt 1 0\nvt 1 1\nusemtl red\nf 1 2 3\nf 1 3 4\nusemtl wood\nf 5/1 6/2 7/3\n")
+    with pytest.warns(rs.DroppedOnLoadWarning) as record:
+        models = rs.load_models(tmp_path / "two.obj")
+    message = " ".join(str(w.message) for w in record)
+    assert "d 0.5" in message and "map_bump bump.png" in message
+    by_name = {m.material.name: m for m in models}
+    assert set(by_name) == {"red", "wood"}
+    red = by_name["red"].material
+    np.testing.assert_array_equal(red.kd, [0.8, 0.1, 0.1])
+    np.testing.assert_array_equal(red.ka, [0.5, 0.5, 0.5])
+    np.testing.assert_array_equal(red.ks, [0.25, 0.25, 0.25])
+    assert red.shininess == 50 and red.kd_map is None
+    wood = by_name["wood"]
+    assert wood.material.kd_map is not None and wood.mesh.uvs is not None
+    np.testing.assert_allclose(wood.material.kd_map.texels, srgb_to_linear(img[::-1] / 255),
+                               rtol=1e-6)
+    assert len(by_name["red"].mesh.vertices) == 4
+    # Mesh.load keeps the geometry and names what it drops.
+    with pytest.warns(rs.DroppedOnLoadWarning, match=r"material\(s\) .*red.*load_models"):
+        rs.Mesh.load(tmp_path / "two.obj")
+    # Renders with both materials.
+    scene = rs.Scene(models, lights=[rs.DirectionalLight((0, 0, -1))],
+                     camera=rs.Camera(eye=(1.5, 0.5, 3), width=32, height=16))
+    assert rs.render(scene).image.max() > 0
+
+
+def test_gltf_base_colour_texture_vertex_colours_and_pbr_mapping(tmp_path):
+    """kd = baseColor (1 - m), ks = 0.04 (1 - m) + baseColor m, Blinn t = 2/alpha^2 - 2 with
+    alpha = roughness^2; COLOR_0 (linear in glTF, so not sRGB-decoded) becomes the vertex
+    colours times kd's factor; the texture is decoded from sRGB; emission is named."""
+    from PIL import Image
+
+    box = trimesh.creation.box()
+    rng = np.random.default_rng(2)
+    img = rng.integers(0, 256, (4, 4, 3), dtype=np.uint8)
+    mat = trimesh.visual.material.PBRMaterial(baseColorFactor=[255, 128, 51, 255], baseColorTexture=Image.fromarray(img),
+                                              metallicFactor=0.25, roughnessFactor=0.5, emissiveFactor=[0.1, 0, 0])
+    colours = rng.integers(0, 256, (len(box.vertices), 4), dtype=np.uint8)
+    colours[:, 3] = 255
+    box.visual = trimesh.visual.TextureVisuals(uv=rng.random((len(box.vertices), 2)), material=mat)
+    box.visual.vertex_attributes["color"] = colours
+    box.export(tmp_path / "box.glb")
+    with pytest.warns(rs.DroppedOnLoadWarning, match="emissiveFactor"):
+        (model,) = rs.load_models(tmp_path / "box.glb")
+    m = model.material
+    base = np.array([255, 128, 51]) / 255
+    np.testing.assert_allclose(m.kd, base * 0.75)
+    np.testing.assert_allclose(m.ks, 0.04 * 0.75 + base * 0.25)
+    assert m.specular == "blinn" and m.shininess == pytest.approx(2 / 0.25 ** 2 - 2)
+    np.testing.assert_allclose(m.kd_map.texels, srgb_to_linear(img[::-1] / 255), rtol=1e-6)
+    assert m.ks_map is m.kd_map  # the metallic part of ks is the base colour
+    mesh = model.mesh
+    assert mesh.color_mode == "vertex" and mesh.uvs is not None
+    order = [int(np.flatnonzero(np.all(np.isclose(box.vertices, v), axis=1))[0]) for v in mesh.vertices]
+    np.testing.assert_allclose(mesh.colors, colours[order, :3] / 255 * m.kd, rtol=1e-6)
+
+
+@pytest.mark.parametrize("kind", ["vertex", "face"])
+def test_ply_colours_are_decoded_from_srgb(tmp_path, kind):
+    box = trimesh.creation.box()
+    n = len(box.vertices) if kind == "vertex" else len(box.faces)
+    colours = np.random.default_rng(4).integers(0, 256, (n, 4), dtype=np.uint8)
+    colours[:, 3] = 255
+    if kind == "vertex":
+        box.visual.vertex_colors = colours
+    else:
+        box.visual.face_colors = colours
+    box.export(tmp_path / "c.ply")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", rs.DroppedOnLoadWarning)
+        mesh = rs.Mesh.load(tmp_path / "c.ply")
+        (model,) = rs.load_models(tmp_path / "c.ply")
+    assert mesh.color_mode == kind == model.mesh.color_mode
+    np.testing.assert_allclose(mesh.colors, srgb_to_linear(colours[:, :3] / 255), rtol=1e-12)
+    assert len(mesh.vertices) == 8  # as written
+
+
+def test_a_scene_file_takes_the_file_materials_and_overrides_them(tmp_path):
+    (tmp_path / "two.mtl").write_text("newmtl red\nKd 0.8 0.1 0.1\nKs 0.5 0.5 0.5\nNs 20\n")
+    (tmp_path / "two.obj").write_text("mtllib two.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nusemtl red\nf 1 2 3\n")
+    base = '[camera]\neye = [0.5, 0.5, 3]\ntarget = [0.5, 0.5, 0]\n[[object]]\nmesh = "two.obj"\n'
+    (tmp_path / "a.toml").write_text(base)
+    scene, _ = load_scene(tmp_path / "a.toml")
+    m = scene.models[0].material
+    np.testing.assert_array_equal(m.kd, [0.8, 0.1, 0.1])
+    assert m.shininess == 20 and m.ks.tolist() == [0.5] * 3
+    (tmp_path / "b.toml").write_text(base + "[object.material]\nkd = 0.3\n")
+    scene, _ = load_scene(tmp_path / "b.toml")
+    m = scene.models[0].material
+    assert m.kd.tolist() == [0.3] * 3 and m.shininess == 20 and m.ks.tolist() == [0.5] * 3
+    (tmp_path / "c.toml").write_text(base + 'materials = "none"\n')
+    with pytest.warns(rs.DroppedOnLoadWarning, match="red"):
+        scene, _ = load_scene(tmp_path / "c.toml")
+    assert scene.models[0].material.kd.tolist() == [0.8] * 3
+
+
+def test_a_duplicate_vertex_in_a_ply_is_kept_unless_merging_is_asked(tmp_path):
+    box = trimesh.creation.box()
+    v = np.vstack([box.vertices, box.vertices[:1]])
+    f = box.faces.copy()
+    f[0, 0] = len(v) - 1  # one face uses the duplicate
+    trimesh.Trimesh(v, f, process=False).export(tmp_path / "d.ply")
+    assert len(rs.Mesh.load(tmp_path / "d.ply").vertices) == 9
+    assert len(rs.Mesh.load(tmp_path / "d.ply", merge=True).vertices) == 8

@@ -19,6 +19,10 @@ Material rows, ``(G, MAT_SIZE) = (G, 12)`` float64 (:meth:`raycast_shade.Materia
     ka (3), kd (3), ks (3), shininess, Blinn flag, reflectivity.
 Height-map rows, ``(B, BUMP_SIZE) = (B, 7)`` float64 (:meth:`raycast_shade.HeightMap.packed_info`):
     texel offset, rows, cols, clamp flag, tiling u, tiling v, height scale.
+Texture rows, ``(K, TEX_SIZE) = (K, 8)`` float64 (:meth:`raycast_shade.Texture.packed_info`):
+    texel offset of level 0 (RGB float32 triples, levels stored one after
+    another, each ``max(1, w >> k) x max(1, h >> k)``), width, height, mip
+    levels, clamp flag, tiling u, tiling v, mip-map flag (0: level 0 only).
 
 Components of a 3-vector slot are ``SLOT + 0``, ``SLOT + 1``, ``SLOT + 2``.
 """
@@ -73,5 +77,24 @@ BUMP_TILE_U = 4
 BUMP_TILE_V = 5
 BUMP_SCALE = 6
 BUMP_SIZE = 7
+
+# texture rows
+TEX_OFFSET = 0
+TEX_WIDTH = 1
+TEX_HEIGHT = 2
+TEX_LEVELS = 3
+TEX_CLAMP = 4
+TEX_TILE_U = 5
+TEX_TILE_V = 6
+TEX_MIPMAP = 7
+TEX_SIZE = 8
+# Per-model colour sources (SceneGeometry.color_mode)
+COLOR_NONE = 0
+COLOR_VERTEX = 1
+COLOR_FACE = 2
+# Per-model texture slots (SceneGeometry.tex_index columns): which coefficient a map scales
+TEXMAP_KA = 0
+TEXMAP_KD = 1
+TEXMAP_KS = 2
 
 __all__ = [name for name in dir() if name.isupper()]

@@ -37,11 +37,13 @@ class Material:
     Parameters
     ----------
     kd : float or (3,) float
-        Diffuse albedo (Lambert).
+        Diffuse albedo (Lambert). Default 0.8, or 1 with a ``kd_map``. A mesh
+        with colours (:class:`~raycast_shade.Mesh` ``colors``) uses them as
+        its kd instead.
     ka : float or (3,) float
         Ambient coefficient, multiplied by the scene's ambient intensity ``Ia``.
     ks : float or (3,) float
-        Specular coefficient ``Ks``.
+        Specular coefficient ``Ks``. Default 0, or 1 with a ``ks_map``.
     shininess : float
         Exponent ``t > 0``.
     specular : {"phong", "blinn"}
@@ -54,19 +56,38 @@ class Material:
         Blinn bump map; needs per-vertex UVs on the mesh. Applies in Phong
         shading and to mirror reflections (see :mod:`raycast_shade.bump`).
     name : str
+    kd_map, ka_map, ks_map : Texture, optional
+        Colour textures sampled at the hit's UV (the mesh needs UVs): the
+        point's kd is ``kd * kd_map(u, v)`` (likewise ka, ks), as OBJ's
+        ``map_Kd`` scales ``Kd``. See ``docs/textures.md`` for what each
+        shading method does with them.
     """
 
-    kd: object = 0.8
+    kd: object = None
     ka: object = 1.0
-    ks: object = 0.0
+    ks: object = None
     shininess: float = 32.0
     specular: str = "phong"
     reflectivity: float = 0.0
     bump: object = None
     name: str = "material"
+    kd_map: object = None
+    ka_map: object = None
+    ks_map: object = None
 
     def __post_init__(self):
         set_ = object.__setattr__
+        from .texture import Texture
+
+        for field in ("kd_map", "ka_map", "ks_map"):
+            tex = getattr(self, field)
+            if tex is not None and not isinstance(tex, Texture):
+                raise TypeError(f"{self.name}.{field}: expected a Texture, got {type(tex).__name__}")
+        # A map's coefficient defaults to 1: the texture's own colours.
+        if self.kd is None:
+            set_(self, "kd", 1.0 if self.kd_map is not None else 0.8)
+        if self.ks is None:
+            set_(self, "ks", 1.0 if self.ks_map is not None else 0.0)
         for field in ("kd", "ka", "ks"):
             set_(self, field, as_rgb(getattr(self, field), f"{self.name}.{field}"))
             _warn_byte_range(getattr(self, field), f"{self.name}.{field}", field)
@@ -78,6 +99,12 @@ class Material:
 
             if not isinstance(self.bump, HeightMap):
                 raise TypeError(f"{self.name}.bump: expected a HeightMap, got {type(self.bump).__name__}")
+
+    @property
+    def maps(self) -> tuple:
+        """``(ka_map, kd_map, ks_map)``, ``None`` where absent (the order of
+        :data:`~raycast_shade.common.layout.TEXMAP_KA` and friends)."""
+        return (self.ka_map, self.kd_map, self.ks_map)
 
     @property
     def has_specular(self) -> bool:

@@ -15,7 +15,9 @@ from ..common.warnings import CreaseWarning, DroppedOnLoadWarning, ZeroNormalWar
 from .normals import WEIGHTINGS, WindingWarning, face_normals, vertex_normals, winding_conflicts
 from .pitfalls import SHARP_DEGREES, sharp_edges
 
-__all__ = ["Mesh", "PreparedMesh", "ZeroNormalWarning"]
+__all__ = ["Mesh", "PreparedMesh", "ZeroNormalWarning", "COLOR_MODES"]
+
+COLOR_MODES = ("auto", "vertex", "face")
 
 
 class PreparedMesh(NamedTuple):
@@ -30,6 +32,9 @@ class PreparedMesh(NamedTuple):
     uvs : (V, 2) float64 or None
     face_normals : (F, 3) float64
         True geometric normals (right-hand rule), zero for degenerate faces.
+    colors : (V, 3) or (F, 3) float64 or None
+        Linear kd per (split) vertex or per face, as ``color_mode`` says.
+    color_mode : {"vertex", "face"} or None
     """
 
     vertices: np.ndarray
@@ -37,6 +42,8 @@ class PreparedMesh(NamedTuple):
     normals: np.ndarray
     uvs: np.ndarray | None
     face_normals: np.ndarray
+    colors: np.ndarray | None = None
+    color_mode: str | None = None
 
 
 def _readonly(a):
@@ -71,6 +78,13 @@ class Mesh:
         angle, so hard edges stay hard. Ignored when ``normals`` is given.
     name : str
         For messages and reports.
+    colors : (V, 3) or (F, 3) array_like of float, optional
+        Linear RGB per vertex (interpolated over each face) or per face (one
+        per face), used as the diffuse coefficient kd in place of the
+        material's (a ``kd_map`` still multiplies it). Values ``>= 0``.
+    color_mode : {"auto", "vertex", "face"}
+        Which ``colors`` are; ``"auto"`` tells by the row count (an error
+        when the mesh has as many vertices as faces).
     """
 
     vertices: np.ndarray
@@ -80,6 +94,8 @@ class Mesh:
     weighting: str = "angle"
     crease_angle: float | None = None
     name: str = field(default="mesh")
+    colors: np.ndarray | None = None
+    color_mode: str = "auto"
 
     def __post_init__(self):
         set_ = object.__setattr__
@@ -110,6 +126,7 @@ class Mesh:
         if self.uvs is not None:
             uv = as_array(self.uvs, f"{self.name}.uvs", dtype=np.float64, shape=(v.shape[0], 2), copy=True)
             set_(self, "uvs", _readonly(uv))
+        _set_colors(self, v.shape[0], f.shape[0])
         set_(self, "weighting", as_choice(self.weighting, f"{self.name}.weighting", WEIGHTINGS))
         if self.crease_angle is not None:
             set_(
@@ -120,15 +137,19 @@ class Mesh:
 
     # -- construction -----------------------------------------------------------------
     @classmethod
-    def from_trimesh(cls, tm, *, use_normals: bool | None = None, **kwargs) -> "Mesh":
+    def from_trimesh(cls, tm, *, use_normals: bool | None = None, srgb_colors: bool = True, **kwargs) -> "Mesh":
         """Wrap a :class:`trimesh.Trimesh`, or flatten a :class:`trimesh.Scene`.
 
         ``use_normals=None`` keeps vertex normals only when the source file
         supplied them (for a scene: every mesh in it); ``True`` always takes
-        trimesh's, ``False`` never. UVs come from ``visual.uv`` when every
-        mesh has them. A scene's meshes are placed by their node transforms,
-        normals by the inverse transpose, and the faces of a mirrored
-        instance are turned over so that they keep facing out.
+        trimesh's, ``False`` never. UVs come from ``visual.uv`` and colours
+        from the visual's vertex or face colours (or a glTF ``COLOR_0`` next
+        to a texture) when every mesh has them; 8-bit colours are decoded
+        from sRGB unless ``srgb_colors=False`` (glTF stores linear ones). A
+        scene's meshes are placed by their node transforms, normals by the
+        inverse transpose, and the faces of a mirrored instance are turned
+        over so that they keep facing out. Materials are not part of a mesh:
+        :func:`raycast_shade.load_models` brings them in.
         """
         import trimesh
 
@@ -148,28 +169,45 @@ class Mesh:
                 raise ValueError("the trimesh scene holds no triangle meshes")
         else:
             raise TypeError(f"expected a trimesh.Trimesh or trimesh.Scene, got {type(tm).__name__}")
-        parts = [_instance(g, m, use_normals) for g, m in instances]
+        name = kwargs.get("name", "mesh")
+        parts = [_instance(g, m, use_normals) + visual_colors(g, srgb_colors, name) for g, m in instances]
         offsets = np.cumsum([0] + [len(p[0]) for p in parts[:-1]])
         vertices = np.concatenate([p[0] for p in parts])
         faces = np.concatenate([p[1] + o for p, o in zip(parts, offsets)])
         normals = np.concatenate([p[2] for p in parts]) if all(p[2] is not None for p in parts) else None
         uvs = np.concatenate([p[3] for p in parts]) if all(p[3] is not None for p in parts) else None
+        modes = {p[5] for p in parts}
+        colors, mode = None, None
+        if len(modes) == 1 and None not in modes:
+            colors, mode = np.concatenate([p[4] for p in parts]), modes.pop()
+        elif any(p[5] is not None for p in parts):
+            dropped.append("the colours (the meshes do not all have colours of one kind, per vertex or per face)")
         if normals is None and any(p[2] is not None for p in parts):
             dropped.append("the vertex normals (only some of the meshes have them; they are averaged instead)")
         if uvs is None and any(p[3] is not None for p in parts):
             dropped.append("the UVs (only some of the meshes have them)")
         if dropped:
-            warnings.warn(f"{kwargs.get('name', 'mesh')}: dropped {'; '.join(dropped)}: export the file with "
+            warnings.warn(f"{name}: dropped {'; '.join(dropped)}: export the file with "
                           "triangle meshes only, each with the same attributes, to keep everything",
                           DroppedOnLoadWarning, stacklevel=2)
+        if colors is not None:
+            kwargs.setdefault("colors", colors)
+            kwargs.setdefault("color_mode", mode)
         return cls(vertices, faces, normals=normals, uvs=uvs, **kwargs)
 
     @classmethod
-    def load(cls, path, **kwargs) -> "Mesh":
+    def load(cls, path, *, merge: bool = False, **kwargs) -> "Mesh":
         """Load any file trimesh reads (OBJ, PLY, STL, OFF, GLB/glTF, ...).
 
-        Vertex normals stored in the file are kept (``use_normals=None``,
-        see :meth:`from_trimesh`); a file with several meshes becomes one.
+        Vertices are kept as written: a cube whose faces have vertices of
+        their own keeps its hard edges (``merge=True`` welds coincident
+        vertices, as ``trimesh.load`` does; an STL file, a triangle soup with
+        no shared vertices at all, is always welded). Vertex normals stored
+        in the file are kept (``use_normals=None``, see
+        :meth:`from_trimesh`), and so are vertex or face colours; a file with
+        several meshes becomes one. Materials and textures need
+        :func:`raycast_shade.load_models`: here they are dropped with a
+        :class:`DroppedOnLoadWarning`.
 
         Raises
         ------
@@ -177,26 +215,15 @@ class Mesh:
             When the file is missing, unreadable or holds no triangles, or
             when vertices are not finite (trimesh would drop their faces).
         """
-        import trimesh
-
-        path = os.fspath(path)
-        if not os.path.exists(path):
-            raise ValueError(f"mesh file not found: {path}")
-        try:
-            # Not force="mesh": trimesh 5 then concatenates through a scene and drops the file's normals.
-            # Not processed yet: processing drops faces on NaN/inf vertices without a word.
-            tm = trimesh.load(path, process=False)
-        except Exception as exc:
-            raise ValueError(f"cannot read mesh file {path}: {exc}") from None
-        meshes = tm.geometry.values() if isinstance(tm, trimesh.Scene) else [tm]
-        _refuse_non_finite(path, meshes)
-        for m in meshes:
-            if isinstance(m, trimesh.Trimesh):
-                m.process()  # what trimesh.load(path) would have done: merge duplicate vertices
-        if not any(isinstance(m, trimesh.Trimesh) and len(m.faces) for m in meshes):
-            raise ValueError(f"mesh file {path} holds no triangles")
-        kwargs.setdefault("name", os.path.basename(path))
-        return cls.from_trimesh(tm, **kwargs)
+        tm, srgb = read_trimesh(path, merge)
+        kwargs.setdefault("name", os.path.basename(os.fspath(path)))
+        meshes = tm.geometry.values() if _is_scene(tm) else [tm]
+        lost = sorted({d for m in meshes for d in _material_names(m)})
+        if lost:
+            warnings.warn(f"{kwargs['name']}: dropped the material(s) {', '.join(lost)} (Mesh.load keeps geometry, "
+                          "UVs and colours): use raycast_shade.load_models to bring materials and textures in",
+                          DroppedOnLoadWarning, stacklevel=2)
+        return cls.from_trimesh(tm, srgb_colors=srgb, **kwargs)
 
     # -- derived ------------------------------------------------------------------------
     @property
@@ -240,12 +267,130 @@ class Mesh:
                 self.vertices, self.faces, self.weighting, self.crease_angle
             )
             uvs = None if self.uvs is None else self.uvs[source]
-            return PreparedMesh(verts, faces, normals, uvs, fn)
+            colors = self.colors
+            if colors is not None and self.color_mode == "vertex":
+                colors = colors[source]
+            return PreparedMesh(verts, faces, normals, uvs, fn, colors, self.color_mode)
         fn, _ = face_normals(verts, faces)
-        return PreparedMesh(verts, faces, normals, uvs, fn)
+        return PreparedMesh(verts, faces, normals, uvs, fn, self.colors, self.color_mode)
 
     def __repr__(self) -> str:
         return f"Mesh(name={self.name!r}, vertices={len(self.vertices)}, faces={len(self.faces)})"
+
+
+def _is_scene(tm) -> bool:
+    import trimesh
+
+    return isinstance(tm, trimesh.Scene)
+
+
+def read_trimesh(path, merge: bool = False):
+    """``trimesh.load`` a file, keeping its vertices as written.
+
+    Returns
+    -------
+    tm : trimesh.Trimesh or trimesh.Scene
+    srgb : bool
+        Whether the format's 8-bit colours are sRGB-encoded (all but glTF).
+
+    Raises
+    ------
+    ValueError
+        Missing, unreadable, no triangles, or non-finite vertices.
+    """
+    import trimesh
+
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise ValueError(f"mesh file not found: {path}")
+    try:
+        # Not force="mesh": trimesh 5 then concatenates through a scene and drops the file's normals.
+        # Not processed: processing welds split vertices (rounding hard edges off) and drops faces
+        # on NaN/inf vertices without a word.
+        tm = trimesh.load(path, process=False)
+    except Exception as exc:
+        raise ValueError(f"cannot read mesh file {path}: {exc}") from None
+    meshes = tm.geometry.values() if isinstance(tm, trimesh.Scene) else [tm]
+    _refuse_non_finite(path, meshes)
+    ext = os.path.splitext(path)[1].lower()
+    for m in meshes:
+        if isinstance(m, trimesh.Trimesh) and (merge or ext == ".stl"):
+            m.process()  # what trimesh.load(path) would have done: merge duplicate vertices
+    if not any(isinstance(m, trimesh.Trimesh) and len(m.faces) for m in meshes):
+        raise ValueError(f"mesh file {path} holds no triangles")
+    return tm, ext not in (".glb", ".gltf")
+
+
+def _material_names(tm) -> list:
+    """Names of the materials a trimesh's visual carries (none for plain colours)."""
+    mat = getattr(getattr(tm, "visual", None), "material", None)
+    if mat is None:
+        return []
+    return [repr(getattr(mat, "name", None) or type(mat).__name__)]
+
+
+def visual_colors(tm, srgb: bool, name: str) -> tuple:
+    """A trimesh's colours as ``(colors (N, 3) float64 linear, mode)``, or ``(None, None)``.
+
+    Vertex or face colours of a ``ColorVisuals``, or the vertex colours a
+    ``TextureVisuals`` keeps next to its texture (glTF ``COLOR_0``); 8-bit
+    values are divided by 255 and, with ``srgb``, decoded to linear. An alpha
+    channel that is not opaque is dropped with a warning.
+    """
+    vis = getattr(tm, "visual", None)
+    raw, mode = None, None
+    if vis is None:
+        return None, None
+    if getattr(vis, "kind", None) in ("vertex", "face") and hasattr(vis, "vertex_colors"):
+        mode = vis.kind
+        raw = vis.vertex_colors if mode == "vertex" else vis.face_colors
+    else:
+        attrs = getattr(vis, "vertex_attributes", None)
+        if attrs is not None and "color" in attrs:
+            raw, mode = attrs["color"], "vertex"
+    if raw is None:
+        return None, None
+    raw = np.asarray(raw)
+    c = raw.astype(np.float64) / np.iinfo(raw.dtype).max if raw.dtype.kind in "ui" else raw.astype(np.float64)
+    if c.ndim != 2 or c.shape[1] not in (3, 4):
+        return None, None
+    if c.shape[1] == 4:
+        if np.any(c[:, 3] < 1.0):
+            warnings.warn(f"{name}: dropped the colours' alpha (transparency is not modelled)",
+                          DroppedOnLoadWarning, stacklevel=4)
+        c = c[:, :3]
+    if srgb:
+        from .texture import srgb_to_linear
+
+        c = srgb_to_linear(np.clip(c, 0.0, 1.0))
+    return c, mode
+
+
+def _set_colors(mesh, nv: int, nf: int) -> None:
+    """Validate ``mesh.colors`` and resolve ``color_mode`` (None without colours)."""
+    from .material import _warn_byte_range
+
+    set_ = object.__setattr__
+    mode = as_choice(mesh.color_mode, f"{mesh.name}.color_mode", COLOR_MODES)
+    if mesh.colors is None:
+        set_(mesh, "color_mode", None)
+        return
+    c = as_array(mesh.colors, f"{mesh.name}.colors", dtype=np.float64, shape=(None, 3), copy=True)
+    if mode == "auto":
+        if len(c) == nv == nf:
+            raise ValueError(f"{mesh.name}.colors: the mesh has as many vertices as faces ({nv}); pass "
+                             "color_mode='vertex' or 'face'")
+        mode = "vertex" if len(c) == nv else "face" if len(c) == nf else None
+    want = nv if mode == "vertex" else nf
+    if mode is None or len(c) != want:
+        raise ValueError(f"{mesh.name}.colors: expected one row per vertex ({nv}) or per face ({nf}), "
+                         f"got {len(c)}")
+    if c.size and c.min() < 0:
+        raise ValueError(f"{mesh.name}.colors: must be >= 0, got min {c.min():g}")
+    if c.size:
+        _warn_byte_range(c, f"{mesh.name}.colors", "colors")
+    set_(mesh, "colors", _readonly(c))
+    set_(mesh, "color_mode", mode)
 
 
 def _refuse_non_finite(path, meshes) -> None:

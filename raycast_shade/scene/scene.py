@@ -16,9 +16,10 @@ import numpy as np
 
 from ..common.validate import as_rgb
 from .camera import Camera
-from ..common.layout import (ATT_CODE, BUMP_SIZE, LIGHT_ATT, LIGHT_AXIS, LIGHT_COS_INNER, LIGHT_COS_OUTER,
-                             LIGHT_DIRECTIONAL, LIGHT_EXPONENT, LIGHT_K, LIGHT_KIND, LIGHT_RADIANCE, LIGHT_SHADOWS,
-                             LIGHT_SIZE, LIGHT_SPOT, LIGHT_VEC, MAT_REFLECTIVITY, MAT_SIZE)
+from ..common.layout import (ATT_CODE, BUMP_SIZE, COLOR_FACE, COLOR_NONE, COLOR_VERTEX, LIGHT_ATT, LIGHT_AXIS,
+                             LIGHT_COS_INNER, LIGHT_COS_OUTER, LIGHT_DIRECTIONAL, LIGHT_EXPONENT, LIGHT_K, LIGHT_KIND,
+                             LIGHT_RADIANCE, LIGHT_SHADOWS, LIGHT_SIZE, LIGHT_SPOT, LIGHT_VEC, MAT_REFLECTIVITY,
+                             MAT_SIZE, TEX_SIZE)
 from .lights import DirectionalLight, PointLight, SpotLight
 from .material import Material
 from .mesh import Mesh
@@ -88,6 +89,19 @@ class SceneGeometry:
     bump_texels : (T,) float32
     bump_info : (B, BUMP_SIZE) = (B, 7) float64
         See :meth:`HeightMap.packed_info`.
+    color_mode : (G,) int8
+        Each model's colour source (``COLOR_NONE``, ``COLOR_VERTEX``, ``COLOR_FACE``).
+    vertex_colors, face_colors : (V, 3), (F, 3) float64
+        Linear kd per vertex / per face, zero where a model has none ((1, 3)
+        placeholders when no model has any).
+    tex_index : (G, 3) int32
+        Row in ``tex_info`` of each model's ka, kd and ks map, or -1.
+    tex_texels : (T,) float32
+        Every texture's mip pyramid, RGB triples.
+    tex_info : (K, TEX_SIZE) = (K, 8) float64
+        See :meth:`Texture.packed_info`.
+    textured : bool
+        Whether any model has colours or maps (the kernels' third variant flag).
     """
 
     def __init__(self, models):
@@ -133,11 +147,47 @@ class SceneGeometry:
         self.bump_texels = np.concatenate(texels).astype(np.float32) if texels else np.zeros(1, np.float32)
         self.bump_info = np.stack(info) if info else np.zeros((1, BUMP_SIZE))
         self.has_bump = bool(info)
+        self._pack_colors(models, preps, nv, nf)
+        self._pack_textures(models, preps)
         self.face_model = np.repeat(np.arange(len(models), dtype=np.int32), nf)
         self.vertex_model = np.repeat(np.arange(len(models), dtype=np.int32), nv)
         self.n_models = len(models)
         self._memo = {}
         self._memo_lock = threading.Lock()
+
+    def _pack_colors(self, models, preps, nv, nf) -> None:
+        modes = [p.color_mode for p in preps]
+        self.color_mode = np.array([COLOR_VERTEX if m == "vertex" else COLOR_FACE if m == "face" else COLOR_NONE
+                                    for m in modes], np.int8)
+        some = [m is not None for m in modes]
+        vc = [p.colors if m == "vertex" else np.zeros((n, 3)) for p, m, n in zip(preps, modes, nv)]
+        fc = [p.colors if m == "face" else np.zeros((n, 3)) for p, m, n in zip(preps, modes, nf)]
+        self.vertex_colors = np.concatenate(vc) if "vertex" in modes else np.zeros((1, 3))
+        self.face_colors = np.concatenate(fc) if "face" in modes else np.zeros((1, 3))
+        self.has_colors = any(some)
+
+    def _pack_textures(self, models, preps) -> None:
+        """All maps' pyramids in one flat array, one info row per texture (shared maps once)."""
+        index = np.full((len(models), 3), -1, np.int32)
+        texels, info, seen, offset = [], [], {}, 0
+        for g, m in enumerate(models):
+            for slot, tex in enumerate(m.material.maps):
+                if tex is None:
+                    continue
+                if preps[g].uvs is None:
+                    field = ("ka_map", "kd_map", "ks_map")[slot]
+                    raise ValueError(f"scene.models[{g}] ({m.mesh.name}): material {m.material.name!r} has a "
+                                     f"{field} but the mesh has no UVs (see raycast_shade.bump.planar_uvs and friends)")
+                if id(tex) not in seen:
+                    seen[id(tex)] = len(info)
+                    texels.append(tex.packed_texels())
+                    info.append(tex.packed_info(offset))
+                    offset += texels[-1].size
+                index[g, slot] = seen[id(tex)]
+        self.tex_index = index
+        self.tex_texels = np.concatenate(texels).astype(np.float32) if texels else np.zeros(3, np.float32)
+        self.tex_info = np.stack(info) if info else np.zeros((1, TEX_SIZE))
+        self.textured = bool(info) or self.has_colors
 
     def memo(self, key: str, build):
         """``build(self)``, computed once per ``key`` and kept with the geometry.

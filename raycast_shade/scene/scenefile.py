@@ -23,8 +23,11 @@ to render it. The full reference is ``docs/scene-files.md``; in short::
 
     [[object]]
     mesh = "meshes/knot.obj"            # a file trimesh reads, relative to this file
-    crease_angle = 40                   # also normals, weighting, name,
-    translate = [2.0, 0.0, 0.0]         # scale, rotate
+    crease_angle = 40                   # also normals, weighting, name, merge,
+    translate = [2.0, 0.0, 0.0]         # scale, rotate, materials = "file" | "none"
+    [object.material]                   # keys given here override the file's
+    kd_map = "wood.png"                 # materials (kd_map, ka_map, ks_map: a path
+                                        # or a table image, srgb, wrap, filter, tiling)
 
     [[light]]
     type = "point"                      # position, intensity, color, shadows,
@@ -55,6 +58,7 @@ from, e.g. ``object[1].material: unknown key 'shinyness' (did you mean
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 import inspect
 import os
@@ -84,7 +88,10 @@ _TOP_KEYS = ("ambient", "background", "camera", "object", "light", "render")
 _CAMERA_KEYS = ("eye", "target", "up", "fov", "width", "height", "projection", "ortho_height")
 _OBJECT_KEYS = ("shape", "mesh", "name", "normals", "weighting", "crease_angle", "scale", "rotate", "translate",
                 "material")
-_MATERIAL_KEYS = ("kd", "ka", "ks", "shininess", "specular", "reflectivity", "bump", "name")
+_FILE_KEYS = ("merge", "materials")  # mesh files only
+_MATERIAL_KEYS = ("kd", "ka", "ks", "shininess", "specular", "reflectivity", "bump", "name", "kd_map", "ka_map",
+                  "ks_map")
+_MAP_KEYS = ("image", "srgb", "wrap", "filter", "tiling")
 # [object.material.bump]: a height map from an image file or a procedural pattern.
 _BUMP_COMMON = ("scale", "wrap", "tiling")
 _BUMP_KEYS = {
@@ -195,7 +202,8 @@ def _rotation(degrees) -> np.ndarray:
     return mz @ my @ mx
 
 
-def _mesh(obj: dict, where: str, base_dir: str) -> Mesh:
+def _mesh(obj: dict, where: str, base_dir: str) -> list:
+    """The object's meshes, each with the material its file gives (None: none given)."""
     has_shape, has_mesh = "shape" in obj, "mesh" in obj
     if has_shape == has_mesh:
         raise _Invalid(where, "needs exactly one of 'shape' (a procedural shape) or 'mesh' (a file)")
@@ -206,7 +214,7 @@ def _mesh(obj: dict, where: str, base_dir: str) -> Mesh:
         params = _shape_params(shape)
         _check_keys(obj, where, _OBJECT_KEYS + params, f" for shape {shape!r}")
     else:
-        _check_keys(obj, where, _OBJECT_KEYS, " for a mesh file")
+        _check_keys(obj, where, _OBJECT_KEYS + _FILE_KEYS, " for a mesh file")
     normals = _choice(obj.get("normals", "auto"), f"{where}.normals", _NORMALS)
     # Checked here, not by Mesh, so that messages name the table.
     mesh_kw = {}
@@ -227,11 +235,24 @@ def _mesh(obj: dict, where: str, base_dir: str) -> Mesh:
             # Drop the shape's exact normals: average them from the faces instead.
             mesh = _call(where, Mesh, mesh.vertices, mesh.faces, uvs=mesh.uvs, weighting=mesh.weighting,
                          crease_angle=mesh.crease_angle, name=mesh.name)
-    else:
-        rel = os.path.expanduser(_string(obj["mesh"], f"{where}.mesh"))
-        path = os.path.normpath(os.path.join(base_dir, rel))
-        use_normals = None if normals == "auto" else False
-        mesh = _call(f"{where}.mesh", Mesh.load, path, use_normals=use_normals, **mesh_kw)
+        return [(_placed(mesh, obj, where), None)]
+    rel = os.path.expanduser(_string(obj["mesh"], f"{where}.mesh"))
+    path = os.path.normpath(os.path.join(base_dir, rel))
+    use_normals = None if normals == "auto" else False
+    merge = obj.get("merge", False)
+    if not isinstance(merge, bool):
+        raise _Invalid(f"{where}.merge", f"expected true or false, got {_kind(merge)}")
+    if _choice(obj.get("materials", "file"), f"{where}.materials", ("file", "none")) == "none":
+        mesh = _call(f"{where}.mesh", Mesh.load, path, use_normals=use_normals, merge=merge, **mesh_kw)
+        return [(_placed(mesh, obj, where), None)]
+    from .meshfile import load_models
+
+    models = _call(f"{where}.mesh", load_models, path, use_normals=use_normals, merge=merge, **mesh_kw)
+    return [(_placed(m.mesh, obj, where), m.material) for m in models]
+
+
+def _placed(mesh: Mesh, obj: dict, where: str) -> Mesh:
+    """``mesh`` scaled, rotated and translated as the object says."""
     if any(k in obj for k in ("scale", "rotate", "translate")):
         s = _call(where, as_scalar, obj.get("scale", 1.0), f"{where}.scale", minimum=0.0, exclusive=True)
         r = _rotation(_call(where, as_vec3, obj.get("rotate", (0.0, 0.0, 0.0)), f"{where}.rotate"))
@@ -239,8 +260,16 @@ def _mesh(obj: dict, where: str, base_dir: str) -> Mesh:
         # A uniform positive scale and a rotation keep normals unit and outward.
         n = None if mesh.normals is None else mesh.normals @ r.T
         mesh = _call(where, Mesh, (mesh.vertices * s) @ r.T + t, mesh.faces, normals=n, uvs=mesh.uvs,
-                     weighting=mesh.weighting, crease_angle=mesh.crease_angle, name=mesh.name)
+                     weighting=mesh.weighting, crease_angle=mesh.crease_angle, name=mesh.name,
+                     colors=mesh.colors, color_mode=mesh.color_mode or "auto")
     return mesh
+
+
+def _without_colors(mesh: Mesh) -> Mesh:
+    if mesh.colors is None:
+        return mesh
+    return Mesh(mesh.vertices, mesh.faces, normals=mesh.normals, uvs=mesh.uvs, weighting=mesh.weighting,
+                crease_angle=mesh.crease_angle, name=mesh.name)
 
 
 def _choice(value, where: str, choices) -> str:
@@ -262,12 +291,41 @@ def _bump(table, where: str, base_dir: str):
     return _call(where, getattr(HeightMap, kind), **bump)
 
 
-def _material(table, where: str, base_dir: str = ".") -> Material:
+def _texture(value, where: str, base_dir: str):
+    """A colour map: an image path, or a table of Texture.from_image's keywords."""
+    from .texture import Texture
+
+    table = {"image": value} if isinstance(value, str) else dict(_table(value, where))
+    _check_keys(table, where, _MAP_KEYS)
+    if "image" not in table:
+        raise _Invalid(where, "needs 'image = \"path\"'")
+    path = os.path.normpath(os.path.join(base_dir, _string(table.pop("image"), f"{where}.image")))
+    if "srgb" in table and not isinstance(table["srgb"], bool):
+        raise _Invalid(f"{where}.srgb", f"expected true or false, got {_kind(table['srgb'])}")
+    return _call(where, Texture.from_image, path, name=where, **table)
+
+
+def _material(table, where: str, base_dir: str = ".", base: Material | None = None) -> Material:
+    """The object's material; over ``base`` (the file's) the keys given win."""
     mat = dict(_table(table, where))
     _check_keys(mat, where, _MATERIAL_KEYS)
-    mat["name"] = _string(mat["name"], f"{where}.name") if "name" in mat else where
+    if "name" in mat:
+        mat["name"] = _string(mat["name"], f"{where}.name")
     if "bump" in mat:
         mat["bump"] = _bump(mat["bump"], f"{where}.bump", base_dir)
+    for key in ("kd_map", "ka_map", "ks_map"):
+        if key in mat:
+            mat[key] = _texture(mat[key], f"{where}.{key}", base_dir)
+    if base is not None:
+        given = {f.name: getattr(base, f.name) for f in dataclasses.fields(base)}
+        # A kd given here replaces the file's kd and kd_map alike (and the mesh's colours: see _build).
+        if "kd" in mat and "kd_map" not in mat:
+            given["kd_map"] = None
+        if "ks" in mat and "ks_map" not in mat:
+            given["ks_map"] = None
+        given.update(mat)
+        mat = given
+    mat.setdefault("name", where)
     return _call(where, Material, **mat)
 
 
@@ -400,15 +458,23 @@ def _build(data: dict, base_dir: str):
     objects = _tables(data, "object")
     if not objects:
         raise _Invalid("", "no [[object]] tables: a scene needs at least one object")
-    models = []
+    models, per_object = [], []
     for i, obj in enumerate(objects):
         where = f"object[{i}]"
-        mesh = _mesh(obj, where, base_dir)
-        material = _material(obj.get("material", {}), f"{where}.material", base_dir)
-        models.append(Model(mesh, material))
+        table = _table(obj.get("material", {}), f"{where}.material")
+        parts = _mesh(obj, where, base_dir)
+        for mesh, file_material in parts:
+            if "kd" in table or "kd_map" in table:
+                mesh = _without_colors(mesh)  # the object's kd overrides the file's colours too
+            models.append(Model(mesh, _material(table, f"{where}.material", base_dir, file_material)))
+        per_object.append(len(parts))
     shading = options.get("shading")
-    if isinstance(shading, tuple) and len(shading) != len(models):
-        raise _Invalid("render.shading", f"expected one method per [[object]] ({len(models)}), got {len(shading)}")
+    if isinstance(shading, tuple):
+        if len(shading) != len(objects):
+            raise _Invalid("render.shading", f"expected one method per [[object]] ({len(objects)}), "
+                                             f"got {len(shading)}")
+        # A file with several materials is several models: each takes its object's method.
+        options["shading"] = tuple(m for m, n in zip(shading, per_object) for _ in range(n))
     lights = [_light(t, f"light[{i}]") for i, t in enumerate(_tables(data, "light"))]
     ambient = _call("ambient", as_rgb, data.get("ambient", 0.1), "ambient")
     background = _call("background", as_rgb, data.get("background", 0.0), "background")

@@ -14,21 +14,26 @@ from .illumination import _illuminate
 from .jit import CHUNK, FLT32_MAX, JIT, compile_variants
 from .shadows import _scratch
 from .surface import _facing, _hit_point, _view
+from .texture import _coefficients, _face_footprint, _row_coefficients
 
 __all__ = []
 
 
-def _make_flat(spec_on: bool, att_on: bool):
-    """The per-face kernel for one variant (see :mod:`.jit`)."""
+def _make_flat(spec_on: bool, att_on: bool, tex_on: bool = False):
+    """The per-face kernel for one variant (see :mod:`.jit`); ``tex_on``: the
+    face's coefficients come from its colours and maps (:mod:`.texture`)."""
 
     @njit(parallel=True, **JIT)
-    def _shade_faces_kernel(face_flags, G, face_model, materials, cam, L, out):
+    def _shade_faces_kernel(face_flags, G, face_model, materials, cam, L, T, uvs, out):
         """Flat shading: one shade per visible face, at its centre.
 
-        ``G`` and ``L`` as in :func:`~raycast_shade.shading.inputs.kernel_inputs`;
-        ``out`` (F, 3) float64."""
+        ``G``, ``L`` and ``T`` as in :func:`~raycast_shade.shading.inputs.kernel_inputs`;
+        ``out`` (F, 3) float64. A textured face takes the texel at its centre
+        from the mip level whose texels are as large as the face's UV
+        triangle: the face's average colour, one shade per polygon."""
         verts, _, faces, fnormals = G
         ambient, lights, dmin, handle, unit = L
+        vcolors, fcolors, cmode, tindex, texels, tinfo, _ = T
         n = faces.shape[0]
         nchunk = (n + CHUNK - 1) // CHUNK
         step = spread_step(nchunk)
@@ -42,8 +47,17 @@ def _make_flat(spec_on: bool, att_on: bool):
                 px, py, pz = _hit_point(verts, faces[f, 0], faces[f, 1], faces[f, 2], third, third)
                 vx, vy, vz = _view(cam, px, py, pz)
                 gx, gy, gz, sgn = _facing(fnormals, f, vx, vy, vz)
-                r, g, b = _illuminate(px, py, pz, gx, gy, gz, vx, vy, vz, materials, face_model[f],
-                                      ambient, lights, dmin, handle, unit, S, px, py, pz, gx, gy, gz,
+                m = face_model[f]
+                if tex_on:
+                    i0 = faces[f, 0]
+                    i1 = faces[f, 1]
+                    i2 = faces[f, 2]
+                    dudx, dvdx, dudy, dvdy = _face_footprint(uvs, i0, i1, i2)
+                    coef = _coefficients(materials, m, f, i0, i1, i2, third, third, uvs, vcolors, fcolors, cmode,
+                                         tindex, texels, tinfo, dudx, dvdx, dudy, dvdy)
+                else:
+                    coef = _row_coefficients(materials, m)
+                r, g, b = _illuminate(px, py, pz, gx, gy, gz, vx, vy, vz, materials, m, coef, ambient, lights, dmin, handle, unit, S, px, py, pz, gx, gy, gz,
                                       spec_on, att_on)
                 out[f, 0] = r
                 out[f, 1] = g
@@ -53,6 +67,7 @@ def _make_flat(spec_on: bool, att_on: bool):
 
 
 _FLAT = compile_variants(_make_flat)
+_FLAT_TEX = compile_variants(lambda s, a: _make_flat(s, a, True))
 
 
 @njit(parallel=True, **JIT)

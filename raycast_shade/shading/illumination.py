@@ -70,12 +70,17 @@ def _spot_factor(lights, i, sx, sy, sz):
     return f
 
 
-def _illuminate_py(px, py, pz, nx, ny, nz, vx, vy, vz, mats, mi, ambient, lights, dmin, handle, unit, S,
+def _illuminate_py(px, py, pz, nx, ny, nz, vx, vy, vz, mats, mi, coef, ambient, lights, dmin, handle, unit, S,
                    ox, oy, oz, gx, gy, gz, spec_on, att_on):
     """RGB reflected towards unit ``v`` at point ``p`` with unit normal ``n``.
 
     ``mats[mi]`` is the material row (indexed, not sliced: a slice per pixel
-    would cost an atomic reference count shared by all threads).
+    would cost an atomic reference count shared by all threads); its
+    shininess, Blinn flag and whether it has a specular term apply. The
+    point's own ``ka, kd, ks`` come in ``coef``, a tuple of nine floats: the
+    row's, or textured and coloured ones (:mod:`.texture`). (One tuple, not
+    nine arguments: CPython passes a call of more than 30 arguments as
+    ``*args``, which Numba cannot inline.)
     ``ambient`` (3,), ``lights`` (L, LIGHT_SIZE), ``dmin``, ``handle`` and
     ``unit`` are the unpacked ``L`` of
     :func:`~raycast_shade.shading.inputs.kernel_inputs`; ``S`` is the
@@ -84,9 +89,10 @@ def _illuminate_py(px, py, pz, nx, ny, nz, vx, vy, vz, mats, mi, ambient, lights
     :mod:`.jit`): a scene with no specular material or no attenuating light
     compiles without that arithmetic.
     """
-    r = ambient[0] * mats[mi, MAT_KA + 0]
-    g = ambient[1] * mats[mi, MAT_KA + 1]
-    b = ambient[2] * mats[mi, MAT_KA + 2]
+    kar, kag, kab, kdr, kdg, kdb, ksr, ksg, ksb = coef
+    r = ambient[0] * kar
+    g = ambient[1] * kag
+    b = ambient[2] * kab
     shin = mats[mi, MAT_SHININESS]
     blinn = mats[mi, MAT_BLINN] != 0.0
     has_spec = mats[mi, MAT_KS + 0] > 0.0 or mats[mi, MAT_KS + 1] > 0.0 or mats[mi, MAT_KS + 2] > 0.0
@@ -143,9 +149,9 @@ def _illuminate_py(px, py, pz, nx, ny, nz, vx, vy, vz, mats, mi, ambient, lights
                 c = rx * vx + ry * vy + rz * vz
             if c > 0.0:
                 spec = _power(min(c, 1.0), shin)
-        r += att * lights[i, LIGHT_RADIANCE + 0] * (mats[mi, MAT_KD + 0] * ndots + mats[mi, MAT_KS + 0] * spec)
-        g += att * lights[i, LIGHT_RADIANCE + 1] * (mats[mi, MAT_KD + 1] * ndots + mats[mi, MAT_KS + 1] * spec)
-        b += att * lights[i, LIGHT_RADIANCE + 2] * (mats[mi, MAT_KD + 2] * ndots + mats[mi, MAT_KS + 2] * spec)
+        r += att * lights[i, LIGHT_RADIANCE + 0] * (kdr * ndots + ksr * spec)
+        g += att * lights[i, LIGHT_RADIANCE + 1] * (kdg * ndots + ksg * spec)
+        b += att * lights[i, LIGHT_RADIANCE + 2] * (kdb * ndots + ksb * spec)
     return r, g, b
 
 

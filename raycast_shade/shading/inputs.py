@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..common.layout import ATT_NONE, LIGHT_ATT, LIGHT_DIRECTIONAL, LIGHT_KIND, LIGHT_SHADOWS, MAT_KS
+from ..common.layout import ATT_NONE, COLOR_FACE, LIGHT_ATT, LIGHT_DIRECTIONAL, LIGHT_KIND, LIGHT_SHADOWS, MAT_KS
 from ..visibility.accel import embree_accel
 from ..visibility.rays import camera_frame
 
@@ -23,10 +23,15 @@ def kernel_inputs(scene, camera):
         ``L`` = (ambient (3,) f8, lights (L, LIGHT_SIZE) f8 (:meth:`Scene.packed_lights`),
         dmin f8, scene handle uintp or 0 when no light casts shadows, unit f8 = the
         scene's size for ray offsets);
+        ``T`` = (vertex colours (V,3) f8, face colours (F,3) f8, colour mode (G,) i1,
+        map rows (G,3) i4 (ka, kd, ks; -1 none), texels (N,) f4, info (K, TEX_SIZE) f8,
+        Gouraud modulate flag (G,) u1: a map or face colours) (:class:`SceneGeometry`);
         ``face_off`` (G+1,) i8, ``materials`` (G, MAT_SIZE) f8, ``cam`` (CAM_SIZE,) f8,
         ``background`` (3,) f8;
         ``spec_on``, ``att_on`` bool: whether any material has a specular term and any
-        light attenuates (the kernels compile a variant for each combination).
+        light attenuates (the kernels compile a variant for each combination);
+        ``tex_on`` bool: whether any model has colours or maps (a second table of
+        variants, :func:`~raycast_shade.shading.texture.variant_for`).
         The row layouts are those of :mod:`raycast_shade.common.layout`.
     """
     geo = scene.geometry
@@ -36,6 +41,9 @@ def kernel_inputs(scene, camera):
         G=(geo.vertices, geo.normals, geo.faces, geo.face_normals),
         B=(geo.uvs, geo.tangents, geo.bump_index, geo.bump_texels, geo.bump_info),
         L=(np.array(scene.ambient, np.float64), lights, 1e-6 * geo.scale, np.uintp(handle), float(geo.scale)),
+        T=(geo.vertex_colors, geo.face_colors, geo.color_mode, geo.tex_index, geo.tex_texels, geo.tex_info,
+           ((geo.tex_index >= 0).any(axis=1) | (geo.color_mode == COLOR_FACE)).astype(np.uint8)),
+        tex_on=geo.textured,
         face_off=geo.face_offsets, materials=geo.materials, cam=camera_frame(camera, geo.origin),
         background=np.array(scene.background, np.float64),
         # Compile-time variants: drop the arithmetic a scene does not need.

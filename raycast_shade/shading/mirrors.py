@@ -14,9 +14,10 @@ from ..common.layout import MAT_REFLECTIVITY
 from ..common.schedule import BLOCK_ROWS, spread_step
 from ..visibility.accel import embree_accel
 from .inputs import kernel_inputs
-from .jit import CHUNK, FLT32_MAX, JIT, compile_variants, variant
+from .jit import CHUNK, FLT32_MAX, JIT, compile_variants
 from .phong import _shade_surface, _surface
 from .shadows import _nudge, _scratch
+from .texture import _point_coefficients, _row_coefficients, variant_for
 
 __all__ = ["trace_mirrors", "MAX_MIRROR_DEPTH"]
 
@@ -94,11 +95,12 @@ def _reflect_primary_kernel(prim, geom, u, v, G, B, face_off, materials, cam, un
                 j += 1
 
 
-def _make_bounce(spec_on: bool, att_on: bool):
-    """The secondary-hit kernel for one variant (see :mod:`.jit`)."""
+def _make_bounce(spec_on: bool, att_on: bool, tex_on: bool = False):
+    """The secondary-hit kernel for one variant (see :mod:`.jit`; ``tex_on``: textured
+    coefficients, sampled at level 0: a bounced ray has no pixel footprint here)."""
 
     @njit(parallel=True, **JIT)
-    def _shade_points_kernel(prim, geom, u, v, dirs, G, B, L, face_off, materials, cam, background, last,
+    def _shade_points_kernel(prim, geom, u, v, dirs, G, B, L, T, face_off, materials, cam, background, last,
                              colour, origins, next_dirs, active):
         """Phong-shade secondary hits seen along ``dirs``; emit the next mirror rays.
 
@@ -108,6 +110,7 @@ def _make_bounce(spec_on: bool, att_on: bool):
         verts, normals, faces, fnormals = G
         uvs, tangents, bump_index, texels, info = B
         ambient, lights, dmin, handle, unit = L
+        vcolors, fcolors, cmode, tindex, ttexels, tinfo, _ = T
         n = prim.shape[0]
         nchunk = (n + CHUNK - 1) // CHUNK
         step = spread_step(nchunk)
@@ -123,10 +126,17 @@ def _make_bounce(spec_on: bool, att_on: bool):
                     continue
                 gm = geom[i]
                 f = face_off[gm] + p
+                b1 = np.float64(u[i])
+                b2 = np.float64(v[i])
+                if tex_on:
+                    coef = _point_coefficients(verts, uvs, fnormals, faces, f, gm, b1, b2, cam, 0, 0, False,
+                                               materials, vcolors, fcolors, cmode, tindex, ttexels, tinfo)
+                else:
+                    coef = _row_coefficients(materials, gm)
                 r, g, b, px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz = _shade_surface(
                     verts, normals, faces, fnormals, uvs, tangents, bump_index, texels, info,
                     ambient, lights, dmin, handle, unit, S, materials, cam, f, gm,
-                    np.float64(u[i]), np.float64(v[i]), True, dirs[i, 0], dirs[i, 1], dirs[i, 2], spec_on, att_on)
+                    b1, b2, True, dirs[i, 0], dirs[i, 1], dirs[i, 2], coef, spec_on, att_on)
                 rho = materials[gm, MAT_REFLECTIVITY]
                 keep = 1.0
                 if rho > 0.0 and not last:
@@ -147,6 +157,7 @@ def _make_bounce(spec_on: bool, att_on: bool):
 
 
 _BOUNCE = compile_variants(_make_bounce)
+_BOUNCE_TEX = compile_variants(lambda s, a: _make_bounce(s, a, True))
 
 
 def trace_mirrors(scene, camera, hits, image, max_depth: int = 3) -> np.ndarray:
@@ -168,7 +179,7 @@ def trace_mirrors(scene, camera, hits, image, max_depth: int = 3) -> np.ndarray:
     from ..visibility.cast import cast_rays_kernel
 
     k = kernel_inputs(scene, camera)
-    points_kernel = variant(_BOUNCE, k)
+    points_kernel = variant_for(_BOUNCE, _BOUNCE_TEX, k)
     h, w = hits.shape
     counts = np.empty(h, np.int64)
     _mirror_rows_kernel(hits.prim, hits.geom, k["materials"], counts)
@@ -199,7 +210,7 @@ def trace_mirrors(scene, camera, hits, image, max_depth: int = 3) -> np.ndarray:
         next_o = np.empty((m, 3))
         next_d = np.empty((m, 3))
         more = np.empty(m, np.bool_)
-        points_kernel(prim, gm, u, v, dirs, k["G"], k["B"], k["L"], k["face_off"], k["materials"], k["cam"],
+        points_kernel(prim, gm, u, v, dirs, k["G"], k["B"], k["L"], k["T"], k["face_off"], k["materials"], k["cam"],
                       k["background"], depth == max_depth, colour, next_o, next_d, more)
         flat[idx] = np.minimum(flat[idx] + weight[:, None] * colour, FLT32_MAX).astype(np.float32)
         weight = weight[more] * geo.materials[gm[more], MAT_REFLECTIVITY]

@@ -26,6 +26,7 @@ from .illumination import _illuminate
 from .jit import FLT32_MAX, JIT, compile_variants
 from .shadows import _scratch
 from .surface import _facing, _hit_point, _shading_normal, _terminator_point, _view
+from .texture import _point_coefficients, _row_coefficients
 
 __all__ = []
 
@@ -61,12 +62,13 @@ def _surface(verts, normals, faces, fnormals, uvs, tangents, bump_index, texels,
 @njit(inline="always", **JIT)
 def _shade_surface(verts, normals, faces, fnormals, uvs, tangents, bump_index, texels, info,
                    ambient, lights, dmin, handle, unit, S, materials, cam, f, gm, b1, b2, use_dir, dx, dy, dz,
-                   spec_on, att_on):
+                   coef, spec_on, att_on):
     """Phong shading of one hit: colour, plus the point and normals for mirrors.
 
     The arrays and scalars before ``S`` are the unpacked ``G``, ``B`` and
     ``L`` of :func:`~raycast_shade.shading.inputs.kernel_inputs`; they stay
-    separate arguments because this runs inside the pixel loop."""
+    separate arguments because this runs inside the pixel loop. ``coef``:
+    the point's nine ``ka, kd, ks`` (:mod:`.texture`)."""
     px, py, pz, vx, vy, vz, gx, gy, gz, sgn, nx, ny, nz = _surface(
         verts, normals, faces, fnormals, uvs, tangents, bump_index, texels, info, cam, f, gm, b1, b2,
         use_dir, dx, dy, dz)
@@ -75,20 +77,21 @@ def _shade_surface(verts, normals, faces, fnormals, uvs, tangents, bump_index, t
     oz = pz
     if handle != 0:  # shadow rays will be traced: start them past the terminator
         ox, oy, oz = _terminator_point(verts, normals, faces[f, 0], faces[f, 1], faces[f, 2], b1, b2, px, py, pz, sgn)
-    r, g, b = _illuminate(px, py, pz, nx, ny, nz, vx, vy, vz, materials, gm, ambient, lights, dmin, handle, unit, S,
-                          ox, oy, oz, gx, gy, gz, spec_on, att_on)
+    r, g, b = _illuminate(px, py, pz, nx, ny, nz, vx, vy, vz, materials, gm, coef, ambient, lights, dmin, handle,
+                          unit, S, ox, oy, oz, gx, gy, gz, spec_on, att_on)
     return r, g, b, px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz
 
 
-def _make_phong(spec_on: bool, att_on: bool):
-    """The Phong pixel kernel for one variant (see :mod:`.jit`)."""
+def _make_phong(spec_on: bool, att_on: bool, tex_on: bool = False):
+    """The Phong pixel kernel for one variant (see :mod:`.jit`; ``tex_on``: textured coefficients)."""
 
     @njit(parallel=True, **JIT)
-    def _shade_phong_kernel(prim, geom, u, v, G, B, L, face_off, materials, cam, background, modes, image):
+    def _shade_phong_kernel(prim, geom, u, v, G, B, L, T, face_off, materials, cam, background, modes, image):
         """Phong: shade every pixel of the models whose method is 2."""
         verts, normals, faces, fnormals = G
         uvs, tangents, bump_index, texels, info = B
         ambient, lights, dmin, handle, unit = L
+        vcolors, fcolors, cmode, tindex, ttexels, tinfo, _ = T
         h, w = prim.shape
         nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
         step = spread_step(nblk)
@@ -106,10 +109,17 @@ def _make_phong(spec_on: bool, att_on: bool):
                     if modes[gm] != 2:
                         continue
                     f = face_off[gm] + p
+                    b1 = np.float64(u[y, x])
+                    b2 = np.float64(v[y, x])
+                    if tex_on:
+                        coef = _point_coefficients(verts, uvs, fnormals, faces, f, gm, b1, b2, cam, x, y, True,
+                                                   materials, vcolors, fcolors, cmode, tindex, ttexels, tinfo)
+                    else:
+                        coef = _row_coefficients(materials, gm)
                     r, g, b, _, _, _, _, _, _, _, _, _, _, _, _ = _shade_surface(
                         verts, normals, faces, fnormals, uvs, tangents, bump_index, texels, info,
                         ambient, lights, dmin, handle, unit, S, materials, cam, f, gm,
-                        np.float64(u[y, x]), np.float64(v[y, x]), False, 0.0, 0.0, 0.0, spec_on, att_on)
+                        b1, b2, False, 0.0, 0.0, 0.0, coef, spec_on, att_on)
                     image[y, x, 0] = min(r, FLT32_MAX)
                     image[y, x, 1] = min(g, FLT32_MAX)
                     image[y, x, 2] = min(b, FLT32_MAX)
@@ -118,3 +128,4 @@ def _make_phong(spec_on: bool, att_on: bool):
 
 
 _PHONG = compile_variants(_make_phong)
+_PHONG_TEX = compile_variants(lambda s, a: _make_phong(s, a, True))

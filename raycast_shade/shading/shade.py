@@ -25,11 +25,12 @@ from numba import njit, prange
 
 from ..common.choices import SHADINGS
 from ..visibility.hits import check_hits
-from .flat import _FLAT, _lookup_flat_kernel
-from .gouraud import _INTERPOLATE, _VERTICES
+from .flat import _FLAT, _FLAT_TEX, _lookup_flat_kernel
+from .gouraud import _INTERPOLATE, _INTERPOLATE_TEX, _VERTICES, _VERTICES_TEX
 from .inputs import kernel_inputs
-from .jit import JIT, variant
-from .phong import _PHONG
+from .jit import JIT
+from .phong import _PHONG, _PHONG_TEX
+from .texture import variant_for
 
 __all__ = ["SHADINGS", "METHODS", "shade", "shade_hits", "resolve_methods", "SampleShading", "accumulate",
            "sample_mean"]
@@ -134,31 +135,7 @@ def _visible_kernel(prim, geom, faces, face_off, modes, face_flags, vertex_flags
 def shade_hits(scene, camera, hits, shading="phong") -> np.ndarray:
     """:func:`shade` without the hit-buffer check, for buffers made by this package's casters and
     rasterizer (valid by construction; a hand-made buffer with bad indices would crash a kernel)."""
-    modes = resolve_methods(scene, shading)
-    k = kernel_inputs(scene, camera)
-    geo = scene.geometry
-    h, w = hits.shape
-    image = np.empty((h, w, 3), np.float32)
-    flat, gouraud = bool(np.any(modes == 0)), bool(np.any(modes == 1))
-    if flat or gouraud:
-        face_flags = np.zeros(len(geo.faces) if flat else 1, np.uint8)
-        vertex_flags = np.zeros(len(geo.vertices) if gouraud else 1, np.uint8)
-        _visible_kernel(hits.prim, hits.geom, geo.faces, k["face_off"], modes, face_flags, vertex_flags)
-    # Each pixel kernel writes only the pixels of its own method's models
-    # (and the background), so a mixed frame runs just the kernels it needs.
-    if flat:
-        fcol = np.zeros((len(geo.faces), 3), np.float64)
-        variant(_FLAT, k)(face_flags, k["G"], geo.face_model, k["materials"], k["cam"], k["L"], fcol)
-        _lookup_flat_kernel(hits.prim, hits.geom, k["face_off"], fcol, k["background"], modes, image)
-    if gouraud:
-        vcol = np.zeros((len(geo.vertices), 2, 3), np.float64)
-        variant(_VERTICES, k)(vertex_flags, k["G"], geo.vertex_model, k["materials"], k["cam"], k["L"], vcol)
-        variant(_INTERPOLATE, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["face_off"], k["materials"],
-                                 k["cam"], k["L"], k["background"], modes, vcol, image)
-    if np.any(modes == 2):
-        variant(_PHONG, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["face_off"],
-                           k["materials"], k["cam"], k["background"], modes, image)
-    return image
+    return SampleShading(scene, camera, shading).shade(hits)
 
 
 class SampleShading:
@@ -194,6 +171,9 @@ class SampleShading:
         self.vertex_done = np.zeros(nv, np.uint8)
         self.fcol = np.zeros((len(self.geo.faces), 3), np.float64) if self.flat else None
         self.vcol = np.zeros((len(self.geo.vertices), 2, 3), np.float64) if self.gouraud else None
+        # Specular vertex light apart from the diffuse: the textured "modulate" path only.
+        self.vspec = np.zeros((len(self.geo.vertices) if self.k["tex_on"] and self.gouraud else 1, 2, 3), np.float64)
+        self.first = True
 
     def _share(self, hits):
         """Shade the faces and vertices ``hits`` sees that no earlier sample saw."""
@@ -201,15 +181,18 @@ class SampleShading:
         face_flags = np.zeros_like(self.face_done)
         vertex_flags = np.zeros_like(self.vertex_done)
         _visible_kernel(hits.prim, hits.geom, geo.faces, k["face_off"], self.modes, face_flags, vertex_flags)
+        first, self.first = self.first, False
         if self.flat:
-            new = face_flags & (1 - self.face_done)
-            if new.any():
-                variant(_FLAT, k)(new, k["G"], geo.face_model, k["materials"], k["cam"], k["L"], self.fcol)
+            new = face_flags if first else face_flags & (1 - self.face_done)
+            if first or new.any():
+                variant_for(_FLAT, _FLAT_TEX, k)(new, k["G"], geo.face_model, k["materials"], k["cam"], k["L"],
+                                                 k["T"], geo.uvs, self.fcol)
                 self.face_done |= new
         if self.gouraud:
-            new = vertex_flags & (1 - self.vertex_done)
-            if new.any():
-                variant(_VERTICES, k)(new, k["G"], geo.vertex_model, k["materials"], k["cam"], k["L"], self.vcol)
+            new = vertex_flags if first else vertex_flags & (1 - self.vertex_done)
+            if first or new.any():
+                variant_for(_VERTICES, _VERTICES_TEX, k)(new, k["G"], geo.vertex_model, k["materials"], k["cam"],
+                                                         k["L"], k["T"], self.vcol, self.vspec)
                 self.vertex_done |= new
 
     def shade(self, hits, out=None) -> np.ndarray:
@@ -220,14 +203,17 @@ class SampleShading:
         image = np.empty((h, w, 3), np.float32) if out is None else out
         if self.flat or self.gouraud:
             self._share(hits)
+        # Each pixel kernel writes only the pixels of its own method's models
+        # (and the background), so a mixed frame runs just the kernels it needs.
         if self.flat:
             _lookup_flat_kernel(hits.prim, hits.geom, k["face_off"], self.fcol, k["background"], modes, image)
         if self.gouraud:
-            variant(_INTERPOLATE, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["face_off"], k["materials"],
-                                     k["cam"], k["L"], k["background"], modes, self.vcol, image)
+            variant_for(_INTERPOLATE, _INTERPOLATE_TEX, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"],
+                                                           k["face_off"], k["materials"], k["cam"], k["L"], k["T"],
+                                                           k["background"], modes, self.vcol, self.vspec, image)
         if self.phong:
-            variant(_PHONG, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["face_off"],
-                               k["materials"], k["cam"], k["background"], modes, image)
+            variant_for(_PHONG, _PHONG_TEX, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["T"],
+                                               k["face_off"], k["materials"], k["cam"], k["background"], modes, image)
         return image
 
 

@@ -17,8 +17,14 @@ times Warn's cone factor for a spot light (:func:`spot_cone`).
 Everything is computed in float64 in the scene's re-centred frame (world
 minus ``scene.geometry.origin``), as the kernels do.
 
+Colour textures and mesh colours are modelled (:func:`coefficients_reference`,
+:func:`sample_reference`, :func:`footprint_reference`): per point, kd is the
+mesh's colour (or the material's), each coefficient times its map's texel,
+mip-filtered by the pixel's footprint; Gouraud shades models with maps or
+face colours the "modulate" way (see :mod:`raycast_shade.shading.gouraud`).
+
 Scope: local illumination only. Shadow rays and bump maps need Embree and
-texture lookups and have no twin here; :func:`shade_reference` refuses scenes
+height lookups and have no twin here; :func:`shade_reference` refuses scenes
 that use them rather than answer differently. Mirror reflections are added
 by :func:`raycast_shade.render` after shading and do not concern it.
 """
@@ -29,7 +35,8 @@ import numpy as np
 
 from ..scene.lights import DirectionalLight, SpotLight
 
-__all__ = ["shade_reference", "shading_normals_reference", "hit_points", "illuminate_reference", "spot_cone"]
+__all__ = ["shade_reference", "shading_normals_reference", "hit_points", "illuminate_reference", "spot_cone",
+           "coefficients_reference", "sample_reference", "footprint_reference"]
 
 _MODES = ("flat", "gouraud", "phong")
 _CANCEL = 1e-6  # |interpolated normal| below this falls back to the geometric normal
@@ -188,7 +195,7 @@ def _interpolated_normal(normals, tri, bary, g, sgn):
 
 
 # -- the reflectance equation ------------------------------------------------------------------------
-def illuminate_reference(p, n, v, model, materials, lights, ambient, dmin):
+def illuminate_reference(p, n, v, model, materials, lights, ambient, dmin, coef=None):
     """Evaluate the reflectance equation at many points.
 
     Parameters
@@ -210,6 +217,9 @@ def illuminate_reference(p, n, v, model, materials, lights, ambient, dmin):
         Scene ambient intensity ``Ia``.
     dmin : float
         Lower clamp of ``d`` in the inverse-square law.
+    coef : tuple of three (N, 3) float64, optional
+        Per-point ``ka, kd, ks`` in place of the materials' (textures and
+        colours, :func:`coefficients_reference`).
 
     Returns
     -------
@@ -217,7 +227,10 @@ def illuminate_reference(p, n, v, model, materials, lights, ambient, dmin):
         Reflected RGB intensity.
     """
     ka, kd, ks, shin, blinn = materials
+    has_spec = np.any(ks[model] > 0, axis=1)  # the material's: a map cannot switch the term on
     ka, kd, ks, shin, blinn = ka[model], kd[model], ks[model], shin[model], blinn[model]
+    if coef is not None:
+        ka, kd, ks = coef
     out = ambient[None, :] * ka
     npts = len(p)
     for light in lights:
@@ -247,10 +260,157 @@ def illuminate_reference(p, n, v, model, materials, lights, ambient, dmin):
         r = 2.0 * ndots[:, None] * n - s
         c_phong = _dot(r, v)
         c = np.clip(np.where(blinn, c_blinn, c_phong), 0.0, 1.0)
-        spec = np.where(c > 0.0, c ** shin, 0.0)
+        spec = np.where((c > 0.0) & has_spec, c ** shin, 0.0)
         term = att[:, None] * radiance[None, :] * (kd * ndots[:, None] + ks * spec[:, None])
         out = out + np.where(lit[:, None], term, 0.0)
     return out
+
+
+# -- textures and colours --------------------------------------------------------------------------
+def _bilinear_level(level, wrap, tiling, u, v):
+    """Bilinear RGB (N, 3) of one (h, w, 3) level at UVs (N,), texel centres at (j + 1/2) / w."""
+    h, w = level.shape[:2]
+    x = u * tiling[0] * w - 0.5
+    y = v * tiling[1] * h - 0.5
+    j0, i0 = np.floor(x), np.floor(y)
+    tx, ty = (x - j0)[:, None], (y - i0)[:, None]
+    j0, i0 = j0.astype(np.int64), i0.astype(np.int64)
+
+    def idx(i, n):
+        return np.clip(i, 0, n - 1) if wrap == "clamp" else np.mod(i, n)
+
+    j1, i1 = idx(j0 + 1, w), idx(i0 + 1, h)
+    j0, i0 = idx(j0, w), idx(i0, h)
+    lv = level.astype(np.float64)
+    return ((1 - tx) * (1 - ty) * lv[i0, j0] + tx * (1 - ty) * lv[i0, j1] + (1 - tx) * ty * lv[i1, j0]
+            + tx * ty * lv[i1, j1])
+
+
+def sample_reference(texture, u, v, rho=None):
+    """A :class:`~raycast_shade.Texture` at UVs (N,), trilinear at level ``log2 rho``.
+
+    ``rho`` (N,): footprint in level-0 texels (None or <= 1: level 0); ignored
+    for ``filter="bilinear"``. Returns (N, 3) float64.
+    """
+    u, v = np.asarray(u, np.float64), np.asarray(v, np.float64)
+    pyr = texture.pyramid
+    out = _bilinear_level(pyr[0], texture.wrap, texture.tiling, u, v)
+    if rho is None or texture.filter != "mipmap":
+        return out
+    rho = np.asarray(rho, np.float64)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lod = np.minimum(np.log2(np.where(rho > 1.0, rho, 1.0)), len(pyr) - 1.0)
+    lod = np.where(rho > 1.0, lod, 0.0)
+    l0 = np.floor(lod).astype(np.int64)
+    frac = (lod - l0)[:, None]
+    for k in np.unique(l0):
+        sel = l0 == k
+        if k == 0 and not np.any(frac[sel] > 0):
+            continue
+        a = _bilinear_level(pyr[k], texture.wrap, texture.tiling, u[sel], v[sel])
+        b = _bilinear_level(pyr[min(k + 1, len(pyr) - 1)], texture.wrap, texture.tiling, u[sel], v[sel])
+        out[sel] = a + frac[sel] * (b - a)
+    return out
+
+
+def _cam_row(camera, origin):
+    from ..visibility.rays import camera_frame  # the packed row: same pixel spacing as the casters
+
+    return camera_frame(camera, origin)
+
+
+def footprint_reference(scene, camera, hits):
+    """Per hit pixel (row-major over ``hits.prim >= 0``): ``d(u, v)/dx`` and
+    ``d(u, v)/dy`` from the camera's ray differentials on the face's plane.
+
+    Returns
+    -------
+    (N, 2, 2) float64
+        ``[:, 0] = (du/dx, dv/dx)``, ``[:, 1] = (du/dy, dv/dy)``.
+    """
+    from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH
+
+    geo = scene.geometry
+    cam = _cam_row(camera, geo.origin)
+    mask, face, tri, bary, p = _hits(scene, hits)
+    ys, xs = np.nonzero(mask)
+    w, h = cam[CAM_WIDTH], cam[CAM_HEIGHT]
+    right, up, fwd = cam[CAM_RIGHT:CAM_RIGHT + 3], cam[CAM_UP:CAM_UP + 3], cam[CAM_FORWARD:CAM_FORWARD + 3]
+    sx = (2.0 * (xs + 0.5) / w - 1.0)[:, None]
+    sy = (1.0 - 2.0 * (ys + 0.5) / h)[:, None]
+    n = geo.face_normals[face]
+    ortho = cam[CAM_ORTHO] != 0.0
+    d = np.broadcast_to(fwd, p.shape) if ortho else fwd + sx * right + sy * up
+    dn = _dot(d, n)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.ones(len(p)) if ortho else _dot(p - cam[CAM_EYE:CAM_EYE + 3], n) / dn
+        e1 = geo.vertices[tri[:, 1]] - geo.vertices[tri[:, 0]]
+        e2 = geo.vertices[tri[:, 2]] - geo.vertices[tri[:, 0]]
+        m = np.cross(e1, e2)
+        mm = _dot(m, m)[:, None]
+        g1, g2 = np.cross(e2, m) / mm, np.cross(m, e1) / mm
+        d1 = geo.uvs[tri[:, 1]] - geo.uvs[tri[:, 0]]
+        d2 = geo.uvs[tri[:, 2]] - geo.uvs[tri[:, 0]]
+        out = np.empty((len(p), 2, 2))
+        for k, step in enumerate((2.0 * right / w, -2.0 * up / h)):
+            a = t[:, None] * step
+            dp = a - d * (_dot(a, n) / dn)[:, None]
+            out[:, k] = d1 * _dot(g1, dp)[:, None] + d2 * _dot(g2, dp)[:, None]
+    return out
+
+
+def _rho(texture, duv):
+    """Footprint in level-0 texels from (N, 2, 2) UV derivatives (OpenGL's larger axis)."""
+    s = np.array([texture.shape[1] * texture.tiling[0], texture.shape[0] * texture.tiling[1]])
+    scaled = duv * s[None, None, :]
+    rho = np.max(np.linalg.norm(scaled, axis=2), axis=1)
+    return np.where(np.isfinite(rho), rho, np.inf)
+
+
+def coefficients_reference(scene, face, bary, duv=None):
+    """``ka, kd, ks`` (each (N, 3) float64) at points given by face (N,) and
+    barycentrics (N, 3): the material's, kd the mesh's colour where it has
+    colours, each times its map's texel (filtered by ``duv``, (N, 2, 2), or
+    level 0 without it)."""
+    geo = scene.geometry
+    model = geo.face_model[face]
+    tri = geo.faces[face]
+    mats = [m.material for m in scene.models]
+    ka = np.array([m.ka for m in mats], np.float64)[model]
+    kd = np.array([m.kd for m in mats], np.float64)[model]
+    ks = np.array([m.ks for m in mats], np.float64)[model]
+    for g, mdl in enumerate(scene.models):
+        sel = model == g
+        prep = mdl.mesh.prepared
+        if prep.color_mode == "vertex":
+            kd[sel] = np.einsum("nk,nkc->nc", bary[sel], geo.vertex_colors[tri[sel]])
+        elif prep.color_mode == "face":
+            kd[sel] = geo.face_colors[face[sel]]
+        if not any(t is not None for t in mdl.material.maps):
+            continue
+        uv = np.einsum("nk,nkc->nc", bary[sel], geo.uvs[tri[sel]])
+        for target, tex in zip((ka, kd, ks), mdl.material.maps):
+            if tex is not None:
+                rho = None if duv is None else _rho(tex, duv[sel])
+                target[sel] *= sample_reference(tex, uv[:, 0], uv[:, 1], rho)
+    return ka, kd, ks
+
+
+def _face_duv(geo, faces):
+    """A flat face's footprint: the UV square as large as its UV triangle, as (F, 2, 2) derivatives."""
+    t = geo.uvs[geo.faces[faces]]
+    d1, d2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+    side = np.sqrt(0.5 * np.abs(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]))
+    out = np.zeros((len(faces), 2, 2))
+    out[:, 0, 0] = side
+    out[:, 1, 1] = side
+    return out
+
+
+def _modulated(scene):
+    """(G,) bool: models Gouraud shades the modulate way (a map or face colours)."""
+    return np.array([any(t is not None for t in m.material.maps) or m.mesh.prepared.color_mode == "face"
+                     for m in scene.models])
 
 
 # -- the three modes ----------------------------------------------------------------------------------
@@ -326,17 +486,25 @@ def shade_reference(scene, camera, hits, shading: str = "phong") -> np.ndarray:
             centre = geo.vertices[geo.faces[faces]].sum(axis=1) / 3.0
             v = _view(eye, fwd, ortho, centre)
             g, _ = _facing(geo.face_normals[faces], v)
-            colour = illuminate_reference(centre, g, v, geo.face_model[faces], mats, lights, ambient, dmin)
+            coef = None
+            if geo.textured:
+                coef = coefficients_reference(scene, faces, np.full((len(faces), 3), 1.0 / 3.0), _face_duv(geo, faces))
+            colour = illuminate_reference(centre, g, v, geo.face_model[faces], mats, lights, ambient, dmin, coef)
             image[mask] = colour[inverse.ravel()]
         elif shading == "phong":
             v = _view(eye, fwd, ortho, p)
             g, sgn = _facing(geo.face_normals[face], v)
             n = _interpolated_normal(geo.normals, tri, bary, g, sgn)
-            image[mask] = illuminate_reference(p, n, v, model, mats, lights, ambient, dmin)
+            coef = coefficients_reference(scene, face, bary, footprint_reference(scene, camera, hits)) \
+                if geo.textured else None
+            image[mask] = illuminate_reference(p, n, v, model, mats, lights, ambient, dmin, coef)
         else:
             v = _view(eye, fwd, ortho, p)
             g, sgn = _facing(geo.face_normals[face], v)
             acc = np.zeros((len(p), 3))
+            mod = _modulated(scene)[model] if geo.textured else np.zeros(len(p), bool)
+            vcolour = np.array([m.mesh.prepared.color_mode == "vertex" for m in scene.models])[model]
+            diffuse, specular = np.zeros((len(p), 3)), np.zeros((len(p), 3))
             for k in range(3):
                 idx = tri[:, k]
                 q = geo.vertices[idx]
@@ -346,8 +514,22 @@ def shade_reference(scene, camera, hits, shading: str = "phong") -> np.ndarray:
                 # A normal on the far side of the face is reflected into its hemisphere.
                 c = np.minimum(np.einsum("ij,ij->i", n, g), 0.0)
                 n = n - 2.0 * c[:, None] * g
-                colour = illuminate_reference(q, n, _view(eye, fwd, ortho, q), model, mats, lights, ambient, dmin)
+                vq = _view(eye, fwd, ortho, q)
+                kd = mats[1][model].copy()
+                if vcolour.any():
+                    kd[vcolour] = geo.vertex_colors[idx[vcolour]]
+                colour = illuminate_reference(q, n, vq, model, mats, lights, ambient, dmin,
+                                              (mats[0][model], kd, mats[2][model]))
                 acc += bary[:, k, None] * colour
+                if mod.any():
+                    z, one = np.zeros((len(p), 3)), np.ones((len(p), 3))
+                    diffuse += bary[:, k, None] * illuminate_reference(q, n, vq, model, mats, lights, 0 * ambient,
+                                                                       dmin, (z, one, z))
+                    specular += bary[:, k, None] * illuminate_reference(q, n, vq, model, mats, lights,
+                                                                        0 * ambient, dmin, (z, z, one))
+            if mod.any():
+                ka, kd, ks = coefficients_reference(scene, face, bary, footprint_reference(scene, camera, hits))
+                acc[mod] = (ambient * ka + diffuse * kd + specular * ks)[mod]
             image[mask] = acc
     return image
 

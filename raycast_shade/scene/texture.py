@@ -1,0 +1,239 @@
+"""Colour textures: images on the UV square that scale a material's ka, kd or ks.
+
+A :class:`Texture` holds linear RGB texels (images stored in sRGB are decoded
+with the exact sRGB transfer function first: shading is linear arithmetic, and
+averaging encoded values would darken every filtered texel) and its mip-map
+pyramid, each level a 2x2 box filter of the one below, computed in linear
+space once, when the scene is packed. The kernels sample it bilinearly at the
+hit's UV, trilinearly between the two levels the pixel's footprint falls
+between (:mod:`raycast_shade.shading.texture`).
+
+Conventions are those of :class:`~raycast_shade.HeightMap`: row 0 of
+``texels`` is ``v = 0``, column 0 is ``u = 0``, texel centres sit at
+``((j + 0.5) / w, (i + 0.5) / h)``; an image file's top row is ``v = 1``
+(as OBJ and glTF UVs assume).
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from ..common.choices import WRAPS
+from ..common.layout import (TEX_CLAMP, TEX_HEIGHT, TEX_LEVELS, TEX_MIPMAP, TEX_OFFSET, TEX_SIZE, TEX_TILE_U,
+                             TEX_TILE_V, TEX_WIDTH)
+from ..common.validate import as_array, as_choice, as_int
+from ..common.warnings import DroppedOnLoadWarning
+
+__all__ = ["Texture", "TEXTURE_FILTERS", "srgb_to_linear", "linear_to_srgb"]
+
+# "mipmap": trilinear between the levels the pixel footprint falls between; "bilinear": level 0 only.
+TEXTURE_FILTERS = ("mipmap", "bilinear")
+
+
+def srgb_to_linear(c) -> np.ndarray:
+    """The exact sRGB EOTF (IEC 61966-2-1): ``c / 12.92`` up to 0.04045,
+    ``((c + 0.055) / 1.055) ** 2.4`` above; ``c`` in [0, 1], any shape."""
+    c = np.asarray(c, np.float64)
+    return np.where(c <= 0.04045, c / 12.92, ((np.maximum(c, 0.04045) + 0.055) / 1.055) ** 2.4)
+
+
+def linear_to_srgb(c) -> np.ndarray:
+    """Inverse of :func:`srgb_to_linear`."""
+    c = np.asarray(c, np.float64)
+    return np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.maximum(c, 0.0031308) ** (1 / 2.4) - 0.055)
+
+
+def _halve(a: np.ndarray, axis: int) -> np.ndarray:
+    """Box-filter ``a`` to half its length along ``axis``: pairs averaged; an odd
+    length folds its last sample into the last output (a 3-wide box there)."""
+    n = a.shape[axis]
+    if n == 1:
+        return a
+    m = n // 2
+    even = np.take(a, np.arange(0, 2 * m, 2), axis=axis)
+    odd = np.take(a, np.arange(1, 2 * m, 2), axis=axis)
+    out = 0.5 * (even + odd)
+    if n % 2:
+        last = [slice(None)] * a.ndim
+        last[axis] = slice(m - 1, m)
+        tail = np.take(a, [n - 1], axis=axis)
+        out[tuple(last)] = (2.0 * out[tuple(last)] + tail) / 3.0
+    return out
+
+
+def _image_floats(img: np.ndarray, name: str) -> np.ndarray:
+    """(h, w, 3) float64 in [0, 1] from image pixels: integers over their type's
+    maximum, grey replicated, alpha dropped (with a warning unless opaque)."""
+    img = np.asarray(img)
+    if img.dtype == np.bool_:
+        img = img.astype(np.uint8)
+    if img.dtype.kind in "ui":
+        x = img.astype(np.float64) / np.iinfo(img.dtype).max
+    elif img.dtype.kind == "f":
+        x = img.astype(np.float64)
+    else:
+        raise TypeError(f"{name}: expected image pixels (integers or floats), got dtype {img.dtype}")
+    if x.ndim == 2:
+        x = x[..., None]
+    if x.ndim != 3 or x.shape[2] not in (1, 2, 3, 4):
+        raise ValueError(f"{name}: expected an (h, w), (h, w, 3) or (h, w, 4) image, got shape {img.shape}")
+    if x.shape[2] in (2, 4):
+        if np.any(x[..., -1] < 1.0):
+            warnings.warn(f"{name}: dropped the alpha channel (transparency is not modelled; the colour is used "
+                          "as if opaque)", DroppedOnLoadWarning, stacklevel=4)
+        x = x[..., :-1]
+    if x.shape[2] == 1:
+        x = np.repeat(x, 3, axis=2)
+    return x
+
+
+@dataclass(frozen=True, eq=False)
+class Texture:
+    """Linear RGB texels on the unit UV square.
+
+    A material's ``kd_map`` (``ka_map``, ``ks_map``) multiplies its ``kd``
+    (``ka``, ``ks``) at each point by the texel there, as OBJ's ``map_Kd`` and
+    glTF's ``baseColorTexture`` scale ``Kd`` and ``baseColorFactor``.
+
+    Parameters
+    ----------
+    texels : (h, w, 3) array_like of float
+        Linear values ``>= 0``; row 0 is ``v = 0``. (h, w) is grey.
+    wrap : {"repeat", "clamp"}
+        Outside [0, 1): tile, or hold the edge texel.
+    filter : {"mipmap", "bilinear"}
+        ``"mipmap"``: trilinear, the level chosen by each pixel's footprint
+        (no shimmer where the texture is minified); ``"bilinear"``: the full
+        resolution everywhere (sharp, aliases in the distance).
+    tiling : (2,) float
+        Repeats across the UV square in u and v.
+    name : str
+    """
+
+    texels: np.ndarray
+    wrap: str = "repeat"
+    filter: str = "mipmap"
+    tiling: tuple = (1.0, 1.0)
+    name: str = "texture"
+
+    def __post_init__(self):
+        set_ = object.__setattr__
+        t = np.asarray(self.texels)
+        if t.ndim == 2:
+            t = np.repeat(t[..., None], 3, axis=2)
+        t = as_array(t, f"{self.name}.texels", dtype=np.float32, shape=(None, None, 3), copy=True)
+        if t.shape[0] < 1 or t.shape[1] < 1:
+            raise ValueError(f"{self.name}.texels: need at least one texel, got shape {t.shape}")
+        if t.min() < 0:
+            raise ValueError(f"{self.name}.texels: must be >= 0 (reflectance scales), got min {float(t.min())}")
+        t.setflags(write=False)
+        set_(self, "texels", t)
+        set_(self, "wrap", as_choice(self.wrap, f"{self.name}.wrap", WRAPS))
+        set_(self, "filter", as_choice(self.filter, f"{self.name}.filter", TEXTURE_FILTERS))
+        tiling = as_array(self.tiling, f"{self.name}.tiling", dtype=np.float64, shape=(2,))
+        if np.any(tiling <= 0):
+            raise ValueError(f"{self.name}.tiling: must be > 0, got {tiling.tolist()}")
+        set_(self, "tiling", (float(tiling[0]), float(tiling[1])))
+
+    # -- constructors ---------------------------------------------------------------
+    @classmethod
+    def from_array(cls, image, srgb: bool = True, **kwargs) -> "Texture":
+        """From image pixels as an image file holds them: top row first (``v = 1``).
+
+        Parameters
+        ----------
+        image : (h, w), (h, w, 3) or (h, w, 4) array_like
+            Integers (scaled by their type's maximum) or floats in [0, 1].
+            Alpha is dropped (a :class:`DroppedOnLoadWarning` unless opaque).
+        srgb : bool
+            Decode from sRGB to linear (8- and 16-bit colour images are
+            almost always sRGB); ``False`` for data already linear.
+        """
+        name = kwargs.get("name", "texture")
+        x = _image_floats(image, name)
+        if srgb:
+            x = srgb_to_linear(np.clip(x, 0.0, 1.0))
+        return cls(np.ascontiguousarray(x[::-1]), **kwargs)
+
+    @classmethod
+    def from_image(cls, path, srgb: bool = True, **kwargs) -> "Texture":
+        """Read an image file (PNG, JPEG, ...); see :meth:`from_array`."""
+        import imageio.v3 as iio
+
+        path = os.fspath(path)
+        kwargs.setdefault("name", os.path.basename(path))
+        if not os.path.exists(path):
+            raise ValueError(f"{kwargs['name']}: image not found: {path}")
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", DeprecationWarning)  # imageio's legacy plugins on junk files
+                img = np.asarray(iio.imread(path))
+        except Exception as exc:
+            raise ValueError(f"{kwargs['name']}: cannot read image {path}: {exc}") from None
+        return cls.from_array(img, srgb=srgb, **kwargs)
+
+    @classmethod
+    def checker(cls, squares: int = 8, texels_per_square: int = 8, colors=((1.0, 1.0, 1.0), (0.0, 0.0, 0.0)),
+                **kwargs) -> "Texture":
+        """A ``squares x squares`` checkerboard of two linear colours; square (0, 0)
+        (at ``u, v = 0``) has ``colors[0]``."""
+        squares = as_int(squares, "texture.squares", minimum=1)
+        k = as_int(texels_per_square, "texture.texels_per_square", minimum=1)
+        c = as_array(colors, "texture.colors", dtype=np.float64, shape=(2, 3))
+        i = np.arange(squares * k) // k
+        odd = (i[:, None] + i[None, :]) % 2
+        return cls(c[odd], **kwargs)
+
+    # -- derived --------------------------------------------------------------------
+    @property
+    def shape(self) -> tuple:
+        """(h, w) of level 0."""
+        return self.texels.shape[:2]
+
+    @cached_property
+    def pyramid(self) -> tuple:
+        """The mip levels, level 0 first, each (h_k, w_k, 3) float32 with
+        ``h_k = max(1, h >> k)``, down to 1 x 1; only level 0 for ``"bilinear"``."""
+        levels = [self.texels]
+        if self.filter == "bilinear":
+            return tuple(levels)
+        cur = self.texels.astype(np.float64)
+        while cur.shape[0] > 1 or cur.shape[1] > 1:
+            cur = _halve(_halve(cur, 0), 1)
+            lvl = cur.astype(np.float32)
+            lvl.setflags(write=False)
+            levels.append(lvl)
+        return tuple(levels)
+
+    @property
+    def size(self) -> int:
+        """Floats in the packed pyramid."""
+        return sum(lvl.size for lvl in self.pyramid)
+
+    def packed_texels(self) -> np.ndarray:
+        """(size,) float32: every level's RGB triples, row-major, level 0 first."""
+        return np.concatenate([lvl.ravel() for lvl in self.pyramid])
+
+    def packed_info(self, offset: int) -> np.ndarray:
+        """(TEX_SIZE,) = (8,) float64 kernel row: texel offset, width, height, levels, clamp flag,
+        tile u, tile v, mip-map flag (slots named in :mod:`raycast_shade.common.layout`)."""
+        h, w = self.shape
+        row = np.empty(TEX_SIZE)
+        row[TEX_OFFSET] = offset
+        row[TEX_WIDTH] = w
+        row[TEX_HEIGHT] = h
+        row[TEX_LEVELS] = len(self.pyramid)
+        row[TEX_CLAMP] = 1.0 if self.wrap == "clamp" else 0.0
+        row[TEX_TILE_U] = self.tiling[0]
+        row[TEX_TILE_V] = self.tiling[1]
+        row[TEX_MIPMAP] = 1.0 if self.filter == "mipmap" else 0.0
+        return row
+
+    def __repr__(self) -> str:
+        h, w = self.shape
+        return f"Texture(name={self.name!r}, {w}x{h}, wrap={self.wrap!r}, filter={self.filter!r})"
