@@ -3,13 +3,14 @@
 A frame is a dozen short parallel kernels. Under GNU OpenMP's default wait
 policy a worker spins after each one, for about 300,000 iterations, before
 it sleeps; on a loaded machine the spin takes a core from the other
-processes and from the next kernel's own work, and two threads took 1.5-1.8x
-as long as one at 640x480 (docs/performance.md, "A loaded machine").
+processes and from the next kernel's own work, and two threads took up to
+1.9x as long as one (docs/performance.md, "A loaded machine").
 ``OMP_WAIT_POLICY=PASSIVE`` makes idle workers sleep at once: two threads
-then take at most as long as one, loaded or not, and the quiet-machine frame
-keeps its speed (measured, same page). The ``workqueue`` layer does as well
-but is not thread-safe (two threads rendering at once would abort), so the
-library keeps Numba's layer choice and sets only the wait policy.
+then never took longer than one beyond the noise, loaded or not, and the
+2-thread frame was the fastest of the policies measured or within 5% of it.
+The ``workqueue`` layer does as well, but Numba documents it as not
+thread-safe (the batch app renders in a Dask worker's executor threads), so
+the library keeps Numba's layer choice and sets only the wait policy.
 
 GNU OpenMP reads the variable once, when Numba first launches a parallel
 kernel and loads it, so the default is set at package import (before any
