@@ -25,9 +25,17 @@ Sections (issue 16):
     ``tracemalloc`` peak of the NumPy allocations).
 ``load``
     The frame with 1 and 2 Numba threads, on the machine as it is and with
-    a busy process spinning on CPU 0, in subprocesses under threading
-    variants: the default layer, ``OMP_WAIT_POLICY=passive`` and ``active``,
-    and ``NUMBA_THREADING_LAYER=workqueue``.
+    a busy process spinning on CPU 0, at 320x240, 640x480 and 1920x1080, in
+    subprocesses under threading variants: the library's default
+    (``OMP_WAIT_POLICY=PASSIVE``, see :mod:`raycast_shade.common.threads`),
+    GNU OpenMP's own default (the library's undone before the first launch),
+    a short spin (``GOMP_SPINCOUNT=10000``), ``OMP_WAIT_POLICY=active``, and
+    ``NUMBA_THREADING_LAYER=workqueue``; two rounds in alternating order.
+``recast``
+    The single-ray kernel compiled parallel (``cast_rays_kernel``) and
+    serial (``cast_rays_serial``) for 1 to 4096 rays through random image
+    points (the noisy sphere at 640x480), quiet and with a busy core: where
+    the hole re-cast switches (``visibility.cast.SERIAL_BELOW``).
 ``cold``
     ``python -m raycast_shade demo`` in a subprocess with an empty
     ``NUMBA_CACHE_DIR`` (every kernel compiled), then again with the cache
@@ -60,7 +68,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 RESULTS = os.path.join(HERE, "results")
 QUICK_DIR = os.path.join(RESULTS, "quick")  # untracked (.gitignore)
-SECTIONS = ("limit", "memory", "load", "cold")
+SECTIONS = ("limit", "memory", "load", "recast", "cold")
 KEYS = ["section", "mesh", "triangles", "width", "height", "variant", "metric", "value", "unit", "load1"]
 
 _RAY = 24  # float32 slots per ray in a packet (the renderer's RTCRayHit8 stride)
@@ -319,6 +327,8 @@ _LOAD_CHILD = r"""
 import json, os, subprocess, sys, time
 import numpy as np, numba
 import raycast_shade as rs
+if os.environ.pop("BENCH_UNSET_WAIT", None):  # GNU OpenMP's own default: undo the library's, before any launch
+    os.environ.pop("OMP_WAIT_POLICY", None)
 from benchmarks.bench_peers import make_mesh, make_scene
 kind, level, w, h, repeats = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4]), int(sys.argv[5])
 scene = make_scene(make_mesh(kind, level), w, h)
@@ -333,8 +343,8 @@ def measure():
             t0 = time.perf_counter()
             rs.render(scene, "phong")
             times[n].append(time.perf_counter() - t0)
-    return {n: float(np.median(v)) for n, v in times.items()}
-out = dict(layer=numba.threading_layer(), load_quiet=os.getloadavg()[0])
+    return times
+out = dict(layer=numba.threading_layer(), wait=os.environ.get("OMP_WAIT_POLICY", ""), load_quiet=os.getloadavg()[0])
 out["quiet"] = measure()
 spin = subprocess.Popen([sys.executable, "-c", "while True: pass"])
 try:
@@ -348,35 +358,125 @@ finally:
 print(json.dumps(out))
 """
 
-LOAD_VARIANTS = [("default", {}), ("omp_passive", {"NUMBA_THREADING_LAYER": "omp", "OMP_WAIT_POLICY": "passive"}),
+# The library sets OMP_WAIT_POLICY=PASSIVE unless the user chose (raycast_shade/common/threads.py):
+# "library" is that default; "gomp_default" undoes it in the child, before the first launch.
+LOAD_VARIANTS = [("library", {}), ("gomp_default", {"BENCH_UNSET_WAIT": "1"}),
+                 ("gomp_spin10k", {"GOMP_SPINCOUNT": "10000"}),
                  ("omp_active", {"NUMBA_THREADING_LAYER": "omp", "OMP_WAIT_POLICY": "active"}),
                  ("workqueue", {"NUMBA_THREADING_LAYER": "workqueue"})]
+LOAD_CASES = [("icosphere", 6, 320, 240), ("icosphere", 6, 640, 480), ("icosphere", 6, 1920, 1080)]
 
 
-def load_section(cases, repeats):
-    """Rows of the ``load`` section: 1 vs 2 threads, quiet vs one busy core, per threading variant."""
+def load_section(cases, repeats, rounds=2):
+    """Rows of the ``load`` section: 1 vs 2 threads, quiet vs one busy core, per threading variant.
+
+    The variants cannot share a process (the layer and the wait policy are
+    fixed when OpenMP loads), so each runs in its own child, ``rounds`` times
+    in alternating order (the machine's load drifts); the medians pool the
+    rounds' frames.
+    """
     rows = []
     for kind, level, w, h in cases:
-        for name, extra in LOAD_VARIANTS:
-            env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
-            for k in ("OMP_WAIT_POLICY", "NUMBA_THREADING_LAYER"):
-                env.pop(k, None)
-            env.update(extra)
-            res = subprocess.run([sys.executable, "-c", _LOAD_CHILD, kind, str(level), str(w), str(h), str(repeats)],
-                                 cwd=ROOT, env=env, capture_output=True, text=True)
-            if res.returncode != 0:
-                raise RuntimeError(f"load child ({name}) failed: {res.stderr[-2000:]}")
-            out = json.loads(res.stdout.strip().splitlines()[-1])
+        pooled, info = {}, {}
+        for r in range(rounds):
+            for name, extra in (LOAD_VARIANTS if r % 2 == 0 else LOAD_VARIANTS[::-1]):
+                env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
+                for k in ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT", "NUMBA_THREADING_LAYER", "BENCH_UNSET_WAIT"):
+                    env.pop(k, None)
+                env.update(extra)
+                res = subprocess.run([sys.executable, "-c", _LOAD_CHILD, kind, str(level), str(w), str(h),
+                                      str(repeats)], cwd=ROOT, env=env, capture_output=True, text=True)
+                if res.returncode != 0:
+                    raise RuntimeError(f"load child ({name}) failed: {res.stderr[-2000:]}")
+                out = json.loads(res.stdout.strip().splitlines()[-1])
+                info[name] = f"{name} ({out['layer']}, wait {out['wait'] or 'unset'})"
+                for cond in ("quiet", "busy"):
+                    got = pooled.setdefault((name, cond), {"1": [], "2": [], "load": []})
+                    got["1"] += out[cond]["1"]
+                    got["2"] += out[cond]["2"]
+                    got["load"].append(round(out["load_quiet" if cond == "quiet" else "load_busy"], 2))
+        for (name, cond), got in pooled.items():
             base = dict(section="load", mesh=f"{kind}{level}", triangles=20 * 4 ** level, width=w, height=h,
-                        variant=f"{name} ({out['layer']})")
-            for cond in ("quiet", "busy"):
-                load = round(out["load_quiet" if cond == "quiet" else "load_busy"], 2)
-                t1, t2 = out[cond]["1"], out[cond]["2"]
-                rows += [dict(base, metric=f"{cond}_1thread_ms", value=round(1e3 * t1, 2), unit="ms", load1=load),
-                         dict(base, metric=f"{cond}_2threads_ms", value=round(1e3 * t2, 2), unit="ms", load1=load),
-                         dict(base, metric=f"{cond}_2threads_over_1", value=round(t2 / t1, 3), unit="x", load1=load)]
-                print(f"limits: load {kind}{level} {w}x{h} {name:12} {cond}: 1 thread {1e3 * t1:.1f} ms, "
-                      f"2 threads {1e3 * t2:.1f} ms (load {load})", file=sys.stderr)
+                        variant=info[name])
+            load = "-".join(str(x) for x in (min(got["load"]), max(got["load"])))
+            t1, t2 = float(np.median(got["1"])), float(np.median(got["2"]))
+            rows += [dict(base, metric=f"{cond}_1thread_ms", value=round(1e3 * t1, 2), unit="ms", load1=load),
+                     dict(base, metric=f"{cond}_2threads_ms", value=round(1e3 * t2, 2), unit="ms", load1=load),
+                     dict(base, metric=f"{cond}_2threads_over_1", value=round(t2 / t1, 3), unit="x", load1=load)]
+            print(f"limits: load {kind}{level} {w}x{h} {name:12} {cond}: 1 thread {1e3 * t1:.1f} ms, "
+                  f"2 threads {1e3 * t2:.1f} ms, ratio {t2 / t1:.2f} (load {load})", file=sys.stderr)
+    return rows
+
+
+_RECAST_CHILD = r"""
+import json, os, subprocess, sys, time
+import numpy as np
+import raycast_shade as rs
+from raycast_shade.visibility import cast
+from raycast_shade.visibility.accel import embree_accel
+from raycast_shade.visibility.holes import empty_hits, rays_at
+from raycast_shade.visibility.rays import camera_frame
+from benchmarks.bench_peers import make_mesh, make_scene
+kind, level, w, h, repeats = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4]), int(sys.argv[5])
+scene = make_scene(make_mesh(kind, level), w, h)
+geo = scene.geometry
+cam = camera_frame(scene.camera, geo.origin)
+handle = embree_accel(geo).handle
+rng = np.random.default_rng(0)
+SIZES = (1, 4, 16, 64, 256, 1024, 4096)
+rays = {}
+for n in SIZES:  # rays through random points of the image, as the hole re-cast's jittered rays are
+    o, d = rays_at(cam, rng.uniform(0, w - 1, n), rng.uniform(0, h - 1, n))
+    rays[n] = (o, d, np.zeros(n), np.full(n, np.inf))
+kernels = dict(parallel=cast.cast_rays_kernel, serial=cast.cast_rays_serial)
+def measure():
+    out = {}
+    for n in SIZES:
+        times = {k: [] for k in kernels}
+        for r in range(repeats):
+            for k in (("parallel", "serial") if r % 2 == 0 else ("serial", "parallel")):
+                hb = empty_hits(n)
+                t0 = time.perf_counter()
+                kernels[k](handle, *rays[n], *hb)
+                times[k].append(time.perf_counter() - t0)
+        out[n] = {k: float(np.median(v)) for k, v in times.items()}
+    return out
+for k in kernels.values():
+    k(handle, *rays[4], *empty_hits(4))
+res = dict(load_quiet=os.getloadavg()[0], quiet=measure())
+spin = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+try:
+    os.sched_setaffinity(spin.pid, {0})
+    time.sleep(0.5)
+    res["busy"] = measure()
+    res["load_busy"] = os.getloadavg()[0]
+finally:
+    spin.kill()
+    spin.wait()
+print(json.dumps(res))
+"""
+
+
+def recast(case, repeats):
+    """Rows of the ``recast`` section: ``cast_rays_kernel`` (parallel) against its
+    serial twin for 1-4096 rays, quiet and with a busy core (the choice of
+    ``raycast_shade.visibility.cast.SERIAL_BELOW``)."""
+    kind, level, w, h = case
+    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    res = subprocess.run([sys.executable, "-c", _RECAST_CHILD, kind, str(level), str(w), str(h), str(repeats)],
+                         cwd=ROOT, env=env, capture_output=True, text=True)
+    if res.returncode != 0:
+        raise RuntimeError(f"recast child failed: {res.stderr[-2000:]}")
+    out = json.loads(res.stdout.strip().splitlines()[-1])
+    rows = []
+    for cond in ("quiet", "busy"):
+        load = round(out["load_quiet" if cond == "quiet" else "load_busy"], 2)
+        for n, t in out[cond].items():
+            base = dict(section="recast", mesh=f"{kind}{level}", triangles=20 * 4 ** level, width=w, height=h,
+                        variant=f"{n} rays", unit="ms", load1=load)
+            rows += [dict(base, metric=f"{cond}_{k}_ms", value=round(1e3 * t[k], 4)) for k in ("parallel", "serial")]
+            print(f"limits: recast {n:>5} rays {cond}: parallel {1e3 * t['parallel']:.3f} ms, serial "
+                  f"{1e3 * t['serial']:.3f} ms (load {load})", file=sys.stderr)
     return rows
 
 
@@ -413,7 +513,9 @@ def run(quick=False, only=SECTIONS, repeats=None):
         rows += memory([(k, lv) for k, lv, _, _ in cases[::2]] if not quick else [cases[0][:2]],
                        *((1920, 1080) if quick else (7680, 4320)))
     if "load" in only:
-        rows += load_section(cases[:1] if quick else cases[:2], repeats)
+        rows += load_section(cases[:1] if quick else LOAD_CASES, repeats)
+    if "recast" in only:
+        rows += recast(cases[2] if not quick else cases[1], max(repeats, 15) * (1 if quick else 3))
     if "cold" in only:
         rows += cold()
     return rows

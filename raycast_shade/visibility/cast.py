@@ -51,6 +51,7 @@ around a candidate found by a nearby ray:
 from __future__ import annotations
 
 import threading
+import types
 
 import numpy as np
 from numba import njit, prange
@@ -180,6 +181,21 @@ def cast_rays_kernel(scene, origins, directions, tnear, tfar, prim, geom, u, v, 
                 u[i] = 0.0
                 v[i] = 0.0
                 t[i] = np.inf
+
+
+def _serial_twin(kernel, name: str):
+    """``kernel`` compiled without ``parallel`` (``prange`` runs as ``range``), under
+    its own name: Numba's disk cache is keyed by the function's name and bytecode,
+    not by ``parallel``, so the same function compiled both ways would share one
+    cache entry."""
+    fn = kernel.py_func
+    twin = types.FunctionType(fn.__code__, fn.__globals__, name, fn.__defaults__, fn.__closure__)
+    twin.__qualname__ = name
+    return njit(cache=True)(twin)
+
+
+cast_rays_serial = _serial_twin(cast_rays_kernel, "cast_rays_serial")  # a handful of rays: no parallel launch
+SERIAL_BELOW = 1024  # rays: fewer are cast serially by _cast_points (chosen by measurement, docs/performance.md)
 
 
 def secondary_rays(scene, max_depth: int) -> tuple[str, ...]:
@@ -313,7 +329,8 @@ def _cast_points(geometry, cam, xs, ys, caster) -> HitBuffer:
     n = len(xs)
     if caster == "embree":
         hits = empty_hits(n)
-        cast_rays_kernel(embree_accel(geometry).handle, o, d, np.zeros(n), np.full(n, np.inf), *hits)
+        kernel = cast_rays_serial if n < SERIAL_BELOW else cast_rays_kernel  # same bits (rays are independent)
+        kernel(embree_accel(geometry).handle, o, d, np.zeros(n), np.full(n, np.inf), *hits)
         return hits
     res = run_embreex(embreex_scene(geometry), o.astype(np.float32), d.astype(np.float32), 1)
     geom = res["geomID"].astype(np.int32)

@@ -11,7 +11,9 @@ pixel takes what the first left. The exact hit is kept when nearer than the
 pixel's own by more than ``watertight.MARGIN``; a miss that finds no exact
 hit takes the nearest jittered one (moved by at most a hundredth of a
 pixel). A parallel count comes first, so a frame with no such pixel pays
-about 2 ms at 1080p.
+about 2 ms at 1080p; a frame with a few pays one serial gather of their
+coordinates and, per round, one cast of their jittered rays (serial when
+they are few: :data:`.cast.SERIAL_BELOW`) and one exact re-test.
 """
 
 from __future__ import annotations
@@ -71,10 +73,10 @@ def _suspicious(prim, t, jump, y, x):
 
 
 @njit(cache=True, parallel=True)
-def _count_suspicious_kernel(prim, t, jump):
-    """How many pixels :func:`_suspicious` flags. Nearly every frame has none,
-    so the caster asks this parallel count first (about 2 ms at 1080p) and
-    builds the mask only when it is not zero."""
+def _suspicious_rows_kernel(prim, t, jump):
+    """(H,) int64: how many pixels of each row :func:`_suspicious` flags. Nearly
+    every frame has none, so the caster asks this parallel count first (about
+    2 ms at 1080p); the rows tell :func:`_gather_kernel` where to look."""
     h, w = prim.shape
     rows = np.zeros(h, np.int64)
     for y in prange(h):
@@ -83,7 +85,27 @@ def _count_suspicious_kernel(prim, t, jump):
             if _suspicious(prim, t, jump, y, x):
                 row += 1
         rows[y] = row
-    return rows.sum()
+    return rows
+
+
+def _count_suspicious_kernel(prim, t, jump) -> int:
+    """How many pixels :func:`_suspicious` flags (the sum of :func:`_suspicious_rows_kernel`)."""
+    return int(_suspicious_rows_kernel(prim, t, jump).sum())
+
+
+@njit(cache=True)  # serial: it reads only the rows that have a flag, a parallel launch would cost more
+def _gather_kernel(prim, t, jump, rows, ys, xs):
+    """The flagged pixels' ``ys``, ``xs`` (n,) int64 in row-major order, as
+    ``np.nonzero`` of :func:`_suspicious_kernel`'s mask gives them."""
+    k = 0
+    for y in range(prim.shape[0]):
+        if rows[y] == 0:
+            continue
+        for x in range(prim.shape[1]):
+            if _suspicious(prim, t, jump, y, x):
+                ys[k] = y
+                xs[k] = x
+                k += 1
 
 
 @njit(cache=True, parallel=True)
@@ -125,13 +147,26 @@ def _keep_nearer(best: HitBuffer, new: HitBuffer, where) -> None:
         arr[take] = src[take]
 
 
+def _rows(hits: HitBuffer, sel) -> HitBuffer:
+    return HitBuffer(*(a[sel] for a in hits))
+
+
 def fill_holes(geometry, cam, hits, cast_points):
-    """Re-test the suspicious pixels (see the module docstring); updates ``hits`` in place."""
-    if not _JITTER or _count_suspicious_kernel(hits.prim, hits.t, _JUMP) == 0:
+    """Re-test the suspicious pixels (see the module docstring); updates ``hits`` in place.
+
+    Each round casts the four jittered rays of every pixel in one call of
+    ``cast_points`` and re-tests them in one :func:`.watertight.refine`: a
+    frame with a few suspicious pixels pays two short launches per round, not
+    eight. Rays are independent, so the hits are those of one call per jitter.
+    """
+    if not _JITTER:
         return
-    mask = np.empty(hits.prim.shape, np.bool_)
-    _suspicious_kernel(hits.prim, hits.t, _JUMP, mask)
-    ys, xs = np.nonzero(mask)
+    rows = _suspicious_rows_kernel(hits.prim, hits.t, _JUMP)
+    n = int(rows.sum())
+    if n == 0:
+        return
+    ys, xs = np.empty(n, np.int64), np.empty(n, np.int64)
+    _gather_kernel(hits.prim, hits.t, _JUMP, rows, ys, xs)
     for jitter in _JITTER:
         if len(ys) == 0:
             return
@@ -139,14 +174,19 @@ def fill_holes(geometry, cam, hits, cast_points):
         o, d = rays_at(cam, xs, ys)  # the pixels' own rays, re-tested exactly
         t0 = hits.t[ys, xs].astype(np.float64)
         limit = np.where(np.isfinite(t0), t0 * (1.0 - MARGIN), np.inf)
+        offsets = ((jitter, jitter), (-jitter, jitter), (jitter, -jitter), (-jitter, -jitter))
+        near = cast_points(np.concatenate([xs + jx for jx, _ in offsets]),
+                           np.concatenate([ys + jy for _, jy in offsets]))
+        limit4 = np.tile(limit, 4)
+        cand = near.t < limit4  # a surface in front of the pixel's hit: its fan is re-tested
+        fills = (-1, -1, 0, 0, np.inf)
+        near = HitBuffer(*(np.where(cand, a, fill).astype(a.dtype) for a, fill in zip(near, fills)))
+        found = refine(geometry, np.tile(o, (4, 1)), np.tile(d, (4, 1)), np.zeros(4 * n), limit4, near)
         exact, moved = empty_hits(n), empty_hits(n)
-        for jx, jy in ((jitter, jitter), (-jitter, jitter), (jitter, -jitter), (-jitter, -jitter)):
-            near = cast_points(xs + jx, ys + jy)
-            cand = near.t < limit  # a surface in front of the pixel's hit: its fan is re-tested
-            fills = (-1, -1, 0, 0, np.inf)
-            near = HitBuffer(*(np.where(cand, a, fill).astype(a.dtype) for a, fill in zip(near, fills)))
-            _keep_nearer(exact, refine(geometry, o, d, np.zeros(n), limit, near), cand)
-            _keep_nearer(moved, near, cand)
+        for k in range(4):  # in the jitters' order: ties keep the earlier one
+            part = slice(k * n, (k + 1) * n)
+            _keep_nearer(exact, _rows(found, part), cand[part])
+            _keep_nearer(moved, _rows(near, part), cand[part])
         # The exact hit where there is one; else, for a miss only, the nearest jittered hit.
         ok = exact.geom >= 0
         fall = ~ok & (moved.geom >= 0) & ~np.isfinite(t0)
