@@ -106,20 +106,11 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
     camera, shading = plan.camera, plan.shading
     warn_render(scene, shading)  # no lights, a light inside a closed mesh, a bump map the method ignores
     timings = {}
-    coverage = None
     if plan.samples == 1:
-        hits = _visibility(scene, plan, timings)
-        ts = time.perf_counter()
-        image = shade_hits(scene, camera, hits, shading)  # hits from our caster or rasterizer: valid by construction
-        te = time.perf_counter()
-        timings["shade"] = te - ts
-        if scene.geometry.reflective and plan.max_depth > 0:
-            trace_mirrors(scene, camera, hits, image, plan.max_depth)
-            timings["mirror"] = time.perf_counter() - te
-            te = time.perf_counter()
+        hits, image, coverage = _render_one(scene, plan, timings)
     else:
         hits, image, coverage = _render_samples(scene, plan, timings)
-        te = time.perf_counter()
+    te = time.perf_counter()
     extra = {}
     if plan.buffers:
         extra = compute_buffers(scene, camera, hits, plan.buffers, shading, coverage=coverage)
@@ -221,6 +212,19 @@ def _visibility(scene, plan: _Plan, timings: dict, offset=(0.0, 0.0)):
     key = "cast" if plan.backend == "raycast" else "raster"
     timings[key] = timings.get(key, 0.0) + time.perf_counter() - tc
     return hits
+
+
+def _render_one(scene, plan: _Plan, timings: dict):
+    """One ray per pixel: the hit buffer, its shaded image (mirrors blended in) and no coverage."""
+    hits = _visibility(scene, plan, timings)
+    ts = time.perf_counter()
+    image = shade_hits(scene, plan.camera, hits, plan.shading)  # from our caster or rasterizer: valid
+    te = time.perf_counter()
+    timings["shade"] = te - ts
+    if scene.geometry.reflective and plan.max_depth > 0:
+        trace_mirrors(scene, plan.camera, hits, image, plan.max_depth)
+        timings["mirror"] = time.perf_counter() - te
+    return hits, image, None
 
 
 def _render_samples(scene, plan: _Plan, timings: dict):

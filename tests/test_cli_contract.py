@@ -121,6 +121,14 @@ CASES = [
     (["animate", "good.toml", "--frames", "0"], "argument --frames"),
     (["animate", "good.toml", "-o", "a.exr", "--no-progress"], "a.exr"),
     (["animate", "good.toml", "--fps", "nan", "--no-progress"], "argument --fps"),
+    # views: buffer names, orbit count, huge frame, an output folder that is a file
+    (["views", "good.toml", "--orbit", "2", "--buffers", "depth,foo", "-o", "set"], "unknown buffer 'foo'"),
+    (["views", "good.toml", "--orbit", "0", "-o", "set"], "argument --orbit"),
+    (["views", "good.toml", "--orbit", "2.5", "-o", "set"], "argument --orbit"),
+    (["views", "good.toml", "--orbit", "2", *BIG, "-o", "set"], HUGE_FRAME),
+    (["views", "good.toml", "--orbit", "2", "-o", "afile"], "afile"),
+    (["views", "kd_booleans.toml", "--orbit", "2", "-o", "set"], "expected numbers, got booleans"),
+    (["views", "missing.toml", "--orbit", "2", "-o", "set"], "missing.toml"),
     # info takes no arguments
     (["info", "--bogus"], "unrecognized arguments: --bogus"),
     (["info", "extra"], "unrecognized arguments: extra"),
@@ -202,7 +210,8 @@ def test_huge_light_directions_still_light_the_scene(capsys, workdir):
     (["demo", "-o", "folder.png"], "is a folder, not a file"),
     (["animate", "kd_booleans.toml", "--frames", "2", "--no-progress", "-o", "a.gif"], "expected numbers, got booleans"),
     (["info", "--bogus"], "unrecognized arguments"),
-], ids=["render", "demo", "animate", "info"])
+    (["views", "kd_booleans.toml", "--orbit", "2", "-o", "set"], "expected numbers, got booleans"),
+], ids=["render", "demo", "animate", "info", "views"])
 def test_the_contract_holds_in_a_real_process(workdir, argv, fragment):
     res = subprocess.run([sys.executable, "-m", "raycast_shade", *argv], capture_output=True, text=True, timeout=600,
                          cwd=workdir)
