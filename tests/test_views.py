@@ -109,3 +109,20 @@ def test_cli_views(tmp_path, capsys):
                  "-o", str(out)])
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and "unknown buffer 'foo'" in err and "Traceback" not in err
+
+
+def test_memory_stays_flat_as_the_number_of_views_grows(scene, tmp_path):
+    """Each view's buffers are written and dropped before the next: the peak of traced
+    allocations (NumPy's included) for 24 views is that of 3, not 8 times it."""
+    import tracemalloc
+
+    big = scene.replace(camera=scene.camera.replace(width=160, height=120))
+    peaks = {}
+    for n in (3, 24):
+        cams = orbit_cameras(big.camera, n)
+        tracemalloc.start()
+        render_views(big, cams, tmp_path / f"n{n}", buffers=["zdepth", "normal", "position", "id"])
+        peaks[n] = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+    one_view = 160 * 120 * (12 + 4 + 12 + 12 + 8)  # image, zdepth, normal, position, ids
+    assert peaks[24] < peaks[3] + 2 * one_view, peaks
