@@ -127,6 +127,16 @@ def write_doc(status, quick: bool, path=None):
         "`python -m benchmarks --only accuracy`. CSVs are in "
         f"`{os.path.relpath(results, ROOT)}/`" + (" (quick mode: not tracked by git)" if quick else "") + ".",
         "See [accuracy.md](accuracy.md) for the method behind the accuracy numbers.",
+        "Peers (Mesa llvmpipe, Open3D) and the limits (raw Embree packets, bandwidth, memory, load, cold start): "
+        "[performance.md](performance.md).",
+        "",
+        "Run on their own (not by `python -m benchmarks`; each takes `--quick`), with their pages: "
+        "[`bench_peers`](../benchmarks/bench_peers.py) and [`bench_limits`](../benchmarks/bench_limits.py) "
+        "([performance.md](performance.md)), [`bench_views`](../benchmarks/bench_views.py) "
+        "([vision.md](vision.md)), [`bench_aa`](../benchmarks/bench_aa.py) ([antialiasing.md](antialiasing.md)), "
+        "[`bench_explore`](../benchmarks/bench_explore.py) ([teaching.md](teaching.md)), "
+        "[`vertex_rays`](../benchmarks/vertex_rays.py) ([failure-cases.md](failure-cases.md), case 9b); "
+        "e.g. `python -m benchmarks.bench_aa`.",
     ]
     for entry in REGISTRY:
         name = entry["name"]

@@ -2,7 +2,8 @@
 
 The top row is one frame's path (:func:`raycast_shade.render`): the scene, its
 camera rays, visibility by Embree or by the reference rasterizer, the hit
-buffer both fill, the shading kernels, the frame and its file. Each box is
+buffer both fill, the shading kernels, the frame and its file; notes under
+the frame give the anti-aliasing path and the optional stages. Each box is
 coloured by the stage package that owns it; the strip below is the layer
 order tests/test_architecture.py enforces (a module imports only from its own
 package and the ones to its left). See docs/architecture.md.
@@ -83,14 +84,15 @@ def draw(path=OUT):
 
     # -- the pipeline row ------------------------------------------------------------------------
     _box(ax, 2, 32, 19, 30, "scene", "scene",
-         "meshes, normals\n(crease angle)\nmaterials ka kd Ks t\nlights, camera\nheight maps\nTOML scene files",
+         "meshes, normals\n(crease angle)\nmaterials ka kd Ks t\ntextures, colours\nlights, spots, camera\n"
+         "height maps\nmesh & TOML files",
          "scene/")
-    _box(ax, 25, 47, 15, 15, "visibility", "camera rays", "one per pixel\ncentre", "visibility/rays.py",
+    _box(ax, 25, 47, 15, 15, "visibility", "camera rays", "one per pixel\ncentre, or N\nsub-pixel samples", "visibility/rays.py",
          title_size=10)
-    _box(ax, 44, 47, 21, 15, "visibility", "Embree cast", "8-ray coherent packets\nBVH kept per geometry",
-         "visibility/cast, embree, accel", title_size=10.5)
+    _box(ax, 44, 47, 21, 15, "visibility", "Embree cast", "8-ray coherent packets\nBVH kept per geometry\n"
+         "exact vertex re-tests", "visibility/cast, embree, accel,\nholes, watertight", title_size=10.5)
     _box(ax, 44, 28, 21, 15, "visibility", "reference rasterizer", "z-buffer, top-left rule\n"
-         "perspective-correct", "visibility/raster", title_size=10.5)
+         "perspective-correct", "visibility/raster, scan", title_size=10.5)
 
     # The hit buffer: the one record between visibility and shading.
     fill, edge = COLOURS["visibility"]
@@ -116,13 +118,13 @@ def draw(path=OUT):
             va="bottom", fontsize=7.6, color=edge, style="italic", linespacing=1.25, zorder=3)
 
     _box(ax, 99, 27, 25, 37, "shading", "shading",
-         "flat  |  Gouraud  |  Phong\nkernels over the hit buffer\n\nLambert, Phong / Blinn\nattenuation, colour\n\n"
-         "Blinn bump maps\nshadow rays\nmirror reflections",
+         "flat  |  Gouraud  |  Phong\nkernels over the hit buffer\n\nLambert, Phong / Blinn\nattenuation, spot cones\n"
+         "textures, mesh colours\n\nBlinn bump maps\nshadow rays\nmirror reflections",
          "shading/", title_size=12)
-    _box(ax, 129, 40, 13.5, 22, "output", "frame", "linear image\nmask, depth\nnormal, prim\ntimings",
+    _box(ax, 129, 40, 13.5, 22, "output", "frame", "linear image\nmask, depth\nnormal, prim\nbuffers, terms\ntimings",
          "output/frame.py", title_size=10.5)
-    _box(ax, 146, 40, 12, 22, "output", "file", "tone map\nsRGB 8-bit\nPNG, PFM,\nNPY",
-         "output/tonemap,\nimagefile", title_size=10.5)
+    _box(ax, 146, 40, 12, 22, "output", "file", "tone map\nsRGB 8-bit\nPNG, PFM, NPY\nbuffers: npz,\nEXR, depth PNG",
+         "output/tonemap,\nimagefile, bufferfile", title_size=10.5)
 
     # Data flow.
     _arrow(ax, (21, 54.5), (25, 54.5))
@@ -146,14 +148,25 @@ def draw(path=OUT):
     ax.text(82, 25.6, "optional remap: screen-space weights\n(visibility/interpolation.py)", ha="center",
             va="top", fontsize=7.6, color=COLOURS["visibility"][1], style="italic")
 
+    # Anti-aliasing and the optional stages, which the row above does not show.
+    ax.text(143.5, 37.5, "samples=N: cast and shade once per\nsub-pixel camera (common/samples.py),\n"
+            "face and vertex shades shared\n(SampleShading), then averaged", ha="center", va="top", fontsize=7.6,
+            color=COLOURS["shading"][1], style="italic", linespacing=1.25)
+    ax.text(143.5, 27.0, "optional, after the image:\nbuffers=(...)  (output/buffers.py)\n"
+            "terms=True  (shading/terms.py)", ha="center", va="top", fontsize=7.6,
+            color=COLOURS["output"][1], style="italic", linespacing=1.25)
+
     # -- the layer strip -------------------------------------------------------------------------
     ax.text(3, 12.6, "Layer order (lowest first): a module imports only from its own package and from those to "
             "its left", ha="left", va="bottom", fontsize=10, fontweight="bold")
     x0, w, gap = 3.0, 15.6, 1.8
-    extras = {"common": "choices, layout,\nvalidate, schedule", "scene": "meshes, lights,\ncamera, files",
-              "visibility": "rays, Embree, raster,\nhit buffer", "shading": "flat, Gouraud, Phong,\nsurfaces",
-              "output": "frame, tone map,\nimage files", "study": "exact images, twins,\nmetrics, auto",
-              "render.py": "render():\nthe composition", "apps": "cli, demo,\nanimate, batch",
+    extras = {"common": "choices, layout,\nvalidate, samples,\nthreads, warnings",
+              "scene": "meshes, textures,\nlights, camera,\nprojection, files",
+              "visibility": "rays, Embree, raster,\nwatertight re-tests,\nhit buffer",
+              "shading": "flat, Gouraud, Phong,\nsurfaces, textures,\nterms",
+              "output": "frame, buffers,\ntone map, files,\nfigures, overlays",
+              "study": "exact images, twins,\nmetrics, auto,\nexplain",
+              "render.py": "render():\nthe composition", "apps": "cli, demo, animate,\nbatch, views,\nexplore",
               "__init__": "the public API"}
     for i, name in enumerate(LAYERS):
         fill, edge = COLOURS[name]
