@@ -126,3 +126,7 @@ def test_memory_stays_flat_as_the_number_of_views_grows(scene, tmp_path):
         tracemalloc.stop()
     one_view = 160 * 120 * (12 + 4 + 12 + 12 + 8)  # image, zdepth, normal, position, ids
     assert peaks[24] < peaks[3] + 2 * one_view, peaks
+
+
+def test_render_views_is_public():
+    assert rs.render_views is render_views and "render_views" in rs.__all__
