@@ -161,11 +161,16 @@ def test_render_choices_are_case_insensitive(capsys, tmp_path, scene_file):
     path = scene_file('[object.material]\nks = 0.5\n')
     out = tmp_path / "a.npy"
     code, stdout, err = run(capsys, "render", path, "-o", out, "--shading", "Gouraud", "--backend", "Raster",
-                            "--interpolation", "SCREEN", "--caster", "Embree", "--tonemap", "Reinhard")
+                            "--interpolation", "SCREEN", "--caster", "Embree")
     assert code == 0 and err == "" and "(64x48, gouraud)" in stdout
     scene, _ = load_scene(path)
     expected = rs.render(scene, "gouraud", backend="raster", interpolation="screen", caster="embree").image
     np.testing.assert_array_equal(np.load(out), expected)
+    png = tmp_path / "a.png"  # tone options: 8-bit outputs only (a .npy with --tonemap is refused)
+    code, stdout, err = run(capsys, "render", path, "-o", png, "--shading", "PHONG", "--tonemap", "Reinhard")
+    assert code == 0 and err == ""
+    frame = rs.render(scene, "phong")
+    np.testing.assert_array_equal(iio.imread(png), frame.to_uint8(tonemap="reinhard"))
 
 
 def test_render_default_output_name(capsys, tmp_path, scene_file, monkeypatch):

@@ -102,6 +102,7 @@ CASES = [
     (["demo", "--exposure", "nan"], "argument --exposure"),
     (["demo", "--exposure", "-1"], "argument --exposure"),
     (["demo", "--gamma", "0"], "argument --gamma"),
+    (["demo", "--exposure", "2", "-o", "d.pfm"], "--exposure: tone options apply to 8-bit outputs"),
     # render: 4 (empty output, tolerance in a mode that does not use it), 7 (huge frame), 8 (outputs)
     (["render", "good.toml", "-o", ""], "argument -o/--output: expected a path, got an empty string"),
     (["render", "good.toml", "--tolerance", "nan", "-o", "x.png"], "--tolerance: expected a finite number > 0, got 'nan'"),
@@ -114,6 +115,8 @@ CASES = [
     (["render", "good.toml", "--max-depth", "2.5"], "argument --max-depth"),
     (["render", "good.toml", "--width", "0"], "argument --width"),
     (["render", "missing.toml", "-o", "x.png"], "missing.toml"),
+    (["render", "good.toml", "--exposure", "2", "-o", "x.pfm"], "--exposure: tone options apply to 8-bit outputs"),
+    (["render", "good.toml", "--tonemap", "reinhard", "-o", "x.npy"], "--tonemap: tone options apply to 8-bit"),
     # animate: 4 (empty output), 7 (huge frame), argument types
     (["animate", "good.toml", "-o", "", "--no-progress"], "argument -o/--output: expected a path, got an empty string"),
     (["animate", "good.toml", *BIG, "--frames", "2", "--no-progress", "-o", "a.gif"], HUGE_FRAME),

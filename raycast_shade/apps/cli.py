@@ -133,6 +133,18 @@ def _check_output(path: str) -> str:
     return path
 
 
+def _check_tone_for(out: str, args) -> None:
+    """Tone flags with a lossless float output would be dropped: refuse them before rendering."""
+    from ..output.imagefile import LINEAR_EXTS
+    from ..scene.scenefile import TONE_KEYS
+
+    given = [k for k, v in overrides(args).items() if k in TONE_KEYS and v is not None]
+    if given and os.path.splitext(out)[1].lower() in LINEAR_EXTS:
+        flags = ", ".join("--" + k for k in given)
+        raise _UsageError(f"{flags}: tone options apply to 8-bit outputs; {out} stores the linear float32 image "
+                          "as is: leave them out, or write an 8-bit format such as .png")
+
+
 def _save(path: str, frame) -> float:
     """Write a frame with its tone options (:meth:`Frame.save`); returns seconds."""
     t0 = time.perf_counter()
@@ -146,6 +158,7 @@ def _cmd_demo(args) -> int:
     from .demo import LABELS, compose, render_demo_frames
 
     out = _check_output(args.output or "demo.png")
+    _check_tone_for(out, args)
     tone = {k: v for k, v in overrides(args).items() if k in TONE_KEYS}
     t0 = time.perf_counter()
     frames = render_demo_frames(args.width, args.height)
@@ -168,6 +181,7 @@ def _cmd_render(args) -> int:
     from ..render import render_file
 
     out = _check_output(args.output or os.path.splitext(os.path.basename(args.scene))[0] + ".png")
+    _check_tone_for(out, args)
     t0 = time.perf_counter()
     try:
         frame = render_file(args.scene, **overrides(args))
