@@ -1,6 +1,6 @@
 """Anti-aliasing (render(..., samples=N)): the sample pattern, bit-identity at one sample, exact
 centre buffers, shared per-face/per-vertex work, and coverage converging to the exact area
-fraction of a half-plane's edge pixels on both backends."""
+fraction of a half-plane's edge pixels on both backends; the grouped mean and the reused hit buffers."""
 
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ import raycast_shade as rs
 from raycast_shade.common.samples import MAX_SAMPLES, check_samples, sample_offsets
 from raycast_shade.shading.shade import SampleShading, shade_hits
 from raycast_shade.visibility.cast import cast_camera
+from raycast_shade.visibility.hits import HitBuffer
 from raycast_shade.visibility.raster import rasterize
 from raycast_shade.visibility.rays import subpixel_camera
 
@@ -240,3 +241,43 @@ def test_scene_file_and_cli_take_samples(tmp_path):
     path.write_text(path.read_text().replace("samples = 4", "samples = 0"))
     with pytest.raises(ValueError, match="render.samples: must be >= 1"):
         rs.render_file(path)
+
+
+# -- the mean's passes, and the reused buffers ----------------------------------------------------------
+@pytest.mark.parametrize("backend", BACKENDS)
+@pytest.mark.parametrize("samples", [2, 4, 5, 9])
+def test_grouped_mean_is_the_sample_by_sample_mean(backend, samples):
+    """Groups of samples per accumulator pass, reused hit buffers: the float64 mean of the
+    samples' own images added one at a time, bit for bit, and their coverage."""
+    scene = _sphere_scene()
+    cam = scene.camera
+    shader = SampleShading(scene, cam, "phong")
+    acc = np.zeros((cam.height, cam.width, 3))
+    hit = np.zeros((cam.height, cam.width))
+    for dx, dy in sample_offsets(samples):
+        sub = subpixel_camera(cam, dx, dy)
+        hits = cast_camera(scene.geometry, sub) if backend == "raycast" else rasterize(scene.geometry, sub)
+        acc += shader.shade(hits)
+        hit += hits.prim >= 0
+    for buffers in ((), ("coverage",)):
+        f = rs.render(scene, "phong", backend=backend, samples=samples, buffers=buffers)
+        assert np.array_equal(f.image, (acc / samples).astype(np.float32))
+    assert np.array_equal(f.buffers["coverage"], (hit * (1.0 / samples)).astype(np.float32))
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_out_buffer_is_filled_in_place(backend):
+    scene = _sphere_scene()
+    cam = subpixel_camera(scene.camera, 0.25, -0.25)
+    visibility = cast_camera if backend == "raycast" else rasterize
+    fresh = visibility(scene.geometry, cam)
+    out = HitBuffer.empty(cam.height, cam.width)
+    for a in out:
+        a.fill(7)  # stale values must all be overwritten
+    got = visibility(scene.geometry, cam, out=out)
+    assert all(x is y for x, y in zip(got, out))
+    assert all(np.array_equal(x, y) for x, y in zip(fresh, out))
+    with pytest.raises(ValueError, match="out.prim"):
+        visibility(scene.geometry, cam, out=HitBuffer.empty(cam.height + 1, cam.width))
+    with pytest.raises(TypeError, match="out"):
+        visibility(scene.geometry, cam, out=tuple(out))

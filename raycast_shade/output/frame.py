@@ -30,7 +30,9 @@ class Frame:
         resolves to the latter).
     timings : dict of str to float
         Seconds per stage: ``build`` (packing and BVH, first frame of a scene
-        only), ``cast``, ``shade``, ``total``.
+        only), ``cast`` (or ``raster``), ``shade``, ``total``; ``mirror``,
+        ``buffers``, ``terms`` when they ran, and ``average`` (the box filter's
+        passes) with ``samples > 1``.
     decisions : tuple of Decision
         With ``shading="auto"``: each model's method and the reason.
     tone : dict

@@ -15,7 +15,8 @@ position) with :class:`SampleShading`: each face's flat colour and each
 vertex's Gouraud colours are computed once per frame, the first time a
 sample sees them, and reused by every later sample; only the per-pixel
 kernels run per sample. :func:`accumulate` and :func:`sample_mean` form the
-box-filtered mean.
+box-filtered mean, a group of :data:`GROUP` samples per pass over the float64
+accumulator.
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ from .phong import _PHONG, _PHONG_TEX
 from .texture import variant_for
 
 __all__ = ["SHADINGS", "METHODS", "shade", "shade_hits", "resolve_methods", "SampleShading", "accumulate",
-           "sample_mean"]
+           "sample_mean", "GROUP"]
 
 METHODS = {"flat": 0, "gouraud": 1, "phong": 2}
 
@@ -217,51 +218,108 @@ class SampleShading:
         return image
 
 
+GROUP = 4  # samples added to the accumulator per pass (images alive at a time); _group_sum takes 4
+
+
+@njit(inline="always")
+def _group_sum(acc, imgs, k, first, y, x, c):
+    """``acc[y, x, c] + imgs[0][y, x, c] + ... + imgs[k - 1][y, x, c]`` in float64, left to
+    right (``first``: without ``acc``): the sum of adding the samples one at a time. The
+    tuple is indexed by constants (a run-time index into a tuple is a branch per read)."""
+    s = np.float64(imgs[0][y, x, c]) if first else acc[y, x, c] + imgs[0][y, x, c]
+    if k > 1:
+        s += imgs[1][y, x, c]
+    if k > 2:
+        s += imgs[2][y, x, c]
+    if k > 3:
+        s += imgs[3][y, x, c]
+    return s
+
+
+@njit(inline="always")
+def _group_hits(prims, k, y, x):
+    hit = 1 if prims[0][y, x] >= 0 else 0
+    if k > 1 and prims[1][y, x] >= 0:
+        hit += 1
+    if k > 2 and prims[2][y, x] >= 0:
+        hit += 1
+    if k > 3 and prims[3][y, x] >= 0:
+        hit += 1
+    return hit
+
+
 @njit(parallel=True, cache=True)
-def _accumulate_kernel(image, prim, acc, count, first):
-    h, w = prim.shape
+def _accumulate_kernel(imgs, prims, k, acc, counting, count, first):
+    h, w = acc.shape[0], acc.shape[1]
     for y in prange(h):
         for x in range(w):
-            hit = 1 if prim[y, x] >= 0 else 0
-            if first:  # no read of the fresh (untouched) accumulator
-                for c in range(3):
-                    acc[y, x, c] = image[y, x, c]
-                count[y, x] = hit
-            else:
-                for c in range(3):
-                    acc[y, x, c] += image[y, x, c]
-                count[y, x] += hit
+            for c in range(3):
+                acc[y, x, c] = _group_sum(acc, imgs, k, first, y, x, c)  # first: no read of acc
+            if counting:
+                hit = _group_hits(prims, k, y, x)
+                count[y, x] = hit if first else count[y, x] + hit
 
 
-def accumulate(image, prim, acc, count, first: bool = False) -> None:
-    """Add one sample: ``acc += image`` ((H, W, 3) float64 += float32) and
-    ``count += (prim >= 0)`` ((H, W) int32), in place; ``first`` sets them instead."""
-    _accumulate_kernel(image, prim, acc, count, first)
+_NO_COUNT = np.zeros((1, 1), np.int32)  # a stand-in when no coverage is counted: never indexed
+_NO_IMAGE = np.zeros((1, 1, 3), np.float32)  # pads a group to GROUP images: never indexed
+
+
+def _padded(images, prims):
+    """``images`` and ``prims`` as GROUP-tuples (one kernel type for every group size), and the size."""
+    k = len(images)
+    if not 1 <= k <= GROUP or len(prims) != k:
+        raise ValueError(f"expected 1 to {GROUP} images and as many prims, got {k} and {len(prims)}")
+    return (tuple(images) + (_NO_IMAGE,) * (GROUP - k), tuple(prims) + (_NO_COUNT,) * (GROUP - k), k)
+
+
+def accumulate(acc, count, images, prims, first: bool = False) -> None:
+    """Add up to :data:`GROUP` samples in one pass: ``acc += images[0] + images[1] + ...``
+    ((H, W, 3) float64 += float32, left to right) and ``count += (prims[0] >= 0) + ...``
+    ((H, W) int32; skipped when ``count`` is None), in place; ``first`` sets them instead
+    (the accumulator is not read).
+
+    A group per pass reads and writes the float64 accumulator once per group, not once
+    per sample; the sums are those of adding the samples one at a time, bit for bit."""
+    imgs, prs, k = _padded(images, prims)
+    counting = count is not None
+    _accumulate_kernel(imgs, prs, k, acc, counting, count if counting else _NO_COUNT, first)
 
 
 @njit(parallel=True, cache=True)
-def _mean_kernel(acc, count, image, prim, n, out, coverage):
-    h, w = count.shape
+def _mean_kernel(acc, count, imgs, prims, k, first, n, out, counting, coverage):
+    h, w = out.shape[0], out.shape[1]
     inv = 1.0 / n
     for y in prange(h):
         for x in range(w):
             for c in range(3):
-                out[y, x, c] = (acc[y, x, c] + image[y, x, c]) / n
-            coverage[y, x] = (count[y, x] + (1 if prim[y, x] >= 0 else 0)) * inv
+                out[y, x, c] = _group_sum(acc, imgs, k, first, y, x, c) / n  # out may be images[0]: read first
+            if counting:
+                coverage[y, x] = ((0 if first else count[y, x]) + _group_hits(prims, k, y, x)) * inv
 
 
-def sample_mean(acc, count, image, prim, n: int):
-    """The box filter's result: the last sample (``image``, ``prim``) added to the
-    first ``n - 1`` (``acc``, ``count``), divided by ``n`` (one pass, no write back).
+def sample_mean(acc, count, images, prims, n: int, first: bool = False, out=None, coverage: bool = True):
+    """The box filter's result: the last group of samples (``images``, ``prims``, up to
+    :data:`GROUP`) added to the earlier ones (``acc``, ``count``; not read when ``first``,
+    i.e. ``n <= GROUP``), divided by ``n``, in one pass with no write back.
+
+    Parameters
+    ----------
+    out : (H, W, 3) float32, optional
+        Where the mean goes; may be ``images[0]`` itself.
+    coverage : bool
+        Count the coverage (``count`` holds the earlier samples' hits); False
+        skips it (``count`` is not read) and returns None for it.
 
     Returns
     -------
     image : (H, W, 3) float32
-        ``(acc + image) / n``.
-    coverage : (H, W) float32
+        ``(acc + images[0] + ...) / n`` (``out`` when given).
+    coverage : (H, W) float32 or None
         The fraction of the pixel's ``n`` samples that hit a surface.
     """
-    out = np.empty(acc.shape, np.float32)
-    coverage = np.empty(count.shape, np.float32)
-    _mean_kernel(acc, count, image, prim, float(n), out, coverage)
-    return out, coverage
+    imgs, prs, k = _padded(images, prims)
+    out = np.empty(images[0].shape, np.float32) if out is None else out
+    cov = np.empty(prims[0].shape, np.float32) if coverage else np.empty((1, 1), np.float32)
+    _mean_kernel(acc, count if count is not None else _NO_COUNT, imgs, prs, k, first, float(n), out,
+                 bool(coverage), cov)
+    return out, (cov if coverage else None)

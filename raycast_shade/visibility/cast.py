@@ -61,7 +61,7 @@ from . import embree
 from .accel import embree_accel, embreex_scene
 from ..common.schedule import BLOCK_ROWS, spread_step
 from ..common.validate import as_array
-from .hits import HitBuffer
+from .hits import HitBuffer, image_buffer
 from .holes import empty_hits, fill_holes, rays_at
 from .holes import _count_isolated_kernel, _isolated_misses  # noqa: F401  (where tests look for them)
 from .watertight import nudged_rays, refine
@@ -254,7 +254,7 @@ def resolve_caster(caster: str, needs: tuple[str, ...] = ()) -> str:
     return "embreex"
 
 
-def cast_camera(geometry, camera, caster: str = "auto", threads: int = 2, *, offset=None) -> HitBuffer:
+def cast_camera(geometry, camera, caster: str = "auto", threads: int = 2, *, offset=None, out=None) -> HitBuffer:
     """Cast one ray through every pixel centre (or the same point off each centre).
 
     Parameters
@@ -271,14 +271,20 @@ def cast_camera(geometry, camera, caster: str = "auto", threads: int = 2, *, off
         ``(x + 0.5 + dx, y + 0.5 + dy)``, as anti-aliasing needs
         (:func:`~raycast_shade.visibility.rays.subpixel_camera`). ``None`` or
         ``(0, 0)``: the pixel centres.
+    out : HitBuffer, optional
+        (H, W) int32/int32/float32/float32/float32 C-contiguous arrays to fill
+        in place (every pixel is written) instead of fresh ones: the samples
+        of an anti-aliased frame reuse one buffer.
 
     Returns
     -------
     HitBuffer
-        (H, W) arrays.
+        (H, W) arrays (``out`` when given).
 
     Raises
     ------
+    TypeError, ValueError
+        For an ``out`` that does not fit the image, before any kernel runs.
     RuntimeError
         ``caster="embree"`` without the direct binding (the reason is in the
         message), before any kernel runs.
@@ -293,19 +299,14 @@ def cast_camera(geometry, camera, caster: str = "auto", threads: int = 2, *, off
         camera = subpixel_camera(camera, *offset_pair(offset))
     caster = resolve_caster(caster)
     h, w = camera.height, camera.width
+    out = None if out is None else image_buffer(out, h, w)
     reach = float(np.abs(camera.eye - geometry.origin).max())
     if camera.orthographic:  # rays start anywhere on the view rectangle around the eye
         reach += 0.5 * camera.ortho_height * float(np.hypot(w / h, 1.0))
     embree.check_range(reach, "camera.eye")
     cam = camera_frame(camera, geometry.origin)
     if caster == "embree":
-        hits = HitBuffer(
-            prim=np.empty((h, w), np.int32),
-            geom=np.empty((h, w), np.int32),
-            u=np.empty((h, w), np.float32),
-            v=np.empty((h, w), np.float32),
-            t=np.empty((h, w), np.float32),
-        )
+        hits = image_buffer(out, h, w)  # the kernel writes every pixel
         _cast_camera_kernel(embree_accel(geometry).handle, cam, hits.prim, hits.geom, hits.u, hits.v, hits.t)
         _fill_holes(geometry, cam, hits, caster)
         return hits
@@ -319,6 +320,10 @@ def cast_camera(geometry, camera, caster: str = "auto", threads: int = 2, *, off
         v=np.where(miss, 0.0, res["v"]).astype(np.float32).reshape(h, w),
         t=np.where(miss, np.inf, res["tfar"]).astype(np.float32).reshape(h, w),
     )
+    if out is not None:
+        for dst, src in zip(out, hits):
+            dst[...] = src
+        hits = out
     _fill_holes(geometry, cam, hits, caster)
     return hits
 

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, prange
 
-__all__ = ["HitBuffer", "check_hits"]
+__all__ = ["HitBuffer", "check_hits", "image_buffer"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -70,6 +70,35 @@ class HitBuffer:
     def __iter__(self):
         """``prim, geom, u, v, t``: unpacks like the tuple ``cast_rays`` once returned."""
         return iter((self.prim, self.geom, self.u, self.v, self.t))
+
+
+_DTYPES = (np.int32, np.int32, np.float32, np.float32, np.float32)  # prim, geom, u, v, t
+
+
+def image_buffer(out, height: int, width: int) -> HitBuffer:
+    """``out`` checked for a caster or rasterizer to fill in place (every pixel is
+    written), or a fresh (H, W) buffer when ``out`` is None.
+
+    Reusing one buffer across the samples of an anti-aliased frame spares
+    each sample the page faults of ~40 MB of fresh arrays at 1080p.
+
+    Raises
+    ------
+    TypeError, ValueError
+        For an ``out`` that is not a HitBuffer of C-contiguous (H, W) arrays
+        of the caster's dtypes.
+    """
+    if out is None:
+        return HitBuffer(*(np.empty((height, width), dt) for dt in _DTYPES))
+    if not isinstance(out, HitBuffer):
+        raise TypeError(f"out: expected a HitBuffer, got {type(out).__name__}")
+    for name, arr, dt in zip(("prim", "geom", "u", "v", "t"), out, _DTYPES):
+        if (not isinstance(arr, np.ndarray) or arr.shape != (height, width) or arr.dtype != dt
+                or not arr.flags.c_contiguous or not arr.flags.writeable):
+            raise ValueError(f"out.{name}: expected a writeable C-contiguous ({height}, {width}) "
+                             f"{np.dtype(dt).name} array, got {getattr(arr, 'shape', type(arr).__name__)} "
+                             f"{getattr(arr, 'dtype', '')}")
+    return out
 
 
 # Barycentrics may leave the triangle by rounding only: Embree's (and the rasterizer's

@@ -71,7 +71,7 @@ import numba
 import numpy as np
 
 from ..scene.camera import Camera
-from .hits import HitBuffer
+from .hits import HitBuffer, image_buffer
 from .rays import offset_pair, subpixel_camera
 from .scan import (_CHUNK, _bin_fill_par, _bin_fill_ser, _project_par, _project_ser, _raster_kernel, _setup_par,
                    _setup_ser)
@@ -108,8 +108,9 @@ def _check(geometry, camera, near):
     return geometry, near
 
 
-def _run(geometry, camera, near, count_mode):
-    """The pipeline. Returns the hit buffer, or the coverage counts in count mode."""
+def _run(geometry, camera, near, count_mode, hits=None):
+    """The pipeline. Returns the hit buffer (``hits``, filled in place, when given),
+    or the coverage counts in count mode."""
     W, H = camera.width, camera.height
     ortho = camera.orthographic
     right, up, fwd = camera.basis
@@ -154,7 +155,7 @@ def _run(geometry, camera, near, count_mode):
         out = [np.empty((1, 1), dt) for dt in (np.int32, np.int32, np.float32, np.float32, np.float32)]
     else:
         count = np.empty((1, 1), np.int32)
-        out = [np.empty((H, W), dt) for dt in (np.int32, np.int32, np.float32, np.float32, np.float32)]
+        out = list(image_buffer(hits, H, W))  # the resolve writes every pixel
     face_model = np.ascontiguousarray(geometry.face_model, dtype=np.int32)
     face_off = np.ascontiguousarray(geometry.face_offsets, dtype=np.int64)
     with numba.parallel_chunksize(1):  # bands differ in cost: hand them out one at a time
@@ -165,7 +166,7 @@ def _run(geometry, camera, near, count_mode):
     return HitBuffer(prim=out[0], geom=out[1], u=out[2], v=out[3], t=out[4])
 
 
-def rasterize(geometry, camera, *, near=None, offset=None) -> HitBuffer:
+def rasterize(geometry, camera, *, near=None, offset=None, out=None) -> HitBuffer:
     """Visibility by z-buffer scan conversion: the ray caster's hit buffer.
 
     Parameters
@@ -183,12 +184,16 @@ def rasterize(geometry, camera, *, near=None, offset=None) -> HitBuffer:
         image point ``(x + 0.5 + dx, y + 0.5 + dy)`` (coverage, depth and
         barycentrics alike), the ray caster's ``cast_camera(..., offset=)``.
         ``None`` or ``(0, 0)``: the pixel centres.
+    out : HitBuffer, optional
+        A buffer to fill in place instead of fresh arrays, as
+        ``cast_camera(..., out=)`` takes.
 
     Returns
     -------
     HitBuffer
         ``prim`` (local to its model), ``geom``, perspective-correct ``u, v``
-        and distance ``t``, with the ray caster's conventions.
+        and distance ``t``, with the ray caster's conventions (``out`` when
+        given).
 
     Raises
     ------
@@ -198,7 +203,9 @@ def rasterize(geometry, camera, *, near=None, offset=None) -> HitBuffer:
     geometry, near = _check(geometry, camera, near)
     if offset is not None:
         camera = subpixel_camera(camera, *offset_pair(offset))
-    return _run(geometry, camera, near, False)
+    if out is not None:
+        out = image_buffer(out, camera.height, camera.width)
+    return _run(geometry, camera, near, False, out)
 
 
 def coverage_count(geometry, camera, *, near=None) -> np.ndarray:
