@@ -306,7 +306,7 @@ def open3d_pipeline(scene, camera):
     except ImportError as exc:
         return (f"open3d is not installed ({exc}): pip install 'raycast_shade[peers]' "
                 "(on Debian also apt-get install -y libusb-1.0-0)")
-    from raycast_shade.shading.kernels import shade_hits
+    from raycast_shade.shading.shade import shade_hits
     from raycast_shade.visibility.hits import HitBuffer
     from raycast_shade.visibility.rays import generate_rays
 

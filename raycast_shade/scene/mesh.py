@@ -226,10 +226,11 @@ class Mesh:
         return cls.from_trimesh(tm, srgb_colors=srgb, **kwargs)
 
     # -- derived ------------------------------------------------------------------------
-    @property
+    @cached_property
     def bounds(self) -> np.ndarray:
-        """(2, 3) float64 axis-aligned bounding box."""
-        return np.stack([self.vertices.min(axis=0), self.vertices.max(axis=0)])
+        """(2, 3) float64 axis-aligned bounding box (read-only; computed once: the vertices are
+        read-only, and every render's pitfall check reads it, 23 ms a frame at 1.31 M faces)."""
+        return _readonly(np.stack([self.vertices.min(axis=0), self.vertices.max(axis=0)]))
 
     @cached_property
     def prepared(self) -> PreparedMesh:
