@@ -189,7 +189,7 @@ def limit_case(kind, level, w, h, repeats):
 
     def cast_kernel():  # the renderer's cast kernel alone: rays + packets + unpacking, no hole re-cast
         hb = _frame_buffers(h, w)
-        _cast_camera_kernel(handle, cam, *hb[:5])
+        _cast_camera_kernel(handle, cam, 0, *hb[:5])
 
     def store_pre():
         _store_frame(*pre)

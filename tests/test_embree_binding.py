@@ -78,7 +78,7 @@ _POISONED = textwrap.dedent("""
     serial = numba.njit(parallel=False)
     for name, kernel in (("par", cast._cast_camera_kernel), ("ser", serial(cast._cast_camera_kernel.py_func))):
         hits = [np.empty((h, w), dt) for dt in (np.int32, np.int32, np.float32, np.float32, np.float32)]
-        kernel(handle, cam, *hits)
+        kernel(handle, cam, 0, *hits)
         out.update({f"cam_{name}_{i}": a for i, a in enumerate(hits)})
     o, d = generate_rays(scene.camera, geo.origin)
     o, d = o.astype(np.float64), d.astype(np.float64)
@@ -138,7 +138,7 @@ def test_kernels_keep_their_embree_buffers_alive_when_frees_are_poisoned(tmp_pat
 
     h, w = scene.camera.height, scene.camera.width
     ref = [np.empty((h, w), dt) for dt in (np.int32, np.int32, np.float32, np.float32, np.float32)]
-    cast._cast_camera_kernel(embree_accel(geo).handle, camera_frame(scene.camera, geo.origin), *ref)
+    cast._cast_camera_kernel(embree_accel(geo).handle, camera_frame(scene.camera, geo.origin), 0, *ref)
     assert (ref[0] >= 0).mean() > 0.3
     for name in ("par", "ser"):
         for i, a in enumerate(ref):
@@ -171,11 +171,19 @@ _IR_ORDER = textwrap.dedent("""
         embree.intersect8_packet(valid[8:], scene, buf[8:], args[2:])
 
     @njit
+    def packet16(scene):
+        buf = np.zeros(512, np.float32)
+        valid = np.zeros(32, np.int32)
+        args = np.zeros(embree.ARGS_SLOTS + 2, np.uint32)
+        embree.intersect16_packet(valid[16:], scene, buf[16:], args[2:])
+
+    @njit
     def shadow(scene):
         buf = np.zeros(32, np.float32)
         embree.occluded1_ray(scene, buf[4:])
 
-    for fn, sym in ((one, "rtcIntersect1"), (packet, "rtcIntersect8"), (shadow, "rtcOccluded1")):
+    for fn, sym in ((one, "rtcIntersect1"), (packet, "rtcIntersect8"), (packet16, "rtcIntersect16"),
+                    (shadow, "rtcOccluded1")):
         fn.compile("(uintp,)")
         ir = fn.inspect_llvm()[fn.signatures[0]]
         body = ir[ir.index("define"):]
@@ -196,7 +204,7 @@ def test_the_wrappers_release_their_arrays_only_after_embree_returns():
     proc = subprocess.run([sys.executable, "-c", _IR_ORDER], env=env, capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]
     lines = dict(line.split(" ", 1) for line in proc.stdout.strip().splitlines())
-    assert set(lines) == {"one", "packet", "shadow"}
+    assert set(lines) == {"one", "packet", "packet16", "shadow"}
     for name, events in lines.items():
         events = events.split()
         call = [i for i, e in enumerate(events) if e != "@NRT_decref"]
@@ -214,10 +222,10 @@ def _calls_to(tree, names):
 
 
 def test_no_raw_address_reaches_embree_outside_the_array_wrappers():
-    """Only embree.py's wrappers call the raw ``rtcIntersect1/8`` / ``rtcOccluded1``
+    """Only embree.py's wrappers call the raw ``rtcIntersect1/8/16`` / ``rtcOccluded1``
     symbols, and each pointer they pass is ``<parameter>.ctypes.data``: the kernels in
     visibility/ hand over arrays, which the call itself keeps alive."""
-    raw = {"intersect1", "intersect8", "occluded1"}
+    raw = {"intersect1", "intersect8", "intersect16", "occluded1"}
     bad = []
     for path in sorted(VISIBILITY.glob("*.py")):
         tree = ast.parse(path.read_text(encoding="utf-8"))
@@ -225,7 +233,7 @@ def test_no_raw_address_reaches_embree_outside_the_array_wrappers():
             bad += [f"{path.name}:{c.lineno}" for c in _calls_to(tree, raw)]
             continue
         wrappers = {f.name: f for f in tree.body if isinstance(f, ast.FunctionDef)}
-        for name in ("intersect1_ray", "intersect8_packet", "occluded1_ray"):
+        for name in ("intersect1_ray", "intersect8_packet", "intersect16_packet", "occluded1_ray"):
             fn = wrappers[name]
             params = {a.arg for a in fn.args.args}
             (call,) = list(_calls_to(fn, raw))
@@ -239,7 +247,8 @@ def test_no_raw_address_reaches_embree_outside_the_array_wrappers():
                         isinstance(arg, ast.Constant) and arg.value == 0):
                     bad.append(f"embree.py:{arg.lineno}: {ast.unparse(arg)}")
         others = [c for f in tree.body if isinstance(f, ast.FunctionDef) and f.name not in
-                  ("intersect1_ray", "intersect8_packet", "occluded1_ray") for c in _calls_to(f, raw)]
+                  ("intersect1_ray", "intersect8_packet", "intersect16_packet", "occluded1_ray")
+                  for c in _calls_to(f, raw)]
         bad += [f"embree.py:{c.lineno}" for c in others]
     assert not bad, "raw Embree calls outside the array wrappers: " + ", ".join(bad)
 

@@ -13,8 +13,8 @@ it directly:
   declared as external symbols for Numba, so ray generation, traversal and
   hit unpacking run in one parallel kernel, with no Python per ray or chunk.
   Symbols (not addresses) keep ``cache=True`` valid across processes.
-* kernels call them through :func:`intersect1_ray`, :func:`intersect8_packet`
-  and :func:`occluded1_ray`, which take the scratch *arrays*, not their
+* kernels call them through :func:`intersect1_ray`, :func:`intersect8_packet`,
+  :func:`intersect16_packet` and :func:`occluded1_ray`, which take the scratch *arrays*, not their
   addresses: an address is a bare integer, and once a kernel has taken it
   Numba is free to free the array (it drops each array after its last use
   in the IR). Passed as arguments, the arrays are held by the caller until
@@ -28,7 +28,11 @@ it directly:
 Struct layouts (Embree 4 ``rtcore_ray.h``), as float32 slots:
 ``RTCRayHit`` = org xyz, tnear, dir xyz, time, tfar, mask, id, flags |
 Ng xyz, u, v, primID, geomID, instID[1], (instPrimID[1]); 16-byte aligned.
-The packet form ``RTCRayHit8`` has the same fields, each an array of 8.
+The packet forms ``RTCRayHit8`` / ``RTCRayHit16`` have the same fields, each an array of 8 / 16
+(32- / 64-byte aligned). Camera rays go as 16-ray packets of 4x4 pixels: on this AVX-512 build
+(Embree 4.4, native 16-wide) they trace 1.08-1.31x faster than 4x2 packets of 8 (measured on
+pre-generated packets: 21.4 against 28.0 ms for a 1080p frame of an 81,920-triangle sphere,
+38.0 against 45.1 ms at 1.31 M triangles; 8x2 and 16x1 tiles are slower than 4x4).
 ``RTCIntersectArguments`` (``rtcore_scene.h``) = flags, feature_mask, then
 three pointers. These layouts and the ``rtcIntersect*(scene, ray, args)``
 signatures are Embree 4's (Embree 3 takes a context first), so the binding
@@ -51,7 +55,8 @@ import numpy as np
 from numba import njit, types
 
 __all__ = ["available", "unavailable_reason", "library_path", "embree_version", "EmbreeAccel", "intersect1",
-           "intersect8", "occluded1", "intersect1_ray", "intersect8_packet", "occluded1_ray", "INVALID_ID"]
+           "intersect8", "intersect16", "occluded1", "intersect1_ray", "intersect8_packet", "intersect16_packet",
+           "occluded1_ray", "INVALID_ID"]
 
 INVALID_ID = 0xFFFFFFFF
 
@@ -308,6 +313,9 @@ intersect1 = types.ExternalFunction("rtcIntersect1", types.void(types.uintp, typ
 intersect8 = types.ExternalFunction(
     "rtcIntersect8", types.void(types.uintp, types.uintp, types.uintp, types.uintp)
 )
+intersect16 = types.ExternalFunction(
+    "rtcIntersect16", types.void(types.uintp, types.uintp, types.uintp, types.uintp)
+)
 occluded1 = types.ExternalFunction("rtcOccluded1", types.void(types.uintp, types.uintp, types.uintp))
 
 
@@ -344,6 +352,24 @@ def intersect8_packet(valid, scene, rayhit, args):
 
     Each array stays alive for the whole call (held by the caller)."""
     intersect8(valid.ctypes.data, scene, rayhit.ctypes.data, args.ctypes.data)
+
+
+@njit(cache=True)
+def intersect16_packet(valid, scene, rayhit, args):
+    """``rtcIntersect16(valid, scene, rayhit, args)``.
+
+    Parameters
+    ----------
+    valid : (>= 16,) int32
+        Starts at a 64-byte boundary: -1 for an active ray, 0 for an inactive one.
+    scene : uintp
+    rayhit : (>= 384,) float32 or uint32
+        Starts at a 64-byte aligned ``RTCRayHit16``; hit fields written in place.
+    args : (>= ARGS_SLOTS,) uint32
+        Starts at an 8-byte aligned ``RTCIntersectArguments``.
+
+    Each array stays alive for the whole call (held by the caller)."""
+    intersect16(valid.ctypes.data, scene, rayhit.ctypes.data, args.ctypes.data)
 
 
 @njit(cache=True)
