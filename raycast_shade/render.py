@@ -9,6 +9,7 @@ import numpy as np
 
 from .scene.camera import Camera
 from .visibility.accel import embree_accel, has_embree_accel
+from .visibility.bands import BAND_ROWS, cast_bands
 from .visibility.cast import cast_camera, resolve_caster, secondary_rays
 from .visibility.hits import image_buffer
 from .visibility.interpolation import to_screen_space
@@ -107,7 +108,11 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
     camera, shading = plan.camera, plan.shading
     warn_render(scene, shading)  # no lights, a light inside a closed mesh, a bump map the method ignores
     timings = {}
-    if plan.samples == 1:
+    mask = None
+    if _banded(scene, plan, terms):
+        hits, image, mask = _render_bands(scene, plan, timings)
+        coverage = None
+    elif plan.samples == 1:
         hits, image, coverage = _render_one(scene, plan, timings)
     else:
         hits, image, coverage = _render_samples(scene, plan, timings)
@@ -124,7 +129,7 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
     timings["total"] = te - t0
     return Frame(image=image, hits=hits, shading=shading, scene=scene, camera=camera, timings=timings,
                  decisions=plan.decisions, buffers=extra, terms=parts, max_depth=plan.max_depth,
-                 explainer=explain if plan.samples == 1 else _averaged)
+                 explainer=explain if plan.samples == 1 else _averaged, hit_mask=mask)
 
 
 def _averaged(frame, x, y):
@@ -229,6 +234,43 @@ def _render_one(scene, plan: _Plan, timings: dict):
     return hits, image, None
 
 
+def _banded(scene, plan: _Plan, terms) -> bool:
+    """Whether the frame is cast and shaded band by band (:func:`_render_bands`): one Phong-shaded
+    ray per pixel, by the packet caster with perspective-correct weights, asking for no buffer,
+    term or mirror bounce (each of those reads the whole frame's hits), taller than one band."""
+    phong = plan.shading == "phong" or (not isinstance(plan.shading, str) and set(plan.shading) == {"phong"})
+    return (phong and plan.samples == 1 and plan.backend == "raycast" and plan.caster == "embree"
+            and plan.interpolation == "perspective" and not plan.buffers and terms is None
+            and not (scene.geometry.reflective and plan.max_depth > 0) and plan.camera.height > BAND_ROWS)
+
+
+def _render_bands(scene, plan: _Plan, timings: dict):
+    """One ray per pixel, each band of rows shaded as soon as it is cast (while its hits are in
+    cache), so the frame never holds (or page-faults in) a full-frame hit buffer: 20 bytes a
+    pixel. Returns the recipe of the hit buffer (the same cast again, run if ``frame.hits``
+    is read), the image and the hit mask. Every pixel is the one :func:`_render_one` gives."""
+    camera = plan.camera
+    if not has_embree_accel(scene.geometry):
+        tb = time.perf_counter()
+        embree_accel(scene.geometry)  # build now so that the cast is timed alone
+        timings["build"] = time.perf_counter() - tb
+    image = np.empty((camera.height, camera.width, 3), np.float32)
+    mask = np.empty((camera.height, camera.width), np.bool_)
+    shader = SampleShading(scene, camera, plan.shading)
+    tc = time.perf_counter()
+    cast = shade = 0.0
+    for y, band in cast_bands(scene.geometry, camera):
+        ts = time.perf_counter()
+        cast += ts - tc
+        rows = slice(y, y + band.shape[0])
+        shader.shade(band, out=image[rows], y0=y)
+        np.greater_equal(band.prim, 0, out=mask[rows])
+        tc = time.perf_counter()
+        shade += tc - ts
+    timings["cast"], timings["shade"] = cast, shade
+    return (lambda: _visibility(scene, plan, {})), image, mask
+
+
 def _render_samples(scene, plan: _Plan, timings: dict):
     """Anti-aliasing: every sample's hit buffer, shaded (and mirrored) with the per-face and
     per-vertex work shared, then averaged. Returns sample 0's (the centre's) hits, the mean
@@ -318,9 +360,7 @@ def render_file(path, **overrides) -> Frame:
     TypeError, ValueError
         For an unknown or invalid override, naming it, before rendering.
     """
-    import dataclasses
-
     from .scene.scenefile import load_for_render
 
     scene, kwargs, tone = load_for_render(path, **overrides)
-    return dataclasses.replace(render(scene, **kwargs), tone=tone)
+    return render(scene, **kwargs).with_tone(tone)

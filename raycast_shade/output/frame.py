@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -15,6 +16,34 @@ from .tonemap import to_uint8
 __all__ = ["Frame"]
 
 
+class _HitsSlot:
+    """The ``hits`` field: a :class:`HitBuffer`, or a function that makes it on first use.
+
+    A frame rendered band by band (:func:`raycast_shade.render`) never held its whole
+    hit buffer (20 bytes a pixel); it keeps the recipe, the same cast again, and runs it
+    once, the first time ``frame.hits`` (or something built on it) is read. The cast is
+    deterministic, so the buffer is the one the frame was shaded from, bit for bit."""
+
+    def __set_name__(self, owner, name):
+        self.slot = "_" + name
+
+    def __get__(self, obj, objtype=None):
+        if obj is None:  # no default: the dataclass field stays required
+            raise AttributeError(self.slot[1:])
+        value = obj.__dict__[self.slot]
+        if callable(value):
+            with obj.__dict__["_hits_lock"]:
+                value = obj.__dict__[self.slot]
+                if callable(value):
+                    value = value()
+                    obj.__dict__[self.slot] = value
+        return value
+
+    def __set__(self, obj, value):
+        obj.__dict__[self.slot] = value
+        obj.__dict__["_hits_lock"] = threading.Lock()
+
+
 @dataclass(frozen=True, eq=False, repr=False)
 class Frame:
     """The result of :func:`raycast_shade.render`.
@@ -24,7 +53,11 @@ class Frame:
     image : (H, W, 3) float32
         Linear RGB, finite and non-negative; zero on the background.
     hits : HitBuffer
-        Primitive, model, barycentrics and distance per pixel.
+        Primitive, model, barycentrics and distance per pixel. A frame that
+        asked for no buffer may hold a function instead (no arguments,
+        returning the buffer): it runs on first access (the frame was shaded
+        band by band and kept no full-frame buffer; the cast again gives the
+        same bits).
     shading : str or tuple of str
         The method of every model, or one per model (``shading="auto"``
         resolves to the latter).
@@ -52,10 +85,13 @@ class Frame:
         ``explainer(frame, x, y)`` behind :meth:`explain`: :func:`raycast_shade.explain`,
         set by :func:`raycast_shade.render`. It lives in the study layer, above this
         one, so it is handed in rather than imported.
+    hit_mask : (H, W) bool or None
+        ``hits.prim >= 0``, kept by a frame whose hit buffer is made on first
+        use, so that :attr:`mask` needs no cast.
     """
 
     image: np.ndarray
-    hits: HitBuffer
+    hits: HitBuffer = _HitsSlot()
     shading: str
     scene: object = None
     camera: object = None
@@ -66,6 +102,7 @@ class Frame:
     terms: dict = field(default_factory=dict)
     max_depth: int | None = None
     explainer: object = None
+    hit_mask: np.ndarray | None = None
 
     @property
     def method(self) -> np.ndarray:
@@ -88,6 +125,8 @@ class Frame:
     @property
     def mask(self) -> np.ndarray:
         """(H, W) bool: pixels that see a surface."""
+        if self.hit_mask is not None:
+            return self.hit_mask.copy()  # a fresh array, as the computed one is
         return self.hits.prim >= 0
 
     @property
@@ -113,6 +152,14 @@ class Frame:
             raise ValueError("explain: this frame was not made by raycast_shade.render; "
                              "call raycast_shade.explain(frame, x, y)")
         return self.explainer(self, x, y)
+
+    def with_tone(self, tone: dict) -> "Frame":
+        """This frame with other default tone options (:attr:`tone`); everything else,
+        the hit buffer included (made or still a recipe), is shared, not copied or cast."""
+        new = object.__new__(type(self))
+        new.__dict__.update(self.__dict__)
+        new.__dict__["tone"] = dict(tone)
+        return new
 
     def to_uint8(self, **kwargs) -> np.ndarray:
         """8-bit sRGB image; see :func:`raycast_shade.tonemap.to_uint8`."""

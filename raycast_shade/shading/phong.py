@@ -86,8 +86,9 @@ def _make_phong(spec_on: bool, att_on: bool, tex_on: bool = False):
     """The Phong pixel kernel for one variant (see :mod:`.jit`; ``tex_on``: textured coefficients)."""
 
     @njit(parallel=True, **JIT)
-    def _shade_phong_kernel(prim, geom, u, v, G, B, L, T, face_off, materials, cam, background, modes, image):
-        """Phong: shade every pixel of the models whose method is 2."""
+    def _shade_phong_kernel(prim, geom, u, v, G, B, L, T, face_off, materials, cam, background, modes, image, y0):
+        """Phong: shade every pixel of the models whose method is 2; array row ``r`` is
+        image row ``y0 + r`` (a band of the frame; textures need the image position)."""
         verts, normals, faces, fnormals = G
         uvs, tangents, bump_index, texels, info = B
         ambient, lights, dmin, handle, unit = L
@@ -112,7 +113,7 @@ def _make_phong(spec_on: bool, att_on: bool, tex_on: bool = False):
                     b1 = np.float64(u[y, x])
                     b2 = np.float64(v[y, x])
                     if tex_on:
-                        coef = _point_coefficients(verts, uvs, fnormals, faces, f, gm, b1, b2, cam, x, y, True,
+                        coef = _point_coefficients(verts, uvs, fnormals, faces, f, gm, b1, b2, cam, x, y0 + y, True,
                                                    materials, vcolors, fcolors, cmode, tindex, ttexels, tinfo)
                     else:
                         coef = _row_coefficients(materials, gm)

@@ -196,10 +196,15 @@ class SampleShading:
                                                          k["L"], k["T"], self.vcol, self.vspec)
                 self.vertex_done |= new
 
-    def shade(self, hits, out=None) -> np.ndarray:
+    def shade(self, hits, out=None, y0=0) -> np.ndarray:
         """(H, W, 3) float32 linear image of one sample's hit buffer (valid by construction),
-        written to ``out`` when given (one buffer serves every sample: no fresh pages each time)."""
+        written to ``out`` when given (one buffer serves every sample: no fresh pages each time).
+
+        ``y0``: the image row of the buffer's first row, for a band of a frame whose models
+        are all Phong-shaded (:func:`~raycast_shade.visibility.bands.cast_bands`)."""
         k, geo, modes = self.k, self.geo, self.modes
+        if y0 and (self.flat or self.gouraud):
+            raise ValueError("y0: bands are shaded for Phong-only frames")  # their per-face/vertex work is per frame
         h, w = hits.shape
         image = np.empty((h, w, 3), np.float32) if out is None else out
         if self.flat or self.gouraud:
@@ -214,7 +219,8 @@ class SampleShading:
                                                            k["background"], modes, self.vcol, self.vspec, image)
         if self.phong:
             variant_for(_PHONG, _PHONG_TEX, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["T"],
-                                               k["face_off"], k["materials"], k["cam"], k["background"], modes, image)
+                                               k["face_off"], k["materials"], k["cam"], k["background"], modes, image,
+                                               y0)
         return image
 
 

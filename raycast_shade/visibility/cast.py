@@ -86,7 +86,10 @@ def _cast_camera_kernel(scene, cam, y0, prim, geom, u, v, t):
     h = prim.shape[0]
     ntx = (w + _TILE_W - 1) // _TILE_W
     nty = (h + _TILE_H - 1) // _TILE_H
-    nblk = (nty + BLOCK_ROWS - 1) // BLOCK_ROWS
+    # Blocks of BLOCK_ROWS tile rows, or single tile rows for a band (or frame) too
+    # short to give every thread several blocks.
+    block = BLOCK_ROWS if nty >= 4 * BLOCK_ROWS else 1
+    nblk = (nty + block - 1) // block
     step = spread_step(nblk)
     for it in prange(nblk):  # blocks of rows in a balanced order (see _schedule)
         blk = (it * step) % nblk
@@ -103,7 +106,7 @@ def _cast_camera_kernel(scene, cam, y0, prim, geom, u, v, t):
         aoff = ((8 - abuf.ctypes.data % 8) % 8) // 4
         abuf[aoff] = embree.RAY_QUERY_FLAG_COHERENT
         abuf[aoff + 1] = embree.FEATURE_FLAG_ALL
-        for ty in range(blk * BLOCK_ROWS, min(nty, (blk + 1) * BLOCK_ROWS)):
+        for ty in range(blk * block, min(nty, (blk + 1) * block)):
             for tx in range(ntx):
                 for k in range(_LANES):
                     x = tx * _TILE_W + (k % _TILE_W)
@@ -305,10 +308,7 @@ def cast_camera(geometry, camera, caster: str = "auto", threads: int = 2, *, off
     caster = resolve_caster(caster)
     h, w = camera.height, camera.width
     out = None if out is None else image_buffer(out, h, w)
-    reach = float(np.abs(camera.eye - geometry.origin).max())
-    if camera.orthographic:  # rays start anywhere on the view rectangle around the eye
-        reach += 0.5 * camera.ortho_height * float(np.hypot(w / h, 1.0))
-    embree.check_range(reach, "camera.eye")
+    check_camera_reach(geometry, camera)
     cam = camera_frame(camera, geometry.origin)
     if caster == "embree":
         hits = image_buffer(out, h, w)  # the kernel writes every pixel
@@ -331,6 +331,20 @@ def cast_camera(geometry, camera, caster: str = "auto", threads: int = 2, *, off
         hits = out
     _fill_holes(geometry, cam, hits, caster)
     return hits
+
+
+def check_camera_reach(geometry, camera) -> None:
+    """ValueError naming ``camera.eye`` when its rays start beyond Embree's float32 range."""
+    reach = float(np.abs(camera.eye - geometry.origin).max())
+    if camera.orthographic:  # rays start anywhere on the view rectangle around the eye
+        reach += 0.5 * camera.ortho_height * float(np.hypot(camera.width / camera.height, 1.0))
+    embree.check_range(reach, "camera.eye")
+
+
+def cast_points(geometry, cam, xs, ys, caster="embree") -> HitBuffer:
+    """The caster's hits for the rays through image points ``(xs + 0.5, ys + 0.5)``
+    ((n,) float64 each) of the packed camera ``cam``: (n,) arrays."""
+    return _cast_points(geometry, cam, xs, ys, caster)
 
 
 def _cast_points(geometry, cam, xs, ys, caster) -> HitBuffer:

@@ -151,17 +151,36 @@ def _rows(hits: HitBuffer, sel) -> HitBuffer:
     return HitBuffer(*(a[sel] for a in hits))
 
 
-def fill_holes(geometry, cam, hits, cast_points):
+def fill_holes(geometry, cam, hits, cast_points, rows=None, y0=0):
     """Re-test the suspicious pixels (see the module docstring); updates ``hits`` in place.
 
     Each round casts the four jittered rays of every pixel in one call of
     ``cast_points`` and re-tests them in one :func:`.watertight.refine`: a
     frame with a few suspicious pixels pays two short launches per round, not
     eight. Rays are independent, so the hits are those of one call per jitter.
+
+    Parameters
+    ----------
+    hits : HitBuffer of (R, W) arrays
+        The image's rows ``y0 .. y0 + R``, as cast (the test reads each pixel's
+        neighbours as cast, so no row may have been repaired yet).
+    cast_points : callable
+        ``cast_points(xs, ys)``: the hits of the rays through image points.
+    rows : (lo, hi), optional
+        Repair only the rows ``lo .. hi`` of ``hits`` (a band, whose rows
+        outside it are only neighbours); all of them by default.
+    y0 : int
+        The image row of ``hits``'s row 0. A band's top and bottom rows are
+        image borders only when they are the image's: ``hits`` then starts or
+        ends there.
     """
     if not _JITTER:
         return
-    rows = _suspicious_rows_kernel(hits.prim, hits.t, _JUMP)
+    rows_flagged = _suspicious_rows_kernel(hits.prim, hits.t, _JUMP)
+    if rows is not None:
+        rows_flagged[:rows[0]] = 0
+        rows_flagged[rows[1]:] = 0
+    rows = rows_flagged
     n = int(rows.sum())
     if n == 0:
         return
@@ -171,12 +190,12 @@ def fill_holes(geometry, cam, hits, cast_points):
         if len(ys) == 0:
             return
         n = len(ys)
-        o, d = rays_at(cam, xs, ys)  # the pixels' own rays, re-tested exactly
+        o, d = rays_at(cam, xs, ys + y0)  # the pixels' own rays, re-tested exactly
         t0 = hits.t[ys, xs].astype(np.float64)
         limit = np.where(np.isfinite(t0), t0 * (1.0 - MARGIN), np.inf)
         offsets = ((jitter, jitter), (-jitter, jitter), (jitter, -jitter), (-jitter, -jitter))
         near = cast_points(np.concatenate([xs + jx for jx, _ in offsets]),
-                           np.concatenate([ys + jy for _, jy in offsets]))
+                           np.concatenate([ys + y0 + jy for _, jy in offsets]))
         limit4 = np.tile(limit, 4)
         cand = near.t < limit4  # a surface in front of the pixel's hit: its fan is re-tested
         fills = (-1, -1, 0, 0, np.inf)

@@ -1,0 +1,102 @@
+"""The camera's hit buffer band by band, for a renderer that shades each band at once.
+
+A frame that asks for no per-pixel buffer needs its hits only while it shades
+them. :func:`cast_bands` casts the frame in bands of :data:`BAND_ROWS` rows
+into one small window (a few MB at any width, reused by every band), repairs
+each band's slipped rays (:mod:`.holes`) and hands it over finished, so the
+frame never holds a full-frame hit buffer (20 bytes a pixel: 663 MB at
+7680x4320) and never page-faults one in.
+
+The bands are exactly the rows of :func:`.cast.cast_camera`'s buffer, bit for
+bit:
+
+* each band's new rows start at a multiple of the packet tile's height, so
+  every ray travels in the same 16-ray packet as in the whole-frame cast;
+* the repair test reads each pixel's neighbours *as cast*: the window keeps
+  the row above the band (as cast, before its repair) and the band's last row
+  waits, unrepaired, until the next band has cast the row below it; image
+  borders stay borders (the first band starts at row 0, the last ends at H-1);
+* repaired pixels take the hits of the same jittered rays and exact re-tests,
+  in image coordinates.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .accel import embree_accel
+from .cast import _TILE_H, _cast_camera_kernel, cast_camera, cast_points, check_camera_reach
+from .hits import HitBuffer, image_buffer
+from .holes import fill_holes
+from .rays import camera_frame
+
+__all__ = ["cast_bands", "BAND_ROWS"]
+
+# Rows per band: a multiple of the tile height. 64 rows of 1920 pixels are 2.5 MB of hits, inside one
+# core's L2 (2 MB) plus the shared cache; chosen by measurement (docs/performance.md).
+BAND_ROWS = 64
+assert BAND_ROWS % _TILE_H == 0
+
+
+def cast_bands(geometry, camera, rows: int = BAND_ROWS):
+    """Yield the camera's hit buffer in bands of rows, top to bottom.
+
+    Parameters
+    ----------
+    geometry : SceneGeometry
+    camera : Camera
+    rows : int
+        Rows per band, a positive multiple of the packet tile's height (4).
+
+    Yields
+    ------
+    y : int
+        The image row of the band's first row.
+    hits : HitBuffer
+        (R, W) views of the band (``R <= rows``; the bands tile the image):
+        valid until the next band is asked for.
+
+    Raises
+    ------
+    ValueError
+        For ``rows`` that is not a positive multiple of 4, or a camera beyond
+        Embree's range, before any kernel runs.
+    """
+    if not isinstance(rows, (int, np.integer)) or rows <= 0 or rows % _TILE_H:
+        raise ValueError(f"rows: expected a positive multiple of {_TILE_H}, got {rows!r}")
+    rows = int(rows)
+    h, w = camera.height, camera.width
+    if h <= rows:  # one band: the frame itself
+        yield 0, cast_camera(geometry, camera, "embree")
+        return
+    check_camera_reach(geometry, camera)
+    cam = camera_frame(camera, geometry.origin)
+    handle = embree_accel(geometry).handle
+    win = image_buffer(None, rows + 2, w)  # the row above the band, the last band's last row, then new rows
+
+    def cast(xs, ys):
+        return cast_points(geometry, cam, xs, ys)
+
+    top = 0  # window rows before the new ones: 0 for the first band, then 2
+    g = 0  # image row of the first new row (a multiple of the tile height)
+    above = np.empty(w, np.int32), np.empty(w, np.float32)  # prim, t of the last finished row, as cast
+    while True:
+        m = min(rows, h - g)
+        _cast_camera_kernel(handle, cam, g, *(a[top:top + m] for a in win))
+        n = top + m
+        last = g + m == h
+        lo, hi = (1 if top else 0), (n if last else n - 1)
+        if not last:  # the next window's row above, before this band's repair changes it
+            above[0][:] = win.prim[n - 2]
+            above[1][:] = win.t[n - 2]
+        window = HitBuffer(*(a[:n] for a in win))
+        fill_holes(geometry, cam, window, cast, rows=(lo, hi), y0=g - top)
+        yield g - top + lo, HitBuffer(*(a[lo:hi] for a in win))
+        if last:
+            return
+        for a in win:  # the waiting row (as cast: the repair never touched it) moves up
+            a[1] = a[n - 1]
+        win.prim[0] = above[0]
+        win.t[0] = above[1]
+        top = 2
+        g += m
