@@ -25,7 +25,7 @@ from .common.choices import BACKENDS, CASTER_CHOICES, INTERPOLATIONS, SHADING_CH
 from .common.samples import check_samples, sample_offsets
 from .common.validate import as_int, as_scalar
 from .shading.mirrors import MAX_MIRROR_DEPTH, trace_mirrors
-from .shading.shade import GROUP, SampleShading, accumulate, resolve_methods, sample_mean, shade_hits
+from .shading.shade import GROUP, SampleShading, accumulate, resolve_methods, sample_mean
 from .shading.terms import check_terms, shade_terms
 
 __all__ = ["render", "render_file"]
@@ -33,7 +33,7 @@ __all__ = ["render", "render_file"]
 
 def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backend: str = "raycast",
            interpolation: str = "perspective", caster: str = "auto", max_depth: int = 3,
-           tolerance: float = 0.01, buffers=(), terms=False, samples: int = 1) -> Frame:
+           tolerance: float = 0.01, buffers=(), terms=False, samples: int = 1, out=None) -> Frame:
     """Render a scene.
 
     Parameters
@@ -78,6 +78,12 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
         hit buffer, depth, normals and ids stay sample 0's, exactly the
         ``samples=1`` ones; ``"coverage"`` is the fraction of samples that
         hit. ``samples=1`` is the one-ray-per-pixel frame, bit for bit.
+    out : (H, W, 3) float32 ndarray, optional
+        A writeable C-contiguous array of the camera's size to write the
+        image into (``frame.image`` is ``out``): a sequence of frames of one
+        size reuses one image instead of page-faulting a fresh one per frame
+        (24 MB at 1080p). Its old contents are overwritten, so an earlier
+        frame holding it changes too.
     terms : bool, str or sequence of str
         ``True``: the reflectance equation's terms as images on ``frame.terms``
         (ambient, diffuse, specular, reflected, shadow mask; ``"per_light"``
@@ -100,7 +106,7 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
         (the message says why), before any kernel runs.
     """
     t0 = time.perf_counter()
-    plan = _plan(scene, shading, camera, backend, interpolation, caster, max_depth, tolerance, buffers, samples)
+    plan = _plan(scene, shading, camera, backend, interpolation, caster, max_depth, tolerance, buffers, samples, out)
     terms = check_terms(terms)
     if terms is not None and plan.samples > 1:
         raise ValueError(f"terms: the terms are those of one ray per pixel; with samples={plan.samples} they "
@@ -151,10 +157,11 @@ class _Plan:
     buffers: tuple
     decisions: tuple
     samples: int = 1
+    out: object = None  # the image array to fill, or None
 
 
 def _plan(scene, shading, camera, backend, interpolation, caster, max_depth, tolerance, buffers,
-          samples=1) -> _Plan:
+          samples=1, out=None) -> _Plan:
     """Every argument checked before any kernel runs (the names as the user spelled them)."""
     if not isinstance(scene, Scene):
         raise TypeError(f"scene: expected a Scene, got {type(scene).__name__}")
@@ -189,7 +196,22 @@ def _plan(scene, shading, camera, backend, interpolation, caster, max_depth, tol
     if shading == "auto":
         decisions = tuple(choose_methods(scene, camera, tolerance))
         shading = tuple(d.method for d in decisions)
-    return _Plan(shading, camera, backend, interpolation, caster, max_depth, buffers, decisions, samples)
+    return _Plan(shading, camera, backend, interpolation, caster, max_depth, buffers, decisions, samples,
+                 _check_out(out, camera))
+
+
+def _check_out(out, camera):
+    """``out`` as the frame's image array, or None; TypeError/ValueError naming it."""
+    if out is None:
+        return None
+    if not isinstance(out, np.ndarray):
+        raise TypeError(f"out: expected a numpy array, got {type(out).__name__}")
+    want = (camera.height, camera.width, 3)
+    if out.shape != want or out.dtype != np.float32:
+        raise ValueError(f"out: expected a {want} float32 array (the camera's image), got {out.shape} {out.dtype}")
+    if not out.flags.c_contiguous or not out.flags.writeable:
+        raise ValueError("out: expected a writeable C-contiguous array")
+    return out
 
 
 def _choice(value, name: str, choices) -> str:
@@ -225,7 +247,7 @@ def _render_one(scene, plan: _Plan, timings: dict):
     """One ray per pixel: the hit buffer, its shaded image (mirrors blended in) and no coverage."""
     hits = _visibility(scene, plan, timings)
     ts = time.perf_counter()
-    image = shade_hits(scene, plan.camera, hits, plan.shading)  # from our caster or rasterizer: valid
+    image = SampleShading(scene, plan.camera, plan.shading).shade(hits, out=plan.out)  # our hits: valid
     te = time.perf_counter()
     timings["shade"] = te - ts
     if scene.geometry.reflective and plan.max_depth > 0:
@@ -254,7 +276,7 @@ def _render_bands(scene, plan: _Plan, timings: dict):
         tb = time.perf_counter()
         embree_accel(scene.geometry)  # build now so that the cast is timed alone
         timings["build"] = time.perf_counter() - tb
-    image = np.empty((camera.height, camera.width, 3), np.float32)
+    image = np.empty((camera.height, camera.width, 3), np.float32) if plan.out is None else plan.out
     mask = np.empty((camera.height, camera.width), np.bool_)
     shader = SampleShading(scene, camera, plan.shading)
     tc = time.perf_counter()
@@ -293,7 +315,7 @@ def _render_samples(scene, plan: _Plan, timings: dict):
     acc = np.empty((h, w, 3) if n > GROUP else (1, 1, 3), np.float64)
     counted = "coverage" in plan.buffers
     count = np.empty((h, w) if n > GROUP else (1, 1), np.int32) if counted else None
-    images = [np.empty((h, w, 3), np.float32) for _ in range(min(n, GROUP))]
+    images = [np.empty((h, w, 3), np.float32) if i or plan.out is None else plan.out for i in range(min(n, GROUP))]
     scratch = [None] * GROUP
     centre = None
     group = []  # the group's hit buffers, for its counts

@@ -202,3 +202,27 @@ def test_a_banded_frame_allocates_the_image_not_the_hit_buffer():
     finally:
         RENDER._banded = saved
     assert whole >= 32 * px
+
+
+@pytest.mark.parametrize("kw", [dict(), dict(buffers=("zdepth",)), dict(samples=5), dict(backend="raster")],
+                         ids=["banded", "whole", "samples", "raster"])
+def test_out_receives_the_image_of_a_fresh_render(kw):
+    scene = _textured_sphere(fov=45.0)
+    fresh = rs.render(scene, "phong", **kw)
+    out = np.full((150, 101, 3), np.nan, np.float32)
+    frame = rs.render(scene, "phong", out=out, **kw)
+    assert frame.image is out
+    np.testing.assert_array_equal(out, fresh.image)
+
+
+@pytest.mark.parametrize("out, exc", [(np.zeros((150, 101, 3), np.float64), ValueError),
+                                      (np.zeros((101, 150, 3), np.float32), ValueError),
+                                      (np.zeros((150, 101, 3), np.float32)[:, ::-1], ValueError),
+                                      (np.zeros((150, 101, 3), np.float32).tolist(), TypeError)])
+def test_a_bad_out_is_refused_naming_it(out, exc):
+    with pytest.raises(exc, match="out"):
+        rs.render(_textured_sphere(fov=45.0), "phong", out=out)
+    ro = np.zeros((150, 101, 3), np.float32)
+    ro.setflags(write=False)
+    with pytest.raises(ValueError, match="out"):
+        rs.render(_textured_sphere(fov=45.0), "phong", out=ro)
