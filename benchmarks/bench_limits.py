@@ -5,19 +5,22 @@ Sections (issue 16):
 
 ``limit``
     For each case of :mod:`benchmarks.bench_peers` (same scenes): Embree's
-    raw packet throughput, the camera's 4x2-pixel tiles as coherent 8-ray
-    packets generated beforehand (the renderer's ``RTCRayHit8`` layout, see
+    raw packet throughput, the camera's 4x4-pixel tiles as coherent 16-ray
+    packets generated beforehand (the renderer's ``RTCRayHit16`` layout, see
     :mod:`raycast_shade.visibility.cast`) and traced by a small parallel
-    Numba kernel that does nothing but call ``rtcIntersect8`` (no ray
+    Numba kernel that does nothing but call ``rtcIntersect16`` (no ray
     generation, no unpacking, no shading; the packets are restored between
-    repeats, untimed); the memory bandwidth of writing the bytes a frame
-    writes (hit buffer 20 B + linear image 12 B per pixel) by a parallel
+    repeats, untimed), and the same for 4x2 tiles of 8 rays (``packets8``,
+    the renderer's packets before); the memory bandwidth of writing the bytes
+    a frame writes to memory (linear image 12 B + hit mask 1 B per pixel; its
+    hits stay in a band, :mod:`raycast_shade.visibility.bands`) by a parallel
     Numba store, into preallocated arrays (the bandwidth) and into fresh
     ``np.empty`` arrays each time (what the renderer does: first-touch page
-    faults included); the renderer's cast kernel alone (rays, packets,
-    unpacking; no re-cast of isolated misses); and ``rs.render`` itself. Reported: the frame over the
-    sum of packets + preallocated store (issue 16 aims at <= 1.3), the
-    stages of the frame and how many isolated misses it re-casts.
+    faults included); the renderer's cast kernel alone over a whole frame
+    (rays, packets, unpacking; no re-cast); and ``rs.render`` itself, fresh
+    and with ``out=`` (one image reused). Reported: the frame over the sum of
+    packets + preallocated store (issue 16 aims at <= 1.3), the stages of the
+    frame and how many isolated misses it re-casts.
 ``memory``
     Peak resident memory of a 7680x4320 Phong frame, one subprocess per mesh
     (the high-water mark ``VmHWM`` after a small warm-up frame, after the 8K
@@ -71,72 +74,72 @@ QUICK_DIR = os.path.join(RESULTS, "quick")  # untracked (.gitignore)
 SECTIONS = ("limit", "memory", "load", "recast", "cold")
 KEYS = ["section", "mesh", "triangles", "width", "height", "variant", "metric", "value", "unit", "load1"]
 
-_RAY = 24  # float32 slots per ray in a packet (the renderer's RTCRayHit8 stride)
-_PACKET = 8 * _RAY
-FRAME_BYTES = 20 + 12  # per pixel: hit buffer (prim, geom, u, v, t) + linear RGB float32
+_RAY = 24  # float32 slots per ray in a packet (the renderer's RTCRayHit16 stride)
+FRAME_BYTES = 12 + 1  # per pixel written to memory: linear RGB float32 + the hit mask (hits stay in a band)
+PACKETS = {"packets": (4, 4), "packets8": (4, 2)}  # the renderer's 4x4 tiles of 16 rays; the 4x2 tiles of 8 it had
 
 
 # -- kernels -------------------------------------------------------------------------------------------------
 
 @njit(cache=True, parallel=True)
-def _make_packets(cam, w, h, rays, valid):
-    """Fill ``rays`` (P * 192,) float32 and ``valid`` (P * 8,) int32 with the camera's
-    4x2 tiles, row of tiles after row, as :mod:`raycast_shade.visibility.cast` does."""
-    ntx = (w + 3) // 4
-    nty = (h + 1) // 2
+def _make_packets(cam, w, h, tw, th, rays, valid):
+    """Fill ``rays`` (P * 24 * n,) float32 and ``valid`` (P * n,) int32 with the camera's
+    ``tw`` x ``th`` tiles of ``n = tw * th`` rays, row of tiles after row, as
+    :mod:`raycast_shade.visibility.cast` does."""
+    n = tw * th
+    ntx = (w + tw - 1) // tw
+    nty = (h + th - 1) // th
     ib = rays.view(np.uint32)
     for ty in prange(nty):
         for tx in range(ntx):
             p = ty * ntx + tx
-            o = p * _PACKET
-            for k in range(8):
-                x = tx * 4 + (k & 3)
-                y = ty * 2 + (k >> 2)
+            o = p * _RAY * n
+            for k in range(n):
+                x = tx * tw + (k % tw)
+                y = ty * th + (k // tw)
                 if x < w and y < h:
-                    valid[p * 8 + k] = -1
+                    valid[p * n + k] = -1
                     ox, oy, oz, dx, dy, dz = pixel_ray(cam, x, y)
                 else:
-                    valid[p * 8 + k] = 0
+                    valid[p * n + k] = 0
                     ox, oy, oz, dx, dy, dz = 0.0, 0.0, 0.0, 0.0, 0.0, 1.0
-                rays[o + 0 * 8 + k] = ox
-                rays[o + 1 * 8 + k] = oy
-                rays[o + 2 * 8 + k] = oz
-                rays[o + 3 * 8 + k] = 0.0
-                rays[o + 4 * 8 + k] = dx
-                rays[o + 5 * 8 + k] = dy
-                rays[o + 6 * 8 + k] = dz
-                rays[o + 7 * 8 + k] = 0.0
-                rays[o + 8 * 8 + k] = np.inf
-                ib[o + 9 * 8 + k] = 0xFFFFFFFF
-                ib[o + 10 * 8 + k] = 0
-                ib[o + 11 * 8 + k] = 0
-                ib[o + 17 * 8 + k] = 0xFFFFFFFF
-                ib[o + 18 * 8 + k] = 0xFFFFFFFF
+                rays[o + 0 * n + k] = ox
+                rays[o + 1 * n + k] = oy
+                rays[o + 2 * n + k] = oz
+                rays[o + 3 * n + k] = 0.0
+                rays[o + 4 * n + k] = dx
+                rays[o + 5 * n + k] = dy
+                rays[o + 6 * n + k] = dz
+                rays[o + 7 * n + k] = 0.0
+                rays[o + 8 * n + k] = np.inf
+                ib[o + 9 * n + k] = 0xFFFFFFFF
+                ib[o + 10 * n + k] = 0
+                ib[o + 11 * n + k] = 0
+                ib[o + 17 * n + k] = 0xFFFFFFFF
+                ib[o + 18 * n + k] = 0xFFFFFFFF
 
 
 @njit(cache=True, parallel=True)
-def _trace_packets(scene, rays, valid, args, ntx, nty):
-    """``rtcIntersect8`` on every prepared packet, rows of tiles in parallel; nothing else."""
-    for ty in prange(nty):
-        for tx in range(ntx):
-            p = ty * ntx + tx
-            embree.intersect8_packet(valid[p * 8:], scene, rays[p * _PACKET:], args)
+def _trace_packets(scene, rays, valid, args, npackets, n):
+    """``rtcIntersect16`` (``n = 16``) or ``rtcIntersect8`` on every prepared packet, in
+    parallel; nothing else."""
+    for p in prange(npackets):
+        if n == 16:
+            embree.intersect16_packet(valid[p * 16:], scene, rays[p * _RAY * 16:], args)
+        else:
+            embree.intersect8_packet(valid[p * 8:], scene, rays[p * _RAY * 8:], args)
 
 
 @njit(cache=True, parallel=True)
-def _store_frame(prim, geom, u, v, t, image):
-    """Write every byte a frame writes (rows in parallel): the bandwidth floor."""
-    h, w = prim.shape
+def _store_frame(image, mask):
+    """Write every byte a frame writes to memory (rows in parallel): the bandwidth floor."""
+    h, w = mask.shape
     for y in prange(h):
         for x in range(w):
-            prim[y, x] = x
-            geom[y, x] = 0
-            u[y, x] = 0.25
-            v[y, x] = 0.5
-            t[y, x] = 1.0
             image[y, x, 0] = 0.1
             image[y, x, 1] = 0.2
             image[y, x, 2] = 0.3
+            mask[y, x] = True
 
 
 def _aligned(n, dtype, align=32):
@@ -148,8 +151,14 @@ def _aligned(n, dtype, align=32):
 
 
 def _frame_buffers(h, w):
+    """A full-frame hit buffer's five arrays (what the cast kernel alone fills)."""
     return (np.empty((h, w), np.int32), np.empty((h, w), np.int32), np.empty((h, w), np.float32),
-            np.empty((h, w), np.float32), np.empty((h, w), np.float32), np.empty((h, w, 3), np.float32))
+            np.empty((h, w), np.float32), np.empty((h, w), np.float32))
+
+
+def _frame_outputs(h, w):
+    """What a frame writes to memory: the linear image and the hit mask."""
+    return np.empty((h, w, 3), np.float32), np.empty((h, w), np.bool_)
 
 
 def _load():
@@ -173,45 +182,45 @@ def limit_case(kind, level, w, h, repeats):
     frame = rs.render(scene, "phong")
     rs.render(scene, "phong")
     handle = embree_accel(geo).handle
-    ntx, nty = (w + 3) // 4, (h + 1) // 2
-    pristine = _aligned(ntx * nty * _PACKET, np.float32)
-    valid = _aligned(ntx * nty * 8, np.int32)
-    _make_packets(cam, w, h, pristine, valid)
-    work = _aligned(pristine.size, np.float32)
     args = _aligned(embree.ARGS_SLOTS, np.uint32, 8)
     args[:] = 0
     args[0] = embree.RAY_QUERY_FLAG_COHERENT
     args[1] = embree.FEATURE_FLAG_ALL
-    pre = _frame_buffers(h, w)
+    packs = {}
+    for name, (tw, th) in PACKETS.items():
+        n = tw * th
+        npk = ((w + tw - 1) // tw) * ((h + th - 1) // th)
+        pristine = _aligned(npk * _RAY * n, np.float32, 64)
+        valid = _aligned(npk * n, np.int32, 64)
+        _make_packets(cam, w, h, tw, th, pristine, valid)
+        packs[name] = (pristine, _aligned(pristine.size, np.float32, 64), valid, npk, n)
+    pre = _frame_outputs(h, w)
+    reused = np.empty((h, w, 3), np.float32)
 
-    def packets():
-        _trace_packets(handle, work, valid, args, ntx, nty)
+    def tracer(name):
+        pristine, work, valid, npk, n = packs[name]
+        return lambda: _trace_packets(handle, work, valid, args, npk, n)
 
-    def cast_kernel():  # the renderer's cast kernel alone: rays + packets + unpacking, no hole re-cast
-        hb = _frame_buffers(h, w)
-        _cast_camera_kernel(handle, cam, 0, *hb[:5])
-
-    def store_pre():
-        _store_frame(*pre)
-
-    def store_fresh():
-        _store_frame(*_frame_buffers(h, w))
-
-    def numpy_fill():
-        for a in pre:
-            a.fill(1)
+    def cast_kernel():  # the cast kernel alone over a whole frame: rays + packets + unpacking, no re-cast
+        _cast_camera_kernel(handle, cam, 0, *_frame_buffers(h, w))
 
     stages = {}
 
-    def render():
-        f = rs.render(scene, "phong")
+    def render(**kw):
+        f = rs.render(scene, "phong", **kw)
         for k in ("cast", "shade"):
             stages.setdefault(k, []).append(f.timings[k])
 
-    fns = dict(packets=packets, cast_kernel=cast_kernel, store_prealloc=store_pre, store_fresh=store_fresh, numpy_fill=numpy_fill,
-               frame=render)
+    fns = dict(packets=tracer("packets"), packets8=tracer("packets8"), cast_kernel=cast_kernel,
+               store_prealloc=lambda: _store_frame(*pre), store_fresh=lambda: _store_frame(*_frame_outputs(h, w)),
+               numpy_fill=lambda: [a.fill(1) for a in pre], frame=render, frame_out=lambda: render(out=reused))
+
+    def restore():  # fresh tfar / hit fields, untimed
+        for pristine, work, *_ in packs.values():
+            np.copyto(work, pristine)
+
     for name, fn in fns.items():  # warm-up (JIT, page faults)
-        np.copyto(work, pristine)
+        restore()
         fn()
     stages.clear()
     times = {name: [] for name in fns}
@@ -219,49 +228,55 @@ def limit_case(kind, level, w, h, repeats):
     names = list(fns)
     for r in range(repeats):
         for name in names[r % len(names):] + names[:r % len(names)]:
-            np.copyto(work, pristine)  # fresh tfar / hit fields, untimed
+            restore()
             t0 = time.perf_counter()
             fns[name]()
             times[name].append(time.perf_counter() - t0)
     load1 = _load()
     # The packets really hit what the frame hit.
-    np.copyto(work, pristine)
-    packets()
-    hit_geom = work.view(np.uint32).reshape(-1, _RAY, 8)[:, 18, :]
-    hits_packets = int(np.count_nonzero(hit_geom[valid.reshape(-1, 8) != 0] != 0xFFFFFFFF))
+    restore()
+    hits_packets = {}
+    for name in PACKETS:
+        pristine, work, valid, npk, n = packs[name]
+        tracer(name)()
+        hit_geom = work.view(np.uint32).reshape(npk, _RAY, n)[:, 18, :]
+        hits_packets[name] = int(np.count_nonzero(hit_geom[valid.reshape(npk, n) != 0] != 0xFFFFFFFF))
     med = {name: float(np.median(v)) for name, v in times.items()}
     tri = len(geo.faces)
     base = dict(section="limit", mesh=f"{kind}{level}", triangles=tri, width=w, height=h,
                 load1=f"{load0}-{load1}")
     nbytes = FRAME_BYTES * w * h
+    floor = med["packets"] + med["store_prealloc"]
     rows = [dict(base, variant=n, metric="median_ms", value=round(1e3 * m, 3), unit="ms") for n, m in med.items()]
     rows += [dict(base, variant=n, metric="min_ms", value=round(1e3 * min(v), 3), unit="ms") for n, v in times.items()]
+    rows += [dict(base, variant=n, metric="mrays_per_s", value=round(w * h / med[n] / 1e6, 1), unit="Mray/s")
+             for n in PACKETS]
+    rows += [dict(base, variant=n, metric="hits", value=v, unit="pixels") for n, v in hits_packets.items()]
+    rows += [dict(base, variant=n, metric="write_gb_per_s", value=round(nbytes / med[n] / 1e9, 2), unit="GB/s")
+             for n in ("store_prealloc", "store_fresh", "numpy_fill")]
     rows += [
-        dict(base, variant="packets", metric="mrays_per_s", value=round(w * h / med["packets"] / 1e6, 1), unit="Mray/s"),
-        dict(base, variant="store_prealloc", metric="write_gb_per_s", value=round(nbytes / med["store_prealloc"] / 1e9, 2),
-             unit="GB/s"),
-        dict(base, variant="store_fresh", metric="write_gb_per_s", value=round(nbytes / med["store_fresh"] / 1e9, 2),
-             unit="GB/s"),
-        dict(base, variant="numpy_fill", metric="write_gb_per_s", value=round(nbytes / med["numpy_fill"] / 1e9, 2),
-             unit="GB/s"),
         dict(base, variant="frame", metric="stage_cast_ms", value=round(1e3 * float(np.median(stages["cast"])), 3), unit="ms"),
         dict(base, variant="frame", metric="stage_shade_ms", value=round(1e3 * float(np.median(stages["shade"])), 3),
              unit="ms"),
         dict(base, variant="frame", metric="isolated_misses", value=int(_count_isolated_kernel(frame.hits.prim)),
              unit="pixels"),
         dict(base, variant="frame", metric="hits", value=int(frame.mask.sum()), unit="pixels"),
-        dict(base, variant="packets", metric="hits", value=hits_packets, unit="pixels"),
-        dict(base, variant="ratio", metric="frame_over_packets_plus_store",
-             value=round(med["frame"] / (med["packets"] + med["store_prealloc"]), 3), unit="x"),
+        dict(base, variant="ratio", metric="frame_over_packets_plus_store", value=round(med["frame"] / floor, 3),
+             unit="x"),
+        dict(base, variant="ratio", metric="frame_out_over_packets_plus_store", value=round(med["frame_out"] / floor, 3),
+             unit="x"),
         # Under load a parallel launch can wait for a busy core: the floor is the faster store.
         dict(base, variant="ratio", metric="frame_over_packets_plus_best_store",
              value=round(med["frame"] / (med["packets"] + min(med["store_prealloc"], med["numpy_fill"])), 3), unit="x"),
         dict(base, variant="ratio", metric="frame_over_packets_plus_fresh_store",
              value=round(med["frame"] / (med["packets"] + med["store_fresh"]), 3), unit="x"),
+        dict(base, variant="ratio", metric="packets8_over_packets", value=round(med["packets8"] / med["packets"], 3),
+             unit="x"),
     ]
-    print(f"limits: {kind}{level} {w}x{h}: frame {1e3 * med['frame']:.1f} ms, packets {1e3 * med['packets']:.1f}, "
-          f"store {1e3 * med['store_prealloc']:.1f} (fresh {1e3 * med['store_fresh']:.1f}), ratio "
-          f"{med['frame'] / (med['packets'] + med['store_prealloc']):.2f}, load {load0}-{load1}", file=sys.stderr)
+    print(f"limits: {kind}{level} {w}x{h}: frame {1e3 * med['frame']:.1f} ms (out= {1e3 * med['frame_out']:.1f}), "
+          f"packets {1e3 * med['packets']:.1f} (8-wide {1e3 * med['packets8']:.1f}), store "
+          f"{1e3 * med['store_prealloc']:.1f} (fresh {1e3 * med['store_fresh']:.1f}), ratio "
+          f"{med['frame'] / floor:.2f}, load {load0}-{load1}", file=sys.stderr)
     return rows
 
 
