@@ -95,6 +95,16 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
     -------
     Frame
 
+    Notes
+    -----
+    A frame whose models are all Phong-shaded, with one ray per pixel, the
+    packet caster, perspective-correct weights and no buffer, term or mirror
+    bounce, is cast and shaded in bands of rows
+    (:mod:`raycast_shade.visibility.bands`): it never holds a full-frame hit
+    buffer, and ``frame.hits`` is cast again the first time it is read (the
+    same buffer, bit for bit; ``frame.mask`` is kept). The image is the
+    whole-frame path's, bit for bit.
+
     Raises
     ------
     TypeError, ValueError
