@@ -1,24 +1,27 @@
-"""Batch benchmark: frames per second in this process against Dask workers.
+"""Batch benchmark: serial against Dask workers on this machine, and the numbers of the cost model.
 
 Run ``python -m benchmarks.bench_batch [--quick]``. A turntable of an
-icosphere (20,480 triangles, two lights, Phong) is rendered
+icosphere (20,480 triangles, two lights, Phong) is rendered into a list of
+images, and every number is steady state (JIT cache loaded and BVH built on
+every worker by a warm-up batch; cluster start-up and that first batch are
+reported apart, as ``startup`` rows). The machine is shared: each Dask
+timing is interleaved with a serial one in the same repeat, and
+``speedup`` is the median over the repeats of ``t_serial / t_dask``.
 
-* serially, in this process (Numba on every core, one BVH for all frames);
-* on a local Dask cluster of 2 single-threaded worker processes, each with
-  one Numba thread (``raycast_shade.apps.batch.local_cluster(2)``);
+* **throughput**: per size, this process (Numba on every core) against 2
+  single-threaded workers as they were (``transfer="dask"``,
+  ``frames_per_task=1``) and as they are by default (images through a
+  temporary folder, ``frames_per_task=None``), and each change alone;
+* **scaling**: 1 to 4 workers (3 and 4 oversubscribe 2 cores), one Numba
+  thread each, and 2 workers with 2 threads each (4 threads on 2 cores);
+* **cost**: per-task overhead (tiny 16x12 frames, 1 worker, one Numba thread
+  on both sides: ``(t_dask - t_serial) / frames``, and the CPU time of the
+  client + scheduler process and of the worker per task); the CPU cost of a
+  returned image per MB (``transfer="dask"`` against ``"disk"``); the bytes
+  moved: the scene once per worker, a frame's job, its image.
 
-at a small and a medium resolution. Both are timed after a warm-up batch
-(JIT cache loaded, BVH built, on every worker), so the numbers are steady
-state; the cluster's start-up and its first batch are reported apart.
-
-The overhead per frame of going through Dask is measured on tiny frames
-(16x12, where rendering costs almost nothing) with one worker, one Numba
-thread on both sides: ``(t_dask - t_serial) / frames``. It is
-what each frame pays for scheduling, pickling its job and its image, and the
-round trips to the scheduler; ``frames_per_task`` > 1 spreads it over
-several frames.
-
-Results: ``benchmarks/results/batch.csv`` (``results/quick/batch.csv`` in quick mode).
+Results: ``benchmarks/results/batch.csv`` and ``docs/images/batch_scaling.png``
+(``results/quick/``, ``images/quick/`` in quick mode).
 """
 
 from __future__ import annotations
@@ -26,12 +29,14 @@ from __future__ import annotations
 import argparse
 import csv
 import os
+import pickle
+import statistics
 import time
 
-from benchmarks.outputs import ROOT, results_file
+from benchmarks.outputs import ROOT, images_dir, results_file
 
-FIELDS = ["benchmark", "mode", "workers", "numba_threads", "frames_per_task", "width", "height", "frames", "seconds",
-          "fps", "ms_per_frame", "speedup", "note"]
+FIELDS = ["benchmark", "mode", "workers", "numba_threads", "frames_per_task", "transfer", "width", "height",
+          "frames", "seconds", "fps", "ms_per_frame", "speedup", "value", "unit", "load", "note"]
 
 
 def _scene(width: int, height: int):
@@ -45,88 +50,236 @@ def _scene(width: int, height: int):
     )
 
 
-def _best_time(fn, repeats: int) -> float:
-    best = float("inf")
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
+def _timed(fn) -> float:
+    t0 = time.perf_counter()
+    fn()
+    return time.perf_counter() - t0
 
 
-def _row(mode, workers, threads, w, h, frames, seconds, speedup="", note="", per_task=""):
+def _load() -> float:
+    return round(os.getloadavg()[0], 2)
+
+
+def _row(mode, workers, threads, w, h, frames, times, speedup="", note="", per_task="", transfer="", load=""):
+    seconds = statistics.median(times)
     return dict(benchmark="batch", mode=mode, workers=workers, numba_threads=threads, frames_per_task=per_task,
-                width=w, height=h,
-                frames=frames, seconds=round(seconds, 4), fps=round(frames / seconds, 2),
-                ms_per_frame=round(1e3 * seconds / frames, 3), speedup=speedup, note=note)
+                transfer=transfer, width=w, height=h, frames=frames, seconds=round(seconds, 4),
+                fps=round(frames / seconds, 2), ms_per_frame=round(1e3 * seconds / frames, 3),
+                speedup=speedup, load=load, note=note)
+
+
+def _interleaved(serial, variants: dict, repeats: int):
+    """Median times of ``serial`` and of each variant, and each variant's median of per-repeat ratios."""
+    times = {"serial": []} | {name: [] for name in variants}
+    for _ in range(repeats):
+        times["serial"].append(_timed(serial))
+        for name, fn in variants.items():
+            times[name].append(_timed(fn))
+    ratios = {name: round(statistics.median(s / t for s, t in zip(times["serial"], times[name])), 2)
+              for name in variants}
+    return times, ratios
+
+
+# The Dask variants of bench_throughput: (label, frames_per_task, transfer).
+VARIANTS = [("before: 1 frame/task, images via Dask", 1, "dask"),
+            ("auto frames/task, images via Dask", None, "dask"),
+            ("1 frame/task, images via disk", 1, "disk"),
+            ("default: auto frames/task, images via disk", None, "auto")]
 
 
 def bench_throughput(cases, frames: int, repeats: int):
-    """Serial against 2 workers; one cluster for all cases."""
+    """Serial against 2 single-threaded workers, before and after, interleaved; one cluster for all cases."""
     import numba
 
     from raycast_shade.apps.animate import orbit_cameras
     from raycast_shade.apps.batch import local_cluster, render_batch
+    from raycast_shade.apps.batch.dask_driver import auto_frames_per_task
+    from raycast_shade.apps.batch.plan import plan_batch
 
     rows = []
-    jobs = []
-    for w, h in cases:
-        scene = _scene(w, h)
-        cams = orbit_cameras(scene.camera, frames)
-        render_batch(scene, cams[:2], progress=False)  # JIT + BVH
-        t = _best_time(lambda: render_batch(scene, cams, progress=False), repeats)
-        rows.append(_row("serial", 0, numba.get_num_threads(), w, h, frames, t, 1.0, "this process"))
-        jobs.append((scene, cams, t))
     t0 = time.perf_counter()
     with local_cluster(2, numba_threads=1) as client:
         startup = time.perf_counter() - t0
-        for (scene, cams, t_serial), (w, h) in zip(jobs, cases):
-            t1 = time.perf_counter()
-            render_batch(scene, cams, scheduler=client, progress=False)  # JIT cache + BVH on each worker
-            first = time.perf_counter() - t1
-            for per_task in (1, 4):
-                t = _best_time(lambda: render_batch(scene, cams, scheduler=client, progress=False,
-                                                    frames_per_task=per_task), repeats)
-                note = f"first batch {first:.2f} s" if per_task == 1 else ""
-                rows.append(_row("dask", 2, 1, w, h, frames, t, round(t_serial / t, 2), note, per_task))
-    rows.append(dict(benchmark="startup", mode="dask", workers=2, numba_threads=1, seconds=round(startup, 3),
-                     note="LocalCluster(2 processes) + Client"))
+        rows.append(dict(benchmark="startup", mode="dask", workers=2, numba_threads=1, seconds=round(startup, 3),
+                         load=_load(), note="LocalCluster(2 processes) + Client"))
+        for w, h in cases:
+            scene = _scene(w, h)
+            cams = orbit_cameras(scene.camera, frames)
+            render_batch(scene, cams[:2], progress=False)  # JIT + BVH here
+            first = _timed(lambda: render_batch(scene, cams[:4], scheduler=client, progress=False))
+            rows.append(dict(benchmark="startup", mode="dask", workers=2, numba_threads=1, width=w, height=h,
+                             frames=4, seconds=round(first, 3), load=_load(),
+                             note="first batch of 4 frames: Numba cache loaded, BVH built on each worker"))
+            auto = auto_frames_per_task(plan_batch(scene, cams)[1], 2)
+            variants = {label: (lambda k=k, tr=tr: render_batch(scene, cams, scheduler=client, progress=False,
+                                                                 frames_per_task=k, transfer=tr))
+                        for label, k, tr in VARIANTS}
+            load = _load()
+            times, ratios = _interleaved(lambda: render_batch(scene, cams, progress=False), variants, repeats)
+            rows.append(_row("serial", 0, numba.get_num_threads(), w, h, frames, times["serial"], 1.0,
+                             "this process", load=load))
+            for label, k, tr in VARIANTS:
+                rows.append(_row("dask", 2, 1, w, h, frames, times[label], ratios[label], label,
+                                 auto if k is None else k, tr, load))
     return rows
 
 
-def bench_overhead(frames: int, repeats: int):
-    """Per-frame cost of Dask on frames that cost almost nothing to render."""
+def bench_scaling(size, frames: int, repeats: int, counts):
+    """Frames/s for 1..4 single-threaded workers, and 2 workers x 2 threads, each against serial."""
     import numba
 
     from raycast_shade.apps.animate import orbit_cameras
     from raycast_shade.apps.batch import local_cluster, render_batch
 
+    w, h = size
+    scene = _scene(w, h)
+    cams = orbit_cameras(scene.camera, frames)
+    render_batch(scene, cams[:2], progress=False)
+    rows = []
+    for n, threads in [(n, 1) for n in counts] + [(2, 2)]:
+        with local_cluster(n, numba_threads=threads) as client:
+            render_batch(scene, cams[:2 * n], scheduler=client, progress=False)  # warm every worker
+            load = _load()
+            times, ratios = _interleaved(lambda: render_batch(scene, cams, progress=False),
+                                         {"dask": lambda: render_batch(scene, cams, scheduler=client,
+                                                                       progress=False)}, repeats)
+        over = " (oversubscribed)" if n * threads > len(os.sched_getaffinity(0)) else ""
+        rows.append(_row("serial", 0, numba.get_num_threads(), w, h, frames, times["serial"], 1.0,
+                         f"this process, next to {n}x{threads}", load=load))
+        rows.append(_row("dask", n, threads, w, h, frames, times["dask"], ratios["dask"],
+                         f"scaling: {n} workers x {threads} Numba threads{over}", "auto", "auto", load))
+    return rows
+
+
+def _cpu() -> float:
+    t = os.times()
+    return t.user + t.system
+
+
+def _worker_cpu(client) -> float:
+    return sum(client.run(_cpu).values())
+
+
+def bench_cost(frames: int, repeats: int, size):
+    """Per-task overhead, the CPU cost of a returned image per MB, and the bytes moved."""
+    import numba
+
+    from raycast_shade.apps.animate import orbit_cameras
+    from raycast_shade.apps.batch import local_cluster, render_batch
+    from raycast_shade.apps.batch.plan import plan_batch
+
+    rows = []
     w, h = 16, 12
     scene = _scene(w, h)
     cams = orbit_cameras(scene.camera, frames)
     # One Numba thread on both sides: a parallel launch on a busy shared core stalls at its barrier,
     # which would be noise here, not Dask's cost.
-    threads = 1
     saved = numba.get_num_threads()
-    numba.set_num_threads(threads)
+    numba.set_num_threads(1)
     try:
         render_batch(scene, cams[:2], progress=False)
-        t_serial = _best_time(lambda: render_batch(scene, cams, progress=False), repeats)
+        with local_cluster(1, numba_threads=1) as client:
+            render_batch(scene, cams, scheduler=client, progress=False)
+            for per_task in (1, 8):
+                def dask_run(k=per_task):
+                    return render_batch(scene, cams, scheduler=client, progress=False, frames_per_task=k)
+
+                c_client, c_worker = _cpu(), _worker_cpu(client)
+                times, ratios = _interleaved(lambda: render_batch(scene, cams, progress=False),
+                                             {"dask": dask_run}, repeats)
+                c_client, c_worker = _cpu() - c_client, _worker_cpu(client) - c_worker
+                t_s, t_d = statistics.median(times["serial"]), statistics.median(times["dask"])
+                tasks = repeats * frames / per_task
+                if per_task == 1:
+                    rows.append(_row("serial", 0, 1, w, h, frames, times["serial"], note="tiny frames"))
+                rows.append(_row("dask", 1, 1, w, h, frames, times["dask"], ratios["dask"], "tiny frames",
+                                 per_task, "auto", _load()))
+                rows.append(dict(benchmark="overhead", mode="dask", workers=1, numba_threads=1,
+                                 frames_per_task=per_task, width=w, height=h, frames=frames,
+                                 ms_per_frame=round(1e3 * (t_d - t_s) / frames, 3), load=_load(),
+                                 note="wall: (t_dask - t_serial) / frames"))
+                # The client's CPU includes its serial repeats: subtract them (one thread, so CPU ~ wall).
+                serial_cpu = sum(times["serial"])
+                rows.append(dict(benchmark="overhead", mode="cpu client+scheduler", workers=1, frames_per_task=per_task,
+                                 value=round(1e3 * (c_client - serial_cpu) / tasks, 3), unit="ms/task", load=_load(),
+                                 note="CPU of this process (client and LocalCluster scheduler) per task"))
+                rows.append(dict(benchmark="overhead", mode="cpu worker", workers=1, frames_per_task=per_task,
+                                 value=round(1e3 * c_worker / tasks, 3),
+                                 unit="ms/task", load=_load(),
+                                 note="CPU of the worker process per task, rendering included (0.4 ms a frame)"))
     finally:
         numba.set_num_threads(saved)
-    rows = [_row("serial", 0, threads, w, h, frames, t_serial, note="tiny frames")]
-    with local_cluster(1, numba_threads=threads) as client:
-        render_batch(scene, cams, scheduler=client, progress=False)
-        for per_task in (1, 8):
-            t_dask = _best_time(lambda: render_batch(scene, cams, scheduler=client, progress=False,
-                                                     frames_per_task=per_task), repeats)
-            rows.append(_row("dask", 1, threads, w, h, frames, t_dask, round(t_serial / t_dask, 2), "tiny frames",
-                             per_task))
-            rows.append(dict(benchmark="overhead", mode="dask", workers=1, numba_threads=threads,
-                             frames_per_task=per_task, width=w, height=h, frames=frames,
-                             ms_per_frame=round(1e3 * (t_dask - t_serial) / frames, 3),
-                             note="(t_dask - t_serial) / frames"))
+
+    # A returned image's cost: the same frames through Dask's comms and through the folder.
+    w, h = size
+    scene = _scene(w, h)
+    cams = orbit_cameras(scene.camera, max(8, frames // 16))
+    n = len(cams)
+    mb = w * h * 12 / 1e6
+    with local_cluster(2, numba_threads=1) as client:
+        render_batch(scene, cams[:4], scheduler=client, progress=False)
+        cpu = {}
+        for tr in ("dask", "disk"):
+            c0, w0 = _cpu(), _worker_cpu(client)
+            for _ in range(repeats):
+                render_batch(scene, cams, scheduler=client, progress=False, transfer=tr)
+            cpu[tr] = (_cpu() - c0, _worker_cpu(client) - w0)
+        frames_done = repeats * n
+        for side, i in (("client", 0), ("workers", 1)):
+            for tr in ("dask", "disk"):
+                rows.append(dict(benchmark="transfer", mode=f"cpu {side}", workers=2, transfer=tr, width=w, height=h,
+                                 value=round(1e3 * cpu[tr][i] / frames_done, 3), unit="ms/frame", load=_load(),
+                                 note=f"CPU per frame ({side}), rendering included on the workers"))
+        extra = sum(cpu["dask"]) - sum(cpu["disk"])
+        rows.append(dict(benchmark="transfer", mode="cpu per MB", workers=2, transfer="dask - disk", width=w,
+                         height=h, value=round(1e3 * extra / frames_done / mb, 3), unit="ms/MB", load=_load(),
+                         note=f"extra CPU of returning {mb:.2f} MB images through Dask rather than the folder"))
+
+    # Bytes moved.
+    bases, jobs = plan_batch(scene, cams)
+    base = next(iter(bases.values()))
+    rows += [dict(benchmark="bytes", mode="scene", value=len(pickle.dumps(base, protocol=5)), unit="B",
+                  note="base scene, once per worker and mesh set (20,480 triangles, no geometry)"),
+             dict(benchmark="bytes", mode="job", value=len(pickle.dumps(jobs[0], protocol=5)), unit="B",
+                  note="one frame's job: camera, lights, colours"),
+             dict(benchmark="bytes", mode="image", width=w, height=h, value=w * h * 12, unit="B",
+                  note="float32 image back per frame (through Dask, or the folder on this machine)")]
     return rows
+
+
+def chart(rows, path):
+    """Frames/s against workers at the scaling size, serial as a band."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    scal = [r for r in rows if r["benchmark"] == "batch" and str(r.get("note", "")).startswith("scaling")]
+    serial = [r["fps"] for r in rows if r["benchmark"] == "batch" and r["mode"] == "serial"
+              and "next to" in str(r.get("note", ""))]
+    if not scal:
+        return None
+    fig, ax = plt.subplots(figsize=(6.4, 3.8), dpi=100)
+    one = [r for r in scal if r["numba_threads"] == 1]
+    ax.plot([r["workers"] for r in one], [r["fps"] for r in one], "o-", label="Dask workers x 1 Numba thread")
+    for r in scal:
+        if r["numba_threads"] == 2:
+            ax.plot([r["workers"]], [r["fps"]], "s", color="C3", label="2 workers x 2 Numba threads")
+    ax.axhspan(min(serial), max(serial), color="0.8", label="this process, 2 Numba threads (range)")
+    for r in one:
+        ax.annotate(f"{r['speedup']}x", (r["workers"], r["fps"]), textcoords="offset points", xytext=(4, -12))
+    ax.set_xlabel("workers (2 cores: 3 and 4 oversubscribe)")
+    ax.set_ylabel("frames/s")
+    ax.set_xticks([r["workers"] for r in one])
+    ax.set_ylim(bottom=0)
+    ax.set_title(f"Batch of {one[0]['frames']} frames at {one[0]['width']}x{one[0]['height']}, load "
+                 f"{min(r['load'] for r in scal)}-{max(r['load'] for r in scal)}")
+    ax.legend(fontsize=8, loc="lower right")
+    fig.tight_layout()
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    fig.savefig(path)
+    plt.close(fig)
+    return path
 
 
 def run(quick: bool = False):
@@ -135,19 +288,20 @@ def run(quick: bool = False):
     Parameters
     ----------
     quick : bool
-        Fewer and smaller frames, fewer repeats (about 20 s on 2 cores).
+        Fewer and smaller frames, fewer repeats (about a minute on 2 cores).
 
     Returns
     -------
     list of dict
         One row per measurement (see ``FIELDS``).
     """
-    # Best of several repeats: the machine is shared, and a slow repeat measures the neighbours.
     if quick:
-        cases, frames, repeats, tiny = [(96, 72), (320, 240)], 24, 3, 96
+        cases, frames, repeats, tiny, scale = [(160, 120), (640, 480)], 24, 3, 96, [1, 2, 3]
     else:
-        cases, frames, repeats, tiny = [(96, 72), (320, 240), (640, 480)], 96, 5, 384
-    return bench_throughput(cases, frames, repeats) + bench_overhead(tiny, repeats + 2)
+        cases, frames, repeats, tiny, scale = [(320, 240), (640, 480), (1280, 720)], 96, 5, 384, [1, 2, 3, 4]
+    return (bench_throughput(cases, frames, repeats)
+            + bench_scaling((640, 480), frames // 2 if not quick else frames, repeats, scale)
+            + bench_cost(tiny, repeats, (640, 480)))
 
 
 def write(rows, path):
@@ -159,8 +313,8 @@ def write(rows, path):
 
 
 def outputs(quick: bool) -> list[str]:
-    """The CSV :func:`main` writes (see :mod:`benchmarks.outputs`)."""
-    return [results_file("batch.csv", quick)]
+    """The CSV and chart :func:`main` writes (see :mod:`benchmarks.outputs`)."""
+    return [results_file("batch.csv", quick), os.path.join(images_dir(quick), "batch_scaling.png")]
 
 
 def main(argv=None):
@@ -169,15 +323,16 @@ def main(argv=None):
     ap.add_argument("--quick", action="store_true", help="fewer, smaller frames and repeats")
     args = ap.parse_args(argv)
     rows = run(args.quick)
-    path, = outputs(args.quick)
+    path, png = outputs(args.quick)
     write(rows, path)
+    chart(rows, png)
     for r in rows:
         size = f"{r.get('width', '')}x{r.get('height', '')}" if r.get("width") else ""
-        print(f"{r['benchmark']:9} {r['mode']:7} workers={r['workers']} threads={r['numba_threads']} "
-              f"per_task={r.get('frames_per_task', '')!s:>2} {size:>8} "
-              f"fps={r.get('fps', '')!s:>8} ms/frame={r.get('ms_per_frame', '')!s:>8} "
-              f"speedup={r.get('speedup', '')!s:>5} {r.get('note', '')}")
-    print(f"wrote {os.path.relpath(path, ROOT)}")
+        print(f"{r['benchmark']:9} {r['mode']:20} w={r.get('workers', '')!s:2} t={r.get('numba_threads', '')!s:2} "
+              f"k={r.get('frames_per_task', '')!s:>4} {r.get('transfer', '')!s:6} {size:>9} "
+              f"fps={r.get('fps', '')!s:>8} ms/f={r.get('ms_per_frame', '')!s:>7} x{r.get('speedup', '')!s:5} "
+              f"{r.get('value', '')!s:>8} {r.get('unit', '')!s:7} load={r.get('load', '')} {r.get('note', '')}")
+    print(f"wrote {os.path.relpath(path, ROOT)}, {os.path.relpath(png, ROOT)}")
     return rows
 
 

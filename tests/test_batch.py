@@ -11,6 +11,7 @@ import argparse
 import dataclasses
 import os
 import pickle
+import tempfile
 
 import numpy as np
 import pytest
@@ -227,6 +228,81 @@ def test_cluster_streams_in_order(scene, client):
         out = list(batch.iter_batch(scenes, cams, shading="flat", scheduler=client, progress=False,
                                     frames_per_task=per_task, window=window))
         assert len(out) == 7 and all(np.array_equal(a, b) for a, b in zip(out, ref))
+
+
+def test_cluster_images_come_back_through_a_folder_or_dask(scene, client, tmp_path, monkeypatch):
+    # A local cluster sees this process's temporary folder: by default the workers save images there.
+    root = tmp_path / "tmp"
+    root.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(root))
+    cams = animate.orbit_cameras(scene.camera, 5)
+    ref = _serial([scene] * 5, cams)
+    assert batch.cluster.is_local(client) and not batch.cluster.is_local(object())
+    for transfer, spooled in (("auto", True), ("DISK", True), ("dask", False)):
+        frames = batch.iter_batch(scene, cams, scheduler=client, progress=False, transfer=transfer,
+                                  frames_per_task=2)
+        first = next(frames)
+        assert len(os.listdir(root)) == int(spooled)  # the folder lives while the batch runs
+        got = [first] + list(frames)
+        assert os.listdir(root) == []  # and is removed with every image read from it
+        assert all(a.dtype == np.float32 and a.flags.writeable and np.array_equal(a, b) for a, b in zip(got, ref))
+    # Frames written by the workers need no folder.
+    paths = batch.render_batch(scene, cams, scheduler=client, progress=False, out_dir=tmp_path / "out",
+                               pattern="f_{:02d}.npy", transfer="disk")
+    assert os.listdir(root) == [] and all(np.array_equal(np.load(p), b) for p, b in zip(paths, ref))
+
+
+def test_transfer_and_frames_per_task_are_checked(scene):
+    with pytest.raises(ValueError, match="transfer"):
+        batch.render_batch(scene, transfer="ftp", progress=False)
+    with pytest.raises(TypeError, match="transfer"):
+        batch.render_batch(scene, transfer=3, progress=False)
+    with pytest.raises(ValueError, match="frames_per_task"):
+        batch.render_batch(scene, frames_per_task=True, progress=False)
+    # None is the default (automatic) for frames_per_task and window; serial runs take (and ignore) them.
+    out = batch.render_batch(scene, frames_per_task=None, transfer="Dask", progress=False)
+    assert np.array_equal(out[0], rs.render(scene, "phong").image)
+
+
+def test_auto_frames_per_task():
+    from raycast_shade.apps.batch.dask_driver import TASK_PIXELS, auto_frames_per_task
+
+    def jobs(w, h, n):
+        s = rs.Scene([rs.shapes.icosphere(1)], camera=rs.Camera(eye=(0, 0, 4), width=w, height=h))
+        return batch.plan_batch(s, animate.orbit_cameras(s.camera, n))[1]
+
+    assert TASK_PIXELS // (640 * 480) == 13
+    assert auto_frames_per_task(jobs(640, 480, 96), 2) == 12  # 4 tasks per worker at least: 96 // 8
+    assert auto_frames_per_task(jobs(640, 480, 400), 2) == 13  # about TASK_PIXELS a task
+    assert auto_frames_per_task(jobs(1920, 1080, 96), 2) == 1
+    assert auto_frames_per_task(jobs(16, 12, 10), 1) == 2
+    assert auto_frames_per_task(jobs(16, 12, 3), 4) == 1
+    assert auto_frames_per_task([], 2) == 1
+
+
+def test_match_numba_threads_is_per_thread(monkeypatch):
+    import threading
+
+    import numba
+
+    from raycast_shade.apps.batch.cluster import match_numba_threads
+
+    before = numba.get_num_threads()
+
+    def in_thread():
+        out = {}
+        t = threading.Thread(target=lambda: out.update(set=match_numba_threads(), now=numba.get_num_threads()))
+        t.start()
+        t.join()
+        return out
+
+    monkeypatch.setenv("NUMBA_NUM_THREADS", "1")
+    assert in_thread() == {"set": 1, "now": 1}
+    monkeypatch.setenv("NUMBA_NUM_THREADS", "999")  # capped at the threads Numba launched
+    assert in_thread() == {"set": numba.config.NUMBA_NUM_THREADS, "now": numba.config.NUMBA_NUM_THREADS}
+    monkeypatch.delenv("NUMBA_NUM_THREADS")
+    assert in_thread()["now"] == numba.config.NUMBA_NUM_THREADS  # unset: Numba's default stands
+    assert numba.get_num_threads() == before  # this thread untouched
 
 
 def test_cluster_error_propagates(scene, client):

@@ -315,7 +315,7 @@ def write_animation(images, output, *, fps: float = 12.0, tone: dict | None = No
 def animate(scene: Scene, output, *, orbit: str = "camera", frames: int = 36, light_index: int = 0,
             degrees: float = 360.0, axis=None, shading="phong", fps: float = 12.0, tone: dict | None = None,
             workers: int | None = None, scheduler=None, progress: bool = True, resume: bool = True,
-            frames_per_task: int = 1, **render_kwargs) -> dict:
+            frames_per_task: int | None = None, **render_kwargs) -> dict:
     """Render an orbit animation and write it.
 
     Parameters
@@ -432,8 +432,9 @@ def register_cli(subparsers):
     where.add_argument("--workers", type=positive_int, metavar="N",
                        help="render on a local Dask cluster of N single-threaded worker processes")
     where.add_argument("--scheduler", metavar="ADDR", help="render on an existing Dask cluster, e.g. tcp://host:8786")
-    p.add_argument("--frames-per-task", type=positive_int, default=1, metavar="K",
-                   help="frames rendered by one Dask task (default: 1; more spreads Dask's per-task cost)")
+    p.add_argument("--frames-per-task", type=positive_int, default=None, metavar="K",
+                   help="frames rendered by one Dask task (default: about 4 megapixels a task, "
+                        "at least 4 tasks per worker)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_tone_options(p, "tone mapping")
     return p
@@ -474,7 +475,7 @@ def run_cli(ns) -> int:
     result = animate(scene, output, orbit=ns.orbit, frames=ns.frames, light_index=ns.light_index,
                      degrees=ns.degrees, shading=shading, fps=ns.fps, tone=tone, workers=ns.workers,
                      scheduler=ns.scheduler, progress=not ns.no_progress,
-                     frames_per_task=getattr(ns, "frames_per_task", 1), **render_kwargs)
+                     frames_per_task=getattr(ns, "frames_per_task", None), **render_kwargs)
     where = (f"{ns.workers} local workers" if ns.workers else
              f"cluster {ns.scheduler}" if ns.scheduler else "this process")
     secs = result["seconds"]

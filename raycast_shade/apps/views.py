@@ -102,6 +102,9 @@ def _run_on_worker(jobs, scene, spec: _ViewSpec) -> list:
     """The Dask task: a few views of one mesh set, with the worker's scene cache."""
     from distributed import get_worker
 
+    from .batch.cluster import match_numba_threads
+
+    match_numba_threads()  # NUMBA_NUM_THREADS of the worker, even if Numba was imported before it was set
     cache = cache_of(get_worker())
     if cache is None:  # pragma: no cover - _iter_dask registers the plugin first
         raise RuntimeError(f"worker plugin {PLUGIN_NAME!r} is not registered")

@@ -12,7 +12,7 @@ import numpy as np
 
 from .cache import SceneCache, cache_of
 
-__all__ = ["local_cluster", "connect", "worker_stats", "reset_worker_stats"]
+__all__ = ["local_cluster", "connect", "is_local", "match_numba_threads", "worker_stats", "reset_worker_stats"]
 
 
 def _cores() -> int:
@@ -94,6 +94,41 @@ def connect(workers, scheduler, numba_threads):
                         f"got {type(scheduler).__name__}")
     with Client(scheduler) as client:
         yield client
+
+
+def is_local(client) -> bool:
+    """Whether ``client`` drives a :class:`distributed.LocalCluster`: workers on
+    this machine, which see this process's temporary folder."""
+    from distributed import LocalCluster
+
+    return isinstance(getattr(client, "cluster", None), LocalCluster)
+
+
+def match_numba_threads() -> int:
+    """On a worker: make this thread's Numba kernels use ``NUMBA_NUM_THREADS`` threads.
+
+    Numba reads ``NUMBA_NUM_THREADS`` once, when it is imported, and a spawned
+    worker re-imports the client's ``__main__`` module before its nanny sets
+    the variable: a script that imports raycast_shade at its top (or the
+    ``raycast-shade`` command) gave every worker all the cores, so N workers
+    ran N times as many threads as cores. :func:`numba.set_num_threads` is per
+    thread, so this runs in the thread that renders, at the start of each task.
+
+    Returns
+    -------
+    int
+        The threads this thread's kernels use now.
+    """
+    import numba
+
+    try:
+        wanted = int(os.environ.get("NUMBA_NUM_THREADS", ""))
+    except ValueError:
+        return numba.get_num_threads()  # unset (or not a number): Numba's own choice stands
+    wanted = max(1, min(wanted, numba.config.NUMBA_NUM_THREADS))  # cannot exceed the pool Numba launched
+    if numba.get_num_threads() != wanted:
+        numba.set_num_threads(wanted)
+    return wanted
 
 
 def _stats_on(dask_worker) -> dict:

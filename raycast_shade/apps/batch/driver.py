@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
+import shutil
+import tempfile
 
 from ...output.imagefile import remove_stale_temps
 from .cache import SceneCache
-from .options import check_counts, check_options, check_shading_fits
+from .options import check_counts, check_options, check_shading_fits, check_transfer
 from .plan import plan_batch
 from .serial import iter_serial
 
@@ -35,11 +38,26 @@ def _label(shading) -> str:
     return shading if isinstance(shading, str) else ",".join(shading)
 
 
+@contextlib.contextmanager
+def _spool_folder(transfer: str, client, out_dir):
+    """The temporary folder images come back through, or None (see :mod:`.dask_driver`)."""
+    from .cluster import is_local
+
+    if out_dir is not None or transfer == "dask" or (transfer == "auto" and not is_local(client)):
+        yield None  # workers write the frames themselves, or images travel through Dask
+        return
+    folder = tempfile.mkdtemp(prefix="raycast-shade-batch-")
+    try:
+        yield folder
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
 def iter_batch(scene_or_scenes, cameras=None, lights=None, *, shading="phong", out_dir=None,
                pattern: str = "frame_{:05d}.png", workers: int | None = None, scheduler=None, progress: bool = True,
                retries: int = 2, resume: bool = True, tone: dict | None = None, numba_threads: int | None = None,
-               frames_per_task: int = 1, window: int | None = None, cache: SceneCache | None = None,
-               **render_kwargs):
+               frames_per_task: int | None = None, window: int | None = None, cache: SceneCache | None = None,
+               transfer: str = "auto", **render_kwargs):
     """Render a batch, yielding each frame's result in frame order.
 
     Same parameters as :func:`render_batch`, plus ``window``: at most that
@@ -55,6 +73,7 @@ def iter_batch(scene_or_scenes, cameras=None, lights=None, *, shading="phong", o
     """
     options = check_options(shading, render_kwargs, tone, resume)
     check_counts(retries, frames_per_task, window)
+    transfer = check_transfer(transfer)
     on_dask = workers is not None or scheduler is not None
     if cache is not None and on_dask:
         raise ValueError("cache: only for runs in this process; each Dask worker has its own (see worker_stats)")
@@ -76,8 +95,9 @@ def iter_batch(scene_or_scenes, cameras=None, lights=None, *, shading="phong", o
         from .cluster import connect
         from .dask_driver import iter_dask
 
-        with connect(workers, scheduler, numba_threads) as client:
-            yield from iter_dask(client, bases, jobs, done, options, retries, window, int(frames_per_task), bar)
+        with connect(workers, scheduler, numba_threads) as client, _spool_folder(transfer, client, out_dir) as spool:
+            per_task = None if frames_per_task is None else int(frames_per_task)
+            yield from iter_dask(client, bases, jobs, done, options, retries, window, per_task, bar, spool)
     finally:
         bar.close()
 
@@ -85,8 +105,8 @@ def iter_batch(scene_or_scenes, cameras=None, lights=None, *, shading="phong", o
 def render_batch(scene_or_scenes, cameras=None, lights=None, *, shading="phong", out_dir=None,
                  pattern: str = "frame_{:05d}.png", workers: int | None = None, scheduler=None,
                  progress: bool = True, retries: int = 2, resume: bool = True, tone: dict | None = None,
-                 numba_threads: int | None = None, frames_per_task: int = 1, cache: SceneCache | None = None,
-                 **render_kwargs) -> list:
+                 numba_threads: int | None = None, frames_per_task: int | None = None,
+                 cache: SceneCache | None = None, transfer: str = "auto", **render_kwargs) -> list:
     """Render many frames, in order.
 
     Each of ``scene_or_scenes``, ``cameras`` and ``lights`` is one value
@@ -133,15 +153,23 @@ def render_batch(scene_or_scenes, cameras=None, lights=None, *, shading="phong",
     numba_threads : int, optional
         Numba threads per worker of a ``workers=`` cluster (default: cores
         divided by workers).
-    frames_per_task : int
-        Consecutive frames rendered by one Dask task. Each task costs a few
-        milliseconds of scheduling and transfer; group small, fast frames
-        to spread that cost (``benchmarks/bench_batch.py`` measures it).
+    frames_per_task : int, optional
+        Consecutive frames rendered by one Dask task. Each task costs about
+        5 ms of CPU for scheduling and messages (``benchmarks/bench_batch.py``
+        measures it); the default (None) groups frames into tasks of about
+        4 megapixels (13 frames of 640x480, 1 of 1920x1080), keeping at
+        least 4 tasks per worker.
     cache : SceneCache, optional
         The scene cache and counters of a run in this process (default: a
         new one per call); pass one to read its :meth:`~SceneCache.stats`
         or to share it between batches. On Dask each worker has its own:
         see :func:`worker_stats`.
+    transfer : {"auto", "dask", "disk"}
+        How images (not written frames) come back from Dask workers:
+        ``"dask"`` through Dask's comms; ``"disk"`` through a temporary
+        folder of this process (``tempfile``), which the workers must see;
+        ``"auto"`` (default) the folder on a ``workers=`` or
+        :func:`local_cluster` cluster, Dask's comms on any other.
     **render_kwargs
         ``backend``, ``interpolation``, ``caster``, ``max_depth``,
         ``tolerance`` of :func:`raycast_shade.render`.
@@ -160,4 +188,4 @@ def render_batch(scene_or_scenes, cameras=None, lights=None, *, shading="phong",
     return list(iter_batch(scene_or_scenes, cameras, lights, shading=shading, out_dir=out_dir, pattern=pattern,
                            workers=workers, scheduler=scheduler, progress=progress, retries=retries, resume=resume,
                            tone=tone, numba_threads=numba_threads, frames_per_task=frames_per_task, cache=cache,
-                           **render_kwargs))
+                           transfer=transfer, **render_kwargs))

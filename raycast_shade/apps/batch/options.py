@@ -14,10 +14,14 @@ import numpy as np
 
 from ...scene.scenefile import RENDER_KEYS, SIZE_KEYS, TONE_KEYS, check_render_options
 
-__all__ = ["BatchOptions", "RENDER_KWARGS", "check_options", "check_counts", "check_shading_fits"]
+__all__ = ["BatchOptions", "RENDER_KWARGS", "TRANSFERS", "check_options", "check_counts", "check_shading_fits",
+           "check_transfer"]
 
 # render() keywords a batch passes on; the camera (hence the size) is per frame.
 RENDER_KWARGS = tuple(k for k in RENDER_KEYS if k not in ("shading",) + SIZE_KEYS + TONE_KEYS)
+# How images return from Dask workers: "disk" through a temporary folder, "dask" through its comms,
+# "auto" the folder on a cluster of this machine (see dask_driver).
+TRANSFERS = ("auto", "dask", "disk")
 
 
 @dataclass(frozen=True, eq=False)
@@ -82,9 +86,20 @@ def check_shading_fits(options: BatchOptions, bases: dict) -> None:
 
 
 def check_counts(retries, frames_per_task, window) -> None:
-    """``retries >= 0``; ``frames_per_task`` and ``window`` (unless None) ``> 0``."""
+    """``retries >= 0``; ``frames_per_task`` and ``window`` None or ``> 0``."""
     if not isinstance(retries, (int, np.integer)) or isinstance(retries, bool) or retries < 0:
         raise ValueError(f"retries: expected an integer >= 0, got {retries!r}")
-    for name, value in (("frames_per_task", frames_per_task), ("window", 1 if window is None else window)):
+    for name, value in (("frames_per_task", frames_per_task), ("window", window)):
+        if value is None:
+            continue
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-            raise ValueError(f"{name}: expected an integer > 0, got {value!r}")
+            raise ValueError(f"{name}: expected an integer > 0 or None, got {value!r}")
+
+
+def check_transfer(transfer) -> str:
+    """One of :data:`TRANSFERS`, lower-cased."""
+    if not isinstance(transfer, str):
+        raise TypeError(f"transfer: expected one of {list(TRANSFERS)}, got {type(transfer).__name__}")
+    if transfer.lower() not in TRANSFERS:
+        raise ValueError(f"transfer: expected one of {list(TRANSFERS)}, got {transfer!r}")
+    return transfer.lower()
