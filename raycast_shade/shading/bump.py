@@ -13,12 +13,12 @@ import numpy as np
 from numba import njit
 
 from ..common.layout import BUMP_CLAMP, BUMP_COLS, BUMP_OFFSET, BUMP_ROWS, BUMP_SCALE, BUMP_TILE_U, BUMP_TILE_V
-from .jit import JIT
+from .jit import HELPER
 
 __all__ = []
 
 
-@njit(inline="always", **JIT)
+@njit(**HELPER)
 def _bilinear(tex, base, rows, cols, clamp, x, y):
     """Bilinear sample at texel coordinates (x, y) (texel centres at integers)."""
     j0 = math.floor(x)
@@ -44,7 +44,7 @@ def _bilinear(tex, base, rows, cols, clamp, x, y):
     return a * (1.0 - ty) + b * ty
 
 
-@njit(inline="always", **JIT)
+@njit(**HELPER)
 def _bump(nx, ny, nz, f, gm, i0, i1, i2, b1, b2, uvs, tangents, bump_index, texels, info, fx, fy, fz):
     """Blinn's perturbed normal N' = N + (Bu (N x Pv) - Bv (N x Pu)) / |N|,
     with N = n |Pu x Pv| along the (oriented) shading normal n.

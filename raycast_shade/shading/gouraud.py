@@ -21,7 +21,7 @@ from numba import njit, prange
 
 from ..common.schedule import BLOCK_ROWS, spread_step
 from .illumination import _illuminate, _illuminate_call
-from .jit import CHUNK, FLT32_MAX, JIT, compile_variants
+from .jit import CALLED, CHUNK, FLT32_MAX, HELPER, JIT, compile_variants
 from .shadows import _scratch
 from .surface import _convex_weights, _facing, _hit_point, _view
 from ..common.layout import COLOR_VERTEX
@@ -30,7 +30,7 @@ from .texture import _point_coefficients, _row_coefficients
 __all__ = []
 
 
-@njit(inline="always", **JIT)
+@njit(**HELPER)
 def _corner_shade(vcol, normals, verts, i, side, gx, gy, gz, materials, m, cam, ambient, lights, dmin, handle, unit,
                   S, coef, spec_on, att_on):
     """A vertex's Gouraud shade for a face seen from ``side``.
@@ -63,7 +63,7 @@ def _corner_shade(vcol, normals, verts, i, side, gx, gy, gz, materials, m, cam, 
                             unit, S, px, py, pz, gx, gy, gz, spec_on, att_on)
 
 
-@njit(inline="always", **JIT)
+@njit(**HELPER)
 def _vertex_kd(materials, m, cmode, vcolors, i, tex_on):
     """The coefficients a vertex is shaded with: the row's, kd its colour if it has one."""
     kar, kag, kab, kdr, kdg, kdb, ksr, ksg, ksb = _row_coefficients(materials, m)
@@ -72,7 +72,7 @@ def _vertex_kd(materials, m, cmode, vcolors, i, tex_on):
     return kar, kag, kab, kdr, kdg, kdb, ksr, ksg, ksb
 
 
-@njit(**JIT)
+@njit(**CALLED)
 def _split_shade(px, py, pz, nx, ny, nz, vx, vy, vz, materials, m, ambient, lights, dmin, handle, unit, S,
                  gx, gy, gz, spec_on, att_on):
     """A vertex's diffuse and specular light apart (kd = 1, ks = 1, no ambient),
@@ -88,7 +88,7 @@ def _split_shade(px, py, pz, nx, ny, nz, vx, vy, vz, materials, m, ambient, ligh
     return dr, dg, db, sr, sg, sb
 
 
-@njit(inline="always", **JIT)
+@njit(**HELPER)
 def _corner_split(vcol, vspec, normals, verts, i, side, gx, gy, gz, materials, m, cam, ambient, lights, dmin,
                   handle, unit, S, spec_on, att_on):
     """:func:`_corner_shade` for the modulate path: diffuse and specular light."""
@@ -164,7 +164,7 @@ def _make_vertices(spec_on: bool, att_on: bool, tex_on: bool = False):
     return _shade_vertices_kernel
 
 
-@njit(inline="always", **JIT)
+@njit(**HELPER)
 def _modulate(vcol, vspec, normals, verts, faces, f, g, b1, b2, side, gx, gy, gz, materials, cam, ambient, lights,
               dmin, handle, unit, S, coef, spec_on, att_on):
     """A modulate-path pixel: ``Ia ka + D kd + S ks``, with the corners' diffuse

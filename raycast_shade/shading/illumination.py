@@ -28,13 +28,13 @@ from ..common.layout import (ATT_HEURISTIC, ATT_INVERSE_SQUARE, LIGHT_ATT, LIGHT
                              LIGHT_COS_OUTER, LIGHT_DIRECTIONAL, LIGHT_EXPONENT, LIGHT_K, LIGHT_KIND,
                              LIGHT_RADIANCE, LIGHT_SHADOWS, LIGHT_SPOT, LIGHT_VEC, MAT_BLINN, MAT_KA, MAT_KD, MAT_KS,
                              MAT_SHININESS)
-from .jit import JIT
+from .jit import CALLED, HELPER
 from .shadows import _occluded
 
 __all__ = []
 
 
-@njit(inline="always", **JIT)
+@njit(**HELPER)
 def _power(c, t):
     """``c ** t`` for ``0 <= c <= 1``: repeated squaring when ``t`` is a whole
     number up to 4096 (a few multiplications, within a few ulps of ``pow``,
@@ -51,7 +51,7 @@ def _power(c, t):
     return r
 
 
-@njit(inline="always", **JIT)
+@njit(**HELPER)
 def _spot_factor(lights, i, sx, sy, sz):
     """Warn's factor of spot light ``i`` for the unit direction ``s`` from the
     point towards the light: ``cos^n a`` times the smooth step from the outer
@@ -155,7 +155,14 @@ def _illuminate_py(px, py, pz, nx, ny, nz, vx, vy, vz, mats, mi, coef, ambient, 
     return r, g, b
 
 
-# Inlined into the hot loops (each kernel inlines it once, which keeps compile
-# time in check); the called variant serves rare fallback branches.
-_illuminate = njit(inline="always", **JIT)(_illuminate_py)
-_illuminate_call = njit(**JIT)(_illuminate_py)
+_illuminate = njit(**HELPER)(_illuminate_py)
+
+
+@njit(**CALLED)
+def _illuminate_call(px, py, pz, nx, ny, nz, vx, vy, vz, mats, mi, coef, ambient, lights, dmin, handle, unit, S,
+                     ox, oy, oz, gx, gy, gz, spec_on, att_on):
+    """:func:`_illuminate` as a call, for rare fallback branches: inlining it there would
+    multiply the hot loop's code. (A function of its own: two dispatchers of one Python
+    function would share one entry of Numba's disk cache, and load each other's code.)"""
+    return _illuminate(px, py, pz, nx, ny, nz, vx, vy, vz, mats, mi, coef, ambient, lights, dmin, handle, unit, S,
+                       ox, oy, oz, gx, gy, gz, spec_on, att_on)

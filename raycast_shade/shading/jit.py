@@ -10,15 +10,29 @@ therefore built by a small factory per kernel family, ``make(spec_on,
 att_on)``, whose closure constants Numba folds at compile time: four variants
 per family, each cached on disk separately (Numba keys its cache on the
 closure's values), and compiled only when a frame first needs it.
+
+The helpers the kernels share are compiled with :data:`HELPER` (see there),
+the few that must stay calls with :data:`CALLED`.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["JIT", "FLT32_MAX", "CHUNK", "compile_variants", "variant"]
+__all__ = ["JIT", "HELPER", "CALLED", "FLT32_MAX", "CHUNK", "compile_variants", "variant"]
 
 JIT = dict(cache=True, error_model="numpy", fastmath={"nsz", "arcp", "contract", "afn", "reassoc"})
+# The helpers the kernels call per pixel. Numba's own inlining (inline="always") re-ran each
+# helper's front end at every call site, and the parfor passes then worked on the whole
+# inlined body twice: most of the cold start. Instead each helper compiles once, and LLVM
+# inlines it (forceinline; the golden images stay bit-identical). Without
+# NRT a helper neither takes nor drops a reference on the arrays it is given (atomic
+# operations on counters both threads share: 3x slower Phong frames); it borrows the
+# caller's arrays and must not allocate (Numba refuses to compile one that does).
+HELPER = dict(JIT, forceinline=True, _nrt=False)
+# Functions that stay calls (rare fallbacks), or allocate. Both flags explicit: a dispatcher
+# without them inherits those of whichever compile first calls it.
+CALLED = dict(JIT, forceinline=False, _nrt=True)
 FLT32_MAX = float(np.finfo(np.float32).max)  # radiance saturates here instead of becoming inf
 CHUNK = 1024  # faces, vertices or secondary rays per parallel task
 

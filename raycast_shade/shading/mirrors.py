@@ -14,7 +14,7 @@ from ..common.layout import MAT_REFLECTIVITY
 from ..common.schedule import BLOCK_ROWS, spread_step
 from ..visibility.accel import embree_accel
 from .inputs import kernel_inputs
-from .jit import CHUNK, FLT32_MAX, JIT, compile_variants
+from .jit import CHUNK, FLT32_MAX, HELPER, JIT, compile_variants
 from .phong import _shade_surface, _surface
 from .shadows import _nudge, _scratch
 from .texture import _point_coefficients, _row_coefficients, variant_for
@@ -29,7 +29,7 @@ MAX_MIRROR_DEPTH = 64
 _MIN_WEIGHT = 2.0 ** -24
 
 
-@njit(inline="always", **JIT)
+@njit(**HELPER)
 def _mirror_ray(px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz, unit):
     """Reflect the incoming direction d = -v about n: r = d - 2 (d.n) n,
     kept above the geometric surface, from an origin pushed off along g."""

@@ -23,7 +23,7 @@ from numba import njit, prange
 from ..common.schedule import BLOCK_ROWS, spread_step
 from .bump import _bump
 from .illumination import _illuminate
-from .jit import FLT32_MAX, JIT, compile_variants
+from .jit import FLT32_MAX, HELPER, JIT, compile_variants
 from .shadows import _scratch
 from .surface import _facing, _hit_point, _shading_normal, _terminator_point, _view
 from .texture import _point_coefficients, _row_coefficients
@@ -31,7 +31,7 @@ from .texture import _point_coefficients, _row_coefficients
 __all__ = []
 
 
-@njit(inline="always", **JIT)
+@njit(**HELPER)
 def _surface(verts, normals, faces, fnormals, uvs, tangents, bump_index, texels, info, cam, f, gm, b1, b2,
              use_dir, dx, dy, dz):
     """Everything about a hit that shading needs.
@@ -59,7 +59,7 @@ def _surface(verts, normals, faces, fnormals, uvs, tangents, bump_index, texels,
     return px, py, pz, vx, vy, vz, gx, gy, gz, sgn, nx, ny, nz
 
 
-@njit(inline="always", **JIT)
+@njit(**HELPER)
 def _shade_surface(verts, normals, faces, fnormals, uvs, tangents, bump_index, texels, info,
                    ambient, lights, dmin, handle, unit, S, materials, cam, f, gm, b1, b2, use_dir, dx, dy, dz,
                    coef, spec_on, att_on):

@@ -21,7 +21,7 @@ import numpy as np
 from numba import njit
 
 from ..visibility import embree
-from .jit import JIT
+from .jit import CALLED, HELPER
 
 __all__ = []
 
@@ -29,7 +29,7 @@ _SHADOW_TFAR = 1.0 - 1e-5  # point-light shadow rays stop just short of the ligh
 _SCRATCH = 24  # float32 slots: one RTCRay (12) plus alignment slack
 
 
-@njit(inline="always", **JIT)
+@njit(**CALLED)  # allocates: NRT on
 def _scratch():
     """A per-task RTCRay buffer: (float view, uint view, 16-byte aligned offset in slots)."""
     buf = np.empty(_SCRATCH, np.float32)
@@ -38,7 +38,7 @@ def _scratch():
     return buf, buf.view(np.uint32), off
 
 
-@njit(inline="always", **JIT)
+@njit(**HELPER)
 def _nudge(p, n, unit):
     """Move coordinate ``p`` by 256 float32 ulps along normal component ``n``.
 
@@ -54,7 +54,7 @@ def _nudge(p, n, unit):
     return p + n * math.ldexp(256.0, e - 24)
 
 
-@njit(inline="always", **JIT)
+@njit(**HELPER)
 def _occluded(handle, S, px, py, pz, gx, gy, gz, sx, sy, sz, lx, ly, lz, is_point, unit):
     """True if the scene blocks the way from p towards the light.
 

@@ -18,14 +18,14 @@ import numpy as np
 from numba import njit
 
 from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_ORTHO
-from .jit import JIT
+from .jit import HELPER
 
 __all__ = []
 
 _CANCEL = 1e-6  # |interpolated normal| below this counts as cancelled
 
 
-@njit(inline="always", **JIT)
+@njit(**HELPER)
 def _view(cam, px, py, pz):
     """Unit vector from a point to the eye (orthographic: against the view)."""
     if cam[CAM_ORTHO] != 0.0:
@@ -39,7 +39,7 @@ def _view(cam, px, py, pz):
     return vx / vl, vy / vl, vz / vl
 
 
-@njit(inline="always", **JIT)
+@njit(**HELPER)
 def _facing(fnormals, f, vx, vy, vz):
     """Geometric normal turned to the viewer, and the sign that turned it."""
     gx = fnormals[f, 0]
@@ -52,7 +52,7 @@ def _facing(fnormals, f, vx, vy, vz):
     return gx, gy, gz, 1.0
 
 
-@njit(inline="always", **JIT)
+@njit(**HELPER)
 def _shading_normal(normals, i0, i1, i2, b1, b2, gx, gy, gz, sgn):
     """Interpolated, renormalised normal, oriented into the viewer's hemisphere."""
     b0 = 1.0 - b1 - b2
@@ -74,7 +74,7 @@ def _shading_normal(normals, i0, i1, i2, b1, b2, gx, gy, gz, sgn):
     return nx, ny, nz
 
 
-@njit(inline="always", **JIT)
+@njit(**HELPER)
 def _convex_weights(b1, b2):
     """Interpolation weights ``(b0, b1, b2)`` clamped onto the triangle.
 
@@ -96,7 +96,7 @@ def _convex_weights(b1, b2):
     return b0, b1, b2
 
 
-@njit(inline="always", **JIT)
+@njit(**HELPER)
 def _hit_point(verts, i0, i1, i2, b1, b2):
     """The point with barycentrics (1 - b1 - b2, b1, b2) on triangle (i0, i1, i2)."""
     b0 = 1.0 - b1 - b2
@@ -106,7 +106,7 @@ def _hit_point(verts, i0, i1, i2, b1, b2):
     return px, py, pz
 
 
-@njit(inline="always", **JIT)
+@njit(**HELPER)
 def _terminator_point(verts, normals, i0, i1, i2, b1, b2, px, py, pz, sgn):
     """Hanika's shadow-ray origin: p lifted onto the vertices' tangent planes
     (only upwards), so a flat facet under a smooth normal does not shadow

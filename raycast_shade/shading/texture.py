@@ -31,7 +31,7 @@ from numba import njit, prange
 from ..common.layout import (CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH, COLOR_FACE,
                              COLOR_VERTEX, MAT_KA, MAT_KD, MAT_KS, TEX_CLAMP, TEX_HEIGHT, TEX_LEVELS, TEX_MIPMAP,
                              TEX_OFFSET, TEX_TILE_U, TEX_TILE_V, TEX_WIDTH, TEXMAP_KA, TEXMAP_KD, TEXMAP_KS)
-from .jit import JIT
+from .jit import HELPER, JIT
 
 __all__ = ["texture_levels", "variant_for"]
 
@@ -45,7 +45,7 @@ def variant_for(plain, textured, k):
     return variant(textured if k["tex_on"] else plain, k)
 
 
-@njit(inline="always", **JIT)
+@njit(**HELPER)
 def _bilinear3(tex, base, w, h, clamp, x, y):
     """Bilinear RGB at texel coordinates (x, y) (centres at integers) of a
     (h, w, 3) level stored from ``base``."""
@@ -81,7 +81,7 @@ def _bilinear3(tex, base, w, h, clamp, x, y):
     return r, g, b
 
 
-@njit(inline="always", **JIT)
+@njit(**HELPER)
 def _level_rho(info, k, dudx, dvdx, dudy, dvdy):
     """The footprint ``rho`` in level-0 texels of texture ``k`` (see the module docstring)."""
     su = info[k, TEX_WIDTH] * info[k, TEX_TILE_U]
@@ -93,7 +93,7 @@ def _level_rho(info, k, dudx, dvdx, dudy, dvdy):
     return max(np.sqrt(ax * ax + ay * ay), np.sqrt(bx * bx + by * by))
 
 
-@njit(inline="always", **JIT)
+@njit(**HELPER)
 def _sample_level(tex, info, k, u, v, lvl):
     """Bilinear RGB of level ``lvl`` of texture ``k`` at (u, v)."""
     w = int(info[k, TEX_WIDTH])
@@ -109,7 +109,7 @@ def _sample_level(tex, info, k, u, v, lvl):
     return _bilinear3(tex, base, w, h, clamp, x, y)
 
 
-@njit(inline="always", **JIT)
+@njit(**HELPER)
 def _sample(tex, info, k, u, v, dudx, dvdx, dudy, dvdy):
     """Texture ``k`` at (u, v): bilinear at level 0 when magnified (or not
     mip-mapped), else trilinear at level ``log2(rho)``."""
@@ -127,7 +127,7 @@ def _sample(tex, info, k, u, v, dudx, dvdx, dudy, dvdy):
     return r0 + frac * (r1 - r0), g0 + frac * (g1 - g0), b0 + frac * (b1 - b0)
 
 
-@njit(inline="always", **JIT)
+@njit(**HELPER)
 def _uv_derivatives(verts, uvs, fnormals, i0, i1, i2, f, cam, px, py, pz, ex, ey, ez, x, y):
     """``du/dx, dv/dx, du/dy, dv/dy`` per pixel at hit p of face f seen from
     eye e through pixel (x, y) (see the module docstring); inf at grazing
@@ -204,7 +204,7 @@ def _uv_derivatives(verts, uvs, fnormals, i0, i1, i2, f, cam, px, py, pz, ex, ey
     return d1u * b1x + d2u * b2x, d1v * b1x + d2v * b2x, d1u * b1y + d2u * b2y, d1v * b1y + d2v * b2y
 
 
-@njit(inline="always", **JIT)
+@njit(**HELPER)
 def _face_footprint(uvs, i0, i1, i2):
     """A flat face's footprint: the side ``s`` of the UV square as large as the
     face's UV triangle, as ``(s, 0, 0, s)`` derivatives."""
@@ -216,7 +216,7 @@ def _face_footprint(uvs, i0, i1, i2):
     return s, 0.0, 0.0, s
 
 
-@njit(inline="always", **JIT)
+@njit(**HELPER)
 def _row_coefficients(mats, mi):
     """The material row's ``ka, kd, ks``: the nine scalars
     :func:`~raycast_shade.shading.illumination._illuminate` takes for a point
@@ -226,7 +226,7 @@ def _row_coefficients(mats, mi):
             mats[mi, MAT_KS + 0], mats[mi, MAT_KS + 1], mats[mi, MAT_KS + 2])
 
 
-@njit(inline="always", **JIT)
+@njit(**HELPER)
 def _coefficients(mats, gm, f, i0, i1, i2, b1, b2, uvs, vcolors, fcolors, cmode, tindex, texels, tinfo,
                   dudx, dvdx, dudy, dvdy):
     """``ka, kd, ks`` (nine floats) at the point with barycentrics (1 - b1 - b2, b1, b2)
@@ -305,7 +305,7 @@ def texture_levels(scene, camera, hits, slot: str = "kd") -> np.ndarray:
         return np.log2(out)
 
 
-@njit(inline="always", **JIT)
+@njit(**HELPER)
 def _point_coefficients(verts, uvs, fnormals, faces, f, gm, b1, b2, cam, x, y, footprint, materials,
                         vcolors, fcolors, cmode, tindex, ttexels, tinfo):
     """:func:`_coefficients` at a hit of face f: filtered by pixel (x, y)'s
