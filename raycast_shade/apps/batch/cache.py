@@ -11,6 +11,7 @@ A worker's cache is created by the batch's worker plugin (see
 from __future__ import annotations
 
 import collections
+import dataclasses
 import os
 import threading
 
@@ -23,7 +24,7 @@ from ...visibility.accel import embree_accel
 from .options import BatchOptions
 from .plan import FrameJob
 
-__all__ = ["SceneCache", "PLUGIN_NAME", "cache_of", "render_image", "render_job"]
+__all__ = ["SceneCache", "PLUGIN_NAME", "cache_of", "render_image", "render_job", "revalidated"]
 
 # Name of the Dask worker plugin that holds a worker's SceneCache.
 PLUGIN_NAME = "raycast-shade-batch"
@@ -114,3 +115,17 @@ def render_job(job: FrameJob, base: Scene, options: BatchOptions, cache: SceneCa
     if job.path is None:
         return image
     return write_image(job.path, image, atomic=True, **options.tone)
+
+
+def revalidated(job: FrameJob) -> FrameJob:
+    """The job with its camera and lights rebuilt by their constructors.
+
+    Unpickled arrays lose their read-only flag, and Numba compiles (and
+    caches) a separate specialisation of every kernel for writeable arrays:
+    without this, each worker process would compile the whole renderer
+    again instead of loading the client's cache. The constructors mark the
+    validated arrays read-only again (ambient and background go through
+    :meth:`Scene.replace`, which does the same).
+    """
+    return dataclasses.replace(job, camera=dataclasses.replace(job.camera),
+                               lights=tuple(dataclasses.replace(light) for light in job.lights))
