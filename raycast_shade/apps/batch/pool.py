@@ -330,6 +330,8 @@ class ProcessPool:
                     for i in range(SLOTS):
                         segments.append(shared_memory.SharedMemory(create=True, size=slot_bytes))
                         w.slots[i] = segments[-1].name
+            for w in [w for w in self._workers if w.proc.poll() is not None]:
+                self._replace(w)  # died since the last batch
             self._send_batch(bases, todo, options)
             run = _Run(self, todo, retries, _window(window, todo, self.n_workers), bar,
                        {s.name: s for s in segments})
@@ -398,9 +400,13 @@ class _Run:
                 if self.in_flight + len(self.held) >= self.window and self.queue[0][0] != next_index:
                     return
                 _, job = heapq.heappop(self.queue)
-                w.conn.send(("job", job, slot))
                 w.busy[slot] = job
                 self.in_flight += 1
+                try:
+                    w.conn.send(("job", job, slot))
+                except OSError:  # it died since its last reply
+                    self._died(w)
+                    return
 
     def _collect(self) -> None:
         """Wait for replies (at least one) and take them in."""
