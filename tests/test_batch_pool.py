@@ -10,12 +10,13 @@ import os
 import signal
 
 import numpy as np
-import psutil
 import pytest
 
 import raycast_shade as rs
 from raycast_shade.apps import animate, batch
 from raycast_shade.apps.batch import driver, pool as pool_module
+
+psutil = pytest.importorskip("psutil")  # comes with dask[distributed], a test dependency
 
 W, H = 48, 36
 
@@ -226,3 +227,35 @@ def test_pool_bad_input_names_the_field(scene, pool):
         batch.ProcessPool(1, numba_threads=1.5)
     assert _pool_children() != []  # the module's pool only: none of the bad calls started one
     assert sorted(_pool_children()) == sorted(pool.pids)
+
+
+SCENE_TOML = """
+[camera]
+eye = [0.0, 0.5, 4.0]
+width = 40
+height = 30
+[[object]]
+shape = "icosphere"
+subdivisions = 1
+[[light]]
+type = "point"
+position = [2.0, 3.0, 4.0]
+intensity = 20.0
+"""
+
+
+def test_cli_animate_workers_and_executor(tmp_path, capsys):
+    from raycast_shade.apps.cli import main
+
+    path = tmp_path / "ball.toml"
+    path.write_text(SCENE_TOML)
+    common = ["animate", str(path), "--frames", "3", "--no-progress"]
+    assert main(common + ["-o", str(tmp_path / "serial/")]) == 0
+    assert "this process" in capsys.readouterr().out
+    assert main(common + ["--workers", "2", "-o", str(tmp_path / "pool/")]) == 0
+    assert "2 worker processes" in capsys.readouterr().out
+    for i in range(3):
+        name = f"frame_{i:05d}.png"
+        assert (tmp_path / "serial" / name).read_bytes() == (tmp_path / "pool" / name).read_bytes()
+    assert main(common + ["--executor", "threads", "-o", str(tmp_path / "bad/")]) == 2
+    assert main(common + ["--executor", "serial", "--workers", "2", "-o", str(tmp_path / "bad/")]) == 2

@@ -88,12 +88,15 @@ def cache_of(worker) -> SceneCache | None:
     return None if plugin is None else plugin.cache
 
 
-def render_image(job: FrameJob, base: Scene, options: BatchOptions, cache: SceneCache) -> np.ndarray:
+def render_image(job: FrameJob, base: Scene, options: BatchOptions, cache: SceneCache, out=None) -> np.ndarray:
     """Render one job on its base scene, reusing (or building once) its geometry.
+
+    ``out``, an (H, W, 3) float32 array, receives the image (``render(out=)``).
 
     Returns
     -------
     (H, W, 3) float32
+        ``out`` when given.
     """
     if "geometry" not in base.__dict__:
         cache.count("builds")
@@ -101,7 +104,7 @@ def render_image(job: FrameJob, base: Scene, options: BatchOptions, cache: Scene
     if options.render_kwargs.get("caster", "auto") != "embreex" and options.render_kwargs.get("backend") != "raster":
         embree_accel(geometry)  # the BVH, built once per process and mesh set
     scene = base.replace(lights=job.lights, camera=job.camera, ambient=job.ambient, background=job.background)
-    frame = render(scene, options.shading, camera=job.camera, **options.render_kwargs)
+    frame = render(scene, options.shading, camera=job.camera, out=out, **options.render_kwargs)
     cache.count("renders")
     return frame.image
 

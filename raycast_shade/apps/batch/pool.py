@@ -12,12 +12,14 @@ Client and worker talk over one socket pair (a
 :class:`multiprocessing.connection.Connection`): each mesh set's base scene is
 pickled once per batch and sent once to every worker, which keeps it in its
 :class:`~.cache.SceneCache`; a frame travels as its :class:`~.plan.FrameJob`
-(about 1 kB). A worker renders with :func:`~.cache.render_job`, the function
-the serial and Dask paths run, so frames are the same bit for bit. A
+(about 1 kB). A worker renders with :func:`~.cache.render_job` /
+:func:`~.cache.render_image`, the functions the serial and Dask paths run, so
+frames are the same bit for bit. A
 written frame (``out_dir``) is written by the worker, and only its path
-comes back; an image is copied into one of the worker's two shared-memory
-slots (:class:`multiprocessing.shared_memory.SharedMemory`, created and
-unlinked by the client), and the client copies it out, so nothing as large
+comes back; an image is rendered straight into one of the worker's two
+shared-memory slots (``render(out=)``;
+:class:`multiprocessing.shared_memory.SharedMemory`, created and unlinked by
+the client), and the client copies it out, so nothing as large
 as an image is pickled. Two jobs per worker are in flight: one rendering,
 one waiting, so a worker never waits for the client.
 
@@ -43,7 +45,7 @@ from multiprocessing import connection, shared_memory
 
 import numpy as np
 
-from .cache import SceneCache, render_job, revalidated
+from .cache import SceneCache, render_image, render_job, revalidated
 from .options import WINDOW_BYTES, BatchOptions
 
 __all__ = ["ProcessPool", "FrameError", "ALLOWED_FAILURES", "cores", "worker_main"]
@@ -108,20 +110,23 @@ def _error_reply(index: int, exc: BaseException) -> tuple:
 
 def _render(job, slot, batch: dict, cache: SceneCache, segments: dict) -> tuple:
     """The reply for one job: its path, or its image copied into ``slot``."""
+    view = None
     try:
         base = cache.base(job.key, batch["scenes"][job.key])
-        result = render_job(revalidated(job), base, batch["options"], cache)
-        if isinstance(result, str):
-            return ("done", job.index, result)
+        job = revalidated(job)
+        if job.path is not None:
+            return ("done", job.index, render_job(job, base, batch["options"], cache))
         shm = segments.get(slot)
         if shm is None:
             shm = segments[slot] = _attach(slot)
-        view = np.ndarray(result.shape, result.dtype, buffer=shm.buf)
-        view[...] = result
-        del view  # a live view would keep the segment from closing
-        return ("done", job.index, (result.shape, result.dtype.str))
+        # Render straight into the slot: no copy on this side.
+        view = np.ndarray((job.camera.height, job.camera.width, 3), np.float32, buffer=shm.buf)
+        image = render_image(job, base, batch["options"], cache, out=view)
+        return ("done", job.index, (image.shape, image.dtype.str))
     except Exception as exc:  # noqa: BLE001 - reported to the client with the frame's index
         return _error_reply(job.index, exc)
+    finally:
+        del view  # a live view would keep the segment from closing
 
 
 def worker_main(fd: int) -> None:
