@@ -1,6 +1,6 @@
-"""Batch benchmark: serial against Dask workers on this machine, and the numbers of the cost model.
+"""Batch benchmark: serial against the process pool and Dask workers on this machine, and the cost model.
 
-Run ``python -m benchmarks.bench_batch [--quick]``. A turntable of an
+Run ``python -m benchmarks.bench_batch [--quick] [--only pool]``. A turntable of an
 icosphere (20,480 triangles, two lights, Phong) is rendered into a list of
 images, and every number is steady state (JIT cache loaded and BVH built on
 every worker by a warm-up batch; cluster start-up and that first batch are
@@ -8,6 +8,11 @@ reported apart, as ``startup`` rows). The machine is shared: each Dask
 timing is interleaved with a serial one in the same repeat, and
 ``speedup`` is the median over the repeats of ``t_serial / t_dask``.
 
+* **pool**: per size (160x120 to 1920x1080), this process against 2
+  single-threaded workers of a :class:`ProcessPool` (started once, and
+  started by each batch: ``render_batch(workers=2)``) and of a Dask
+  LocalCluster, interleaved; start-up and first batch apart; CPU per frame
+  of every process (``--only pool`` runs just this, into ``batch_pool.csv``);
 * **throughput**: per size, this process (Numba on every core) against 2
   single-threaded workers as they were (``transfer="dask"``,
   ``frames_per_task=1``) and as they are by default (images through a
@@ -20,7 +25,8 @@ timing is interleaved with a serial one in the same repeat, and
   returned image per MB (``transfer="dask"`` against ``"disk"``); the bytes
   moved: the scene once per worker, a frame's job, its image.
 
-Results: ``benchmarks/results/batch.csv`` and ``docs/images/batch_scaling.png``
+Results: ``benchmarks/results/batch.csv`` (or ``batch_pool.csv``), ``docs/images/batch_scaling.png``
+and ``docs/images/batch_pool.png``
 (``results/quick/``, ``images/quick/`` in quick mode).
 """
 
@@ -122,6 +128,119 @@ def bench_throughput(cases, frames: int, repeats: int):
                 rows.append(_row("dask", 2, 1, w, h, frames, times[label], ratios[label], label,
                                  auto if k is None else k, tr, load))
     return rows
+
+
+def _pool_cpu(pool) -> float:
+    import psutil
+
+    total = 0.0
+    for pid in pool.pids:
+        t = psutil.Process(pid).cpu_times()
+        total += t.user + t.system
+    return total
+
+
+# Sizes of the pool benchmark and their frame counts: a serial repeat of 1-3 s each.
+POOL_CASES = [((160, 120), 384), ((640, 480), 96), ((1280, 720), 48), ((1920, 1080), 32)]
+
+
+def bench_pool(cases, repeats: int):
+    """Serial against the process pool and a Dask LocalCluster, 2 single-threaded workers each, interleaved.
+
+    The pool and the cluster are started once (``startup`` rows) and warmed
+    by a first batch of 4 frames per size (``startup`` rows too); the
+    ``batch`` rows are steady state. ``processes, new pool`` is
+    ``render_batch(workers=2)`` as a user calls it once: start-up included.
+    The ``cpu`` rows are CPU seconds per frame of one batch, all processes
+    counted (client, scheduler, workers).
+    """
+    import numba
+
+    from raycast_shade.apps.animate import orbit_cameras
+    from raycast_shade.apps.batch import ProcessPool, local_cluster, render_batch
+
+    rows = []
+    t0 = time.perf_counter()
+    pool = ProcessPool(2, numba_threads=1).start()
+    rows.append(dict(benchmark="startup", mode="processes", workers=2, numba_threads=1,
+                     seconds=round(time.perf_counter() - t0, 3), load=_load(),
+                     note="ProcessPool(2): 2 interpreters import raycast_shade"))
+    t0 = time.perf_counter()
+    with pool, local_cluster(2, numba_threads=1) as client:
+        rows.append(dict(benchmark="startup", mode="dask", workers=2, numba_threads=1,
+                         seconds=round(time.perf_counter() - t0, 3), load=_load(),
+                         note="LocalCluster(2 processes) + Client"))
+        for (w, h), frames in cases:
+            scene = _scene(w, h)
+            cams = orbit_cameras(scene.camera, frames)
+            render_batch(scene, cams[:2], progress=False)  # JIT + BVH here
+            for mode, kw in (("processes", dict(executor=pool)), ("dask", dict(scheduler=client))):
+                first = _timed(lambda: render_batch(scene, cams[:4], progress=False, **kw))
+                rows.append(dict(benchmark="startup", mode=mode, workers=2, numba_threads=1, width=w, height=h,
+                                 frames=4, seconds=round(first, 3), load=_load(),
+                                 note="first batch of 4 frames: Numba cache loaded, BVH built on each worker"))
+            variants = {"processes": lambda: render_batch(scene, cams, executor=pool, progress=False),
+                        "dask": lambda: render_batch(scene, cams, scheduler=client, progress=False),
+                        "processes, new pool": lambda: render_batch(scene, cams, workers=2, progress=False)}
+            load = _load()
+            times, ratios = _interleaved(lambda: render_batch(scene, cams, progress=False), variants, repeats)
+            load = f"{load}-{_load()}"
+            rows.append(_row("serial", 0, numba.get_num_threads(), w, h, frames, times["serial"], 1.0,
+                             "pool: this process", load=load))
+            for name in variants:
+                note = "pool: start-up included" if name.endswith("new pool") else "pool: steady state"
+                rows.append(_row(name, 2, 1, w, h, frames, times[name], ratios[name], note, load=load))
+            cpu = {}
+            c0 = _cpu()
+            render_batch(scene, cams, progress=False)
+            cpu["serial"] = _cpu() - c0
+            c0, p0 = _cpu(), _pool_cpu(pool)
+            render_batch(scene, cams, executor=pool, progress=False)
+            cpu["processes"] = _cpu() - c0 + _pool_cpu(pool) - p0
+            c0, d0 = _cpu(), _worker_cpu(client)
+            render_batch(scene, cams, scheduler=client, progress=False)
+            cpu["dask"] = _cpu() - c0 + _worker_cpu(client) - d0
+            for name, c in cpu.items():
+                rows.append(dict(benchmark="cpu", mode=name, workers=0 if name == "serial" else 2, width=w, height=h,
+                                 frames=frames, value=round(1e3 * c / frames, 3), unit="ms/frame", load=_load(),
+                                 note="CPU per frame, every process of the batch"))
+    return rows
+
+
+def chart_pool(rows, path):
+    """Speed-up over serial against frame size: the pool (steady, and with start-up) and Dask."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    pool_rows = [r for r in rows if r["benchmark"] == "batch" and str(r.get("note", "")).startswith("pool:")
+                 and r["mode"] != "serial"]
+    if not pool_rows:
+        return None
+    fig, ax = plt.subplots(figsize=(6.4, 3.8), dpi=100)
+    labels = {"processes": "process pool (steady state)", "processes, new pool": "process pool, start-up included",
+              "dask": "Dask LocalCluster (steady state)"}
+    sizes = sorted({(r["width"], r["height"]) for r in pool_rows})
+    for i, (mode, label) in enumerate(labels.items()):
+        pts = [next(r["speedup"] for r in pool_rows if r["mode"] == mode and (r["width"], r["height"]) == s)
+               for s in sizes]
+        ax.plot(range(len(sizes)), pts, "o-", color=f"C{i}", label=label)
+        for x, y in enumerate(pts):
+            ax.annotate(f"{y}x", (x, y), textcoords="offset points", xytext=(4, 4), fontsize=8)
+    ax.axhline(1.0, color="0.5", lw=1, ls="--", label="this process, 2 Numba threads")
+    ax.set_xticks(range(len(sizes)), [f"{w}x{h}" for w, h in sizes])
+    ax.set_xlabel("frame size")
+    ax.set_ylabel("speed-up over this process")
+    loads = [r["load"] for r in pool_rows]
+    ax.set_title(f"2 single-threaded workers on 2 cores, load {loads[0].split('-')[0]}-{loads[-1].split('-')[-1]}")
+    ax.set_ylim(bottom=0)
+    ax.legend(fontsize=8, loc="lower right")
+    fig.tight_layout()
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    fig.savefig(path)
+    plt.close(fig)
+    return path
 
 
 def bench_scaling(size, frames: int, repeats: int, counts):
@@ -282,7 +401,7 @@ def chart(rows, path):
     return path
 
 
-def run(quick: bool = False):
+def run(quick: bool = False, only: str | None = None):
     """Run the benchmark.
 
     Parameters
@@ -297,9 +416,14 @@ def run(quick: bool = False):
     """
     if quick:
         cases, frames, repeats, tiny, scale = [(160, 120), (640, 480)], 24, 3, 96, [1, 2, 3]
+        pool_cases = [((160, 120), 48), ((640, 480), 16)]
     else:
         cases, frames, repeats, tiny, scale = [(320, 240), (640, 480), (1280, 720)], 96, 5, 384, [1, 2, 3, 4]
-    return (bench_throughput(cases, frames, repeats)
+        pool_cases = POOL_CASES
+    if only == "pool":
+        return bench_pool(pool_cases, repeats)
+    return (bench_pool(pool_cases, repeats)
+            + bench_throughput(cases, frames, repeats)
             + bench_scaling((640, 480), frames // 2 if not quick else frames, repeats, scale)
             + bench_cost(tiny, repeats, (640, 480)))
 
@@ -314,18 +438,26 @@ def write(rows, path):
 
 def outputs(quick: bool) -> list[str]:
     """The CSV and chart :func:`main` writes (see :mod:`benchmarks.outputs`)."""
-    return [results_file("batch.csv", quick), os.path.join(images_dir(quick), "batch_scaling.png")]
+    return [results_file("batch.csv", quick), os.path.join(images_dir(quick), "batch_scaling.png"),
+            os.path.join(images_dir(quick), "batch_pool.png"), results_file("batch_pool.csv", quick)]
 
 
 def main(argv=None):
     """Command line: ``python -m benchmarks.bench_batch [--quick]``; returns the rows."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="fewer, smaller frames and repeats")
+    ap.add_argument("--only", choices=["pool"], help="only serial against the process pool and Dask "
+                                                      "(writes batch_pool.csv)")
     args = ap.parse_args(argv)
-    rows = run(args.quick)
-    path, png = outputs(args.quick)
+    rows = run(args.quick, args.only)
+    path, png, pool_png, pool_csv = outputs(args.quick)
+    if args.only:
+        path = pool_csv
     write(rows, path)
-    chart(rows, png)
+    if not args.only:
+        chart(rows, png)
+    chart_pool(rows, pool_png)
+    png = pool_png if args.only else png
     for r in rows:
         size = f"{r.get('width', '')}x{r.get('height', '')}" if r.get("width") else ""
         print(f"{r['benchmark']:9} {r['mode']:20} w={r.get('workers', '')!s:2} t={r.get('numba_threads', '')!s:2} "

@@ -38,6 +38,7 @@ from ..scene.scene import Scene
 from .args import (add_render_options, add_tone_options, finite_float, nonnegative_int, overrides, positive_float,
                    positive_int, shading_label)
 from .batch import iter_batch, render_batch
+from .batch.driver import EXECUTORS, check_executor
 
 __all__ = ["orbit_cameras", "orbit_light", "write_animation", "animate", "output_kind", "register_cli", "run_cli",
            "ORBITS", "VIDEO_EXTS"]
@@ -411,7 +412,8 @@ def register_cli(subparsers):
         "animate", help="render a camera turntable or a light orbit as GIF, MP4 or PNG frames",
         description="Render an orbit animation of a TOML scene file: the camera turns about its target "
                     "(--orbit camera) or one light circles the scene (--orbit light). Frames render in this "
-                    "process, on a local Dask cluster (--workers N) or on an existing one (--scheduler ADDR).",
+                    "process, in N worker processes of this machine (--workers N; a local Dask cluster with "
+                    "--executor dask) or on an existing Dask cluster (--scheduler ADDR).",
         epilog=_CLI_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("scene", metavar="SCENE.toml", help="scene file")
@@ -430,8 +432,13 @@ def register_cli(subparsers):
                    help="frames per second of GIF and video (default: 12)")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--workers", type=positive_int, metavar="N",
-                       help="render on a local Dask cluster of N single-threaded worker processes")
+                       help="render in N single-threaded worker processes of this machine (one per core is "
+                            "fastest)")
     where.add_argument("--scheduler", metavar="ADDR", help="render on an existing Dask cluster, e.g. tcp://host:8786")
+    p.add_argument("--executor", type=str.lower, choices=EXECUTORS, default="auto",
+                   help="where frames render: auto (default: --scheduler on Dask, --workers in processes of "
+                        "this machine, else this process), serial, processes, dask (--workers N: a local "
+                        "Dask cluster)")
     p.add_argument("--frames-per-task", type=positive_int, default=None, metavar="K",
                    help="frames rendered by one Dask task (default: about 4 megapixels a task, "
                         "at least 4 tasks per worker)")
@@ -475,9 +482,12 @@ def run_cli(ns) -> int:
     result = animate(scene, output, orbit=ns.orbit, frames=ns.frames, light_index=ns.light_index,
                      degrees=ns.degrees, shading=shading, fps=ns.fps, tone=tone, workers=ns.workers,
                      scheduler=ns.scheduler, progress=not ns.no_progress,
-                     frames_per_task=getattr(ns, "frames_per_task", None), **render_kwargs)
-    where = (f"{ns.workers} local workers" if ns.workers else
-             f"cluster {ns.scheduler}" if ns.scheduler else "this process")
+                     frames_per_task=getattr(ns, "frames_per_task", None),
+                     executor=getattr(ns, "executor", "auto"), **render_kwargs)
+    kind = check_executor(getattr(ns, "executor", "auto"), ns.workers, ns.scheduler)
+    where = (f"cluster {ns.scheduler}" if ns.scheduler else
+             "this process" if kind == "serial" else
+             f"{ns.workers or 'per-core'} {'Dask workers' if kind == 'dask' else 'worker processes'}")
     secs = result["seconds"]
     print(f"wrote {result['output']} ({result['frames']} frames, {camera.width}x{camera.height}, "
           f"{shading_label(shading)}, {ns.orbit} orbit, {where}): {secs:.1f} s, "

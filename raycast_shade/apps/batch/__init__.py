@@ -1,4 +1,4 @@
-"""Batch rendering: many frames, in order, in this process or on Dask.
+"""Batch rendering: many frames, in order, in this process, in worker processes or on Dask.
 
 A batch is a list of scenes, or one scene with a list of cameras and/or a
 list of light sets. Frames come back (or are written) in order.
@@ -6,10 +6,12 @@ list of light sets. Frames come back (or are written) in order.
 * By default every frame renders in the current process, and all frames of
   one mesh set share one packed geometry and one Embree BVH
   (:mod:`.serial`).
-* ``workers=N`` starts a local Dask cluster of ``N`` processes with one
-  thread each; each worker's Numba kernels get ``cores // N`` threads.
+* ``workers=N`` renders in a :class:`ProcessPool` of ``N`` processes of this
+  machine, each with ``cores // N`` Numba threads, scenes sent once and
+  images back through shared memory (:mod:`.pool`); ``executor="dask"``
+  makes that a local Dask cluster instead.
   ``scheduler="tcp://host:8786"`` (or a :class:`distributed.Client`) uses an
-  existing cluster (:mod:`.cluster`, :mod:`.dask_driver`).
+  existing Dask cluster (:mod:`.cluster`, :mod:`.dask_driver`).
 * Meshes travel once: the base scene of each mesh set is scattered to every
   worker, and a frame's task carries only its camera and lights
   (:mod:`.plan`). A worker builds the geometry and BVH on its first frame
@@ -18,8 +20,8 @@ list of light sets. Frames come back (or are written) in order.
 * Nothing is lost: with an output folder, frames already there are skipped
   (resume); every frame is written atomically
   (:func:`raycast_shade.output.imagefile.write_image` with ``atomic=True``);
-  a frame whose worker dies is re-run on another worker by Dask, and a
-  frame whose render raised is retried ``retries`` times.
+  a frame whose worker dies is re-run on another worker, and a frame whose
+  render raised is retried ``retries`` times.
 * Options are checked once, as a scene file's ``[render]`` table is
   (:mod:`.options`): a batch accepts what the other front-ends accept.
 
@@ -37,6 +39,7 @@ from .cluster import local_cluster, reset_worker_stats, worker_stats
 from .driver import iter_batch, render_batch
 from .options import RENDER_KWARGS, BatchOptions
 from .plan import FrameJob, plan_batch, scene_key
+from .pool import FrameError, ProcessPool
 
-__all__ = ["FrameJob", "BatchOptions", "SceneCache", "render_batch", "iter_batch", "plan_batch", "local_cluster",
+__all__ = ["FrameJob", "ProcessPool", "FrameError", "BatchOptions", "SceneCache", "render_batch", "iter_batch", "plan_batch", "local_cluster",
            "scene_key", "worker_stats", "reset_worker_stats", "RENDER_KWARGS"]

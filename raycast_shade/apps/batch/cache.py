@@ -11,6 +11,7 @@ A worker's cache is created by the batch's worker plugin (see
 from __future__ import annotations
 
 import collections
+import dataclasses
 import os
 import threading
 
@@ -23,7 +24,7 @@ from ...visibility.accel import embree_accel
 from .options import BatchOptions
 from .plan import FrameJob
 
-__all__ = ["SceneCache", "PLUGIN_NAME", "cache_of", "render_image", "render_job"]
+__all__ = ["SceneCache", "PLUGIN_NAME", "cache_of", "render_image", "render_job", "revalidated"]
 
 # Name of the Dask worker plugin that holds a worker's SceneCache.
 PLUGIN_NAME = "raycast-shade-batch"
@@ -87,12 +88,15 @@ def cache_of(worker) -> SceneCache | None:
     return None if plugin is None else plugin.cache
 
 
-def render_image(job: FrameJob, base: Scene, options: BatchOptions, cache: SceneCache) -> np.ndarray:
+def render_image(job: FrameJob, base: Scene, options: BatchOptions, cache: SceneCache, out=None) -> np.ndarray:
     """Render one job on its base scene, reusing (or building once) its geometry.
+
+    ``out``, an (H, W, 3) float32 array, receives the image (``render(out=)``).
 
     Returns
     -------
     (H, W, 3) float32
+        ``out`` when given.
     """
     if "geometry" not in base.__dict__:
         cache.count("builds")
@@ -100,7 +104,7 @@ def render_image(job: FrameJob, base: Scene, options: BatchOptions, cache: Scene
     if options.render_kwargs.get("caster", "auto") != "embreex" and options.render_kwargs.get("backend") != "raster":
         embree_accel(geometry)  # the BVH, built once per process and mesh set
     scene = base.replace(lights=job.lights, camera=job.camera, ambient=job.ambient, background=job.background)
-    frame = render(scene, options.shading, camera=job.camera, **options.render_kwargs)
+    frame = render(scene, options.shading, camera=job.camera, out=out, **options.render_kwargs)
     cache.count("renders")
     return frame.image
 
@@ -114,3 +118,17 @@ def render_job(job: FrameJob, base: Scene, options: BatchOptions, cache: SceneCa
     if job.path is None:
         return image
     return write_image(job.path, image, atomic=True, **options.tone)
+
+
+def revalidated(job: FrameJob) -> FrameJob:
+    """The job with its camera and lights rebuilt by their constructors.
+
+    Unpickled arrays lose their read-only flag, and Numba compiles (and
+    caches) a separate specialisation of every kernel for writeable arrays:
+    without this, each worker process would compile the whole renderer
+    again instead of loading the client's cache. The constructors mark the
+    validated arrays read-only again (ambient and background go through
+    :meth:`Scene.replace`, which does the same).
+    """
+    return dataclasses.replace(job, camera=dataclasses.replace(job.camera),
+                               lights=tuple(dataclasses.replace(light) for light in job.lights))

@@ -21,7 +21,6 @@ Imports :mod:`distributed`: loaded only for ``workers=`` or ``scheduler=``.
 from __future__ import annotations
 
 import collections
-import dataclasses
 import os
 import uuid
 
@@ -30,14 +29,13 @@ import numpy as np
 from distributed import WorkerPlugin, as_completed, get_worker
 
 from ...scene.scene import Scene
-from .cache import PLUGIN_NAME, SceneCache, cache_of, render_job
+from .cache import PLUGIN_NAME, SceneCache, cache_of, render_job, revalidated
 from .cluster import match_numba_threads
-from .options import BatchOptions
+from .options import WINDOW_BYTES, BatchOptions
 from .plan import FrameJob
 
 __all__ = ["SceneCachePlugin", "iter_dask", "auto_frames_per_task", "WINDOW_BYTES", "TASK_PIXELS"]
 
-WINDOW_BYTES = 256 << 20  # default bound on the images in flight or awaiting their turn
 # Pixels per task that frames_per_task=None aims at: about 0.25 s of one-thread rendering (20k triangles,
 # Phong), so that the ~5 ms of CPU a task costs the client, scheduler and worker (benchmarks/bench_batch.py)
 # stays near 2 %.
@@ -67,20 +65,6 @@ class SceneCachePlugin(WorkerPlugin):
         self.cache = None
 
 
-def _revalidated(job: FrameJob) -> FrameJob:
-    """The job with its camera and lights rebuilt by their constructors.
-
-    Unpickled arrays lose their read-only flag, and Numba compiles (and
-    caches) a separate specialisation of every kernel for writeable arrays:
-    without this, each worker would compile the whole renderer again
-    instead of loading the client's cache. The constructors mark the
-    validated arrays read-only again (ambient and background go through
-    :meth:`Scene.replace`, which does the same).
-    """
-    return dataclasses.replace(job, camera=dataclasses.replace(job.camera),
-                               lights=tuple(dataclasses.replace(light) for light in job.lights))
-
-
 def _run_chunk_on_worker(jobs, scene: Scene, options: BatchOptions, spool: str | None = None) -> list:
     """The Dask task: consecutive frames of one mesh set; ``scene`` is its
     scattered base scene. With ``spool`` (a folder), each image is saved
@@ -94,7 +78,7 @@ def _run_chunk_on_worker(jobs, scene: Scene, options: BatchOptions, spool: str |
     base = cache.base(jobs[0].key, scene)
     out = []
     for job in jobs:
-        result = render_job(_revalidated(job), base, options, cache)
+        result = render_job(revalidated(job), base, options, cache)
         if spool is not None and job.path is None:
             result = _spool(spool, job.index, result)
         out.append(result)

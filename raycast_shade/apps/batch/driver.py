@@ -1,4 +1,5 @@
-"""The batch entry points: check everything, plan, then run serially or on Dask."""
+"""The batch entry points: check everything, plan, then run in this process,
+on a pool of processes of this machine, or on Dask."""
 
 from __future__ import annotations
 
@@ -11,9 +12,15 @@ from ...output.imagefile import remove_stale_temps
 from .cache import SceneCache
 from .options import check_counts, check_options, check_shading_fits, check_transfer
 from .plan import plan_batch
+from .pool import ProcessPool, cores
 from .serial import iter_serial
 
-__all__ = ["iter_batch", "render_batch"]
+__all__ = ["iter_batch", "render_batch", "EXECUTORS", "LOCAL_EXECUTOR", "check_executor"]
+
+EXECUTORS = ("auto", "serial", "processes", "dask")
+# What executor="auto" runs for workers=N (the cores of this machine): the process pool, faster than
+# Dask's LocalCluster and than this process on 2 cores from 640x480 up (benchmarks/bench_batch.py).
+LOCAL_EXECUTOR = "processes"
 
 
 class _NoBar:
@@ -53,18 +60,43 @@ def _spool_folder(transfer: str, client, out_dir):
         shutil.rmtree(folder, ignore_errors=True)
 
 
+def check_executor(executor, workers, scheduler):
+    """``"serial"``, ``"processes"``, ``"dask"`` or the given :class:`ProcessPool`.
+
+    ``"auto"``: Dask with ``scheduler``, :data:`LOCAL_EXECUTOR` with
+    ``workers``, else this process.
+    """
+    if isinstance(executor, ProcessPool):
+        if workers is not None or scheduler is not None:
+            raise ValueError("executor: a ProcessPool has its own workers; give neither workers nor scheduler")
+        return executor
+    if not isinstance(executor, str):
+        raise TypeError(f"executor: expected one of {list(EXECUTORS)} or a ProcessPool, got {type(executor).__name__}")
+    kind = executor.lower()
+    if kind not in EXECUTORS:
+        raise ValueError(f"executor: expected one of {list(EXECUTORS)} or a ProcessPool, got {executor!r}")
+    if kind == "auto":
+        kind = "dask" if scheduler is not None else LOCAL_EXECUTOR if workers is not None else "serial"
+    if kind == "serial" and (workers is not None or scheduler is not None):
+        raise ValueError("workers: executor='serial' renders in this process; give neither workers nor scheduler")
+    if kind == "processes" and scheduler is not None:
+        raise ValueError("scheduler: executor='processes' runs on this machine; scheduler= is for Dask")
+    return kind
+
+
 def iter_batch(scene_or_scenes, cameras=None, lights=None, *, shading="phong", out_dir=None,
                pattern: str = "frame_{:05d}.png", workers: int | None = None, scheduler=None, progress: bool = True,
                retries: int = 2, resume: bool = True, tone: dict | None = None, numba_threads: int | None = None,
                frames_per_task: int | None = None, window: int | None = None, cache: SceneCache | None = None,
-               transfer: str = "auto", **render_kwargs):
+               transfer: str = "auto", executor="auto", **render_kwargs):
     """Render a batch, yielding each frame's result in frame order.
 
     Same parameters as :func:`render_batch`, plus ``window``: at most that
     many frames are in flight or held for reordering at once when images
-    are returned from Dask, which bounds memory for long animations
-    streamed to a writer (default: as many as fit in 256 MiB of float32
-    images, and at least 4 tasks per worker).
+    are returned from worker processes or Dask, which bounds memory for long
+    animations streamed to a writer (default: as many as fit in 256 MiB of
+    float32 images, and at least 4 tasks per Dask worker, 2 frames per
+    process of a pool).
 
     Yields
     ------
@@ -74,9 +106,11 @@ def iter_batch(scene_or_scenes, cameras=None, lights=None, *, shading="phong", o
     options = check_options(shading, render_kwargs, tone, resume)
     check_counts(retries, frames_per_task, window)
     transfer = check_transfer(transfer)
-    on_dask = workers is not None or scheduler is not None
-    if cache is not None and on_dask:
-        raise ValueError("cache: only for runs in this process; each Dask worker has its own (see worker_stats)")
+    kind = check_executor(executor, workers, scheduler)
+    if kind == "processes":
+        kind = ProcessPool(workers, numba_threads=numba_threads)  # checks both; starts on the first frame
+    if cache is not None and kind != "serial":
+        raise ValueError("cache: only for runs in this process; each worker process has its own")
     if cache is not None and not isinstance(cache, SceneCache):
         raise TypeError(f"cache: expected a SceneCache, got {type(cache).__name__}")
     bases, jobs = plan_batch(scene_or_scenes, cameras, lights, out_dir=out_dir, pattern=pattern)
@@ -89,12 +123,18 @@ def iter_batch(scene_or_scenes, cameras=None, lights=None, *, shading="phong", o
             done = {j.index for j in jobs if os.path.exists(j.path)}
     bar = _progress_bar(progress, len(jobs), len(done), f"{_label(options.shading)} frames")
     try:
-        if not on_dask:
+        if kind == "serial":
             yield from iter_serial(bases, jobs, done, options, SceneCache() if cache is None else cache, bar)
+            return
+        if isinstance(kind, ProcessPool):
+            with contextlib.nullcontext(kind) if kind is executor else kind:  # a pool made here closes here
+                yield from kind.run(bases, jobs, done, options, retries, window, bar)
             return
         from .cluster import connect
         from .dask_driver import iter_dask
 
+        if workers is None and scheduler is None:
+            workers = cores()  # executor="dask" alone: a local cluster, one worker per core
         with connect(workers, scheduler, numba_threads) as client, _spool_folder(transfer, client, out_dir) as spool:
             per_task = None if frames_per_task is None else int(frames_per_task)
             yield from iter_dask(client, bases, jobs, done, options, retries, window, per_task, bar, spool)
@@ -106,7 +146,8 @@ def render_batch(scene_or_scenes, cameras=None, lights=None, *, shading="phong",
                  pattern: str = "frame_{:05d}.png", workers: int | None = None, scheduler=None,
                  progress: bool = True, retries: int = 2, resume: bool = True, tone: dict | None = None,
                  numba_threads: int | None = None, frames_per_task: int | None = None,
-                 cache: SceneCache | None = None, transfer: str = "auto", **render_kwargs) -> list:
+                 cache: SceneCache | None = None, transfer: str = "auto", executor="auto",
+                 **render_kwargs) -> list:
     """Render many frames, in order.
 
     Each of ``scene_or_scenes``, ``cameras`` and ``lights`` is one value
@@ -134,24 +175,27 @@ def render_batch(scene_or_scenes, cameras=None, lights=None, *, shading="phong",
         ``.jpg``, ... (8-bit, tone-mapped with ``tone``), ``.pfm`` or
         ``.npy`` (linear float32).
     workers : int, optional
-        Render on a local Dask cluster of this many single-threaded worker
-        processes.
+        Render in this many worker processes of this machine: a
+        :class:`ProcessPool` (``executor="auto"`` or ``"processes"``), or a
+        local Dask cluster (``executor="dask"``). Default with those: one
+        per core.
     scheduler : str or distributed.Client, optional
         Render on an existing Dask cluster: its scheduler address
         (``"tcp://host:8786"``) or a connected client.
     progress : bool
         Show a tqdm progress bar (when tqdm is installed).
     retries : int
-        Times a frame whose render raised is re-run (Dask only). A frame
-        whose worker died is re-run on another worker regardless (up to
-        Dask's ``distributed.scheduler.allowed-failures``).
+        Times a frame whose render raised is re-run (worker processes and
+        Dask; this process raises at once). A frame whose worker died is
+        re-run on another worker regardless (up to Dask's
+        ``distributed.scheduler.allowed-failures``; 3 deaths on a pool).
     resume : bool
         With ``out_dir``: skip frames whose file exists.
     tone : dict, optional
         :func:`raycast_shade.to_uint8` options for 8-bit files:
         ``exposure``, ``tonemap``, ``gamma``.
     numba_threads : int, optional
-        Numba threads per worker of a ``workers=`` cluster (default: cores
+        Numba threads per worker process of this machine (default: cores
         divided by workers).
     frames_per_task : int, optional
         Consecutive frames rendered by one Dask task. Each task costs about
@@ -170,6 +214,14 @@ def render_batch(scene_or_scenes, cameras=None, lights=None, *, shading="phong",
         folder of this process (``tempfile``), which the workers must see;
         ``"auto"`` (default) the folder on a ``workers=`` or
         :func:`local_cluster` cluster, Dask's comms on any other.
+    executor : {"auto", "serial", "processes", "dask"} or ProcessPool
+        Where frames render. ``"serial"``: this process. ``"processes"``:
+        a :class:`ProcessPool` of ``workers`` single-threaded processes,
+        started for the batch (interpreter start and Numba cache load, about
+        1-2 s) and stopped after it; pass a started pool to reuse one.
+        ``"dask"``: a local Dask cluster of ``workers`` processes, or
+        ``scheduler``'s. ``"auto"`` (default): Dask with ``scheduler``, the
+        process pool with ``workers``, else this process.
     **render_kwargs
         ``backend``, ``interpolation``, ``caster``, ``max_depth``,
         ``tolerance`` of :func:`raycast_shade.render`.
@@ -184,8 +236,13 @@ def render_batch(scene_or_scenes, cameras=None, lights=None, *, shading="phong",
     ------
     TypeError, ValueError
         For a bad argument, naming it, before any frame renders.
+    FrameError
+        From worker processes: a frame's render raised ``retries + 1``
+        times (its index, the exception's message and the worker's
+        traceback; the exception itself as ``__cause__``), or its worker
+        died 3 times. Dask raises the frame's exception itself.
     """
     return list(iter_batch(scene_or_scenes, cameras, lights, shading=shading, out_dir=out_dir, pattern=pattern,
                            workers=workers, scheduler=scheduler, progress=progress, retries=retries, resume=resume,
                            tone=tone, numba_threads=numba_threads, frames_per_task=frames_per_task, cache=cache,
-                           transfer=transfer, **render_kwargs))
+                           transfer=transfer, executor=executor, **render_kwargs))

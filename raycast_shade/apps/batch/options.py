@@ -15,13 +15,14 @@ import numpy as np
 from ...scene.scenefile import RENDER_KEYS, SIZE_KEYS, TONE_KEYS, check_render_options
 
 __all__ = ["BatchOptions", "RENDER_KWARGS", "TRANSFERS", "check_options", "check_counts", "check_shading_fits",
-           "check_transfer"]
+           "check_transfer", "WINDOW_BYTES"]
 
 # render() keywords a batch passes on; the camera (hence the size) is per frame.
 RENDER_KWARGS = tuple(k for k in RENDER_KEYS if k not in ("shading",) + SIZE_KEYS + TONE_KEYS)
 # How images return from Dask workers: "disk" through a temporary folder, "dask" through its comms,
 # "auto" the folder on a cluster of this machine (see dask_driver).
 TRANSFERS = ("auto", "dask", "disk")
+WINDOW_BYTES = 256 << 20  # default bound on the images in flight or awaiting their turn
 
 
 @dataclass(frozen=True, eq=False)
