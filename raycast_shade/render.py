@@ -9,7 +9,8 @@ import numpy as np
 
 from .scene.camera import Camera
 from .visibility.accel import embree_accel, has_embree_accel
-from .visibility.bands import BAND_ROWS, cast_bands
+from .visibility import bands
+from .visibility.bands import cast_bands
 from .visibility.cast import cast_camera, resolve_caster, secondary_rays
 from .visibility.hits import image_buffer
 from .visibility.interpolation import to_screen_space
@@ -97,9 +98,9 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
 
     Notes
     -----
-    A frame whose models are all Phong-shaded, with one ray per pixel, the
-    packet caster, perspective-correct weights and no buffer, term or mirror
-    bounce, is cast and shaded in bands of rows
+    A frame of at least 2**19 pixels whose models are all Phong-shaded, with
+    one ray per pixel, the packet caster, perspective-correct weights and no
+    buffer, term or mirror bounce, is cast and shaded in bands of 128 rows
     (:mod:`raycast_shade.visibility.bands`): it never holds a full-frame hit
     buffer, and ``frame.hits`` is cast again the first time it is read (the
     same buffer, bit for bit; ``frame.mask`` is kept). The image is the
@@ -269,11 +270,14 @@ def _render_one(scene, plan: _Plan, timings: dict):
 def _banded(scene, plan: _Plan, terms) -> bool:
     """Whether the frame is cast and shaded band by band (:func:`_render_bands`): one Phong-shaded
     ray per pixel, by the packet caster with perspective-correct weights, asking for no buffer,
-    term or mirror bounce (each of those reads the whole frame's hits), taller than one band."""
+    term or mirror bounce (each of those reads the whole frame's hits), taller than one band and
+    of at least :data:`~raycast_shade.visibility.bands.MIN_PIXELS` pixels."""
     phong = plan.shading == "phong" or (not isinstance(plan.shading, str) and set(plan.shading) == {"phong"})
+    cam = plan.camera
     return (phong and plan.samples == 1 and plan.backend == "raycast" and plan.caster == "embree"
             and plan.interpolation == "perspective" and not plan.buffers and terms is None
-            and not (scene.geometry.reflective and plan.max_depth > 0) and plan.camera.height > BAND_ROWS)
+            and not (scene.geometry.reflective and plan.max_depth > 0) and cam.height > bands.BAND_ROWS
+            and cam.width * cam.height >= bands.MIN_PIXELS)
 
 
 def _render_bands(scene, plan: _Plan, timings: dict):
@@ -291,7 +295,7 @@ def _render_bands(scene, plan: _Plan, timings: dict):
     shader = SampleShading(scene, camera, plan.shading)
     tc = time.perf_counter()
     cast = shade = 0.0
-    for y, band in cast_bands(scene.geometry, camera):
+    for y, band in cast_bands(scene.geometry, camera, bands.BAND_ROWS):
         ts = time.perf_counter()
         cast += ts - tc
         rows = slice(y, y + band.shape[0])

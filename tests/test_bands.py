@@ -29,6 +29,13 @@ from test_watertight import _vertex_grid  # noqa: E402  (the failure catalogue's
 RENDER = sys.modules["raycast_shade.render"]
 
 
+@pytest.fixture
+def small_bands(monkeypatch):
+    """The band path for this file's small frames, in bands of 16 rows (several per frame)."""
+    monkeypatch.setattr(bands, "BAND_ROWS", 16)
+    monkeypatch.setattr(bands, "MIN_PIXELS", 0)
+
+
 def _grid_scene(width=130, height=98):
     """Every pixel ray passes through a vertex or an edge of a grid, a plane behind it:
     dozens of rays slip and are repaired, on rows all over the image."""
@@ -103,6 +110,7 @@ def _textured_sphere(**cam):
 
 @pytest.mark.parametrize("cam", [dict(fov=45.0), dict(projection="orthographic", ortho_height=3.0),
                                  dict(fx=120.0, fy=125.0, cx=40.3, cy=90.7)], ids=["perspective", "ortho", "intrinsics"])
+@pytest.mark.usefixtures("small_bands")
 def test_a_banded_frame_is_the_whole_frame_bit_for_bit(cam):
     """Textures (whose footprint needs each pixel's image row), shadows, both projections and a
     shifted principal point: the band path's image, mask and (cast again) hits are the whole
@@ -117,6 +125,7 @@ def test_a_banded_frame_is_the_whole_frame_bit_for_bit(cam):
     assert set(banded.timings) >= {"cast", "shade", "total"}
 
 
+@pytest.mark.usefixtures("small_bands")
 def test_the_vertex_grid_renders_the_same_banded():
     banded, whole = _both(_grid_scene())
     np.testing.assert_array_equal(banded.image, whole.image)
@@ -125,11 +134,13 @@ def test_the_vertex_grid_renders_the_same_banded():
 
 @pytest.mark.parametrize("kw", [dict(buffers=("zdepth",)), dict(terms=True), dict(samples=2),
                                 dict(interpolation="screen"), dict(backend="raster")])
+@pytest.mark.usefixtures("small_bands")
 def test_frames_that_need_the_whole_hit_buffer_keep_it(kw):
     frame = rs.render(_textured_sphere(fov=45.0), "phong", **kw)
     assert not callable(frame.__dict__["_hits"])
 
 
+@pytest.mark.usefixtures("small_bands")
 def test_flat_gouraud_and_mirror_frames_are_not_banded():
     scene = _textured_sphere(fov=45.0)
     for shading in ("flat", "gouraud", ("phong", "gouraud")):
@@ -139,6 +150,7 @@ def test_flat_gouraud_and_mirror_frames_are_not_banded():
     assert callable(rs.render(shiny, "phong", max_depth=0).__dict__["_hits"])
 
 
+@pytest.mark.usefixtures("small_bands")
 def test_the_deferred_hit_buffer_is_cast_once_for_every_thread():
     frame = rs.render(_textured_sphere(fov=45.0), "phong")
     calls = []
@@ -160,6 +172,7 @@ def test_the_deferred_hit_buffer_is_cast_once_for_every_thread():
     assert frame.depth.shape == frame.mask.shape == (150, 101)
 
 
+@pytest.mark.usefixtures("small_bands")
 def test_a_new_tone_does_not_cast_the_hits():
     frame = rs.render(_textured_sphere(fov=45.0), "phong")
     toned = frame.with_tone({"exposure": 2.0})
@@ -168,6 +181,7 @@ def test_a_new_tone_does_not_cast_the_hits():
     np.testing.assert_array_equal(toned.to_uint8(), rs.to_uint8(frame.image, exposure=2.0))
 
 
+@pytest.mark.usefixtures("small_bands")
 def test_a_frame_mask_is_a_fresh_array():
     frame = rs.render(_textured_sphere(fov=45.0), "phong")
     m = frame.mask
@@ -206,6 +220,7 @@ def test_a_banded_frame_allocates_the_image_not_the_hit_buffer():
 
 @pytest.mark.parametrize("kw", [dict(), dict(buffers=("zdepth",)), dict(samples=5), dict(backend="raster")],
                          ids=["banded", "whole", "samples", "raster"])
+@pytest.mark.usefixtures("small_bands")
 def test_out_receives_the_image_of_a_fresh_render(kw):
     scene = _textured_sphere(fov=45.0)
     fresh = rs.render(scene, "phong", **kw)
@@ -226,3 +241,14 @@ def test_a_bad_out_is_refused_naming_it(out, exc):
     ro.setflags(write=False)
     with pytest.raises(ValueError, match="out"):
         rs.render(_textured_sphere(fov=45.0), "phong", out=ro)
+
+
+def test_only_large_frames_are_banded():
+    """Below MIN_PIXELS (or one band tall) the whole-frame path runs: its hit buffer is small and
+    a band's parallel launches would cost more than they save."""
+    scene = _textured_sphere(fov=45.0)
+    small = rs.render(scene, "phong")  # 101 x 150
+    assert 101 * 150 < bands.MIN_PIXELS and not callable(small.__dict__["_hits"])
+    side = int(np.ceil(np.sqrt(bands.MIN_PIXELS)))
+    big = rs.render(scene, "phong", camera=scene.camera.replace(width=side, height=side))
+    assert side > bands.BAND_ROWS and callable(big.__dict__["_hits"])

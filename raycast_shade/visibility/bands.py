@@ -2,7 +2,7 @@
 
 A frame that asks for no per-pixel buffer needs its hits only while it shades
 them. :func:`cast_bands` casts the frame in bands of :data:`BAND_ROWS` rows
-into one small window (a few MB at any width, reused by every band), repairs
+into one small window (5 MB at 1920 pixels a row, 20 MB at 7680, reused by every band), repairs
 each band's slipped rays (:mod:`.holes`) and hands it over finished, so the
 frame never holds a full-frame hit buffer (20 bytes a pixel: 663 MB at
 7680x4320) and never page-faults one in.
@@ -30,12 +30,16 @@ from .hits import HitBuffer, image_buffer
 from .holes import fill_holes
 from .rays import camera_frame
 
-__all__ = ["cast_bands", "BAND_ROWS"]
+__all__ = ["cast_bands", "BAND_ROWS", "MIN_PIXELS"]
 
-# Rows per band: a multiple of the tile height. 64 rows of 1920 pixels are 2.5 MB of hits, inside one
-# core's L2 (2 MB) plus the shared cache; chosen by measurement (docs/performance.md).
-BAND_ROWS = 64
+# Rows per band: a multiple of the tile height. Measured on 2 cores (docs/performance.md): at 1080p
+# bands of 128 or 256 rows beat the whole frame by 8-12%, 64 rows lose (each band is three parallel
+# launches, and a launch that wakes sleeping workers costs about 0.1 ms here).
+BAND_ROWS = 128
 assert BAND_ROWS % _TILE_H == 0
+# Smaller frames keep the whole-frame path: its hit buffer is under 10 MB, and there bands gain
+# nothing (1280x720: equal) or lose a little (640x480: 3-5%).
+MIN_PIXELS = 1 << 19
 
 
 def cast_bands(geometry, camera, rows: int = BAND_ROWS):
