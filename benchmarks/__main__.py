@@ -39,8 +39,9 @@ REGISTRY = [
          doc_flag="--no-docs"),  # it also rewrites a block of docs/accuracy.md
     dict(name="auto", module="benchmarks.bench_auto", title="Auto mode against single methods",
          csv=["auto.csv"], images=[]),
-    dict(name="batch", module="benchmarks.bench_batch", title="Batch rendering: serial against Dask workers",
-         csv=["batch.csv"], images=[]),
+    dict(name="batch", module="benchmarks.bench_batch",
+         title="Batch rendering: serial against the process pool and Dask workers",
+         csv=["batch.csv", "batch_pool.csv"], images=["batch_scaling.png", "batch_pool.png"]),
     dict(name="surfaces", module="benchmarks.bench_surfaces",
          title="Surfaces: two shadowing lights and a mirror against the primary-only frame",
          csv=["surfaces.csv"], images=[]),

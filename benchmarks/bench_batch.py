@@ -37,6 +37,7 @@ import csv
 import os
 import pickle
 import statistics
+import tempfile
 import time
 
 from benchmarks.outputs import ROOT, images_dir, results_file
@@ -190,6 +191,19 @@ def bench_pool(cases, repeats: int):
             for name in variants:
                 note = "pool: start-up included" if name.endswith("new pool") else "pool: steady state"
                 rows.append(_row(name, 2, 1, w, h, frames, times[name], ratios[name], note, load=load))
+            # The frames written as PNG files (an animation's batch): the pool's workers encode and
+            # write in parallel, the serial batch in turn with its rendering.
+            def written(**kw):
+                with tempfile.TemporaryDirectory() as out:
+                    render_batch(scene, cams, out_dir=out, progress=False, **kw)
+
+            load = _load()
+            times, ratios = _interleaved(written, {"processes": lambda: written(executor=pool)}, repeats)
+            load = f"{load}-{_load()}"
+            rows.append(_row("serial, PNG files", 0, numba.get_num_threads(), w, h, frames, times["serial"], 1.0,
+                             "pool: this process, out_dir", load=load))
+            rows.append(_row("processes, PNG files", 2, 1, w, h, frames, times["processes"], ratios["processes"],
+                             "pool: steady state, out_dir (written by the workers)", load=load))
             cpu = {}
             c0 = _cpu()
             render_batch(scene, cams, progress=False)
@@ -220,7 +234,8 @@ def chart_pool(rows, path):
         return None
     fig, ax = plt.subplots(figsize=(6.4, 3.8), dpi=100)
     labels = {"processes": "process pool (steady state)", "processes, new pool": "process pool, start-up included",
-              "dask": "Dask LocalCluster (steady state)"}
+              "dask": "Dask LocalCluster (steady state)",
+              "processes, PNG files": "process pool writing PNG files (against serial writing them)"}
     sizes = sorted({(r["width"], r["height"]) for r in pool_rows})
     for i, (mode, label) in enumerate(labels.items()):
         pts = [next(r["speedup"] for r in pool_rows if r["mode"] == mode and (r["width"], r["height"]) == s)
