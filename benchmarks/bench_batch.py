@@ -232,7 +232,7 @@ def chart_pool(rows, path):
                  and r["mode"] != "serial"]
     if not pool_rows:
         return None
-    fig, ax = plt.subplots(figsize=(6.4, 3.8), dpi=100)
+    fig, ax = plt.subplots(figsize=(6.4, 4.8), dpi=100)
     labels = {"processes": "process pool (steady state)", "processes, new pool": "process pool, start-up included",
               "dask": "Dask LocalCluster (steady state)",
               "processes, PNG files": "process pool writing PNG files (against serial writing them)"}
@@ -250,7 +250,7 @@ def chart_pool(rows, path):
     loads = [r["load"] for r in pool_rows]
     ax.set_title(f"2 single-threaded workers on 2 cores, load {loads[0].split('-')[0]}-{loads[-1].split('-')[-1]}")
     ax.set_ylim(bottom=0)
-    ax.legend(fontsize=8, loc="lower right")
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=2)
     fig.tight_layout()
     os.makedirs(os.path.dirname(path), exist_ok=True)
     fig.savefig(path)
