@@ -8,24 +8,10 @@ import logging
 import os
 import warnings
 
-import numpy as np
-
 from .cache import SceneCache, cache_of
+from .options import check_positive, cores
 
 __all__ = ["local_cluster", "connect", "is_local", "match_numba_threads", "worker_stats", "reset_worker_stats"]
-
-
-def _cores() -> int:
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # pragma: no cover - not Linux
-        return os.cpu_count() or 1
-
-
-def _positive(value, name: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-        raise ValueError(f"{name}: expected an integer > 0, got {value!r}")
-    return int(value)
 
 
 @contextlib.contextmanager
@@ -50,10 +36,10 @@ def local_cluster(n_workers: int, *, numba_threads: int | None = None, **cluster
     ------
     distributed.Client
     """
-    n_workers = _positive(n_workers, "workers")
+    n_workers = check_positive(n_workers, "workers")
     if numba_threads is None:
-        numba_threads = max(1, _cores() // n_workers)
-    numba_threads = _positive(numba_threads, "numba_threads")
+        numba_threads = max(1, cores() // n_workers)
+    numba_threads = check_positive(numba_threads, "numba_threads")
     try:
         from distributed import Client, LocalCluster
     except ImportError as exc:

@@ -8,13 +8,14 @@ scene file, :func:`raycast_shade.render_file` and the command line accept.
 from __future__ import annotations
 
 import dataclasses
+import os
 from dataclasses import dataclass
 
 import numpy as np
 
 from ...scene.scenefile import RENDER_KEYS, SIZE_KEYS, TONE_KEYS, check_render_options
 
-__all__ = ["BatchOptions", "RENDER_KWARGS", "TRANSFERS", "check_options", "check_counts", "check_shading_fits",
+__all__ = ["cores", "check_positive", "BatchOptions", "RENDER_KWARGS", "TRANSFERS", "check_options", "check_counts", "check_shading_fits",
            "check_transfer", "WINDOW_BYTES"]
 
 # render() keywords a batch passes on; the camera (hence the size) is per frame.
@@ -47,6 +48,21 @@ class BatchOptions:
     render_kwargs: dict = dataclasses.field(default_factory=dict)
     tone: dict = dataclasses.field(default_factory=dict)
     resume: bool = True
+
+
+def cores() -> int:
+    """Cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not Linux
+        return os.cpu_count() or 1
+
+
+def check_positive(value, name: str) -> int:
+    """``value`` as an int ``> 0`` (NumPy integers too); ValueError naming ``name`` otherwise."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+        raise ValueError(f"{name}: expected an integer > 0, got {value!r}")
+    return int(value)
 
 
 def check_options(shading, render_kwargs: dict, tone, resume) -> BatchOptions:

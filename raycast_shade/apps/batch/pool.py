@@ -46,7 +46,7 @@ from multiprocessing import connection, shared_memory
 import numpy as np
 
 from .cache import SceneCache, render_image, render_job, revalidated
-from .options import WINDOW_BYTES, BatchOptions
+from .options import WINDOW_BYTES, BatchOptions, check_positive, cores
 
 __all__ = ["ProcessPool", "FrameError", "ALLOWED_FAILURES", "cores", "worker_main"]
 
@@ -68,20 +68,6 @@ class FrameError(RuntimeError):
     def __init__(self, index: int, message: str):
         super().__init__(f"frame {index}: {message}")
         self.index = index
-
-
-def cores() -> int:
-    """Cores this process may run on."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # pragma: no cover - not Linux
-        return os.cpu_count() or 1
-
-
-def _positive(value, name: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-        raise ValueError(f"{name}: expected an integer > 0, got {value!r}")
-    return int(value)
 
 
 # -- the worker ------------------------------------------------------------------------------------------
@@ -248,9 +234,9 @@ class ProcessPool:
     """
 
     def __init__(self, workers: int | None = None, *, numba_threads: int | None = None):
-        self.n_workers = cores() if workers is None else _positive(workers, "workers")
+        self.n_workers = cores() if workers is None else check_positive(workers, "workers")
         default = max(1, cores() // self.n_workers)
-        self.numba_threads = default if numba_threads is None else _positive(numba_threads, "numba_threads")
+        self.numba_threads = default if numba_threads is None else check_positive(numba_threads, "numba_threads")
         self._workers: list = []
         self._running = False  # a batch is under way (one at a time)
         self._batch = None  # (bases, todo, options) of the batch under way, for a replaced worker
