@@ -19,8 +19,10 @@ __all__ = []
 
 
 @njit(**HELPER)
-def _bilinear(tex, base, rows, cols, clamp, x, y):
-    """Bilinear sample at texel coordinates (x, y) (texel centres at integers)."""
+def _texel_corners(rows, cols, clamp, x, y):
+    """The four texels around texel coordinates (x, y) (centres at integers) of a
+    ``rows`` x ``cols`` grid, clamped to its border or wrapped, and the weights'
+    fractions: ``i0, i1, j0, j1, tx, ty``. Shared by the height and colour samplers."""
     j0 = math.floor(x)
     i0 = math.floor(y)
     tx = x - j0
@@ -39,6 +41,13 @@ def _bilinear(tex, base, rows, cols, clamp, x, y):
         j1 %= cols
         i0 %= rows
         i1 %= rows
+    return i0, i1, j0, j1, tx, ty
+
+
+@njit(**HELPER)
+def _bilinear(tex, base, rows, cols, clamp, x, y):
+    """Bilinear sample at texel coordinates (x, y) (texel centres at integers)."""
+    i0, i1, j0, j1, tx, ty = _texel_corners(rows, cols, clamp, x, y)
     a = tex[base + i0 * cols + j0] * (1.0 - tx) + tex[base + i0 * cols + j1] * tx
     b = tex[base + i1 * cols + j0] * (1.0 - tx) + tex[base + i1 * cols + j1] * tx
     return a * (1.0 - ty) + b * ty

@@ -31,6 +31,7 @@ from numba import njit, prange
 from ..common.layout import (CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH, COLOR_FACE,
                              COLOR_VERTEX, MAT_KA, MAT_KD, MAT_KS, TEX_CLAMP, TEX_HEIGHT, TEX_LEVELS, TEX_MIPMAP,
                              TEX_OFFSET, TEX_TILE_U, TEX_TILE_V, TEX_WIDTH, TEXMAP_KA, TEXMAP_KD, TEXMAP_KS)
+from .bump import _texel_corners
 from .jit import HELPER, JIT
 
 __all__ = ["texture_levels", "variant_for"]
@@ -49,24 +50,7 @@ def variant_for(plain, textured, k):
 def _bilinear3(tex, base, w, h, clamp, x, y):
     """Bilinear RGB at texel coordinates (x, y) (centres at integers) of a
     (h, w, 3) level stored from ``base``."""
-    j0 = math.floor(x)
-    i0 = math.floor(y)
-    tx = x - j0
-    ty = y - i0
-    j0 = int(j0)
-    i0 = int(i0)
-    j1 = j0 + 1
-    i1 = i0 + 1
-    if clamp:
-        j0 = min(max(j0, 0), w - 1)
-        j1 = min(max(j1, 0), w - 1)
-        i0 = min(max(i0, 0), h - 1)
-        i1 = min(max(i1, 0), h - 1)
-    else:
-        j0 %= w
-        j1 %= w
-        i0 %= h
-        i1 %= h
+    i0, i1, j0, j1, tx, ty = _texel_corners(h, w, clamp, x, y)
     a00 = base + 3 * (i0 * w + j0)
     a01 = base + 3 * (i0 * w + j1)
     a10 = base + 3 * (i1 * w + j0)
