@@ -10,7 +10,6 @@ import numpy as np
 from .scene.camera import Camera
 from .visibility.accel import embree_accel, has_embree_accel
 from .visibility import bands
-from .visibility.bands import cast_bands
 from .visibility.cast import cast_camera, resolve_caster, secondary_rays
 from .visibility.hits import image_buffer
 from .visibility.interpolation import to_screen_space
@@ -295,7 +294,7 @@ def _render_bands(scene, plan: _Plan, timings: dict):
     shader = SampleShading(scene, camera, plan.shading)
     tc = time.perf_counter()
     cast = shade = 0.0
-    for y, band in cast_bands(scene.geometry, camera, bands.BAND_ROWS):
+    for y, band in bands.cast_bands(scene.geometry, camera, bands.BAND_ROWS):
         ts = time.perf_counter()
         cast += ts - tc
         rows = slice(y, y + band.shape[0])

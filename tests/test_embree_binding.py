@@ -351,7 +351,7 @@ def test_without_the_binding_shadows_and_mirrors_are_refused_before_any_kernel(m
     _unbind(monkeypatch)
     ran = []
     monkeypatch.setattr(render_mod, "cast_camera", lambda *a, **k: ran.append("cast"))
-    monkeypatch.setattr(render_mod, "cast_bands", lambda *a, **k: ran.append("bands"))
+    monkeypatch.setattr(render_mod.bands, "cast_bands", lambda *a, **k: ran.append("bands"))
     monkeypatch.setattr(render_mod, "SampleShading", lambda *a, **k: ran.append("shade"))
     for caster in ("auto", "embreex"):
         with pytest.raises(RuntimeError, match=needs + r".* need the direct Embree binding .*unavailable: " + _WHY):

@@ -25,9 +25,8 @@ from __future__ import annotations
 import numpy as np
 
 from .accel import embree_accel
-from .cast import _TILE_H, _cast_camera_kernel, cast_camera, cast_points, check_camera_reach
+from .cast import _TILE_H, _cast_camera_kernel, _fill_holes, cast_camera, check_camera_reach
 from .hits import HitBuffer, image_buffer
-from .holes import fill_holes
 from .rays import camera_frame
 
 __all__ = ["cast_bands", "BAND_ROWS", "MIN_PIXELS"]
@@ -77,10 +76,6 @@ def cast_bands(geometry, camera, rows: int = BAND_ROWS):
     cam = camera_frame(camera, geometry.origin)
     handle = embree_accel(geometry).handle
     win = image_buffer(None, rows + 2, w)  # the row above the band, the last band's last row, then new rows
-
-    def cast(xs, ys):
-        return cast_points(geometry, cam, xs, ys)
-
     top = 0  # window rows before the new ones: 0 for the first band, then 2
     g = 0  # image row of the first new row (a multiple of the tile height)
     above = np.empty(w, np.int32), np.empty(w, np.float32)  # prim, t of the last finished row, as cast
@@ -94,7 +89,7 @@ def cast_bands(geometry, camera, rows: int = BAND_ROWS):
             above[0][:] = win.prim[n - 2]
             above[1][:] = win.t[n - 2]
         window = HitBuffer(*(a[:n] for a in win))
-        fill_holes(geometry, cam, window, cast, rows=(lo, hi), y0=g - top)
+        _fill_holes(geometry, cam, window, "embree", rows=(lo, hi), y0=g - top)
         yield g - top + lo, HitBuffer(*(a[lo:hi] for a in win))
         if last:
             return

@@ -341,12 +341,6 @@ def check_camera_reach(geometry, camera) -> None:
     embree.check_range(reach, "camera.eye")
 
 
-def cast_points(geometry, cam, xs, ys, caster="embree") -> HitBuffer:
-    """The caster's hits for the rays through image points ``(xs + 0.5, ys + 0.5)``
-    ((n,) float64 each) of the packed camera ``cam``: (n,) arrays."""
-    return _cast_points(geometry, cam, xs, ys, caster)
-
-
 def _cast_points(geometry, cam, xs, ys, caster) -> HitBuffer:
     """The caster's hits for rays through image points (not pixel centres)."""
     o, d = rays_at(cam, xs, ys)
@@ -363,9 +357,10 @@ def _cast_points(geometry, cam, xs, ys, caster) -> HitBuffer:
                      t=np.where(geom < 0, np.inf, res["tfar"]).astype(np.float32))
 
 
-def _fill_holes(geometry, cam, hits, caster):
-    """Re-test the pixels whose ray may have slipped through a vertex (:mod:`.holes`); in place."""
-    fill_holes(geometry, cam, hits, lambda xs, ys: _cast_points(geometry, cam, xs, ys, caster))
+def _fill_holes(geometry, cam, hits, caster, rows=None, y0=0):
+    """Re-test the pixels whose ray may have slipped through a vertex (:mod:`.holes`); in place.
+    ``rows``, ``y0``: a band of the image (see :func:`.holes.fill_holes`)."""
+    fill_holes(geometry, cam, hits, lambda xs, ys: _cast_points(geometry, cam, xs, ys, caster), rows, y0)
 
 
 def run_embreex(embreex_scene, origins, directions, threads: int = 2):
