@@ -17,7 +17,7 @@ from raycast_shade.apps.cli import main
 from raycast_shade.output.imagefile import write_png as _write_png
 from raycast_shade.scene.scenefile import load_scene
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = ROOT / "examples"
 
 SCENE = """\

@@ -15,7 +15,7 @@ from raycast_shade.apps.views import INDEX_NAME, render_views
 from raycast_shade.output.bufferfile import load_npz, read_depth_png, read_exr
 
 W, H = 40, 30
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
 @pytest.fixture(scope="module")

@@ -13,8 +13,7 @@ from raycast_shade.visibility import cast, holes
 from raycast_shade.visibility.accel import embree_accel
 from raycast_shade.visibility.rays import camera_frame
 
-sys.path.insert(0, os.path.dirname(__file__))
-from test_watertight import _vertex_grid  # noqa: E402
+from tests.visibility.test_watertight import _vertex_grid
 
 _CHILD = r"""
 import os, sys

@@ -354,7 +354,7 @@ def test_demo_and_examples_fire_no_shading_warning():
     from raycast_shade.apps.demo import render_demo_frames
     from raycast_shade.scene.scenefile import load_scene
 
-    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     with quiet():
         frames = render_demo_frames(96, 32)  # flat and Gouraud ignore the egg's bumps on purpose
         assert [f.shading for f in frames] == ["flat", "gouraud", "phong"]

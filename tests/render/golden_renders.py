@@ -7,7 +7,7 @@ image, the hit buffer, the shading normals and the depth are hashed.
 
 ``tests/data/golden_hashes.json`` was written by this module on the code
 before the stage-package refactor; a change that moves code must leave every
-hash as it is. Regenerate it (``python tests/golden_renders.py --write``) only
+hash as it is. Regenerate it (``python -m tests.render.golden_renders --write``) only
 for a change that means to alter images, and say which and why in its commit.
 """
 
@@ -24,7 +24,7 @@ import numpy as np
 import raycast_shade as rs
 from raycast_shade.apps.demo import demo_scene
 
-HASHES = pathlib.Path(__file__).parent / "data" / "golden_hashes.json"
+HASHES = pathlib.Path(__file__).parents[1] / "data" / "golden_hashes.json"
 
 
 def digest(*arrays) -> str:
@@ -90,4 +90,4 @@ if __name__ == "__main__":
     if sys.argv[1:] == ["--write"]:
         HASHES.write_text(json.dumps(render_hashes(), indent=1, sort_keys=True) + "\n")
     else:
-        sys.exit("usage: python tests/golden_renders.py --write")
+        sys.exit("usage: python -m tests.render.golden_renders --write")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 
-from golden_renders import HASHES, render_hashes
+from tests.render.golden_renders import HASHES, render_hashes
 
 
 def test_every_golden_render_is_bit_identical():

@@ -14,7 +14,7 @@ import raycast_shade as rs
 from raycast_shade.visibility.accel import embree_accel, embreex_scene, has_embree_accel
 from raycast_shade.study.reference import hit_points
 
-from conftest import camera_rays
+from tests.conftest import camera_rays
 
 
 def _models(offset):

@@ -12,7 +12,7 @@ import raycast_shade as rs
 from raycast_shade.scene.scenefile import (RENDER_KEYS, SceneFileError, check_render_options, load_scene,
                                            scene_from_dict, split_options)
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = ROOT / "examples"
 
 # One tetrahedron, counter-clockwise from outside, no normals stored.

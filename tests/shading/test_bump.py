@@ -21,7 +21,7 @@ import pytest
 import raycast_shade as rs
 from raycast_shade.scene.heightmap import tangent_frames
 
-from conftest import down_camera, plane_hits
+from tests.conftest import down_camera, plane_hits
 
 RES = 64  # texels of the baked linear height maps (central differences are exact on them)
 

@@ -32,7 +32,7 @@ from raycast_shade.study.metrics import compare, convergence_order, angular_step
 from raycast_shade.study.reference import hit_points, illuminate_reference, shade_reference
 from raycast_shade.visibility.rays import camera_frame
 
-from conftest import RTOL32, camera_rays, plane_hits
+from tests.conftest import RTOL32, camera_rays, plane_hits
 
 
 def _scene(models, lights=(), camera=None, ambient=0.0, background=0.0):

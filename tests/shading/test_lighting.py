@@ -21,7 +21,7 @@ import pytest
 import raycast_shade as rs
 from raycast_shade.study.reference import hit_points, shade_reference
 
-from conftest import RTOL32, camera_rays, down_camera, lit_scene, plane_hits
+from tests.conftest import RTOL32, camera_rays, down_camera, lit_scene, plane_hits
 
 KD = np.array([0.7, 0.5, 0.3])
 COLOR = np.array([1.0, 0.8, 0.6])

@@ -9,7 +9,7 @@ import pytest
 import raycast_shade as rs
 from raycast_shade.study.reference import hit_points, shade_reference, shading_normals_reference
 
-from conftest import RTOL32, camera_rays, lit_scene
+from tests.conftest import RTOL32, camera_rays, lit_scene
 
 W, H = 96, 72
 

@@ -7,7 +7,7 @@ import pytest
 
 import raycast_shade as rs
 from raycast_shade.study.reference import illuminate_reference
-from test_terms import MODES, SCENES, lamp_scene, render_quiet
+from tests.shading.test_terms import MODES, SCENES, lamp_scene, render_quiet
 
 # explain() works in float64 from the same float32 hit buffer; the kernels store float32:
 # the totals agree to the image's rounding (measured: 0.50 ulp for local shading, 1.1 ulp on mirrors).

@@ -14,7 +14,7 @@ import raycast_shade as rs
 from raycast_shade.study import metrics as M
 from raycast_shade.study.analytic import Sphere, render_exact
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
 class _Img:

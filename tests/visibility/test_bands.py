@@ -23,8 +23,7 @@ from raycast_shade.visibility import bands, cast, holes
 from raycast_shade.visibility.accel import embree_accel
 from raycast_shade.visibility.rays import camera_frame
 
-sys.path.insert(0, str(pathlib.Path(__file__).parent))
-from test_watertight import _vertex_grid  # noqa: E402  (the failure catalogue's vertex grid)
+from tests.visibility.test_watertight import _vertex_grid  # the failure catalogue's vertex grid
 
 RENDER = sys.modules["raycast_shade.render"]
 
