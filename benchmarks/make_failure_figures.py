@@ -6,8 +6,8 @@ and draws the naive or plain result next to what the project does (or flat,
 Gouraud and Phong side by side) into ``docs/images/failure_NN_name.png``. The
 measured figures are printed and written to
 ``benchmarks/results/failure_cases.csv`` (case, quantity, value), the numbers
-quoted in the catalogue. The scenes are those of ``tests/test_failure_cases.py``,
-which asserts the same figures.
+quoted in the catalogue. The scenes come from :mod:`raycast_shade.study.failure_scenes`,
+which the tests (``tests/*/test_failure_cases.py``) assert the same figures on.
 """
 
 from __future__ import annotations
@@ -25,6 +25,7 @@ RESULTS = os.path.join(HERE, "results")
 IMAGES = os.path.join(ROOT, "docs", "images")
 
 import raycast_shade as rs  # noqa: E402
+from raycast_shade.study import failure_scenes as fs  # noqa: E402
 from raycast_shade.study.analytic import Plane, Sphere, exact_for_scene  # noqa: E402
 from raycast_shade.study.metrics import angular_step, compare, convergence_order, normal_angles, rmse  # noqa: E402
 from raycast_shade.study.reference import hit_points, illuminate_reference  # noqa: E402
@@ -72,66 +73,14 @@ def figure(path, items, suptitle, width=2.3, height=2.1):
     print(f"  -> docs/images/{path}")
 
 
-def _scene(models, lights=(), camera=None, ambient=0.0):
-    if isinstance(models, rs.Mesh):
-        models = [rs.Model(models, rs.Material())]
-    return rs.Scene(models, lights=list(lights), camera=camera, ambient=ambient)
-
-
 def _all(scene):
     return {m: rs.render(scene, m) for m in rs.SHADINGS}
-
-
-def _unit(a):
-    return a / np.linalg.norm(a, axis=-1, keepdims=True)
-
-
-def _dot(a, b):
-    return np.einsum("...k,...k->...", a, b)
-
-
-def grid_mesh(xs, ys, normals=None, alternate=True):
-    X, Y = np.meshgrid(np.asarray(xs, float), np.asarray(ys, float), indexing="ij")
-    verts = np.stack([X.ravel(), Y.ravel(), np.zeros(X.size)], 1)
-    nx, ny = X.shape
-    i, j = np.mgrid[0:nx - 1, 0:ny - 1]
-    a = (i * ny + j).ravel()
-    b, c = a + ny, a + 1
-    d = b + 1
-    if alternate:
-        alt = ((i + j) % 2 == 0).ravel()[:, None]
-        f1 = np.where(alt, np.stack([a, b, d], 1), np.stack([a, b, c], 1))
-        f2 = np.where(alt, np.stack([a, d, c], 1), np.stack([b, d, c], 1))
-    else:
-        f1, f2 = np.stack([a, b, d], 1), np.stack([a, d, c], 1)
-    return rs.Mesh(verts, np.concatenate([f1, f2]), normals=normals)
-
-
-def _raw_normals(scene, frame):
-    """Interpolated vertex normals (negated with a back-facing face only), face
-    normals turned to the eye, view vectors and points of the hit pixels."""
-    geo = scene.geometry
-    mask = frame.mask
-    face = geo.face_offsets[frame.hits.geom[mask]] + frame.hits.prim[mask]
-    tri = geo.faces[face]
-    b1 = frame.hits.u[mask].astype(np.float64)
-    b2 = frame.hits.v[mask].astype(np.float64)
-    bary = np.stack([1 - b1 - b2, b1, b2], 1)
-    p = np.einsum("nk,nkc->nc", bary, geo.vertices[tri])
-    if scene.camera.orthographic:
-        v = np.broadcast_to(-scene.camera.basis[2], p.shape).copy()
-    else:
-        v = _unit(scene.camera.eye - geo.origin - p)
-    g = geo.face_normals[face]
-    sgn = np.where(_dot(g, v) < 0, -1.0, 1.0)
-    raw = _unit(np.einsum("nk,nkc->nc", bary, geo.normals[tri])) * sgn[:, None]
-    return raw, g * sgn[:, None], v, p
 
 
 def _shade_with(scene, frame, normals):
     """The reflectance equation at every hit pixel with the given normals (NumPy reference)."""
     geo = scene.geometry
-    _, _, v, p = _raw_normals(scene, frame)
+    _, _, v, p = fs.raw_normals(scene, frame)
     from raycast_shade.study.reference import _lights, _materials
 
     out = np.zeros(frame.image.shape)
@@ -148,30 +97,17 @@ def _normal_rgb(n):
 
 # -- 1 -------------------------------------------------------------------------------------------------
 
-def tube(segments, span=0.9 * np.pi):
-    th = np.linspace(-span / 2, span / 2, segments + 1)
-    ring = np.stack([np.sin(th), np.zeros_like(th), np.cos(th)], 1)
-    verts = np.concatenate([ring + [0.0, -1.0, 0.0], ring + [0.0, 1.0, 0.0]])
-    a = np.arange(segments)
-    b = a + segments + 1
-    faces = np.concatenate([np.stack([a, a + 1, b], 1), np.stack([a + 1, b + 1, b], 1)])
-    return rs.Mesh(verts, faces, normals=np.concatenate([ring, ring]))
-
-
 def case_1():
-    mesh = rs.shapes.plane(size=4.0, subdivisions=1)
-    cam = rs.Camera(eye=(0.0, 0.0, 3.0), width=96, height=72, fov=60)
-    mat = rs.Material(kd=0.15, ka=0.0, ks=1.0, shininess=64)
-    scene = _scene([rs.Model(mesh, mat)], [rs.PointLight((0.3, 0.2, 2.0), intensity=1.0)], cam)
+    scene = fs.highlight_plane_scene(kd=0.15)  # a little diffuse light to show the plane
     exact = exact_for_scene(scene, [Plane(size=4.0)])
     f = _all(scene)
-    spec = scene.replace(models=[rs.Model(mesh, rs.Material(kd=0.0, ka=0.0, ks=1.0, shininess=64))])
-    fs = _all(spec)
+    spec = fs.highlight_plane_scene()
+    f_spec = _all(spec)
     ex_s = exact_for_scene(spec, [Plane(size=4.0)])
     record(1, "highlight peak, exact image", ex_s.image.max())
     for m in rs.SHADINGS:
-        record(1, f"highlight peak, {m}", fs[m].image.max())
-    record(1, "phong max error vs exact (specular only)", np.abs(fs["phong"].image - ex_s.image).max())
+        record(1, f"highlight peak, {m}", f_spec[m].image.max())
+    record(1, "phong max error vs exact (specular only)", np.abs(f_spec["phong"].image - ex_s.image).max())
     figure("failure_01_highlight.png",
            [("img", exact.image, "exact plane"), ("img", f["flat"].image, "flat"),
             ("img", f["gouraud"].image, "Gouraud: peak lost"), ("img", f["phong"].image, "Phong")],
@@ -179,12 +115,10 @@ def case_1():
 
     # Mach bands on a tube.
     w = 128
-    cam = rs.Camera(eye=(0.0, 0.0, 5.0), width=w, height=48, projection="orthographic", ortho_height=2.0 * 48 / w)
-    light = rs.DirectionalLight((-0.5, 0.0, -1.0))
-    tscene = _scene([rs.Model(tube(6), rs.Material(kd=1.0, ka=0.0))], [light], cam)
+    tscene = fs.tube_scene(6, width=w, height=48)
     ft = _all(tscene)
     x = (np.arange(w) + 0.5) / w * 2.0 - 1.0
-    s = -light.direction
+    s = -tscene.lights[0].direction
     ex = np.maximum(0.0, x * s[0] + np.sqrt(1.0 - x**2) * s[2])
     inner = np.abs(x) < 0.6
     d2e = np.abs(np.diff(ex[inner], 2)).max()
@@ -213,18 +147,14 @@ def case_1():
 # -- 2 -------------------------------------------------------------------------------------------------
 
 def case_2():
-    cam = rs.Camera(eye=(0.0, 0.0, 4.0), width=96, height=96, fov=35)
-    mat = rs.Material(kd=0.7, ka=0.0)
-    lights = [rs.DirectionalLight((-1.0, -1.0, -2.0))]
     steps, err = [], {m: [] for m in rs.SHADINGS}
     imgs = []
     exact = None
     for level in (1, 2, 3, 4):
-        mesh = rs.shapes.icosphere(level)
-        scene = _scene([rs.Model(mesh, mat)], lights, cam)
+        scene = fs.facet_sphere_scene(level)
         if exact is None:
             exact = exact_for_scene(scene, [Sphere()])
-        steps.append(angular_step(mesh))
+        steps.append(angular_step(scene.models[0].mesh))
         for m in rs.SHADINGS:
             fr = rs.render(scene, m)
             err[m].append(compare(exact, fr, use_ssim=False).rmse_interior)
@@ -254,17 +184,9 @@ def case_2():
 # -- 3 -------------------------------------------------------------------------------------------------
 
 def case_3():
-    xs = np.linspace(-1.0, 1.0, 7)
-    sign = np.where((np.add.outer(np.arange(7), np.arange(7)) % 2) == 0, 1.0, -1.0).ravel()
-    normals = np.zeros((49, 3))
-    normals[:, 2] = sign
-    cam = rs.Camera(eye=(0.2, 0.3, 4.0), target=(0.2, 0.3, 0.0), width=64, height=48, projection="orthographic",
-                    ortho_height=2.5)
-    scene = _scene([rs.Model(grid_mesh(xs, xs, normals=normals, alternate=False),
-                             rs.Material(kd=0.7, ks=0.5, shininess=10))],
-                   [rs.DirectionalLight((-0.3, -0.2, -1.0))], cam, ambient=0.1)
+    scene = fs.checker_normals_scene()
     f = _all(scene)
-    raw, g, v, p = _raw_normals(scene, f["phong"])
+    raw, g, v, p = fs.raw_normals(scene, f["phong"])
     naive = np.zeros(f["phong"].image.shape)
     ok = np.linalg.norm(raw, axis=1) > 0
     rawn = np.where(ok[:, None], raw, g)
@@ -272,13 +194,7 @@ def case_3():
     record(3, "checkerboard: phong - flat, max", np.abs(f["phong"].image - f["flat"].image).max())
     record(3, "checkerboard: gouraud - flat, max", np.abs(f["gouraud"].image - f["flat"].image).max())
     record(3, "checkerboard: unoriented phong - flat, max", np.abs(naive - f["flat"].image).max())
-    sphere = rs.shapes.icosphere(2)
-    zs = _scene([rs.Model(rs.Mesh(sphere.vertices, sphere.faces, normals=np.zeros_like(sphere.vertices)),
-                          rs.Material(kd=0.7, ks=0.5, shininess=10))],
-                [rs.DirectionalLight((-1.0, -2.0, -1.5))],
-                rs.Camera(eye=(1.0, 2.0, 4.0), width=64, height=48, projection="orthographic", ortho_height=2.4),
-                ambient=0.1)
-    fz = _all(zs)
+    fz = _all(fs.zero_normals_scene())
     record(3, "zero normals: phong - flat, max", np.abs(fz["phong"].image - fz["flat"].image).max())
     figure("failure_03_cancel.png",
            [("img", naive, "+-z normals, no rule", 0.6), ("img", f["gouraud"].image, "Gouraud (bug: lit from behind)", 0.6),
@@ -289,19 +205,16 @@ def case_3():
 # -- 4 -------------------------------------------------------------------------------------------------
 
 def case_4():
-    mesh = rs.shapes.icosphere(0)
-    cam = rs.Camera(eye=(0.0, 0.3, 2.2), width=128, height=96, fov=70)
-    mat = rs.Material(kd=0.7, ks=0.5, shininess=20)
-    scene = _scene([rs.Model(mesh, mat)], [rs.PointLight((0.5, 3.0, 0.5), intensity=1.0)], cam, ambient=0.05)
+    scene = fs.silhouette_scene(0)
     exact = exact_for_scene(scene, [Sphere()])
     fr = rs.render(scene, "phong")
-    raw, g, v, p = _raw_normals(scene, fr)
-    away = _dot(raw, v) < 0
+    raw, g, v, p = fs.raw_normals(scene, fr)
+    away = fs.dot(raw, v) < 0
     naive = _shade_with(scene, fr, np.where(away[:, None], -raw, raw))
     both = exact.mask & fr.mask
     record(4, "icosphere(0): pixels with n.v < 0", away.sum())
     record(4, "icosphere(0): hit pixels", len(raw))
-    record(4, "icosphere(0): min n.g", _dot(fr.normal[fr.mask].astype(float), g).min())
+    record(4, "icosphere(0): min n.g", fs.dot(fr.normal[fr.mask].astype(float), g).min())
     record(4, "RMSE vs exact, ours (n kept)", rmse(exact.image, fr.image, both))
     record(4, "RMSE vs exact, faceforward on n.v", rmse(exact.image, naive, both))
     mark = fr.image.copy()
@@ -309,17 +222,11 @@ def case_4():
     sel[fr.mask] = away
     mark[sel] = (1.0, 0.0, 0.0)
     # A normal field tipping past the tangent plane.
-    xs = np.linspace(-1.0, 1.0, 9)
-    X, _ = np.meshgrid(xs, xs, indexing="ij")
-    angle = np.radians(75.0 * (X.ravel() + 1.0))
-    normals = np.stack([np.sin(angle), np.zeros_like(angle), np.cos(angle)], 1)
-    tcam = rs.Camera(eye=(0.0, 0.0, 4.0), width=96, height=72, projection="orthographic", ortho_height=2.0)
-    tscene = _scene([rs.Model(grid_mesh(xs, xs, normals=normals), rs.Material(kd=0.8))],
-                    [rs.DirectionalLight((-1.0, 0.0, -1.0))], tcam)
+    tscene = fs.tipping_field_scene()
     tf = rs.render(tscene, "phong")
-    traw, tg, _, _ = _raw_normals(tscene, tf)
+    traw, tg, _, _ = fs.raw_normals(tscene, tf)
     neg = traw.copy()
-    neg[_dot(traw, tg) < 0] *= -1
+    neg[fs.dot(traw, tg) < 0] *= -1
     nbuf = np.zeros(tf.normal.shape)
     nbuf[tf.mask] = neg
     m = tf.mask
@@ -339,13 +246,10 @@ def case_4():
 # -- 5 -------------------------------------------------------------------------------------------------
 
 def case_5():
-    cam = rs.Camera(eye=(3.0, 2.5, 4.0), width=96, height=72, projection="orthographic", ortho_height=2.4)
-    light = [rs.DirectionalLight((-1.0, -2.0, -3.0), intensity=0.8)]
-    mat = rs.Material(kd=0.7, ks=0.4, shininess=16)
     items = []
     flat = None
     for crease in (30.0, 89.0, 90.0, 91.0, None):
-        scene = _scene([rs.Model(rs.shapes.cube(size=1.5, crease_angle=crease), mat)], light, cam, ambient=0.1)
+        scene = fs.cube_scene(crease)
         if flat is None:
             flat = rs.render(scene, "flat")
         fr = rs.render(scene, "phong")
@@ -354,23 +258,13 @@ def case_5():
         record(5, f"cube crease {crease}: mean normal error (deg)", normal_angles(flat.normal, fr.normal, both).mean())
         if crease in (30.0, 91.0, None):
             items.append(("img", fr.image, f"crease {crease}" if crease else "no crease"))
-    ccam = rs.Camera(eye=(1.2, 1.4, 2.0), width=96, height=72, fov=40)
-    for crease in (15.0, 60.0, 120.0):
-        mesh = rs.shapes.cylinder(radius=0.5, height=1.0, segments=16, crease_angle=crease)
-        scene = _scene([rs.Model(mesh, rs.Material(kd=0.7, ks=0.3, shininess=20))],
-                       [rs.DirectionalLight((-1.0, -2.0, -1.0))], ccam, ambient=0.05)
+    for crease in (15.0, 60.0, 120.0):  # with a highlight and ambient light to show the shape
+        scene = fs.cylinder_scene(crease, rs.Material(kd=0.7, ks=0.3, shininess=20), ambient=0.05)
         items.append(("img", rs.render(scene, "phong").image, f"cylinder, crease {crease:g}"))
     figure("failure_05_crease.png", items, "5. Averaged normals across hard edges: the crease angle decides", width=2.0)
 
 
 # -- 6 -------------------------------------------------------------------------------------------------
-
-def _sliver_fan(n):
-    xs = np.linspace(-1.0, 1.0, n + 1)
-    verts = np.vstack([np.stack([xs, -np.ones_like(xs), np.zeros_like(xs)], 1), [[-1.0, 1.0, 0.0], [1.0, 1.0, 0.0]]])
-    faces = [[i, i + 1, n + 1] for i in range(n)] + [[n, n + 2, n + 1]]
-    return rs.Mesh(verts, faces)
-
 
 def _plane_points(camera, z0=0.0):
     from raycast_shade.study.twins import generate_rays_numpy
@@ -383,15 +277,11 @@ def _plane_points(camera, z0=0.0):
 def case_6_degenerate():
     import trimesh
 
-    lamp = [rs.PointLight((0.5, 0.8, 1.5), intensity=2.0, attenuation="inverse_square")]
-    cam = rs.Camera(eye=(0.2, -0.3, 3.0), width=96, height=72, fov=50)
-    shiny = rs.Material(kd=0.7, ks=0.5, shininess=30)
     plane = rs.shapes.plane(size=2.0, subdivisions=8)
-    gscene = _scene([rs.Model(rs.Mesh(plane.vertices, plane.faces), shiny)], lamp, cam, 0.05)
-    grid = _all(gscene)
-    exact_p = _plane_points(cam)
+    grid = _all(fs.lamp_scene(rs.Mesh(plane.vertices, plane.faces)))
+    exact_p = _plane_points(fs.LAMP_CAMERA)
     for n in (200, 2000, 20000):
-        scene = _scene([rs.Model(_sliver_fan(n), shiny)], lamp, cam, 0.05)
+        scene = fs.lamp_scene(fs.sliver_fan(n))
         fan = _all(scene)
         pb = hit_points(scene, fan["phong"].hits)
         err = np.linalg.norm(pb - exact_p, axis=-1)[fan["phong"].mask]
@@ -406,17 +296,9 @@ def case_6_degenerate():
             ("img", fan200["gouraud"].image, "200 slivers, Gouraud"), ("img", fan200["phong"].image, "200 slivers, Phong")],
            "6. Sliver triangles: coverage and Phong unchanged; flat and Gouraud sample far from the pixel")
 
-    ico = rs.shapes.icosphere(3)
-    rng = np.random.default_rng(1)
-    faces = ico.faces.copy()
-    sel = rng.random(len(faces)) < 0.3
-    faces[sel] = faces[sel][:, ::-1]
-    scam = rs.Camera(eye=(0.0, 0.5, 3.5), width=96, height=72, fov=40)
-    smat = rs.Material(kd=0.7, ks=0.4, shininess=20)
-
-    def sphere_scene(mesh):
-        return _scene([rs.Model(mesh, smat)], [rs.PointLight((2.0, 3.0, 4.0), intensity=1.0)], scam, 0.05)
-
+    ico, flipped, _ = fs.flipped_sphere()
+    faces = flipped.faces
+    sphere_scene = fs.sphere_scene
     exact = exact_for_scene(sphere_scene(ico), [Sphere()])
     cases = {"consistent, computed": rs.Mesh(ico.vertices, ico.faces),
              "30% flipped, computed": rs.Mesh(ico.vertices, faces),
@@ -452,19 +334,14 @@ def case_6_degenerate():
 
 def case_7():
     items = []
-    cam = rs.Camera(eye=(0.0, 0.0, 4.0), width=64, height=48, fov=40)
     for t in (0.5, 1e6):
-        mat = rs.Material(kd=0.5, ka=1.0, ks=1.0, shininess=t)
-        scene = _scene([rs.Model(rs.shapes.icosphere(3), mat)], [rs.DirectionalLight((-1.0, -0.2, 0.3))], cam, 0.1)
+        scene = fs.shininess_scene(t)
         fr = rs.render(scene, "phong")
         s = -scene.lights[0].direction
-        dark = (_dot(fr.normal.astype(np.float64), s) <= -1e-6) & fr.mask
+        dark = (fs.dot(fr.normal.astype(np.float64), s) <= -1e-6) & fr.mask
         record(7, f"t = {t:g}: max |I - ambient| where n.s <= 0", np.abs(fr.image[dark] - 0.1).max())
         items.append(("img", fr.image, f"sphere, t = {t:g}"))
-    pcam = rs.Camera(eye=(0.0, 0.0, 3.0), width=65, height=49, fov=30)
-    pmesh = rs.shapes.plane(4.0, 4)
-    pscene = _scene([rs.Model(pmesh, rs.Material(kd=0.0, ka=0.0, ks=1.0, shininess=1e6))],
-                    [rs.PointLight((0.0, 0.0, 3.0))], pcam)
+    pscene = fs.needle_scene()
     exact = exact_for_scene(pscene, [Plane(size=4.0)])
     f = _all(pscene)
     record(7, "t = 1e6 plane: exact pixels > 1e-3", (exact.image[..., 0] > 1e-3).sum())
@@ -479,52 +356,26 @@ def case_7():
 # -- 8 -------------------------------------------------------------------------------------------------
 
 def case_8():
-    ico = rs.shapes.icosphere(2)
-    vertex = 5
-    mat = rs.Material(kd=0.7, ks=0.5, shininess=20)
-    outside = rs.Camera(eye=ico.vertices[vertex] * 3.0 + [0.3, 0.2, 0.0], width=64, height=48, fov=45)
-    inside = rs.Camera(eye=(0.1, 0.2, 0.3), target=(0.0, 0.0, -1.0), width=64, height=48, fov=100)
+    where = fs.light_positions()
     items = []
     for att in ("none", "inverse_square", "heuristic"):
-        light = rs.PointLight(ico.vertices[vertex], intensity=2.0, attenuation=att, k=0.5)
-        scene = _scene([rs.Model(ico, mat)], [light], outside, 0.1)
+        scene = fs.light_sphere_scene(where["vertex"], att)
         f = _all(scene)
         for m in rs.SHADINGS:
             record(8, f"light on vertex, {att}: {m} peak (outside)", f[m].image.max())
         if att == "inverse_square":
             items += [("img", f["flat"].image, "on a vertex: flat"), ("img", f["phong"].image, "Phong: leak (exp. 1)"),
                       ("img", f["phong"].image, "Phong (exposure 1/300)", 1 / 300)]
-        inner = _scene([rs.Model(ico, mat)], [rs.PointLight((0.2, -0.1, 0.3), intensity=2.0, attenuation=att, k=0.5)],
-                       outside, 0.1)
+        inner = fs.light_sphere_scene(where["inside"], att)
         fi = rs.render(inner, "phong")
         record(8, f"light inside, {att}: phong max |I - ambient| outside", np.abs(fi.image[fi.mask] - 0.1).max())
         if att == "inverse_square":
-            items.append(("img", rs.render(inner.replace(camera=inside), "phong").image, "light inside, seen inside"))
+            items.append(("img", rs.render(inner.replace(camera=fs.INSIDE_CAMERA), "phong").image, "light inside, seen inside"))
     figure("failure_08_light.png", items, "8. A point light on a vertex (inverse square) and inside the sphere",
            width=2.1)
 
 
 # -- 9 -------------------------------------------------------------------------------------------------
-
-def _grid_at_pixel_rays(cam, step):
-    from raycast_shade.visibility.rays import camera_frame
-
-    w, h = cam.width, cam.height
-    cf = camera_frame(cam)
-    x = np.arange(-step, w + step + 1, step)
-    y = np.arange(-step, h + step + 1, step)
-    X, Y = np.meshgrid(x, y, indexing="ij")
-    sx = 2.0 * (X + 0.5) / w - 1.0
-    sy = 1.0 - 2.0 * (Y + 0.5) / h
-    d = _unit(cf[9:12] + sx[..., None] * cf[3:6] + sy[..., None] * cf[6:9])
-    t = -cf[2] / d[..., 2]
-    verts = (cf[0:3] + t[..., None] * d).reshape(-1, 3)
-    ny = len(y)
-    i, j = np.mgrid[0:len(x) - 1, 0:ny - 1]
-    a = (i * ny + j).ravel()
-    faces = np.concatenate([np.stack([a, a + ny, a + ny + 1], 1), np.stack([a, a + ny + 1, a + 1], 1)])
-    return rs.Mesh(verts, faces)
-
 
 def case_9():
     from raycast_shade.visibility import embree as _embree
@@ -534,14 +385,14 @@ def case_9():
     saved_flag, saved_jitter = _embree._RTC_SCENE_FLAG_ROBUST, cast_mod._JITTER
     try:
         for label, eye, fov in (("near", (0.3, -1.2, 2.5), 50.0), ("far", (3.0, -40.0, 50.0), 2.0)):
-            cam = rs.Camera(eye=eye, target=(0.0, 0.2, 0.0), width=128, height=96, fov=fov)
+            cam = fs.pixel_ray_camera(eye, fov)
             for step in (1, 2, 3):
-                mesh = _grid_at_pixel_rays(cam, step)
+                mesh = fs.grid_at_pixel_rays(cam, step)
                 for name, flag, jitter in (("default flags", 0, ()), ("robust", saved_flag, ()),
                                            ("robust + re-cast", saved_flag, saved_jitter)):
                     _embree._RTC_SCENE_FLAG_ROBUST = flag
                     cast_mod._JITTER = jitter
-                    scene = _scene([rs.Model(mesh, rs.Material(kd=0.8))], [rs.DirectionalLight((0.2, -0.3, -1.0))], cam,
+                    scene = fs.scene([rs.Model(mesh, rs.Material(kd=0.8))], [rs.DirectionalLight((0.2, -0.3, -1.0))], cam,
                                    0.1)
                     fr = rs.render(scene, "flat")
                     record(9, f"grid at pixel rays, {label}, step {step}, {name}: misses", (~fr.mask).sum())
@@ -554,11 +405,8 @@ def case_9():
     # From inside a closed sphere.
     misses = 0
     for mesh in (rs.shapes.icosphere(3), rs.shapes.uv_sphere(16, 32)):
-        for vi in range(0, len(mesh.vertices), max(1, len(mesh.vertices) // 12)):
-            target = mesh.vertices[vi]
-            up = (0.0, 1.0, 0.0) if abs(target[1]) < 0.9 else (1.0, 0.0, 0.0)
-            cam = rs.Camera(eye=(0.0, 0.0, 0.0), target=target, up=up, width=65, height=49, fov=150)
-            misses += int((~rs.render(_scene(mesh, [], cam), "flat").mask).sum())
+        for cam in fs.inside_cameras(mesh, projections=("perspective",)):
+            misses += int((~rs.render(fs.scene(mesh, [], cam), "flat").mask).sum())
     record(9, "inside closed spheres (26 views): misses", misses)
     figure("failure_09_holes.png", items, "9. Every ray through a vertex of a grid (perspective, 128 x 96): misses in red",
            width=2.6)
@@ -574,9 +422,9 @@ def vertex_figure():
     from raycast_shade.visibility import holes
 
     items = []
-    cam = rs.Camera(eye=(3.0, -40.0, 50.0), target=(0.0, 0.2, 0.0), width=128, height=96, fov=2.0)
+    cam = fs.pixel_ray_camera((3.0, -40.0, 50.0), 2.0)
     floor = rs.shapes.plane(size=400.0, center=(0.0, 0.0, -1.0), normal="+z")
-    scene = _scene([rs.Model(_grid_at_pixel_rays(cam, 1), rs.Material(kd=0.8)), rs.Model(floor, rs.Material(kd=0.8))],
+    scene = fs.scene([rs.Model(fs.grid_at_pixel_rays(cam, 1), rs.Material(kd=0.8)), rs.Model(floor, rs.Material(kd=0.8))],
                    [rs.DirectionalLight((0.2, -0.3, -1.0))], cam, 0.1)
     saved = holes._JUMP
     try:
@@ -598,7 +446,7 @@ def vertex_figure():
     d /= dist[:, None]
     # Screen coordinates of the vertices, seen from the eye.
     fwd = -eye / np.linalg.norm(eye)
-    right = _unit(np.cross(fwd, (0.0, 1.0, 0.0)))
+    right = fs.unit(np.cross(fwd, (0.0, 1.0, 0.0)))
     up = np.cross(right, fwd)
     sx, sy = d @ right / (d @ fwd), d @ up / (d @ fwd)
     for wt in (False, True):
@@ -619,46 +467,23 @@ def vertex_figure():
 
 # -- 10 ------------------------------------------------------------------------------------------------
 
-def _far_scene(offset, quantise=False):
-    offset = np.asarray(offset, float)
-
-    def at(v):
-        w = v + offset
-        return w.astype(np.float32).astype(np.float64) if quantise else w
-
-    s = rs.shapes.icosphere(3, radius=0.7, center=(0.0, 0.2, 0.0))
-    pl = rs.shapes.plane(4.0, 4, center=(0.0, -0.5, 0.0), normal="+y")
-    tor = rs.shapes.torus(0.5, 0.15, 32, 16, center=(1.0, -0.2, 0.3))
-    models = [
-        rs.Model(rs.Mesh(at(s.vertices), s.faces, normals=s.normals), rs.Material(kd=(0.8, 0.3, 0.2), ks=0.6, shininess=60)),
-        rs.Model(rs.Mesh(at(pl.vertices), pl.faces, normals=pl.normals), rs.Material(kd=0.6)),
-        rs.Model(rs.Mesh(at(tor.vertices), tor.faces, normals=tor.normals),
-                 rs.Material(kd=0.5, ks=0.8, shininess=200, specular="blinn")),
-    ]
-    lights = [rs.PointLight(np.array([1.5, 2.5, 2.0]) + offset, 12.0, attenuation="inverse_square", shadows=True),
-              rs.DirectionalLight((-0.5, -1.0, -0.3), 0.4, shadows=True)]
-    cam = rs.Camera(eye=np.array([0.5, 1.2, 3.2]) + offset, target=offset + [0.2, -0.1, 0.0], width=96, height=72,
-                    fov=50)
-    return rs.Scene(models, lights=lights, camera=cam, ambient=0.05)
-
-
 def case_10():
-    base = rs.render(_far_scene((0.0, 0.0, 0.0)), "phong")
+    base = rs.render(fs.far_scene((0.0, 0.0, 0.0)), "phong")
     items = [("img", base.image, "at the origin")]
     for shift in (1e3, 1e5, 1e7):
         off = shift * np.array([1.0, -0.7, 0.4])
         for m in rs.SHADINGS:
-            a = rs.render(_far_scene((0.0, 0.0, 0.0)), m)
-            b = rs.render(_far_scene(off), m)
+            a = rs.render(fs.far_scene((0.0, 0.0, 0.0)), m)
+            b = rs.render(fs.far_scene(off), m)
             record(10, f"shift {shift:g}, {m}: pixels changing triangle", (a.hits.prim != b.hits.prim).sum())
             record(10, f"shift {shift:g}, {m}: max image difference", np.abs(a.image - b.image).max())
-        q = rs.render(_far_scene(off, quantise=True), "phong")
+        q = rs.render(fs.far_scene(off, quantise=True), "phong")
         record(10, f"shift {shift:g}: float32 vertices at the offset, RMSE", rmse(base.image, q.image))
         record(10, f"shift {shift:g}: float32 vertices at the offset, max", np.abs(base.image - q.image).max())
         if shift == 1e5:
             q5 = q
         if shift == 1e7:
-            moved = rs.render(_far_scene(off), "phong")
+            moved = rs.render(fs.far_scene(off), "phong")
             items += [("img", moved.image, "at 1e7 (ours)"),
                       ("img", np.abs(moved.image - base.image) * 1e6, "|difference| x 1e6"),
                       ("img", q5.image, "float32 vertices at 1e5"),
@@ -669,14 +494,11 @@ def case_10():
 # -- 11 ------------------------------------------------------------------------------------------------
 
 def case_11():
-    mesh = rs.shapes.plane(4.0, 8)
-    cam = rs.Camera(eye=(0.3, -0.2, 3.0), width=32, height=24, fov=60)
     es = np.concatenate([-np.logspace(-8, -1, 15)[::-1], [0.0], np.logspace(-8, -1, 15)])
     vals = {m: [] for m in rs.SHADINGS}
     for e in es:
-        light = rs.DirectionalLight((-np.cos(e), 0.0, -np.sin(e)))
         for m in rs.SHADINGS:
-            fr = rs.render(_scene([rs.Model(mesh, rs.Material(kd=0.8, ka=0.0))], [light], cam), m)
+            fr = rs.render(fs.grazing_light_scene(e), m)
             vals[m].append(fr.image[fr.mask].mean())
     pos = es > 0
     record(11, "lambert: max |I / (kd sin e) - 1| for e > 0",
@@ -684,8 +506,7 @@ def case_11():
     record(11, "lambert max |I - kd sin e| over the sweep",
            max(np.abs(np.array(vals[m]) - 0.8 * np.maximum(0, np.sin(es))).max() for m in rs.SHADINGS))
     # Terminator.
-    scene = _scene([rs.Model(rs.shapes.icosphere(3), rs.Material(kd=1.0, ka=0.0))], [rs.DirectionalLight((-1.0, 0.0, 0.0))],
-                   rs.Camera(eye=(0.0, 0.0, 4.0), width=96, height=96, fov=35))
+    scene = fs.terminator_scene()
     term = {}
     for m in rs.SHADINGS:
         fr = rs.render(scene, m)
@@ -700,14 +521,10 @@ def case_11():
         record(11, f"terminator: brightest lit pixel next to an unlit one, {m}", img[border].max())
         term[m] = fr.image
     # Specular switch-off at grazing light, eye in the mirror direction.
-    e_eye = np.radians(0.5)
-    gcam = rs.Camera(eye=(3.0 * np.cos(e_eye), 0.0, 3.0 * np.sin(e_eye)), up=(0.0, 0.0, 1.0), width=33, height=25, fov=2.0)
     le = np.linspace(-0.02, 0.02, 41)
     spec = []
     for e in le:
-        light = rs.DirectionalLight((np.cos(e), 0.0, -np.sin(e)))
-        fr = rs.render(_scene([rs.Model(rs.shapes.plane(4.0, 2), rs.Material(kd=0.0, ka=0.0, ks=0.5, shininess=20))],
-                              [light], gcam), "phong")
+        fr = rs.render(fs.specular_switch_scene(e), "phong")
         spec.append(fr.image[fr.mask].max())
     spec = np.array(spec)
     record(11, "specular just above the horizon (e = +1e-3 rad)", spec[np.argmin(np.abs(le - 1e-3))])
@@ -715,12 +532,7 @@ def case_11():
     # Grazing view.
     worst = 0.0
     for deg in (5.0, 0.05, 0.0005):
-        e = np.radians(deg)
-        hgt = 4.0 * np.sin(e) * 1.25
-        vcam = rs.Camera(eye=(0.0, -3.0 * np.cos(e), 3.0 * np.sin(e)), up=(0.0, 0.0, 1.0), width=64, height=48,
-                         fov=np.degrees(2 * np.arctan(hgt / 6.0)))
-        vs = _scene([rs.Model(mesh, rs.Material(kd=0.8, ks=0.5, shininess=20))], [rs.PointLight((0.5, 0.5, 1.0))], vcam,
-                    0.05)
+        vs = fs.grazing_view_scene(deg)
         ex = exact_for_scene(vs, [Plane(size=4.0)])
         fr = rs.render(vs, "phong")
         worst = max(worst, np.abs(fr.image - ex.image).max())

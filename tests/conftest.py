@@ -74,3 +74,14 @@ def hit_buffer(u, v, prim=0):
     v = np.asarray(v, np.float32)
     return rs.HitBuffer(prim=np.full(u.shape, prim, np.int32), geom=np.zeros(u.shape, np.int32), u=u, v=v,
                         t=np.ones(u.shape, np.float32))
+
+
+# One triangle in z = 0 (the input-contract tests' smallest mesh).
+TRI_V = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]
+TRI_F = [[0, 1, 2]]
+
+
+def small_scene(**kw):
+    """The triangle under a point light, seen by an 8 x 6 camera (``kw`` go to :class:`Scene`)."""
+    kw.setdefault("camera", rs.Camera(eye=(0.0, 0.0, 3.0), width=8, height=6))
+    return rs.Scene([rs.Mesh(TRI_V, TRI_F)], lights=[rs.PointLight((0, 0, 2))], **kw)

@@ -1,10 +1,12 @@
-"""Issue 17's input contract in the Python API: every bad input refused (naming its
-field) and every valid one taken. One section per class of the issue:
+"""The input contract of the scene's classes and files: every bad input refused
+(naming its field) and every valid one taken. One section per class of issue 17:
 
 4. silently accepted or altered; 5. aliasing; 6. refused though valid;
-7. unclear errors and allocations beyond memory; 8. late errors (output paths).
+7. unclear errors and allocations beyond memory.
 
-The command line's side of the contract is in test_cli_contract.py.
+The rest of the contract: render's arguments (``tests/render/test_input_contract.py``),
+hit buffers given to ``shade`` (``tests/shading/``), tone options and output paths
+(``tests/output/``), the command line (``tests/apps/test_cli_contract.py``).
 """
 
 from __future__ import annotations
@@ -20,22 +22,14 @@ from hypothesis import given, settings, strategies as st
 
 import raycast_shade as rs
 from raycast_shade.common import validate
-from raycast_shade.output.imagefile import check_image_path
 from raycast_shade.scene.camera import FRAME_BYTES_PER_PIXEL
 from raycast_shade.scene.mesh import ZeroNormalWarning
 from raycast_shade.scene.scenefile import SceneFileError, scene_from_dict
-from raycast_shade.visibility.hits import BARYCENTRIC_SLACK
-from raycast_shade.visibility.interpolation import to_screen_space
 
-TRI_V = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]
-TRI_F = [[0, 1, 2]]
+from tests.conftest import TRI_F, TRI_V, small_scene
+
 EPS32 = float(np.finfo(np.float32).eps)
 FAST = settings(max_examples=60, deadline=None)
-
-
-def small_scene(**kw):
-    kw.setdefault("camera", rs.Camera(eye=(0.0, 0.0, 3.0), width=8, height=6))
-    return rs.Scene([rs.Mesh(TRI_V, TRI_F)], lights=[rs.PointLight((0, 0, 2))], **kw)
 
 
 def scene_dict(obj=None, light=None, camera=None, material=None, **top):
@@ -284,140 +278,6 @@ def test_scene_file_floats_for_integers_are_refused(obj, key):
         scene_from_dict(scene_dict(obj=obj))
 
 
-@pytest.fixture
-def frame():
-    return rs.render(small_scene())
-
-
-@pytest.mark.parametrize("ext", [".png", ".pfm", ".npy", ".jpg"])
-@pytest.mark.parametrize("kwargs, error, match", [
-    (dict(exposur=2), TypeError, r"save: unexpected keyword argument 'exposur' \(did you mean 'exposure'\?\)"),
-    (dict(gama=2.2), TypeError, r"unexpected keyword argument 'gama' \(did you mean 'gamma'\?\)"),
-    (dict(tone_map="clamp"), TypeError, r"unexpected keyword argument 'tone_map' \(did you mean 'tonemap'\?\)"),
-    (dict(quality=90), TypeError, r"unexpected keyword argument 'quality'; expected exposure, tonemap, gamma"),
-    (dict(exposure=-1), ValueError, r"exposure: must be > 0"),
-    (dict(exposure=0.0), ValueError, r"exposure: must be > 0"),
-    (dict(exposure=np.nan), ValueError, r"exposure: must be finite"),
-    (dict(exposure=True), TypeError, r"exposure: expected a number, got bool"),
-    (dict(exposure="2"), TypeError, r"exposure: expected a number, got str"),
-    (dict(gamma=-2.2), ValueError, r"gamma: must be > 0"),
-    (dict(gamma="linear"), ValueError, r"gamma: expected 'srgb' or a number"),
-    (dict(gamma=True), TypeError, r"gamma: expected a number"),
-    (dict(tonemap="aces"), ValueError, r"tonemap: expected one of"),
-    (dict(tonemap=1), TypeError, r"tonemap: expected a string"),
-])
-def test_frame_save_refuses_bad_tone_options_for_every_format(frame, tmp_path, ext, kwargs, error, match):
-    path = tmp_path / f"x{ext}"
-    with pytest.raises(error, match=match):
-        frame.save(path, **kwargs)
-    assert not path.exists()
-
-
-@pytest.mark.parametrize("ext", [".pfm", ".npy"])
-@pytest.mark.parametrize("kwargs", [dict(exposure=2.0), dict(tonemap="reinhard"), dict(gamma="srgb"),
-                                    dict(exposure=1.0, gamma=2.2)])
-def test_tone_options_with_a_linear_format_are_refused(frame, tmp_path, ext, kwargs):
-    """A .pfm stores the linear image: exposure=2 had no effect and no word said so."""
-    with pytest.raises(ValueError, match=rf"{', '.join(kwargs)}: tone options do not apply to \{ext}"):
-        frame.save(tmp_path / f"x{ext}", **kwargs)
-    frame.save(tmp_path / f"x{ext}")  # without them: written
-
-
-def test_frame_save_still_takes_valid_tone_options(frame, tmp_path):
-    frame.save(tmp_path / "a.png", exposure=np.float32(2.0), tonemap="reinhard", gamma=np.int64(2))
-    assert (tmp_path / "a.png").exists()
-
-
-@pytest.mark.parametrize("shading", ["flat", "gouraud", "phong", "auto"])
-@pytest.mark.parametrize("tolerance, error, match", [
-    (np.nan, ValueError, r"tolerance: must be finite"),
-    (np.inf, ValueError, r"tolerance: must be finite"),
-    (-0.01, ValueError, r"tolerance: must be > 0"),
-    (0.0, ValueError, r"tolerance: must be > 0"),
-    ("0.01", ValueError, r"tolerance: expected a number, got str"),  # ValueError: as choose_methods always raised
-    (True, ValueError, r"tolerance: expected a number, got bool"),
-    (None, ValueError, r"tolerance: expected a number"),
-])
-def test_render_checks_the_tolerance_in_every_mode(shading, tolerance, error, match):
-    scene = small_scene()
-    with pytest.raises(error, match=match):
-        rs.render(scene, shading, tolerance=tolerance)
-    assert "geometry" not in scene.__dict__  # before anything was packed
-
-
-@pytest.mark.parametrize("max_depth, error", [(-1, ValueError), (2.0, TypeError), (True, TypeError),
-                                              ("2", TypeError), (np.int64(-3), ValueError)])
-def test_render_checks_max_depth(max_depth, error):
-    scene = small_scene()
-    with pytest.raises(error, match="max_depth"):
-        rs.render(scene, max_depth=max_depth)
-    assert "geometry" not in scene.__dict__
-
-
-@pytest.fixture(scope="module")
-def hit_scene():
-    scene = rs.Scene([rs.Model(rs.shapes.icosphere(1))], lights=[rs.PointLight((2.0, 3.0, 4.0))],
-                     camera=rs.Camera(eye=(0.0, 0.0, 4.0), width=8, height=6))
-    return scene, rs.cast_camera(scene.geometry, scene.camera)
-
-
-def _with_uv(hits, u, v):
-    return rs.HitBuffer(prim=hits.prim, geom=hits.geom, u=np.asarray(u, np.float32), v=np.asarray(v, np.float32),
-                        t=hits.t)
-
-
-@pytest.mark.parametrize("u, v", [
-    (-1e-3, 0.2), (0.2, -1e-3), (0.6, 0.6), (1.5, 0.0), (0.0, 1.0 + 1e-5), (-0.5, 1.5), (-1.0, -1.0),
-    (-10 * EPS32, 0.5), (0.5, 0.5 + 10 * EPS32),
-])
-def test_shade_refuses_barycentrics_outside_the_triangle(hit_scene, u, v):
-    """u < 0, v < 0 or u + v > 1 beyond float32 rounding extrapolated the triangle's normals and
-    UVs; the count is named."""
-    scene, hits = hit_scene
-    n = int(hits.mask.sum())
-    bad = _with_uv(hits, np.where(hits.mask, u, 0), np.where(hits.mask, v, 0))
-    for call in (lambda: rs.shade(scene, scene.camera, bad, "phong"),
-                 lambda: rs.shading_normals(scene, scene.camera, bad),
-                 lambda: to_screen_space(bad, scene.geometry, scene.camera)):
-        with pytest.raises(ValueError, match=rf"hits.u, hits.v: {n} hit pixel\(s\) lie outside their triangle"):
-            call()
-
-
-@pytest.mark.parametrize("u, v", [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (-EPS32, 0.5), (0.5, 0.5 + 2 * EPS32),
-                                  (1.0 + 4 * EPS32, -3 * EPS32), (1 / 3, 1 / 3)])
-def test_barycentrics_within_rounding_of_the_triangle_are_shaded(hit_scene, u, v):
-    scene, hits = hit_scene
-    ok = _with_uv(hits, np.where(hits.mask, u, 0), np.where(hits.mask, v, 0))
-    assert np.isfinite(rs.shade(scene, scene.camera, ok, "phong")).all()
-
-
-@given(u=st.lists(st.floats(-2, 2, width=32), min_size=48, max_size=48),
-       v=st.lists(st.floats(-2, 2, width=32), min_size=48, max_size=48))
-@FAST
-def test_the_outside_count_is_exact(hit_scene, u, v):
-    """Property: the named count is the number of hit pixels outside the slack, in float64."""
-    scene, hits = hit_scene
-    u = np.asarray(u, np.float32).reshape(6, 8)
-    v = np.asarray(v, np.float32).reshape(6, 8)
-    a, b = u.astype(np.float64), v.astype(np.float64)
-    outside = hits.mask & ((a < -BARYCENTRIC_SLACK) | (b < -BARYCENTRIC_SLACK) | (a + b > 1 + BARYCENTRIC_SLACK))
-    buf = _with_uv(hits, u, v)
-    if outside.sum():
-        with pytest.raises(ValueError, match=rf"{int(outside.sum())} hit pixel\(s\) lie outside"):
-            rs.shade(scene, scene.camera, buf, "gouraud")
-    else:
-        rs.shade(scene, scene.camera, buf, "gouraud")
-
-
-def test_the_casters_own_barycentrics_pass(hit_scene):
-    """What the casters and the rasterizer emit is within the slack (measured: 1.5 eps at most)."""
-    scene, _ = hit_scene
-    for backend in ("raycast", "raster"):
-        hits = rs.render(scene, "flat", backend=backend).hits
-        assert np.isfinite(rs.shade(scene, scene.camera, hits, "phong")).all()
-    assert 4 * EPS32 <= BARYCENTRIC_SLACK <= 16 * EPS32
-
-
 # =====================================================================================================
 # 5. Aliasing: frozen classes own their arrays
 # =====================================================================================================
@@ -466,13 +326,6 @@ def test_config_classes_own_copies_of_their_vectors():
 # =====================================================================================================
 # 6. Refused though valid: NumPy scalars, 0-d arrays, extreme but finite vectors
 # =====================================================================================================
-@pytest.mark.parametrize("kwargs", [
-    dict(max_depth=np.int64(2)), dict(max_depth=np.int32(0)), dict(max_depth=np.uint8(3)), dict(max_depth=np.array(1)),
-    dict(tolerance=np.float32(0.01)), dict(tolerance=np.float64(0.5)), dict(tolerance=np.array(0.02)),
-    dict(tolerance=1), dict(shading="auto", tolerance=np.float32(0.01)), dict(shading="auto", tolerance=np.int64(1)),
-])
-def test_render_takes_numpy_scalars(kwargs):
-    assert rs.render(small_scene(), **kwargs).image.shape == (6, 8, 3)
 
 
 @pytest.mark.parametrize("make", [
@@ -713,51 +566,3 @@ def test_large_but_representable_indices_get_the_range_message():
 def test_values_beyond_float_range_are_named(make, match):
     with pytest.raises(ValueError, match=match):
         make()
-
-
-# =====================================================================================================
-# 8. Late errors: an output that cannot be written is refused before rendering
-# =====================================================================================================
-def test_an_output_that_is_a_folder_is_refused(tmp_path):
-    (tmp_path / "d.png").mkdir()
-    with pytest.raises(ValueError, match=r"output: '.*d\.png' is a folder, not a file"):
-        check_image_path(tmp_path / "d.png", "output", writable=True)
-    assert check_image_path(tmp_path / "d.png", "output") == ".png"  # the extension check alone is unchanged
-
-
-@pytest.mark.parametrize("rel", ["missing/x.png", "a/b/c/x.pfm", "missing/x.npy"])
-def test_an_output_in_a_missing_folder_is_refused(tmp_path, rel):
-    with pytest.raises(ValueError, match=r"folder .* does not exist"):
-        check_image_path(tmp_path / rel, "output", writable=True)
-
-
-def test_an_output_under_a_regular_file_is_refused(tmp_path):
-    (tmp_path / "file").write_text("x")
-    with pytest.raises(ValueError, match=r"output: .*file is not a folder"):
-        check_image_path(tmp_path / "file" / "x.png", "output", writable=True)
-
-
-def test_an_output_in_a_read_only_place_is_refused(tmp_path, monkeypatch):
-    """os.access says yes to root for read-only folders (tests run as root), so the
-    refusal is shown with a patched os.access."""
-    real = os.access
-    monkeypatch.setattr(os, "access", lambda p, mode: False if os.fspath(p) == str(tmp_path) else real(p, mode))
-    with pytest.raises(ValueError, match=r"output: '.*x\.png' cannot be written"):
-        check_image_path(tmp_path / "x.png", "output", writable=True)
-    (tmp_path / "sub").mkdir()
-    (tmp_path / "sub" / "old.png").write_bytes(b"")
-    monkeypatch.setattr(os, "access", lambda p, mode: not os.fspath(p).endswith("old.png"))
-    with pytest.raises(ValueError, match=r"old\.png' cannot be written"):
-        check_image_path(tmp_path / "sub" / "old.png", "output", writable=True)
-
-
-def test_writable_outputs_pass(tmp_path):
-    assert check_image_path(tmp_path / "x.png", "output", writable=True) == ".png"
-    (tmp_path / "y.pfm").write_bytes(b"")
-    assert check_image_path(tmp_path / "y.pfm", "output", writable=True) == ".pfm"  # overwriting is fine
-
-
-@pytest.mark.parametrize("path", ["", b""])
-def test_an_empty_output_path_is_refused(path):
-    with pytest.raises(ValueError, match=r"output: expected a file name, got an empty path"):
-        check_image_path(path, "output")
