@@ -83,7 +83,7 @@ def bench_cost(width, height, counts, repeats):
 
 
 def half_plane(width=48, height=48, degrees=30.0):
-    """The half-plane scene of tests/test_antialiasing.py, and each pixel's exact covered fraction (H, W)."""
+    """The half-plane scene of tests/visibility/test_antialiasing.py, and each pixel's exact covered fraction (H, W)."""
     import raycast_shade as rs
 
     a = np.radians(degrees)

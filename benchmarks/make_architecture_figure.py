@@ -5,7 +5,7 @@ camera rays, visibility by Embree or by the reference rasterizer, the hit
 buffer both fill, the shading kernels, the frame and its file; notes under
 the frame give the anti-aliasing path and the optional stages. Each box is
 coloured by the stage package that owns it; the strip below is the layer
-order tests/test_architecture.py enforces (a module imports only from its own
+order tests/project/test_architecture.py enforces (a module imports only from its own
 package and the ones to its left). See docs/architecture.md.
 
 Usage::

@@ -12,7 +12,7 @@
   unlifted shadow ray is blocked (traced with ``rs.cast_rays``, same offset
   and end as the kernels) set to what a shadowed pixel shows, the ambient term;
 * ``surfaces_mirror.png``: a perfect mirror beside a sphere, and the sphere
-  seen by the mirrored camera, flipped left to right (``tests/test_mirror.py``);
+  seen by the mirrored camera, flipped left to right (``tests/shading/test_mirror.py``);
 
 and prints the frame time with and without the extra casts (median of repeats
 after a warm-up; the full measurement is ``benchmarks/bench_surfaces.py``).
@@ -122,7 +122,7 @@ def terminator_figure(width=640, height=400, mesh=None):
 
 
 def mirror_figure(width=640, height=400):
-    """The scene of tests/test_mirror.py: mirror view | mirrored camera's view, flipped."""
+    """The scene of tests/shading/test_mirror.py: mirror view | mirrored camera's view, flipped."""
     m = np.array([0.2, 0.1, 1.0]) / np.linalg.norm([0.2, 0.1, 1.0])  # the mirror's normal
     q = np.array([0.1, -0.1, 0.0])  # and a point on it
 

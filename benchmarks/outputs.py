@@ -6,7 +6,7 @@ run (``--quick``) is a smoke test of the same machinery on small sizes; its
 files keep the full run's names but go to ``benchmarks/results/quick/``,
 ``docs/images/quick/`` and ``docs/benchmarks_quick.md``, which ``.gitignore``
 lists, so that ``python -m benchmarks --quick`` changes no tracked file and
-never overwrites a full run's numbers (``tests/test_benchmark_outputs.py``
+never overwrites a full run's numbers (``tests/project/test_benchmark_outputs.py``
 checks the folders with ``git check-ignore``).
 """
 

@@ -11,7 +11,7 @@ moves, so the hit buffer of each interpolation is cast once and kept, and a
 change of material or light only re-shades it; a new material reuses the
 packed geometry and its BVH (:func:`raycast_shade.shading.terms.with_materials`).
 The image is exactly :func:`raycast_shade.render` of :meth:`Explorer.scene`
-(``tests/test_explore.py`` checks the PNG bytes). Frame rates:
+(``tests/apps/test_explore.py`` checks the PNG bytes). Frame rates:
 ``benchmarks/bench_explore.py``.
 
 The light is placed on a sphere around the centre of the scene's bounding

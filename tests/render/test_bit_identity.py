@@ -1,4 +1,4 @@
-"""Images are bit-identical to those of the code before the refactor (see tests/golden_renders.py)."""
+"""Images are bit-identical to those of the code before the refactor (see tests/render/golden_renders.py)."""
 
 from __future__ import annotations
 
