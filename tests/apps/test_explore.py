@@ -15,7 +15,23 @@ import raycast_shade as rs
 
 pytest.importorskip("ipywidgets")
 
-from raycast_shade.apps.explore import SIDE_BY_SIDE, Explorer, reference_png  # noqa: E402
+from raycast_shade.apps.explore import SIDE_BY_SIDE, Explorer  # noqa: E402
+from raycast_shade.output.imagefile import png_bytes  # noqa: E402
+
+
+def reference_png(explorer: Explorer) -> bytes:
+    """The PNG :func:`raycast_shade.render` makes of the explorer's scene and controls: a fresh
+    render, which the widget must hold exactly."""
+    v = explorer.values()
+    scene = explorer.scene()
+    fresh = rs.Scene(scene.models, lights=scene.lights, camera=explorer.camera, ambient=scene.ambient,
+                     background=scene.background)
+    methods = list(rs.SHADINGS) if v["shading"] == SIDE_BY_SIDE else [v["shading"]]
+    panels = []
+    for method in methods:
+        frame = rs.render(fresh, method, interpolation=v["interpolation"], max_depth=explorer.max_depth)
+        panels.append(rs.to_uint8(frame.overlay(wireframe=True) if v["wireframe"] else frame.image))
+    return png_bytes(np.concatenate(panels, axis=1) if len(panels) > 1 else panels[0])
 
 
 def _scene(w=40, h=30):

@@ -11,9 +11,15 @@ import numpy as np
 import pytest
 
 import raycast_shade as rs
-from raycast_shade.scene.texture import Texture, linear_to_srgb, srgb_to_linear
+from raycast_shade.scene.texture import Texture, srgb_to_linear
 from raycast_shade.shading.texture import texture_levels
 from raycast_shade.study.reference import footprint_reference, shade_reference
+
+
+def linear_to_srgb(c):
+    """The sRGB encoding (IEC 61966-2-1), the inverse of ``srgb_to_linear``."""
+    c = np.asarray(c, np.float64)
+    return np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.maximum(c, 0.0031308) ** (1 / 2.4) - 0.055)
 
 
 def test_srgb_decoding_is_the_exact_eotf():
