@@ -1,6 +1,6 @@
 """Figures for ``docs/antialiasing.md``.
 
-Run ``python -m benchmarks.make_aa_figures``. Writes to ``docs/images/``:
+Run ``python -m docs.figures.aa [--quick]``. Writes to ``docs/images/``:
 
 * ``aa_samples.png``: one scene at 1, 4 and 16 samples per pixel (top), and
   the same 24x16-pixel corner of each magnified 10 times, nearest-neighbour
@@ -14,15 +14,16 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import sys
 
 import numpy as np
 
 import raycast_shade as rs
 from raycast_shade.common.samples import sample_offsets
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.dirname(HERE)
-IMAGES = os.path.join(ROOT, "docs", "images")
+from benchmarks.outputs import ROOT, images_dir
+
+IMAGES = images_dir(False)
 
 
 def _save_rgb(rgb8, name):
@@ -151,7 +152,18 @@ def spot_figure(size=360):
     print(f"wrote {os.path.relpath(path, ROOT)}")
 
 
-if __name__ == "__main__":
+def main(argv=None):
+    """Draw the figures; ``--quick`` writes them into the git-ignored ``docs/images/quick/``."""
+    global IMAGES
+    argv = sys.argv[1:] if argv is None else list(argv)
+    quick = "--quick" in argv
+    IMAGES = images_dir(quick)
+    os.makedirs(IMAGES, exist_ok=True)
     aa_figure()
     pattern_figure()
     spot_figure()
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -5,7 +5,7 @@ sharp Phong highlight). Left, Gouraud shading: the highlight is computed at
 the vertices only, so it jumps from vertex to vertex, swells and fades.
 Right, Phong shading: the normal is interpolated and the highlight glides.
 
-Run ``python -m benchmarks.make_animation [--workers N] [-o PATH]``.
+Run ``python -m docs.figures.animation [--workers N] [-o PATH] [--quick]``.
 """
 
 from __future__ import annotations
@@ -16,9 +16,9 @@ import time
 
 import numpy as np
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.dirname(HERE)
-OUTPUT = os.path.join(ROOT, "docs", "images", "light_orbit.gif")
+from benchmarks.outputs import ROOT, image_file
+
+OUTPUT = image_file("light_orbit.gif", False)
 
 
 def orbit_scenes(frames: int = 24, width: int = 160, height: int = 120):
@@ -103,7 +103,11 @@ def main(argv=None):
     ap.add_argument("--height", type=int, default=120, help="panel height")
     ap.add_argument("--fps", type=float, default=12.0)
     ap.add_argument("--workers", type=int, default=None, help="render on a local Dask cluster")
+    ap.add_argument("--quick", action="store_true", help="write into the git-ignored docs/images/quick/")
     args = ap.parse_args(argv)
+    if args.quick and args.output == OUTPUT:
+        args.output = image_file("light_orbit.gif", True)
+    os.makedirs(os.path.dirname(os.path.abspath(args.output)), exist_ok=True)
     out = make(args.output, args.frames, args.width, args.height, args.fps, args.workers)
     print(f"wrote {out['output']}: {out['frames']} frames, {out['bytes'] / 1024:.0f} KiB, {out['seconds']:.1f} s")
     return out

@@ -10,7 +10,7 @@ package and the ones to its left). See docs/architecture.md.
 
 Usage::
 
-    python benchmarks/make_architecture_figure.py
+    python -m docs.figures.architecture [--quick]
 """
 
 from __future__ import annotations
@@ -18,8 +18,7 @@ from __future__ import annotations
 import os
 import sys
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-OUT = os.path.join(os.path.dirname(HERE), "docs", "images", "architecture.png")
+from benchmarks.outputs import image_file
 
 # One colour per package (pale fill, strong edge), shared by the boxes and the layer strip.
 COLOURS = {
@@ -65,7 +64,7 @@ def _arrow(ax, start, end, *, style="-|>", colour="#333333", lw=1.6, ls="-", rad
                 style="italic", zorder=3)
 
 
-def draw(path=OUT):
+def draw(path):
     import matplotlib
 
     matplotlib.use("Agg")
@@ -189,7 +188,9 @@ def draw(path=OUT):
 
 
 def main(argv=None) -> int:
-    path = draw(argv[0] if argv else OUT)
+    """Draw the figure; ``--quick`` writes it into the git-ignored ``docs/images/quick/``."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    path = draw(image_file("architecture.png", "--quick" in argv))
     print(f"wrote {os.path.relpath(path)}")
     return 0
 

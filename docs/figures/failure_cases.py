@@ -1,6 +1,6 @@
 """Pictures and figures of the failure catalogue (``docs/failure-cases.md``).
 
-Run ``python -m benchmarks.make_failure_figures [--only 1 4 ...]``. Each case of
+Run ``python -m docs.figures.failure_cases [--only 1 4 ...] [--quick]``. Each case of
 the catalogue renders a small scene that provokes the failure, measures it,
 and draws the naive or plain result next to what the project does (or flat,
 Gouraud and Phong side by side) into ``docs/images/failure_NN_name.png``. The
@@ -19,10 +19,10 @@ import sys
 
 import numpy as np
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.dirname(HERE)
-RESULTS = os.path.join(HERE, "results")
-IMAGES = os.path.join(ROOT, "docs", "images")
+from benchmarks.outputs import images_dir, results_dir  # noqa: E402
+
+RESULTS = results_dir(False)
+IMAGES = images_dir(False)
 
 import raycast_shade as rs  # noqa: E402
 from raycast_shade.study import failure_scenes as fs  # noqa: E402
@@ -70,7 +70,7 @@ def figure(path, items, suptitle, width=2.3, height=2.1):
     os.makedirs(IMAGES, exist_ok=True)
     fig.savefig(os.path.join(IMAGES, path), dpi=100)
     plt.close(fig)
-    print(f"  -> docs/images/{path}")
+    print(f"  -> {os.path.join(IMAGES, path)}")
 
 
 def _all(scene):
@@ -566,7 +566,10 @@ CASES = {1: case_1, 2: case_2, 3: case_3, 4: case_4, 5: case_5, 6: case_6_degene
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", type=int, nargs="*", help="case numbers (default: all)")
+    ap.add_argument("--quick", action="store_true", help="write into the git-ignored quick/ folders")
     args = ap.parse_args(argv)
+    global IMAGES, RESULTS
+    IMAGES, RESULTS = images_dir(args.quick), results_dir(args.quick)
     todo = args.only or sorted(CASES)
     for k in todo:
         print(f"case {k}")
@@ -583,7 +586,7 @@ def main(argv=None):
         wr.writerow(["case", "quantity", "value"])
         for r in sorted(old + [[str(c), n, f"{v:.6g}"] for c, n, v in ROWS], key=lambda r: int(r[0])):
             wr.writerow(r)
-    print("  -> benchmarks/results/failure_cases.csv")
+    print(f"  -> {path}")
     return 0
 
 

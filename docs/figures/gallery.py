@@ -9,7 +9,7 @@
 
 Needs matplotlib (``pip install 'raycast_shade[notebook]'``). Usage::
 
-    python benchmarks/make_gallery.py
+    python -m docs.figures.gallery [--quick]
 """
 
 from __future__ import annotations
@@ -17,12 +17,11 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+import raycast_shade as rs
 
-import raycast_shade as rs  # noqa: E402
+from benchmarks.outputs import images_dir
 
-IMAGES = ROOT / "docs" / "images"
+IMAGES = Path(images_dir(False))
 WIDTH, HEIGHT = 360, 240
 ROW = 118  # through the sphere, below its highlight
 
@@ -42,7 +41,11 @@ def scene(width: int = WIDTH, height: int = HEIGHT) -> rs.Scene:
     return rs.Scene(models, lights=lights, camera=camera, ambient=0.06)
 
 
-def main() -> None:
+def main(argv=None) -> int:
+    """Draw the pictures; ``--quick`` writes them into the git-ignored ``docs/images/quick/``."""
+    global IMAGES
+    argv = sys.argv[1:] if argv is None else list(argv)
+    IMAGES = Path(images_dir("--quick" in argv))
     IMAGES.mkdir(parents=True, exist_ok=True)
     s = scene()
     frames = {m: rs.render(s, m) for m in rs.SHADINGS}
@@ -61,6 +64,7 @@ def main() -> None:
     img = g.overlay(wireframe=False, normals=True, length=0.18, color=(0.2, 1.0, 0.4), image=img)
     rs.figures.montage([g.image, img], ["Gouraud", "edges, vertices, normals"], panel_width=4.2).savefig(
         IMAGES / "gallery_wireframe.png", dpi=100)
+    return 0
 
 
 if __name__ == "__main__":

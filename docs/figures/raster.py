@@ -12,7 +12,7 @@
 
 Usage::
 
-    python benchmarks/make_raster_figure.py
+    python -m docs.figures.raster [--quick]
 """
 
 from __future__ import annotations
@@ -23,13 +23,12 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+import raycast_shade as rs
+from raycast_shade.shading.shade import shade
+from raycast_shade.visibility.interpolation import to_screen_space
+from raycast_shade.visibility.raster import rasterize
 
-import raycast_shade as rs  # noqa: E402
-from raycast_shade.visibility.interpolation import to_screen_space  # noqa: E402
-from raycast_shade.visibility.raster import rasterize  # noqa: E402
-from raycast_shade.shading.shade import shade  # noqa: E402
+from benchmarks.outputs import images_dir, results_dir
 
 LOG_RANGE = (-8.0, -4.0)  # the difference panel's colour scale, log10 of linear intensity
 WIDTH, HEIGHT = 320, 240
@@ -180,21 +179,24 @@ def interpolation_figure(path):
     plt.close(fig)
 
 
-def main():
-    out = ROOT / "docs" / "images"
+def main(argv=None):
+    """Draw the figures and write the agreement CSV; ``--quick`` writes into the git-ignored quick/ folders."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    quick = "--quick" in argv
+    out = Path(images_dir(quick))
     out.mkdir(parents=True, exist_ok=True)
     side_by_side(out / "raster_side_by_side.png")
     interpolation_figure(out / "raster_interpolation.png")
     rows = agreement()
-    res = ROOT / "benchmarks" / "results"
+    res = Path(results_dir(quick))
     res.mkdir(parents=True, exist_ok=True)
     with open(res / "raster_agreement.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
     summarise(rows)
-    print("wrote docs/images/raster_side_by_side.png, docs/images/raster_interpolation.png, "
-          "benchmarks/results/raster_agreement.csv")
+    print(f"wrote {out / 'raster_side_by_side.png'}, {out / 'raster_interpolation.png'}, "
+          f"{res / 'raster_agreement.csv'}")
 
 
 if __name__ == "__main__":

@@ -1,6 +1,6 @@
 """Figures (and a quick timing) for docs/surfaces.md: bumps, shadows and mirrors.
 
-``python benchmarks/make_surface_figures.py [--no-timing]`` writes, into ``docs/images/``:
+``python -m docs.figures.surfaces [--no-timing] [--quick]`` writes, into ``docs/images/``:
 
 * ``surfaces.png``: bumps, two shadowing lights and a mirror in one scene;
 * ``surfaces_bump.png``: a sphere without a bump map, with dimples, with
@@ -29,8 +29,9 @@ import numpy as np
 
 import raycast_shade as rs
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-IMAGES = os.path.join(ROOT, "docs", "images")
+from benchmarks.outputs import images_dir
+
+IMAGES = images_dir(False)
 
 
 def scene(width=640, height=400, shadows=True, mirror=True):
@@ -55,7 +56,7 @@ def _save(image, name):
 
     path = os.path.join(IMAGES, name)
     iio.imwrite(path, rs.to_uint8(image))
-    print(f"wrote {os.path.relpath(path, ROOT)}")
+    print(f"wrote {path}")
 
 
 def bump_figure(width=640, height=240):
@@ -167,17 +168,20 @@ def median_ms(s, repeats=7):
 
 
 def main(argv=None):
-    argv = sys.argv[1:] if argv is None else argv
+    """Draw the figures (``--quick``: into the git-ignored ``docs/images/quick/``, no timing)."""
+    global IMAGES
+    argv = sys.argv[1:] if argv is None else list(argv)
+    IMAGES = images_dir("--quick" in argv)
     os.makedirs(IMAGES, exist_ok=True)
     rs.render(scene()).save(os.path.join(IMAGES, "surfaces.png"))
-    print("wrote docs/images/surfaces.png")
+    print(f"wrote {os.path.join(IMAGES, 'surfaces.png')}")
     _save(bump_figure(), "surfaces_bump.png")
     image, counts = terminator_figure()
     _save(image, "surfaces_terminator.png")
     print(f"terminator (icosphere 1, {counts['lit']} lit pixels): falsely shadowed without the fix "
           f"{counts['without_fix']}, with it {counts['with_fix']}")
     _save(mirror_figure(), "surfaces_mirror.png")
-    if "--no-timing" not in argv:
+    if "--no-timing" not in argv and "--quick" not in argv:
         w, h = 640, 400
         plain = median_ms(scene(w, h, shadows=False, mirror=False))
         both = median_ms(scene(w, h))

@@ -1,17 +1,19 @@
 """Pictures for docs/teaching.md: the equation's terms, the shadow mask, the explorer's frame.
 
-Run ``python -m benchmarks.make_teaching_figures``; writes ``docs/images/teaching_*.png`` and prints
+Run ``python -m docs.figures.teaching [--quick]``; writes ``docs/images/teaching_*.png`` and prints
 the ``explain()`` text that docs/teaching.md quotes.
 """
 
 from __future__ import annotations
 
 import os
+import sys
 
 import numpy as np
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-IMAGES = os.path.join(os.path.dirname(HERE), "docs", "images")
+from benchmarks.outputs import images_dir
+
+IMAGES = images_dir(False)
 
 
 def room(width=320, height=240):
@@ -26,7 +28,12 @@ def room(width=320, height=240):
                     ambient=0.1)
 
 
-def main():
+def main(argv=None):
+    """Draw the figures; ``--quick`` writes them into the git-ignored ``docs/images/quick/``."""
+    global IMAGES
+    argv = sys.argv[1:] if argv is None else list(argv)
+    quick = "--quick" in argv
+    IMAGES = images_dir(quick)
     import raycast_shade as rs
     from raycast_shade.apps.explore import SIDE_BY_SIDE, Explorer
     from raycast_shade.output.imagefile import write_png
@@ -60,6 +67,7 @@ def main():
     ys, xs = np.nonzero(gouraud.hits.geom == 0)
     print(gouraud.explain(int(xs[len(xs) // 3]), int(ys[len(ys) // 3])))
     print(list(ex.controls))
+    return 0
 
 
 if __name__ == "__main__":

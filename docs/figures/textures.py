@@ -1,6 +1,6 @@
 """Figures for docs/textures.md: a textured model in the three modes, mip-mapping, colours.
 
-``python benchmarks/make_texture_figures.py`` writes, into ``docs/images/``:
+``python -m docs.figures.textures [--quick]`` writes, into ``docs/images/``:
 
 * ``texture_modes.png``: a low-polygon sphere with a colour map (a checkerboard of
   coloured squares and a stripe) under a point light, flat / Gouraud / Phong;
@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 import os
+import sys
 
 import numpy as np
 
@@ -25,8 +26,9 @@ import raycast_shade as rs
 from raycast_shade.shading.texture import texture_levels
 from raycast_shade.study.reference import shade_reference
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-IMAGES = os.path.join(ROOT, "docs", "images")
+from benchmarks.outputs import images_dir
+
+IMAGES = images_dir(False)
 
 
 def _save(name, panels, gap=6):
@@ -39,7 +41,7 @@ def _save(name, panels, gap=6):
             row.append(np.full((h, gap, 3), 255, np.uint8))
         row.append(np.pad(p, ((0, h - p.shape[0]), (0, 0), (0, 0)), constant_values=255))
     iio.imwrite(os.path.join(IMAGES, name), np.concatenate(row, axis=1))
-    print("wrote", os.path.join("docs", "images", name))
+    print("wrote", os.path.join(IMAGES, name))
 
 
 def map_texture(n=256):
@@ -136,7 +138,12 @@ def texel_errors():
     return out
 
 
-def main():
+def main(argv=None):
+    """Draw the figures; ``--quick`` writes them into the git-ignored ``docs/images/quick/``."""
+    global IMAGES
+    argv = sys.argv[1:] if argv is None else list(argv)
+    quick = "--quick" in argv
+    IMAGES = images_dir(quick)
     os.makedirs(IMAGES, exist_ok=True)
     errors = modes_figure()
     mipmap_figure()
@@ -147,6 +154,7 @@ def main():
     print("max |texel under block centre - block colour|:", ", ".join(f"{k} {v:.2e}" for k, v in texel.items()
                                                                    if k != "level"))
     print(f"max |mip level - log2(texels per pixel)| on head-on planes: {texel['level']:.2e}")
+    return 0
 
 
 if __name__ == "__main__":

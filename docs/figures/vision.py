@@ -1,6 +1,6 @@
 """Figures of docs/vision.md: every buffer of one view, and a view set reprojected to a point cloud.
 
-Run ``python -m benchmarks.make_vision_figures``. Renders
+Run ``python -m docs.figures.vision [--quick]``. Renders
 ``examples/shapes.toml`` through a camera with ``fx != fy`` and an
 off-centre principal point, writes ``docs/images/vision_buffers.png`` (one
 panel per buffer), then renders an 8-view orbit with
@@ -14,13 +14,14 @@ from __future__ import annotations
 
 import json
 import os
+import sys
 import tempfile
 
 import numpy as np
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.dirname(HERE)
-IMAGES = os.path.join(ROOT, "docs", "images")
+from benchmarks.outputs import ROOT, images_dir
+
+IMAGES = images_dir(False)
 
 
 def _camera(scene, width=480, height=300):
@@ -148,15 +149,22 @@ def pointcloud_figure(scene):
     return out, dist, scale, inside
 
 
-def main():
+def main(argv=None):
+    """Draw the figures; ``--quick`` writes them into the git-ignored ``docs/images/quick/``."""
+    global IMAGES
+    argv = sys.argv[1:] if argv is None else list(argv)
+    quick = "--quick" in argv
+    IMAGES = images_dir(quick)
     from raycast_shade.scene.scenefile import load_scene
 
+    os.makedirs(IMAGES, exist_ok=True)
     scene, _ = load_scene(os.path.join(ROOT, "examples", "shapes.toml"))
     print("wrote", buffers_figure(scene))
     out, dist, scale, inside = pointcloud_figure(scene)
     print(f"wrote {out}: {len(dist):,} points; distance to their triangles: max {dist.max():.2e}, "
           f"median {np.median(dist):.2e}, 99.9% {np.quantile(dist, 0.999):.2e} (scene diagonal {scale:.2f}); "
           f"smallest barycentric {inside.min():.1e}")
+    return 0
 
 
 if __name__ == "__main__":

@@ -1,4 +1,5 @@
-"""Where the benchmark suite writes, checked without running it.
+"""The benchmark suite and the figure scripts: where they write, checked without running them,
+and that each is reachable from its runner (``python -m benchmarks``, ``python -m docs.figures``).
 
 ``python -m benchmarks --quick`` must change no tracked file: every path a
 quick run writes is git-ignored, and every path a full run writes is not
@@ -123,11 +124,11 @@ def test_every_package_name_a_benchmark_imports_exists():
     """A module moved or a name renamed breaks a benchmark only when it runs (the peers
     benchmark needs Open3D and EGL, which CI lacks): every import is resolved here."""
     missing = []
-    bench = os.path.join(ROOT, "benchmarks")
-    for fname in sorted(os.listdir(bench)):
-        if not fname.endswith(".py"):
-            continue
-        for line, module, name in _package_imports(os.path.join(bench, fname)):
+    files = [os.path.join(d, f) for d in (os.path.join(ROOT, "benchmarks"), FIGURES_DIR)
+             for f in sorted(os.listdir(d)) if f.endswith(".py")]
+    for path in files:
+        fname = os.path.relpath(path, ROOT)
+        for line, module, name in _package_imports(path):
             try:
                 mod = importlib.import_module(module)
             except ImportError as exc:
@@ -139,3 +140,54 @@ def test_every_package_name_a_benchmark_imports_exists():
                 except ImportError:
                     missing.append(f"{fname}:{line}: {module}.{name}")
     assert not missing, missing
+
+
+# -- one suite: every benchmark registered, every figure script reachable ---------------------------
+
+FIGURES_DIR = os.path.join(ROOT, "docs", "figures")
+NOT_BENCHMARKS = {"__init__", "__main__", "outputs"}  # the runner and the helpers
+
+
+def _modules_in(folder, package):
+    return sorted(f"{package}.{f[:-3]}" for f in os.listdir(folder)
+                  if f.endswith(".py") and f[:-3] not in NOT_BENCHMARKS)
+
+
+def test_every_benchmark_module_is_registered():
+    """A benchmark that runs only on its own drifts: each module of benchmarks/ is in the registry."""
+    registered = [e["module"] for e in REGISTRY]
+    assert len(registered) == len(set(registered))
+    assert sorted(registered) == _modules_in(os.path.join(ROOT, "benchmarks"), "benchmarks")
+    assert len({e["name"] for e in REGISTRY}) == len(REGISTRY)
+
+
+def test_every_figure_script_is_reachable_from_the_runner():
+    from docs.figures.__main__ import FIGURES
+
+    listed = [f["module"] for f in FIGURES]
+    assert len(listed) == len(set(listed))
+    assert sorted(listed) == _modules_in(FIGURES_DIR, "docs.figures")
+    for f in FIGURES:
+        assert os.path.exists(os.path.join(ROOT, "docs", f["page"])), f
+        mod = importlib.import_module(f["module"])
+        assert callable(getattr(mod, "main", None)), f"{f['module']} needs main(argv)"
+
+
+@pytest.mark.parametrize("name", _modules_in(FIGURES_DIR, "docs.figures"))
+def test_figure_scripts_write_through_the_outputs_module(name):
+    """A figure script names no output folder itself and takes ``--quick``, which sends its
+    files to the quick folders of benchmarks/outputs.py (git-ignored, checked above)."""
+    path = os.path.join(ROOT, *name.split(".")) + ".py"
+    src = open(path, encoding="utf-8").read()
+    tree = ast.parse(src)
+    bad = sorted(_path_literals(tree))
+    assert not bad, f"{name}: " + "; ".join(f"line {n}: {v!r}" for n, v in bad)
+    assert "--quick" in src
+    assert any(isinstance(n, ast.ImportFrom) and n.module == "benchmarks.outputs" for n in ast.walk(tree)), name
+
+
+def test_quick_folders_are_apart_from_the_tracked_ones():
+    for quick_dir, full_dir in ((outputs.results_dir(True), outputs.results_dir(False)),
+                                (outputs.images_dir(True), outputs.images_dir(False))):
+        assert quick_dir != full_dir and os.path.dirname(quick_dir) == full_dir
+    assert outputs.doc_path(True) != outputs.doc_path(False)

@@ -149,7 +149,7 @@ def test_10_translated_scene_renders_the_same(shift, tol):
     the images agree to the stated tolerance: 1e-6 up to 1e5, 1e-5 at 1e7
     (measured max difference: 0 at 1e3 and 1e5, 1.0e-6 at 1e7). Without
     re-centring, the float32 vertices alone would move by up to 2^-7 at 1e5:
-    measured image RMSE 0.012, max 0.56 (make_failure_figures.py)."""
+    measured image RMSE 0.012, max 0.56 (docs/figures/failure_cases.py)."""
     base = fs.far_scene((0.0, 0.0, 0.0))
     moved = fs.far_scene(shift * np.array([1.0, -0.7, 0.4]))
     for shading in rs.SHADINGS:
