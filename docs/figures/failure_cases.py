@@ -197,7 +197,7 @@ def case_3():
     fz = _all(fs.zero_normals_scene())
     record(3, "zero normals: phong - flat, max", np.abs(fz["phong"].image - fz["flat"].image).max())
     figure("failure_03_cancel.png",
-           [("img", naive, "+-z normals, no rule", 0.6), ("img", f["gouraud"].image, "Gouraud (bug: lit from behind)", 0.6),
+           [("img", naive, "+-z normals, no rule", 0.6), ("img", f["gouraud"].image, "Gouraud = flat", 0.6),
             ("img", f["phong"].image, "Phong = flat", 0.6), ("img", fz["phong"].image, "zero normals: Phong = flat", 0.8)],
            "3. Vertex normals that cancel: the face normal takes over")
 

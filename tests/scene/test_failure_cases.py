@@ -140,7 +140,7 @@ def test_6_inconsistent_winding_with_computed_normals_needs_repair():
     are plain averages of the right-hand face normals (the documented
     definition), so at a vertex where windings disagree they cancel: Phong
     and Gouraud stay finite but are wrong (measured RMSE against the exact
-    sphere: Phong 0.141 vs 0.0030 consistent, Gouraud 0.230 vs 0.0114; normal
+    sphere: Phong 0.141 vs 0.0030 consistent, Gouraud 0.100 vs 0.0114; normal
     error p95 69 degrees). The remedy is to fix the winding before building
     the Mesh (trimesh.repair.fix_winding), which restores the image. The
     Mesh says so: a WindingWarning when its normals are computed."""

@@ -293,11 +293,11 @@ def test_6_inconsistent_winding_with_given_normals_mirrors_phongs_tilt():
 
 def test_3_6_gouraud_orients_corner_normals_like_phong():
     """Gouraud and Phong agree at the vertices for consistent data (see
-    test_shading_modes); they should for inconsistent data too. Measured now:
-    the +-z checkerboard grid under Gouraud differs from the flat (= Phong)
-    image by up to 0.92; on the 30%-flipped sphere with given normals the
-    Gouraud RMSE against the exact sphere is 0.251 (0.0115 consistent; the
-    proposed fix, prototyped in NumPy, gives 0.023)."""
+    test_shading_modes), and for inconsistent data too: the +-z checkerboard
+    grid under Gouraud is the flat (= Phong) image, and on the 30%-flipped
+    sphere with given normals the Gouraud RMSE against the exact sphere is
+    0.023 (0.0115 consistent; measured by docs/figures/failure_cases.py).
+    Before the fix: 0.92 off flat, RMSE 0.251 (CHANGELOG.md)."""
     scene = fs.checker_normals_scene()
     np.testing.assert_allclose(rs.render(scene, "gouraud").image, rs.render(scene, "flat").image, rtol=1e-5, atol=1e-6)
     # At the corners of every wrongly wound face, Gouraud = Phong.
