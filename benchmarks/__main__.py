@@ -9,8 +9,8 @@ is not there yet is skipped with a message, and one that fails is reported
 without stopping the others. CSVs go to ``benchmarks/results/`` and charts to
 ``docs/images/``; ``docs/benchmarks.md`` is then regenerated from the CSVs of
 the mode that ran. A quick run writes the same names into the git-ignored
-``benchmarks/results/quick/``, ``docs/images/quick/`` and
-``docs/benchmarks_quick.md`` (:mod:`benchmarks.outputs`), so it changes no
+``out/quick/results/``, ``out/quick/images/`` and
+``out/quick/benchmarks.md`` (:mod:`benchmarks.outputs`), so it changes no
 tracked file and never overwrites a full run's numbers.
 
 Exit status: 0 when every benchmark that exists ran, 1 when one failed, 2 on

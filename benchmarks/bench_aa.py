@@ -16,7 +16,7 @@ Run ``python -m benchmarks.bench_aa [--quick]``. Measures
   fraction|`` over the edge pixels, for N = 1 .. 256, on both backends.
 
 Results: ``benchmarks/results/aa.csv``. ``--quick`` runs a 480x270 frame and
-fewer N and writes into the git-ignored ``benchmarks/results/quick/`` (:mod:`benchmarks.outputs`).
+fewer N and writes into the git-ignored ``out/quick/results/`` (:mod:`benchmarks.outputs`).
 """
 
 from __future__ import annotations

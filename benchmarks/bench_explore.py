@@ -17,7 +17,7 @@ Every parallel kernel waits for both cores: on a machine shared with other
 work each one costs about a scheduler time slice, so the ``load`` column
 (the 1-minute load average when the row was measured) says how busy the
 machine was. Results: ``benchmarks/results/explore.csv``. ``--quick`` runs 160x120 only,
-a few frames, and writes into the git-ignored ``benchmarks/results/quick/``.
+a few frames, and writes into the git-ignored ``out/quick/results/``.
 """
 
 from __future__ import annotations

@@ -48,7 +48,7 @@ Sections (issue 16):
 Every row carries the 1-minute load average when it was measured: this
 machine may be shared. Results: ``benchmarks/results/limits.csv``;
 ``--quick`` (small frames, few repeats, no cold compile unless asked) writes
-only under ``benchmarks/results/quick/`` (untracked).
+only under ``out/quick/results/`` (untracked).
 """
 
 from __future__ import annotations

@@ -41,7 +41,7 @@ at +0.5 in both; GL's rows are bottom up.
 
 Outputs: ``benchmarks/results/peers.csv`` and ``docs/images/peers.png``;
 ``--quick`` (small meshes and frames, 3 repeats) writes the same names under the
-git-ignored ``benchmarks/results/quick/`` and ``docs/images/quick/`` (:mod:`benchmarks.outputs`).
+git-ignored ``out/quick/results/`` and ``out/quick/images/`` (:mod:`benchmarks.outputs`).
 
 Needs the ``peers`` extra (``pip install 'raycast_shade[peers]'``: moderngl,
 open3d) and, on Debian/Ubuntu, ``apt-get install -y libegl1 libegl-mesa0

@@ -18,7 +18,7 @@ Run ``python -m benchmarks.bench_views [--quick]``. Measures
   over 1,000 random poses, the largest absolute error.
 
 Results: ``benchmarks/results/views.csv``. ``--quick`` runs smaller sizes
-and writes into the git-ignored ``benchmarks/results/quick/`` (:mod:`benchmarks.outputs`).
+and writes into the git-ignored ``out/quick/results/`` (:mod:`benchmarks.outputs`).
 """
 
 from __future__ import annotations

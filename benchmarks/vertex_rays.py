@@ -21,7 +21,7 @@ depth-jump re-test; and times ``cast_rays`` over 1M rays both ways.
 
 Writes ``benchmarks/results/vertex_rays.csv`` (case, setting, quantity, value);
 ``--quick`` (icosphere(3), fewer rays) prints the same table and writes it into
-the git-ignored ``benchmarks/results/quick/``.
+the git-ignored ``out/quick/results/``.
 """
 
 from __future__ import annotations

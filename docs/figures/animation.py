@@ -103,7 +103,7 @@ def main(argv=None):
     ap.add_argument("--height", type=int, default=120, help="panel height")
     ap.add_argument("--fps", type=float, default=12.0)
     ap.add_argument("--workers", type=int, default=None, help="render on a local Dask cluster")
-    ap.add_argument("--quick", action="store_true", help="write into the git-ignored docs/images/quick/")
+    ap.add_argument("--quick", action="store_true", help="write into the git-ignored out/quick/images/")
     args = ap.parse_args(argv)
     if args.quick and args.output == OUTPUT:
         args.output = image_file("light_orbit.gif", True)

@@ -188,7 +188,7 @@ def draw(path):
 
 
 def main(argv=None) -> int:
-    """Draw the figure; ``--quick`` writes it into the git-ignored ``docs/images/quick/``."""
+    """Draw the figure; ``--quick`` writes it into the git-ignored ``out/quick/images/``."""
     argv = sys.argv[1:] if argv is None else list(argv)
     path = draw(image_file("architecture.png", "--quick" in argv))
     print(f"wrote {os.path.relpath(path)}")

@@ -42,7 +42,7 @@ def scene(width: int = WIDTH, height: int = HEIGHT) -> rs.Scene:
 
 
 def main(argv=None) -> int:
-    """Draw the pictures; ``--quick`` writes them into the git-ignored ``docs/images/quick/``."""
+    """Draw the pictures; ``--quick`` writes them into the git-ignored ``out/quick/images/``."""
     global IMAGES
     argv = sys.argv[1:] if argv is None else list(argv)
     IMAGES = Path(images_dir("--quick" in argv))

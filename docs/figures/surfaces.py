@@ -168,7 +168,7 @@ def median_ms(s, repeats=7):
 
 
 def main(argv=None):
-    """Draw the figures (``--quick``: into the git-ignored ``docs/images/quick/``, no timing)."""
+    """Draw the figures (``--quick``: into the git-ignored ``out/quick/images/``, no timing)."""
     global IMAGES
     argv = sys.argv[1:] if argv is None else list(argv)
     IMAGES = images_dir("--quick" in argv)

@@ -29,7 +29,7 @@ def room(width=320, height=240):
 
 
 def main(argv=None):
-    """Draw the figures; ``--quick`` writes them into the git-ignored ``docs/images/quick/``."""
+    """Draw the figures; ``--quick`` writes them into the git-ignored ``out/quick/images/``."""
     global IMAGES
     argv = sys.argv[1:] if argv is None else list(argv)
     quick = "--quick" in argv

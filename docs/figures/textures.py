@@ -139,7 +139,7 @@ def texel_errors():
 
 
 def main(argv=None):
-    """Draw the figures; ``--quick`` writes them into the git-ignored ``docs/images/quick/``."""
+    """Draw the figures; ``--quick`` writes them into the git-ignored ``out/quick/images/``."""
     global IMAGES
     argv = sys.argv[1:] if argv is None else list(argv)
     quick = "--quick" in argv

@@ -186,8 +186,12 @@ def test_figure_scripts_write_through_the_outputs_module(name):
     assert any(isinstance(n, ast.ImportFrom) and n.module == "benchmarks.outputs" for n in ast.walk(tree)), name
 
 
-def test_quick_folders_are_apart_from_the_tracked_ones():
-    for quick_dir, full_dir in ((outputs.results_dir(True), outputs.results_dir(False)),
-                                (outputs.images_dir(True), outputs.images_dir(False))):
-        assert quick_dir != full_dir and os.path.dirname(quick_dir) == full_dir
-    assert outputs.doc_path(True) != outputs.doc_path(False)
+def test_quick_outputs_are_outside_the_tracked_folders():
+    """Not under docs/ or benchmarks/ at all: a quick run cannot touch a tracked file even where
+    .gitignore would be wrong."""
+    tracked = [os.path.join(ROOT, "docs"), os.path.join(ROOT, "benchmarks")]
+    for path in (outputs.results_dir(True), outputs.images_dir(True), outputs.doc_path(True)):
+        assert not any(os.path.commonpath([path, t]) == t for t in tracked), path
+        assert os.path.commonpath([path, ROOT]) == ROOT
+    assert outputs.results_dir(False) == os.path.join(ROOT, "benchmarks", "results")
+    assert outputs.images_dir(False) == os.path.join(ROOT, "docs", "images")
