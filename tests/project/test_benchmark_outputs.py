@@ -195,3 +195,30 @@ def test_quick_outputs_are_outside_the_tracked_folders():
         assert os.path.commonpath([path, ROOT]) == ROOT
     assert outputs.results_dir(False) == os.path.join(ROOT, "benchmarks", "results")
     assert outputs.images_dir(False) == os.path.join(ROOT, "docs", "images")
+
+
+def test_the_figure_check_finds_every_changed_picture(tmp_path):
+    """``python -m docs.figures --check`` compares pixels, not bytes: a re-encoded identical
+    picture passes; a changed pixel, a new size or a missing tracked file is reported."""
+    import imageio.v3 as iio
+    import numpy as np
+
+    from docs.figures.__main__ import differing
+
+    new, old = tmp_path / "new", tmp_path / "old"
+    new.mkdir()
+    old.mkdir()
+    img = np.zeros((4, 5, 3), np.uint8)
+    iio.imwrite(old / "same.png", img)
+    iio.imwrite(new / "same.png", img, compress_level=0)  # other bytes, same pixels
+    iio.imwrite(old / "changed.png", img)
+    changed = img.copy()
+    changed[1, 2] = (0, 7, 0)
+    iio.imwrite(new / "changed.png", changed)
+    iio.imwrite(old / "resized.png", img)
+    iio.imwrite(new / "resized.png", img[:3])
+    iio.imwrite(new / "new.png", img)
+    (new / "notes.csv").write_text("a,b\n")
+    found = dict(differing(str(new), str(old)))
+    assert sorted(found) == ["changed.png", "new.png", "resized.png"]
+    assert found["changed.png"] == "max difference 7, in 1 pixel(s)"
