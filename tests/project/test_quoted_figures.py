@@ -73,3 +73,31 @@ def test_the_packet_speed_up_has_one_figure():
 @pytest.mark.parametrize("page, quote", _failure_quotes())
 def test_failure_case_figures_are_the_csvs(page, quote):
     assert quote in _page(page), f"{page} should say {quote!r} (benchmarks/results/failure_cases.csv)"
+
+
+def _core(mesh, w, h, pipeline, stage):
+    values = [Decimal(r["median_ms"]) for r in _rows("core.csv")
+              if (r["benchmark"], r["mesh"], r["width"], r["height"], r["pipeline"], r["stage"])
+              == ("frame", mesh, str(w), str(h), pipeline, stage)]
+    assert len(values) == 1, (mesh, w, h, pipeline, stage)
+    return values[0]
+
+
+def _ms(x, places="0.1"):
+    return f"{x.quantize(Decimal(places), ROUND_HALF_UP)} ms"
+
+
+@pytest.mark.parametrize("label, mesh, w, h", [
+    ("icosphere, 81,920 tris | 640×480", "icosphere6", 640, 480),
+    ("icosphere, 81,920 tris | 1920×1080", "icosphere6", 1920, 1080),
+    ("icosphere, 1.31 M tris | 640×480", "icosphere8", 640, 480),
+    ("icosphere, 1.31 M tris | 1920×1080", "icosphere8", 1920, 1080),
+])
+def test_the_readmes_core_table_is_core_csv(label, mesh, w, h):
+    """The README's one-frame table, row by row, from ``core.csv`` (bench_core)."""
+    c = lambda *k: _core(mesh, w, h, *k)  # noqa: E731
+    naive = c("naive", "total")
+    row = (f"| {label} | {_ms(c('raycast_shade', 'cast'))} | {_ms(c('raycast_shade', 'shade'))} | "
+           f"**{_ms(c('raycast_shade', 'total'))}** | {_ms(c('embreex', 'cast_2threads'))} | "
+           f"{_ms(naive, '1')} ({c('ratio', 'naive_over_total').quantize(Decimal('0.1'), ROUND_HALF_UP)}×) |")
+    assert row in _page("README.md"), row
