@@ -1,4 +1,5 @@
-"""The ``raycast-shade`` command: ``demo``, ``render`` and ``info``.
+"""The ``raycast-shade`` command: ``demo``, ``render``, ``animate`` (:mod:`raycast_shade.apps.animate`),
+``views`` (:mod:`raycast_shade.apps.views`) and ``info``.
 
 Every failure the user can fix (a missing or invalid scene file, a bad option
 value, an unwritable output) prints one line ``raycast-shade: error: ...`` on
