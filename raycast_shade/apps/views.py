@@ -12,19 +12,38 @@ scene per mesh set, the scene cache; serially, on a local Dask cluster with
 * ``view_{i:05d}.exr``: the buffers and the linear image (``"exr"``);
 * ``view_{i:05d}_depth.png``: 16-bit z-depth in millimetres (``"depth_png"``);
 
+* ``view_{i:05d}.json``: the view's record, written last: the hash of
+  what it was rendered from and each file's size and BLAKE2b digest;
+
 and ``index.json``: per view its ``K``, ``R``, ``t`` (OpenCV's convention),
-size, projection and files. Each file is written atomically; a view whose
-files all exist is skipped (resume), so an interrupted run, run again,
-finishes the set. Only one view's buffers are in memory per worker at a
-time, and the client holds paths, so memory stays flat in the number of
-views.
+size, projection and files.
+
+Honest resumes
+--------------
+``plan.json`` is written first: the settings (buffers, formats, image,
+render options, depth scale, package version) and per view the hashes of
+its scene (meshes and materials), camera and lights. Run again into the
+same folder, a view is skipped only if its record holds the same hash and
+every file it lists is there with its size and digest (a 0-byte or
+truncated file is rendered again). A folder that holds another plan (other
+cameras, another size, other buffers, ...) or view files without a plan is
+refused with a message saying what differs, before anything is written;
+``overwrite=True`` replaces it, keeping only the views that match. Each
+file is written atomically, so a killed run, run again, finishes the set
+with the bytes a single run writes. Only one view's buffers are in memory
+per worker at a time, and the client holds paths, so memory stays flat in
+the number of views.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import json
 import os
+import re
+
+import numpy as np
 
 from ..output.bufferfile import save_npz, write_depth_png, write_exr
 from ..output.buffers import check_buffers
@@ -32,13 +51,16 @@ from ..output.imagefile import atomic_target, check_image_path, remove_stale_tem
 from ..render import render
 from .batch.cache import PLUGIN_NAME, SceneCache, cache_of
 from .batch.options import check_options
-from .batch.plan import plan_batch
+from .batch.plan import _digest, plan_batch
 
-__all__ = ["render_views", "FORMATS", "INDEX_NAME", "view_files", "register_cli", "run_cli"]
+__all__ = ["render_views", "FORMATS", "INDEX_NAME", "PLAN_NAME", "view_files", "register_cli", "run_cli"]
 
 FORMATS = ("npz", "exr", "depth_png")
 INDEX_NAME = "index.json"
+PLAN_NAME = "plan.json"
+PLAN_FORMAT = "raycast_shade view set plan 1"
 _STEM = "view_{:05d}"
+_OURS = re.compile(r"^view_\d{5}(\.|_depth\.png$)")  # files of some view set (any plan)
 
 
 def _check_formats(formats) -> tuple:
@@ -54,12 +76,39 @@ def _check_formats(formats) -> tuple:
 
 
 def view_files(index: int, formats, image) -> dict:
-    """File names (no folder) of view ``index``, by kind (``image``, ``npz``, ``exr``, ``depth_png``)."""
+    """File names (no folder) of view ``index``, by kind (``image``, ``npz``, ``exr``, ``depth_png``,
+    and ``record``, the view's record, written last)."""
     stem = _STEM.format(index)
     files = {} if image is None else {"image": stem + image}
     for f in formats:
         files[f] = stem + ("_depth.png" if f == "depth_png" else "." + f)
+    files["record"] = stem + ".json"
     return files
+
+
+def _hash(obj) -> str:
+    h = hashlib.blake2b(digest_size=16)
+    _digest(obj, h)
+    return h.hexdigest()
+
+
+def _file_digest(path) -> str:
+    h = hashlib.blake2b(digest_size=16)
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _view_hashes(job) -> dict:
+    """What view ``job`` is rendered from, as hashes: its scene's models, camera, lights and colours."""
+    return {"scene": job.key, "camera": _hash(job.camera),
+            "lights": _hash((job.lights, job.ambient, job.background))}
+
+
+def _view_key(settings_hash: str, job) -> str:
+    """One hash of everything a view's files depend on (settings and the view's own inputs)."""
+    return _hash((settings_hash, job.index, tuple(sorted(_view_hashes(job).items()))))
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -72,14 +121,47 @@ class _ViewSpec:
     image: str | None
     out_dir: str
     depth_scale: float
+    settings_hash: str = ""
+
+
+def _view_is_done(files: dict, key: str) -> bool:
+    """True if the view's record holds ``key`` and every file it lists is there, byte for byte."""
+    try:
+        with open(files["record"]) as fh:
+            record = json.load(fh)
+        if record.get("key") != key:
+            return False
+        listed = record["files"]
+        for kind, path in files.items():
+            if kind == "record":
+                continue
+            entry = listed[os.path.basename(path)]
+            size = os.path.getsize(path)
+            if size == 0 or size != entry["bytes"] or _file_digest(path) != entry["blake2b"]:
+                return False
+        return True
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return False
+
+
+def _write_record(files: dict, key: str, job) -> None:
+    K, R, t = job.camera.to_opencv()
+    written = {os.path.basename(p): {"bytes": os.path.getsize(p), "blake2b": _file_digest(p)}
+               for kind, p in files.items() if kind != "record"}
+    record = {"index": job.index, "key": key, "K": K.tolist(), "R": R.tolist(), "t": t.tolist(), "files": written}
+    with atomic_target(files["record"]) as tmp, open(tmp, "w") as fh:
+        json.dump(record, fh, indent=1)
 
 
 def _write_view(job, base, spec: _ViewSpec, cache: SceneCache) -> str:
-    """Render and write one view (unless all its files exist); returns its stem."""
+    """Render and write one view (unless its record shows it done); returns its stem."""
     files = {k: os.path.join(spec.out_dir, v) for k, v in view_files(job.index, spec.formats, spec.image).items()}
-    if spec.options.resume and all(os.path.exists(p) for p in files.values()):
+    key = _view_key(spec.settings_hash, job)
+    if spec.options.resume and _view_is_done(files, key):
         cache.count("skipped")
         return _STEM.format(job.index)
+    if os.path.exists(files["record"]):
+        os.unlink(files["record"])  # the record goes first: never a record beside half-replaced files
     if "geometry" not in base.__dict__:
         cache.count("builds")
     scene = base.replace(lights=job.lights, camera=job.camera, ambient=job.ambient, background=job.background)
@@ -95,6 +177,7 @@ def _write_view(job, base, spec: _ViewSpec, cache: SceneCache) -> str:
         write_exr(files["exr"], kept, image=frame.image, atomic=True)
     if "depth_png" in files:
         write_depth_png(files["depth_png"], frame.buffers["zdepth"], scale=spec.depth_scale, atomic=True)
+    _write_record(files, key, job)
     return _STEM.format(job.index)
 
 
@@ -167,10 +250,105 @@ def _index_entry(job, files) -> dict:
             "K": K.tolist(), "R": R.tolist(), "t": t.tolist(), "files": files}
 
 
+def _settings(spec: _ViewSpec) -> dict:
+    """The plan's settings: everything every view's files depend on besides the view's own inputs."""
+    from ..common.version import __version__
+
+    opts = spec.options
+    return json.loads(json.dumps({
+        "version": __version__, "buffers": list(spec.buffers), "formats": list(spec.formats), "image": spec.image,
+        "depth_scale": spec.depth_scale,
+        "options": {"shading": opts.shading, "render": opts.render_kwargs, "tone": opts.tone}}, default=repr))
+
+
+def _make_plan(spec: _ViewSpec, jobs) -> dict:
+    settings = _settings(spec)
+    return {"format": PLAN_FORMAT, "settings": settings,
+            "views": [{"index": j.index, "width": j.camera.width, "height": j.camera.height, **_view_hashes(j),
+                       "files": view_files(j.index, spec.formats, spec.image)} for j in jobs]}
+
+
+def _plural(n: int, word: str) -> str:
+    return f"{n} {word}" + ("" if n == 1 else "s")
+
+
+def _plan_differences(old: dict, new: dict) -> list:
+    """What differs between two plans, in words (empty: the same plan)."""
+    if old.get("format") != PLAN_FORMAT or not isinstance(old.get("views"), list):
+        return [f"{PLAN_NAME} is not a plan this version reads"]
+    out = []
+    a, b = old.get("settings", {}), new["settings"]
+    for k in sorted(set(a) | set(b)):
+        if a.get(k) != b.get(k):
+            out.append(f"{k} {json.dumps(a.get(k))} -> {json.dumps(b.get(k))}")
+    va, vb = old["views"], new["views"]
+    if len(va) != len(vb):
+        out.append(f"{_plural(len(va), 'view')} -> {len(vb)}")
+    shared = list(zip(va, vb))
+    try:
+        for field, what in (("scene", "scene (meshes or materials)"), ("camera", "camera"),
+                            ("lights", "lights or colours")):
+            n = sum(x.get(field) != y[field] for x, y in shared)
+            if n:
+                out.append(f"the {what} of {n} of the {_plural(len(shared), 'shared view')} differs")
+        sizes = [(f"{x.get('width')}x{x.get('height')}", f"{y['width']}x{y['height']}") for x, y in shared]
+        changed = sorted({f"{p} -> {q}" for p, q in sizes if p != q})
+        if changed:
+            out.append("size " + ", ".join(changed))
+    except AttributeError:
+        out.append(f"{PLAN_NAME} is not a plan this version reads")
+    return out
+
+
+def _prepare_folder(out_dir: str, plan: dict, overwrite: bool) -> None:
+    """Check ``out_dir`` against ``plan`` (refusing another plan unless ``overwrite``), then write the plan.
+
+    Under ``overwrite``, the other plan's files go, except those of views with the same hashes and file
+    names (their records are checked again before they are skipped).
+    """
+    plan_path = os.path.join(out_dir, PLAN_NAME)
+    ours = sorted(n for n in os.listdir(out_dir) if _OURS.match(n) or n == INDEX_NAME)
+    old = None
+    if os.path.exists(plan_path):
+        try:
+            with open(plan_path) as fh:
+                old = json.load(fh)
+            if not isinstance(old, dict):
+                raise ValueError("not a JSON object")
+            differences = _plan_differences(old, plan)
+        except (OSError, ValueError) as exc:
+            differences = [f"{PLAN_NAME} cannot be read ({exc})"]
+    elif ours:
+        differences = [f"{_plural(len(ours), 'view set file')} (e.g. {ours[0]}) but no {PLAN_NAME}"]
+    else:
+        differences = []
+    if not differences:
+        return _write_json(plan_path, plan)
+    if not overwrite:
+        raise ValueError(f"out_dir: {out_dir} holds another view set: {'; '.join(differences)}. "
+                         "Pass overwrite=True (CLI: --overwrite) to replace it, or choose another folder")
+    keep = set()
+    if isinstance(old, dict) and not _plan_differences({**old, "views": []}, {**plan, "views": []}):
+        # Same settings: views with the same inputs and files stay (their records are checked later).
+        for x, y in zip(old.get("views", []), plan["views"]):
+            if isinstance(x, dict) and all(x.get(k) == y[k] for k in ("scene", "camera", "lights", "files")):
+                keep.update(y["files"].values())
+    for name in ours:
+        if name not in keep:
+            os.unlink(os.path.join(out_dir, name))
+    _write_json(plan_path, plan)
+
+
+def _write_json(path, obj) -> None:
+    with atomic_target(path) as tmp, open(tmp, "w") as fh:
+        json.dump(obj, fh, indent=1)
+
+
 def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", "mask"), formats=("npz",),
                  image: str | None = ".png", shading="phong", workers: int | None = None, scheduler=None,
                  resume: bool = True, tone: dict | None = None, retries: int = 2, views_per_task: int = 1,
-                 numba_threads: int | None = None, depth_scale: float = 1000.0, **render_kwargs) -> str:
+                 numba_threads: int | None = None, depth_scale: float = 1000.0, overwrite: bool = False,
+                 **render_kwargs) -> str:
     """Render a set of views with their buffers and cameras into ``out_dir``.
 
     Parameters
@@ -191,7 +369,11 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
     workers, scheduler, retries, numba_threads
         As :func:`raycast_shade.apps.batch.render_batch`.
     resume : bool
-        Skip views whose files all exist.
+        Skip views whose record matches the plan and whose files are intact
+        (see the module docstring); False renders every view again.
+    overwrite : bool
+        Replace a view set of another plan in ``out_dir`` (default: refuse
+        it, saying what differs).
     views_per_task : int
         Consecutive views per Dask task.
     depth_scale : float
@@ -205,7 +387,9 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
     Raises
     ------
     TypeError, ValueError
-        For a bad argument, naming it, before any view renders.
+        For a bad argument, naming it, a camera whose frame exceeds the
+        memory limit, or a folder holding another plan: before any file is
+        written.
     ImportError
         ``"exr"`` without the openexr package.
     """
@@ -228,11 +412,24 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
         import OpenEXR  # noqa: F401 - fail now, not on the first view
     if isinstance(views_per_task, bool) or not isinstance(views_per_task, int) or views_per_task < 1:
         raise ValueError(f"views_per_task: expected an integer > 0, got {views_per_task!r}")
+    if not isinstance(overwrite, (bool, np.bool_)):
+        raise TypeError(f"overwrite: expected True or False, got {type(overwrite).__name__}")
+    if isinstance(depth_scale, bool) or not isinstance(depth_scale, (int, float, np.integer, np.floating)) \
+            or not (np.isfinite(depth_scale) and depth_scale > 0):
+        raise ValueError(f"depth_scale: expected a finite number > 0, got {depth_scale!r}")
     options = check_options(shading, render_kwargs, tone, resume)
     bases, jobs = plan_batch(scene, cameras)
+    for job in jobs:  # every camera before the first view is written
+        try:
+            job.camera.check_frame_memory()
+        except ValueError as exc:
+            raise ValueError(f"cameras[{job.index}]: {exc}") from None
     spec = _ViewSpec(options, names, formats, None if image is None else str(image).lower(), out_dir,
                      float(depth_scale))
+    spec = dataclasses.replace(spec, settings_hash=_hash(json.dumps(_settings(spec), sort_keys=True)))
+    plan = _make_plan(spec, jobs)
     os.makedirs(out_dir, exist_ok=True)
+    _prepare_folder(out_dir, plan, bool(overwrite))
     all_files = {j.index: view_files(j.index, formats, spec.image) for j in jobs}
     remove_stale_temps(out_dir, [n for files in all_files.values() for n in files.values()] + [INDEX_NAME])
     on_dask = workers is not None or scheduler is not None
@@ -254,8 +451,7 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
              "buffers": list(names), "formats": list(formats),
              "views": [_index_entry(j, all_files[j.index]) for j in jobs]}
     path = os.path.join(out_dir, INDEX_NAME)
-    with atomic_target(path) as tmp, open(tmp, "w") as fh:
-        json.dump(index, fh, indent=1)
+    _write_json(path, index)
     return path
 
 
@@ -272,7 +468,8 @@ def register_cli(subparsers):
         "views", help="render a data set of views: images, buffers and cameras",
         description="Render a TOML scene file from N cameras orbiting its target: per view the image and "
                     "the buffers (npz, exr, 16-bit depth png), and index.json with each view's K, R, t "
-                    "(OpenCV's convention) and files. Views already written are skipped.",
+                    "(OpenCV's convention) and files. Views already written for the same plan are skipped; a "
+                    "folder holding another plan is refused (--overwrite replaces it).",
         epilog="examples:\n"
                "  raycast-shade views examples/shapes.toml --orbit 24 --buffers depth,normal,id -o shapes_views\n"
                "  raycast-shade views scene.toml --orbit 100 --buffers zdepth,position --formats npz,exr "
@@ -289,6 +486,8 @@ def register_cli(subparsers):
     p.add_argument("--image", default=".png", metavar="EXT",
                    help="per-view image file extension, or 'none' (default: .png)")
     p.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder (created)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace a view set of another plan in the output folder (default: refuse it)")
     add_render_options(p)
     where = p.add_mutually_exclusive_group()
     where.add_argument("--workers", type=positive_int, metavar="N", help="render on a local Dask cluster of N workers")
@@ -311,7 +510,7 @@ def run_cli(ns) -> int:
     t0 = time.perf_counter()
     index = render_views(scene, orbit_cameras(scene.camera, ns.orbit), ns.output, buffers=ns.buffers,
                          formats=ns.formats, image=image, shading=shading, workers=ns.workers,
-                         scheduler=ns.scheduler, tone=tone, **render_kwargs)
+                         scheduler=ns.scheduler, tone=tone, overwrite=ns.overwrite, **render_kwargs)
     secs = time.perf_counter() - t0
     cam = scene.camera
     print(f"wrote {index} ({ns.orbit} views, {cam.width}x{cam.height}, buffers {','.join(ns.buffers)}): "

@@ -89,10 +89,12 @@ def extrinsics(camera):
 
 
 def _matrix(value, shape, field):
-    try:
-        a = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise TypeError(f"{field}: expected a {shape} array of numbers, got {type(value).__name__}") from None
+    """``value`` as a finite float64 array of ``shape``: numbers only (strings and booleans refused)."""
+    from ..common.validate import as_array
+
+    a = as_array(value, field, dtype=np.float64, finite=False)
+    if shape == (3,) and a.shape in ((3, 1), (1, 3)):  # a column, as cv2.solvePnP and cv2.Rodrigues give it
+        a = a.reshape(3)
     if a.shape != shape:
         raise ValueError(f"{field}: expected shape {shape}, got {a.shape}")
     if not np.all(np.isfinite(a)):
@@ -109,8 +111,8 @@ def opencv_kwargs(K, R, t, projection="perspective") -> dict:
         ``[[fx, 0, cx], [0, fy, cy], [0, 0, 1]]``, ``fx, fy > 0``; skew must be 0.
     R : (3, 3) float
         Rotation (orthonormal to 1e-6, ``det R > 0``), world to camera.
-    t : (3,) float
-        Translation, world to camera.
+    t : (3,) or (3, 1) float
+        Translation, world to camera (a column as ``cv2.solvePnP`` returns it).
     projection : {"perspective", "orthographic"}
 
     Returns

@@ -1,0 +1,219 @@
+"""Honest resumes of view sets: the plan is written first, a folder of another plan is refused
+(saying what differs) or replaced on request, and only views whose files match the plan are kept.
+
+The three stale cases of issue 26 (more views, another buffer, another size), a killed run, a
+view killed between its files, 0-byte and corrupted files, view files without a plan, and a huge
+camera refused before anything is written. "Equal to a fresh run" compares every file: arrays of
+the .npz files (their zip headers carry the time), bytes of the others, the records' hashes.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+
+import numpy as np
+import pytest
+
+import raycast_shade as rs
+import raycast_shade.apps.views as views
+from raycast_shade.apps.animate import orbit_cameras
+from raycast_shade.apps.cli import main
+from raycast_shade.apps.views import INDEX_NAME, PLAN_NAME, render_views
+from raycast_shade.output.bufferfile import load_npz
+
+W, H = 24, 18
+
+
+@pytest.fixture(scope="module")
+def scene():
+    s = rs.Scene([rs.Model(rs.shapes.icosphere(1)), rs.Model(rs.shapes.plane(size=4.0, center=(0, 0, -1.2)))],
+                 lights=[rs.PointLight((2, 3, 4), intensity=20)],
+                 camera=rs.Camera(eye=(0.3, 0.5, 4.0), width=W, height=H))
+    rs.render(s, buffers=("zdepth",))
+    return s
+
+
+@pytest.fixture
+def counted(monkeypatch):
+    """Counts the renders of render_views (its module's own ``render``)."""
+    calls = []
+    real = views.render
+
+    def render(scene, *args, **kwargs):
+        calls.append(kwargs["camera"])
+        return real(scene, *args, **kwargs)
+
+    monkeypatch.setattr(views, "render", render)
+    return calls
+
+
+def _stamps(folder):
+    return {n: os.stat(folder / n).st_mtime_ns for n in sorted(os.listdir(folder))}
+
+
+def _same_set(a, b):
+    """The two folders hold the same files with the same contents (see the module docstring)."""
+    names = sorted(os.listdir(a))
+    assert names == sorted(os.listdir(b))
+    for name in names:
+        if name.endswith(".npz"):
+            x, y = load_npz(a / name), load_npz(b / name)
+            assert x.keys() == y.keys(), name
+            for k in x:
+                assert x[k].dtype == y[k].dtype and np.array_equal(x[k], y[k]), (name, k)
+        elif name.endswith(".json") and name not in (INDEX_NAME, PLAN_NAME):
+            x, y = json.load(open(a / name)), json.load(open(b / name))
+            assert x["key"] == y["key"] and x["files"].keys() == y["files"].keys(), name
+        else:
+            assert (a / name).read_bytes() == (b / name).read_bytes(), name
+
+
+@pytest.mark.parametrize("case", ["more views", "another buffer", "another size"])
+def test_a_folder_of_another_plan_is_refused_then_replaced(scene, tmp_path, case):
+    cams = orbit_cameras(scene.camera, 4)
+    render_views(scene, cams, tmp_path / "set", buffers=["zdepth"])
+    before = _stamps(tmp_path / "set")
+    kwargs = {"buffers": ["zdepth"]}
+    if case == "more views":
+        cams, expect = orbit_cameras(scene.camera, 6), ["4 views -> 6", "camera of 3 of the 4 shared views"]
+    elif case == "another buffer":
+        kwargs["buffers"], expect = ["zdepth", "position"], ['buffers ["zdepth"] -> ["zdepth", "position"]']
+    else:
+        cams = [c.replace(width=2 * W, height=2 * H) for c in cams]
+        expect = [f"size {W}x{H} -> {2 * W}x{2 * H}", "camera of 4 of the 4 shared views"]
+    with pytest.raises(ValueError, match="holds another view set") as info:
+        render_views(scene, cams, tmp_path / "set", **kwargs)
+    for words in expect:
+        assert words in str(info.value)
+    assert "overwrite=True" in str(info.value)
+    assert _stamps(tmp_path / "set") == before  # nothing written, nothing removed
+    render_views(scene, cams, tmp_path / "set", overwrite=True, **kwargs)
+    render_views(scene, cams, tmp_path / "fresh", **kwargs)
+    _same_set(tmp_path / "set", tmp_path / "fresh")
+    index = json.load(open(tmp_path / "set" / INDEX_NAME))
+    for view, cam in zip(index["views"], cams):
+        npz = load_npz(tmp_path / "set" / view["files"]["npz"])
+        assert set(npz) == set(kwargs["buffers"]) | {"image", "K", "R", "t"}
+        assert npz["zdepth"].shape == (cam.height, cam.width)
+        assert np.array_equal(npz["K"], cam.K) and np.array_equal(view["K"], cam.K)
+
+
+def test_overwrite_keeps_only_the_views_that_match(scene, tmp_path, counted):
+    cams = orbit_cameras(scene.camera, 4)
+    render_views(scene, cams, tmp_path, buffers=["zdepth"])
+    more = orbit_cameras(scene.camera, 8)  # every other camera is one of the 4
+    counted.clear()
+    render_views(scene, more, tmp_path, buffers=["zdepth"], overwrite=True)
+    # View i of 8 matches view i of 4 only where the camera is the same: view 0 alone.
+    assert len(counted) == 7
+    assert all(c is not more[0] for c in counted)
+
+
+def test_a_killed_run_resumes_where_it_stopped(scene, tmp_path, monkeypatch):
+    cams = orbit_cameras(scene.camera, 5)
+    real = views.render
+    counted = []
+
+    def killed_at_third(scene, *args, **kwargs):
+        if len(counted) == 2:
+            raise KeyboardInterrupt
+        counted.append(kwargs["camera"])
+        return real(scene, *args, **kwargs)
+
+    monkeypatch.setattr(views, "render", killed_at_third)
+    with pytest.raises(KeyboardInterrupt):
+        render_views(scene, cams, tmp_path / "set", buffers=["zdepth", "id"], formats=["npz", "depth_png"])
+    assert not (tmp_path / "set" / INDEX_NAME).exists() and (tmp_path / "set" / PLAN_NAME).exists()
+    done = _stamps(tmp_path / "set")
+    monkeypatch.undo()
+    calls = []
+    monkeypatch.setattr(views, "render", lambda s, *a, **k: (calls.append(k["camera"]), real(s, *a, **k))[1])
+    render_views(scene, cams, tmp_path / "set", buffers=["zdepth", "id"], formats=["npz", "depth_png"])
+    assert calls == cams[2:]
+    after = _stamps(tmp_path / "set")
+    assert all(after[n] == t for n, t in done.items() if n.startswith(("view_00000", "view_00001")))
+    render_views(scene, cams, tmp_path / "fresh", buffers=["zdepth", "id"], formats=["npz", "depth_png"])
+    _same_set(tmp_path / "set", tmp_path / "fresh")
+
+
+def test_a_view_killed_between_its_files_is_rendered_again(scene, tmp_path, counted, monkeypatch):
+    cams = orbit_cameras(scene.camera, 3)
+    real = views.write_depth_png
+
+    def fail_on_view_1(path, *args, **kwargs):
+        if "view_00001" in os.fspath(path):
+            raise OSError("disk full")
+        return real(path, *args, **kwargs)
+
+    monkeypatch.setattr(views, "write_depth_png", fail_on_view_1)
+    with pytest.raises(OSError, match="disk full"):
+        render_views(scene, cams, tmp_path, buffers=["zdepth"], formats=["npz", "depth_png"])
+    assert (tmp_path / "view_00001.npz").exists() and not (tmp_path / "view_00001.json").exists()
+    monkeypatch.setattr(views, "write_depth_png", real)
+    counted.clear()
+    render_views(scene, cams, tmp_path, buffers=["zdepth"], formats=["npz", "depth_png"])
+    assert counted == cams[1:]  # view 1 (npz but no record) and view 2 (never reached)
+
+
+@pytest.mark.parametrize("damage", ["empty", "same size", "record gone", "file gone"])
+def test_damaged_views_are_rendered_again(scene, tmp_path, counted, damage):
+    cams = orbit_cameras(scene.camera, 3)
+    render_views(scene, cams, tmp_path, buffers=["zdepth", "normal"])
+    target = tmp_path / "view_00001.npz"
+    if damage == "empty":
+        target.write_bytes(b"")
+    elif damage == "same size":
+        data = bytearray(target.read_bytes())
+        data[len(data) // 2] ^= 0xFF
+        target.write_bytes(bytes(data))
+    elif damage == "record gone":
+        os.remove(tmp_path / "view_00001.json")
+    else:
+        os.remove(target)
+    counted.clear()
+    render_views(scene, cams, tmp_path, buffers=["zdepth", "normal"])
+    assert counted == [cams[1]]
+    fresh = rs.render(scene, camera=cams[1], buffers=("zdepth", "normal"))
+    assert np.array_equal(load_npz(target)["normal"], fresh.buffers["normal"])
+    counted.clear()
+    render_views(scene, cams, tmp_path, buffers=["zdepth", "normal"])
+    assert counted == []  # all intact now
+
+
+def test_view_files_without_a_plan_are_refused(scene, tmp_path):
+    (tmp_path / "view_00000.npz").write_bytes(b"from elsewhere")
+    with pytest.raises(ValueError, match="1 view set file \\(e.g. view_00000.npz\\) but no plan.json"):
+        render_views(scene, orbit_cameras(scene.camera, 2), tmp_path, buffers=["zdepth"])
+    assert sorted(os.listdir(tmp_path)) == ["view_00000.npz"]
+    (tmp_path / "notes.txt").write_text("mine")
+    render_views(scene, orbit_cameras(scene.camera, 2), tmp_path, buffers=["zdepth"], overwrite=True)
+    assert (tmp_path / "notes.txt").read_text() == "mine"  # not a view set file: left alone
+    assert load_npz(tmp_path / "view_00000.npz")["zdepth"].shape == (H, W)
+
+
+def test_an_unreadable_plan_is_refused(scene, tmp_path):
+    (tmp_path / PLAN_NAME).write_text("{not json")
+    with pytest.raises(ValueError, match="plan.json cannot be read"):
+        render_views(scene, orbit_cameras(scene.camera, 2), tmp_path, buffers=["zdepth"])
+
+
+def test_a_huge_third_camera_is_refused_before_anything_is_written(scene, tmp_path, counted):
+    cams = orbit_cameras(scene.camera, 3)
+    cams[2] = cams[2].replace(width=10**6, height=10**6)
+    with pytest.raises(ValueError, match="cameras\\[2\\]: camera.width x camera.height"):
+        render_views(scene, cams, tmp_path / "set", buffers=["zdepth"])
+    assert counted == [] and not (tmp_path / "set").exists()
+
+
+def test_cli_refuses_another_plan_in_one_line_and_overwrites_on_request(tmp_path, capsys):
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    toml = os.path.join(root, "examples", "shapes.toml")
+    args = ["views", toml, "--buffers", "zdepth", "--width", "16", "--height", "12", "-o", str(tmp_path)]
+    assert main(args + ["--orbit", "2"]) == 0
+    capsys.readouterr()
+    assert main(args + ["--orbit", "3"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "2 views -> 3" in err and "--overwrite" in err and "Traceback" not in err
+    assert main(args + ["--orbit", "3", "--overwrite"]) == 0
+    assert len(json.load(open(tmp_path / INDEX_NAME))["views"]) == 3
