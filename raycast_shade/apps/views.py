@@ -13,10 +13,17 @@ scene per mesh set, the scene cache; serially, on a local Dask cluster with
 * ``view_{i:05d}_depth.png``: 16-bit z-depth in millimetres (``"depth_png"``);
 
 * ``view_{i:05d}.json``: the view's record, written last: the hash of
-  what it was rendered from and each file's size and BLAKE2b digest;
+  what it was rendered from, each file's size and BLAKE2b digest, and the
+  visible objects (:func:`raycast_shade.output.labels.view_objects`: id,
+  pixel count, 2D box, model-to-camera pose);
 
-and ``index.json``: per view its ``K``, ``R``, ``t`` (OpenCV's convention),
-size, projection and files.
+and ``index.json``: the objects (id, name, semantic id, material, 3D box,
+pose; :func:`raycast_shade.output.labels.object_table`), and per view its
+``K``, ``R``, ``t`` (OpenCV's convention), size, projection, files and
+visible objects. ``exports`` adds set-level files: ``coco_instances.json``
+(COCO instances, RLE masks), ``transforms.json`` (nerfstudio / instant-ngp)
+and ``colmap/`` (COLMAP's text model); see :mod:`raycast_shade.output.labels`
+and :mod:`raycast_shade.output.export`.
 
 Honest resumes
 --------------
@@ -47,15 +54,19 @@ import numpy as np
 
 from ..output.bufferfile import save_npz, write_depth_png, write_exr
 from ..output.buffers import check_buffers
+from ..output.labels import object_table, semantic_classes, view_objects, write_coco
 from ..output.imagefile import atomic_target, check_image_path, remove_stale_temps, write_image
 from ..render import render
 from .batch.cache import PLUGIN_NAME, SceneCache, cache_of
 from .batch.options import check_options
 from .batch.plan import _digest, plan_batch
 
-__all__ = ["render_views", "FORMATS", "INDEX_NAME", "PLAN_NAME", "view_files", "register_cli", "run_cli"]
+__all__ = ["render_views", "FORMATS", "EXPORTS", "INDEX_NAME", "PLAN_NAME", "view_files", "register_cli", "run_cli"]
 
 FORMATS = ("npz", "exr", "depth_png")
+EXPORTS = ("coco", "nerfstudio", "colmap")
+EXPORT_FILES = {"coco": ("coco_instances.json",), "nerfstudio": ("transforms.json",),
+                "colmap": tuple(os.path.join("colmap", n) for n in ("cameras.txt", "images.txt", "points3D.txt"))}
 INDEX_NAME = "index.json"
 PLAN_NAME = "plan.json"
 PLAN_FORMAT = "raycast_shade view set plan 1"
@@ -63,14 +74,20 @@ _STEM = "view_{:05d}"
 _OURS = re.compile(r"^view_\d{5}(\.|_depth\.png$)")  # files of some view set (any plan)
 
 
-def _check_formats(formats) -> tuple:
+def _check_formats(formats, field="formats", choices=FORMATS) -> tuple:
+    if formats is None:
+        return ()
     if isinstance(formats, str):
         formats = [f for f in formats.split(",") if f.strip()]
+    elif not hasattr(formats, "__iter__"):
+        raise TypeError(f"{field}: expected a sequence of names, got {type(formats).__name__}")
     out = []
     for f in formats:
-        key = str(f).strip().lower()
-        if key not in FORMATS:
-            raise ValueError(f"formats: unknown format {f!r}; expected some of {', '.join(FORMATS)}")
+        if not isinstance(f, str):
+            raise TypeError(f"{field}: expected names (str), got {type(f).__name__}")
+        key = f.strip().lower()
+        if key not in choices:
+            raise ValueError(f"{field}: unknown {field[:-1]} {f!r}; expected some of {', '.join(choices)}")
         out.append(key)
     return tuple(dict.fromkeys(out))
 
@@ -122,6 +139,7 @@ class _ViewSpec:
     out_dir: str
     depth_scale: float
     settings_hash: str = ""
+    exports: tuple = ()
 
 
 def _view_is_done(files: dict, key: str) -> bool:
@@ -144,11 +162,12 @@ def _view_is_done(files: dict, key: str) -> bool:
         return False
 
 
-def _write_record(files: dict, key: str, job) -> None:
+def _write_record(files: dict, key: str, job, objects) -> None:
     K, R, t = job.camera.to_opencv()
     written = {os.path.basename(p): {"bytes": os.path.getsize(p), "blake2b": _file_digest(p)}
                for kind, p in files.items() if kind != "record"}
-    record = {"index": job.index, "key": key, "K": K.tolist(), "R": R.tolist(), "t": t.tolist(), "files": written}
+    record = {"index": job.index, "key": key, "K": K.tolist(), "R": R.tolist(), "t": t.tolist(), "files": written,
+              "objects": objects}
     with atomic_target(files["record"]) as tmp, open(tmp, "w") as fh:
         json.dump(record, fh, indent=1)
 
@@ -165,8 +184,10 @@ def _write_view(job, base, spec: _ViewSpec, cache: SceneCache) -> str:
     if "geometry" not in base.__dict__:
         cache.count("builds")
     scene = base.replace(lights=job.lights, camera=job.camera, ambient=job.ambient, background=job.background)
-    buffers = spec.buffers + (("zdepth",) if "depth_png" in spec.formats and "zdepth" not in spec.buffers else ())
-    frame = render(scene, spec.options.shading, camera=job.camera, buffers=buffers, **spec.options.render_kwargs)
+    extra = [b for b in ("model_id",) + (("zdepth",) if "depth_png" in spec.formats else ()) if b not in spec.buffers]
+    frame = render(scene, spec.options.shading, camera=job.camera, buffers=spec.buffers + tuple(extra),
+                   **spec.options.render_kwargs)
+    objects = view_objects(frame.buffers["model_id"], job.camera, rle="coco" in spec.exports)
     cache.count("renders")
     kept = {k: v for k, v in frame.buffers.items() if k in spec.buffers}
     if "image" in files:
@@ -177,7 +198,7 @@ def _write_view(job, base, spec: _ViewSpec, cache: SceneCache) -> str:
         write_exr(files["exr"], kept, image=frame.image, atomic=True)
     if "depth_png" in files:
         write_depth_png(files["depth_png"], frame.buffers["zdepth"], scale=spec.depth_scale, atomic=True)
-    _write_record(files, key, job)
+    _write_record(files, key, job, objects)
     return _STEM.format(job.index)
 
 
@@ -243,11 +264,13 @@ def _split_by_key(chunk):
         yield out
 
 
-def _index_entry(job, files) -> dict:
+def _index_entry(job, files, out_dir) -> dict:
     K, R, t = job.camera.to_opencv()
     cam = job.camera
+    with open(os.path.join(out_dir, files["record"])) as fh:
+        objects = [{k: v for k, v in o.items() if k != "rle"} for o in json.load(fh)["objects"]]
     return {"index": job.index, "width": cam.width, "height": cam.height, "projection": cam.projection,
-            "K": K.tolist(), "R": R.tolist(), "t": t.tolist(), "files": files}
+            "K": K.tolist(), "R": R.tolist(), "t": t.tolist(), "files": files, "objects": objects}
 
 
 def _settings(spec: _ViewSpec) -> dict:
@@ -257,7 +280,7 @@ def _settings(spec: _ViewSpec) -> dict:
     opts = spec.options
     return json.loads(json.dumps({
         "version": __version__, "buffers": list(spec.buffers), "formats": list(spec.formats), "image": spec.image,
-        "depth_scale": spec.depth_scale,
+        "depth_scale": spec.depth_scale, "exports": list(spec.exports),
         "options": {"shading": opts.shading, "render": opts.render_kwargs, "tone": opts.tone}}, default=repr))
 
 
@@ -307,7 +330,9 @@ def _prepare_folder(out_dir: str, plan: dict, overwrite: bool) -> None:
     names (their records are checked again before they are skipped).
     """
     plan_path = os.path.join(out_dir, PLAN_NAME)
+    set_files = {INDEX_NAME} | {n for names in EXPORT_FILES.values() for n in names}
     ours = sorted(n for n in os.listdir(out_dir) if _OURS.match(n) or n == INDEX_NAME)
+    ours += sorted(n for n in set_files - {INDEX_NAME} if os.path.exists(os.path.join(out_dir, n)))
     old = None
     if os.path.exists(plan_path):
         try:
@@ -348,7 +373,7 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
                  image: str | None = ".png", shading="phong", workers: int | None = None, scheduler=None,
                  resume: bool = True, tone: dict | None = None, retries: int = 2, views_per_task: int = 1,
                  numba_threads: int | None = None, depth_scale: float = 1000.0, overwrite: bool = False,
-                 **render_kwargs) -> str:
+                 exports=(), **render_kwargs) -> str:
     """Render a set of views with their buffers and cameras into ``out_dir``.
 
     Parameters
@@ -374,6 +399,10 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
     overwrite : bool
         Replace a view set of another plan in ``out_dir`` (default: refuse
         it, saying what differs).
+    exports : sequence of {"coco", "nerfstudio", "colmap"}
+        Set-level files written after the views (see the module docstring);
+        ``nerfstudio`` and ``colmap`` name the image files, so they need
+        ``image``.
     views_per_task : int
         Consecutive views per Dask task.
     depth_scale : float
@@ -412,6 +441,10 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
         import OpenEXR  # noqa: F401 - fail now, not on the first view
     if isinstance(views_per_task, bool) or not isinstance(views_per_task, int) or views_per_task < 1:
         raise ValueError(f"views_per_task: expected an integer > 0, got {views_per_task!r}")
+    exports = _check_formats(exports, "exports", EXPORTS)
+    for e in ("nerfstudio", "colmap"):
+        if e in exports and image is None:
+            raise ValueError(f"exports: {e!r} names each view's image file, but image=None writes none")
     if not isinstance(overwrite, (bool, np.bool_)):
         raise TypeError(f"overwrite: expected True or False, got {type(overwrite).__name__}")
     if isinstance(depth_scale, bool) or not isinstance(depth_scale, (int, float, np.integer, np.floating)) \
@@ -425,7 +458,7 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
         except ValueError as exc:
             raise ValueError(f"cameras[{job.index}]: {exc}") from None
     spec = _ViewSpec(options, names, formats, None if image is None else str(image).lower(), out_dir,
-                     float(depth_scale))
+                     float(depth_scale), exports=exports)
     spec = dataclasses.replace(spec, settings_hash=_hash(json.dumps(_settings(spec), sort_keys=True)))
     plan = _make_plan(spec, jobs)
     os.makedirs(out_dir, exist_ok=True)
@@ -449,10 +482,32 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
                              "depth_png": f"uint16 zdepth * {spec.depth_scale:g}, 0 = none",
                              "ids": "-1 on the background (EXR: id + 1, 0 on the background)"},
              "buffers": list(names), "formats": list(formats),
-             "views": [_index_entry(j, all_files[j.index]) for j in jobs]}
+             "classes": list(semantic_classes(scene)[0]), "objects": object_table(scene),
+             "views": [_index_entry(j, all_files[j.index], out_dir) for j in jobs]}
+    _write_exports(scene, jobs, index, spec)
     path = os.path.join(out_dir, INDEX_NAME)
     _write_json(path, index)
     return path
+
+
+def _write_exports(scene, jobs, index, spec: _ViewSpec) -> None:
+    from ..output.export import write_colmap, write_transforms
+
+    views = index["views"]
+    cams = [j.camera for j in jobs]
+    if "coco" in spec.exports:
+        coco_views = []
+        for v in views:
+            with open(os.path.join(spec.out_dir, v["files"]["record"])) as fh:
+                objects = json.load(fh)["objects"]
+            main = v["files"].get("image") or next(iter(v["files"].values()))
+            coco_views.append({"file_name": main, "width": v["width"], "height": v["height"], "objects": objects})
+        write_coco(os.path.join(spec.out_dir, EXPORT_FILES["coco"][0]), scene, coco_views)
+    if "nerfstudio" in spec.exports:
+        write_transforms(os.path.join(spec.out_dir, EXPORT_FILES["nerfstudio"][0]), cams,
+                         [v["files"]["image"] for v in views])
+    if "colmap" in spec.exports:
+        write_colmap(os.path.join(spec.out_dir, "colmap"), cams, [v["files"]["image"] for v in views])
 
 
 # -- the command line ------------------------------------------------------------------------------
@@ -486,6 +541,9 @@ def register_cli(subparsers):
     p.add_argument("--image", default=".png", metavar="EXT",
                    help="per-view image file extension, or 'none' (default: .png)")
     p.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder (created)")
+    p.add_argument("--export", default="", metavar="LIST",
+                   help=f"set-level files, comma-separated: {', '.join(EXPORTS)} (COCO instances with RLE masks, "
+                        "nerfstudio/instant-ngp transforms.json, COLMAP text)")
     p.add_argument("--overwrite", action="store_true",
                    help="replace a view set of another plan in the output folder (default: refuse it)")
     add_render_options(p)
@@ -510,7 +568,8 @@ def run_cli(ns) -> int:
     t0 = time.perf_counter()
     index = render_views(scene, orbit_cameras(scene.camera, ns.orbit), ns.output, buffers=ns.buffers,
                          formats=ns.formats, image=image, shading=shading, workers=ns.workers,
-                         scheduler=ns.scheduler, tone=tone, overwrite=ns.overwrite, **render_kwargs)
+                         scheduler=ns.scheduler, tone=tone, overwrite=ns.overwrite,
+                         exports=ns.export, **render_kwargs)
     secs = time.perf_counter() - t0
     cam = scene.camera
     print(f"wrote {index} ({ns.orbit} views, {cam.width}x{cam.height}, buffers {','.join(ns.buffers)}): "
