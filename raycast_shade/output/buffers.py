@@ -80,6 +80,10 @@ def _unit_rays(camera):
     """(H, W, 3) float64 unit ray directions (world axes), as the casters make them."""
     from ..visibility.rays import generate_rays
 
+    if camera.distorted:
+        from ..visibility.distortion import ray_directions
+
+        return ray_directions(camera)[0].reshape(camera.height, camera.width, 3)
     _, d = generate_rays(camera, dtype=np.float64)
     return d.reshape(camera.height, camera.width, 3)
 

@@ -175,6 +175,8 @@ def projection_matrix(camera, near, far) -> np.ndarray:
         if not np.isfinite(value):
             raise ValueError(f"{name}: must be finite, got {value}")
     n, f = float(near), float(far)
+    if getattr(camera, "distorted", False):
+        raise ValueError("camera.distortion: an OpenGL projection matrix cannot hold lens distortion")
     if not f > n or (not camera.orthographic and not n > 0.0):
         raise ValueError(f"near, far: expected 0 < near < far (orthographic: near < far), got {n}, {f}")
     fx, fy, cx, cy = intrinsics(camera)

@@ -309,6 +309,10 @@ def cast_camera(geometry, camera, caster: str = "auto", threads: int = 2, *, off
     h, w = camera.height, camera.width
     out = None if out is None else image_buffer(out, h, w)
     check_camera_reach(geometry, camera)
+    if camera.distorted:  # exact rays through the distorted pixel centres
+        from .distortion import cast_distorted
+
+        return cast_distorted(geometry, camera, out)
     cam = camera_frame(camera, geometry.origin)
     if caster == "embree":
         hits = image_buffer(out, h, w)  # the kernel writes every pixel
