@@ -4,7 +4,8 @@ A camera with ``distortion`` (:class:`~raycast_shade.scene.camera.Camera`)
 sees point ``X`` at OpenCV's distorted pixel ``(u, v)``; the ray of pixel
 ``(i, j)`` is the direction that distorts onto ``(u, v) = (i, j)`` (OpenCV's
 pixel centres). Each pixel centre is undistorted by Newton's method in
-float64 (a Numba kernel), so the rays are cast directly and every buffer
+float64 (a Numba kernel), so the rays are cast directly (:func:`~raycast_shade.visibility.cast.cast_camera`
+through :func:`~raycast_shade.visibility.cast.cast_rays`, watertight) and every buffer
 (depth, ids, normals, masks) is that of the distorted image: no pinhole image
 is warped, no depth or label is interpolated across an edge.
 
@@ -31,7 +32,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-__all__ = ["distort", "undistort", "ray_directions", "cast_distorted", "MAX_ITERATIONS", "RESIDUAL"]
+__all__ = ["distort", "undistort", "ray_directions", "MAX_ITERATIONS", "RESIDUAL"]
 
 MAX_ITERATIONS = 100
 RESIDUAL = 1e-12  # normalised units: 1e-12 focal lengths
@@ -194,34 +195,3 @@ def ray_directions(camera):
     d_cam, ok = undistort(camera, (ii.ravel() - cx) / fx, (jj.ravel() - cy) / fy)
     R, _ = extrinsics(camera)
     return d_cam @ R, ok  # R^T d for each row: camera axes to world
-
-
-def cast_distorted(geometry, camera, out=None):
-    """The hit buffer of a distorted camera: one exact ray per pixel centre, through
-    :func:`~raycast_shade.visibility.cast.cast_rays` (watertight). Pixels without a ray are misses.
-
-    Parameters
-    ----------
-    geometry : SceneGeometry
-    camera : Camera
-        Perspective, with ``distortion``.
-    out : HitBuffer, optional
-        (H, W) arrays to fill in place.
-
-    Returns
-    -------
-    HitBuffer
-        (H, W) arrays, as :func:`~raycast_shade.visibility.cast.cast_camera`.
-    """
-    from .cast import cast_rays
-    from .hits import image_buffer
-
-    h, w = camera.height, camera.width
-    d, ok = ray_directions(camera)
-    d[~ok] = camera.basis[2]  # any valid direction: the ray is given no length below
-    tfar = np.where(ok, np.inf, 0.0)
-    flat = cast_rays(geometry, np.broadcast_to(camera.eye, d.shape), d, 0.0, tfar)
-    hits = image_buffer(out, h, w)
-    for dst, src, empty in zip(hits, flat, (-1, -1, 0.0, 0.0, np.inf)):
-        dst[...] = np.where(ok, src, empty).reshape(h, w)
-    return hits
