@@ -29,7 +29,8 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["intrinsics", "principal_offset", "intrinsics_matrix", "extrinsics", "opencv_kwargs",
-           "view_matrix", "projection_matrix", "opengl_kwargs", "GL_FROM_CV"]
+           "view_matrix", "projection_matrix", "opengl_kwargs", "GL_FROM_CV", "distort_normalised",
+           "project_points"]
 
 # OpenCV camera axes to OpenGL view axes (and back): y and z flip.
 GL_FROM_CV = np.diag([1.0, -1.0, -1.0])
@@ -228,3 +229,70 @@ def opengl_kwargs(view, projection, width, height) -> dict:
                          f"(orthographic), got {P[3].tolist()}")
     K = [[P[0, 0] * w / 2.0, 0.0, cxg - 0.5], [0.0, P[1, 1] * h / 2.0, cyg - 0.5], [0.0, 0.0, 1.0]]
     return opencv_kwargs(K, GL_FROM_CV @ V[:3, :3], GL_FROM_CV @ V[:3, 3], kind)
+
+
+def distort_normalised(camera, x, y):
+    """A camera's lens model on normalised coordinates (identity without distortion).
+
+    Parameters
+    ----------
+    camera : Camera
+    x, y : (N,) float
+        ``X / Z``, ``Y / Z`` in OpenCV's camera axes.
+
+    Returns
+    -------
+    x_d, y_d : (N,) float64
+        As ``cv2.projectPoints`` (``distortion_model="opencv"``) or
+        ``cv2.fisheye.projectPoints`` (``"fisheye"``) distort them; the
+        formulas are in :mod:`raycast_shade.visibility.distortion`.
+    """
+    x, y = np.asarray(x, np.float64), np.asarray(y, np.float64)
+    if not getattr(camera, "distorted", False):
+        return x, y
+    k = np.zeros(5)
+    k[:len(camera.distortion)] = camera.distortion
+    if camera.distortion_model == "fisheye":
+        r = np.hypot(x, y)
+        theta = np.arctan(r)
+        t2 = theta * theta
+        td = theta * (1.0 + t2 * (k[0] + t2 * (k[1] + t2 * (k[2] + t2 * k[3]))))
+        scale = np.where(r > 0, td / np.where(r > 0, r, 1.0), 1.0)
+        return x * scale, y * scale
+    k1, k2, p1, p2, k3 = k
+    r2 = x * x + y * y
+    s = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+    return x * s + 2 * p1 * x * y + p2 * (r2 + 2 * x * x), y * s + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
+
+
+def project_points(camera, points):
+    """OpenCV pixel coordinates of world points (lens distortion included).
+
+    Parameters
+    ----------
+    camera : Camera
+    points : (N, 3) float
+        World coordinates.
+
+    Returns
+    -------
+    uv : (N, 2) float64
+        Pixel coordinates, OpenCV's convention (the centre of pixel ``(i, j)``
+        at ``(i, j)``); NaN for points not in front of a perspective camera.
+    z : (N,) float64
+        Camera-space depth (``z`` forward).
+    """
+    p = np.asarray(points, np.float64).reshape(-1, 3)
+    fx, fy, cx, cy = intrinsics(camera)
+    R, t = extrinsics(camera)
+    q = p @ R.T + t
+    z = q[:, 2]
+    if camera.orthographic:
+        x, y = q[:, 0], q[:, 1]
+    else:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            front = z > 0
+            x = np.where(front, q[:, 0] / np.where(front, z, 1.0), np.nan)
+            y = np.where(front, q[:, 1] / np.where(front, z, 1.0), np.nan)
+        x, y = distort_normalised(camera, x, y)
+    return np.stack([fx * x + cx, fy * y + cy], axis=-1), z

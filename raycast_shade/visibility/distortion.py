@@ -124,32 +124,11 @@ def _coefficients(camera) -> np.ndarray:
 
 
 def distort(camera, x, y):
-    """The distorted normalised coordinates of undistorted ones (the forward model, NumPy).
+    """The distorted normalised coordinates of undistorted ones, the forward model
+    (:func:`raycast_shade.scene.projection.distort_normalised`)."""
+    from ..scene.projection import distort_normalised
 
-    Parameters
-    ----------
-    camera : Camera
-        With ``distortion`` (the model and coefficients).
-    x, y : (N,) float
-        ``X / Z``, ``Y / Z`` in OpenCV's camera axes.
-
-    Returns
-    -------
-    x_d, y_d : (N,) float64
-    """
-    x, y = np.asarray(x, np.float64), np.asarray(y, np.float64)
-    k = _coefficients(camera)
-    if camera.distortion_model == "fisheye":
-        r = np.hypot(x, y)
-        theta = np.arctan(r)
-        t2 = theta * theta
-        td = theta * (1.0 + t2 * (k[0] + t2 * (k[1] + t2 * (k[2] + t2 * k[3]))))
-        scale = np.where(r > 0, td / np.where(r > 0, r, 1.0), 1.0)
-        return x * scale, y * scale
-    k1, k2, p1, p2, k3 = k
-    r2 = x * x + y * y
-    s = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
-    return x * s + 2 * p1 * x * y + p2 * (r2 + 2 * x * x), y * s + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
+    return distort_normalised(camera, x, y)
 
 
 def undistort(camera, xd, yd):
