@@ -2,7 +2,7 @@
 
 * A plane seen by two cameras (or moved by a rigid transform before one camera) maps pixels by
   the homography ``H = K_b (R_rel + t_rel n_a^T / d_a) K_a^-1``: the forward and backward flows
-  are that map, and its inverse, to 1e-6 px over every pixel that sees the plane.
+  are that map, and its inverse, to 1e-9 px (measured 4e-14) over every pixel that sees the plane.
 * A sphere before a plane, the camera moved: every pixel's flow is where OpenCV
   (``cv2.projectPoints``) puts its point; the occlusion mask agrees with what the second view
   actually shows there (its model id and depth).
@@ -19,7 +19,7 @@ from raycast_shade.output.flow import move_model, optical_flow
 
 W, H = 64, 48
 K = np.array([[60.0, 0.0, 31.2], [0.0, 62.0, 24.3], [0.0, 0.0, 1.0]])
-TOL_PX = 1e-6
+TOL_PX = 1e-9  # measured: 4e-14 px
 
 
 def _look(eye, target=(0.0, 0.0, 0.0), up=(0.0, 1.0, 0.0)):

@@ -176,8 +176,8 @@ def optical_flow(scene, camera, scene_b=None, camera_b=None, *, hits=None) -> di
     Returns
     -------
     dict
-        ``flow`` (H, W, 2) float32 (pixels; 0 where ``mask`` is False),
-        ``scene_flow`` (H, W, 3) float32, ``mask`` (H, W) bool (A sees a
+        ``flow`` (H, W, 2) float64 (pixels; 0 where ``mask`` is False; float32
+        rounds a 30-pixel flow by 2e-6 px), ``scene_flow`` (H, W, 3) float64, ``mask`` (H, W) bool (A sees a
         surface whose point is in front of B), ``occluded`` and ``outside``
         (H, W) bool (see the module docstring).
 
@@ -224,10 +224,10 @@ def optical_flow(scene, camera, scene_b=None, camera_b=None, *, hits=None) -> di
     occluded = np.zeros(len(sel), bool)
     occluded[inside] = _occluded(scene_b, camera_b, pb[inside])
     jj, ii = np.divmod(sel, w)
-    flow = np.zeros((h * w, 2), np.float32)
-    flow[sel[front]] = (uv[front] - np.stack([ii, jj], axis=-1)[front]).astype(np.float32)
-    scene_flow = np.zeros((h * w, 3), np.float32)
-    scene_flow[sel] = (pb - pa).astype(np.float32)
+    flow = np.zeros((h * w, 2))
+    flow[sel[front]] = uv[front] - np.stack([ii, jj], axis=-1)[front]
+    scene_flow = np.zeros((h * w, 3))
+    scene_flow[sel] = pb - pa
     out = {}
     for name, sub in (("mask", front), ("occluded", occluded), ("outside", ~inside)):
         full = np.zeros(h * w, bool)
