@@ -160,3 +160,22 @@ def test_coco_file_reads_back_with_pycocotools(scene, tmp_path):
 def test_write_coco_checks_its_path(scene, tmp_path):
     with pytest.raises(ValueError, match="expected a .json file"):
         write_coco(tmp_path / "a.txt", scene, [])
+
+
+def test_cli_views_exports_coco_and_semantic_masks(tmp_path, capsys):
+    import os
+
+    from raycast_shade.apps.cli import main
+
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    args = ["views", os.path.join(root, "examples", "shapes.toml"), "--orbit", "2", "--buffers", "id,semantic_id",
+            "--width", "32", "--height", "20", "-o", str(tmp_path)]
+    assert main(args + ["--export", "coco,colmap"]) == 0
+    coco = COCO(str(tmp_path / "coco_instances.json"))
+    assert len(coco.getImgIds()) == 2 and len(coco.getAnnIds()) >= 2
+    assert (tmp_path / "colmap" / "images.txt").exists()
+    assert set(load_npz(tmp_path / "view_00000.npz")) >= {"model_id", "triangle_id", "semantic_id"}
+    capsys.readouterr()
+    assert main(args + ["--export", "bop"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "exports: unknown export 'bop'" in err

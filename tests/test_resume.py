@@ -217,3 +217,14 @@ def test_cli_refuses_another_plan_in_one_line_and_overwrites_on_request(tmp_path
     assert err.count("\n") == 1 and "2 views -> 3" in err and "--overwrite" in err and "Traceback" not in err
     assert main(args + ["--orbit", "3", "--overwrite"]) == 0
     assert len(json.load(open(tmp_path / INDEX_NAME))["views"]) == 3
+
+
+def test_an_export_asked_later_renders_nothing_again(scene, tmp_path, counted):
+    cams = orbit_cameras(scene.camera, 3)
+    render_views(scene, cams, tmp_path, buffers=["zdepth"])
+    counted.clear()
+    render_views(scene, cams, tmp_path, buffers=["zdepth"], exports=["coco", "nerfstudio"])
+    assert counted == []
+    coco = json.load(open(tmp_path / "coco_instances.json"))
+    assert len(coco["images"]) == 3 and len(coco["annotations"]) >= 3
+    assert len(json.load(open(tmp_path / "transforms.json"))["frames"]) == 3

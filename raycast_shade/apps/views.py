@@ -15,7 +15,7 @@ scene per mesh set, the scene cache; serially, on a local Dask cluster with
 * ``view_{i:05d}.json``: the view's record, written last: the hash of
   what it was rendered from, each file's size and BLAKE2b digest, and the
   visible objects (:func:`raycast_shade.output.labels.view_objects`: id,
-  pixel count, 2D box, model-to-camera pose);
+  pixel count, 2D box, model-to-camera pose, mask as COCO RLE);
 
 and ``index.json``: the objects (id, name, semantic id, material, 3D box,
 pose; :func:`raycast_shade.output.labels.object_table`), and per view its
@@ -23,7 +23,9 @@ pose; :func:`raycast_shade.output.labels.object_table`), and per view its
 visible objects. ``exports`` adds set-level files: ``coco_instances.json``
 (COCO instances, RLE masks), ``transforms.json`` (nerfstudio / instant-ngp)
 and ``colmap/`` (COLMAP's text model); see :mod:`raycast_shade.output.labels`
-and :mod:`raycast_shade.output.export`.
+and :mod:`raycast_shade.output.export`. The exports are written from the
+views' records and cameras, so they are not part of the plan: asking for
+another export later renders nothing again.
 
 Honest resumes
 --------------
@@ -187,7 +189,8 @@ def _write_view(job, base, spec: _ViewSpec, cache: SceneCache) -> str:
     extra = [b for b in ("model_id",) + (("zdepth",) if "depth_png" in spec.formats else ()) if b not in spec.buffers]
     frame = render(scene, spec.options.shading, camera=job.camera, buffers=spec.buffers + tuple(extra),
                    **spec.options.render_kwargs)
-    objects = view_objects(frame.buffers["model_id"], job.camera, rle="coco" in spec.exports)
+    # Masks as RLE always: a later run may ask for the COCO export without rendering again.
+    objects = view_objects(frame.buffers["model_id"], job.camera, rle=True)
     cache.count("renders")
     kept = {k: v for k, v in frame.buffers.items() if k in spec.buffers}
     if "image" in files:
@@ -280,7 +283,7 @@ def _settings(spec: _ViewSpec) -> dict:
     opts = spec.options
     return json.loads(json.dumps({
         "version": __version__, "buffers": list(spec.buffers), "formats": list(spec.formats), "image": spec.image,
-        "depth_scale": spec.depth_scale, "exports": list(spec.exports),
+        "depth_scale": spec.depth_scale,
         "options": {"shading": opts.shading, "render": opts.render_kwargs, "tone": opts.tone}}, default=repr))
 
 
