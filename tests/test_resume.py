@@ -228,3 +228,13 @@ def test_an_export_asked_later_renders_nothing_again(scene, tmp_path, counted):
     coco = json.load(open(tmp_path / "coco_instances.json"))
     assert len(coco["images"]) == 3 and len(coco["annotations"]) >= 3
     assert len(json.load(open(tmp_path / "transforms.json"))["frames"]) == 3
+
+
+def test_overwrite_removes_only_the_other_plans_files(scene, tmp_path):
+    render_views(scene, orbit_cameras(scene.camera, 3), tmp_path, buffers=["zdepth"], exports=["nerfstudio"])
+    (tmp_path / "view_00001.txt").write_text("my notes")  # named like a view file, but not the plan's
+    render_views(scene, orbit_cameras(scene.camera, 2), tmp_path, buffers=["zdepth"], overwrite=True)
+    names = set(os.listdir(tmp_path))
+    assert "view_00001.txt" in names and "view_00002.npz" not in names and "view_00002.json" not in names
+    assert "transforms.json" not in names  # a set-level file of the other plan
+    assert len(json.load(open(tmp_path / INDEX_NAME))["views"]) == 2

@@ -361,10 +361,20 @@ def _prepare_folder(out_dir: str, plan: dict, overwrite: bool) -> None:
         for x, y in zip(old.get("views", []), plan["views"]):
             if isinstance(x, dict) and all(x.get(k) == y[k] for k in ("scene", "camera", "lights", "files")):
                 keep.update(y["files"].values())
+    listed = _listed_files(old)
     for name in ours:
-        if name not in keep:
+        # The other plan's own files (all view-set-like names when that plan cannot be read).
+        if name not in keep and (listed is None or name in listed or name in set_files):
             os.unlink(os.path.join(out_dir, name))
     _write_json(plan_path, plan)
+
+
+def _listed_files(plan):
+    """The view file names a plan lists, or None if it cannot be read as a plan."""
+    try:
+        return {n for v in plan["views"] for n in v["files"].values()}
+    except (TypeError, KeyError, AttributeError):
+        return None
 
 
 def _write_json(path, obj) -> None:
