@@ -36,6 +36,7 @@ __all__ = ["distort", "undistort", "ray_directions", "MAX_ITERATIONS", "RESIDUAL
 
 MAX_ITERATIONS = 100
 RESIDUAL = 1e-12  # normalised units: 1e-12 focal lengths
+_STEP = 1e-15  # Newton stops when a step is this small (relative): float64's resolution
 
 
 @njit(cache=True)
@@ -58,21 +59,21 @@ def _undistort_opencv_kernel(xd, yd, k, out, ok):
     for i in prange(xd.shape[0]):
         tx, ty = xd[i], yd[i]
         x, y = tx, ty
-        good = False
         for _ in range(MAX_ITERATIONS):
             fx_, fy_, a, b, c, d = _opencv_forward(x, y, k1, k2, p1, p2, k3)
             ex, ey = fx_ - tx, fy_ - ty
             det = a * d - b * c
             if not (det > 0.0) or not np.isfinite(ex + ey):
                 break
-            if abs(ex) + abs(ey) <= RESIDUAL * 1e-3 * (1.0 + abs(tx) + abs(ty)):
-                good = True
+            sx = (d * ex - b * ey) / det
+            sy = (a * ey - c * ex) / det
+            x -= sx
+            y -= sy
+            if abs(sx) + abs(sy) <= _STEP * (1.0 + abs(x) + abs(y)):  # at float64's resolution
                 break
-            x -= (d * ex - b * ey) / det
-            y -= (a * ey - c * ex) / det
-        if not good:  # one last look: converged to the tolerance, on the right side of any fold?
-            fx_, fy_, a, b, c, d = _opencv_forward(x, y, k1, k2, p1, p2, k3)
-            good = (a * d - b * c > 0.0) and abs(fx_ - tx) + abs(fy_ - ty) <= RESIDUAL * (1.0 + abs(tx) + abs(ty))
+        # Converged to the tolerance, on the near side of any fold of the model?
+        fx_, fy_, a, b, c, d = _opencv_forward(x, y, k1, k2, p1, p2, k3)
+        good = (a * d - b * c > 0.0) and abs(fx_ - tx) + abs(fy_ - ty) <= RESIDUAL * (1.0 + abs(tx) + abs(ty))
         ok[i] = good
         inv = 1.0 / np.sqrt(x * x + y * y + 1.0)
         out[i, 0] = x * inv
@@ -103,7 +104,7 @@ def _undistort_fisheye_kernel(xd, yd, k, out, ok):
                     break
                 step = (td - rd) / dtd
                 theta -= step
-                if abs(step) <= RESIDUAL * 1e-3 * (1.0 + rd):
+                if abs(step) <= _STEP * (1.0 + theta):
                     break
             td, dtd = _fisheye_forward(theta, k1, k2, k3, k4)
             good = 0.0 <= theta < half_pi and dtd > 0.0 and abs(td - rd) <= RESIDUAL * (1.0 + rd)
