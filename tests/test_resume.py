@@ -238,3 +238,50 @@ def test_overwrite_removes_only_the_other_plans_files(scene, tmp_path):
     assert "view_00001.txt" in names and "view_00002.npz" not in names and "view_00002.json" not in names
     assert "transforms.json" not in names  # a set-level file of the other plan
     assert len(json.load(open(tmp_path / INDEX_NAME))["views"]) == 2
+
+
+_KILLED_RUN = """
+import sys, time
+import raycast_shade as rs
+import raycast_shade.apps.views as views
+from raycast_shade.apps.animate import orbit_cameras
+real = views.render
+def slow(*a, **k):
+    time.sleep(0.3)  # room to be killed between views
+    return real(*a, **k)
+views.render = slow
+s = rs.Scene([rs.Model(rs.shapes.icosphere(1)), rs.Model(rs.shapes.plane(size=4.0, center=(0, 0, -1.2)))],
+             lights=[rs.PointLight((2, 3, 4), intensity=20)], camera=rs.Camera(eye=(0.3, 0.5, 4.0), width=24, height=18))
+views.render_views(s, orbit_cameras(s.camera, 10), sys.argv[1], buffers=["zdepth", "id"], formats=["npz", "exr"])
+"""
+
+
+def test_a_process_killed_with_sigkill_resumes_to_the_same_set(scene, tmp_path, counted):
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    folder = tmp_path / "set"
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in (os.path.dirname(os.path.dirname(
+        os.path.abspath(views.__file__))), os.environ.get("PYTHONPATH")) if p))
+    proc = subprocess.Popen([sys.executable, "-c", _KILLED_RUN, str(folder)], env=env)
+    try:
+        deadline = time.monotonic() + 300
+        while time.monotonic() < deadline and proc.poll() is None:
+            if folder.exists() and len([n for n in os.listdir(folder) if n.endswith(".json")]) >= 4:
+                break  # plan.json and three records: a few views done
+            time.sleep(0.05)
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == -signal.SIGKILL and not (folder / INDEX_NAME).exists()
+    done = len([n for n in os.listdir(folder) if n.startswith("view_") and n.endswith(".json")])
+    assert 3 <= done < 10
+    cams = orbit_cameras(scene.camera, 10)
+    render_views(scene, cams, folder, buffers=["zdepth", "id"], formats=["npz", "exr"])
+    assert len(counted) == 10 - done  # only the views without a record
+    render_views(scene, cams, tmp_path / "fresh", buffers=["zdepth", "id"], formats=["npz", "exr"])
+    _same_set(folder, tmp_path / "fresh")
