@@ -90,8 +90,40 @@ def export_rows(w, h):
             worst["colmap", kind] = max(worst["colmap", kind], np.abs(col - ours).max())
             worst["nerfstudio", kind] = max(worst["nerfstudio", kind], np.abs(nerf - ours).max())
     ref = {"colmap": "pycolmap Image.project_point", "nerfstudio": "nerfstudio Cameras.generate_rays formula"}
-    return [dict(check="export", case=f"{fmt} {kind}", value=v, unit="px", reference=ref[fmt])
+    rows = [dict(check="export", case=f"{fmt} {kind}", value=v, unit="px", reference=ref[fmt])
             for (fmt, kind), v in worst.items()]
+    return rows + _distorted_export_rows(cams, w, h)
+
+
+def _distorted_export_rows(cams, w, h):
+    """COLMAP's distorted models (pycolmap's projection) against ours, points and pixel rays."""
+    import pycolmap
+
+    import raycast_shade as rs
+    from raycast_shade.output.export import write_colmap
+    from raycast_shade.scene.projection import project_points
+    from raycast_shade.visibility.distortion import ray_directions
+
+    rng = np.random.default_rng(1)
+    rows = []
+    for model, dist, fisheye in (("FULL_OPENCV", LENSES["barrel"][0], False),
+                                 ("OPENCV_FISHEYE", LENSES["fisheye"][0], True)):
+        lensed = [rs.Camera.from_opencv(c.K, *c.to_opencv()[1:], w, h, dist=dist, fisheye=fisheye) for c in cams]
+        folder = tempfile.mkdtemp()
+        write_colmap(folder, lensed, [f"{i}.png" for i in range(len(lensed))])
+        rec = pycolmap.Reconstruction(folder)
+        worst = {"points": 0.0, "rays": 0.0}
+        for i, cam in enumerate(lensed):
+            d, ok = ray_directions(cam)
+            pts = rng.uniform(-1, 1, (300, 3))
+            uv = project_points(cam, pts)[0]
+            front = np.isfinite(uv).all(axis=1)
+            for kind, p, ours in (("points", pts[front], uv[front]), ("rays", cam.eye + 3.0 * d[ok], _centres(w, h)[ok])):
+                col = np.array([rec.images[i + 1].project_point(q) for q in p]) - 0.5
+                worst[kind] = max(worst[kind], np.abs(col - ours).max())
+        rows += [dict(check="export", case=f"colmap {model} {kind}", value=v, unit="px",
+                      reference="pycolmap Image.project_point") for kind, v in worst.items()]
+    return rows
 
 
 def distortion_rows(w, h):

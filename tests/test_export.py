@@ -174,3 +174,52 @@ def test_views_write_the_exports(tmp_path):
         render_views(scene, cams, tmp_path / "b", buffers=["zdepth"], exports=["colmap"], image=None)
     with pytest.raises(ValueError, match="exports: unknown export 'bop'"):
         render_views(scene, cams, tmp_path / "b", buffers=["zdepth"], exports=["bop"])
+
+
+LENSES = {"OPENCV": ([-0.21, 0.05, 0.001, -0.002], False), "FULL_OPENCV": ([-0.21, 0.05, 0.001, -0.002, 0.01], False),
+          "OPENCV_FISHEYE": ([0.06, -0.02, 0.004, -0.001], True)}
+
+
+@pytest.mark.parametrize("model", LENSES)
+def test_distorted_cameras_export_with_their_lens(tmp_path, model):
+    import cv2
+
+    from raycast_shade.scene.projection import project_points
+    from raycast_shade.visibility.distortion import ray_directions
+
+    dist, fisheye = LENSES[model]
+    cams = [rs.Camera.from_opencv(c.K, *c.to_opencv()[1:], W, H, dist=dist, fisheye=fisheye) for c in _cameras()[1:3]]
+    write_colmap(tmp_path, cams, ["a.png", "b.png"])
+    rec = pycolmap.Reconstruction(str(tmp_path))
+    data = nerfstudio_transforms(cams, ["a.png", "b.png"])
+    assert data["camera_model"] == ("OPENCV_FISHEYE" if fisheye else "OPENCV")
+    rng = np.random.default_rng(5)
+    for i, cam in enumerate(cams):
+        image = rec.images[i + 1]
+        assert image.camera.model_name == model
+        d, ok = ray_directions(cam)
+        pts = {"points": _points(rng), "rays": cam.eye + 3.0 * d[ok]}
+        for kind, p in pts.items():
+            ours = project_points(cam, p)[0] if kind == "points" else _pixel_rays(cam)[1][ok]
+            front = np.isfinite(ours).all(axis=1)
+            theirs = np.array([image.project_point(q) for q in p[front]], dtype=np.float64) - 0.5
+            assert np.abs(theirs - ours[front]).max() < TOL_PX, (model, kind)
+        # nerfstudio's fields, read as OpenCV's model with its +0.5 principal point
+        f = data["frames"][i]
+        Kn = np.array([[f["fl_x"], 0, f["cx"]], [0, f["fl_y"], f["cy"]], [0, 0, 1]])
+        _, R, t = cam.to_opencv()
+        p = cam.eye + 3.0 * d[ok]
+        if fisheye:
+            D = np.array([f["k1"], f["k2"], f["k3"], f["k4"]])
+            uv = cv2.fisheye.projectPoints(p.reshape(-1, 1, 3), cv2.Rodrigues(R)[0], t, Kn, D)[0]
+        else:
+            D = np.array([f["k1"], f["k2"], f["p1"], f["p2"], f["k3"]])
+            uv = cv2.projectPoints(p, cv2.Rodrigues(R)[0], t, Kn, D)[0]
+        assert np.abs(uv.reshape(-1, 2) - 0.5 - _pixel_rays(cam)[1][ok]).max() < TOL_PX
+
+
+def test_fisheye_and_other_lenses_do_not_mix_in_one_file(tmp_path):
+    a = rs.Camera.from_opencv(_cameras()[1].K, np.eye(3), [0, 0, 4], W, H, dist=[0.1, 0, 0, 0], fisheye=True)
+    b = rs.Camera.from_opencv(_cameras()[1].K, np.eye(3), [0, 0, 4], W, H, dist=[0.1, 0, 0, 0])
+    with pytest.raises(ValueError, match="fisheye and pinhole/OpenCV lenses mixed"):
+        write_colmap(tmp_path, [a, b], ["a.png", "b.png"])

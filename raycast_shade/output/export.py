@@ -6,14 +6,18 @@ exporters shift the principal point by +0.5 so that a point projects to the
 same pixel in every convention (``docs/vision.md``).
 
 ``transforms.json`` (nerfstudio, instant-ngp)
-    ``camera_model`` ``"OPENCV"``; ``fl_x, fl_y, cx, cy, w, h`` (and the
-    distortion coefficients ``k1, k2, p1, p2``, zero for a pinhole camera) at
-    the top when every view shares them, else in each frame; per frame
+    ``camera_model`` ``"OPENCV"`` (``fl_x, fl_y, cx, cy, w, h`` and the
+    distortion coefficients ``k1, k2, p1, p2, k3``, zero for a pinhole
+    camera) or ``"OPENCV_FISHEYE"`` (``k1 .. k4``), at the top when every
+    view shares them, else in each frame; per frame
     ``file_path`` and ``transform_matrix``, the (4, 4) camera-to-world matrix
     in OpenGL's camera axes (``x`` right, ``y`` up, ``z`` backward).
 COLMAP text (``cameras.txt``, ``images.txt``, ``points3D.txt``)
-    One ``PINHOLE`` camera (``fx fy cx cy``) per distinct intrinsics and
-    size; per image the world-to-camera rotation as a unit quaternion
+    One camera per distinct intrinsics, lens and size: ``PINHOLE``
+    (``fx fy cx cy``), ``OPENCV`` (``... k1 k2 p1 p2``), ``FULL_OPENCV``
+    (``... k1 k2 p1 p2 k3 k4 k5 k6``, when ``k3`` is not 0) or
+    ``OPENCV_FISHEYE`` (``... k1 k2 k3 k4``); lens coefficients are
+    unchanged by the pixel shift (they act on normalised coordinates); per image the world-to-camera rotation as a unit quaternion
     (Hamilton, ``QW QX QY QZ``, ``QW >= 0``), the translation ``TX TY TZ``
     (OpenCV's ``R``, ``t``: COLMAP uses OpenCV's camera axes), the camera
     id and the file name, then an empty line of 2D points; ``points3D.txt``
@@ -48,8 +52,10 @@ def _check(cameras, names, field="names"):
             raise TypeError(f"cameras[{i}]: expected a Camera, got {type(cam).__name__}")
         if cam.orthographic:
             raise ValueError(f"cameras[{i}]: orthographic; these formats take perspective cameras")
-        if getattr(cam, "distortion", None) is not None:
-            raise ValueError(f"cameras[{i}]: has lens distortion; export its pinhole counterpart")
+    fisheye = [c.distorted and c.distortion_model == "fisheye" for c in cameras]
+    if any(fisheye) and not all(fisheye):
+        raise ValueError("cameras: fisheye and pinhole/OpenCV lenses mixed; these formats take one camera model "
+                         "per file")
     if len(names) != len(cameras):
         raise ValueError(f"{field}: expected one per camera ({len(cameras)}), got {len(names)}")
     for i, n in enumerate(names):
@@ -58,10 +64,25 @@ def _check(cameras, names, field="names"):
     return cameras, names
 
 
+def _lens(cam):
+    """``(model, coefficients)``: ``"fisheye"`` with (k1, k2, k3, k4), else ``"opencv"`` with
+    (k1, k2, p1, p2, k3) (zero for a pinhole)."""
+    k = np.zeros(5)
+    if cam.distorted:
+        k[:len(cam.distortion)] = cam.distortion
+    if cam.distorted and cam.distortion_model == "fisheye":
+        return "fisheye", k[:4]
+    return "opencv", k
+
+
 def _intrinsics(cam) -> dict:
     fx, fy, cx, cy = (float(v) for v in (cam.K[0, 0], cam.K[1, 1], cam.K[0, 2], cam.K[1, 2]))
-    return {"fl_x": fx, "fl_y": fy, "cx": cx + PIXEL_CENTRE_SHIFT, "cy": cy + PIXEL_CENTRE_SHIFT,
-            "w": int(cam.width), "h": int(cam.height), "k1": 0.0, "k2": 0.0, "p1": 0.0, "p2": 0.0}
+    out = {"fl_x": fx, "fl_y": fy, "cx": cx + PIXEL_CENTRE_SHIFT, "cy": cy + PIXEL_CENTRE_SHIFT,
+           "w": int(cam.width), "h": int(cam.height)}
+    model, k = _lens(cam)
+    names = ("k1", "k2", "k3", "k4") if model == "fisheye" else ("k1", "k2", "p1", "p2", "k3")
+    out.update({n: float(v) for n, v in zip(names, k)})
+    return out
 
 
 def camera_to_world_gl(cam) -> np.ndarray:
@@ -79,14 +100,15 @@ def nerfstudio_transforms(cameras, file_paths) -> dict:
     Parameters
     ----------
     cameras : sequence of Camera
-        Perspective, without distortion.
+        Perspective; lenses all fisheye or none.
     file_paths : sequence of str
         Each view's image, relative to the ``transforms.json`` folder.
     """
     cameras, file_paths = _check(cameras, file_paths, "file_paths")
     intr = [_intrinsics(c) for c in cameras]
     shared = all(i == intr[0] for i in intr)
-    out = {"camera_model": "OPENCV", **(intr[0] if shared else {})}
+    model = "OPENCV_FISHEYE" if _lens(cameras[0])[0] == "fisheye" else "OPENCV"
+    out = {"camera_model": model, **(intr[0] if shared else {})}
     out["frames"] = [{"file_path": p, **({} if shared else i), "transform_matrix": camera_to_world_gl(c).tolist()}
                      for c, p, i in zip(cameras, file_paths, intr)]
     return out
@@ -154,10 +176,19 @@ def write_colmap(folder, cameras, names) -> list:
     ids, cam_lines, img_lines = {}, [], []
     for i, (cam, name) in enumerate(zip(cameras, names)):
         intr = _intrinsics(cam)
-        params = (intr["w"], intr["h"], intr["fl_x"], intr["fl_y"], intr["cx"], intr["cy"])
+        model, k = _lens(cam)
+        if model == "fisheye":
+            kind, extra = "OPENCV_FISHEYE", tuple(k)
+        elif not cam.distorted:
+            kind, extra = "PINHOLE", ()
+        elif k[4] == 0.0:
+            kind, extra = "OPENCV", tuple(k[:4])
+        else:  # k3 needs the full model: k1 k2 p1 p2 k3 k4 k5 k6
+            kind, extra = "FULL_OPENCV", (*k, 0.0, 0.0, 0.0)
+        params = (kind, intr["w"], intr["h"], intr["fl_x"], intr["fl_y"], intr["cx"], intr["cy"], *extra)
         if params not in ids:
             ids[params] = len(ids) + 1
-            cam_lines.append(f"{ids[params]} PINHOLE {params[0]} {params[1]} " + " ".join(_num(v) for v in params[2:]))
+            cam_lines.append(f"{ids[params]} {kind} {params[1]} {params[2]} " + " ".join(_num(v) for v in params[3:]))
         _, R, t = cam.to_opencv()
         q = rotation_to_quaternion(R)
         img_lines.append(f"{i + 1} " + " ".join(_num(v) for v in (*q, *t)) + f" {ids[params]} {name}")
