@@ -179,3 +179,32 @@ def test_cli_views_exports_coco_and_semantic_masks(tmp_path, capsys):
     assert main(args + ["--export", "bop"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "exports: unknown export 'bop'" in err
+
+
+def test_unoccluded_counts_boxes_and_visible_fractions(tmp_path):
+    """A ball before a wall, and a small cube hidden behind the wall: each model rendered alone
+    (an independent render of a one-model scene) gives the unoccluded mask."""
+    ball = rs.Model(rs.shapes.icosphere(2), name="ball")
+    wall = rs.Model(rs.shapes.plane(size=6.0, center=(0, 0, -1.5)), name="wall")
+    hidden = rs.Model(rs.shapes.cube(size=0.5, center=(0.2, 0.1, -2.5)), name="cube")
+    scene = rs.Scene([ball, wall, hidden], lights=[rs.PointLight((2, 3, 4))],
+                     camera=rs.Camera(eye=(0.4, 0.3, 4.0), width=W, height=H))
+    cams = [scene.camera, scene.camera.replace(eye=(1.5, 0.6, 3.8))]
+    render_views(scene, cams, tmp_path, buffers=["model_id"], unoccluded=True, exports=["coco"])
+    index = json.load(open(tmp_path / INDEX_NAME))
+    for view, cam in zip(index["views"], cams):
+        mid = load_npz(tmp_path / view["files"]["npz"])["model_id"]
+        objects = {o["id"]: o for o in view["objects"]}
+        assert set(objects) == {0, 1, 2}
+        for g, model in enumerate(scene.models):
+            solo = rs.render(rs.Scene([model], lights=scene.lights), camera=cam, buffers=("mask",)).buffers["mask"]
+            o = objects[g]
+            assert o["unoccluded"] == int(solo.sum()) > 0
+            rows, cols = np.nonzero(solo)
+            assert o["box_unoccluded"] == [cols.min(), rows.min(), cols.max() + 1, rows.max() + 1]
+            assert o["pixels"] == int((mid == g).sum())
+            assert o["visible_fraction"] == pytest.approx(((mid == g) & solo).sum() / solo.sum(), abs=0)
+        assert objects[0]["visible_fraction"] == 1.0 and 0.2 < objects[1]["visible_fraction"] < 1.0
+        assert objects[2]["pixels"] == 0 and objects[2]["box"] is None and objects[2]["visible_fraction"] == 0.0
+    coco = COCO(str(tmp_path / "coco_instances.json"))
+    assert all(a["model_id"] != 2 for a in coco.loadAnns(coco.getAnnIds()))  # nothing to segment

@@ -56,7 +56,7 @@ import numpy as np
 
 from ..output.bufferfile import save_npz, write_depth_png, write_exr
 from ..output.buffers import check_buffers
-from ..output.labels import object_table, semantic_classes, view_objects, write_coco
+from ..output.labels import object_table, semantic_classes, unoccluded_masks, view_objects, write_coco
 from ..output.imagefile import atomic_target, check_image_path, remove_stale_temps, write_image
 from ..render import render
 from .batch.cache import PLUGIN_NAME, SceneCache, cache_of
@@ -142,6 +142,7 @@ class _ViewSpec:
     depth_scale: float
     settings_hash: str = ""
     exports: tuple = ()
+    unoccluded: bool = False
 
 
 def _view_is_done(files: dict, key: str) -> bool:
@@ -190,7 +191,8 @@ def _write_view(job, base, spec: _ViewSpec, cache: SceneCache) -> str:
     frame = render(scene, spec.options.shading, camera=job.camera, buffers=spec.buffers + tuple(extra),
                    **spec.options.render_kwargs)
     # Masks as RLE always: a later run may ask for the COCO export without rendering again.
-    objects = view_objects(frame.buffers["model_id"], job.camera, rle=True)
+    alone = unoccluded_masks(scene, job.camera) if spec.unoccluded else None
+    objects = view_objects(frame.buffers["model_id"], job.camera, rle=True, alone=alone)
     cache.count("renders")
     kept = {k: v for k, v in frame.buffers.items() if k in spec.buffers}
     if "image" in files:
@@ -283,7 +285,7 @@ def _settings(spec: _ViewSpec) -> dict:
     opts = spec.options
     return json.loads(json.dumps({
         "version": __version__, "buffers": list(spec.buffers), "formats": list(spec.formats), "image": spec.image,
-        "depth_scale": spec.depth_scale,
+        "depth_scale": spec.depth_scale, "unoccluded": spec.unoccluded,
         "options": {"shading": opts.shading, "render": opts.render_kwargs, "tone": opts.tone}}, default=repr))
 
 
@@ -386,7 +388,7 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
                  image: str | None = ".png", shading="phong", workers: int | None = None, scheduler=None,
                  resume: bool = True, tone: dict | None = None, retries: int = 2, views_per_task: int = 1,
                  numba_threads: int | None = None, depth_scale: float = 1000.0, overwrite: bool = False,
-                 exports=(), **render_kwargs) -> str:
+                 exports=(), unoccluded: bool = False, **render_kwargs) -> str:
     """Render a set of views with their buffers and cameras into ``out_dir``.
 
     Parameters
@@ -416,6 +418,11 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
         Set-level files written after the views (see the module docstring);
         ``nerfstudio`` and ``colmap`` name the image files, so they need
         ``image``.
+    unoccluded : bool
+        Also cast each model alone per view: each object's unoccluded
+        (amodal) pixel count and box and its visible fraction in the records
+        and the index (:func:`raycast_shade.output.labels.view_objects`); one
+        more cast per model and view.
     views_per_task : int
         Consecutive views per Dask task.
     depth_scale : float
@@ -458,6 +465,8 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
     for e in ("nerfstudio", "colmap"):
         if e in exports and image is None:
             raise ValueError(f"exports: {e!r} names each view's image file, but image=None writes none")
+    if not isinstance(unoccluded, (bool, np.bool_)):
+        raise TypeError(f"unoccluded: expected True or False, got {type(unoccluded).__name__}")
     if not isinstance(overwrite, (bool, np.bool_)):
         raise TypeError(f"overwrite: expected True or False, got {type(overwrite).__name__}")
     if isinstance(depth_scale, bool) or not isinstance(depth_scale, (int, float, np.integer, np.floating)) \
@@ -471,7 +480,7 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
         except ValueError as exc:
             raise ValueError(f"cameras[{job.index}]: {exc}") from None
     spec = _ViewSpec(options, names, formats, None if image is None else str(image).lower(), out_dir,
-                     float(depth_scale), exports=exports)
+                     float(depth_scale), exports=exports, unoccluded=bool(unoccluded))
     spec = dataclasses.replace(spec, settings_hash=_hash(json.dumps(_settings(spec), sort_keys=True)))
     plan = _make_plan(spec, jobs)
     os.makedirs(out_dir, exist_ok=True)
@@ -557,6 +566,9 @@ def register_cli(subparsers):
     p.add_argument("--export", default="", metavar="LIST",
                    help=f"set-level files, comma-separated: {', '.join(EXPORTS)} (COCO instances with RLE masks, "
                         "nerfstudio/instant-ngp transforms.json, COLMAP text)")
+    p.add_argument("--unoccluded", action="store_true",
+                   help="also cast each model alone: per object its unoccluded pixel count and box and its "
+                        "visible fraction, in index.json")
     p.add_argument("--overwrite", action="store_true",
                    help="replace a view set of another plan in the output folder (default: refuse it)")
     add_render_options(p)
@@ -582,7 +594,7 @@ def run_cli(ns) -> int:
     index = render_views(scene, orbit_cameras(scene.camera, ns.orbit), ns.output, buffers=ns.buffers,
                          formats=ns.formats, image=image, shading=shading, workers=ns.workers,
                          scheduler=ns.scheduler, tone=tone, overwrite=ns.overwrite,
-                         exports=ns.export, **render_kwargs)
+                         exports=ns.export, unoccluded=ns.unoccluded, **render_kwargs)
     secs = time.perf_counter() - t0
     cam = scene.camera
     print(f"wrote {index} ({ns.orbit} views, {cam.width}x{cam.height}, buffers {','.join(ns.buffers)}): "

@@ -32,7 +32,7 @@ import os
 
 import numpy as np
 
-__all__ = ["semantic_classes", "object_table", "view_objects", "rle_encode", "rle_decode", "coco_instances",
+__all__ = ["semantic_classes", "object_table", "view_objects", "unoccluded_masks", "rle_encode", "rle_decode", "coco_instances",
            "write_coco"]
 
 
@@ -69,7 +69,7 @@ def _box(rows, cols) -> list:
     return [int(cols.min()), int(rows.min()), int(cols.max()) + 1, int(rows.max()) + 1]
 
 
-def view_objects(model_id, camera, *, rle: bool = False) -> list:
+def view_objects(model_id, camera, *, rle: bool = False, alone=None) -> list:
     """The models visible in one view.
 
     Parameters
@@ -80,12 +80,19 @@ def view_objects(model_id, camera, *, rle: bool = False) -> list:
         The view's camera.
     rle : bool
         Add each model's mask as COCO RLE (``"rle"``).
+    alone : dict of int to (H, W) bool, optional
+        Each model's mask with nothing in front of it (:func:`unoccluded_masks`).
+        Adds per object ``unoccluded`` (pixel count), ``box_unoccluded``
+        (``None`` when empty) and ``visible_fraction`` (visible over
+        unoccluded pixels, BOP's ``visib_fract``), and lists the models hidden
+        entirely (``pixels`` 0) too.
 
     Returns
     -------
     list of dict
         By id: ``id``, ``pixels`` (visible pixel count), ``box`` (see the
-        module docstring), ``pose`` ((4, 4) model-to-camera), ``rle``.
+        module docstring; ``None`` for a hidden model), ``pose`` ((4, 4)
+        model-to-camera), ``rle``, and the ``alone`` fields.
     """
     ids = np.asarray(model_id)
     if ids.ndim != 2 or ids.dtype.kind not in "iu":
@@ -94,14 +101,41 @@ def view_objects(model_id, camera, *, rle: bool = False) -> list:
     pose = np.eye(4)
     pose[:3, :3], pose[:3, 3] = R, t
     out = []
-    for i in np.unique(ids[ids >= 0]):
+    seen = set(np.unique(ids[ids >= 0]).tolist())
+    if alone is not None:
+        seen |= {int(g) for g, m in alone.items() if np.any(m)}
+    for i in sorted(seen):
         mask = ids == i
         rows, cols = np.nonzero(mask)
-        entry = {"id": int(i), "pixels": int(rows.size), "box": _box(rows, cols), "pose": pose.tolist()}
+        entry = {"id": int(i), "pixels": int(rows.size), "box": _box(rows, cols) if rows.size else None,
+                 "pose": pose.tolist()}
         if rle:
             entry["rle"] = rle_encode(mask)
+        if alone is not None:
+            solo = np.asarray(alone.get(i, np.zeros_like(mask)), bool)
+            r2, c2 = np.nonzero(solo)
+            entry["unoccluded"] = int(r2.size)
+            entry["box_unoccluded"] = _box(r2, c2) if r2.size else None
+            entry["visible_fraction"] = float(np.count_nonzero(mask & solo) / r2.size) if r2.size else 0.0
         out.append(entry)
     return out
+
+
+def unoccluded_masks(scene, camera) -> dict:
+    """Each model's mask in ``camera`` with the other models taken away (the amodal mask).
+
+    One cast per model, of a scene holding that model alone (its BVH kept
+    with ``scene``'s geometry for the next camera).
+
+    Returns
+    -------
+    dict of int to (H, W) bool
+    """
+    from ..scene.scene import Scene
+    from ..visibility.cast import cast_camera
+
+    alone = scene.geometry.memo("labels.alone", lambda geo: [Scene([m]) for m in scene.models])
+    return {g: cast_camera(s.geometry, camera).prim >= 0 for g, s in enumerate(alone)}
 
 
 # -- COCO run-length encoding -----------------------------------------------------------------------
@@ -208,6 +242,8 @@ def coco_instances(scene, views) -> dict:
         images.append({"id": k + 1, "file_name": view["file_name"], "width": int(view["width"]),
                        "height": int(view["height"])})
         for obj in view["objects"]:
+            if not obj["pixels"]:
+                continue  # hidden entirely: nothing to segment
             x0, y0, x1, y1 = obj["box"]
             annotations.append({"id": len(annotations) + 1, "image_id": k + 1,
                                 "category_id": int(sem[obj["id"]]) + 1, "model_id": obj["id"],
