@@ -274,8 +274,9 @@ def _index_entry(job, files, out_dir) -> dict:
     cam = job.camera
     with open(os.path.join(out_dir, files["record"])) as fh:
         objects = [{k: v for k, v in o.items() if k != "rle"} for o in json.load(fh)["objects"]]
+    lens = {"distortion": list(cam.distortion), "distortion_model": cam.distortion_model} if cam.distorted else {}
     return {"index": job.index, "width": cam.width, "height": cam.height, "projection": cam.projection,
-            "K": K.tolist(), "R": R.tolist(), "t": t.tolist(), "files": files, "objects": objects}
+            "K": K.tolist(), "R": R.tolist(), "t": t.tolist(), **lens, "files": files, "objects": objects}
 
 
 def _settings(spec: _ViewSpec) -> dict:
@@ -486,7 +487,8 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
     os.makedirs(out_dir, exist_ok=True)
     _prepare_folder(out_dir, plan, bool(overwrite))
     all_files = {j.index: view_files(j.index, formats, spec.image) for j in jobs}
-    remove_stale_temps(out_dir, [n for files in all_files.values() for n in files.values()] + [INDEX_NAME])
+    set_level = [INDEX_NAME, PLAN_NAME, EXPORT_FILES["coco"][0], EXPORT_FILES["nerfstudio"][0]]
+    remove_stale_temps(out_dir, [n for files in all_files.values() for n in files.values()] + set_level)
     on_dask = workers is not None or scheduler is not None
     if not on_dask:
         cache = SceneCache()
