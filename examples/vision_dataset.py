@@ -8,7 +8,8 @@
 2. Renders 8 views around it into ``OUT_DIR`` with every buffer (npz, EXR,
    16-bit depth PNG), the COCO instances file, nerfstudio's transforms.json
    and COLMAP's text model; ``index.json`` maps ids to names and materials
-   and gives each visible object's box, pixel count and pose per view.
+   and gives each object's box, pixel count, visible fraction and pose per
+   view.
 3. Computes the optical flow from view 0 to view 1 with its occlusion mask,
    and renders view 0 again through a barrel-distorted lens (OpenCV's model).
 4. With ``--figure``, draws the first view's image with its COCO boxes, its
@@ -56,7 +57,8 @@ def make_dataset(out_dir):
                      camera=rs.Camera(eye=(0.0, 2.6, 5.5), target=(0.0, 0.5, 0.0), fov=40, width=320, height=200))
     cameras = orbit_cameras(scene.camera, 8)
     index = render_views(scene, cameras, os.path.join(out_dir, "views"), buffers=BUFFER_NAMES,
-                         formats=["npz", "exr", "depth_png"], exports=["coco", "nerfstudio", "colmap"])
+                         formats=["npz", "exr", "depth_png"], exports=["coco", "nerfstudio", "colmap"],
+                         unoccluded=True)
     return scene, cameras, index
 
 
@@ -101,11 +103,14 @@ def figure(out_dir, flow, distorted, path):
     ax = axes[0, 0]
     ax.imshow(image)
     names = {c["id"]: c["name"].split(":")[-1] for c in coco["categories"]}
+    seen = {o["id"]: o for o in view["objects"]}
     for a in coco["annotations"]:
         if a["image_id"] == 1:
             x, y, w, h = a["bbox"]
             ax.add_patch(plt.Rectangle((x - 0.5, y - 0.5), w, h, fill=False, color="yellow", lw=1))
-            ax.text(x, y - 2, f"{names[a['category_id']]} {a['area']} px", color="yellow", fontsize=7)
+            frac = seen[a["model_id"]]["visible_fraction"]
+            ax.text(x, y - 2, f"{names[a['category_id']]} {a['area']} px, {frac:.0%} visible", color="yellow",
+                    fontsize=7)
     ax.set_title("view 0 with its COCO boxes", fontsize=9)
     axes[0, 1].imshow(np.where(m, data["zdepth"], np.nan), cmap="viridis_r")
     axes[0, 1].set_title("zdepth", fontsize=9)
