@@ -47,21 +47,21 @@ the number of views.
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import json
 import os
-import re
 
 import numpy as np
 
 from ..output.bufferfile import save_npz, write_depth_png, write_exr
 from ..output.buffers import check_buffers
 from ..output.labels import object_table, semantic_classes, unoccluded_masks, view_objects, write_coco
-from ..output.imagefile import atomic_target, check_image_path, remove_stale_temps, write_image
+from ..output.imagefile import check_image_path, remove_stale_temps, write_image
 from ..render import render
 from .batch.cache import PLUGIN_NAME, SceneCache, cache_of
 from .batch.options import check_options
-from .batch.plan import _digest, plan_batch
+from .batch.plan import plan_batch
+from .viewplan import (PLAN_FORMAT, PLAN_NAME, digest, prepare_folder, view_hashes, view_is_done, view_key, write_json,
+                       write_record)
 
 __all__ = ["render_views", "FORMATS", "EXPORTS", "INDEX_NAME", "PLAN_NAME", "view_files", "register_cli", "run_cli"]
 
@@ -70,10 +70,7 @@ EXPORTS = ("coco", "nerfstudio", "colmap")
 EXPORT_FILES = {"coco": ("coco_instances.json",), "nerfstudio": ("transforms.json",),
                 "colmap": tuple(os.path.join("colmap", n) for n in ("cameras.txt", "images.txt", "points3D.txt"))}
 INDEX_NAME = "index.json"
-PLAN_NAME = "plan.json"
-PLAN_FORMAT = "raycast_shade view set plan 1"
 _STEM = "view_{:05d}"
-_OURS = re.compile(r"^view_\d{5}(\.|_depth\.png$)")  # files of some view set (any plan)
 
 
 def _check_formats(formats, field="formats", choices=FORMATS) -> tuple:
@@ -105,31 +102,6 @@ def view_files(index: int, formats, image) -> dict:
     return files
 
 
-def _hash(obj) -> str:
-    h = hashlib.blake2b(digest_size=16)
-    _digest(obj, h)
-    return h.hexdigest()
-
-
-def _file_digest(path) -> str:
-    h = hashlib.blake2b(digest_size=16)
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
-
-
-def _view_hashes(job) -> dict:
-    """What view ``job`` is rendered from, as hashes: its scene's models, camera, lights and colours."""
-    return {"scene": job.key, "camera": _hash(job.camera),
-            "lights": _hash((job.lights, job.ambient, job.background))}
-
-
-def _view_key(settings_hash: str, job) -> str:
-    """One hash of everything a view's files depend on (settings and the view's own inputs)."""
-    return _hash((settings_hash, job.index, tuple(sorted(_view_hashes(job).items()))))
-
-
 @dataclasses.dataclass(frozen=True, eq=False)
 class _ViewSpec:
     """What every view task needs besides its job: checked options and outputs."""
@@ -145,41 +117,11 @@ class _ViewSpec:
     unoccluded: bool = False
 
 
-def _view_is_done(files: dict, key: str) -> bool:
-    """True if the view's record holds ``key`` and every file it lists is there, byte for byte."""
-    try:
-        with open(files["record"]) as fh:
-            record = json.load(fh)
-        if record.get("key") != key:
-            return False
-        listed = record["files"]
-        for kind, path in files.items():
-            if kind == "record":
-                continue
-            entry = listed[os.path.basename(path)]
-            size = os.path.getsize(path)
-            if size == 0 or size != entry["bytes"] or _file_digest(path) != entry["blake2b"]:
-                return False
-        return True
-    except (OSError, ValueError, KeyError, TypeError, AttributeError):
-        return False
-
-
-def _write_record(files: dict, key: str, job, objects) -> None:
-    K, R, t = job.camera.to_opencv()
-    written = {os.path.basename(p): {"bytes": os.path.getsize(p), "blake2b": _file_digest(p)}
-               for kind, p in files.items() if kind != "record"}
-    record = {"index": job.index, "key": key, "K": K.tolist(), "R": R.tolist(), "t": t.tolist(), "files": written,
-              "objects": objects}
-    with atomic_target(files["record"]) as tmp, open(tmp, "w") as fh:
-        json.dump(record, fh, indent=1)
-
-
 def _write_view(job, base, spec: _ViewSpec, cache: SceneCache) -> str:
     """Render and write one view (unless its record shows it done); returns its stem."""
     files = {k: os.path.join(spec.out_dir, v) for k, v in view_files(job.index, spec.formats, spec.image).items()}
-    key = _view_key(spec.settings_hash, job)
-    if spec.options.resume and _view_is_done(files, key):
+    key = view_key(spec.settings_hash, job)
+    if spec.options.resume and view_is_done(files, key):
         cache.count("skipped")
         return _STEM.format(job.index)
     if os.path.exists(files["record"]):
@@ -203,7 +145,7 @@ def _write_view(job, base, spec: _ViewSpec, cache: SceneCache) -> str:
         write_exr(files["exr"], kept, image=frame.image, atomic=True)
     if "depth_png" in files:
         write_depth_png(files["depth_png"], frame.buffers["zdepth"], scale=spec.depth_scale, atomic=True)
-    _write_record(files, key, job, objects)
+    write_record(files, key, job, objects)
     return _STEM.format(job.index)
 
 
@@ -293,96 +235,23 @@ def _settings(spec: _ViewSpec) -> dict:
 def _make_plan(spec: _ViewSpec, jobs) -> dict:
     settings = _settings(spec)
     return {"format": PLAN_FORMAT, "settings": settings,
-            "views": [{"index": j.index, "width": j.camera.width, "height": j.camera.height, **_view_hashes(j),
+            "views": [{"index": j.index, "width": j.camera.width, "height": j.camera.height, **view_hashes(j),
                        "files": view_files(j.index, spec.formats, spec.image)} for j in jobs]}
 
 
-def _plural(n: int, word: str) -> str:
-    return f"{n} {word}" + ("" if n == 1 else "s")
-
-
-def _plan_differences(old: dict, new: dict) -> list:
-    """What differs between two plans, in words (empty: the same plan)."""
-    if old.get("format") != PLAN_FORMAT or not isinstance(old.get("views"), list):
-        return [f"{PLAN_NAME} is not a plan this version reads"]
-    out = []
-    a, b = old.get("settings", {}), new["settings"]
-    for k in sorted(set(a) | set(b)):
-        if a.get(k) != b.get(k):
-            out.append(f"{k} {json.dumps(a.get(k))} -> {json.dumps(b.get(k))}")
-    va, vb = old["views"], new["views"]
-    if len(va) != len(vb):
-        out.append(f"{_plural(len(va), 'view')} -> {len(vb)}")
-    shared = list(zip(va, vb))
-    try:
-        for field, what in (("scene", "scene (meshes or materials)"), ("camera", "camera"),
-                            ("lights", "lights or colours")):
-            n = sum(x.get(field) != y[field] for x, y in shared)
-            if n:
-                out.append(f"the {what} of {n} of the {_plural(len(shared), 'shared view')} differs")
-        sizes = [(f"{x.get('width')}x{x.get('height')}", f"{y['width']}x{y['height']}") for x, y in shared]
-        changed = sorted({f"{p} -> {q}" for p, q in sizes if p != q})
-        if changed:
-            out.append("size " + ", ".join(changed))
-    except AttributeError:
-        out.append(f"{PLAN_NAME} is not a plan this version reads")
-    return out
-
-
-def _prepare_folder(out_dir: str, plan: dict, overwrite: bool) -> None:
-    """Check ``out_dir`` against ``plan`` (refusing another plan unless ``overwrite``), then write the plan.
-
-    Under ``overwrite``, the other plan's files go, except those of views with the same hashes and file
-    names (their records are checked again before they are skipped).
-    """
-    plan_path = os.path.join(out_dir, PLAN_NAME)
-    set_files = {INDEX_NAME} | {n for names in EXPORT_FILES.values() for n in names}
-    ours = sorted(n for n in os.listdir(out_dir) if _OURS.match(n) or n == INDEX_NAME)
-    ours += sorted(n for n in set_files - {INDEX_NAME} if os.path.exists(os.path.join(out_dir, n)))
-    old = None
-    if os.path.exists(plan_path):
-        try:
-            with open(plan_path) as fh:
-                old = json.load(fh)
-            if not isinstance(old, dict):
-                raise ValueError("not a JSON object")
-            differences = _plan_differences(old, plan)
-        except (OSError, ValueError) as exc:
-            differences = [f"{PLAN_NAME} cannot be read ({exc})"]
-    elif ours:
-        differences = [f"{_plural(len(ours), 'view set file')} (e.g. {ours[0]}) but no {PLAN_NAME}"]
-    else:
-        differences = []
-    if not differences:
-        return _write_json(plan_path, plan)
-    if not overwrite:
-        raise ValueError(f"out_dir: {out_dir} holds another view set: {'; '.join(differences)}. "
-                         "Pass overwrite=True (CLI: --overwrite) to replace it, or choose another folder")
-    keep = set()
-    if isinstance(old, dict) and not _plan_differences({**old, "views": []}, {**plan, "views": []}):
-        # Same settings: views with the same inputs and files stay (their records are checked later).
-        for x, y in zip(old.get("views", []), plan["views"]):
-            if isinstance(x, dict) and all(x.get(k) == y[k] for k in ("scene", "camera", "lights", "files")):
-                keep.update(y["files"].values())
-    listed = _listed_files(old)
-    for name in ours:
-        # The other plan's own files (all view-set-like names when that plan cannot be read).
-        if name not in keep and (listed is None or name in listed or name in set_files):
-            os.unlink(os.path.join(out_dir, name))
-    _write_json(plan_path, plan)
-
-
-def _listed_files(plan):
-    """The view file names a plan lists, or None if it cannot be read as a plan."""
-    try:
-        return {n for v in plan["views"] for n in v["files"].values()}
-    except (TypeError, KeyError, AttributeError):
-        return None
-
-
-def _write_json(path, obj) -> None:
-    with atomic_target(path) as tmp, open(tmp, "w") as fh:
-        json.dump(obj, fh, indent=1)
+def _check_set_options(exports, image, unoccluded, overwrite, depth_scale) -> tuple:
+    """The checked exports; TypeError/ValueError naming the argument otherwise."""
+    exports = _check_formats(exports, "exports", EXPORTS)
+    for e in ("nerfstudio", "colmap"):
+        if e in exports and image is None:
+            raise ValueError(f"exports: {e!r} names each view's image file, but image=None writes none")
+    for name, value in (("unoccluded", unoccluded), ("overwrite", overwrite)):
+        if not isinstance(value, (bool, np.bool_)):
+            raise TypeError(f"{name}: expected True or False, got {type(value).__name__}")
+    if isinstance(depth_scale, bool) or not isinstance(depth_scale, (int, float, np.integer, np.floating)) \
+            or not (np.isfinite(depth_scale) and depth_scale > 0):
+        raise ValueError(f"depth_scale: expected a finite number > 0, got {depth_scale!r}")
+    return exports
 
 
 def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", "mask"), formats=("npz",),
@@ -462,17 +331,7 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
         import OpenEXR  # noqa: F401 - fail now, not on the first view
     if isinstance(views_per_task, bool) or not isinstance(views_per_task, int) or views_per_task < 1:
         raise ValueError(f"views_per_task: expected an integer > 0, got {views_per_task!r}")
-    exports = _check_formats(exports, "exports", EXPORTS)
-    for e in ("nerfstudio", "colmap"):
-        if e in exports and image is None:
-            raise ValueError(f"exports: {e!r} names each view's image file, but image=None writes none")
-    if not isinstance(unoccluded, (bool, np.bool_)):
-        raise TypeError(f"unoccluded: expected True or False, got {type(unoccluded).__name__}")
-    if not isinstance(overwrite, (bool, np.bool_)):
-        raise TypeError(f"overwrite: expected True or False, got {type(overwrite).__name__}")
-    if isinstance(depth_scale, bool) or not isinstance(depth_scale, (int, float, np.integer, np.floating)) \
-            or not (np.isfinite(depth_scale) and depth_scale > 0):
-        raise ValueError(f"depth_scale: expected a finite number > 0, got {depth_scale!r}")
+    exports = _check_set_options(exports, image, unoccluded, overwrite, depth_scale)
     options = check_options(shading, render_kwargs, tone, resume)
     bases, jobs = plan_batch(scene, cameras)
     for job in jobs:  # every camera before the first view is written
@@ -482,10 +341,11 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
             raise ValueError(f"cameras[{job.index}]: {exc}") from None
     spec = _ViewSpec(options, names, formats, None if image is None else str(image).lower(), out_dir,
                      float(depth_scale), exports=exports, unoccluded=bool(unoccluded))
-    spec = dataclasses.replace(spec, settings_hash=_hash(json.dumps(_settings(spec), sort_keys=True)))
+    spec = dataclasses.replace(spec, settings_hash=digest(json.dumps(_settings(spec), sort_keys=True)))
     plan = _make_plan(spec, jobs)
     os.makedirs(out_dir, exist_ok=True)
-    _prepare_folder(out_dir, plan, bool(overwrite))
+    set_files = [INDEX_NAME] + [n for names in EXPORT_FILES.values() for n in names]
+    prepare_folder(out_dir, plan, bool(overwrite), set_files)
     all_files = {j.index: view_files(j.index, formats, spec.image) for j in jobs}
     set_level = [INDEX_NAME, PLAN_NAME, EXPORT_FILES["coco"][0], EXPORT_FILES["nerfstudio"][0]]
     remove_stale_temps(out_dir, [n for files in all_files.values() for n in files.values()] + set_level)
@@ -510,7 +370,7 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
              "views": [_index_entry(j, all_files[j.index], out_dir) for j in jobs]}
     _write_exports(scene, jobs, index, spec)
     path = os.path.join(out_dir, INDEX_NAME)
-    _write_json(path, index)
+    write_json(path, index)
     return path
 
 
