@@ -208,3 +208,22 @@ def test_unoccluded_counts_boxes_and_visible_fractions(tmp_path):
         assert objects[2]["pixels"] == 0 and objects[2]["box"] is None and objects[2]["visible_fraction"] == 0.0
     coco = COCO(str(tmp_path / "coco_instances.json"))
     assert all(a["model_id"] != 2 for a in coco.loadAnns(coco.getAnnIds()))  # nothing to segment
+
+
+def test_box_corners_project_like_opencv(scene):
+    import cv2
+
+    from raycast_shade.output.labels import box_corners
+
+    corners = box_corners([[0, 1, 2], [3, 4, 5]])
+    assert corners.tolist()[0] == [0, 1, 2] and corners.tolist()[7] == [3, 4, 5] and corners.tolist()[5] == [3, 1, 5]
+    table = object_table(scene)
+    for dist in (None, [-0.2, 0.05, 0.001, 0.0]):
+        K, R, t = scene.camera.to_opencv()
+        cam = rs.Camera.from_opencv(K, R, t, W, H, dist=dist)
+        mid = rs.render(scene, camera=cam, buffers=("model_id",)).buffers["model_id"]
+        objects = view_objects(mid, cam, boxes_3d=[o["box_3d"] for o in table])
+        for o in objects:
+            uv, _ = cv2.projectPoints(box_corners(table[o["id"]]["box_3d"]), cv2.Rodrigues(R)[0], t, K,
+                                      None if dist is None else np.array(dist))
+            assert np.abs(np.array(o["corners"]) - uv.reshape(-1, 2)).max() < 1e-9

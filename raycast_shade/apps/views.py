@@ -134,7 +134,8 @@ def _write_view(job, base, spec: _ViewSpec, cache: SceneCache) -> str:
                    **spec.options.render_kwargs)
     # Masks as RLE always: a later run may ask for the COCO export without rendering again.
     alone = unoccluded_masks(scene, job.camera) if spec.unoccluded else None
-    objects = view_objects(frame.buffers["model_id"], job.camera, rle=True, alone=alone)
+    boxes = [(m.mesh.vertices.min(axis=0), m.mesh.vertices.max(axis=0)) for m in scene.models]
+    objects = view_objects(frame.buffers["model_id"], job.camera, rle=True, alone=alone, boxes_3d=boxes)
     cache.count("renders")
     kept = {k: v for k, v in frame.buffers.items() if k in spec.buffers}
     if "image" in files:

@@ -32,7 +32,7 @@ import os
 
 import numpy as np
 
-__all__ = ["semantic_classes", "object_table", "view_objects", "unoccluded_masks", "rle_encode", "rle_decode", "coco_instances",
+__all__ = ["semantic_classes", "object_table", "box_corners", "view_objects", "unoccluded_masks", "rle_encode", "rle_decode", "coco_instances",
            "write_coco"]
 
 
@@ -69,7 +69,15 @@ def _box(rows, cols) -> list:
     return [int(cols.min()), int(rows.min()), int(cols.max()) + 1, int(rows.max()) + 1]
 
 
-def view_objects(model_id, camera, *, rle: bool = False, alone=None) -> list:
+def box_corners(box_3d) -> np.ndarray:
+    """(8, 3) float64 corners of an axis-aligned box ``[min, max]``: corner ``k`` takes x from
+    ``max`` if bit 2 of ``k`` is set (else ``min``), y by bit 1, z by bit 0."""
+    lo, hi = np.asarray(box_3d, np.float64)
+    k = np.arange(8)
+    return np.stack([np.where(k & 4, hi[0], lo[0]), np.where(k & 2, hi[1], lo[1]), np.where(k & 1, hi[2], lo[2])], -1)
+
+
+def view_objects(model_id, camera, *, rle: bool = False, alone=None, boxes_3d=None) -> list:
     """The models visible in one view.
 
     Parameters
@@ -86,6 +94,12 @@ def view_objects(model_id, camera, *, rle: bool = False, alone=None) -> list:
         (``None`` when empty) and ``visible_fraction`` (visible over
         unoccluded pixels, BOP's ``visib_fract``), and lists the models hidden
         entirely (``pixels`` 0) too.
+    boxes_3d : sequence of (2, 3) float, optional
+        Each model's world box ``[min, max]`` (:func:`object_table`'s
+        ``box_3d``). Adds ``corners``: its 8 corners (:func:`box_corners`'
+        order) in OpenCV pixel coordinates, lens included (``None`` for a
+        corner behind a perspective camera), the keypoints of box-based pose
+        estimators.
 
     Returns
     -------
@@ -94,6 +108,8 @@ def view_objects(model_id, camera, *, rle: bool = False, alone=None) -> list:
         module docstring; ``None`` for a hidden model), ``pose`` ((4, 4)
         model-to-camera), ``rle``, and the ``alone`` fields.
     """
+    from ..scene.projection import project_points
+
     ids = np.asarray(model_id)
     if ids.ndim != 2 or ids.dtype.kind not in "iu":
         raise ValueError(f"model_id: expected an (H, W) integer array, got {ids.dtype} {ids.shape}")
@@ -111,6 +127,9 @@ def view_objects(model_id, camera, *, rle: bool = False, alone=None) -> list:
                  "pose": pose.tolist()}
         if rle:
             entry["rle"] = rle_encode(mask)
+        if boxes_3d is not None:
+            uv = project_points(camera, box_corners(boxes_3d[i]))[0]
+            entry["corners"] = [None if not np.isfinite(c).all() else c.tolist() for c in uv]
         if alone is not None:
             solo = np.asarray(alone.get(i, np.zeros_like(mask)), bool)
             r2, c2 = np.nonzero(solo)
