@@ -15,7 +15,8 @@ scene per mesh set, the scene cache; serially, on a local Dask cluster with
 * ``view_{i:05d}.json``: the view's record, written last: the hash of
   what it was rendered from, each file's size and BLAKE2b digest, and the
   visible objects (:func:`raycast_shade.output.labels.view_objects`: id,
-  pixel count, 2D box, model-to-camera pose, mask as COCO RLE);
+  pixel count, 2D box, model-to-camera pose, 3D box corners in pixels,
+  mask as COCO RLE);
 
 and ``index.json``: the objects (id, name, semantic id, material, 3D box,
 pose; :func:`raycast_shade.output.labels.object_table`), and per view its
