@@ -12,12 +12,37 @@ scene per mesh set, the scene cache; serially, on a local Dask cluster with
 * ``view_{i:05d}.exr``: the buffers and the linear image (``"exr"``);
 * ``view_{i:05d}_depth.png``: 16-bit z-depth in millimetres (``"depth_png"``);
 
-and ``index.json``: per view its ``K``, ``R``, ``t`` (OpenCV's convention),
-size, projection and files. Each file is written atomically; a view whose
-files all exist is skipped (resume), so an interrupted run, run again,
-finishes the set. Only one view's buffers are in memory per worker at a
-time, and the client holds paths, so memory stays flat in the number of
-views.
+* ``view_{i:05d}.json``: the view's record, written last: the hash of
+  what it was rendered from, each file's size and BLAKE2b digest, and the
+  visible objects (:func:`raycast_shade.output.labels.view_objects`: id,
+  pixel count, 2D box, model-to-camera pose, 3D box corners in pixels,
+  mask as COCO RLE);
+
+and ``index.json``: the objects (id, name, semantic id, material, 3D box,
+pose; :func:`raycast_shade.output.labels.object_table`), and per view its
+``K``, ``R``, ``t`` (OpenCV's convention), size, projection, files and
+visible objects. ``exports`` adds set-level files: ``coco_instances.json``
+(COCO instances, RLE masks), ``transforms.json`` (nerfstudio / instant-ngp)
+and ``colmap/`` (COLMAP's text model); see :mod:`raycast_shade.output.labels`
+and :mod:`raycast_shade.output.export`. The exports are written from the
+views' records and cameras, so they are not part of the plan: asking for
+another export later renders nothing again.
+
+Honest resumes
+--------------
+``plan.json`` is written first: the settings (buffers, formats, image,
+render options, depth scale, package version) and per view the hashes of
+its scene (meshes and materials), camera and lights. Run again into the
+same folder, a view is skipped only if its record holds the same hash and
+every file it lists is there with its size and digest (a 0-byte or
+truncated file is rendered again). A folder that holds another plan (other
+cameras, another size, other buffers, ...) or view files without a plan is
+refused with a message saying what differs, before anything is written;
+``overwrite=True`` replaces it, keeping only the views that match. Each
+file is written atomically, so a killed run, run again, finishes the set
+with the bytes a single run writes. Only one view's buffers are in memory
+per worker at a time, and the client holds paths, so memory stays flat in
+the number of views.
 """
 
 from __future__ import annotations
@@ -26,39 +51,55 @@ import dataclasses
 import json
 import os
 
+import numpy as np
+
 from ..output.bufferfile import save_npz, write_depth_png, write_exr
 from ..output.buffers import check_buffers
-from ..output.imagefile import atomic_target, check_image_path, remove_stale_temps, write_image
+from ..output.labels import object_table, semantic_classes, unoccluded_masks, view_objects, write_coco
+from ..output.imagefile import check_image_path, remove_stale_temps, write_image
 from ..render import render
 from .batch.cache import PLUGIN_NAME, SceneCache, cache_of
 from .batch.options import check_options
 from .batch.plan import plan_batch
+from .viewplan import (PLAN_FORMAT, PLAN_NAME, digest, prepare_folder, view_hashes, view_is_done, view_key, write_json,
+                       write_record)
 
-__all__ = ["render_views", "FORMATS", "INDEX_NAME", "view_files", "register_cli", "run_cli"]
+__all__ = ["render_views", "FORMATS", "EXPORTS", "INDEX_NAME", "PLAN_NAME", "view_files", "register_cli", "run_cli"]
 
 FORMATS = ("npz", "exr", "depth_png")
+EXPORTS = ("coco", "nerfstudio", "colmap")
+EXPORT_FILES = {"coco": ("coco_instances.json",), "nerfstudio": ("transforms.json",),
+                "colmap": tuple(os.path.join("colmap", n) for n in ("cameras.txt", "images.txt", "points3D.txt"))}
 INDEX_NAME = "index.json"
 _STEM = "view_{:05d}"
 
 
-def _check_formats(formats) -> tuple:
+def _check_formats(formats, field="formats", choices=FORMATS) -> tuple:
+    if formats is None:
+        return ()
     if isinstance(formats, str):
         formats = [f for f in formats.split(",") if f.strip()]
+    elif not hasattr(formats, "__iter__"):
+        raise TypeError(f"{field}: expected a sequence of names, got {type(formats).__name__}")
     out = []
     for f in formats:
-        key = str(f).strip().lower()
-        if key not in FORMATS:
-            raise ValueError(f"formats: unknown format {f!r}; expected some of {', '.join(FORMATS)}")
+        if not isinstance(f, str):
+            raise TypeError(f"{field}: expected names (str), got {type(f).__name__}")
+        key = f.strip().lower()
+        if key not in choices:
+            raise ValueError(f"{field}: unknown {field[:-1]} {f!r}; expected some of {', '.join(choices)}")
         out.append(key)
     return tuple(dict.fromkeys(out))
 
 
 def view_files(index: int, formats, image) -> dict:
-    """File names (no folder) of view ``index``, by kind (``image``, ``npz``, ``exr``, ``depth_png``)."""
+    """File names (no folder) of view ``index``, by kind (``image``, ``npz``, ``exr``, ``depth_png``,
+    and ``record``, the view's record, written last)."""
     stem = _STEM.format(index)
     files = {} if image is None else {"image": stem + image}
     for f in formats:
         files[f] = stem + ("_depth.png" if f == "depth_png" else "." + f)
+    files["record"] = stem + ".json"
     return files
 
 
@@ -72,19 +113,30 @@ class _ViewSpec:
     image: str | None
     out_dir: str
     depth_scale: float
+    settings_hash: str = ""
+    exports: tuple = ()
+    unoccluded: bool = False
 
 
 def _write_view(job, base, spec: _ViewSpec, cache: SceneCache) -> str:
-    """Render and write one view (unless all its files exist); returns its stem."""
+    """Render and write one view (unless its record shows it done); returns its stem."""
     files = {k: os.path.join(spec.out_dir, v) for k, v in view_files(job.index, spec.formats, spec.image).items()}
-    if spec.options.resume and all(os.path.exists(p) for p in files.values()):
+    key = view_key(spec.settings_hash, job)
+    if spec.options.resume and view_is_done(files, key):
         cache.count("skipped")
         return _STEM.format(job.index)
+    if os.path.exists(files["record"]):
+        os.unlink(files["record"])  # the record goes first: never a record beside half-replaced files
     if "geometry" not in base.__dict__:
         cache.count("builds")
     scene = base.replace(lights=job.lights, camera=job.camera, ambient=job.ambient, background=job.background)
-    buffers = spec.buffers + (("zdepth",) if "depth_png" in spec.formats and "zdepth" not in spec.buffers else ())
-    frame = render(scene, spec.options.shading, camera=job.camera, buffers=buffers, **spec.options.render_kwargs)
+    extra = [b for b in ("model_id",) + (("zdepth",) if "depth_png" in spec.formats else ()) if b not in spec.buffers]
+    frame = render(scene, spec.options.shading, camera=job.camera, buffers=spec.buffers + tuple(extra),
+                   **spec.options.render_kwargs)
+    # Masks as RLE always: a later run may ask for the COCO export without rendering again.
+    alone = unoccluded_masks(scene, job.camera) if spec.unoccluded else None
+    boxes = [(m.mesh.vertices.min(axis=0), m.mesh.vertices.max(axis=0)) for m in scene.models]
+    objects = view_objects(frame.buffers["model_id"], job.camera, rle=True, alone=alone, boxes_3d=boxes)
     cache.count("renders")
     kept = {k: v for k, v in frame.buffers.items() if k in spec.buffers}
     if "image" in files:
@@ -95,6 +147,7 @@ def _write_view(job, base, spec: _ViewSpec, cache: SceneCache) -> str:
         write_exr(files["exr"], kept, image=frame.image, atomic=True)
     if "depth_png" in files:
         write_depth_png(files["depth_png"], frame.buffers["zdepth"], scale=spec.depth_scale, atomic=True)
+    write_record(files, key, job, objects)
     return _STEM.format(job.index)
 
 
@@ -160,17 +213,54 @@ def _split_by_key(chunk):
         yield out
 
 
-def _index_entry(job, files) -> dict:
+def _index_entry(job, files, out_dir) -> dict:
     K, R, t = job.camera.to_opencv()
     cam = job.camera
+    with open(os.path.join(out_dir, files["record"])) as fh:
+        objects = [{k: v for k, v in o.items() if k != "rle"} for o in json.load(fh)["objects"]]
+    lens = {"distortion": list(cam.distortion), "distortion_model": cam.distortion_model} if cam.distorted else {}
     return {"index": job.index, "width": cam.width, "height": cam.height, "projection": cam.projection,
-            "K": K.tolist(), "R": R.tolist(), "t": t.tolist(), "files": files}
+            "K": K.tolist(), "R": R.tolist(), "t": t.tolist(), **lens, "files": files, "objects": objects}
+
+
+def _settings(spec: _ViewSpec) -> dict:
+    """The plan's settings: everything every view's files depend on besides the view's own inputs."""
+    from ..common.version import __version__
+
+    opts = spec.options
+    return json.loads(json.dumps({
+        "version": __version__, "buffers": list(spec.buffers), "formats": list(spec.formats), "image": spec.image,
+        "depth_scale": spec.depth_scale, "unoccluded": spec.unoccluded,
+        "options": {"shading": opts.shading, "render": opts.render_kwargs, "tone": opts.tone}}, default=repr))
+
+
+def _make_plan(spec: _ViewSpec, jobs) -> dict:
+    settings = _settings(spec)
+    return {"format": PLAN_FORMAT, "settings": settings,
+            "views": [{"index": j.index, "width": j.camera.width, "height": j.camera.height, **view_hashes(j),
+                       "files": view_files(j.index, spec.formats, spec.image)} for j in jobs]}
+
+
+def _check_set_options(exports, image, unoccluded, overwrite, depth_scale) -> tuple:
+    """The checked exports; TypeError/ValueError naming the argument otherwise."""
+    exports = _check_formats(exports, "exports", EXPORTS)
+    for e in ("nerfstudio", "colmap"):
+        if e in exports and image is None:
+            raise ValueError(f"exports: {e!r} names each view's image file, but image=None writes none")
+    for name, value in (("unoccluded", unoccluded), ("overwrite", overwrite)):
+        if not isinstance(value, (bool, np.bool_)):
+            raise TypeError(f"{name}: expected True or False, got {type(value).__name__}")
+    if isinstance(depth_scale, bool) or not isinstance(depth_scale, (int, float, np.integer, np.floating)) \
+            or not (np.isfinite(depth_scale) and depth_scale > 0):
+        raise ValueError(f"depth_scale: expected a finite number > 0, got {depth_scale!r}")
+    return exports
 
 
 def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", "mask"), formats=("npz",),
                  image: str | None = ".png", shading="phong", workers: int | None = None, scheduler=None,
                  resume: bool = True, tone: dict | None = None, retries: int = 2, views_per_task: int = 1,
-                 numba_threads: int | None = None, depth_scale: float = 1000.0, **render_kwargs) -> str:
+                 numba_threads: int | None = None, depth_scale: float = 1000.0, overwrite: bool = False,
+                 exports=(), unoccluded: bool = False, **render_kwargs) -> str:
     """Render a set of views with their buffers and cameras into ``out_dir``.
 
     Parameters
@@ -191,7 +281,20 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
     workers, scheduler, retries, numba_threads
         As :func:`raycast_shade.apps.batch.render_batch`.
     resume : bool
-        Skip views whose files all exist.
+        Skip views whose record matches the plan and whose files are intact
+        (see the module docstring); False renders every view again.
+    overwrite : bool
+        Replace a view set of another plan in ``out_dir`` (default: refuse
+        it, saying what differs).
+    exports : sequence of {"coco", "nerfstudio", "colmap"}
+        Set-level files written after the views (see the module docstring);
+        ``nerfstudio`` and ``colmap`` name the image files, so they need
+        ``image``.
+    unoccluded : bool
+        Also cast each model alone per view: each object's unoccluded
+        (amodal) pixel count and box and its visible fraction in the records
+        and the index (:func:`raycast_shade.output.labels.view_objects`); one
+        more cast per model and view.
     views_per_task : int
         Consecutive views per Dask task.
     depth_scale : float
@@ -205,7 +308,9 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
     Raises
     ------
     TypeError, ValueError
-        For a bad argument, naming it, before any view renders.
+        For a bad argument, naming it, a camera whose frame exceeds the
+        memory limit, or a folder holding another plan: before any file is
+        written.
     ImportError
         ``"exr"`` without the openexr package.
     """
@@ -228,13 +333,24 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
         import OpenEXR  # noqa: F401 - fail now, not on the first view
     if isinstance(views_per_task, bool) or not isinstance(views_per_task, int) or views_per_task < 1:
         raise ValueError(f"views_per_task: expected an integer > 0, got {views_per_task!r}")
+    exports = _check_set_options(exports, image, unoccluded, overwrite, depth_scale)
     options = check_options(shading, render_kwargs, tone, resume)
     bases, jobs = plan_batch(scene, cameras)
+    for job in jobs:  # every camera before the first view is written
+        try:
+            job.camera.check_frame_memory()
+        except ValueError as exc:
+            raise ValueError(f"cameras[{job.index}]: {exc}") from None
     spec = _ViewSpec(options, names, formats, None if image is None else str(image).lower(), out_dir,
-                     float(depth_scale))
+                     float(depth_scale), exports=exports, unoccluded=bool(unoccluded))
+    spec = dataclasses.replace(spec, settings_hash=digest(json.dumps(_settings(spec), sort_keys=True)))
+    plan = _make_plan(spec, jobs)
     os.makedirs(out_dir, exist_ok=True)
+    set_files = [INDEX_NAME] + [n for names in EXPORT_FILES.values() for n in names]
+    prepare_folder(out_dir, plan, bool(overwrite), set_files)
     all_files = {j.index: view_files(j.index, formats, spec.image) for j in jobs}
-    remove_stale_temps(out_dir, [n for files in all_files.values() for n in files.values()] + [INDEX_NAME])
+    set_level = [INDEX_NAME, PLAN_NAME, EXPORT_FILES["coco"][0], EXPORT_FILES["nerfstudio"][0]]
+    remove_stale_temps(out_dir, [n for files in all_files.values() for n in files.values()] + set_level)
     on_dask = workers is not None or scheduler is not None
     if not on_dask:
         cache = SceneCache()
@@ -252,11 +368,32 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
                              "depth_png": f"uint16 zdepth * {spec.depth_scale:g}, 0 = none",
                              "ids": "-1 on the background (EXR: id + 1, 0 on the background)"},
              "buffers": list(names), "formats": list(formats),
-             "views": [_index_entry(j, all_files[j.index]) for j in jobs]}
+             "classes": list(semantic_classes(scene)[0]), "objects": object_table(scene),
+             "views": [_index_entry(j, all_files[j.index], out_dir) for j in jobs]}
+    _write_exports(scene, jobs, index, spec)
     path = os.path.join(out_dir, INDEX_NAME)
-    with atomic_target(path) as tmp, open(tmp, "w") as fh:
-        json.dump(index, fh, indent=1)
+    write_json(path, index)
     return path
+
+
+def _write_exports(scene, jobs, index, spec: _ViewSpec) -> None:
+    from ..output.export import write_colmap, write_transforms
+
+    views = index["views"]
+    cams = [j.camera for j in jobs]
+    if "coco" in spec.exports:
+        coco_views = []
+        for v in views:
+            with open(os.path.join(spec.out_dir, v["files"]["record"])) as fh:
+                objects = json.load(fh)["objects"]
+            main = v["files"].get("image") or next(iter(v["files"].values()))
+            coco_views.append({"file_name": main, "width": v["width"], "height": v["height"], "objects": objects})
+        write_coco(os.path.join(spec.out_dir, EXPORT_FILES["coco"][0]), scene, coco_views)
+    if "nerfstudio" in spec.exports:
+        write_transforms(os.path.join(spec.out_dir, EXPORT_FILES["nerfstudio"][0]), cams,
+                         [v["files"]["image"] for v in views])
+    if "colmap" in spec.exports:
+        write_colmap(os.path.join(spec.out_dir, "colmap"), cams, [v["files"]["image"] for v in views])
 
 
 # -- the command line ------------------------------------------------------------------------------
@@ -272,7 +409,8 @@ def register_cli(subparsers):
         "views", help="render a data set of views: images, buffers and cameras",
         description="Render a TOML scene file from N cameras orbiting its target: per view the image and "
                     "the buffers (npz, exr, 16-bit depth png), and index.json with each view's K, R, t "
-                    "(OpenCV's convention) and files. Views already written are skipped.",
+                    "(OpenCV's convention) and files. Views already written for the same plan are skipped; a "
+                    "folder holding another plan is refused (--overwrite replaces it).",
         epilog="examples:\n"
                "  raycast-shade views examples/shapes.toml --orbit 24 --buffers depth,normal,id -o shapes_views\n"
                "  raycast-shade views scene.toml --orbit 100 --buffers zdepth,position --formats npz,exr "
@@ -289,6 +427,14 @@ def register_cli(subparsers):
     p.add_argument("--image", default=".png", metavar="EXT",
                    help="per-view image file extension, or 'none' (default: .png)")
     p.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder (created)")
+    p.add_argument("--export", default="", metavar="LIST",
+                   help=f"set-level files, comma-separated: {', '.join(EXPORTS)} (COCO instances with RLE masks, "
+                        "nerfstudio/instant-ngp transforms.json, COLMAP text)")
+    p.add_argument("--unoccluded", action="store_true",
+                   help="also cast each model alone: per object its unoccluded pixel count and box and its "
+                        "visible fraction, in index.json")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace a view set of another plan in the output folder (default: refuse it)")
     add_render_options(p)
     where = p.add_mutually_exclusive_group()
     where.add_argument("--workers", type=positive_int, metavar="N", help="render on a local Dask cluster of N workers")
@@ -311,7 +457,8 @@ def run_cli(ns) -> int:
     t0 = time.perf_counter()
     index = render_views(scene, orbit_cameras(scene.camera, ns.orbit), ns.output, buffers=ns.buffers,
                          formats=ns.formats, image=image, shading=shading, workers=ns.workers,
-                         scheduler=ns.scheduler, tone=tone, **render_kwargs)
+                         scheduler=ns.scheduler, tone=tone, overwrite=ns.overwrite,
+                         exports=ns.export, unoccluded=ns.unoccluded, **render_kwargs)
     secs = time.perf_counter() - t0
     cam = scene.camera
     print(f"wrote {index} ({ns.orbit} views, {cam.width}x{cam.height}, buffers {','.join(ns.buffers)}): "

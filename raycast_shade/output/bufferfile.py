@@ -11,6 +11,13 @@
   metre-like world unit, default 1000), 0 where nothing was hit or the depth
   is out of range, as TUM RGB-D, ScanNet and NYU store it.
 
+Every writer checks its input before it opens a file: names (``np.savez``'s
+own arguments ``file`` and ``allow_pickle`` and the names the writer adds
+itself are refused), shapes (every buffer ``(H, W)`` or ``(H, W, 3)`` of one
+size), values the format cannot hold (EXR ids outside ``[-1, 2**31 - 1]``,
+floats beyond float32) and the file's extension; a ValueError or TypeError
+names the buffer.
+
 Every writer takes ``atomic=True`` (through
 :func:`~raycast_shade.output.imagefile.atomic_target`): the file is whole or
 absent, never partial.
@@ -27,8 +34,62 @@ from .imagefile import atomic_target
 
 __all__ = ["save_npz", "load_npz", "write_exr", "read_exr", "write_depth_png", "read_depth_png"]
 
-_ID_BUFFERS = ("model_id", "triangle_id")
+_ID_BUFFERS = ("model_id", "triangle_id", "instance_id", "semantic_id")
+_MASKS = ("mask",)
 _AXES = ("X", "Y", "Z")
+# np.savez(file, *args, allow_pickle=True, **kwds): a buffer under one of these names would be
+# taken as the argument itself.
+NPZ_RESERVED = ("file", "allow_pickle")
+_ID_RANGE = (-1, 2**31 - 1)  # stored as uint32 id + 1, read back as int32
+
+
+def _check_path(path, ext: str, field: str = "path") -> str:
+    if path is None or isinstance(path, bool) or not isinstance(path, (str, bytes, os.PathLike)):
+        raise TypeError(f"{field}: expected a file path, got {type(path).__name__}")
+    path = os.fspath(path)
+    if isinstance(path, bytes):
+        path = os.fsdecode(path)
+    if not path.lower().endswith(ext):
+        raise ValueError(f"{field}: {path!r}: expected a {ext} file")
+    return path
+
+
+def _check_buffers(buffers, image, reserved=(), field="buffers") -> tuple:
+    """``(arrays, size)``: the buffers as arrays by name, all ``(H, W)`` or ``(H, W, 3)`` of one ``(H, W)``.
+
+    Refuses (naming the buffer) non-string or empty names, ``reserved`` names, arrays that are not
+    numbers or booleans (object arrays would be pickled), other shapes, and an image of another size.
+    """
+    if not isinstance(buffers, dict):
+        raise TypeError(f"{field}: expected a dict of name to array, got {type(buffers).__name__}")
+    arrays = {}
+    size = None
+    for name, value in buffers.items():
+        if not isinstance(name, str) or not name.strip():
+            raise TypeError(f"{field}: expected non-empty str names, got {name!r}")
+        if name in reserved:
+            raise ValueError(f"{field}: the name {name!r} is taken by the writer itself "
+                             f"(reserved: {', '.join(reserved)}); rename the buffer")
+        if value is None:
+            raise TypeError(f"{field}[{name!r}]: expected an array, got None")
+        a = np.asarray(value)
+        if a.dtype.kind not in "biuf":
+            raise TypeError(f"{field}[{name!r}]: expected numbers or booleans, got dtype {a.dtype}")
+        if not (a.ndim == 2 or (a.ndim == 3 and a.shape[2] == 3)) or 0 in a.shape:
+            raise ValueError(f"{field}[{name!r}]: expected shape (H, W) or (H, W, 3), got {a.shape}")
+        if size is None:
+            size = a.shape[:2]
+        elif a.shape[:2] != size:
+            raise ValueError(f"{field}[{name!r}]: shape {a.shape} does not match the other buffers' {size}")
+        arrays[name] = a
+    if image is not None:
+        img = np.asarray(image)
+        if img.dtype.kind not in "uif":
+            raise TypeError(f"image: expected numbers, got dtype {img.dtype}")
+        if img.ndim != 3 or img.shape[2] != 3 or (size is not None and img.shape[:2] != size):
+            want = "(H, W, 3)" if size is None else f"({size[0]}, {size[1]}, 3), the buffers' size"
+            raise ValueError(f"image: expected shape {want}, got {img.shape}")
+    return arrays, size
 
 
 @contextlib.contextmanager
@@ -49,6 +110,9 @@ def save_npz(path, buffers: dict, *, image=None, camera=None, compressed: bool =
     path : str or path-like
         Ends in ``.npz``.
     buffers : dict of str to ndarray
+        Each ``(H, W)`` or ``(H, W, 3)``, one size; not named ``file`` or
+        ``allow_pickle`` (``np.savez``'s arguments), nor ``image`` (``K``,
+        ``R``, ``t``) when ``image`` (``camera``) is given.
     image : (H, W, 3) float32, optional
     camera : Camera, optional
     compressed : bool
@@ -58,14 +122,20 @@ def save_npz(path, buffers: dict, *, image=None, camera=None, compressed: bool =
     -------
     str
         ``path``.
+
+    Raises
+    ------
+    TypeError, ValueError
+        Naming the buffer or argument at fault, before the file is opened.
     """
-    path = os.fspath(path)
-    if not path.lower().endswith(".npz"):
-        raise ValueError(f"path: {path!r}: expected a .npz file")
-    arrays = dict(buffers)
+    path = _check_path(path, ".npz")
+    reserved = NPZ_RESERVED + (("image",) if image is not None else ()) + (("K", "R", "t") if camera is not None else ())
+    arrays, _ = _check_buffers(buffers, image, reserved)
     if image is not None:
         arrays["image"] = np.asarray(image, np.float32)
     if camera is not None:
+        if not hasattr(camera, "to_opencv"):
+            raise TypeError(f"camera: expected a Camera, got {type(camera).__name__}")
         arrays["K"], arrays["R"], arrays["t"] = camera.to_opencv()
     with _target(path, atomic) as target, open(target, "wb") as fh:
         (np.savez_compressed if compressed else np.savez)(fh, **arrays)
@@ -79,41 +149,77 @@ def load_npz(path) -> dict:
 
 
 def _exr_channels(buffers, image):
+    """EXR channels of checked buffers; refuses what EXR (as written here) cannot give back."""
+    from ..common.validate import as_array
+
+    arrays, _ = _check_buffers(buffers, image, ("R", "G", "B"))
     channels = {}
     if image is not None:
-        img = np.asarray(image, np.float32)
+        img = as_array(image, "image", dtype=np.float32, finite=False)
         for i, c in enumerate("RGB"):
             channels[c] = np.ascontiguousarray(img[..., i])
-    for name, buf in buffers.items():
+    for name, buf in arrays.items():
+        field = f"buffers[{name!r}]"
+        if "." in name:
+            raise ValueError(f"{field}: EXR names a 3-vector's channels name.X, name.Y, name.Z; "
+                             f"a name with a dot would be read back as one")
         if name in _ID_BUFFERS:
-            channels[name] = np.ascontiguousarray(buf.astype(np.int64) + 1, dtype=np.uint32)
-        elif buf.dtype == np.bool_:
+            ids = as_array(buf, field, dtype=np.int64, ndim=2)
+            lo, hi = _ID_RANGE
+            if ids.size and (ids.min() < lo or ids.max() > hi):
+                bad = ids.min() if ids.min() < lo else ids.max()
+                raise ValueError(f"{field}: id {int(bad)} outside the range EXR holds here, [{lo}, {hi}] "
+                                 f"(stored as uint32 id + 1)")
+            channels[name] = np.ascontiguousarray(ids + 1, dtype=np.uint32)
+        elif name in _MASKS:
+            if buf.dtype != np.bool_ or buf.ndim != 2:
+                raise TypeError(f"{field}: expected an (H, W) bool mask, got {buf.dtype} {buf.shape}")
             channels[name] = buf.astype(np.uint32)
-        elif buf.ndim == 3:
-            for i, axis in enumerate(_AXES):
-                channels[f"{name}.{axis}"] = np.ascontiguousarray(buf[..., i], dtype=np.float32)
+        elif buf.dtype.kind != "f":
+            raise TypeError(f"{field}: EXR holds integer and bool buffers only under the names "
+                            f"{', '.join(_ID_BUFFERS + _MASKS)} (read back as such); got dtype {buf.dtype}. "
+                            "Store it as float or in an .npz file")
         else:
-            channels[name] = np.ascontiguousarray(buf, dtype=np.float32)
+            buf = as_array(buf, field, dtype=np.float32, finite=False)
+            if buf.ndim == 3:
+                for i, axis in enumerate(_AXES):
+                    channels[f"{name}.{axis}"] = np.ascontiguousarray(buf[..., i])
+            else:
+                channels[name] = buf
+    if not channels:
+        raise ValueError("buffers: nothing to write (no buffers and no image)")
     return channels
 
 
 def write_exr(path, buffers: dict, *, image=None, atomic: bool = False) -> str:
     """Write buffers (and optionally the linear image) as one multi-channel EXR.
 
+    Parameters
+    ----------
+    path : str or path-like
+        Ends in ``.exr``.
+    buffers : dict of str to ndarray
+        Float buffers ``(H, W)`` or ``(H, W, 3)``; integer ids only under
+        the id names (``model_id``, ``triangle_id``, ``instance_id``,
+        ``semantic_id``), ``-1 <= id <= 2**31 - 1`` (int32); bool only ``mask``.
+        No name ``R``, ``G``, ``B`` (the image) or with a dot.
+    image : (H, W, 3) float, optional
+
     Raises
     ------
     ImportError
         Without the ``openexr`` package (``pip install raycast_shade[vision]``).
+    TypeError, ValueError
+        Naming the buffer, before the file is opened.
     """
     try:
         import OpenEXR
     except ImportError as exc:
         raise ImportError("write_exr: needs the openexr package (pip install 'raycast_shade[vision]')") from exc
-    path = os.fspath(path)
-    if not path.lower().endswith(".exr"):
-        raise ValueError(f"path: {path!r}: expected a .exr file")
+    path = _check_path(path, ".exr")
+    channels = _exr_channels(buffers, image)
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
-    with _target(path, atomic) as target, OpenEXR.File(header, _exr_channels(buffers, image)) as f:
+    with _target(path, atomic) as target, OpenEXR.File(header, channels) as f:
         f.write(target)
     return path
 
@@ -133,7 +239,7 @@ def read_exr(path) -> dict:
     for name, px in ch.items():
         if name in _ID_BUFFERS:
             out[name] = (px.astype(np.int64) - 1).astype(np.int32)
-        elif name == "mask":
+        elif name in _MASKS:
             out[name] = px.astype(bool)
         else:
             out[name] = px
@@ -145,8 +251,10 @@ def write_depth_png(path, depth, *, scale: float = 1000.0, atomic: bool = False)
 
     Parameters
     ----------
+    path : str or path-like
+        Ends in ``.png`` (a ``.jpg`` would lose the 16 bits).
     depth : (H, W) float
-        Depth in world units; 0 (or not finite) where there is none.
+        Depth in world units, ``>= 0``; 0 (or not finite) where there is none.
     scale : float
         Stored units per world unit (1000: millimetres from metres).
 
@@ -158,10 +266,17 @@ def write_depth_png(path, depth, *, scale: float = 1000.0, atomic: bool = False)
     import struct
     import zlib
 
-    d = np.asarray(depth, np.float64)
-    if d.ndim != 2:
-        raise ValueError(f"depth: expected an (H, W) array, got shape {d.shape}")
-    if not (isinstance(scale, (int, float)) and np.isfinite(scale) and scale > 0):
+    from ..common.validate import as_array
+
+    path = _check_path(path, ".png")
+    d = as_array(depth, "depth", dtype=np.float64, ndim=2, finite=False)
+    if 0 in d.shape:
+        raise ValueError(f"depth: expected a non-empty (H, W) array, got shape {d.shape}")
+    if np.any(d < 0):
+        bad = tuple(int(i) for i in np.argwhere(d < 0)[0])
+        raise ValueError(f"depth: negative value {d[bad]:g} at (row, column) {bad}; depth is >= 0 (0: none)")
+    if isinstance(scale, bool) or not (isinstance(scale, (int, float, np.integer, np.floating))
+                                       and np.isfinite(scale) and scale > 0):
         raise ValueError(f"scale: expected a finite number > 0, got {scale!r}")
     q = np.where(np.isfinite(d) & (d > 0), np.rint(d * scale), 0.0)
     q = np.where(q <= 65535, q, 0.0).astype(">u2")  # PNG stores 16-bit samples big-endian
@@ -176,7 +291,7 @@ def write_depth_png(path, depth, *, scale: float = 1000.0, atomic: bool = False)
     with _target(path, atomic) as target, open(target, "wb") as fh:
         fh.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw.tobytes(), 6))
                  + chunk(b"IEND", b""))
-    return os.fspath(path)
+    return path
 
 
 def read_depth_png(path, *, scale: float = 1000.0) -> np.ndarray:

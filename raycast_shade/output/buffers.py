@@ -19,7 +19,9 @@ Names, shapes and meanings (background: 0, ids -1; camera axes are OpenCV's,
 ``face_normal``        (H, W, 3) f32    geometric (triangle) normal, world, turned to the viewer
 ``face_normal_camera`` (H, W, 3) f32    the same in camera axes
 ``barycentric``        (H, W, 3) f32    weights of the triangle's vertices 0, 1, 2
-``model_id``           (H, W) int32     model index in the scene
+``model_id``           (H, W) int32     model index in the scene (the instance mask)
+``semantic_id``        (H, W) int32     index of the model's name among the scene's distinct
+                                        model names (:func:`~raycast_shade.output.labels.semantic_classes`)
 ``triangle_id``        (H, W) int32     triangle index within its model (the mesh's face order)
 ``mask``               (H, W) bool      pixels that see a surface
 ``coverage``           (H, W) float32   fraction of the pixel's anti-aliasing samples that hit a
@@ -38,7 +40,7 @@ import numpy as np
 __all__ = ["BUFFER_NAMES", "ALIASES", "check_buffers", "compute_buffers"]
 
 BUFFER_NAMES = ("depth", "zdepth", "position", "normal", "normal_camera", "face_normal", "face_normal_camera",
-                "barycentric", "model_id", "triangle_id", "mask", "coverage")
+                "barycentric", "model_id", "triangle_id", "mask", "coverage", "semantic_id")
 ALIASES = {"id": ("model_id", "triangle_id")}
 
 
@@ -78,6 +80,10 @@ def _unit_rays(camera):
     """(H, W, 3) float64 unit ray directions (world axes), as the casters make them."""
     from ..visibility.rays import generate_rays
 
+    if camera.distorted:
+        from ..visibility.distortion import ray_directions
+
+        return ray_directions(camera)[0].reshape(camera.height, camera.width, 3)
     _, d = generate_rays(camera, dtype=np.float64)
     return d.reshape(camera.height, camera.width, 3)
 
@@ -149,6 +155,11 @@ def compute_buffers(scene, camera, hits, names, shading="phong", coverage=None) 
             buf = np.where(mask[..., None], np.stack([1.0 - u - v, u, v], axis=-1), 0.0)
         elif name == "model_id":
             buf = hits.geom.copy()
+        elif name == "semantic_id":
+            from .labels import semantic_classes
+
+            lut = semantic_classes(scene)[1]
+            buf = np.where(mask, lut[np.maximum(hits.geom, 0)], np.int32(-1)).astype(np.int32)
         elif name == "triangle_id":
             buf = hits.prim.copy()
         elif name == "coverage":

@@ -45,6 +45,15 @@ class Camera:
         principal point may be anywhere. Given, they define the projection
         and ``fov`` (``ortho_height``) is set to the vertical extent they
         imply. See :meth:`from_opencv`, ``docs/vision.md``.
+    distortion : sequence of float, optional
+        Lens distortion coefficients (perspective only), OpenCV's models in
+        normalised coordinates: ``distortion_model="opencv"`` takes
+        ``(k1, k2, p1, p2)`` or ``(k1, k2, p1, p2, k3)``; ``"fisheye"``
+        (``cv2.fisheye``) takes ``(k1, k2, k3, k4)``. The rays pass through
+        the distorted pixel centres exactly
+        (:mod:`raycast_shade.visibility.distortion`): every buffer is that of
+        the distorted image, with no warp. None (or all zero): a pinhole.
+    distortion_model : {"opencv", "fisheye"}
     """
 
     eye: np.ndarray
@@ -59,6 +68,8 @@ class Camera:
     fy: float | None = None
     cx: float | None = None
     cy: float | None = None
+    distortion: tuple | None = None
+    distortion_model: str = "opencv"
 
     def __post_init__(self):
         set_ = object.__setattr__
@@ -91,6 +102,32 @@ class Camera:
         set_(self, "projection", as_choice(self.projection, "camera.projection", PROJECTIONS))
         set_(self, "ortho_height", as_scalar(self.ortho_height, "camera.ortho_height", minimum=0.0, exclusive=True))
         self._check_intrinsics()
+        self._check_distortion()
+
+    # -- lens distortion (raycast_shade.visibility.distortion) ----------------------------------------
+
+    def _check_distortion(self):
+        from ..common.validate import as_array
+
+        model = as_choice(self.distortion_model, "camera.distortion_model", ("opencv", "fisheye"))
+        object.__setattr__(self, "distortion_model", model)
+        if self.distortion is None:
+            return
+        if isinstance(self.distortion, (str, bytes)):
+            raise TypeError("camera.distortion: expected coefficients (numbers), got a string")
+        k = as_array(self.distortion, "camera.distortion", dtype=np.float64).ravel()
+        counts = (4, 5) if model == "opencv" else (4,)
+        if len(k) not in counts:
+            names = "(k1, k2, p1, p2) or (k1, k2, p1, p2, k3)" if model == "opencv" else "(k1, k2, k3, k4)"
+            raise ValueError(f"camera.distortion: the {model} model takes {names}, got {len(k)} values")
+        if self.orthographic and np.any(k != 0.0):
+            raise ValueError("camera.distortion: lens distortion needs a perspective camera")
+        object.__setattr__(self, "distortion", tuple(float(c) for c in k))
+
+    @property
+    def distorted(self) -> bool:
+        """True if the camera has non-zero distortion coefficients (its rays are not a pinhole's)."""
+        return self.distortion is not None and any(c != 0.0 for c in self.distortion)
 
     def _check_intrinsics(self):
         set_ = object.__setattr__
@@ -151,14 +188,21 @@ class Camera:
     # -- matrices (raycast_shade.scene.projection; docs/vision.md) -----------------------------------
 
     @classmethod
-    def from_opencv(cls, K, R, t, width, height, *, projection="perspective") -> "Camera":
+    def from_opencv(cls, K, R, t, width, height, *, projection="perspective", dist=None,
+                    fisheye: bool = False) -> "Camera":
         """A camera from OpenCV's intrinsics ``K`` (3, 3, zero skew) and
-        world-to-camera ``R`` (3, 3), ``t`` (3,): ``x_cam = R x_world + t``,
+        world-to-camera ``R`` (3, 3), ``t`` (3,) or (3, 1): ``x_cam = R x_world + t``,
         camera ``x`` right, ``y`` down, ``z`` forward; pixel centres at
-        integer coordinates. :meth:`to_opencv` gives them back."""
+        integer coordinates. ``dist``: OpenCV's distortion coefficients
+        (``cv2.projectPoints``' ``distCoeffs``, 4 or 5 values; with
+        ``fisheye=True``, ``cv2.fisheye``'s ``D``, 4 values), see
+        ``distortion``. :meth:`to_opencv` gives ``K, R, t`` back."""
         from .projection import opencv_kwargs
 
-        return cls(width=width, height=height, **opencv_kwargs(K, R, t, projection))
+        if not isinstance(fisheye, (bool, np.bool_)):
+            raise TypeError(f"fisheye: expected True or False, got {type(fisheye).__name__}")
+        lens = {} if dist is None else {"distortion": dist, "distortion_model": "fisheye" if fisheye else "opencv"}
+        return cls(width=width, height=height, **opencv_kwargs(K, R, t, projection), **lens)
 
     @classmethod
     def from_opengl(cls, view, projection, width, height) -> "Camera":

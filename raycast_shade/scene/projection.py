@@ -29,7 +29,8 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["intrinsics", "principal_offset", "intrinsics_matrix", "extrinsics", "opencv_kwargs",
-           "view_matrix", "projection_matrix", "opengl_kwargs", "GL_FROM_CV"]
+           "view_matrix", "projection_matrix", "opengl_kwargs", "GL_FROM_CV", "distort_normalised",
+           "project_points"]
 
 # OpenCV camera axes to OpenGL view axes (and back): y and z flip.
 GL_FROM_CV = np.diag([1.0, -1.0, -1.0])
@@ -89,10 +90,12 @@ def extrinsics(camera):
 
 
 def _matrix(value, shape, field):
-    try:
-        a = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise TypeError(f"{field}: expected a {shape} array of numbers, got {type(value).__name__}") from None
+    """``value`` as a finite float64 array of ``shape``: numbers only (strings and booleans refused)."""
+    from ..common.validate import as_array
+
+    a = as_array(value, field, dtype=np.float64, finite=False)
+    if shape == (3,) and a.shape in ((3, 1), (1, 3)):  # a column, as cv2.solvePnP and cv2.Rodrigues give it
+        a = a.reshape(3)
     if a.shape != shape:
         raise ValueError(f"{field}: expected shape {shape}, got {a.shape}")
     if not np.all(np.isfinite(a)):
@@ -109,8 +112,8 @@ def opencv_kwargs(K, R, t, projection="perspective") -> dict:
         ``[[fx, 0, cx], [0, fy, cy], [0, 0, 1]]``, ``fx, fy > 0``; skew must be 0.
     R : (3, 3) float
         Rotation (orthonormal to 1e-6, ``det R > 0``), world to camera.
-    t : (3,) float
-        Translation, world to camera.
+    t : (3,) or (3, 1) float
+        Translation, world to camera (a column as ``cv2.solvePnP`` returns it).
     projection : {"perspective", "orthographic"}
 
     Returns
@@ -173,6 +176,8 @@ def projection_matrix(camera, near, far) -> np.ndarray:
         if not np.isfinite(value):
             raise ValueError(f"{name}: must be finite, got {value}")
     n, f = float(near), float(far)
+    if getattr(camera, "distorted", False):
+        raise ValueError("camera.distortion: an OpenGL projection matrix cannot hold lens distortion")
     if not f > n or (not camera.orthographic and not n > 0.0):
         raise ValueError(f"near, far: expected 0 < near < far (orthographic: near < far), got {n}, {f}")
     fx, fy, cx, cy = intrinsics(camera)
@@ -224,3 +229,70 @@ def opengl_kwargs(view, projection, width, height) -> dict:
                          f"(orthographic), got {P[3].tolist()}")
     K = [[P[0, 0] * w / 2.0, 0.0, cxg - 0.5], [0.0, P[1, 1] * h / 2.0, cyg - 0.5], [0.0, 0.0, 1.0]]
     return opencv_kwargs(K, GL_FROM_CV @ V[:3, :3], GL_FROM_CV @ V[:3, 3], kind)
+
+
+def distort_normalised(camera, x, y):
+    """A camera's lens model on normalised coordinates (identity without distortion).
+
+    Parameters
+    ----------
+    camera : Camera
+    x, y : (N,) float
+        ``X / Z``, ``Y / Z`` in OpenCV's camera axes.
+
+    Returns
+    -------
+    x_d, y_d : (N,) float64
+        As ``cv2.projectPoints`` (``distortion_model="opencv"``) or
+        ``cv2.fisheye.projectPoints`` (``"fisheye"``) distort them; the
+        formulas are in :mod:`raycast_shade.visibility.distortion`.
+    """
+    x, y = np.asarray(x, np.float64), np.asarray(y, np.float64)
+    if not getattr(camera, "distorted", False):
+        return x, y
+    k = np.zeros(5)
+    k[:len(camera.distortion)] = camera.distortion
+    if camera.distortion_model == "fisheye":
+        r = np.hypot(x, y)
+        theta = np.arctan(r)
+        t2 = theta * theta
+        td = theta * (1.0 + t2 * (k[0] + t2 * (k[1] + t2 * (k[2] + t2 * k[3]))))
+        scale = np.where(r > 0, td / np.where(r > 0, r, 1.0), 1.0)
+        return x * scale, y * scale
+    k1, k2, p1, p2, k3 = k
+    r2 = x * x + y * y
+    s = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+    return x * s + 2 * p1 * x * y + p2 * (r2 + 2 * x * x), y * s + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
+
+
+def project_points(camera, points):
+    """OpenCV pixel coordinates of world points (lens distortion included).
+
+    Parameters
+    ----------
+    camera : Camera
+    points : (N, 3) float
+        World coordinates.
+
+    Returns
+    -------
+    uv : (N, 2) float64
+        Pixel coordinates, OpenCV's convention (the centre of pixel ``(i, j)``
+        at ``(i, j)``); NaN for points not in front of a perspective camera.
+    z : (N,) float64
+        Camera-space depth (``z`` forward).
+    """
+    p = np.asarray(points, np.float64).reshape(-1, 3)
+    fx, fy, cx, cy = intrinsics(camera)
+    R, t = extrinsics(camera)
+    q = p @ R.T + t
+    z = q[:, 2]
+    if camera.orthographic:
+        x, y = q[:, 0], q[:, 1]
+    else:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            front = z > 0
+            x = np.where(front, q[:, 0] / np.where(front, z, 1.0), np.nan)
+            y = np.where(front, q[:, 1] / np.where(front, z, 1.0), np.nan)
+        x, y = distort_normalised(camera, x, y)
+    return np.stack([fx * x + cx, fy * y + cy], axis=-1), z

@@ -38,11 +38,15 @@ class Model:
     """A mesh with its material.
 
     ``mesh`` may be a :class:`trimesh.Trimesh` (or ``trimesh.Scene``): it is
-    converted with :meth:`Mesh.from_trimesh`.
+    converted with :meth:`Mesh.from_trimesh`. ``name`` (default: the mesh's
+    name, which a loaded file sets from its node names) labels the model in
+    data sets: models of one name share a semantic label
+    (:mod:`raycast_shade.output.labels`).
     """
 
     mesh: Mesh
     material: Material = dataclasses.field(default_factory=Material)
+    name: str | None = None
 
     def __post_init__(self):
         if _is_trimesh(self.mesh):
@@ -51,6 +55,10 @@ class Model:
             raise TypeError(f"model.mesh: expected a Mesh, got {type(self.mesh).__name__}")
         if not isinstance(self.material, Material):
             raise TypeError(f"model.material: expected a Material, got {type(self.material).__name__}")
+        if self.name is None:
+            object.__setattr__(self, "name", self.mesh.name)
+        elif not isinstance(self.name, str) or not self.name.strip():
+            raise TypeError(f"model.name: expected a non-empty str, got {self.name!r}")
 
 
 class SceneGeometry:

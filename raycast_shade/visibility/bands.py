@@ -69,7 +69,7 @@ def cast_bands(geometry, camera, rows: int = BAND_ROWS):
         raise ValueError(f"rows: expected a positive multiple of {_TILE_H}, got {rows!r}")
     rows = int(rows)
     h, w = camera.height, camera.width
-    if h <= rows:  # one band: the frame itself
+    if h <= rows or camera.distorted:  # one band: the frame itself (distorted: cast_camera's own rays)
         yield 0, cast_camera(geometry, camera, "embree")
         return
     check_camera_reach(geometry, camera)

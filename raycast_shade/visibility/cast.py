@@ -309,6 +309,8 @@ def cast_camera(geometry, camera, caster: str = "auto", threads: int = 2, *, off
     h, w = camera.height, camera.width
     out = None if out is None else image_buffer(out, h, w)
     check_camera_reach(geometry, camera)
+    if camera.distorted:  # exact rays through the distorted pixel centres
+        return _cast_distorted(geometry, camera, out)
     cam = camera_frame(camera, geometry.origin)
     if caster == "embree":
         hits = image_buffer(out, h, w)  # the kernel writes every pixel
@@ -330,6 +332,20 @@ def cast_camera(geometry, camera, caster: str = "auto", threads: int = 2, *, off
             dst[...] = src
         hits = out
     _fill_holes(geometry, cam, hits, caster)
+    return hits
+
+
+def _cast_distorted(geometry, camera, out=None) -> HitBuffer:
+    """A distorted camera's hits: :func:`cast_rays` along :func:`.distortion.ray_directions`;
+    pixels without a ray (beyond a fold of the lens model) are misses."""
+    from .distortion import ray_directions
+
+    d, ok = ray_directions(camera)
+    d[~ok] = camera.basis[2]  # any valid direction: the ray gets no length
+    flat = cast_rays(geometry, np.broadcast_to(camera.eye, d.shape), d, 0.0, np.where(ok, np.inf, 0.0))
+    hits = image_buffer(out, camera.height, camera.width)
+    for dst, src, empty in zip(hits, flat, (-1, -1, 0.0, 0.0, np.inf)):
+        dst[...] = np.where(ok, src, empty).reshape(camera.height, camera.width)
     return hits
 
 

@@ -93,6 +93,8 @@ def _check(geometry, camera, near):
         raise TypeError(f"geometry: expected a SceneGeometry (scene.geometry), got {type(geometry).__name__}")
     if not isinstance(camera, Camera):
         raise TypeError(f"camera: expected a Camera, got {type(camera).__name__}")
+    if camera.distorted:  # straight edges stay straight only through a pinhole
+        raise ValueError("camera.distortion: the rasterizer draws pinhole cameras only; use backend='raycast'")
     if camera.width > _MAX_SIDE or camera.height > _MAX_SIDE:
         raise ValueError(f"camera.width, camera.height: at most {_MAX_SIDE} pixels, got {camera.width}x{camera.height}")
     if near is None:

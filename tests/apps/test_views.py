@@ -11,7 +11,7 @@ import pytest
 import raycast_shade as rs
 from raycast_shade.apps.animate import orbit_cameras
 from raycast_shade.apps.cli import main
-from raycast_shade.apps.views import INDEX_NAME, render_views
+from raycast_shade.apps.views import INDEX_NAME, PLAN_NAME, render_views
 from raycast_shade.output.bufferfile import load_npz, read_depth_png, read_exr
 
 W, H = 40, 30
@@ -37,8 +37,8 @@ def test_views_write_one_file_set_per_view_and_an_index(scene, tmp_path):
                          formats=["npz", "exr", "depth_png"])
     assert index == os.path.join(tmp_path, INDEX_NAME)
     stems = [f"view_{i:05d}" for i in range(4)]
-    assert _names(tmp_path) == sorted([INDEX_NAME] + [s + e for s in stems
-                                                      for e in (".png", ".npz", ".exr", "_depth.png")])
+    assert _names(tmp_path) == sorted([INDEX_NAME, PLAN_NAME] + [s + e for s in stems
+                                                                 for e in (".png", ".npz", ".exr", "_depth.png", ".json")])
     data = json.load(open(index))
     assert data["buffers"] == ["zdepth", "normal", "model_id", "triangle_id"]
     for view, cam in zip(data["views"], cams):
@@ -67,7 +67,7 @@ def test_views_resume_and_leave_no_partial_file(scene, tmp_path):
     after = {n: os.stat(tmp_path / n).st_mtime_ns for n in _names(tmp_path)}
     assert set(after) == set(stamps)
     redone = {n for n in after if n in stamps and after[n] != stamps[n]}
-    assert redone == {"view_00001.npz", "view_00001.png", INDEX_NAME}
+    assert redone == {"view_00001.npz", "view_00001.png", "view_00001.json", INDEX_NAME, PLAN_NAME}
 
 
 def test_views_on_two_workers_match_serial(scene, tmp_path):

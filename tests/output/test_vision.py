@@ -204,7 +204,8 @@ def test_buffers_are_consistent(sphere):
     assert tuple(b) == BUFFER_NAMES
     for name, buf in b.items():
         assert buf.shape[:2] == (H, W), name
-        assert buf.dtype == {"model_id": np.int32, "triangle_id": np.int32, "mask": np.bool_}.get(name, np.float32)
+        assert buf.dtype == {"model_id": np.int32, "triangle_id": np.int32, "semantic_id": np.int32,
+                             "mask": np.bool_}.get(name, np.float32)
     m = b["mask"]
     assert np.array_equal(m, frame.mask) and np.array_equal(b["depth"], frame.depth)
     np.testing.assert_array_equal(b["normal"], frame.normal)

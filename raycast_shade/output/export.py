@@ -1,0 +1,213 @@
+"""Cameras in the formats reconstruction tools read: nerfstudio / instant-ngp, COLMAP text.
+
+Both formats put the centre of pixel ``(i, j)`` at ``(i + 0.5, j + 0.5)``;
+OpenCV's convention (this package's ``K``) puts it at ``(i, j)``. The
+exporters shift the principal point by +0.5 so that a point projects to the
+same pixel in every convention (``docs/vision.md``).
+
+``transforms.json`` (nerfstudio, instant-ngp)
+    ``camera_model`` ``"OPENCV"`` (``fl_x, fl_y, cx, cy, w, h`` and the
+    distortion coefficients ``k1, k2, p1, p2, k3``, zero for a pinhole
+    camera) or ``"OPENCV_FISHEYE"`` (``k1 .. k4``), at the top when every
+    view shares them, else in each frame; per frame
+    ``file_path`` and ``transform_matrix``, the (4, 4) camera-to-world matrix
+    in OpenGL's camera axes (``x`` right, ``y`` up, ``z`` backward).
+COLMAP text (``cameras.txt``, ``images.txt``, ``points3D.txt``)
+    One camera per distinct intrinsics, lens and size: ``PINHOLE``
+    (``fx fy cx cy``), ``OPENCV`` (``... k1 k2 p1 p2``), ``FULL_OPENCV``
+    (``... k1 k2 p1 p2 k3 k4 k5 k6``, when ``k3`` is not 0) or
+    ``OPENCV_FISHEYE`` (``... k1 k2 k3 k4``); lens coefficients are
+    unchanged by the pixel shift (they act on normalised coordinates); per image the world-to-camera rotation as a unit quaternion
+    (Hamilton, ``QW QX QY QZ``, ``QW >= 0``), the translation ``TX TY TZ``
+    (OpenCV's ``R``, ``t``: COLMAP uses OpenCV's camera axes), the camera
+    id and the file name, then an empty line of 2D points; ``points3D.txt``
+    is empty. Numbers are written with 17 significant digits.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+
+import numpy as np
+
+__all__ = ["PIXEL_CENTRE_SHIFT", "camera_to_world_gl", "nerfstudio_transforms", "write_transforms", "rotation_to_quaternion",
+           "write_colmap"]
+
+# Their pixel coordinates minus OpenCV's: both tools put the first pixel's centre at (0.5, 0.5).
+PIXEL_CENTRE_SHIFT = 0.5
+
+
+def _check(cameras, names, field="names"):
+    from ..scene.camera import Camera
+
+    if isinstance(cameras, Camera):
+        cameras = [cameras]
+    cameras = list(cameras)
+    names = list(names)
+    if not cameras:
+        raise ValueError("cameras: expected at least one camera")
+    for i, cam in enumerate(cameras):
+        if not isinstance(cam, Camera):
+            raise TypeError(f"cameras[{i}]: expected a Camera, got {type(cam).__name__}")
+        if cam.orthographic:
+            raise ValueError(f"cameras[{i}]: orthographic; these formats take perspective cameras")
+    fisheye = [c.distorted and c.distortion_model == "fisheye" for c in cameras]
+    if any(fisheye) and not all(fisheye):
+        raise ValueError("cameras: fisheye and pinhole/OpenCV lenses mixed; these formats take one camera model "
+                         "per file")
+    if len(names) != len(cameras):
+        raise ValueError(f"{field}: expected one per camera ({len(cameras)}), got {len(names)}")
+    for i, n in enumerate(names):
+        if not isinstance(n, str) or not n or any(c in n for c in "\n\r"):
+            raise ValueError(f"{field}[{i}]: expected a file name, got {n!r}")
+    return cameras, names
+
+
+def _lens(cam):
+    """``(model, coefficients)``: ``"fisheye"`` with (k1, k2, k3, k4), else ``"opencv"`` with
+    (k1, k2, p1, p2, k3) (zero for a pinhole)."""
+    k = np.zeros(5)
+    if cam.distorted:
+        k[:len(cam.distortion)] = cam.distortion
+    if cam.distorted and cam.distortion_model == "fisheye":
+        return "fisheye", k[:4]
+    return "opencv", k
+
+
+def _intrinsics(cam) -> dict:
+    fx, fy, cx, cy = (float(v) for v in (cam.K[0, 0], cam.K[1, 1], cam.K[0, 2], cam.K[1, 2]))
+    out = {"fl_x": fx, "fl_y": fy, "cx": cx + PIXEL_CENTRE_SHIFT, "cy": cy + PIXEL_CENTRE_SHIFT,
+           "w": int(cam.width), "h": int(cam.height)}
+    model, k = _lens(cam)
+    names = ("k1", "k2", "k3", "k4") if model == "fisheye" else ("k1", "k2", "p1", "p2", "k3")
+    out.update({n: float(v) for n, v in zip(names, k)})
+    return out
+
+
+def camera_to_world_gl(cam) -> np.ndarray:
+    """(4, 4) float64 camera-to-world matrix, OpenGL camera axes (``x`` right, ``y`` up, ``z`` back)."""
+    _, R, _ = cam.to_opencv()
+    c2w = np.eye(4)
+    c2w[:3, :3] = R.T * np.array([1.0, -1.0, -1.0])  # columns right, up, backward
+    c2w[:3, 3] = cam.eye
+    return c2w
+
+
+def nerfstudio_transforms(cameras, file_paths) -> dict:
+    """The ``transforms.json`` dictionary of perspective cameras (see the module docstring).
+
+    Parameters
+    ----------
+    cameras : sequence of Camera
+        Perspective; lenses all fisheye or none.
+    file_paths : sequence of str
+        Each view's image, relative to the ``transforms.json`` folder.
+    """
+    cameras, file_paths = _check(cameras, file_paths, "file_paths")
+    intr = [_intrinsics(c) for c in cameras]
+    shared = all(i == intr[0] for i in intr)
+    model = "OPENCV_FISHEYE" if _lens(cameras[0])[0] == "fisheye" else "OPENCV"
+    out = {"camera_model": model, **(intr[0] if shared else {})}
+    out["frames"] = [{"file_path": p, **({} if shared else i), "transform_matrix": camera_to_world_gl(c).tolist()}
+                     for c, p, i in zip(cameras, file_paths, intr)]
+    return out
+
+
+def write_transforms(path, cameras, file_paths) -> str:
+    """Write :func:`nerfstudio_transforms` to ``path`` (``.json``), atomically; returns the path."""
+    from .imagefile import atomic_target
+
+    path = os.fspath(path)
+    if not path.lower().endswith(".json"):
+        raise ValueError(f"path: {path!r}: expected a .json file")
+    data = nerfstudio_transforms(cameras, file_paths)
+    with atomic_target(path) as tmp, open(tmp, "w") as fh:
+        json.dump(data, fh, indent=1)
+    return path
+
+
+def rotation_to_quaternion(R) -> np.ndarray:
+    """(4,) float64 unit quaternion ``(w, x, y, z)`` (Hamilton, ``w >= 0``) of a rotation matrix."""
+    R = np.asarray(R, np.float64)
+    # The largest of the four squared components first: no division by a small number.
+    squares = np.array([1.0 + R[0, 0] + R[1, 1] + R[2, 2], 1.0 + R[0, 0] - R[1, 1] - R[2, 2],
+                        1.0 - R[0, 0] + R[1, 1] - R[2, 2], 1.0 - R[0, 0] - R[1, 1] + R[2, 2]])
+    k = int(np.argmax(squares))
+    s = 2.0 * np.sqrt(squares[k])
+    if k == 0:
+        q = [s / 4, (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s]
+    elif k == 1:
+        q = [(R[2, 1] - R[1, 2]) / s, s / 4, (R[0, 1] + R[1, 0]) / s, (R[0, 2] + R[2, 0]) / s]
+    elif k == 2:
+        q = [(R[0, 2] - R[2, 0]) / s, (R[0, 1] + R[1, 0]) / s, s / 4, (R[1, 2] + R[2, 1]) / s]
+    else:
+        q = [(R[1, 0] - R[0, 1]) / s, (R[0, 2] + R[2, 0]) / s, (R[1, 2] + R[2, 1]) / s, s / 4]
+    q = np.array(q)
+    q /= np.linalg.norm(q)
+    return -q if q[0] < 0 else q
+
+
+def _num(x) -> str:
+    return format(float(x), ".17g")
+
+
+def write_colmap(folder, cameras, names) -> list:
+    """Write COLMAP's text model (``cameras.txt``, ``images.txt``, empty ``points3D.txt``) of perspective cameras.
+
+    Parameters
+    ----------
+    folder : str or path-like
+        Created if need be.
+    cameras : sequence of Camera
+    names : sequence of str
+        Each view's image file name (COLMAP's ``NAME``).
+
+    Returns
+    -------
+    list of str
+        The three paths.
+    """
+    from .imagefile import atomic_target
+
+    cameras, names = _check(cameras, names)
+    folder = os.fspath(folder)
+    os.makedirs(folder, exist_ok=True)
+    ids, cam_lines, img_lines = {}, [], []
+    for i, (cam, name) in enumerate(zip(cameras, names)):
+        intr = _intrinsics(cam)
+        model, k = _lens(cam)
+        if model == "fisheye":
+            kind, extra = "OPENCV_FISHEYE", tuple(k)
+        elif not cam.distorted:
+            kind, extra = "PINHOLE", ()
+        elif k[4] == 0.0:
+            kind, extra = "OPENCV", tuple(k[:4])
+        else:  # k3 needs the full model: k1 k2 p1 p2 k3 k4 k5 k6
+            kind, extra = "FULL_OPENCV", (*k, 0.0, 0.0, 0.0)
+        params = (kind, intr["w"], intr["h"], intr["fl_x"], intr["fl_y"], intr["cx"], intr["cy"], *extra)
+        if params not in ids:
+            ids[params] = len(ids) + 1
+            cam_lines.append(f"{ids[params]} {kind} {params[1]} {params[2]} " + " ".join(_num(v) for v in params[3:]))
+        _, R, t = cam.to_opencv()
+        q = rotation_to_quaternion(R)
+        img_lines.append(f"{i + 1} " + " ".join(_num(v) for v in (*q, *t)) + f" {ids[params]} {name}")
+        img_lines.append("")
+    texts = {
+        "cameras.txt": "# Camera list with one line of data per camera:\n#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n"
+                       f"# Number of cameras: {len(cam_lines)}\n" + "\n".join(cam_lines) + "\n",
+        "images.txt": "# Image list with two lines of data per image:\n"
+                      "#   IMAGE_ID, QW, QX, QY, QZ, TX, TY, TZ, CAMERA_ID, NAME\n#   POINTS2D[] as (X, Y, POINT3D_ID)\n"
+                      f"# Number of images: {len(cameras)}, mean observations per image: 0\n"
+                      + "\n".join(img_lines) + "\n",
+        "points3D.txt": "# 3D point list with one line of data per point:\n"
+                        "#   POINT3D_ID, X, Y, Z, R, G, B, ERROR, TRACK[] as (IMAGE_ID, POINT2D_IDX)\n"
+                        "# Number of points: 0, mean track length: 0\n",
+    }
+    paths = []
+    for fname, text in texts.items():
+        p = os.path.join(folder, fname)
+        with atomic_target(p) as tmp, open(tmp, "w") as fh:
+            fh.write(text)
+        paths.append(p)
+    return paths

@@ -1,0 +1,286 @@
+"""Object labels for detection, segmentation and pose data sets: names, boxes, poses, COCO.
+
+A model's id is its index in the scene (the ``model_id`` buffer: the
+instance mask); its semantic label is its name (:attr:`Model.name`): models
+of one name share a semantic id, numbered in order of first appearance (the
+``semantic_id`` buffer). Per view, :func:`view_objects` gives each visible
+model's pixel count, 2D box and pose in the camera; :func:`coco_instances`
+turns views into a COCO instances file with run-length-encoded masks, as
+``pycocotools`` reads it.
+
+Conventions
+-----------
+Boxes
+    ``[x0, y0, x1, y1]`` in pixel indices, end exclusive: the model covers
+    columns ``x0 .. x1 - 1`` and rows ``y0 .. y1 - 1``. COCO's
+    ``bbox = [x0, y0, x1 - x0, y1 - y0]`` (pixel ``i`` spans ``[i, i + 1)``).
+Poses
+    ``(4, 4)`` model-to-camera, OpenCV camera axes (``x`` right, ``y`` down,
+    ``z`` forward): ``[R t; 0 1]`` of the camera times the model's
+    model-to-world transform, the identity (meshes are given in world
+    coordinates), so points of the mesh map as ``x_cam = P[:3, :3] x + P[:3, 3]``.
+COCO RLE
+    Column-major runs starting with a run of 0s, compressed to a string as
+    COCO's ``maskApi`` does (5-bit groups, runs after the second stored as
+    the difference to the run two before).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+
+import numpy as np
+
+__all__ = ["semantic_classes", "object_table", "box_corners", "view_objects", "unoccluded_masks", "rle_encode", "rle_decode", "coco_instances",
+           "write_coco"]
+
+
+def semantic_classes(scene) -> tuple:
+    """``(names, ids)``: the distinct model names in order of first appearance, and each model's index
+    into them, ``(G,) int32``."""
+    names = []
+    ids = np.empty(len(scene.models), np.int32)
+    for i, model in enumerate(scene.models):
+        if model.name not in names:
+            names.append(model.name)
+        ids[i] = names.index(model.name)
+    return tuple(names), ids
+
+
+def object_table(scene) -> list:
+    """One entry per model: ``id``, ``name``, ``semantic_id``, ``material`` (its name and
+    coefficients), ``box_3d`` (world axis-aligned ``[min, max]``), ``pose`` ((4, 4) model-to-world)."""
+    _, sem = semantic_classes(scene)
+    out = []
+    for i, model in enumerate(scene.models):
+        m = model.material
+        v = model.mesh.vertices
+        out.append({"id": i, "name": model.name, "semantic_id": int(sem[i]),
+                    "material": {"name": m.name, "ka": m.ka.tolist(), "kd": m.kd.tolist(), "ks": m.ks.tolist(),
+                                 "shininess": float(m.shininess), "specular": m.specular,
+                                 "reflectivity": float(m.reflectivity)},
+                    "box_3d": [v.min(axis=0).tolist(), v.max(axis=0).tolist()],
+                    "pose": np.eye(4).tolist()})
+    return out
+
+
+def _box(rows, cols) -> list:
+    return [int(cols.min()), int(rows.min()), int(cols.max()) + 1, int(rows.max()) + 1]
+
+
+def box_corners(box_3d) -> np.ndarray:
+    """(8, 3) float64 corners of an axis-aligned box ``[min, max]``: corner ``k`` takes x from
+    ``max`` if bit 2 of ``k`` is set (else ``min``), y by bit 1, z by bit 0."""
+    lo, hi = np.asarray(box_3d, np.float64)
+    k = np.arange(8)
+    return np.stack([np.where(k & 4, hi[0], lo[0]), np.where(k & 2, hi[1], lo[1]), np.where(k & 1, hi[2], lo[2])], -1)
+
+
+def view_objects(model_id, camera, *, rle: bool = False, alone=None, boxes_3d=None) -> list:
+    """The models visible in one view.
+
+    Parameters
+    ----------
+    model_id : (H, W) int
+        The view's ``model_id`` buffer (-1: background).
+    camera : Camera
+        The view's camera.
+    rle : bool
+        Add each model's mask as COCO RLE (``"rle"``).
+    alone : dict of int to (H, W) bool, optional
+        Each model's mask with nothing in front of it (:func:`unoccluded_masks`).
+        Adds per object ``unoccluded`` (pixel count), ``box_unoccluded``
+        (``None`` when empty) and ``visible_fraction`` (visible over
+        unoccluded pixels, BOP's ``visib_fract``), and lists the models hidden
+        entirely (``pixels`` 0) too.
+    boxes_3d : sequence of (2, 3) float, optional
+        Each model's world box ``[min, max]`` (:func:`object_table`'s
+        ``box_3d``). Adds ``corners``: its 8 corners (:func:`box_corners`'
+        order) in OpenCV pixel coordinates, lens included (``None`` for a
+        corner behind a perspective camera), the keypoints of box-based pose
+        estimators.
+
+    Returns
+    -------
+    list of dict
+        By id: ``id``, ``pixels`` (visible pixel count), ``box`` (see the
+        module docstring; ``None`` for a hidden model), ``pose`` ((4, 4)
+        model-to-camera), ``rle``, and the ``alone`` fields.
+    """
+    from ..scene.projection import project_points
+
+    ids = np.asarray(model_id)
+    if ids.ndim != 2 or ids.dtype.kind not in "iu":
+        raise ValueError(f"model_id: expected an (H, W) integer array, got {ids.dtype} {ids.shape}")
+    K, R, t = camera.to_opencv()
+    pose = np.eye(4)
+    pose[:3, :3], pose[:3, 3] = R, t
+    out = []
+    seen = set(np.unique(ids[ids >= 0]).tolist())
+    if alone is not None:
+        seen |= {int(g) for g, m in alone.items() if np.any(m)}
+    for i in sorted(seen):
+        mask = ids == i
+        rows, cols = np.nonzero(mask)
+        entry = {"id": int(i), "pixels": int(rows.size), "box": _box(rows, cols) if rows.size else None,
+                 "pose": pose.tolist()}
+        if rle:
+            entry["rle"] = rle_encode(mask)
+        if boxes_3d is not None:
+            uv = project_points(camera, box_corners(boxes_3d[i]))[0]
+            entry["corners"] = [None if not np.isfinite(c).all() else c.tolist() for c in uv]
+        if alone is not None:
+            solo = np.asarray(alone.get(i, np.zeros_like(mask)), bool)
+            r2, c2 = np.nonzero(solo)
+            entry["unoccluded"] = int(r2.size)
+            entry["box_unoccluded"] = _box(r2, c2) if r2.size else None
+            entry["visible_fraction"] = float(np.count_nonzero(mask & solo) / r2.size) if r2.size else 0.0
+        out.append(entry)
+    return out
+
+
+def unoccluded_masks(scene, camera) -> dict:
+    """Each model's mask in ``camera`` with the other models taken away (the amodal mask).
+
+    One cast per model, of a scene holding that model alone (its BVH kept
+    with ``scene``'s geometry for the next camera).
+
+    Returns
+    -------
+    dict of int to (H, W) bool
+    """
+    from ..scene.scene import Scene
+    from ..visibility.cast import cast_camera
+
+    alone = scene.geometry.memo("labels.alone", lambda geo: [Scene([m]) for m in scene.models])
+    return {g: cast_camera(s.geometry, camera).prim >= 0 for g, s in enumerate(alone)}
+
+
+# -- COCO run-length encoding -----------------------------------------------------------------------
+
+
+def _runs(mask: np.ndarray) -> np.ndarray:
+    """Run lengths of a column-major flattened mask, starting with a run of 0s (maybe empty)."""
+    flat = np.asarray(mask, bool).ravel(order="F")
+    change = np.flatnonzero(flat[1:] != flat[:-1]) + 1
+    edges = np.concatenate([[0], change, [flat.size]])
+    runs = np.diff(edges)
+    if flat.size and flat[0]:
+        runs = np.concatenate([[0], runs])
+    return runs.astype(np.int64)
+
+
+def rle_encode(mask) -> dict:
+    """COCO's compressed RLE of a binary mask.
+
+    Parameters
+    ----------
+    mask : (H, W) bool
+
+    Returns
+    -------
+    dict
+        ``{"size": [H, W], "counts": str}``, as ``pycocotools.mask.encode``
+        gives it (decoded to str).
+    """
+    m = np.asarray(mask)
+    if m.ndim != 2 or m.dtype != np.bool_:
+        raise ValueError(f"mask: expected an (H, W) bool array, got {m.dtype} {m.shape}")
+    runs = _runs(m)
+    chars = []
+    for i, run in enumerate(runs.tolist()):
+        x = run - runs[i - 2] if i > 2 else run  # after the second run: the change from two runs back
+        x = int(x)
+        more = True
+        while more:
+            c = x & 0x1F
+            x >>= 5  # arithmetic shift: a negative difference ends at -1
+            more = (x != -1) if (c & 0x10) else (x != 0)
+            if more:
+                c |= 0x20
+            chars.append(chr(c + 48))
+    return {"size": [int(m.shape[0]), int(m.shape[1])], "counts": "".join(chars)}
+
+
+def rle_decode(rle) -> np.ndarray:
+    """The (H, W) bool mask of a compressed RLE (the inverse of :func:`rle_encode`)."""
+    try:
+        h, w = (int(x) for x in rle["size"])
+        s = rle["counts"]
+    except (TypeError, KeyError, ValueError):
+        raise ValueError("rle: expected {'size': [H, W], 'counts': str}") from None
+    if isinstance(s, bytes):
+        s = s.decode("ascii")
+    runs = []
+    p = 0
+    while p < len(s):
+        x, k, more = 0, 0, True
+        while more:
+            if p >= len(s):
+                raise ValueError("rle: counts end inside a number")
+            c = ord(s[p]) - 48
+            x |= (c & 0x1F) << (5 * k)
+            more = bool(c & 0x20)
+            p += 1
+            k += 1
+            if not more and (c & 0x10):
+                x |= -1 << (5 * k)
+        if len(runs) > 2:
+            x += runs[-2]
+        runs.append(x)
+    if any(r < 0 for r in runs) or sum(runs) != h * w:
+        raise ValueError(f"rle: runs cover {sum(runs)} pixels, not {h} x {w}")
+    values = np.zeros(len(runs), bool)
+    values[1::2] = True
+    return np.repeat(values, runs).reshape((w, h)).T.copy()
+
+
+def coco_instances(scene, views) -> dict:
+    """A COCO instances data set (images, categories, annotations) of rendered views.
+
+    Parameters
+    ----------
+    scene : Scene
+        For the categories: one per distinct model name (id ``semantic_id + 1``;
+        COCO ids start at 1).
+    views : sequence of dict
+        Per view ``file_name``, ``width``, ``height`` and ``objects`` as
+        :func:`view_objects` gives them with ``rle=True``.
+
+    Returns
+    -------
+    dict
+        Images ``id`` = position + 1; one annotation per visible model and
+        view: ``segmentation`` (compressed RLE), ``area`` (pixels), ``bbox``
+        ``[x, y, w, h]``, ``iscrowd`` 0, ``category_id``, and ``model_id``.
+    """
+    names, sem = semantic_classes(scene)
+    images, annotations = [], []
+    for k, view in enumerate(views):
+        images.append({"id": k + 1, "file_name": view["file_name"], "width": int(view["width"]),
+                       "height": int(view["height"])})
+        for obj in view["objects"]:
+            if not obj["pixels"]:
+                continue  # hidden entirely: nothing to segment
+            x0, y0, x1, y1 = obj["box"]
+            annotations.append({"id": len(annotations) + 1, "image_id": k + 1,
+                                "category_id": int(sem[obj["id"]]) + 1, "model_id": obj["id"],
+                                "segmentation": obj["rle"], "area": obj["pixels"],
+                                "bbox": [x0, y0, x1 - x0, y1 - y0], "iscrowd": 0})
+    return {"info": {"description": "raycast_shade views"}, "images": images,
+            "categories": [{"id": i + 1, "name": n, "supercategory": "object"} for i, n in enumerate(names)],
+            "annotations": annotations}
+
+
+def write_coco(path, scene, views) -> str:
+    """Write :func:`coco_instances` as JSON to ``path`` (``.json``), atomically."""
+    from .imagefile import atomic_target
+
+    path = os.fspath(path)
+    if not path.lower().endswith(".json"):
+        raise ValueError(f"path: {path!r}: expected a .json file")
+    data = coco_instances(scene, views)
+    with atomic_target(path) as tmp, open(tmp, "w") as fh:
+        json.dump(data, fh)
+    return path
