@@ -63,6 +63,9 @@ REGISTRY = [
     dict(name="vertex_rays", module="benchmarks.vertex_rays",
          title="Rays through vertices: leaks and misses, Embree alone and watertight",
          csv=["vertex_rays.csv"], images=[], page="failure-cases.md"),
+    dict(name="vision_checks", module="benchmarks.vision_checks",
+         title="Vision checks: exporters, lens distortion and optical flow against OpenCV, pycolmap and closed forms",
+         csv=["vision_checks.csv"], images=[], page="vision.md"),
 ]
 
 

@@ -2,7 +2,7 @@
 
 Run ``python -m benchmarks.vision_checks [--quick]``. Writes
 ``benchmarks/results/vision_checks.csv`` (``--quick``: smaller images, into
-the git-ignored ``benchmarks/results/quick/``), one row per figure: ``check``,
+the git-ignored ``out/quick/results/``), one row per figure: ``check``,
 ``case``, ``value``, ``unit``, ``reference``. Accuracy only, no timings.
 
 * ``export``: COLMAP text read back by pycolmap (``Image.project_point``) and
