@@ -35,7 +35,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH
-from ..common.validate import as_rgb, as_scalar
+from ..common.validate import as_instance, as_rgb, as_scalar
 from ..visibility.rays import camera_frame
 
 __all__ = ["distances", "overlay", "normal_glyphs"]
@@ -163,6 +163,9 @@ def _glyphs_kernel(vertices, normals, cam, t, length, half, tolerance, mask):
 
 
 def _geometry(frame):
+    from .frame import Frame
+
+    as_instance(frame, "frame", Frame, "Frame from raycast_shade.render")
     if frame.scene is None or frame.camera is None:
         raise ValueError("frame: overlays need the frame's scene and camera (a Frame from raycast_shade.render)")
     return frame.scene.geometry
@@ -243,8 +246,11 @@ def overlay(frame, wireframe: bool = True, vertices: bool = False, normals: bool
     (H, W, 3) float32
         A new linear image.
     """
+    _geometry(frame)
     width = as_scalar(width, "width", minimum=0.0, exclusive=True)
     radius = width if radius is None else as_scalar(radius, "radius", minimum=0.0, exclusive=True)
+    if length is not None:  # checked even when no normals are drawn: a bad value is never ignored
+        as_scalar(length, "length", minimum=0.0, exclusive=True)
     rgb = as_rgb(color, "color").astype(np.float32)
     out = np.array(frame.image if image is None else image, np.float32)
     if out.shape != frame.image.shape:

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..common.choices import ATTENUATIONS
-from ..common.validate import MAX_RADIANCE, as_choice, as_rgb, as_scalar, as_vec3, pow2_scaled
+from ..common.validate import MAX_RADIANCE, as_choice, as_name, as_rgb, as_scalar, as_vec3, pow2_scaled
 
 __all__ = ["PointLight", "SpotLight", "DirectionalLight", "ATTENUATIONS", "MAX_SPOT_EXPONENT"]
 
@@ -56,11 +56,12 @@ class PointLight:
 
     def __post_init__(self):
         set_ = object.__setattr__
+        set_(self, "name", as_name(self.name, f"{type(self).__name__}.name"))  # first: every message uses it
         set_(self, "position", as_vec3(self.position, f"{self.name}.position"))
         set_(self, "intensity", as_scalar(self.intensity, f"{self.name}.intensity", minimum=0.0, maximum=MAX_RADIANCE))
         set_(self, "color", as_rgb(self.color, f"{self.name}.color"))
         set_(self, "attenuation", as_choice(self.attenuation, f"{self.name}.attenuation", ATTENUATIONS))
-        k = as_scalar(self.k, f"{self.name}.k")
+        k = as_scalar(self.k, f"{self.name}.k", minimum=0.0)  # a negative k would divide by zero at d = -k
         if self.attenuation == "heuristic" and not k > 0:
             raise ValueError(f"{self.name}.k: heuristic attenuation needs k > 0, got {k}")
         set_(self, "k", k)
@@ -94,6 +95,7 @@ class DirectionalLight:
 
     def __post_init__(self):
         set_ = object.__setattr__
+        set_(self, "name", as_name(self.name, f"{type(self).__name__}.name"))  # first: every message uses it
         d = pow2_scaled(as_vec3(self.direction, f"{self.name}.direction", nonzero=True))
         d = d / np.linalg.norm(d)  # scaled first: (1e308, 1e308, 0) and (1e-200, 1e-200, 0) stay directions
         d.setflags(write=False)

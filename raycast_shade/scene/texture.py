@@ -26,7 +26,7 @@ import numpy as np
 from ..common.choices import WRAPS
 from ..common.layout import (TEX_CLAMP, TEX_HEIGHT, TEX_LEVELS, TEX_MIPMAP, TEX_OFFSET, TEX_SIZE, TEX_TILE_U,
                              TEX_TILE_V, TEX_WIDTH)
-from ..common.validate import as_array, as_choice, as_int
+from ..common.validate import as_array, as_choice, as_int, as_name
 from ..common.warnings import DroppedOnLoadWarning
 
 __all__ = ["Texture", "TEXTURE_FILTERS", "srgb_to_linear", "linear_to_srgb"]
@@ -123,6 +123,7 @@ class Texture:
 
     def __post_init__(self):
         set_ = object.__setattr__
+        set_(self, "name", as_name(self.name, f"{type(self).__name__}.name"))  # first: every message uses it
         t = np.asarray(self.texels)
         if t.ndim == 2:
             t = np.repeat(t[..., None], 3, axis=2)
