@@ -139,6 +139,10 @@ def baselines(tmp):
         "overlays.overlay": (rs.overlays.overlay, dict(frame=frame, width=1.0, color=(1.0, 1.0, 1.0), radius=2.0,
                                                        length=0.2)),
         "overlays.normal_glyphs": (rs.overlays.normal_glyphs, dict(frame=frame, length=0.2, width=1.0)),
+        "figures.montage": (rs.figures.montage, dict(frames_or_images=[image, image], labels=["a", "b"], columns=2,
+                                                     panel_width=4.0)),
+        "figures.difference": (rs.figures.difference, dict(a=image, b=image, title="d", width=6.0)),
+        "figures.profile": (rs.figures.profile, dict(frame=frame, row=0, title="p")),
         "render_views": (rs.render_views, dict(scene=scene, cameras=[cam], out_dir=str(tmp / "views"),
                                                retries=0, views_per_task=1, depth_scale=1000.0)),
     }
@@ -151,12 +155,10 @@ NOT_CALLED = {
     "HitBuffer": "a plain record the casters fill (H x W or N arrays); its consumers check it (check_hits: "
                  "shade, shading_normals, explain), and they are walked",
     "Frame": "the record render() returns; its consumers (explain, overlays) are walked",
-    "figures": "matplotlib figures: montage, difference, profile are walked by name below",
     "explore": "needs a Jupyter front end; its arguments are checked by tests/test_explore.py",
 }
 NOT_CALLED_IN_MODULES = {"shapes.SHAPES": "a table", "bump.WRAPS": "a tuple", "bump.HeightMap": "as HeightMap",
-                         "figures.LUMINANCE": "a constant", "figures.montage": "matplotlib (walked by test_teaching)",
-                         "figures.difference": "matplotlib", "figures.profile": "matplotlib"}
+                         "figures.LUMINANCE": "a constant"}
 
 
 # (callable, argument, bad value) -> why the value is legal. Reviewed: each is a real use.
@@ -166,7 +168,11 @@ LEGAL = {
         ("Material", "ks"), ("Mesh", "normals"), ("Mesh", "uvs"), ("Mesh", "crease_angle"), ("Scene", "camera"),
         ("render", "camera"), ("shapes.cube", "crease_angle"), ("shapes.cylinder", "crease_angle"),
         ("bump.cylindrical_uvs", "height"), ("overlays.overlay", "radius"), ("overlays.overlay", "length"),
-        ("overlays.normal_glyphs", "length")]},
+        ("overlays.normal_glyphs", "length"), ("figures.montage", "labels"), ("figures.montage", "columns"),
+        ("figures.difference", "title"), ("figures.profile", "title")]},
+    **{(f, "title", "'abc'"): "a title" for f in ("figures.difference", "figures.profile")},
+    ("figures.profile", "frame", "shape"): "an (H, W) array is a grey image",
+    ("figures.profile", "row", "0"): "the top row",
     **{(f, a, "True"): "a boolean option" for f, a in [
         ("DirectionalLight", "shadows"), ("PointLight", "shadows"), ("SpotLight", "shadows")]},
     **{(f, a, v): "a principal point may lie anywhere in the image plane" for f in ("Camera",)
@@ -244,7 +250,11 @@ def classify(fn, kwargs, arg, value):
     try:
         with warnings.catch_warnings(), contextlib.redirect_stdout(out):
             warnings.simplefilter("ignore")
-            fn(**args)
+            result = fn(**args)
+        if hasattr(result, "savefig"):  # a matplotlib figure: close it, or hundreds pile up
+            import matplotlib.pyplot as plt
+
+            plt.close(result)
     except (ValueError, TypeError) as exc:
         return (ERROR if _names_argument(str(exc), arg, value) else UNNAMED), f"{type(exc).__name__}: {exc}"
     except OSError as exc:

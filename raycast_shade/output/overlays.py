@@ -35,7 +35,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH
-from ..common.validate import as_instance, as_rgb, as_scalar
+from ..common.validate import as_rgb, as_scalar
 from ..visibility.rays import camera_frame
 
 __all__ = ["distances", "overlay", "normal_glyphs"]
@@ -163,9 +163,9 @@ def _glyphs_kernel(vertices, normals, cam, t, length, half, tolerance, mask):
 
 
 def _geometry(frame):
-    from .frame import Frame
-
-    as_instance(frame, "frame", Frame, "Frame from raycast_shade.render")
+    # By its fields, not isinstance: frame.py imports this module (Frame.overlay).
+    if not all(hasattr(frame, field) for field in ("image", "hits", "scene", "camera")):
+        raise TypeError(f"frame: expected a Frame from raycast_shade.render, got {type(frame).__name__}")
     if frame.scene is None or frame.camera is None:
         raise ValueError("frame: overlays need the frame's scene and camera (a Frame from raycast_shade.render)")
     return frame.scene.geometry

@@ -74,7 +74,10 @@ def to_uint8(image, exposure: float = 1.0, tonemap: str = "clamp", gamma="srgb")
     """
     if not isinstance(tonemap, str) or tonemap not in TONEMAPS:
         raise ValueError(f"tonemap: expected one of {list(TONEMAPS)}, got {tonemap!r}")
-    exposure = as_scalar(exposure, "exposure", minimum=0.0, exclusive=True)
+    try:  # TypeError for strings, booleans, None; one message for every bad number
+        exposure = as_scalar(exposure, "exposure", minimum=0.0, exclusive=True)
+    except ValueError:
+        raise ValueError(f"exposure: must be a finite number > 0, got {exposure}") from None
     inv_gamma = _check_gamma(gamma)
     img = np.asarray(image) if not isinstance(image, (bool, np.bool_, str)) else None
     if img is None or img.dtype.kind not in "iuf":  # None, strings, booleans: not an image

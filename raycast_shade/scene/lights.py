@@ -61,9 +61,11 @@ class PointLight:
         set_(self, "intensity", as_scalar(self.intensity, f"{self.name}.intensity", minimum=0.0, maximum=MAX_RADIANCE))
         set_(self, "color", as_rgb(self.color, f"{self.name}.color"))
         set_(self, "attenuation", as_choice(self.attenuation, f"{self.name}.attenuation", ATTENUATIONS))
-        k = as_scalar(self.k, f"{self.name}.k", minimum=0.0)  # a negative k would divide by zero at d = -k
+        k = as_scalar(self.k, f"{self.name}.k")
         if self.attenuation == "heuristic" and not k > 0:
             raise ValueError(f"{self.name}.k: heuristic attenuation needs k > 0, got {k}")
+        if k < 0:  # read by the heuristic law only, but never kept: 1/(d + k) divides by zero at d = -k
+            raise ValueError(f"{self.name}.k: must be >= 0, got {k}")
         set_(self, "k", k)
         set_(self, "shadows", _as_bool(self.shadows, f"{self.name}.shadows"))
 
