@@ -71,7 +71,8 @@ def main(argv=None) -> int:
         "Every public callable of `raycast_shade` (and of its modules `shapes`, `bump`, `overlays`) is called",
         "once per argument and generic bad value, the other arguments valid; every option of every",
         "subcommand likewise. **E**: refused with a `ValueError` or `TypeError` naming the argument",
-        "(a missing file: an `OSError` naming it), before any work; the command line exits 2 with one line.",
+        "(a missing file: an `OSError` naming it), before any work (no kernel inputs packed, no Embree BVH",
+        "built or fetched); the command line exits 2 with one line.",
         "**ok**: the value is legal there, for the reason listed below (a reviewed allow-list).",
         f"Python: {len(py)} calls, {n_py} refused, {sum(1 for o, _ in py.values() if o == tc.OK)} legal. "
         f"Command line: {len(cli)} runs, {n_cli} refused. Breaches of the contract: {len(breaches)}.",

@@ -6,7 +6,8 @@ Every callable of ``raycast_shade.__all__`` (and of the public modules it export
 arguments kept at a small valid baseline (:func:`baselines`). The contract:
 
 - a ``ValueError`` or ``TypeError`` whose message names the argument (or, for a file path,
-  an ``OSError`` naming the file), or
+  an ``OSError`` naming the file), raised before any work (no kernel inputs packed, no Embree
+  BVH built or fetched: :func:`_work_probe`), or
 - correct work, where the value is legal: the explicit, reviewed :data:`LEGAL` list says why.
 
 Anything else (a value silently accepted, another exception type, a message that does not name
@@ -143,6 +144,7 @@ def baselines(tmp):
                                                      panel_width=4.0)),
         "figures.difference": (rs.figures.difference, dict(a=image, b=image, title="d", width=6.0)),
         "figures.profile": (rs.figures.profile, dict(frame=frame, row=0, title="p")),
+        "explore": (rs.explore, dict(scene=scene, camera=cam, model=0, light=0, max_depth=3)),
         "render_views": (rs.render_views, dict(scene=scene, cameras=[cam], out_dir=str(tmp / "views"),
                                                retries=0, views_per_task=1, depth_scale=1000.0)),
     }
@@ -155,7 +157,6 @@ NOT_CALLED = {
     "HitBuffer": "a plain record the casters fill (H x W or N arrays); its consumers check it (check_hits: "
                  "shade, shading_normals, explain), and they are walked",
     "Frame": "the record render() returns; its consumers (explain, overlays) are walked",
-    "explore": "needs a Jupyter front end; its arguments are checked by tests/test_explore.py",
 }
 NOT_CALLED_IN_MODULES = {"shapes.SHAPES": "a table", "bump.WRAPS": "a tuple", "bump.HeightMap": "as HeightMap",
                          "figures.LUMINANCE": "a constant"}
@@ -169,7 +170,8 @@ LEGAL = {
         ("render", "camera"), ("shapes.cube", "crease_angle"), ("shapes.cylinder", "crease_angle"),
         ("bump.cylindrical_uvs", "height"), ("overlays.overlay", "radius"), ("overlays.overlay", "length"),
         ("overlays.normal_glyphs", "length"), ("figures.montage", "labels"), ("figures.montage", "columns"),
-        ("figures.difference", "title"), ("figures.profile", "title")]},
+        ("figures.difference", "title"), ("figures.profile", "title"), ("explore", "camera")]},
+    **{("explore", a, "0"): "the first model or light; no mirror bounces" for a in ("model", "light", "max_depth")},
     **{(f, "title", "'abc'"): "a title" for f in ("figures.difference", "figures.profile")},
     ("figures.profile", "frame", "shape"): "an (H, W) array is a grey image",
     ("figures.profile", "row", "0"): "the top row",
@@ -230,6 +232,41 @@ LEGAL = {
 
 
 PATHS = ("path", "out_dir")
+LATE = "late"
+# The work a refusal must come before: packing the kernels' inputs, and the Embree BVH (built or fetched).
+WORK = ("kernel_inputs", "embree_accel")
+
+
+@contextlib.contextmanager
+def _work_probe():
+    """Count calls of the :data:`WORK` functions, wherever the package imported them."""
+    import sys
+
+    from raycast_shade.shading import inputs
+    from raycast_shade.visibility import accel
+
+    originals = {"kernel_inputs": inputs.kernel_inputs, "embree_accel": accel.embree_accel}
+    calls = []
+
+    def counting(name, fn):
+        def wrapper(*args, **kwargs):
+            calls.append(name)
+            return fn(*args, **kwargs)
+        return wrapper
+
+    patched = []
+    for modname, mod in list(sys.modules.items()):
+        if not modname.startswith("raycast_shade") or mod is None:
+            continue
+        for name, fn in originals.items():
+            if getattr(mod, name, None) is fn:
+                setattr(mod, name, counting(name, fn))
+                patched.append((mod, name, fn))
+    try:
+        yield calls
+    finally:
+        for mod, name, fn in patched:
+            setattr(mod, name, fn)
 
 
 def _names_argument(message: str, arg: str, value) -> bool:
@@ -247,8 +284,9 @@ def classify(fn, kwargs, arg, value):
     Run from the folder of the baselines' files, so that a path such as "abc" lands there."""
     args = dict(kwargs, **{arg: value})
     out = io.StringIO()
+    calls = []
     try:
-        with warnings.catch_warnings(), contextlib.redirect_stdout(out):
+        with warnings.catch_warnings(), contextlib.redirect_stdout(out), _work_probe() as calls:
             warnings.simplefilter("ignore")
             result = fn(**args)
         if hasattr(result, "savefig"):  # a matplotlib figure: close it, or hundreds pile up
@@ -256,6 +294,8 @@ def classify(fn, kwargs, arg, value):
 
             plt.close(result)
     except (ValueError, TypeError) as exc:
+        if calls:  # refused, but only after packing or tracing: late
+            return LATE, f"{type(exc).__name__} after {sorted(set(calls))}: {exc}"
         return (ERROR if _names_argument(str(exc), arg, value) else UNNAMED), f"{type(exc).__name__}: {exc}"
     except OSError as exc:
         if arg in PATHS and isinstance(exc, (FileNotFoundError, FileExistsError, IsADirectoryError,
@@ -329,6 +369,13 @@ def test_every_bad_value_is_refused_naming_the_argument(walked):
     bad = {k: v for k, v in walked.items() if v[0] not in (OK, ERROR)}
     lines = [f"{n}({a}={k}): {o} {m[:120]}" for (n, a, k), (o, m) in sorted(bad.items())]
     assert not bad, f"{len(bad)} breaches of the contract:\n" + "\n".join(lines)
+
+
+def test_the_work_probe_sees_work():
+    # The "before any work" half of the contract is only as good as the probe: it must see a render's work.
+    with _work_probe() as calls:
+        rs.render(_scene(), "phong")
+    assert set(calls) == set(WORK), calls
 
 
 def test_legal_list_holds_no_stale_entries(walked):
