@@ -1,9 +1,10 @@
 """One input contract for every public function (issue 23, item 6), walked generically.
 
 Every callable of ``raycast_shade.__all__`` (and of the public modules it exports: ``shapes``,
-``bump``, ``figures``, ``overlays``) is called once per argument and per generic bad value of
-:data:`BAD` (None, NaN, inf, -1, 0, 1e308, "abc", True, an empty array, a wrong shape), the other
-arguments kept at a small valid baseline (:func:`baselines`). The contract:
+``bump``, ``figures``, ``overlays``; and every public class's alternative constructors) is called
+once per argument and per generic bad value of :data:`BAD` (None, NaN, inf, -1, 0, 1e308, "abc",
+numeric strings, True, an empty array, a wrong shape), the other arguments kept at a small valid
+baseline (:func:`baselines`). The contract:
 
 - a ``ValueError`` or ``TypeError`` whose message names the argument (or, for a file path,
   an ``OSError`` naming the file), raised before any work (no kernel inputs packed, no Embree
@@ -47,6 +48,7 @@ BAD = {
     "0": lambda: 0,
     "1e308": lambda: 1e308,
     "'abc'": lambda: "abc",
+    "['1','2','3']": lambda: ["1", "2", "3"],  # numeric strings: np.array(..., float) converts them silently
     "True": lambda: True,
     "empty": lambda: np.empty(0),
     "shape": lambda: np.zeros((2, 2)),
@@ -64,6 +66,12 @@ def _scene(w=16, h=12):
                     camera=rs.Camera(eye=(0.0, 0.0, 4.0), width=w, height=h))
 
 
+def _trimesh_box():
+    import trimesh
+
+    return trimesh.creation.box()
+
+
 def baselines(tmp):
     """``{qualified name: (callable, {argument: valid value})}``: the arguments varied, each valid.
 
@@ -77,6 +85,10 @@ def baselines(tmp):
     hits = frame.hits
     obj = tmp / "tri.obj"
     obj.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    png = tmp / "img.png"
+    from PIL import Image
+
+    Image.fromarray(np.full((4, 4, 3), 128, np.uint8)).save(png)
     pfm = tmp / "img.pfm"
     rs.write_pfm(str(pfm), np.zeros((2, 3, 3), np.float32))
     toml = tmp / "scene.toml"
@@ -145,6 +157,26 @@ def baselines(tmp):
         "figures.difference": (rs.figures.difference, dict(a=image, b=image, title="d", width=6.0)),
         "figures.profile": (rs.figures.profile, dict(frame=frame, row=0, title="p")),
         "explore": (rs.explore, dict(scene=scene, camera=cam, model=0, light=0, max_depth=3)),
+        "Camera.from_opencv": (rs.Camera.from_opencv, dict(K=np.array([[20.0, 0, 8], [0, 20.0, 6], [0, 0, 1]]),
+                                                           R=np.eye(3), t=(0.0, 0.0, 4.0), width=16, height=12)),
+        "Camera.from_opengl": (rs.Camera.from_opengl, dict(view=cam.view_matrix(),
+                                                           projection=cam.projection_matrix(0.1, 100.0),
+                                                           width=16, height=12)),
+        "Camera.projection_matrix": (cam.projection_matrix, dict(near=0.1, far=100.0)),
+        "HeightMap.from_image": (rs.HeightMap.from_image, dict(path=str(png))),
+        "HeightMap.from_function": (rs.HeightMap.from_function, dict(fn=lambda u, v: u * v, resolution=8)),
+        "HeightMap.dimples": (rs.HeightMap.dimples, dict(count=2, radius=0.3, resolution=8)),
+        "HeightMap.wrinkles": (rs.HeightMap.wrinkles, dict(frequency=2, octaves=2, seed=1, resolution=8)),
+        "Texture.from_array": (rs.Texture.from_array, dict(image=np.full((2, 2, 3), 0.5), srgb=True)),
+        "Texture.from_image": (rs.Texture.from_image, dict(path=str(png), srgb=True)),
+        "Texture.checker": (rs.Texture.checker, dict(squares=2, texels_per_square=2,
+                                                     colors=((1.0, 1.0, 1.0), (0.0, 0.0, 0.0)))),
+        "HitBuffer.empty": (rs.HitBuffer.empty, dict(height=4, width=5)),
+        "Mesh.load": (rs.Mesh.load, dict(path=str(obj))),
+        "Mesh.from_trimesh": (rs.Mesh.from_trimesh, dict(tm=_trimesh_box())),
+        "Frame.save": (frame.save, dict(path=str(tmp / "frame.png"))),
+        "SpotLight.falloff": (rs.SpotLight((0.0, 3.0, 0.0), direction=(0.0, -1.0, 0.0)).falloff,
+                              dict(cos_angle=0.9)),
         "render_views": (rs.render_views, dict(scene=scene, cameras=[cam], out_dir=str(tmp / "views"),
                                                retries=0, views_per_task=1, depth_scale=1000.0)),
     }
@@ -174,6 +206,16 @@ LEGAL = {
     **{("explore", a, "0"): "the first model or light; no mirror bounces" for a in ("model", "light", "max_depth")},
     **{(f, "title", "'abc'"): "a title" for f in ("figures.difference", "figures.profile")},
     ("figures.profile", "frame", "shape"): "an (H, W) array is a grey image",
+    ("Texture.from_array", "image", "shape"): "an (h, w) array is a grey image",
+    ("Camera.projection_matrix", "far", "1e308"): "a far plane that far: the matrix stays finite",
+    ("HeightMap.wrinkles", "seed", "0"): "a seed",
+    ("HitBuffer.empty", "height", "0"): "an empty buffer",
+    ("HitBuffer.empty", "width", "0"): "an empty buffer",
+    ("SpotLight.falloff", "cos_angle", "-1"): "a cosine: behind the light, factor 0",
+    ("SpotLight.falloff", "cos_angle", "0"): "a cosine: at right angles, factor 0",
+    ("SpotLight.falloff", "cos_angle", "empty"): "documented: any shape (none in, none out)",
+    ("SpotLight.falloff", "cos_angle", "shape"): "documented: any shape",
+    **{(f, "srgb", "True"): "a flag" for f in ("Texture.from_array", "Texture.from_image")},
     ("figures.profile", "row", "0"): "the top row",
     **{(f, a, "True"): "a boolean option" for f, a in [
         ("DirectionalLight", "shadows"), ("PointLight", "shadows"), ("SpotLight", "shadows")]},
@@ -343,6 +385,9 @@ def public_callables():
                     names.append(f"{n}.{m}")
             continue
         names.append(n)
+        if isinstance(obj, type):  # its alternative constructors are public functions too
+            names += [f"{n}.{k}" for k, v in vars(obj).items()
+                      if not k.startswith("_") and isinstance(v, (classmethod, staticmethod))]
     return names
 
 

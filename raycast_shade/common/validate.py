@@ -30,6 +30,7 @@ __all__ = [
     "as_int",
     "as_name",
     "as_instance",
+    "as_bool",
 ]
 
 
@@ -252,6 +253,13 @@ def as_name(value, name: str) -> str:
     if not isinstance(value, str):
         raise TypeError(f"{name}: expected a string, got {type(value).__name__}")
     return str(value)
+
+
+def as_bool(value, name: str) -> bool:
+    """A flag: ``True`` or ``False`` (NumPy's included), never 0, 1, None or a string."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name}: expected True or False, got {type(value).__name__}")
+    return bool(value)
 
 
 def as_instance(value, name: str, cls, what: str | None = None):

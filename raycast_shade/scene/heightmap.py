@@ -107,6 +107,8 @@ class HeightMap:
     @classmethod
     def from_function(cls, fn, resolution: int = 512, **kwargs) -> "HeightMap":
         """Bake ``fn(u, v) -> height`` (vectorised) at texel centres."""
+        if not callable(fn):
+            raise TypeError(f"fn: expected a function of (u, v), got {type(fn).__name__}")
         n = as_int(resolution, "heightmap.resolution", minimum=2)
         _check_bake(n)
         c = (np.arange(n) + 0.5) / n

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..common.choices import ATTENUATIONS
-from ..common.validate import MAX_RADIANCE, as_choice, as_name, as_rgb, as_scalar, as_vec3, pow2_scaled
+from ..common.validate import MAX_RADIANCE, as_array, as_choice, as_name, as_rgb, as_scalar, as_vec3, pow2_scaled
 
 __all__ = ["PointLight", "SpotLight", "DirectionalLight", "ATTENUATIONS", "MAX_SPOT_EXPONENT"]
 
@@ -184,7 +184,9 @@ class SpotLight(PointLight):
 
     def falloff(self, cos_angle):
         """Warn's factor ``cos^n * smoothstep`` for cosines of the angle to the axis (NumPy, any shape)."""
-        c = np.asarray(cos_angle, np.float64)
+        c = as_array(cos_angle, "cos_angle", dtype=np.float64)
+        if c.size and np.abs(c).max() > 1.0:
+            raise ValueError(f"cos_angle: cosines lie in [-1, 1], got {np.abs(c).max():.6g}")
         ci, co = self.cos_inner, self.cos_outer
         if ci > co:
             t = np.clip((c - co) / (ci - co), 0.0, 1.0)

@@ -169,7 +169,7 @@ class Mesh:
             if not instances:
                 raise ValueError("the trimesh scene holds no triangle meshes")
         else:
-            raise TypeError(f"expected a trimesh.Trimesh or trimesh.Scene, got {type(tm).__name__}")
+            raise TypeError(f"tm: expected a trimesh.Trimesh or trimesh.Scene, got {type(tm).__name__}")
         name = kwargs.get("name", "mesh")
         parts = [_instance(g, m, use_normals) + visual_colors(g, srgb_colors, name) for g, m in instances]
         offsets = np.cumsum([0] + [len(p[0]) for p in parts[:-1]])

@@ -26,7 +26,7 @@ import numpy as np
 from ..common.choices import WRAPS
 from ..common.layout import (TEX_CLAMP, TEX_HEIGHT, TEX_LEVELS, TEX_MIPMAP, TEX_OFFSET, TEX_SIZE, TEX_TILE_U,
                              TEX_TILE_V, TEX_WIDTH)
-from ..common.validate import as_array, as_choice, as_int, as_name
+from ..common.validate import as_array, as_bool, as_choice, as_int, as_name
 from ..common.warnings import DroppedOnLoadWarning
 
 __all__ = ["Texture", "TEXTURE_FILTERS", "srgb_to_linear", "linear_to_srgb"]
@@ -156,6 +156,7 @@ class Texture:
             almost always sRGB); ``False`` for data already linear.
         """
         name = kwargs.get("name", "texture")
+        srgb = as_bool(srgb, f"{name}.srgb")
         x = _image_floats(image, name)
         if srgb:
             x = srgb_to_linear(np.clip(x, 0.0, 1.0))
