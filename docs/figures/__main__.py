@@ -33,6 +33,7 @@ FIGURES = [
     dict(name="teaching", module="docs.figures.teaching", page="teaching.md"),
     dict(name="gallery", module="docs.figures.gallery", page="gallery.md"),
     dict(name="animation", module="docs.figures.animation", page="animation.md"),
+    dict(name="contract", module="docs.figures.contract", page="contract.md"),
 ]
 
 

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import math
 import os
 import time
 
@@ -85,7 +86,11 @@ def _check_degrees(degrees) -> float:
 
 
 def _angles(frames: int, degrees: float) -> np.ndarray:
-    # Frame i at degrees * i / frames: a full turn loops without repeating a frame.
+    # Frame i at degrees * i / frames: a full turn loops without repeating a frame. A turn of
+    # 360 * frames degrees brings every frame back: reduce by it first (exactly, fmod), so that
+    # degrees * i cannot overflow (1e308 * 35 is inf, and a rotation by inf is NaN).
+    if abs(degrees) >= 360.0 * frames:
+        degrees = math.fmod(degrees, 360.0 * frames)
     return degrees * np.arange(frames) / frames
 
 

@@ -53,6 +53,7 @@ import os
 
 import numpy as np
 
+from ..common.validate import as_int, as_scalar
 from ..output.bufferfile import save_npz, write_depth_png, write_exr
 from ..output.buffers import check_buffers
 from ..output.labels import object_table, semantic_classes, unoccluded_masks, view_objects, write_coco
@@ -318,9 +319,13 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
 
     if not isinstance(scene, Scene):
         raise TypeError(f"scene: expected a Scene, got {type(scene).__name__}")
-    if out_dir is None:
-        raise TypeError("out_dir: expected a folder path, got None")
+    if not isinstance(out_dir, (str, os.PathLike)) or not os.fspath(out_dir):
+        raise TypeError(f"out_dir: expected a folder path, got {out_dir!r:.40}")
     out_dir = os.fspath(out_dir)
+    if os.path.exists(out_dir) and not os.path.isdir(out_dir):
+        raise ValueError(f"out_dir: {out_dir!r} is a file, not a folder")
+    depth_scale = as_scalar(depth_scale, "depth_scale", minimum=0.0, exclusive=True)
+    as_int(retries, "retries", minimum=0)
     names = check_buffers(buffers)
     formats = _check_formats(formats)
     if image is not None:
@@ -331,8 +336,7 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
         raise ValueError("buffers: no buffers asked for, but formats names buffer files")
     if "exr" in formats:
         import OpenEXR  # noqa: F401 - fail now, not on the first view
-    if isinstance(views_per_task, bool) or not isinstance(views_per_task, int) or views_per_task < 1:
-        raise ValueError(f"views_per_task: expected an integer > 0, got {views_per_task!r}")
+    views_per_task = as_int(views_per_task, "views_per_task", minimum=1)
     exports = _check_set_options(exports, image, unoccluded, overwrite, depth_scale)
     options = check_options(shading, render_kwargs, tone, resume)
     bases, jobs = plan_batch(scene, cameras)

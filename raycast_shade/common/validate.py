@@ -28,6 +28,9 @@ __all__ = [
     "as_scalar",
     "as_choice",
     "as_int",
+    "as_name",
+    "as_instance",
+    "as_bool",
 ]
 
 
@@ -137,7 +140,11 @@ def as_array(value, name: str, *, dtype, ndim: int | None = None, shape=None, fi
 
 
 def as_vec3(value, name: str, *, nonzero: bool = False) -> np.ndarray:
-    """A finite (3,) float64 vector of its own, read-only; ``nonzero`` rejects the zero vector."""
+    """A finite (3,) float64 vector of its own, read-only; ``nonzero`` rejects the zero vector.
+
+    A column (3, 1) or row (1, 3), as OpenCV and matrix code return vectors, is the same vector."""
+    if isinstance(value, np.ndarray) and value.shape in ((3, 1), (1, 3)):
+        value = value.reshape(3)
     v = as_array(value, name, dtype=np.float64, shape=(3,), copy=True)
     if nonzero and not np.any(v):
         raise ValueError(f"{name}: must not be the zero vector")
@@ -168,6 +175,8 @@ def as_rgb(value, name: str, *, nonnegative: bool = True) -> np.ndarray:
     """An RGB triple from a scalar (Python, NumPy or 0-d array) or 3 values, as (3,) float64."""
     if isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_)):
         v = np.full(3, _float(value, name))
+    elif isinstance(value, np.ndarray) and value.shape in ((3, 1), (1, 3)):  # a column or row: the same triple
+        v = as_array(value.reshape(3), name, dtype=np.float64, copy=True)
     else:
         v = as_array(value, name, dtype=np.float64, copy=True)
         if v.shape == ():
@@ -237,6 +246,30 @@ def as_int(value, name: str, *, minimum: int | None = None, maximum: int | None 
     if maximum is not None and x > maximum:
         raise ValueError(f"{name}: must be <= {maximum}, got {x}")
     return x
+
+
+def as_name(value, name: str) -> str:
+    """A name: a string (NumPy's included), never a number, None or an array."""
+    if not isinstance(value, str):
+        raise TypeError(f"{name}: expected a string, got {type(value).__name__}")
+    return str(value)
+
+
+def as_bool(value, name: str) -> bool:
+    """A flag: ``True`` or ``False`` (NumPy's included), never 0, 1, None or a string."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name}: expected True or False, got {type(value).__name__}")
+    return bool(value)
+
+
+def as_instance(value, name: str, cls, what: str | None = None):
+    """``value`` itself if it is a ``cls`` (a class or tuple of classes), else a TypeError
+    naming the argument, before anything reads an attribute of it."""
+    if not isinstance(value, cls):
+        if what is None:
+            what = " or ".join(c.__name__ for c in (cls if isinstance(cls, tuple) else (cls,)))
+        raise TypeError(f"{name}: expected a {what}, got {type(value).__name__}")
+    return value
 
 
 def as_choice(value, name: str, choices) -> str:

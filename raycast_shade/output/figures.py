@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..common.extras import require
+from ..common.validate import as_array, as_int, as_name, as_scalar
 from .tonemap import to_uint8
 
 __all__ = ["montage", "difference", "profile", "LUMINANCE"]
@@ -34,7 +35,7 @@ def _figure(what: str, **kwargs):
 
 def _linear(x, name: str) -> np.ndarray:
     """(H, W, 3) float64 linear image of a Frame or an array ((H, W) is grey)."""
-    a = np.asarray(getattr(x, "image", x), np.float64)
+    a = as_array(getattr(x, "image", x), name, dtype=np.float64, finite=False)  # strings, None, booleans refused
     if a.ndim == 2:
         a = np.repeat(a[..., None], 3, axis=2)
     if a.ndim != 3 or a.shape[2] != 3:
@@ -63,18 +64,22 @@ def montage(frames_or_images, labels=None, *, columns: int | None = None, panel_
     matplotlib.figure.Figure
         One axes per image, in order.
     """
+    if isinstance(frames_or_images, (str, np.ndarray)) or not hasattr(frames_or_images, "__iter__"):
+        raise TypeError(f"frames_or_images: expected a sequence of frames or images, "
+                        f"got {type(frames_or_images).__name__}")
     items = list(frames_or_images)
     if not items:
         raise ValueError("frames_or_images: expected at least one image")
     images = [_linear(x, f"frames_or_images[{i}]") for i, x in enumerate(items)]
     if labels is None:
         labels = [x.shading if isinstance(getattr(x, "shading", None), str) else "" for x in items]
-    labels = list(labels)
+    if isinstance(labels, (str, np.ndarray)) or not hasattr(labels, "__iter__"):
+        raise TypeError(f"labels: expected a sequence of strings, got {type(labels).__name__}")
+    labels = [as_name(label, f"labels[{i}]") for i, label in enumerate(labels)]
     if len(labels) != len(images):
         raise ValueError(f"labels: expected {len(images)}, got {len(labels)}")
-    columns = len(images) if columns is None else int(columns)
-    if columns < 1:
-        raise ValueError(f"columns: expected an integer >= 1, got {columns}")
+    columns = len(images) if columns is None else as_int(columns, "columns", minimum=1, maximum=len(images))
+    panel_width = as_scalar(panel_width, "panel_width", minimum=0.0, exclusive=True, maximum=1000.0)
     rows = -(-len(images) // columns)
     h, w = images[0].shape[:2]
     fig = _figure("montage", figsize=(panel_width * columns, panel_width * rows * h / w + 0.4 * rows),
@@ -112,6 +117,9 @@ def difference(a, b, *, signed: bool = True, title: str | None = None, width: fl
         Two axes: the heatmap, and its colour bar.
     """
     la, lb = _linear(a, "a"), _linear(b, "b")
+    width = as_scalar(width, "width", minimum=0.0, exclusive=True, maximum=1000.0)  # inches
+    if title is not None:
+        title = as_name(title, "title")
     if la.shape != lb.shape:
         raise ValueError(f"b: expected the shape of a, {la.shape}, got {lb.shape}")
     d = la @ LUMINANCE - lb @ LUMINANCE
@@ -158,9 +166,10 @@ def profile(frame, row: int, *, columns=None, edges: bool = True, title: str | N
         One axes whose ``lines`` are the three channels (red, green, blue).
     """
     img = _linear(frame, "frame")
+    if title is not None:
+        title = as_name(title, "title")
     h, w = img.shape[:2]
-    if isinstance(row, bool) or not isinstance(row, (int, np.integer)) or not 0 <= row < h:
-        raise ValueError(f"row: expected an integer in [0, {h}), got {row!r}")
+    row = as_int(row, "row", minimum=0, maximum=h - 1)
     cols = slice(*columns) if isinstance(columns, tuple) else (columns or slice(None))
     x = np.arange(w)[cols]
     line = img[row, cols]

@@ -163,6 +163,9 @@ def _glyphs_kernel(vertices, normals, cam, t, length, half, tolerance, mask):
 
 
 def _geometry(frame):
+    # By its fields, not isinstance: frame.py imports this module (Frame.overlay).
+    if not all(hasattr(frame, field) for field in ("image", "hits", "scene", "camera")):
+        raise TypeError(f"frame: expected a Frame from raycast_shade.render, got {type(frame).__name__}")
     if frame.scene is None or frame.camera is None:
         raise ValueError("frame: overlays need the frame's scene and camera (a Frame from raycast_shade.render)")
     return frame.scene.geometry
@@ -243,8 +246,11 @@ def overlay(frame, wireframe: bool = True, vertices: bool = False, normals: bool
     (H, W, 3) float32
         A new linear image.
     """
+    _geometry(frame)
     width = as_scalar(width, "width", minimum=0.0, exclusive=True)
     radius = width if radius is None else as_scalar(radius, "radius", minimum=0.0, exclusive=True)
+    if length is not None:  # checked even when no normals are drawn: a bad value is never ignored
+        as_scalar(length, "length", minimum=0.0, exclusive=True)
     rgb = as_rgb(color, "color").astype(np.float32)
     out = np.array(frame.image if image is None else image, np.float32)
     if out.shape != frame.image.shape:

@@ -27,6 +27,7 @@ from numba import njit, prange
 __all__ = ["to_uint8", "write_pfm", "read_pfm", "TONEMAPS"]
 
 from ..common.choices import TONEMAPS
+from ..common.validate import as_array, as_scalar
 _CHUNK = 1 << 16  # values per parallel work item
 
 
@@ -71,12 +72,17 @@ def to_uint8(image, exposure: float = 1.0, tonemap: str = "clamp", gamma="srgb")
     -------
     (H, W, 3) uint8
     """
-    if tonemap not in TONEMAPS:
+    if not isinstance(tonemap, str) or tonemap not in TONEMAPS:
         raise ValueError(f"tonemap: expected one of {list(TONEMAPS)}, got {tonemap!r}")
-    if not (np.isfinite(exposure) and exposure > 0):
-        raise ValueError(f"exposure: must be a finite number > 0, got {exposure}")
+    try:  # TypeError for strings, booleans, None; one message for every bad number
+        exposure = as_scalar(exposure, "exposure", minimum=0.0, exclusive=True)
+    except ValueError:
+        raise ValueError(f"exposure: must be a finite number > 0, got {exposure}") from None
     inv_gamma = _check_gamma(gamma)
-    img = np.asarray(image)
+    img = np.asarray(image) if not isinstance(image, (bool, np.bool_, str)) else None
+    if img is None or img.dtype.kind not in "iuf":  # None, strings, booleans: not an image
+        raise TypeError(f"image: expected an array of numbers, got {type(image).__name__}"
+                        + (f" of dtype {img.dtype}" if img is not None else ""))
     if img.dtype != np.float32:
         img = img.astype(np.float64, copy=False)
     flat = np.ascontiguousarray(img).reshape(-1)
@@ -91,14 +97,14 @@ def _check_gamma(gamma) -> float:
         if gamma != "srgb":
             raise ValueError(f"gamma: expected 'srgb' or a number, got {gamma!r}")
         return 0.0
-    if not (np.isfinite(gamma) and gamma > 0):
-        raise ValueError(f"gamma: must be > 0, got {gamma}")
-    return 1.0 / float(gamma)
+    return 1.0 / as_scalar(gamma, "gamma", minimum=0.0, exclusive=True)
 
 
 def write_pfm(path, image) -> None:
     """Write a float32 RGB image as PFM (lossless, little-endian, bottom row first)."""
-    img = np.asarray(image, np.float32)
+    if not isinstance(path, (str, os.PathLike)) or not os.fspath(path).lower().endswith(".pfm"):
+        raise ValueError(f"path: a PFM file's name ends in .pfm, got {path!r:.60}")
+    img = as_array(image, "image", dtype=np.float32, finite=False)  # NaN and inf are legal PFM values
     if img.ndim != 3 or img.shape[2] != 3:
         raise ValueError(f"image: expected (H, W, 3), got {img.shape}")
     h, w, _ = img.shape

@@ -210,6 +210,8 @@ class Camera:
         by :meth:`view_matrix` and :meth:`projection_matrix`."""
         from .projection import opengl_kwargs
 
+        # The size first: the matrices are read in pixels of it (a bad one would be blamed on K).
+        width, height = as_int(width, "width", minimum=1), as_int(height, "height", minimum=1)
         return cls(width=width, height=height, **opengl_kwargs(view, projection, width, height))
 
     @property

@@ -28,7 +28,7 @@ import numpy as np
 from ..common.choices import WRAPS
 from ..common.layout import (BUMP_CLAMP, BUMP_COLS, BUMP_OFFSET, BUMP_ROWS, BUMP_SCALE, BUMP_SIZE, BUMP_TILE_U,
                              BUMP_TILE_V)
-from ..common.validate import as_array, as_choice, as_int, as_scalar, check_memory
+from ..common.validate import as_array, as_choice, as_int, as_scalar, as_vec3, check_memory
 
 __all__ = ["HeightMap", "spherical_uvs", "cylindrical_uvs", "planar_uvs", "tangent_frames", "WRAPS"]
 
@@ -73,7 +73,8 @@ class HeightMap:
             raise ValueError(f"heightmap.heights: need at least 2x2 texels, got {h.shape}")
         h.setflags(write=False)
         set_(self, "heights", h)
-        set_(self, "scale", as_scalar(self.scale, "heightmap.scale"))
+        # Bounded: beyond, Blinn's perturbation overflows float64 and the kernels fall back to the plain normal.
+        set_(self, "scale", as_scalar(self.scale, "heightmap.scale", minimum=-1e30, maximum=1e30))
         set_(self, "wrap", as_choice(self.wrap, "heightmap.wrap", WRAPS))
         t = as_array(self.tiling, "heightmap.tiling", dtype=np.float64, shape=(2,))
         if np.any(t <= 0):
@@ -106,6 +107,8 @@ class HeightMap:
     @classmethod
     def from_function(cls, fn, resolution: int = 512, **kwargs) -> "HeightMap":
         """Bake ``fn(u, v) -> height`` (vectorised) at texel centres."""
+        if not callable(fn):
+            raise TypeError(f"fn: expected a function of (u, v), got {type(fn).__name__}")
         n = as_int(resolution, "heightmap.resolution", minimum=2)
         _check_bake(n)
         c = (np.arange(n) + 0.5) / n
@@ -172,25 +175,37 @@ class HeightMap:
         return row
 
 
+def _points(vertices) -> np.ndarray:
+    """(V, 3) float64 vertices, at least one, checked (the UV mappings' input)."""
+    p = as_array(vertices, "vertices", dtype=np.float64, shape=(None, 3))
+    if len(p) == 0:
+        raise ValueError("vertices: no vertices")
+    return p
+
+
 def spherical_uvs(vertices, center=(0.0, 0.0, 0.0)) -> np.ndarray:
     """(V, 2) ``(atan2(x, z) / 2pi + 1/2, acos(y / r) / pi)`` about ``center``."""
-    p = np.asarray(vertices, float) - np.asarray(center, float)
+    p = _points(vertices) - as_vec3(center, "center")
     r = np.maximum(np.linalg.norm(p, axis=1), 1e-300)
     return np.stack([np.arctan2(p[:, 0], p[:, 2]) / (2 * np.pi) + 0.5, np.arccos(np.clip(p[:, 1] / r, -1, 1)) / np.pi], 1)
 
 
 def cylindrical_uvs(vertices, axis: int = 1, height: float | None = None) -> np.ndarray:
     """(V, 2) angle around ``axis`` and normalised height along it."""
-    p = np.asarray(vertices, float)
+    p = _points(vertices)
+    axis = as_int(axis, "axis", minimum=0, maximum=2)
     a, b = [(1, 2), (2, 0), (0, 1)][axis]
     h = p[:, axis]
+    if height is not None:
+        height = as_scalar(height, "height", minimum=0.0, exclusive=True)
     span = height if height is not None else max(h.max() - h.min(), 1e-300)
     return np.stack([np.arctan2(p[:, a], p[:, b]) / (2 * np.pi) + 0.5, (h - h.min()) / span], 1)
 
 
 def planar_uvs(vertices, axis: int = 2) -> np.ndarray:
     """(V, 2) projection along ``axis``, normalised to the bounding square."""
-    p = np.asarray(vertices, float)
+    p = _points(vertices)
+    axis = as_int(axis, "axis", minimum=0, maximum=2)
     a, b = [(1, 2), (2, 0), (0, 1)][axis]
     lo = p.min(axis=0)
     span = max((p.max(axis=0) - lo)[[a, b]].max(), 1e-300)
@@ -209,6 +224,13 @@ def tangent_frames(vertices, faces, uvs, face_normals) -> np.ndarray:
     (F, 6) float64
         ``Pu`` then ``Pv``.
     """
+    vertices = _points(vertices)
+    faces = as_array(faces, "faces", dtype=np.int64, shape=(None, 3))
+    if faces.size and (faces.min() < 0 or faces.max() >= len(vertices)):
+        raise ValueError(f"faces: vertex index {int(faces.max() if faces.min() >= 0 else faces.min())} "
+                         f"outside [0, {len(vertices)})")
+    uvs = as_array(uvs, "uvs", dtype=np.float64, shape=(len(vertices), 2))
+    face_normals = as_array(face_normals, "face_normals", dtype=np.float64, shape=(len(faces), 3))
     p0 = vertices[faces[:, 0]]
     e1 = vertices[faces[:, 1]] - p0
     e2 = vertices[faces[:, 2]] - p0

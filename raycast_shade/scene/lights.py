@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..common.choices import ATTENUATIONS
-from ..common.validate import MAX_RADIANCE, as_choice, as_rgb, as_scalar, as_vec3, pow2_scaled
+from ..common.validate import MAX_RADIANCE, as_array, as_choice, as_name, as_rgb, as_scalar, as_vec3, pow2_scaled
 
 __all__ = ["PointLight", "SpotLight", "DirectionalLight", "ATTENUATIONS", "MAX_SPOT_EXPONENT"]
 
@@ -56,6 +56,7 @@ class PointLight:
 
     def __post_init__(self):
         set_ = object.__setattr__
+        set_(self, "name", as_name(self.name, f"{type(self).__name__}.name"))  # first: every message uses it
         set_(self, "position", as_vec3(self.position, f"{self.name}.position"))
         set_(self, "intensity", as_scalar(self.intensity, f"{self.name}.intensity", minimum=0.0, maximum=MAX_RADIANCE))
         set_(self, "color", as_rgb(self.color, f"{self.name}.color"))
@@ -63,6 +64,8 @@ class PointLight:
         k = as_scalar(self.k, f"{self.name}.k")
         if self.attenuation == "heuristic" and not k > 0:
             raise ValueError(f"{self.name}.k: heuristic attenuation needs k > 0, got {k}")
+        if k < 0:  # read by the heuristic law only, but never kept: 1/(d + k) divides by zero at d = -k
+            raise ValueError(f"{self.name}.k: must be >= 0, got {k}")
         set_(self, "k", k)
         set_(self, "shadows", _as_bool(self.shadows, f"{self.name}.shadows"))
 
@@ -94,6 +97,7 @@ class DirectionalLight:
 
     def __post_init__(self):
         set_ = object.__setattr__
+        set_(self, "name", as_name(self.name, f"{type(self).__name__}.name"))  # first: every message uses it
         d = pow2_scaled(as_vec3(self.direction, f"{self.name}.direction", nonzero=True))
         d = d / np.linalg.norm(d)  # scaled first: (1e308, 1e308, 0) and (1e-200, 1e-200, 0) stay directions
         d.setflags(write=False)
@@ -180,7 +184,9 @@ class SpotLight(PointLight):
 
     def falloff(self, cos_angle):
         """Warn's factor ``cos^n * smoothstep`` for cosines of the angle to the axis (NumPy, any shape)."""
-        c = np.asarray(cos_angle, np.float64)
+        c = as_array(cos_angle, "cos_angle", dtype=np.float64)
+        if c.size and np.abs(c).max() > 1.0:
+            raise ValueError(f"cos_angle: cosines lie in [-1, 1], got {np.abs(c).max():.6g}")
         ci, co = self.cos_inner, self.cos_outer
         if ci > co:
             t = np.clip((c - co) / (ci - co), 0.0, 1.0)

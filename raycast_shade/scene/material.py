@@ -9,7 +9,7 @@ import numpy as np
 
 from ..common.choices import SPECULAR_MODELS
 from ..common.layout import MAT_BLINN, MAT_KA, MAT_KD, MAT_KS, MAT_REFLECTIVITY, MAT_SHININESS, MAT_SIZE
-from ..common.validate import as_choice, as_rgb, as_scalar
+from ..common.validate import as_choice, as_name, as_rgb, as_scalar
 from ..common.warnings import ColourRangeWarning
 
 __all__ = ["Material", "SPECULAR_MODELS"]
@@ -77,6 +77,7 @@ class Material:
 
     def __post_init__(self):
         set_ = object.__setattr__
+        set_(self, "name", as_name(self.name, f"{type(self).__name__}.name"))  # first: every message uses it
         from .texture import Texture
 
         for field in ("kd_map", "ka_map", "ks_map"):

@@ -10,7 +10,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..common.validate import as_array, as_choice, as_scalar, pow2_scaled
+from ..common.validate import as_array, as_choice, as_name, as_scalar, pow2_scaled
 from ..common.warnings import CreaseWarning, DroppedOnLoadWarning, ZeroNormalWarning
 from .normals import WEIGHTINGS, WindingWarning, face_normals, vertex_normals, winding_conflicts
 from .pitfalls import SHARP_DEGREES, sharp_edges
@@ -99,6 +99,7 @@ class Mesh:
 
     def __post_init__(self):
         set_ = object.__setattr__
+        set_(self, "name", as_name(self.name, f"{type(self).__name__}.name"))  # first: every message uses it
         v = as_array(self.vertices, f"{self.name}.vertices", dtype=np.float64, shape=(None, 3), copy=True)
         if v.shape[0] == 0:
             raise ValueError(f"{self.name}.vertices: the mesh has no vertices")
@@ -168,7 +169,7 @@ class Mesh:
             if not instances:
                 raise ValueError("the trimesh scene holds no triangle meshes")
         else:
-            raise TypeError(f"expected a trimesh.Trimesh or trimesh.Scene, got {type(tm).__name__}")
+            raise TypeError(f"tm: expected a trimesh.Trimesh or trimesh.Scene, got {type(tm).__name__}")
         name = kwargs.get("name", "mesh")
         parts = [_instance(g, m, use_normals) + visual_colors(g, srgb_colors, name) for g, m in instances]
         offsets = np.cumsum([0] + [len(p[0]) for p in parts[:-1]])

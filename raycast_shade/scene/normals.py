@@ -23,6 +23,7 @@ from numba import njit, prange
 __all__ = ["face_normals", "vertex_normals", "winding_conflicts", "WindingWarning", "WEIGHTINGS"]
 
 from ..common.choices import WEIGHTINGS
+from ..common.validate import as_array
 from ..common.warnings import ShadingWarning
 _WEIGHT_CODE = {"uniform": 0, "area": 1, "angle": 2}
 
@@ -297,7 +298,13 @@ def winding_conflicts(vertices, faces, fnormals=None) -> int:
     int
         0 for a consistently wound mesh.
     """
-    faces = np.asarray(faces, np.int64)
+    vertices = as_array(vertices, "vertices", dtype=np.float64, shape=(None, 3))
+    faces = as_array(faces, "faces", dtype=np.int64, shape=(None, 3))
+    if faces.size and (faces.min() < 0 or faces.max() >= len(vertices)):  # the kernel indexes without checks
+        bad = int(faces.min() if faces.min() < 0 else faces.max())
+        raise ValueError(f"faces: vertex index {bad} outside [0, {len(vertices)})")
+    if fnormals is not None:
+        fnormals = as_array(fnormals, "fnormals", dtype=np.float64, shape=(len(faces), 3))
     fn = face_normals(vertices, faces)[0] if fnormals is None else fnormals
     valid = np.any(fn != 0.0, axis=1)
     order, starts, dest, third = _corners_by_vertex(faces, vertices.shape[0])

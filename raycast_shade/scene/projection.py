@@ -28,6 +28,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..common.validate import as_array, as_scalar
+
 __all__ = ["intrinsics", "principal_offset", "intrinsics_matrix", "extrinsics", "opencv_kwargs",
            "view_matrix", "projection_matrix", "opengl_kwargs", "GL_FROM_CV", "distort_normalised",
            "project_points"]
@@ -112,7 +114,7 @@ def opencv_kwargs(K, R, t, projection="perspective") -> dict:
         ``[[fx, 0, cx], [0, fy, cy], [0, 0, 1]]``, ``fx, fy > 0``; skew must be 0.
     R : (3, 3) float
         Rotation (orthonormal to 1e-6, ``det R > 0``), world to camera.
-    t : (3,) or (3, 1) float
+    t : (3,), (3, 1) or (1, 3) float
         Translation, world to camera (a column as ``cv2.solvePnP`` returns it).
     projection : {"perspective", "orthographic"}
 
@@ -128,6 +130,8 @@ def opencv_kwargs(K, R, t, projection="perspective") -> dict:
     """
     K = _matrix(K, (3, 3), "K")
     R = _matrix(R, (3, 3), "R")
+    if isinstance(t, np.ndarray) and t.shape in ((3, 1), (1, 3)):  # cv2.solvePnP's column, or a row
+        t = t.reshape(3)
     t = _matrix(t, (3,), "t")
     if K[0, 1] != 0.0:
         raise ValueError(f"K: skew K[0, 1] must be 0, got {K[0, 1]}")
@@ -170,12 +174,7 @@ def projection_matrix(camera, near, far) -> np.ndarray:
         Clip distances along the view axis, ``0 < near < far``
         (orthographic: ``near`` may be 0 or negative).
     """
-    for name, value in (("near", near), ("far", far)):
-        if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-            raise TypeError(f"{name}: expected a number, got {type(value).__name__}")
-        if not np.isfinite(value):
-            raise ValueError(f"{name}: must be finite, got {value}")
-    n, f = float(near), float(far)
+    n, f = as_scalar(near, "near"), as_scalar(far, "far")  # NumPy scalars and 0-d arrays are numbers
     if getattr(camera, "distorted", False):
         raise ValueError("camera.distortion: an OpenGL projection matrix cannot hold lens distortion")
     if not f > n or (not camera.orthographic and not n > 0.0):

@@ -198,7 +198,7 @@ SHAPES = {
 
 def make(shape: str, **params) -> Mesh:
     """Build a named procedural shape (for scene files)."""
-    if shape not in SHAPES:
+    if not isinstance(shape, str) or shape not in SHAPES:
         raise ValueError(f"shape: expected one of {sorted(SHAPES)}, got {shape!r}")
     try:
         return SHAPES[shape](**params)

@@ -26,7 +26,7 @@ import numpy as np
 from ..common.choices import WRAPS
 from ..common.layout import (TEX_CLAMP, TEX_HEIGHT, TEX_LEVELS, TEX_MIPMAP, TEX_OFFSET, TEX_SIZE, TEX_TILE_U,
                              TEX_TILE_V, TEX_WIDTH)
-from ..common.validate import as_array, as_choice, as_int
+from ..common.validate import as_array, as_bool, as_choice, as_int, as_name
 from ..common.warnings import DroppedOnLoadWarning
 
 __all__ = ["Texture", "TEXTURE_FILTERS", "srgb_to_linear"]
@@ -117,6 +117,7 @@ class Texture:
 
     def __post_init__(self):
         set_ = object.__setattr__
+        set_(self, "name", as_name(self.name, f"{type(self).__name__}.name"))  # first: every message uses it
         t = np.asarray(self.texels)
         if t.ndim == 2:
             t = np.repeat(t[..., None], 3, axis=2)
@@ -149,6 +150,7 @@ class Texture:
             almost always sRGB); ``False`` for data already linear.
         """
         name = kwargs.get("name", "texture")
+        srgb = as_bool(srgb, f"{name}.srgb")
         x = _image_floats(image, name)
         if srgb:
             x = srgb_to_linear(np.clip(x, 0.0, 1.0))

@@ -22,7 +22,15 @@ __all__ = []
 def _texel_corners(rows, cols, clamp, x, y):
     """The four texels around texel coordinates (x, y) (centres at integers) of a
     ``rows`` x ``cols`` grid, clamped to its border or wrapped, and the weights'
-    fractions: ``i0, i1, j0, j1, tx, ty``. Shared by the height and colour samplers."""
+    fractions: ``i0, i1, j0, j1, tx, ty``. Shared by the height and colour samplers.
+
+    From 2**52 on a float64 is a whole number, and ``int()`` of one past 2**63
+    overflows: such an ``x`` (or an infinite one) is reduced first, to the border
+    when clamping, exactly modulo the grid when wrapping; the same texels."""
+    if not abs(x) < 4503599627370496.0:
+        x = (-1.0 if x < 0.0 else float(cols)) if clamp else (np.fmod(x, float(cols)) if np.isfinite(x) else 0.0)
+    if not abs(y) < 4503599627370496.0:
+        y = (-1.0 if y < 0.0 else float(rows)) if clamp else (np.fmod(y, float(rows)) if np.isfinite(y) else 0.0)
     j0 = math.floor(x)
     i0 = math.floor(y)
     tx = x - j0

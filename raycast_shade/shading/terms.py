@@ -34,8 +34,15 @@ does not reach the point anyway (the surface faces away: no ray is traced),
 for lights that cast no shadows, and on the background. Mirror bounces
 have shadows of their own, which the mask does not show.
 
+A mesh's vertex or face colours stand in for kd, and colour maps multiply
+their coefficient: the ``ambient`` and ``specular`` variants therefore also
+zero the mesh colours (a zero kd row alone would leave them in), and the
+shadow probe sets them to 1 and drops the kd map (their hue would skew the
+probe's ratio).
+
 Material variants share the scene's packed geometry and Embree BVH (only the
-material rows differ), so a term costs one shading pass, no repacking.
+material rows and mesh colours differ), so a term costs one shading pass, no
+repacking.
 """
 
 from __future__ import annotations
@@ -44,7 +51,7 @@ import dataclasses
 
 import numpy as np
 
-from ..common.layout import MAT_KA, MAT_KD, MAT_KS, MAT_REFLECTIVITY
+from ..common.layout import MAT_KA, MAT_KD, MAT_KS, MAT_REFLECTIVITY, TEXMAP_KD
 from ..scene.lights import PointLight
 from .mirrors import trace_mirrors
 from .shade import shade_hits
@@ -85,7 +92,7 @@ def check_terms(terms):
     return tuple(out)
 
 
-def with_materials(scene, materials, **changes):
+def with_materials(scene, materials, colors=None, **changes):
     """``scene.replace(**changes)`` whose packed geometry has other material rows.
 
     The copy of the packed geometry shares every array but ``materials``,
@@ -97,12 +104,21 @@ def with_materials(scene, materials, **changes):
     ----------
     materials : (G, MAT_SIZE) float64
         The packed material rows (:meth:`raycast_shade.Material.packed`).
+    colors : float, optional
+        Every vertex and face colour set to this value (0: no kd from the
+        mesh; 1: a white kd with the kd maps dropped too). ``None`` keeps them.
     """
     geo = scene.geometry
     twin = object.__new__(type(geo))
     twin.__dict__.update(geo.__dict__)  # not copy.copy: its pickling hooks would drop the shared BVH memo
     twin.materials = np.ascontiguousarray(materials, np.float64)
     twin.reflective = bool(np.any(twin.materials[:, MAT_REFLECTIVITY] > 0))
+    if colors is not None and geo.textured:
+        twin.vertex_colors = np.full_like(geo.vertex_colors, colors)
+        twin.face_colors = np.full_like(geo.face_colors, colors)
+        if colors != 0:
+            twin.tex_index = geo.tex_index.copy()
+            twin.tex_index[:, TEXMAP_KD] = -1
     new = scene.replace(**changes)
     new.__dict__["geometry"] = twin
     return new
@@ -156,13 +172,13 @@ def shade_terms(scene, camera, hits, shading, max_depth: int = 0, per_light: boo
     out = {
         "ambient": shade_hits(scene.replace(lights=(), **black), camera, hits, shading),
         "diffuse": shade_hits(with_materials(scene, _rows(mats, (MAT_KD,)), **black), camera, hits, shading),
-        "specular": shade_hits(with_materials(scene, _rows(mats, (MAT_KS,)), **black), camera, hits, shading),
+        "specular": shade_hits(with_materials(scene, _rows(mats, (MAT_KS,)), 0.0, **black), camera, hits, shading),
     }
     if per_light:
-        for name, slot in (("diffuse", MAT_KD), ("specular", MAT_KS)):
+        for name, slot, colors in (("diffuse", MAT_KD, None), ("specular", MAT_KS, 0.0)):
             rows = _rows(mats, (slot,))
             out[f"{name}_per_light"] = np.stack(
-                [shade_hits(with_materials(scene, rows, lights=(light,), **black), camera, hits, shading)
+                [shade_hits(with_materials(scene, rows, colors, lights=(light,), **black), camera, hits, shading)
                  for light in scene.lights]) if scene.lights else np.zeros((0, h, w, 3), np.float32)
     seen = hits.prim >= 0
     out["background"] = np.where(seen[..., None], np.float32(0.0),
@@ -186,8 +202,8 @@ def _shadow_mask(scene, camera, hits, shading) -> np.ndarray:
     for i, light in enumerate(scene.lights):
         if not light.shadows:
             continue
-        img = shade_hits(with_materials(scene, probe, lights=_shadow_probe(light), background=0.0), camera, hits,
-                         shading)
+        img = shade_hits(with_materials(scene, probe, 1.0, lights=_shadow_probe(light), background=0.0), camera,
+                         hits, shading)
         through, reached = img[..., 0].astype(np.float64), img[..., 1].astype(np.float64)
         with np.errstate(divide="ignore", invalid="ignore"):
             mask[i] = np.where(reached > 0.0, np.minimum(through / reached, 1.0), 1.0)

@@ -88,8 +88,15 @@ def _sample_level(tex, info, k, u, v, lvl):
         w = max(1, w >> 1)
         h = max(1, h >> 1)
     clamp = info[k, TEX_CLAMP] != 0.0
-    x = u * info[k, TEX_TILE_U] * w - 0.5
-    y = v * info[k, TEX_TILE_V] * h - 0.5
+    su = u * info[k, TEX_TILE_U]
+    sv = v * info[k, TEX_TILE_V]
+    if not clamp:  # repeat's period is 1: past 2**52 (or overflowed) u * tiling is a whole number of periods
+        if not abs(su) < 4503599627370496.0:
+            su = 0.0
+        if not abs(sv) < 4503599627370496.0:
+            sv = 0.0
+    x = su * w - 0.5
+    y = sv * h - 0.5
     return _bilinear3(tex, base, w, h, clamp, x, y)
 
 

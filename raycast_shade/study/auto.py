@@ -52,6 +52,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..common.validate import as_instance, as_scalar
 from ..scene.lights import PointLight
 
 __all__ = ["Decision", "choose_methods", "predicted_errors"]
@@ -172,10 +173,13 @@ def choose_methods(scene, camera, tolerance: float = 0.01, max_pixels: float = 2
     -------
     list of Decision
     """
-    if not (isinstance(tolerance, (int, float)) and np.isfinite(tolerance) and tolerance > 0):
-        raise ValueError(f"tolerance: must be a finite number > 0, got {tolerance!r}")
-    if not (isinstance(max_pixels, (int, float)) and np.isfinite(max_pixels) and max_pixels >= 0):
-        raise ValueError(f"max_pixels: must be a finite number >= 0, got {max_pixels!r}")
+    from ..scene.camera import Camera
+    from ..scene.scene import Scene
+
+    as_instance(scene, "scene", Scene)
+    as_instance(camera, "camera", Camera)
+    tolerance = as_scalar(tolerance, "tolerance", minimum=0.0, exclusive=True)
+    max_pixels = as_scalar(max_pixels, "max_pixels", minimum=0.0)
     right, up, fwd = camera.basis
     hw, hh = camera.half_extents()
     decisions = []

@@ -6,9 +6,17 @@ flat, the three vertices for Gouraud, the pixel's point for Phong), the
 normal it uses (the face's; the vertex's; interpolated, renormalised and
 bumped), and per light the direction ``s``, the distance ``d`` and the
 attenuation, the shadow ray's answer (traced with Embree from the same
-offset origin as the kernels), ``n.s``, ``r`` or ``h`` and the specular
-cosine, and the diffuse and specular terms; mirrors add the reflected part,
-bounce by bounce. The total equals ``frame.image[y, x]`` to float32 rounding.
+offset origin as the kernels), a spot light's cone factor, ``n.s``, ``r`` or
+``h`` and the specular cosine, and the diffuse and specular terms; mirrors
+add the reflected part, bounce by bounce. The coefficients ``ka, kd, Ks`` are
+the point's, as the kernels take them (:mod:`raycast_shade.shading.texture`):
+kd the mesh's vertex colours (interpolated) or face colour, each coefficient
+times its map's texel, filtered by the pixel's footprint (flat: the face's
+own footprint at its centre; mirror bounces: level 0). Gouraud on a model
+with maps or face colours ("modulate") lights the vertices and takes the
+pixel's coefficients: explained as the three vertex shades evaluated with
+the pixel's ``ka, kd, Ks``, the same sum since the weights add up to 1. The
+total equals ``frame.image[y, x]`` to float32 rounding.
 
 The geometry helpers are those of the plain-NumPy twin
 (:mod:`raycast_shade.study.reference`); shadow rays, bump maps and mirror
@@ -24,16 +32,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..common.layout import (BUMP_CLAMP, BUMP_COLS, BUMP_OFFSET, BUMP_ROWS, BUMP_SCALE, BUMP_TILE_U, BUMP_TILE_V,
-                             CAM_EYE, CAM_FORWARD, CAM_ORTHO, MAT_BLINN, MAT_KA, MAT_KD, MAT_KS, MAT_REFLECTIVITY,
+from ..common.layout import (CAM_EYE, CAM_FORWARD, CAM_ORTHO, MAT_BLINN, MAT_KA, MAT_KD, MAT_KS, MAT_REFLECTIVITY,
                              MAT_SHININESS)
 from ..common.validate import as_int
-from ..scene.lights import DirectionalLight
+from ..scene.lights import DirectionalLight, SpotLight
 from ..shading.shade import resolve_methods
 from ..visibility import embree
 from ..visibility.accel import embree_accel
 from ..visibility.cast import cast_rays_kernel
 from ..visibility.rays import camera_frame
+from .explain_coef import _bumped, _coefficients, _face_footprint, _footprint, _modulated, _short, _spot_factor
 from .explain_text import format_explanation
 from .reference import _facing, _interpolated_normal, _view
 
@@ -81,6 +89,10 @@ class LightTerm:
         ``min(cos, 1)^t``, 0 where ``cos <= 0``.
     diffuse, specular : (3,) float64
         ``att Ii kd (n.s)`` and ``att Ii Ks spec`` (zero where the light does not arrive).
+    spot : float or None
+        A spot light's cone factor ``cos^n(a) smoothstep(cos outer, cos inner, cos a)``,
+        already in ``att`` (0: outside the cone, no light, no shadow ray); ``None``
+        for other lights.
     """
 
     index: int
@@ -100,6 +112,7 @@ class LightTerm:
     spec: float
     diffuse: np.ndarray
     specular: np.ndarray
+    spot: object = None
 
     @property
     def arrives(self) -> bool:
@@ -127,6 +140,8 @@ class PointShade:
     lights : tuple of LightTerm
     normal_note : str
         How ``n`` was obtained.
+    coef_note : str
+        Where ``ka, kd, ks`` come from when not the material's own (colours, maps).
     """
 
     where: str
@@ -142,6 +157,7 @@ class PointShade:
     ambient: np.ndarray
     lights: tuple
     normal_note: str = ""
+    coef_note: str = ""
 
     @property
     def diffuse(self) -> np.ndarray:
@@ -244,6 +260,7 @@ class _Context:
 
     geo: object
     scene: object
+    cam: np.ndarray
     eye: np.ndarray
     fwd: np.ndarray
     ortho: bool
@@ -258,7 +275,7 @@ def _context(frame) -> _Context:
     geo = scene.geometry
     cam = camera_frame(camera, geo.origin)
     shadows = any(light.shadows for light in scene.lights)
-    return _Context(geo=geo, scene=scene, eye=cam[CAM_EYE:CAM_EYE + 3], fwd=cam[CAM_FORWARD:CAM_FORWARD + 3],
+    return _Context(geo=geo, scene=scene, cam=cam, eye=cam[CAM_EYE:CAM_EYE + 3], fwd=cam[CAM_FORWARD:CAM_FORWARD + 3],
                     ortho=cam[CAM_ORTHO] != 0.0, dmin=1e-6 * geo.scale, unit=float(geo.scale),
                     shadow_handle=int(embree_accel(geo).handle) if shadows else 0,
                     spec_on=bool(np.any(geo.materials[:, MAT_KS:MAT_KS + 3] > 0)))
@@ -299,8 +316,9 @@ def _occluded(ctx, o, g, s, target, is_point) -> bool:
     return bool(ray[8] < 0.0)
 
 
-def _light_term(ctx, i, p, n, v, row, o, g) -> LightTerm:
-    """Light ``i`` at point ``p`` as :func:`raycast_shade.shading.illumination._illuminate_py` sees it."""
+def _light_term(ctx, i, p, n, v, row, o, g, kd, ks) -> LightTerm:
+    """Light ``i`` at point ``p`` as :func:`raycast_shade.shading.illumination._illuminate_py` sees it,
+    with the point's own ``kd, ks`` (3,)."""
     light = ctx.scene.lights[i]
     radiance = np.asarray(light.radiance, np.float64)
     directional = isinstance(light, DirectionalLight)
@@ -322,6 +340,14 @@ def _light_term(ctx, i, p, n, v, row, o, g) -> LightTerm:
         s = dv / d
         att = {"none": 1.0, "inverse_square": 1.0 / max(d, ctx.dmin) ** 2, "heuristic": 1.0 / (d + k)}[law]
     position = None if directional else light.position
+    spot = None
+    if isinstance(light, SpotLight):
+        spot = _spot_factor(light, s)
+        base["spot"] = spot
+        if spot == 0.0:  # outside the cone: no light, no shadow ray (the kernels skip the light)
+            return LightTerm(position=position, d=d, att=0.0, s=s, ndots=float(n @ s), shadow="not traced", rh=None,
+                             cos=None, spec=0.0, diffuse=zero, specular=zero, **base)
+        att *= spot
     ndots = float(n @ s)
     if ndots <= 0.0:
         return LightTerm(position=position, d=d, att=att, s=s, ndots=ndots, shadow="not traced", rh=None, cos=None,
@@ -331,8 +357,7 @@ def _light_term(ctx, i, p, n, v, row, o, g) -> LightTerm:
         shadow = "blocked" if _occluded(ctx, o, g, s, target, not directional) else "lit"
     cn = min(ndots, 1.0)
     rh, cos, spec = None, None, 0.0
-    ks, kd = row[MAT_KS:MAT_KS + 3], row[MAT_KD:MAT_KD + 3]
-    if ctx.spec_on and np.any(ks > 0.0):
+    if ctx.spec_on and np.any(row[MAT_KS:MAT_KS + 3] > 0.0):  # the row's Ks decides, as in the kernels
         if blinn:
             hv = s + v
             hl = float(np.sqrt(hv @ hv))
@@ -350,55 +375,18 @@ def _light_term(ctx, i, p, n, v, row, o, g) -> LightTerm:
                      diffuse=diffuse, specular=specular, **base)
 
 
-def _evaluate(ctx, where, p, n, v, model, o, g, note="") -> PointShade:
-    """The reflectance equation at ``p`` (re-centred) with shadow rays from ``o`` offset along ``g``."""
+def _evaluate(ctx, where, p, n, v, model, o, g, note="", coef=None) -> PointShade:
+    """The reflectance equation at ``p`` (re-centred) with shadow rays from ``o`` offset along ``g``;
+    ``coef``: the point's ``(ka, kd, ks, note)`` (:func:`_coefficients`), else the material row's."""
     row = ctx.geo.materials[model]
+    if coef is None:
+        coef = (row[MAT_KA:MAT_KA + 3], row[MAT_KD:MAT_KD + 3], row[MAT_KS:MAT_KS + 3], "")
+    ka, kd, ks, coef_note = coef
     ia = np.asarray(ctx.scene.ambient, np.float64)
-    lights = tuple(_light_term(ctx, i, p, n, v, row, o, g) for i in range(len(ctx.scene.lights)))
-    return PointShade(where=where, p=p + ctx.geo.origin, n=n, v=v, model=int(model), ka=row[MAT_KA:MAT_KA + 3],
-                      kd=row[MAT_KD:MAT_KD + 3], ks=row[MAT_KS:MAT_KS + 3], shininess=float(row[MAT_SHININESS]),
-                      ia=ia, ambient=ia * row[MAT_KA:MAT_KA + 3], lights=lights, normal_note=note)
-
-
-def _bilinear(tex, base, rows, cols, clamp, x, y):
-    j0, i0 = math.floor(x), math.floor(y)
-    tx, ty = x - j0, y - i0
-    j1, i1 = j0 + 1, i0 + 1
-    if clamp:
-        j0, j1 = min(max(j0, 0), cols - 1), min(max(j1, 0), cols - 1)
-        i0, i1 = min(max(i0, 0), rows - 1), min(max(i1, 0), rows - 1)
-    else:
-        j0, j1, i0, i1 = j0 % cols, j1 % cols, i0 % rows, i1 % rows
-    t = lambda i, j: float(tex[base + i * cols + j])  # noqa: E731
-    a = t(i0, j0) * (1.0 - tx) + t(i0, j1) * tx
-    b = t(i1, j0) * (1.0 - tx) + t(i1, j1) * tx
-    return a * (1.0 - ty) + b * ty
-
-
-def _bumped(geo, n, f, model, tri, bary, front):
-    """Blinn's perturbed normal, as :mod:`raycast_shade.shading.bump` computes it; ``n`` without a bump map."""
-    k = geo.bump_index[model]
-    if k < 0:
-        return n
-    tu, tv = bary @ geo.uvs[tri]
-    info = geo.bump_info[k]
-    base, rows, cols = int(info[BUMP_OFFSET]), int(info[BUMP_ROWS]), int(info[BUMP_COLS])
-    clamp, su, sv, scale = info[BUMP_CLAMP] != 0.0, info[BUMP_TILE_U], info[BUMP_TILE_V], info[BUMP_SCALE]
-    x, y = tu * su * cols - 0.5, tv * sv * rows - 0.5
-    tex = geo.bump_texels
-    bu = (_bilinear(tex, base, rows, cols, clamp, x + 0.5, y)
-          - _bilinear(tex, base, rows, cols, clamp, x - 0.5, y)) * cols * su * scale
-    bv = (_bilinear(tex, base, rows, cols, clamp, x, y + 0.5)
-          - _bilinear(tex, base, rows, cols, clamp, x, y - 0.5)) * rows * sv * scale
-    pu, pv = geo.tangents[f, 0:3], geo.tangents[f, 3:6]
-    c = np.cross(pu, pv)
-    if c @ front < 0.0:  # left-handed UVs
-        bu, bv = -bu, -bv
-    a = np.sqrt(c @ c) * n + bu * np.cross(n, pv) - bv * np.cross(n, pu)
-    al = float(np.sqrt(a @ a))
-    if not (0.0 < al < np.inf):
-        return n
-    return a / al
+    lights = tuple(_light_term(ctx, i, p, n, v, row, o, g, kd, ks) for i in range(len(ctx.scene.lights)))
+    return PointShade(where=where, p=p + ctx.geo.origin, n=n, v=v, model=int(model), ka=ka, kd=kd, ks=ks,
+                      shininess=float(row[MAT_SHININESS]), ia=ia, ambient=ia * ka, lights=lights, normal_note=note,
+                      coef_note=coef_note)
 
 
 def _terminator(geo, tri, bary, p, sgn):
@@ -430,10 +418,6 @@ def _surface(ctx, f, model, b1, b2, v=None):
     return p, v, g, sgn, bumped, tri, bary, note
 
 
-def _short(x):
-    return "(" + ", ".join(f"{c:.4g}" for c in x) + ")"
-
-
 def _convex_weights(b1, b2):
     """Gouraud's weights clamped onto the triangle (:func:`raycast_shade.shading.surface._convex_weights`)."""
     if not (b1 >= 0.0 and b2 >= 0.0 and b1 + b2 <= 1.0):
@@ -449,18 +433,24 @@ def _convex_weights(b1, b2):
 def _flat(ctx, f, model):
     third = 1.0 / 3.0
     tri = ctx.geo.faces[f]
-    p = np.array([1.0 - third - third, third, third]) @ ctx.geo.vertices[tri]
+    bary = np.array([1.0 - third - third, third, third])
+    p = bary @ ctx.geo.vertices[tri]
     v = _unit_view(ctx, p)
     g, _ = _oriented(ctx, f, v)
-    return (_evaluate(ctx, "face centre", p, g, v, model, p, g, "the face's normal, turned to the viewer"),), \
+    coef = _coefficients(ctx, f, model, bary, _face_footprint(ctx.geo, f))
+    return (_evaluate(ctx, "face centre", p, g, v, model, p, g, "the face's normal, turned to the viewer", coef),), \
         np.ones(1)
 
 
-def _gouraud(ctx, f, model, b1, b2):
+def _gouraud(ctx, f, model, b1, b2, x, y):
     geo = ctx.geo
     tri = geo.faces[f]
     p = np.array([1.0 - b1 - b2, b1, b2]) @ geo.vertices[tri]
     g, sgn = _oriented(ctx, f, _unit_view(ctx, p))
+    pixel = None
+    if _modulated(ctx, model):  # the vertices' light times the pixel's own coefficients
+        ka, kd, ks, note = _coefficients(ctx, f, model, np.array([1.0 - b1 - b2, b1, b2]), _footprint(ctx, f, p, x, y))
+        pixel = (ka, kd, ks, "modulate: the pixel's coefficients" + (f" ({note})" if note else ""))
     sg = 1.0 if sgn > 0.0 else -1.0  # the side the pixel sees: front (vertex normal) or back (negated)
     shades = []
     for i in tri:
@@ -473,14 +463,17 @@ def _gouraud(ctx, f, model, b1, b2):
             n, gs, note = n - 2.0 * c * g, g, "the vertex normal, reflected into the face's hemisphere"
         else:
             gs, note = n, "the vertex's averaged normal" + (" (negated: back side)" if sg < 0 else "")
-        shades.append(_evaluate(ctx, f"vertex {int(i)}", q, n, _unit_view(ctx, q), model, q, gs, note))
+        coef = pixel if pixel is not None else _coefficients(ctx, f, model, None, None, vertex=int(i))
+        shades.append(_evaluate(ctx, f"vertex {int(i)}", q, n, _unit_view(ctx, q), model, q, gs, note, coef))
     return tuple(shades), _convex_weights(b1, b2)
 
 
-def _phong(ctx, f, model, b1, b2, where="pixel", v=None):
+def _phong(ctx, f, model, b1, b2, where="pixel", v=None, pixel=None):
+    """Phong at a hit; ``pixel`` (x, y) filters maps by its footprint, ``None`` (a bounce) takes level 0."""
     p, v, g, sgn, n, tri, bary, note = _surface(ctx, f, model, b1, b2, v)
     o = _terminator(ctx.geo, tri, bary, p, sgn) if ctx.shadow_handle else p
-    return _evaluate(ctx, where, p, n, v, model, o, g, note)
+    duv = _footprint(ctx, f, p, *pixel) if pixel is not None else None
+    return _evaluate(ctx, where, p, n, v, model, o, g, note, _coefficients(ctx, f, model, bary, duv))
 
 
 def _mirror_ray(ctx, p, v, g, n):
@@ -569,9 +562,9 @@ def explain(frame, x, y) -> Explanation:
     if method == "flat":
         shades, weights = _flat(ctx, f, model)
     elif method == "gouraud":
-        shades, weights = _gouraud(ctx, f, model, b1, b2)
+        shades, weights = _gouraud(ctx, f, model, b1, b2, x, y)
     else:
-        shades, weights = (_phong(ctx, f, model, b1, b2),), np.ones(1)
+        shades, weights = (_phong(ctx, f, model, b1, b2, pixel=(x, y)),), np.ones(1)
     terms = [sum((wk * getattr(s, name) for wk, s in zip(weights, shades)), np.zeros(3))
              for name in ("ambient", "diffuse", "specular")]
     local = sum((wk * s.total for wk, s in zip(weights, shades)), np.zeros(3))

@@ -38,6 +38,11 @@ def _light_lines(t, kd, ks, indent: str) -> list:
     lines = [indent + head]
     if t.directional is False:
         lines.append(f"{indent}  Ii = {fmt(t.radiance)}, s = {fmt(t.s)}")
+    if t.spot is not None:
+        if t.spot == 0.0:
+            lines.append(f"{indent}  spot: outside the outer cone, no light (no shadow ray)")
+            return lines
+        lines.append(f"{indent}  spot: cone factor cos^n(a) smoothstep = {t.spot:.4g}, included in att")
     if t.ndots <= 0.0:
         lines.append(f"{indent}  n.s = {t.ndots:.4g} <= 0: the surface faces away, no light (no shadow ray)")
         return lines
@@ -67,7 +72,8 @@ def _shade_lines(s, indent: str = "  ") -> list:
     lines = [f"{indent}at {where}: p = {fmt(s.p)}",
              f"{indent}  n = {fmt(s.n)}" + (f"\n{indent}    ({s.normal_note})" if s.normal_note else ""),
              f"{indent}  v = {fmt(s.v)}  ({towards})",
-             f"{indent}  ka = {fmt(s.ka)}, kd = {fmt(s.kd)}, Ks = {fmt(s.ks)}, t = {s.shininess:.4g}",
+             f"{indent}  ka = {fmt(s.ka)}, kd = {fmt(s.kd)}, Ks = {fmt(s.ks)}, t = {s.shininess:.4g}"
+             + (f"\n{indent}    ({s.coef_note})" if s.coef_note else ""),
              f"{indent}  ambient  Ia ka = {fmt(s.ia)} x {fmt(s.ka)} = {fmt(s.ambient)}"]
     for t in s.lights:
         lines += _light_lines(t, s.kd, s.ks, indent + "  ")

@@ -267,11 +267,29 @@ def illuminate_reference(p, n, v, model, materials, lights, ambient, dmin, coef=
 
 
 # -- textures and colours --------------------------------------------------------------------------
+_WHOLE = 2.0 ** 52
+
+
+def _reduced(x, n, wrap):
+    """Texel coordinates (N,) with every ``|x| >= 2**52`` (or inf) reduced: the border, or modulo ``n``."""
+    big = ~(np.abs(x) < _WHOLE)
+    if not big.any():
+        return x
+    if wrap == "clamp":
+        return np.where(big, np.where(x < 0.0, -1.0, float(n)), x)
+    return np.where(big, np.where(np.isfinite(x), np.fmod(x, float(n)), 0.0), x)
+
+
 def _bilinear_level(level, wrap, tiling, u, v):
     """Bilinear RGB (N, 3) of one (h, w, 3) level at UVs (N,), texel centres at (j + 1/2) / w."""
     h, w = level.shape[:2]
-    x = u * tiling[0] * w - 0.5
-    y = v * tiling[1] * h - 0.5
+    su, sv = u * tiling[0], v * tiling[1]
+    with np.errstate(invalid="ignore"):
+        if wrap != "clamp":  # repeat's period is 1: past 2**52 (or overflowed) a whole number of periods
+            su, sv = np.where(np.abs(su) < _WHOLE, su, 0.0), np.where(np.abs(sv) < _WHOLE, sv, 0.0)
+        # Texel coordinates past 2**52 are whole numbers (int64 overflows past 2**63): the border, or
+        # exactly modulo the grid, as the kernels' _texel_corners.
+        x, y = _reduced(su * w - 0.5, w, wrap), _reduced(sv * h - 0.5, h, wrap)
     j0, i0 = np.floor(x), np.floor(y)
     tx, ty = (x - j0)[:, None], (y - i0)[:, None]
     j0, i0 = j0.astype(np.int64), i0.astype(np.int64)

@@ -13,6 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, prange
 
+from ..common.validate import as_int
+
 __all__ = ["HitBuffer", "check_hits", "image_buffer"]
 
 
@@ -50,6 +52,7 @@ class HitBuffer:
     @classmethod
     def empty(cls, height: int, width: int) -> "HitBuffer":
         """A buffer of misses, ready for a caster or rasterizer to fill."""
+        height, width = as_int(height, "height", minimum=0), as_int(width, "width", minimum=0)
         return cls(
             prim=np.full((height, width), -1, np.int32),
             geom=np.full((height, width), -1, np.int32),
