@@ -42,3 +42,8 @@ def results_file(name: str, quick: bool) -> str:
 def image_file(name: str, quick: bool) -> str:
     """``images_dir(quick)/name``."""
     return os.path.join(images_dir(quick), name)
+
+
+def page_file(name: str, quick: bool) -> str:
+    """A generated page of the docs: ``docs/name`` (full) or ``out/quick/name``."""
+    return os.path.join(QUICK, name) if quick else os.path.join(ROOT, "docs", name)

@@ -2,7 +2,7 @@
 
 Run through ``python -m docs.figures --only contract`` (``--quick`` writes ``out/quick/contract.md``).
 
-Usage: ``python benchmarks/make_contract_table.py [--out docs/contract.md]``. Runs the same walks
+Usage: ``python -m docs.figures --only contract`` (or this module with ``--out FILE``). Runs the same walks
 as the test (every public callable x argument x generic bad value; every CLI option x bad string)
 and prints, per callable and per subcommand, what each bad value met: refused naming the argument,
 or legal (the reviewed allow-list, with its reasons).
@@ -21,6 +21,7 @@ ROOT = Path(__file__).resolve().parents[2]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
+from benchmarks.outputs import page_file  # noqa: E402
 from tests.project import test_contract as tc  # noqa: E402
 
 
@@ -105,7 +106,7 @@ def main(argv=None) -> int:
         "",
     ]
     if args.out is None:
-        args.out = str(ROOT / "out" / "quick" / "contract.md") if args.quick else str(ROOT / "docs" / "contract.md")
+        args.out = page_file("contract.md", args.quick)
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     Path(args.out).write_text("\n".join(out))
     print(f"wrote {args.out}: {len(py)} Python calls, {len(cli)} command lines, {len(breaches)} breaches")

@@ -18,7 +18,7 @@ NumPy scalars where a number is meant, ``(3, 1)`` and ``(1, 3)`` arrays where a 
 The command line: every option of every subcommand, given generic bad strings, exits 2 with one
 line, never a traceback.
 
-``python benchmarks/make_contract_table.py`` writes the functions x bad values table of this
+``python -m docs.figures --only contract`` writes the functions x bad values table of this
 walk to docs/contract.md.
 """
 
@@ -266,7 +266,6 @@ LEGAL = {
     ("overlays.overlay", "color", "0"): "black",
     ("render_views", "cameras", "None"): "the scene's own camera (plan_batch)",
     ("render_views", "out_dir", "'abc'"): "a folder name",
-    ("render_views", "depth_scale", "1e308"): "recorded in index.json; only depth PNGs (not asked for) use it",
     ("render", "tolerance", "1e308"): "any method is good enough",
     ("choose_methods", "tolerance", "1e308"): "any method is good enough",
     ("choose_methods", "max_pixels", "1e308"): "no limit on the pixels sampled",
@@ -495,6 +494,7 @@ CLI_LEGAL = {
     **{(c, "--tolerance", "1e308"): "any method is good enough" for c in ("render", "animate", "views")},
     ("animate", "--degrees", "1e308"): "reduced modulo 360 x frames: every frame a finite turn",
     ("animate", "--fps", "1e308"): "the frame rate of a video; PNG frames (the walk's output) have none",
+    ("views", "--export", "''"): "an empty list of exports: the view set alone, as without --export",
 }
 
 
