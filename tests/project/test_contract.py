@@ -478,7 +478,7 @@ SCENE_TOML = ('[camera]\neye = [0.0, 0.0, 4.0]\nwidth = 8\nheight = 6\n\n[[objec
 # Valid, small runs of each subcommand; the option walked is appended (the last occurrence wins).
 CLI_BASE = {"demo": ["--width=8", "--height=6", "-o", "demo.png"], "render": ["scene.toml", "-o", "out.png"],
             "animate": ["scene.toml", "--frames=2", "-o", "frames"],
-            "views": ["scene.toml", "--orbit=2", "-o", "views"]}
+            "views": ["scene.toml", "--orbit=2", "-o", "views", "--overwrite"]}  # each run its own plan
 # Options whose values are names of things outside the walk: files (any string names one) and the
 # address of a Dask scheduler (connecting to "abc" waits for a network timeout).
 CLI_NOT_WALKED = {"output": "a path", "scheduler": "a Dask scheduler's address", "image": "an extension (views)",
