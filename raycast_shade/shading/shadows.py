@@ -26,7 +26,7 @@ from .jit import CALLED, HELPER
 __all__ = []
 
 _SHADOW_TFAR = 1.0 - 1e-5  # point-light shadow rays stop just short of the light
-_SCRATCH = 24  # float32 slots: one RTCRay (12) plus alignment slack
+_SCRATCH = 2 * embree.RAY_SLOTS  # float32 slots: one RTCRay plus alignment slack
 
 
 @njit(**CALLED)  # allocates: NRT on
@@ -75,17 +75,6 @@ def _occluded(handle, S, px, py, pz, gx, gy, gz, sx, sy, sz, lx, ly, lz, is_poin
         dy = sy
         dz = sz
         tfar = np.inf
-    buf[off + 0] = ox
-    buf[off + 1] = oy
-    buf[off + 2] = oz
-    buf[off + 3] = 0.0
-    buf[off + 4] = dx
-    buf[off + 5] = dy
-    buf[off + 6] = dz
-    buf[off + 7] = 0.0
-    buf[off + 8] = tfar
-    ib[off + 9] = 0xFFFFFFFF
-    ib[off + 10] = 0
-    ib[off + 11] = 0
+    embree.write_ray(buf, ib, off, 1, (ox, oy, oz), (dx, dy, dz), 0.0, tfar)
     embree.occluded1(handle, buf.ctypes.data + off * 4, 0)  # the address taken from the live array, here
-    return buf[off + 8] < 0.0  # Embree sets tfar to -inf on a hit
+    return buf[off + embree.RAY_TFAR] < 0.0  # Embree sets tfar to -inf on a hit
