@@ -55,20 +55,27 @@ def _nudge(p, n, unit):
 
 
 @njit(**HELPER)
-def _occluded(handle, S, px, py, pz, gx, gy, gz, sx, sy, sz, lx, ly, lz, is_point, unit):
-    """True if the scene blocks the way from p towards the light.
+def _occluded(handle, S, o, g, s, target, is_point, unit):
+    """True if the scene blocks the way from ``o`` towards the light.
 
-    ``S`` is the scratch from :func:`_scratch`, unpacked only here: shadow
-    rays are the rare path, and the unpacking costs reference counting."""
+    ``o`` is the shading point's shadow origin, pushed off the surface along its
+    geometric normal ``g`` (on the side of the unit direction ``s`` to the light);
+    a point light's ray ends just short of ``target``, its position, a light at
+    infinity's (``is_point`` False) goes on along ``s``. ``S`` is the scratch from
+    :func:`_scratch`, unpacked only here: shadow rays are the rare path, and the
+    unpacking costs reference counting."""
     buf, ib, off = S
+    px, py, pz = o
+    gx, gy, gz = g
+    sx, sy, sz = s
     side = 1.0 if gx * sx + gy * sy + gz * sz >= 0.0 else -1.0
     ox = _nudge(px, side * gx, unit)
     oy = _nudge(py, side * gy, unit)
     oz = _nudge(pz, side * gz, unit)
     if is_point:
-        dx = lx - ox
-        dy = ly - oy
-        dz = lz - oz
+        dx = target[0] - ox
+        dy = target[1] - oy
+        dz = target[2] - oz
         tfar = _SHADOW_TFAR
     else:
         dx = sx
