@@ -11,7 +11,7 @@ normal ``n``, the unit direction ``s`` to the light, the unit direction ``v`` to
 material row carries the model's code (``MAT_MODEL``, codes ``MODEL_*`` in
 :mod:`raycast_shade.common.layout`). Adding a model: a code in ``layout.py``, one function
 here, its entry in :data:`MODELS` and its branch in :func:`_specular_cosine` (a Numba kernel
-cannot call through a dict; ``tests/test_lighting.py`` checks the branches against the
+cannot call through a dict; ``tests/test_light_interface.py`` checks the branches against the
 registry), and the name in ``Material``'s ``specular`` choices.
 """
 
