@@ -62,7 +62,7 @@ def _bump(n, B, at, tri, front):
     along ``Pu x Pv``: where the UV map is left-handed (``(Pu x Pv).front < 0``,
     e.g. the spherical mapping seen from outside), the perturbation changes
     sign, so a negative height is a dent on every mesh. ``B`` is the height-map
-    tuple of :func:`~raycast_shade.shading.inputs.kernel_inputs`; ``at`` the hit
+    tuple of :class:`~raycast_shade.shading.inputs.FrameInputs`; ``at`` the hit
     (:class:`~raycast_shade.shading.records.At`) on triangle ``tri = (i0, i1, i2)``."""
     uvs, tangents, bump_index, texels, info = B
     f, gm, b1, b2 = at

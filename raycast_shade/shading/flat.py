@@ -29,7 +29,7 @@ def _make_flat(spec_on: bool, att_on: bool, tex_on: bool = False):
     def _shade_faces_kernel(face_flags, G, face_model, materials, cam, L, T, uvs, out):
         """Flat shading: one shade per visible face, at its centre.
 
-        ``G``, ``L`` and ``T`` as in :func:`~raycast_shade.shading.inputs.kernel_inputs`;
+        ``G``, ``L`` and ``T`` as in :class:`~raycast_shade.shading.inputs.FrameInputs`;
         ``out`` (F, 3) float64. A textured face takes the texel at its centre
         from the mip level whose texels are as large as the face's UV
         triangle: the face's average colour, one shade per polygon."""

@@ -64,7 +64,7 @@ def _vertex_point(verts, cam, i):
 def _corner_shade(vcol, G, i, side, g, materials, m, cam, L, S, coef, spec_on, att_on):
     """A vertex's Gouraud shade for a face seen from ``side`` with geometric normal ``g``:
     the stored one, or shaded on the spot (:func:`_corner_normal`). ``G``, ``L`` as in
-    :func:`~raycast_shade.shading.inputs.kernel_inputs`."""
+    :class:`~raycast_shade.shading.inputs.FrameInputs`."""
     verts, normals, _, _ = G
     n, stored = _corner_normal(normals, i, side, g)
     if stored:

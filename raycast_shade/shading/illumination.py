@@ -130,7 +130,7 @@ def _illuminate_py(hp, coef, mats, mi, L, S, spec_on, att_on):
         shininess, the reflectance model and whether there is a specular term.
     L : tuple
         ``(ambient, lights, dmin, handle, unit)`` of
-        :func:`~raycast_shade.shading.inputs.kernel_inputs`.
+        :class:`~raycast_shade.shading.inputs.FrameInputs`.
     S : tuple
         The shadow-ray scratch (:func:`~raycast_shade.shading.shadows._scratch`).
     spec_on, att_on : bool

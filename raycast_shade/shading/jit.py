@@ -56,6 +56,6 @@ def compile_variants(make):
 
 def variant(variants, k):
     """The entry of :func:`compile_variants`'s registry for a frame's
-    :func:`~raycast_shade.shading.inputs.kernel_inputs` ``k``: the untextured variants'
+    :class:`~raycast_shade.shading.inputs.FrameInputs` ``k``: the untextured variants'
     arithmetic is the untextured renderer's, bit for bit."""
     return variants[tuple(k[flag] for flag in VARIANT_FLAGS)]

@@ -13,7 +13,7 @@ from numba import njit, prange
 from ..common.layout import MAT_REFLECTIVITY
 from ..common.schedule import BLOCK_ROWS, spread_step
 from ..visibility.accel import embree_accel
-from .inputs import kernel_inputs
+from .inputs import prepare
 from .jit import CHUNK, FLT32_MAX, HELPER, JIT, compile_variants, variant
 from .phong import _shade_surface, _surface
 from .records import At, reflect_into
@@ -164,7 +164,7 @@ def trace_mirrors(scene, camera, hits, image, max_depth: int = 3, inputs=None) -
         return image
     from ..visibility.cast import cast_rays_kernel
 
-    k = kernel_inputs(scene, camera) if inputs is None else inputs
+    k = prepare(scene, camera) if inputs is None else inputs
     points_kernel = variant(_BOUNCE, k)
     h, w = hits.shape
     counts = np.empty(h, np.int64)

@@ -6,7 +6,7 @@ Shadow rays leave the pixel's point, lifted past the terminator
 (:func:`~raycast_shade.shading.surface._terminator_point`).
 
 Speed notes. The kernels take the packed tuples of
-:func:`~raycast_shade.shading.inputs.kernel_inputs` and hand them whole to the
+:class:`~raycast_shade.shading.inputs.FrameInputs` and hand them whole to the
 inlined helpers, which unpack them: the helpers are compiled without reference
 counting (:data:`~raycast_shade.shading.jit.HELPER`). Unpacking a tuple of
 arrays in the kernel's own loop would make Numba take and drop a reference on
@@ -39,7 +39,7 @@ def _surface(G, B, cam, at, use_dir, d):
     """The shading point of hit ``at`` (:class:`~raycast_shade.shading.records.At`).
 
     ``G`` and ``B`` are the geometry and height-map tuples of
-    :func:`~raycast_shade.shading.inputs.kernel_inputs`. The view vector is
+    :class:`~raycast_shade.shading.inputs.FrameInputs`. The view vector is
     towards the eye, or ``-d`` for a secondary ray along ``d`` (``use_dir``).
     Returns a :class:`~raycast_shade.shading.records.Hit` with the oriented
     (and bumped) shading normal; its shadow origin is the point itself.
@@ -63,7 +63,7 @@ def _shade_surface(G, B, L, S, materials, cam, at, use_dir, d, coef, spec_on, at
     """Phong shading of hit ``at``: ``(rgb, hp)``, the colour and the shading point
     (:class:`~raycast_shade.shading.records.Hit`, for mirrors).
 
-    ``G``, ``B``, ``L`` as in :func:`~raycast_shade.shading.inputs.kernel_inputs`;
+    ``G``, ``B``, ``L`` as in :class:`~raycast_shade.shading.inputs.FrameInputs`;
     ``S`` the shadow scratch; ``use_dir``, ``d`` as in :func:`_surface`; ``coef``:
     the point's nine ``ka, kd, ks`` (:mod:`.texture`)."""
     hp = _surface(G, B, cam, at, use_dir, d)

@@ -19,7 +19,7 @@ rather than the twelfth of fifteen return values.
 ``At``, where a hit lies: face ``f`` (scene-wide index), model ``gm``, barycentrics ``b1, b2``
 of vertices 1 and 2.
 
-The packed frame inputs (:func:`~raycast_shade.shading.inputs.kernel_inputs`) travel as the
+The packed frame inputs (:class:`~raycast_shade.shading.inputs.FrameInputs`) travel as the
 tuples ``G``, ``B``, ``L`` and ``T`` themselves: the helpers are compiled without reference
 counting (:data:`~raycast_shade.shading.jit.HELPER`), so handing them a tuple of arrays costs
 nothing per pixel, where unpacking it in a kernel's loop would.

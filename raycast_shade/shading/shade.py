@@ -29,7 +29,7 @@ from ..common.layout import METHOD_FLAT, METHOD_GOURAUD, METHOD_PHONG
 from ..visibility.hits import check_hits
 from .flat import _FLAT, _lookup_flat_kernel
 from .gouraud import _INTERPOLATE, _VERTICES
-from .inputs import kernel_inputs
+from .inputs import prepare
 from .jit import JIT, variant
 from .phong import _PHONG
 
@@ -164,7 +164,7 @@ class SampleShading:
 
     def __init__(self, scene, camera, shading="phong", inputs=None):
         self.modes = resolve_methods(scene, shading)
-        self.k = kernel_inputs(scene, camera) if inputs is None else inputs
+        self.k = prepare(scene, camera) if inputs is None else inputs
         self.geo = scene.geometry
         self.flat = bool(np.any(self.modes == METHOD_FLAT))
         self.gouraud = bool(np.any(self.modes == METHOD_GOURAUD))

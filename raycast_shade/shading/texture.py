@@ -211,7 +211,7 @@ def _coefficients(mats, T, at, tri, uvs, footprint):
     barycentrics (1 - b1 - b2, b1, b2) on face f, triangle ``tri``, of model gm): the material
     row's, kd replaced by the mesh's colour, each times its map's texel filtered over
     ``footprint = (du/dx, dv/dx, du/dy, dv/dy)``. ``T`` as in
-    :func:`~raycast_shade.shading.inputs.kernel_inputs`."""
+    :class:`~raycast_shade.shading.inputs.FrameInputs`."""
     vcolors, fcolors, cmode, tindex, texels, tinfo, _ = T
     f, gm, b1, b2 = at
     i0, i1, i2 = tri
@@ -293,7 +293,7 @@ def texture_levels(scene, camera, hits, slot: str = "kd") -> np.ndarray:
 def _point_coefficients(G, uvs, at, cam, x, y, footprint_on, materials, T):
     """:func:`_coefficients` at hit ``at`` (:class:`~raycast_shade.shading.records.At`):
     filtered by pixel (x, y)'s footprint when ``footprint_on`` (a camera ray), at level 0
-    otherwise. ``G`` and ``T`` as in :func:`~raycast_shade.shading.inputs.kernel_inputs`."""
+    otherwise. ``G`` and ``T`` as in :class:`~raycast_shade.shading.inputs.FrameInputs`."""
     verts, _, faces, fnormals = G
     f, gm, b1, b2 = at
     tri = (faces[f, 0], faces[f, 1], faces[f, 2])
