@@ -75,7 +75,7 @@ ROOT = os.path.dirname(HERE)
 SECTIONS = ("limit", "memory", "load", "recast", "cold")
 KEYS = ["section", "mesh", "triangles", "width", "height", "variant", "metric", "value", "unit", "load1"]
 
-_RAY = 24  # float32 slots per ray in a packet (the renderer's RTCRayHit16 stride)
+_RAY = embree.RAYHIT_SLOTS  # float32 slots per ray in a packet (the renderer's RTCRayHit16 stride)
 FRAME_BYTES = 12 + 1  # per pixel written to memory: linear RGB float32 + the hit mask (hits stay in a band)
 PACKETS = {"packets": (4, 4), "packets8": (4, 2)}  # the renderer's 4x4 tiles of 16 rays; the 4x2 tiles of 8 it had
 
@@ -104,20 +104,8 @@ def _make_packets(cam, w, h, tw, th, rays, valid):
                 else:
                     valid[p * n + k] = 0
                     ox, oy, oz, dx, dy, dz = 0.0, 0.0, 0.0, 0.0, 0.0, 1.0
-                rays[o + 0 * n + k] = ox
-                rays[o + 1 * n + k] = oy
-                rays[o + 2 * n + k] = oz
-                rays[o + 3 * n + k] = 0.0
-                rays[o + 4 * n + k] = dx
-                rays[o + 5 * n + k] = dy
-                rays[o + 6 * n + k] = dz
-                rays[o + 7 * n + k] = 0.0
-                rays[o + 8 * n + k] = np.inf
-                ib[o + 9 * n + k] = 0xFFFFFFFF
-                ib[o + 10 * n + k] = 0
-                ib[o + 11 * n + k] = 0
-                ib[o + 17 * n + k] = 0xFFFFFFFF
-                ib[o + 18 * n + k] = 0xFFFFFFFF
+                embree.write_ray(rays, ib, o + k, n, (ox, oy, oz), (dx, dy, dz), 0.0, np.inf)
+                embree.reset_hit(ib, o + k, n)
 
 
 @njit(cache=True, parallel=True)
@@ -240,8 +228,8 @@ def limit_case(kind, level, w, h, repeats):
     for name in PACKETS:
         pristine, work, valid, npk, n = packs[name]
         tracer(name)()
-        hit_geom = work.view(np.uint32).reshape(npk, _RAY, n)[:, 18, :]
-        hits_packets[name] = int(np.count_nonzero(hit_geom[valid.reshape(npk, n) != 0] != 0xFFFFFFFF))
+        hit_geom = work.view(np.uint32).reshape(npk, _RAY, n)[:, embree.HIT_GEOM_ID, :]
+        hits_packets[name] = int(np.count_nonzero(hit_geom[valid.reshape(npk, n) != 0] != embree.INVALID_ID))
     med = {name: float(np.median(v)) for name, v in times.items()}
     tri = len(geo.faces)
     base = dict(section="limit", mesh=f"{kind}{level}", triangles=tri, width=w, height=h,

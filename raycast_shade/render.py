@@ -1,7 +1,14 @@
-"""The pipeline: rays -> hit buffer -> shading -> frame."""
+"""The pipeline: plan -> prepare -> see (hit buffer) -> shade -> output (frame).
+
+:func:`render` checks every argument into a plan before any kernel runs, builds the BVH
+and packs the frame's kernel inputs once (:func:`~raycast_shade.shading.inputs.prepare`),
+casts or rasterizes the hit buffer, shades it (mirror bounces from the same inputs), and
+hands the image and its buffers to the :class:`~raycast_shade.output.frame.Frame`.
+"""
 
 from __future__ import annotations
 
+import functools
 import time
 from dataclasses import dataclass
 
@@ -24,6 +31,7 @@ from .study.explain import explain
 from .common.choices import BACKENDS, CASTER_CHOICES, INTERPOLATIONS, SHADING_CHOICES
 from .common.samples import check_samples, sample_offsets
 from .common.validate import as_int, as_scalar
+from .shading.inputs import prepare
 from .shading.mirrors import MAX_MIRROR_DEPTH, trace_mirrors
 from .shading.shade import GROUP, SampleShading, accumulate, resolve_methods, sample_mean
 from .shading.terms import check_terms, shade_terms
@@ -125,13 +133,15 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
     warn_render(scene, shading)  # no lights, a light inside a closed mesh, a bump map the method ignores
     timings = {}
     mask = None
+    _build(scene, plan, timings)
+    inputs = prepare(scene, camera)  # once per frame: shading, every sample and the mirror bounces
     if _banded(scene, plan, terms):
-        hits, image, mask = _render_bands(scene, plan, timings)
+        hits, image, mask = _render_bands(scene, plan, timings, inputs)
         coverage = None
     elif plan.samples == 1:
-        hits, image, coverage = _render_one(scene, plan, timings)
+        hits, image, coverage = _render_one(scene, plan, timings, inputs)
     else:
-        hits, image, coverage = _render_samples(scene, plan, timings)
+        hits, image, coverage = _render_samples(scene, plan, timings, inputs)
     te = time.perf_counter()
     extra = {}
     if plan.buffers:
@@ -231,16 +241,22 @@ def _choice(value, name: str, choices) -> str:
     return value.lower()
 
 
+def _build(scene, plan: _Plan, timings: dict) -> None:
+    """Build the Embree BVH of a frame the packet caster casts, timed alone as ``"build"``
+    (a scene whose BVH exists, e.g. after ``scene.replace(camera=...)``, reuses it)."""
+    if plan.backend != "raycast" or plan.caster == "embreex":
+        return
+    if not scene.has_geometry or not has_embree_accel(scene.geometry):
+        tb = time.perf_counter()
+        embree_accel(scene.geometry)
+        timings["build"] = time.perf_counter() - tb
+
+
 def _visibility(scene, plan: _Plan, timings: dict, offset=(0.0, 0.0), out=None):
     """The hit buffer of ``plan.camera``, by ray casting or rasterization (timed into ``timings``,
     summed over calls), through the pixel centres or the points ``offset`` pixels off them;
     filled into ``out`` (a HitBuffer of the image's size) when given."""
     camera = subpixel_camera(plan.camera, *offset)  # plan.camera itself at the centre
-    fresh = "geometry" not in scene.__dict__ or not has_embree_accel(scene.geometry)
-    if fresh and plan.caster != "embreex" and plan.backend == "raycast":
-        tb = time.perf_counter()
-        embree_accel(scene.geometry)  # build now so that the cast is timed alone
-        timings["build"] = time.perf_counter() - tb
     tc = time.perf_counter()
     if plan.backend == "raycast":
         hits = cast_camera(scene.geometry, camera, plan.caster, out=out)
@@ -253,15 +269,15 @@ def _visibility(scene, plan: _Plan, timings: dict, offset=(0.0, 0.0), out=None):
     return hits
 
 
-def _render_one(scene, plan: _Plan, timings: dict):
+def _render_one(scene, plan: _Plan, timings: dict, inputs):
     """One ray per pixel: the hit buffer, its shaded image (mirrors blended in) and no coverage."""
     hits = _visibility(scene, plan, timings)
     ts = time.perf_counter()
-    image = SampleShading(scene, plan.camera, plan.shading).shade(hits, out=plan.out)  # our hits: valid
+    image = SampleShading(scene, plan.camera, plan.shading, inputs).shade(hits, out=plan.out)  # our hits: valid
     te = time.perf_counter()
     timings["shade"] = te - ts
     if scene.geometry.reflective and plan.max_depth > 0:
-        trace_mirrors(scene, plan.camera, hits, image, plan.max_depth)
+        trace_mirrors(scene, plan.camera, hits, image, plan.max_depth, inputs)
         timings["mirror"] = time.perf_counter() - te
     return hits, image, None
 
@@ -279,19 +295,17 @@ def _banded(scene, plan: _Plan, terms) -> bool:
             and cam.width * cam.height >= bands.MIN_PIXELS)
 
 
-def _render_bands(scene, plan: _Plan, timings: dict):
+def _render_bands(scene, plan: _Plan, timings: dict, inputs):
     """One ray per pixel, each band of rows shaded as soon as it is cast (while its hits are in
     cache), so the frame never holds (or page-faults in) a full-frame hit buffer: 20 bytes a
     pixel. Returns the recipe of the hit buffer (the same cast again, run if ``frame.hits``
-    is read), the image and the hit mask. Every pixel is the one :func:`_render_one` gives."""
+    is read: :func:`~raycast_shade.visibility.cast.cast_camera` with the frame's camera and
+    caster, nothing of ``render``), the image and the hit mask. Every pixel is the one
+    :func:`_render_one` gives."""
     camera = plan.camera
-    if not has_embree_accel(scene.geometry):
-        tb = time.perf_counter()
-        embree_accel(scene.geometry)  # build now so that the cast is timed alone
-        timings["build"] = time.perf_counter() - tb
     image = np.empty((camera.height, camera.width, 3), np.float32) if plan.out is None else plan.out
     mask = np.empty((camera.height, camera.width), np.bool_)
-    shader = SampleShading(scene, camera, plan.shading)
+    shader = SampleShading(scene, camera, plan.shading, inputs)
     tc = time.perf_counter()
     cast = shade = 0.0
     for y, band in bands.cast_bands(scene.geometry, camera, bands.BAND_ROWS):
@@ -303,10 +317,10 @@ def _render_bands(scene, plan: _Plan, timings: dict):
         tc = time.perf_counter()
         shade += tc - ts
     timings["cast"], timings["shade"] = cast, shade
-    return (lambda: _visibility(scene, plan, {})), image, mask
+    return functools.partial(cast_camera, scene.geometry, camera, plan.caster), image, mask
 
 
-def _render_samples(scene, plan: _Plan, timings: dict):
+def _render_samples(scene, plan: _Plan, timings: dict, inputs):
     """Anti-aliasing: every sample's hit buffer, shaded (and mirrored) with the per-face and
     per-vertex work shared, then averaged. Returns sample 0's (the centre's) hits, the mean
     image and the coverage (None unless a "coverage" buffer was asked for).
@@ -319,7 +333,7 @@ def _render_samples(scene, plan: _Plan, timings: dict):
     place by each sample (no fresh pages per sample: ~8 ms a cast at 1080p)."""
     camera = plan.camera
     h, w = camera.height, camera.width
-    shader = SampleShading(scene, camera, plan.shading)
+    shader = SampleShading(scene, camera, plan.shading, inputs)
     mirrors = scene.geometry.reflective and plan.max_depth > 0
     offsets = sample_offsets(plan.samples)
     n = len(offsets)
@@ -343,7 +357,7 @@ def _render_samples(scene, plan: _Plan, timings: dict):
         te = time.perf_counter()
         timings["shade"] = timings.get("shade", 0.0) + te - ts
         if mirrors:  # per sample: a mirror's reflection is anti-aliased too
-            trace_mirrors(scene, camera, hits, image, plan.max_depth)
+            trace_mirrors(scene, camera, hits, image, plan.max_depth, inputs)
             timings["mirror"] = timings.get("mirror", 0.0) + time.perf_counter() - te
         if i == 0:
             centre = hits

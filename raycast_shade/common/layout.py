@@ -3,20 +3,21 @@
 Kernels take flat float64 rows rather than objects; these named slots are the
 only place their layout is written down. Numba freezes module-level integers
 as compile-time constants, so ``cam[CAM_ORTHO]`` compiles exactly as
-``cam[12]`` did. ``tests/test_layout.py`` checks every packer against
+``cam[12]`` did. ``tests/common/test_layout.py`` checks every packer against
 these sizes and slots.
 
 Camera row, ``(CAM_SIZE,) = (16,)`` float64 (:func:`raycast_shade.visibility.rays.camera_frame`):
     eye (3, re-centred), right * half width (3), up * half height (3),
     forward (3), orthographic flag, width, height, unused.
-Light rows, ``(L, LIGHT_SIZE) = (L, 16)`` float64 (:meth:`raycast_shade.Scene.packed_lights`):
+Light rows, ``(L, LIGHT_SIZE) = (L, 16)`` float64 (each light's ``pack``; :meth:`raycast_shade.Scene.packed_lights`):
     kind (0 point, 1 directional, 2 spot), position or unit direction towards
     the light (3), radiance ``Ii * color`` (3), attenuation code
     (:data:`ATT_CODE`), heuristic ``k``, casts shadows (0/1); spot lights
     only (zero otherwise): unit axis the spot shines along (3), cosines of the
     inner and outer cone half-angles, Warn exponent ``n``.
 Material rows, ``(G, MAT_SIZE) = (G, 12)`` float64 (:meth:`raycast_shade.Material.packed`):
-    ka (3), kd (3), ks (3), shininess, Blinn flag, reflectivity.
+    ka (3), kd (3), ks (3), shininess, reflectance model code (:data:`MODEL_PHONG`,
+    :data:`MODEL_BLINN`; the slot is also named ``MAT_BLINN``: 1 is Blinn), reflectivity.
 Height-map rows, ``(B, BUMP_SIZE) = (B, 7)`` float64 (:meth:`raycast_shade.HeightMap.packed_info`):
     texel offset, rows, cols, clamp flag, tiling u, tiling v, height scale.
 Texture rows, ``(K, TEX_SIZE) = (K, 8)`` float64 (:meth:`raycast_shade.Texture.packed_info`):
@@ -25,6 +26,11 @@ Texture rows, ``(K, TEX_SIZE) = (K, 8)`` float64 (:meth:`raycast_shade.Texture.p
     levels, clamp flag, tiling u, tiling v, mip-map flag (0: level 0 only).
 
 Components of a 3-vector slot are ``SLOT + 0``, ``SLOT + 1``, ``SLOT + 2``.
+
+Codes the kernels switch on: the light kinds (``LIGHT_KIND`` values, one branch each in
+:func:`raycast_shade.shading.illumination._light_at`), the reflectance models (``MAT_MODEL``
+values, :data:`raycast_shade.shading.reflectance.MODELS`) and the shading methods (one per
+model, :data:`raycast_shade.shading.shade.METHODS`).
 """
 
 from __future__ import annotations
@@ -64,9 +70,18 @@ MAT_KA = 0  # 0:3
 MAT_KD = 3  # 3:6
 MAT_KS = 6  # 6:9
 MAT_SHININESS = 9
-MAT_BLINN = 10
+MAT_MODEL = 10  # reflectance model code: MODEL_PHONG or MODEL_BLINN
+MAT_BLINN = MAT_MODEL  # the same slot under its first name: 1.0 for Blinn-Phong
 MAT_REFLECTIVITY = 11
 MAT_SIZE = 12
+
+MODEL_PHONG = 0  # MAT_MODEL values: Phong's (r.v)^t
+MODEL_BLINN = 1  # Blinn-Phong's (n.h)^t
+
+# shading methods, one per model
+METHOD_FLAT = 0
+METHOD_GOURAUD = 1
+METHOD_PHONG = 2
 
 # height-map rows
 BUMP_OFFSET = 0

@@ -7,9 +7,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..common.choices import ATTENUATIONS
+from ..common.layout import (ATT_CODE, LIGHT_ATT, LIGHT_AXIS, LIGHT_COS_INNER, LIGHT_COS_OUTER, LIGHT_DIRECTIONAL,
+                             LIGHT_EXPONENT, LIGHT_K, LIGHT_KIND, LIGHT_POINT, LIGHT_RADIANCE, LIGHT_SHADOWS,
+                             LIGHT_SIZE, LIGHT_SPOT, LIGHT_VEC)
 from ..common.validate import MAX_RADIANCE, as_array, as_choice, as_name, as_rgb, as_scalar, as_vec3, pow2_scaled
 
-__all__ = ["PointLight", "SpotLight", "DirectionalLight", "ATTENUATIONS", "MAX_SPOT_EXPONENT"]
+__all__ = ["Light", "PointLight", "SpotLight", "DirectionalLight", "ATTENUATIONS", "MAX_SPOT_EXPONENT"]
 
 MAX_SPOT_EXPONENT = 1e4  # cos^n: beyond this the beam is a few hundredths of a degree wide
 
@@ -19,8 +22,42 @@ def _as_bool(value, name):
     return bool(value)
 
 
+class Light:
+    """What every light kind has: a radiance, whether it casts shadows, and a row for the kernels.
+
+    A new kind subclasses this (a frozen dataclass), packs itself in :meth:`pack` under a new
+    ``LIGHT_KIND`` code of :mod:`raycast_shade.common.layout`, and the kernels read it in one
+    place, :func:`raycast_shade.shading.illumination._light_at`.
+    """
+
+    kind = None  # the LIGHT_KIND code of the rows this class packs
+
+    def pack(self, origin) -> np.ndarray:
+        """This light's kernel row.
+
+        Parameters
+        ----------
+        origin : (3,) float64
+            The scene's centre (:attr:`SceneGeometry.origin`): positions are re-centred on it
+            like the geometry.
+
+        Returns
+        -------
+        (LIGHT_SIZE,) = (16,) float64
+            Slots named in :mod:`raycast_shade.common.layout`: kind, position or direction
+            towards the light, radiance, attenuation code, ``k`` (1 where unused), casts
+            shadows; the spot slots zero unless the kind uses them.
+        """
+        row = np.zeros(LIGHT_SIZE)
+        row[LIGHT_KIND] = self.kind
+        row[LIGHT_RADIANCE:LIGHT_RADIANCE + 3] = self.radiance
+        row[LIGHT_SHADOWS] = int(self.shadows)
+        row[LIGHT_K] = 1.0
+        return row
+
+
 @dataclass(frozen=True, eq=False)
-class PointLight:
+class PointLight(Light):
     """A point source at ``position``.
 
     The intensity reaching a point at distance ``d`` is ``Ii`` (``"none"``),
@@ -69,14 +106,23 @@ class PointLight:
         set_(self, "k", k)
         set_(self, "shadows", _as_bool(self.shadows, f"{self.name}.shadows"))
 
+    kind = LIGHT_POINT
+
     @property
     def radiance(self) -> np.ndarray:
         """(3,) float64 ``Ii * color``."""
         return self.intensity * self.color
 
+    def pack(self, origin) -> np.ndarray:
+        row = super().pack(origin)
+        row[LIGHT_VEC:LIGHT_VEC + 3] = self.position - origin
+        row[LIGHT_ATT] = ATT_CODE[self.attenuation]
+        row[LIGHT_K] = self.k
+        return row
+
 
 @dataclass(frozen=True, eq=False)
-class DirectionalLight:
+class DirectionalLight(Light):
     """A light at infinity shining along ``direction`` (from the light to the scene).
 
     Parameters
@@ -106,9 +152,16 @@ class DirectionalLight:
         set_(self, "color", as_rgb(self.color, f"{self.name}.color"))
         set_(self, "shadows", _as_bool(self.shadows, f"{self.name}.shadows"))
 
+    kind = LIGHT_DIRECTIONAL
+
     @property
     def radiance(self) -> np.ndarray:
         return self.intensity * self.color
+
+    def pack(self, origin) -> np.ndarray:
+        row = super().pack(origin)
+        row[LIGHT_VEC:LIGHT_VEC + 3] = -self.direction  # towards the light
+        return row
 
 
 @dataclass(frozen=True, eq=False)
@@ -173,6 +226,16 @@ class SpotLight(PointLight):
             raise ValueError(f"{self.name}.inner_angle: must be <= outer_angle ({outer}), got {inner}")
         set_(self, "inner_angle", inner)
         set_(self, "outer_angle", outer)
+
+    kind = LIGHT_SPOT
+
+    def pack(self, origin) -> np.ndarray:
+        row = super().pack(origin)
+        row[LIGHT_AXIS:LIGHT_AXIS + 3] = self.direction
+        row[LIGHT_COS_INNER] = self.cos_inner
+        row[LIGHT_COS_OUTER] = self.cos_outer
+        row[LIGHT_EXPONENT] = self.exponent
+        return row
 
     @property
     def cos_inner(self) -> float:

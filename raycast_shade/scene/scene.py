@@ -16,11 +16,8 @@ import numpy as np
 
 from ..common.validate import as_rgb
 from .camera import Camera
-from ..common.layout import (ATT_CODE, BUMP_SIZE, COLOR_FACE, COLOR_NONE, COLOR_VERTEX, LIGHT_ATT, LIGHT_AXIS,
-                             LIGHT_COS_INNER, LIGHT_COS_OUTER, LIGHT_DIRECTIONAL, LIGHT_EXPONENT, LIGHT_K, LIGHT_KIND,
-                             LIGHT_RADIANCE, LIGHT_SHADOWS, LIGHT_SIZE, LIGHT_SPOT, LIGHT_VEC, MAT_REFLECTIVITY,
-                             MAT_SIZE, TEX_SIZE)
-from .lights import DirectionalLight, PointLight, SpotLight
+from ..common.layout import BUMP_SIZE, COLOR_FACE, COLOR_NONE, COLOR_VERTEX, LIGHT_SIZE, MAT_REFLECTIVITY, MAT_SIZE, TEX_SIZE
+from .lights import Light
 from .material import Material
 from .mesh import Mesh
 
@@ -301,11 +298,11 @@ class Scene:
             raise ValueError("scene.models: a scene needs at least one model")
         set_(self, "models", models)
         lights = self.lights
-        if isinstance(lights, (PointLight, DirectionalLight)):
+        if isinstance(lights, Light):
             lights = (lights,)
         lights = _as_sequence(lights, "scene.lights")
         for i, light in enumerate(lights):
-            if not isinstance(light, (PointLight, DirectionalLight)):
+            if not isinstance(light, Light):
                 raise TypeError(f"scene.lights[{i}]: expected a PointLight or DirectionalLight, got {type(light).__name__}")
         set_(self, "lights", lights)
         if self.camera is not None and not isinstance(self.camera, Camera):
@@ -331,6 +328,11 @@ class Scene:
                     self.__dict__["geometry"] = geo
         return geo
 
+    @property
+    def has_geometry(self) -> bool:
+        """Whether :attr:`geometry` has been built (reading this does not build it)."""
+        return "geometry" in self.__dict__
+
     def __getstate__(self):
         """Pickle the definition only (models, lights, camera, ambient,
         background): the packed geometry and its Embree BVH are rebuilt once,
@@ -355,6 +357,8 @@ class Scene:
     def packed_lights(self) -> np.ndarray:
         """The kernels' light rows, positions re-centred like the geometry.
 
+        Each light packs itself (``light.pack(origin)``).
+
         Returns
         -------
         (L, LIGHT_SIZE) = (L, 16) float64
@@ -367,23 +371,8 @@ class Scene:
             unit axis (3), ``cos(inner_angle)``, ``cos(outer_angle)``,
             exponent ``n``.
         """
-        rows = np.zeros((len(self.lights), LIGHT_SIZE))
-        rows[:, LIGHT_K] = 1.0
         origin = self.geometry.origin
+        rows = np.zeros((len(self.lights), LIGHT_SIZE))
         for i, light in enumerate(self.lights):
-            rows[i, LIGHT_RADIANCE:LIGHT_RADIANCE + 3] = light.radiance
-            rows[i, LIGHT_SHADOWS] = int(light.shadows)
-            if isinstance(light, PointLight):
-                rows[i, LIGHT_VEC:LIGHT_VEC + 3] = light.position - origin
-                rows[i, LIGHT_ATT] = ATT_CODE[light.attenuation]
-                rows[i, LIGHT_K] = light.k
-                if isinstance(light, SpotLight):
-                    rows[i, LIGHT_KIND] = LIGHT_SPOT
-                    rows[i, LIGHT_AXIS:LIGHT_AXIS + 3] = light.direction
-                    rows[i, LIGHT_COS_INNER] = light.cos_inner
-                    rows[i, LIGHT_COS_OUTER] = light.cos_outer
-                    rows[i, LIGHT_EXPONENT] = light.exponent
-            else:
-                rows[i, LIGHT_KIND] = LIGHT_DIRECTIONAL
-                rows[i, LIGHT_VEC:LIGHT_VEC + 3] = -light.direction
+            rows[i] = light.pack(origin)
         return rows

@@ -2,10 +2,12 @@
 face (flat), per vertex (Gouraud) or per pixel (Phong) over a hit buffer, with
 shadow rays, bump mapping and mirror reflections.
 
-Modules, lowest first: :mod:`.jit` (compile flags and the spec/attenuation
-variants), :mod:`.shadows`, :mod:`.illumination` (the reflectance equation),
+Modules, lowest first: :mod:`.jit` (compile flags and the registries of
+compile-time variants), :mod:`.records` (the helpers' records and 3-vectors),
+:mod:`.shadows`, :mod:`.reflectance` (one function per reflectance model),
+:mod:`.illumination` (the reflectance equation, every light kind),
 :mod:`.surface` (geometry at a hit), :mod:`.bump`, :mod:`.inputs` (the
-packed kernel arguments), the kernel families :mod:`.flat`, :mod:`.gouraud`,
+frame's packed kernel arguments, prepared once), the kernel families :mod:`.flat`, :mod:`.gouraud`,
 :mod:`.phong`, then :mod:`.shade` (the public :func:`shade`),
 :mod:`.normals`, :mod:`.mirrors` and :mod:`.conventions`.
 """

@@ -62,18 +62,24 @@ def _bilinear(tex, base, rows, cols, clamp, x, y):
 
 
 @njit(**HELPER)
-def _bump(nx, ny, nz, f, gm, i0, i1, i2, b1, b2, uvs, tangents, bump_index, texels, info, fx, fy, fz):
+def _bump(n, B, at, tri, front):
     """Blinn's perturbed normal N' = N + (Bu (N x Pv) - Bv (N x Pu)) / |N|,
-    with N = n |Pu x Pv| along the (oriented) shading normal n.
+    with N = n |Pu x Pv| along the (oriented) unit shading normal ``n`` (3-tuple).
 
-    The surface is displaced along its front (winding) normal ``f``, not
-    along ``Pu x Pv``: where the UV map is left-handed (``(Pu x Pv).f < 0``,
+    The surface is displaced along its front (winding) normal ``front``, not
+    along ``Pu x Pv``: where the UV map is left-handed (``(Pu x Pv).front < 0``,
     e.g. the spherical mapping seen from outside), the perturbation changes
-    sign, so a negative height is a dent on every mesh. The arrays are the
-    unpacked ``B`` of :func:`~raycast_shade.shading.inputs.kernel_inputs`."""
+    sign, so a negative height is a dent on every mesh. ``B`` is the height-map
+    tuple of :class:`~raycast_shade.shading.inputs.FrameInputs`; ``at`` the hit
+    (:class:`~raycast_shade.shading.records.At`) on triangle ``tri = (i0, i1, i2)``."""
+    uvs, tangents, bump_index, texels, info = B
+    f, gm, b1, b2 = at
+    i0, i1, i2 = tri
+    nx, ny, nz = n
+    fx, fy, fz = front
     k = bump_index[gm]
     if k < 0:
-        return nx, ny, nz
+        return n
     b0 = 1.0 - b1 - b2
     tu = b0 * uvs[i0, 0] + b1 * uvs[i1, 0] + b2 * uvs[i2, 0]
     tv = b0 * uvs[i0, 1] + b1 * uvs[i1, 1] + b2 * uvs[i2, 1]
@@ -110,5 +116,5 @@ def _bump(nx, ny, nz, f, gm, i0, i1, i2, b1, b2, uvs, tangents, bump_index, texe
     az = area * nz + bu * (nx * pvy - ny * pvx) - bv * (nx * puy - ny * pux)
     al = np.sqrt(ax * ax + ay * ay + az * az)
     if not (al > 0.0 and al < np.inf):
-        return nx, ny, nz
+        return n
     return ax / al, ay / al, az / al

@@ -16,7 +16,9 @@ eye does. Integer shininess, the usual case, is raised by repeated squaring
 rather than ``pow``.
 
 The material and light rows are read through the named slots of
-:mod:`raycast_shade.common.layout`.
+:mod:`raycast_shade.common.layout`. Every light kind is read in one place,
+:func:`_light_at` (direction, distance, attenuation and cone at a point); the
+specular lobe is the material's reflectance model (:mod:`.reflectance`).
 """
 
 from __future__ import annotations
@@ -26,9 +28,11 @@ from numba import njit
 
 from ..common.layout import (ATT_HEURISTIC, ATT_INVERSE_SQUARE, LIGHT_ATT, LIGHT_AXIS, LIGHT_COS_INNER,
                              LIGHT_COS_OUTER, LIGHT_DIRECTIONAL, LIGHT_EXPONENT, LIGHT_K, LIGHT_KIND,
-                             LIGHT_RADIANCE, LIGHT_SHADOWS, LIGHT_SPOT, LIGHT_VEC, MAT_BLINN, MAT_KA, MAT_KD, MAT_KS,
+                             LIGHT_RADIANCE, LIGHT_SHADOWS, LIGHT_SPOT, LIGHT_VEC, MAT_KS, MAT_MODEL,
                              MAT_SHININESS)
 from .jit import CALLED, HELPER
+from .records import dot
+from .reflectance import _specular_cosine
 from .shadows import _occluded
 
 __all__ = []
@@ -52,11 +56,11 @@ def _power(c, t):
 
 
 @njit(**HELPER)
-def _spot_factor(lights, i, sx, sy, sz):
+def _spot_factor(lights, i, s):
     """Warn's factor of spot light ``i`` for the unit direction ``s`` from the
     point towards the light: ``cos^n a`` times the smooth step from the outer
     cone (0) to the inner one (1), with ``cos a = -s . axis``; 0 outside."""
-    c = -(sx * lights[i, LIGHT_AXIS + 0] + sy * lights[i, LIGHT_AXIS + 1] + sz * lights[i, LIGHT_AXIS + 2])
+    c = -(s[0] * lights[i, LIGHT_AXIS + 0] + s[1] * lights[i, LIGHT_AXIS + 1] + s[2] * lights[i, LIGHT_AXIS + 2])
     co = lights[i, LIGHT_COS_OUTER]
     if not c > co:
         return 0.0
@@ -70,83 +74,95 @@ def _spot_factor(lights, i, sx, sy, sz):
     return f
 
 
-def _illuminate_py(px, py, pz, nx, ny, nz, vx, vy, vz, mats, mi, coef, ambient, lights, dmin, handle, unit, S,
-                   ox, oy, oz, gx, gy, gz, spec_on, att_on):
-    """RGB reflected towards unit ``v`` at point ``p`` with unit normal ``n``.
+@njit(**HELPER)
+def _light_at(lights, i, p, dmin, att_on):
+    """Light ``i`` (a row of ``lights``, any kind) seen from point ``p``.
 
-    ``mats[mi]`` is the material row (indexed, not sliced: a slice per pixel
-    would cost an atomic reference count shared by all threads); its
-    shininess, Blinn flag and whether it has a specular term apply. The
-    point's own ``ka, kd, ks`` come in ``coef``, a tuple of nine floats: the
-    row's, or textured and coloured ones (:mod:`.texture`). (One tuple, not
-    nine arguments: CPython passes a call of more than 30 arguments as
-    ``*args``, which Numba cannot inline.)
-    ``ambient`` (3,), ``lights`` (L, LIGHT_SIZE), ``dmin``, ``handle`` and
-    ``unit`` are the unpacked ``L`` of
-    :func:`~raycast_shade.shading.inputs.kernel_inputs`; ``S`` is the
-    shadow-ray scratch; shadow rays start at ``o`` pushed off along ``g``.
-    ``spec_on`` and ``att_on`` are compile-time constants (see
-    :mod:`.jit`): a scene with no specular material or no attenuating light
-    compiles without that arithmetic.
+    Returns
+    -------
+    s : 3-tuple of float
+        Unit direction from ``p`` towards the light.
+    d : float
+        Distance to the light: ``inf`` for a light at infinity, 0 for a light on
+        the point (which then has no direction and gives no light).
+    att : float
+        The distance law (1 without ``att_on``, a compile-time constant; see :mod:`.jit`).
+    cone : float
+        The emission factor towards ``p``: Warn's for a spot light (0 outside its
+        cone), 1 otherwise.
     """
+    if lights[i, LIGHT_KIND] == LIGHT_DIRECTIONAL:
+        return (lights[i, LIGHT_VEC + 0], lights[i, LIGHT_VEC + 1], lights[i, LIGHT_VEC + 2]), np.inf, 1.0, 1.0
+    dx = lights[i, LIGHT_VEC + 0] - p[0]
+    dy = lights[i, LIGHT_VEC + 1] - p[1]
+    dz = lights[i, LIGHT_VEC + 2] - p[2]
+    d = np.sqrt(dx * dx + dy * dy + dz * dz)
+    if d == 0.0:
+        return (0.0, 0.0, 0.0), 0.0, 1.0, 0.0
+    s = (dx / d, dy / d, dz / d)
+    att = 1.0
+    if att_on:
+        if lights[i, LIGHT_ATT] == ATT_INVERSE_SQUARE:
+            dd = max(d, dmin)
+            att = 1.0 / (dd * dd)
+        elif lights[i, LIGHT_ATT] == ATT_HEURISTIC:
+            att = 1.0 / (d + lights[i, LIGHT_K])
+    cone = 1.0
+    if lights[i, LIGHT_KIND] == LIGHT_SPOT:  # a point light with a cone
+        cone = _spot_factor(lights, i, s)
+    return s, d, att, cone
+
+
+def _illuminate_py(hp, coef, mats, mi, L, S, spec_on, att_on):
+    """RGB reflected towards ``hp.v`` at the shading point ``hp``.
+
+    Parameters
+    ----------
+    hp : Hit
+        The point, view, normals and shadow origin (:mod:`.records`); shadow rays
+        start at ``hp.o`` pushed off along ``hp.g``.
+    coef : 9-tuple of float
+        The point's own ``ka, kd, ks``: the material row's, or textured and
+        coloured ones (:mod:`.texture`).
+    mats : (G, MAT_SIZE) float64
+        Material rows; row ``mi`` (indexed, not sliced: a slice per pixel would
+        cost an atomic reference count shared by all threads) gives the
+        shininess, the reflectance model and whether there is a specular term.
+    L : tuple
+        ``(ambient, lights, dmin, handle, unit)`` of
+        :class:`~raycast_shade.shading.inputs.FrameInputs`.
+    S : tuple
+        The shadow-ray scratch (:func:`~raycast_shade.shading.shadows._scratch`).
+    spec_on, att_on : bool
+        Compile-time constants (see :mod:`.jit`): a scene with no specular
+        material or no attenuating light compiles without that arithmetic.
+    """
+    ambient, lights, dmin, handle, unit = L
     kar, kag, kab, kdr, kdg, kdb, ksr, ksg, ksb = coef
+    n = hp.n
     r = ambient[0] * kar
     g = ambient[1] * kag
     b = ambient[2] * kab
     shin = mats[mi, MAT_SHININESS]
-    blinn = mats[mi, MAT_BLINN] != 0.0
+    model = mats[mi, MAT_MODEL]
     has_spec = mats[mi, MAT_KS + 0] > 0.0 or mats[mi, MAT_KS + 1] > 0.0 or mats[mi, MAT_KS + 2] > 0.0
     for i in range(lights.shape[0]):
-        is_point = lights[i, LIGHT_KIND] != LIGHT_DIRECTIONAL  # spot lights are point lights with a cone
-        if not is_point:
-            sx = lights[i, LIGHT_VEC + 0]
-            sy = lights[i, LIGHT_VEC + 1]
-            sz = lights[i, LIGHT_VEC + 2]
-            att = 1.0
-        else:
-            dx = lights[i, LIGHT_VEC + 0] - px
-            dy = lights[i, LIGHT_VEC + 1] - py
-            dz = lights[i, LIGHT_VEC + 2] - pz
-            d = np.sqrt(dx * dx + dy * dy + dz * dz)
-            if d == 0.0:
-                continue  # light on the surface point: no direction, no light
-            sx = dx / d
-            sy = dy / d
-            sz = dz / d
-            att = 1.0
-            if att_on:
-                if lights[i, LIGHT_ATT] == ATT_INVERSE_SQUARE:
-                    dd = max(d, dmin)
-                    att = 1.0 / (dd * dd)
-                elif lights[i, LIGHT_ATT] == ATT_HEURISTIC:
-                    att = 1.0 / (d + lights[i, LIGHT_K])
-            if lights[i, LIGHT_KIND] == LIGHT_SPOT:
-                spot = _spot_factor(lights, i, sx, sy, sz)
-                if spot == 0.0:
-                    continue  # outside the cone: no light, no shadow ray
-                att *= spot
-        ndots = nx * sx + ny * sy + nz * sz
+        s, d, att, cone = _light_at(lights, i, hp.p, dmin, att_on)
+        if d == 0.0 or cone == 0.0:
+            continue  # on the point (no direction), or outside a spot's cone: no light, no shadow ray
+        att *= cone
+        ndots = dot(n, s)
         if ndots <= 0.0:
             continue
         if ndots > 1.0:
             ndots = 1.0
         if lights[i, LIGHT_SHADOWS] != 0.0 and handle != 0:
-            if _occluded(handle, S, ox, oy, oz, gx, gy, gz, sx, sy, sz,
-                         lights[i, LIGHT_VEC + 0], lights[i, LIGHT_VEC + 1], lights[i, LIGHT_VEC + 2], is_point, unit):
+            target = (lights[i, LIGHT_VEC + 0], lights[i, LIGHT_VEC + 1], lights[i, LIGHT_VEC + 2])
+            if _occluded(handle, S, hp.o, hp.g, s, target, d < np.inf, unit):
                 continue
         spec = 0.0
         if spec_on and has_spec:
-            if blinn:
-                hx = sx + vx
-                hy = sy + vy
-                hz = sz + vz
-                hl = np.sqrt(hx * hx + hy * hy + hz * hz)
-                c = (nx * hx + ny * hy + nz * hz) / hl if hl > 0.0 else 0.0
-            else:
-                rx = 2.0 * ndots * nx - sx
-                ry = 2.0 * ndots * ny - sy
-                rz = 2.0 * ndots * nz - sz
-                c = rx * vx + ry * vy + rz * vz
+            c = _specular_cosine(model, n, s, hp.v, ndots)
             if c > 0.0:
                 spec = _power(min(c, 1.0), shin)
         r += att * lights[i, LIGHT_RADIANCE + 0] * (kdr * ndots + ksr * spec)
@@ -159,10 +175,8 @@ _illuminate = njit(**HELPER)(_illuminate_py)
 
 
 @njit(**CALLED)
-def _illuminate_call(px, py, pz, nx, ny, nz, vx, vy, vz, mats, mi, coef, ambient, lights, dmin, handle, unit, S,
-                     ox, oy, oz, gx, gy, gz, spec_on, att_on):
+def _illuminate_call(hp, coef, mats, mi, L, S, spec_on, att_on):
     """:func:`_illuminate` as a call, for rare fallback branches: inlining it there would
     multiply the hot loop's code. (A function of its own: two dispatchers of one Python
     function would share one entry of Numba's disk cache, and load each other's code.)"""
-    return _illuminate(px, py, pz, nx, ny, nz, vx, vy, vz, mats, mi, coef, ambient, lights, dmin, handle, unit, S,
-                       ox, oy, oz, gx, gy, gz, spec_on, att_on)
+    return _illuminate(hp, coef, mats, mi, L, S, spec_on, att_on)

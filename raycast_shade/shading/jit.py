@@ -5,11 +5,13 @@ degenerate cases must compare as written; the other fast-math flags keep the
 arithmetic the golden images were made with.
 
 A scene with no specular material, or no attenuating light, needs none of
-that arithmetic. The kernels that evaluate the reflectance equation are
-therefore built by a small factory per kernel family, ``make(spec_on,
-att_on)``, whose closure constants Numba folds at compile time: four variants
-per family, each cached on disk separately (Numba keys its cache on the
-closure's values), and compiled only when a frame first needs it.
+that arithmetic, and one with no colours or maps none of the texture lookups.
+The kernels that evaluate the reflectance equation are therefore built by a
+small factory per kernel family, ``make(spec_on, att_on, tex_on)``, whose
+closure constants Numba folds at compile time: one registry per family
+(:func:`compile_variants`), eight variants keyed by those three flags, each
+cached on disk separately (Numba keys its cache on the closure's values), and
+compiled only when a frame first needs it (:func:`variant` picks a frame's).
 
 The helpers the kernels share are compiled with :data:`HELPER` (see there),
 the few that must stay calls with :data:`CALLED`.
@@ -19,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["JIT", "HELPER", "CALLED", "FLT32_MAX", "CHUNK", "compile_variants", "variant"]
+__all__ = ["JIT", "HELPER", "CALLED", "FLT32_MAX", "CHUNK", "VARIANT_FLAGS", "compile_variants", "variant"]
 
 JIT = dict(cache=True, error_model="numpy", fastmath={"nsz", "arcp", "contract", "afn", "reassoc"})
 # The helpers the kernels call per pixel. Numba's own inlining (inline="always") re-ran each
@@ -37,18 +39,23 @@ FLT32_MAX = float(np.finfo(np.float32).max)  # radiance saturates here instead o
 CHUNK = 1024  # faces, vertices or secondary rays per parallel task
 
 
+VARIANT_FLAGS = ("spec_on", "att_on", "tex_on")  # a variant's key, in order: fields of the frame's inputs
+
+
 def compile_variants(make):
-    """``make(spec_on, att_on)`` for the four combinations.
+    """One kernel family's registry: ``make(spec_on, att_on, tex_on)`` for the eight combinations.
 
     Returns
     -------
-    dict of (bool, bool) to object
-        Keyed by ``(spec_on, att_on)``; the dispatchers compile lazily.
+    dict of (bool, bool, bool) to object
+        Keyed by ``(spec_on, att_on, tex_on)`` (:data:`VARIANT_FLAGS`); the dispatchers
+        compile lazily.
     """
-    return {(s, a): make(s, a) for s in (False, True) for a in (False, True)}
+    return {(s, a, t): make(s, a, t) for s in (False, True) for a in (False, True) for t in (False, True)}
 
 
 def variant(variants, k):
-    """The entry of :func:`compile_variants`'s table for a frame's
-    :func:`~raycast_shade.shading.inputs.kernel_inputs` ``k``."""
-    return variants[(k["spec_on"], k["att_on"])]
+    """The entry of :func:`compile_variants`'s registry for a frame's
+    :class:`~raycast_shade.shading.inputs.FrameInputs` ``k``: the untextured variants'
+    arithmetic is the untextured renderer's, bit for bit."""
+    return variants[tuple(k[flag] for flag in VARIANT_FLAGS)]

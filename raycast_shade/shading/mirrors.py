@@ -13,11 +13,12 @@ from numba import njit, prange
 from ..common.layout import MAT_REFLECTIVITY
 from ..common.schedule import BLOCK_ROWS, spread_step
 from ..visibility.accel import embree_accel
-from .inputs import kernel_inputs
-from .jit import CHUNK, FLT32_MAX, HELPER, JIT, compile_variants
+from .inputs import prepare
+from .jit import CHUNK, FLT32_MAX, HELPER, JIT, compile_variants, variant
 from .phong import _shade_surface, _surface
+from .records import At, reflect_into
 from .shadows import _nudge, _scratch
-from .texture import _point_coefficients, _row_coefficients, variant_for
+from .texture import _point_coefficients, _row_coefficients
 
 __all__ = ["trace_mirrors", "MAX_MIRROR_DEPTH"]
 
@@ -30,19 +31,17 @@ _MIN_WEIGHT = 2.0 ** -24
 
 
 @njit(**HELPER)
-def _mirror_ray(px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz, unit):
-    """Reflect the incoming direction d = -v about n: r = d - 2 (d.n) n,
-    kept above the geometric surface, from an origin pushed off along g."""
+def _mirror_ray(hp, unit):
+    """The mirror ray of shading point ``hp`` (:class:`~raycast_shade.shading.records.Hit`):
+    the incoming direction ``d = -v`` reflected about ``n``, ``r = d - 2 (d.n) n``, kept above
+    the geometric surface, from an origin pushed off along ``g``. Returns ``(origin, r)``."""
+    vx, vy, vz = hp.v
+    nx, ny, nz = hp.n
     dn = -(vx * nx + vy * ny + vz * nz)
-    rx = -vx - 2.0 * dn * nx
-    ry = -vy - 2.0 * dn * ny
-    rz = -vz - 2.0 * dn * nz
-    c = rx * gx + ry * gy + rz * gz
-    if c < 0.0:  # a bent shading normal sent it below the surface
-        rx -= 2.0 * c * gx
-        ry -= 2.0 * c * gy
-        rz -= 2.0 * c * gz
-    return _nudge(px, gx, unit), _nudge(py, gy, unit), _nudge(pz, gz, unit), rx, ry, rz
+    r = (-vx - 2.0 * dn * nx, -vy - 2.0 * dn * ny, -vz - 2.0 * dn * nz)
+    r = reflect_into(r, hp.g)  # a bent shading normal sent it below the surface
+    p, g = hp.p, hp.g
+    return (_nudge(p[0], g[0], unit), _nudge(p[1], g[1], unit), _nudge(p[2], g[2], unit)), r
 
 
 @njit(parallel=True, **JIT)
@@ -64,8 +63,6 @@ def _reflect_primary_kernel(prim, geom, u, v, G, B, face_off, materials, cam, un
     their flat pixel index in ``pixel``. Packed arrays hold the mirror pixels
     only, not the whole image (at 1080p, 96 MB of mostly untouched memory
     that cost more in page faults than the mirror rays themselves)."""
-    verts, normals, faces, fnormals = G
-    uvs, tangents, bump_index, texels, info = B
     h, w = prim.shape
     nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
     step = spread_step(nblk)
@@ -80,18 +77,12 @@ def _reflect_primary_kernel(prim, geom, u, v, G, B, face_off, materials, cam, un
                 gm = geom[y, x]
                 if materials[gm, MAT_REFLECTIVITY] <= 0.0:
                     continue
-                f = face_off[gm] + p
-                px, py, pz, vx, vy, vz, gx, gy, gz, _, nx, ny, nz = _surface(
-                    verts, normals, faces, fnormals, uvs, tangents, bump_index, texels, info, cam, f, gm,
-                    np.float64(u[y, x]), np.float64(v[y, x]), False, 0.0, 0.0, 0.0)
-                ox, oy, oz, rx, ry, rz = _mirror_ray(px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz, unit)
+                at = At(face_off[gm] + p, gm, np.float64(u[y, x]), np.float64(v[y, x]))
+                o, r = _mirror_ray(_surface(G, B, cam, at, False, (0.0, 0.0, 0.0)), unit)
                 pixel[j] = y * w + x
-                origins[j, 0] = ox
-                origins[j, 1] = oy
-                origins[j, 2] = oz
-                dirs[j, 0] = rx
-                dirs[j, 1] = ry
-                dirs[j, 2] = rz
+                for k in range(3):
+                    origins[j, k] = o[k]
+                    dirs[j, k] = r[k]
                 j += 1
 
 
@@ -100,17 +91,18 @@ def _make_bounce(spec_on: bool, att_on: bool, tex_on: bool = False):
     coefficients, sampled at level 0: a bounced ray has no pixel footprint here)."""
 
     @njit(parallel=True, **JIT)
-    def _shade_points_kernel(prim, geom, u, v, dirs, G, B, L, T, face_off, materials, cam, background, last,
-                             colour, origins, next_dirs, active):
-        """Phong-shade secondary hits seen along ``dirs``; emit the next mirror rays.
+    def _shade_points_kernel(rays, G, B, L, T, face_off, materials, cam, background, last, out):
+        """Phong-shade secondary hits seen along their rays; emit the next mirror rays.
 
-        A reflective surface keeps ``1 - rho`` of its local shade and passes
-        ``rho`` on, except at the last bounce, where it shows its local shade.
+        ``rays`` = the hits ``(prim, geom, u, v)`` and their directions ``dirs``, (N,) and
+        (N, 3); ``out`` = ``(colour, origins, next_dirs, active)``. A reflective surface keeps
+        ``1 - rho`` of its local shade and passes ``rho`` on, except at the last bounce, where
+        it shows its local shade.
         """
-        verts, normals, faces, fnormals = G
-        uvs, tangents, bump_index, texels, info = B
-        ambient, lights, dmin, handle, unit = L
-        vcolors, fcolors, cmode, tindex, ttexels, tinfo, _ = T
+        prim, geom, u, v, dirs = rays
+        colour, origins, next_dirs, active = out
+        uvs = B[0]
+        unit = L[4]
         n = prim.shape[0]
         nchunk = (n + CHUNK - 1) // CHUNK
         step = spread_step(nchunk)
@@ -125,42 +117,33 @@ def _make_bounce(spec_on: bool, att_on: bool, tex_on: bool = False):
                         colour[i, k] = background[k]
                     continue
                 gm = geom[i]
-                f = face_off[gm] + p
-                b1 = np.float64(u[i])
-                b2 = np.float64(v[i])
+                at = At(face_off[gm] + p, gm, np.float64(u[i]), np.float64(v[i]))
                 if tex_on:
-                    coef = _point_coefficients(verts, uvs, fnormals, faces, f, gm, b1, b2, cam, 0, 0, False,
-                                               materials, vcolors, fcolors, cmode, tindex, ttexels, tinfo)
+                    coef = _point_coefficients(G, uvs, at, cam, 0, 0, False, materials, T)
                 else:
                     coef = _row_coefficients(materials, gm)
-                r, g, b, px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz = _shade_surface(
-                    verts, normals, faces, fnormals, uvs, tangents, bump_index, texels, info,
-                    ambient, lights, dmin, handle, unit, S, materials, cam, f, gm,
-                    b1, b2, True, dirs[i, 0], dirs[i, 1], dirs[i, 2], coef, spec_on, att_on)
+                rgb, hp = _shade_surface(G, B, L, S, materials, cam, at, True, (dirs[i, 0], dirs[i, 1], dirs[i, 2]),
+                                         coef, spec_on, att_on)
                 rho = materials[gm, MAT_REFLECTIVITY]
                 keep = 1.0
                 if rho > 0.0 and not last:
                     keep = 1.0 - rho
-                    ox, oy, oz, rx, ry, rz = _mirror_ray(px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz, unit)
-                    origins[i, 0] = ox
-                    origins[i, 1] = oy
-                    origins[i, 2] = oz
-                    next_dirs[i, 0] = rx
-                    next_dirs[i, 1] = ry
-                    next_dirs[i, 2] = rz
+                    o, r = _mirror_ray(hp, unit)
+                    for k in range(3):
+                        origins[i, k] = o[k]
+                        next_dirs[i, k] = r[k]
                     active[i] = True
-                colour[i, 0] = keep * r
-                colour[i, 1] = keep * g
-                colour[i, 2] = keep * b
+                colour[i, 0] = keep * rgb[0]
+                colour[i, 1] = keep * rgb[1]
+                colour[i, 2] = keep * rgb[2]
 
     return _shade_points_kernel
 
 
-_BOUNCE = compile_variants(_make_bounce)
-_BOUNCE_TEX = compile_variants(lambda s, a: _make_bounce(s, a, True))
+_BOUNCE = compile_variants(_make_bounce)  # the family's registry (see .jit)
 
 
-def trace_mirrors(scene, camera, hits, image, max_depth: int = 3) -> np.ndarray:
+def trace_mirrors(scene, camera, hits, image, max_depth: int = 3, inputs=None) -> np.ndarray:
     """Blend mirror reflections into a shaded image.
 
     Each reflective pixel becomes ``(1 - rho) local + rho reflected``, the
@@ -172,14 +155,17 @@ def trace_mirrors(scene, camera, hits, image, max_depth: int = 3) -> np.ndarray:
     ----------
     image : (H, W, 3) float32
         Local shading of ``hits``; updated in place and returned.
+    inputs : FrameInputs, optional
+        The frame's packed inputs (:func:`~raycast_shade.shading.inputs.prepare`), when the
+        caller has them already; packed here otherwise.
     """
     geo = scene.geometry
     if max_depth <= 0 or not geo.reflective:
         return image
     from ..visibility.cast import cast_rays_kernel
 
-    k = kernel_inputs(scene, camera)
-    points_kernel = variant_for(_BOUNCE, _BOUNCE_TEX, k)
+    k = prepare(scene, camera) if inputs is None else inputs
+    points_kernel = variant(_BOUNCE, k)
     h, w = hits.shape
     counts = np.empty(h, np.int64)
     _mirror_rows_kernel(hits.prim, hits.geom, k["materials"], counts)
@@ -210,8 +196,8 @@ def trace_mirrors(scene, camera, hits, image, max_depth: int = 3) -> np.ndarray:
         next_o = np.empty((m, 3))
         next_d = np.empty((m, 3))
         more = np.empty(m, np.bool_)
-        points_kernel(prim, gm, u, v, dirs, k["G"], k["B"], k["L"], k["T"], k["face_off"], k["materials"], k["cam"],
-                      k["background"], depth == max_depth, colour, next_o, next_d, more)
+        points_kernel((prim, gm, u, v, dirs), k["G"], k["B"], k["L"], k["T"], k["face_off"], k["materials"], k["cam"],
+                      k["background"], depth == max_depth, (colour, next_o, next_d, more))
         flat[idx] = np.minimum(flat[idx] + weight[:, None] * colour, FLT32_MAX).astype(np.float32)
         weight = weight[more] * geo.materials[gm[more], MAT_REFLECTIVITY]
         idx, origins, dirs = idx[more], next_o[more], next_d[more]

@@ -5,10 +5,12 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from ..common.layout import METHOD_FLAT, METHOD_PHONG
 from ..common.schedule import BLOCK_ROWS, spread_step
 from ..visibility.rays import camera_frame
 from .jit import JIT
 from .phong import _surface
+from .records import At
 from .shade import _check_inputs, resolve_methods
 
 __all__ = ["shading_normals"]
@@ -17,8 +19,6 @@ __all__ = ["shading_normals"]
 @njit(parallel=True, **JIT)
 def _normals_kernel(prim, geom, u, v, G, B, face_off, cam, modes, nbuf):
     """The unit normal each pixel is shaded with, turned to the viewer."""
-    verts, normals, faces, fnormals = G
-    uvs, tangents, bump_index, texels, info = B
     h, w = prim.shape
     nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
     step = spread_step(nblk)
@@ -32,15 +32,12 @@ def _normals_kernel(prim, geom, u, v, G, B, face_off, cam, modes, nbuf):
                         nbuf[y, x, c] = 0.0
                     continue
                 gm = geom[y, x]
-                f = face_off[gm] + p
-                _, _, _, _, _, _, gx, gy, gz, _, nx, ny, nz = _surface(
-                    verts, normals, faces, fnormals, uvs, tangents, bump_index, texels, info, cam, f, gm,
-                    np.float64(u[y, x]), np.float64(v[y, x]), False, 0.0, 0.0, 0.0)
-                if modes[gm] == 0:
-                    nx, ny, nz = gx, gy, gz
-                nbuf[y, x, 0] = nx
-                nbuf[y, x, 1] = ny
-                nbuf[y, x, 2] = nz
+                hp = _surface(G, B, cam, At(face_off[gm] + p, gm, np.float64(u[y, x]), np.float64(v[y, x])), False,
+                              (0.0, 0.0, 0.0))
+                n = hp.g if modes[gm] == METHOD_FLAT else hp.n
+                nbuf[y, x, 0] = n[0]
+                nbuf[y, x, 1] = n[1]
+                nbuf[y, x, 2] = n[2]
 
 
 def shading_normals(scene, camera, hits, shading="phong") -> np.ndarray:
@@ -66,7 +63,7 @@ def shading_normals(scene, camera, hits, shading="phong") -> np.ndarray:
     modes = resolve_methods(scene, shading)
     geo = scene.geometry
     # Bumps only apply where the normal is per pixel.
-    bump_index = np.where(modes == 2, geo.bump_index, -1).astype(np.int32)
+    bump_index = np.where(modes == METHOD_PHONG, geo.bump_index, -1).astype(np.int32)
     B = (geo.uvs, geo.tangents, bump_index, geo.bump_texels, geo.bump_info)
     nbuf = np.empty(hits.shape + (3,), np.float32)
     _normals_kernel(hits.prim, hits.geom, hits.u, hits.v, (geo.vertices, geo.normals, geo.faces, geo.face_normals),

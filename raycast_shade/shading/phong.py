@@ -6,13 +6,14 @@ Shadow rays leave the pixel's point, lifted past the terminator
 (:func:`~raycast_shade.shading.surface._terminator_point`).
 
 Speed notes. The kernels take the packed tuples of
-:func:`~raycast_shade.shading.inputs.kernel_inputs` but unpack them once,
-outside the pixel loop, and hand plain arrays to the inlined helpers:
-unpacking a tuple of arrays inside the loop makes Numba take and drop a
-reference on every array for every pixel (atomic operations on counters that
-both threads share), which cost more than the shading arithmetic (measured on
-a 1080p Phong frame of an 81,920-triangle sphere on 2 cores: 36 ms with the
-unpacking in the loop, 19 ms without, repeated squaring included).
+:class:`~raycast_shade.shading.inputs.FrameInputs` and hand them whole to the
+inlined helpers, which unpack them: the helpers are compiled without reference
+counting (:data:`~raycast_shade.shading.jit.HELPER`). Unpacking a tuple of
+arrays in the kernel's own loop would make Numba take and drop a reference on
+every array for every pixel (atomic operations on counters that both threads
+share), which cost more than the shading arithmetic (measured on a 1080p Phong
+frame of an 81,920-triangle sphere on 2 cores: 36 ms with the unpacking in the
+loop, 19 ms without, repeated squaring included).
 """
 
 from __future__ import annotations
@@ -20,66 +21,58 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from ..common.layout import METHOD_PHONG
 from ..common.schedule import BLOCK_ROWS, spread_step
 from .bump import _bump
 from .illumination import _illuminate
 from .jit import FLT32_MAX, HELPER, JIT, compile_variants
+from .records import At, Hit
 from .shadows import _scratch
-from .surface import _facing, _hit_point, _shading_normal, _terminator_point, _view
+from .surface import _facing, _hit_point, _shading_normal, _terminator_point, _triangle, _view
 from .texture import _point_coefficients, _row_coefficients
 
 __all__ = []
 
 
 @njit(**HELPER)
-def _surface(verts, normals, faces, fnormals, uvs, tangents, bump_index, texels, info, cam, f, gm, b1, b2,
-             use_dir, dx, dy, dz):
-    """Everything about a hit that shading needs.
+def _surface(G, B, cam, at, use_dir, d):
+    """The shading point of hit ``at`` (:class:`~raycast_shade.shading.records.At`).
 
-    The arrays are the unpacked ``G`` and ``B`` of
-    :func:`~raycast_shade.shading.inputs.kernel_inputs`. The view vector is
-    towards the eye, or ``-d`` for a secondary ray. Returns p, v, oriented
-    geometric normal g, its sign, and the oriented (and bumped) shading
-    normal n.
+    ``G`` and ``B`` are the geometry and height-map tuples of
+    :class:`~raycast_shade.shading.inputs.FrameInputs`. The view vector is
+    towards the eye, or ``-d`` for a secondary ray along ``d`` (``use_dir``).
+    Returns a :class:`~raycast_shade.shading.records.Hit` with the oriented
+    (and bumped) shading normal; its shadow origin is the point itself.
     """
-    i0 = faces[f, 0]
-    i1 = faces[f, 1]
-    i2 = faces[f, 2]
-    px, py, pz = _hit_point(verts, i0, i1, i2, b1, b2)
+    verts, normals, faces, fnormals = G
+    f, gm, b1, b2 = at
+    tri = _triangle(faces, f)
+    p = _hit_point(verts, tri, b1, b2)
     if use_dir:
-        vx = -dx
-        vy = -dy
-        vz = -dz
+        v = (-d[0], -d[1], -d[2])
     else:
-        vx, vy, vz = _view(cam, px, py, pz)
-    gx, gy, gz, sgn = _facing(fnormals, f, vx, vy, vz)
-    nx, ny, nz = _shading_normal(normals, i0, i1, i2, b1, b2, gx, gy, gz, sgn)
-    nx, ny, nz = _bump(nx, ny, nz, f, gm, i0, i1, i2, b1, b2, uvs, tangents, bump_index, texels, info,
-                       sgn * gx, sgn * gy, sgn * gz)
-    return px, py, pz, vx, vy, vz, gx, gy, gz, sgn, nx, ny, nz
+        v = _view(cam, p)
+    g, sgn = _facing(fnormals, f, v)
+    n = _shading_normal(normals, tri, b1, b2, g, sgn)
+    n = _bump(n, B, at, tri, (sgn * g[0], sgn * g[1], sgn * g[2]))
+    return Hit(p, v, g, sgn, n, p)
 
 
 @njit(**HELPER)
-def _shade_surface(verts, normals, faces, fnormals, uvs, tangents, bump_index, texels, info,
-                   ambient, lights, dmin, handle, unit, S, materials, cam, f, gm, b1, b2, use_dir, dx, dy, dz,
-                   coef, spec_on, att_on):
-    """Phong shading of one hit: colour, plus the point and normals for mirrors.
+def _shade_surface(G, B, L, S, materials, cam, at, use_dir, d, coef, spec_on, att_on):
+    """Phong shading of hit ``at``: ``(rgb, hp)``, the colour and the shading point
+    (:class:`~raycast_shade.shading.records.Hit`, for mirrors).
 
-    The arrays and scalars before ``S`` are the unpacked ``G``, ``B`` and
-    ``L`` of :func:`~raycast_shade.shading.inputs.kernel_inputs`; they stay
-    separate arguments because this runs inside the pixel loop. ``coef``:
+    ``G``, ``B``, ``L`` as in :class:`~raycast_shade.shading.inputs.FrameInputs`;
+    ``S`` the shadow scratch; ``use_dir``, ``d`` as in :func:`_surface`; ``coef``:
     the point's nine ``ka, kd, ks`` (:mod:`.texture`)."""
-    px, py, pz, vx, vy, vz, gx, gy, gz, sgn, nx, ny, nz = _surface(
-        verts, normals, faces, fnormals, uvs, tangents, bump_index, texels, info, cam, f, gm, b1, b2,
-        use_dir, dx, dy, dz)
-    ox = px
-    oy = py
-    oz = pz
-    if handle != 0:  # shadow rays will be traced: start them past the terminator
-        ox, oy, oz = _terminator_point(verts, normals, faces[f, 0], faces[f, 1], faces[f, 2], b1, b2, px, py, pz, sgn)
-    r, g, b = _illuminate(px, py, pz, nx, ny, nz, vx, vy, vz, materials, gm, coef, ambient, lights, dmin, handle,
-                          unit, S, ox, oy, oz, gx, gy, gz, spec_on, att_on)
-    return r, g, b, px, py, pz, vx, vy, vz, gx, gy, gz, nx, ny, nz
+    hp = _surface(G, B, cam, at, use_dir, d)
+    o = hp.p
+    if L[3] != 0:  # shadow rays will be traced (a scene handle): start them past the terminator
+        verts, normals, faces, _ = G
+        o = _terminator_point(verts, normals, _triangle(faces, at.f), at.b1, at.b2, hp.p, hp.sgn)
+    hp = Hit(hp.p, hp.v, hp.g, hp.sgn, hp.n, o)
+    return _illuminate(hp, coef, materials, at.gm, L, S, spec_on, att_on), hp
 
 
 def _make_phong(spec_on: bool, att_on: bool, tex_on: bool = False):
@@ -87,12 +80,9 @@ def _make_phong(spec_on: bool, att_on: bool, tex_on: bool = False):
 
     @njit(parallel=True, **JIT)
     def _shade_phong_kernel(prim, geom, u, v, G, B, L, T, face_off, materials, cam, background, modes, image, y0):
-        """Phong: shade every pixel of the models whose method is 2; array row ``r`` is
-        image row ``y0 + r`` (a band of the frame; textures need the image position)."""
-        verts, normals, faces, fnormals = G
-        uvs, tangents, bump_index, texels, info = B
-        ambient, lights, dmin, handle, unit = L
-        vcolors, fcolors, cmode, tindex, ttexels, tinfo, _ = T
+        """Phong: shade every pixel of the models whose method is METHOD_PHONG; array row ``r``
+        is image row ``y0 + r`` (a band of the frame; textures need the image position)."""
+        uvs = B[0]
         h, w = prim.shape
         nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
         step = spread_step(nblk)
@@ -107,26 +97,20 @@ def _make_phong(spec_on: bool, att_on: bool, tex_on: bool = False):
                             image[y, x, c] = background[c]
                         continue
                     gm = geom[y, x]
-                    if modes[gm] != 2:
+                    if modes[gm] != METHOD_PHONG:
                         continue
-                    f = face_off[gm] + p
-                    b1 = np.float64(u[y, x])
-                    b2 = np.float64(v[y, x])
+                    at = At(face_off[gm] + p, gm, np.float64(u[y, x]), np.float64(v[y, x]))
                     if tex_on:
-                        coef = _point_coefficients(verts, uvs, fnormals, faces, f, gm, b1, b2, cam, x, y0 + y, True,
-                                                   materials, vcolors, fcolors, cmode, tindex, ttexels, tinfo)
+                        coef = _point_coefficients(G, uvs, at, cam, x, y0 + y, True, materials, T)
                     else:
                         coef = _row_coefficients(materials, gm)
-                    r, g, b, _, _, _, _, _, _, _, _, _, _, _, _ = _shade_surface(
-                        verts, normals, faces, fnormals, uvs, tangents, bump_index, texels, info,
-                        ambient, lights, dmin, handle, unit, S, materials, cam, f, gm,
-                        b1, b2, False, 0.0, 0.0, 0.0, coef, spec_on, att_on)
-                    image[y, x, 0] = min(r, FLT32_MAX)
-                    image[y, x, 1] = min(g, FLT32_MAX)
-                    image[y, x, 2] = min(b, FLT32_MAX)
+                    rgb, _ = _shade_surface(G, B, L, S, materials, cam, at, False, (0.0, 0.0, 0.0), coef,
+                                            spec_on, att_on)
+                    image[y, x, 0] = min(rgb[0], FLT32_MAX)
+                    image[y, x, 1] = min(rgb[1], FLT32_MAX)
+                    image[y, x, 2] = min(rgb[2], FLT32_MAX)
 
     return _shade_phong_kernel
 
 
-_PHONG = compile_variants(_make_phong)
-_PHONG_TEX = compile_variants(lambda s, a: _make_phong(s, a, True))
+_PHONG = compile_variants(_make_phong)  # the family's registry (see .jit)

@@ -25,18 +25,18 @@ import numpy as np
 from numba import njit, prange
 
 from ..common.choices import SHADINGS
+from ..common.layout import METHOD_FLAT, METHOD_GOURAUD, METHOD_PHONG
 from ..visibility.hits import check_hits
-from .flat import _FLAT, _FLAT_TEX, _lookup_flat_kernel
-from .gouraud import _INTERPOLATE, _INTERPOLATE_TEX, _VERTICES, _VERTICES_TEX
-from .inputs import kernel_inputs
-from .jit import JIT
-from .phong import _PHONG, _PHONG_TEX
-from .texture import variant_for
+from .flat import _FLAT, _lookup_flat_kernel
+from .gouraud import _INTERPOLATE, _VERTICES
+from .inputs import prepare
+from .jit import JIT, variant
+from .phong import _PHONG
 
 __all__ = ["SHADINGS", "METHODS", "shade", "shade_hits", "resolve_methods", "SampleShading", "accumulate",
            "sample_mean", "GROUP"]
 
-METHODS = {"flat": 0, "gouraud": 1, "phong": 2}
+METHODS = {"flat": METHOD_FLAT, "gouraud": METHOD_GOURAUD, "phong": METHOD_PHONG}  # name: code (layout.py)
 
 
 def resolve_methods(scene, shading) -> np.ndarray:
@@ -51,7 +51,7 @@ def resolve_methods(scene, shading) -> np.ndarray:
     Returns
     -------
     (G,) int8
-        0 flat, 1 Gouraud, 2 Phong.
+        :data:`METHODS` codes: 0 flat, 1 Gouraud, 2 Phong.
     """
     n = len(scene.models)
     if isinstance(shading, str):
@@ -125,9 +125,9 @@ def _visible_kernel(prim, geom, faces, face_off, modes, face_flags, vertex_flags
                 g = geom[y, x]
                 f = face_off[g] + p
                 # Racy, but every writer stores the same 1.
-                if modes[g] == 0:
+                if modes[g] == METHOD_FLAT:
                     face_flags[f] = 1
-                elif modes[g] == 1:
+                elif modes[g] == METHOD_GOURAUD:
                     vertex_flags[faces[f, 0]] = 1
                     vertex_flags[faces[f, 1]] = 1
                     vertex_flags[faces[f, 2]] = 1
@@ -151,6 +151,9 @@ class SampleShading:
         eye and axes, so they shade alike).
     shading : str or sequence of str
         As for :func:`shade`.
+    inputs : FrameInputs, optional
+        The frame's packed inputs (:func:`~raycast_shade.shading.inputs.prepare`) when the
+        caller has them already (``render`` prepares them once for shading and mirrors).
 
     Notes
     -----
@@ -159,13 +162,13 @@ class SampleShading:
     or sample asked for it.
     """
 
-    def __init__(self, scene, camera, shading="phong"):
+    def __init__(self, scene, camera, shading="phong", inputs=None):
         self.modes = resolve_methods(scene, shading)
-        self.k = kernel_inputs(scene, camera)
+        self.k = prepare(scene, camera) if inputs is None else inputs
         self.geo = scene.geometry
-        self.flat = bool(np.any(self.modes == 0))
-        self.gouraud = bool(np.any(self.modes == 1))
-        self.phong = bool(np.any(self.modes == 2))
+        self.flat = bool(np.any(self.modes == METHOD_FLAT))
+        self.gouraud = bool(np.any(self.modes == METHOD_GOURAUD))
+        self.phong = bool(np.any(self.modes == METHOD_PHONG))
         nf = len(self.geo.faces) if self.flat else 1
         nv = len(self.geo.vertices) if self.gouraud else 1
         self.face_done = np.zeros(nf, np.uint8)
@@ -186,14 +189,14 @@ class SampleShading:
         if self.flat:
             new = face_flags if first else face_flags & (1 - self.face_done)
             if first or new.any():
-                variant_for(_FLAT, _FLAT_TEX, k)(new, k["G"], geo.face_model, k["materials"], k["cam"], k["L"],
-                                                 k["T"], geo.uvs, self.fcol)
+                variant(_FLAT, k)(new, k["G"], geo.face_model, k["materials"], k["cam"], k["L"], k["T"], geo.uvs,
+                                  self.fcol)
                 self.face_done |= new
         if self.gouraud:
             new = vertex_flags if first else vertex_flags & (1 - self.vertex_done)
             if first or new.any():
-                variant_for(_VERTICES, _VERTICES_TEX, k)(new, k["G"], geo.vertex_model, k["materials"], k["cam"],
-                                                         k["L"], k["T"], self.vcol, self.vspec)
+                variant(_VERTICES, k)(new, k["G"], geo.vertex_model, k["materials"], k["cam"], k["L"], k["T"],
+                                      self.vcol, self.vspec)
                 self.vertex_done |= new
 
     def shade(self, hits, out=None, y0=0) -> np.ndarray:
@@ -214,13 +217,12 @@ class SampleShading:
         if self.flat:
             _lookup_flat_kernel(hits.prim, hits.geom, k["face_off"], self.fcol, k["background"], modes, image)
         if self.gouraud:
-            variant_for(_INTERPOLATE, _INTERPOLATE_TEX, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"],
-                                                           k["face_off"], k["materials"], k["cam"], k["L"], k["T"],
-                                                           k["background"], modes, self.vcol, self.vspec, image)
+            variant(_INTERPOLATE, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["face_off"],
+                                     k["materials"], k["cam"], k["L"], k["T"], k["background"], modes,
+                                     (self.vcol, self.vspec), image)
         if self.phong:
-            variant_for(_PHONG, _PHONG_TEX, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["T"],
-                                               k["face_off"], k["materials"], k["cam"], k["background"], modes, image,
-                                               y0)
+            variant(_PHONG, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["T"], k["face_off"],
+                               k["materials"], k["cam"], k["background"], modes, image, y0)
         return image
 
 

@@ -26,7 +26,7 @@ from .jit import CALLED, HELPER
 __all__ = []
 
 _SHADOW_TFAR = 1.0 - 1e-5  # point-light shadow rays stop just short of the light
-_SCRATCH = 24  # float32 slots: one RTCRay (12) plus alignment slack
+_SCRATCH = 2 * embree.RAY_SLOTS  # float32 slots: one RTCRay plus alignment slack
 
 
 @njit(**CALLED)  # allocates: NRT on
@@ -55,37 +55,33 @@ def _nudge(p, n, unit):
 
 
 @njit(**HELPER)
-def _occluded(handle, S, px, py, pz, gx, gy, gz, sx, sy, sz, lx, ly, lz, is_point, unit):
-    """True if the scene blocks the way from p towards the light.
+def _occluded(handle, S, o, g, s, target, is_point, unit):
+    """True if the scene blocks the way from ``o`` towards the light.
 
-    ``S`` is the scratch from :func:`_scratch`, unpacked only here: shadow
-    rays are the rare path, and the unpacking costs reference counting."""
+    ``o`` is the shading point's shadow origin, pushed off the surface along its
+    geometric normal ``g`` (on the side of the unit direction ``s`` to the light);
+    a point light's ray ends just short of ``target``, its position, a light at
+    infinity's (``is_point`` False) goes on along ``s``. ``S`` is the scratch from
+    :func:`_scratch`, unpacked only here: shadow rays are the rare path, and the
+    unpacking costs reference counting."""
     buf, ib, off = S
+    px, py, pz = o
+    gx, gy, gz = g
+    sx, sy, sz = s
     side = 1.0 if gx * sx + gy * sy + gz * sz >= 0.0 else -1.0
     ox = _nudge(px, side * gx, unit)
     oy = _nudge(py, side * gy, unit)
     oz = _nudge(pz, side * gz, unit)
     if is_point:
-        dx = lx - ox
-        dy = ly - oy
-        dz = lz - oz
+        dx = target[0] - ox
+        dy = target[1] - oy
+        dz = target[2] - oz
         tfar = _SHADOW_TFAR
     else:
         dx = sx
         dy = sy
         dz = sz
         tfar = np.inf
-    buf[off + 0] = ox
-    buf[off + 1] = oy
-    buf[off + 2] = oz
-    buf[off + 3] = 0.0
-    buf[off + 4] = dx
-    buf[off + 5] = dy
-    buf[off + 6] = dz
-    buf[off + 7] = 0.0
-    buf[off + 8] = tfar
-    ib[off + 9] = 0xFFFFFFFF
-    ib[off + 10] = 0
-    ib[off + 11] = 0
+    embree.write_ray(buf, ib, off, 1, (ox, oy, oz), (dx, dy, dz), 0.0, tfar)
     embree.occluded1(handle, buf.ctypes.data + off * 4, 0)  # the address taken from the live array, here
-    return buf[off + 8] < 0.0  # Embree sets tfar to -inf on a hit
+    return buf[off + embree.RAY_TFAR] < 0.0  # Embree sets tfar to -inf on a hit

@@ -19,6 +19,7 @@ from numba import njit
 
 from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_ORTHO
 from .jit import HELPER
+from .records import dot, face_forward, normalize, reflect_into
 
 __all__ = []
 
@@ -26,52 +27,40 @@ _CANCEL = 1e-6  # |interpolated normal| below this counts as cancelled
 
 
 @njit(**HELPER)
-def _view(cam, px, py, pz):
-    """Unit vector from a point to the eye (orthographic: against the view)."""
+def _view(cam, p):
+    """Unit vector from point ``p`` to the eye (orthographic: against the view)."""
+    back = (-cam[CAM_FORWARD + 0], -cam[CAM_FORWARD + 1], -cam[CAM_FORWARD + 2])
     if cam[CAM_ORTHO] != 0.0:
-        return -cam[CAM_FORWARD + 0], -cam[CAM_FORWARD + 1], -cam[CAM_FORWARD + 2]
-    vx = cam[CAM_EYE + 0] - px
-    vy = cam[CAM_EYE + 1] - py
-    vz = cam[CAM_EYE + 2] - pz
-    vl = np.sqrt(vx * vx + vy * vy + vz * vz)
-    if vl == 0.0:
-        return -cam[CAM_FORWARD + 0], -cam[CAM_FORWARD + 1], -cam[CAM_FORWARD + 2]
-    return vx / vl, vy / vl, vz / vl
+        return back
+    v, length = normalize((cam[CAM_EYE + 0] - p[0], cam[CAM_EYE + 1] - p[1], cam[CAM_EYE + 2] - p[2]))
+    if length == 0.0:
+        return back
+    return v
 
 
 @njit(**HELPER)
-def _facing(fnormals, f, vx, vy, vz):
-    """Geometric normal turned to the viewer, and the sign that turned it."""
-    gx = fnormals[f, 0]
-    gy = fnormals[f, 1]
-    gz = fnormals[f, 2]
-    if gx == 0.0 and gy == 0.0 and gz == 0.0:  # degenerate face: face the viewer
-        return vx, vy, vz, 1.0
-    if gx * vx + gy * vy + gz * vz < 0.0:
-        return -gx, -gy, -gz, -1.0
-    return gx, gy, gz, 1.0
+def _facing(fnormals, f, v):
+    """Face ``f``'s geometric normal turned to ``v``, and the sign that turned it."""
+    g = (fnormals[f, 0], fnormals[f, 1], fnormals[f, 2])
+    if g[0] == 0.0 and g[1] == 0.0 and g[2] == 0.0:  # degenerate face: face the viewer
+        return v, 1.0
+    return face_forward(g, v)
 
 
 @njit(**HELPER)
-def _shading_normal(normals, i0, i1, i2, b1, b2, gx, gy, gz, sgn):
-    """Interpolated, renormalised normal, oriented into the viewer's hemisphere."""
+def _shading_normal(normals, tri, b1, b2, g, sgn):
+    """Interpolated, renormalised normal of triangle ``tri = (i0, i1, i2)``, oriented into the
+    viewer's hemisphere of ``g``."""
+    i0, i1, i2 = tri
     b0 = 1.0 - b1 - b2
     ax = b0 * normals[i0, 0] + b1 * normals[i1, 0] + b2 * normals[i2, 0]
     ay = b0 * normals[i0, 1] + b1 * normals[i1, 1] + b2 * normals[i2, 1]
     az = b0 * normals[i0, 2] + b1 * normals[i1, 2] + b2 * normals[i2, 2]
     al = np.sqrt(ax * ax + ay * ay + az * az)
     if not al >= _CANCEL:
-        return gx, gy, gz
+        return g
     s = sgn / al
-    nx = ax * s
-    ny = ay * s
-    nz = az * s
-    c = nx * gx + ny * gy + nz * gz
-    if c < 0.0:
-        nx -= 2.0 * c * gx
-        ny -= 2.0 * c * gy
-        nz -= 2.0 * c * gz
-    return nx, ny, nz
+    return reflect_into((ax * s, ay * s, az * s), g)
 
 
 @njit(**HELPER)
@@ -97,8 +86,15 @@ def _convex_weights(b1, b2):
 
 
 @njit(**HELPER)
-def _hit_point(verts, i0, i1, i2, b1, b2):
-    """The point with barycentrics (1 - b1 - b2, b1, b2) on triangle (i0, i1, i2)."""
+def _triangle(faces, f):
+    """The vertex indices ``(i0, i1, i2)`` of face ``f``."""
+    return faces[f, 0], faces[f, 1], faces[f, 2]
+
+
+@njit(**HELPER)
+def _hit_point(verts, tri, b1, b2):
+    """The point with barycentrics (1 - b1 - b2, b1, b2) on triangle ``tri = (i0, i1, i2)``."""
+    i0, i1, i2 = tri
     b0 = 1.0 - b1 - b2
     px = b0 * verts[i0, 0] + b1 * verts[i1, 0] + b2 * verts[i2, 0]
     py = b0 * verts[i0, 1] + b1 * verts[i1, 1] + b2 * verts[i2, 1]
@@ -107,10 +103,12 @@ def _hit_point(verts, i0, i1, i2, b1, b2):
 
 
 @njit(**HELPER)
-def _terminator_point(verts, normals, i0, i1, i2, b1, b2, px, py, pz, sgn):
-    """Hanika's shadow-ray origin: p lifted onto the vertices' tangent planes
-    (only upwards), so a flat facet under a smooth normal does not shadow
-    itself near the terminator."""
+def _terminator_point(verts, normals, tri, b1, b2, p, sgn):
+    """Hanika's shadow-ray origin: ``p`` lifted onto the vertices' tangent planes
+    (only upwards), so a flat facet under a smooth normal does not shadow itself
+    near the terminator."""
+    i0, i1, i2 = tri
+    px, py, pz = p
     b0 = 1.0 - b1 - b2
     qx = px
     qy = py

@@ -34,16 +34,7 @@ from ..common.layout import (CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RI
 from .bump import _texel_corners
 from .jit import HELPER, JIT
 
-__all__ = ["texture_levels", "variant_for"]
-
-
-def variant_for(plain, textured, k):
-    """The kernel for a frame's :func:`~raycast_shade.shading.inputs.kernel_inputs` ``k``:
-    from the ``textured`` table when the scene has colours or maps, else from
-    ``plain`` (whose arithmetic is the untextured renderer's, bit for bit)."""
-    from .jit import variant
-
-    return variant(textured if k["tex_on"] else plain, k)
+__all__ = ["texture_levels"]
 
 
 @njit(**HELPER)
@@ -119,10 +110,13 @@ def _sample(tex, info, k, u, v, dudx, dvdx, dudy, dvdy):
 
 
 @njit(**HELPER)
-def _uv_derivatives(verts, uvs, fnormals, i0, i1, i2, f, cam, px, py, pz, ex, ey, ez, x, y):
-    """``du/dx, dv/dx, du/dy, dv/dy`` per pixel at hit p of face f seen from
-    eye e through pixel (x, y) (see the module docstring); inf at grazing
-    incidence, zero for a face with a degenerate 3D shape."""
+def _uv_derivatives(verts, uvs, fnormals, tri, f, cam, p, eye, x, y):
+    """``du/dx, dv/dx, du/dy, dv/dy`` per pixel at hit ``p`` of face ``f`` (triangle
+    ``tri = (i0, i1, i2)``) seen from ``eye`` through pixel (x, y) (see the module
+    docstring); inf at grazing incidence, zero for a face with a degenerate 3D shape."""
+    i0, i1, i2 = tri
+    px, py, pz = p
+    ex, ey, ez = eye
     w = cam[CAM_WIDTH]
     h = cam[CAM_HEIGHT]
     sx = 2.0 * (x + 0.5) / w - 1.0
@@ -196,9 +190,10 @@ def _uv_derivatives(verts, uvs, fnormals, i0, i1, i2, f, cam, px, py, pz, ex, ey
 
 
 @njit(**HELPER)
-def _face_footprint(uvs, i0, i1, i2):
+def _face_footprint(uvs, tri):
     """A flat face's footprint: the side ``s`` of the UV square as large as the
-    face's UV triangle, as ``(s, 0, 0, s)`` derivatives."""
+    face's UV triangle ``tri = (i0, i1, i2)``, as ``(s, 0, 0, s)`` derivatives."""
+    i0, i1, i2 = tri
     d1u = uvs[i1, 0] - uvs[i0, 0]
     d1v = uvs[i1, 1] - uvs[i0, 1]
     d2u = uvs[i2, 0] - uvs[i0, 0]
@@ -218,11 +213,16 @@ def _row_coefficients(mats, mi):
 
 
 @njit(**HELPER)
-def _coefficients(mats, gm, f, i0, i1, i2, b1, b2, uvs, vcolors, fcolors, cmode, tindex, texels, tinfo,
-                  dudx, dvdx, dudy, dvdy):
-    """``ka, kd, ks`` (nine floats) at the point with barycentrics (1 - b1 - b2, b1, b2)
-    on face f of model gm: the material row's, kd replaced by the mesh's colour,
-    each times its map's (filtered) texel."""
+def _coefficients(mats, T, at, tri, uvs, footprint):
+    """``ka, kd, ks`` (nine floats) at hit ``at`` (:class:`~raycast_shade.shading.records.At`:
+    barycentrics (1 - b1 - b2, b1, b2) on face f, triangle ``tri``, of model gm): the material
+    row's, kd replaced by the mesh's colour, each times its map's texel filtered over
+    ``footprint = (du/dx, dv/dx, du/dy, dv/dy)``. ``T`` as in
+    :class:`~raycast_shade.shading.inputs.FrameInputs`."""
+    vcolors, fcolors, cmode, tindex, texels, tinfo, _ = T
+    f, gm, b1, b2 = at
+    i0, i1, i2 = tri
+    dudx, dvdx, dudy, dvdy = footprint
     kar = mats[gm, MAT_KA + 0]
     kag = mats[gm, MAT_KA + 1]
     kab = mats[gm, MAT_KA + 2]
@@ -297,23 +297,23 @@ def texture_levels(scene, camera, hits, slot: str = "kd") -> np.ndarray:
 
 
 @njit(**HELPER)
-def _point_coefficients(verts, uvs, fnormals, faces, f, gm, b1, b2, cam, x, y, footprint, materials,
-                        vcolors, fcolors, cmode, tindex, ttexels, tinfo):
-    """:func:`_coefficients` at a hit of face f: filtered by pixel (x, y)'s
-    footprint when ``footprint`` (a camera ray), at level 0 otherwise."""
-    i0 = faces[f, 0]
-    i1 = faces[f, 1]
-    i2 = faces[f, 2]
-    dudx = dvdx = dudy = dvdy = 0.0
-    if footprint:
+def _point_coefficients(G, uvs, at, cam, x, y, footprint_on, materials, T):
+    """:func:`_coefficients` at hit ``at`` (:class:`~raycast_shade.shading.records.At`):
+    filtered by pixel (x, y)'s footprint when ``footprint_on`` (a camera ray), at level 0
+    otherwise. ``G`` and ``T`` as in :class:`~raycast_shade.shading.inputs.FrameInputs`."""
+    verts, _, faces, fnormals = G
+    f, gm, b1, b2 = at
+    tri = (faces[f, 0], faces[f, 1], faces[f, 2])
+    footprint = (0.0, 0.0, 0.0, 0.0)
+    if footprint_on:
+        i0, i1, i2 = tri
         b0 = 1.0 - b1 - b2
         px = b0 * verts[i0, 0] + b1 * verts[i1, 0] + b2 * verts[i2, 0]
         py = b0 * verts[i0, 1] + b1 * verts[i1, 1] + b2 * verts[i2, 1]
         pz = b0 * verts[i0, 2] + b1 * verts[i1, 2] + b2 * verts[i2, 2]
-        dudx, dvdx, dudy, dvdy = _uv_derivatives(verts, uvs, fnormals, i0, i1, i2, f, cam, px, py, pz,
-                                                 cam[CAM_EYE + 0], cam[CAM_EYE + 1], cam[CAM_EYE + 2], x, y)
-    return _coefficients(materials, gm, f, i0, i1, i2, b1, b2, uvs, vcolors, fcolors, cmode, tindex, ttexels,
-                         tinfo, dudx, dvdx, dudy, dvdy)
+        footprint = _uv_derivatives(verts, uvs, fnormals, tri, f, cam, (px, py, pz),
+                                    (cam[CAM_EYE + 0], cam[CAM_EYE + 1], cam[CAM_EYE + 2]), x, y)
+    return _coefficients(materials, T, at, tri, uvs, footprint)
 
 
 @njit(parallel=True, **JIT)
@@ -343,6 +343,6 @@ def _rho_kernel(prim, geom, u, v, verts, faces, fnormals, uvs, face_off, tindex,
             px = b0 * verts[i0, 0] + b1 * verts[i1, 0] + b2 * verts[i2, 0]
             py = b0 * verts[i0, 1] + b1 * verts[i1, 1] + b2 * verts[i2, 1]
             pz = b0 * verts[i0, 2] + b1 * verts[i1, 2] + b2 * verts[i2, 2]
-            dudx, dvdx, dudy, dvdy = _uv_derivatives(verts, uvs, fnormals, i0, i1, i2, f, cam, px, py, pz,
-                                                     ex, ey, ez, x, y)
+            dudx, dvdx, dudy, dvdy = _uv_derivatives(verts, uvs, fnormals, (i0, i1, i2), f, cam, (px, py, pz),
+                                                     (ex, ey, ez), x, y)
             out[y, x] = _level_rho(tinfo, k, dudx, dvdx, dudy, dvdy)

@@ -306,14 +306,10 @@ def _occluded(ctx, o, g, s, target, is_point) -> bool:
     direction, tfar = (target - origin, _SHADOW_TFAR) if is_point else (s, np.inf)
     buf = np.zeros(24, np.float32)
     off = ((16 - buf.ctypes.data % 16) % 16) // 4
-    ray = buf[off:off + 12]
-    ray[0:3] = origin
-    ray[4:7] = direction
-    ray[8] = tfar
-    ints = ray.view(np.uint32)
-    ints[9], ints[10], ints[11] = 0xFFFFFFFF, 0, 0
+    ray = buf[off:off + embree.RAY_SLOTS]
+    embree.write_ray(ray, ray.view(np.uint32), 0, 1, tuple(origin), tuple(direction), 0.0, tfar)
     embree.occluded1_ray(np.uintp(ctx.shadow_handle), ray)
-    return bool(ray[8] < 0.0)
+    return bool(ray[embree.RAY_TFAR] < 0.0)
 
 
 def _light_term(ctx, i, p, n, v, row, o, g, kd, ks) -> LightTerm:

@@ -70,7 +70,7 @@ from .rays import camera_frame, generate_rays, offset_pair, pixel_ray, subpixel_
 __all__ = ["cast_camera", "cast_rays", "cast_recentred", "resolve_caster", "secondary_rays", "CASTERS"]
 
 
-_RAY = 24  # float32 slots in one RTCRayHit (96 bytes, room for instPrimID)
+_RAY = embree.RAYHIT_SLOTS  # float32 slots in one RTCRayHit (96 bytes, room for instPrimID)
 _TILE_W = 4  # a 16-ray packet is a 4x4 tile (faster than 8x2 or 16x1: see embree's module docstring)
 _TILE_H = 4
 _LANES = _TILE_W * _TILE_H
@@ -117,38 +117,14 @@ def _cast_camera_kernel(scene, cam, y0, prim, geom, u, v, t):
                     else:
                         vbuf[voff + k] = 0
                         ox, oy, oz, dx, dy, dz = 0.0, 0.0, 0.0, 0.0, 0.0, 1.0
-                    buf[off + 0 * _LANES + k] = ox
-                    buf[off + 1 * _LANES + k] = oy
-                    buf[off + 2 * _LANES + k] = oz
-                    buf[off + 3 * _LANES + k] = 0.0  # tnear
-                    buf[off + 4 * _LANES + k] = dx
-                    buf[off + 5 * _LANES + k] = dy
-                    buf[off + 6 * _LANES + k] = dz
-                    buf[off + 7 * _LANES + k] = 0.0  # time
-                    buf[off + 8 * _LANES + k] = np.inf  # tfar
-                    ib[off + 9 * _LANES + k] = 0xFFFFFFFF  # mask
-                    ib[off + 10 * _LANES + k] = 0  # id
-                    ib[off + 11 * _LANES + k] = 0  # flags
-                    ib[off + 17 * _LANES + k] = 0xFFFFFFFF  # primID
-                    ib[off + 18 * _LANES + k] = 0xFFFFFFFF  # geomID
+                    embree.write_ray(buf, ib, off + k, _LANES, (ox, oy, oz), (dx, dy, dz), 0.0, np.inf)
+                    embree.reset_hit(ib, off + k, _LANES)
                 embree.intersect16_packet(vbuf[voff:], scene, buf[off:], abuf[aoff:])
                 for k in range(_LANES):
                     x = tx * _TILE_W + (k % _TILE_W)
                     y = ty * _TILE_H + (k // _TILE_W)
                     if x < w and y < h:
-                        g = ib[off + 18 * _LANES + k]
-                        if g != 0xFFFFFFFF:
-                            geom[y, x] = np.int32(g)
-                            prim[y, x] = np.int32(ib[off + 17 * _LANES + k])
-                            u[y, x] = buf[off + 15 * _LANES + k]
-                            v[y, x] = buf[off + 16 * _LANES + k]
-                            t[y, x] = buf[off + 8 * _LANES + k]
-                        else:
-                            geom[y, x] = -1
-                            prim[y, x] = -1
-                            u[y, x] = 0.0
-                            v[y, x] = 0.0
-                            t[y, x] = np.inf
+                        geom[y, x], prim[y, x], u[y, x], v[y, x], t[y, x] = embree.read_hit(buf, ib, off + k, _LANES)
 
 
 @njit(cache=True, parallel=True)
@@ -164,31 +140,11 @@ def cast_rays_kernel(scene, origins, directions, tnear, tfar, prim, geom, u, v, 
         off = ((16 - buf.ctypes.data % 16) % 16) // 4  # RTCRayHit is 16-byte aligned
         ib = buf.view(np.uint32)
         for i in range(c * chunk, min(n, (c + 1) * chunk)):
-            for j in range(3):
-                buf[off + j] = origins[i, j]
-                buf[off + 4 + j] = directions[i, j]
-            buf[off + 3] = tnear[i]
-            buf[off + 7] = 0.0
-            buf[off + 8] = tfar[i]
-            ib[off + 9] = 0xFFFFFFFF
-            ib[off + 10] = 0
-            ib[off + 11] = 0
-            ib[off + 17] = 0xFFFFFFFF
-            ib[off + 18] = 0xFFFFFFFF
+            embree.write_ray(buf, ib, off, 1, (origins[i, 0], origins[i, 1], origins[i, 2]),
+                             (directions[i, 0], directions[i, 1], directions[i, 2]), tnear[i], tfar[i])
+            embree.reset_hit(ib, off, 1)
             embree.intersect1_ray(scene, buf[off:])
-            g = ib[off + 18]
-            if g != 0xFFFFFFFF:
-                geom[i] = np.int32(g)
-                prim[i] = np.int32(ib[off + 17])
-                u[i] = buf[off + 15]
-                v[i] = buf[off + 16]
-                t[i] = buf[off + 8]
-            else:
-                geom[i] = -1
-                prim[i] = -1
-                u[i] = 0.0
-                v[i] = 0.0
-                t[i] = np.inf
+            geom[i], prim[i], u[i], v[i], t[i] = embree.read_hit(buf, ib, off, 1)
 
 
 def _serial_twin(kernel, name: str):

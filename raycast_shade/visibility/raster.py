@@ -161,8 +161,8 @@ def _run(geometry, camera, near, count_mode, hits=None):
     face_model = np.ascontiguousarray(geometry.face_model, dtype=np.int32)
     face_off = np.ascontiguousarray(geometry.face_offsets, dtype=np.int64)
     with numba.parallel_chunksize(1):  # bands differ in cost: hand them out one at a time
-        _raster_kernel(faces, vx, cs, near, ortho, Wf, Hf, hw, hh, float(ox), float(oy), band_h, band_start,
-                       band_tris, count_mode, face_model, face_off, count, *out)
+        _raster_kernel(faces, vx, cs, near, (ortho, Wf, Hf, hw, hh), (float(ox), float(oy)), band_h, band_start,
+                       band_tris, count_mode, face_model, face_off, count, tuple(out))
     if count_mode:
         return count
     return HitBuffer(prim=out[0], geom=out[1], u=out[2], v=out[3], t=out[4])

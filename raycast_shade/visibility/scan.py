@@ -162,16 +162,19 @@ def _plane3d(faces, cs, f, ortho, W, H, hw, hh):
 
 
 @njit(cache=True)
-def _scan_triangle(x0, y0, q0, x1, y1, q1, x2, y2, q2, rlo, rhi, W, f, given, zA, zB, zC,
-                   fid, zbuf, count, count_mode):
+def _scan_triangle(corners, rlo, rhi, W, f, plane, band, count_mode):
     """Fill the pixels of rows ``rlo..rhi`` whose centres the triangle covers.
 
-    ``(x_i, y_i)`` are pixel coordinates, ``q_i`` depth keys. Depth mode: the
-    fragment's key ``zA X + zB Y + zC`` (the plane through the three
-    ``(x, y, q)`` unless ``given``), clamped to the vertices' range, replaces
-    the band's z-buffer entry (row ``y - rlo``) where smaller, and ``f`` goes
-    to ``fid``. Count mode: ``count[y, x]`` is incremented.
+    ``corners`` = ``((x0, y0, q0), (x1, y1, q1), (x2, y2, q2))``: pixel coordinates
+    and depth keys. Depth mode: the fragment's key ``zA X + zB Y + zC`` (``plane`` =
+    ``(given, zA, zB, zC)``: the plane through the three ``(x, y, q)`` unless
+    ``given``), clamped to the vertices' range, replaces the band's z-buffer entry
+    (row ``y - rlo``) where smaller, and ``f`` goes to ``fid``. Count mode:
+    ``count[y, x]`` is incremented. ``band`` = ``(fid, zbuf, count)``.
     """
+    (x0, y0, q0), (x1, y1, q1), (x2, y2, q2) = corners
+    given, zA, zB, zC = plane
+    fid, zbuf, count = band
     ya, yb = _pixel_range(min(y0, y1, y2), max(y0, y1, y2), rhi + 1)
     ya = max(ya, rlo)
     if ya > yb:
@@ -345,11 +348,14 @@ def _bin_fill(ylo, yhi, band_h, pos, out):
 
 
 @njit(cache=True, parallel=True)
-def _raster_kernel(faces, vx, cs, near, ortho, W, H, hw, hh, ox, oy, band_h, band_start, band_tris, count_mode,
-                   face_model, face_off, count, prim, geom, u, v, t):
+def _raster_kernel(faces, vx, cs, near, screen, shear, band_h, band_start, band_tris, count_mode, face_model,
+                   face_off, count, hits):
     """Scan-convert every band's faces into the band's own z-buffer, then
     resolve the band's rows into the hit buffer (depth mode), or count the
-    covering faces (count mode)."""
+    covering faces (count mode). ``screen`` = ``(ortho, W, H, hw, hh)``,
+    ``shear`` = ``(ox, oy)`` (see :func:`_resolve_rows`), ``hits`` = the hit
+    buffer's ``(prim, geom, u, v, t)``."""
+    ortho, W, H, hw, hh = screen
     nbands = band_start.shape[0] - 1
     iw = int(W)
     ih = int(H)
@@ -368,9 +374,9 @@ def _raster_kernel(faces, vx, cs, near, ortho, W, H, hw, hh, ox, oy, band_h, ban
             i1 = faces[f, 1]
             i2 = faces[f, 2]
             if vx[i0, 2] > near and vx[i1, 2] > near and vx[i2, 2] > near:
-                _scan_triangle(vx[i0, 0], vx[i0, 1], vx[i0, 3], vx[i1, 0], vx[i1, 1], vx[i1, 3],
-                               vx[i2, 0], vx[i2, 1], vx[i2, 3], rlo, rhi, W, f, False, 0.0, 0.0, 0.0,
-                               fid, zbuf, count, count_mode)
+                _scan_triangle(((vx[i0, 0], vx[i0, 1], vx[i0, 3]), (vx[i1, 0], vx[i1, 1], vx[i1, 3]),
+                                (vx[i2, 0], vx[i2, 1], vx[i2, 3])), rlo, rhi, W, f, (False, 0.0, 0.0, 0.0),
+                               (fid, zbuf, count), count_mode)
                 continue
             n = _clip(faces, vx, cs, f, near, ortho, W, H, hw, hh, px, py, pq)
             zA = 0.0
@@ -383,18 +389,22 @@ def _raster_kernel(faces, vx, cs, near, ortho, W, H, hw, hh, ox, oy, band_h, ban
                 if not ok:
                     continue
             for j in range(1, n - 1):
-                _scan_triangle(px[0], py[0], pq[0], px[j], py[j], pq[j], px[j + 1], py[j + 1], pq[j + 1],
-                               rlo, rhi, W, f, True, zA, zB, zC, fid, zbuf, count, count_mode)
+                _scan_triangle(((px[0], py[0], pq[0]), (px[j], py[j], pq[j]), (px[j + 1], py[j + 1], pq[j + 1])),
+                               rlo, rhi, W, f, (True, zA, zB, zC), (fid, zbuf, count), count_mode)
         if not count_mode:
-            _resolve_rows(fid, rlo, faces, cs, face_model, face_off, ortho, W, H, hw, hh, ox, oy, prim, geom, u, v, t)
+            _resolve_rows(fid, rlo, faces, cs, face_model, face_off, screen, shear, hits)
 
 
 @njit(cache=True)
-def _resolve_rows(fid, rlo, faces, cs, face_model, face_off, ortho, W, H, hw, hh, ox, oy, prim, geom, u, v, t):
+def _resolve_rows(fid, rlo, faces, cs, face_model, face_off, screen, shear, hits):
     """Barycentrics and distance of each pixel's ray on its winning face, for
-    the rows ``rlo ..`` of a band (``fid`` holds the band's winners).
-    ``ox, oy``: the perspective principal-point shear of camera space (zero
-    without intrinsics), undone in the ray length that turns ``z`` into ``t``."""
+    the rows ``rlo ..`` of a band (``fid`` holds the band's winners), into
+    ``hits`` = ``(prim, geom, u, v, t)``. ``screen`` = ``(ortho, W, H, hw, hh)``;
+    ``shear`` = ``(ox, oy)``: the perspective principal-point shear of camera space
+    (zero without intrinsics), undone in the ray length that turns ``z`` into ``t``."""
+    ortho, W, H, hw, hh = screen
+    ox, oy = shear
+    prim, geom, u, v, t = hits
     for r in range(fid.shape[0]):
         y = rlo + r
         sy = 1.0 - 2.0 * (y + 0.5) / H

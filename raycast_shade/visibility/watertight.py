@@ -121,8 +121,16 @@ def _exact_hit(verts, face, o, kx, ky, kz, sx, sy, sz):
 
 
 @njit(cache=True, parallel=True)
-def _refine_kernel(verts, faces, points, face_model, face_offsets, start, around, origins, directions, tnear, tlimit,
-                   cand_geom, cand_prim, prim, geom, u, v, t):
+def _refine_kernel(fans, rays, candidates, hits):
+    """Each ray's exact nearest hit among the triangles around its candidate.
+
+    ``fans`` = (verts, faces, points, face_model, face_offsets, start, around) of
+    :func:`vertex_fans`; ``rays`` = (origins, directions, tnear, tlimit);
+    ``candidates`` = (geom, prim); ``hits`` = the (N,) ``(prim, geom, u, v, t)`` to fill."""
+    verts, faces, points, face_model, face_offsets, start, around = fans
+    origins, directions, tnear, tlimit = rays
+    cand_geom, cand_prim = candidates
+    prim, geom, u, v, t = hits
     n = origins.shape[0]
     for i in prange(n):
         prim[i] = -1
@@ -185,11 +193,11 @@ def refine(geometry, origins, directions, tnear, tlimit, candidates) -> HitBuffe
     out = HitBuffer(prim=np.empty(n, np.int32), geom=np.empty(n, np.int32), u=np.empty(n, np.float32),
                     v=np.empty(n, np.float32), t=np.empty(n, np.float32))
     if n:
-        _refine_kernel(fans.vertices, fans.faces, fans.points, fans.face_model, fans.face_offsets, fans.start,
-                       fans.around,
-                       np.ascontiguousarray(origins, np.float64), np.ascontiguousarray(directions, np.float64),
-                       np.ascontiguousarray(tnear, np.float64), np.ascontiguousarray(tlimit, np.float64),
-                       candidates.geom, candidates.prim, *out)
+        _refine_kernel((fans.vertices, fans.faces, fans.points, fans.face_model, fans.face_offsets, fans.start,
+                        fans.around),
+                       (np.ascontiguousarray(origins, np.float64), np.ascontiguousarray(directions, np.float64),
+                        np.ascontiguousarray(tnear, np.float64), np.ascontiguousarray(tlimit, np.float64)),
+                       (candidates.geom, candidates.prim), tuple(out))
     return out
 
 

@@ -22,7 +22,7 @@ ROWS = {
     "LIGHT": ({"LIGHT_KIND": 1, "LIGHT_VEC": 3, "LIGHT_RADIANCE": 3, "LIGHT_ATT": 1, "LIGHT_K": 1,
                "LIGHT_SHADOWS": 1, "LIGHT_AXIS": 3, "LIGHT_COS_INNER": 1, "LIGHT_COS_OUTER": 1,
                "LIGHT_EXPONENT": 1}, lay.LIGHT_SIZE),
-    "MAT": ({"MAT_KA": 3, "MAT_KD": 3, "MAT_KS": 3, "MAT_SHININESS": 1, "MAT_BLINN": 1, "MAT_REFLECTIVITY": 1},
+    "MAT": ({"MAT_KA": 3, "MAT_KD": 3, "MAT_KS": 3, "MAT_SHININESS": 1, "MAT_MODEL": 1, "MAT_REFLECTIVITY": 1},
             lay.MAT_SIZE),
     "BUMP": ({"BUMP_OFFSET": 1, "BUMP_ROWS": 1, "BUMP_COLS": 1, "BUMP_CLAMP": 1, "BUMP_TILE_U": 1,
               "BUMP_TILE_V": 1, "BUMP_SCALE": 1}, lay.BUMP_SIZE),
@@ -43,7 +43,10 @@ def test_the_slots_of_a_row_tile_it(row):
     (the camera row's last slot is the documented unused padding)."""
     widths, size = ROWS[row]
     values = {"LIGHT_POINT", "LIGHT_DIRECTIONAL", "LIGHT_SPOT"}  # LIGHT_KIND values, not slots
-    declared = {n for n in lay.__all__ if n.startswith(row + "_") and n != f"{row}_SIZE"} - values
+    aliases = {"MAT_BLINN": "MAT_MODEL"}  # the model slot under its first name
+    for alias, name in aliases.items():
+        assert getattr(lay, alias) == getattr(lay, name)
+    declared = {n for n in lay.__all__ if n.startswith(row + "_") and n != f"{row}_SIZE"} - values - set(aliases)
     assert declared == set(widths)
     covered = sorted(i for name, w in widths.items() for i in range(getattr(lay, name), getattr(lay, name) + w))
     unused = [size - 1] if row == "CAM" else []
