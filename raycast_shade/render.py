@@ -50,18 +50,18 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
     shading : {"flat", "gouraud", "phong", "auto"} or sequence
         One method for every model, one per model, or ``"auto"``: per model,
         the cheapest method whose predicted error is under ``tolerance``
-        (:mod:`raycast_shade.auto`; the choices and reasons are on
+        (:mod:`raycast_shade.study.auto`; the choices and reasons are on
         ``frame.decisions``).
     camera : Camera, optional
         Overrides ``scene.camera``.
     backend : {"raycast", "raster"}
         Visibility by Embree ray casting, or by the reference z-buffer
-        rasterizer (:mod:`raycast_shade.raster`). Both fill the same hit
+        rasterizer (:mod:`raycast_shade.visibility.raster`). Both fill the same hit
         buffer and share every shading kernel.
     interpolation : {"perspective", "screen"}
         The lecture's "3D or 2D": barycentrics of the 3D hit point
         (perspective-correct), or weights affine in screen space (classic
-        scanline Gouraud, :mod:`raycast_shade.interpolation`).
+        scanline Gouraud, :mod:`raycast_shade.visibility.interpolation`).
     caster : {"auto", "embree", "embreex"}
         Camera rays: ``"auto"`` is the direct, packet-traced Embree path when
         available, else embreex's API for a frame that traces no shadow or

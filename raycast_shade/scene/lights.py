@@ -38,7 +38,7 @@ class Light:
         Parameters
         ----------
         origin : (3,) float64
-            The scene's centre (:attr:`SceneGeometry.origin`): positions are re-centred on it
+            The scene's centre (the ``origin`` of :class:`raycast_shade.scene.scene.SceneGeometry`): positions are re-centred on it
             like the geometry.
 
         Returns

@@ -32,7 +32,7 @@ Struct layouts (Embree 4 ``rtcore_ray.h``), as 4-byte slots, named once here
 Ng xyz, u, v, primID, geomID, instID[1], (instPrimID[1]); 16-byte aligned.
 The packet forms ``RTCRayHit8`` / ``RTCRayHit16`` have the same fields, each an array of 8 / 16
 (32- / 64-byte aligned): slot ``s`` of lane ``k`` is at ``s * lanes + k``. ``RTCRay`` (what
-``rtcOccluded1`` reads) is the first 12 slots. ``tests/test_embree_binding.py`` checks these
+``rtcOccluded1`` reads) is the first 12 slots. ``tests/visibility/test_embree_binding.py`` checks these
 slots against the header's field order and against what the bundled library writes. Camera rays go as 16-ray packets of 4x4 pixels: on this AVX-512 build
 (Embree 4.4, native 16-wide) they trace 1.08-1.31x faster than 4x2 packets of 8 (measured on
 pre-generated packets: 21.4 against 28.0 ms for a 1080p frame of an 81,920-triangle sphere,

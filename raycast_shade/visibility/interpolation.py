@@ -2,7 +2,7 @@
 
 A hit buffer carries the *perspective-correct* barycentrics ``(1 - u - v, u,
 v)`` of the 3D point seen at each pixel (what Embree reports, and what
-:func:`raycast_shade.raster.rasterize` reproduces). Two other conventions of
+:func:`raycast_shade.visibility.raster.rasterize` reproduces). Two other conventions of
 the interpolation-based pipeline are remaps of those weights, so that the
 same shading kernels render them:
 
@@ -25,7 +25,7 @@ flat, provoking vertex (GLSL ``flat``)
     exactly that; :func:`shade_flat` wraps it. The lecture's flat shading, one
     shade at the polygon's centre with its true normal, stays the default.
 
-Every function returns a new :class:`~raycast_shade.hits.HitBuffer` (``prim``,
+Every function returns a new :class:`~raycast_shade.visibility.hits.HitBuffer` (``prim``,
 ``geom`` and ``t`` shared, not copied) and leaves its input untouched.
 """
 

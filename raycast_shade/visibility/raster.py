@@ -2,7 +2,7 @@
 
 The lecture's interpolation shading runs on a scan converter: project the
 vertices, fill each triangle's pixels, keep the nearest. This module is that
-scan converter, written so that its :class:`~raycast_shade.hits.HitBuffer`
+scan converter, written so that its :class:`~raycast_shade.visibility.hits.HitBuffer`
 can be compared with Embree's pixel for pixel and shaded by the very same
 kernels (``render(..., backend="raster")``).
 
@@ -10,7 +10,7 @@ Pipeline (Numba kernels in :mod:`.scan`, no write races)
 --------------------------------------------------------
 1. **Vertices** to camera space ``(x, y, z)`` (``z`` along the view axis) and
    to pixel coordinates; pixel ``(x, y)`` (``y`` down) has its centre at
-   ``(x + 0.5, y + 0.5)``, exactly as in :func:`raycast_shade.rays.pixel_ray`.
+   ``(x + 0.5, y + 0.5)``, exactly as in :func:`raycast_shade.visibility.rays.pixel_ray`.
 2. **Set-up and binning**, in chunks of faces: each face's bounding box of
    pixel centres, clipped to the screen. Most faces of a dense mesh hold no
    pixel centre and stop here; a face whose box holds exactly one is tested
@@ -174,7 +174,7 @@ def rasterize(geometry, camera, *, near=None, offset=None, out=None) -> HitBuffe
     Parameters
     ----------
     geometry : SceneGeometry
-        ``scene.geometry`` (a :class:`~raycast_shade.scene.Scene` is accepted
+        ``scene.geometry`` (a :class:`~raycast_shade.Scene` is accepted
         too).
     camera : Camera
     near : float, optional

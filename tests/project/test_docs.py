@@ -13,17 +13,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 
 # Dangling references in files another helper rewrites in this issue (issue 21, items 1-5:
 # render.py, visibility/, common/layout.py); each entry is (file, reference). Remove them as they go.
-KNOWN = {
-    ("raycast_shade/render.py", "raycast_shade.auto"),
-    ("raycast_shade/render.py", "raycast_shade.raster"),
-    ("raycast_shade/render.py", "raycast_shade.interpolation"),
-    ("raycast_shade/common/layout.py", "tests/test_layout.py"),
-    ("raycast_shade/visibility/interpolation.py", "raycast_shade.raster.rasterize"),
-    ("raycast_shade/visibility/interpolation.py", "raycast_shade.hits.HitBuffer"),
-    ("raycast_shade/visibility/raster.py", "raycast_shade.hits.HitBuffer"),
-    ("raycast_shade/visibility/raster.py", "raycast_shade.rays.pixel_ray"),
-    ("raycast_shade/visibility/raster.py", "raycast_shade.scene.Scene"),
-}
+KNOWN: set = set()  # (file, reference) pairs allowed to dangle: none
 
 
 def test_the_api_reference_is_built_from_the_current_docstrings():
