@@ -247,7 +247,8 @@ class SpotLight(PointLight):
 
     def falloff(self, cos_angle):
         """Warn's factor ``cos^n * smoothstep`` for cosines of the angle to the axis (NumPy, any shape)."""
-        c = as_array(cos_angle, "cos_angle", dtype=np.float64)
+        # as_array is at least 1-D (ascontiguousarray): keep a scalar a scalar.
+        c = as_array(cos_angle, "cos_angle", dtype=np.float64).reshape(np.shape(cos_angle))
         if c.size and np.abs(c).max() > 1.0:
             raise ValueError(f"cos_angle: cosines lie in [-1, 1], got {np.abs(c).max():.6g}")
         ci, co = self.cos_inner, self.cos_outer

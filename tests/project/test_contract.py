@@ -299,15 +299,16 @@ def _work_probe():
     for modname, mod in list(sys.modules.items()):
         if not modname.startswith("raycast_shade") or mod is None:
             continue
-        for name, fn in originals.items():
-            if getattr(mod, name, None) is fn:
-                setattr(mod, name, counting(name, fn))
-                patched.append((mod, name, fn))
+        for attr, value in list(vars(mod).items()):  # under any name (inputs.prepare is kernel_inputs)
+            for name, fn in originals.items():
+                if value is fn:
+                    setattr(mod, attr, counting(name, fn))
+                    patched.append((mod, attr, fn))
     try:
         yield calls
     finally:
-        for mod, name, fn in patched:
-            setattr(mod, name, fn)
+        for mod, attr, fn in patched:
+            setattr(mod, attr, fn)
 
 
 def _names_argument(message: str, arg: str, value) -> bool:
