@@ -380,7 +380,11 @@ def _load_obj(path: str):
     files = obj_mtl_files(path)
     if not files:
         return trimesh.load(path, process=False)
-    mtl = b"\n".join(open(f, "rb").read() for f in files)
+    parts = []
+    for f in files:
+        with open(f, "rb") as fh:
+            parts.append(fh.read())
+    mtl = b"\n".join(parts)
     lines = [ln for ln in data.split(b"\n") if not ln.lstrip().lower().startswith(b"mtllib")]
     text = b"mtllib " + _MTL_KEY.encode() + b"\n" + b"\n".join(lines)
     name = os.path.basename(path)

@@ -7,7 +7,8 @@ to render it. The full reference is ``docs/scene-files.md``; in short::
     background = 0.0                    # colour where nothing is hit
 
     [camera]                            # required
-    eye = [0.0, 1.5, 6.0]               # required
+    eye = [0.0, 1.5, 6.0]               # required (or fit = true: framed by
+                                        # Camera.fit, with direction, margin)
     target = [0.0, 0.0, 0.0]            # also up, fov, projection,
     width = 640                         # ortho_height
     height = 480
@@ -82,10 +83,12 @@ from .mesh import Mesh
 from .scene import Model, Scene
 
 __all__ = ["load_scene", "load_for_render", "scene_from_dict", "SceneFileError", "check_render_options",
-           "split_options", "RENDER_KEYS", "SIZE_KEYS", "TONE_KEYS"]
+           "split_options", "model_scene", "RENDER_KEYS", "SIZE_KEYS", "TONE_KEYS"]
 
 _TOP_KEYS = ("ambient", "background", "camera", "object", "light", "render")
-_CAMERA_KEYS = ("eye", "target", "up", "fov", "width", "height", "projection", "ortho_height")
+_CAMERA_KEYS = ("eye", "target", "up", "fov", "width", "height", "projection", "ortho_height", "fit", "direction",
+                "margin")
+_FIT_KEYS = ("fit", "direction", "margin", "up", "fov", "width", "height", "projection")
 _OBJECT_KEYS = ("shape", "mesh", "name", "normals", "weighting", "crease_angle", "scale", "rotate", "translate",
                 "material")
 _FILE_KEYS = ("merge", "materials")  # mesh files only
@@ -174,16 +177,31 @@ def _string(value, where: str) -> str:
     return value
 
 
-def _camera(table, render) -> Camera:
+def _camera(table, render, models=None) -> Camera:
+    """The [camera]; with ``fit = true`` framed on ``models`` by :meth:`Camera.fit`."""
     cam = dict(_table(table, "camera"))
     _check_keys(cam, "camera", _CAMERA_KEYS)
-    if "eye" not in cam:
-        raise _Invalid("camera", "missing key 'eye'")
+    fit = cam.pop("fit", False)
+    if not isinstance(fit, bool):
+        raise _Invalid("camera.fit", f"expected true or false, got {_kind(fit)}")
     # [render] width/height override the camera's, so one camera block can
     # serve several output sizes.
     for key in ("width", "height"):
         if key in render:
             cam[key] = render[key]
+    if fit:
+        extra = [k for k in cam if k not in _FIT_KEYS]
+        if extra:
+            raise _Invalid(f"camera.{extra[0]}", "not with fit = true (the fitted camera places itself; give "
+                                                 "direction and margin instead)")
+        if models is None:
+            return None
+        return _call("camera", Camera.fit, models, **cam)
+    for key in ("direction", "margin"):
+        if key in cam:
+            raise _Invalid(f"camera.{key}", "only with fit = true")
+    if "eye" not in cam:
+        raise _Invalid("camera", "missing key 'eye' (or fit = true to frame the scene)")
     return _call("camera", Camera, **cam)
 
 
@@ -323,6 +341,11 @@ def _material(table, where: str, base_dir: str = ".", base: Material | None = No
             given["kd_map"] = None
         if "ks" in mat and "ks_map" not in mat:
             given["ks_map"] = None
+        # Where the file gave no ambient colour, its ka follows kd (meshfile.load_models): so does the override.
+        follows = np.array_equal(base.ka, base.kd) and base.ka_map is base.kd_map
+        if follows and "ka" not in mat and "ka_map" not in mat and ("kd" in mat or "kd_map" in mat):
+            given["ka"] = mat["kd"] if "kd" in mat else base.kd
+            given["ka_map"] = mat.get("kd_map", None)
         given.update(mat)
         mat = given
     mat.setdefault("name", where)
@@ -454,7 +477,7 @@ def _build(data: dict, base_dir: str):
     if "camera" not in data:
         raise _Invalid("", "missing [camera] table")
     options = _render_options(data.get("render", {}))
-    camera = _camera(data["camera"], options)
+    camera = _camera(data["camera"], options)  # checked before the meshes load; a fitted one after
     objects = _tables(data, "object")
     if not objects:
         raise _Invalid("", "no [[object]] tables: a scene needs at least one object")
@@ -476,6 +499,8 @@ def _build(data: dict, base_dir: str):
         # A file with several materials is several models: each takes its object's method.
         options["shading"] = tuple(m for m, n in zip(shading, per_object) for _ in range(n))
     lights = [_light(t, f"light[{i}]") for i, t in enumerate(_tables(data, "light"))]
+    if camera is None:
+        camera = _camera(data["camera"], options, models)
     ambient = _call("ambient", as_rgb, data.get("ambient", 0.1), "ambient")
     background = _call("background", as_rgb, data.get("background", 0.0), "background")
     return Scene(models, lights=lights, camera=camera, ambient=ambient, background=background), options
@@ -594,3 +619,43 @@ def load_for_render(path, **overrides):
     if size:
         scene = scene.replace(camera=scene.camera.replace(**size))
     return scene, render_kwargs, tone
+
+
+def model_scene(path, *, width: int = 640, height: int = 480, direction=(-0.4, -0.35, -1.0), margin: float = 0.05,
+                fov: float = 45.0, ambient: float = 0.2, **load_kwargs) -> Scene:
+    """A mesh file ready to render: its models, a camera framing them, a headlight and a key light.
+
+    What ``raycast-shade render model.glb`` renders. The camera is
+    :meth:`Camera.fit` along ``direction``; the headlight shines along the
+    view (intensity 0.5: every visible surface lit), the key light from the
+    upper left, over the viewer's shoulder (intensity 0.7); ``ambient`` is the
+    ambient intensity (the file's colours show there too: ka follows kd).
+
+    Parameters
+    ----------
+    path : str or path-like
+        Any file :func:`raycast_shade.load_models` reads.
+    width, height : int
+    direction : (3,) float
+        The view direction.
+    margin : float
+        As in :meth:`Camera.fit`.
+    fov : float
+    ambient : float
+    **load_kwargs
+        Passed to :func:`raycast_shade.load_models` (``merge``, ``crease_angle``, ...).
+
+    Returns
+    -------
+    Scene
+    """
+    from .lights import DirectionalLight
+    from .meshfile import load_models
+
+    models = load_models(path, **load_kwargs)
+    camera = Camera.fit(models, direction, margin=margin, width=width, height=height, fov=fov)
+    r, u, f = camera.basis
+    key = f + 0.8 * r - 0.9 * u  # from the upper left: travelling right and down
+    lights = [DirectionalLight(f, intensity=0.5, name="headlight"),
+              DirectionalLight(key / np.linalg.norm(key), intensity=0.7, name="key")]
+    return Scene(models, lights=lights, camera=camera, ambient=ambient)
