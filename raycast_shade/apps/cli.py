@@ -217,7 +217,8 @@ def _cmd_render(args) -> int:
 def _render_model(path: str, given: dict):
     """``render MODEL``: the mesh file framed and lit (:func:`~raycast_shade.scene.scenefile.model_scene`)."""
     from ..render import render
-    from ..scene.scenefile import check_render_options, model_scene, split_options
+    from ..scene.meshfile import model_scene
+    from ..scene.scenefile import check_render_options, split_options
 
     size, kwargs, tone = split_options(check_render_options({k: v for k, v in given.items() if v is not None}))
     kwargs.setdefault("shading", "phong")

@@ -70,7 +70,9 @@ def inspect_file(path) -> dict:
         ``notes``: every warning the loader gave.
     """
     from ..scene import fileparse
-    from ..scene.mesh import _is_scene, read_trimesh
+    import trimesh
+
+    from ..scene.mesh import read_trimesh
     from ..scene.meshfile import load_models
 
     path = os.fspath(path)
@@ -87,7 +89,7 @@ def inspect_file(path) -> dict:
     if ext == ".obj":
         for f in fileparse.obj_mtl_files(path):
             mtl.update(fileparse.parse_mtl(f))
-    geoms = list(tm.geometry.values()) if _is_scene(tm) else [tm]
+    geoms = list(tm.geometry.values()) if isinstance(tm, trimesh.Scene) else [tm]
     seen = {}
     for g in geoms:
         mat = getattr(getattr(g, "visual", None), "material", None)

@@ -59,7 +59,6 @@ from, e.g. ``object[1].material: unknown key 'shinyness' (did you mean
 
 from __future__ import annotations
 
-import dataclasses
 import difflib
 import inspect
 import os
@@ -78,12 +77,12 @@ from ..common.samples import check_samples
 from ..common.validate import as_choice, as_int, as_rgb, as_scalar, as_vec3
 from .camera import Camera
 from .lights import DirectionalLight, PointLight, SpotLight
-from .material import Material
+from .material import Material, overridden
 from .mesh import Mesh
 from .scene import Model, Scene
 
 __all__ = ["load_scene", "load_for_render", "scene_from_dict", "SceneFileError", "check_render_options",
-           "split_options", "model_scene", "RENDER_KEYS", "SIZE_KEYS", "TONE_KEYS"]
+           "split_options", "RENDER_KEYS", "SIZE_KEYS", "TONE_KEYS"]
 
 _TOP_KEYS = ("ambient", "background", "camera", "object", "light", "render")
 _CAMERA_KEYS = ("eye", "target", "up", "fov", "width", "height", "projection", "ortho_height", "fit", "direction",
@@ -178,28 +177,20 @@ def _string(value, where: str) -> str:
 
 
 def _camera(table, render, models=None) -> Camera:
-    """The [camera]; with ``fit = true`` framed on ``models`` by :meth:`Camera.fit`."""
+    """The [camera]; ``fit = true`` frames ``models`` (:meth:`Camera.fit`; None until they are loaded)."""
     cam = dict(_table(table, "camera"))
     _check_keys(cam, "camera", _CAMERA_KEYS)
     fit = cam.pop("fit", False)
     if not isinstance(fit, bool):
         raise _Invalid("camera.fit", f"expected true or false, got {_kind(fit)}")
-    # [render] width/height override the camera's, so one camera block can
-    # serve several output sizes.
-    for key in ("width", "height"):
-        if key in render:
-            cam[key] = render[key]
+    # [render] width/height override the camera's, so one camera block can serve several output sizes.
+    cam.update((k, render[k]) for k in ("width", "height") if k in render)
+    wrong = [k for k in cam if k not in _FIT_KEYS] if fit else [k for k in ("direction", "margin") if k in cam]
+    if wrong:
+        raise _Invalid(f"camera.{wrong[0]}", "not with fit = true (the fitted camera places itself; give direction "
+                                             "and margin instead)" if fit else "only with fit = true")
     if fit:
-        extra = [k for k in cam if k not in _FIT_KEYS]
-        if extra:
-            raise _Invalid(f"camera.{extra[0]}", "not with fit = true (the fitted camera places itself; give "
-                                                 "direction and margin instead)")
-        if models is None:
-            return None
-        return _call("camera", Camera.fit, models, **cam)
-    for key in ("direction", "margin"):
-        if key in cam:
-            raise _Invalid(f"camera.{key}", "only with fit = true")
+        return None if models is None else _call("camera", Camera.fit, models, **cam)
     if "eye" not in cam:
         raise _Invalid("camera", "missing key 'eye' (or fit = true to frame the scene)")
     return _call("camera", Camera, **cam)
@@ -335,19 +326,7 @@ def _material(table, where: str, base_dir: str = ".", base: Material | None = No
         if key in mat:
             mat[key] = _texture(mat[key], f"{where}.{key}", base_dir)
     if base is not None:
-        given = {f.name: getattr(base, f.name) for f in dataclasses.fields(base)}
-        # A kd given here replaces the file's kd and kd_map alike (and the mesh's colours: see _build).
-        if "kd" in mat and "kd_map" not in mat:
-            given["kd_map"] = None
-        if "ks" in mat and "ks_map" not in mat:
-            given["ks_map"] = None
-        # Where the file gave no ambient colour, its ka follows kd (meshfile.load_models): so does the override.
-        follows = np.array_equal(base.ka, base.kd) and base.ka_map is base.kd_map
-        if follows and "ka" not in mat and "ka_map" not in mat and ("kd" in mat or "kd_map" in mat):
-            given["ka"] = mat["kd"] if "kd" in mat else base.kd
-            given["ka_map"] = mat.get("kd_map", None)
-        given.update(mat)
-        mat = given
+        mat = overridden(base, mat)
     mat.setdefault("name", where)
     return _call(where, Material, **mat)
 
@@ -619,43 +598,3 @@ def load_for_render(path, **overrides):
     if size:
         scene = scene.replace(camera=scene.camera.replace(**size))
     return scene, render_kwargs, tone
-
-
-def model_scene(path, *, width: int = 640, height: int = 480, direction=(-0.4, -0.35, -1.0), margin: float = 0.05,
-                fov: float = 45.0, ambient: float = 0.2, **load_kwargs) -> Scene:
-    """A mesh file ready to render: its models, a camera framing them, a headlight and a key light.
-
-    What ``raycast-shade render model.glb`` renders. The camera is
-    :meth:`Camera.fit` along ``direction``; the headlight shines along the
-    view (intensity 0.5: every visible surface lit), the key light from the
-    upper left, over the viewer's shoulder (intensity 0.7); ``ambient`` is the
-    ambient intensity (the file's colours show there too: ka follows kd).
-
-    Parameters
-    ----------
-    path : str or path-like
-        Any file :func:`raycast_shade.load_models` reads.
-    width, height : int
-    direction : (3,) float
-        The view direction.
-    margin : float
-        As in :meth:`Camera.fit`.
-    fov : float
-    ambient : float
-    **load_kwargs
-        Passed to :func:`raycast_shade.load_models` (``merge``, ``crease_angle``, ...).
-
-    Returns
-    -------
-    Scene
-    """
-    from .lights import DirectionalLight
-    from .meshfile import load_models
-
-    models = load_models(path, **load_kwargs)
-    camera = Camera.fit(models, direction, margin=margin, width=width, height=height, fov=fov)
-    r, u, f = camera.basis
-    key = f + 0.8 * r - 0.9 * u  # from the upper left: travelling right and down
-    lights = [DirectionalLight(f, intensity=0.5, name="headlight"),
-              DirectionalLight(key / np.linalg.norm(key), intensity=0.7, name="key")]
-    return Scene(models, lights=lights, camera=camera, ambient=ambient)
