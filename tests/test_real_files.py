@@ -445,3 +445,16 @@ def test_sphere_images_read_upright():
         north = mesh.vertices[:, 1] > 0.99
         south = mesh.vertices[:, 1] < -0.99
         assert mesh.uvs[north, 1].min() > 0.9 and mesh.uvs[south, 1].max() < 0.1
+
+
+def test_a_scene_file_kd_override_carries_a_following_ka_along(tmp_path):
+    from raycast_shade.scene.scenefile import load_scene
+
+    (tmp_path / "a.mtl").write_text("newmtl red\nKd 0.8 0.1 0.1\nnewmtl own\nKd 0.8 0.1 0.1\nKa 0.05 0.05 0.05\n")
+    (tmp_path / "a.obj").write_text("mtllib a.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nusemtl red\nf 1 2 3\n")
+    (tmp_path / "b.obj").write_text("mtllib a.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nusemtl own\nf 1 2 3\n")
+    base = '[camera]\neye = [0.5, 0.5, 3]\n[[object]]\nmesh = "{}"\n[object.material]\nkd = 0.3\n'
+    for obj, ka in (("a.obj", [0.3] * 3), ("b.obj", [0.05] * 3)):
+        (tmp_path / "s.toml").write_text(base.format(obj))
+        scene, _ = load_scene(tmp_path / "s.toml")
+        assert scene.models[0].material.ka.tolist() == ka
