@@ -458,3 +458,17 @@ def test_a_scene_file_kd_override_carries_a_following_ka_along(tmp_path):
         (tmp_path / "s.toml").write_text(base.format(obj))
         scene, _ = load_scene(tmp_path / "s.toml")
         assert scene.models[0].material.ka.tolist() == ka
+
+
+@pytest.mark.parametrize("extra, match", [
+    ({"pbrMetallicRoughness": {"metallicFactor": -0.5}}, r"materials\[0\].pbrMetallicRoughness.metallicFactor: "
+                                                         r"expected 1 number\(s\) in \[0, 1\], got -0.5"),
+    ({"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1]}}, r"baseColorFactor: expected 4 number"),
+    ({"pbrMetallicRoughness": {"roughnessFactor": "abc"}}, r"roughnessFactor: expected 1 number"),
+    ({"alphaMode": "CUTOUT"}, r"materials\[0\].alphaMode: expected OPAQUE, MASK or BLEND"),
+])
+def test_gltf_material_factors_are_validated_naming_the_field(tmp_path, extra, match):
+    _gltf_quad(tmp_path / "f.gltf", np.zeros((2, 2, 3), np.uint8), [[0, 0], [1, 0], [1, 1], [0, 1]],
+               [(REPEAT, REPEAT)], material_extra=extra)
+    with pytest.raises(ValueError, match="f.gltf: .*" + match):
+        rs.load_models(tmp_path / "f.gltf")

@@ -147,6 +147,7 @@ class FileContext:
         if self.gltf is None:
             return
         me = os.path.basename(self.path)
+        self._check_gltf_materials()
         for i, img in enumerate(self.gltf.get("images", []) or []):
             uri = img.get("uri") if isinstance(img, dict) else None
             if isinstance(uri, str) and not uri.startswith("data:"):
@@ -154,6 +155,31 @@ class FileContext:
 
                 if not os.path.isfile(os.path.join(self.base_dir, unquote(uri))):
                     self.missing.append(f"{unquote(uri)} (images[{i}] of {me})")
+
+    def _check_gltf_materials(self):
+        """Every material factor the mapping reads, checked against the spec's range, naming the field."""
+        me = os.path.basename(self.path)
+        for i, m in enumerate(self.gltf.get("materials", []) or []):
+            if not isinstance(m, dict):
+                raise ValueError(f"{me}: materials[{i}]: expected an object, got {type(m).__name__}")
+            pbr = m.get("pbrMetallicRoughness") or {}
+            for where, value, n, hi in (
+                    ("pbrMetallicRoughness.baseColorFactor", pbr.get("baseColorFactor"), 4, 1.0),
+                    ("pbrMetallicRoughness.metallicFactor", pbr.get("metallicFactor"), 1, 1.0),
+                    ("pbrMetallicRoughness.roughnessFactor", pbr.get("roughnessFactor"), 1, 1.0),
+                    ("emissiveFactor", m.get("emissiveFactor"), 3, 1.0),
+                    ("alphaCutoff", m.get("alphaCutoff"), 1, math.inf)):
+                if value is None:
+                    continue
+                vals = value if isinstance(value, list) else [value]
+                ok = len(vals) == n and all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                                            and math.isfinite(v) and 0.0 <= v <= hi for v in vals)
+                if not ok:
+                    rng = f"[0, {hi:g}]" if math.isfinite(hi) else ">= 0"
+                    raise ValueError(f"{me}: materials[{i}].{where}: expected {n} number(s) in {rng}, got {value!r}")
+            mode = m.get("alphaMode", "OPAQUE")
+            if mode not in ("OPAQUE", "MASK", "BLEND"):
+                raise ValueError(f"{me}: materials[{i}].alphaMode: expected OPAQUE, MASK or BLEND, got {mode!r}")
 
     def gltf_material(self, mat):
         """The file's JSON for a trimesh PBRMaterial (by name, then by its factors), or None."""
