@@ -171,22 +171,26 @@ def off_colors(path: str):
     lines = list(_lines(path))
     if not lines:
         return None, None, np.zeros(0, np.int64)
+    none = None, None, np.zeros(0, np.int64)
     i = next((k for k, (_, line) in enumerate(lines) if "OFF" in line), None)
     if i is None:
-        return None, None, np.zeros(0, np.int64)
-    line = lines[i][1]
-    rest = line[line.index("OFF") + 3:].split()  # "OFF", "COFF", "NOFF" ..., counts on the same line or the next
-    i += 1
-    if not rest:
-        rest = lines[i][1].split()
+        return none
+    try:  # the structure is trimesh's to judge (and refuse); only the colours are read here
+        line = lines[i][1]
+        rest = line[line.index("OFF") + 3:].split()  # "OFF", "COFF", "NOFF" ..., counts here or on the next line
         i += 1
-    nv, nf = int(rest[0]), int(rest[1])
-    vrows = [(n, line.split()[3:]) for n, line in lines[i:i + nv]]
-    frows = []
-    for n, line in lines[i + nv:i + nv + nf]:
-        t = line.split()
-        k = int(t[0])
-        frows.append((n, k, t[1 + k:]))
+        if not rest:
+            rest = lines[i][1].split()
+            i += 1
+        nv, nf = int(rest[0]), int(rest[1])
+        vrows = [(n, line.split()[3:]) for n, line in lines[i:i + nv]]
+        frows = []
+        for n, line in lines[i + nv:i + nv + nf]:
+            t = line.split()
+            k = int(t[0])
+            frows.append((n, k, t[1 + k:]))
+    except (IndexError, ValueError):
+        return none
     sizes = np.array([k for _, k, _ in frows], np.int64)
     frows = [(n, r) for n, _, r in frows]
 

@@ -152,10 +152,11 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, *
     """
     import trimesh
 
-    tm, srgb = read_trimesh(path, merge)
     path = os.fspath(path)
     base = mesh_kwargs.pop("name", os.path.basename(path))
-    ctx = FileContext(path, base)
+    # The file's own references and values first: a bad value is named before trimesh trips on it.
+    ctx = FileContext(path, base) if os.path.isfile(path) else None
+    tm, srgb = read_trimesh(path, merge)
     for used in dict.fromkeys(n for n, _ in ctx.usemtl):
         if used in ctx.mtl:  # every material the OBJ uses is checked, whatever trimesh made of it
             from_mtl_cached(ctx, used, [])
