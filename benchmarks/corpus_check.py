@@ -201,6 +201,11 @@ def colour_errors(path, models, frame):
             ws, wt = _gltf_wraps(path, tmat) if gltf else ("repeat", "repeat")
             # trimesh's v is 1 - t: the folds are symmetric under it.
             uv = np.stack([_fold(uv[:, 0], ws), _fold(uv[:, 1], wt)], 1)
+            # trimesh puts texel centres at u (w - 1); ours (the OpenGL rule) at (j + 0.5) / w: the same point
+            # in trimesh's coordinates is u' = (u w - 1/2) / (w - 1) (and likewise for 1 - v).
+            w, h = image.size
+            if w > 1 and h > 1:
+                uv = np.stack([(uv[:, 0] * w - 0.5) / (w - 1), 1.0 - ((1.0 - uv[:, 1]) * h - 0.5) / (h - 1)], 1)
             ref8 = uv_to_interpolated_color(uv, image)[:, :3] / 255.0
             if gltf:
                 base = np.asarray(tmat.baseColorFactor if tmat.baseColorFactor is not None else [255] * 4)
@@ -224,10 +229,9 @@ def colour_errors(path, models, frame):
                 ref = srgb_to_linear(fc) if srgb else fc
             else:
                 ours = np.einsum("nk,nkj->nj", bw[sel], mesh.colors[tri])
-                if isinstance(vis, trimesh.visual.ColorVisuals):
-                    vc = np.asarray(vis.vertex_colors)[:, :3] / 255.0
-                else:
-                    vc = np.asarray(vis.vertex_attributes["color"])[:, :3] / 255.0
+                raw = np.asarray(vis.vertex_colors if isinstance(vis, trimesh.visual.ColorVisuals)
+                                 else vis.vertex_attributes["color"])[:, :3]
+                vc = raw / 255.0 if raw.dtype.kind in "ui" else raw.astype(np.float64)
                 vc = srgb_to_linear(vc) if srgb else vc
                 base = getattr(tmat, "baseColorFactor", None) if gltf else None
                 base = 1.0 if base is None else np.asarray(base)[:3] / (255.0 if np.asarray(base).dtype.kind in "ui"

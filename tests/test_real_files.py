@@ -472,3 +472,13 @@ def test_gltf_material_factors_are_validated_naming_the_field(tmp_path, extra, m
                [(REPEAT, REPEAT)], material_extra=extra)
     with pytest.raises(ValueError, match="f.gltf: .*" + match):
         rs.load_models(tmp_path / "f.gltf")
+
+
+def test_a_missing_gltf_buffer_is_an_error_naming_it(tmp_path):
+    _gltf_quad(tmp_path / "b.gltf", np.zeros((2, 2, 3), np.uint8), [[0, 0], [1, 0], [1, 1], [0, 1]],
+               [(REPEAT, REPEAT)])
+    js = json.loads((tmp_path / "b.gltf").read_text())
+    js["buffers"][0]["uri"] = "gone.bin"
+    (tmp_path / "b.gltf").write_text(json.dumps(js))
+    with pytest.raises(ValueError, match=r"b.gltf: buffers\[0\]: the file gone.bin is missing"):
+        rs.load_models(tmp_path / "b.gltf")

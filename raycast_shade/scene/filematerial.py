@@ -148,6 +148,14 @@ class FileContext:
             return
         me = os.path.basename(self.path)
         self._check_gltf_materials()
+        for i, buf in enumerate(self.gltf.get("buffers", []) or []):
+            uri = buf.get("uri") if isinstance(buf, dict) else None
+            if isinstance(uri, str) and not uri.startswith("data:"):
+                from urllib.parse import unquote
+
+                if not os.path.isfile(os.path.join(self.base_dir, unquote(uri))):
+                    raise ValueError(f"{me}: buffers[{i}]: the file {unquote(uri)} is missing (it holds the "
+                                     "geometry: nothing can be drawn without it)")
         for i, img in enumerate(self.gltf.get("images", []) or []):
             uri = img.get("uri") if isinstance(img, dict) else None
             if isinstance(uri, str) and not uri.startswith("data:"):

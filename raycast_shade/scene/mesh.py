@@ -446,13 +446,14 @@ def _material_names(tm) -> list:
     return [repr(getattr(mat, "name", None) or type(mat).__name__)]
 
 
-def visual_colors(tm, srgb: bool, name: str) -> tuple:
+def visual_colors(tm, srgb: bool, name: str, alpha: str = "warn") -> tuple:
     """A trimesh's colours as ``(colors (N, 3) float64 linear, mode)``, or ``(None, None)``.
 
     Vertex or face colours of a ``ColorVisuals``, or the vertex colours a
     ``TextureVisuals`` keeps next to its texture (glTF ``COLOR_0``); 8-bit
     values are divided by 255 and, with ``srgb``, decoded to linear. An alpha
-    channel that is not opaque is dropped with a warning.
+    channel that is not opaque is dropped with a warning (``alpha="ignore"``:
+    silently, where the file says alpha means nothing, as glTF's ``OPAQUE``).
     """
     vis = getattr(tm, "visual", None)
     raw, mode = None, None
@@ -472,7 +473,7 @@ def visual_colors(tm, srgb: bool, name: str) -> tuple:
     if c.ndim != 2 or c.shape[1] not in (3, 4):
         return None, None
     if c.shape[1] == 4:
-        if np.any(c[:, 3] < 1.0):
+        if alpha == "warn" and np.any(c[:, 3] < 1.0):
             warnings.warn(f"{name}: dropped the colours' alpha (transparency is not modelled)",
                           DroppedOnLoadWarning, stacklevel=4)
         c = c[:, :3]

@@ -174,7 +174,9 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, *
         kw, why = material_from_trimesh(g.visual, ctx.base_dir, name, context=ctx)
         lost += [f"{name}: {w}" for w in why]
         vertices, faces, normals, uvs = _instance(g, transform, use_normals)
-        colors, mode = visual_colors(g, srgb, name)
+        opaque = ctx is not None and ctx.gltf is not None and (getattr(getattr(g.visual, "material", None),
+                                                                         "alphaMode", None) or "OPAQUE") == "OPAQUE"
+        colors, mode = visual_colors(g, srgb, name, "ignore" if opaque else "warn")
         if colors is None and ctx.off is not None:
             colors, mode = _off_colors(ctx.off, len(vertices), len(faces), name)
         if colors is not None and "kd" in kw:
