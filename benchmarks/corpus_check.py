@@ -2,7 +2,7 @@
 
 ``python benchmarks/corpus_check.py FOLDER --out DIR [--size 256] [--gltf-variants glTF,glTF-Binary]``;
 ``python benchmarks/corpus_check.py summary NAME BEFORE.csv AFTER.csv [...]`` prints the tables of
-``docs/files.md``.
+``docs/files.md``; ``python benchmarks/corpus_check.py sheet DIR`` redraws ``DIR/sheet.png``.
 
 For each mesh file (OBJ, glTF/GLB, PLY, OFF, STL, archives, and whatever else
 trimesh reads) it loads the models with :func:`raycast_shade.load_models`
@@ -463,6 +463,16 @@ def summary(pairs) -> str:
 
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else argv
+    if argv[:1] == ["sheet"]:  # sheet DIR: the contact sheet again from DIR's corpus.csv and renders/
+        from PIL import Image
+
+        rows = _read(os.path.join(argv[1], "corpus.csv"))
+        for r in rows:
+            png = os.path.join(argv[1], "renders", r["file"].replace(os.sep, "__") + ".png")
+            r["image"] = np.asarray(Image.open(png).convert("RGB")) if os.path.exists(png) else None
+            r["median_error"] = float(r["median_error"]) if r["median_error"] else ""
+        contact_sheet(rows, os.path.join(argv[1], "sheet.png"))
+        return 0
     if argv[:1] == ["summary"]:  # summary NAME BEFORE.csv AFTER.csv [NAME BEFORE AFTER ...]
         rest = argv[1:]
         print(summary([tuple(rest[i:i + 3]) for i in range(0, len(rest), 3)]))
