@@ -482,3 +482,19 @@ def test_a_missing_gltf_buffer_is_an_error_naming_it(tmp_path):
     (tmp_path / "b.gltf").write_text(json.dumps(js))
     with pytest.raises(ValueError, match=r"b.gltf: buffers\[0\]: the file gone.bin is missing"):
         rs.load_models(tmp_path / "b.gltf")
+
+
+def test_mesh_load_drops_reversed_duplicates_too_keeping_face_colours_aligned(tmp_path):
+    grid = rs.shapes.plane(subdivisions=2)
+    f = grid.faces
+    faces = np.concatenate([f, f[:, ::-1]])
+    colours = np.zeros((len(faces), 4), np.uint8)
+    colours[:, 3] = 255
+    colours[:, 0] = np.arange(len(faces)) * 10  # a face's colour says which face it is
+    tm = trimesh.Trimesh(grid.vertices, faces, process=False)
+    tm.visual.face_colors = colours
+    tm.export(tmp_path / "sheet.ply")
+    with pytest.warns(rs.DroppedOnLoadWarning, match=f"dropped {len(f)} face"):
+        mesh = rs.Mesh.load(tmp_path / "sheet.ply")
+    assert len(mesh.faces) == len(f) and mesh.color_mode == "face"
+    np.testing.assert_allclose(mesh.colors[:, 0], srgb_to_linear(np.arange(len(f)) * 10 / 255))
