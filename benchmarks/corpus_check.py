@@ -362,8 +362,8 @@ def _render_sample(path, direction, size):
         cam = rs.Camera.fit(models, direction, margin=0.05, width=size, height=size)
         r, u, f = cam.basis
         key = f + 0.8 * r - 0.9 * u
-        scene = rs.Scene(models, lights=[rs.DirectionalLight(f, intensity=0.5), rs.DirectionalLight(key, intensity=0.7)],
-                         camera=cam, ambient=0.2)
+        lights = [rs.DirectionalLight(f, intensity=0.5), rs.DirectionalLight(key, intensity=0.7)]
+        scene = rs.Scene(models, lights=lights, camera=cam, ambient=0.2)
         return rs.render(scene, shading="phong").to_uint8()
 
 
