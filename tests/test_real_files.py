@@ -497,3 +497,37 @@ def test_mesh_load_drops_reversed_duplicates_too_keeping_face_colours_aligned(tm
         mesh = rs.Mesh.load(tmp_path / "sheet.ply")
     assert len(mesh.faces) == len(f) and mesh.color_mode == "face"
     np.testing.assert_allclose(mesh.colors[:, 0], srgb_to_linear(np.arange(len(f)) * 10 / 255))
+
+
+def test_a_one_axis_clamp_with_a_metallic_roughness_texture_moves_every_map_alike(tmp_path):
+    """kd_map, ks_map (baked per texel) and ka_map (the base colour) share the base grid: one UV set."""
+    import base64
+
+    rng = np.random.default_rng(9)
+    base, mr = (rng.integers(0, 256, (4, 6, 3), dtype=np.uint8) for _ in range(2))
+    _gltf_quad(tmp_path / "c.gltf", base, [[-0.5, 0], [1.5, 0], [1.5, 1], [-0.5, 1]], [(CLAMP, REPEAT)])
+    js = json.loads((tmp_path / "c.gltf").read_text())
+    buf = io.BytesIO()
+    Image.fromarray(mr).save(buf, format="PNG")
+    js["images"].append({"uri": "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode()})
+    js["textures"].append({"source": 1, "sampler": 0})
+    js["materials"][0]["pbrMetallicRoughness"] = {"baseColorTexture": {"index": 0},
+                                                  "metallicRoughnessTexture": {"index": 1}}
+    (tmp_path / "c.gltf").write_text(json.dumps(js))
+    with pytest.warns(rs.DroppedOnLoadWarning) as record:
+        (model,) = rs.load_models(tmp_path / "c.gltf")
+    assert "pads another grid" not in _messages(record)
+    mat = model.material
+    assert mat.kd_map.shape == mat.ks_map.shape == mat.ka_map.shape and mat.kd_map.shape[1] > 6  # padded in u
+    # At the file's texel centres along u (inside and beyond [0, 1]), the base colour at the moved UV is
+    # the clamped file texel; v (repeat) is untouched: trimesh's v = 1 - t.
+    lin = srgb_to_linear(base[::-1] / 255)  # row 0 at v = 0
+    u0, u1 = model.mesh.uvs[0, 0], model.mesh.uvs[1, 0]
+    ka = rs.Model(model.mesh, rs.Material(kd_map=mat.ka_map))
+    for j in range(-3, 9):
+        u_file = (j + 0.5) / 6
+        u = u0 + (u_file + 0.5) / 2.0 * (u1 - u0)
+        for i in range(4):
+            got = _sampled(ka, u, (i + 0.5) / 4)
+            np.testing.assert_allclose(got, lin[i, min(max(j, 0), 5)], atol=1e-6)
+    np.testing.assert_allclose(model.mesh.uvs[:, 1], [1, 1, 0, 0])

@@ -59,8 +59,9 @@ def material_from_trimesh(visual, base_dir: str = ".", name: str = "material", c
     Returns
     -------
     kwargs : dict
-        Keywords of :class:`Material` (empty: the library's defaults). A map may
-        still be pending its mesh's UVs (a glTF sampler clamping one axis only).
+        Keywords of :class:`Material` (empty: the library's defaults). With a
+        ``context``, a map may still be pending its mesh's UVs (a glTF sampler
+        clamping one axis only, which :func:`load_models` resolves).
     lost : list of str
         What the material had that could not be mapped.
     """
@@ -69,19 +70,22 @@ def material_from_trimesh(visual, base_dir: str = ".", name: str = "material", c
     ctx = context if context is not None else FileContext(None, base_dir=base_dir)
     mat = getattr(visual, "material", None)
     lost = []
-    if mat is None:
-        return {}, lost
+    kw = {}
     mname = getattr(mat, "name", None) or name
-    if isinstance(mat, trimesh.visual.material.PBRMaterial):
-        return from_pbr(mat, mname, lost, ctx), lost
-    if isinstance(mat, trimesh.visual.material.SimpleMaterial):
+    if mat is None:
+        pass
+    elif isinstance(mat, trimesh.visual.material.PBRMaterial):
+        kw = from_pbr(mat, mname, lost, ctx)
+    elif isinstance(mat, trimesh.visual.material.SimpleMaterial):
         if mname in ctx.mtl:
-            return from_mtl_cached(ctx, mname, lost), lost
-        if is_placeholder(mat):
-            return {}, lost  # UVs without a material: the library's default, not trimesh's grey image
-        return from_simple(mat, mname, lost, ctx), lost
-    lost.append(f"a {type(mat).__name__}")
-    return {}, lost
+            kw = from_mtl_cached(ctx, mname, lost)
+        elif not is_placeholder(mat):  # trimesh's grey stand-in for "no material" gives the library's default
+            kw = from_simple(mat, mname, lost, ctx)
+    else:
+        lost.append(f"a {type(mat).__name__}")
+    if context is None:  # a caller of its own: every map a Texture now (a one-axis clamp shaded as repeat)
+        _resolve_maps(kw, None, mname, lost)
+    return kw, lost
 
 
 def _resolve_maps(kw: dict, uvs, name: str, lost: list):
@@ -91,13 +95,14 @@ def _resolve_maps(kw: dict, uvs, name: str, lost: list):
     for k, w in pending.items():
         if id(w) not in done:
             if w.needs_uvs and uvs is not None:
-                tex, new_uvs, note = w.texture(uvs if out_uvs is None else out_uvs)
+                # Padded over the file's UVs; maps on one grid (the base colour's) move them alike.
+                tex, new_uvs, note = w.texture(uvs)
                 if new_uvs is not None:
-                    if out_uvs is not None:
-                        lost.append(f"{name}: {k} clamps another axis than the other maps (shaded as repeat)")
-                        tex, _, note = w.texture(None)
-                    else:
+                    if out_uvs is None:
                         out_uvs = new_uvs
+                    elif not np.array_equal(new_uvs, out_uvs):
+                        lost.append(f"{name}: {k} pads another grid than the other maps (shaded as repeat)")
+                        tex, _, note = w.texture(None)
             else:
                 tex, _, note = w.texture(None) if w.needs_uvs else w.texture(uvs)
             if note:
