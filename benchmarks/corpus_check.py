@@ -208,6 +208,10 @@ def colour_errors(path, models, frame):
             w, h = image.size
             if w > 1 and h > 1:
                 uv = np.stack([(uv[:, 0] * w - 0.5) / (w - 1), 1.0 - ((1.0 - uv[:, 1]) * h - 0.5) / (h - 1)], 1)
+                # trimesh's lookup wraps: a clamped axis must stay on its edge texel.
+                for axis, mode in ((0, ws), (1, wt)):
+                    if mode == "clamp":
+                        uv[:, axis] = np.clip(uv[:, axis], 0.0, 1.0)
             ref8 = uv_to_interpolated_color(uv, image)[:, :3] / 255.0
             if gltf:
                 base = np.asarray(tmat.baseColorFactor if tmat.baseColorFactor is not None else [255] * 4)

@@ -70,6 +70,7 @@ def inspect_file(path) -> dict:
         ``notes``: every warning the loader gave.
     """
     from ..scene import fileparse
+    from ..scene.filematerial import is_placeholder
     import trimesh
 
     from ..scene.mesh import read_trimesh
@@ -98,7 +99,10 @@ def inspect_file(path) -> dict:
             img = getattr(mat, attr, None)
             if img is not None and id(img) not in seen:
                 seen[id(img)] = True
-                report["textures"].append((f"{getattr(mat, 'name', None) or '?'}.{attr}", _image_info(img)))
+                info = _image_info(img)
+                if attr == "image" and is_placeholder(mat):
+                    info += " (trimesh's stand-in for no material: not used)"
+                report["textures"].append((f"{getattr(mat, 'name', None) or '?'}.{attr}", info))
     if header:
         names = {10497: "repeat", 33071: "clamp", 33648: "mirrored repeat"}
         for i, smp in enumerate(header.get("samplers", []) or []):
