@@ -1,13 +1,16 @@
 """Run the benchmark suite: ``python -m benchmarks [--quick] [--only NAME ...]``.
 
 Each registered benchmark is a module of this package with ``main(argv)``
-(called with ``["--quick"]`` in quick mode) or ``run(quick: bool)``; one that
+(called with ``["--quick"]`` in quick mode) or ``run(quick: bool)``, and
+``outputs(quick)``, the files it writes; every ``bench_*.py`` module and the
+other measuring scripts of this folder are registered (``tests/project/
+test_benchmark_outputs.py`` checks it); one that
 is not there yet is skipped with a message, and one that fails is reported
 without stopping the others. CSVs go to ``benchmarks/results/`` and charts to
 ``docs/images/``; ``docs/benchmarks.md`` is then regenerated from the CSVs of
 the mode that ran. A quick run writes the same names into the git-ignored
-``benchmarks/results/quick/``, ``docs/images/quick/`` and
-``docs/benchmarks_quick.md`` (:mod:`benchmarks.outputs`), so it changes no
+``out/quick/results/``, ``out/quick/images/`` and
+``out/quick/benchmarks.md`` (:mod:`benchmarks.outputs`), so it changes no
 tracked file and never overwrites a full run's numbers.
 
 Exit status: 0 when every benchmark that exists ran, 1 when one failed, 2 on
@@ -45,6 +48,21 @@ REGISTRY = [
     dict(name="surfaces", module="benchmarks.bench_surfaces",
          title="Surfaces: two shadowing lights and a mirror against the primary-only frame",
          csv=["surfaces.csv"], images=[]),
+    dict(name="peers", module="benchmarks.bench_peers",
+         title="Peers: Mesa's llvmpipe and Open3D on the same scenes (needs the peers extra)",
+         csv=["peers.csv"], images=["peers.png"], page="performance.md"),
+    dict(name="limits", module="benchmarks.bench_limits",
+         title="Limits: raw Embree packets, bandwidth, memory, load and cold start",
+         csv=["limits.csv"], images=[], page="performance.md"),
+    dict(name="views", module="benchmarks.bench_views", title="Vision data sets: buffer files and views",
+         csv=["views.csv"], images=[], page="vision.md"),
+    dict(name="aa", module="benchmarks.bench_aa", title="Anti-aliasing: cost per sample and edge error",
+         csv=["aa.csv"], images=[], page="antialiasing.md"),
+    dict(name="explore", module="benchmarks.bench_explore", title="The explorer's frame rate",
+         csv=["explore.csv"], images=[], page="teaching.md"),
+    dict(name="vertex_rays", module="benchmarks.vertex_rays",
+         title="Rays through vertices: leaks and misses, Embree alone and watertight",
+         csv=["vertex_rays.csv"], images=[], page="failure-cases.md"),
 ]
 
 
@@ -123,25 +141,23 @@ def write_doc(status, quick: bool, path=None):
         f"Mode: {mode}. Machine: {os.cpu_count()} cores"
         f" (shared; times are medians of repeats after a warm-up, JIT compile time apart).",
         "",
-        "Run the suite with `python -m benchmarks` (full, under 30 minutes on 2 cores) or "
-        "`python -m benchmarks --quick` (under 2 minutes); a single benchmark with "
+        "Run the suite with `python -m benchmarks` (full sizes and repeats) or "
+        "`python -m benchmarks --quick` (small sizes, few repeats); a single benchmark with "
         "`python -m benchmarks --only accuracy`. CSVs are in "
         f"`{os.path.relpath(results, ROOT)}/`" + (" (quick mode: not tracked by git)" if quick else "") + ".",
         "See [accuracy.md](accuracy.md) for the method behind the accuracy numbers.",
         "Peers (Mesa llvmpipe, Open3D) and the limits (raw Embree packets, bandwidth, memory, load, cold start): "
         "[performance.md](performance.md).",
         "",
-        "Run on their own (not by `python -m benchmarks`; each takes `--quick`), with their pages: "
-        "[`bench_peers`](../benchmarks/bench_peers.py) and [`bench_limits`](../benchmarks/bench_limits.py) "
-        "([performance.md](performance.md)), [`bench_views`](../benchmarks/bench_views.py) "
-        "([vision.md](vision.md)), [`bench_aa`](../benchmarks/bench_aa.py) ([antialiasing.md](antialiasing.md)), "
-        "[`bench_explore`](../benchmarks/bench_explore.py) ([teaching.md](teaching.md)), "
-        "[`vertex_rays`](../benchmarks/vertex_rays.py) ([failure-cases.md](failure-cases.md), case 9b); "
-        "e.g. `python -m benchmarks.bench_aa`.",
+        "Every benchmark is registered here; one runs alone with `python -m benchmarks --only NAME` "
+        "or `python -m benchmarks.MODULE [--quick]`. The figures of the docs come from "
+        "`python -m docs.figures` ([docs/figures](figures/)).",
     ]
     for entry in REGISTRY:
         name = entry["name"]
         parts += ["", f"## {entry['title']} (`{name}`)", ""]
+        if "page" in entry:
+            parts += [f"Discussed in [{entry['page']}]({entry['page']}).", ""]
         st = status.get(name)
         if st is None:
             # A partial run (--only) keeps the other benchmarks' files from earlier runs.
@@ -175,12 +191,18 @@ def write_doc(status, quick: bool, path=None):
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m benchmarks", description="Run raycast_shade's benchmark suite.")
-    ap.add_argument("--quick", action="store_true", help="small sizes, few repeats (< 2 minutes on 2 cores)")
+    ap.add_argument("--quick", action="store_true", help="small sizes, few repeats")
     ap.add_argument("--only", nargs="+", metavar="NAME", choices=[e["name"] for e in REGISTRY],
                     help="run only these benchmarks")
+    ap.add_argument("--docs-only", action="store_true",
+                    help="run nothing: regenerate docs/benchmarks.md (benchmarks_quick.md) from the files on disk")
     ap.add_argument("--no-docs", action="store_true", help="do not regenerate docs/benchmarks.md or benchmarks_quick.md (nor the fitted orders in docs/accuracy.md)")
     args = ap.parse_args(argv)
 
+    if args.docs_only:
+        write_doc({}, args.quick)  # every section then says its files are from an earlier run
+        print(f"wrote {os.path.relpath(doc_path(args.quick), ROOT)}", file=sys.stderr)
+        return 0
     status = {}
     code = 0
     t_all = time.perf_counter()

@@ -16,7 +16,7 @@ Run ``python -m benchmarks.bench_aa [--quick]``. Measures
   fraction|`` over the edge pixels, for N = 1 .. 256, on both backends.
 
 Results: ``benchmarks/results/aa.csv``. ``--quick`` runs a 480x270 frame and
-fewer N and writes to a temporary folder only (nothing tracked changes).
+fewer N and writes into the git-ignored ``out/quick/results/`` (:mod:`benchmarks.outputs`).
 """
 
 from __future__ import annotations
@@ -24,13 +24,12 @@ from __future__ import annotations
 import argparse
 import csv
 import os
-import tempfile
 import time
 
 import numpy as np
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-RESULTS = os.path.join(HERE, "results")
+from benchmarks.outputs import results_file
+
 FIELDS = ["benchmark", "case", "backend", "samples", "value", "unit"]
 
 
@@ -83,7 +82,7 @@ def bench_cost(width, height, counts, repeats):
 
 
 def half_plane(width=48, height=48, degrees=30.0):
-    """The half-plane scene of tests/test_antialiasing.py, and each pixel's exact covered fraction (H, W)."""
+    """The half-plane scene of tests/visibility/test_antialiasing.py, and each pixel's exact covered fraction (H, W)."""
     import raycast_shade as rs
 
     a = np.radians(degrees)
@@ -132,21 +131,27 @@ def bench_edge(counts):
     return rows
 
 
+def outputs(quick: bool) -> list[str]:
+    """The CSV :func:`main` writes (see :mod:`benchmarks.outputs`)."""
+    return [results_file("aa.csv", quick)]
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="small sizes; write nothing tracked")
+    ap.add_argument("--quick", action="store_true", help="small sizes; untracked output")
     args = ap.parse_args(argv)
     if args.quick:
         rows = bench_cost(480, 270, (1, 4), 2) + bench_edge((1, 4, 16))
-        out = os.path.join(tempfile.gettempdir(), "aa_quick.csv")
     else:
         rows = bench_cost(1920, 1080, (1, 4, 16), 5) + bench_edge((1, 2, 4, 8, 16, 32, 64, 128, 256))
-        out = os.path.join(RESULTS, "aa.csv")
+    out, = outputs(args.quick)
+    os.makedirs(os.path.dirname(out), exist_ok=True)
     with open(out, "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=FIELDS)
         w.writeheader()
         w.writerows(rows)
     print(f"wrote {out}")
+    return 0
 
 
 if __name__ == "__main__":

@@ -22,7 +22,7 @@ auto's time relative to that method (target: <= 1.10).
 
 Timed with all Numba threads and with one (``--threads 0,1``, the default).
 
-Results: ``benchmarks/results/auto.csv`` (``results/quick/auto.csv`` in quick mode):
+Results: ``benchmarks/results/auto.csv`` (``out/quick/results/auto.csv`` in quick mode):
 one row per scene, mode and model (``model = -1``: the whole frame, with the
 timings and the verdict).
 """
@@ -189,7 +189,7 @@ def main(argv=None):
     ap.add_argument("--threads", default="0,1",
                     help="comma-separated Numba thread counts to run, 0 = all (default '0,1': 1 thread never waits "
                          "for a busy core at a parallel launch, so its times are steady on a shared machine)")
-    ap.add_argument("--out", default=None, help="CSV path (default: results/auto.csv, results/quick/auto.csv)")
+    ap.add_argument("--out", default=None, help="CSV path (default: results/auto.csv, out/quick/results/auto.csv)")
     args = ap.parse_args(argv)
     import numba
 

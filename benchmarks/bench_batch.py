@@ -27,7 +27,7 @@ timing is interleaved with a serial one in the same repeat, and
 
 Results: ``benchmarks/results/batch.csv`` (or ``batch_pool.csv``), ``docs/images/batch_scaling.png``
 and ``docs/images/batch_pool.png``
-(``results/quick/``, ``images/quick/`` in quick mode).
+(``out/quick/results/``, ``out/quick/images/`` in quick mode).
 """
 
 from __future__ import annotations

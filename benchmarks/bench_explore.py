@@ -17,7 +17,7 @@ Every parallel kernel waits for both cores: on a machine shared with other
 work each one costs about a scheduler time slice, so the ``load`` column
 (the 1-minute load average when the row was measured) says how busy the
 machine was. Results: ``benchmarks/results/explore.csv``. ``--quick`` runs 160x120 only,
-a few frames, and prints without writing anything tracked.
+a few frames, and writes into the git-ignored ``out/quick/results/``.
 """
 
 from __future__ import annotations
@@ -30,8 +30,8 @@ import time
 
 import numpy as np
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-RESULTS = os.path.join(HERE, "results")
+from benchmarks.outputs import results_file
+
 FIELDS = ["benchmark", "case", "width", "height", "frames", "fps", "ms_median", "ms_p90", "load", "note"]
 
 
@@ -115,14 +115,18 @@ def run(quick: bool = False):
     return rows
 
 
+def outputs(quick: bool) -> list[str]:
+    """The CSV :func:`main` writes (see :mod:`benchmarks.outputs`)."""
+    return [results_file("explore.csv", quick)]
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="160x120, a few frames; write nothing tracked")
+    ap.add_argument("--quick", action="store_true", help="160x120, a few frames; untracked output")
     args = ap.parse_args(argv)
     rows = run(args.quick)
-    if args.quick:
-        return 0
-    path = os.path.join(RESULTS, "explore.csv")
+    path, = outputs(args.quick)
+    os.makedirs(os.path.dirname(path), exist_ok=True)
     with open(path, "w", newline="") as fh:
         writer = csv.DictWriter(fh, FIELDS)
         writer.writeheader()

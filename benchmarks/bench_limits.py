@@ -48,7 +48,7 @@ Sections (issue 16):
 Every row carries the 1-minute load average when it was measured: this
 machine may be shared. Results: ``benchmarks/results/limits.csv``;
 ``--quick`` (small frames, few repeats, no cold compile unless asked) writes
-only under ``benchmarks/results/quick/`` (untracked).
+only under ``out/quick/results/`` (untracked).
 """
 
 from __future__ import annotations
@@ -68,10 +68,10 @@ from numba import njit, prange
 from raycast_shade.visibility import embree
 from raycast_shade.visibility.rays import pixel_ray
 
+from benchmarks.outputs import results_file
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
-RESULTS = os.path.join(HERE, "results")
-QUICK_DIR = os.path.join(RESULTS, "quick")  # untracked (.gitignore)
 SECTIONS = ("limit", "memory", "load", "recast", "cold")
 KEYS = ["section", "mesh", "triangles", "width", "height", "variant", "metric", "value", "unit", "load1"]
 
@@ -569,6 +569,11 @@ def write_csv(rows, path):
         wr.writerows(rows)
 
 
+def outputs(quick: bool) -> list[str]:
+    """The CSV :func:`main` writes (see :mod:`benchmarks.outputs`)."""
+    return [results_file("limits.csv", quick)]
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="small frames, 3 repeats, no cold compile; untracked output")
@@ -578,7 +583,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
     only = args.only or (tuple(s for s in SECTIONS if s != "cold") if args.quick else SECTIONS)
     rows = run(args.quick, only, args.repeats)
-    path = os.path.join(QUICK_DIR if args.quick else RESULTS, "limits.csv")
+    path, = outputs(args.quick)
     if os.path.exists(path):  # keep the rows of the sections that did not run
         with open(path, newline="") as fh:
             kept = [r for r in csv.DictReader(fh) if r["section"] not in only]

@@ -40,8 +40,8 @@ default (``--gl-face-normals exact`` adds it, reading the face normal by
 at +0.5 in both; GL's rows are bottom up.
 
 Outputs: ``benchmarks/results/peers.csv`` and ``docs/images/peers.png``;
-``--quick`` (small meshes and frames, 3 repeats) writes only under
-``benchmarks/results/quick/`` (untracked).
+``--quick`` (small meshes and frames, 3 repeats) writes the same names under the
+git-ignored ``out/quick/results/`` and ``out/quick/images/`` (:mod:`benchmarks.outputs`).
 
 Needs the ``peers`` extra (``pip install 'raycast_shade[peers]'``: moderngl,
 open3d) and, on Debian/Ubuntu, ``apt-get install -y libegl1 libegl-mesa0
@@ -62,11 +62,10 @@ import time
 
 import numpy as np
 
+from benchmarks.outputs import image_file, results_file
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
-RESULTS = os.path.join(HERE, "results")
-QUICK_DIR = os.path.join(RESULTS, "quick")  # untracked (.gitignore)
-IMAGES = os.path.join(ROOT, "docs", "images")
 
 FOV = 40.0
 EYE = (0.0, 0.0, 3.0)
@@ -491,6 +490,11 @@ def chart(rows, path):
     plt.close(fig)
 
 
+def outputs(quick: bool) -> list[str]:
+    """The CSV and the chart :func:`main` writes (see :mod:`benchmarks.outputs`)."""
+    return [results_file("peers.csv", quick), image_file("peers.png", quick)]
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="small meshes and frames, 3 repeats; untracked output")
@@ -499,12 +503,9 @@ def main(argv=None):
                     help="llvmpipe shader: orient by gl_FrontFacing (default) or read face normals (exact)")
     args = ap.parse_args(argv)
     rows = run(args.quick, args.repeats, face_normals=args.gl_face_normals)
-    if args.quick:
-        write_csv(rows, os.path.join(QUICK_DIR, "peers.csv"))
-        chart(rows, os.path.join(QUICK_DIR, "peers.png"))
-    else:
-        write_csv(rows, os.path.join(RESULTS, "peers.csv"))
-        chart(rows, os.path.join(IMAGES, "peers.png"))
+    csv_path, png_path = outputs(args.quick)
+    write_csv(rows, csv_path)
+    chart(rows, png_path)
     return rows
 
 

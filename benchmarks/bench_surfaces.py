@@ -19,7 +19,7 @@ ways to count the extra casts are reported:
   of primary rays; target ``(1 + that) x``.
 
 Times are medians of repeats after a warm-up (JIT and BVH build excluded).
-Results: ``benchmarks/results/surfaces.csv`` (``results/quick/surfaces.csv``
+Results: ``benchmarks/results/surfaces.csv`` (``out/quick/results/surfaces.csv``
 with ``--quick``: 640x480 only, as everywhere in this suite).
 """
 

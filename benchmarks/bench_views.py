@@ -18,7 +18,7 @@ Run ``python -m benchmarks.bench_views [--quick]``. Measures
   over 1,000 random poses, the largest absolute error.
 
 Results: ``benchmarks/results/views.csv``. ``--quick`` runs smaller sizes
-and writes to a temporary folder only (nothing tracked changes).
+and writes into the git-ignored ``out/quick/results/`` (:mod:`benchmarks.outputs`).
 """
 
 from __future__ import annotations
@@ -32,8 +32,8 @@ import time
 
 import numpy as np
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-RESULTS = os.path.join(HERE, "results")
+from benchmarks.outputs import results_file
+
 FIELDS = ["benchmark", "case", "width", "height", "value", "unit", "note"]
 
 
@@ -162,9 +162,14 @@ def bench_projection(width, height):
     return rows
 
 
+def outputs(quick: bool) -> list[str]:
+    """The CSV :func:`main` writes (see :mod:`benchmarks.outputs`)."""
+    return [results_file("views.csv", quick)]
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="small sizes; write nothing tracked")
+    ap.add_argument("--quick", action="store_true", help="small sizes; untracked output")
     args = ap.parse_args(argv)
     tmp = tempfile.mkdtemp(prefix="bench_views_")
     try:
@@ -177,12 +182,14 @@ def main(argv=None):
     for r in rows:
         print(f"{r['benchmark']:<10} {r['case']:<32} {r['width']!s:>5}x{r['height']!s:<5} {r['value']:>10} {r['unit']:<8} "
               f"{r['note']}")
-    out = os.path.join(tempfile.gettempdir(), "views_quick.csv") if args.quick else os.path.join(RESULTS, "views.csv")
+    out, = outputs(args.quick)
+    os.makedirs(os.path.dirname(out), exist_ok=True)
     with open(out, "w", newline="") as fh:
         w = csv.DictWriter(fh, FIELDS)
         w.writeheader()
         w.writerows(rows)
     print(f"wrote {out}")
+    return 0
 
 
 if __name__ == "__main__":

@@ -20,7 +20,8 @@ the miss re-cast alone (the behaviour before this study) and with the
 depth-jump re-test; and times ``cast_rays`` over 1M rays both ways.
 
 Writes ``benchmarks/results/vertex_rays.csv`` (case, setting, quantity, value);
-``--quick`` (icosphere(3), fewer rays) prints the same table and writes nothing.
+``--quick`` (icosphere(3), fewer rays) prints the same table and writes it into
+the git-ignored ``out/quick/results/``.
 """
 
 from __future__ import annotations
@@ -35,9 +36,10 @@ import numpy as np
 
 import raycast_shade as rs
 from raycast_shade.visibility import holes
+from raycast_shade.study import failure_scenes
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-RESULTS = os.path.join(HERE, "results")
+from benchmarks.outputs import results_file
+
 SETTINGS = (("scale 1", 1.0, 0.0), ("offset 1e5", 1.0, 1e5), ("scale 1e-3", 1e-3, 0.0), ("scale 1e4", 1e4, 0.0))
 
 
@@ -98,12 +100,9 @@ def grid_behind(step=1, label="near"):
     """The catalogue's perspective vertex grid (case 9) with a plane 1 unit behind it:
     pixels showing the plane with no repair, with misses re-cast alone, and with the
     depth-jump re-test."""
-    sys.path.insert(0, HERE)
-    from make_failure_figures import _grid_at_pixel_rays
-
     eye, fov = {"near": ((0.3, -1.2, 2.5), 50.0), "far": ((3.0, -40.0, 50.0), 2.0)}[label]
-    cam = rs.Camera(eye=eye, target=(0.0, 0.2, 0.0), width=128, height=96, fov=fov)
-    grid = _grid_at_pixel_rays(cam, step)
+    cam = failure_scenes.pixel_ray_camera(eye, fov)
+    grid = failure_scenes.grid_at_pixel_rays(cam, step)
     floor = rs.shapes.plane(size=400.0, center=(0.0, 0.0, -1.0), normal="+z")
     scene = rs.Scene([rs.Model(grid), rs.Model(floor)], camera=cam)
     out = {}
@@ -138,9 +137,14 @@ def cost(n, repeats=3):
     return res
 
 
+def outputs(quick: bool) -> list[str]:
+    """The CSV :func:`main` writes (see :mod:`benchmarks.outputs`)."""
+    return [results_file("vertex_rays.csv", quick)]
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="icosphere(3), 100k rays for the cost; writes nothing")
+    ap.add_argument("--quick", action="store_true", help="icosphere(3), 100k rays for the cost; untracked output")
     args = ap.parse_args(argv)
     sub, n = (3, 100_000) if args.quick else (5, 1_000_000)
     rows = []
@@ -167,16 +171,14 @@ def main(argv=None):
     for wt, s in secs.items():
         record("cost", f"{n} rays, icosphere(5), watertight={wt}", "Mrays/s", n / s / 1e6)
     record("cost", f"{n} rays, icosphere(5)", "watertight / plain time", secs[True] / secs[False])
-    if args.quick:
-        return 0
-    os.makedirs(RESULTS, exist_ok=True)
-    path = os.path.join(RESULTS, "vertex_rays.csv")
+    path, = outputs(args.quick)
+    os.makedirs(os.path.dirname(path), exist_ok=True)
     with open(path, "w", newline="") as fh:
         wr = csv.writer(fh)
         wr.writerow(["case", "setting", "quantity", "value"])
         for r in rows:
             wr.writerow([r[0], r[1], r[2], f"{r[3]:.6g}"])
-    print("  -> benchmarks/results/vertex_rays.csv")
+    print(f"  -> {path}")
     return 0
 
 

@@ -49,3 +49,39 @@ def down_camera(eye=(0.0, 0.0, 3.0), target=(0.0, 0.0, 0.0), width=81, height=61
     """A small camera looking at the xy plane from above (+z)."""
     return rs.Camera(eye=eye, target=target, up=(0.0, 1.0, 0.0), width=width, height=height,
                      projection=projection, **kw)
+
+
+def render_all(scene, **kw):
+    """The scene rendered in every shading mode: ``{mode: Frame}``."""
+    return {m: rs.render(scene, m, **kw) for m in rs.SHADINGS}
+
+
+def assert_sane(frame):
+    """The invariants every frame keeps, whatever the scene: finite, non-negative
+    image; unit normals on hit pixels and zero normals elsewhere."""
+    img = frame.image
+    assert np.isfinite(img).all()
+    assert img.min() >= 0.0
+    n = frame.normal
+    assert np.isfinite(n).all()
+    np.testing.assert_allclose(np.linalg.norm(n[frame.mask], axis=-1), 1.0, atol=1e-5)
+    assert (n[~frame.mask] == 0).all()
+
+
+def hit_buffer(u, v, prim=0):
+    """A hit buffer of one model whose pixels hit face ``prim`` at barycentrics ``(u, v)`` (H, W), t = 1."""
+    u = np.asarray(u, np.float32)
+    v = np.asarray(v, np.float32)
+    return rs.HitBuffer(prim=np.full(u.shape, prim, np.int32), geom=np.zeros(u.shape, np.int32), u=u, v=v,
+                        t=np.ones(u.shape, np.float32))
+
+
+# One triangle in z = 0 (the input-contract tests' smallest mesh).
+TRI_V = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]
+TRI_F = [[0, 1, 2]]
+
+
+def small_scene(**kw):
+    """The triangle under a point light, seen by an 8 x 6 camera (``kw`` go to :class:`Scene`)."""
+    kw.setdefault("camera", rs.Camera(eye=(0.0, 0.0, 3.0), width=8, height=6))
+    return rs.Scene([rs.Mesh(TRI_V, TRI_F)], lights=[rs.PointLight((0, 0, 2))], **kw)

@@ -1,4 +1,6 @@
-"""The ``raycast-shade`` command: ``demo``, ``render`` (a scene file or a mesh file), ``inspect`` and ``info``.
+"""The ``raycast-shade`` command: ``demo``, ``render`` (a scene file or a mesh file), ``inspect``
+(:mod:`raycast_shade.apps.inspect`), ``animate`` (:mod:`raycast_shade.apps.animate`), ``views``
+(:mod:`raycast_shade.apps.views`) and ``info``.
 
 Every failure the user can fix (a missing or invalid scene file, a bad option
 value, an unwritable output) prints one line ``raycast-shade: error: ...`` on

@@ -11,7 +11,7 @@ moves, so the hit buffer of each interpolation is cast once and kept, and a
 change of material or light only re-shades it; a new material reuses the
 packed geometry and its BVH (:func:`raycast_shade.shading.terms.with_materials`).
 The image is exactly :func:`raycast_shade.render` of :meth:`Explorer.scene`
-(``tests/test_explore.py`` checks the PNG bytes). Frame rates:
+(``tests/apps/test_explore.py`` checks the PNG bytes). Frame rates:
 ``benchmarks/bench_explore.py``.
 
 The light is placed on a sphere around the centre of the scene's bounding
@@ -31,7 +31,6 @@ from ..common.validate import as_int
 from ..output.frame import Frame
 from ..output.imagefile import png_bytes
 from ..output.tonemap import to_uint8
-from ..render import render
 from ..scene.lights import PointLight
 from ..scene.scene import Model, Scene
 from ..shading.mirrors import trace_mirrors
@@ -41,7 +40,7 @@ from ..study.explain import explain
 from ..visibility.cast import cast_camera, resolve_caster, secondary_rays
 from ..visibility.interpolation import to_screen_space
 
-__all__ = ["explore", "Explorer", "SIDE_BY_SIDE", "reference_png"]
+__all__ = ["explore", "Explorer", "SIDE_BY_SIDE"]
 
 SIDE_BY_SIDE = "flat | gouraud | phong"
 
@@ -235,18 +234,3 @@ def explore(scene, camera=None, *, model: int = 0, light: int = 0, max_depth: in
         Without ipywidgets: ``pip install 'raycast_shade[notebook]'``.
     """
     return Explorer(scene, camera, model=model, light=light, max_depth=max_depth)
-
-
-def reference_png(explorer: Explorer) -> bytes:
-    """The PNG :func:`raycast_shade.render` makes of the explorer's scene and controls
-    (a fresh render, for tests and benchmarks: the widget must hold exactly these bytes)."""
-    v = explorer.values()
-    scene = explorer.scene()
-    fresh = Scene(scene.models, lights=scene.lights, camera=explorer.camera, ambient=scene.ambient,
-                  background=scene.background)
-    methods = list(SHADINGS) if v["shading"] == SIDE_BY_SIDE else [v["shading"]]
-    panels = []
-    for method in methods:
-        frame = render(fresh, method, interpolation=v["interpolation"], max_depth=explorer.max_depth)
-        panels.append(to_uint8(frame.overlay(wireframe=True) if v["wireframe"] else frame.image))
-    return png_bytes(np.concatenate(panels, axis=1) if len(panels) > 1 else panels[0])

@@ -162,7 +162,7 @@ class Frame:
         return new
 
     def to_uint8(self, **kwargs) -> np.ndarray:
-        """8-bit sRGB image; see :func:`raycast_shade.tonemap.to_uint8`."""
+        """8-bit sRGB image; see :func:`raycast_shade.output.tonemap.to_uint8`."""
         return to_uint8(self.image, **{**self.tone, **kwargs})
 
     def __repr__(self) -> str:

@@ -1,7 +1,7 @@
 """Writing a rendered image to a file, by its extension.
 
 * ``.pfm`` and ``.npy``: the linear float32 image, losslessly;
-* ``.png``: 8-bit after :func:`~raycast_shade.tonemap.to_uint8`, with the
+* ``.png``: 8-bit after :func:`~raycast_shade.output.tonemap.to_uint8`, with the
   standard library's zlib (no imageio import on the demo's path);
 * ``.jpg``/``.jpeg``, ``.bmp``, ``.tif``/``.tiff``, ``.gif``, ``.webp``:
   8-bit, through imageio's Pillow plugin.
@@ -153,7 +153,7 @@ def write_image(path, image, *, atomic: bool = False, **tone) -> str:
         Write a temporary file in the same folder, then move it onto
         ``path`` (:func:`atomic_target`): never half a file at ``path``.
     **tone
-        ``exposure``, ``tonemap``, ``gamma`` of :func:`~raycast_shade.tonemap.to_uint8`
+        ``exposure``, ``tonemap``, ``gamma`` of :func:`~raycast_shade.output.tonemap.to_uint8`
         (8-bit formats only).
 
     Returns

@@ -9,7 +9,7 @@ split where their corners disagree: a cube with a 30 degree crease stays a cube.
 
 Right-hand face normals only average well when neighbouring faces are wound
 the same way; :func:`winding_conflicts` counts the edges where they are not,
-so that :class:`~raycast_shade.mesh.Mesh` can warn instead of rendering
+so that :class:`~raycast_shade.scene.mesh.Mesh` can warn instead of rendering
 cancelled normals without a word.
 """
 

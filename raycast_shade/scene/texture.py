@@ -29,7 +29,7 @@ from ..common.layout import (TEX_CLAMP, TEX_HEIGHT, TEX_LEVELS, TEX_MIPMAP, TEX_
 from ..common.validate import as_array, as_choice, as_int
 from ..common.warnings import DroppedOnLoadWarning
 
-__all__ = ["Texture", "TEXTURE_FILTERS", "srgb_to_linear", "linear_to_srgb"]
+__all__ = ["Texture", "TEXTURE_FILTERS", "srgb_to_linear"]
 
 # "mipmap": trilinear between the levels the pixel footprint falls between; "bilinear": level 0 only.
 TEXTURE_FILTERS = ("mipmap", "bilinear")
@@ -40,12 +40,6 @@ def srgb_to_linear(c) -> np.ndarray:
     ``((c + 0.055) / 1.055) ** 2.4`` above; ``c`` in [0, 1], any shape."""
     c = np.asarray(c, np.float64)
     return np.where(c <= 0.04045, c / 12.92, ((np.maximum(c, 0.04045) + 0.055) / 1.055) ** 2.4)
-
-
-def linear_to_srgb(c) -> np.ndarray:
-    """Inverse of :func:`srgb_to_linear`."""
-    c = np.asarray(c, np.float64)
-    return np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.maximum(c, 0.0031308) ** (1 / 2.4) - 0.055)
 
 
 def _halve(a: np.ndarray, axis: int) -> np.ndarray:

@@ -1,6 +1,6 @@
 """Exact images of analytic surfaces: the ground truth of the accuracy benchmark.
 
-Each pixel's ray (the same ray as the renderer's: :func:`raycast_shade.rays.pixel_ray`,
+Each pixel's ray (the same ray as the renderer's: :func:`raycast_shade.visibility.rays.pixel_ray`,
 pixel centres at ``+0.5``) is intersected with the *surface itself*, not a
 tessellation of it, and shaded in float64 at the exact hit point with the
 exact normal:
@@ -21,7 +21,7 @@ plane
 
 The reflectance model is *not* written again here: the hit points, exact
 normals and view vectors are handed to the library's own per-point NumPy
-evaluation, :func:`raycast_shade.reference.illuminate_reference` (the
+evaluation, :func:`raycast_shade.study.reference.illuminate_reference` (the
 float64 twin the test suite checks the Numba kernels against), so the ground
 truth is plain IEEE float64 with no fast-math. The normal is turned to the
 viewer (two-sided lighting), like the geometric normal in
@@ -32,7 +32,7 @@ ignored: shadow rays (``shadows=True`` lights), mirror reflection
 (``reflectivity > 0``) and bump maps.
 
 >>> import raycast_shade as rs
->>> from raycast_shade.analytic import Sphere, render_exact
+>>> from raycast_shade.study.analytic import Sphere, render_exact
 >>> cam = rs.Camera(eye=(0, 0, 4), width=64, height=48)
 >>> ref = render_exact([(Sphere(), rs.Material(ks=0.5, shininess=64))], cam,
 ...                    lights=[rs.DirectionalLight((0, 0, -1))])
@@ -412,7 +412,7 @@ def _intersect_rays_kernel(prims, origins, directions, tol, t_out, id_out):
 # -- driver -------------------------------------------------------------------------------
 
 def _reference_lights(lights):
-    """Lights in the tuple form of :func:`raycast_shade.reference.illuminate_reference`:
+    """Lights in the tuple form of :func:`raycast_shade.study.reference.illuminate_reference`:
     ``(directional, vec, radiance (3,), attenuation, k)`` in world coordinates."""
     out = []
     for i, light in enumerate(lights):

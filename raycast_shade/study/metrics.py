@@ -32,7 +32,7 @@ PSNR and SSIM come from :mod:`skimage.metrics` and FLIP from the
 raises :class:`MissingExtraError` with that instruction.
 
 >>> import numpy as np
->>> from raycast_shade.metrics import rmse
+>>> from raycast_shade.study.metrics import rmse
 >>> a = np.zeros((4, 4, 3)); b = a + 0.5
 >>> float(rmse(a, b))
 0.5

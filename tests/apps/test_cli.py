@@ -1,0 +1,294 @@
+"""The ``raycast-shade`` command line and the built-in demo."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import imageio.v3 as iio
+import numpy as np
+import pytest
+
+import raycast_shade as rs
+from raycast_shade.apps import demo
+from raycast_shade.apps.cli import main
+from raycast_shade.output.imagefile import write_png as _write_png
+from raycast_shade.scene.scenefile import load_scene
+
+ROOT = Path(__file__).resolve().parents[2]
+EXAMPLES = ROOT / "examples"
+
+SCENE = """\
+[camera]
+eye = [0.0, 0.0, 4.0]
+width = 64
+height = 48
+
+[[object]]
+shape = "uv_sphere"
+rings = 8
+segments = 12
+{extra}
+[[light]]
+type = "point"
+position = [2.0, 3.0, 4.0]
+intensity = 20.0
+attenuation = "inverse_square"
+"""
+
+
+def run(capsys, *argv):
+    """``main(argv)`` in this process: (exit status, stdout, stderr)."""
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def assert_one_line_error(code, out, err, *fragments):
+    assert code == 2
+    assert out == ""
+    assert err.startswith("raycast-shade: error: ") and err.endswith("\n")
+    assert err.count("\n") == 1, err
+    assert "Traceback" not in err
+    for f in fragments:
+        assert f in err, err
+
+
+@pytest.fixture
+def scene_file(tmp_path):
+    def _make(extra=""):
+        path = tmp_path / "scene.toml"
+        path.write_text(SCENE.format(extra=extra))
+        return path
+
+    return _make
+
+
+# -- demo -----------------------------------------------------------------------------
+
+
+def test_demo_writes_the_three_panels(capsys, tmp_path):
+    out = tmp_path / "demo.png"
+    code, stdout, err = run(capsys, "demo", "-o", out, "--width", 96, "--height", 36)
+    assert code == 0 and err == ""
+    img = iio.imread(out)
+    assert img.shape == (3 * 36 + 4, 96, 3)
+    # Exactly the library's image, tone-mapped: the PNG writer loses nothing.
+    np.testing.assert_array_equal(img, rs.to_uint8(demo.render_demo(96, 36)))
+    lines = stdout.splitlines()
+    assert len(lines) == 1 and str(out) in lines[0] and "96x112" in lines[0] and " ms" in lines[0]
+    for key in ("cast", "shade", "save", "total"):
+        assert f"{key} " in lines[0]
+
+
+def test_demo_panels_are_flat_gouraud_phong():
+    frames = demo.render_demo_frames(96, 36)
+    assert [f.shading for f in frames] == list(demo.MODES)
+    flat, gouraud, phong = (f.image for f in frames)
+    mask = frames[0].mask
+    assert mask.mean() > 0.5  # objects and floor fill the panel
+    for a, b in ((flat, gouraud), (gouraud, phong), (flat, phong)):
+        assert np.abs(a - b)[mask].mean() > 1e-3
+    # Flat: one colour per triangle.
+    hits = frames[0].hits
+    key = hits.geom.astype(np.int64) * 1_000_000 + hits.prim
+    for k in np.unique(key[mask])[:50]:
+        colours = flat[key == k]
+        assert np.ptp(colours, axis=0).max() < 1e-6
+
+
+def test_demo_image_layout_and_labels():
+    labelled = demo.render_demo(96, 36)
+    plain = demo.render_demo(96, 36, labels=False)
+    assert labelled.shape == plain.shape == (112, 96, 3) and labelled.dtype == np.float32
+    assert not labelled[36:38].any() and not labelled[74:76].any()  # black gaps between panels
+    diff = np.any(labelled != plain, axis=2)
+    rows, cols = np.nonzero(diff)
+    # Labels only in the top-left corner of each panel, and in all three.
+    assert cols.max() < 48
+    assert {r // 38 for r in rows} == {0, 1, 2}
+    assert all(r % 38 < 12 for r in rows)
+
+
+def test_demo_scene_contents():
+    scene = demo.demo_scene(64, 32)
+    assert (scene.camera.width, scene.camera.height) == (64, 32)
+    objects = scene.models[:3]
+    xs = [m.mesh.bounds.mean(axis=0)[0] for m in objects]
+    assert xs == sorted(xs) and min(np.diff(xs)) > 1.0  # three objects side by side
+    assert all(len(m.mesh.faces) < 500 for m in objects)  # coarse on purpose
+    assert all(m.material.has_specular for m in objects)
+    points = [lt for lt in scene.lights if isinstance(lt, rs.PointLight)]
+    dirs = [lt for lt in scene.lights if isinstance(lt, rs.DirectionalLight)]
+    assert {lt.attenuation for lt in points} >= {"inverse_square", "heuristic"}
+    assert dirs and np.ptp(dirs[0].color) > 0.1  # a coloured light at infinity
+
+
+# -- render ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name", ["shapes.toml", "knot.toml"])
+def test_render_examples(capsys, tmp_path, name):
+    out = tmp_path / "x.png"
+    code, stdout, err = run(capsys, "render", EXAMPLES / name, "-o", out, "--width", 80, "--height", 60)
+    assert code == 0 and err == ""
+    img = iio.imread(out)
+    assert img.shape == (60, 80, 3)
+    assert img.mean() > 20 and img.std() > 10
+    assert stdout.startswith(f"wrote {out} (80x60, phong): load ") and stdout.count("\n") == 1
+
+
+def test_render_outputs_and_overrides(capsys, tmp_path, scene_file):
+    path = scene_file('[object.material]\nks = 0.5\n[render]\nshading = "gouraud"\nwidth = 40\n')
+    pfm, npy, png = tmp_path / "a.pfm", tmp_path / "a.npy", tmp_path / "a.png"
+    code, stdout, _ = run(capsys, "render", path, "-o", pfm)
+    assert code == 0 and "(40x48, gouraud)" in stdout  # [render] width beats [camera]
+    code, stdout, _ = run(capsys, "render", path, "-o", npy, "--shading", "phong", "--width", 32, "--height", 24)
+    assert code == 0 and "(32x24, phong)" in stdout  # the command line beats [render]
+    assert rs.read_pfm(pfm).shape == (48, 40, 3)
+    linear = np.load(npy)
+    assert linear.shape == (24, 32, 3) and linear.dtype == np.float32
+    code, _, _ = run(capsys, "render", path, "-o", png, "--shading", "phong", "--width", 32, "--height", 24,
+                     "--exposure", 2, "--tonemap", "reinhard", "--gamma", 2.2)
+    assert code == 0
+    np.testing.assert_array_equal(iio.imread(png), rs.to_uint8(linear, exposure=2.0, tonemap="reinhard", gamma=2.2))
+
+
+def test_render_choices_are_case_insensitive(capsys, tmp_path, scene_file):
+    """Python takes shading="Phong"; so does the command line, and every other choice too."""
+    path = scene_file('[object.material]\nks = 0.5\n')
+    out = tmp_path / "a.npy"
+    code, stdout, err = run(capsys, "render", path, "-o", out, "--shading", "Gouraud", "--backend", "Raster",
+                            "--interpolation", "SCREEN", "--caster", "Embree")
+    assert code == 0 and err == "" and "(64x48, gouraud)" in stdout
+    scene, _ = load_scene(path)
+    expected = rs.render(scene, "gouraud", backend="raster", interpolation="screen", caster="embree").image
+    np.testing.assert_array_equal(np.load(out), expected)
+    png = tmp_path / "a.png"  # tone options: 8-bit outputs only (a .npy with --tonemap is refused)
+    code, stdout, err = run(capsys, "render", path, "-o", png, "--shading", "PHONG", "--tonemap", "Reinhard")
+    assert code == 0 and err == ""
+    frame = rs.render(scene, "phong")
+    np.testing.assert_array_equal(iio.imread(png), frame.to_uint8(tonemap="reinhard"))
+
+
+def test_render_default_output_name(capsys, tmp_path, scene_file, monkeypatch):
+    path = scene_file()
+    monkeypatch.chdir(tmp_path)
+    code, stdout, _ = run(capsys, "render", path)
+    assert code == 0 and (tmp_path / "scene.png").exists() and "wrote scene.png" in stdout
+
+
+def test_png_writer_round_trip(tmp_path):
+    rgb = np.random.default_rng(1).integers(0, 256, (7, 13, 3), dtype=np.uint8)
+    _write_png(tmp_path / "r.png", rgb)
+    np.testing.assert_array_equal(iio.imread(tmp_path / "r.png"), rgb)
+
+
+# -- errors ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("extra, fragments", [
+    ("[object.material]\nshinyness = 3\n", ["object[0].material: unknown key 'shinyness'"]),
+    ("[object.material]\nkd = -0.5\n", ["object[0].material.kd: must be >= 0"]),
+    ("[object.material]\nshininess = 0\n", ["object[0].material.shininess: must be > 0"]),
+    ("[object.material\n", ["invalid TOML"]),
+], ids=["unknown key", "negative kd", "shininess 0", "TOML syntax"])
+def test_bad_scene_file(capsys, tmp_path, scene_file, extra, fragments):
+    path = scene_file(extra)
+    out = tmp_path / "x.png"
+    assert_one_line_error(*run(capsys, "render", path, "-o", out), str(path), *fragments)
+    assert not out.exists()
+
+
+def test_missing_files(capsys, tmp_path, scene_file):
+    missing = tmp_path / "nope.toml"
+    assert_one_line_error(*run(capsys, "render", missing, "-o", tmp_path / "x.png"), f"{missing}: No such file")
+    path = scene_file().read_text().replace('shape = "uv_sphere"\nrings = 8\nsegments = 12', 'mesh = "gone.obj"')
+    (tmp_path / "scene.toml").write_text(path)
+    assert_one_line_error(*run(capsys, "render", tmp_path / "scene.toml", "-o", tmp_path / "x.png"),
+                          "object[0].mesh: mesh file not found:", "gone.obj")
+
+
+@pytest.mark.parametrize("argv, fragment", [
+    (["demo", "--width", "0"], "argument --width: expected an integer > 0, got '0'"),
+    (["demo", "--height", "x"], "argument --height: expected an integer > 0"),
+    (["demo", "--gamma", "linear"], "argument --gamma: expected 'srgb' or a number > 0"),
+    (["demo", "--exposure", "-1"], "argument --exposure: expected a finite number > 0"),
+    (["demo", "--tonemap", "aces"], "argument --tonemap: invalid choice: 'aces'"),
+    (["demo", "-o", "demo"], "has no extension"),
+    (["demo", "-o", "demo.xyz"], "unknown image format '.xyz'"),
+    (["demo", "-o", "demo.exr"], ".exr is not written; use .pfm or .npy"),
+    (["demo", "-o", "no/such/folder/demo.png"], "does not exist"),
+    (["render", "SCENE", "--shading", "smooth"], "argument --shading: invalid choice: 'smooth'"),
+    (["render", "SCENE", "--caster", "optix"], "argument --caster: invalid choice"),
+    (["render"], "the following arguments are required: SCENE.toml"),
+    (["paint"], "invalid choice: 'paint'"),
+    ([], "the following arguments are required: COMMAND"),
+])
+def test_bad_arguments(capsys, scene_file, argv, fragment):
+    argv = [str(scene_file()) if a == "SCENE" else a for a in argv]
+    assert_one_line_error(*run(capsys, *argv), fragment)
+
+
+# -- info, help -----------------------------------------------------------------------
+
+
+def test_info(capsys):
+    from raycast_shade.visibility import embree as _embree
+
+    code, out, err = run(capsys, "info")
+    assert code == 0 and err == ""
+    rows = dict(re.split(r"\s{2,}", line, maxsplit=1) for line in out.splitlines())
+    assert rows["raycast_shade"] == rs.__version__
+    assert rows["numpy"] == np.__version__
+    assert rows["numba"] == __import__("numba").__version__
+    assert rows["embree"] == _embree.embree_version()
+    assert Path(rows["embree library"]).is_file()
+
+
+def test_help_and_version(capsys):
+    code, out, _ = run(capsys, "--help")
+    assert code == 0 and "examples:" in out and "raycast-shade render examples/shapes.toml" in out
+    code, out, _ = run(capsys, "render", "--help")
+    assert code == 0 and "--interpolation" in out and "--max-depth" in out
+    code, out, _ = run(capsys, "--version")
+    assert code == 0 and out.strip() == f"raycast-shade {rs.__version__}"
+
+
+# -- a real process -------------------------------------------------------------------
+
+
+def test_subprocess(tmp_path):
+    out = tmp_path / "d.png"
+    # The demo path must not import trimesh (half a second of start-up).
+    code = ("import sys; from raycast_shade.apps.cli import main; "
+            f"rc = main(['demo', '-o', {str(out)!r}, '--width', '48', '--height', '24']); "
+            "print('trimesh' in sys.modules); sys.exit(rc)")
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.splitlines()[-1] == "False"
+    assert iio.imread(out).shape == (76, 48, 3)
+
+    res = subprocess.run([sys.executable, "-m", "raycast_shade", "render", str(tmp_path / "missing.toml")],
+                         capture_output=True, text=True, timeout=300)
+    assert res.returncode == 2 and res.stdout == ""
+    assert res.stderr.startswith("raycast-shade: error: ") and res.stderr.count("\n") == 1
+
+
+@pytest.mark.filterwarnings("default::raycast_shade.WindingWarning")  # shown, even under -W error
+def test_render_warns_in_one_line_about_inconsistent_winding(capsys, tmp_path, scene_file):
+    """A mesh file whose faces disagree on their winding renders, and says why it may look wrong."""
+    ico = rs.shapes.icosphere(2)
+    faces = ico.faces.copy()
+    faces[::5] = faces[::5, ::-1]
+    lines = [f"v {x:.9f} {y:.9f} {z:.9f}" for x, y, z in ico.vertices]
+    lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in faces]
+    (tmp_path / "bad.obj").write_text("\n".join(lines) + "\n")
+    text = scene_file().read_text().replace('shape = "uv_sphere"\nrings = 8\nsegments = 12', 'mesh = "bad.obj"')
+    (tmp_path / "scene.toml").write_text(text)
+    code, out, err = run(capsys, "render", tmp_path / "scene.toml", "-o", tmp_path / "x.png", "--shading", "phong")
+    assert code == 0 and (tmp_path / "x.png").exists()
+    assert err.startswith("raycast-shade: warning: bad.obj: ") and err.count("\n") == 1, err
+    assert "wound in opposite directions" in err and "Traceback" not in err
