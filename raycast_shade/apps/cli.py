@@ -217,7 +217,7 @@ def _cmd_render(args) -> int:
 
 
 def _render_model(path: str, given: dict):
-    """``render MODEL``: the mesh file framed and lit (:func:`~raycast_shade.scene.scenefile.model_scene`)."""
+    """``render MODEL``: the mesh file framed and lit (:func:`~raycast_shade.scene.meshfile.model_scene`)."""
     from ..render import render
     from ..scene.meshfile import model_scene
     from ..scene.scenefile import check_render_options, split_options
