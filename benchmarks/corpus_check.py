@@ -1,6 +1,8 @@
 """Load and render every mesh file under a folder; check each pixel's colour against trimesh's own lookup.
 
 ``python benchmarks/corpus_check.py FOLDER --out DIR [--size 256] [--gltf-variants glTF,glTF-Binary]``;
+``python -m benchmarks.corpus_check [--quick]`` (as ``python -m benchmarks`` runs it) checks a few small
+files it writes itself;
 ``python benchmarks/corpus_check.py summary NAME BEFORE.csv AFTER.csv [...]`` prints the tables of
 ``docs/files.md``; ``python benchmarks/corpus_check.py sheet DIR`` redraws ``DIR/sheet.png``.
 
@@ -66,9 +68,9 @@ def _files(folder: str, variants) -> list:
 
 
 def _srgb(c):
-    from raycast_shade.scene.texture import linear_to_srgb
-
-    return linear_to_srgb(np.clip(c, 0.0, 1.0))
+    """The sRGB encoding (IEC 61966-2-1) of linear values, clipped to [0, 1]."""
+    c = np.clip(np.asarray(c, np.float64), 0.0, 1.0)
+    return np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.maximum(c, 0.0031308) ** (1 / 2.4) - 0.055)
 
 
 def _sample(tex, uv):
@@ -465,8 +467,96 @@ def summary(pairs) -> str:
     return "\n".join(out)
 
 
+def _own_corpus(folder: str) -> None:
+    """A few small files of the defect classes of issue 22, written here (the public corpora stay out
+    of the repository): a palette PNG in a GLB, an OBJ with its MTL and map_Kd, a PLY with vertex
+    colours, an OFF with face colours, a glTF with a mirrored-repeat sampler."""
+    import base64
+    import io
+    import json
+
+    import trimesh
+    from PIL import Image
+
+    rng = np.random.default_rng(0)
+    # Blocks of 16 x 16 texels in 16 colours (a palette holds them exactly): trimesh interpolates 8-bit
+    # sRGB values, we linear light, and the two differ only across the blocks' edges.
+    i, j = np.mgrid[0:64, 0:64] // 16
+    img = np.stack([i * 80, j * 80, (i + j) * 40], -1).astype(np.uint8)
+    box = trimesh.creation.box()
+    box.visual = trimesh.visual.TextureVisuals(uv=rng.random((8, 2)), material=trimesh.visual.material.PBRMaterial(
+        baseColorTexture=Image.fromarray(img).convert("P"), metallicFactor=0.0))
+    box.export(os.path.join(folder, "palette.glb"))
+    Image.fromarray(img).save(os.path.join(folder, "wood.png"))
+    with open(os.path.join(folder, "quad.mtl"), "w") as fh:
+        fh.write("newmtl wood\nKd 1 1 1\nmap_Kd wood.png\n")
+    with open(os.path.join(folder, "quad.obj"), "w") as fh:
+        fh.write("mtllib quad.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
+                 "usemtl wood\nf 1/1 2/2 3/3\nf 1/1 3/3 4/4\n")
+    ico = trimesh.creation.icosphere(2)
+    ico.visual.vertex_colors = rng.integers(0, 256, (len(ico.vertices), 4), dtype=np.uint8) | np.uint8(0)
+    ico.visual.vertex_colors[:, 3] = 255
+    ico.export(os.path.join(folder, "colours.ply"))
+    with open(os.path.join(folder, "faces.off"), "w") as fh:
+        fh.write("OFF\n4 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2 255 0 0\n3 0 2 3 0 128 255\n")
+    buf = io.BytesIO()
+    Image.fromarray(img).save(buf, format="PNG")
+    pos = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], np.float32)
+    uv = np.array([[-1, -1], [2, -1], [2, 2], [-1, 2]], np.float32)
+    blob = pos.tobytes() + uv.tobytes() + np.array([0, 1, 2, 0, 2, 3], np.uint16).tobytes()
+    js = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+          "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "indices": 2, "material": 0}]}],
+          "materials": [{"name": "m", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0},
+                                                               "metallicFactor": 0.0}}],
+          "textures": [{"source": 0, "sampler": 0}], "samplers": [{"wrapS": 33648, "wrapT": 33071}],
+          "images": [{"uri": "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode()}],
+          "buffers": [{"uri": "data:application/octet-stream;base64," + base64.b64encode(blob).decode(),
+                       "byteLength": len(blob)}],
+          "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 48},
+                          {"buffer": 0, "byteOffset": 48, "byteLength": 32},
+                          {"buffer": 0, "byteOffset": 80, "byteLength": 12}],
+          "accessors": [{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0, 0, 0],
+                         "max": [1, 1, 0]},
+                        {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC2"},
+                        {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}]}
+    with open(os.path.join(folder, "sampler.gltf"), "w") as fh:
+        json.dump(js, fh)
+
+
+def outputs(quick: bool) -> list:
+    """The CSV :func:`self_check` writes (see :mod:`benchmarks.outputs`)."""
+    from benchmarks import outputs as where
+
+    return [where.results_file("corpus_selftest.csv", quick)]
+
+
+def self_check(quick: bool) -> int:
+    """The check on :func:`_own_corpus` (what ``python -m benchmarks`` runs): its CSV to
+    ``corpus_selftest.csv`` (quick mode: the git-ignored quick folder); 1 unless every file is right."""
+    import tempfile
+
+    fields = ["file", "loads", "models", "faces", "source", "median_error", "p90_error", "warnings", "verdict",
+              "error"]
+    with tempfile.TemporaryDirectory() as folder:
+        _own_corpus(folder)
+        rows = [check_file(p, 64 if quick else 128) for p in _files(folder, ())]
+        path = outputs(quick)[0]
+        os.makedirs(os.path.dirname(path), exist_ok=True)
+        with open(path, "w", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=fields, extrasaction="ignore")
+            w.writeheader()
+            for r in rows:
+                w.writerow(dict(r, file=os.path.basename(r["file"])))
+    for r in rows:
+        err = f"{r['median_error']:.4f}" if isinstance(r["median_error"], float) else "-"
+        print(f"{r['verdict']:<15} {err:>7} {os.path.basename(r['file'])} {r['error']}")
+    return 0 if all(r["verdict"] == "right" for r in rows) else 1
+
+
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else argv
+    if not [a for a in argv if not a.startswith("-")]:  # the suite's runner: main([]) or main(["--quick"])
+        return self_check("--quick" in argv)
     if argv[:1] == ["sheet"]:  # sheet DIR: the contact sheet again from DIR's corpus.csv and renders/
         from PIL import Image
 
