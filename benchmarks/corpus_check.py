@@ -601,8 +601,10 @@ def main(argv=None) -> int:
     with open(os.path.join(args.out, "corpus.csv"), "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=fields, extrasaction="ignore")
         w.writeheader()
-        for r in rows:
-            w.writerow(dict(r, file=os.path.relpath(r["file"], args.folder)))
+        root = os.path.abspath(args.folder) + os.sep
+        for r in rows:  # paths relative to the folder: the table does not depend on where it lay
+            w.writerow(dict(r, file=os.path.relpath(r["file"], args.folder), error=r["error"].replace(root, ""),
+                            warning_text=r["warning_text"].replace(root, "")))
     contact_sheet(rows, os.path.join(args.out, "sheet.png"))
     if args.screenshots:
         side_by_side(args.folder, os.path.join(args.out, "side_by_side.png"), SAMPLES)
