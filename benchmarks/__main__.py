@@ -60,6 +60,9 @@ REGISTRY = [
          csv=["aa.csv"], images=[], page="antialiasing.md"),
     dict(name="explore", module="benchmarks.bench_explore", title="The explorer's frame rate",
          csv=["explore.csv"], images=[], page="teaching.md"),
+    dict(name="corpus", module="benchmarks.corpus_check",
+         title="Real files: the colour under each pixel against trimesh's lookup (a self-made corpus; the public "
+               "corpora are run by hand)", csv=["corpus_selftest.csv"], images=[], page="files.md"),
     dict(name="vertex_rays", module="benchmarks.vertex_rays",
          title="Rays through vertices: leaks and misses, Embree alone and watertight",
          csv=["vertex_rays.csv"], images=[], page="failure-cases.md"),

@@ -42,7 +42,8 @@ from .shading.shade import SHADINGS, shade
 from .output.tonemap import read_pfm, to_uint8, write_pfm
 from .common.version import __version__
 from .common.warnings import (BumpIgnoredWarning, ColourRangeWarning, CreaseWarning, DroppedOnLoadWarning,
-                              LightInsideWarning, NoLightsWarning, ShadingWarning, ZeroNormalWarning)
+                              EmptyViewWarning, LightInsideWarning, NoLightsWarning, ShadingWarning,
+                              ZeroNormalWarning)
 
 
 __all__ = [
@@ -50,8 +51,8 @@ __all__ = [
     "SHADINGS", "cast_camera", "cast_rays", "read_pfm", "render", "render_file", "choose_methods", "shade", "shading_normals", "shapes", "to_uint8", "write_pfm",
     "WindingWarning", "winding_conflicts",
     "ShadingWarning", "BumpIgnoredWarning", "ColourRangeWarning", "CreaseWarning", "DroppedOnLoadWarning",
-    "LightInsideWarning", "NoLightsWarning", "ZeroNormalWarning", "figures", "overlays", "explain", "explore",
-    "render_views",
+    "LightInsideWarning", "NoLightsWarning", "ZeroNormalWarning", "EmptyViewWarning", "figures", "overlays",
+    "explain", "explore", "render_views",
 ]
 
 # Imported on first access: figures needs matplotlib and explore ipywidgets (the

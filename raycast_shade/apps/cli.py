@@ -1,5 +1,6 @@
-"""The ``raycast-shade`` command: ``demo``, ``render``, ``animate`` (:mod:`raycast_shade.apps.animate`),
-``views`` (:mod:`raycast_shade.apps.views`) and ``info``.
+"""The ``raycast-shade`` command: ``demo``, ``render`` (a scene file or a mesh file), ``inspect``
+(:mod:`raycast_shade.apps.inspect`), ``animate`` (:mod:`raycast_shade.apps.animate`), ``views``
+(:mod:`raycast_shade.apps.views`) and ``info``.
 
 Every failure the user can fix (a missing or invalid scene file, a bad option
 value, an unwritable output) prints one line ``raycast-shade: error: ...`` on
@@ -33,6 +34,8 @@ examples:
   raycast-shade render examples/knot.toml --shading gouraud -o knot.png
   raycast-shade render scene.toml --width 320 --height 240 --exposure 1.5 --tonemap reinhard
   raycast-shade render scene.toml -o scene.pfm         # linear float32, lossless
+  raycast-shade render model.glb -o model.png          # a mesh file, framed and lit
+  raycast-shade inspect model.glb                      # what the file holds, what it became
   raycast-shade info
 
 Scene files are TOML; see docs/scene-files.md for the format.
@@ -87,16 +90,19 @@ def build_parser() -> argparse.ArgumentParser:
     _add_output_option(demo, "demo.png")
 
     render = sub.add_parser(
-        "render", help="render a TOML scene file",
+        "render", help="render a TOML scene file, or a mesh file as it is",
         description="Render a TOML scene file (format: docs/scene-files.md). Options given here override the "
-                    "file's [render] table, which overrides its [camera] size.",
+                    "file's [render] table, which overrides its [camera] size. Any other file is a mesh file "
+                    "(OBJ, glTF/GLB, PLY, OFF, STL, ...): rendered with its own materials, framed by "
+                    "Camera.fit, lit by a headlight and a key light (--shading phong unless given).",
         epilog="examples:\n"
                "  raycast-shade render examples/shapes.toml -o shapes.png\n"
                "  raycast-shade render examples/knot.toml --shading flat --width 320 --height 240\n"
-               "  raycast-shade render scene.toml --backend raster --interpolation screen -o scan.png",
+               "  raycast-shade render scene.toml --backend raster --interpolation screen -o scan.png\n"
+               "  raycast-shade render Duck.glb --shading gouraud --width 320 --height 240",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    render.add_argument("scene", metavar="SCENE.toml", help="scene file")
+    render.add_argument("scene", metavar="SCENE.toml|MODEL", help="scene file, or a mesh file")
     add_render_options(render)
     _add_output_option(render, None)
 
@@ -107,6 +113,10 @@ def build_parser() -> argparse.ArgumentParser:
     from .views import register_cli as register_views
 
     register_views(sub)
+
+    from .inspect import register_cli as register_inspect
+
+    register_inspect(sub)
 
     sub.add_parser("info", help="versions and the Embree library in use",
                    description="Print the versions of raycast_shade and its engines, and the Embree library path.")
@@ -184,8 +194,12 @@ def _cmd_render(args) -> int:
     out = _check_output(args.output or os.path.splitext(os.path.basename(args.scene))[0] + ".png")
     _check_tone_for(out, args)
     t0 = time.perf_counter()
+    if not args.scene.lower().endswith(".toml"):
+        frame = _render_model(args.scene, overrides(args))
+    else:
+        frame = None
     try:
-        frame = render_file(args.scene, **overrides(args))
+        frame = frame or render_file(args.scene, **overrides(args))
     except ImportError as exc:
         raise RuntimeError(f"{args.scene}: its pipeline options are not available in this installation "
                            f"({exc})") from None
@@ -200,6 +214,20 @@ def _cmd_render(args) -> int:
     for d in frame.decisions:  # shading="auto": what each model got, and why
         print(f"  {d.name}: {d.method} ({d.reason})")
     return 0
+
+
+def _render_model(path: str, given: dict):
+    """``render MODEL``: the mesh file framed and lit (:func:`~raycast_shade.scene.meshfile.model_scene`)."""
+    from ..render import render
+    from ..scene.meshfile import model_scene
+    from ..scene.scenefile import check_render_options, split_options
+
+    size, kwargs, tone = split_options(check_render_options({k: v for k, v in given.items() if v is not None}))
+    kwargs.setdefault("shading", "phong")
+    if isinstance(kwargs["shading"], tuple):
+        raise _UsageError("--shading: one method for a mesh file (per-model lists need a scene file)")
+    scene = model_scene(path, **size)
+    return render(scene, **kwargs).with_tone(tone)
 
 
 def _cmd_info(args) -> int:
@@ -267,6 +295,8 @@ def main(argv=None) -> int:
             from .animate import run_cli as command
         elif args.command == "views":
             from .views import run_cli as command
+        elif args.command == "inspect":
+            from .inspect import run_cli as command
         else:
             command = {"demo": _cmd_demo, "render": _cmd_render, "info": _cmd_info}[args.command]
         with warnings.catch_warnings():  # restores showwarning on the way out

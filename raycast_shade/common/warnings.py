@@ -19,7 +19,7 @@ from __future__ import annotations
 
 __all__ = [
     "ShadingWarning", "BumpIgnoredWarning", "ColourRangeWarning", "CreaseWarning", "DroppedOnLoadWarning",
-    "LightInsideWarning", "NoLightsWarning", "ZeroNormalWarning",
+    "LightInsideWarning", "NoLightsWarning", "ZeroNormalWarning", "EmptyViewWarning",
 ]
 
 
@@ -54,3 +54,7 @@ class DroppedOnLoadWarning(ShadingWarning):
 class ZeroNormalWarning(ShadingWarning):
     """Given vertex normals include zero vectors: the shading falls back to the
     face normal there (see docs/failure-cases.md, section 3)."""
+
+
+class EmptyViewWarning(ShadingWarning):
+    """The camera sees none of the scene: every model lies outside its view."""

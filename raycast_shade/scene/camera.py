@@ -248,3 +248,120 @@ class Camera:
         from .projection import principal_offset
 
         return principal_offset(self)
+
+    # -- framing (issue 22: "a file in, a picture out") -----------------------------------------
+    @classmethod
+    def fit(cls, scene_or_bounds, direction=(-0.4, -0.35, -1.0), *, margin: float = 0.05, width: int = 640,
+            height: int = 480, fov: float = 45.0, up=(0.0, 1.0, 0.0), projection: str = "perspective") -> "Camera":
+        """A camera that frames a scene (or points, or a bounding box) from a direction.
+
+        The camera looks along ``direction``; among all such cameras it is the
+        closest one that keeps every point inside the frame with ``margin``
+        (a fraction of the frame's half-width and half-height kept free on
+        each side). In closed form: with the camera's axes ``r, u, f`` and
+        ``a = (1 - margin) tan(fov_x / 2)``, a point ``p`` stays inside across
+        while ``|p.r - e_r| <= a (p.f - e_f)``, so the eye's depth is at most
+        ``(min(p.f - p.r / a) + min(p.f + p.r / a)) / 2``, reached at
+        ``e_r = a (min(p.f + p.r / a) - min(p.f - p.r / a)) / 2``; the same
+        along ``u`` with ``b = (1 - margin) tan(fov / 2)``, and the eye takes
+        the smaller depth, and no closer than 1% of the points' extent to the
+        nearest one (at wide fields of view the closest camera would sit on
+        it). The extreme point(s) of the tighter axis touch the margin on both
+        sides; the other axis is centred. Orthographic: the
+        view is centred on the points' extent and ``ortho_height`` fits it.
+
+        Parameters
+        ----------
+        scene_or_bounds : Scene, Model, Mesh, sequence of those, (N, 3) points or (2, 3) bounds
+            What to frame: the vertices of every model (placed as rendered),
+            or the corners of a bounding box ``[[xmin, ymin, zmin], [xmax, ...]]``.
+        direction : (3,) float
+            The view direction (camera to scene); not parallel to ``up``.
+        margin : float
+            In [0, 1): the fraction of the half-size left free on each side.
+        width, height : int
+        fov : float
+            Vertical field of view in degrees (perspective).
+        up : (3,) float
+        projection : {"perspective", "orthographic"}
+
+        Returns
+        -------
+        Camera
+            Its ``target`` is the point on the view axis at the depth of the
+            points' bounding-box centre.
+        """
+        from ..common.validate import as_array
+
+        pts = _points_of(scene_or_bounds)
+        d = as_vec3(direction, "camera.fit.direction", nonzero=True)
+        up_v = as_vec3(up, "camera.fit.up", nonzero=True)
+        margin = as_scalar(margin, "camera.fit.margin", minimum=0.0, maximum=1.0)
+        if not margin < 1.0:
+            raise ValueError(f"camera.fit.margin: must be < 1 (the fraction of the half-size left free), got {margin}")
+        width = as_int(width, "camera.fit.width", minimum=1)
+        height = as_int(height, "camera.fit.height", minimum=1)
+        projection = as_choice(projection, "camera.fit.projection", PROJECTIONS)
+        fov = as_scalar(fov, "camera.fit.fov", minimum=0.0, exclusive=True)
+        if not fov < 180.0:
+            raise ValueError(f"camera.fit.fov: must be < 180 degrees, got {fov}")
+        f = d / np.linalg.norm(d)
+        r = np.cross(f, up_v / np.linalg.norm(up_v))
+        if not np.linalg.norm(r) > 1e-9:
+            raise ValueError("camera.fit.direction: parallel to up")
+        r /= np.linalg.norm(r)
+        u = np.cross(r, f)
+        pts = as_array(pts, "camera.fit points", dtype=np.float64, shape=(None, 3))
+        centre = 0.5 * (pts.min(axis=0) + pts.max(axis=0))
+        q = pts - centre  # coordinates about the centre: no cancellation for models far from the origin
+        x, y, z = q @ r, q @ u, q @ f
+        extent = float(np.abs(q).max())
+        if not extent > 0.0:
+            raise ValueError("camera.fit: the points coincide; there is nothing to frame (give a bounding box)")
+        aspect = width / height
+        keep = 1.0 - margin
+        if projection == "orthographic":
+            er, eu = 0.5 * (x.max() + x.min()), 0.5 * (y.max() + y.min())
+            h = max(float(np.ptp(y)), float(np.ptp(x)) / aspect) / keep
+            ef = float(z.min()) - max(extent, h)
+            eye = centre + er * r + eu * u + ef * f
+            return cls(eye=eye, target=eye + (float(-ef)) * f, up=up_v, width=width, height=height,
+                       projection="orthographic", ortho_height=max(h, 1e-12 * max(extent, 1.0)))
+        b = keep * float(np.tan(np.radians(fov) / 2.0))
+        a = b * aspect
+        ax, bx = float(np.min(z - x / a)), float(np.min(z + x / a))
+        ay, by = float(np.min(z - y / b)), float(np.min(z + y / b))
+        # Wide fields of view could put the eye on the nearest point: keep 1% of the size in front.
+        ef = min(0.5 * (ax + bx), 0.5 * (ay + by), float(z.min()) - _NEAR * extent)
+        er, eu = 0.5 * a * (bx - ax), 0.5 * b * (by - ay)
+        eye = centre + er * r + eu * u + ef * f
+        return cls(eye=eye, target=eye + (-ef if ef < 0 else extent) * f, up=up_v, fov=fov, width=width,
+                   height=height)
+
+
+_NEAR = 0.01  # Camera.fit's least distance to the nearest point, in the points' extent
+
+
+def _points_of(thing) -> np.ndarray:
+    """The world-space points that :meth:`Camera.fit` frames (see there)."""
+    from .mesh import Mesh
+
+    if hasattr(thing, "models") and not isinstance(thing, (list, tuple)):
+        thing = thing.models
+    if isinstance(thing, Mesh):
+        return thing.vertices
+    if hasattr(thing, "mesh") and isinstance(getattr(thing, "mesh"), Mesh):
+        return thing.mesh.vertices
+    if isinstance(thing, (list, tuple)) and thing and all(isinstance(t, Mesh) or hasattr(t, "mesh") for t in thing):
+        return np.concatenate([_points_of(t) for t in thing])
+    a = np.asarray(thing, np.float64) if not isinstance(thing, (str, bytes)) else None
+    if a is None or a.ndim != 2 or a.shape[1] != 3 or not len(a):
+        raise TypeError("camera.fit: expected a Scene, Model, Mesh, a list of them, (N, 3) points or (2, 3) "
+                        f"bounds, got {type(thing).__name__}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError("camera.fit: the points must be finite")
+    if len(a) == 2:  # a bounding box: its eight corners
+        lo, hi = a.min(axis=0), a.max(axis=0)
+        a = np.array([[(lo, hi)[i][0], (lo, hi)[j][1], (lo, hi)[k][2]] for i in (0, 1) for j in (0, 1)
+                      for k in (0, 1)])
+    return a

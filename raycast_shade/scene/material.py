@@ -12,7 +12,7 @@ from ..common.layout import MAT_BLINN, MAT_KA, MAT_KD, MAT_KS, MAT_REFLECTIVITY,
 from ..common.validate import as_choice, as_name, as_rgb, as_scalar
 from ..common.warnings import ColourRangeWarning
 
-__all__ = ["Material", "SPECULAR_MODELS"]
+__all__ = ["Material", "SPECULAR_MODELS", "overridden"]
 
 
 
@@ -122,3 +122,28 @@ class Material:
         row[MAT_BLINN] = 1.0 if self.specular == "blinn" else 0.0
         row[MAT_REFLECTIVITY] = self.reflectivity
         return row
+
+
+def overridden(base: Material, given: dict) -> dict:
+    """``base``'s fields as :class:`Material` keywords, with ``given`` winning key by key.
+
+    A ``kd`` given replaces ``base``'s kd and kd_map alike (a ``ks`` its ks
+    and ks_map): the override is the colour, not a factor on the file's
+    texture. Where ``base``'s ka follows its kd (``ka == kd`` and the same
+    map: a file without an ambient colour, see
+    :func:`raycast_shade.load_models`), a new kd or kd_map carries ka along,
+    unless ``ka`` or ``ka_map`` is given too.
+    """
+    import dataclasses
+
+    out = {f.name: getattr(base, f.name) for f in dataclasses.fields(base)}
+    if "kd" in given and "kd_map" not in given:
+        out["kd_map"] = None
+    if "ks" in given and "ks_map" not in given:
+        out["ks_map"] = None
+    follows = np.array_equal(base.ka, base.kd) and base.ka_map is base.kd_map
+    if follows and "ka" not in given and "ka_map" not in given and ("kd" in given or "kd_map" in given):
+        out["ka"] = given["kd"] if "kd" in given else base.kd
+        out["ka_map"] = given.get("kd_map")
+    out.update(given)
+    return out

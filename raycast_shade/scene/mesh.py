@@ -12,7 +12,7 @@ import numpy as np
 
 from ..common.validate import as_array, as_choice, as_name, as_scalar, pow2_scaled
 from ..common.warnings import CreaseWarning, DroppedOnLoadWarning, ZeroNormalWarning
-from .normals import WEIGHTINGS, WindingWarning, face_normals, vertex_normals, winding_conflicts
+from .normals import WEIGHTINGS, WindingWarning, face_normals, reversed_duplicates, vertex_normals, winding_conflicts
 from .pitfalls import SHARP_DEGREES, sharp_edges
 
 __all__ = ["Mesh", "PreparedMesh", "ZeroNormalWarning", "COLOR_MODES"]
@@ -224,7 +224,19 @@ class Mesh:
             warnings.warn(f"{kwargs['name']}: dropped the material(s) {', '.join(lost)} (Mesh.load keeps geometry, "
                           "UVs and colours): use raycast_shade.load_models to bring materials and textures in",
                           DroppedOnLoadWarning, stacklevel=2)
-        return cls.from_trimesh(tm, srgb_colors=srgb, **kwargs)
+        mesh = cls.from_trimesh(tm, srgb_colors=srgb, **kwargs)
+        dup = reversed_duplicates(mesh.faces, mesh.vertices)
+        if dup.any():
+            warnings.warn(f"{mesh.name}: dropped {int(dup.sum())} face(s) repeating another with the opposite "
+                          "winding (two-sided surfaces are lit from the side seen, and the pair cancels "
+                          "averaged normals)", DroppedOnLoadWarning, stacklevel=2)
+            colors = mesh.colors
+            if colors is not None and mesh.color_mode == "face":
+                colors = colors[~dup]
+            mesh = cls(mesh.vertices, mesh.faces[~dup], normals=mesh.normals, uvs=mesh.uvs, weighting=mesh.weighting,
+                       crease_angle=mesh.crease_angle, name=mesh.name, colors=colors,
+                       color_mode=mesh.color_mode or "auto")
+        return mesh
 
     # -- derived ------------------------------------------------------------------------
     @cached_property
@@ -252,6 +264,16 @@ class Mesh:
                     f"{self.name}: {conflicts} edge(s) join faces wound in opposite directions, so the "
                     "computed vertex normals cancel there; make the winding consistent first (for "
                     "example trimesh.repair.fix_winding) or pass normals",
+                    WindingWarning,
+                    stacklevel=2,
+                )
+            twins = int(np.count_nonzero(reversed_duplicates(self.faces, self.vertices)))
+            if twins:
+                warnings.warn(
+                    f"{self.name}: {twins} face(s) repeat another face with the opposite winding (the same "
+                    "triangle twice, a two-sided sheet), so the computed vertex normals cancel around them; "
+                    "drop one of each pair (raycast_shade.scene.normals.reversed_duplicates finds them; "
+                    "load_models and Mesh.load drop them) or pass normals",
                     WindingWarning,
                     stacklevel=2,
                 )
@@ -309,18 +331,112 @@ def read_trimesh(path, merge: bool = False):
         # Not force="mesh": trimesh 5 then concatenates through a scene and drops the file's normals.
         # Not processed: processing welds split vertices (rounding hard edges off) and drops faces
         # on NaN/inf vertices without a word.
-        tm = trimesh.load(path, process=False)
+        tm = _load_obj(path) if path.lower().endswith(".obj") else trimesh.load(path, process=False)
+    except ImportError as exc:
+        raise MissingReaderError(f"cannot read mesh file {path}: {_install_hint(exc)}") from None
     except Exception as exc:
         raise ValueError(f"cannot read mesh file {path}: {exc}") from None
     meshes = tm.geometry.values() if isinstance(tm, trimesh.Scene) else [tm]
     _refuse_non_finite(path, meshes)
     ext = os.path.splitext(path)[1].lower()
+    stl_inside = _archive_holds_stl(path)
     for m in meshes:
-        if isinstance(m, trimesh.Trimesh) and (merge or ext == ".stl"):
+        soup = stl_inside and isinstance(m, trimesh.Trimesh) and len(m.vertices) == 3 * len(m.faces)
+        if isinstance(m, trimesh.Trimesh) and (merge or ext == ".stl" or soup):
             m.process()  # what trimesh.load(path) would have done: merge duplicate vertices
     if not any(isinstance(m, trimesh.Trimesh) and len(m.faces) for m in meshes):
         raise ValueError(f"mesh file {path} holds no triangles")
     return tm, ext not in (".glb", ".gltf")
+
+
+_MTL_KEY = "__raycast_shade_materials__.mtl"
+
+
+class _MtlOnly:
+    """A trimesh resolver that hands over the OBJ's MTL files, joined, and nothing else: trimesh
+    reads only the first ``mtllib`` (a missing first one loses every material, names and all),
+    and the textures are read by raycast_shade itself (once, with their options)."""
+
+    def __init__(self, mtl: bytes):
+        self.mtl = mtl
+
+    def get(self, name):
+        if name == _MTL_KEY:
+            return self.mtl
+        raise OSError(f"{name}: read by raycast_shade, not by trimesh")
+
+    __getitem__ = get
+
+
+def _load_obj(path: str):
+    """``trimesh.load`` of an OBJ with every ``mtllib`` the file names (those that exist) as one."""
+    import io
+
+    import trimesh
+
+    from .fileparse import obj_mtl_files
+
+    with open(path, "rb") as fh:
+        data = fh.read()
+    files = obj_mtl_files(path)
+    if not files:
+        return trimesh.load(path, process=False)
+    parts = []
+    for f in files:
+        with open(f, "rb") as fh:
+            parts.append(fh.read())
+    mtl = b"\n".join(parts)
+    lines = [ln for ln in data.split(b"\n") if not ln.lstrip().lower().startswith(b"mtllib")]
+    text = b"mtllib " + _MTL_KEY.encode() + b"\n" + b"\n".join(lines)
+    name = os.path.basename(path)
+    return trimesh.load(file_obj=io.BytesIO(text), file_type="obj", resolver=_MtlOnly(mtl), process=False,
+                        metadata={"file_name": name})
+
+
+class MissingReaderError(ImportError, ValueError):
+    """A mesh format whose optional reader is not installed (the message names the pip package);
+    a ValueError too, so that callers that report bad input report it the same way."""
+
+
+# Python modules trimesh's optional readers import, and the pip package that provides each.
+_PIP_NAMES = {"lxml": "lxml", "collada": "pycollada", "networkx": "networkx", "shapely": "shapely",
+              "rtree": "rtree", "scipy": "scipy", "PIL": "pillow", "cascadio": "cascadio", "gmsh": "gmsh",
+              "meshio": "meshio", "mapbox_earcut": "mapbox-earcut", "manifold3d": "manifold3d",
+              "xxhash": "xxhash", "jsonschema": "jsonschema", "svg": "svg.path", "openctm": "openctm"}
+
+
+def _install_hint(exc: ImportError) -> str:
+    """The missing module and the pip package to install, from an ImportError."""
+    module = getattr(exc, "name", None)
+    if not module:
+        import re
+
+        m = re.search(r"No module named '([^']+)'|pip install ([\w.\-]+)", str(exc))
+        module = (m.group(1) or m.group(2)) if m else None
+    if not module:
+        return f"an optional reader is not installed ({exc})"
+    top = module.split(".")[0]
+    package = _PIP_NAMES.get(top, top)
+    return f"this format needs the optional package {package!r} (module {top!r}): pip install {package}"
+
+
+def _archive_holds_stl(path: str) -> bool:
+    """Whether a zip or tar archive holds an STL file (its meshes come as triangle soups)."""
+    import tarfile
+    import zipfile
+
+    try:
+        if zipfile.is_zipfile(path):
+            with zipfile.ZipFile(path) as z:
+                names = z.namelist()
+        elif tarfile.is_tarfile(path):
+            with tarfile.open(path) as t:
+                names = t.getnames()
+        else:
+            return False
+    except (OSError, zipfile.BadZipFile, tarfile.TarError):
+        return False
+    return any(n.lower().endswith(".stl") and "__macosx" not in n.lower() for n in names)
 
 
 def _material_names(tm) -> list:
@@ -331,13 +447,14 @@ def _material_names(tm) -> list:
     return [repr(getattr(mat, "name", None) or type(mat).__name__)]
 
 
-def visual_colors(tm, srgb: bool, name: str) -> tuple:
+def visual_colors(tm, srgb: bool, name: str, alpha: str = "warn") -> tuple:
     """A trimesh's colours as ``(colors (N, 3) float64 linear, mode)``, or ``(None, None)``.
 
     Vertex or face colours of a ``ColorVisuals``, or the vertex colours a
     ``TextureVisuals`` keeps next to its texture (glTF ``COLOR_0``); 8-bit
     values are divided by 255 and, with ``srgb``, decoded to linear. An alpha
-    channel that is not opaque is dropped with a warning.
+    channel that is not opaque is dropped with a warning (``alpha="ignore"``:
+    silently, where the file says alpha means nothing, as glTF's ``OPAQUE``).
     """
     vis = getattr(tm, "visual", None)
     raw, mode = None, None
@@ -357,7 +474,7 @@ def visual_colors(tm, srgb: bool, name: str) -> tuple:
     if c.ndim != 2 or c.shape[1] not in (3, 4):
         return None, None
     if c.shape[1] == 4:
-        if np.any(c[:, 3] < 1.0):
+        if alpha == "warn" and np.any(c[:, 3] < 1.0):
             warnings.warn(f"{name}: dropped the colours' alpha (transparency is not modelled)",
                           DroppedOnLoadWarning, stacklevel=4)
         c = c[:, :3]

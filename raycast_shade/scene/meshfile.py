@@ -1,23 +1,29 @@
 """Models from mesh files: geometry, colours, and the file's materials.
 
-:func:`load_models` reads what a file carries through trimesh's visuals and
-maps it onto the lecture's coefficients (the table is in ``docs/textures.md``):
+:func:`load_models` reads what a file carries through trimesh's visuals and,
+for what trimesh passes over, the file itself (:mod:`.fileparse`: MTL files
+with their lines, ``usemtl`` names, glTF samplers and image URIs, OFF
+colours), and maps it onto the lecture's coefficients (the table is in
+``docs/textures.md``):
 
-* OBJ/MTL (``SimpleMaterial``): ``Kd``, ``Ka``, ``Ks`` -> kd, ka, ks;
-  ``Ns`` -> shininess; ``illum 0/1`` -> no specular term; ``map_Kd``,
-  ``map_Ka``, ``map_Ks`` -> kd_map, ka_map, ks_map (sRGB images, with the
-  ``-s u v`` scale and ``-clamp on`` options).
-* glTF (``PBRMaterial``), metallic ``m`` and roughness ``r`` (spec defaults
-  1): kd = baseColor (1 - m); ks = 0.04 (1 - m) + baseColor m (F0, the
-  Fresnel reflectance at normal incidence); Blinn-Phong with
-  t = 2 / alpha^2 - 2, alpha = r^2, clamped to [1, 4096];
-  ``baseColorTexture`` -> kd_map (and ks_map where m > 0); ``COLOR_0``
-  (linear) -> the mesh's vertex colours, times kd's factor.
-* PLY/OFF/OBJ vertex or face colours (sRGB bytes) -> the mesh's colours.
+* OBJ/MTL: ``Kd``, ``Ka``, ``Ks`` -> kd, ka, ks; ``Ns`` -> shininess;
+  ``illum 0/1`` -> no specular term; ``map_Kd``, ``map_Ka``, ``map_Ks`` ->
+  kd_map, ka_map, ks_map (sRGB images, with the ``-s u v`` tiling and
+  ``-clamp on`` options). Every value is validated, naming the file and line.
+* glTF (``PBRMaterial``), base colour ``b``, metallic ``m`` and roughness
+  ``r`` (spec defaults 1; per texel where a ``metallicRoughnessTexture``
+  gives them), ``alpha = r^2``: kd = b ((1 - m) + m alpha); ks = 0.04 (1 - m)
+  + b m (1 - alpha); ka = b; Blinn-Phong t = 2 / alpha^2 - 2 in [1, 4096]
+  (alpha of the median roughness). Sampler wrap modes (repeat, clamp,
+  mirrored repeat, per axis) are honoured.
+* PLY/OFF/OBJ vertex or face colours (sRGB) -> the mesh's colours.
+* Where a file gives no ambient colour, ka follows the diffuse colour: ka =
+  kd, ka_map = kd_map (mesh colours: see ``docs/textures.md``).
 
-What cannot be mapped (normal, occlusion, emissive and metallic-roughness
-textures, emission, transparency, bump/displacement maps, unknown MTL keys)
-is named in a :class:`~raycast_shade.DroppedOnLoadWarning`.
+What cannot be mapped (normal, occlusion and emissive textures, emission,
+transparency, bump/displacement maps, unknown MTL keys) is named in a
+:class:`~raycast_shade.DroppedOnLoadWarning`, and so is every referenced
+file that is missing.
 """
 
 from __future__ import annotations
@@ -28,153 +34,82 @@ import warnings
 import numpy as np
 
 from ..common.warnings import DroppedOnLoadWarning
+from .filematerial import FileContext, Wrapped, from_mtl_cached, from_pbr, from_simple, is_placeholder
 from .material import Material
 from .mesh import Mesh, _instance, _is_scene, read_trimesh, visual_colors
+from .normals import reversed_duplicates
 from .scene import Model
-from .texture import Texture
+from .texture import srgb_to_linear
 
-__all__ = ["load_models", "material_from_trimesh"]
+__all__ = ["load_models", "material_from_trimesh", "model_scene"]
 
-# MTL keys with no effect in the file's own model when they hold these values.
-_MTL_HARMLESS = {"d": 1.0, "tr": 0.0, "ke": 0.0}
-_MTL_TEXTURES = ("map_kd", "map_ka", "map_ks")
-_MAX_SHININESS = 4096.0  # repeated squaring's limit (shading.illumination._power)
-
-
-def _rgb(value) -> np.ndarray:
-    v = np.atleast_1d(np.asarray(value, np.float64)).ravel()
-    return np.repeat(v[:1], 3) if v.size == 1 else v[:3]
-
-
-def _numbers(tokens):
-    try:
-        return [float(t) for t in tokens]
-    except (TypeError, ValueError):
-        return None
-
-
-def _mtl_texture(tokens, base_dir: str, where: str, lost: list):
-    """A texture from the tokens after ``map_Kd`` (options then a file name)."""
-    tokens = list(tokens)
-    kw, i = {}, 0
-    while i < len(tokens) - 1 and tokens[i].startswith("-"):
-        opt = tokens[i].lower()
-        if opt == "-s":
-            nums = []
-            i += 1
-            while i < len(tokens) - 1 and _numbers([tokens[i]]) is not None and len(nums) < 3:
-                nums.append(float(tokens[i]))
-                i += 1
-            if len(nums) >= 2:
-                kw["tiling"] = (nums[0], nums[1])
-            continue
-        if opt == "-clamp" and i + 1 < len(tokens) - 1:
-            kw["wrap"] = "clamp" if tokens[i + 1].lower() == "on" else "repeat"
-            i += 2
-            continue
-        lost.append(f"{where} option {tokens[i]}")
-        i += 2
-    path = os.path.join(base_dir, " ".join(tokens[i:]))
-    try:
-        return Texture.from_image(path, **kw)
-    except ValueError as exc:
-        lost.append(f"{where} ({exc})")
-        return None
-
-
-def _from_simple(mat, base_dir: str, name: str, lost: list) -> Material:
-    """OBJ/MTL: the raw values trimesh keeps in ``kwargs`` (its RGBA fields are 8-bit)."""
-    raw = dict(getattr(mat, "kwargs", {}) or {})
-    kw = {"name": name}
-    for key in ("kd", "ka", "ks"):
-        if key in raw:
-            kw[key] = np.clip(_rgb(raw.pop(key)), 0.0, None)
-    if "ns" in raw:
-        ns = float(np.atleast_1d(raw.pop("ns"))[0])
-        if ns > 0:
-            kw["shininess"] = min(ns, _MAX_SHININESS)
-        else:
-            lost.append(f"Ns {ns:g} (the shininess must be > 0; kept {Material().shininess:g})")
-    illum = raw.pop("illum", None)
-    if illum is not None:
-        code = int(float(illum[0]))
-        if code in (0, 1):
-            kw["ks"] = 0.0  # colour (and ambient) only: no highlight
-        elif code != 2:
-            lost.append(f"illum {code} (reflection/refraction models; shaded as illum 2)")
-    raw.pop("ni", None)  # refraction index: only meaningful with transparency, reported there
-    image = getattr(mat, "image", None)
-    if image is not None:
-        kw["kd_map"] = Texture.from_array(np.asarray(image), srgb=True, name=f"{name}.map_Kd")
-        raw.pop("map_kd", None)
-    for key in ("map_ka", "map_ks"):
-        if key in raw:
-            tex = _mtl_texture(raw.pop(key), base_dir, key, lost)
-            if tex is not None:
-                kw[key[4:] + "_map"] = tex
-    for key, value in raw.items():
-        nums = _numbers(value) if isinstance(value, (list, tuple)) else None
-        if key in _MTL_HARMLESS and nums and all(n == _MTL_HARMLESS[key] for n in nums):
-            continue
-        shown = " ".join(map(str, value)) if isinstance(value, (list, tuple)) else value
-        lost.append(f"{key} {shown}".strip())
-    return kw
-
-
-def _from_pbr(mat, name: str, lost: list) -> dict:
-    """glTF metallic-roughness onto kd, ks, t (see the module docstring)."""
-    base = np.asarray(getattr(mat, "baseColorFactor", None) if mat.baseColorFactor is not None
-                      else [255, 255, 255, 255])
-    base = base.astype(np.float64) / 255.0 if base.dtype.kind in "ui" else base.astype(np.float64)
-    if base.size == 4 and base[3] < 1.0:
-        lost.append(f"baseColorFactor alpha {base[3]:g} (transparency)")
-    base = base[:3]
-    m = 1.0 if mat.metallicFactor is None else float(mat.metallicFactor)
-    r = 1.0 if mat.roughnessFactor is None else float(mat.roughnessFactor)
-    alpha = max(r * r, 1e-6)
-    kw = {"name": name, "kd": base * (1.0 - m), "ks": 0.04 * (1.0 - m) + base * m, "specular": "blinn",
-          "shininess": float(np.clip(2.0 / alpha ** 2 - 2.0, 1.0, _MAX_SHININESS))}
-    tex = getattr(mat, "baseColorTexture", None)
-    if tex is not None:
-        t = Texture.from_array(np.asarray(tex), srgb=True, name=f"{name}.baseColorTexture")
-        kw["kd_map"] = t
-        if m > 0:
-            kw["ks_map"] = t
-    for field in ("normalTexture", "occlusionTexture", "emissiveTexture", "metallicRoughnessTexture"):
-        if getattr(mat, field, None) is not None:
-            lost.append(field)
-    emissive = getattr(mat, "emissiveFactor", None)
-    if emissive is not None and np.any(np.asarray(emissive, np.float64) > 0):
-        lost.append(f"emissiveFactor {np.round(np.asarray(emissive, np.float64), 4).tolist()}")
-    mode = getattr(mat, "alphaMode", None)
-    if mode not in (None, "OPAQUE"):
-        lost.append(f"alphaMode {mode}")
-    return kw
-
-
-def material_from_trimesh(visual, base_dir: str = ".", name: str = "material") -> tuple:
+def material_from_trimesh(visual, base_dir: str = ".", name: str = "material", context=None) -> tuple:
     """A trimesh visual's material as :class:`Material` keywords.
+
+    Parameters
+    ----------
+    visual : trimesh visual
+    base_dir : str
+        Folder the file's references are relative to.
+    name : str
+        For a material without a name.
+    context : optional
+        :func:`load_models`' record of the file (its MTL, glTF JSON, decoded textures).
 
     Returns
     -------
     kwargs : dict
-        Keywords of :class:`Material` (empty: the library's defaults).
+        Keywords of :class:`Material` (empty: the library's defaults). With a
+        ``context``, a map may still be pending its mesh's UVs (a glTF sampler
+        clamping one axis only, which :func:`load_models` resolves).
     lost : list of str
         What the material had that could not be mapped.
     """
     import trimesh
 
+    ctx = context if context is not None else FileContext(None, base_dir=base_dir)
     mat = getattr(visual, "material", None)
     lost = []
-    if mat is None:
-        return {}, lost
+    kw = {}
     mname = getattr(mat, "name", None) or name
-    if isinstance(mat, trimesh.visual.material.PBRMaterial):
-        return _from_pbr(mat, mname, lost), lost
-    if isinstance(mat, trimesh.visual.material.SimpleMaterial):
-        return _from_simple(mat, base_dir, mname, lost), lost
-    lost.append(f"a {type(mat).__name__}")
-    return {}, lost
+    if mat is None:
+        pass
+    elif isinstance(mat, trimesh.visual.material.PBRMaterial):
+        kw = from_pbr(mat, mname, lost, ctx)
+    elif isinstance(mat, trimesh.visual.material.SimpleMaterial):
+        if mname in ctx.mtl:
+            kw = from_mtl_cached(ctx, mname, lost)
+        elif not is_placeholder(mat):  # trimesh's grey stand-in for "no material" gives the library's default
+            kw = from_simple(mat, mname, lost, ctx)
+    else:
+        lost.append(f"a {type(mat).__name__}")
+    if context is None:  # a caller of its own: every map a Texture now (a one-axis clamp shaded as repeat)
+        _resolve_maps(kw, None, mname, lost)
+    return kw, lost
+
+
+def _resolve_maps(kw: dict, uvs, name: str, lost: list):
+    """Pending maps made textures for this mesh's UVs; the UVs, moved if a clamped axis was padded."""
+    pending = {k: v for k, v in kw.items() if isinstance(v, Wrapped)}
+    done, out_uvs = {}, None
+    for k, w in pending.items():
+        if id(w) not in done:
+            if w.needs_uvs and uvs is not None:
+                # Padded over the file's UVs; maps on one grid (the base colour's) move them alike.
+                tex, new_uvs, note = w.texture(uvs)
+                if new_uvs is not None:
+                    if out_uvs is None:
+                        out_uvs = new_uvs
+                    elif not np.array_equal(new_uvs, out_uvs):
+                        lost.append(f"{name}: {k} pads another grid than the other maps (shaded as repeat)")
+                        tex, _, note = w.texture(None)
+            else:
+                tex, _, note = w.texture(None) if w.needs_uvs else w.texture(uvs)
+            if note:
+                lost.append(note)
+            done[id(w)] = tex
+        kw[k] = done[id(w)]
+    return uvs if out_uvs is None else out_uvs
 
 
 def load_models(path, *, merge: bool = False, use_normals: bool | None = None, **mesh_kwargs) -> list:
@@ -185,6 +120,12 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, *
     Vertices are kept as written unless ``merge=True`` (see
     :meth:`Mesh.load`). Colours become the mesh's ``colors`` (its kd); a
     material's factor multiplies them (glTF: baseColor times ``COLOR_0``).
+    Where the file gives no ambient colour, ka follows kd (and ka_map
+    kd_map). A face that repeats another with the opposite winding (a
+    two-sided sheet) is dropped, counted in a warning: rendering lights
+    every surface from the side it is seen from, and the pair would cancel
+    every averaged normal around it. An image shared by several meshes is
+    decoded once (one texture).
 
     Parameters
     ----------
@@ -201,16 +142,29 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, *
     -------
     list of Model
 
+    Raises
+    ------
+    ValueError
+        A missing or unreadable file, or a value the file gives that is not
+        valid (naming the file and line, e.g. ``a.mtl:3: Kd abc``).
+
     Warns
     -----
     DroppedOnLoadWarning
-        Naming every field of the file that has no counterpart here.
+        Naming every field of the file that has no counterpart here, every
+        referenced file that is missing (MTL, images), every ``usemtl`` no
+        MTL defines, and the reversed duplicate faces dropped.
     """
     import trimesh
 
+    path = os.fspath(path)
+    base = mesh_kwargs.pop("name", os.path.basename(path))
+    # The file's own references and values first: a bad value is named before trimesh trips on it.
+    ctx = FileContext(path, base) if os.path.isfile(path) else None
     tm, srgb = read_trimesh(path, merge)
-    base = mesh_kwargs.pop("name", os.path.basename(os.fspath(path)))
-    base_dir = os.path.dirname(os.path.abspath(os.fspath(path)))
+    for used in dict.fromkeys(n for n, _ in ctx.usemtl):
+        if used in ctx.mtl:  # every material the OBJ uses is checked, whatever trimesh made of it
+            from_mtl_cached(ctx, used, [])
     if _is_scene(tm):
         items = []
         for node in tm.graph.nodes_geometry:
@@ -220,12 +174,16 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, *
                 items.append((f"{base}:{node}", g, np.asarray(transform, np.float64)))
     else:
         items = [(base, tm, np.eye(4))]
-    models, lost = [], []
+    models, lost, twins = [], [], 0
     for name, g, transform in items:
-        kw, why = material_from_trimesh(g.visual, base_dir, name)
+        kw, why = material_from_trimesh(g.visual, ctx.base_dir, name, context=ctx)
         lost += [f"{name}: {w}" for w in why]
         vertices, faces, normals, uvs = _instance(g, transform, use_normals)
-        colors, mode = visual_colors(g, srgb, name)
+        opaque = ctx is not None and ctx.gltf is not None and (getattr(getattr(g.visual, "material", None),
+                                                                         "alphaMode", None) or "OPAQUE") == "OPAQUE"
+        colors, mode = visual_colors(g, srgb, name, "ignore" if opaque else "warn")
+        if colors is None and ctx.off is not None:
+            colors, mode = _off_colors(ctx.off, len(vertices), len(faces), name)
         if colors is not None and "kd" in kw:
             colors = colors * kw["kd"]  # kd's factor times the colours (glTF: baseColorFactor * COLOR_0)
         maps = [k for k in ("kd_map", "ka_map", "ks_map") if k in kw]
@@ -233,10 +191,109 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, *
             lost.append(f"{name}: {', '.join(maps)} (the mesh has no UVs)")
             for k in maps:
                 kw.pop(k)
+        uvs = _resolve_maps(kw, uvs, name, lost)
+        dup = reversed_duplicates(faces, vertices)
+        if dup.any():
+            twins += int(dup.sum())
+            faces = faces[~dup]
+            if colors is not None and mode == "face":
+                colors = colors[~dup]
+        if "ka" not in kw:  # the file gave no ambient colour: ka follows the diffuse colour and its texture
+            kw["ka"] = kw["kd"] if "kd" in kw else (1.0 if "kd_map" in kw else Material().kd)
+            if "kd_map" in kw and "ka_map" not in kw:
+                kw["ka_map"] = kw["kd_map"]
+        kw.setdefault("name", name)
         mesh = Mesh(vertices, faces, normals=normals, uvs=uvs, colors=colors,
                     color_mode=mode or "auto", name=name, **mesh_kwargs)
-        models.append(Model(mesh, Material(**kw) if kw else Material(name=name)))
+        models.append(Model(mesh, Material(**kw)))
+    if ctx.missing or ctx.undefined:
+        parts = []
+        if ctx.missing:
+            parts.append("missing referenced file(s): " + "; ".join(dict.fromkeys(ctx.missing)))
+        if ctx.undefined:
+            parts.append("material(s) no MTL defines: " + "; ".join(ctx.undefined))
+        warnings.warn(f"{base}: " + "; ".join(parts) + " (rendered with the library's default material or "
+                      "without the texture)", DroppedOnLoadWarning, stacklevel=2)
+    if twins:
+        lost.append(f"{twins} face(s) repeating another with the opposite winding (dropped: two-sided "
+                    "surfaces are lit from the side seen, and the pair cancels averaged normals)")
     if lost:
         warnings.warn(f"{base}: not mapped (no counterpart in the lecture's model): " + "; ".join(lost),
                       DroppedOnLoadWarning, stacklevel=2)
     return models
+
+
+def _off_colors(off, nv: int, nf: int, name: str):
+    """The OFF file's own colours (trimesh drops them): per vertex, or per polygon spread over
+    its triangles in trimesh's order (triangles first, then quads' first halves, then second halves,
+    then larger polygons' fans)."""
+    vc, fc, sizes = off
+    if vc is not None and len(vc) == nv:
+        c = vc
+        mode = "vertex"
+    elif fc is not None:
+        order = _off_triangle_sources(sizes)
+        if len(order) != nf:
+            return None, None
+        c, mode = fc[order], "face"
+    else:
+        return None, None
+    if c.shape[1] == 4:
+        if np.any(c[:, 3] < 1.0):
+            warnings.warn(f"{name}: dropped the colours' alpha (transparency is not modelled)",
+                          DroppedOnLoadWarning, stacklevel=4)
+        c = c[:, :3]
+    return srgb_to_linear(np.clip(c, 0.0, 1.0)), mode
+
+
+def _off_triangle_sources(sizes: np.ndarray) -> np.ndarray:
+    """For each triangle trimesh's ``triangulate_quads`` makes, the polygon it comes from."""
+    idx = np.arange(len(sizes))
+    if np.all(sizes == 3):
+        return idx
+    if np.all(sizes == 4):
+        return np.concatenate([idx, idx])
+    tri, quad, poly = idx[sizes == 3], idx[sizes == 4], idx[sizes > 4]
+    fans = np.concatenate([np.full(sizes[p] - 2, p) for p in poly]) if len(poly) else np.zeros(0, np.int64)
+    return np.concatenate([tri, quad, quad, fans]).astype(np.int64)
+
+
+def model_scene(path, *, width: int = 640, height: int = 480, direction=(-0.4, -0.35, -1.0), margin: float = 0.05,
+                fov: float = 45.0, ambient: float = 0.2, **load_kwargs) -> Scene:
+    """A mesh file ready to render: its models, a camera framing them, a headlight and a key light.
+
+    What ``raycast-shade render model.glb`` renders. The camera is
+    :meth:`Camera.fit` along ``direction``; the headlight shines along the
+    view (intensity 0.5: every visible surface lit), the key light from the
+    upper left, over the viewer's shoulder (intensity 0.7); ``ambient`` is the
+    ambient intensity (the file's colours show there too: ka follows kd).
+
+    Parameters
+    ----------
+    path : str or path-like
+        Any file :func:`raycast_shade.load_models` reads.
+    width, height : int
+    direction : (3,) float
+        The view direction.
+    margin : float
+        As in :meth:`Camera.fit`.
+    fov : float
+    ambient : float
+    **load_kwargs
+        Passed to :func:`raycast_shade.load_models` (``merge``, ``crease_angle``, ...).
+
+    Returns
+    -------
+    Scene
+    """
+    from .camera import Camera
+    from .lights import DirectionalLight
+    from .scene import Scene
+
+    models = load_models(path, **load_kwargs)
+    camera = Camera.fit(models, direction, margin=margin, width=width, height=height, fov=fov)
+    r, u, f = camera.basis
+    key = f + 0.8 * r - 0.9 * u  # from the upper left: travelling right and down
+    lights = [DirectionalLight(f, intensity=0.5, name="headlight"),
+              DirectionalLight(key / np.linalg.norm(key), intensity=0.7, name="key")]
+    return Scene(models, lights=lights, camera=camera, ambient=ambient)

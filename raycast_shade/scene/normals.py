@@ -20,7 +20,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-__all__ = ["face_normals", "vertex_normals", "winding_conflicts", "WindingWarning", "WEIGHTINGS"]
+__all__ = ["face_normals", "vertex_normals", "winding_conflicts", "reversed_duplicates", "WindingWarning", "WEIGHTINGS"]
 
 from ..common.choices import WEIGHTINGS
 from ..common.validate import as_array
@@ -309,6 +309,55 @@ def winding_conflicts(vertices, faces, fnormals=None) -> int:
     valid = np.any(fn != 0.0, axis=1)
     order, starts, dest, third = _corners_by_vertex(faces, vertices.shape[0])
     return int(_winding_conflicts_kernel(order, starts, dest, third, valid))
+
+
+def reversed_duplicates(faces, vertices=None) -> np.ndarray:
+    """Faces that repeat an earlier face with the opposite winding.
+
+    The same triangle twice, once each way (a two-sided sheet, as in
+    chair_model.obj's seat), traverses each of its edges once each way, so
+    :func:`winding_conflicts` cannot see it; but its two right-hand normals
+    are opposite and cancel in every vertex average around it.
+
+    Parameters
+    ----------
+    faces : (F, 3) int
+    vertices : (V, 3) float, optional
+        When given, vertices at the same position count as one (files often
+        give each copy of the sheet vertices of its own).
+
+    Returns
+    -------
+    (F,) bool
+        True for the later face of each such pair (the first one is kept); a
+        face repeated with the same winding is not marked.
+    """
+    f = np.asarray(faces, np.int64)
+    out = np.zeros(len(f), bool)
+    if len(f) < 2:
+        return out
+    if vertices is not None:
+        _, weld = np.unique(np.asarray(vertices, np.float64), axis=0, return_inverse=True)
+        f = weld.ravel()[f]
+    # A triangle's rotation with its smallest index first: (a, b, c) and (a, c, b) share the sorted
+    # corners and differ in their cyclic order.
+    k = np.argmin(f, axis=1)
+    rows = np.arange(len(f))
+    rot = np.stack([f[rows, k], f[rows, (k + 1) % 3], f[rows, (k + 2) % 3]], axis=1)
+    rev = rot[:, [0, 2, 1]]
+    # Only faces whose corner set occurs twice or more can pair up: found at NumPy speed first.
+    _, inverse, counts = np.unique(np.sort(f, axis=1), axis=0, return_inverse=True, return_counts=True)
+    seen = {}
+    for i in np.flatnonzero(counts[inverse.ravel()] >= 2):
+        a, b = tuple(rot[i].tolist()), tuple(rev[i].tolist())
+        if a[0] == a[1] or a[1] == a[2]:
+            continue  # a degenerate index triple has no winding
+        if seen.get(b, 0) > 0:
+            seen[b] -= 1
+            out[i] = True
+            continue
+        seen[a] = seen.get(a, 0) + 1
+    return out
 
 
 def _normalize_rows(n: np.ndarray) -> np.ndarray:

@@ -9,7 +9,9 @@ Each check is cheap next to a frame, and each warning (see
 * :func:`closed`, :func:`winding_number`: a point light inside a closed mesh
   lights only its inside (:class:`LightInsideWarning`);
 * :func:`warn_render`: at :func:`raycast_shade.render`, no lights, a point
-  light inside a closed mesh, or a bump map the shading method ignores.
+  light inside a closed mesh, a bump map the shading method ignores, or a
+  camera that sees nothing (:func:`outside_view`: every model's bounding box
+  wholly behind the camera or beyond one side of its view).
 
 Only consistently wound, closed meshes (every edge traversed once each way)
 are tested for a light inside: the winding number then is exactly 0 outside
@@ -25,10 +27,10 @@ import warnings
 import numpy as np
 from numba import njit, prange
 
-from ..common.warnings import BumpIgnoredWarning, LightInsideWarning, NoLightsWarning
+from ..common.warnings import BumpIgnoredWarning, EmptyViewWarning, LightInsideWarning, NoLightsWarning
 from .normals import _corners_by_vertex
 
-__all__ = ["SHARP_DEGREES", "sharp_edges", "closed", "winding_number", "warn_render"]
+__all__ = ["SHARP_DEGREES", "sharp_edges", "closed", "winding_number", "warn_render", "outside_view"]
 
 # Faces whose normals differ by more than this are a crease, not a curve:
 # averaging across them rounds the edge off.
@@ -179,6 +181,34 @@ def _lights_inside(scene):
     return found
 
 
+def outside_view(camera, bounds) -> bool:
+    """True when the box ``bounds`` (2, 3) lies wholly outside the camera's view.
+
+    The box's eight corners in camera axes ``(x, y, z)`` (``z`` forward) are
+    tested against the view's four side planes (``|x| <= hx z``, ``|y| <=
+    hy z`` for a perspective camera, ``|x| <= hx``, ``|y| <= hy`` for an
+    orthographic one, widened by the principal point's offset) and the eye's
+    plane ``z > 0``: the box is outside when all eight corners are beyond
+    one of them. A box that straddles them may still show nothing (it is a
+    bound), never the other way round.
+    """
+    lo, hi = np.asarray(bounds, np.float64)
+    corners = np.array([[(lo, hi)[i][0], (lo, hi)[j][1], (lo, hi)[k][2]]
+                        for i in (0, 1) for j in (0, 1) for k in (0, 1)])
+    r, u, f = camera.basis
+    q = corners - camera.eye
+    x, y, z = q @ r, q @ u, q @ f
+    hx, hy = camera.half_extents()
+    ox, oy = camera.principal_offset()
+    if camera.orthographic:
+        x, y = x - ox, y - oy
+        outside = (x > hx).all() or (x < -hx).all() or (y > hy).all() or (y < -hy).all()
+        return bool(outside or (z <= 0).all())
+    x, y = x - ox * z, y - oy * z
+    return bool((z <= 0).all() or (x > hx * z).all() or (x < -hx * z).all()
+                or (y > hy * z).all() or (y < -hy * z).all())
+
+
 def warn_render(scene, methods, stacklevel: int = 3) -> None:
     """Warn about the pitfalls of rendering ``scene`` with ``methods``.
 
@@ -200,6 +230,16 @@ def warn_render(scene, methods, stacklevel: int = 3) -> None:
             f"{light} is inside the closed mesh scene.models[{g}] ({name}), so it lights only the inside "
             "(and the mesh shadows everything else from it): move the light outside the mesh",
             LightInsideWarning, stacklevel=stacklevel)
+    if scene.camera is not None and scene.models and all(
+            outside_view(scene.camera, m.mesh.bounds) for m in scene.models):
+        lo = np.min([m.mesh.bounds[0] for m in scene.models], axis=0)
+        hi = np.max([m.mesh.bounds[1] for m in scene.models], axis=0)
+        warnings.warn(
+            f"the camera (eye {np.round(scene.camera.eye, 4).tolist()}, target "
+            f"{np.round(scene.camera.target, 4).tolist()}) sees none of the scene (bounds "
+            f"{np.round(lo, 4).tolist()} to {np.round(hi, 4).tolist()}): the image will be empty; aim it with "
+            "Camera.fit(scene, direction=...) (or fit = true in a scene file's [camera])",
+            EmptyViewWarning, stacklevel=stacklevel)
     per_model = [methods] * len(scene.models) if isinstance(methods, str) else list(methods)
     ignored = [(g, m.mesh.name, method) for g, (m, method) in enumerate(zip(scene.models, per_model))
                if m.material.bump is not None and method in ("flat", "gouraud")]

@@ -7,7 +7,8 @@ to render it. The full reference is ``docs/scene-files.md``; in short::
     background = 0.0                    # colour where nothing is hit
 
     [camera]                            # required
-    eye = [0.0, 1.5, 6.0]               # required
+    eye = [0.0, 1.5, 6.0]               # required (or fit = true: framed by
+                                        # Camera.fit, with direction, margin)
     target = [0.0, 0.0, 0.0]            # also up, fov, projection,
     width = 640                         # ortho_height
     height = 480
@@ -58,7 +59,6 @@ from, e.g. ``object[1].material: unknown key 'shinyness' (did you mean
 
 from __future__ import annotations
 
-import dataclasses
 import difflib
 import inspect
 import os
@@ -77,7 +77,7 @@ from ..common.samples import check_samples
 from ..common.validate import as_choice, as_int, as_rgb, as_scalar, as_vec3
 from .camera import Camera
 from .lights import DirectionalLight, PointLight, SpotLight
-from .material import Material
+from .material import Material, overridden
 from .mesh import Mesh
 from .scene import Model, Scene
 
@@ -85,7 +85,9 @@ __all__ = ["load_scene", "load_for_render", "scene_from_dict", "SceneFileError",
            "split_options", "RENDER_KEYS", "SIZE_KEYS", "TONE_KEYS"]
 
 _TOP_KEYS = ("ambient", "background", "camera", "object", "light", "render")
-_CAMERA_KEYS = ("eye", "target", "up", "fov", "width", "height", "projection", "ortho_height")
+_CAMERA_KEYS = ("eye", "target", "up", "fov", "width", "height", "projection", "ortho_height", "fit", "direction",
+                "margin")
+_FIT_KEYS = ("fit", "direction", "margin", "up", "fov", "width", "height", "projection")
 _OBJECT_KEYS = ("shape", "mesh", "name", "normals", "weighting", "crease_angle", "scale", "rotate", "translate",
                 "material")
 _FILE_KEYS = ("merge", "materials")  # mesh files only
@@ -174,16 +176,23 @@ def _string(value, where: str) -> str:
     return value
 
 
-def _camera(table, render) -> Camera:
+def _camera(table, render, models=None) -> Camera:
+    """The [camera]; ``fit = true`` frames ``models`` (:meth:`Camera.fit`; None until they are loaded)."""
     cam = dict(_table(table, "camera"))
     _check_keys(cam, "camera", _CAMERA_KEYS)
+    fit = cam.pop("fit", False)
+    if not isinstance(fit, bool):
+        raise _Invalid("camera.fit", f"expected true or false, got {_kind(fit)}")
+    # [render] width/height override the camera's, so one camera block can serve several output sizes.
+    cam.update((k, render[k]) for k in ("width", "height") if k in render)
+    wrong = [k for k in cam if k not in _FIT_KEYS] if fit else [k for k in ("direction", "margin") if k in cam]
+    if wrong:
+        raise _Invalid(f"camera.{wrong[0]}", "not with fit = true (the fitted camera places itself; give direction "
+                                             "and margin instead)" if fit else "only with fit = true")
+    if fit:
+        return None if models is None else _call("camera", Camera.fit, models, **cam)
     if "eye" not in cam:
-        raise _Invalid("camera", "missing key 'eye'")
-    # [render] width/height override the camera's, so one camera block can
-    # serve several output sizes.
-    for key in ("width", "height"):
-        if key in render:
-            cam[key] = render[key]
+        raise _Invalid("camera", "missing key 'eye' (or fit = true to frame the scene)")
     return _call("camera", Camera, **cam)
 
 
@@ -317,14 +326,7 @@ def _material(table, where: str, base_dir: str = ".", base: Material | None = No
         if key in mat:
             mat[key] = _texture(mat[key], f"{where}.{key}", base_dir)
     if base is not None:
-        given = {f.name: getattr(base, f.name) for f in dataclasses.fields(base)}
-        # A kd given here replaces the file's kd and kd_map alike (and the mesh's colours: see _build).
-        if "kd" in mat and "kd_map" not in mat:
-            given["kd_map"] = None
-        if "ks" in mat and "ks_map" not in mat:
-            given["ks_map"] = None
-        given.update(mat)
-        mat = given
+        mat = overridden(base, mat)
     mat.setdefault("name", where)
     return _call(where, Material, **mat)
 
@@ -454,7 +456,7 @@ def _build(data: dict, base_dir: str):
     if "camera" not in data:
         raise _Invalid("", "missing [camera] table")
     options = _render_options(data.get("render", {}))
-    camera = _camera(data["camera"], options)
+    camera = _camera(data["camera"], options)  # checked before the meshes load; a fitted one after
     objects = _tables(data, "object")
     if not objects:
         raise _Invalid("", "no [[object]] tables: a scene needs at least one object")
@@ -476,6 +478,8 @@ def _build(data: dict, base_dir: str):
         # A file with several materials is several models: each takes its object's method.
         options["shading"] = tuple(m for m, n in zip(shading, per_object) for _ in range(n))
     lights = [_light(t, f"light[{i}]") for i, t in enumerate(_tables(data, "light"))]
+    if camera is None:
+        camera = _camera(data["camera"], options, models)
     ambient = _call("ambient", as_rgb, data.get("ambient", 0.1), "ambient")
     background = _call("background", as_rgb, data.get("background", 0.0), "background")
     return Scene(models, lights=lights, camera=camera, ambient=ambient, background=background), options

@@ -55,8 +55,10 @@ def _grid_faces(rows: int, cols: int) -> np.ndarray:
 def icosphere(subdivisions: int = 3, radius: float = 1.0, center=(0.0, 0.0, 0.0), **kwargs) -> Mesh:
     """Subdivided icosahedron, 20 * 4**subdivisions faces, exact normals.
 
-    UVs are the spherical mapping ``(atan2(x, z) / 2pi + 1/2, acos(y) / pi)``
-    (discontinuous at the seam; use :func:`uv_sphere` where that matters).
+    UVs are the spherical mapping ``(atan2(x, z) / 2pi + 1/2, 1 - acos(y) / pi)``:
+    an image reads upright and unmirrored from outside, its top row at the
+    north pole (+y) (discontinuous at the seam; use :func:`uv_sphere` where
+    that matters).
     """
     import trimesh
 
@@ -68,13 +70,17 @@ def icosphere(subdivisions: int = 3, radius: float = 1.0, center=(0.0, 0.0, 0.0)
     tm = trimesh.creation.icosphere(subdivisions=int(subdivisions), radius=1.0)
     unit = tm.vertices / np.linalg.norm(tm.vertices, axis=1, keepdims=True)
     faces = _orient_outward(unit, np.asarray(tm.faces, np.int64), unit)
-    uvs = np.stack([np.arctan2(unit[:, 0], unit[:, 2]) / (2 * np.pi) + 0.5, np.arccos(np.clip(unit[:, 1], -1, 1)) / np.pi], 1)
+    uvs = np.stack([np.arctan2(unit[:, 0], unit[:, 2]) / (2 * np.pi) + 0.5, 1.0 - np.arccos(np.clip(unit[:, 1], -1, 1)) / np.pi], 1)
     kwargs.setdefault("name", f"icosphere{subdivisions}")
     return Mesh(unit * radius + center, faces, normals=unit, uvs=uvs, **kwargs)
 
 
 def uv_sphere(rings: int = 16, segments: int = 32, radius: float = 1.0, center=(0.0, 0.0, 0.0), **kwargs) -> Mesh:
     """Latitude-longitude sphere with exact normals and UVs in [0, 1]^2.
+
+    ``u`` runs eastwards (from +z towards +x), ``v`` from the south pole (0)
+    to the north pole (+y, 1): an image reads upright and unmirrored from
+    outside, as on a globe.
 
     The seam column is duplicated (distinct UVs); pole triangles that would
     have zero area are left out.
@@ -91,7 +97,7 @@ def uv_sphere(rings: int = 16, segments: int = 32, radius: float = 1.0, center=(
     # Exact poles (sin(pi) is not 0 in floating point).
     unit[: segments + 1] = (0.0, 1.0, 0.0)
     unit[-(segments + 1):] = (0.0, -1.0, 0.0)
-    uvs = np.stack([ph / (2 * np.pi), th / np.pi], -1).reshape(-1, 2)
+    uvs = np.stack([ph / (2 * np.pi), 1.0 - th / np.pi], -1).reshape(-1, 2)
     faces = _grid_faces(rings, segments)
     p = unit[faces]
     area = np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
@@ -103,7 +109,11 @@ def uv_sphere(rings: int = 16, segments: int = 32, radius: float = 1.0, center=(
 
 def torus(major_radius: float = 1.0, minor_radius: float = 0.35, major_segments: int = 48, minor_segments: int = 24,
           center=(0.0, 0.0, 0.0), **kwargs) -> Mesh:
-    """Torus around the y axis with exact normals and UVs (seams duplicated)."""
+    """Torus around the y axis with exact normals and UVs (seams duplicated).
+
+    ``u`` runs around the y axis, ``v`` around the tube (upwards on the
+    outside): an image reads upright and unmirrored from outside.
+    """
     major_radius = _positive("major_radius", major_radius)
     minor_radius = _positive("minor_radius", minor_radius)
     if not major_radius > minor_radius:
@@ -120,14 +130,19 @@ def torus(major_radius: float = 1.0, minor_radius: float = 0.35, major_segments:
     normal = np.cos(bb)[..., None] * ring + np.sin(bb)[..., None] * np.array([0.0, 1.0, 0.0])
     verts = (major_radius * ring + minor_radius * normal).reshape(-1, 3)
     normal = normal.reshape(-1, 3)
-    uvs = np.stack([aa / (2 * np.pi), bb / (2 * np.pi)], -1).reshape(-1, 2)
+    uvs = np.stack([1.0 - aa / (2 * np.pi), bb / (2 * np.pi)], -1).reshape(-1, 2)
     faces = _orient_outward(verts, _grid_faces(major_segments, minor_segments), normal)
     kwargs.setdefault("name", f"torus{major_segments}x{minor_segments}")
     return Mesh(verts + center, faces, normals=normal, uvs=uvs, **kwargs)
 
 
 def plane(size: float = 2.0, subdivisions: int = 1, center=(0.0, 0.0, 0.0), normal: str = "+z", **kwargs) -> Mesh:
-    """A square facing ``normal`` (one of ``+x -x +y -y +z -z``), UVs in [0, 1]^2."""
+    """A square facing ``normal`` (one of ``+x -x +y -y +z -z``), UVs in [0, 1]^2.
+
+    Seen from the side it faces, an image reads unmirrored on every one of
+    the six (for ``-x``, ``-y``, ``-z`` the ``u`` axis runs the other way
+    than on ``+x``, ``+y``, ``+z``, as seen from the opposite side).
+    """
     axes = {"x": 0, "y": 1, "z": 2}
     if not isinstance(normal, str):
         raise TypeError(f"normal: expected one of +x -x +y -y +z -z, got {type(normal).__name__}")
@@ -147,6 +162,8 @@ def plane(size: float = 2.0, subdivisions: int = 1, center=(0.0, 0.0, 0.0), norm
     nvec[k] = 1.0 if normal[0] == "+" else -1.0
     normals = np.tile(nvec, (len(verts), 1))
     uvs = np.stack([(uu.ravel() + size / 2) / size, (vv.ravel() + size / 2) / size], 1)
+    if normal[0] == "-":
+        uvs[:, 0] = 1.0 - uvs[:, 0]  # seen from the other side: u runs the other way
     faces = _orient_outward(verts, _grid_faces(n, n), normals)
     kwargs.setdefault("name", f"plane{normal}")
     return Mesh(verts + center, faces, normals=normals, uvs=uvs, **kwargs)

@@ -60,16 +60,54 @@ def _halve(a: np.ndarray, axis: int) -> np.ndarray:
     return out
 
 
-def _image_floats(img: np.ndarray, name: str) -> np.ndarray:
-    """(h, w, 3) float64 in [0, 1] from image pixels: integers over their type's
-    maximum, grey replicated, alpha dropped (with a warning unless opaque)."""
+# PIL modes whose pixels are palette indices or another colour space: decoded through PIL's own
+# conversion (np.asarray would hand back the indices: a palette PNG read as near-black grey).
+_PIL_CONVERT = {"P": "RGBA", "PA": "RGBA", "CMYK": "RGB", "YCbCr": "RGB", "LAB": "RGB", "HSV": "RGB", "RGBX": "RGB",
+                "RGBa": "RGBA", "La": "LA"}
+# PIL modes holding 16-bit values in a wider integer array ("I" is int32 storage of 16-bit PNGs).
+_PIL_16BIT = ("I;16", "I;16B", "I;16L", "I;16N", "I")
+
+
+def _pil_pixels(image):
+    """Pixels of a PIL image as a NumPy array whose dtype says its range: palette and other
+    colour spaces converted to RGB(A) by PIL; 16-bit modes as uint16; "1" as bool; "F" as float."""
+    mode = image.mode
+    if mode in _PIL_CONVERT:
+        if mode == "P" and "transparency" not in image.info:
+            return np.asarray(image.convert("RGB"))
+        return np.asarray(image.convert(_PIL_CONVERT[mode]))
+    a = np.asarray(image)
+    if mode in _PIL_16BIT:
+        if a.size and (a.min() < 0 or a.max() > 65535):
+            raise ValueError(f"a mode {mode!r} image with values outside 0..65535 (min {a.min()}, max {a.max()})")
+        return a.astype(np.uint16)
+    return a
+
+
+def _image_floats(img, name: str, alpha: str = "warn") -> np.ndarray:
+    """(h, w, 3) float64 from image pixels by the rule of :meth:`Texture.from_array`:
+    grey replicated, alpha dropped (with a warning unless opaque or ``alpha="ignore"``)."""
+    if hasattr(img, "mode") and hasattr(img, "convert"):  # a PIL image: decode by its mode
+        try:
+            img = _pil_pixels(img)
+        except ValueError as exc:
+            raise ValueError(f"{name}: {exc}") from None
     img = np.asarray(img)
     if img.dtype == np.bool_:
-        img = img.astype(np.uint8)
-    if img.dtype.kind in "ui":
+        img = img.astype(np.uint8) * 255
+    if img.dtype in (np.uint8, np.uint16):
         x = img.astype(np.float64) / np.iinfo(img.dtype).max
+    elif img.dtype.kind in "ui":
+        # Other integer types carry no range of their own: 0..255 is taken as 8-bit, anything else refused.
+        lo, hi = (int(img.min()), int(img.max())) if img.size else (0, 0)
+        if lo < 0 or hi > 255:
+            raise ValueError(f"{name}: {img.dtype} pixels must lie in 0..255 (8-bit values), got {lo}..{hi}; "
+                             "pass uint8 or uint16 arrays (their range is their type's), or floats in [0, 1]")
+        x = img.astype(np.float64) / 255.0
     elif img.dtype.kind == "f":
         x = img.astype(np.float64)
+        if not np.all(np.isfinite(x)):
+            raise ValueError(f"{name}: image pixels must be finite, got NaN or inf")
     else:
         raise TypeError(f"{name}: expected image pixels (integers or floats), got dtype {img.dtype}")
     if x.ndim == 2:
@@ -77,7 +115,7 @@ def _image_floats(img: np.ndarray, name: str) -> np.ndarray:
     if x.ndim != 3 or x.shape[2] not in (1, 2, 3, 4):
         raise ValueError(f"{name}: expected an (h, w), (h, w, 3) or (h, w, 4) image, got shape {img.shape}")
     if x.shape[2] in (2, 4):
-        if np.any(x[..., -1] < 1.0):
+        if alpha == "warn" and np.any(x[..., -1] < 1.0):
             warnings.warn(f"{name}: dropped the alpha channel (transparency is not modelled; the colour is used "
                           "as if opaque)", DroppedOnLoadWarning, stacklevel=4)
         x = x[..., :-1]
@@ -137,23 +175,39 @@ class Texture:
 
     # -- constructors ---------------------------------------------------------------
     @classmethod
-    def from_array(cls, image, srgb: bool = True, **kwargs) -> "Texture":
+    def from_array(cls, image, srgb: bool = True, alpha: str = "warn", **kwargs) -> "Texture":
         """From image pixels as an image file holds them: top row first (``v = 1``).
+
+        The pixels' range follows their type: ``uint8`` over 255, ``uint16``
+        over 65535, ``bool`` as 0 or 1; other integer types must hold 8-bit
+        values 0..255 (anything else is refused: cast to ``uint16`` for 16-bit
+        data); floats are used as they are and, with ``srgb=True``, must lie in
+        [0, 1] (the sRGB encoding's range; refused otherwise, never clipped).
+        A PIL image is decoded by its mode (palette images through their
+        palette, 16-bit modes over 65535).
 
         Parameters
         ----------
-        image : (h, w), (h, w, 3) or (h, w, 4) array_like
-            Integers (scaled by their type's maximum) or floats in [0, 1].
-            Alpha is dropped (a :class:`DroppedOnLoadWarning` unless opaque).
+        image : (h, w), (h, w, 3) or (h, w, 4) array_like, or PIL.Image.Image
         srgb : bool
             Decode from sRGB to linear (8- and 16-bit colour images are
-            almost always sRGB); ``False`` for data already linear.
+            almost always sRGB); ``False`` for data already linear (then
+            floats may exceed 1, and must be ``>= 0``).
+        alpha : {"warn", "ignore"}
+            An alpha channel is dropped; ``"warn"`` says so in a
+            :class:`DroppedOnLoadWarning` unless it is opaque (``"ignore"``:
+            the source says the alpha means nothing, as glTF's ``OPAQUE``).
         """
         name = kwargs.get("name", "texture")
         srgb = as_bool(srgb, f"{name}.srgb")
-        x = _image_floats(image, name)
+        alpha = as_choice(alpha, f"{name}.alpha", ("warn", "ignore"))
+        x = _image_floats(image, name, alpha)
         if srgb:
-            x = srgb_to_linear(np.clip(x, 0.0, 1.0))
+            lo, hi = (float(x.min()), float(x.max())) if x.size else (0.0, 0.0)
+            if lo < 0.0 or hi > 1.0:
+                raise ValueError(f"{name}: sRGB-encoded pixels must lie in [0, 1], got {lo:g}..{hi:g} (pass "
+                                 "srgb=False for linear values, which may exceed 1)")
+            x = srgb_to_linear(x)
         return cls(np.ascontiguousarray(x[::-1]), **kwargs)
 
     @classmethod

@@ -218,8 +218,8 @@ def test_obj_mtl_materials_and_textures(tmp_path):
 
 
 def test_gltf_base_colour_texture_vertex_colours_and_pbr_mapping(tmp_path):
-    """kd = baseColor (1 - m), ks = 0.04 (1 - m) + baseColor m, Blinn t = 2/alpha^2 - 2 with
-    alpha = roughness^2; COLOR_0 (linear in glTF, so not sRGB-decoded) becomes the vertex
+    """kd = baseColor ((1 - m) + m alpha), ks = 0.04 (1 - m) + baseColor m (1 - alpha), ka = baseColor,
+    Blinn t = 2/alpha^2 - 2 with alpha = roughness^2; COLOR_0 (linear in glTF, so not sRGB-decoded) becomes the vertex
     colours times kd's factor; the texture is decoded from sRGB; emission is named."""
     from PIL import Image
 
@@ -237,8 +237,10 @@ def test_gltf_base_colour_texture_vertex_colours_and_pbr_mapping(tmp_path):
         (model,) = rs.load_models(tmp_path / "box.glb")
     m = model.material
     base = np.array([255, 128, 51]) / 255
-    np.testing.assert_allclose(m.kd, base * 0.75)
-    np.testing.assert_allclose(m.ks, 0.04 * 0.75 + base * 0.25)
+    alpha = 0.5 ** 2
+    np.testing.assert_allclose(m.kd, base * (0.75 + 0.25 * alpha))
+    np.testing.assert_allclose(m.ks, 0.04 * 0.75 + base * 0.25 * (1 - alpha))
+    np.testing.assert_allclose(m.ka, base)
     assert m.specular == "blinn" and m.shininess == pytest.approx(2 / 0.25 ** 2 - 2)
     np.testing.assert_allclose(m.kd_map.texels, srgb_to_linear(img[::-1] / 255), rtol=1e-6)
     assert m.ks_map is m.kd_map  # the metallic part of ks is the base colour

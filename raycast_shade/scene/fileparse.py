@@ -1,0 +1,243 @@
+"""What a mesh file refers to and declares, read from the file itself.
+
+trimesh reads the geometry and most materials, but passes over what a
+careful loader must report: an MTL or an image that is missing, a ``usemtl``
+that no MTL defines, a glTF sampler's wrap modes, an OFF file's colours.
+These small parsers read exactly those parts, with the file and line (or
+JSON field) of each, so :mod:`raycast_shade.scene.meshfile` can map, warn or
+refuse naming them.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import struct
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["MtlMaterial", "parse_mtl", "obj_references", "gltf_header", "off_colors", "ply_texture_files",
+           "GL_WRAPS", "obj_mtl_files"]
+
+# glTF sampler wrap codes (the OpenGL enums the spec uses).
+GL_WRAPS = {10497: "repeat", 33071: "clamp", 33648: "mirror"}
+
+
+@dataclass
+class MtlMaterial:
+    """One ``newmtl`` block: each key (lower case) -> (tokens, line number)."""
+
+    name: str
+    path: str
+    line: int
+    fields: dict = field(default_factory=dict)
+
+    def where(self, key: str) -> str:
+        """``file:line`` of ``key`` (of the ``newmtl`` without a key)."""
+        line = self.fields[key][1] if key in self.fields else self.line
+        return f"{os.path.basename(self.path)}:{line}"
+
+
+def _lines(path: str):
+    with open(path, "rb") as fh:
+        data = fh.read()
+    text = data.decode("utf-8", errors="replace")
+    for i, raw in enumerate(text.splitlines(), 1):
+        line = raw.split("#", 1)[0].strip()
+        if line:
+            yield i, line
+
+
+def parse_mtl(path: str) -> dict:
+    """The materials of an MTL file by name, each a :class:`MtlMaterial`.
+
+    Raises
+    ------
+    ValueError
+        A key before the first ``newmtl`` is ignored; a ``newmtl`` without a
+        name is refused naming the file and line.
+    """
+    out, cur = {}, None
+    for i, line in _lines(path):
+        parts = line.split(None, 1)
+        key, rest = parts[0].lower(), (parts[1] if len(parts) > 1 else "")
+        tokens = rest.split()
+        if key == "newmtl":
+            if not tokens:
+                raise ValueError(f"{os.path.basename(path)}:{i}: newmtl without a name")
+            cur = MtlMaterial(" ".join(tokens), path, i)
+            out[cur.name] = cur
+        elif cur is not None:
+            cur.fields[key] = (tokens, i)
+    return out
+
+
+def mtl_color(mat: MtlMaterial, key: str):
+    """``Kd``/``Ka``/``Ks`` as (3,) float64: one or three finite numbers ``>= 0``.
+
+    Raises
+    ------
+    ValueError
+        Naming the file, line and key, for anything else (``Kd abc``, ``Kd -0.5``,
+        ``Kd spectral ...`` and ``Kd xyz ...``, which are not RGB).
+    """
+    tokens, _ = mat.fields[key]
+    where = f"{mat.where(key)}: {key.capitalize()} {' '.join(tokens)}".rstrip()
+    try:
+        nums = [float(t) for t in tokens]
+    except ValueError:
+        raise ValueError(f"{where}: expected 1 or 3 numbers (r g b)") from None
+    if len(nums) not in (1, 3):
+        raise ValueError(f"{where}: expected 1 or 3 numbers (r g b), got {len(nums)}")
+    if not all(math.isfinite(n) for n in nums):
+        raise ValueError(f"{where}: the values must be finite")
+    if min(nums) < 0:
+        raise ValueError(f"{where}: reflectances must be >= 0")
+    return np.array(nums * 3 if len(nums) == 1 else nums, np.float64)
+
+
+def mtl_number(mat: MtlMaterial, key: str) -> float:
+    """A one-number key (``Ns``, ``d``, ``Tr``, ``illum``, ``Ni``) as a finite float."""
+    tokens, _ = mat.fields[key]
+    where = f"{mat.where(key)}: {key.capitalize()} {' '.join(tokens)}".rstrip()
+    try:
+        value = float(tokens[0])
+    except (ValueError, IndexError):
+        raise ValueError(f"{where}: expected a number") from None
+    if not math.isfinite(value):
+        raise ValueError(f"{where}: the value must be finite")
+    return value
+
+
+def obj_references(path: str) -> tuple:
+    """``(mtllibs, usemtls)`` of an OBJ file: lists of ``(name, line)``."""
+    mtllibs, usemtls = [], []
+    with open(path, "rb") as fh:
+        for i, raw in enumerate(fh, 1):
+            if raw[:1] not in (b"m", b"u", b"M", b"U"):
+                continue  # the quick path over v/vt/f lines
+            line = raw.decode("utf-8", errors="replace").split("#", 1)[0].strip()
+            parts = line.split(None, 1)
+            if not parts:
+                continue
+            key, rest = parts[0], (parts[1] if len(parts) > 1 else "")
+            if key.lower() == "mtllib":
+                mtllibs.append((rest.strip(), i))  # one name with spaces, or several: resolved by the caller
+            elif key.lower() == "usemtl" and rest.strip():
+                usemtls.append((rest.strip(), i))
+    return mtllibs, usemtls
+
+
+def obj_mtl_files(path: str) -> list:
+    """The MTL files an OBJ names that exist, in order (a ``mtllib`` line may name several)."""
+    base = os.path.dirname(os.path.abspath(path))
+    out = []
+    for names, _ in obj_references(path)[0]:
+        full = os.path.join(base, names)
+        for f in [full] if os.path.isfile(full) else [os.path.join(base, n) for n in names.split()]:
+            if os.path.isfile(f) and f not in out:
+                out.append(f)
+    return out
+
+
+def gltf_header(path: str):
+    """The JSON of a ``.gltf`` or a ``.glb`` file (its first chunk), or None if unreadable."""
+    try:
+        if path.lower().endswith(".glb"):
+            with open(path, "rb") as fh:
+                head = fh.read(20)
+                if len(head) < 20 or head[:4] != b"glTF":
+                    return None
+                length, kind = struct.unpack("<II", head[12:20])
+                if kind != 0x4E4F534A:  # "JSON"
+                    return None
+                return json.loads(fh.read(length).decode("utf-8"))
+        with open(path, "rb") as fh:
+            return json.loads(fh.read().decode("utf-8"))
+    except (OSError, ValueError):
+        return None
+
+
+def off_colors(path: str):
+    """An OFF file's colours: ``(vertex (V, k) or None, face (P, k) or None, polygon sizes (P,))``.
+
+    Vertex colours follow the three coordinates on a vertex line, face colours
+    the index list on a face line (k = 3 or 4 values: integers 0..255, or
+    floats in [0, 1]); None when the file has none. Raises ValueError naming
+    the line for colours that are neither.
+    """
+    lines = list(_lines(path))
+    if not lines:
+        return None, None, np.zeros(0, np.int64)
+    none = None, None, np.zeros(0, np.int64)
+    i = next((k for k, (_, line) in enumerate(lines) if "OFF" in line), None)
+    if i is None:
+        return none
+    try:  # the structure is trimesh's to judge (and refuse); only the colours are read here
+        line = lines[i][1]
+        rest = line[line.index("OFF") + 3:].split()  # "OFF", "COFF", "NOFF" ..., counts here or on the next line
+        i += 1
+        if not rest:
+            rest = lines[i][1].split()
+            i += 1
+        nv, nf = int(rest[0]), int(rest[1])
+        vrows = [(n, line.split()[3:]) for n, line in lines[i:i + nv]]
+        frows = []
+        for n, line in lines[i + nv:i + nv + nf]:
+            t = line.split()
+            k = int(t[0])
+            frows.append((n, k, t[1 + k:]))
+    except (IndexError, ValueError):
+        return none
+    sizes = np.array([k for _, k, _ in frows], np.int64)
+    frows = [(n, r) for n, _, r in frows]
+
+    def table(rows, what):
+        counts = {len(r) for _, r in rows}
+        if counts == {0} or not rows:
+            return None
+        if len(counts) != 1 or counts.pop() not in (3, 4):
+            bad = next(n for n, r in rows if len(r) not in (3, 4))
+            raise ValueError(f"{os.path.basename(path)}:{bad}: expected 3 or 4 {what} colour values (r g b [a]) "
+                             "on every line, or none")
+        try:
+            a = np.array([[float(x) for x in r] for _, r in rows], np.float64)
+        except ValueError:
+            bad = next(n for n, r in rows if not all(_is_number(x) for x in r))
+            raise ValueError(f"{os.path.basename(path)}:{bad}: {what} colour values must be numbers") from None
+        if not np.isfinite(a).all() or a.min() < 0:
+            bad = rows[int(np.argmax(~np.isfinite(a).all(axis=1) | (a < 0).any(axis=1)))][0]
+            raise ValueError(f"{os.path.basename(path)}:{bad}: {what} colour values must be finite and >= 0")
+        ints = all("." not in x and "e" not in x.lower() for _, r in rows for x in r)
+        if ints or a.max() > 1.0:
+            if a.max() > 255:
+                bad = rows[int(np.argmax(a.max(axis=1)))][0]
+                raise ValueError(f"{os.path.basename(path)}:{bad}: {what} colour values above 255")
+            return a / 255.0
+        return a
+
+    return table(vrows, "vertex"), table(frows, "face"), sizes
+
+
+def _is_number(x: str) -> bool:
+    try:
+        float(x)
+        return True
+    except ValueError:
+        return False
+
+
+def ply_texture_files(path: str) -> list:
+    """The ``comment TextureFile name`` entries of a PLY header."""
+    names = []
+    with open(path, "rb") as fh:
+        for raw in fh:
+            line = raw.decode("latin-1").strip()
+            if line == "end_header":
+                break
+            low = line.lower()
+            if low.startswith("comment") and "texturefile" in low:
+                names.append(line[low.index("texturefile") + len("texturefile"):].strip())
+    return names
