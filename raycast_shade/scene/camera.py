@@ -356,10 +356,10 @@ def _points_of(thing) -> np.ndarray:
         return np.concatenate([_points_of(t) for t in thing])
     a = np.asarray(thing, np.float64) if not isinstance(thing, (str, bytes)) else None
     if a is None or a.ndim != 2 or a.shape[1] != 3 or not len(a):
-        raise TypeError("camera.fit: expected a Scene, Model, Mesh, a list of them, (N, 3) points or (2, 3) "
+        raise TypeError("camera.fit.scene_or_bounds: expected a Scene, Model, Mesh, a list of them, (N, 3) points or (2, 3) "
                         f"bounds, got {type(thing).__name__}")
     if not np.all(np.isfinite(a)):
-        raise ValueError("camera.fit: the points must be finite")
+        raise ValueError("camera.fit.scene_or_bounds: the points must be finite")
     if len(a) == 2:  # a bounding box: its eight corners
         lo, hi = a.min(axis=0), a.max(axis=0)
         a = np.array([[(lo, hi)[i][0], (lo, hi)[j][1], (lo, hi)[k][2]] for i in (0, 1) for j in (0, 1)

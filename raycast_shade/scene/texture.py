@@ -201,7 +201,7 @@ class Texture:
         name = kwargs.get("name", "texture")
         srgb = as_bool(srgb, f"{name}.srgb")
         alpha = as_choice(alpha, f"{name}.alpha", ("warn", "ignore"))
-        x = _image_floats(image, name, alpha)
+        x = _image_floats(image, f"{name}.image", alpha)  # the argument named, as every check does
         if srgb:
             lo, hi = (float(x.min()), float(x.max())) if x.size else (0.0, 0.0)
             if lo < 0.0 or hi > 1.0:
