@@ -1,0 +1,206 @@
+"""Diagnose a student's image: which choice of the lecture, or which slip, explains it.
+
+:func:`diagnose` renders the scene with our renderer, re-shades the same hit
+buffer with every candidate of the catalogue
+(:mod:`raycast_shade.study.diagnose.catalogue`, each a switch of the variant
+shader :mod:`raycast_shade.study.diagnose.variant`), scores each against the
+student's 8-bit image on the interior pixels, and names the best, with a
+per-pixel departure map and a verdict that points to one pixel and prints
+our ``explain()`` beside the student's number. See ``docs/diagnose.md``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ..render import render
+from ..study.diagnose.catalogue import catalogue
+from ..study.diagnose.score import interior_weights, read_student, sse
+from ..study.diagnose.variant import check_scene, encode, shade_variant
+from ..visibility.cast import cast_camera
+
+__all__ = ["diagnose", "Diagnosis", "TOLERANCE", "FIT"]
+
+TOLERANCE = 100.0  # levels^2, summed over interior pixels and channels: candidates closer than this are one class
+FIT = 6.0  # levels RMS: above this no candidate explains the image well
+
+
+@dataclass(frozen=True, eq=False)
+class Diagnosis:
+    """What :func:`diagnose` found.
+
+    Attributes
+    ----------
+    method : str
+        The method the image was meant to be rendered with.
+    candidates : tuple of Candidate
+        The catalogue, in its order.
+    scores : dict of str to float
+        Each candidate's RMS difference from the image in 8-bit levels over
+        the interior pixels (lower is better).
+    best : Candidate
+        The explanation: the simplest candidate (catalogue order, ``correct``
+        first) of the class of the lowest score.
+    group : tuple of str
+        Candidates whose images differ from the lowest-scoring one by less
+        than the tolerance on this scene: indistinguishable here.
+    matches : bool
+        The class holds a correct candidate and the fit is good.
+    explained : bool
+        The best candidate's RMS is at most ``FIT`` levels.
+    map : (H, W) float32
+        Mean absolute difference per pixel between the image and the best
+        candidate, in levels; NaN where excluded (silhouettes).
+    weights : (H, W) float64
+        1 on the interior pixels that were scored, 0 elsewhere.
+    pixel : (x, y)
+        The pixel the verdict points to.
+    verdict : str
+        A few sentences.
+    explanation : str
+        Our ``frame.explain(x, y)`` printout at ``pixel``.
+    """
+
+    method: str
+    candidates: tuple
+    scores: dict
+    best: object
+    group: tuple
+    matches: bool
+    explained: bool
+    map: np.ndarray
+    weights: np.ndarray
+    pixel: tuple
+    verdict: str
+    explanation: str = field(repr=False)
+
+    def ranking(self, n: int = 5) -> list:
+        """The ``n`` lowest-scoring candidates as (name, RMS) pairs."""
+        return sorted(self.scores.items(), key=lambda kv: kv[1])[:n]
+
+    def __str__(self) -> str:
+        lines = [self.verdict, "", "lowest scores (RMS, 8-bit levels):"]
+        lines += [f"  {name:<40s} {rms:8.3f}" for name, rms in self.ranking()]
+        lines += ["", self.explanation]
+        return "\n".join(lines)
+
+    def __repr__(self) -> str:
+        return f"Diagnosis(best={self.best.name!r}, matches={self.matches}, rms={self.scores[self.best.name]:.3g})"
+
+    def _repr_html_(self) -> str:
+        import html
+
+        rows = "".join(f"<tr><td>{html.escape(n)}</td><td>{r:.3f}</td></tr>" for n, r in self.ranking(8))
+        return (f"<p><b>{html.escape(self.verdict)}</b></p><table><tr><th>candidate</th><th>RMS (levels)</th></tr>"
+                f"{rows}</table><pre>{html.escape(self.explanation)}</pre>")
+
+
+def _fmt(rgb) -> str:
+    return "(" + ", ".join(f"{x:.4g}" for x in rgb) + ")"
+
+
+def _pick_pixel(student, best_img, correct_img, weights):
+    """The interior pixel where the best explanation departs most from the correct image
+    and the student agrees with it (the correct image's worst pixel when they are one)."""
+    sig = np.abs(best_img - correct_img).sum(axis=2) - np.abs(student - best_img).sum(axis=2)
+    if not np.any(np.abs(best_img - correct_img) > 0.5):
+        sig = np.abs(student - correct_img).sum(axis=2)
+    sig = np.where(weights > 0, sig, -np.inf)
+    y, x = np.unravel_index(int(np.argmax(sig)), sig.shape)
+    return int(x), int(y)
+
+
+def _verdict(d_best, group, matches, explained, rms, pixel, student, best_img, correct_img, method):
+    x, y = pixel
+    s8 = np.round(student[y, x]).astype(int).tolist()
+    c8 = np.round(correct_img[y, x]).astype(int).tolist()
+    b8 = np.round(best_img[y, x]).astype(int).tolist()
+    if matches:
+        head = f"Matches our {method} shading (RMS {rms:.2f} levels on the interior pixels)."
+    elif explained:
+        head = f"Best explained by '{d_best.name}': {d_best.text} [slide: {d_best.slide}] (RMS {rms:.2f} levels)."
+    else:
+        head = (f"No candidate explains the image well; the closest is '{d_best.name}': {d_best.text} "
+                f"(RMS {rms:.2f} levels).")
+    others = [g for g in group if g != d_best.name]
+    if others:
+        head += f" Indistinguishable on this scene from: {', '.join(others)}."
+    where = (f" At pixel ({x}, {y}) the image has {s8} (8-bit), ours has {c8}"
+             + ("" if matches else f", and '{d_best.name}' predicts {b8}") + "; our derivation follows.")
+    return head + where
+
+
+def diagnose(image, scene, method: str = "phong", *, camera=None, encoding: str = "srgb",
+             tolerance: float = TOLERANCE) -> Diagnosis:
+    """Say which of the lecture's choices or common mistakes best explains an image.
+
+    Parameters
+    ----------
+    image : str, os.PathLike or array
+        The student's image: a file (PNG, ...) or an (H, W, 3|4) array (uint8
+        levels, or float display values in [0, 1]); the camera's size.
+    scene : Scene
+        What the image shows (no textures, mesh colours, bump maps, mirrors
+        or shadows: refused with the feature named).
+    method : {"flat", "gouraud", "phong"}
+        The method the student was asked to implement.
+    camera : Camera, optional
+        Overrides ``scene.camera``.
+    encoding : {"srgb", "linear", "auto"}
+        The encoding a correct image has: sRGB (what our ``frame.save``
+        writes), linear values, or ``"auto"`` (either counts as correct).
+    tolerance : float
+        Levels^2 summed over the interior: candidates whose images differ by
+        less are reported as one class.
+
+    Returns
+    -------
+    Diagnosis
+
+    Raises
+    ------
+    ValueError
+        Unknown method or encoding, a scene feature not modelled, an image of
+        the wrong size, blank, or not an image.
+    """
+    if method not in ("flat", "gouraud", "phong"):
+        raise ValueError(f"method: expected one of ['flat', 'gouraud', 'phong'], got {method!r}")
+    if not (np.isfinite(tolerance) and tolerance > 0):
+        raise ValueError(f"tolerance: must be a finite number > 0, got {tolerance!r}")
+    camera = camera or scene.camera
+    check_scene(scene)
+    cands = catalogue(method, scene, encoding)
+    student = read_student(image, (camera.height, camera.width))
+    frame = render(scene, method, camera=camera)
+    hits = frame.hits
+    half = cast_camera(scene.geometry, camera, offset=(-0.5, -0.5))
+    label = np.asarray(hits.geom)
+    weights = interior_weights([label, label[::-1], np.asarray(half.geom)])
+    if not weights.any():
+        raise ValueError("image: no interior pixel to compare (the scene covers too few pixels at this size)")
+    shaded, imgs, sses = {}, {}, {}
+    for c in cands:
+        key = replace(c.mistake, encoding="srgb", flip=False, bgr=False)
+        if key not in shaded:
+            shaded[key] = shade_variant(scene, camera, half if key.half_pixel else hits, method, key)
+        imgs[c.name] = encode(shaded[key], c.mistake) * 255.0
+        sses[c.name] = sse(student, imgs[c.name], weights)
+    n = float(weights.sum()) * 3.0
+    scores = {k: float(np.sqrt(v / n)) for k, v in sses.items()}
+    low = min(cands, key=lambda c: sses[c.name])
+    group = tuple(c.name for c in cands if sse(imgs[c.name], imgs[low.name], weights) < tolerance)
+    best = next(c for c in cands if c.name in group)
+    explained = scores[low.name] <= FIT
+    matches = explained and any(c.correct for c in cands if c.name in group)
+    if matches:
+        best = next(c for c in cands if c.correct and c.name in group)
+    correct_img = imgs[cands[0].name]
+    dep = np.abs(student - imgs[best.name]).mean(axis=2).astype(np.float32)
+    dep[weights == 0] = np.nan
+    pixel = _pick_pixel(student, imgs[best.name], correct_img, weights)
+    verdict = _verdict(best, group, matches, explained, scores[best.name], pixel, student, imgs[best.name],
+                       correct_img, method)
+    return Diagnosis(method, cands, scores, best, group, matches, explained, dep, weights, pixel, verdict,
+                     str(frame.explain(*pixel)))
