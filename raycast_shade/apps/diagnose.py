@@ -11,6 +11,7 @@ our ``explain()`` beside the student's number. See ``docs/diagnose.md``.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -21,7 +22,7 @@ from ..study.diagnose.score import interior_weights, read_student, sse
 from ..study.diagnose.variant import check_scene, encode, shade_variant
 from ..visibility.cast import cast_camera
 
-__all__ = ["diagnose", "Diagnosis", "TOLERANCE", "FIT"]
+__all__ = ["diagnose", "Diagnoser", "Diagnosis", "TOLERANCE", "FIT", "register_cli", "run_cli"]
 
 TOLERANCE = 100.0  # levels^2, summed over interior pixels and channels: candidates closer than this are one class
 FIT = 6.0  # levels RMS: above this no candidate explains the image well
@@ -132,6 +133,61 @@ def _verdict(d_best, group, matches, explained, rms, pixel, student, best_img, c
     return head + where
 
 
+class Diagnoser:
+    """The candidates of one scene and method, rendered once, for diagnosing many images.
+
+    ``Diagnoser(scene, "phong")(image)`` is ``diagnose(image, scene, "phong")``;
+    a lecturer marking a class renders the catalogue once and scores each
+    student's image in milliseconds. Parameters as :func:`diagnose`.
+    """
+
+    def __init__(self, scene, method: str = "phong", *, camera=None, encoding: str = "srgb",
+                 tolerance: float = TOLERANCE):
+        if method not in ("flat", "gouraud", "phong"):
+            raise ValueError(f"method: expected one of ['flat', 'gouraud', 'phong'], got {method!r}")
+        if not (isinstance(tolerance, (int, float)) and np.isfinite(tolerance) and tolerance > 0):
+            raise ValueError(f"tolerance: must be a finite number > 0, got {tolerance!r}")
+        self.method, self.tolerance = method, float(tolerance)
+        self.camera = camera = camera or scene.camera
+        check_scene(scene)
+        self.candidates = cands = catalogue(method, scene, encoding)
+        self.frame = frame = render(scene, method, camera=camera)
+        hits = frame.hits
+        half = cast_camera(scene.geometry, camera, offset=(-0.5, -0.5))
+        label = np.asarray(hits.geom)
+        self.weights = interior_weights([label, label[::-1], np.asarray(half.geom)])
+        if not self.weights.any():
+            raise ValueError("scene: no interior pixel to compare (the models cover too few pixels at this size)")
+        shaded, self.images = {}, {}
+        for c in cands:
+            key = replace(c.mistake, encoding="srgb", flip=False, bgr=False)
+            if key not in shaded:
+                shaded[key] = shade_variant(scene, camera, half if key.half_pixel else hits, method, key)
+            self.images[c.name] = encode(shaded[key], c.mistake) * 255.0
+
+    def __call__(self, image) -> Diagnosis:
+        cands, imgs, weights = self.candidates, self.images, self.weights
+        student = read_student(image, (self.camera.height, self.camera.width))
+        sses = {c.name: sse(student, imgs[c.name], weights) for c in cands}
+        n = float(weights.sum()) * 3.0
+        scores = {k: float(np.sqrt(v / n)) for k, v in sses.items()}
+        low = min(cands, key=lambda c: sses[c.name])
+        group = tuple(c.name for c in cands if sse(imgs[c.name], imgs[low.name], weights) < self.tolerance)
+        best = next(c for c in cands if c.name in group)
+        explained = scores[low.name] <= FIT
+        matches = explained and any(c.correct for c in cands if c.name in group)
+        if matches:
+            best = next(c for c in cands if c.correct and c.name in group)
+        correct_img = imgs[cands[0].name]
+        dep = np.abs(student - imgs[best.name]).mean(axis=2).astype(np.float32)
+        dep[weights == 0] = np.nan
+        pixel = _pick_pixel(student, imgs[best.name], correct_img, weights)
+        verdict = _verdict(best, group, matches, explained, scores[best.name], pixel, student, imgs[best.name],
+                           correct_img, self.method)
+        return Diagnosis(self.method, cands, scores, best, group, matches, explained, dep, weights, pixel, verdict,
+                         str(self.frame.explain(*pixel)))
+
+
 def diagnose(image, scene, method: str = "phong", *, camera=None, encoding: str = "srgb",
              tolerance: float = TOLERANCE) -> Diagnosis:
     """Say which of the lecture's choices or common mistakes best explains an image.
@@ -165,42 +221,51 @@ def diagnose(image, scene, method: str = "phong", *, camera=None, encoding: str 
         Unknown method or encoding, a scene feature not modelled, an image of
         the wrong size, blank, or not an image.
     """
+    if isinstance(image, (str, os.PathLike)):  # a missing file is reported before anything renders
+        read_student(image, (-1, -1)) if not os.path.isfile(image) else None
+    return Diagnoser(scene, method, camera=camera, encoding=encoding, tolerance=tolerance)(image)
+
+
+def register_cli(subparsers):
+    """Add the ``diagnose`` command to the ``raycast-shade`` parser; dispatch to :func:`run_cli`."""
+    import argparse
+
+    p = subparsers.add_parser(
+        "diagnose", help="say which lecture choice or common mistake explains a student's image",
+        description="Compare a student's 8-bit image of a TOML scene with our renderer and with every candidate "
+                    "mistake of the catalogue (docs/diagnose.md); print the verdict, the lowest scores and our "
+                    "derivation of one pixel.",
+        epilog="examples:\n"
+               "  raycast-shade diagnose scene.toml student.png --method gouraud\n"
+               "  raycast-shade diagnose scene.toml student.png --encoding auto --map departure.png",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("scene", metavar="SCENE.toml", help="scene file (its camera gives the image size)")
+    p.add_argument("image", metavar="IMAGE", help="the student's image (PNG, JPEG, ...)")
+    p.add_argument("--method", choices=("flat", "gouraud", "phong"), default=None,
+                   help="the method the student was asked for (default: the scene file's shading, else phong)")
+    p.add_argument("--encoding", choices=("srgb", "linear", "auto"), default="srgb",
+                   help="the encoding a correct image has (default: srgb)")
+    p.add_argument("--map", metavar="PATH", default=None,
+                   help="write the per-pixel departure from the best explanation as an 8-bit PNG (x8 levels)")
+
+
+def run_cli(ns) -> int:
+    """Run ``raycast-shade diagnose``; errors are raised for the caller to print on one line."""
+    from ..scene.scenefile import load_for_render
+
+    if not os.path.isfile(ns.image):
+        raise ValueError(f"image {ns.image!r}: no such file")
+    scene, render_kwargs, _ = load_for_render(ns.scene)
+    method = ns.method or render_kwargs.get("shading", "phong")
     if method not in ("flat", "gouraud", "phong"):
-        raise ValueError(f"method: expected one of ['flat', 'gouraud', 'phong'], got {method!r}")
-    if not (np.isfinite(tolerance) and tolerance > 0):
-        raise ValueError(f"tolerance: must be a finite number > 0, got {tolerance!r}")
-    camera = camera or scene.camera
-    check_scene(scene)
-    cands = catalogue(method, scene, encoding)
-    student = read_student(image, (camera.height, camera.width))
-    frame = render(scene, method, camera=camera)
-    hits = frame.hits
-    half = cast_camera(scene.geometry, camera, offset=(-0.5, -0.5))
-    label = np.asarray(hits.geom)
-    weights = interior_weights([label, label[::-1], np.asarray(half.geom)])
-    if not weights.any():
-        raise ValueError("image: no interior pixel to compare (the scene covers too few pixels at this size)")
-    shaded, imgs, sses = {}, {}, {}
-    for c in cands:
-        key = replace(c.mistake, encoding="srgb", flip=False, bgr=False)
-        if key not in shaded:
-            shaded[key] = shade_variant(scene, camera, half if key.half_pixel else hits, method, key)
-        imgs[c.name] = encode(shaded[key], c.mistake) * 255.0
-        sses[c.name] = sse(student, imgs[c.name], weights)
-    n = float(weights.sum()) * 3.0
-    scores = {k: float(np.sqrt(v / n)) for k, v in sses.items()}
-    low = min(cands, key=lambda c: sses[c.name])
-    group = tuple(c.name for c in cands if sse(imgs[c.name], imgs[low.name], weights) < tolerance)
-    best = next(c for c in cands if c.name in group)
-    explained = scores[low.name] <= FIT
-    matches = explained and any(c.correct for c in cands if c.name in group)
-    if matches:
-        best = next(c for c in cands if c.correct and c.name in group)
-    correct_img = imgs[cands[0].name]
-    dep = np.abs(student - imgs[best.name]).mean(axis=2).astype(np.float32)
-    dep[weights == 0] = np.nan
-    pixel = _pick_pixel(student, imgs[best.name], correct_img, weights)
-    verdict = _verdict(best, group, matches, explained, scores[best.name], pixel, student, imgs[best.name],
-                       correct_img, method)
-    return Diagnosis(method, cands, scores, best, group, matches, explained, dep, weights, pixel, verdict,
-                     str(frame.explain(*pixel)))
+        raise ValueError(f"{ns.scene}: shading {method!r} is not one method; pass --method flat|gouraud|phong")
+    result = diagnose(ns.image, scene, method, encoding=ns.encoding)
+    print(result)
+    if ns.map:
+        from ..output.imagefile import write_png
+
+        m = np.nan_to_num(result.map, nan=0.0)
+        grey = np.clip(np.rint(m * 8.0), 0, 255).astype(np.uint8)
+        write_png(ns.map, np.repeat(grey[:, :, None], 3, axis=2))
+    return 0
