@@ -19,7 +19,7 @@ import numpy as np
 from ..render import render
 from ..study.diagnose.catalogue import catalogue
 from ..study.diagnose.score import interior_weights, read_student, sse
-from ..study.diagnose.variant import check_scene, encode, shade_variant
+from ..study.diagnose.variant import check_scene, encode, gather, shade_variant
 from ..visibility.cast import cast_camera
 
 __all__ = ["diagnose", "Diagnoser", "Diagnosis", "TOLERANCE", "FIT", "register_cli", "run_cli"]
@@ -159,15 +159,21 @@ class Diagnoser:
         if not self.weights.any():
             raise ValueError("scene: no interior pixel to compare (the models cover too few pixels at this size)")
         shaded, self.images = {}, {}
+        gathered = {False: gather(scene.geometry, hits), True: gather(scene.geometry, half)}
         for c in cands:
             key = replace(c.mistake, encoding="srgb", flip=False, bgr=False)
             if key not in shaded:
-                shaded[key] = shade_variant(scene, camera, half if key.half_pixel else hits, method, key)
+                shaded[key] = shade_variant(scene, camera, half if key.half_pixel else hits, method, key,
+                                            gathered[key.half_pixel])
             self.images[c.name] = encode(shaded[key], c.mistake) * 255.0
 
     def __call__(self, image) -> Diagnosis:
+        """Diagnose one image (a file or an array, as :func:`diagnose` takes)."""
+        return self._score(read_student(image, (self.camera.height, self.camera.width)))
+
+    def _score(self, student) -> Diagnosis:
+        """Diagnose ``student`` (H, W, 3) float64 levels, as :func:`read_student` returns them."""
         cands, imgs, weights = self.candidates, self.images, self.weights
-        student = read_student(image, (self.camera.height, self.camera.width))
         sses = {c.name: sse(student, imgs[c.name], weights) for c in cands}
         n = float(weights.sum()) * 3.0
         scores = {k: float(np.sqrt(v / n)) for k, v in sses.items()}
@@ -221,9 +227,11 @@ def diagnose(image, scene, method: str = "phong", *, camera=None, encoding: str 
         Unknown method or encoding, a scene feature not modelled, an image of
         the wrong size, blank, or not an image.
     """
-    if isinstance(image, (str, os.PathLike)):  # a missing file is reported before anything renders
-        read_student(image, (-1, -1)) if not os.path.isfile(image) else None
-    return Diagnoser(scene, method, camera=camera, encoding=encoding, tolerance=tolerance)(image)
+    cam = camera or getattr(scene, "camera", None)
+    if cam is None or not hasattr(cam, "width"):
+        raise TypeError(f"scene: expected a Scene with a camera, got {type(scene).__name__}")
+    student = read_student(image, (cam.height, cam.width))  # refused before anything renders
+    return Diagnoser(scene, method, camera=camera, encoding=encoding, tolerance=tolerance)._score(student)
 
 
 def register_cli(subparsers):

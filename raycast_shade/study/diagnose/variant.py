@@ -18,12 +18,13 @@ from __future__ import annotations
 from dataclasses import dataclass, fields, replace
 
 import numpy as np
+from numba import njit, prange
 
 from ...scene.lights import DirectionalLight, SpotLight
 from ...scene.normals import vertex_normals
 from ...visibility.interpolation import to_screen_space
 
-__all__ = ["Mistake", "shade_variant", "encode", "check_scene", "LAWS", "ENCODINGS"]
+__all__ = ["Mistake", "shade_variant", "gather", "encode", "check_scene", "LAWS", "ENCODINGS"]
 
 LAWS = ("scene", "none", "inverse", "inverse_square", "heuristic")
 ENCODINGS = ("srgb", "linear", "double")
@@ -382,7 +383,19 @@ def _gouraud(ctx, face, tri, bary, p):
     return acc
 
 
-def shade_variant(scene, camera, hits, method: str, mistake: Mistake = Mistake()) -> np.ndarray:
+def gather(geo, hits):
+    """Per hit pixel: mask (H, W), global face (N,), corners (N, 3), barycentrics (N, 3), point (N, 3)."""
+    mask = hits.prim >= 0
+    face = geo.face_offsets[hits.geom[mask]] + hits.prim[mask].astype(np.int64)
+    tri = geo.faces[face]
+    b1 = hits.u[mask].astype(np.float64)
+    b2 = hits.v[mask].astype(np.float64)
+    bary = np.stack([1.0 - b1 - b2, b1, b2], axis=1)
+    p = np.einsum("nk,nkc->nc", bary, geo.vertices[tri])
+    return mask, face, tri, bary, p
+
+
+def shade_variant(scene, camera, hits, method: str, mistake: Mistake = Mistake(), gathered=None) -> np.ndarray:
     """Shade a hit buffer as a renderer with ``mistake`` would.
 
     Parameters
@@ -396,6 +409,10 @@ def shade_variant(scene, camera, hits, method: str, mistake: Mistake = Mistake()
     method : {"flat", "gouraud", "phong"}
         The method asked for (``mistake.method`` overrides it).
     mistake : Mistake
+    gathered : tuple, optional
+        The per-pixel data of ``hits`` from an earlier call (:func:`gather`),
+        to share it between the candidates of one frame; ignored for 2D
+        interpolation, whose weights differ.
 
     Returns
     -------
@@ -409,14 +426,11 @@ def shade_variant(scene, camera, hits, method: str, mistake: Mistake = Mistake()
     geo = scene.geometry
     if mistake.screen and method != "flat":
         hits = to_screen_space(hits, geo, camera)
+        gathered = None
     ctx = _Ctx(scene, camera, mistake)
-    mask = hits.prim >= 0
-    face = geo.face_offsets[hits.geom[mask]] + hits.prim[mask].astype(np.int64)
-    tri = geo.faces[face]
-    b1 = hits.u[mask].astype(np.float64)
-    b2 = hits.v[mask].astype(np.float64)
-    bary = np.stack([1.0 - b1 - b2, b1, b2], axis=1)
-    p = np.einsum("nk,nkc->nc", bary, geo.vertices[tri])
+    if gathered is None:
+        gathered = gather(geo, hits)
+    mask, face, tri, bary, p = gathered
     image = np.empty(hits.shape + (3,), np.float64)
     image[~mask] = np.asarray(getattr(scene, "background", 0.0), np.float64) * np.ones(3)
     if not mask.any():
@@ -431,8 +445,18 @@ def shade_variant(scene, camera, hits, method: str, mistake: Mistake = Mistake()
     return image
 
 
+@njit(cache=True, parallel=True)
+def _srgb_kernel(x, out):
+    """The sRGB curve of ``x`` (N,) in [0, 1] into ``out`` (N,): as to_uint8's, before rounding."""
+    for i in prange(x.shape[0]):
+        v = x[i]
+        out[i] = 12.92 * v if v <= 0.0031308 else 1.055 * v ** (1.0 / 2.4) - 0.055
+
+
 def _srgb(x):
-    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(np.maximum(x, 0.0031308), 1.0 / 2.4) - 0.055)
+    out = np.empty_like(x)
+    _srgb_kernel(x.reshape(-1), out.reshape(-1))
+    return out
 
 
 def encode(image, mistake: Mistake = Mistake()) -> np.ndarray:
@@ -452,7 +476,7 @@ def encode(image, mistake: Mistake = Mistake()) -> np.ndarray:
     (H, W, 3) float64
         Not quantised (the scorer compares with 8-bit values itself).
     """
-    x = np.clip(np.nan_to_num(np.asarray(image, np.float64), nan=0.0), 0.0, 1.0)
+    x = np.clip(np.asarray(image, np.float64), 0.0, 1.0)  # NaN stays NaN: no image of ours holds one
     if mistake.encoding != "linear":
         x = _srgb(x)
     if mistake.encoding == "double":
