@@ -19,7 +19,7 @@ import numpy as np
 from ..render import render
 from ..study.diagnose.catalogue import catalogue
 from ..study.diagnose.score import interior_weights, read_student, sse
-from ..study.diagnose.variant import check_scene, encode, gather, shade_variant
+from ..study.diagnose.variant import check_scene, decode, encode, gather, shade_variant
 from ..visibility.cast import cast_camera
 
 __all__ = ["diagnose", "Diagnoser", "Diagnosis", "TOLERANCE", "FIT", "register_cli", "run_cli"]
@@ -113,7 +113,7 @@ def _pick_pixel(student, best_img, correct_img, weights):
     return int(x), int(y)
 
 
-def _verdict(d_best, group, matches, explained, rms, pixel, student, best_img, correct_img, method):
+def _verdict(d_best, group, matches, explained, rms, pixel, student, best_img, correct_img, method, ours):
     x, y = pixel
     s8 = np.round(student[y, x]).astype(int).tolist()
     c8 = np.round(correct_img[y, x]).astype(int).tolist()
@@ -129,8 +129,12 @@ def _verdict(d_best, group, matches, explained, rms, pixel, student, best_img, c
     if others:
         head += f" Indistinguishable on this scene from: {', '.join(others)}."
     where = (f" At pixel ({x}, {y}) the image has {s8} (8-bit), ours has {c8}"
-             + ("" if matches else f", and '{d_best.name}' predicts {b8}") + "; our derivation follows.")
-    return head + where
+             + ("" if matches else f", and '{d_best.name}' predicts {b8}") + ".")
+    if not d_best.mistake.flip:
+        back = decode(student[y, x], d_best.mistake)
+        where += (f" Read back through {'its' if not matches else 'the'} encoding the image's value is "
+                  f"I = {_fmt(back)}, beside our I = {_fmt(ours[y, x])}:")
+    return head + where + " our derivation follows."
 
 
 class Diagnoser:
@@ -189,7 +193,7 @@ class Diagnoser:
         dep[weights == 0] = np.nan
         pixel = _pick_pixel(student, imgs[best.name], correct_img, weights)
         verdict = _verdict(best, group, matches, explained, scores[best.name], pixel, student, imgs[best.name],
-                           correct_img, self.method)
+                           correct_img, self.method, self.frame.image)
         return Diagnosis(self.method, cands, scores, best, group, matches, explained, dep, weights, pixel, verdict,
                          str(self.frame.explain(*pixel)))
 

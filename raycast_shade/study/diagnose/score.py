@@ -51,7 +51,7 @@ def read_student(image, shape) -> np.ndarray:
         import imageio.v3 as iio
 
         try:
-            arr = np.asarray(iio.imread(image))
+            arr = np.asarray(iio.imread(image, plugin="pillow"))  # PNG, JPEG, BMP, TIFF, ... (8 or 16 bit)
         except Exception as exc:  # imageio raises many kinds for non-images
             raise ValueError(f"{name}: not an image file we can read ({type(exc).__name__}: {exc})") from None
     else:

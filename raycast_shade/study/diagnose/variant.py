@@ -24,7 +24,7 @@ from ...scene.lights import DirectionalLight, SpotLight
 from ...scene.normals import vertex_normals
 from ...visibility.interpolation import to_screen_space
 
-__all__ = ["Mistake", "shade_variant", "gather", "encode", "check_scene", "LAWS", "ENCODINGS"]
+__all__ = ["Mistake", "shade_variant", "gather", "encode", "decode", "check_scene", "LAWS", "ENCODINGS"]
 
 LAWS = ("scene", "none", "inverse", "inverse_square", "heuristic")
 ENCODINGS = ("srgb", "linear", "double")
@@ -486,3 +486,34 @@ def encode(image, mistake: Mistake = Mistake()) -> np.ndarray:
     if mistake.bgr:
         x = x[..., ::-1]
     return np.ascontiguousarray(x)
+
+
+def _srgb_inverse(x):
+    return np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
+
+
+def decode(levels, mistake: Mistake = Mistake()) -> np.ndarray:
+    """Linear values read back from 8-bit levels through the mistake's encoding and channel order.
+
+    The inverse of :func:`encode` for one pixel or an image (without the
+    flip, which moves pixels): what the renderer computed before writing,
+    up to quantisation and clipping at 1.
+
+    Parameters
+    ----------
+    levels : (..., 3) float
+        0..255.
+    mistake : Mistake
+
+    Returns
+    -------
+    (..., 3) float64
+    """
+    x = np.clip(np.asarray(levels, np.float64) / 255.0, 0.0, 1.0)
+    if mistake.bgr:
+        x = x[..., ::-1]
+    if mistake.encoding == "double":
+        x = _srgb_inverse(x)
+    if mistake.encoding != "linear":
+        x = _srgb_inverse(x)
+    return x
