@@ -377,3 +377,54 @@ def test_cli(tmp_path, capsys):
     assert err.count("\n") == 1 and "error:" in err and "96x72" in err
     assert main(["diagnose", str(path), str(tmp_path / "nope.png")]) == 2
     assert "no such file" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("weighting", ["uniform", "area"])
+def test_weighting_candidates_are_our_render_of_the_mesh_so_weighted(weighting):
+    ico = rs.shapes.icosphere(2)
+    verts = ico.vertices * np.array([1.0, 0.7, 1.2])  # an ellipsoid: the weightings disagree
+    mat = rs.Material(kd=(0.8, 0.3, 0.2), ks=0.5, shininess=40)
+    light = rs.PointLight((2, 3, 4), intensity=20, attenuation="inverse_square")
+
+    def scene(w):
+        return rs.Scene([rs.Model(rs.Mesh(verts, ico.faces, weighting=w), mat)], lights=[light],
+                        camera=rs.Camera(eye=(0, 0, 4), width=W, height=H), ambient=0.1)
+
+    angle, other = scene("angle"), scene(weighting)
+    for method in ("gouraud", "phong"):
+        want = rs.render(other, method).image
+        got = _variant(angle, method, Mistake(normals=weighting))
+        np.testing.assert_allclose(got, want, atol=1e-5)
+        assert np.abs(rs.render(angle, method).image - want).max() > 1e-3  # the candidate is not the correct image
+
+
+def test_face_normal_candidate_is_our_render_of_the_split_mesh():
+    ico = rs.shapes.icosphere(2)
+    mat = rs.Material(kd=(0.8, 0.3, 0.2), ks=0.5, shininess=40)
+    light = rs.PointLight((2, 3, 4), intensity=20, attenuation="inverse_square")
+    cam = rs.Camera(eye=(0, 0, 4), width=W, height=H)
+    smooth = rs.Scene([rs.Model(rs.Mesh(ico.vertices, ico.faces), mat)], lights=[light], camera=cam, ambient=0.1)
+    split = rs.Scene([rs.Model(rs.Mesh(ico.vertices, ico.faces, crease_angle=1.0), mat)], lights=[light], camera=cam,
+                     ambient=0.1)  # every vertex split per face: its normal is the face's
+    np.testing.assert_allclose(_variant(smooth, "phong", Mistake(normals="face")), rs.render(split, "phong").image,
+                               atol=1e-5)
+
+
+def test_phong_2d_interpolation_is_our_screen_space_render(scenes):
+    scene = scenes["plane"]
+    np.testing.assert_allclose(_variant(scene, "phong", Mistake(screen=True)),
+                               rs.render(scene, "phong", interpolation="screen").image, atol=1e-5)
+
+
+from hypothesis import given, settings, strategies as st  # noqa: E402
+
+from raycast_shade.study.diagnose.variant import decode  # noqa: E402
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.floats(0.0, 1.0), min_size=3, max_size=3), st.sampled_from(["srgb", "linear", "double"]),
+       st.booleans())
+def test_decode_inverts_encode(rgb, encoding, bgr):
+    m = Mistake(encoding=encoding, bgr=bgr)
+    x = np.array(rgb).reshape(1, 1, 3)
+    np.testing.assert_allclose(decode(encode(x, m) * 255.0, m), x, atol=1e-9)

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..render import render
 from ..study.diagnose.catalogue import catalogue
-from ..study.diagnose.score import interior_weights, read_student, sse
+from ..study.diagnose.score import interior_weights, read_student, sse, sse_filtered
 from ..study.diagnose.variant import check_scene, decode, encode, gather, shade_variant
 from ..visibility.cast import cast_camera
 
@@ -26,6 +26,8 @@ __all__ = ["diagnose", "Diagnoser", "Diagnosis", "TOLERANCE", "FIT", "register_c
 
 TOLERANCE = 100.0  # levels^2, summed over interior pixels and channels: candidates closer than this are one class
 FIT = 6.0  # levels RMS: above this no candidate explains the image well
+REFIT = 6  # candidates re-scored with a fitted sub-pixel shift and blur (score.sse_filtered)
+BETWEEN = 0.4  # excess / distance below which an image is between two candidates (see Diagnoser._score)
 
 
 @dataclass(frozen=True, eq=False)
@@ -42,13 +44,18 @@ class Diagnosis:
         Each candidate's RMS difference from the image in 8-bit levels over
         the interior pixels (lower is better).
     best : Candidate
-        The explanation: the simplest candidate (catalogue order, ``correct``
-        first) of the class of the lowest score.
+        The explanation: the simplest candidate (catalogue order) of those
+        indistinguishable from the lowest-scoring one; a correct one when the
+        image matches.
     group : tuple of str
-        Candidates whose images differ from the lowest-scoring one by less
-        than the tolerance on this scene: indistinguishable here.
+        The class of the lowest-scoring candidate: candidates whose images
+        differ from its by less than the tolerance on this scene
+        (indistinguishable here), and those the image lies between (its
+        squared error exceeds the best's by less than ``BETWEEN`` times the
+        squared distance between the two: at least 30% of the way over).
     matches : bool
-        The class holds a correct candidate and the fit is good.
+        A correct candidate is indistinguishable from the lowest-scoring one
+        (within the tolerance, not merely between) and the fit is good.
     explained : bool
         The best candidate's RMS is at most ``FIT`` levels.
     map : (H, W) float32
@@ -127,7 +134,7 @@ def _verdict(d_best, group, matches, explained, rms, pixel, student, best_img, c
                 f"(RMS {rms:.2f} levels).")
     others = [g for g in group if g != d_best.name]
     if others:
-        head += f" Indistinguishable on this scene from: {', '.join(others)}."
+        head += f" Cannot be told apart on this image from: {', '.join(others)}."
     where = (f" At pixel ({x}, {y}) the image has {s8} (8-bit), ours has {c8}"
              + ("" if matches else f", and '{d_best.name}' predicts {b8}") + ".")
     if not d_best.mistake.flip:
@@ -146,12 +153,12 @@ class Diagnoser:
     """
 
     def __init__(self, scene, method: str = "phong", *, camera=None, encoding: str = "srgb",
-                 tolerance: float = TOLERANCE):
+                 tolerance: float = TOLERANCE, filtered: bool = True):
         if method not in ("flat", "gouraud", "phong"):
             raise ValueError(f"method: expected one of ['flat', 'gouraud', 'phong'], got {method!r}")
         if not (isinstance(tolerance, (int, float)) and np.isfinite(tolerance) and tolerance > 0):
             raise ValueError(f"tolerance: must be a finite number > 0, got {tolerance!r}")
-        self.method, self.tolerance = method, float(tolerance)
+        self.method, self.tolerance, self.filtered = method, float(tolerance), bool(filtered)
         self.camera = camera = camera or scene.camera
         check_scene(scene)
         self.candidates = cands = catalogue(method, scene, encoding)
@@ -178,16 +185,32 @@ class Diagnoser:
     def _score(self, student) -> Diagnosis:
         """Diagnose ``student`` (H, W, 3) float64 levels, as :func:`read_student` returns them."""
         cands, imgs, weights = self.candidates, self.images, self.weights
-        sses = {c.name: sse(student, imgs[c.name], weights) for c in cands}
+        plain = {c.name: sse(student, imgs[c.name], weights) for c in cands}
+        sses = dict(plain)
+        if self.filtered:  # the closest few again, allowing the student's own sub-pixel sampling
+            for name in sorted(plain, key=plain.get)[:REFIT]:
+                sses[name] = min(plain[name], sse_filtered(student, imgs[name], weights)[0])
         n = float(weights.sum()) * 3.0
         scores = {k: float(np.sqrt(v / n)) for k, v in sses.items()}
         low = min(cands, key=lambda c: sses[c.name])
-        group = tuple(c.name for c in cands if sse(imgs[c.name], imgs[low.name], weights) < self.tolerance)
-        best = next(c for c in cands if c.name in group)
+        near, group = [], []
+        for c in cands:
+            dist = sse(imgs[c.name], imgs[low.name], weights)
+            if dist < self.tolerance:  # indistinguishable on this scene
+                near.append(c.name)
+            # The class also holds candidates the image lies between with the best (the unfiltered excess
+            # under BETWEEN of their distance: at least 30% of the way over), which noise alone makes
+            # unlikely; they can be told apart, not on this image.
+            if dist < self.tolerance or plain[c.name] - plain[low.name] < BETWEEN * dist:
+                group.append(c.name)
+        group = tuple(group)
         explained = scores[low.name] <= FIT
-        matches = explained and any(c.correct for c in cands if c.name in group)
+        # "Matches" needs the correct image indistinguishable from the best, not merely between.
+        matches = explained and any(c.correct for c in cands if c.name in near)
         if matches:
-            best = next(c for c in cands if c.correct and c.name in group)
+            best = next(c for c in cands if c.correct and c.name in near)
+        else:
+            best = next((c for c in cands if c.name in near and not c.correct), low)
         correct_img = imgs[cands[0].name]
         dep = np.abs(student - imgs[best.name]).mean(axis=2).astype(np.float32)
         dep[weights == 0] = np.nan

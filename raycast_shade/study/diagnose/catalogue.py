@@ -44,7 +44,7 @@ class Candidate:
     correct: bool = False
 
 
-_OUTPUT = "none: writing the image (no slide)"
+_OUTPUT = "none: writing the image"  # encoding, row order, pixel centres, channel order: not in the lecture
 _METHOD_SLIDES = {"flat": "Flat Shading", "gouraud": "Gouraud Shading", "phong": "Phong Shading"}
 _LAW_TEXT = {"none": "no attenuation (Ii reaches every point)", "inverse": "attenuation 1/d",
              "inverse_square": "attenuation 1/d^2", "heuristic": "attenuation 1/(d + k)"}
@@ -101,14 +101,14 @@ def _single(method, scene, encoding):
                     "Distance to the viewpoint", dict(eye_distance=True)))
     if scene.lights:
         out.append(("light-in-camera-space", "light positions read as camera coordinates, not world ones",
-                    "Light Source Properties", dict(light_in_camera=True)))
+                    "Vector Notation", dict(light_in_camera=True)))
     if encoding != "linear":
-        out.append(("no-srgb", "linear values written without the sRGB encoding", "Colour", dict(encoding="linear")))
+        out.append(("no-srgb", "linear values written without the sRGB encoding", _OUTPUT, dict(encoding="linear")))
     else:
-        out.append(("srgb-applied", "sRGB encoded where linear values are asked for", "Colour",
+        out.append(("srgb-applied", "sRGB encoded where linear values are asked for", _OUTPUT,
                     dict(encoding="srgb")))
     out += [
-        ("srgb-twice", "the sRGB encoding applied twice", "Colour", dict(encoding="double")),
+        ("srgb-twice", "the sRGB encoding applied twice", _OUTPUT, dict(encoding="double")),
         ("flipped", "rows written bottom-up (image flipped vertically)", _OUTPUT, dict(flip=True)),
         ("half-pixel", "rays through pixel corners (x, y) instead of centres (x + 0.5, y + 0.5)", _OUTPUT,
          dict(half_pixel=True)),
@@ -150,7 +150,7 @@ def catalogue(method: str, scene, encoding: str = "srgb") -> tuple:
     if encoding == "auto":
         singles = [s for s in singles if s[0] != "no-srgb"]
         out.append(Candidate("correct-linear", f"our {method.capitalize()} shading, written as linear values",
-                             "Colour", Mistake(encoding="linear"), True))
+                             _OUTPUT, Mistake(encoding="linear"), True))
     by_name = {}
     for name, text, slide, changes in singles:
         cand = Candidate(name, text, slide, Mistake(**{**base.changes(), **changes}))

@@ -20,7 +20,7 @@ import os
 
 import numpy as np
 
-__all__ = ["read_student", "interior_weights", "sse", "CAP"]
+__all__ = ["read_student", "interior_weights", "sse", "sse_filtered", "CAP", "MAX_SHIFT", "MAX_BLUR"]
 
 CAP = 64.0  # levels: a channel's difference counts at most CAP^2
 
@@ -117,3 +117,46 @@ def sse(a, b, weights) -> float:
     """
     d = np.minimum(np.square(a - b), CAP * CAP)
     return float(np.einsum("hwc,hw->", d, weights))
+
+
+MAX_SHIFT = 0.25  # pixels: the sub-pixel shift a student's sample pattern may add (half-pixel is a candidate)
+MAX_BLUR = 0.125  # weight of the 4-neighbour Laplacian: up to a box filter a pixel wide and more
+
+
+def _derivatives(img):
+    """Central x and y differences and the 4-neighbour Laplacian of (H, W, 3), edges replicated."""
+    p = np.pad(img, ((1, 1), (1, 1), (0, 0)), mode="edge")
+    gx = 0.5 * (p[1:-1, 2:] - p[1:-1, :-2])
+    gy = 0.5 * (p[2:, 1:-1] - p[:-2, 1:-1])
+    lap = p[:-2, 1:-1] + p[2:, 1:-1] + p[1:-1, :-2] + p[1:-1, 2:] - 4.0 * img
+    return gx, gy, lap
+
+
+def sse_filtered(student, cand, weights):
+    """:func:`sse` after the best small shift and blur of the candidate.
+
+    A student's own anti-aliasing averages samples around each pixel centre:
+    to first and second order the candidate plus ``a dC/dx + b dC/dy``
+    (the pattern's mean offset) plus ``w`` times its Laplacian (the spread).
+    ``a, b`` and ``w`` are fitted by least squares on the interior pixels and
+    clipped to ``|a|, |b| <= MAX_SHIFT``, ``0 <= w <= MAX_BLUR``, so that a
+    sub-pixel pattern is not held against the image while a half-pixel
+    offset stays a mistake of its own.
+
+    Returns
+    -------
+    sse : float
+    params : (3,) float64
+        ``a, b, w``.
+    """
+    gx, gy, lap = _derivatives(cand)
+    sel = weights > 0
+    basis = np.stack([gx[sel].ravel(), gy[sel].ravel(), lap[sel].ravel()], axis=1)
+    resid = (student - cand)[sel].ravel()
+    gram = basis.T @ basis
+    if not np.all(np.isfinite(gram)) or np.linalg.cond(gram) > 1e12:
+        return sse(student, cand, weights), np.zeros(3)
+    params = np.linalg.solve(gram, basis.T @ resid)
+    params = np.clip(params, [-MAX_SHIFT, -MAX_SHIFT, 0.0], [MAX_SHIFT, MAX_SHIFT, MAX_BLUR])
+    fitted = cand + params[0] * gx + params[1] * gy + params[2] * lap
+    return sse(student, fitted, weights), params
