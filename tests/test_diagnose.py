@@ -428,3 +428,16 @@ def test_decode_inverts_encode(rgb, encoding, bgr):
     m = Mistake(encoding=encoding, bgr=bgr)
     x = np.array(rgb).reshape(1, 1, 3)
     np.testing.assert_allclose(decode(encode(x, m) * 255.0, m), x, atol=1e-9)
+
+
+def test_docs_list_every_candidate(scenes):
+    import pathlib
+
+    doc = (pathlib.Path(__file__).resolve().parents[1] / "docs" / "diagnose.md").read_text(encoding="utf-8")
+    names = set()
+    for scene in scenes.values():
+        for method in ("flat", "gouraud", "phong"):
+            for encoding in ("srgb", "linear", "auto"):
+                names |= {c.name for c in catalogue(method, scene, encoding)}
+    missing = sorted(n for n in names if f"| `{n}` |" not in doc)
+    assert not missing, missing
