@@ -21,7 +21,8 @@ whose class holds the correct image is counted as *invisible*: on that
 scene the slip does not change the image beyond the tolerance (the verdict
 says "matches" and names it among the indistinguishable).
 
-Writes ``benchmarks/results/diagnose_confusion.csv`` (every trial),
+Writes ``benchmarks/results/diagnose_confusion.csv`` (the trials of each
+scene, method, condition and true candidate: counts and the diagnoses),
 ``diagnose_summary.csv`` (per candidate), ``diagnose_classes.csv`` (the
 equivalence classes met), ``diagnose_timing.csv`` and the figure
 ``docs/images/diagnose_confusion.png``; a quick run writes the same names
@@ -119,18 +120,43 @@ def classify(sizes, trials: int, seed: int = 25):
     return rows, sorted(classes)
 
 
-def summary(rows) -> list:
-    """Per true candidate: trials, right and exact rates, the commonest wrong diagnosis."""
-    by = collections.defaultdict(list)
+def aggregate(rows) -> list:
+    """The trials of each (size, condition, scene, method, true candidate) in one row: counts, the
+    diagnoses as ``name:count`` pairs, the mean class size and RMS values."""
+    cells = collections.defaultdict(list)
     for r in rows:
-        by[r["truth"]].append(r)
+        cells[(r["width"], r["height"], r["condition"], r["scene"], r["method"], r["truth"])].append(r)
     out = []
-    for truth, rs_ in by.items():
-        wrong = collections.Counter(r["best"] for r in rs_ if not r["right"])
-        out.append(dict(truth=truth, trials=len(rs_), right=round(sum(r["right"] for r in rs_) / len(rs_), 4),
-                        exact=round(sum(r["exact"] for r in rs_) / len(rs_), 4),
-                        invisible=round(sum(r["invisible"] for r in rs_) / len(rs_), 4),
-                        commonest_wrong=wrong.most_common(1)[0][0] if wrong else ""))
+    for (w, h, cond, scene, method, truth), rs_ in cells.items():
+        named = collections.Counter(r["best"] for r in rs_)
+        out.append(dict(width=w, height=h, condition=cond, scene=scene, method=method, truth=truth, trials=len(rs_),
+                        right=sum(r["right"] for r in rs_), exact=sum(r["exact"] for r in rs_),
+                        matches=sum(r["matches"] for r in rs_), invisible=sum(r["invisible"] for r in rs_),
+                        diagnosed=";".join(f"{k}:{v}" for k, v in named.most_common()),
+                        class_size=round(float(np.mean([len(r["group"].split("|")) for r in rs_])), 3),
+                        rms_best=round(float(np.mean([r["rms_best"] for r in rs_])), 4),
+                        rms_truth=round(float(np.mean([r["rms_truth"] for r in rs_])), 4)))
+    return out
+
+
+def summary(cells) -> list:
+    """Per true candidate: images, right and exact rates, invisible share, the commonest other diagnosis."""
+    by = collections.defaultdict(list)
+    for c in cells:
+        by[c["truth"]].append(c)
+    out = []
+    for truth, cs in by.items():
+        n = sum(c["trials"] for c in cs)
+        named = collections.Counter()
+        for c in cs:
+            for pair in c["diagnosed"].split(";"):
+                name, k = pair.rsplit(":", 1)
+                named[name] += int(k)
+        others = [(k, v) for k, v in named.most_common() if k != truth]
+        out.append(dict(truth=truth, images=n, right=round(sum(c["right"] for c in cs) / n, 4),
+                        exact=round(sum(c["exact"] for c in cs) / n, 4),
+                        invisible=round(sum(c["invisible"] for c in cs) / n, 4),
+                        commonest_other=others[0][0] if others else ""))
     return out
 
 
@@ -162,39 +188,79 @@ def _write(rows, path):
 
 
 def figure(rows, path):
-    """Row-normalised confusion matrix: true candidate against diagnosed class (named by its best)."""
+    """Left: true candidate against the diagnosis as named (the class's simplest member); right: the
+    rates per candidate, right (the true candidate in the class) and exact (the class named by it)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    names = list(dict.fromkeys(r["truth"] for r in rows))
+    names = list(dict.fromkeys(c["truth"] for c in rows))
     index = {n: i for i, n in enumerate(names)}
     m = np.zeros((len(names), len(names) + 1))
-    for r in rows:
-        i = index[r["truth"]]
-        if r["right"]:
-            m[i, i] += 1
-        else:
-            m[i, index.get(r["best"], len(names))] += 1
+    for c in rows:
+        for pair in c["diagnosed"].split(";"):
+            name, k = pair.rsplit(":", 1)
+            m[index[c["truth"]], index.get(name, len(names))] += int(k)
     m /= m.sum(axis=1, keepdims=True)
-    fig, ax = plt.subplots(figsize=(11, 10), dpi=90)
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(15, 9.5), dpi=80, gridspec_kw=dict(width_ratios=[2.3, 1]))
     ax.imshow(m, cmap="viridis", vmin=0, vmax=1)
     ax.set_xticks(range(len(names) + 1), names + ["(other)"], rotation=90, fontsize=7)
     ax.set_yticks(range(len(names)), names, fontsize=7)
-    ax.set_xlabel("diagnosed (a right class counts on the diagonal)")
+    ax.set_xlabel("diagnosis as named (the simplest member of the class)")
     ax.set_ylabel("true candidate")
-    right = np.mean([r["right"] for r in rows])
-    ax.set_title(f"diagnose: {len(rows)} images, {100 * right:.1f}% right")
     for i in range(len(names)):
         for j in range(len(names) + 1):
             if m[i, j] > 0 and (i != j or m[i, j] < 1):
-                ax.text(j, i, f"{100 * m[i, j]:.0f}", ha="center", va="center", fontsize=5,
+                ax.text(j, i, f"{100 * m[i, j]:.0f}", ha="center", va="center", fontsize=5.5,
                         color="black" if m[i, j] > 0.5 else "white")
+    def rate(key, n):
+        cs = [c for c in rows if c["truth"] == n]
+        return sum(c[key] for c in cs) / sum(c["trials"] for c in cs)
+
+    right = np.array([rate("right", n) for n in names])
+    exact = np.array([rate("exact", n) for n in names])
+    y = np.arange(len(names))
+    bx.barh(y - 0.2, 100 * right, height=0.4, label="right (in the class)")
+    bx.barh(y + 0.2, 100 * exact, height=0.4, label="exact (named)")
+    bx.set_yticks(y, names, fontsize=7)
+    bx.invert_yaxis()
+    bx.set_xlim(0, 100)
+    bx.set_xlabel("% of the candidate's images")
+    bx.legend(loc="lower left", fontsize=8)
+    images = sum(c["trials"] for c in rows)
+    total = sum(c["right"] for c in rows) / images
+    fig.suptitle(f"diagnose as a classifier: {images} images, {100 * total:.2f}% right")
     fig.tight_layout()
     os.makedirs(os.path.dirname(path), exist_ok=True)
     fig.savefig(path)
     plt.close(fig)
+
+
+def doc_table(cells) -> str:
+    """The results table of docs/diagnose.md, from the aggregated trials."""
+    out = ["| size | condition | images | right | exact | invisible | mean class size | correct images matched |",
+           "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+    for size in dict.fromkeys((c["width"], c["height"]) for c in cells):
+        for cond in ("noise", "aa4"):
+            sub = [c for c in cells if (c["width"], c["height"]) == size and c["condition"] == cond]
+            n = sum(c["trials"] for c in sub)
+            cor = [c for c in sub if c["truth"] == "correct"]
+            size_mean = sum(c["class_size"] * c["trials"] for c in sub) / n
+            out.append(f"| {size[0]}x{size[1]} | {cond} | {n} | {100 * sum(c['right'] for c in sub) / n:.2f}% "
+                       f"| {100 * sum(c['exact'] for c in sub) / n:.2f}% | {sum(c['invisible'] for c in sub)} "
+                       f"| {size_mean:.2f} | {sum(c['matches'] for c in cor)}/{sum(c['trials'] for c in cor)} |")
+    return "\n".join(out)
+
+
+def _read(path):
+    with open(path, newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    for r in rows:
+        for k in ("trials", "right", "exact", "matches", "invisible"):
+            r[k] = int(r[k])
+        r["class_size"] = float(r["class_size"])
+    return rows
 
 
 def gallery(path, width=128, height=96):
@@ -264,32 +330,33 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog="python -m benchmarks.diagnose_confusion", description=__doc__.split("\n")[0])
     p.add_argument("--quick", action="store_true", help="one size, one trial, no 640x480 timing repeats")
     p.add_argument("--figures", action="store_true", help="only the gallery and the example figures")
+    p.add_argument("--from-csv", action="store_true",
+                   help="redraw the confusion figure and print the docs table from the trials already written")
     args = p.parse_args(argv)
     quick = args.quick
+    if args.from_csv:
+        rows = _read(results_file(NAMES[0], quick))
+        figure(rows, image_file("diagnose_confusion.png", quick))
+        print(doc_table(rows))
+        return 0
     gallery(image_file("diagnose_gallery.png", quick))
     print(example(image_file("diagnose_example.png", quick)))
     if args.figures:
         return 0
     sizes = [(96, 72)] if quick else [(96, 72), (192, 144)]
     rows, classes = classify(sizes, 1 if quick else 3)
-    _write(rows, results_file(NAMES[0], quick))
-    summ = summary(rows)
+    cells = aggregate(rows)
+    _write(cells, results_file(NAMES[0], quick))
+    summ = summary(cells)
     _write(summ, results_file(NAMES[1], quick))
     _write([dict(scene=s, method=m, width=w, group="|".join(g)) for s, m, w, g in classes] or
            [dict(scene="", method="", width="", group="")], results_file(NAMES[2], quick))
     _write(timing(1 if quick else 3), results_file(NAMES[3], quick))
-    figure(rows, image_file("diagnose_confusion.png", quick))
-    right = np.mean([r["right"] for r in rows])
-    correct = [r for r in rows if r["truth"] == "correct"]
-    print(f"{len(rows)} images: {100 * right:.2f}% right; correct images matched: "
-          f"{sum(r['matches'] for r in correct)}/{len(correct)}")
-    for cond in ("noise", "aa4"):
-        sub = [r for r in rows if r["condition"] == cond]
-        print(f"  {cond}: {100 * np.mean([r['right'] for r in sub]):.2f}% right, "
-              f"{100 * np.mean([r['exact'] for r in sub]):.2f}% exact, {sum(r['invisible'] for r in sub)} invisible")
-    for s in sorted(summ, key=lambda s: s["right"])[:8]:
+    figure(cells, image_file("diagnose_confusion.png", quick))
+    print(doc_table(cells))
+    for s in sorted(summ, key=lambda s: (s["right"], s["exact"]))[:8]:
         print(f"  {s['truth']:<40s} right {s['right']:.3f} exact {s['exact']:.3f} invisible {s['invisible']:.3f} "
-              f"{s['commonest_wrong']}")
+              f"{s['commonest_other']}")
     return 0
 
 
