@@ -441,3 +441,27 @@ def test_docs_list_every_candidate(scenes):
                 names |= {c.name for c in catalogue(method, scene, encoding)}
     missing = sorted(n for n in names if f"| `{n}` |" not in doc)
     assert not missing, missing
+
+
+def test_a_mistake_outside_the_catalogue_is_not_explained(scenes):
+    scene = scenes["sphere"]
+    green = scene.replace(models=[rs.Model(scene.models[0].mesh, rs.Material(kd=(0.1, 0.8, 0.2), ks=0.5,
+                                                                            shininess=40))])
+    d = rs.diagnose(rs.to_uint8(rs.render(green, "phong").image), scene, "phong")
+    assert not d.explained and not d.matches
+    assert d.verdict.startswith("No candidate explains the image well")
+
+
+def test_inputs_camera_float_and_alpha(scenes):
+    scene = scenes["torus"]
+    cam = rs.Camera(eye=(0, 3, 2.5), width=80, height=60)
+    img = rs.to_uint8(rs.render(scene, "flat", camera=cam).image)
+    assert rs.diagnose(img, scene, "flat", camera=cam).matches
+    assert rs.diagnose(img / 255.0, scene, "flat", camera=cam).matches  # float display values
+    rgba = np.concatenate([img, np.full(img.shape[:2] + (1,), 255, np.uint8)], axis=2)
+    assert rs.diagnose(rgba, scene, "flat", camera=cam).matches
+    rgba[0, 0, 3] = 0
+    with pytest.raises(ValueError, match="transparent"):
+        rs.diagnose(rgba, scene, "flat", camera=cam)
+    with pytest.raises(ValueError, match="tolerance"):
+        rs.diagnose(img, scene, "flat", camera=cam, tolerance=-1)
