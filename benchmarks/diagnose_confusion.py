@@ -11,7 +11,8 @@ diagnosed, under two conditions:
 * ``noise``: 8-bit quantisation of the image plus Gaussian noise of 1 level;
 * ``aa4``: the student anti-aliases with 4 rays per pixel (our sample
   pattern, each sample shaded by the variant, averaged in linear light),
-  then the same quantisation and noise.
+  then the same quantisation and noise;
+* ``jpeg90``: the ``noise`` image saved as a JPEG of quality 90.
 
 A diagnosis is *right* when the true candidate is in the diagnosed class
 (the candidates indistinguishable from the best on that scene) -- for a
@@ -88,6 +89,16 @@ def antialiased(scene, method, mistake, samples: int) -> np.ndarray:
     return encode(acc / samples, mistake) * 255.0
 
 
+CONDITIONS = ("noise", "aa4", "jpeg90")
+
+
+def _jpeg(img):
+    """``img`` written as a JPEG of quality 90 and read back (through Pillow, in memory)."""
+    import imageio.v3 as iio
+
+    return iio.imread(iio.imwrite("<bytes>", img, extension=".jpg", quality=90), extension=".jpg")
+
+
 def _quantise(img, rng, sigma):
     return np.clip(np.rint(img + rng.normal(0.0, sigma, img.shape)), 0, 255).astype(np.uint8)
 
@@ -103,11 +114,12 @@ def classify(sizes, trials: int, seed: int = 25):
             for method in ("flat", "gouraud", "phong"):
                 diag = Diagnoser(scene, method)
                 for cand in diag.candidates:
-                    for condition in ("noise", "aa4"):
-                        clean = diag.images[cand.name] if condition == "noise" else \
-                            antialiased(scene, method, cand.mistake, 4)
+                    for condition in CONDITIONS:
+                        clean = antialiased(scene, method, cand.mistake, 4) if condition == "aa4" else \
+                            diag.images[cand.name]
                         for trial in range(trials):
-                            d = diag(_quantise(clean, rng, 1.0))
+                            image = _quantise(clean, rng, 1.0)
+                            d = diag(_jpeg(image) if condition == "jpeg90" else image)
                             right = d.matches if cand.correct else cand.name in d.group
                             classes.add((sname, method, width, d.group)) if len(d.group) > 1 else None
                             rows.append(dict(width=width, height=height, condition=condition, scene=sname,
@@ -242,7 +254,7 @@ def doc_table(cells) -> str:
     out = ["| size | condition | images | right | exact | invisible | mean class size | correct images matched |",
            "| --- | --- | --- | --- | --- | --- | --- | --- |"]
     for size in dict.fromkeys((c["width"], c["height"]) for c in cells):
-        for cond in ("noise", "aa4"):
+        for cond in CONDITIONS:
             sub = [c for c in cells if (c["width"], c["height"]) == size and c["condition"] == cond]
             n = sum(c["trials"] for c in sub)
             cor = [c for c in sub if c["truth"] == "correct"]

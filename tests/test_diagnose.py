@@ -465,3 +465,19 @@ def test_inputs_camera_float_and_alpha(scenes):
         rs.diagnose(rgba, scene, "flat", camera=cam)
     with pytest.raises(ValueError, match="tolerance"):
         rs.diagnose(img, scene, "flat", camera=cam, tolerance=-1)
+
+
+def test_jpeg_images_are_diagnosed(scenes, tmp_path):
+    """A student's JPEG (quality 90): its block artefacts are a few levels; the diagnosis holds."""
+    import imageio.v3 as iio
+
+    diag = Diagnoser(scenes["sphere"], "phong")
+    right = 0
+    for cand in diag.candidates:
+        path = tmp_path / "student.jpg"
+        iio.imwrite(path, np.clip(np.rint(diag.images[cand.name]), 0, 255).astype(np.uint8), quality=90)
+        d = diag(path)
+        right += d.matches if cand.correct else cand.name in d.group
+        if cand.correct:
+            assert d.matches, d.verdict
+    assert right / len(diag.candidates) >= 0.95
