@@ -29,8 +29,9 @@ def _torus():
 
 
 def _plane_two_lights():
-    """A tilted plane and a cube lit by a point light with no attenuation and a spot light."""
-    plane = rs.Model(rs.shapes.plane(size=3.0, subdivisions=8, normal="+y"), rs.Material(kd=(0.5, 0.5, 0.7), ks=0.3, shininess=15))
+    """A plane and a cube on it, lit by a point light with no attenuation and a spot light."""
+    plane = rs.Model(rs.shapes.plane(size=3.0, subdivisions=8, normal="+y"),
+                     rs.Material(kd=(0.5, 0.5, 0.7), ks=0.3, shininess=15))
     cube = rs.Model(rs.shapes.cube(0.8, center=(0, 0.4, 0)), rs.Material(kd=(0.9, 0.7, 0.2), ks=0.6, shininess=60))
     return rs.Scene([plane, cube],
                     lights=[rs.PointLight((1.5, 2, 1.5), intensity=0.8),
@@ -108,7 +109,6 @@ def test_inverse_law_and_eye_distance_by_hand(scenes):
     frame = rs.render(scene, "phong")
     base = _variant(scene, "phong", Mistake(no_ambient=True), frame.hits)
     inv = _variant(scene, "phong", Mistake(no_ambient=True, law="inverse"), frame.hits)
-    pts = rs.study.reference.hit_points(scene, frame.hits) if hasattr(rs, "study") else None
     from raycast_shade.study.reference import hit_points
 
     pts = hit_points(scene, frame.hits)
@@ -481,3 +481,44 @@ def test_jpeg_images_are_diagnosed(scenes, tmp_path):
         if cand.correct:
             assert d.matches, d.verdict
     assert right / len(diag.candidates) >= 0.95
+
+
+def test_vector_slips_by_hand(scenes):
+    """n.s unclamped, r reversed, t cos, ungated specular and v unnormalised, re-derived per pixel from our
+    shading normals: each candidate is the slip it names."""
+    from raycast_shade.study.reference import hit_points
+
+    scene = scenes["sphere"]
+    hits = rs.render(scene, "phong").hits
+    m = hits.prim >= 0
+    n = rs.shading_normals(scene, scene.camera, hits, "phong").astype(np.float64)[m]
+    p = hit_points(scene, hits)[m]
+    light = np.array([2.0, 3.0, 4.0])
+    L = light - p
+    d = np.linalg.norm(L, axis=1, keepdims=True)
+    s = L / d
+    e = scene.camera.eye - p
+    v = e / np.linalg.norm(e, axis=1, keepdims=True)
+    ns = np.sum(n * s, axis=1, keepdims=True)
+    Ii = 20.0 / d ** 2
+    kd, ks, t = np.array([0.8, 0.3, 0.2]), 0.5, 40.0
+
+    def spec(r, vv, f=lambda c: c ** t, gate=ns > 0):
+        c = np.clip(np.sum(r * vv, axis=1, keepdims=True), 0, None)
+        return np.where(gate & (c > 0), f(np.minimum(c, 1.0) if f is not None else c), 0.0)
+
+    r = 2 * ns * n - s
+    base = 0.1 + Ii * kd * np.clip(ns, 0, None)
+    cases = {
+        Mistake(unclamped=True): 0.1 + Ii * kd * ns + Ii * ks * spec(r, v),
+        Mistake(r_sign=True): base + Ii * ks * spec(-r, v),
+        Mistake(linear_shininess=True): base + Ii * ks * spec(r, v, f=lambda c: t * c),
+        Mistake(ungated=True): base + Ii * ks * spec(2 * ns * n - s, v, gate=np.ones_like(ns, bool)),
+    }
+    for mistake, want in cases.items():
+        got = _variant(scene, "phong", mistake, hits)[m]
+        np.testing.assert_allclose(got, want, atol=2e-5, err_msg=str(mistake.changes()))
+    # v = e - p unnormalised: the cosine grows by |e - p| (about 3 here), and is no longer clipped at 1
+    c_raw = np.clip(np.sum(r * e, axis=1, keepdims=True), 0, None)
+    want = base + Ii * ks * np.where((ns > 0) & (c_raw > 0), c_raw ** t, 0.0)
+    np.testing.assert_allclose(_variant(scene, "phong", Mistake(raw_v=True), hits)[m], want, rtol=1e-5, atol=2e-5)

@@ -65,9 +65,11 @@ def _single(method, scene, encoding):
              "Computing an average normal vector at a vertex", dict(normals="face")),
         ]
         out += [(f"{w}-weights", f"vertex normals averaged with {w} weights instead of the mesh's",
-                 "Computing an average normal vector at a vertex", dict(normals=w)) for w in ("uniform", "area", "angle")]
+                 "Computing an average normal vector at a vertex", dict(normals=w))
+                for w in ("uniform", "area", "angle")]
     out += [
-        ("no-ambient", "the ambient term Ia ka left out", "Reflectance equation with ambient light", dict(no_ambient=True)),
+        ("no-ambient", "the ambient term Ia ka left out", "Reflectance equation with ambient light",
+         dict(no_ambient=True)),
         ("no-diffuse", "the diffuse term Ii kd n.s left out", "Lambert's Cosine Law", dict(no_diffuse=True)),
         ("no-specular", "the specular term Ii Ks (r.v)^t left out", "Modelling specular reflection",
          dict(no_specular=True)),
