@@ -147,9 +147,28 @@ def _verdict(d_best, group, matches, explained, rms, pixel, student, best_img, c
 class Diagnoser:
     """The candidates of one scene and method, rendered once, for diagnosing many images.
 
-    ``Diagnoser(scene, "phong")(image)`` is ``diagnose(image, scene, "phong")``;
-    a lecturer marking a class renders the catalogue once and scores each
-    student's image in milliseconds. Parameters as :func:`diagnose`.
+    ``Diagnoser(scene, "phong")(image)`` is ``diagnose(image, scene, "phong")``:
+    a lecturer marking a class renders the catalogue once, and each student's
+    image then costs only its scoring.
+
+    Parameters
+    ----------
+    scene, method, camera, encoding, tolerance
+        As for :func:`diagnose`.
+    filtered : bool
+        Re-score the ``REFIT`` closest candidates with a fitted sub-pixel
+        shift and blur (:func:`~raycast_shade.study.diagnose.score.sse_filtered`),
+        so that a student's own anti-aliasing is not held against the image.
+
+    Attributes
+    ----------
+    candidates : tuple of Candidate
+    images : dict of str to (H, W, 3) float32
+        Each candidate's image in display levels 0..255, before rounding.
+    weights : (H, W) float64
+        1 on the interior pixels that are scored.
+    frame : Frame
+        Our render in the method asked for (its ``explain`` gives the verdict's printout).
     """
 
     def __init__(self, scene, method: str = "phong", *, camera=None, encoding: str = "srgb",
@@ -169,14 +188,22 @@ class Diagnoser:
         self.weights = interior_weights([label, label[::-1], np.asarray(half.geom)])
         if not self.weights.any():
             raise ValueError("scene: no interior pixel to compare (the models cover too few pixels at this size)")
-        shaded, self.images = {}, {}
+        shaded, encoded, self.images = {}, {}, {}
         gathered = {False: gather(scene.geometry, hits), True: gather(scene.geometry, half)}
         for c in cands:
             key = replace(c.mistake, encoding="srgb", flip=False, bgr=False)
             if key not in shaded:
                 shaded[key] = shade_variant(scene, camera, half if key.half_pixel else hits, method, key,
                                             gathered[key.half_pixel])
-            self.images[c.name] = encode(shaded[key], c.mistake) * 255.0
+            enc = (key, c.mistake.encoding)  # the curve once per shading and encoding; rows and channels after
+            if enc not in encoded:
+                encoded[enc] = (encode(shaded[key], replace(key, encoding=c.mistake.encoding)) * 255.0
+                                ).astype(np.float32)
+            img = encoded[enc]
+            img = img[::-1] if c.mistake.flip else img
+            img = img[..., ::-1] if c.mistake.bgr else img
+            self.images[c.name] = np.ascontiguousarray(img)
+        del shaded
 
     def __call__(self, image) -> Diagnosis:
         """Diagnose one image (a file or an array, as :func:`diagnose` takes)."""
