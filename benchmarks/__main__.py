@@ -69,6 +69,9 @@ REGISTRY = [
     dict(name="vision_checks", module="benchmarks.vision_checks",
          title="Vision checks: exporters, lens distortion and optical flow against OpenCV, pycolmap and closed forms",
          csv=["vision_checks.csv"], images=[], page="vision.md"),
+    dict(name="diagnose", module="benchmarks.diagnose_confusion",
+         title="Diagnose: the confusion matrix of the student-image classifier, and its time at 640x480",
+         csv=["diagnose_*.csv"], images=["diagnose_confusion.png"], page="diagnose.md"),
 ]
 
 
