@@ -16,6 +16,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..common.validate import as_bool, as_choice, as_instance, as_scalar
 from ..render import render
 from ..study.diagnose.catalogue import catalogue
 from ..study.diagnose.score import interior_weights, read_student, sse, sse_filtered
@@ -173,12 +174,13 @@ class Diagnoser:
 
     def __init__(self, scene, method: str = "phong", *, camera=None, encoding: str = "srgb",
                  tolerance: float = TOLERANCE, filtered: bool = True):
-        if method not in ("flat", "gouraud", "phong"):
-            raise ValueError(f"method: expected one of ['flat', 'gouraud', 'phong'], got {method!r}")
-        if not (isinstance(tolerance, (int, float)) and np.isfinite(tolerance) and tolerance > 0):
-            raise ValueError(f"tolerance: must be a finite number > 0, got {tolerance!r}")
-        self.method, self.tolerance, self.filtered = method, float(tolerance), bool(filtered)
-        self.camera = camera = camera or scene.camera
+        scene, camera = _check_scene_camera(scene, camera)
+        method = as_choice(method, "method", ("flat", "gouraud", "phong"))
+        encoding = as_choice(encoding, "encoding", ("srgb", "linear", "auto"))
+        # Levels^2 summed over the interior: past 1e12 every candidate would be one class.
+        tolerance = as_scalar(tolerance, "tolerance", minimum=0.0, exclusive=True, maximum=1e12)
+        self.method, self.tolerance, self.filtered = method, float(tolerance), as_bool(filtered, "filtered")
+        self.camera = camera
         check_scene(scene)
         self.candidates = cands = catalogue(method, scene, encoding)
         self.frame = frame = render(scene, method, camera=camera)
@@ -248,6 +250,20 @@ class Diagnoser:
                          str(self.frame.explain(*pixel)))
 
 
+def _check_scene_camera(scene, camera):
+    """``(scene, camera)`` checked: a Scene, and a Camera (``camera`` or the scene's own)."""
+    from ..scene.camera import Camera
+    from ..scene.scene import Scene
+
+    as_instance(scene, "scene", Scene)
+    if camera is not None:
+        as_instance(camera, "camera", Camera)
+    cam = camera if camera is not None else scene.camera
+    if cam is None:
+        raise ValueError("camera: the scene has no camera; pass camera=")
+    return scene, cam
+
+
 def diagnose(image, scene, method: str = "phong", *, camera=None, encoding: str = "srgb",
              tolerance: float = TOLERANCE) -> Diagnosis:
     """Say which of the lecture's choices or common mistakes best explains an image.
@@ -281,9 +297,7 @@ def diagnose(image, scene, method: str = "phong", *, camera=None, encoding: str 
         Unknown method or encoding, a scene feature not modelled, an image of
         the wrong size, blank, or not an image.
     """
-    cam = camera or getattr(scene, "camera", None)
-    if cam is None or not hasattr(cam, "width"):
-        raise TypeError(f"scene: expected a Scene with a camera, got {type(scene).__name__}")
+    scene, cam = _check_scene_camera(scene, camera)
     student = read_student(image, (cam.height, cam.width))  # refused before anything renders
     return Diagnoser(scene, method, camera=camera, encoding=encoding, tolerance=tolerance)._score(student)
 

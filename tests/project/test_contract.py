@@ -134,6 +134,8 @@ def baselines(tmp):
         "to_uint8": (rs.to_uint8, dict(image=image, exposure=1.0, tonemap="clamp", gamma="srgb")),
         "winding_conflicts": (rs.winding_conflicts, dict(vertices=mesh.vertices, faces=mesh.faces)),
         "explain": (rs.explain, dict(frame=frame, x=3, y=4)),
+        "diagnose": (rs.diagnose, dict(image=rs.to_uint8(frame.image), scene=scene, method="phong", camera=cam,
+                                       encoding="srgb", tolerance=1.0)),
         "shapes.icosphere": (rs.shapes.icosphere, dict(subdivisions=1, radius=1.0, center=(0.0, 0.0, 0.0))),
         "shapes.uv_sphere": (rs.shapes.uv_sphere, dict(rings=4, segments=6, radius=1.0, center=(0.0, 0.0, 0.0))),
         "shapes.torus": (rs.shapes.torus, dict(major_radius=1.0, minor_radius=0.35, major_segments=8,
@@ -198,6 +200,7 @@ NOT_CALLED_IN_MODULES = {"shapes.SHAPES": "a table", "bump.WRAPS": "a tuple", "b
 
 # (callable, argument, bad value) -> why the value is legal. Reviewed: each is a real use.
 LEGAL = {
+    ("diagnose", "camera", "None"): "the scene's own camera",
     ("Camera.fit", "margin", "0"): "no margin: the extreme point touches the frame",
     **{(f, a, "None"): "None is the documented default" for f, a in [
         ("Material", "kd"),
