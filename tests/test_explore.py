@@ -219,17 +219,19 @@ def test_orbit_light_turns_a_spot_light_with_it():
 
 def test_size_fits_and_panels_are_labelled():
     ex = Explorer(_scene(40, 30))
-    assert ex.image.layout.width == "480px"  # 12 display pixels per pixel
+    assert ex.image.layout.width == "440px"
     assert [t.value for t in ex.titles.children] == [
-        "<div style='text-align:center;font-weight:bold;width:480px'>Phong</div>"]
+        "<div style='text-align:center;font-weight:bold;width:440px'>Phong</div>"]
     ex.controls["shading"].value = SIDE_BY_SIDE
-    assert ex.image.layout.width == "720px"  # three panels of 240
+    assert ex.image.layout.width == "660px"  # three panels of 220
     assert ["flat" in t.value for t in ex.titles.children] == [True, False, False]
     assert "Gouraud" in ex.titles.children[1].value and "Phong" in ex.titles.children[2].value
     small = Explorer(_scene(40, 30), width=200)
-    assert small.image.layout.width == "200px"  # 5 x 40
+    assert small.image.layout.width == "200px"
+    assert Explorer(_scene(40, 30), width=20).image.layout.width == "40px"  # never below the frame's size
     with pytest.raises(ValueError, match="width"):
         Explorer(_scene(40, 30), width=4)
+    assert all(c.layout.width in ("250px", "120px") for c in ex.controls.values())  # two columns of 250
 
 
 def test_reset_returns_to_the_scene_and_save_writes_the_picture(tmp_path):
@@ -251,9 +253,9 @@ def test_reset_returns_to_the_scene_and_save_writes_the_picture(tmp_path):
 def test_a_click_explains_the_pixel_under_the_mouse_beside_the_image():
     ex = Explorer(_scene(40, 30))
     ex.controls["shading"].value = SIDE_BY_SIDE
-    # a click at display (x, y) on the 720x180 picture: the middle panel (Gouraud), pixel (10, 20)
-    ex.click({"relativeX": 240 + 10 * 6 + 3, "relativeY": 20 * 6 + 2, "boundingRectWidth": 720,
-              "boundingRectHeight": 180})
+    # a click at display (x, y) on the 660x165 picture: the middle panel (Gouraud), pixel (10, 20)
+    ex.click({"relativeX": 220 + 10 * 5.5 + 3, "relativeY": 20 * 5.5 + 2, "boundingRectWidth": 660,
+              "boundingRectHeight": 165})
     assert (ex.pixel["panel"].value, ex.pixel["x"].value, ex.pixel["y"].value) == (1, 10, 20)
     text = ex.explanation.value
     assert "Gouraud panel, pixel (10, 20)" in text

@@ -17,10 +17,11 @@ a directional light stays directional). A value no slider can show (a light
 of intensity 0 on the logarithmic slider) is refused with a ValueError.
 ``max_depth`` is bounded as in :func:`raycast_shade.render`.
 
-Size: the picture is drawn ``width`` pixels wide (480 by default; side by
-side, the three panels up to 1.5 times that), pixels upscaled as squares,
-with the controls in two columns beside it and the explanation under them:
-all of it fits a 1366x768 screen.
+Size: the picture is drawn ``width`` pixels wide (440 by default; side by
+side, each panel half of that, never below the frame's own width), the
+pixels drawn as squares (``image-rendering: pixelated``), with the controls
+in two columns beside it and the explanation under them: all of it fits a
+1366x768 screen with JupyterLab's file browser open.
 
 Each change re-renders at once. What makes that live: the camera never
 moves, so the hit buffer of each interpolation is cast once and kept, and a
@@ -65,7 +66,7 @@ from ..visibility.interpolation import to_screen_space
 __all__ = ["explore", "Explorer", "SIDE_BY_SIDE", "reference_png", "DEFAULT_WIDTH"]
 
 SIDE_BY_SIDE = "flat | gouraud | phong"
-DEFAULT_WIDTH = 480  # display pixels of one frame: legible, and leaves room for the controls on 1366 px
+DEFAULT_WIDTH = 440  # display pixels of one frame: legible, and leaves room for the controls on 1366 px
 _LABELS = {"flat": "flat", "gouraud": "Gouraud", "phong": "Phong"}
 _LIGHT_CONTROLS = ("azimuth", "elevation", "distance", "intensity", "attenuation", "k")
 _CSS = "<style>img.rs-explorer-image {image-rendering: pixelated; image-rendering: crisp-edges;}</style>"
@@ -125,8 +126,8 @@ class Explorer:
     max_depth : int
         Mirror bounces, as ``render``'s (0 to 64).
     width : int
-        Display width in pixels of one frame (side by side: up to 1.5 times
-        it for the three); pixels are upscaled as squares.
+        Display width in pixels of one frame (side by side: half of it per
+        panel); never below the frame's own width.
     save_dir : str or path-like
         Where the save button writes ``explorer_001.png``, ...
 
@@ -202,7 +203,7 @@ class Explorer:
         lo_i, hi_i = _exponents(intensity, -3, 4, f"light {self.light} intensity")
         lo_t, hi_t = _exponents(mat.shininess, 0, 3, "material shininess")
         lo_k, hi_k = _exponents(k, -2, 2, f"light {self.light} k")
-        ds = dict(style={"description_width": "90px"}, layout=widgets.Layout(width="290px"))
+        ds = dict(style={"description_width": "80px"}, layout=widgets.Layout(width="250px"))
         fs = dict(continuous_update=True, readout_format=".3g", **ds)
 
         def slider(cls, value, lo, hi, description, **kw):
@@ -245,15 +246,16 @@ class Explorer:
         h, w = self.camera.height, self.camera.width
         self.pixel = dict(
             x=widgets.BoundedIntText(value=w // 2, min=0, max=w - 1, description="pixel x",
-                                     layout=widgets.Layout(width="150px"), style={"description_width": "50px"}),
+                                     layout=widgets.Layout(width="130px"), style={"description_width": "50px"}),
             y=widgets.BoundedIntText(value=h // 2, min=0, max=h - 1, description="y",
                                      layout=widgets.Layout(width="110px"), style={"description_width": "20px"}),
             panel=widgets.BoundedIntText(value=0, min=0, max=2, description="panel",
                                          layout=widgets.Layout(width="110px"), style={"description_width": "40px"}))
-        self.explanation = widgets.HTML(layout=widgets.Layout(width="590px", height="290px", overflow="auto",
+        self.explanation = widgets.HTML(layout=widgets.Layout(width="510px", height="280px", overflow="auto",
                                                               border="1px solid #ccc"))
         self.status = widgets.Label("click a pixel to explain it" + ("" if self._click_events() else
-                                                                    " (pip install ipyevents; or set x, y)"))
+                                                                    " (pip install ipyevents; or set x, y)"),
+                                    layout=widgets.Layout(width="500px"))
         reset = widgets.Button(description="reset", layout=widgets.Layout(width="80px"))
         save = widgets.Button(description="save frame", layout=widgets.Layout(width="100px"))
         reset.on_click(lambda _: self.reset())
@@ -262,6 +264,7 @@ class Explorer:
         light = widgets.VBox([c[k] for k in _LIGHT_CONTROLS])
         material = widgets.VBox([c[k] for k in ("ka", "kd", "ks", "t", "specular", "shading")])
         view = widgets.HBox([c["interpolation"], c["wireframe"]])
+        c["wireframe"].layout.width = "120px"
         pixel = widgets.HBox([self.pixel["x"], self.pixel["y"], self.pixel["panel"]])
         right = widgets.VBox([widgets.HBox([light, material]), view, widgets.HBox([reset, save, pixel]),
                               self.status, self.explanation])
@@ -387,10 +390,10 @@ class Explorer:
         return np.concatenate(panels, axis=1) if len(panels) > 1 else panels[0]
 
     def panel_width(self) -> int:
-        """Display pixels of one panel: an integer multiple of the frame's width where one fits."""
-        w, n = self.camera.width, len(self.methods())
-        room = self.width if n == 1 else int(1.5 * self.width) // n
-        return w * max(1, room // w) if room >= w else room
+        """Display pixels of one panel: ``width`` (side by side, half of it), never below the frame's
+        own width; the browser draws the pixels as squares (``image-rendering: pixelated``)."""
+        room = self.width if len(self.methods()) == 1 else self.width // 2
+        return max(self.camera.width, room)
 
     def update(self) -> bytes:
         """Re-render, put the PNG into the image widget and re-explain the chosen pixel; returns the PNG."""
