@@ -191,8 +191,9 @@ def test_notebook_runs_and_shows_its_figures_as_images(browser, lab, name, min_i
 def _scroll_to_heading(browser, text):
     found = browser.find_elements(By.XPATH, f"//h2[starts-with(normalize-space(.), '{text}')]")
     assert found, text
-    browser.execute_script("arguments[0].scrollIntoView({block: 'start'});", found[0])
-    time.sleep(0.8)
+    for _ in range(3):  # the notebook renders cells as they come into view, which moves the ones below
+        browser.execute_script("arguments[0].scrollIntoView({block: 'start'});", found[0])
+        time.sleep(0.8)
 
 
 def _image_src(browser):
@@ -205,14 +206,21 @@ def test_explorer_slider_and_click(browser, lab):
     WebDriverWait(browser, 60).until(lambda d: _image_src(d))
     errors, pngs, text = _outputs(browser)
     assert not errors and "Traceback" not in text
+    # close the file browser, as in a lecture: a click on its (active) tab in the left side bar
+    browser.find_element(By.CSS_SELECTOR, ".jp-SideBar.jp-mod-left li[data-id='filebrowser']").click()
+    time.sleep(0.8)
     img = browser.find_element(By.CSS_SELECTOR, "img.rs-explorer-image")
-    browser.execute_script("arguments[0].scrollIntoView({block: 'start'});", img)
+    browser.execute_script("arguments[0].closest('.jp-OutputArea-output').scrollIntoView({block: 'start'});", img)
     time.sleep(0.5)
-    # every control of the explorer is on a 1366x768 screen together with the picture
-    rect = browser.execute_script(
-        "const w = document.querySelector('img.rs-explorer-image').closest('.widget-vbox');"
-        "const r = w.getBoundingClientRect(); return [r.width, r.height];")
-    assert rect[0] <= 1366 and rect[1] <= 768, rect
+    # the controls stand beside the picture (no wrapping) and all of it fits a 1366x768 screen
+    box = browser.execute_script(
+        "const i = document.querySelector('img.rs-explorer-image').getBoundingClientRect();"
+        "const s = [...document.querySelectorAll('.widget-slider')].map(e => e.getBoundingClientRect());"
+        "const w = document.querySelector('img.rs-explorer-image').closest('.widget-hbox').parentElement"
+        ".getBoundingClientRect();"
+        "return [i.right, Math.min(...s.map(r => r.left)), Math.min(...s.map(r => r.top)), i.top, w.width, w.height];")
+    assert box[1] >= box[0] and box[2] < box[3] + 40, box  # sliders right of the picture, level with its top
+    assert box[4] <= 1366 and box[5] <= 768, box
     # one slider step: focus the azimuth slider's handle, press the right arrow
     steps = []
     for _ in range(3):
@@ -227,8 +235,6 @@ def test_explorer_slider_and_click(browser, lab):
     _shot(browser, "explorer")
     # a click on a pixel: its explanation appears beside the picture
     img = browser.find_element(By.CSS_SELECTOR, "img.rs-explorer-image")
-    browser.execute_script("arguments[0].scrollIntoView({block: 'center'});", img)
-    time.sleep(0.5)
     w, h = img.size["width"], img.size["height"]
     panel = w / 3  # the notebook ends with the three panels side by side
     px, py = int(panel * 2 + panel * 0.55), int(h * 0.30)  # on the Phong panel's sphere

@@ -18,10 +18,10 @@ of intensity 0 on the logarithmic slider) is refused with a ValueError.
 ``max_depth`` is bounded as in :func:`raycast_shade.render`.
 
 Size: the picture is drawn ``width`` pixels wide (440 by default; side by
-side, each panel half of that, never below the frame's own width), the
+side, each panel a third of that, never below the frame's own width), the
 pixels drawn as squares (``image-rendering: pixelated``), with the controls
 in two columns beside it and the explanation under them: all of it fits a
-1366x768 screen with JupyterLab's file browser open.
+1366x768 screen in JupyterLab with the file browser closed (Ctrl+B).
 
 Each change re-renders at once. What makes that live: the camera never
 moves, so the hit buffer of each interpolation is cast once and kept, and a
@@ -126,7 +126,7 @@ class Explorer:
     max_depth : int
         Mirror bounces, as ``render``'s (0 to 64).
     width : int
-        Display width in pixels of one frame (side by side: half of it per
+        Display width in pixels of one frame (side by side: a third of it per
         panel); never below the frame's own width.
     save_dir : str or path-like
         Where the save button writes ``explorer_001.png``, ...
@@ -203,7 +203,7 @@ class Explorer:
         lo_i, hi_i = _exponents(intensity, -3, 4, f"light {self.light} intensity")
         lo_t, hi_t = _exponents(mat.shininess, 0, 3, "material shininess")
         lo_k, hi_k = _exponents(k, -2, 2, f"light {self.light} k")
-        ds = dict(style={"description_width": "80px"}, layout=widgets.Layout(width="250px"))
+        ds = dict(style={"description_width": "90px"}, layout=widgets.Layout(width="250px"))
         fs = dict(continuous_update=True, readout_format=".3g", **ds)
 
         def slider(cls, value, lo, hi, description, **kw):
@@ -246,28 +246,27 @@ class Explorer:
         h, w = self.camera.height, self.camera.width
         self.pixel = dict(
             x=widgets.BoundedIntText(value=w // 2, min=0, max=w - 1, description="pixel x",
-                                     layout=widgets.Layout(width="130px"), style={"description_width": "50px"}),
+                                     layout=widgets.Layout(width="115px"), style={"description_width": "45px"}),
             y=widgets.BoundedIntText(value=h // 2, min=0, max=h - 1, description="y",
-                                     layout=widgets.Layout(width="110px"), style={"description_width": "20px"}),
+                                     layout=widgets.Layout(width="85px"), style={"description_width": "15px"}),
             panel=widgets.BoundedIntText(value=0, min=0, max=2, description="panel",
-                                         layout=widgets.Layout(width="110px"), style={"description_width": "40px"}))
-        self.explanation = widgets.HTML(layout=widgets.Layout(width="510px", height="280px", overflow="auto",
+                                         layout=widgets.Layout(width="100px"), style={"description_width": "40px"}))
+        self.explanation = widgets.HTML(layout=widgets.Layout(width="505px", height="190px", overflow="auto",
                                                               border="1px solid #ccc"))
         self.status = widgets.Label("click a pixel to explain it" + ("" if self._click_events() else
                                                                     " (pip install ipyevents; or set x, y)"),
                                     layout=widgets.Layout(width="500px"))
-        reset = widgets.Button(description="reset", layout=widgets.Layout(width="80px"))
-        save = widgets.Button(description="save frame", layout=widgets.Layout(width="100px"))
+        reset = widgets.Button(description="reset", layout=widgets.Layout(width="70px"))
+        save = widgets.Button(description="save frame", layout=widgets.Layout(width="95px"))
         reset.on_click(lambda _: self.reset())
         save.on_click(lambda _: self._save_clicked())
         self.buttons = dict(reset=reset, save=save)
         light = widgets.VBox([c[k] for k in _LIGHT_CONTROLS])
         material = widgets.VBox([c[k] for k in ("ka", "kd", "ks", "t", "specular", "shading")])
-        view = widgets.HBox([c["interpolation"], c["wireframe"]])
-        c["wireframe"].layout.width = "120px"
-        pixel = widgets.HBox([self.pixel["x"], self.pixel["y"], self.pixel["panel"]])
-        right = widgets.VBox([widgets.HBox([light, material]), view, widgets.HBox([reset, save, pixel]),
-                              self.status, self.explanation])
+        c["wireframe"].layout.width = "105px"
+        view = widgets.HBox([c["interpolation"], c["wireframe"], reset])
+        pixel = widgets.HBox([save, self.pixel["x"], self.pixel["y"], self.pixel["panel"]])
+        right = widgets.VBox([widgets.HBox([light, material]), view, pixel, self.status, self.explanation])
         left = widgets.VBox([self.titles, self.image])
         self.widget = widgets.VBox([widgets.HTML(_CSS), widgets.HBox([left, right],
                                                                     layout=widgets.Layout(flex_flow="row wrap"))])
@@ -390,9 +389,9 @@ class Explorer:
         return np.concatenate(panels, axis=1) if len(panels) > 1 else panels[0]
 
     def panel_width(self) -> int:
-        """Display pixels of one panel: ``width`` (side by side, half of it), never below the frame's
+        """Display pixels of one panel: ``width`` (side by side, a third of it), never below the frame's
         own width; the browser draws the pixels as squares (``image-rendering: pixelated``)."""
-        room = self.width if len(self.methods()) == 1 else self.width // 2
+        room = self.width if len(self.methods()) == 1 else self.width // 3
         return max(self.camera.width, room)
 
     def update(self) -> bytes:
@@ -449,7 +448,7 @@ class Explorer:
         x, y = self.pixel["x"].value, self.pixel["y"].value
         e = self.frames[panel].explain(x, y)
         label = _LABELS[self.frames[panel].shading]
-        self.explanation.value = (f"<pre style='font-size:11px;line-height:1.25;margin:4px'>"
+        self.explanation.value = (f"<pre style='font-size:10px;line-height:1.2;margin:4px;white-space:pre-wrap'>"
                                   f"{html.escape(label)} panel, pixel ({x}, {y})\n{html.escape(str(e))}</pre>")
         return e
 
