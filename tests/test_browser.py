@@ -33,6 +33,7 @@ if not (os.path.exists(CHROMIUM) and os.path.exists(CHROMEDRIVER)):  # .ci/run i
                 "does it)", pytrace=False)
 
 from selenium import webdriver  # noqa: E402
+from selenium.common.exceptions import TimeoutException  # noqa: E402
 from selenium.webdriver.common.action_chains import ActionChains  # noqa: E402
 from selenium.webdriver.common.by import By  # noqa: E402
 from selenium.webdriver.common.keys import Keys  # noqa: E402
@@ -40,7 +41,12 @@ from selenium.webdriver.support.ui import WebDriverWait  # noqa: E402
 
 TIMINGS: dict = {}
 # Scripts look only inside the notebook panel on screen.
-P_JS = "const P = '.jp-NotebookPanel:not(.lm-mod-hidden)';"
+P_JS = ("const P = '.jp-NotebookPanel:not(.lm-mod-hidden)';"
+        "const S = document.querySelector(P + ' .jp-Notebook-ExecutionIndicator')"
+        " || document.querySelector('.jp-Notebook-ExecutionIndicator');"
+        "const idle = S && S.getAttribute('data-status') === 'idle';")
+ERRORS = (".jp-OutputArea-output[data-mime-type='application/vnd.jupyter.stderr'] .ansi-red-fg, "
+          ".jp-RenderedText[data-mime-type='application/vnd.jupyter.error']")
 
 
 def _free_port() -> int:
@@ -111,10 +117,8 @@ def _open(browser, lab, name):
     browser.get(f"{url}/lab/workspaces/{name.split('.')[0]}/tree/{name}?token={token}&reset")
     WebDriverWait(browser, 120).until(lambda d: d.find_elements(By.CSS_SELECTOR, ".jp-Notebook .jp-Cell"))
     # the kernel is up when the status bar names it and says Idle
-    WebDriverWait(browser, 120).until(lambda d: d.execute_script(P_JS +
-        "const s = document.querySelector(P + ' .jp-Notebook-ExecutionIndicator') || document.querySelector('.jp-Notebook-ExecutionIndicator');"
-        "return s && s.getAttribute('data-status') === 'idle' && "
-        "document.body.innerText.includes('Python 3 (ipykernel) | Idle');"))
+    WebDriverWait(browser, 120).until(lambda d: d.execute_script(
+        P_JS + "return idle && document.body.innerText.includes('Python 3 (ipykernel) | Idle');"))
 
 
 def _menu(browser, top, item):
@@ -132,23 +136,22 @@ def _run_all(browser, timeout=150) -> float:
     for attempt in range(3):  # a Run All sent while the kernel is still connecting can be dropped
         _menu(browser, "Run", "Run All Cells")
         try:
-            WebDriverWait(browser, 20, poll_frequency=0.1).until(lambda d: d.execute_script(P_JS +
+            WebDriverWait(browser, 60, poll_frequency=0.1).until(lambda d: d.execute_script(P_JS +
                 "return [...document.querySelectorAll(P + ' .jp-CodeCell .jp-InputPrompt')]"
                 ".some(e => e.textContent.includes('*') || e.textContent !== e.getAttribute('data-rs-before'));"))
             break
         except Exception:
             if attempt == 2:
                 raise
-    done = (P_JS + "const p = [...document.querySelectorAll(P + ' .jp-CodeCell .jp-InputPrompt')].map(e => e.textContent);"
-            "const s = document.querySelector(P + ' .jp-Notebook-ExecutionIndicator') || document.querySelector('.jp-Notebook-ExecutionIndicator');"
-            "return p.length > 0 && p.every(t => /\\[\\d+\\]/.test(t)) && s && s.getAttribute('data-status') === 'idle';")
+    done = (P_JS + "const p = [...document.querySelectorAll(P + ' .jp-CodeCell .jp-InputPrompt')]"
+            ".map(e => e.textContent); return p.length > 0 && p.every(t => /\\[\\d+\\]/.test(t)) && idle;")
     time.sleep(1.0)
     WebDriverWait(browser, timeout, poll_frequency=0.25).until(lambda d: d.execute_script(done))
     return time.perf_counter() - t0
 
 
 def _outputs(browser):
-    errors = browser.find_elements(By.CSS_SELECTOR, ".jp-OutputArea-output[data-mime-type='application/vnd.jupyter.stderr'] .ansi-red-fg, .jp-RenderedText[data-mime-type='application/vnd.jupyter.error']")
+    errors = browser.find_elements(By.CSS_SELECTOR, ERRORS)
     pngs = browser.execute_script(P_JS +
         "return [...document.querySelectorAll(P + ' .jp-OutputArea-output img')]"
         ".filter(i => i.src.startsWith('data:image/png') && i.naturalWidth > 0).length;")
@@ -213,13 +216,21 @@ def test_explorer_slider_and_click(browser, lab):
     browser.execute_script("arguments[0].closest('.jp-OutputArea-output').scrollIntoView({block: 'start'});", img)
     time.sleep(0.5)
     # the controls stand beside the picture (no wrapping) and all of it fits a 1366x768 screen
-    box = browser.execute_script(
-        "const i = document.querySelector('img.rs-explorer-image').getBoundingClientRect();"
-        "const s = [...document.querySelectorAll('.widget-slider')].map(e => e.getBoundingClientRect());"
-        "const w = document.querySelector('img.rs-explorer-image').closest('.widget-hbox').parentElement"
-        ".getBoundingClientRect();"
-        "return [i.right, Math.min(...s.map(r => r.left)), Math.min(...s.map(r => r.top)), i.top, w.width, w.height];")
-    assert box[1] >= box[0] and box[2] < box[3] + 40, box  # sliders right of the picture, level with its top
+    layout = ("const i = document.querySelector('img.rs-explorer-image').getBoundingClientRect();"
+              "const s = [...document.querySelectorAll('.widget-slider')].map(e => e.getBoundingClientRect());"
+              "const w = document.querySelector('img.rs-explorer-image').closest('.widget-hbox').parentElement"
+              ".getBoundingClientRect();"
+              "return [i.right, Math.min(...s.map(r => r.left)), Math.min(...s.map(r => r.top)), i.top, w.width,"
+              " w.height];")
+    beside = lambda b: b[1] >= b[0] and b[2] < b[3] + 40  # noqa: E731 - sliders right of the picture, at its top
+    try:  # the last widget updates may still be on their way to the page
+        WebDriverWait(browser, 15, poll_frequency=0.2).until(lambda d: beside(d.execute_script(layout)))
+    except TimeoutException:
+        pass
+    box = browser.execute_script(layout)
+    if not beside(box):
+        browser.save_screenshot(str(lab[2] / "explorer_layout_failed.png"))
+    assert beside(box), (box, str(lab[2] / "explorer_layout_failed.png"))
     assert box[4] <= 1366 and box[5] <= 768, box
     # one slider step: focus the azimuth slider's handle, press the right arrow
     steps = []
