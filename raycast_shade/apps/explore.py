@@ -43,6 +43,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import threading
 import warnings
 
 import numpy as np
@@ -170,6 +171,7 @@ class Explorer:
         self.centre = geo.origin.copy()
         self._hits = {}
         self._quiet = False
+        self._lock = threading.RLock()
         self.controls = self._make_controls(widgets, scene, geo.scale)
         self.initial = self.values()
         self.frame, self.frames, self.saved = None, [], []
@@ -291,13 +293,14 @@ class Explorer:
 
     def reset(self) -> None:
         """Every control back to the scene's own value; one re-render."""
-        self._quiet = True
-        try:
-            for name, value in self.initial.items():
-                self.controls[name].value = value
-        finally:
-            self._quiet = False
-        self.update()
+        with self._lock:
+            self._quiet = True
+            try:
+                for name, value in self.initial.items():
+                    self.controls[name].value = value
+            finally:
+                self._quiet = False
+            self.update()
 
     # -- the scene ---------------------------------------------------------------------------------------
 
@@ -379,13 +382,13 @@ class Explorer:
         """(H, W, 3) uint8, or (H, 3 W, 3) side by side: what the image widget shows."""
         v = self.values()
         scene = self.scene()
-        panels, self.frames = [], []
+        panels, frames = [], []
         for method in self.methods():
             frame = self.render(scene, method, v["interpolation"])
             image = frame.overlay(wireframe=True) if v["wireframe"] else frame.image
             panels.append(to_uint8(image))
-            self.frames.append(frame)
-            self.frame = frame
+            frames.append(frame)
+        self.frames, self.frame = frames, frames[-1]  # swapped in whole, never seen half built
         return np.concatenate(panels, axis=1) if len(panels) > 1 else panels[0]
 
     def panel_width(self) -> int:
@@ -395,7 +398,15 @@ class Explorer:
         return max(self.camera.width, room)
 
     def update(self) -> bytes:
-        """Re-render, put the PNG into the image widget and re-explain the chosen pixel; returns the PNG."""
+        """Re-render, put the PNG into the image widget and re-explain the chosen pixel; returns the PNG.
+
+        One update at a time: the kernel may deliver a widget's change from the browser on another
+        thread while a cell is changing the controls, and the picture, the titles and the explanation
+        must come from one state."""
+        with self._lock:
+            return self._update()
+
+    def _update(self) -> bytes:
         data = png_bytes(self.picture())
         self.image.value = data
         pw = self.panel_width()
@@ -415,14 +426,15 @@ class Explorer:
     def explain(self, x: int, y: int, panel: int | None = None):
         """The :func:`raycast_shade.explain` of pixel (x, y) of a panel (the last by default), and it
         becomes the pixel explained beside the image."""
-        panel = len(self.frames) - 1 if panel is None else panel
-        self._quiet = True
-        try:
-            self.pixel["panel"].value = panel
-            self.pixel["x"].value, self.pixel["y"].value = x, y
-        finally:
-            self._quiet = False
-        return self._explain()
+        with self._lock:
+            panel = len(self.frames) - 1 if panel is None else panel
+            self._quiet = True
+            try:
+                self.pixel["panel"].value = panel
+                self.pixel["x"].value, self.pixel["y"].value = x, y
+            finally:
+                self._quiet = False
+            return self._explain()
 
     def click(self, event: dict) -> None:
         """An ipyevents click on the image: the pixel under the mouse, in the panel it fell in."""
@@ -440,6 +452,10 @@ class Explorer:
             self._explain()
 
     def _explain(self):
+        with self._lock:
+            return self._explain_now()
+
+    def _explain_now(self):
         import html
 
         if not self.frames:
