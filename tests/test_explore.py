@@ -272,3 +272,38 @@ def html_unescape(text):
     import html
 
     return html.unescape(text)
+
+
+def test_changes_from_two_threads_leave_one_consistent_state():
+    """The kernel may deliver a browser-side change on another thread while a cell sets controls."""
+    import threading
+
+    ex = Explorer(_scene(24, 18))
+
+    def browser_side():
+        for a in (10.0, 20.0, 30.0, 40.0):
+            ex.controls["azimuth"].value = a
+
+    t = threading.Thread(target=browser_side)
+    t.start()
+    for shading in (SIDE_BY_SIDE, "gouraud", SIDE_BY_SIDE):
+        ex.controls["shading"].value = shading
+    t.join()
+    ex.controls["wireframe"].value = True  # one more update after both threads are done
+    assert len(ex.titles.children) == len(ex.frames) == 3
+    assert ex.image.layout.width == f"{len(ex.frames) * ex.panel_width()}px"
+    assert bytes(ex.image.value) == reference_png(ex)
+
+
+def test_a_value_the_browser_snaps_to_its_slider_grid_keeps_the_scene_s_field():
+    """The browser's log slider snaps shininess 40 to 10**1.6 = 39.81 and sends it back; that is the start."""
+    ex = Explorer(_scene(24, 18))
+    start = bytes(ex.image.value)
+    ex.controls["t"].value = 10 ** 1.6  # what JupyterLab sends back for t = 20 -> here: a value off the grid
+    snapped = 10 ** (round(np.log10(ex.initial["t"]) / ex.controls["t"].step) * ex.controls["t"].step)
+    ex.controls["t"].value = snapped
+    ex.controls["azimuth"].value = round(ex.initial["azimuth"])  # the linear slider's grid: whole degrees
+    assert ex.scene().models[0].material.shininess == 20.0 and bytes(ex.image.value) == start
+    np.testing.assert_array_equal(ex.scene().lights[0].position, ex.base.lights[0].position)
+    ex.controls["t"].value = 10 ** (np.log10(ex.initial["t"]) + ex.controls["t"].step)  # one step: a change
+    assert ex.scene().models[0].material.shininess != 20.0 and bytes(ex.image.value) != start

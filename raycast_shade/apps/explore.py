@@ -287,6 +287,20 @@ class Explorer:
         self._events.on_dom_event(self.click)
         return True
 
+    def at_start(self, name: str, values: dict) -> bool:
+        """Whether control ``name`` is at its start value: equal, or for a slider within half a
+        step of it (the browser's slider snaps the scene's value to its grid, 40 to 39.81 on a
+        logarithmic one, and sends that back; the field then stays the scene's own)."""
+        v, s, c = values[name], self.initial[name], self.controls[name]
+        if v == s:
+            return True
+        step = getattr(c, "step", None)
+        if not isinstance(v, float) or not step:
+            return False
+        if hasattr(c, "base"):  # FloatLogSlider: the step is in the exponent
+            return v > 0 and s > 0 and abs(math.log(v / s, c.base)) <= 0.5 * step * (1 + 1e-9)
+        return abs(v - s) <= 0.5 * step * (1 + 1e-9)
+
     def values(self) -> dict:
         """The controls' current values, by name."""
         return {name: c.value for name, c in self.controls.items()}
@@ -307,30 +321,32 @@ class Explorer:
     def _material(self, v):
         old = self.base.models[self.model].material
         s = self.initial
-        if all(v[k] == s[k] for k in ("ka", "kd", "ks", "t", "specular")):
+        at = self.at_start
+        if all(at(k, v) for k in ("ka", "kd", "ks", "t", "specular")):
             return old
 
         def coef(name, field, tint):  # a control left alone keeps the field as given, bit for bit
-            return getattr(old, field) if v[name] == s[name] else v[name] * tint
+            return getattr(old, field) if at(name, v) else v[name] * tint
 
         return dataclasses.replace(old, ka=coef("ka", "ka", self._tint_ka), kd=coef("kd", "kd", self._tint),
                                    ks=coef("ks", "ks", self._tint_ks),
-                                   shininess=old.shininess if v["t"] == s["t"] else v["t"], specular=v["specular"])
+                                   shininess=old.shininess if at("t", v) else v["t"], specular=v["specular"])
 
     def _light(self, v):
         s = self.initial
         prev = self.base.lights[self.light] if self.base.lights else None
-        moved = any(v[k] != s[k] for k in ("azimuth", "elevation", "distance"))
-        if prev is not None and all(v[k] == s[k] for k in _LIGHT_CONTROLS):
+        at = self.at_start
+        moved = not all(at(k, v) for k in ("azimuth", "elevation", "distance"))
+        if prev is not None and all(at(k, v) for k in _LIGHT_CONTROLS):
             return prev  # as given: replace() would re-normalise a direction by an ulp
         if prev is None:
             return PointLight(self.centre + _offset(v["azimuth"], v["elevation"], v["distance"]),
                               intensity=v["intensity"], attenuation=v["attenuation"], k=v["k"])
-        intensity = prev.intensity if v["intensity"] == s["intensity"] else v["intensity"]
+        intensity = prev.intensity if at("intensity", v) else v["intensity"]
         if isinstance(prev, DirectionalLight):
             direction = -_offset(v["azimuth"], v["elevation"], 1.0) if moved else prev.direction
             return dataclasses.replace(prev, direction=direction, intensity=intensity)
-        changes = dict(intensity=intensity, attenuation=v["attenuation"], k=prev.k if v["k"] == s["k"] else v["k"])
+        changes = dict(intensity=intensity, attenuation=v["attenuation"], k=prev.k if at("k", v) else v["k"])
         if moved:
             changes["position"] = self.centre + _offset(v["azimuth"], v["elevation"], v["distance"])
             if isinstance(prev, SpotLight):  # turns with its position, as a rigid body about the centre
