@@ -52,14 +52,15 @@ __all__ = [
     "WindingWarning", "winding_conflicts",
     "ShadingWarning", "BumpIgnoredWarning", "ColourRangeWarning", "CreaseWarning", "DroppedOnLoadWarning",
     "LightInsideWarning", "NoLightsWarning", "ZeroNormalWarning", "EmptyViewWarning", "figures", "overlays",
-    "explain", "explore", "render_views", "diagnose",
+    "explain", "explore", "render_views", "diagnose", "warmup", "animate_light", "animate_orbit",
 ]
 
 # Imported on first access: figures needs matplotlib and explore ipywidgets (the
 # "notebook" extra), render_views the batch machinery, and none belongs on the start-up
 # path of ``raycast-shade demo``.
 _LAZY = {"figures": ".output.figures", "overlays": ".output.overlays"}
-_LAZY_FUNCTIONS = {"explore": ".apps.explore", "render_views": ".apps.views", "diagnose": ".apps.diagnose"}
+_LAZY_FUNCTIONS = {"explore": ".apps.explore", "render_views": ".apps.views", "diagnose": ".apps.diagnose",
+                   "warmup": ".apps.warmup", "animate_light": ".apps.movie", "animate_orbit": ".apps.movie"}
 
 
 def __getattr__(name):

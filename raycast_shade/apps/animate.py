@@ -34,7 +34,7 @@ from ..common.choices import ORBITS, VIDEO_EXTS
 from ..common.validate import as_choice
 from ..output.imagefile import atomic_target
 from ..scene.camera import Camera
-from ..scene.lights import DirectionalLight, PointLight
+from ..scene.lights import DirectionalLight, PointLight, SpotLight
 from ..scene.scene import Scene
 from .args import (add_render_options, add_tone_options, finite_float, nonnegative_int, overrides, positive_float,
                    positive_int, shading_label)
@@ -145,7 +145,9 @@ def orbit_light(scene: Scene, frames: int, *, light_index: int = 0, degrees: flo
     """One light circles the scene; everything else stays.
 
     A point light's position turns about an axis through ``center``; a
-    directional light's direction turns about ``axis``.
+    directional light's direction turns about ``axis``; a spot light turns
+    as a rigid body, its position about ``center`` and its axis with it (so
+    a spot aimed at the scene stays aimed at it).
 
     Parameters
     ----------
@@ -186,7 +188,9 @@ def orbit_light(scene: Scene, frames: int, *, light_index: int = 0, degrees: flo
     scenes = []
     for a in _angles(frames, degrees):
         r = _rotation(axis, a)
-        if isinstance(light, PointLight):
+        if isinstance(light, SpotLight):
+            moved = dataclasses.replace(light, position=c + r @ (light.position - c), direction=r @ light.direction)
+        elif isinstance(light, PointLight):
             moved = dataclasses.replace(light, position=c + r @ (light.position - c))
         elif isinstance(light, DirectionalLight):
             moved = dataclasses.replace(light, direction=r @ light.direction)

@@ -122,6 +122,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     register_diagnose(sub)
 
+    from .warmup import register_cli as register_warmup
+
+    register_warmup(sub)
+
     sub.add_parser("info", help="versions and the Embree library in use",
                    description="Print the versions of raycast_shade and its engines, and the Embree library path.")
     return parser
@@ -303,6 +307,8 @@ def main(argv=None) -> int:
             from .inspect import run_cli as command
         elif args.command == "diagnose":
             from .diagnose import run_cli as command
+        elif args.command == "warmup":
+            from .warmup import run_cli as command
         else:
             command = {"demo": _cmd_demo, "render": _cmd_render, "info": _cmd_info}[args.command]
         with warnings.catch_warnings():  # restores showwarning on the way out

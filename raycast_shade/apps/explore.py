@@ -3,8 +3,25 @@
 Controls (ipywidgets, the ``notebook`` extra): the light's azimuth,
 elevation, distance and intensity; ``ka``, ``kd``, ``ks`` and the shininess
 ``t`` of one model; the attenuation law and its ``k``; the shading method,
-or flat | Gouraud | Phong side by side; the interpolation (3D or 2D);
-Phong's ``r.v`` or Blinn's ``n.h``; and a wireframe overlay.
+or flat | Gouraud | Phong side by side (each panel labelled); the
+interpolation (3D or 2D); Phong's ``r.v`` or Blinn's ``n.h``; a wireframe
+overlay; reset and save. A click on a pixel (with ipyevents installed; the
+pixel's x and y boxes otherwise) prints its :func:`raycast_shade.explain`
+beside the image, and keeps it up to date as the controls move.
+
+It shows exactly the scene it is given: each slider's range widens to take
+the scene's value (``ks = 1.5``, a shininess of 5000, a light of 1e5), and a
+control left at its start value leaves that field of the scene as it was
+(bit for bit: an RGB ``ka`` or ``ks`` keeps its tint, a spot light its cone,
+a directional light stays directional). A value no slider can show (a light
+of intensity 0 on the logarithmic slider) is refused with a ValueError.
+``max_depth`` is bounded as in :func:`raycast_shade.render`.
+
+Size: the picture is drawn ``width`` pixels wide (440 by default; side by
+side, each panel a third of that, never below the frame's own width), the
+pixels drawn as squares (``image-rendering: pixelated``), with the controls
+in two columns beside it and the explanation under them: all of it fits a
+1366x768 screen in JupyterLab with the file browser closed (Ctrl+B).
 
 Each change re-renders at once. What makes that live: the camera never
 moves, so the hit buffer of each interpolation is cast once and kept, and a
@@ -15,13 +32,19 @@ The image is exactly :func:`raycast_shade.render` of :meth:`Explorer.scene`
 ``benchmarks/bench_explore.py``.
 
 The light is placed on a sphere around the centre of the scene's bounding
-box: azimuth about +y from +z (degrees), elevation above the xz plane.
+box: azimuth about +y from +z (degrees), elevation above the xz plane. A
+spot light turns with its position (its axis keeps its angle to the line to
+the centre); a directional light's direction is the one from that point to
+the centre.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+import os
+import threading
+import warnings
 
 import numpy as np
 
@@ -31,19 +54,22 @@ from ..common.validate import as_int
 from ..output.frame import Frame
 from ..output.imagefile import png_bytes
 from ..output.tonemap import to_uint8
-from ..scene.lights import PointLight
+from ..scene.lights import DirectionalLight, PointLight, SpotLight
 from ..scene.scene import Model, Scene
-from ..shading.mirrors import trace_mirrors
+from ..shading.mirrors import MAX_MIRROR_DEPTH, trace_mirrors
 from ..shading.shade import shade_hits
 from ..shading.terms import with_materials
 from ..study.explain import explain
 from ..visibility.cast import cast_camera, resolve_caster, secondary_rays
 from ..visibility.interpolation import to_screen_space
 
-__all__ = ["explore", "Explorer", "SIDE_BY_SIDE"]
+__all__ = ["explore", "Explorer", "SIDE_BY_SIDE", "DEFAULT_WIDTH"]
 
 SIDE_BY_SIDE = "flat | gouraud | phong"
-
+DEFAULT_WIDTH = 440  # display pixels of one frame: legible, and leaves room for the controls on 1366 px
+_LABELS = {"flat": "flat", "gouraud": "Gouraud", "phong": "Phong"}
+_LIGHT_CONTROLS = ("azimuth", "elevation", "distance", "intensity", "attenuation", "k")
+_CSS = "<style>img.rs-explorer-image {image-rendering: pixelated; image-rendering: crisp-edges;}</style>"
 
 
 def _spherical(offset):
@@ -60,6 +86,30 @@ def _offset(azimuth, elevation, distance):
     return distance * np.array([math.cos(e) * math.sin(a), math.sin(e), math.cos(e) * math.cos(a)])
 
 
+def _turn(azimuth, elevation) -> np.ndarray:
+    """(3, 3) rotation taking +z to the unit vector at ``azimuth``, ``elevation``."""
+    a, e = math.radians(azimuth), math.radians(elevation)
+    ry = np.array([[math.cos(a), 0.0, math.sin(a)], [0.0, 1.0, 0.0], [-math.sin(a), 0.0, math.cos(a)]])
+    rx = np.array([[1.0, 0.0, 0.0], [0.0, math.cos(e), -math.sin(e)], [0.0, math.sin(e), math.cos(e)]])
+    return ry @ rx.T
+
+
+def _exponents(value, low, high, name):
+    """Log-slider exponent range [low, high] widened to take ``value`` (> 0)."""
+    if not value > 0.0:
+        raise ValueError(f"{name}: the explorer's slider is logarithmic and cannot show {value:g}; "
+                         "give it a positive value")
+    e = math.log10(value)
+    return min(low, math.floor(e)), max(high, math.ceil(e))
+
+
+def _tint(value) -> tuple:
+    """(slider value, tint): an RGB coefficient as its largest channel times a tint."""
+    v = np.broadcast_to(np.asarray(value, np.float64), (3,))
+    top = float(v.max())
+    return top, (v / top if top > 0 else np.ones(3))
+
+
 class Explorer:
     """The widgets of :func:`explore` and the scene they describe.
 
@@ -71,10 +121,15 @@ class Explorer:
     model : int
         The model whose material the sliders set.
     light : int
-        The light the sliders move; it becomes a point light (keeping its
-        colour and shadows). A scene without lights gets one.
+        The light the sliders move (point, spot or directional, kept so).
+        A scene without lights gets a point light, with a warning.
     max_depth : int
-        Mirror bounces, as ``render``'s.
+        Mirror bounces, as ``render``'s (0 to 64).
+    width : int
+        Display width in pixels of one frame (side by side: a third of it per
+        panel); never below the frame's own width.
+    save_dir : str or path-like
+        Where the save button writes ``explorer_001.png``, ...
 
     Attributes
     ----------
@@ -82,15 +137,20 @@ class Explorer:
         ``azimuth``, ``elevation``, ``distance``, ``intensity``, ``ka``,
         ``kd``, ``ks``, ``t``, ``attenuation``, ``k``, ``shading``,
         ``interpolation``, ``specular``, ``wireframe``.
+    pixel : dict of str to ipywidgets.BoundedIntText
+        ``x``, ``y`` of the explained pixel; ``panel`` which frame side by side.
     image : ipywidgets.Image
-        The PNG of the current frame.
+        The PNG of the current frame (or of the three side by side).
+    explanation : ipywidgets.HTML
+        The explained pixel's :func:`raycast_shade.explain`.
     widget : ipywidgets.Widget
-        Image and controls, for display.
+        Everything, for display.
     frame : Frame
-        The current frame (the left one side by side is flat; this is the Phong one).
+        The current frame (side by side: the Phong one); ``frames`` all panels.
     """
 
-    def __init__(self, scene, camera=None, *, model: int = 0, light: int = 0, max_depth: int = 3):
+    def __init__(self, scene, camera=None, *, model: int = 0, light: int = 0, max_depth: int = 3,
+                 width: int = DEFAULT_WIDTH, save_dir=".") -> None:
         widgets = require("ipywidgets", "ipywidgets", "explore()", "notebook")
         if not isinstance(scene, Scene):
             raise TypeError(f"scene: expected a Scene, got {type(scene).__name__}")
@@ -99,80 +159,215 @@ class Explorer:
             raise ValueError("camera: the scene has no camera and none was passed")
         self.model = as_int(model, "model", minimum=0, maximum=len(scene.models) - 1)
         self.light = as_int(light, "light", minimum=0, maximum=max(len(scene.lights) - 1, 0))
-        self.max_depth = as_int(max_depth, "max_depth", minimum=0)
+        self.max_depth = as_int(max_depth, "max_depth", minimum=0, maximum=MAX_MIRROR_DEPTH)
+        self.width = as_int(width, "width", minimum=16, maximum=4096)
+        self.save_dir = os.fspath(save_dir)
+        if not scene.lights:
+            warnings.warn("explore: the scene has no lights; the explorer adds a white point light "
+                          "(Explorer.scene() includes it)", stacklevel=3)
         self.base = scene
         geo = scene.geometry
         self.centre = geo.origin.copy()
         self._hits = {}
-        controls = self._make_controls(widgets, scene, geo.scale)
-        self.controls = controls
-        self.image = widgets.Image(format="png")
-        self.frame = None
-        rows = [widgets.HBox([controls[k] for k in names]) for names in (
-            ("azimuth", "elevation", "distance", "intensity"), ("ka", "kd", "ks", "t"),
-            ("attenuation", "k", "specular", "wireframe"), ("shading",), ("interpolation",))]
-        self.widget = widgets.VBox([self.image] + rows)
-        for control in controls.values():
+        self._quiet = False
+        self._lock = threading.RLock()
+        self.controls = self._make_controls(widgets, scene, geo.scale)
+        self.initial = self.values()
+        self.frame, self.frames, self.saved = None, [], []
+        self._build_layout(widgets)
+        for control in self.controls.values():
             control.observe(self._changed, "value")
+        for control in self.pixel.values():
+            control.observe(self._explain_changed, "value")
         self.update()
+
+    # -- controls ----------------------------------------------------------------------------------------
+
+    def _light_start(self, scene, scale):
+        """(azimuth, elevation, distance, law, k, intensity) of the explored light."""
+        old = scene.lights[self.light] if scene.lights else None
+        if isinstance(old, PointLight):
+            az, el, dist = _spherical(old.position - self.centre)
+            return az, el, dist, old.attenuation, old.k, old.intensity
+        direction = -np.asarray(old.direction, np.float64) if old is not None else np.ones(3) / math.sqrt(3.0)
+        az, el, dist = _spherical(direction * 2.0 * scale)
+        return az, el, dist, "none", 1.0, old.intensity if old is not None else 1.0
 
     def _make_controls(self, widgets, scene, scale):
         mat = scene.models[self.model].material
         old = scene.lights[self.light] if scene.lights else None
-        if isinstance(old, PointLight):
-            az, el, dist = _spherical(old.position - self.centre)
-            law, k, intensity = old.attenuation, old.k, old.intensity
-        else:
-            direction = -old.direction if old is not None else np.array([1.0, 1.0, 1.0]) / math.sqrt(3.0)
-            az, el, dist = _spherical(direction * 2.0 * scale)
-            law, k, intensity = "none", 1.0, old.intensity if old is not None else 1.0
-        kd0 = float(np.max(mat.kd))
-        self._tint = mat.kd / kd0 if kd0 > 0 else np.ones(3)
-        fs = dict(continuous_update=True, readout_format=".3g", style={"description_width": "initial"})
-        return dict(
-            azimuth=widgets.FloatSlider(value=az, min=-180.0, max=180.0, step=1.0, description="azimuth", **fs),
-            elevation=widgets.FloatSlider(value=el, min=-89.0, max=89.0, step=1.0, description="elevation", **fs),
-            distance=widgets.FloatSlider(value=dist, min=0.05 * scale, max=max(10.0 * scale, 2 * dist),
-                                         step=0.01 * scale, description="distance d", **fs),
-            intensity=widgets.FloatLogSlider(value=max(intensity, 1e-3), min=-3, max=4, description="Ii", **fs),
-            ka=widgets.FloatSlider(value=float(np.max(mat.ka)), min=0.0, max=1.0, step=0.01, description="ka", **fs),
-            kd=widgets.FloatSlider(value=kd0, min=0.0, max=1.0, step=0.01, description="kd", **fs),
-            ks=widgets.FloatSlider(value=float(np.max(mat.ks)), min=0.0, max=1.0, step=0.01, description="Ks", **fs),
-            t=widgets.FloatLogSlider(value=mat.shininess, min=0, max=3, description="t (shininess)", **fs),
-            attenuation=widgets.Dropdown(options=list(ATTENUATIONS), value=law, description="attenuation"),
-            k=widgets.FloatLogSlider(value=k, min=-2, max=2, description="k (heuristic)", **fs),
-            shading=widgets.ToggleButtons(options=list(SHADINGS) + [SIDE_BY_SIDE], value="phong",
-                                          description="shading"),
-            interpolation=widgets.ToggleButtons(options=list(INTERPOLATIONS), value="perspective",
-                                                description="interpolation"),
-            specular=widgets.ToggleButtons(options=list(SPECULAR_MODELS), value=mat.specular, description="specular"),
-            wireframe=widgets.Checkbox(value=False, description="wireframe"),
+        az, el, dist, law, k, intensity = self._light_start(scene, scale)
+        self._kind = "directional" if isinstance(old, DirectionalLight) else "point"
+        ka, self._tint_ka = _tint(mat.ka)
+        kd, self._tint = _tint(mat.kd)
+        ks, self._tint_ks = _tint(mat.ks)
+        lo_i, hi_i = _exponents(intensity, -3, 4, f"light {self.light} intensity")
+        lo_t, hi_t = _exponents(mat.shininess, 0, 3, "material shininess")
+        lo_k, hi_k = _exponents(k, -2, 2, f"light {self.light} k")
+        ds = dict(style={"description_width": "90px"}, layout=widgets.Layout(width="250px"))
+        fs = dict(continuous_update=True, readout_format=".3g", **ds)
+
+        def slider(cls, value, lo, hi, description, **kw):
+            # min and max first: a value set before its range would be clamped to the default one
+            w = cls(min=lo, max=hi, description=description, **kw, **fs)
+            w.value = value
+            return w
+
+        controls = dict(
+            azimuth=slider(widgets.FloatSlider, az, -180.0, 180.0, "azimuth", step=1.0),
+            elevation=slider(widgets.FloatSlider, el, -90.0, 90.0, "elevation", step=1.0),
+            distance=slider(widgets.FloatSlider, dist, min(0.05 * scale, dist), max(10.0 * scale, 2.0 * dist),
+                            "distance d", step=0.01 * scale),
+            intensity=slider(widgets.FloatLogSlider, intensity, lo_i, hi_i, "Ii"),
+            ka=slider(widgets.FloatSlider, ka, 0.0, max(1.0, ka), "ka", step=0.01),
+            kd=slider(widgets.FloatSlider, kd, 0.0, max(1.0, kd), "kd", step=0.01),
+            ks=slider(widgets.FloatSlider, ks, 0.0, max(1.0, ks), "Ks", step=0.01),
+            t=slider(widgets.FloatLogSlider, float(mat.shininess), lo_t, hi_t, "t (shininess)"),
+            attenuation=widgets.Dropdown(options=list(ATTENUATIONS), value=law, description="attenuation", **ds),
+            k=slider(widgets.FloatLogSlider, k, lo_k, hi_k, "k (heuristic)"),
+            shading=widgets.Dropdown(options=list(SHADINGS) + [SIDE_BY_SIDE], value="phong", description="shading",
+                                     **ds),
+            interpolation=widgets.Dropdown(options=list(INTERPOLATIONS), value="perspective",
+                                           description="interpolation", **ds),
+            specular=widgets.Dropdown(options=list(SPECULAR_MODELS), value=mat.specular, description="specular",
+                                      **ds),
+            wireframe=widgets.Checkbox(value=False, description="wireframe", indent=False,
+                                       layout=widgets.Layout(width="140px")),
         )
+        if self._kind == "directional":  # no position: no distance, no attenuation
+            for name in ("distance", "attenuation", "k"):
+                controls[name].disabled = True
+        return controls
+
+    def _build_layout(self, widgets):
+        c = self.controls
+        self.image = widgets.Image(format="png")
+        self.image.add_class("rs-explorer-image")
+        self.titles = widgets.HBox([])
+        h, w = self.camera.height, self.camera.width
+        self.pixel = dict(
+            x=widgets.BoundedIntText(value=w // 2, min=0, max=w - 1, description="pixel x",
+                                     layout=widgets.Layout(width="115px"), style={"description_width": "45px"}),
+            y=widgets.BoundedIntText(value=h // 2, min=0, max=h - 1, description="y",
+                                     layout=widgets.Layout(width="85px"), style={"description_width": "15px"}),
+            panel=widgets.BoundedIntText(value=0, min=0, max=2, description="panel",
+                                         layout=widgets.Layout(width="100px"), style={"description_width": "40px"}))
+        self.explanation = widgets.HTML(layout=widgets.Layout(width="505px", height="190px", overflow="auto",
+                                                              border="1px solid #ccc"))
+        self.status = widgets.Label("click a pixel to explain it" + ("" if self._click_events() else
+                                                                    " (pip install ipyevents; or set x, y)"),
+                                    layout=widgets.Layout(width="500px"))
+        reset = widgets.Button(description="reset", layout=widgets.Layout(width="70px"))
+        save = widgets.Button(description="save frame", layout=widgets.Layout(width="95px"))
+        reset.on_click(lambda _: self.reset())
+        save.on_click(lambda _: self._save_clicked())
+        self.buttons = dict(reset=reset, save=save)
+        light = widgets.VBox([c[k] for k in _LIGHT_CONTROLS])
+        material = widgets.VBox([c[k] for k in ("ka", "kd", "ks", "t", "specular", "shading")])
+        c["wireframe"].layout.width = "105px"
+        view = widgets.HBox([c["interpolation"], c["wireframe"], reset])
+        pixel = widgets.HBox([save, self.pixel["x"], self.pixel["y"], self.pixel["panel"]])
+        right = widgets.VBox([widgets.HBox([light, material]), view, pixel, self.status, self.explanation])
+        left = widgets.VBox([self.titles, self.image])
+        self.widget = widgets.VBox([widgets.HTML(_CSS), widgets.HBox([left, right],
+                                                                    layout=widgets.Layout(flex_flow="row wrap"))])
+        self._widgets = widgets
+
+    def _click_events(self) -> bool:
+        """Clicks on the image through ipyevents, when it is installed."""
+        if getattr(self, "_events", None) is not None:
+            return True
+        try:
+            from ipyevents import Event
+        except ImportError:
+            self._events = None
+            return False
+        self._events = Event(source=self.image, watched_events=["click"])
+        self._events.on_dom_event(self.click)
+        return True
+
+    def at_start(self, name: str, values: dict) -> bool:
+        """Whether control ``name`` is at its start value: equal, or for a slider within half a
+        step of it (the browser's slider snaps the scene's value to its grid, 40 to 39.81 on a
+        logarithmic one, and sends that back; the field then stays the scene's own)."""
+        v, s, c = values[name], self.initial[name], self.controls[name]
+        if v == s:
+            return True
+        step = getattr(c, "step", None)
+        if not isinstance(v, float) or not step:
+            return False
+        if hasattr(c, "base"):  # FloatLogSlider: the step is in the exponent
+            return v > 0 and s > 0 and abs(math.log(v / s, c.base)) <= 0.5 * step * (1 + 1e-9)
+        return abs(v - s) <= 0.5 * step * (1 + 1e-9)
 
     def values(self) -> dict:
         """The controls' current values, by name."""
         return {name: c.value for name, c in self.controls.items()}
 
-    def scene(self) -> Scene:
-        """The scene the controls describe: new material on the chosen model, the light moved."""
-        v = self.values()
+    def reset(self) -> None:
+        """Every control back to the scene's own value; one re-render."""
+        with self._lock:
+            self._quiet = True
+            try:
+                for name, value in self.initial.items():
+                    self.controls[name].value = value
+            finally:
+                self._quiet = False
+            self.update()
+
+    # -- the scene ---------------------------------------------------------------------------------------
+
+    def _material(self, v):
         old = self.base.models[self.model].material
-        material = dataclasses.replace(old, ka=v["ka"], kd=v["kd"] * self._tint, ks=v["ks"], shininess=v["t"],
-                                       specular=v["specular"])
-        models = list(self.base.models)
-        models[self.model] = Model(models[self.model].mesh, material)
+        s = self.initial
+        at = self.at_start
+        if all(at(k, v) for k in ("ka", "kd", "ks", "t", "specular")):
+            return old
+
+        def coef(name, field, tint):  # a control left alone keeps the field as given, bit for bit
+            return getattr(old, field) if at(name, v) else v[name] * tint
+
+        return dataclasses.replace(old, ka=coef("ka", "ka", self._tint_ka), kd=coef("kd", "kd", self._tint),
+                                   ks=coef("ks", "ks", self._tint_ks),
+                                   shininess=old.shininess if at("t", v) else v["t"], specular=v["specular"])
+
+    def _light(self, v):
+        s = self.initial
         prev = self.base.lights[self.light] if self.base.lights else None
-        light = PointLight(self.centre + _offset(v["azimuth"], v["elevation"], v["distance"]),
-                           intensity=v["intensity"], color=prev.color if prev is not None else 1.0,
-                           attenuation=v["attenuation"], k=v["k"],
-                           shadows=bool(prev.shadows) if prev is not None else False)
+        at = self.at_start
+        moved = not all(at(k, v) for k in ("azimuth", "elevation", "distance"))
+        if prev is not None and all(at(k, v) for k in _LIGHT_CONTROLS):
+            return prev  # as given: replace() would re-normalise a direction by an ulp
+        if prev is None:
+            return PointLight(self.centre + _offset(v["azimuth"], v["elevation"], v["distance"]),
+                              intensity=v["intensity"], attenuation=v["attenuation"], k=v["k"])
+        intensity = prev.intensity if at("intensity", v) else v["intensity"]
+        if isinstance(prev, DirectionalLight):
+            direction = -_offset(v["azimuth"], v["elevation"], 1.0) if moved else prev.direction
+            return dataclasses.replace(prev, direction=direction, intensity=intensity)
+        changes = dict(intensity=intensity, attenuation=v["attenuation"], k=prev.k if at("k", v) else v["k"])
+        if moved:
+            changes["position"] = self.centre + _offset(v["azimuth"], v["elevation"], v["distance"])
+            if isinstance(prev, SpotLight):  # turns with its position, as a rigid body about the centre
+                r = _turn(v["azimuth"], v["elevation"]) @ _turn(s["azimuth"], s["elevation"]).T
+                changes["direction"] = r @ np.asarray(prev.direction, np.float64)
+        return dataclasses.replace(prev, **changes)
+
+    def scene(self) -> Scene:
+        """The scene the controls describe: the chosen model's material and light as the controls set them;
+        with every control at its start, the scene given (same materials and lights)."""
+        v = self.values()
+        models = list(self.base.models)
+        models[self.model] = Model(models[self.model].mesh, self._material(v))
         lights = list(self.base.lights)
         if lights:
-            lights[self.light] = light
+            lights[self.light] = self._light(v)
         else:
-            lights = [light]
+            lights = [self._light(v)]
         rows = np.stack([m.material.packed() for m in models])  # what a fresh SceneGeometry packs
         return with_materials(self.base, rows, models=tuple(models), lights=tuple(lights))
+
+    # -- rendering ---------------------------------------------------------------------------------------
 
     def _hit_buffer(self, scene, interpolation):
         """The camera's hits, cast once per interpolation (the camera never moves)."""
@@ -193,27 +388,129 @@ class Explorer:
         return Frame(image=image, hits=hits, shading=shading, scene=scene, camera=self.camera,
                      max_depth=self.max_depth, explainer=explain)
 
+    def methods(self) -> list:
+        """The shading methods on screen, left to right."""
+        shading = self.controls["shading"].value
+        return list(SHADINGS) if shading == SIDE_BY_SIDE else [shading]
+
     def picture(self) -> np.ndarray:
         """(H, W, 3) uint8, or (H, 3 W, 3) side by side: what the image widget shows."""
         v = self.values()
         scene = self.scene()
-        methods = list(SHADINGS) if v["shading"] == SIDE_BY_SIDE else [v["shading"]]
-        panels = []
-        for method in methods:
+        panels, frames = [], []
+        for method in self.methods():
             frame = self.render(scene, method, v["interpolation"])
             image = frame.overlay(wireframe=True) if v["wireframe"] else frame.image
             panels.append(to_uint8(image))
-            self.frame = frame
+            frames.append(frame)
+        self.frames, self.frame = frames, frames[-1]  # swapped in whole, never seen half built
         return np.concatenate(panels, axis=1) if len(panels) > 1 else panels[0]
 
+    def panel_width(self) -> int:
+        """Display pixels of one panel: ``width`` (side by side, a third of it), never below the frame's
+        own width; the browser draws the pixels as squares (``image-rendering: pixelated``)."""
+        room = self.width if len(self.methods()) == 1 else self.width // 3
+        return max(self.camera.width, room)
+
     def update(self) -> bytes:
-        """Re-render and put the PNG into the image widget; returns its bytes."""
+        """Re-render, put the PNG into the image widget and re-explain the chosen pixel; returns the PNG.
+
+        One update at a time: the kernel may deliver a widget's change from the browser on another
+        thread while a cell is changing the controls, and the picture, the titles and the explanation
+        must come from one state."""
+        with self._lock:
+            return self._update()
+
+    def _update(self) -> bytes:
         data = png_bytes(self.picture())
         self.image.value = data
+        pw = self.panel_width()
+        self.image.layout.width = f"{pw * len(self.frames)}px"
+        html = "<div style='text-align:center;font-weight:bold;width:{}px'>{}</div>"
+        self.titles.children = [self._widgets.HTML(html.format(pw, _LABELS[f.shading])) for f in self.frames]
+        self.pixel["panel"].max = len(self.frames) - 1
+        self._explain()
         return data
 
     def _changed(self, change):
-        self.update()
+        if not self._quiet:
+            self.update()
+
+    # -- pixels ------------------------------------------------------------------------------------------
+
+    def explain(self, x: int, y: int, panel: int | None = None):
+        """The :func:`raycast_shade.explain` of pixel (x, y) of a panel (the last by default), and it
+        becomes the pixel explained beside the image."""
+        with self._lock:
+            panel = len(self.frames) - 1 if panel is None else panel
+            self._quiet = True
+            try:
+                self.pixel["panel"].value = panel
+                self.pixel["x"].value, self.pixel["y"].value = x, y
+            finally:
+                self._quiet = False
+            return self._explain()
+
+    def click(self, event: dict) -> None:
+        """An ipyevents click on the image: the pixel under the mouse, in the panel it fell in."""
+        n, w, h = len(self.frames), self.camera.width, self.camera.height
+        if event.get("boundingRectWidth"):
+            fx = float(event["relativeX"]) / float(event["boundingRectWidth"]) * n * w
+            fy = float(event["relativeY"]) / float(event["boundingRectHeight"]) * h
+        else:
+            fx, fy = float(event.get("dataX", 0)), float(event.get("dataY", 0))
+        ix = min(max(int(math.floor(fx)), 0), n * w - 1)
+        self.explain(ix % w, min(max(int(math.floor(fy)), 0), h - 1), ix // w)
+
+    def _explain_changed(self, change):
+        if not self._quiet:
+            self._explain()
+
+    def _explain(self):
+        with self._lock:
+            return self._explain_now()
+
+    def _explain_now(self):
+        import html
+
+        if not self.frames:
+            return None
+        panel = min(self.pixel["panel"].value, len(self.frames) - 1)
+        x, y = self.pixel["x"].value, self.pixel["y"].value
+        e = self.frames[panel].explain(x, y)
+        label = _LABELS[self.frames[panel].shading]
+        self.explanation.value = (f"<pre style='font-size:10px;line-height:1.2;margin:4px;white-space:pre-wrap'>"
+                                  f"{html.escape(label)} panel, pixel ({x}, {y})\n{html.escape(str(e))}</pre>")
+        return e
+
+    # -- saving ------------------------------------------------------------------------------------------
+
+    def save(self, path=None) -> str:
+        """Write the picture on screen as a PNG (its own pixels, panels side by side); returns the path.
+
+        Parameters
+        ----------
+        path : str or path-like, optional
+            Ends in ``.png``; by default the next free ``explorer_NNN.png`` in ``save_dir``.
+        """
+        if path is None:
+            i = 1
+            while os.path.exists(os.path.join(self.save_dir, f"explorer_{i:03d}.png")):
+                i += 1
+            path = os.path.join(self.save_dir, f"explorer_{i:03d}.png")
+        path = os.fspath(path)
+        if not path.lower().endswith(".png"):
+            raise ValueError(f"path: the explorer saves .png files, got {path!r}")
+        with open(path, "wb") as f:
+            f.write(bytes(self.image.value))
+        self.saved.append(path)
+        return path
+
+    def _save_clicked(self):
+        try:
+            self.status.value = f"saved {self.save(None)}"
+        except OSError as exc:
+            self.status.value = f"could not save: {exc}"
 
     def _ipython_display_(self):
         from IPython.display import display
@@ -221,16 +518,19 @@ class Explorer:
         display(self.widget)
 
 
-def explore(scene, camera=None, *, model: int = 0, light: int = 0, max_depth: int = 3) -> Explorer:
+def explore(scene, camera=None, *, model: int = 0, light: int = 0, max_depth: int = 3, width: int = DEFAULT_WIDTH,
+            save_dir=".") -> Explorer:
     """Sliders for the lecture's parameters over a live render of ``scene``.
 
     Shows itself in a notebook cell; see :class:`Explorer` for the
     parameters and the widgets, :meth:`Explorer.scene` for the scene on
-    screen and ``explorer.frame.explain(x, y)`` for one of its pixels.
+    screen and :meth:`Explorer.explain` (or a click) for one of its pixels.
 
     Raises
     ------
     raycast_shade.common.extras.MissingExtraError
         Without ipywidgets: ``pip install 'raycast_shade[notebook]'``.
+    ValueError
+        ``max_depth`` above 64 (as :func:`raycast_shade.render`), a value no slider can show.
     """
-    return Explorer(scene, camera, model=model, light=light, max_depth=max_depth)
+    return Explorer(scene, camera, model=model, light=light, max_depth=max_depth, width=width, save_dir=save_dir)

@@ -1,12 +1,16 @@
 """Figures for the lecture hall and the notebook: montages, differences, scanlines.
 
 Each function returns a :class:`matplotlib.figure.Figure` made without
-pyplot (no global figure list, no backend to choose): Jupyter shows it as
-the cell's value, and ``fig.savefig("x.png")`` writes it. Matplotlib is an
-optional dependency, imported on first use: ``pip install
-'raycast_shade[notebook]'``.
+pyplot (no global figure list, no backend to choose), of the subclass
+:class:`~raycast_shade.output.lecturefigure.LectureFigure`: Jupyter shows it as
+the cell's value, as a PNG, in any kernel and without ``%matplotlib inline``,
+and ``fig.savefig("x.png")`` writes it. Matplotlib is an optional dependency,
+imported on first use: ``pip install 'raycast_shade[notebook]'``.
 
 * :func:`montage`: images side by side, tone-mapped as ``Frame.save`` does;
+  given a dict (``montage(frame.terms)``), the reflectance equation's terms
+  on one shared linear scale with a colour bar, and the shadow mask (and
+  ``keep``) as fractions on a colour map of their own;
 * :func:`difference`: a heatmap of ``a - b`` with a colour bar;
 * :func:`profile`: one image row as a plot of each channel, where
   Gouraud's kinks (the Mach bands) show at the triangle edges.
@@ -17,20 +21,25 @@ not of the 8-bit ones.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 
 from ..common.extras import require
 from ..common.validate import as_array, as_int, as_name, as_scalar
 from .tonemap import to_uint8
 
-__all__ = ["montage", "difference", "profile", "LUMINANCE"]
+__all__ = ["montage", "terms", "difference", "profile", "LUMINANCE", "FRACTION_MAP"]
 
 # Rec. 709 / sRGB luminance weights of linear R, G, B.
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
 
 def _figure(what: str, **kwargs):
-    return require("matplotlib.figure", "matplotlib", what, "notebook").Figure(**kwargs)
+    require("matplotlib.figure", "matplotlib", what, "notebook")
+    from .lecturefigure import LectureFigure
+
+    return LectureFigure(**kwargs)
 
 
 def _linear(x, name: str) -> np.ndarray:
@@ -48,10 +57,12 @@ def montage(frames_or_images, labels=None, *, columns: int | None = None, panel_
 
     Parameters
     ----------
-    frames_or_images : sequence of Frame or (H, W, 3) float
-        Linear images; frames contribute ``frame.image``.
+    frames_or_images : sequence of Frame or (H, W, 3) float, or dict of str to ndarray
+        Linear images; frames contribute ``frame.image``. A dict (such as
+        ``frame.terms``) is drawn by :func:`terms`: labelled by its keys, on
+        a shared scale with colour bars.
     labels : sequence of str, optional
-        One per image; by default a frame's shading method.
+        One per image; by default a frame's shading method (a dict's keys).
     columns : int, optional
         Panels per row; all in one row by default.
     panel_width : float
@@ -64,8 +75,14 @@ def montage(frames_or_images, labels=None, *, columns: int | None = None, panel_
     matplotlib.figure.Figure
         One axes per image, in order.
     """
-    if isinstance(frames_or_images, (str, np.ndarray)) or not hasattr(frames_or_images, "__iter__"):
-        raise TypeError(f"frames_or_images: expected a sequence of frames or images, "
+    if isinstance(frames_or_images, Mapping):
+        if labels is not None:
+            raise ValueError("labels: a dict's keys are its labels; leave labels out")
+        if tone:
+            raise TypeError(f"{', '.join(tone)}: a dict of terms is drawn on a linear scale, not tone-mapped")
+        return terms(frames_or_images, columns=columns, panel_width=panel_width)
+    if isinstance(frames_or_images, (str, bytes, np.ndarray)) or not hasattr(frames_or_images, "__iter__"):
+        raise TypeError(f"frames_or_images: expected a sequence of frames or images, or a dict, "
                         f"got {type(frames_or_images).__name__}")
     items = list(frames_or_images)
     if not items:
@@ -190,4 +207,117 @@ def profile(frame, row: int, *, columns=None, edges: bool = True, title: str | N
     ax.set_ylim(bottom=0.0)
     ax.legend(loc="upper right", fontsize="small")
     ax.set_title(title if title is not None else f"row {row}")
+    return fig
+
+
+# The fractions (shadow mask, keep) use a colour map whose 1 is not white, so a lit
+# region shows against the page: dark blue in shadow, yellow where fully lit.
+FRACTION_MAP = "cividis"
+_FRACTIONS = ("shadow", "keep")
+
+
+def _term_panels(items) -> list:
+    """(label, image, kind) per panel: kind "colour" (H, W, 3) or "fraction" (H, W)."""
+    panels = []
+    for name, value in items.items():
+        if not isinstance(name, str):
+            raise TypeError(f"terms: keys are the terms' names (str), got {type(name).__name__}")
+        a = np.asarray(value)
+        if a.dtype == np.bool_:
+            a = a.astype(np.float64)
+        if not np.issubdtype(a.dtype, np.number) or not np.all(np.isfinite(a)):
+            raise ValueError(f"terms[{name!r}]: expected finite numbers, got dtype {a.dtype}")
+        a = a.astype(np.float64)
+        stacked = a.ndim == 4 or (a.ndim == 3 and a.shape[2] != 3) or name in _FRACTIONS and a.ndim == 3
+        layers = [(f"{name}[{i}]", a[i]) for i in range(a.shape[0])] if stacked else [(name, a)]
+        for label, img in layers:
+            if img.ndim == 3 and img.shape[2] == 3:
+                panels.append((label, img, "colour"))
+            elif img.ndim == 2:
+                if img.min() < 0.0 or img.max() > 1.0:
+                    raise ValueError(f"terms[{name!r}]: a one-channel term is a fraction in [0, 1], "
+                                     f"got [{img.min():.4g}, {img.max():.4g}]")
+                panels.append((label, img, "fraction"))
+            else:
+                raise ValueError(f"terms[{name!r}]: expected (H, W, 3), (H, W), (L, H, W) or (L, H, W, 3), "
+                                 f"got shape {a.shape}")
+    return panels
+
+
+def terms(items, *, columns: int | None = None, panel_width: float = 3.0, vmax: float | None = None):
+    """The reflectance equation's terms as labelled panels on one shared scale.
+
+    Colour terms (``ambient``, ``diffuse``, ``specular``, ``reflected``, ...)
+    are drawn linearly: a pixel of value ``vmax`` is white, 0 is black, with
+    the sRGB encoding of :func:`~raycast_shade.output.tonemap.to_uint8`, and the
+    colour bar reads the linear value off the grey. One ``vmax`` for all of
+    them, so the panels compare: ``diffuse`` twice as bright as ``specular``
+    looks it. One-channel terms (the shadow mask per light, ``keep``) are
+    fractions in [0, 1] on :data:`FRACTION_MAP` (dark: shadowed, yellow: lit)
+    with a colour bar of their own.
+
+    Parameters
+    ----------
+    items : dict of str to ndarray
+        ``frame.terms``, or any names to (H, W, 3), (H, W), (L, H, W) or
+        (L, H, W, 3) arrays (a stack gives one panel per light, ``name[i]``).
+    columns : int, optional
+        Panels per row; up to 4 by default.
+    panel_width : float
+        Inches per panel.
+    vmax : float, optional
+        The linear value drawn white; the largest value of the colour terms
+        by default (values above it are drawn white, clipped).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One image axes per panel, the colour terms first (in the dict's order),
+        then the fractions; then the colour bars' axes.
+    """
+    if not isinstance(items, Mapping):
+        raise TypeError(f"items: expected a dict of term images (frame.terms), got {type(items).__name__}")
+    if not items:
+        raise ValueError("items: no terms in it; the frame's terms come with rs.render(scene, ..., terms=True)")
+    panels = _term_panels(items)
+    panels = [p for p in panels if p[2] == "colour"] + [p for p in panels if p[2] == "fraction"]  # stable
+    colour = [img for _, img, kind in panels if kind == "colour"]
+    if vmax is None:
+        vmax = max([float(img.max()) for img in colour] + [0.0]) or 1.0
+    else:
+        from ..common.validate import as_scalar
+
+        vmax = as_scalar(vmax, "vmax", minimum=0.0, exclusive=True)
+    n = len(panels)
+    columns = min(n, 4) if columns is None else int(columns)
+    if columns < 1:
+        raise ValueError(f"columns: expected an integer >= 1, got {columns}")
+    rows = -(-n // columns)
+    h, w = panels[0][1].shape[:2]
+    fig = _figure("terms", figsize=(panel_width * columns + 1.2, panel_width * rows * h / w + 0.5 * rows),
+                  layout="constrained")
+    mpl_colors = require("matplotlib.colors", "matplotlib", "terms", "notebook")
+    from matplotlib.cm import ScalarMappable
+
+    # The grey ramp as the panels show it: linear value -> sRGB, so the bar's ticks are linear values.
+    ramp = to_uint8(np.repeat(np.linspace(0.0, 1.0, 256)[:, None], 3, axis=1)[None])[0] / 255.0
+    grey = mpl_colors.ListedColormap(ramp, name="linear_srgb_grey")
+    colour_axes, fraction_axes = [], []
+    for i, (label, img, kind) in enumerate(panels):
+        ax = fig.add_subplot(rows, columns, i + 1)
+        if kind == "colour":
+            ax.imshow(to_uint8(img, exposure=1.0 / vmax), interpolation="nearest")
+            colour_axes.append(ax)
+        else:
+            ax.imshow(img, cmap=FRACTION_MAP, vmin=0.0, vmax=1.0, interpolation="nearest")
+            fraction_axes.append(ax)
+        ax.set_title(label)
+        ax.set_xticks([])
+        ax.set_yticks([])
+    if colour_axes:
+        fig.colorbar(ScalarMappable(mpl_colors.Normalize(0.0, vmax), grey), ax=colour_axes, shrink=0.85,
+                     label="linear intensity (shared scale; brighter is clipped)")
+    if fraction_axes:
+        fig.colorbar(ScalarMappable(mpl_colors.Normalize(0.0, 1.0), FRACTION_MAP), ax=fraction_axes, shrink=0.85,
+                     location="bottom", aspect=30, label="fraction lit (shadow: 0 blocked, 1 lit)")
     return fig

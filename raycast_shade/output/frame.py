@@ -10,10 +10,10 @@ import numpy as np
 
 from ..common.validate import as_scalar
 from ..visibility.hits import HitBuffer
-from .imagefile import LINEAR_EXTS, check_image_path, png_bytes, write_image
+from .imagefile import LINEAR_EXTS, check_image_path, write_image
 from .tonemap import to_uint8
 
-__all__ = ["Frame"]
+__all__ = ["Frame", "NoTerms", "TermsMissingError"]
 
 
 class _HitsSlot:
@@ -42,6 +42,51 @@ class _HitsSlot:
     def __set__(self, obj, value):
         obj.__dict__[self.slot] = value
         obj.__dict__["_hits_lock"] = threading.Lock()
+
+
+class TermsMissingError(KeyError):
+    """A term read from a frame rendered without its terms (a KeyError, so ``in`` and ``get`` behave)."""
+
+    def __str__(self) -> str:  # KeyError would print the message in quotes
+        return str(self.args[0])
+
+
+TERMS_HOW = ("this frame was rendered without its terms; render it with rs.render(scene, ..., terms=True) "
+             "(ambient, diffuse, specular, reflected, shadow, ...) or terms='per_light' (one image per light too)")
+
+
+class NoTerms(dict):
+    """``frame.terms`` of a frame rendered without them: empty (``== {}``, false), but
+    reading a term raises :class:`TermsMissingError` saying how to get them, and the
+    notebook shows that sentence rather than ``{}``."""
+
+    def __missing__(self, key):
+        raise TermsMissingError(f"frame.terms[{key!r}]: {TERMS_HOW}")
+
+    def __setitem__(self, key, value):
+        raise TypeError("frame.terms: a frame's terms are read-only")
+
+    def __repr__(self) -> str:
+        return f"NoTerms({{}}: {TERMS_HOW})"
+
+
+class _TermsSlot:
+    """The ``terms`` field: the dict of term images, or :class:`NoTerms` when there are none.
+
+    A frame rendered without ``terms=True`` has none; a plain ``{}`` would let a later
+    ``terms["diffuse"]`` fail with a bare ``KeyError: 'diffuse'``."""
+
+    def __set_name__(self, owner, name):
+        self.slot = "_" + name
+
+    def __get__(self, obj, objtype=None):
+        if obj is None:
+            return None  # the dataclass default: no terms
+        value = obj.__dict__.get(self.slot)
+        return value if value else NoTerms()
+
+    def __set__(self, obj, value):
+        obj.__dict__[self.slot] = value
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -78,7 +123,9 @@ class Frame:
     terms : dict of str to ndarray
         With ``render(..., terms=True)``: the reflectance equation's terms as
         images, ``ambient``, ``diffuse``, ``specular``, ``reflected``, the
-        shadow mask, ... (:mod:`raycast_shade.shading.terms`); empty otherwise.
+        shadow mask, ... (:mod:`raycast_shade.shading.terms`). Without them, an
+        empty :class:`NoTerms` whose every term raises :class:`TermsMissingError`
+        (a KeyError) saying how to get them (:attr:`has_terms` asks).
     max_depth : int or None
         The mirror bounces the frame was rendered with (``None``: unknown).
     explainer : callable or None
@@ -99,7 +146,7 @@ class Frame:
     decisions: tuple = ()
     tone: dict = field(default_factory=dict)
     buffers: dict = field(default_factory=dict)
-    terms: dict = field(default_factory=dict)
+    terms: dict = _TermsSlot()
     max_depth: int | None = None
     explainer: object = None
     hit_mask: np.ndarray | None = None
@@ -172,9 +219,39 @@ class Frame:
         times = ", ".join(f"{k} {v * 1e3:.1f}" for k, v in self.timings.items())
         return f"Frame({w}x{h}, shading={shading!r}" + (f", ms: {times})" if times else ")")
 
+    @property
+    def has_terms(self) -> bool:
+        """Whether the frame holds its terms (``render(..., terms=True)``)."""
+        return bool(self.__dict__.get("_terms"))
+
+    def show(self, scale: int | None = None, width: int | None = None, **tone):
+        """The picture a notebook shows: the 8-bit image (:meth:`to_uint8` with ``tone``)
+        upscaled by an integer factor, nearest neighbour, so each pixel stays a square.
+
+        Parameters
+        ----------
+        scale : int, optional
+            Display pixels per image pixel, each way (1 to 64).
+        width : int, optional
+            Display width in pixels: the largest integer scale that fits.
+            By default the picture is at least 480 pixels wide, at most 1024
+            (:func:`raycast_shade.output.display.display_scale`).
+        **tone
+            ``exposure``, ``tonemap``, ``gamma`` (over :attr:`tone`).
+
+        Returns
+        -------
+        raycast_shade.output.display.Picture
+            Shows itself in a notebook; ``.rgb`` (H, W, 3) uint8, ``.pixels`` the upscaled one.
+        """
+        from .display import Picture, display_scale
+
+        return Picture(self.to_uint8(**tone), display_scale(self.image.shape, scale, width))
+
     def _repr_png_(self) -> bytes:
-        """PNG bytes for Jupyter and IPython: the 8-bit image that :meth:`save` writes to a ``.png``."""
-        return png_bytes(self.to_uint8())
+        """PNG bytes for Jupyter and IPython: :meth:`show` at its default scale (the image
+        :meth:`save` writes, each pixel repeated as a square up to a legible width)."""
+        return self.show()._repr_png_()
 
     def overlay(self, wireframe: bool = True, vertices: bool = False, normals: bool = False, width: float = 1.0,
                 color=(1.0, 1.0, 1.0), **kwargs) -> np.ndarray:

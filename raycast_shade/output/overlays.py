@@ -37,6 +37,7 @@ from numba import njit, prange
 from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH
 from ..common.validate import as_rgb, as_scalar
 from ..visibility.rays import camera_frame
+from .display import ImageArray
 
 __all__ = ["distances", "overlay", "normal_glyphs"]
 
@@ -243,8 +244,10 @@ def overlay(frame, wireframe: bool = True, vertices: bool = False, normals: bool
 
     Returns
     -------
-    (H, W, 3) float32
-        A new linear image.
+    (H, W, 3) float32 ImageArray
+        A new linear image: an ndarray that a notebook shows as its picture
+        (:class:`~raycast_shade.output.display.ImageArray`, tone-mapped with the
+        frame's tone options, pixels upscaled as squares; ``.show(scale=...)``).
     """
     _geometry(frame)
     width = as_scalar(width, "width", minimum=0.0, exclusive=True)
@@ -265,4 +268,6 @@ def overlay(frame, wireframe: bool = True, vertices: bool = False, normals: bool
     if normals:
         mask |= normal_glyphs(frame, length, width)
     out[mask] = rgb
+    out = out.view(ImageArray)
+    out.tone = dict(getattr(frame, "tone", {}) or {})
     return out

@@ -3,6 +3,7 @@ widget holds exactly the PNG of raycast_shade.render of the scene the controls d
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import subprocess
 import sys
@@ -26,7 +27,7 @@ def reference_png(explorer: Explorer) -> bytes:
     scene = explorer.scene()
     fresh = rs.Scene(scene.models, lights=scene.lights, camera=explorer.camera, ambient=scene.ambient,
                      background=scene.background)
-    methods = list(rs.SHADINGS) if v["shading"] == SIDE_BY_SIDE else [v["shading"]]
+    methods = explorer.methods()
     panels = []
     for method in methods:
         frame = rs.render(fresh, method, interpolation=v["interpolation"], max_depth=explorer.max_depth)
@@ -119,7 +120,8 @@ def test_bad_arguments():
 
 
 def test_scene_without_lights_gets_one():
-    ex = rs.explore(_scene(16, 12).replace(lights=()))
+    with pytest.warns(UserWarning, match="no lights"):
+        ex = rs.explore(_scene(16, 12).replace(lights=()))
     assert len(ex.scene().lights) == 1 and bytes(ex.image.value) == reference_png(ex)
 
 
@@ -127,3 +129,197 @@ def test_importing_the_package_does_not_import_ipywidgets():
     code = ("import sys, raycast_shade as rs; assert 'ipywidgets' not in sys.modules; "
             "assert callable(rs.explore) and 'ipywidgets' not in sys.modules")  # imported by the first call
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+# -- the scene it was given, exactly (issue 23) ----------------------------------------------------------------
+
+def _fresh_png(scene, method="phong", max_depth=3):
+    from raycast_shade.output.imagefile import png_bytes
+
+    return png_bytes(rs.render(scene, method, max_depth=max_depth).to_uint8())
+
+
+def _given(material=None, light=None):
+    import dataclasses
+
+    base = _scene(24, 18)
+    models = list(base.models)
+    if material is not None:
+        models[0] = rs.Model(models[0].mesh, dataclasses.replace(models[0].material, **material))
+    return base.replace(models=models, lights=[light] if light is not None else base.lights)
+
+
+SPOT = rs.SpotLight(position=(1.0, 3.0, 1.0), direction=(-0.2, -1.0, -0.3), intensity=8.0, exponent=4,
+                    inner_angle=20, outer_angle=35, shadows=True, color=(1.0, 0.9, 0.7))
+GIVEN = [dict(material=dict(ks=1.5)), dict(material=dict(shininess=5000.0)), dict(material=dict(shininess=0.5)),
+         dict(material=dict(kd=(1.5, 0.6, 0.3))), dict(material=dict(ka=(0.1, 0.2, 0.4), ks=(0.9, 0.5, 0.1))),
+         dict(light=rs.PointLight((2.0, 3.0, 2.0), intensity=1e5, attenuation="inverse_square")),
+         dict(light=rs.PointLight((0.5, 4.0, 0.5), intensity=3.0, attenuation="heuristic", k=250.0)),
+         dict(light=rs.PointLight((0.0, 6.0, 0.0), intensity=30.0)),  # straight above: elevation 90
+         dict(light=SPOT), dict(light=rs.DirectionalLight((-0.3, -1.0, -0.5), intensity=0.9))]
+
+
+@pytest.mark.parametrize("given", GIVEN, ids=lambda g: str(g)[:60])
+def test_the_explorer_starts_on_exactly_the_scene_it_was_given(given):
+    scene = _given(**given)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", rs.ShadingWarning)
+        ex = Explorer(scene)
+        assert bytes(ex.image.value) == _fresh_png(scene)
+    shown = ex.scene()
+    assert type(shown.lights[0]) is type(scene.lights[0])
+    for f in dataclasses.fields(scene.lights[0]):
+        np.testing.assert_array_equal(getattr(shown.lights[0], f.name), getattr(scene.lights[0], f.name), f.name)
+    mat, given_mat = shown.models[0].material, scene.models[0].material
+    for field in ("ka", "kd", "ks", "shininess", "specular"):
+        np.testing.assert_array_equal(getattr(mat, field), getattr(given_mat, field))
+    for c in ex.controls.values():  # every value inside its control's range
+        if hasattr(c, "min"):
+            lo, hi = (10.0 ** c.min, 10.0 ** c.max) if isinstance(c, __import__("ipywidgets").FloatLogSlider) \
+                else (c.min, c.max)
+            assert lo <= c.value <= hi
+
+
+def test_a_value_no_slider_can_show_is_refused_and_depth_is_bounded():
+    with pytest.raises(ValueError, match="intensity"):
+        Explorer(_given(light=rs.PointLight((2.0, 3.0, 2.0), intensity=0.0)))
+    mirror = rs.Scene([rs.Model(rs.shapes.icosphere(1, radius=3.0), rs.Material(kd=0.0, reflectivity=1.0))],
+                      lights=[rs.PointLight((0.0, 0.5, 0.0), intensity=1.0)],
+                      camera=rs.Camera(eye=(0.0, 0.0, 0.0), target=(0.0, 0.0, -1.0), width=8, height=6))
+    with pytest.raises(ValueError, match="max_depth"):
+        Explorer(mirror, max_depth=10**6)  # refused at once, as render refuses it
+    with pytest.raises(ValueError, match="max_depth"):
+        rs.render(mirror, max_depth=10**6)
+
+
+def test_a_spot_light_turns_with_its_position_and_a_directional_light_stays_directional():
+    ex = Explorer(_given(light=SPOT))
+    centre = ex.centre
+
+    def aim(light):
+        to_centre = (centre - light.position) / np.linalg.norm(centre - light.position)
+        return float(np.dot(light.direction / np.linalg.norm(light.direction), to_centre))
+
+    before = aim(ex.scene().lights[0])
+    ex.controls["azimuth"].value = ex.controls["azimuth"].value + 90.0
+    ex.controls["elevation"].value = 30.0
+    moved = ex.scene().lights[0]
+    assert isinstance(moved, rs.SpotLight) and moved.outer_angle == SPOT.outer_angle
+    assert aim(moved) == pytest.approx(before, abs=1e-12)
+    assert bytes(ex.image.value) == reference_png(ex)
+    sun = Explorer(_given(light=rs.DirectionalLight((-0.3, -1.0, -0.5), intensity=0.9)))
+    assert sun.controls["distance"].disabled and sun.controls["attenuation"].disabled
+    sun.controls["azimuth"].value = 0.0
+    sun.controls["elevation"].value = 45.0
+    light = sun.scene().lights[0]
+    assert isinstance(light, rs.DirectionalLight)
+    np.testing.assert_allclose(light.direction, -np.array([0.0, 1.0, 1.0]) / np.sqrt(2.0), atol=1e-12)
+
+
+def test_orbit_light_turns_a_spot_light_with_it():
+    from raycast_shade.apps.animate import orbit_light
+
+    scene = _given(light=SPOT)
+    centre = scene.geometry.origin
+    for s in orbit_light(scene, 5, axis=(0.0, 1.0, 0.0), center=centre):
+        light = s.lights[0]
+        to_centre = (centre - light.position) / np.linalg.norm(centre - light.position)
+        d = light.direction / np.linalg.norm(light.direction)
+        d0 = SPOT.direction / np.linalg.norm(SPOT.direction)
+        c0 = (centre - SPOT.position) / np.linalg.norm(centre - SPOT.position)
+        assert np.dot(d, to_centre) == pytest.approx(np.dot(d0, c0), abs=1e-12)
+        assert np.linalg.norm(light.position - centre) == pytest.approx(np.linalg.norm(SPOT.position - centre))
+
+
+# -- the lecture-hall widget: size, labels, reset, save, click ----------------------------------------------
+
+def test_size_fits_and_panels_are_labelled():
+    ex = Explorer(_scene(40, 30))
+    assert ex.image.layout.width == "440px"
+    assert [t.value for t in ex.titles.children] == [
+        "<div style='text-align:center;font-weight:bold;width:440px'>Phong</div>"]
+    ex.controls["shading"].value = SIDE_BY_SIDE
+    assert ex.image.layout.width == "438px"  # three panels of 146
+    assert ["flat" in t.value for t in ex.titles.children] == [True, False, False]
+    assert "Gouraud" in ex.titles.children[1].value and "Phong" in ex.titles.children[2].value
+    small = Explorer(_scene(40, 30), width=200)
+    assert small.image.layout.width == "200px"
+    assert Explorer(_scene(40, 30), width=20).image.layout.width == "40px"  # never below the frame's size
+    with pytest.raises(ValueError, match="width"):
+        Explorer(_scene(40, 30), width=4)
+    assert all(c.layout.width in ("250px", "105px") for c in ex.controls.values())  # two columns of 250
+
+
+def test_reset_returns_to_the_scene_and_save_writes_the_picture(tmp_path):
+    ex = Explorer(_scene(24, 18), save_dir=tmp_path)
+    start = bytes(ex.image.value)
+    for name, value in CHANGES[:8]:
+        ex.controls[name].value = value
+    assert bytes(ex.image.value) != start
+    ex.reset()
+    assert bytes(ex.image.value) == start and ex.values() == ex.initial
+    ex.buttons["save"].click()
+    assert (tmp_path / "explorer_001.png").read_bytes() == start
+    assert ex.save() == str(tmp_path / "explorer_002.png")
+    assert "saved" in ex.status.value
+    with pytest.raises(ValueError, match="png"):
+        ex.save(tmp_path / "x.jpg")
+
+
+def test_a_click_explains_the_pixel_under_the_mouse_beside_the_image():
+    ex = Explorer(_scene(40, 30))
+    ex.controls["shading"].value = SIDE_BY_SIDE
+    # a click at display (x, y) on the 660x165 picture: the middle panel (Gouraud), pixel (10, 20)
+    ex.width = 660
+    ex.update()
+    ex.click({"relativeX": 220 + 10 * 5.5 + 3, "relativeY": 20 * 5.5 + 2, "boundingRectWidth": 660,
+              "boundingRectHeight": 165})
+    assert (ex.pixel["panel"].value, ex.pixel["x"].value, ex.pixel["y"].value) == (1, 10, 20)
+    text = ex.explanation.value
+    assert "Gouraud panel, pixel (10, 20)" in text
+    assert html_unescape(text).count(str(ex.frames[1].explain(10, 20))) == 1
+    ex.controls["azimuth"].value = -60.0  # the explanation follows the controls
+    assert html_unescape(ex.explanation.value).count(str(ex.frames[1].explain(10, 20))) == 1
+    ex.pixel["x"].value = 5
+    assert "pixel (5, 20)" in ex.explanation.value
+
+
+def html_unescape(text):
+    import html
+
+    return html.unescape(text)
+
+
+def test_changes_from_two_threads_leave_one_consistent_state():
+    """The kernel may deliver a browser-side change on another thread while a cell sets controls."""
+    import threading
+
+    ex = Explorer(_scene(24, 18))
+
+    def browser_side():
+        for a in (10.0, 20.0, 30.0, 40.0):
+            ex.controls["azimuth"].value = a
+
+    t = threading.Thread(target=browser_side)
+    t.start()
+    for shading in (SIDE_BY_SIDE, "gouraud", SIDE_BY_SIDE):
+        ex.controls["shading"].value = shading
+    t.join()
+    ex.controls["wireframe"].value = True  # one more update after both threads are done
+    assert len(ex.titles.children) == len(ex.frames) == 3
+    assert ex.image.layout.width == f"{len(ex.frames) * ex.panel_width()}px"
+    assert bytes(ex.image.value) == reference_png(ex)
+
+
+def test_a_value_the_browser_snaps_to_its_slider_grid_keeps_the_scene_s_field():
+    """The browser's log slider snaps shininess 40 to 10**1.6 = 39.81 and sends it back; that is the start."""
+    ex = Explorer(_scene(24, 18))
+    start = bytes(ex.image.value)
+    ex.controls["t"].value = 10 ** 1.6  # what JupyterLab sends back for t = 20 -> here: a value off the grid
+    snapped = 10 ** (round(np.log10(ex.initial["t"]) / ex.controls["t"].step) * ex.controls["t"].step)
+    ex.controls["t"].value = snapped
+    ex.controls["azimuth"].value = round(ex.initial["azimuth"])  # the linear slider's grid: whole degrees
+    assert ex.scene().models[0].material.shininess == 20.0 and bytes(ex.image.value) == start
+    np.testing.assert_array_equal(ex.scene().lights[0].position, ex.base.lights[0].position)
+    ex.controls["t"].value = 10 ** (np.log10(ex.initial["t"]) + ex.controls["t"].step)  # one step: a change
+    assert ex.scene().models[0].material.shininess != 20.0 and bytes(ex.image.value) != start

@@ -45,14 +45,18 @@ def test_repr_is_one_short_line_with_size_shading_and_timings(frame):
     assert f"total {frame.timings['total'] * 1e3:.1f}" in text
 
 
-def test_repr_png_decodes_to_exactly_the_8_bit_image(frame, tmp_path):
+def test_repr_png_decodes_to_the_8_bit_image_with_each_pixel_a_square(frame, tmp_path):
     import imageio.v3 as iio
 
     data = frame._repr_png_()
     assert data[:8] == b"\x89PNG\r\n\x1a\n"
-    np.testing.assert_array_equal(iio.imread(io.BytesIO(data)), frame.to_uint8())
+    shown = iio.imread(io.BytesIO(data))
+    s = shown.shape[1] // 64
+    assert s >= 2 and shown.shape == (48 * s, 64 * s, 3) and 64 * s >= 480  # legible, an integer scale
+    np.testing.assert_array_equal(shown[::s, ::s], frame.to_uint8())
+    np.testing.assert_array_equal(shown, np.repeat(np.repeat(frame.to_uint8(), s, 0), s, 1))
     frame.save(tmp_path / "f.png")
-    assert (tmp_path / "f.png").read_bytes() == data  # the bytes save writes for .png
+    assert (tmp_path / "f.png").read_bytes() == frame.show(scale=1)._repr_png_()  # the bytes save writes
 
 
 # -- figures ------------------------------------------------------------------------------------------------

@@ -1,0 +1,273 @@
+"""The notebooks in a real browser: JupyterLab (bound to 127.0.0.1, a token, a temporary folder)
+driven through Selenium in headless Chromium (Debian's chromium and chromium-driver, installed by
+.ci/run). Each notebook runs with Run All and shows its figures as images (not "<Figure size ...>"
+text); an explorer slider step changes the picture; a click on a pixel shows its explanation.
+
+RS_SCREENSHOTS=1 writes screenshots into docs/images/ (browser_*.png); otherwise the test writes
+nothing tracked. The timings it measures are printed (pytest -s) and, with screenshots, written to
+docs/images/browser_timings.txt."""
+
+from __future__ import annotations
+
+import os
+import pathlib
+import shutil
+import socket
+import subprocess
+import sys
+import time
+
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
+SHOTS = ROOT / "docs" / "images"
+FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+         "--disable-background-networking", "--disable-component-update", "--disable-sync",
+         "--window-size=1366,768", "--disable-dev-shm-usage"]
+
+pytest.importorskip("selenium")
+pytest.importorskip("jupyterlab")
+if not (os.path.exists(CHROMIUM) and os.path.exists(CHROMEDRIVER)):  # .ci/run installs both
+    pytest.fail(f"{CHROMIUM} and {CHROMEDRIVER} are needed (apt-get install chromium chromium-driver; .ci/run "
+                "does it)", pytrace=False)
+
+from selenium import webdriver  # noqa: E402
+from selenium.common.exceptions import TimeoutException  # noqa: E402
+from selenium.webdriver.common.action_chains import ActionChains  # noqa: E402
+from selenium.webdriver.common.by import By  # noqa: E402
+from selenium.webdriver.common.keys import Keys  # noqa: E402
+from selenium.webdriver.support.ui import WebDriverWait  # noqa: E402
+
+TIMINGS: dict = {}
+# Scripts look only inside the notebook panel on screen.
+P_JS = ("const P = '.jp-NotebookPanel:not(.lm-mod-hidden)';"
+        "const S = document.querySelector(P + ' .jp-Notebook-ExecutionIndicator')"
+        " || document.querySelector('.jp-Notebook-ExecutionIndicator');"
+        "const idle = S && S.getAttribute('data-status') === 'idle';")
+ERRORS = (".jp-OutputArea-output[data-mime-type='application/vnd.jupyter.stderr'] .ansi-red-fg, "
+          ".jp-RenderedText[data-mime-type='application/vnd.jupyter.error']")
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+def lab(tmp_path_factory):
+    """A JupyterLab server on 127.0.0.1 over a copy of notebooks/; yields (base url, token, folder)."""
+    folder = tmp_path_factory.mktemp("lab")
+    for nb in (ROOT / "notebooks").glob("*.ipynb"):
+        shutil.copy(nb, folder / nb.name)
+    port, token = _free_port(), "rs-" + os.urandom(12).hex()
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT)] + [p for p in env.get("PYTHONPATH", "").split(os.pathsep) if p])
+    for var, sub in (("JUPYTER_CONFIG_DIR", "config"), ("JUPYTER_RUNTIME_DIR", "runtime"),
+                     ("JUPYTERLAB_SETTINGS_DIR", "settings"), ("JUPYTERLAB_WORKSPACES_DIR", "workspaces")):
+        env[var] = str(folder / f".{sub}")  # nothing read from or written to the user's own Jupyter folders
+    settings = folder / ".settings" / "@jupyterlab" / "apputils-extension"
+    settings.mkdir(parents=True)
+    (settings / "notification.jupyterlab-settings").write_text('{"fetchNews": "false", "checkForUpdates": false}')
+    log = open(folder / "lab.log", "w")
+    proc = subprocess.Popen([sys.executable, "-m", "jupyterlab", "--no-browser", "--ServerApp.ip=127.0.0.1",
+                             f"--ServerApp.port={port}", "--ServerApp.port_retries=0",
+                             f"--IdentityProvider.token={token}", f"--ServerApp.root_dir={folder}",
+                             "--ServerApp.open_browser=False", "--allow-root",  # CI runs as root
+                             "--LabApp.extension_manager=readonly"],  # no look-ups on PyPI
+                            cwd=folder, env=env, stdout=log, stderr=log)
+    url = f"http://127.0.0.1:{port}"
+    deadline = time.time() + 90
+    while time.time() < deadline:
+        try:
+            with socket.create_connection(("127.0.0.1", port), timeout=1):
+                break
+        except OSError:
+            if proc.poll() is not None:
+                raise RuntimeError("jupyterlab exited: " + (folder / "lab.log").read_text()[-2000:])
+            time.sleep(0.5)
+    else:
+        proc.kill()
+        raise RuntimeError("jupyterlab did not start in 90 s: " + (folder / "lab.log").read_text()[-2000:])
+    yield url, token, folder
+    proc.terminate()
+    try:
+        proc.wait(timeout=20)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+    log.close()
+
+
+@pytest.fixture(scope="module")
+def browser(tmp_path_factory):
+    options = webdriver.ChromeOptions()
+    options.binary_location = CHROMIUM
+    for flag in FLAGS + [f"--user-data-dir={tmp_path_factory.mktemp('chromium')}"]:
+        options.add_argument(flag)
+    driver = webdriver.Chrome(service=webdriver.ChromeService(executable_path=CHROMEDRIVER), options=options)
+    driver.set_window_size(1366, 768)
+    yield driver
+    driver.quit()
+
+
+def _open(browser, lab, name):
+    url, token, _ = lab
+    # A workspace of its own, reset: only this notebook open (no tabs restored from an earlier one).
+    browser.get(f"{url}/lab/workspaces/{name.split('.')[0]}/tree/{name}?token={token}&reset")
+    WebDriverWait(browser, 120).until(lambda d: d.find_elements(By.CSS_SELECTOR, ".jp-Notebook .jp-Cell"))
+    # the kernel is up when the status bar names it and says Idle
+    WebDriverWait(browser, 120).until(lambda d: d.execute_script(
+        P_JS + "return idle && document.body.innerText.includes('Python 3 (ipykernel) | Idle');"))
+
+
+def _menu(browser, top, item):
+    browser.find_element(By.XPATH, f"//div[contains(@class,'lm-MenuBar-itemLabel') and text()='{top}']").click()
+    WebDriverWait(browser, 10).until(lambda d: d.find_elements(
+        By.XPATH, f"//div[contains(@class,'lm-Menu-itemLabel') and text()='{item}']"))
+    browser.find_element(By.XPATH, f"//div[contains(@class,'lm-Menu-itemLabel') and text()='{item}']").click()
+
+
+def _run_all(browser, timeout=150) -> float:
+    """Run All; seconds until every code cell has run (a number in its prompt) and the kernel is idle."""
+    browser.execute_script(P_JS + "[...document.querySelectorAll(P + ' .jp-CodeCell .jp-InputPrompt')]"
+                           ".forEach(e => e.setAttribute('data-rs-before', e.textContent));")
+    t0 = time.perf_counter()
+    for attempt in range(3):  # a Run All sent while the kernel is still connecting can be dropped
+        _menu(browser, "Run", "Run All Cells")
+        try:
+            WebDriverWait(browser, 60, poll_frequency=0.1).until(lambda d: d.execute_script(P_JS +
+                "return [...document.querySelectorAll(P + ' .jp-CodeCell .jp-InputPrompt')]"
+                ".some(e => e.textContent.includes('*') || e.textContent !== e.getAttribute('data-rs-before'));"))
+            break
+        except Exception:
+            if attempt == 2:
+                raise
+    done = (P_JS + "const p = [...document.querySelectorAll(P + ' .jp-CodeCell .jp-InputPrompt')]"
+            ".map(e => e.textContent); return p.length > 0 && p.every(t => /\\[\\d+\\]/.test(t)) && idle;")
+    time.sleep(1.0)
+    WebDriverWait(browser, timeout, poll_frequency=0.25).until(lambda d: d.execute_script(done))
+    return time.perf_counter() - t0
+
+
+def _outputs(browser):
+    errors = browser.find_elements(By.CSS_SELECTOR, ERRORS)
+    pngs = browser.execute_script(P_JS +
+        "return [...document.querySelectorAll(P + ' .jp-OutputArea-output img')]"
+        ".filter(i => i.src.startsWith('data:image/png') && i.naturalWidth > 0).length;")
+    text = browser.execute_script(P_JS + "return [...document.querySelectorAll(P + ' .jp-OutputArea-output')]"
+                                  ".map(e => e.innerText).join('\\n');")
+    return errors, pngs, text
+
+
+def _shot(browser, name):
+    if os.environ.get("RS_SCREENSHOTS"):
+        SHOTS.mkdir(parents=True, exist_ok=True)
+        browser.save_screenshot(str(SHOTS / f"browser_{name}.png"))
+
+
+def _scroll_to(browser, css, index=0):
+    found = browser.find_elements(By.CSS_SELECTOR, css)
+    if found:
+        browser.execute_script("arguments[0].scrollIntoView({block: 'start'});", found[min(index, len(found) - 1)])
+        time.sleep(0.5)
+
+
+@pytest.mark.parametrize("name, min_images", [("lecture", 15), ("exercise", 1)])
+def test_notebook_runs_and_shows_its_figures_as_images(browser, lab, name, min_images):
+    _open(browser, lab, f"{name}.ipynb")
+    TIMINGS[f"{name}: Run All, new kernel"] = _run_all(browser)
+    errors, pngs, text = _outputs(browser)
+    assert not errors, [e.text for e in errors][:3]
+    assert pngs >= min_images, pngs
+    assert "<Figure size" not in text and "Traceback" not in text
+    if name == "lecture":
+        assert browser.execute_script(  # the moving light plays: an animated PNG in an <img>
+            "return [...document.querySelectorAll('.rs-animation img')].filter(i => i.naturalWidth > 0).length;") == 1
+        TIMINGS[f"{name}: Run All again, same kernel"] = _run_all(browser)
+        for heading, shot in (("6. Averaged normals", "lecture_normals"), ("8. 2D or 3D", "lecture_2d3d"),
+                              ("Beyond the slides", "lecture_shadows")):
+            _scroll_to_heading(browser, heading)
+            _shot(browser, shot)
+
+
+def _scroll_to_heading(browser, text):
+    found = browser.find_elements(By.XPATH, f"//h2[starts-with(normalize-space(.), '{text}')]")
+    assert found, text
+    for _ in range(3):  # the notebook renders cells as they come into view, which moves the ones below
+        browser.execute_script("arguments[0].scrollIntoView({block: 'start'});", found[0])
+        time.sleep(0.8)
+
+
+def _image_src(browser):
+    return browser.execute_script("const i = document.querySelector('img.rs-explorer-image'); return i && i.src;")
+
+
+def test_explorer_slider_and_click(browser, lab):
+    _open(browser, lab, "explorer.ipynb")
+    TIMINGS["explorer: Run All, new kernel"] = _run_all(browser)
+    WebDriverWait(browser, 60).until(lambda d: _image_src(d))
+    errors, pngs, text = _outputs(browser)
+    assert not errors and "Traceback" not in text
+    # close the file browser, as in a lecture: a click on its (active) tab in the left side bar
+    browser.find_element(By.CSS_SELECTOR, ".jp-SideBar.jp-mod-left li[data-id='filebrowser']").click()
+    time.sleep(0.8)
+    img = browser.find_element(By.CSS_SELECTOR, "img.rs-explorer-image")
+    browser.execute_script("arguments[0].closest('.jp-OutputArea-output').scrollIntoView({block: 'start'});", img)
+    time.sleep(0.5)
+    # the controls stand beside the picture (no wrapping) and all of it fits a 1366x768 screen
+    layout = ("const i = document.querySelector('img.rs-explorer-image').getBoundingClientRect();"
+              "const s = [...document.querySelectorAll('.widget-slider')].map(e => e.getBoundingClientRect());"
+              "const w = document.querySelector('img.rs-explorer-image').closest('.widget-hbox').parentElement"
+              ".getBoundingClientRect();"
+              "return [i.right, Math.min(...s.map(r => r.left)), Math.min(...s.map(r => r.top)), i.top, w.width,"
+              " w.height];")
+    beside = lambda b: b[1] >= b[0] and b[2] < b[3] + 40  # noqa: E731 - sliders right of the picture, at its top
+    try:  # the last widget updates may still be on their way to the page
+        WebDriverWait(browser, 15, poll_frequency=0.2).until(lambda d: beside(d.execute_script(layout)))
+    except TimeoutException:
+        pass
+    box = browser.execute_script(layout)
+    if not beside(box):
+        browser.save_screenshot(str(lab[2] / "explorer_layout_failed.png"))
+    assert beside(box), (box, str(lab[2] / "explorer_layout_failed.png"))
+    assert box[4] <= 1366 and box[5] <= 768, box
+    # one slider step: focus the azimuth slider's handle, press the right arrow
+    steps = []
+    for _ in range(3):
+        before = _image_src(browser)
+        handle = browser.find_element(By.XPATH, "//label[text()='azimuth']/ancestor::div[contains(@class,"
+                                                 "'widget-slider')]//div[contains(@class,'noUi-handle')]")
+        handle.send_keys(Keys.ARROW_RIGHT)
+        t0 = time.perf_counter()
+        WebDriverWait(browser, 30, poll_frequency=0.005).until(lambda d: _image_src(d) != before)
+        steps.append(time.perf_counter() - t0)
+    TIMINGS["explorer: slider step to screen (s), 3 steps"] = steps
+    _shot(browser, "explorer")
+    # a click on a pixel: its explanation appears beside the picture
+    img = browser.find_element(By.CSS_SELECTOR, "img.rs-explorer-image")
+    w, h = img.size["width"], img.size["height"]
+    panel = w / 3  # the notebook ends with the three panels side by side
+    px, py = int(panel * 2 + panel * 0.55), int(h * 0.30)  # on the Phong panel's sphere
+    ActionChains(browser).move_to_element_with_offset(img, px - w // 2, py - h // 2).click().perform()
+    cols = browser.execute_script("return document.querySelector('img.rs-explorer-image').naturalWidth;") // 3
+    rows = browser.execute_script("return document.querySelector('img.rs-explorer-image').naturalHeight;")
+    x, y = int((px - 2 * panel) / panel * cols), int(py / h * rows)
+    expected = f"Phong panel, pixel ({x}, {y})"
+    t0 = time.perf_counter()
+    WebDriverWait(browser, 30, poll_frequency=0.01).until(lambda d: expected in d.execute_script(
+        "return [...document.querySelectorAll('.widget-html pre')].map(e => e.textContent).join('\\n');"))
+    TIMINGS["explorer: click to explanation (s)"] = time.perf_counter() - t0
+    text = browser.execute_script("return [...document.querySelectorAll('.widget-html pre')]"
+                                  ".map(e => e.textContent).join('\\n');")
+    assert f"pixel ({x}, {y}): Phong shading of model 0" in text
+    _shot(browser, "explorer_clicked")
+
+
+def teardown_module(module):
+    if TIMINGS:
+        lines = [f"{k}: {', '.join(f'{x:.3f}' for x in v) if isinstance(v, list) else f'{v:.1f}'}"
+                 for k, v in TIMINGS.items()]
+        print("\nbrowser timings\n" + "\n".join(lines))
+        if os.environ.get("RS_SCREENSHOTS"):
+            (SHOTS / "browser_timings.txt").write_text("\n".join(lines) + "\n")
