@@ -257,15 +257,6 @@ def _check_set_options(exports, image, unoccluded, overwrite, depth_scale) -> tu
     return exports
 
 
-def _check_cameras(jobs):
-    """Every camera's frame fits in memory, checked before the first view is written."""
-    for job in jobs:
-        try:
-            job.camera.check_frame_memory()
-        except ValueError as exc:
-            raise ValueError(f"cameras[{job.index}]: {exc}") from None
-
-
 def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", "mask"), formats=("npz",),
                  image: str | None = ".png", shading="phong", workers: int | None = None, scheduler=None,
                  resume: bool = True, tone: dict | None = None, retries: int = 2, views_per_task: int = 1,
@@ -349,7 +340,6 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
     exports = _check_set_options(exports, image, unoccluded, overwrite, depth_scale)
     options = check_options(shading, render_kwargs, tone, resume)
     bases, jobs = plan_batch(scene, cameras)
-    _check_cameras(jobs)
     spec = _ViewSpec(options, names, formats, None if image is None else str(image).lower(), out_dir,
                      float(depth_scale), exports=exports, unoccluded=bool(unoccluded))
     spec = dataclasses.replace(spec, settings_hash=digest(json.dumps(_settings(spec), sort_keys=True)))

@@ -49,6 +49,14 @@ class HitBuffer:
     v: np.ndarray
     t: np.ndarray
 
+    def __post_init__(self):
+        # A hand-made buffer in the other byte order (read from a big-endian file) is valid; Numba's
+        # kernels take native arrays only, so it is swapped here once, values unchanged.
+        for name in ("prim", "geom", "u", "v", "t"):
+            arr = getattr(self, name)
+            if isinstance(arr, np.ndarray) and not arr.dtype.isnative:
+                object.__setattr__(self, name, arr.astype(arr.dtype.newbyteorder("=")))
+
     @classmethod
     def empty(cls, height: int, width: int) -> "HitBuffer":
         """A buffer of misses, ready for a caster or rasterizer to fill."""

@@ -233,6 +233,10 @@ def plan_batch(scene_or_scenes, cameras=None, lights=None, *, out_dir=None, patt
         camera = (cams[i] if many_cams else cams) if cams is not None else scene.camera
         if camera is None:
             raise ValueError(f"cameras: frame {i}'s scene has no camera and none was given")
+        try:  # every frame's memory before the first is rendered or written
+            camera.check_frame_memory()
+        except ValueError as exc:
+            raise ValueError(f"cameras[{i}]: {exc}") from None
         frame_lights = (light_sets[i] if many_lights else light_sets) if light_sets is not None else scene.lights
         # Scene.replace makes a new models tuple of the same Model objects: memoise on those.
         ident = tuple(id(m) for m in scene.models)
