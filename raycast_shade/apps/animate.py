@@ -31,7 +31,7 @@ import time
 import numpy as np
 
 from ..common.choices import ORBITS, VIDEO_EXTS
-from ..common.validate import as_choice
+from ..common.validate import as_choice, as_int, as_scalar
 from ..output.imagefile import atomic_target
 from ..scene.camera import Camera
 from ..scene.lights import DirectionalLight, PointLight, SpotLight
@@ -70,19 +70,11 @@ def _unit_axis(axis, name: str) -> np.ndarray:
 
 
 def _check_frames(frames) -> int:
-    if isinstance(frames, bool) or not isinstance(frames, (int, np.integer)):
-        raise TypeError(f"frames: expected an integer, got {type(frames).__name__}")
-    if frames < 1:
-        raise ValueError(f"frames: expected an integer > 0, got {frames}")
-    return int(frames)
+    return as_int(frames, "frames", minimum=1)  # NumPy integers and 0-d arrays too; booleans never
 
 
 def _check_degrees(degrees) -> float:
-    if isinstance(degrees, bool) or not isinstance(degrees, (int, float, np.integer, np.floating)):
-        raise TypeError(f"degrees: expected a number, got {type(degrees).__name__}")
-    if not np.isfinite(degrees):
-        raise ValueError(f"degrees: must be finite, got {degrees}")
-    return float(degrees)
+    return as_scalar(degrees, "degrees")  # any finite angle; NumPy scalars and 0-d arrays too
 
 
 def _angles(frames: int, degrees: float) -> np.ndarray:
@@ -172,8 +164,7 @@ def orbit_light(scene: Scene, frames: int, *, light_index: int = 0, degrees: flo
     if not isinstance(scene, Scene):
         raise TypeError(f"scene: expected a Scene, got {type(scene).__name__}")
     frames, degrees = _check_frames(frames), _check_degrees(degrees)
-    if isinstance(light_index, bool) or not isinstance(light_index, (int, np.integer)):
-        raise TypeError(f"light_index: expected an integer, got {type(light_index).__name__}")
+    light_index = as_int(light_index, "light_index")
     n = len(scene.lights)
     if n == 0:
         raise ValueError("light_index: the scene has no lights to orbit")

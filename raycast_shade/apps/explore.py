@@ -54,6 +54,7 @@ from ..common.validate import as_int
 from ..output.frame import Frame
 from ..output.imagefile import png_bytes
 from ..output.tonemap import to_uint8
+from ..scene.camera import Camera
 from ..scene.lights import DirectionalLight, PointLight, SpotLight
 from ..scene.scene import Model, Scene
 from ..shading.mirrors import MAX_MIRROR_DEPTH, trace_mirrors
@@ -154,6 +155,8 @@ class Explorer:
         widgets = require("ipywidgets", "ipywidgets", "explore()", "notebook")
         if not isinstance(scene, Scene):
             raise TypeError(f"scene: expected a Scene, got {type(scene).__name__}")
+        if camera is not None and not isinstance(camera, Camera):
+            raise TypeError(f"camera: expected a Camera, got {type(camera).__name__}")
         self.camera = camera if camera is not None else scene.camera
         if self.camera is None:
             raise ValueError("camera: the scene has no camera and none was passed")

@@ -95,6 +95,8 @@ class Animation:
 
 
 def _methods(shading) -> list:
+    if not isinstance(shading, str) and not isinstance(shading, (list, tuple)):
+        raise TypeError(f"shading: expected a method name or a sequence of them, got {type(shading).__name__}")
     methods = [shading] if isinstance(shading, str) else list(shading)
     if not methods or any(not isinstance(m, str) or m not in SHADINGS for m in methods):
         raise ValueError(f"shading: expected one of {list(SHADINGS)} or a sequence of them, got {shading!r}")
@@ -119,6 +121,12 @@ def _check_scene(scene):
         raise TypeError(f"scene: expected a Scene, got {type(scene).__name__}")
     if scene.camera is None:
         raise ValueError("scene: it has no camera to render from")
+
+
+def _check_film(scene, methods, fps, scale, width):
+    """The display options, checked before the first frame renders (the film's size is known)."""
+    as_scalar(fps, "fps", minimum=0.0, exclusive=True, maximum=120.0)
+    display_scale((scene.camera.height, scene.camera.width * len(methods)), scale, width)
 
 
 def animate_light(scene, frames: int = 24, *, shading="phong", light_index: int = 0, degrees: float = 360.0,
@@ -147,6 +155,7 @@ def animate_light(scene, frames: int = 24, *, shading="phong", light_index: int 
     """
     _check_scene(scene)
     methods = _methods(shading)
+    _check_film(scene, methods, fps, scale, width)
     scenes = orbit_light(scene, _check_frames(frames), light_index=light_index, degrees=degrees, axis=axis)
     return _film(scenes, None, methods, fps, scale, width, render_options)
 
@@ -164,5 +173,6 @@ def animate_orbit(scene, frames: int = 24, *, shading="phong", degrees: float = 
     """
     _check_scene(scene)
     methods = _methods(shading)
+    _check_film(scene, methods, fps, scale, width)
     cameras = orbit_cameras(scene.camera, _check_frames(frames), degrees=degrees, axis=axis)
     return _film([scene] * len(cameras), cameras, methods, fps, scale, width, render_options)

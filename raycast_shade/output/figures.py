@@ -279,19 +279,18 @@ def terms(items, *, columns: int | None = None, panel_width: float = 3.0, vmax: 
         raise TypeError(f"items: expected a dict of term images (frame.terms), got {type(items).__name__}")
     if not items:
         raise ValueError("items: no terms in it; the frame's terms come with rs.render(scene, ..., terms=True)")
+    if columns is not None:
+        columns = as_int(columns, "columns", minimum=1)
+    panel_width = as_scalar(panel_width, "panel_width", minimum=0.0, exclusive=True, maximum=1000.0)
     panels = _term_panels(items)
     panels = [p for p in panels if p[2] == "colour"] + [p for p in panels if p[2] == "fraction"]  # stable
     colour = [img for _, img, kind in panels if kind == "colour"]
     if vmax is None:
         vmax = max([float(img.max()) for img in colour] + [0.0]) or 1.0
     else:
-        from ..common.validate import as_scalar
-
         vmax = as_scalar(vmax, "vmax", minimum=0.0, exclusive=True)
     n = len(panels)
-    columns = min(n, 4) if columns is None else int(columns)
-    if columns < 1:
-        raise ValueError(f"columns: expected an integer >= 1, got {columns}")
+    columns = min(n, 4) if columns is None else columns
     rows = -(-n // columns)
     h, w = panels[0][1].shape[:2]
     fig = _figure("terms", figsize=(panel_width * columns + 1.2, panel_width * rows * h / w + 0.5 * rows),

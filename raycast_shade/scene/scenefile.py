@@ -183,11 +183,8 @@ def _camera(table, render, models=None) -> Camera:
     fit = cam.pop("fit", False)
     if not isinstance(fit, bool):
         raise _Invalid("camera.fit", f"expected true or false, got {_kind(fit)}")
-    # [render] width/height override the camera's, so one camera block can serve several output sizes;
-    # the overridden value is still checked (a wrong one is a mistake even where it is not used).
-    for k in ("width", "height"):
-        if k in cam and k in render:
-            _call(f"camera.{k}", _RENDER_CHECKS[k], cam[k], f"camera.{k}")
+    # [render] width/height override the camera's (one camera, several sizes); the overridden value is still checked.
+    [_RENDER_CHECKS[k](cam[k], f"camera.{k}") for k in ("width", "height") if k in cam and k in render]
     cam.update((k, render[k]) for k in ("width", "height") if k in render)
     wrong = [k for k in cam if k not in _FIT_KEYS] if fit else [k for k in ("direction", "margin") if k in cam]
     if wrong:

@@ -82,6 +82,7 @@ def baselines(tmp):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         frame = rs.render(scene, "phong")
+        term_frame = rs.render(scene, "phong", terms=True)
     hits = frame.hits
     obj = tmp / "tri.obj"
     obj.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
@@ -134,6 +135,12 @@ def baselines(tmp):
         "to_uint8": (rs.to_uint8, dict(image=image, exposure=1.0, tonemap="clamp", gamma="srgb")),
         "winding_conflicts": (rs.winding_conflicts, dict(vertices=mesh.vertices, faces=mesh.faces)),
         "explain": (rs.explain, dict(frame=frame, x=3, y=4)),
+        "figures.terms": (rs.figures.terms, dict(items=term_frame.terms, columns=2, panel_width=3.0, vmax=1.0)),
+        "warmup": (rs.warmup, dict(progress=False)),
+        "animate_light": (rs.animate_light, dict(scene=scene, frames=2, shading="phong", light_index=0,
+                                                 degrees=90.0, fps=12.0, scale=1)),
+        "animate_orbit": (rs.animate_orbit, dict(scene=scene, frames=2, shading="phong", degrees=90.0, fps=12.0,
+                                                 scale=1)),
         "diagnose": (rs.diagnose, dict(image=rs.to_uint8(frame.image), scene=scene, method="phong", camera=cam,
                                        encoding="srgb", tolerance=1.0)),
         "shapes.icosphere": (rs.shapes.icosphere, dict(subdivisions=1, radius=1.0, center=(0.0, 0.0, 0.0))),
@@ -200,6 +207,14 @@ NOT_CALLED_IN_MODULES = {"shapes.SHAPES": "a table", "bump.WRAPS": "a tuple", "b
 
 # (callable, argument, bad value) -> why the value is legal. Reviewed: each is a real use.
 LEGAL = {
+    ("figures.terms", "columns", "None"): "the default: up to 4 columns",
+    ("figures.terms", "vmax", "None"): "the default: the brightest term's maximum",
+    ("figures.terms", "vmax", "1e308"): "a legal (all-black) scale, as montage's exposure",
+    **{(f, "degrees", v): "any finite angle turns (reduced modulo 360 x frames)"
+       for f in ("animate_light", "animate_orbit") for v in ("-1", "0", "1e308")},
+    ("animate_light", "light_index", "0"): "the first light",
+    **{(f, "scale", "None"): "the default display size" for f in ("animate_light", "animate_orbit")},
+    ("warmup", "progress", "True"): "a flag",
     ("diagnose", "camera", "None"): "the scene's own camera",
     ("Camera.fit", "margin", "0"): "no margin: the extreme point touches the frame",
     **{(f, a, "None"): "None is the documented default" for f, a in [
