@@ -85,8 +85,7 @@ __all__ = ["load_scene", "load_for_render", "scene_from_dict", "SceneFileError",
            "split_options", "RENDER_KEYS", "SIZE_KEYS", "TONE_KEYS"]
 
 _TOP_KEYS = ("ambient", "background", "camera", "object", "light", "render")
-_CAMERA_KEYS = ("eye", "target", "up", "fov", "width", "height", "projection", "ortho_height", "fit", "direction",
-                "margin")
+_CAMERA_KEYS = ("eye", "target", "up", "fov", "width", "height", "projection", "ortho_height", "fit", "direction", "margin")
 _FIT_KEYS = ("fit", "direction", "margin", "up", "fov", "width", "height", "projection")
 _OBJECT_KEYS = ("shape", "mesh", "name", "normals", "weighting", "crease_angle", "scale", "rotate", "translate",
                 "material")
@@ -183,9 +182,9 @@ def _camera(table, render, models=None) -> Camera:
     fit = cam.pop("fit", False)
     if not isinstance(fit, bool):
         raise _Invalid("camera.fit", f"expected true or false, got {_kind(fit)}")
-    # [render] width/height override the camera's (one camera, several sizes); the overridden value is still checked.
-    [_RENDER_CHECKS[k](cam[k], f"camera.{k}") for k in ("width", "height") if k in cam and k in render]
-    cam.update((k, render[k]) for k in ("width", "height") if k in render)
+    # [render] width/height override the camera's (one camera, several sizes), once the camera's are checked.
+    cam.update((k, render[k]) for k in ("width", "height")
+               if k in render and _call(f"camera.{k}", _RENDER_CHECKS[k], cam.get(k, 1), f"camera.{k}"))
     wrong = [k for k in cam if k not in _FIT_KEYS] if fit else [k for k in ("direction", "margin") if k in cam]
     if wrong:
         raise _Invalid(f"camera.{wrong[0]}", "not with fit = true (the fitted camera places itself; give direction "
