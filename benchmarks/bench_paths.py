@@ -1,0 +1,191 @@
+"""Every path against the plain frame (issue 27's table): buffers, writers and view sets as ratios.
+
+Run ``python -m benchmarks.bench_paths [--quick]``. For each mesh (an
+icosphere of 81,920 triangles and the noisy sphere of 1,310,720 of
+:mod:`benchmarks.bench_peers`) and size (640x480, 1920x1080), every path is
+timed in turn, round after round, in one process (so a change of load
+touches them all alike), after one warm-up round; each path's median is
+divided by the plain Phong frame's median:
+
+* ``frame``: ``render(scene)``, the plain Phong frame (the unit);
+* ``buffers_all``: the 12 buffers of :data:`~raycast_shade.output.buffers.BUFFER_NAMES`
+  but ``coverage``; ``position``; ``view_default``: ``zdepth, normal, id, mask``
+  (the view sets' default), each the whole ``render`` call;
+* ``npz_plain``, ``npz_zlib1``, ``npz_zlib6``, ``exr``: writing the 12
+  buffers and the image (:func:`~raycast_shade.output.bufferfile.save_npz`
+  stored, zlib level 1 and 6; :func:`~raycast_shade.output.bufferfile.write_exr`),
+  the write alone; their sizes in MiB;
+* ``view_npz``, ``view_npz_exr_png``: one view of
+  :func:`~raycast_shade.apps.views.render_views` with its default buffers and
+  files (PNG image, npz), and with npz, EXR and a depth PNG, render and files.
+
+Peak memory (``peak_MiB``) of a frame with and without all the buffers is
+measured in a fresh subprocess each (``ru_maxrss`` less that of the same
+process after the warm-up of a tiny frame).
+
+Results: ``benchmarks/results/paths.csv`` and the chart
+``docs/images/paths.png``. ``--quick`` runs one small case and writes into the
+git-ignored ``out/quick/`` (:mod:`benchmarks.outputs`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+from benchmarks.outputs import image_file, results_file
+
+FIELDS = ["mesh", "triangles", "width", "height", "path", "median_ms", "ratio", "size_MiB", "repeats", "note"]
+CASES = [("icosphere", 6, 640, 480), ("icosphere", 6, 1920, 1080), ("noisy_sphere", 8, 640, 480),
+         ("noisy_sphere", 8, 1920, 1080)]
+QUICK_CASES = [("icosphere", 4, 320, 240)]
+ALL = ("depth", "zdepth", "position", "normal", "normal_camera", "face_normal", "face_normal_camera",
+       "barycentric", "model_id", "triangle_id", "mask", "semantic_id")
+VIEW_DEFAULT = ("zdepth", "normal", "id", "mask")
+
+
+def outputs(quick: bool = False) -> list:
+    return [results_file("paths.csv", quick), image_file("paths.png", quick)]
+
+
+def _paths(scene, tmp):
+    """name -> (callable, file or None): every timed path of one case."""
+    import raycast_shade as rs
+    from raycast_shade.apps.views import render_views
+    from raycast_shade.output.bufferfile import save_npz, write_exr
+
+    full = rs.render(scene, buffers=ALL)
+    b, img, cam = full.buffers, full.image, full.camera
+    views = os.path.join(tmp, "views")
+
+    def view(formats):
+        def run():
+            render_views(scene, [cam], views, formats=formats, workers=0, resume=False, overwrite=True)
+        return run
+
+    f = lambda name: os.path.join(tmp, name)  # noqa: E731
+    return {
+        "frame": (lambda: rs.render(scene), None),
+        "buffers_all": (lambda: rs.render(scene, buffers=ALL), None),
+        "position": (lambda: rs.render(scene, buffers=("position",)), None),
+        "view_default": (lambda: rs.render(scene, buffers=VIEW_DEFAULT), None),
+        "npz_plain": (lambda: save_npz(f("p.npz"), b, image=img, camera=cam, compressed=False), f("p.npz")),
+        "npz_zlib1": (lambda: save_npz(f("z1.npz"), b, image=img, camera=cam, compressed=1), f("z1.npz")),
+        "npz_zlib6": (lambda: save_npz(f("z6.npz"), b, image=img, camera=cam, compressed=6), f("z6.npz")),
+        "exr": (lambda: write_exr(f("v.exr"), b, image=img), f("v.exr")),
+        "view_npz": (view(("npz",)), None),
+        "view_npz_exr_png": (view(("npz", "exr", "depth_png")), None),
+    }
+
+
+def bench_case(kind, level, width, height, repeats):
+    from benchmarks.bench_peers import make_mesh, make_scene
+
+    mesh = make_mesh(kind, level)
+    scene = make_scene(mesh, width, height)
+    tmp = tempfile.mkdtemp(prefix="bench_paths_")
+    try:
+        paths = _paths(scene, tmp)
+        times = {name: [] for name in paths}
+        for r in range(repeats + 1):  # round 0: warm-up (JIT, Embree build, page faults)
+            for name, (fn, _) in paths.items():
+                t0 = time.perf_counter()
+                fn()
+                if r:
+                    times[name].append(time.perf_counter() - t0)
+        sizes = {name: os.path.getsize(path) / 2**20 for name, (_, path) in paths.items() if path}
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    unit = statistics.median(times["frame"])
+    rows = []
+    for name, ts in times.items():
+        med = statistics.median(ts)
+        rows.append(dict(mesh=kind, triangles=len(mesh.faces), width=width, height=height, path=name,
+                         median_ms=f"{med * 1e3:.1f}", ratio=f"{med / unit:.2f}",
+                         size_MiB=f"{sizes[name]:.1f}" if name in sizes else "", repeats=repeats, note=""))
+    return rows
+
+
+_PEAK = """
+import resource, sys
+sys.path.insert(0, {root!r})
+from benchmarks.bench_peers import make_mesh, make_scene
+import raycast_shade as rs
+scene = make_scene(make_mesh({kind!r}, {level}), {w}, {h})
+rs.render(make_scene(make_mesh({kind!r}, {level}), 64, 48), buffers={names!r} or ())
+base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+rs.render(scene, buffers={names!r} or ())
+print((resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - base) / 1024.0)
+"""
+
+
+def peak_mib(kind, level, width, height, names) -> float:
+    """MiB the process's peak grows by for one frame with ``names`` (fresh process; after a warm-up)."""
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    code = _PEAK.format(root=root, kind=kind, level=level, w=width, h=height, names=tuple(names))
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    return float(out.stdout.strip().splitlines()[-1])
+
+
+def chart(rows, path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    cases = sorted({(r["mesh"], int(r["width"]), int(r["height"])) for r in rows if r["path"] != "peak"},
+                   key=lambda c: (c[0], c[1]))
+    names = [n for n in dict.fromkeys(r["path"] for r in rows) if not n.startswith("peak")]
+    fig, ax = plt.subplots(figsize=(10, 4.2))
+    width = 0.8 / len(cases)
+    for k, case in enumerate(cases):
+        vals = {r["path"]: float(r["ratio"]) for r in rows
+                if (r["mesh"], int(r["width"]), int(r["height"])) == case and r["ratio"]}
+        ax.bar([i + k * width for i in range(len(names))], [vals.get(n, 0.0) for n in names], width,
+               label=f"{case[0]} {case[1]}x{case[2]}")
+    ax.axhline(1.0, color="k", lw=0.8)
+    ax.set_xticks([i + 0.4 - width / 2 for i in range(len(names))], names, rotation=30, ha="right")
+    ax.set_ylabel("time / plain Phong frame")
+    ax.set_title("Every path against the plain frame (medians, interleaved in one run)")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--quick", action="store_true", help="one small case; writes under out/quick/")
+    p.add_argument("--repeats", type=int, default=None)
+    args = p.parse_args(argv)
+    cases = QUICK_CASES if args.quick else CASES
+    repeats = args.repeats or (2 if args.quick else 5)
+    rows = []
+    for case in cases:
+        rows += bench_case(*case, repeats)
+        for label, names in (("peak_frame", ()), ("peak_buffers_all", ALL)):
+            rows.append(dict(mesh=case[0], triangles=20 * 4 ** case[1], width=case[2], height=case[3], path=label,
+                             median_ms="", ratio="", size_MiB=f"{peak_mib(*case, names):.0f}", repeats=1,
+                             note="peak RSS growth of one frame, fresh process"))
+        for r in rows[-12:]:
+            print(r["mesh"], r["width"], r["path"], r["median_ms"], r["ratio"], r["size_MiB"], flush=True)
+    out = results_file("paths.csv", args.quick)
+    os.makedirs(os.path.dirname(out), exist_ok=True)
+    with open(out, "w", newline="") as fh:
+        w = csv.DictWriter(fh, FIELDS)
+        w.writeheader()
+        w.writerows(rows)
+    chart(rows, image_file("paths.png", args.quick))
+    return rows
+
+
+if __name__ == "__main__":
+    main()
