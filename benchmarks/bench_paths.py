@@ -11,10 +11,11 @@ divided by the plain Phong frame's median:
 * ``buffers_all``: the 12 buffers of :data:`~raycast_shade.output.buffers.BUFFER_NAMES`
   but ``coverage``; ``position``; ``view_default``: ``zdepth, normal, id, mask``
   (the view sets' default), each the whole ``render`` call;
-* ``npz_plain``, ``npz_zlib1``, ``npz_zlib6``, ``exr``: writing the 12
-  buffers and the image (:func:`~raycast_shade.output.bufferfile.save_npz`
-  stored, zlib level 1 and 6; :func:`~raycast_shade.output.bufferfile.write_exr`),
-  the write alone; their sizes in MiB;
+* ``npz_plain``, ``npz_zlib1``, ``npz_zlib6``, ``exr``, ``exr_zip``,
+  ``exr_zstd``: writing the 12 buffers and the image
+  (:func:`~raycast_shade.output.bufferfile.save_npz` stored, zlib level 1
+  and 6; :func:`~raycast_shade.output.bufferfile.write_exr` uncompressed,
+  ZIP and ZSTD on OpenEXR's threads), the write alone; their sizes in MiB;
 * ``view_npz``, ``view_npz_exr_png``: one view of
   :func:`~raycast_shade.apps.views.render_views` with its default buffers and
   files (PNG image, npz), and with npz, EXR and a depth PNG, render and files.
@@ -67,7 +68,7 @@ def _paths(scene, tmp):
 
     def view(formats):
         def run():
-            render_views(scene, [cam], views, formats=formats, workers=0, resume=False, overwrite=True)
+            render_views(scene, [cam], views, formats=formats, resume=False, overwrite=True)
         return run
 
     f = lambda name: os.path.join(tmp, name)  # noqa: E731
@@ -80,6 +81,8 @@ def _paths(scene, tmp):
         "npz_zlib1": (lambda: save_npz(f("z1.npz"), b, image=img, camera=cam, compressed=1), f("z1.npz")),
         "npz_zlib6": (lambda: save_npz(f("z6.npz"), b, image=img, camera=cam, compressed=6), f("z6.npz")),
         "exr": (lambda: write_exr(f("v.exr"), b, image=img), f("v.exr")),
+        "exr_zip": (lambda: write_exr(f("z.exr"), b, image=img, compression="zip"), f("z.exr")),
+        "exr_zstd": (lambda: write_exr(f("s.exr"), b, image=img, compression="zstd"), f("s.exr")),
         "view_npz": (view(("npz",)), None),
         "view_npz_exr_png": (view(("npz", "exr", "depth_png")), None),
     }
@@ -167,7 +170,7 @@ def main(argv=None):
     p.add_argument("--repeats", type=int, default=None)
     args = p.parse_args(argv)
     cases = QUICK_CASES if args.quick else CASES
-    repeats = args.repeats or (2 if args.quick else 5)
+    repeats = args.repeats or (2 if args.quick else 3)
     rows = []
     for case in cases:
         rows += bench_case(*case, repeats)
@@ -175,7 +178,7 @@ def main(argv=None):
             rows.append(dict(mesh=case[0], triangles=20 * 4 ** case[1], width=case[2], height=case[3], path=label,
                              median_ms="", ratio="", size_MiB=f"{peak_mib(*case, names):.0f}", repeats=1,
                              note="peak RSS growth of one frame, fresh process"))
-        for r in rows[-12:]:
+        for r in rows[-14:]:
             print(r["mesh"], r["width"], r["path"], r["median_ms"], r["ratio"], r["size_MiB"], flush=True)
     out = results_file("paths.csv", args.quick)
     os.makedirs(os.path.dirname(out), exist_ok=True)

@@ -360,7 +360,7 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
     bases, jobs = plan_batch(scene, cameras)
     for job in jobs:  # every camera before the first view is written
         try:
-            job.camera.check_frame_memory()
+            job.camera.check_frame_memory(names + ("model_id",), options.render_kwargs.get("samples", 1))
         except ValueError as exc:
             raise ValueError(f"cameras[{job.index}]: {exc}") from None
     spec = _ViewSpec(options, names, formats, None if image is None else str(image).lower(), out_dir,

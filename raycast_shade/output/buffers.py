@@ -48,6 +48,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..common.layout import CAM_EYE
+from ..scene.framememory import BUFFER_BYTES
 from ..visibility.rays import camera_frame, pixel_ray
 
 __all__ = ["BUFFER_NAMES", "ALIASES", "BUFFER_BYTES", "buffer_bytes", "check_buffers", "compute_buffers"]
@@ -89,10 +90,6 @@ def check_buffers(names, field: str = "buffers") -> tuple:
     return tuple(dict.fromkeys(out))
 
 
-#: Bytes per pixel of each buffer as stored (the frame's and the writers' one table).
-BUFFER_BYTES = {"depth": 4, "zdepth": 4, "position": 12, "normal": 12, "normal_camera": 12, "face_normal": 12,
-                "face_normal_camera": 12, "barycentric": 12, "model_id": 4, "triangle_id": 4, "mask": 1,
-                "coverage": 4, "semantic_id": 4}
 
 
 def buffer_bytes(names) -> int:
