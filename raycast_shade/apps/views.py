@@ -252,6 +252,24 @@ def _make_plan(spec: _ViewSpec, jobs) -> dict:
                        "files": view_files(j.index, spec.formats, spec.image)} for j in jobs]}
 
 
+def _check_outputs(names, formats, image) -> None:
+    if not formats and image is None:
+        raise ValueError("formats: nothing to write (no buffer format and image=None)")
+    if formats and not names and "depth_png" not in formats:
+        raise ValueError("buffers: no buffers asked for, but formats names buffer files")
+    if "exr" in formats:
+        import OpenEXR  # noqa: F401 - fail now, not on the first view
+
+
+def _check_memory(jobs, names, options) -> None:
+    """Every camera's frame, with the buffers asked for, within the memory limit, before the first view."""
+    for job in jobs:
+        try:
+            job.camera.check_frame_memory(names + ("model_id",), options.render_kwargs.get("samples", 1))
+        except ValueError as exc:
+            raise ValueError(f"cameras[{job.index}]: {exc}") from None
+
+
 def _check_set_options(exports, image, unoccluded, overwrite, depth_scale, float_image, compression) -> tuple:
     """The checked exports and compression; TypeError/ValueError naming the argument otherwise."""
     from ..common.validate import as_choice
@@ -346,23 +364,14 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
     formats = _check_formats(formats)
     if image is not None:
         check_image_path("view" + str(image), "image")
-    if not formats and image is None:
-        raise ValueError("formats: nothing to write (no buffer format and image=None)")
-    if formats and not names and "depth_png" not in formats:
-        raise ValueError("buffers: no buffers asked for, but formats names buffer files")
-    if "exr" in formats:
-        import OpenEXR  # noqa: F401 - fail now, not on the first view
+    _check_outputs(names, formats, image)
     if isinstance(views_per_task, bool) or not isinstance(views_per_task, int) or views_per_task < 1:
         raise ValueError(f"views_per_task: expected an integer > 0, got {views_per_task!r}")
     exports, compression = _check_set_options(exports, image, unoccluded, overwrite, depth_scale, float_image,
                                               compression)
     options = check_options(shading, render_kwargs, tone, resume)
     bases, jobs = plan_batch(scene, cameras)
-    for job in jobs:  # every camera before the first view is written
-        try:
-            job.camera.check_frame_memory(names + ("model_id",), options.render_kwargs.get("samples", 1))
-        except ValueError as exc:
-            raise ValueError(f"cameras[{job.index}]: {exc}") from None
+    _check_memory(jobs, names, options)
     spec = _ViewSpec(options, names, formats, None if image is None else str(image).lower(), out_dir,
                      float(depth_scale), exports=exports, unoccluded=bool(unoccluded),
                      float_image=bool(float_image), compression=compression)
