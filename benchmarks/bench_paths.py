@@ -20,9 +20,10 @@ divided by the plain Phong frame's median:
   :func:`~raycast_shade.apps.views.render_views` with its default buffers and
   files (PNG image, npz), and with npz, EXR and a depth PNG, render and files.
 
-Peak memory (``peak_MiB``) of a frame with and without all the buffers is
-measured in a fresh subprocess each (``ru_maxrss`` less that of the same
-process after the warm-up of a tiny frame).
+Peak memory of a frame without and with all 12 buffers (``peak_frame``,
+``peak_buffers_all``, in the ``size_MiB`` column) is measured in a fresh
+subprocess each: how far the resident set peaks above its level before the
+frame (Linux's ``VmHWM``, reset through ``/proc/self/clear_refs``).
 
 Results: ``benchmarks/results/paths.csv`` and the chart
 ``docs/images/paths.png``. ``--quick`` runs one small case and writes into the
@@ -117,20 +118,28 @@ def bench_case(kind, level, width, height, repeats):
 
 
 _PEAK = """
-import resource, sys
+import sys
 sys.path.insert(0, {root!r})
 from benchmarks.bench_peers import make_mesh, make_scene
 import raycast_shade as rs
+
+def status(key):
+    with open("/proc/self/status") as fh:
+        return next(int(line.split()[1]) * 1024 for line in fh if line.startswith(key))
+
 scene = make_scene(make_mesh({kind!r}, {level}), {w}, {h})
-rs.render(make_scene(make_mesh({kind!r}, {level}), 64, 48), buffers={names!r} or ())
-base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-rs.render(scene, buffers={names!r} or ())
-print((resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - base) / 1024.0)
+rs.render(scene, camera=scene.camera.replace(width=64, height=48), buffers={names!r})  # compiled, BVH built
+before = status("VmRSS")
+with open("/proc/self/clear_refs", "w") as fh:
+    fh.write("5")  # resets VmHWM to the present resident set
+rs.render(scene, buffers={names!r})
+print((status("VmHWM") - before) / 2**20)
 """
 
 
 def peak_mib(kind, level, width, height, names) -> float:
-    """MiB the process's peak grows by for one frame with ``names`` (fresh process; after a warm-up)."""
+    """MiB the resident set peaks above its level before one frame with ``names`` (a fresh process,
+    compiled and with the BVH built; Linux's VmHWM, reset through ``/proc/self/clear_refs``)."""
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     code = _PEAK.format(root=root, kind=kind, level=level, w=width, h=height, names=tuple(names))
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

@@ -165,6 +165,9 @@ def _glyphs_kernel(vertices, normals, cam, t, length, half, tolerance, mask):
 def _geometry(frame):
     if frame.scene is None or frame.camera is None:
         raise ValueError("frame: overlays need the frame's scene and camera (a Frame from raycast_shade.render)")
+    if frame.camera.distorted:  # the overlays project edges and corners through a pinhole
+        raise ValueError("frame: overlays draw a pinhole projection, but the frame's camera has lens distortion; "
+                         "render it with distortion=None to draw overlays")
     return frame.scene.geometry
 
 
