@@ -146,19 +146,32 @@ def _write_view(job, base, spec: _ViewSpec, cache: SceneCache) -> str:
     boxes = [(m.mesh.vertices.min(axis=0), m.mesh.vertices.max(axis=0)) for m in scene.models]
     objects = view_objects(frame.buffers["model_id"], job.camera, rle=True, alone=alone, boxes_3d=boxes)
     cache.count("renders")
-    kept = {k: v for k, v in frame.buffers.items() if k in spec.buffers}
-    if "image" in files:
-        write_image(files["image"], frame.image, atomic=True, **spec.options.tone)
-    linear = frame.image if spec.float_image else None
-    zipped = spec.compression == "zip"
-    if "npz" in files:
-        save_npz(files["npz"], kept, image=linear, camera=job.camera, compressed=1 if zipped else False, atomic=True)
-    if "exr" in files:
-        write_exr(files["exr"], kept, image=linear, compression="zip" if zipped else "none", atomic=True)
-    if "depth_png" in files:
-        write_depth_png(files["depth_png"], frame.buffers["zdepth"], scale=spec.depth_scale, atomic=True)
+    _write_files(files, frame, {k: v for k, v in frame.buffers.items() if k in spec.buffers}, job, spec)
     write_record(files, key, job, objects)
     return _STEM.format(job.index)
+
+
+def _write_files(files, frame, kept, job, spec: _ViewSpec) -> None:
+    """The view's image and buffer files, written side by side on threads (compression, writing and
+    fsync release the GIL, so one file's disk wait overlaps another's compression)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    linear = frame.image if spec.float_image else None
+    zipped = spec.compression == "zip"
+    writers = {
+        "image": lambda p: write_image(p, frame.image, atomic=True, **spec.options.tone),
+        "npz": lambda p: save_npz(p, kept, image=linear, camera=job.camera, compressed=1 if zipped else False,
+                                  atomic=True),
+        "exr": lambda p: write_exr(p, kept, image=linear, compression="zip" if zipped else "none", atomic=True),
+        "depth_png": lambda p: write_depth_png(p, frame.buffers["zdepth"], scale=spec.depth_scale, atomic=True),
+    }
+    todo = [(writers[k], p) for k, p in files.items() if k in writers]
+    if len(todo) == 1:
+        todo[0][0](todo[0][1])
+        return
+    with ThreadPoolExecutor(len(todo)) as pool:
+        for future in [pool.submit(write, p) for write, p in todo]:
+            future.result()  # the first failure is raised; the record is not written
 
 
 def _run_on_worker(jobs, scene, spec: _ViewSpec) -> list:
