@@ -25,9 +25,11 @@ Peak memory of a frame without and with all 12 buffers (``peak_frame``,
 subprocess each: how far the resident set peaks above its level before the
 frame (Linux's ``VmHWM``, reset through ``/proc/self/clear_refs``).
 
-Results: ``benchmarks/results/paths.csv`` and the chart
-``docs/images/paths.png``. ``--quick`` runs one small case and writes into the
-git-ignored ``out/quick/`` (:mod:`benchmarks.outputs`).
+Results: ``benchmarks/results/paths.csv``, the chart ``docs/images/paths.png``
+and the table between the ``paths`` markers of ``docs/performance.md``
+(``--table`` redoes the table alone from the CSV). ``--quick`` runs one small
+case and writes into the git-ignored ``out/quick/`` (the table to
+``out/quick/results/paths.md``; :mod:`benchmarks.outputs`).
 """
 
 from __future__ import annotations
@@ -42,7 +44,7 @@ import sys
 import tempfile
 import time
 
-from benchmarks.outputs import image_file, results_file
+from benchmarks.outputs import ROOT, image_file, results_file
 
 FIELDS = ["mesh", "triangles", "width", "height", "path", "median_ms", "ratio", "size_MiB", "repeats", "note"]
 CASES = [("icosphere", 6, 640, 480), ("icosphere", 6, 1920, 1080), ("noisy_sphere", 8, 640, 480),
@@ -54,7 +56,8 @@ VIEW_DEFAULT = ("zdepth", "normal", "id", "mask")
 
 
 def outputs(quick: bool = False) -> list:
-    return [results_file("paths.csv", quick), image_file("paths.png", quick)]
+    return [results_file("paths.csv", quick), image_file("paths.png", quick)] + (
+        [results_file("paths.md", True)] if quick else [os.path.join(ROOT, "docs", "performance.md")])
 
 
 def _paths(scene, tmp):
@@ -146,6 +149,51 @@ def peak_mib(kind, level, width, height, names) -> float:
     return float(out.stdout.strip().splitlines()[-1])
 
 
+BEGIN, END = "<!-- paths:begin (benchmarks/bench_paths.py) -->", "<!-- paths:end -->"
+LABELS = {"buffers_all": "all 12 buffers", "position": "`position` alone",
+          "view_default": "zdepth, normal, id, mask (the view-set default)", "npz_plain": "`save_npz`, stored (default)",
+          "npz_zlib1": "`save_npz`, zlib level 1", "npz_zlib6": "`save_npz`, zlib level 6",
+          "exr": "`write_exr`, uncompressed (default)", "exr_zip": "`write_exr`, ZIP", "exr_zstd": "`write_exr`, ZSTD",
+          "view_npz": "`render_views`, one view (PNG + npz)", "view_npz_exr_png": "`render_views`, one view (PNG + npz + EXR + depth PNG)"}
+
+
+def table(rows) -> str:
+    """The markdown table of ``rows``: each path's ratio per mesh and size (and the files' MiB)."""
+    cases = list(dict.fromkeys((r["mesh"], r["triangles"], r["width"], r["height"]) for r in rows))
+    get = {(r["mesh"], r["width"], r["height"], r["path"]): r for r in rows}
+    head = ["path"] + [f"{int(t):,} tris, {w}×{h}" for _, t, w, h in cases]
+    out = ["| " + " | ".join(head) + " |", "|---" * len(head) + "|"]
+    out.append("| plain Phong frame (the unit), ms | "
+               + " | ".join(get[(m, w, h, "frame")]["median_ms"] for m, _, w, h in cases) + " |")
+    for name, label in LABELS.items():
+        cells = []
+        for m, _, w, h in cases:
+            r = get.get((m, w, h, name))
+            cells.append("" if r is None else f"{r['ratio']}×" + (f" ({r['size_MiB']} MiB)" if r["size_MiB"] else ""))
+        out.append(f"| {label} | " + " | ".join(cells) + " |")
+    for name, label in (("peak_frame", "peak memory growth, plain frame"), ("peak_buffers_all", "the same, all 12 buffers")):
+        out.append(f"| {label} | " + " | ".join(f"{get[(m, w, h, name)]['size_MiB']} MiB" for m, _, w, h in cases) + " |")
+    return "\n".join(out) + "\n"
+
+
+def write_table(rows, quick: bool) -> str:
+    """Put :func:`table` between the markers of ``docs/performance.md`` (quick: ``out/quick/results/paths.md``)."""
+    text = table(rows)
+    if quick:
+        path = results_file("paths.md", True)
+        os.makedirs(os.path.dirname(path), exist_ok=True)
+        with open(path, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        return path
+    path = os.path.join(ROOT, "docs", "performance.md")
+    with open(path, encoding="utf-8") as fh:
+        page = fh.read()
+    start, end = page.index(BEGIN) + len(BEGIN), page.index(END)
+    with open(path, "w", encoding="utf-8") as fh:
+        fh.write(page[:start] + "\n" + text + page[end:])
+    return path
+
+
 def chart(rows, path):
     import matplotlib
 
@@ -177,7 +225,14 @@ def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--quick", action="store_true", help="one small case; writes under out/quick/")
     p.add_argument("--repeats", type=int, default=None)
+    p.add_argument("--table", action="store_true", help="only redo the table and chart from the CSV")
     args = p.parse_args(argv)
+    if args.table:
+        with open(results_file("paths.csv", args.quick), newline="") as fh:
+            rows = list(csv.DictReader(fh))
+        chart(rows, image_file("paths.png", args.quick))
+        write_table(rows, args.quick)
+        return rows
     cases = QUICK_CASES if args.quick else CASES
     repeats = args.repeats or (2 if args.quick else 3)
     rows = []
@@ -196,6 +251,7 @@ def main(argv=None):
         w.writeheader()
         w.writerows(rows)
     chart(rows, image_file("paths.png", args.quick))
+    write_table(rows, args.quick)
     return rows
 
 

@@ -108,7 +108,7 @@ def _ray(cam, dirs, w, x, y):
 
 
 @njit(cache=True, parallel=True)
-def _buffers_kernel(cam, fwd, R, dirs, prim, geom, u, v, t, vertices, faces, face_normals, face_offsets,
+def _buffers_kernel(cam, fwd, R, dirs, y0, prim, geom, u, v, t, vertices, faces, face_normals, face_offsets,
                     origin, shading_n, lut, depth, zdepth, position, normal, normal_cam, face_n, face_n_cam,
                     bary, model_id, semantic_id, triangle_id, mask):
     """Every asked-for buffer of one pixel in one pass; an output of size 0 is not asked for.
@@ -122,21 +122,24 @@ def _buffers_kernel(cam, fwd, R, dirs, prim, geom, u, v, t, vertices, faces, fac
     R : (3, 3) float64
         World-to-camera rotation (rows: camera x, y, z in world axes).
     dirs : (H*W, 3) or (0, 3) float64
-        Distorted unit ray directions, or empty for a pinhole camera.
-    prim, geom : (H, W) int32
-    u, v, t : (H, W) float32
+        Distorted unit ray directions of the whole frame, or empty for a pinhole camera.
+    y0 : int
+        The image row of the hits' first row (0 for a whole frame; a band's first row).
+    prim, geom : (h, W) int32
+        The hits of image rows ``y0`` to ``y0 + h``; every output has their rows too.
+    u, v, t : (h, W) float32
     vertices : (V, 3) float64
     faces : (F, 3) int64
     face_normals : (F, 3) float64
     face_offsets : (G + 1,) int64
     origin : (3,) float64
-    shading_n : (H, W, 3) or (0, 0, 3) float32
+    shading_n : (h, W, 3) or (0, 0, 3) float32
     lut : (G,) int32
         Semantic class of each model.
-    depth, zdepth : (H, W) or (0, 0) float32
-    position, normal, normal_cam, face_n, face_n_cam, bary : (H, W, 3) or (0, 0, 3) float32
-    model_id, semantic_id, triangle_id : (H, W) or (0, 0) int32
-    mask : (H, W) or (0, 0) bool
+    depth, zdepth : (h, W) or (0, 0) float32
+    position, normal, normal_cam, face_n, face_n_cam, bary : (h, W, 3) or (0, 0, 3) float32
+    model_id, semantic_id, triangle_id : (h, W) or (0, 0) int32
+    mask : (h, W) or (0, 0) bool
     """
     h, w = prim.shape
     want_z = zdepth.shape[0] != 0
@@ -188,7 +191,7 @@ def _buffers_kernel(cam, fwd, R, dirs, prim, geom, u, v, t, vertices, faces, fac
                 if want_z:
                     zdepth[y, x] = 0.0
                 continue
-            ox, oy, oz, dx, dy, dz = _ray(cam, dirs, w, x, y)
+            ox, oy, oz, dx, dy, dz = _ray(cam, dirs, w, x, y0 + y)
             if want_z:
                 zdepth[y, x] = np.float64(t[y, x]) * (dx * fwd[0] + dy * fwd[1] + dz * fwd[2])
             f = face_offsets[geom[y, x]] + prim[y, x]
@@ -286,7 +289,7 @@ def compute_buffers(scene, camera, hits, names, shading="phong", coverage=None) 
             "semantic_id": out("semantic_id", (), np.int32), "triangle_id": out("triangle_id", (), np.int32),
             "mask": out("mask", (), np.bool_)}
     c = np.ascontiguousarray
-    _buffers_kernel(camera_frame(camera, geo.origin), c(camera.basis[2], np.float64), c(R, np.float64), dirs,
+    _buffers_kernel(camera_frame(camera, geo.origin), c(camera.basis[2], np.float64), c(R, np.float64), dirs, 0,
                     c(hits.prim, np.int32), c(hits.geom, np.int32), c(hits.u, np.float32), c(hits.v, np.float32),
                     c(hits.t, np.float32), geo.vertices, geo.faces, geo.face_normals, geo.face_offsets,
                     c(geo.origin, np.float64), shading_n, lut, *bufs.values())

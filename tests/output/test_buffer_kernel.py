@@ -131,3 +131,31 @@ def test_only_the_asked_buffers_are_made_and_the_byte_table_matches_them():
         assert list(out) == [name]
         assert out[name].nbytes == W * H * BUFFER_BYTES[name], name
     assert buffer_bytes("id, mask") == 9
+
+
+def test_a_band_of_rows_gives_the_whole_frames_rows():
+    """The kernel over rows y0..y1 of the hits (as the banded path would call it) writes those rows."""
+    from raycast_shade.output import buffers as B
+    from raycast_shade.scene.projection import extrinsics
+    from raycast_shade.visibility.rays import camera_frame
+
+    scene = _two_spheres()
+    cam = rs.Camera.from_opencv(K, np.eye(3), np.array([0.1, -0.2, 3.5]), W, H, dist=(0.05, -0.01, 0.0, 0.0, 0.0))
+    frame = rs.render(scene, camera=cam)
+    names = ("zdepth", "position", "face_normal_camera", "mask")
+    whole = compute_buffers(scene, cam, frame.hits, names)
+    geo, (y0, y1) = scene.geometry, (20, 47)
+    from raycast_shade.visibility.distortion import ray_directions
+
+    empty1, empty3 = np.empty((0, 0), np.float32), np.empty((0, 0, 3), np.float32)
+    out = {"zdepth": np.empty((y1 - y0, W), np.float32), "position": np.empty((y1 - y0, W, 3), np.float32),
+           "face_normal_camera": np.empty((y1 - y0, W, 3), np.float32), "mask": np.empty((y1 - y0, W), np.bool_)}
+    h = frame.hits
+    B._buffers_kernel(camera_frame(cam, geo.origin), cam.basis[2].copy(), extrinsics(cam)[0],
+                      ray_directions(cam)[0], y0, *(np.ascontiguousarray(a[y0:y1]) for a in (h.prim, h.geom, h.u, h.v, h.t)),
+                      geo.vertices, geo.faces, geo.face_normals, geo.face_offsets, geo.origin, empty3,
+                      np.zeros(2, np.int32), empty1, out["zdepth"], out["position"], empty3, empty3, empty3,
+                      out["face_normal_camera"], empty3, np.empty((0, 0), np.int32), np.empty((0, 0), np.int32),
+                      np.empty((0, 0), np.int32), out["mask"])
+    for name in names:
+        np.testing.assert_array_equal(out[name], whole[name][y0:y1], err_msg=name)
