@@ -107,6 +107,28 @@ def _ray(cam, dirs, w, x, y):
     return cam[CAM_EYE + 0], cam[CAM_EYE + 1], cam[CAM_EYE + 2], dirs[i, 0], dirs[i, 1], dirs[i, 2]
 
 
+@njit(cache=True, inline="always")
+def _plane_distance(vertices, faces, f, t, ox, oy, oz, dx, dy, dz):
+    """Where the ray ``o + s d`` meets the plane of triangle ``f``: ``s = ((p0 - o) . n) / (d . n)``
+    in float64, exact to rounding at any angle (the cast's ``t`` is float32, and its barycentrics
+    too); ``t`` itself if the ray is parallel to the plane to float64 precision."""
+    i0 = faces[f, 0]
+    i1 = faces[f, 1]
+    i2 = faces[f, 2]
+    p0x, p0y, p0z = vertices[i0, 0], vertices[i0, 1], vertices[i0, 2]
+    e1x, e1y, e1z = vertices[i1, 0] - p0x, vertices[i1, 1] - p0y, vertices[i1, 2] - p0z
+    e2x, e2y, e2z = vertices[i2, 0] - p0x, vertices[i2, 1] - p0y, vertices[i2, 2] - p0z
+    nx = e1y * e2z - e1z * e2y
+    ny = e1z * e2x - e1x * e2z
+    nz = e1x * e2y - e1y * e2x
+    den = dx * nx + dy * ny + dz * nz
+    if den != 0.0:
+        q = ((p0x - ox) * nx + (p0y - oy) * ny + (p0z - oz) * nz) / den
+        if np.isfinite(q) and q > 0.0:
+            return q
+    return t
+
+
 @njit(cache=True, parallel=True)
 def _buffers_kernel(cam, fwd, R, dirs, y0, prim, geom, u, v, t, vertices, faces, face_normals, face_offsets,
                     origin, shading_n, lut, depth, zdepth, position, normal, normal_cam, face_n, face_n_cam,
@@ -196,23 +218,7 @@ def _buffers_kernel(cam, fwd, R, dirs, y0, prim, geom, u, v, t, vertices, faces,
                 zdepth[y, x] = np.float64(t[y, x]) * (dx * fwd[0] + dy * fwd[1] + dz * fwd[2])
             f = face_offsets[geom[y, x]] + prim[y, x]
             if want_p:
-                # The ray meets the triangle's plane at s = ((p0 - o) . n) / (d . n), in float64:
-                # exact to rounding at any angle (t is float32, and the barycentrics too).
-                i0 = faces[f, 0]
-                i1 = faces[f, 1]
-                i2 = faces[f, 2]
-                p0x, p0y, p0z = vertices[i0, 0], vertices[i0, 1], vertices[i0, 2]
-                e1x, e1y, e1z = vertices[i1, 0] - p0x, vertices[i1, 1] - p0y, vertices[i1, 2] - p0z
-                e2x, e2y, e2z = vertices[i2, 0] - p0x, vertices[i2, 1] - p0y, vertices[i2, 2] - p0z
-                nx = e1y * e2z - e1z * e2y
-                ny = e1z * e2x - e1x * e2z
-                nz = e1x * e2y - e1y * e2x
-                den = dx * nx + dy * ny + dz * nz
-                s = np.float64(t[y, x])
-                if den != 0.0:
-                    q = ((p0x - ox) * nx + (p0y - oy) * ny + (p0z - oz) * nz) / den
-                    if np.isfinite(q) and q > 0.0:
-                        s = q
+                s = _plane_distance(vertices, faces, f, np.float64(t[y, x]), ox, oy, oz, dx, dy, dz)
                 position[y, x, 0] = (ox + s * dx) + origin[0]
                 position[y, x, 1] = (oy + s * dy) + origin[1]
                 position[y, x, 2] = (oz + s * dz) + origin[2]
