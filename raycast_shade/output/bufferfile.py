@@ -264,7 +264,9 @@ def write_exr(path, buffers: dict, *, image=None, compression: str = "none", thr
     elif isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 0:
         raise ValueError(f"threads: expected an int >= 0, got {threads!r}")
     channels = _exr_channels(buffers, image)
-    codec = getattr(OpenEXR, ("NO" if compression == "none" else compression.upper()) + "_COMPRESSION")
+    codec = getattr(OpenEXR, ("NO" if compression == "none" else compression.upper()) + "_COMPRESSION", None)
+    if codec is None:  # ZSTD came with OpenEXR 3.4
+        raise ValueError(f"compression: {compression!r} needs a newer openexr package than the one installed")
     header = {"compression": codec, "type": OpenEXR.scanlineimage}
     before = OpenEXR.global_thread_count()
     OpenEXR.set_global_thread_count(int(threads))
