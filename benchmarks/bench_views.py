@@ -63,10 +63,11 @@ def bench_files(tmp, width, height):
     frame = rs.render(scene, buffers=names)
     b, rows = frame.buffers, []
     writers = {
-        "npz_zlib": (os.path.join(tmp, "v.npz"), lambda p: save_npz(p, b, image=frame.image, camera=frame.camera)),
+        "npz_zlib": (os.path.join(tmp, "v.npz"), lambda p: save_npz(p, b, image=frame.image, camera=frame.camera,
+                                                                   compressed=True)),
         "npz_plain": (os.path.join(tmp, "p.npz"), lambda p: save_npz(p, b, image=frame.image, camera=frame.camera,
                                                                     compressed=False)),
-        "exr_zip": (os.path.join(tmp, "v.exr"), lambda p: write_exr(p, b, image=frame.image)),
+        "exr_zip": (os.path.join(tmp, "v.exr"), lambda p: write_exr(p, b, image=frame.image, compression="zip")),
         "depth_png16": (os.path.join(tmp, "d.png"), lambda p: write_depth_png(p, b["zdepth"])),
     }
     note = "image + " + ",".join(names)

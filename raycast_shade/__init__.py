@@ -53,14 +53,23 @@ __all__ = [
     "ShadingWarning", "BumpIgnoredWarning", "ColourRangeWarning", "CreaseWarning", "DroppedOnLoadWarning",
     "LightInsideWarning", "NoLightsWarning", "ZeroNormalWarning", "EmptyViewWarning", "figures", "overlays",
     "explain", "explore", "render_views", "diagnose", "warmup", "animate_light", "animate_orbit",
+    "save_npz", "load_npz", "write_exr", "read_exr", "write_depth_png", "read_depth_png",
+    "optical_flow", "move_model", "semantic_classes", "object_table", "view_objects", "coco_instances", "write_coco",
+    "rle_encode", "rle_decode", "nerfstudio_transforms", "write_transforms", "write_colmap",
 ]
 
 # Imported on first access: figures needs matplotlib and explore ipywidgets (the
-# "notebook" extra), render_views the batch machinery, and none belongs on the start-up
-# path of ``raycast-shade demo``.
+# "notebook" extra), render_views the batch machinery, the vision files and labels are
+# not needed to render, and none belongs on the start-up path of ``raycast-shade demo``.
 _LAZY = {"figures": ".output.figures", "overlays": ".output.overlays"}
 _LAZY_FUNCTIONS = {"explore": ".apps.explore", "render_views": ".apps.views", "diagnose": ".apps.diagnose",
-                   "warmup": ".apps.warmup", "animate_light": ".apps.movie", "animate_orbit": ".apps.movie"}
+                   "warmup": ".apps.warmup", "animate_light": ".apps.movie", "animate_orbit": ".apps.movie",
+                   **{n: ".output.bufferfile" for n in ("save_npz", "load_npz", "write_exr", "read_exr",
+                                                         "write_depth_png", "read_depth_png")},
+                   **{n: ".output.flow" for n in ("optical_flow", "move_model")},
+                   **{n: ".output.labels" for n in ("semantic_classes", "object_table", "view_objects",
+                                                     "coco_instances", "write_coco", "rle_encode", "rle_decode")},
+                   **{n: ".output.export" for n in ("nerfstudio_transforms", "write_transforms", "write_colmap")}}
 
 
 def __getattr__(name):

@@ -78,8 +78,12 @@ def write_record(files: dict, key: str, job, objects) -> None:
     """Write view ``job``'s record (last, atomically): ``key``, its camera, each file's size and
     digest, and its ``objects``."""
     K, R, t = job.camera.to_opencv()
-    written = {os.path.basename(p): {"bytes": os.path.getsize(p), "blake2b": _file_digest(p)}
-               for kind, p in files.items() if kind != "record"}
+    from concurrent.futures import ThreadPoolExecutor
+
+    paths = [p for kind, p in files.items() if kind != "record"]
+    with ThreadPoolExecutor(max(1, len(paths))) as pool:  # hashlib releases the GIL on large blocks
+        digests = list(pool.map(_file_digest, paths))
+    written = {os.path.basename(p): {"bytes": os.path.getsize(p), "blake2b": d} for p, d in zip(paths, digests)}
     record = {"index": job.index, "key": key, "K": K.tolist(), "R": R.tolist(), "t": t.tolist(), "files": written,
               "objects": objects}
     with atomic_target(files["record"]) as tmp, open(tmp, "w") as fh:

@@ -7,9 +7,14 @@ scene per mesh set, the scene cache; serially, on a local Dask cluster with
 
 * ``view_{i:05d}.png``: the tone-mapped image (``image=".png"``; or
   ``.pfm``/``.npy`` linear, or None for none);
-* ``view_{i:05d}.npz``: the buffers, the linear image and ``K, R, t``
-  (``formats`` holds ``"npz"``);
-* ``view_{i:05d}.exr``: the buffers and the linear image (``"exr"``);
+* ``view_{i:05d}.npz``: the buffers and ``K, R, t`` (``formats`` holds
+  ``"npz"``), and the linear image with ``float_image=True``;
+* ``view_{i:05d}.exr``: the buffers (``"exr"``), and the linear image with
+  ``float_image=True``;
+
+npz and EXR files are stored uncompressed unless ``compression="zip"``
+(npz: zlib level 1; EXR: ZIP, on OpenEXR's threads): at 1080p compressing
+costs several frames per view (``docs/performance.md``).
 * ``view_{i:05d}_depth.png``: 16-bit z-depth in millimetres (``"depth_png"``);
 
 * ``view_{i:05d}.json``: the view's record, written last: the hash of
@@ -68,6 +73,7 @@ from .viewplan import (PLAN_FORMAT, PLAN_NAME, digest, prepare_folder, view_hash
 __all__ = ["render_views", "FORMATS", "EXPORTS", "INDEX_NAME", "PLAN_NAME", "view_files", "register_cli", "run_cli"]
 
 FORMATS = ("npz", "exr", "depth_png")
+COMPRESSIONS = ("none", "zip")  # render_views' compression: npz zlib level 1 and EXR ZIP, or neither
 EXPORTS = ("coco", "nerfstudio", "colmap")
 EXPORT_FILES = {"coco": ("coco_instances.json",), "nerfstudio": ("transforms.json",),
                 "colmap": tuple(os.path.join("colmap", n) for n in ("cameras.txt", "images.txt", "points3D.txt"))}
@@ -117,6 +123,8 @@ class _ViewSpec:
     settings_hash: str = ""
     exports: tuple = ()
     unoccluded: bool = False
+    float_image: bool = False
+    compression: str = "none"
 
 
 def _write_view(job, base, spec: _ViewSpec, cache: SceneCache) -> str:
@@ -139,17 +147,32 @@ def _write_view(job, base, spec: _ViewSpec, cache: SceneCache) -> str:
     boxes = [(m.mesh.vertices.min(axis=0), m.mesh.vertices.max(axis=0)) for m in scene.models]
     objects = view_objects(frame.buffers["model_id"], job.camera, rle=True, alone=alone, boxes_3d=boxes)
     cache.count("renders")
-    kept = {k: v for k, v in frame.buffers.items() if k in spec.buffers}
-    if "image" in files:
-        write_image(files["image"], frame.image, atomic=True, **spec.options.tone)
-    if "npz" in files:
-        save_npz(files["npz"], kept, image=frame.image, camera=job.camera, atomic=True)
-    if "exr" in files:
-        write_exr(files["exr"], kept, image=frame.image, atomic=True)
-    if "depth_png" in files:
-        write_depth_png(files["depth_png"], frame.buffers["zdepth"], scale=spec.depth_scale, atomic=True)
+    _write_files(files, frame, {k: v for k, v in frame.buffers.items() if k in spec.buffers}, job, spec)
     write_record(files, key, job, objects)
     return _STEM.format(job.index)
+
+
+def _write_files(files, frame, kept, job, spec: _ViewSpec) -> None:
+    """The view's image and buffer files, written side by side on threads (compression, writing and
+    fsync release the GIL, so one file's disk wait overlaps another's compression)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    linear = frame.image if spec.float_image else None
+    zipped = spec.compression == "zip"
+    writers = {
+        "image": lambda p: write_image(p, frame.image, atomic=True, **spec.options.tone),
+        "npz": lambda p: save_npz(p, kept, image=linear, camera=job.camera, compressed=1 if zipped else False,
+                                  atomic=True),
+        "exr": lambda p: write_exr(p, kept, image=linear, compression="zip" if zipped else "none", atomic=True),
+        "depth_png": lambda p: write_depth_png(p, frame.buffers["zdepth"], scale=spec.depth_scale, atomic=True),
+    }
+    todo = [(writers[k], p) for k, p in files.items() if k in writers]
+    if len(todo) == 1:
+        todo[0][0](todo[0][1])
+        return
+    with ThreadPoolExecutor(len(todo)) as pool:
+        for future in [pool.submit(write, p) for write, p in todo]:
+            future.result()  # the first failure is raised; the record is not written
 
 
 def _run_on_worker(jobs, scene, spec: _ViewSpec) -> list:
@@ -231,7 +254,8 @@ def _settings(spec: _ViewSpec) -> dict:
     opts = spec.options
     return json.loads(json.dumps({
         "version": __version__, "buffers": list(spec.buffers), "formats": list(spec.formats), "image": spec.image,
-        "depth_scale": spec.depth_scale, "unoccluded": spec.unoccluded,
+        "depth_scale": spec.depth_scale, "unoccluded": spec.unoccluded, "float_image": spec.float_image,
+        "compression": spec.compression,
         "options": {"shading": opts.shading, "render": opts.render_kwargs, "tone": opts.tone}}, default=repr))
 
 
@@ -242,26 +266,48 @@ def _make_plan(spec: _ViewSpec, jobs) -> dict:
                        "files": view_files(j.index, spec.formats, spec.image)} for j in jobs]}
 
 
-def _check_set_options(exports, image, unoccluded, overwrite, depth_scale) -> tuple:
-    """The checked exports; TypeError/ValueError naming the argument otherwise."""
+def _check_outputs(names, formats, image) -> None:
+    if not formats and image is None:
+        raise ValueError("formats: nothing to write (no buffer format and image=None)")
+    if formats and not names and "depth_png" not in formats:
+        raise ValueError("buffers: no buffers asked for, but formats names buffer files")
+    if "exr" in formats:
+        import OpenEXR  # noqa: F401 - fail now, not on the first view
+
+
+def _check_memory(jobs, names, options) -> None:
+    """Every camera's frame, with the buffers asked for, within the memory limit, before the first view."""
+    for job in jobs:
+        try:
+            job.camera.check_frame_memory(names + ("model_id",), options.render_kwargs.get("samples", 1))
+        except ValueError as exc:
+            raise ValueError(f"cameras[{job.index}]: {exc}") from None
+
+
+def _check_set_options(exports, image, unoccluded, overwrite, depth_scale, float_image, compression) -> tuple:
+    """The checked exports and compression; TypeError/ValueError naming the argument otherwise."""
+    from ..common.validate import as_choice
+
     exports = _check_formats(exports, "exports", EXPORTS)
+    compression = as_choice(compression, "compression", COMPRESSIONS)
     for e in ("nerfstudio", "colmap"):
         if e in exports and image is None:
             raise ValueError(f"exports: {e!r} names each view's image file, but image=None writes none")
-    for name, value in (("unoccluded", unoccluded), ("overwrite", overwrite)):
+    for name, value in (("unoccluded", unoccluded), ("overwrite", overwrite), ("float_image", float_image)):
         if not isinstance(value, (bool, np.bool_)):
             raise TypeError(f"{name}: expected True or False, got {type(value).__name__}")
     if isinstance(depth_scale, bool) or not isinstance(depth_scale, (int, float, np.integer, np.floating)) \
             or not (np.isfinite(depth_scale) and depth_scale > 0):
         raise ValueError(f"depth_scale: expected a finite number > 0, got {depth_scale!r}")
-    return exports
+    return exports, compression
 
 
 def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", "mask"), formats=("npz",),
                  image: str | None = ".png", shading="phong", workers: int | None = None, scheduler=None,
                  resume: bool = True, tone: dict | None = None, retries: int = 2, views_per_task: int = 1,
                  numba_threads: int | None = None, depth_scale: float = 1000.0, overwrite: bool = False,
-                 exports=(), unoccluded: bool = False, **render_kwargs) -> str:
+                 exports=(), unoccluded: bool = False, float_image: bool = False, compression: str = "none",
+                 **render_kwargs) -> str:
     """Render a set of views with their buffers and cameras into ``out_dir``.
 
     Parameters
@@ -296,6 +342,12 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
         (amodal) pixel count and box and its visible fraction in the records
         and the index (:func:`raycast_shade.output.labels.view_objects`); one
         more cast per model and view.
+    float_image : bool
+        Also store the linear float32 image in the npz and EXR files (it
+        is the largest array there; default: the buffers only).
+    compression : {"none", "zip"}
+        npz and EXR files stored (the default, the fastest) or compressed
+        (npz: zlib level 1; EXR: ZIP).
     views_per_task : int
         Consecutive views per Dask task.
     depth_scale : float
@@ -330,18 +382,16 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
     formats = _check_formats(formats)
     if image is not None:
         check_image_path("view" + str(image), "image")
-    if not formats and image is None:
-        raise ValueError("formats: nothing to write (no buffer format and image=None)")
-    if formats and not names and "depth_png" not in formats:
-        raise ValueError("buffers: no buffers asked for, but formats names buffer files")
-    if "exr" in formats:
-        import OpenEXR  # noqa: F401 - fail now, not on the first view
+    _check_outputs(names, formats, image)
     views_per_task = as_int(views_per_task, "views_per_task", minimum=1)
-    exports = _check_set_options(exports, image, unoccluded, overwrite, depth_scale)
+    exports, compression = _check_set_options(exports, image, unoccluded, overwrite, depth_scale, float_image,
+                                              compression)
     options = check_options(shading, render_kwargs, tone, resume)
     bases, jobs = plan_batch(scene, cameras)
+    _check_memory(jobs, names, options)
     spec = _ViewSpec(options, names, formats, None if image is None else str(image).lower(), out_dir,
-                     float(depth_scale), exports=exports, unoccluded=bool(unoccluded))
+                     float(depth_scale), exports=exports, unoccluded=bool(unoccluded),
+                     float_image=bool(float_image), compression=compression)
     spec = dataclasses.replace(spec, settings_hash=digest(json.dumps(_settings(spec), sort_keys=True)))
     plan = _make_plan(spec, jobs)
     os.makedirs(out_dir, exist_ok=True)
@@ -432,6 +482,11 @@ def register_cli(subparsers):
     p.add_argument("--unoccluded", action="store_true",
                    help="also cast each model alone: per object its unoccluded pixel count and box and its "
                         "visible fraction, in index.json")
+    p.add_argument("--float-image", action="store_true",
+                   help="also store the linear float image in the npz/exr files (default: buffers only)")
+    p.add_argument("--compression", default="none", choices=COMPRESSIONS,
+                   help="npz/exr files stored (none, the default: fastest) or compressed (zip: npz zlib level 1, "
+                        "EXR ZIP)")
     p.add_argument("--overwrite", action="store_true",
                    help="replace a view set of another plan in the output folder (default: refuse it)")
     add_render_options(p)
@@ -457,7 +512,8 @@ def run_cli(ns) -> int:
     index = render_views(scene, orbit_cameras(scene.camera, ns.orbit), ns.output, buffers=ns.buffers,
                          formats=ns.formats, image=image, shading=shading, workers=ns.workers,
                          scheduler=ns.scheduler, tone=tone, overwrite=ns.overwrite,
-                         exports=ns.export, unoccluded=ns.unoccluded, **render_kwargs)
+                         exports=ns.export, unoccluded=ns.unoccluded, float_image=ns.float_image,
+                         compression=ns.compression, **render_kwargs)
     secs = time.perf_counter() - t0
     cam = scene.camera
     print(f"wrote {index} ({ns.orbit} views, {cam.width}x{cam.height}, buffers {','.join(ns.buffers)}): "

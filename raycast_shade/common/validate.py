@@ -272,6 +272,28 @@ def as_instance(value, name: str, cls, what: str | None = None):
     return value
 
 
+def as_sequence(value, name: str) -> list:
+    """A list of ``value``'s items: a list, tuple or other iterable, never a string, a mapping, a
+    NumPy array or a scalar (each of which iterates, or fails, in ways nobody means)."""
+    import collections.abc as abc
+
+    if isinstance(value, (str, bytes, np.ndarray, abc.Mapping)) or not isinstance(value, abc.Iterable):
+        raise TypeError(f"{name}: expected a sequence, got {type(value).__name__}")
+    return list(value)
+
+
+def as_path(value, name: str) -> str:
+    """A file-system path as ``str``: str or path-like, never a number, a boolean or None."""
+    import os
+
+    if isinstance(value, bool) or not isinstance(value, (str, bytes, os.PathLike)):
+        raise TypeError(f"{name}: expected a path, got {type(value).__name__}")
+    path = os.fsdecode(os.fspath(value))
+    if not path:
+        raise ValueError(f"{name}: an empty path")
+    return path
+
+
 def as_choice(value, name: str, choices) -> str:
     """One of ``choices`` (strings), case-insensitive."""
     if not isinstance(value, str):

@@ -3,7 +3,8 @@
 * ``.npz``: every buffer under its name (and the linear ``image`` and the
   camera's ``K``, ``R``, ``t`` when given), dtypes kept.
 * ``.exr`` (the ``openexr`` package, extra ``vision``): float32 channels,
-  ZIP-compressed. The image is ``R, G, B``; a scalar buffer is the channel
+  stored uncompressed unless a compression is asked for (:data:`EXR_COMPRESSIONS`;
+  OpenEXR's own threads compress the blocks). The image is ``R, G, B``; a scalar buffer is the channel
   ``name``; a 3-vector buffer ``name.X, name.Y, name.Z``; ids are ``UINT``
   channels holding ``id + 1`` (0 on the background), the mask a ``UINT``
   0/1 channel. :func:`read_exr` undoes all of it.
@@ -30,9 +31,11 @@ import os
 
 import numpy as np
 
+from ..common.validate import as_int, as_scalar
+
 from .imagefile import atomic_target
 
-__all__ = ["save_npz", "load_npz", "write_exr", "read_exr", "write_depth_png", "read_depth_png"]
+__all__ = ["EXR_COMPRESSIONS", "npz_level", "save_npz", "load_npz", "write_exr", "read_exr", "write_depth_png", "read_depth_png"]
 
 _ID_BUFFERS = ("model_id", "triangle_id", "instance_id", "semantic_id")
 _MASKS = ("mask",)
@@ -41,6 +44,9 @@ _AXES = ("X", "Y", "Z")
 # taken as the argument itself.
 NPZ_RESERVED = ("file", "allow_pickle")
 _ID_RANGE = (-1, 2**31 - 1)  # stored as uint32 id + 1, read back as int32
+#: write_exr's compressions (OpenEXR's names, lower case). At 1080p only "none" writes in less than
+#: a frame's time; "zstd" gives the smallest files (OpenEXR >= 3.4 reads them), "zip" the most widely read.
+EXR_COMPRESSIONS = ("none", "rle", "zips", "zip", "piz", "zstd")
 
 
 def _check_path(path, ext: str, field: str = "path") -> str:
@@ -51,6 +57,14 @@ def _check_path(path, ext: str, field: str = "path") -> str:
         path = os.fsdecode(path)
     if not path.lower().endswith(ext):
         raise ValueError(f"{field}: {path!r}: expected a {ext} file")
+    return path
+
+
+def _existing(path, ext: str, field: str = "path") -> str:
+    """A file to read: its path checked as :func:`_check_path` does, and present."""
+    path = _check_path(path, ext, field)
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"{field}: no file {path!r}")
     return path
 
 
@@ -102,7 +116,8 @@ def _target(path, atomic):
         yield path
 
 
-def save_npz(path, buffers: dict, *, image=None, camera=None, compressed: bool = True, atomic: bool = False) -> str:
+def save_npz(path, buffers: dict, *, image=None, camera=None, compressed: bool | int = False,
+             atomic: bool = False) -> str:
     """Write buffers (and optionally the image and the camera's K, R, t) to one ``.npz``.
 
     Parameters
@@ -115,8 +130,12 @@ def save_npz(path, buffers: dict, *, image=None, camera=None, compressed: bool =
         ``R``, ``t``) when ``image`` (``camera``) is given.
     image : (H, W, 3) float32, optional
     camera : Camera, optional
-    compressed : bool
-        ``np.savez_compressed`` (zlib) or ``np.savez``.
+    compressed : bool or int
+        ``False`` (the default): stored, as ``np.savez`` (the fastest: at
+        1080p zlib costs several frames, see ``docs/performance.md``);
+        ``True``: zlib at level 6, as ``np.savez_compressed``; an int
+        ``0 <= level <= 9``: zlib at that level (1: the fastest that
+        compresses). Every variant is an ordinary ``.npz`` (``np.load``).
 
     Returns
     -------
@@ -129,6 +148,7 @@ def save_npz(path, buffers: dict, *, image=None, camera=None, compressed: bool =
         Naming the buffer or argument at fault, before the file is opened.
     """
     path = _check_path(path, ".npz")
+    level = npz_level(compressed)
     reserved = NPZ_RESERVED + (("image",) if image is not None else ()) + (("K", "R", "t") if camera is not None else ())
     arrays, _ = _check_buffers(buffers, image, reserved)
     if image is not None:
@@ -138,13 +158,35 @@ def save_npz(path, buffers: dict, *, image=None, camera=None, compressed: bool =
             raise TypeError(f"camera: expected a Camera, got {type(camera).__name__}")
         arrays["K"], arrays["R"], arrays["t"] = camera.to_opencv()
     with _target(path, atomic) as target, open(target, "wb") as fh:
-        (np.savez_compressed if compressed else np.savez)(fh, **arrays)
+        _write_npz(fh, arrays, level)
     return path
+
+
+def npz_level(compressed, field: str = "compressed"):
+    """The zlib level of ``compressed`` (``None``: stored); TypeError/ValueError naming ``field``."""
+    if isinstance(compressed, (bool, np.bool_)):
+        return 6 if compressed else None
+    if not isinstance(compressed, (int, np.integer)):
+        raise TypeError(f"{field}: expected a bool or a zlib level 0-9, got {type(compressed).__name__}")
+    if not 0 <= int(compressed) <= 9:
+        raise ValueError(f"{field}: expected a zlib level 0-9, got {compressed}")
+    return int(compressed)
+
+
+def _write_npz(fh, arrays: dict, level) -> None:
+    """``np.savez``'s layout (one ``name.npy`` member per array), stored or deflated at ``level``."""
+    import zipfile
+
+    mode = zipfile.ZIP_STORED if level is None else zipfile.ZIP_DEFLATED
+    with zipfile.ZipFile(fh, "w", compression=mode, compresslevel=level, allowZip64=True) as zf:
+        for name, a in arrays.items():
+            with zf.open(name + ".npy", "w", force_zip64=True) as member:
+                np.lib.format.write_array(member, np.asanyarray(a), allow_pickle=False)
 
 
 def load_npz(path) -> dict:
     """Every array of a :func:`save_npz` file, by name."""
-    with np.load(os.fspath(path)) as data:
+    with np.load(_existing(path, ".npz"), allow_pickle=False) as data:
         return {k: data[k] for k in data.files}
 
 
@@ -191,7 +233,8 @@ def _exr_channels(buffers, image):
     return channels
 
 
-def write_exr(path, buffers: dict, *, image=None, atomic: bool = False) -> str:
+def write_exr(path, buffers: dict, *, image=None, compression: str = "none", threads: int | None = None,
+              atomic: bool = False) -> str:
     """Write buffers (and optionally the linear image) as one multi-channel EXR.
 
     Parameters
@@ -204,6 +247,12 @@ def write_exr(path, buffers: dict, *, image=None, atomic: bool = False) -> str:
         ``semantic_id``), ``-1 <= id <= 2**31 - 1`` (int32); bool only ``mask``.
         No name ``R``, ``G``, ``B`` (the image) or with a dot.
     image : (H, W, 3) float, optional
+    compression : str
+        One of :data:`EXR_COMPRESSIONS`; ``"none"`` (the default) is the
+        fastest by far (see ``docs/performance.md`` for times and sizes).
+    threads : int, optional
+        OpenEXR's worker threads while this file is written (its
+        process-wide count is put back afterwards); default: one per CPU.
 
     Raises
     ------
@@ -216,11 +265,26 @@ def write_exr(path, buffers: dict, *, image=None, atomic: bool = False) -> str:
         import OpenEXR
     except ImportError as exc:
         raise ImportError("write_exr: needs the openexr package (pip install 'raycast_shade[vision]')") from exc
+    from ..common.validate import as_choice
+
     path = _check_path(path, ".exr")
+    compression = as_choice(compression, "compression", EXR_COMPRESSIONS)
+    if threads is None:
+        threads = os.cpu_count() or 1
+    else:
+        threads = as_int(threads, "threads", minimum=0)
     channels = _exr_channels(buffers, image)
-    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
-    with _target(path, atomic) as target, OpenEXR.File(header, channels) as f:
-        f.write(target)
+    codec = getattr(OpenEXR, ("NO" if compression == "none" else compression.upper()) + "_COMPRESSION", None)
+    if codec is None:  # ZSTD came with OpenEXR 3.4
+        raise ValueError(f"compression: {compression!r} needs a newer openexr package than the one installed")
+    header = {"compression": codec, "type": OpenEXR.scanlineimage}
+    before = OpenEXR.global_thread_count()
+    OpenEXR.set_global_thread_count(int(threads))
+    try:
+        with _target(path, atomic) as target, OpenEXR.File(header, channels) as f:
+            f.write(target)
+    finally:
+        OpenEXR.set_global_thread_count(before)
     return path
 
 
@@ -228,7 +292,7 @@ def read_exr(path) -> dict:
     """The buffers (and ``image``) of a :func:`write_exr` file, with their written dtypes and shapes."""
     import OpenEXR
 
-    with OpenEXR.File(os.fspath(path), separate_channels=True) as f:
+    with OpenEXR.File(_existing(path, ".exr"), separate_channels=True) as f:
         ch = {k: v.pixels for k, v in f.channels().items()}
     out = {}
     if all(c in ch for c in "RGB"):
@@ -275,9 +339,7 @@ def write_depth_png(path, depth, *, scale: float = 1000.0, atomic: bool = False)
     if np.any(d < 0):
         bad = tuple(int(i) for i in np.argwhere(d < 0)[0])
         raise ValueError(f"depth: negative value {d[bad]:g} at (row, column) {bad}; depth is >= 0 (0: none)")
-    if isinstance(scale, bool) or not (isinstance(scale, (int, float, np.integer, np.floating))
-                                       and np.isfinite(scale) and scale > 0):
-        raise ValueError(f"scale: expected a finite number > 0, got {scale!r}")
+    scale = as_scalar(scale, "scale", minimum=0.0, exclusive=True)
     q = np.where(np.isfinite(d) & (d > 0), np.rint(d * scale), 0.0)
     q = np.where(q <= 65535, q, 0.0).astype(">u2")  # PNG stores 16-bit samples big-endian
     h, w = q.shape
@@ -298,4 +360,6 @@ def read_depth_png(path, *, scale: float = 1000.0) -> np.ndarray:
     """(H, W) float32 depth of a :func:`write_depth_png` file (0: none)."""
     import imageio.v3 as iio
 
-    return (iio.imread(os.fspath(path)).astype(np.float64) / scale).astype(np.float32)
+    path = _existing(path, ".png")
+    scale = as_scalar(scale, "scale", minimum=0.0, exclusive=True)
+    return (iio.imread(path).astype(np.float64) / scale).astype(np.float32)

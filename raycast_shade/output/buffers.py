@@ -2,9 +2,18 @@
 
 ``render(scene, buffers=("zdepth", "position", ...))`` puts each asked-for
 buffer on ``frame.buffers``; nothing else is computed or held. All come from
-the hit buffer after the cast (NumPy, float64 arithmetic, stored float32),
-except the shading normals, which are the shading kernels' own
-(:func:`raycast_shade.shading_normals`, as ``frame.normal``).
+the hit buffer after the cast, in one Numba pass over the pixels (parallel
+over rows, float64 arithmetic per pixel, written float32 straight into the
+outputs: no full-frame temporaries), except the shading normals, which are
+the shading kernels' own (:func:`raycast_shade.shading_normals`, as
+``frame.normal``).
+
+``position`` is the float64 intersection of the pixel's own ray (the ray the
+camera casts, lens distortion included) with the hit triangle's plane,
+rounded once to float32: it reprojects onto its pixel centre to float32
+rounding at any angle, where interpolating Embree's float32 barycentrics
+would land up to half a pixel off at grazing angles. ``zdepth`` is
+``t (d . forward)`` for the cast's ``t`` and the unit ray ``d``.
 
 Names, shapes and meanings (background: 0, ids -1; camera axes are OpenCV's,
 ``x`` right, ``y`` down, ``z`` forward; see ``docs/vision.md``):
@@ -36,8 +45,13 @@ samples, so masks and ids stay exact.
 from __future__ import annotations
 
 import numpy as np
+from numba import njit, prange
 
-__all__ = ["BUFFER_NAMES", "ALIASES", "check_buffers", "compute_buffers"]
+from ..common.layout import CAM_EYE
+from ..scene.framememory import BUFFER_BYTES
+from ..visibility.rays import camera_frame, pixel_ray
+
+__all__ = ["BUFFER_NAMES", "ALIASES", "BUFFER_BYTES", "buffer_bytes", "check_buffers", "compute_buffers"]
 
 BUFFER_NAMES = ("depth", "zdepth", "position", "normal", "normal_camera", "face_normal", "face_normal_camera",
                 "barycentric", "model_id", "triangle_id", "mask", "coverage", "semantic_id")
@@ -76,16 +90,151 @@ def check_buffers(names, field: str = "buffers") -> tuple:
     return tuple(dict.fromkeys(out))
 
 
-def _unit_rays(camera):
-    """(H, W, 3) float64 unit ray directions (world axes), as the casters make them."""
-    from ..visibility.rays import generate_rays
 
-    if camera.distorted:
-        from ..visibility.distortion import ray_directions
 
-        return ray_directions(camera)[0].reshape(camera.height, camera.width, 3)
-    _, d = generate_rays(camera, dtype=np.float64)
-    return d.reshape(camera.height, camera.width, 3)
+def buffer_bytes(names) -> int:
+    """Bytes per pixel of the named buffers (:data:`BUFFER_BYTES`, aliases expanded)."""
+    return sum(BUFFER_BYTES[n] for n in check_buffers(names))
+
+
+@njit(cache=True, inline="always")
+def _ray(cam, dirs, w, x, y):
+    """The pixel's ray as the casters make it: origin and unit direction, float64
+    (``dirs``: the lens-distorted directions, row-major, or empty for a pinhole)."""
+    if dirs.shape[0] == 0:
+        return pixel_ray(cam, x, y)
+    i = y * w + x
+    return cam[CAM_EYE + 0], cam[CAM_EYE + 1], cam[CAM_EYE + 2], dirs[i, 0], dirs[i, 1], dirs[i, 2]
+
+
+@njit(cache=True, inline="always")
+def _plane_distance(vertices, faces, f, t, ox, oy, oz, dx, dy, dz):
+    """Where the ray ``o + s d`` meets the plane of triangle ``f``: ``s = ((p0 - o) . n) / (d . n)``
+    in float64, exact to rounding at any angle (the cast's ``t`` is float32, and its barycentrics
+    too); ``t`` itself if the ray is parallel to the plane to float64 precision."""
+    i0 = faces[f, 0]
+    i1 = faces[f, 1]
+    i2 = faces[f, 2]
+    p0x, p0y, p0z = vertices[i0, 0], vertices[i0, 1], vertices[i0, 2]
+    e1x, e1y, e1z = vertices[i1, 0] - p0x, vertices[i1, 1] - p0y, vertices[i1, 2] - p0z
+    e2x, e2y, e2z = vertices[i2, 0] - p0x, vertices[i2, 1] - p0y, vertices[i2, 2] - p0z
+    nx = e1y * e2z - e1z * e2y
+    ny = e1z * e2x - e1x * e2z
+    nz = e1x * e2y - e1y * e2x
+    den = dx * nx + dy * ny + dz * nz
+    if den != 0.0:
+        q = ((p0x - ox) * nx + (p0y - oy) * ny + (p0z - oz) * nz) / den
+        if np.isfinite(q) and q > 0.0:
+            return q
+    return t
+
+
+@njit(cache=True, parallel=True)
+def _buffers_kernel(cam, fwd, R, dirs, y0, prim, geom, u, v, t, vertices, faces, face_normals, face_offsets,
+                    origin, shading_n, lut, depth, zdepth, position, normal, normal_cam, face_n, face_n_cam,
+                    bary, model_id, semantic_id, triangle_id, mask):
+    """Every asked-for buffer of one pixel in one pass; an output of size 0 is not asked for.
+
+    Parameters
+    ----------
+    cam : (16,) float64
+        :func:`~raycast_shade.visibility.rays.camera_frame` re-centred on ``origin``.
+    fwd : (3,) float64
+        The camera's unit optical axis.
+    R : (3, 3) float64
+        World-to-camera rotation (rows: camera x, y, z in world axes).
+    dirs : (H*W, 3) or (0, 3) float64
+        Distorted unit ray directions of the whole frame, or empty for a pinhole camera.
+    y0 : int
+        The image row of the hits' first row (0 for a whole frame; a band's first row).
+    prim, geom : (h, W) int32
+        The hits of image rows ``y0`` to ``y0 + h``; every output has their rows too.
+    u, v, t : (h, W) float32
+    vertices : (V, 3) float64
+    faces : (F, 3) int64
+    face_normals : (F, 3) float64
+    face_offsets : (G + 1,) int64
+    origin : (3,) float64
+    shading_n : (h, W, 3) or (0, 0, 3) float32
+    lut : (G,) int32
+        Semantic class of each model.
+    depth, zdepth : (h, W) or (0, 0) float32
+    position, normal, normal_cam, face_n, face_n_cam, bary : (h, W, 3) or (0, 0, 3) float32
+    model_id, semantic_id, triangle_id : (h, W) or (0, 0) int32
+    mask : (h, W) or (0, 0) bool
+    """
+    h, w = prim.shape
+    want_z = zdepth.shape[0] != 0
+    want_p = position.shape[0] != 0
+    want_f = face_n.shape[0] != 0 or face_n_cam.shape[0] != 0
+    for y in prange(h):
+        for x in range(w):
+            hit = prim[y, x] >= 0
+            if depth.shape[0] != 0:
+                depth[y, x] = t[y, x] if hit else np.float32(0.0)
+            if mask.shape[0] != 0:
+                mask[y, x] = hit
+            if model_id.shape[0] != 0:
+                model_id[y, x] = geom[y, x]
+            if triangle_id.shape[0] != 0:
+                triangle_id[y, x] = prim[y, x]
+            if semantic_id.shape[0] != 0:
+                semantic_id[y, x] = lut[geom[y, x]] if hit else np.int32(-1)
+            if bary.shape[0] != 0:
+                if hit:
+                    a = np.float64(u[y, x])
+                    b = np.float64(v[y, x])
+                    bary[y, x, 0] = 1.0 - a - b
+                    bary[y, x, 1] = a
+                    bary[y, x, 2] = b
+                else:
+                    bary[y, x, 0] = 0.0
+                    bary[y, x, 1] = 0.0
+                    bary[y, x, 2] = 0.0
+            if normal.shape[0] != 0:
+                for k in range(3):
+                    normal[y, x, k] = shading_n[y, x, k]
+            if normal_cam.shape[0] != 0:
+                n0 = np.float64(shading_n[y, x, 0])
+                n1 = np.float64(shading_n[y, x, 1])
+                n2 = np.float64(shading_n[y, x, 2])
+                for k in range(3):
+                    normal_cam[y, x, k] = n0 * R[k, 0] + n1 * R[k, 1] + n2 * R[k, 2]
+            if not (want_z or want_p or want_f):
+                continue
+            if not hit:
+                for k in range(3):
+                    if want_p:
+                        position[y, x, k] = 0.0
+                    if face_n.shape[0] != 0:
+                        face_n[y, x, k] = 0.0
+                    if face_n_cam.shape[0] != 0:
+                        face_n_cam[y, x, k] = 0.0
+                if want_z:
+                    zdepth[y, x] = 0.0
+                continue
+            ox, oy, oz, dx, dy, dz = _ray(cam, dirs, w, x, y0 + y)
+            if want_z:
+                zdepth[y, x] = np.float64(t[y, x]) * (dx * fwd[0] + dy * fwd[1] + dz * fwd[2])
+            f = face_offsets[geom[y, x]] + prim[y, x]
+            if want_p:
+                s = _plane_distance(vertices, faces, f, np.float64(t[y, x]), ox, oy, oz, dx, dy, dz)
+                position[y, x, 0] = (ox + s * dx) + origin[0]
+                position[y, x, 1] = (oy + s * dy) + origin[1]
+                position[y, x, 2] = (oz + s * dz) + origin[2]
+            if want_f:
+                n0 = face_normals[f, 0]
+                n1 = face_normals[f, 1]
+                n2 = face_normals[f, 2]
+                if n0 * dx + n1 * dy + n2 * dz > 0.0:  # turned to the viewer, as shading does
+                    n0, n1, n2 = -n0, -n1, -n2
+                if face_n.shape[0] != 0:
+                    face_n[y, x, 0] = n0
+                    face_n[y, x, 1] = n1
+                    face_n[y, x, 2] = n2
+                if face_n_cam.shape[0] != 0:
+                    for k in range(3):
+                        face_n_cam[y, x, k] = n0 * R[k, 0] + n1 * R[k, 1] + n2 * R[k, 2]
 
 
 def compute_buffers(scene, camera, hits, names, shading="phong", coverage=None) -> dict:
@@ -108,65 +257,53 @@ def compute_buffers(scene, camera, hits, names, shading="phong", coverage=None) 
     Returns
     -------
     dict of str to ndarray
-        In the order asked; shapes and dtypes as in the module table.
+        In the order asked; shapes and dtypes as in the module table. Only
+        the asked-for arrays (and the shading normals, if a ``normal`` is
+        asked for) are allocated.
     """
     names = check_buffers(names)
-    mask = hits.prim >= 0
-    out = {}
-    need_rays = any(n in names for n in ("zdepth", "face_normal", "face_normal_camera"))
-    rays = _unit_rays(camera) if need_rays else None
-    geo = scene.geometry if any(n in names for n in ("position", "face_normal", "face_normal_camera")) else None
+    h, w = hits.prim.shape
+    geo = scene.geometry
     from ..scene.projection import extrinsics
 
     R, _ = extrinsics(camera)
-    face = None
-    if geo is not None:
-        face = np.where(mask, geo.face_offsets[np.maximum(hits.geom, 0)] + hits.prim, 0)
-    shading_n = None
-    geometric_n = None
+
+    def out(name, shape, dtype):
+        return np.empty((h, w) + shape, dtype) if name in names else np.empty((0, 0) + shape, dtype)
+
+    shading_n = np.empty((0, 0, 3), np.float32)
+    if "normal" in names or "normal_camera" in names:
+        from ..shading.normals import shading_normals
+
+        shading_n = shading_normals(scene, camera, hits, shading)
+    dirs = np.empty((0, 3), np.float64)
+    if camera.distorted and any(n in names for n in ("zdepth", "position", "face_normal", "face_normal_camera")):
+        from ..visibility.distortion import ray_directions
+
+        dirs = np.ascontiguousarray(ray_directions(camera)[0], np.float64)
+    lut = np.zeros(max(len(geo.face_offsets) - 1, 1), np.int32)
+    if "semantic_id" in names:
+        from .labels import semantic_classes
+
+        lut = np.ascontiguousarray(semantic_classes(scene)[1], np.int32)
+    bufs = {"depth": out("depth", (), np.float32), "zdepth": out("zdepth", (), np.float32),
+            "position": out("position", (3,), np.float32), "normal": out("normal", (3,), np.float32),
+            "normal_camera": out("normal_camera", (3,), np.float32),
+            "face_normal": out("face_normal", (3,), np.float32),
+            "face_normal_camera": out("face_normal_camera", (3,), np.float32),
+            "barycentric": out("barycentric", (3,), np.float32), "model_id": out("model_id", (), np.int32),
+            "semantic_id": out("semantic_id", (), np.int32), "triangle_id": out("triangle_id", (), np.int32),
+            "mask": out("mask", (), np.bool_)}
+    c = np.ascontiguousarray
+    _buffers_kernel(camera_frame(camera, geo.origin), c(camera.basis[2], np.float64), c(R, np.float64), dirs, 0,
+                    c(hits.prim, np.int32), c(hits.geom, np.int32), c(hits.u, np.float32), c(hits.v, np.float32),
+                    c(hits.t, np.float32), geo.vertices, geo.faces, geo.face_normals, geo.face_offsets,
+                    c(geo.origin, np.float64), shading_n, lut, *bufs.values())
+    result = {}
     for name in names:
-        if name == "depth":
-            buf = np.where(mask, hits.t, np.float32(0.0))
-        elif name == "zdepth":
-            # z = t (d . forward) for a unit ray d (orthographic: d = forward, z = t).
-            cosine = rays @ camera.basis[2]
-            buf = np.where(mask, hits.t * cosine, 0.0)
-        elif name == "position":
-            tri = geo.vertices[geo.faces[face]]  # (H, W, 3 vertices, 3)
-            u = hits.u.astype(np.float64)[..., None]
-            v = hits.v.astype(np.float64)[..., None]
-            p = (1.0 - u - v) * tri[..., 0, :] + u * tri[..., 1, :] + v * tri[..., 2, :] + geo.origin
-            buf = np.where(mask[..., None], p, 0.0)
-        elif name in ("normal", "normal_camera"):
-            if shading_n is None:
-                from ..shading.normals import shading_normals
-
-                shading_n = shading_normals(scene, camera, hits, shading).astype(np.float64)
-            buf = shading_n if name == "normal" else shading_n @ R.T
-        elif name in ("face_normal", "face_normal_camera"):
-            if geometric_n is None:
-                n = geo.face_normals[face]
-                back = np.einsum("...i,...i->...", n, rays) > 0.0  # turn to the viewer, as shading does
-                geometric_n = np.where(mask[..., None], np.where(back[..., None], -n, n), 0.0)
-            buf = geometric_n if name == "face_normal" else geometric_n @ R.T
-        elif name == "barycentric":
-            u = hits.u.astype(np.float64)
-            v = hits.v.astype(np.float64)
-            buf = np.where(mask[..., None], np.stack([1.0 - u - v, u, v], axis=-1), 0.0)
-        elif name == "model_id":
-            buf = hits.geom.copy()
-        elif name == "semantic_id":
-            from .labels import semantic_classes
-
-            lut = semantic_classes(scene)[1]
-            buf = np.where(mask, lut[np.maximum(hits.geom, 0)], np.int32(-1)).astype(np.int32)
-        elif name == "triangle_id":
-            buf = hits.prim.copy()
-        elif name == "coverage":
-            buf = mask.astype(np.float32) if coverage is None else np.array(coverage, np.float32)
-        else:  # mask
-            buf = mask.copy()
-        if buf.dtype.kind == "f":
-            buf = np.ascontiguousarray(buf, dtype=np.float32)
-        out[name] = buf
-    return out
+        if name == "coverage":
+            mask = hits.prim >= 0
+            result[name] = mask.astype(np.float32) if coverage is None else np.array(coverage, np.float32)
+        else:
+            result[name] = bufs[name]
+    return result

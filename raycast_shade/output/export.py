@@ -31,6 +31,8 @@ import os
 
 import numpy as np
 
+from ..common.validate import as_path, as_sequence
+
 __all__ = ["PIXEL_CENTRE_SHIFT", "camera_to_world_gl", "nerfstudio_transforms", "write_transforms", "rotation_to_quaternion",
            "write_colmap"]
 
@@ -43,8 +45,8 @@ def _check(cameras, names, field="names"):
 
     if isinstance(cameras, Camera):
         cameras = [cameras]
-    cameras = list(cameras)
-    names = list(names)
+    cameras = as_sequence(cameras, "cameras")
+    names = as_sequence(names, field)
     if not cameras:
         raise ValueError("cameras: expected at least one camera")
     for i, cam in enumerate(cameras):
@@ -118,7 +120,7 @@ def write_transforms(path, cameras, file_paths) -> str:
     """Write :func:`nerfstudio_transforms` to ``path`` (``.json``), atomically; returns the path."""
     from .imagefile import atomic_target
 
-    path = os.fspath(path)
+    path = as_path(path, "path")
     if not path.lower().endswith(".json"):
         raise ValueError(f"path: {path!r}: expected a .json file")
     data = nerfstudio_transforms(cameras, file_paths)
@@ -170,8 +172,8 @@ def write_colmap(folder, cameras, names) -> list:
     """
     from .imagefile import atomic_target
 
+    folder = as_path(folder, "folder")
     cameras, names = _check(cameras, names)
-    folder = os.fspath(folder)
     os.makedirs(folder, exist_ok=True)
     ids, cam_lines, img_lines = {}, [], []
     for i, (cam, name) in enumerate(zip(cameras, names)):

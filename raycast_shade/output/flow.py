@@ -48,8 +48,10 @@ def move_model(scene, index: int, matrix):
     -------
     Scene
     """
-    from ..common.validate import as_array, as_int
+    from ..common.validate import as_array, as_instance, as_int
+    from ..scene.scene import Scene
 
+    as_instance(scene, "scene", Scene)
     index = as_int(index, "index", minimum=0, maximum=len(scene.models) - 1)
     M = as_array(matrix, "matrix", dtype=np.float64, shape=(4, 4))
     if not np.array_equal(M[3], [0.0, 0.0, 0.0, 1.0]):

@@ -32,13 +32,36 @@ import os
 
 import numpy as np
 
+from ..common.validate import as_bool, as_instance, as_int, as_name, as_path, as_sequence
+
 __all__ = ["semantic_classes", "object_table", "box_corners", "view_objects", "unoccluded_masks", "rle_encode", "rle_decode", "coco_instances",
            "write_coco"]
+
+
+def _check_scene(scene):
+    from ..scene.scene import Scene
+
+    as_instance(scene, "scene", Scene)
+
+
+def _check_views(views) -> list:
+    """``views`` as :func:`coco_instances` takes them, checked before any is read."""
+    views = as_sequence(views, "views")
+    for k, view in enumerate(views):
+        if not isinstance(view, dict) or not {"file_name", "width", "height", "objects"} <= set(view):
+            raise TypeError(f"views[{k}]: expected a dict with file_name, width, height and objects "
+                            "(objects as view_objects(..., rle=True) gives them)")
+        as_name(view["file_name"], f"views[{k}].file_name")
+        as_int(view["width"], f"views[{k}].width", minimum=1)
+        as_int(view["height"], f"views[{k}].height", minimum=1)
+        as_sequence(view["objects"], f"views[{k}].objects")
+    return views
 
 
 def semantic_classes(scene) -> tuple:
     """``(names, ids)``: the distinct model names in order of first appearance, and each model's index
     into them, ``(G,) int32``."""
+    _check_scene(scene)
     names = []
     ids = np.empty(len(scene.models), np.int32)
     for i, model in enumerate(scene.models):
@@ -110,9 +133,13 @@ def view_objects(model_id, camera, *, rle: bool = False, alone=None, boxes_3d=No
     """
     from ..scene.projection import project_points
 
+    from ..scene.camera import Camera
+
     ids = np.asarray(model_id)
     if ids.ndim != 2 or ids.dtype.kind not in "iu":
         raise ValueError(f"model_id: expected an (H, W) integer array, got {ids.dtype} {ids.shape}")
+    as_instance(camera, "camera", Camera)
+    rle = as_bool(rle, "rle")
     K, R, t = camera.to_opencv()
     pose = np.eye(4)
     pose[:3, :3], pose[:3, 3] = R, t
@@ -206,6 +233,8 @@ def rle_encode(mask) -> dict:
 def rle_decode(rle) -> np.ndarray:
     """The (H, W) bool mask of a compressed RLE (the inverse of :func:`rle_encode`)."""
     try:
+        if not isinstance(rle, dict):
+            raise TypeError
         h, w = (int(x) for x in rle["size"])
         s = rle["counts"]
     except (TypeError, KeyError, ValueError):
@@ -256,6 +285,7 @@ def coco_instances(scene, views) -> dict:
         ``[x, y, w, h]``, ``iscrowd`` 0, ``category_id``, and ``model_id``.
     """
     names, sem = semantic_classes(scene)
+    views = _check_views(views)
     images, annotations = [], []
     for k, view in enumerate(views):
         images.append({"id": k + 1, "file_name": view["file_name"], "width": int(view["width"]),
@@ -277,7 +307,7 @@ def write_coco(path, scene, views) -> str:
     """Write :func:`coco_instances` as JSON to ``path`` (``.json``), atomically."""
     from .imagefile import atomic_target
 
-    path = os.fspath(path)
+    path = as_path(path, "path")
     if not path.lower().endswith(".json"):
         raise ValueError(f"path: {path!r}: expected a .json file")
     data = coco_instances(scene, views)

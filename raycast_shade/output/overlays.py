@@ -169,6 +169,9 @@ def _geometry(frame):
         raise TypeError(f"frame: expected a Frame from raycast_shade.render, got {type(frame).__name__}")
     if frame.scene is None or frame.camera is None:
         raise ValueError("frame: overlays need the frame's scene and camera (a Frame from raycast_shade.render)")
+    if frame.camera.distorted:  # the overlays project edges and corners through a pinhole
+        raise ValueError("frame: overlays draw a pinhole projection, but the frame's camera has lens distortion; "
+                         "render it with distortion=None to draw overlays")
     return frame.scene.geometry
 
 

@@ -8,14 +8,13 @@ import numpy as np
 
 from ..common.choices import PROJECTIONS
 from ..common.validate import as_choice, as_int, as_scalar, as_vec3, check_memory, pow2_scaled
+from .framememory import FRAME_BYTES_PER_PIXEL, frame_bytes_per_pixel
 
 __all__ = ["Camera", "PROJECTIONS", "FRAME_BYTES_PER_PIXEL"]
 
-# What one rendered frame holds per pixel: the hit buffer 20 (prim, geom int32; u, v, t
-# float32), the linear image 12 (float32 RGB), the shading normals 12 (float32, on first
-# access) and the 8-bit image 3. render() refuses a camera whose frame exceeds
-# common.validate.memory_limit() before allocating any of it.
-FRAME_BYTES_PER_PIXEL = 20 + 12 + 12 + 3
+# What one rendered frame holds per pixel (hit buffer, image, normals, 8-bit image) and what
+# buffers, samples and terms add: scene.framememory. render() refuses a camera whose frame
+# exceeds common.validate.memory_limit() before allocating any of it.
 
 
 
@@ -158,10 +157,19 @@ class Camera:
         up = np.cross(right, fwd)
         return right, up, fwd
 
-    def check_frame_memory(self) -> None:
+    def check_frame_memory(self, buffers=(), samples: int = 1, terms=None, lights: int = 0) -> None:
         """Refuse (ValueError, with the figure) a frame larger than
-        :func:`~raycast_shade.common.validate.memory_limit`; see ``FRAME_BYTES_PER_PIXEL``."""
-        check_memory(float(self.width) * float(self.height) * FRAME_BYTES_PER_PIXEL,
+        :func:`~raycast_shade.common.validate.memory_limit`.
+
+        Parameters
+        ----------
+        buffers, samples, terms, lights
+            What the frame is asked for, as
+            :func:`~raycast_shade.scene.framememory.frame_bytes_per_pixel`
+            counts it (the default: the plain frame, ``FRAME_BYTES_PER_PIXEL``).
+        """
+        per_pixel = frame_bytes_per_pixel(buffers, samples, terms, lights)
+        check_memory(float(self.width) * float(self.height) * per_pixel,
                      f"camera.width x camera.height: {self.width} x {self.height} pixels", "a frame")
 
     @property

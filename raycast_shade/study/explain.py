@@ -539,6 +539,9 @@ def explain(frame, x, y) -> Explanation:
     """
     if getattr(frame, "scene", None) is None or getattr(frame, "hits", None) is None:
         raise TypeError(f"frame: expected a Frame from raycast_shade.render, got {type(frame).__name__}")
+    if getattr(frame.camera, "distorted", False):  # its rays are the lens's, not the pinhole's it re-casts
+        raise ValueError("explain: the frame's camera has lens distortion; explain() follows pinhole rays: "
+                         "render the frame with distortion=None to explain a pixel")
     h, w = frame.hits.shape
     x = as_int(x, "x", minimum=0, maximum=w - 1)
     y = as_int(y, "y", minimum=0, maximum=h - 1)

@@ -87,6 +87,8 @@ def assert_contract(code, out, err, fragment=None):
 
 BIG = ["--width", "1000000", "--height", "1000000"]
 HUGE_FRAME = "camera.width x camera.height: 1000000 x 1000000 pixels need about 47 TB for a frame"
+# views counts its default buffers too (zdepth, normal, ids, mask and the normals they come from: 37 bytes a pixel)
+HUGE_VIEWS = "camera.width x camera.height: 1000000 x 1000000 pixels need about 84 TB for a frame"
 
 # (subcommand argv, fragment). Scene-file classes are added below for render and animate.
 CASES = [
@@ -128,10 +130,11 @@ CASES = [
     (["views", "good.toml", "--orbit", "2", "--buffers", "depth,foo", "-o", "set"], "unknown buffer 'foo'"),
     (["views", "good.toml", "--orbit", "0", "-o", "set"], "argument --orbit"),
     (["views", "good.toml", "--orbit", "2.5", "-o", "set"], "argument --orbit"),
-    (["views", "good.toml", "--orbit", "2", *BIG, "-o", "set"], HUGE_FRAME),
+    (["views", "good.toml", "--orbit", "2", *BIG, "-o", "set"], HUGE_VIEWS),
     (["views", "good.toml", "--orbit", "2", "-o", "afile"], "afile"),
     (["views", "kd_booleans.toml", "--orbit", "2", "-o", "set"], "expected numbers, got booleans"),
     (["views", "missing.toml", "--orbit", "2", "-o", "set"], "missing.toml"),
+    (["views", "good.toml", "--orbit", "2", "--compression", "lzma", "-o", "set"], "argument --compression"),
     # info takes no arguments
     (["info", "--bogus"], "unrecognized arguments: --bogus"),
     (["info", "extra"], "unrecognized arguments: extra"),

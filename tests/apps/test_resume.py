@@ -88,7 +88,7 @@ def test_a_folder_of_another_plan_is_refused_then_replaced(scene, tmp_path, case
     index = json.load(open(tmp_path / "set" / INDEX_NAME))
     for view, cam in zip(index["views"], cams):
         npz = load_npz(tmp_path / "set" / view["files"]["npz"])
-        assert set(npz) == set(kwargs["buffers"]) | {"image", "K", "R", "t"}
+        assert set(npz) == set(kwargs["buffers"]) | {"K", "R", "t"}  # no float image unless asked
         assert npz["zdepth"].shape == (cam.height, cam.width)
         assert np.array_equal(npz["K"], cam.K) and np.array_equal(view["K"], cam.K)
 
@@ -285,7 +285,7 @@ def test_the_index_alone_re_renders_a_distorted_view_bit_for_bit(scene, tmp_path
     K, R, t = scene.camera.to_opencv()
     cams = [rs.Camera.from_opencv(K, R, t, W, H, dist=[-0.2, 0.05, 0.001, 0.0, 0.01]),
             rs.Camera.from_opencv(K, R, t + [0.3, 0, 0], W, H, dist=[0.05, -0.01, 0.0, 0.0], fisheye=True)]
-    render_views(scene, cams, tmp_path, buffers=["zdepth", "id"])
+    render_views(scene, cams, tmp_path, buffers=["zdepth", "id"], float_image=True)
     for view in json.load(open(tmp_path / INDEX_NAME))["views"]:
         cam = rs.Camera.from_opencv(view["K"], view["R"], view["t"], view["width"], view["height"],
                                     dist=view["distortion"], fisheye=view["distortion_model"] == "fisheye")

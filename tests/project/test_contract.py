@@ -98,6 +98,20 @@ def baselines(tmp):
     verts = _mesh().vertices
     mesh = _mesh()
     image = np.full((4, 5, 3), 0.5, np.float32)
+    # The vision files, labels and exports: one frame's buffers, written once so the readers have files.
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        vision = rs.render(scene, "phong", buffers=("zdepth", "model_id"))
+    depth, model_id = vision.buffers["zdepth"], vision.buffers["model_id"]
+    bufs = {"zdepth": depth}
+    image4 = np.zeros(depth.shape + (3,), np.float32)
+    npz, exr, dpng = tmp / "r.npz", tmp / "r.exr", tmp / "r.png"
+    rs.save_npz(str(npz), bufs)
+    rs.write_exr(str(exr), bufs)
+    rs.write_depth_png(str(dpng), depth)
+    cam2 = rs.Camera(eye=(0.3, 0.0, 4.0), target=(0.0, 0.0, 0.0), width=cam.width, height=cam.height)
+    coco_views = [dict(file_name="a.png", width=cam.width, height=cam.height,
+                       objects=rs.view_objects(model_id, cam, rle=True))]
     table = {
         "Camera": (rs.Camera, dict(eye=(0.0, 0.0, 4.0), target=(0.0, 0.0, 0.0), up=(0.0, 1.0, 0.0), fov=45.0,
                                    width=16, height=12, projection="perspective", ortho_height=2.0, fx=20.0,
@@ -135,6 +149,27 @@ def baselines(tmp):
         "to_uint8": (rs.to_uint8, dict(image=image, exposure=1.0, tonemap="clamp", gamma="srgb")),
         "winding_conflicts": (rs.winding_conflicts, dict(vertices=mesh.vertices, faces=mesh.faces)),
         "explain": (rs.explain, dict(frame=frame, x=3, y=4)),
+        "save_npz": (rs.save_npz, dict(path=str(tmp / "b.npz"), buffers=bufs, image=image4, camera=cam,
+                                       compressed=False)),
+        "load_npz": (rs.load_npz, dict(path=str(npz))),
+        "write_exr": (rs.write_exr, dict(path=str(tmp / "b.exr"), buffers=bufs, image=image4, compression="none",
+                                         threads=1)),
+        "read_exr": (rs.read_exr, dict(path=str(exr))),
+        "write_depth_png": (rs.write_depth_png, dict(path=str(tmp / "d.png"), depth=depth, scale=1000.0)),
+        "read_depth_png": (rs.read_depth_png, dict(path=str(dpng), scale=1000.0)),
+        "optical_flow": (rs.optical_flow, dict(scene=scene, camera=cam, camera_b=cam2)),
+        "move_model": (rs.move_model, dict(scene=scene, index=0, matrix=np.eye(4))),
+        "semantic_classes": (rs.semantic_classes, dict(scene=scene)),
+        "object_table": (rs.object_table, dict(scene=scene)),
+        "view_objects": (rs.view_objects, dict(model_id=model_id, camera=cam, rle=True)),
+        "coco_instances": (rs.coco_instances, dict(scene=scene, views=coco_views)),
+        "write_coco": (rs.write_coco, dict(path=str(tmp / "coco.json"), scene=scene, views=coco_views)),
+        "rle_encode": (rs.rle_encode, dict(mask=model_id >= 0)),
+        "rle_decode": (rs.rle_decode, dict(rle=rs.rle_encode(model_id >= 0))),
+        "nerfstudio_transforms": (rs.nerfstudio_transforms, dict(cameras=[cam, cam2], file_paths=["a.png", "b.png"])),
+        "write_transforms": (rs.write_transforms, dict(path=str(tmp / "transforms.json"), cameras=[cam, cam2],
+                                                       file_paths=["a.png", "b.png"])),
+        "write_colmap": (rs.write_colmap, dict(folder=str(tmp / "colmap"), cameras=[cam, cam2], names=["a.png", "b.png"])),
         "figures.terms": (rs.figures.terms, dict(items=term_frame.terms, columns=2, panel_width=3.0, vmax=1.0)),
         "warmup": (rs.warmup, dict(progress=False)),
         "animate_light": (rs.animate_light, dict(scene=scene, frames=2, shading="phong", light_index=0,
@@ -207,6 +242,18 @@ NOT_CALLED_IN_MODULES = {"shapes.SHAPES": "a table", "bump.WRAPS": "a tuple", "b
 
 # (callable, argument, bad value) -> why the value is legal. Reviewed: each is a real use.
 LEGAL = {
+    ("read_depth_png", "scale", "1e308"): "legal: depths in units that small",
+    ("view_objects", "rle", "True"): "a flag",
+    ("write_colmap", "folder", "'abc'"): "a folder named abc (created)",
+    ("move_model", "index", "0"): "the first model",
+    **{("save_npz", a, "None"): "the default: not stored" for a in ("camera", "image")},
+    ("save_npz", "compressed", "0"): "zlib level 0: stored",
+    ("save_npz", "compressed", "True"): "a flag: the default zlib level",
+    ("write_exr", "image", "None"): "the default: buffers only",
+    ("write_exr", "threads", "None"): "the default: one per core",
+    ("write_exr", "threads", "0"): "OpenEXR's own: compress on the calling thread",
+    ("write_depth_png", "depth", "shape"): "a (2, 2) depth map is a depth map",
+    ("write_depth_png", "scale", "1e308"): "legal; depths past 16 bits are stored as 0 (none), as documented",
     ("figures.terms", "columns", "None"): "the default: up to 4 columns",
     ("figures.terms", "vmax", "None"): "the default: the brightest term's maximum",
     ("figures.terms", "vmax", "1e308"): "a legal (all-black) scale, as montage's exposure",

@@ -1,0 +1,260 @@
+"""Every path against the plain frame (issue 27's table): buffers, writers and view sets as ratios.
+
+Run ``python -m benchmarks.bench_paths [--quick]``. For each mesh (an
+icosphere of 81,920 triangles and the noisy sphere of 1,310,720 of
+:mod:`benchmarks.bench_peers`) and size (640x480, 1920x1080), every path is
+timed in turn, round after round, in one process (so a change of load
+touches them all alike), after one warm-up round; each path's median is
+divided by the plain Phong frame's median:
+
+* ``frame``: ``render(scene)``, the plain Phong frame (the unit);
+* ``buffers_all``: the 12 buffers of :data:`~raycast_shade.output.buffers.BUFFER_NAMES`
+  but ``coverage``; ``position``; ``view_default``: ``zdepth, normal, id, mask``
+  (the view sets' default), each the whole ``render`` call;
+* ``npz_plain``, ``npz_zlib1``, ``npz_zlib6``, ``exr``, ``exr_zip``,
+  ``exr_zstd``: writing the 12 buffers and the image
+  (:func:`~raycast_shade.output.bufferfile.save_npz` stored, zlib level 1
+  and 6; :func:`~raycast_shade.output.bufferfile.write_exr` uncompressed,
+  ZIP and ZSTD on OpenEXR's threads), the write alone; their sizes in MiB;
+* ``view_npz``, ``view_npz_exr_png``: one view of
+  :func:`~raycast_shade.apps.views.render_views` with its default buffers and
+  files (PNG image, npz), and with npz, EXR and a depth PNG, render and files.
+
+Peak memory of a frame without and with all 12 buffers (``peak_frame``,
+``peak_buffers_all``, in the ``size_MiB`` column) is measured in a fresh
+subprocess each: how far the resident set peaks above its level before the
+frame (Linux's ``VmHWM``, reset through ``/proc/self/clear_refs``).
+
+Results: ``benchmarks/results/paths.csv``, the chart ``docs/images/paths.png``
+and the table between the ``paths`` markers of ``docs/performance.md``
+(``--table`` redoes the table alone from the CSV). ``--quick`` runs one small
+case and writes into the git-ignored ``out/quick/`` (the table to
+``out/quick/results/paths.md``; :mod:`benchmarks.outputs`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+from benchmarks.outputs import ROOT, image_file, results_file
+
+FIELDS = ["mesh", "triangles", "width", "height", "path", "median_ms", "ratio", "size_MiB", "repeats", "note"]
+CASES = [("icosphere", 6, 640, 480), ("icosphere", 6, 1920, 1080), ("noisy_sphere", 8, 640, 480),
+         ("noisy_sphere", 8, 1920, 1080)]
+QUICK_CASES = [("icosphere", 4, 320, 240)]
+ALL = ("depth", "zdepth", "position", "normal", "normal_camera", "face_normal", "face_normal_camera",
+       "barycentric", "model_id", "triangle_id", "mask", "semantic_id")
+VIEW_DEFAULT = ("zdepth", "normal", "id", "mask")
+
+
+def outputs(quick: bool = False) -> list:
+    return [results_file("paths.csv", quick), image_file("paths.png", quick)] + (
+        [results_file("paths.md", True)] if quick else [os.path.join(ROOT, "docs", "performance.md")])
+
+
+def _paths(scene, tmp):
+    """name -> (callable, file or None): every timed path of one case."""
+    import raycast_shade as rs
+    from raycast_shade.apps.views import render_views
+    from raycast_shade.output.bufferfile import save_npz, write_exr
+
+    full = rs.render(scene, buffers=ALL)
+    b, img, cam = full.buffers, full.image, full.camera
+    views = os.path.join(tmp, "views")
+
+    def view(formats):
+        def run():
+            render_views(scene, [cam], views, formats=formats, resume=False, overwrite=True)
+        return run
+
+    f = lambda name: os.path.join(tmp, name)  # noqa: E731
+    return {
+        "frame": (lambda: rs.render(scene), None),
+        "buffers_all": (lambda: rs.render(scene, buffers=ALL), None),
+        "position": (lambda: rs.render(scene, buffers=("position",)), None),
+        "view_default": (lambda: rs.render(scene, buffers=VIEW_DEFAULT), None),
+        "npz_plain": (lambda: save_npz(f("p.npz"), b, image=img, camera=cam, compressed=False), f("p.npz")),
+        "npz_zlib1": (lambda: save_npz(f("z1.npz"), b, image=img, camera=cam, compressed=1), f("z1.npz")),
+        "npz_zlib6": (lambda: save_npz(f("z6.npz"), b, image=img, camera=cam, compressed=6), f("z6.npz")),
+        "exr": (lambda: write_exr(f("v.exr"), b, image=img), f("v.exr")),
+        "exr_zip": (lambda: write_exr(f("z.exr"), b, image=img, compression="zip"), f("z.exr")),
+        "exr_zstd": (lambda: write_exr(f("s.exr"), b, image=img, compression="zstd"), f("s.exr")),
+        "view_npz": (view(("npz",)), None),
+        "view_npz_exr_png": (view(("npz", "exr", "depth_png")), None),
+    }
+
+
+def bench_case(kind, level, width, height, repeats):
+    from benchmarks.bench_peers import make_mesh, make_scene
+
+    mesh = make_mesh(kind, level)
+    scene = make_scene(mesh, width, height)
+    tmp = tempfile.mkdtemp(prefix="bench_paths_")
+    try:
+        paths = _paths(scene, tmp)
+        times = {name: [] for name in paths}
+        for r in range(repeats + 1):  # round 0: warm-up (JIT, Embree build, page faults)
+            for name, (fn, _) in paths.items():
+                t0 = time.perf_counter()
+                fn()
+                if r:
+                    times[name].append(time.perf_counter() - t0)
+        sizes = {name: os.path.getsize(path) / 2**20 for name, (_, path) in paths.items() if path}
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    unit = statistics.median(times["frame"])
+    rows = []
+    for name, ts in times.items():
+        med = statistics.median(ts)
+        rows.append(dict(mesh=kind, triangles=len(mesh.faces), width=width, height=height, path=name,
+                         median_ms=f"{med * 1e3:.1f}", ratio=f"{med / unit:.2f}",
+                         size_MiB=f"{sizes[name]:.1f}" if name in sizes else "", repeats=repeats, note=""))
+    return rows
+
+
+_PEAK = """
+import sys
+sys.path.insert(0, {root!r})
+from benchmarks.bench_peers import make_mesh, make_scene
+import raycast_shade as rs
+
+def status(key):
+    with open("/proc/self/status") as fh:
+        return next(int(line.split()[1]) * 1024 for line in fh if line.startswith(key))
+
+scene = make_scene(make_mesh({kind!r}, {level}), {w}, {h})
+rs.render(scene, camera=scene.camera.replace(width=64, height=48), buffers={names!r})  # compiled, BVH built
+before = status("VmRSS")
+with open("/proc/self/clear_refs", "w") as fh:
+    fh.write("5")  # resets VmHWM to the present resident set
+rs.render(scene, buffers={names!r})
+print((status("VmHWM") - before) / 2**20)
+"""
+
+
+def peak_mib(kind, level, width, height, names) -> float:
+    """MiB the resident set peaks above its level before one frame with ``names`` (a fresh process,
+    compiled and with the BVH built; Linux's VmHWM, reset through ``/proc/self/clear_refs``)."""
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    code = _PEAK.format(root=root, kind=kind, level=level, w=width, h=height, names=tuple(names))
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    return float(out.stdout.strip().splitlines()[-1])
+
+
+BEGIN, END = "<!-- paths:begin (benchmarks/bench_paths.py) -->", "<!-- paths:end -->"
+LABELS = {"buffers_all": "all 12 buffers", "position": "`position` alone",
+          "view_default": "zdepth, normal, id, mask (the view-set default)", "npz_plain": "`save_npz`, stored (default)",
+          "npz_zlib1": "`save_npz`, zlib level 1", "npz_zlib6": "`save_npz`, zlib level 6",
+          "exr": "`write_exr`, uncompressed (default)", "exr_zip": "`write_exr`, ZIP", "exr_zstd": "`write_exr`, ZSTD",
+          "view_npz": "`render_views`, one view (PNG + npz)", "view_npz_exr_png": "`render_views`, one view (PNG + npz + EXR + depth PNG)"}
+
+
+def table(rows) -> str:
+    """The markdown table of ``rows``: each path's ratio per mesh and size (and the files' MiB)."""
+    cases = list(dict.fromkeys((r["mesh"], r["triangles"], r["width"], r["height"]) for r in rows))
+    get = {(r["mesh"], r["width"], r["height"], r["path"]): r for r in rows}
+    head = ["path"] + [f"{int(t):,} tris, {w}×{h}" for _, t, w, h in cases]
+    out = ["| " + " | ".join(head) + " |", "|---" * len(head) + "|"]
+    out.append("| plain Phong frame (the unit), ms | "
+               + " | ".join(get[(m, w, h, "frame")]["median_ms"] for m, _, w, h in cases) + " |")
+    for name, label in LABELS.items():
+        cells = []
+        for m, _, w, h in cases:
+            r = get.get((m, w, h, name))
+            cells.append("" if r is None else f"{r['ratio']}×" + (f" ({r['size_MiB']} MiB)" if r["size_MiB"] else ""))
+        out.append(f"| {label} | " + " | ".join(cells) + " |")
+    for name, label in (("peak_frame", "peak memory growth, plain frame"), ("peak_buffers_all", "the same, all 12 buffers")):
+        out.append(f"| {label} | " + " | ".join(f"{get[(m, w, h, name)]['size_MiB']} MiB" for m, _, w, h in cases) + " |")
+    return "\n".join(out) + "\n"
+
+
+def write_table(rows, quick: bool) -> str:
+    """Put :func:`table` between the markers of ``docs/performance.md`` (quick: ``out/quick/results/paths.md``)."""
+    text = table(rows)
+    if quick:
+        path = results_file("paths.md", True)
+        os.makedirs(os.path.dirname(path), exist_ok=True)
+        with open(path, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        return path
+    path = os.path.join(ROOT, "docs", "performance.md")
+    with open(path, encoding="utf-8") as fh:
+        page = fh.read()
+    start, end = page.index(BEGIN) + len(BEGIN), page.index(END)
+    with open(path, "w", encoding="utf-8") as fh:
+        fh.write(page[:start] + "\n" + text + page[end:])
+    return path
+
+
+def chart(rows, path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    cases = sorted({(r["mesh"], int(r["width"]), int(r["height"])) for r in rows if r["path"] != "peak"},
+                   key=lambda c: (c[0], c[1]))
+    names = [n for n in dict.fromkeys(r["path"] for r in rows) if not n.startswith("peak")]
+    fig, ax = plt.subplots(figsize=(10, 4.2))
+    width = 0.8 / len(cases)
+    for k, case in enumerate(cases):
+        vals = {r["path"]: float(r["ratio"]) for r in rows
+                if (r["mesh"], int(r["width"]), int(r["height"])) == case and r["ratio"]}
+        ax.bar([i + k * width for i in range(len(names))], [vals.get(n, 0.0) for n in names], width,
+               label=f"{case[0]} {case[1]}x{case[2]}")
+    ax.axhline(1.0, color="k", lw=0.8)
+    ax.set_yscale("log")  # from half a frame to twenty frames
+    ax.set_xticks([i + 0.4 - width / 2 for i in range(len(names))], names, rotation=30, ha="right")
+    ax.set_ylabel("time / plain Phong frame (log)")
+    ax.set_title("Every path against the plain frame (medians, interleaved in one run)")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--quick", action="store_true", help="one small case; writes under out/quick/")
+    p.add_argument("--repeats", type=int, default=None)
+    p.add_argument("--table", action="store_true", help="only redo the table and chart from the CSV")
+    args = p.parse_args(argv)
+    if args.table:
+        with open(results_file("paths.csv", args.quick), newline="") as fh:
+            rows = list(csv.DictReader(fh))
+        chart(rows, image_file("paths.png", args.quick))
+        write_table(rows, args.quick)
+        return rows
+    cases = QUICK_CASES if args.quick else CASES
+    repeats = args.repeats or (2 if args.quick else 3)
+    rows = []
+    for case in cases:
+        rows += bench_case(*case, repeats)
+        for label, names in (("peak_frame", ()), ("peak_buffers_all", ALL)):
+            rows.append(dict(mesh=case[0], triangles=20 * 4 ** case[1], width=case[2], height=case[3], path=label,
+                             median_ms="", ratio="", size_MiB=f"{peak_mib(*case, names):.0f}", repeats=1,
+                             note="peak RSS growth of one frame, fresh process"))
+        for r in rows[-14:]:
+            print(r["mesh"], r["width"], r["path"], r["median_ms"], r["ratio"], r["size_MiB"], flush=True)
+    out = results_file("paths.csv", args.quick)
+    os.makedirs(os.path.dirname(out), exist_ok=True)
+    with open(out, "w", newline="") as fh:
+        w = csv.DictWriter(fh, FIELDS)
+        w.writeheader()
+        w.writerows(rows)
+    chart(rows, image_file("paths.png", args.quick))
+    write_table(rows, args.quick)
+    return rows
+
+
+if __name__ == "__main__":
+    main()

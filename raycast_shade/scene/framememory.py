@@ -1,0 +1,74 @@
+"""Bytes per pixel of one frame, by what is asked for: the table behind
+:meth:`~raycast_shade.scene.camera.Camera.check_frame_memory`.
+
+The figures are those of ``render()``'s whole-frame path (the banded plain
+frame needs less; see ``docs/performance.md``), checked against measured
+peaks in ``tests/scene/test_frame_memory.py``:
+
+* the frame itself, :data:`FRAME_BYTES_PER_PIXEL` = 47: the hit buffer 20,
+  the linear image 12, the shading normals 12 (on first access) and the
+  8-bit image 3;
+* each buffer its stored bytes, :data:`BUFFER_BYTES` (the writers store
+  the same), plus 12 for the shading normals a ``normal`` or
+  ``normal_camera`` buffer is computed from;
+* ``samples=N > 1``: one more hit buffer (one per sample of a group of 4
+  when ``coverage`` is counted), up to 3 more images, a float64
+  accumulator beyond 4 samples (and an int32 hit count with ``coverage``);
+* ``terms``: the ambient, diffuse, specular and reflected images and one
+  being shaded (5 x 12), the shadow mask (4 per light), and with
+  ``"per_light"`` each light's diffuse and specular images (24 per light).
+"""
+
+from __future__ import annotations
+
+__all__ = ["FRAME_BYTES_PER_PIXEL", "BUFFER_BYTES", "frame_bytes_per_pixel"]
+
+FRAME_BYTES_PER_PIXEL = 20 + 12 + 12 + 3
+#: Bytes per pixel of each buffer as stored: render()'s arrays and the buffer files alike.
+BUFFER_BYTES = {"depth": 4, "zdepth": 4, "position": 12, "normal": 12, "normal_camera": 12, "face_normal": 12,
+                "face_normal_camera": 12, "barycentric": 12, "model_id": 4, "triangle_id": 4, "mask": 1,
+                "coverage": 4, "semantic_id": 4}
+_ALIASES = {"id": ("model_id", "triangle_id")}
+_HITS, _IMAGE, _NORMALS, _GROUP = 20, 12, 12, 4
+
+
+def frame_bytes_per_pixel(buffers=(), samples: int = 1, terms=None, lights: int = 0) -> int:
+    """Bytes per pixel a frame needs with these options.
+
+    Parameters
+    ----------
+    buffers : sequence of str
+        Buffer names (:data:`BUFFER_BYTES` or ``"id"``); duplicates count once.
+    samples : int
+        Rays per pixel, ``>= 1``.
+    terms : None, or sequence of str
+        ``render``'s checked terms: None for none, ``()`` for the summed
+        terms, ``("per_light",)`` for each light's too.
+    lights : int
+        The scene's lights (for the terms).
+
+    Raises
+    ------
+    ValueError
+        For an unknown buffer name (naming ``buffers``) or ``samples < 1``.
+    """
+    names = []
+    for name in buffers:
+        for n in _ALIASES.get(name, (name,)):
+            if n not in BUFFER_BYTES:
+                raise ValueError(f"buffers: unknown buffer {name!r}; expected some of {', '.join(BUFFER_BYTES)}")
+            names.append(n)
+    names = set(names)
+    if isinstance(samples, bool) or int(samples) != samples or samples < 1:
+        raise ValueError(f"samples: expected an integer >= 1, got {samples!r}")
+    n = int(samples)
+    total = FRAME_BYTES_PER_PIXEL + sum(BUFFER_BYTES[b] for b in names)
+    if names & {"normal", "normal_camera"}:
+        total += _NORMALS
+    if n > 1:
+        counted = "coverage" in names
+        total += _HITS * (min(n - 1, _GROUP) if counted else 1) + _IMAGE * (min(n, _GROUP) - 1)
+        total += (8 * 3 + (4 if counted else 0)) if n > _GROUP else 0
+    if terms is not None:
+        total += 5 * _IMAGE + 4 * lights + (2 * _IMAGE * lights if "per_light" in terms else 0)
+    return total
