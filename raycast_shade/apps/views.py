@@ -58,7 +58,7 @@ import os
 
 import numpy as np
 
-from ..common.validate import as_int, as_scalar
+from ..common.validate import as_instance, as_int, as_scalar
 from ..output.bufferfile import save_npz, write_depth_png, write_exr
 from ..output.buffers import check_buffers
 from ..output.labels import object_table, semantic_classes, unoccluded_masks, view_objects, write_coco
@@ -275,15 +275,6 @@ def _check_outputs(names, formats, image) -> None:
         import OpenEXR  # noqa: F401 - fail now, not on the first view
 
 
-def _check_memory(jobs, names, options) -> None:
-    """Every camera's frame, with the buffers asked for, within the memory limit, before the first view."""
-    for job in jobs:
-        try:
-            job.camera.check_frame_memory(names + ("model_id",), options.render_kwargs.get("samples", 1))
-        except ValueError as exc:
-            raise ValueError(f"cameras[{job.index}]: {exc}") from None
-
-
 def _check_set_options(exports, image, unoccluded, overwrite, depth_scale, float_image, compression) -> tuple:
     """The checked exports and compression; TypeError/ValueError naming the argument otherwise."""
     from ..common.validate import as_choice
@@ -369,8 +360,7 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
     """
     from ..scene.scene import Scene
 
-    if not isinstance(scene, Scene):
-        raise TypeError(f"scene: expected a Scene, got {type(scene).__name__}")
+    as_instance(scene, "scene", Scene)
     if not isinstance(out_dir, (str, os.PathLike)) or not os.fspath(out_dir):
         raise TypeError(f"out_dir: expected a folder path, got {out_dir!r:.40}")
     out_dir = os.fspath(out_dir)
@@ -387,8 +377,8 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
     exports, compression = _check_set_options(exports, image, unoccluded, overwrite, depth_scale, float_image,
                                               compression)
     options = check_options(shading, render_kwargs, tone, resume)
-    bases, jobs = plan_batch(scene, cameras)
-    _check_memory(jobs, names, options)
+    bases, jobs = plan_batch(scene, cameras, memory=dict(buffers=names + ("model_id",),
+                                                         samples=options.render_kwargs.get("samples", 1)))
     spec = _ViewSpec(options, names, formats, None if image is None else str(image).lower(), out_dir,
                      float(depth_scale), exports=exports, unoccluded=bool(unoccluded),
                      float_image=bool(float_image), compression=compression)

@@ -130,10 +130,14 @@ def _plane_distance(vertices, faces, f, t, ox, oy, oz, dx, dy, dz):
 
 
 @njit(cache=True, parallel=True)
-def _buffers_kernel(cam, fwd, R, dirs, y0, prim, geom, u, v, t, vertices, faces, face_normals, face_offsets,
-                    origin, shading_n, lut, depth, zdepth, position, normal, normal_cam, face_n, face_n_cam,
-                    bary, model_id, semantic_id, triangle_id, mask):
+def _buffers_kernel(view, hits, geometry, extra, outputs):
     """Every asked-for buffer of one pixel in one pass; an output of size 0 is not asked for.
+
+    The arguments are five tuples, unpacked once here (never inside the pixel loop):
+    ``view = (cam, fwd, R, dirs, y0)``, ``hits = (prim, geom, u, v, t)``,
+    ``geometry = (vertices, faces, face_normals, face_offsets, origin)``,
+    ``extra = (shading_n, lut)`` and ``outputs = (depth, zdepth, position, normal,
+    normal_cam, face_n, face_n_cam, bary, model_id, semantic_id, triangle_id, mask)``.
 
     Parameters
     ----------
@@ -163,6 +167,12 @@ def _buffers_kernel(cam, fwd, R, dirs, y0, prim, geom, u, v, t, vertices, faces,
     model_id, semantic_id, triangle_id : (h, W) or (0, 0) int32
     mask : (h, W) or (0, 0) bool
     """
+    cam, fwd, R, dirs, y0 = view
+    prim, geom, u, v, t = hits
+    vertices, faces, face_normals, face_offsets, origin = geometry
+    shading_n, lut = extra
+    depth, zdepth, position, normal, normal_cam, face_n, face_n_cam, bary, model_id, semantic_id, triangle_id, \
+        mask = outputs
     h, w = prim.shape
     want_z = zdepth.shape[0] != 0
     want_p = position.shape[0] != 0
@@ -295,10 +305,11 @@ def compute_buffers(scene, camera, hits, names, shading="phong", coverage=None) 
             "semantic_id": out("semantic_id", (), np.int32), "triangle_id": out("triangle_id", (), np.int32),
             "mask": out("mask", (), np.bool_)}
     c = np.ascontiguousarray
-    _buffers_kernel(camera_frame(camera, geo.origin), c(camera.basis[2], np.float64), c(R, np.float64), dirs, 0,
-                    c(hits.prim, np.int32), c(hits.geom, np.int32), c(hits.u, np.float32), c(hits.v, np.float32),
-                    c(hits.t, np.float32), geo.vertices, geo.faces, geo.face_normals, geo.face_offsets,
-                    c(geo.origin, np.float64), shading_n, lut, *bufs.values())
+    _buffers_kernel((camera_frame(camera, geo.origin), c(camera.basis[2], np.float64), c(R, np.float64), dirs, 0),
+                    (c(hits.prim, np.int32), c(hits.geom, np.int32), c(hits.u, np.float32), c(hits.v, np.float32),
+                     c(hits.t, np.float32)),
+                    (geo.vertices, geo.faces, geo.face_normals, geo.face_offsets, c(geo.origin, np.float64)),
+                    (shading_n, lut), tuple(bufs.values()))
     result = {}
     for name in names:
         if name == "coverage":

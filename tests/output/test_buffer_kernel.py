@@ -151,11 +151,13 @@ def test_a_band_of_rows_gives_the_whole_frames_rows():
     out = {"zdepth": np.empty((y1 - y0, W), np.float32), "position": np.empty((y1 - y0, W, 3), np.float32),
            "face_normal_camera": np.empty((y1 - y0, W, 3), np.float32), "mask": np.empty((y1 - y0, W), np.bool_)}
     h = frame.hits
-    B._buffers_kernel(camera_frame(cam, geo.origin), cam.basis[2].copy(), extrinsics(cam)[0],
-                      ray_directions(cam)[0], y0, *(np.ascontiguousarray(a[y0:y1]) for a in (h.prim, h.geom, h.u, h.v, h.t)),
-                      geo.vertices, geo.faces, geo.face_normals, geo.face_offsets, geo.origin, empty3,
-                      np.zeros(2, np.int32), empty1, out["zdepth"], out["position"], empty3, empty3, empty3,
-                      out["face_normal_camera"], empty3, np.empty((0, 0), np.int32), np.empty((0, 0), np.int32),
-                      np.empty((0, 0), np.int32), out["mask"])
+    B._buffers_kernel((camera_frame(cam, geo.origin), cam.basis[2].copy(), extrinsics(cam)[0],
+                       ray_directions(cam)[0], y0),
+                      tuple(np.ascontiguousarray(a[y0:y1]) for a in (h.prim, h.geom, h.u, h.v, h.t)),
+                      (geo.vertices, geo.faces, geo.face_normals, geo.face_offsets, geo.origin),
+                      (empty3, np.zeros(2, np.int32)),
+                      (empty1, out["zdepth"], out["position"], empty3, empty3, empty3, out["face_normal_camera"],
+                       empty3, np.empty((0, 0), np.int32), np.empty((0, 0), np.int32), np.empty((0, 0), np.int32),
+                       out["mask"]))
     for name in names:
         np.testing.assert_array_equal(out[name], whole[name][y0:y1], err_msg=name)

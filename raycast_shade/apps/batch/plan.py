@@ -179,7 +179,8 @@ def _frame_names(out_dir, pattern, n):
 # -- planning ------------------------------------------------------------------------------------------
 
 
-def plan_batch(scene_or_scenes, cameras=None, lights=None, *, out_dir=None, pattern="frame_{:05d}.png"):
+def plan_batch(scene_or_scenes, cameras=None, lights=None, *, out_dir=None, pattern="frame_{:05d}.png",
+               memory=None):
     """Expand a batch into its base scenes and frame jobs.
 
     Each of ``scene_or_scenes``, ``cameras`` and ``lights`` is either one
@@ -198,6 +199,11 @@ def plan_batch(scene_or_scenes, cameras=None, lights=None, *, out_dir=None, patt
         Folder the frames are written to; None to return images.
     pattern : str
         File name of frame ``i``: ``pattern.format(i)``.
+    memory : dict, optional
+        What each frame holds besides its image, for
+        :meth:`~raycast_shade.scene.camera.Camera.check_frame_memory`
+        (``buffers``, ``samples``, ...): every frame is checked before any
+        is rendered or written.
 
     Returns
     -------
@@ -234,7 +240,7 @@ def plan_batch(scene_or_scenes, cameras=None, lights=None, *, out_dir=None, patt
         if camera is None:
             raise ValueError(f"cameras: frame {i}'s scene has no camera and none was given")
         try:  # every frame's memory before the first is rendered or written
-            camera.check_frame_memory()
+            camera.check_frame_memory(**(memory or {}))
         except ValueError as exc:
             raise ValueError(f"cameras[{i}]: {exc}") from None
         frame_lights = (light_sets[i] if many_lights else light_sets) if light_sets is not None else scene.lights
