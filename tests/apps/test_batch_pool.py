@@ -153,6 +153,21 @@ def test_pool_replaces_a_killed_worker(scene):
     assert all(np.array_equal(a, b) for a, b in zip(again, ref[:3]))
 
 
+def test_a_worker_killed_after_the_liveness_check_is_replaced(scene, monkeypatch):
+    """The race of the test above, made certain: the worker is dead, but its process still polls as alive
+    when the batch is sent (a broken pipe then), and is replaced with the batch resent."""
+    cams = animate.orbit_cameras(scene.camera, 3)
+    with batch.ProcessPool(2) as p:
+        first = batch.render_batch(scene, cams, executor=p, progress=False)
+        w = p._workers[1]
+        w.proc.kill()
+        w.proc.wait()
+        monkeypatch.setattr(w.proc, "poll", lambda: None)  # as if not yet reaped
+        again = batch.render_batch(scene, cams, executor=p, progress=False)
+        assert w.pid not in p.pids and len(p.pids) == 2
+    assert all(np.array_equal(a, b) for a, b in zip(first, again))
+
+
 def test_pool_shutdown_leaves_no_process_and_no_segment(scene, tmp_path, monkeypatch):
     cams = animate.orbit_cameras(scene.camera, 6)
     segments = _segments()

@@ -341,11 +341,16 @@ class ProcessPool:
         self._batch = (bases, todo, options)
         keys = list(dict.fromkeys(j.key for j in todo))
         blobs = {}  # pickled once for all the workers that lack the same scenes
-        for w in self._workers if workers is None else workers:
+        for w in list(self._workers) if workers is None else workers:
             new = tuple(k for k in keys if k not in w.scenes)
             if new not in blobs:  # without geometry (Scene.__getstate__)
                 blobs[new] = pickle.dumps({k: bases[k] for k in new}, protocol=pickle.HIGHEST_PROTOCOL)
-            w.conn.send(("batch", options, blobs[new], keys, w.slots))
+            try:
+                w.conn.send(("batch", options, blobs[new], keys, w.slots))
+            except (BrokenPipeError, ConnectionResetError):
+                # Killed after run()'s liveness check: replaced, and the replacement gets this batch.
+                self._replace(w)
+                continue
             w.scenes = set(keys)
 
 
