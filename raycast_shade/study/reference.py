@@ -168,7 +168,11 @@ def _hits(scene, hits):
     p : (N, 3) float64
         Re-centred hit points.
     """
-    geo = scene.geometry
+    return gather_hits(scene.geometry, hits)
+
+
+def gather_hits(geo, hits):
+    """:func:`_hits` of a scene's packed geometry (``scene.geometry``); the same five arrays."""
     mask = hits.prim >= 0
     face = geo.face_offsets[hits.geom[mask]] + hits.prim[mask].astype(np.int64)
     tri = geo.faces[face]

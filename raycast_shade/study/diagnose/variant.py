@@ -23,6 +23,8 @@ from numba import njit, prange
 from ...scene.lights import DirectionalLight, SpotLight
 from ...scene.normals import vertex_normals
 from ...visibility.interpolation import to_screen_space
+from ..reference import _dot, _facing, _unit, _warn_factor
+from ..reference import gather_hits as gather  # per hit pixel: mask, face, corners, barycentrics, point
 
 __all__ = ["Mistake", "shade_variant", "gather", "encode", "decode", "check_scene", "LAWS", "ENCODINGS"]
 
@@ -147,18 +149,6 @@ def check_scene(scene) -> None:
 
 
 # -- small helpers ------------------------------------------------------------------------------------
-def _dot(a, b):
-    return np.einsum("ij,ij->i", a, b)
-
-
-def _unit(a):
-    length = np.linalg.norm(a, axis=1)
-    out = np.zeros_like(a)
-    ok = length > 0
-    out[ok] = a[ok] / length[ok, None]
-    return out, length
-
-
 def _camera_axes(camera):
     """Unit right, up and backward axes of the camera (3, 3), rows."""
     fwd = camera.target - camera.eye
@@ -193,13 +183,6 @@ def _lights(scene, camera, origin, mistake):
         law = light.attenuation if mistake.law == "scene" else mistake.law
         out.append((False, pos - origin, radiance, law, light.k, cone))
     return out
-
-
-def _warn(cone, s):
-    axis, ci, co, n = cone
-    c = np.minimum(-(s @ axis), 1.0)
-    t = np.clip((c - co) / (ci - co), 0.0, 1.0) if ci > co else np.ones_like(c)
-    return np.where(c > co, np.maximum(c, 0.0) ** n * t * t * (3.0 - 2.0 * t), 0.0)
 
 
 class _Ctx:
@@ -255,7 +238,7 @@ def _light_vectors(ctx, light, p):
         else:
             att = np.ones(n)
     if cone is not None:
-        att = att * _warn(cone, s)
+        att = att * _warn_factor(cone, s)
     return (raw if ctx.m.raw_s else s), s, att, d > 0.0
 
 
@@ -305,15 +288,6 @@ def illuminate(ctx, p, n, model, n_raw=None):
         ks_term = 0.0 if m.no_specular else ks * spec[:, None]
         out = out + att[:, None] * light[2][None, :] * (kd_term + ks_term)
     return out
-
-
-def _facing(fn, v):
-    zero = ~np.any(fn != 0.0, axis=1)
-    sgn = np.where(_dot(fn, v) < 0.0, -1.0, 1.0)
-    sgn[zero] = 1.0
-    g = fn * sgn[:, None]
-    g[zero] = v[zero]
-    return g, sgn
 
 
 def _vertex_normals(ctx):
@@ -381,18 +355,6 @@ def _gouraud(ctx, face, tri, bary, p):
         colour = illuminate(ctx, geo.vertices[ftri[:, k]], normals[:, k], model)
         acc += bary[:, k, None] * colour[inverse]
     return acc
-
-
-def gather(geo, hits):
-    """Per hit pixel: mask (H, W), global face (N,), corners (N, 3), barycentrics (N, 3), point (N, 3)."""
-    mask = hits.prim >= 0
-    face = geo.face_offsets[hits.geom[mask]] + hits.prim[mask].astype(np.int64)
-    tri = geo.faces[face]
-    b1 = hits.u[mask].astype(np.float64)
-    b2 = hits.v[mask].astype(np.float64)
-    bary = np.stack([1.0 - b1 - b2, b1, b2], axis=1)
-    p = np.einsum("nk,nkc->nc", bary, geo.vertices[tri])
-    return mask, face, tri, bary, p
 
 
 def shade_variant(scene, camera, hits, method: str, mistake: Mistake = Mistake(), gathered=None) -> np.ndarray:
