@@ -337,18 +337,17 @@ def reversed_duplicates(faces, vertices=None) -> np.ndarray:
     if len(f) < 2:
         return out
     if vertices is not None:
-        _, weld = np.unique(np.asarray(vertices, np.float64), axis=0, return_inverse=True)
-        f = weld.ravel()[f]
+        f = _weld(np.asarray(vertices, np.float64))[f]
     # A triangle's rotation with its smallest index first: (a, b, c) and (a, c, b) share the sorted
     # corners and differ in their cyclic order.
     k = np.argmin(f, axis=1)
     rows = np.arange(len(f))
     rot = np.stack([f[rows, k], f[rows, (k + 1) % 3], f[rows, (k + 2) % 3]], axis=1)
     rev = rot[:, [0, 2, 1]]
-    # Only faces whose corner set occurs twice or more can pair up: found at NumPy speed first.
-    _, inverse, counts = np.unique(np.sort(f, axis=1), axis=0, return_inverse=True, return_counts=True)
+    # Only faces whose corner set occurs twice or more can pair up: found at NumPy speed first (this
+    # runs on every mesh whose normals are computed, so a 1-D key where the indices allow one).
     seen = {}
-    for i in np.flatnonzero(counts[inverse.ravel()] >= 2):
+    for i in _repeated_corner_sets(np.sort(f, axis=1)):
         a, b = tuple(rot[i].tolist()), tuple(rev[i].tolist())
         if a[0] == a[1] or a[1] == a[2]:
             continue  # a degenerate index triple has no winding
@@ -358,6 +357,34 @@ def reversed_duplicates(faces, vertices=None) -> np.ndarray:
             continue
         seen[a] = seen.get(a, 0) + 1
     return out
+
+
+def _weld(vertices: np.ndarray) -> np.ndarray:
+    """(V,) int64: one id per distinct position (exact equality), as ``np.unique(axis=0)``'s inverse
+    but by one lexicographic sort (about 3x faster at 655k vertices)."""
+    order = np.lexsort(vertices.T[::-1])
+    s = vertices[order]
+    new = np.ones(len(s), bool)
+    new[1:] = np.any(s[1:] != s[:-1], axis=1)
+    ids = np.empty(len(s), np.int64)
+    ids[order] = np.cumsum(new) - 1
+    return ids
+
+
+def _repeated_corner_sets(corners: np.ndarray) -> np.ndarray:
+    """Indices (ascending) of the rows of ``corners`` (F, 3) int64, each row sorted, that occur twice or more."""
+    n = int(corners.max()) + 1 if len(corners) else 1
+    if n < 2**21:  # n**3 fits int64: one key per row, a 1-D sort
+        key = (corners[:, 0] * n + corners[:, 1]) * n + corners[:, 2]
+    else:
+        _, key = np.unique(corners, axis=0, return_inverse=True)
+        key = key.ravel()
+    order = np.argsort(key, kind="stable")
+    k = key[order]
+    same = np.zeros(len(k), bool)
+    same[1:] = k[1:] == k[:-1]
+    same[:-1] |= same[1:]
+    return np.sort(order[same])
 
 
 def _normalize_rows(n: np.ndarray) -> np.ndarray:
