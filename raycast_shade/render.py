@@ -22,7 +22,7 @@ from .visibility.hits import image_buffer
 from .visibility.interpolation import to_screen_space
 from .visibility.raster import rasterize
 from .visibility.rays import subpixel_camera
-from .output.buffers import check_buffers, compute_buffers
+from .output.buffers import FrameBuffers, check_buffers, compute_buffers
 from .output.frame import Frame
 from .scene.pitfalls import warn_render
 from .scene.scene import Scene
@@ -135,19 +135,19 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
     mask = None
     _build(scene, plan, timings)
     inputs = prepare(scene, camera)  # once per frame: shading, every sample and the mirror bounces
-    if _banded(scene, plan, terms):
-        hits, image, mask = _render_bands(scene, plan, timings, inputs)
-        coverage = None
-    elif plan.samples == 1:
-        hits, image, coverage = _render_one(scene, plan, timings, inputs)
-    else:
-        hits, image, coverage = _render_samples(scene, plan, timings, inputs)
-    te = time.perf_counter()
     extra = {}
-    if plan.buffers:
-        extra = compute_buffers(scene, camera, hits, plan.buffers, shading, coverage=coverage)
-        timings["buffers"] = time.perf_counter() - te
-        te = time.perf_counter()
+    if _banded(scene, plan, terms):
+        hits, image, mask, extra = _render_bands(scene, plan, timings, inputs)
+    else:
+        if plan.samples == 1:
+            hits, image, coverage = _render_one(scene, plan, timings, inputs)
+        else:
+            hits, image, coverage = _render_samples(scene, plan, timings, inputs)
+        if plan.buffers:
+            tb = time.perf_counter()
+            extra = compute_buffers(scene, camera, hits, plan.buffers, shading, coverage=coverage)
+            timings["buffers"] = time.perf_counter() - tb
+    te = time.perf_counter()
     parts = {} if terms is None else shade_terms(scene, camera, hits, shading, plan.max_depth, "per_light" in terms)
     if terms is not None:
         timings["terms"] = time.perf_counter() - te
@@ -283,41 +283,108 @@ def _render_one(scene, plan: _Plan, timings: dict, inputs):
 
 
 def _banded(scene, plan: _Plan, terms) -> bool:
-    """Whether the frame is cast and shaded band by band (:func:`_render_bands`): one Phong-shaded
-    ray per pixel, by the packet caster with perspective-correct weights, asking for no buffer,
-    term or mirror bounce (each of those reads the whole frame's hits), taller than one band and
-    of at least :data:`~raycast_shade.visibility.bands.MIN_PIXELS` pixels."""
-    phong = plan.shading == "phong" or (not isinstance(plan.shading, str) and set(plan.shading) == {"phong"})
+    """Whether the frame is cast and shaded band by band (:func:`_render_bands`): by the packet
+    caster with perspective-correct weights, any methods, buffers and samples, but no term or
+    mirror bounce (those read the whole frame's hits), taller than one band and of at least
+    :data:`~raycast_shade.visibility.bands.MIN_PIXELS` pixels."""
     cam = plan.camera
-    return (phong and plan.samples == 1 and plan.backend == "raycast" and plan.caster == "embree"
-            and plan.interpolation == "perspective" and not plan.buffers and terms is None
-            and not (scene.geometry.reflective and plan.max_depth > 0) and cam.height > bands.BAND_ROWS
-            and cam.width * cam.height >= bands.MIN_PIXELS)
+    return (plan.backend == "raycast" and plan.caster == "embree" and plan.interpolation == "perspective"
+            and terms is None and not (scene.geometry.reflective and plan.max_depth > 0)
+            and cam.height > bands.BAND_ROWS and cam.width * cam.height >= bands.MIN_PIXELS)
 
 
 def _render_bands(scene, plan: _Plan, timings: dict, inputs):
-    """One ray per pixel, each band of rows shaded as soon as it is cast (while its hits are in
-    cache), so the frame never holds (or page-faults in) a full-frame hit buffer: 20 bytes a
-    pixel. Returns the recipe of the hit buffer (the same cast again, run if ``frame.hits``
-    is read: :func:`~raycast_shade.visibility.cast.cast_camera` with the frame's camera and
-    caster, nothing of ``render``), the image and the hit mask. Every pixel is the one
-    :func:`_render_one` gives."""
+    """Each band of rows cast, shaded and its buffers computed as soon as it is cast (while
+    its hits are in cache), so the frame never holds (or page-faults in) a full-frame hit
+    buffer: 20 bytes a pixel. Anti-aliasing casts every sample's band in turn (one window
+    per sample) and averages them into the band's rows of the image; flat faces and Gouraud
+    vertices are shaded once, by the first band (and sample) that sees them.
+
+    Returns the recipe of the hit buffer (the same cast again, run if ``frame.hits`` is read:
+    :func:`~raycast_shade.visibility.cast.cast_camera` with the frame's camera and caster,
+    nothing of ``render``), the image, the hit mask and the buffers. Every pixel is the one
+    the whole-frame path (:func:`_render_one`, :func:`_render_samples`, then
+    :func:`~raycast_shade.output.buffers.compute_buffers`) gives, bit for bit."""
     camera = plan.camera
-    image = np.empty((camera.height, camera.width, 3), np.float32) if plan.out is None else plan.out
-    mask = np.empty((camera.height, camera.width), np.bool_)
+    h, w = camera.height, camera.width
+    image = np.empty((h, w, 3), np.float32) if plan.out is None else plan.out
+    mask = np.empty((h, w), np.bool_)
     shader = SampleShading(scene, camera, plan.shading, inputs)
-    tc = time.perf_counter()
-    cast = shade = 0.0
-    for y, band in bands.cast_bands(scene.geometry, camera, bands.BAND_ROWS):
-        ts = time.perf_counter()
-        cast += ts - tc
-        rows = slice(y, y + band.shape[0])
-        shader.shade(band, out=image[rows], y0=y)
+    buffers = FrameBuffers(scene, camera, plan.buffers, plan.shading) if plan.buffers else None
+    casts = [bands.cast_bands(scene.geometry, subpixel_camera(camera, dx, dy), bands.BAND_ROWS)
+             for dx, dy in sample_offsets(plan.samples)]
+    counted = plan.samples > 1 and "coverage" in plan.buffers
+    mean = _BandMean(plan.samples, w, counted) if plan.samples > 1 else None
+    coverage = np.empty((h, w), np.float32) if counted else None
+    spent = dict.fromkeys(("shade", "buffers", "average"), 0.0)
+    t_start = time.perf_counter()
+    for y, band in casts[0]:
+        m = band.shape[0]
+        rows = slice(y, y + m)
+        t0 = time.perf_counter()
+        if mean is None:
+            shader.shade(band, out=image[rows], y0=y)
+        else:
+            for i, cast in enumerate(casts):
+                hits = band if i == 0 else next(cast)[1]
+                ts = time.perf_counter()
+                shader.shade(hits, out=mean.image(i, m), y0=y)
+                ta = time.perf_counter()
+                mean.add(i, hits.prim, image[rows], None if coverage is None else coverage[rows])
+                spent["shade"] += ta - ts
+                spent["average"] += time.perf_counter() - ta
         np.greater_equal(band.prim, 0, out=mask[rows])
-        tc = time.perf_counter()
-        shade += tc - ts
-    timings["cast"], timings["shade"] = cast, shade
-    return functools.partial(cast_camera, scene.geometry, camera, plan.caster), image, mask
+        t1 = time.perf_counter()
+        if mean is None:
+            spent["shade"] += t1 - t0
+        if buffers is not None:
+            buffers.band(band, y)
+            spent["buffers"] += time.perf_counter() - t1
+    timings["cast"] = time.perf_counter() - t_start - sum(spent.values())
+    timings.update((k, v) for k, v in spent.items() if v or k == "shade")
+    extra = buffers.result(mask, coverage) if buffers is not None else {}
+    return functools.partial(cast_camera, scene.geometry, camera, plan.caster), image, mask, extra
+
+
+class _BandMean:
+    """The box filter of one band's samples, as :func:`_render_samples` forms it (a group of
+    ``GROUP`` per pass over a float64 accumulator, the last group straight into the mean), on
+    band-sized scratch arrays (grown to the tallest band)."""
+
+    def __init__(self, n: int, w: int, counted: bool):
+        self.n, self.w, self.counted = n, w, counted
+        self.rows = 0
+        self.group = []
+
+    def _grow(self, m):
+        n, w, k = self.n, self.w, min(self.n, GROUP)
+        self.rows = m
+        self.images = [np.empty((m, w, 3), np.float32) for _ in range(k)]
+        self.acc = np.empty((m, w, 3) if n > GROUP else (1, 1, 3), np.float64)
+        self.count = np.empty((m, w) if n > GROUP else (1, 1), np.int32) if self.counted else None
+
+    def image(self, i: int, m: int):
+        """Where sample ``i`` of a band of ``m`` rows is shaded."""
+        if m > self.rows:
+            self._grow(m)
+        return self.images[i % GROUP][:m]
+
+    def add(self, i: int, prim, out, coverage) -> None:
+        """Sample ``i``'s band (shaded into :meth:`image`, its hits' ``prim``) added; the last
+        sample's writes the mean to ``out`` (and the hit fraction to ``coverage``)."""
+        m, n = prim.shape[0], self.n
+        self.group.append(prim)
+        imgs = [a[:m] for a in self.images[:len(self.group)]]
+        acc = self.acc[:m] if n > GROUP else self.acc
+        count = None if self.count is None else (self.count[:m] if n > GROUP else self.count)
+        if i == n - 1:
+            _, cov = sample_mean(acc, count, imgs, self.group, n, first=n <= GROUP, out=out, coverage=self.counted)
+            if cov is not None:
+                coverage[...] = cov
+            self.group = []
+        elif len(self.group) == GROUP:
+            accumulate(acc, count, imgs, self.group, first=i < GROUP)
+            self.group = []
 
 
 def _render_samples(scene, plan: _Plan, timings: dict, inputs):

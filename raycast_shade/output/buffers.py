@@ -47,11 +47,12 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ..common.layout import CAM_EYE
+from ..common.layout import CAM_EYE, METHOD_PHONG
 from ..scene.framememory import BUFFER_BYTES
 from ..visibility.rays import camera_frame, pixel_ray
 
-__all__ = ["BUFFER_NAMES", "ALIASES", "BUFFER_BYTES", "buffer_bytes", "check_buffers", "compute_buffers"]
+__all__ = ["BUFFER_NAMES", "ALIASES", "BUFFER_BYTES", "buffer_bytes", "check_buffers", "compute_buffers",
+           "FrameBuffers"]
 
 BUFFER_NAMES = ("depth", "zdepth", "position", "normal", "normal_camera", "face_normal", "face_normal_camera",
                 "barycentric", "model_id", "triangle_id", "mask", "coverage", "semantic_id")
@@ -247,6 +248,112 @@ def _buffers_kernel(view, hits, geometry, extra, outputs):
                         face_n_cam[y, x, k] = n0 * R[k, 0] + n1 * R[k, 1] + n2 * R[k, 2]
 
 
+# The kernel's outputs, in the order of its ``outputs`` tuple: name, channels (0: an (H, W) image), dtype.
+_KERNEL_OUTPUTS = (("depth", 0, np.float32), ("zdepth", 0, np.float32), ("position", 3, np.float32),
+                   ("normal", 3, np.float32), ("normal_camera", 3, np.float32), ("face_normal", 3, np.float32),
+                   ("face_normal_camera", 3, np.float32), ("barycentric", 3, np.float32),
+                   ("model_id", 0, np.int32), ("semantic_id", 0, np.int32), ("triangle_id", 0, np.int32),
+                   ("mask", 0, np.bool_))
+_RAY_BUFFERS = ("zdepth", "position", "face_normal", "face_normal_camera")  # those that need the pixel's ray
+
+
+def _shape(rows, w, channels):
+    return (rows, w) if channels == 0 else (rows, w, channels)
+
+
+class FrameBuffers:
+    """The named buffers of one frame, filled band by band (or in one band: the whole frame).
+
+    Every full-frame output is allocated once, up front; :meth:`band` runs the buffer kernel
+    (and, for ``normal``/``normal_camera``, the shading-normal kernel) on one band's hits,
+    writing straight into the band's rows: no full-frame temporaries, and each output's pages
+    are touched while the band's hits are in cache. A pixel's values do not depend on the
+    band it is in, so any banding gives the whole frame's buffers, bit for bit.
+
+    Parameters
+    ----------
+    scene : Scene
+    camera : Camera
+        The camera the hits are cast (or rasterized) with.
+    names : sequence of str
+        Checked names (:func:`check_buffers`).
+    shading : str or sequence of str
+        The frame's methods (for the shading normals).
+    shape : (int, int), optional
+        The frame's (H, W); the camera's image by default.
+    """
+
+    def __init__(self, scene, camera, names, shading="phong", shape=None):
+        from ..scene.projection import extrinsics
+        from ..shading.shade import resolve_methods
+
+        self.names = check_buffers(names)
+        h, w = (camera.height, camera.width) if shape is None else shape
+        geo = scene.geometry
+        c = np.ascontiguousarray
+        self.geometry = (geo.vertices, geo.faces, geo.face_normals, geo.face_offsets, c(geo.origin, np.float64))
+        R, _ = extrinsics(camera)
+        dirs = np.empty((0, 3), np.float64)
+        if camera.distorted and any(n in self.names for n in _RAY_BUFFERS):
+            from ..visibility.distortion import ray_directions
+
+            dirs = c(ray_directions(camera)[0], np.float64)
+        self.view = (camera_frame(camera, geo.origin), c(camera.basis[2], np.float64), c(R, np.float64), dirs)
+        self.lut = np.zeros(max(len(geo.face_offsets) - 1, 1), np.int32)
+        if "semantic_id" in self.names:
+            from .labels import semantic_classes
+
+            self.lut = c(semantic_classes(scene)[1], np.int32)
+        self.full = {name: np.empty(_shape(h, w, ch), dt) for name, ch, dt in _KERNEL_OUTPUTS if name in self.names}
+        self.empty = {name: np.empty(_shape(0, 0, ch), dt) for name, ch, dt in _KERNEL_OUTPUTS}
+        self.normals = None  # the shading normals' inputs, when a normal buffer is asked for
+        if "normal" in self.names or "normal_camera" in self.names:
+            modes = resolve_methods(scene, shading)
+            # Bumps only apply where the normal is per pixel (as shading_normals).
+            bump = np.where(modes == METHOD_PHONG, geo.bump_index, -1).astype(np.int32)
+            self.normals = ((geo.vertices, geo.normals, geo.faces, geo.face_normals),
+                            (geo.uvs, geo.tangents, bump, geo.bump_texels, geo.bump_info), geo.face_offsets,
+                            camera_frame(camera, geo.origin), modes)
+        self._scratch = np.empty((0, 0, 3), np.float32)  # one band's normals when only normal_camera is asked
+
+    def band(self, hits, y0: int = 0) -> None:
+        """Fill the rows ``y0 .. y0 + R`` of every output from the band's (R, W) hits."""
+        from ..shading.normals import _normals_kernel
+
+        m, w = hits.prim.shape
+        rows = slice(y0, y0 + m)
+        outputs = {name: a[rows] for name, a in self.full.items()}
+        shading_n = self.empty["normal"]
+        if self.normals is not None:
+            if "normal" in outputs:
+                shading_n = outputs.pop("normal")  # written by the normals kernel itself
+            else:
+                if self._scratch.shape[0] < m or self._scratch.shape[1] != w:
+                    self._scratch = np.empty((m, w, 3), np.float32)
+                shading_n = self._scratch[:m]
+            G, B, face_off, cam, modes = self.normals
+            _normals_kernel(hits.prim, hits.geom, hits.u, hits.v, G, B, face_off, cam, modes, shading_n)
+        if not outputs:
+            return
+        c = np.ascontiguousarray
+        _buffers_kernel(self.view + (int(y0),),
+                        (c(hits.prim, np.int32), c(hits.geom, np.int32), c(hits.u, np.float32),
+                         c(hits.v, np.float32), c(hits.t, np.float32)),
+                        self.geometry, (shading_n, self.lut),
+                        tuple(outputs.get(name, self.empty[name]) for name, _, _ in _KERNEL_OUTPUTS))
+
+    def result(self, mask=None, coverage=None) -> dict:
+        """The buffers in the order asked. ``coverage``: the samples' hit fraction, or None for
+        one sample (then ``mask``, the (H, W) bool hit mask, as float32)."""
+        out = {}
+        for name in self.names:
+            if name == "coverage":
+                out[name] = mask.astype(np.float32) if coverage is None else np.asarray(coverage, np.float32)
+            else:
+                out[name] = self.full[name]
+        return out
+
+
 def compute_buffers(scene, camera, hits, names, shading="phong", coverage=None) -> dict:
     """The named buffers of one frame.
 
@@ -268,53 +375,9 @@ def compute_buffers(scene, camera, hits, names, shading="phong", coverage=None) 
     -------
     dict of str to ndarray
         In the order asked; shapes and dtypes as in the module table. Only
-        the asked-for arrays (and the shading normals, if a ``normal`` is
-        asked for) are allocated.
+        the asked-for arrays (and the shading normals, if only a
+        ``normal_camera`` is asked for) are allocated.
     """
-    names = check_buffers(names)
-    h, w = hits.prim.shape
-    geo = scene.geometry
-    from ..scene.projection import extrinsics
-
-    R, _ = extrinsics(camera)
-
-    def out(name, shape, dtype):
-        return np.empty((h, w) + shape, dtype) if name in names else np.empty((0, 0) + shape, dtype)
-
-    shading_n = np.empty((0, 0, 3), np.float32)
-    if "normal" in names or "normal_camera" in names:
-        from ..shading.normals import shading_normals
-
-        shading_n = shading_normals(scene, camera, hits, shading)
-    dirs = np.empty((0, 3), np.float64)
-    if camera.distorted and any(n in names for n in ("zdepth", "position", "face_normal", "face_normal_camera")):
-        from ..visibility.distortion import ray_directions
-
-        dirs = np.ascontiguousarray(ray_directions(camera)[0], np.float64)
-    lut = np.zeros(max(len(geo.face_offsets) - 1, 1), np.int32)
-    if "semantic_id" in names:
-        from .labels import semantic_classes
-
-        lut = np.ascontiguousarray(semantic_classes(scene)[1], np.int32)
-    bufs = {"depth": out("depth", (), np.float32), "zdepth": out("zdepth", (), np.float32),
-            "position": out("position", (3,), np.float32), "normal": out("normal", (3,), np.float32),
-            "normal_camera": out("normal_camera", (3,), np.float32),
-            "face_normal": out("face_normal", (3,), np.float32),
-            "face_normal_camera": out("face_normal_camera", (3,), np.float32),
-            "barycentric": out("barycentric", (3,), np.float32), "model_id": out("model_id", (), np.int32),
-            "semantic_id": out("semantic_id", (), np.int32), "triangle_id": out("triangle_id", (), np.int32),
-            "mask": out("mask", (), np.bool_)}
-    c = np.ascontiguousarray
-    _buffers_kernel((camera_frame(camera, geo.origin), c(camera.basis[2], np.float64), c(R, np.float64), dirs, 0),
-                    (c(hits.prim, np.int32), c(hits.geom, np.int32), c(hits.u, np.float32), c(hits.v, np.float32),
-                     c(hits.t, np.float32)),
-                    (geo.vertices, geo.faces, geo.face_normals, geo.face_offsets, c(geo.origin, np.float64)),
-                    (shading_n, lut), tuple(bufs.values()))
-    result = {}
-    for name in names:
-        if name == "coverage":
-            mask = hits.prim >= 0
-            result[name] = mask.astype(np.float32) if coverage is None else np.array(coverage, np.float32)
-        else:
-            result[name] = bufs[name]
-    return result
+    fb = FrameBuffers(scene, camera, names, shading, shape=hits.prim.shape)
+    fb.band(hits, 0)
+    return fb.result(hits.prim >= 0 if "coverage" in fb.names else None, coverage)

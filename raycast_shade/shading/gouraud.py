@@ -178,8 +178,9 @@ def _make_interpolate(spec_on: bool, att_on: bool, tex_on: bool = False):
     def _interp_gouraud_kernel(prim, geom, u, v, G, B, face_off, materials, cam, L, T, background, modes, shades,
                                image):
         """Gouraud: interpolate vertex shades over the models whose method is METHOD_GOURAUD;
-        ``shades`` = ``(vcol, vspec)`` of the vertex kernel."""
-        vcol, vspec = shades
+        ``shades`` = ``(vcol, vspec, y0)``: the vertex kernel's, and the image row of the
+        buffer's first row (a band of the frame; textures need the image position)."""
+        vcol, vspec, y0 = shades
         verts, normals, faces, fnormals = G
         uvs = B[0]
         vcolors, fcolors, cmode, tindex, ttexels, tinfo, split = T
@@ -209,7 +210,7 @@ def _make_interpolate(spec_on: bool, att_on: bool, tex_on: bool = False):
                     side = 0 if sgn > 0.0 else 1
                     if tex_on and split[g] != 0:
                         at = At(f, g, b1, b2)
-                        coef = _point_coefficients(G, uvs, at, cam, x, y, True, materials, T)
+                        coef = _point_coefficients(G, uvs, at, cam, x, y0 + y, True, materials, T)
                         r, gg, b = _modulate(vcol, vspec, G, at, side, gn, materials, cam, L, S, coef,
                                              spec_on, att_on)
                         image[y, x, 0] = min(r, FLT32_MAX)

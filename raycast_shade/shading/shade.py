@@ -203,11 +203,10 @@ class SampleShading:
         """(H, W, 3) float32 linear image of one sample's hit buffer (valid by construction),
         written to ``out`` when given (one buffer serves every sample: no fresh pages each time).
 
-        ``y0``: the image row of the buffer's first row, for a band of a frame whose models
-        are all Phong-shaded (:func:`~raycast_shade.visibility.bands.cast_bands`)."""
+        ``y0``: the image row of the buffer's first row, for a band of the frame
+        (:func:`~raycast_shade.visibility.bands.cast_bands`): the bands of a frame share the
+        per-face and per-vertex work as its samples do, each face and vertex shaded once."""
         k, geo, modes = self.k, self.geo, self.modes
-        if y0 and (self.flat or self.gouraud):
-            raise ValueError("y0: bands are shaded for Phong-only frames")  # their per-face/vertex work is per frame
         h, w = hits.shape
         image = np.empty((h, w, 3), np.float32) if out is None else out
         if self.flat or self.gouraud:
@@ -219,7 +218,7 @@ class SampleShading:
         if self.gouraud:
             variant(_INTERPOLATE, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["face_off"],
                                      k["materials"], k["cam"], k["L"], k["T"], k["background"], modes,
-                                     (self.vcol, self.vspec), image)
+                                     (self.vcol, self.vspec, int(y0)), image)
         if self.phong:
             variant(_PHONG, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["T"], k["face_off"],
                                k["materials"], k["cam"], k["background"], modes, image, y0)

@@ -131,19 +131,78 @@ def test_the_vertex_grid_renders_the_same_banded():
     assert (banded.hits.geom == 0).all()  # no pixel shows the plane behind the grid
 
 
-@pytest.mark.parametrize("kw", [dict(buffers=("zdepth",)), dict(terms=True), dict(samples=2),
-                                dict(interpolation="screen"), dict(backend="raster")])
+@pytest.mark.parametrize("kw", [dict(terms=True), dict(interpolation="screen"), dict(backend="raster")])
 @pytest.mark.usefixtures("small_bands")
 def test_frames_that_need_the_whole_hit_buffer_keep_it(kw):
     frame = rs.render(_textured_sphere(fov=45.0), "phong", **kw)
     assert not callable(frame.__dict__["_hits"])
 
 
+def _both_methods(scene, shading, **kw):
+    """:func:`_both` for any methods."""
+    banded = rs.render(scene, shading, **kw)
+    saved = RENDER._banded
+    try:
+        RENDER._banded = lambda *a: False
+        whole = rs.render(scene, shading, **kw)
+    finally:
+        RENDER._banded = saved
+    return banded, whole
+
+
+def _same(banded, whole):
+    assert callable(banded.__dict__["_hits"]) and not callable(whole.__dict__["_hits"])
+    np.testing.assert_array_equal(banded.image, whole.image)
+    np.testing.assert_array_equal(banded.mask, whole.mask)
+    assert list(banded.buffers) == list(whole.buffers)
+    for name in whole.buffers:
+        a, b = banded.buffers[name], whole.buffers[name]
+        assert a.dtype == b.dtype and a.shape == b.shape, name
+        np.testing.assert_array_equal(a, b, err_msg=name)
+
+
+ALL_BUFFERS = tuple(n for n in rs.output.buffers.BUFFER_NAMES)
+
+
+@pytest.mark.parametrize("shading", ["flat", "gouraud", "phong", ("gouraud", "flat")])
+@pytest.mark.parametrize("cam", [dict(fov=45.0), dict(fx=120.0, fy=125.0, cx=40.3, cy=90.7)],
+                         ids=["perspective", "intrinsics"])
 @pytest.mark.usefixtures("small_bands")
-def test_flat_gouraud_and_mirror_frames_are_not_banded():
+def test_every_method_and_buffer_is_the_whole_frame_bit_for_bit(shading, cam):
+    """Flat faces and Gouraud vertices shaded once, by the first band that sees them; textures
+    (a colour-mapped Gouraud model takes the modulate path, whose lookups need the image row)
+    and shadows; every buffer."""
+    banded, whole = _both_methods(_textured_sphere(**cam), shading, buffers=ALL_BUFFERS)
+    _same(banded, whole)
+    assert 0.2 < banded.mask.mean() < 1.0 and len(banded.buffers) == len(ALL_BUFFERS)
+
+
+@pytest.mark.parametrize("kw", [dict(samples=2), dict(samples=4, buffers=("coverage", "zdepth")),
+                                dict(samples=5), dict(samples=9, buffers=("coverage", "normal_camera"))],
+                         ids=["2", "4-coverage", "5", "9-coverage"])
+@pytest.mark.parametrize("shading", ["phong", "gouraud", "flat"])
+@pytest.mark.usefixtures("small_bands")
+def test_samples_are_banded_and_the_whole_frame_bit_for_bit(kw, shading):
+    banded, whole = _both_methods(_textured_sphere(fov=45.0), shading, **kw)
+    _same(banded, whole)
+    if "coverage" in whole.buffers:
+        cov = whole.buffers["coverage"]
+        assert ((cov > 0) & (cov < 1)).any()  # edge pixels partly covered
+    for a, b in zip(banded.hits, whole.hits):
+        np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.usefixtures("small_bands")
+def test_a_distorted_camera_is_one_band_with_its_buffers():
     scene = _textured_sphere(fov=45.0)
-    for shading in ("flat", "gouraud", ("phong", "gouraud")):
-        assert not callable(rs.render(scene, shading).__dict__["_hits"])
+    cam = rs.Camera.from_opencv(np.array([[120.0, 0, 50.5], [0, 120.0, 75.0], [0, 0, 1]]), np.eye(3),
+                                np.array([-0.4, -0.6, 3.0]), 101, 150, dist=(0.05, -0.01, 0.0, 0.0, 0.0))
+    _same(*_both_methods(scene, "gouraud", camera=cam, buffers=("zdepth", "position", "normal"), samples=2))
+
+
+@pytest.mark.usefixtures("small_bands")
+def test_mirror_frames_are_not_banded():
+    scene = _textured_sphere(fov=45.0)
     shiny = scene.replace(models=[rs.Model(m.mesh, rs.Material(reflectivity=0.5)) for m in scene.models])
     assert not callable(rs.render(shiny, "phong", max_depth=1).__dict__["_hits"])
     assert callable(rs.render(shiny, "phong", max_depth=0).__dict__["_hits"])
@@ -218,7 +277,7 @@ def test_a_banded_frame_allocates_the_image_not_the_hit_buffer():
 
 
 @pytest.mark.parametrize("kw", [dict(), dict(buffers=("zdepth",)), dict(samples=5), dict(backend="raster")],
-                         ids=["banded", "whole", "samples", "raster"])
+                         ids=["banded", "buffers", "samples", "raster"])
 @pytest.mark.usefixtures("small_bands")
 def test_out_receives_the_image_of_a_fresh_render(kw):
     scene = _textured_sphere(fov=45.0)
