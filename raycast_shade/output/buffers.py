@@ -170,82 +170,95 @@ def _buffers_kernel(view, hits, geometry, extra, outputs):
     """
     cam, fwd, R, dirs, y0 = view
     prim, geom, u, v, t = hits
-    vertices, faces, face_normals, face_offsets, origin = geometry
     shading_n, lut = extra
     depth, zdepth, position, normal, normal_cam, face_n, face_n_cam, bary, model_id, semantic_id, triangle_id, \
         mask = outputs
     h, w = prim.shape
-    want_z = zdepth.shape[0] != 0
-    want_p = position.shape[0] != 0
-    want_f = face_n.shape[0] != 0 or face_n_cam.shape[0] != 0
+    rays = zdepth.shape[0] != 0 or position.shape[0] != 0 or face_n.shape[0] != 0 or face_n_cam.shape[0] != 0
+    # One simple loop per asked output and row (the asked set is decided per row, not per
+    # pixel): the id, mask and depth loops vectorise, and only the ray loop computes rays.
     for y in prange(h):
-        for x in range(w):
-            hit = prim[y, x] >= 0
-            if depth.shape[0] != 0:
-                depth[y, x] = t[y, x] if hit else np.float32(0.0)
-            if mask.shape[0] != 0:
-                mask[y, x] = hit
-            if model_id.shape[0] != 0:
+        if depth.shape[0] != 0:
+            for x in range(w):
+                depth[y, x] = t[y, x] if prim[y, x] >= 0 else np.float32(0.0)
+        if mask.shape[0] != 0:
+            for x in range(w):
+                mask[y, x] = prim[y, x] >= 0
+        if model_id.shape[0] != 0:
+            for x in range(w):
                 model_id[y, x] = geom[y, x]
-            if triangle_id.shape[0] != 0:
+        if triangle_id.shape[0] != 0:
+            for x in range(w):
                 triangle_id[y, x] = prim[y, x]
-            if semantic_id.shape[0] != 0:
-                semantic_id[y, x] = lut[geom[y, x]] if hit else np.int32(-1)
-            if bary.shape[0] != 0:
-                if hit:
-                    a = np.float64(u[y, x])
-                    b = np.float64(v[y, x])
-                    bary[y, x, 0] = 1.0 - a - b
-                    bary[y, x, 1] = a
-                    bary[y, x, 2] = b
-                else:
-                    bary[y, x, 0] = 0.0
-                    bary[y, x, 1] = 0.0
-                    bary[y, x, 2] = 0.0
-            if normal.shape[0] != 0:
+        if semantic_id.shape[0] != 0:
+            for x in range(w):
+                semantic_id[y, x] = lut[geom[y, x]] if prim[y, x] >= 0 else np.int32(-1)
+        if bary.shape[0] != 0:
+            for x in range(w):
+                hit = prim[y, x] >= 0
+                a = np.float64(u[y, x]) if hit else 0.0
+                b = np.float64(v[y, x]) if hit else 0.0
+                bary[y, x, 0] = 1.0 - a - b if hit else 0.0
+                bary[y, x, 1] = a
+                bary[y, x, 2] = b
+        if normal.shape[0] != 0:
+            for x in range(w):
                 for k in range(3):
                     normal[y, x, k] = shading_n[y, x, k]
-            if normal_cam.shape[0] != 0:
+        if normal_cam.shape[0] != 0:
+            for x in range(w):
                 n0 = np.float64(shading_n[y, x, 0])
                 n1 = np.float64(shading_n[y, x, 1])
                 n2 = np.float64(shading_n[y, x, 2])
                 for k in range(3):
                     normal_cam[y, x, k] = n0 * R[k, 0] + n1 * R[k, 1] + n2 * R[k, 2]
-            if not (want_z or want_p or want_f):
-                continue
-            if not hit:
-                for k in range(3):
-                    if want_p:
-                        position[y, x, k] = 0.0
-                    if face_n.shape[0] != 0:
-                        face_n[y, x, k] = 0.0
-                    if face_n_cam.shape[0] != 0:
-                        face_n_cam[y, x, k] = 0.0
-                if want_z:
-                    zdepth[y, x] = 0.0
-                continue
-            ox, oy, oz, dx, dy, dz = _ray(cam, dirs, w, x, y0 + y)
-            if want_z:
-                zdepth[y, x] = np.float64(t[y, x]) * (dx * fwd[0] + dy * fwd[1] + dz * fwd[2])
-            f = face_offsets[geom[y, x]] + prim[y, x]
-            if want_p:
-                s = _plane_distance(vertices, faces, f, np.float64(t[y, x]), ox, oy, oz, dx, dy, dz)
-                position[y, x, 0] = (ox + s * dx) + origin[0]
-                position[y, x, 1] = (oy + s * dy) + origin[1]
-                position[y, x, 2] = (oz + s * dz) + origin[2]
-            if want_f:
-                n0 = face_normals[f, 0]
-                n1 = face_normals[f, 1]
-                n2 = face_normals[f, 2]
-                if n0 * dx + n1 * dy + n2 * dz > 0.0:  # turned to the viewer, as shading does
-                    n0, n1, n2 = -n0, -n1, -n2
+        if rays:
+            _ray_row(y, cam, fwd, R, dirs, y0, prim, geom, t, geometry, (zdepth, position, face_n, face_n_cam))
+
+
+@njit(cache=True, inline="always")
+def _ray_row(y, cam, fwd, R, dirs, y0, prim, geom, t, geometry, outputs):
+    """Row ``y``'s buffers that need each pixel's ray: z-depth, position, face normals."""
+    vertices, faces, face_normals, face_offsets, origin = geometry
+    zdepth, position, face_n, face_n_cam = outputs
+    w = prim.shape[1]
+    want_z = zdepth.shape[0] != 0
+    want_p = position.shape[0] != 0
+    want_f = face_n.shape[0] != 0 or face_n_cam.shape[0] != 0
+    for x in range(w):
+        if prim[y, x] < 0:
+            for k in range(3):
+                if want_p:
+                    position[y, x, k] = 0.0
                 if face_n.shape[0] != 0:
-                    face_n[y, x, 0] = n0
-                    face_n[y, x, 1] = n1
-                    face_n[y, x, 2] = n2
+                    face_n[y, x, k] = 0.0
                 if face_n_cam.shape[0] != 0:
-                    for k in range(3):
-                        face_n_cam[y, x, k] = n0 * R[k, 0] + n1 * R[k, 1] + n2 * R[k, 2]
+                    face_n_cam[y, x, k] = 0.0
+            if want_z:
+                zdepth[y, x] = 0.0
+            continue
+        ox, oy, oz, dx, dy, dz = _ray(cam, dirs, w, x, y0 + y)
+        if want_z:
+            zdepth[y, x] = np.float64(t[y, x]) * (dx * fwd[0] + dy * fwd[1] + dz * fwd[2])
+        f = face_offsets[geom[y, x]] + prim[y, x]
+        if want_p:
+            s = _plane_distance(vertices, faces, f, np.float64(t[y, x]), ox, oy, oz, dx, dy, dz)
+            position[y, x, 0] = (ox + s * dx) + origin[0]
+            position[y, x, 1] = (oy + s * dy) + origin[1]
+            position[y, x, 2] = (oz + s * dz) + origin[2]
+        if want_f:
+            n0 = face_normals[f, 0]
+            n1 = face_normals[f, 1]
+            n2 = face_normals[f, 2]
+            if n0 * dx + n1 * dy + n2 * dz > 0.0:  # turned to the viewer, as shading does
+                n0, n1, n2 = -n0, -n1, -n2
+            if face_n.shape[0] != 0:
+                face_n[y, x, 0] = n0
+                face_n[y, x, 1] = n1
+                face_n[y, x, 2] = n2
+            if face_n_cam.shape[0] != 0:
+                for k in range(3):
+                    face_n_cam[y, x, k] = n0 * R[k, 0] + n1 * R[k, 1] + n2 * R[k, 2]
 
 
 # The kernel's outputs, in the order of its ``outputs`` tuple: name, channels (0: an (H, W) image), dtype.
