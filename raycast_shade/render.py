@@ -105,19 +105,22 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
 
     Notes
     -----
-    A frame of at least 2**19 pixels whose models are all Phong-shaded, with
-    one ray per pixel, the packet caster, perspective-correct weights and no
-    buffer, term or mirror bounce, is cast and shaded in bands of 128 rows
-    (:mod:`raycast_shade.visibility.bands`): it never holds a full-frame hit
-    buffer, and ``frame.hits`` is cast again the first time it is read (the
-    same buffer, bit for bit; ``frame.mask`` is kept). The image is the
-    whole-frame path's, bit for bit.
+    A frame of at least 2**19 pixels cast by the packet caster with
+    perspective-correct weights and no term or mirror bounce is cast, shaded
+    and its buffers computed in bands of 128 rows
+    (:mod:`raycast_shade.visibility.bands`), whatever its methods and number
+    of samples: it never holds a full-frame hit buffer, and ``frame.hits``
+    is cast again the first time it is read (the same buffer, bit for bit;
+    ``frame.mask`` is kept). Flat faces and Gouraud vertices are shaded once,
+    by the first band (and sample) that sees them. The image and buffers are
+    the whole-frame path's, bit for bit.
 
     Raises
     ------
     TypeError, ValueError
         For a bad argument, before any kernel runs; also for a camera whose
-        frame would need more memory than allowed
+        frame, with the buffers, samples and terms asked for, would need more
+        memory than allowed
         (:meth:`~raycast_shade.scene.camera.Camera.check_frame_memory`).
     RuntimeError
         When the frame needs the direct Embree binding and it is unavailable
@@ -130,13 +133,17 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
         raise ValueError(f"terms: the terms are those of one ray per pixel; with samples={plan.samples} they "
                          "would not add up to the averaged image: render them with samples=1")
     camera, shading = plan.camera, plan.shading
+    banded = _banded(scene, plan, terms)
+    # The memory of what is asked for (the plain frame's was checked in _plan), before any kernel.
+    camera.check_frame_memory(plan.buffers, plan.samples, terms, len(scene.lights),
+                              band_rows=bands.BAND_ROWS if banded else 0)
     warn_render(scene, shading)  # no lights, a light inside a closed mesh, a bump map the method ignores
     timings = {}
     mask = None
     _build(scene, plan, timings)
     inputs = prepare(scene, camera)  # once per frame: shading, every sample and the mirror bounces
     extra = {}
-    if _banded(scene, plan, terms):
+    if banded:
         hits, image, mask, extra = _render_bands(scene, plan, timings, inputs)
     else:
         if plan.samples == 1:

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..common.choices import PROJECTIONS
 from ..common.validate import as_choice, as_int, as_scalar, as_vec3, check_memory, pow2_scaled
-from .framememory import FRAME_BYTES_PER_PIXEL, frame_bytes_per_pixel
+from .framememory import FRAME_BYTES_PER_PIXEL, frame_bytes
 
 __all__ = ["Camera", "PROJECTIONS", "FRAME_BYTES_PER_PIXEL"]
 
@@ -157,20 +157,20 @@ class Camera:
         up = np.cross(right, fwd)
         return right, up, fwd
 
-    def check_frame_memory(self, buffers=(), samples: int = 1, terms=None, lights: int = 0) -> None:
+    def check_frame_memory(self, buffers=(), samples: int = 1, terms=None, lights: int = 0,
+                           band_rows: int = 0) -> None:
         """Refuse (ValueError, with the figure) a frame larger than
         :func:`~raycast_shade.common.validate.memory_limit`.
 
         Parameters
         ----------
-        buffers, samples, terms, lights
-            What the frame is asked for, as
-            :func:`~raycast_shade.scene.framememory.frame_bytes_per_pixel`
-            counts it (the default: the plain frame, ``FRAME_BYTES_PER_PIXEL``).
+        buffers, samples, terms, lights, band_rows
+            What the frame is asked for and how it is rendered, as
+            :func:`~raycast_shade.scene.framememory.frame_bytes` counts it
+            (the default: the plain frame, ``FRAME_BYTES_PER_PIXEL``).
         """
-        per_pixel = frame_bytes_per_pixel(buffers, samples, terms, lights)
-        check_memory(float(self.width) * float(self.height) * per_pixel,
-                     f"camera.width x camera.height: {self.width} x {self.height} pixels", "a frame")
+        need = frame_bytes(self.width, self.height, buffers, samples, terms, lights, band_rows)
+        check_memory(need, f"camera.width x camera.height: {self.width} x {self.height} pixels", "a frame")
 
     @property
     def orthographic(self) -> bool:
