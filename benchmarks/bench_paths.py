@@ -18,7 +18,10 @@ divided by the plain Phong frame's median:
   ZIP and ZSTD on OpenEXR's threads), the write alone; their sizes in MiB;
 * ``view_npz``, ``view_npz_exr_png``: one view of
   :func:`~raycast_shade.apps.views.render_views` with its default buffers and
-  files (PNG image, npz), and with npz, EXR and a depth PNG, render and files.
+  files (PNG image, npz), and with npz, EXR and a depth PNG, render and files;
+* ``flat``, ``gouraud``: the frame flat- and Gouraud-shaded; ``samples4``:
+  four rays per pixel; ``samples4_coverage``: the same with ``coverage`` and
+  the view-set default buffers.
 
 Peak memory of a frame without and with all 12 buffers (``peak_frame``,
 ``peak_buffers_all``, in the ``size_MiB`` column) is measured in a fresh
@@ -89,7 +92,19 @@ def _paths(scene, tmp):
         "exr_zstd": (lambda: write_exr(f("s.exr"), b, image=img, compression="zstd"), f("s.exr")),
         "view_npz": (view(("npz",)), None),
         "view_npz_exr_png": (view(("npz", "exr", "depth_png")), None),
+        **_band_paths(scene),
     }
+
+
+def _band_paths(scene):
+    """The banded path's other frames (issue 27: flat and Gouraud banded like Phong, ``samples=N``
+    at most N frames + 10%): name -> (callable, None)."""
+    import raycast_shade as rs
+
+    return {"flat": (lambda: rs.render(scene, "flat"), None),
+            "gouraud": (lambda: rs.render(scene, "gouraud"), None),
+            "samples4": (lambda: rs.render(scene, samples=4), None),
+            "samples4_coverage": (lambda: rs.render(scene, samples=4, buffers=("coverage",) + VIEW_DEFAULT), None)}
 
 
 def bench_case(kind, level, width, height, repeats):
@@ -154,7 +169,9 @@ LABELS = {"buffers_all": "all 12 buffers", "position": "`position` alone",
           "view_default": "zdepth, normal, id, mask (the view-set default)", "npz_plain": "`save_npz`, stored (default)",
           "npz_zlib1": "`save_npz`, zlib level 1", "npz_zlib6": "`save_npz`, zlib level 6",
           "exr": "`write_exr`, uncompressed (default)", "exr_zip": "`write_exr`, ZIP", "exr_zstd": "`write_exr`, ZSTD",
-          "view_npz": "`render_views`, one view (PNG + npz)", "view_npz_exr_png": "`render_views`, one view (PNG + npz + EXR + depth PNG)"}
+          "view_npz": "`render_views`, one view (PNG + npz)", "view_npz_exr_png": "`render_views`, one view (PNG + npz + EXR + depth PNG)",
+          "flat": "flat-shaded frame", "gouraud": "Gouraud-shaded frame", "samples4": "`samples=4`",
+          "samples4_coverage": "`samples=4` with coverage and the view-set default"}
 
 
 def table(rows) -> str:
@@ -243,7 +260,7 @@ def main(argv=None):
             rows.append(dict(mesh=case[0], triangles=20 * 4 ** case[1], width=case[2], height=case[3], path=label,
                              median_ms="", ratio="", size_MiB=f"{peak_mib(*case, names):.0f}", repeats=1,
                              note="peak RSS growth of one frame, fresh process"))
-        for r in rows[-14:]:
+        for r in rows[-(len(LABELS) + 3):]:
             print(r["mesh"], r["width"], r["path"], r["median_ms"], r["ratio"], r["size_MiB"], flush=True)
     out = results_file("paths.csv", args.quick)
     os.makedirs(os.path.dirname(out), exist_ok=True)

@@ -133,16 +133,12 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
         raise ValueError(f"terms: the terms are those of one ray per pixel; with samples={plan.samples} they "
                          "would not add up to the averaged image: render them with samples=1")
     camera, shading = plan.camera, plan.shading
-    banded = _banded(scene, plan, terms)
-    # The memory of what is asked for (the plain frame's was checked in _plan), before any kernel.
-    camera.check_frame_memory(plan.buffers, plan.samples, terms, len(scene.lights),
-                              band_rows=bands.BAND_ROWS if banded else 0)
+    banded = _banded(scene, plan, terms)  # then the memory of what is asked for, before any kernel
+    camera.check_frame_memory(plan.buffers, plan.samples, terms, len(scene.lights), bands.BAND_ROWS * banded)
     warn_render(scene, shading)  # no lights, a light inside a closed mesh, a bump map the method ignores
-    timings = {}
-    mask = None
+    timings, mask, extra = {}, None, {}
     _build(scene, plan, timings)
     inputs = prepare(scene, camera)  # once per frame: shading, every sample and the mirror bounces
-    extra = {}
     if banded:
         hits, image, mask, extra = _render_bands(scene, plan, timings, inputs)
     else:

@@ -2,11 +2,12 @@
 
 ``render(scene, buffers=("zdepth", "position", ...))`` puts each asked-for
 buffer on ``frame.buffers``; nothing else is computed or held. All come from
-the hit buffer after the cast, in one Numba pass over the pixels (parallel
-over rows, float64 arithmetic per pixel, written float32 straight into the
-outputs: no full-frame temporaries), except the shading normals, which are
-the shading kernels' own (:func:`raycast_shade.shading_normals`, as
-``frame.normal``).
+the hit buffer, band by band as the banded path casts it (:class:`FrameBuffers`;
+the whole frame as one band otherwise), in one Numba pass over the band's
+pixels (parallel over rows, float64 arithmetic per pixel, written float32
+straight into the full-frame outputs: no full-frame temporaries); the shading
+normals are the shading kernels' own (:func:`raycast_shade.shading_normals`,
+as ``frame.normal``), written straight into the ``normal`` buffer.
 
 ``position`` is the float64 intersection of the pixel's own ray (the ray the
 camera casts, lens distortion included) with the hit triangle's plane,
@@ -15,27 +16,12 @@ rounding at any angle, where interpolating Embree's float32 barycentrics
 would land up to half a pixel off at grazing angles. ``zdepth`` is
 ``t (d . forward)`` for the cast's ``t`` and the unit ray ``d``.
 
-Names, shapes and meanings (background: 0, ids -1; camera axes are OpenCV's,
-``x`` right, ``y`` down, ``z`` forward; see ``docs/vision.md``):
+Names, shapes and meanings, from the one registry of buffers
+(:data:`~raycast_shade.common.bufferspec.REGISTRY`; background: 0, ids -1;
+camera axes are OpenCV's, ``x`` right, ``y`` down, ``z`` forward; see
+``docs/vision.md``):
 
-=====================  ===============  ===============================================
-``depth``              (H, W) float32   distance from the eye along the ray (``frame.depth``;
-                                        orthographic: from the image plane)
-``zdepth``             (H, W) float32   view-space ``z``: depth along the optical axis
-``position``           (H, W, 3) f32    world position of the surface point
-``normal``             (H, W, 3) f32    shading normal, world axes, turned to the viewer
-``normal_camera``      (H, W, 3) f32    the same in camera axes
-``face_normal``        (H, W, 3) f32    geometric (triangle) normal, world, turned to the viewer
-``face_normal_camera`` (H, W, 3) f32    the same in camera axes
-``barycentric``        (H, W, 3) f32    weights of the triangle's vertices 0, 1, 2
-``model_id``           (H, W) int32     model index in the scene (the instance mask)
-``semantic_id``        (H, W) int32     index of the model's name among the scene's distinct
-                                        model names (:func:`~raycast_shade.output.labels.semantic_classes`)
-``triangle_id``        (H, W) int32     triangle index within its model (the mesh's face order)
-``mask``               (H, W) bool      pixels that see a surface
-``coverage``           (H, W) float32   fraction of the pixel's anti-aliasing samples that hit a
-                                        surface (``render(samples=N)``; with one sample, ``mask``)
-=====================  ===============  ===============================================
+{table}
 
 ``id`` asks for ``model_id`` and ``triangle_id``. Every buffer but
 ``coverage`` is the pixel centre's (sample 0), whatever the number of
@@ -47,16 +33,32 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ..common.layout import CAM_EYE, METHOD_PHONG
+from ..common.bufferspec import ALIASES, BUFFER_NAMES, BUFFERS, KERNEL_BUFFERS, REGISTRY
+from ..common.layout import CAM_EYE
 from ..scene.framememory import BUFFER_BYTES
 from ..visibility.rays import camera_frame, pixel_ray
 
 __all__ = ["BUFFER_NAMES", "ALIASES", "BUFFER_BYTES", "buffer_bytes", "check_buffers", "compute_buffers",
            "FrameBuffers"]
 
-BUFFER_NAMES = ("depth", "zdepth", "position", "normal", "normal_camera", "face_normal", "face_normal_camera",
-                "barycentric", "model_id", "triangle_id", "mask", "coverage", "semantic_id")
-ALIASES = {"id": ("model_id", "triangle_id")}
+
+
+def _table() -> str:
+    """The module docstring's reStructuredText table of :data:`REGISTRY`."""
+    import textwrap
+
+    rule = "=" * 22 + "  " + "=" * 15 + "  " + "=" * 56
+    rows = [rule]
+    for spec in REGISTRY:
+        shape = ("(H, W)" if spec.channels == 0 else f"(H, W, {spec.channels})") + " " + (
+            "f32" if spec.channels and spec.dtype == "float32" else spec.dtype)
+        lines = textwrap.wrap(spec.doc, 56, break_on_hyphens=False, break_long_words=False) or [""]
+        rows.append(f"{'``' + spec.name + '``':<22}  {shape:<15}  {lines[0]}")
+        rows += [" " * 41 + line for line in lines[1:]]
+    return "\n".join(rows + [rule])
+
+
+__doc__ = __doc__.replace("{table}", _table())
 
 
 def check_buffers(names, field: str = "buffers") -> tuple:
@@ -138,7 +140,8 @@ def _buffers_kernel(view, hits, geometry, extra, outputs):
     ``view = (cam, fwd, R, dirs, y0)``, ``hits = (prim, geom, u, v, t)``,
     ``geometry = (vertices, faces, face_normals, face_offsets, origin)``,
     ``extra = (shading_n, lut)`` and ``outputs = (depth, zdepth, position, normal,
-    normal_cam, face_n, face_n_cam, bary, model_id, semantic_id, triangle_id, mask)``.
+    normal_cam, face_n, face_n_cam, bary, model_id, triangle_id, mask, semantic_id)``
+    (:data:`~raycast_shade.common.bufferspec.KERNEL_BUFFERS`' order).
 
     Parameters
     ----------
@@ -171,8 +174,8 @@ def _buffers_kernel(view, hits, geometry, extra, outputs):
     cam, fwd, R, dirs, y0 = view
     prim, geom, u, v, t = hits
     shading_n, lut = extra
-    depth, zdepth, position, normal, normal_cam, face_n, face_n_cam, bary, model_id, semantic_id, triangle_id, \
-        mask = outputs
+    depth, zdepth, position, normal, normal_cam, face_n, face_n_cam, bary, model_id, triangle_id, mask, \
+        semantic_id = outputs
     h, w = prim.shape
     rays = zdepth.shape[0] != 0 or position.shape[0] != 0 or face_n.shape[0] != 0 or face_n_cam.shape[0] != 0
     # One simple loop per asked output and row (the asked set is decided per row, not per
@@ -261,17 +264,7 @@ def _ray_row(y, cam, fwd, R, dirs, y0, prim, geom, t, geometry, outputs):
                     face_n_cam[y, x, k] = n0 * R[k, 0] + n1 * R[k, 1] + n2 * R[k, 2]
 
 
-# The kernel's outputs, in the order of its ``outputs`` tuple: name, channels (0: an (H, W) image), dtype.
-_KERNEL_OUTPUTS = (("depth", 0, np.float32), ("zdepth", 0, np.float32), ("position", 3, np.float32),
-                   ("normal", 3, np.float32), ("normal_camera", 3, np.float32), ("face_normal", 3, np.float32),
-                   ("face_normal_camera", 3, np.float32), ("barycentric", 3, np.float32),
-                   ("model_id", 0, np.int32), ("semantic_id", 0, np.int32), ("triangle_id", 0, np.int32),
-                   ("mask", 0, np.bool_))
 _RAY_BUFFERS = ("zdepth", "position", "face_normal", "face_normal_camera")  # those that need the pixel's ray
-
-
-def _shape(rows, w, channels):
-    return (rows, w) if channels == 0 else (rows, w, channels)
 
 
 class FrameBuffers:
@@ -298,7 +291,7 @@ class FrameBuffers:
 
     def __init__(self, scene, camera, names, shading="phong", shape=None):
         from ..scene.projection import extrinsics
-        from ..shading.shade import resolve_methods
+        from ..shading.normals import normal_inputs
 
         self.names = check_buffers(names)
         h, w = (camera.height, camera.width) if shape is None else shape
@@ -317,21 +310,16 @@ class FrameBuffers:
             from .labels import semantic_classes
 
             self.lut = c(semantic_classes(scene)[1], np.int32)
-        self.full = {name: np.empty(_shape(h, w, ch), dt) for name, ch, dt in _KERNEL_OUTPUTS if name in self.names}
-        self.empty = {name: np.empty(_shape(0, 0, ch), dt) for name, ch, dt in _KERNEL_OUTPUTS}
+        self.full = {b.name: np.empty(b.shape(h, w), b.dtype) for b in KERNEL_BUFFERS if b.name in self.names}
+        self.empty = {b.name: np.empty(b.shape(0, 0), b.dtype) for b in KERNEL_BUFFERS}
         self.normals = None  # the shading normals' inputs, when a normal buffer is asked for
         if "normal" in self.names or "normal_camera" in self.names:
-            modes = resolve_methods(scene, shading)
-            # Bumps only apply where the normal is per pixel (as shading_normals).
-            bump = np.where(modes == METHOD_PHONG, geo.bump_index, -1).astype(np.int32)
-            self.normals = ((geo.vertices, geo.normals, geo.faces, geo.face_normals),
-                            (geo.uvs, geo.tangents, bump, geo.bump_texels, geo.bump_info), geo.face_offsets,
-                            camera_frame(camera, geo.origin), modes)
+            self.normals = normal_inputs(scene, camera, shading)
         self._scratch = np.empty((0, 0, 3), np.float32)  # one band's normals when only normal_camera is asked
 
     def band(self, hits, y0: int = 0) -> None:
         """Fill the rows ``y0 .. y0 + R`` of every output from the band's (R, W) hits."""
-        from ..shading.normals import _normals_kernel
+        from ..shading.normals import normals_into
 
         m, w = hits.prim.shape
         rows = slice(y0, y0 + m)
@@ -344,8 +332,7 @@ class FrameBuffers:
                 if self._scratch.shape[0] < m or self._scratch.shape[1] != w:
                     self._scratch = np.empty((m, w, 3), np.float32)
                 shading_n = self._scratch[:m]
-            G, B, face_off, cam, modes = self.normals
-            _normals_kernel(hits.prim, hits.geom, hits.u, hits.v, G, B, face_off, cam, modes, shading_n)
+            normals_into(self.normals, hits, shading_n)
         if not outputs:
             return
         c = np.ascontiguousarray
@@ -353,14 +340,14 @@ class FrameBuffers:
                         (c(hits.prim, np.int32), c(hits.geom, np.int32), c(hits.u, np.float32),
                          c(hits.v, np.float32), c(hits.t, np.float32)),
                         self.geometry, (shading_n, self.lut),
-                        tuple(outputs.get(name, self.empty[name]) for name, _, _ in _KERNEL_OUTPUTS))
+                        tuple(outputs.get(b.name, self.empty[b.name]) for b in KERNEL_BUFFERS))
 
     def result(self, mask=None, coverage=None) -> dict:
         """The buffers in the order asked. ``coverage``: the samples' hit fraction, or None for
         one sample (then ``mask``, the (H, W) bool hit mask, as float32)."""
         out = {}
         for name in self.names:
-            if name == "coverage":
+            if BUFFERS[name].writer == "samples":  # the coverage
                 out[name] = mask.astype(np.float32) if coverage is None else np.asarray(coverage, np.float32)
             else:
                 out[name] = self.full[name]
@@ -393,4 +380,5 @@ def compute_buffers(scene, camera, hits, names, shading="phong", coverage=None) 
     """
     fb = FrameBuffers(scene, camera, names, shading, shape=hits.prim.shape)
     fb.band(hits, 0)
-    return fb.result(hits.prim >= 0 if "coverage" in fb.names else None, coverage)
+    counted = any(BUFFERS[n].writer == "samples" for n in fb.names)
+    return fb.result(hits.prim >= 0 if counted else None, coverage)

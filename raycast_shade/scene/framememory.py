@@ -32,14 +32,13 @@ it exceeds them by counts.
 
 from __future__ import annotations
 
+from ..common.bufferspec import ALIASES, REGISTRY
+
 __all__ = ["FRAME_BYTES_PER_PIXEL", "BUFFER_BYTES", "frame_bytes_per_pixel", "frame_bytes"]
 
 FRAME_BYTES_PER_PIXEL = 20 + 12 + 12 + 3
 #: Bytes per pixel of each buffer as stored: render()'s arrays and the buffer files alike.
-BUFFER_BYTES = {"depth": 4, "zdepth": 4, "position": 12, "normal": 12, "normal_camera": 12, "face_normal": 12,
-                "face_normal_camera": 12, "barycentric": 12, "model_id": 4, "triangle_id": 4, "mask": 1,
-                "coverage": 4, "semantic_id": 4}
-_ALIASES = {"id": ("model_id", "triangle_id")}
+BUFFER_BYTES = {spec.name: spec.bytes for spec in REGISTRY}
 _HITS, _IMAGE, _NORMALS, _GROUP = 20, 12, 12, 4
 
 
@@ -113,7 +112,7 @@ def frame_bytes(width: int, height: int, buffers=(), samples: int = 1, terms=Non
 def _names(buffers) -> set:
     names = []
     for name in buffers:
-        for n in _ALIASES.get(name, (name,)):
+        for n in ALIASES.get(name, (name,)):
             if n not in BUFFER_BYTES:
                 raise ValueError(f"buffers: unknown buffer {name!r}; expected some of {', '.join(BUFFER_BYTES)}")
             names.append(n)

@@ -13,7 +13,7 @@ from .phong import _surface
 from .records import At
 from .shade import _check_inputs, resolve_methods
 
-__all__ = ["shading_normals"]
+__all__ = ["shading_normals", "normal_inputs", "normals_into"]
 
 
 @njit(parallel=True, **JIT)
@@ -60,12 +60,25 @@ def shading_normals(scene, camera, hits, shading="phong") -> np.ndarray:
         As :func:`~raycast_shade.shading.shade.shade`, before any kernel runs.
     """
     _check_inputs(scene, camera, hits)
+    nbuf = np.empty(hits.shape + (3,), np.float32)
+    normals_into(normal_inputs(scene, camera, shading), hits, nbuf)
+    return nbuf
+
+
+def normal_inputs(scene, camera, shading="phong") -> tuple:
+    """The shading-normal kernel's inputs of one frame, packed once for every band
+    (:func:`normals_into`)."""
     modes = resolve_methods(scene, shading)
     geo = scene.geometry
     # Bumps only apply where the normal is per pixel.
     bump_index = np.where(modes == METHOD_PHONG, geo.bump_index, -1).astype(np.int32)
     B = (geo.uvs, geo.tangents, bump_index, geo.bump_texels, geo.bump_info)
-    nbuf = np.empty(hits.shape + (3,), np.float32)
-    _normals_kernel(hits.prim, hits.geom, hits.u, hits.v, (geo.vertices, geo.normals, geo.faces, geo.face_normals),
-                    B, geo.face_offsets, camera_frame(camera, geo.origin), modes, nbuf)
-    return nbuf
+    return ((geo.vertices, geo.normals, geo.faces, geo.face_normals), B, geo.face_offsets,
+            camera_frame(camera, geo.origin), modes)
+
+
+def normals_into(inputs, hits, out) -> None:
+    """:func:`shading_normals` of a hit buffer made by this package's casters (valid by
+    construction: unchecked) into ``out``, (h, W, 3) float32 (a band's rows of a frame)."""
+    G, B, face_off, cam, modes = inputs
+    _normals_kernel(hits.prim, hits.geom, hits.u, hits.v, G, B, face_off, cam, modes, out)

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import raycast_shade as rs
+from raycast_shade.common.bufferspec import BUFFERS, KERNEL_BUFFERS, REGISTRY
 from raycast_shade.output.buffers import BUFFER_BYTES, BUFFER_NAMES, buffer_bytes, compute_buffers
 from tests.conftest import camera_rays
 
@@ -147,17 +148,27 @@ def test_a_band_of_rows_gives_the_whole_frames_rows():
     geo, (y0, y1) = scene.geometry, (20, 47)
     from raycast_shade.visibility.distortion import ray_directions
 
-    empty1, empty3 = np.empty((0, 0), np.float32), np.empty((0, 0, 3), np.float32)
-    out = {"zdepth": np.empty((y1 - y0, W), np.float32), "position": np.empty((y1 - y0, W, 3), np.float32),
-           "face_normal_camera": np.empty((y1 - y0, W, 3), np.float32), "mask": np.empty((y1 - y0, W), np.bool_)}
+    out = {name: np.empty(BUFFERS[name].shape(y1 - y0, W), BUFFERS[name].dtype) for name in names}
     h = frame.hits
     B._buffers_kernel((camera_frame(cam, geo.origin), cam.basis[2].copy(), extrinsics(cam)[0],
                        ray_directions(cam)[0], y0),
                       tuple(np.ascontiguousarray(a[y0:y1]) for a in (h.prim, h.geom, h.u, h.v, h.t)),
                       (geo.vertices, geo.faces, geo.face_normals, geo.face_offsets, geo.origin),
-                      (empty3, np.zeros(2, np.int32)),
-                      (empty1, out["zdepth"], out["position"], empty3, empty3, empty3, out["face_normal_camera"],
-                       empty3, np.empty((0, 0), np.int32), np.empty((0, 0), np.int32), np.empty((0, 0), np.int32),
-                       out["mask"]))
+                      (np.empty((0, 0, 3), np.float32), np.zeros(2, np.int32)),
+                      tuple(out.get(b.name, np.empty(b.shape(0, 0), b.dtype)) for b in KERNEL_BUFFERS))
     for name in names:
         np.testing.assert_array_equal(out[name], whole[name][y0:y1], err_msg=name)
+
+
+def test_every_buffer_is_defined_once_in_the_registry():
+    """The names, the byte table, the kernel's outputs and the module table all come from REGISTRY."""
+    from raycast_shade.output import buffers as B
+
+    assert BUFFER_NAMES == tuple(b.name for b in REGISTRY) and len(set(BUFFER_NAMES)) == len(REGISTRY)
+    assert BUFFER_BYTES == {b.name: np.dtype(b.dtype).itemsize * max(b.channels, 1) for b in REGISTRY}
+    assert [b.name for b in KERNEL_BUFFERS] == [n for n in BUFFER_NAMES if n != "coverage"]
+    doc = B.__doc__
+    rows = [line.split()[0].strip("`") for line in doc.splitlines() if line.startswith("``") and "(H, W" in line]
+    assert rows == list(BUFFER_NAMES)
+    for b in REGISTRY:
+        assert " ".join(b.doc.split()[:4]) in " ".join(doc.split()), b.name
