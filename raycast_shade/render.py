@@ -253,20 +253,34 @@ def _build(scene, plan: _Plan, timings: dict) -> None:
 
 
 def _visibility(scene, plan: _Plan, timings: dict, offset=(0.0, 0.0), out=None):
-    """The hit buffer of ``plan.camera``, by ray casting or rasterization (timed into ``timings``,
-    summed over calls), through the pixel centres or the points ``offset`` pixels off them;
-    filled into ``out`` (a HitBuffer of the image's size) when given."""
+    """The hit buffer of ``plan.camera``, by the plan's backend and weights (:data:`_BACKENDS`,
+    :data:`_WEIGHTS`; timed into ``timings``, summed over calls), through the pixel centres or
+    the points ``offset`` pixels off them; filled into ``out`` (a HitBuffer of the image's size)
+    when given."""
     camera = subpixel_camera(plan.camera, *offset)  # plan.camera itself at the centre
+    key, see = _BACKENDS[plan.backend]
     tc = time.perf_counter()
-    if plan.backend == "raycast":
-        hits = cast_camera(scene.geometry, camera, plan.caster, out=out)
-    else:
-        hits = rasterize(scene.geometry, camera, out=out)
-    if plan.interpolation == "screen":
-        hits = to_screen_space(hits, scene.geometry, camera)
-    key = "cast" if plan.backend == "raycast" else "raster"
+    hits = _WEIGHTS[plan.interpolation](see(scene.geometry, camera, plan.caster, out), scene.geometry, camera)
     timings[key] = timings.get(key, 0.0) + time.perf_counter() - tc
     return hits
+
+
+def _cast(geometry, camera, caster, out):
+    return cast_camera(geometry, camera, caster, out=out)
+
+
+def _raster(geometry, camera, caster, out):
+    return rasterize(geometry, camera, out=out)  # no caster: the rasterizer traces nothing
+
+
+def _perspective(hits, geometry, camera):
+    return hits  # the casters' and the rasterizer's barycentrics are the 3D hit point's
+
+
+# One entry per choice of common/choices.py: a backend's timing key and hit buffer, and the
+# remap of its barycentrics per interpolation (tests/project/test_variant_registries.py).
+_BACKENDS = {"raycast": ("cast", _cast), "raster": ("raster", _raster)}
+_WEIGHTS = {"perspective": _perspective, "screen": to_screen_space}
 
 
 def _render_one(scene, plan: _Plan, timings: dict, inputs):
