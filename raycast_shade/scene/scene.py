@@ -355,20 +355,19 @@ class Scene:
         Parameters
         ----------
         geometry : SceneGeometry, optional
-            The copy's packed geometry instead (``models`` unchanged): a variant of
-            this scene's geometry with other material rows or colours, sharing its
-            arrays and BVH (:func:`raycast_shade.shading.terms.with_materials`).
+            The copy's packed geometry instead: a variant of this scene's geometry
+            with other material rows or colours, sharing its arrays and BVH
+            (:func:`raycast_shade.shading.terms.with_materials`), for the same meshes
+            (``models`` may change their materials only).
         **changes
-            Fields of the dataclass (``lights``, ``camera``, ...).
+            Fields of the dataclass (``models``, ``lights``, ``camera``, ...).
         """
+        new = dataclasses.replace(self, **changes)
         if geometry is not None:
-            if "models" in changes:
-                raise ValueError("geometry: a packed geometry is kept only for the same models")
             if not isinstance(geometry, SceneGeometry):
                 raise TypeError(f"geometry: expected a SceneGeometry, got {type(geometry).__name__}")
-            if geometry.n_models != len(self.models):
-                raise ValueError(f"geometry: packs {geometry.n_models} models, the scene has {len(self.models)}")
-        new = dataclasses.replace(self, **changes)
+            if geometry.n_models != len(new.models):
+                raise ValueError(f"geometry: packs {geometry.n_models} models, the scene has {len(new.models)}")
         keep = geometry if geometry is not None else None if "models" in changes else self._geometry
         if keep is not None:
             object.__setattr__(new, "_geometry", keep)
