@@ -20,7 +20,7 @@ from .visibility import bands
 from .visibility.cast import cast_camera, resolve_caster, secondary_rays
 from .visibility.hits import image_buffer
 from .visibility.interpolation import to_screen_space
-from .visibility.raster import rasterize
+from .visibility.raster import check_raster_camera, rasterize
 from .visibility.rays import subpixel_camera
 from .output.buffers import check_buffers, compute_buffers
 from .output.frame import Frame
@@ -124,12 +124,9 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
         (the message says why), before any kernel runs.
     """
     t0 = time.perf_counter()
-    plan = _plan(scene, shading, camera, backend, interpolation, caster, max_depth, tolerance, buffers, samples, out)
-    terms = check_terms(terms)
-    if terms is not None and plan.samples > 1:
-        raise ValueError(f"terms: the terms are those of one ray per pixel; with samples={plan.samples} they "
-                         "would not add up to the averaged image: render them with samples=1")
-    camera, shading = plan.camera, plan.shading
+    plan = _plan(scene, shading, camera, backend, interpolation, caster, max_depth, tolerance, buffers, samples, out,
+                 terms)
+    camera, shading, terms = plan.camera, plan.shading, plan.terms
     warn_render(scene, shading)  # no lights, a light inside a closed mesh, a bump map the method ignores
     timings = {}
     mask = None
@@ -178,10 +175,11 @@ class _Plan:
     decisions: tuple
     samples: int = 1
     out: object = None  # the image array to fill, or None
+    terms: object = None  # check_terms's options, or None for no terms
 
 
 def _plan(scene, shading, camera, backend, interpolation, caster, max_depth, tolerance, buffers,
-          samples=1, out=None) -> _Plan:
+          samples=1, out=None, terms=False) -> _Plan:
     """Every argument checked before any kernel runs (the names as the user spelled them)."""
     if not isinstance(scene, Scene):
         raise TypeError(f"scene: expected a Scene, got {type(scene).__name__}")
@@ -210,14 +208,20 @@ def _plan(scene, shading, camera, backend, interpolation, caster, max_depth, tol
     if not isinstance(camera, Camera):
         raise TypeError(f"camera: expected a Camera, got {type(camera).__name__}")
     camera.check_frame_memory()
+    if backend == "raster":
+        check_raster_camera(camera)  # the rasterizer's own check, before the geometry is packed
     # Shadow and mirror rays need the direct binding whatever the caster: refuse now, before any kernel.
     caster = resolve_caster(caster if backend == "raycast" else "auto", secondary_rays(scene, max_depth))
     decisions = ()
     if shading == "auto":
         decisions = tuple(choose_methods(scene, camera, tolerance))
         shading = tuple(d.method for d in decisions)
-    return _Plan(shading, camera, backend, interpolation, caster, max_depth, buffers, decisions, samples,
-                 _check_out(out, camera))
+    out = _check_out(out, camera)
+    terms = check_terms(terms)
+    if terms is not None and samples > 1:
+        raise ValueError(f"terms: the terms are those of one ray per pixel; with samples={samples} they "
+                         "would not add up to the averaged image: render them with samples=1")
+    return _Plan(shading, camera, backend, interpolation, caster, max_depth, buffers, decisions, samples, out, terms)
 
 
 def _check_out(out, camera):
