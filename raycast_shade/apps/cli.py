@@ -2,8 +2,8 @@
 
 One entry of :data:`COMMANDS` per subcommand (its name, one-line help, parser builder and
 runner): the parser, the dispatch and the list above come from it, and
-``tests/apps/test_cli_registry.py`` checks that the README and ``docs/*.md`` name every
-registered subcommand and none other. Adding one is its entry here, its builder and runner
+``tests/apps/test_cli_registry.py`` checks that the README's "Command line" block shows
+every registered subcommand, and that the README, ``docs/*.md`` and the package name no other. Adding one is its entry here, its builder and runner
 (in a module of its own, imported on first use), a line in the README's "Command line"
 block, and its tests.
 
