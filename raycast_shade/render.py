@@ -20,7 +20,7 @@ from .visibility import bands
 from .visibility.cast import cast_camera, resolve_caster, secondary_rays
 from .visibility.hits import image_buffer
 from .visibility.interpolation import to_screen_space
-from .visibility.raster import rasterize
+from .visibility.raster import check_raster_camera, rasterize
 from .visibility.rays import subpixel_camera
 from .output.buffers import FrameBuffers, check_buffers, compute_buffers
 from .output.frame import Frame
@@ -127,12 +127,9 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
         (the message says why), before any kernel runs.
     """
     t0 = time.perf_counter()
-    plan = _plan(scene, shading, camera, backend, interpolation, caster, max_depth, tolerance, buffers, samples, out)
-    terms = check_terms(terms)
-    if terms is not None and plan.samples > 1:
-        raise ValueError(f"terms: the terms are those of one ray per pixel; with samples={plan.samples} they "
-                         "would not add up to the averaged image: render them with samples=1")
-    camera, shading = plan.camera, plan.shading
+    plan = _plan(scene, shading, camera, backend, interpolation, caster, max_depth, tolerance, buffers, samples, out,
+                 terms)
+    camera, shading, terms = plan.camera, plan.shading, plan.terms
     banded = _banded(scene, plan, terms)  # then the memory of what is asked for, before any kernel
     camera.check_frame_memory(plan.buffers, plan.samples, terms, len(scene.lights), bands.BAND_ROWS * banded)
     warn_render(scene, shading)  # no lights, a light inside a closed mesh, a bump map the method ignores
@@ -181,10 +178,11 @@ class _Plan:
     decisions: tuple
     samples: int = 1
     out: object = None  # the image array to fill, or None
+    terms: object = None  # check_terms's options, or None for no terms
 
 
 def _plan(scene, shading, camera, backend, interpolation, caster, max_depth, tolerance, buffers,
-          samples=1, out=None) -> _Plan:
+          samples=1, out=None, terms=False) -> _Plan:
     """Every argument checked before any kernel runs (the names as the user spelled them)."""
     if not isinstance(scene, Scene):
         raise TypeError(f"scene: expected a Scene, got {type(scene).__name__}")
@@ -213,14 +211,20 @@ def _plan(scene, shading, camera, backend, interpolation, caster, max_depth, tol
     if not isinstance(camera, Camera):
         raise TypeError(f"camera: expected a Camera, got {type(camera).__name__}")
     camera.check_frame_memory()
+    if backend == "raster":
+        check_raster_camera(camera)  # the rasterizer's own check, before the geometry is packed
     # Shadow and mirror rays need the direct binding whatever the caster: refuse now, before any kernel.
     caster = resolve_caster(caster if backend == "raycast" else "auto", secondary_rays(scene, max_depth))
     decisions = ()
     if shading == "auto":
         decisions = tuple(choose_methods(scene, camera, tolerance))
         shading = tuple(d.method for d in decisions)
-    return _Plan(shading, camera, backend, interpolation, caster, max_depth, buffers, decisions, samples,
-                 _check_out(out, camera))
+    out = _check_out(out, camera)
+    terms = check_terms(terms)
+    if terms is not None and samples > 1:
+        raise ValueError(f"terms: the terms are those of one ray per pixel; with samples={samples} they "
+                         "would not add up to the averaged image: render them with samples=1")
+    return _Plan(shading, camera, backend, interpolation, caster, max_depth, buffers, decisions, samples, out, terms)
 
 
 def _check_out(out, camera):
@@ -256,20 +260,34 @@ def _build(scene, plan: _Plan, timings: dict) -> None:
 
 
 def _visibility(scene, plan: _Plan, timings: dict, offset=(0.0, 0.0), out=None):
-    """The hit buffer of ``plan.camera``, by ray casting or rasterization (timed into ``timings``,
-    summed over calls), through the pixel centres or the points ``offset`` pixels off them;
-    filled into ``out`` (a HitBuffer of the image's size) when given."""
+    """The hit buffer of ``plan.camera``, by the plan's backend and weights (:data:`_BACKENDS`,
+    :data:`_WEIGHTS`; timed into ``timings``, summed over calls), through the pixel centres or
+    the points ``offset`` pixels off them; filled into ``out`` (a HitBuffer of the image's size)
+    when given."""
     camera = subpixel_camera(plan.camera, *offset)  # plan.camera itself at the centre
+    key, see = _BACKENDS[plan.backend]
     tc = time.perf_counter()
-    if plan.backend == "raycast":
-        hits = cast_camera(scene.geometry, camera, plan.caster, out=out)
-    else:
-        hits = rasterize(scene.geometry, camera, out=out)
-    if plan.interpolation == "screen":
-        hits = to_screen_space(hits, scene.geometry, camera)
-    key = "cast" if plan.backend == "raycast" else "raster"
+    hits = _WEIGHTS[plan.interpolation](see(scene.geometry, camera, plan.caster, out), scene.geometry, camera)
     timings[key] = timings.get(key, 0.0) + time.perf_counter() - tc
     return hits
+
+
+def _cast(geometry, camera, caster, out):
+    return cast_camera(geometry, camera, caster, out=out)
+
+
+def _raster(geometry, camera, caster, out):
+    return rasterize(geometry, camera, out=out)  # no caster: the rasterizer traces nothing
+
+
+def _perspective(hits, geometry, camera):
+    return hits  # the casters' and the rasterizer's barycentrics are the 3D hit point's
+
+
+# One entry per choice of common/choices.py: a backend's timing key and hit buffer, and the
+# remap of its barycentrics per interpolation (tests/project/test_variant_registries.py).
+_BACKENDS = {"raycast": ("cast", _cast), "raster": ("raster", _raster)}
+_WEIGHTS = {"perspective": _perspective, "screen": to_screen_space}
 
 
 def _render_one(scene, plan: _Plan, timings: dict, inputs):

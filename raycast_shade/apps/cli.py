@@ -1,6 +1,11 @@
-"""The ``raycast-shade`` command: ``demo``, ``render`` (a scene file or a mesh file), ``inspect``
-(:mod:`raycast_shade.apps.inspect`), ``animate`` (:mod:`raycast_shade.apps.animate`), ``views``
-(:mod:`raycast_shade.apps.views`) and ``info``.
+"""The ``raycast-shade`` command: {names}.
+
+One entry of :data:`COMMANDS` per subcommand (its name, one-line help, parser builder and
+runner): the parser, the dispatch and the list above come from it, and
+``tests/apps/test_cli_registry.py`` checks that the README's "Command line" block shows
+every registered subcommand, and that the README, ``docs/*.md`` and the package name no other. Adding one is its entry here, its builder and runner
+(in a module of its own, imported on first use), a line in the README's "Command line"
+block, and its tests.
 
 Every failure the user can fix (a missing or invalid scene file, a bad option
 value, an unwritable output) prints one line ``raycast-shade: error: ...`` on
@@ -14,15 +19,18 @@ that needs it.
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import importlib
 import os
 import sys
 import time
 import warnings
+from typing import Callable
 
 from ..common.choices import EIGHT_BIT_EXTS, LINEAR_EXTS
 from .args import add_render_options, add_tone_options, overrides, positive_int, shading_label
 
-__all__ = ["main", "build_parser"]
+__all__ = ["main", "build_parser", "Subcommand", "COMMANDS"]
 
 PROG = "raycast-shade"
 
@@ -62,9 +70,9 @@ def _add_output_option(p, default_output: str | None):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The argument parser (exposed for documentation tools and tests)."""
+    """The argument parser (exposed for documentation tools and tests): one subparser per
+    entry of :data:`COMMANDS`, in order."""
     from ..common.version import __version__
-    from .demo import DEFAULT_HEIGHT, DEFAULT_WIDTH
 
     parser = _Parser(
         prog=PROG,
@@ -74,9 +82,50 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for command in COMMANDS:
+        _add_subcommand(sub, command)
+    return parser
+
+
+class _OneSubcommand:
+    """``add_subparsers()``'s action as one builder sees it: ``add_parser`` adds that
+    subcommand only, with the registry's help (a builder's own ``help=`` is kept in
+    ``given_help`` for the test that it agrees)."""
+
+    def __init__(self, subparsers, command: "Subcommand"):
+        self._subparsers = subparsers
+        self._command = command
+        self.parser = None
+        self.given_help = None
+
+    def add_parser(self, name, **kwargs):
+        if name != self._command.name or self.parser is not None:
+            raise ValueError(f"the builder of {self._command.name!r} adds {name!r}: one subparser, of its own name")
+        self.given_help = kwargs.pop("help", None)
+        self.parser = self._subparsers.add_parser(name, help=self._command.help, **kwargs)
+        return self.parser
+
+
+def _add_subcommand(subparsers, command: "Subcommand") -> _OneSubcommand:
+    """Add ``command``'s subparser to ``subparsers`` (what ``add_subparsers()`` returned).
+
+    Returns
+    -------
+    _OneSubcommand
+        Its ``parser``, and the help its builder passed itself (``given_help``, or None).
+    """
+    one = _OneSubcommand(subparsers, command)
+    command.builder()(one)
+    if one.parser is None:
+        raise ValueError(f"the builder of {command.name!r} added no subparser")
+    return one
+
+
+def _build_demo(sub) -> argparse.ArgumentParser:
+    from .demo import DEFAULT_HEIGHT, DEFAULT_WIDTH
 
     demo = sub.add_parser(
-        "demo", help="render the built-in demo: one scene, flat | Gouraud | Phong",
+        "demo",
         description="Render the built-in procedural scene three times (flat, Gouraud, Phong) and stack the "
                     "panels top to bottom in one labelled image.",
         epilog="example:\n  raycast-shade demo -o demo.png --width 640 --height 200",
@@ -88,9 +137,12 @@ def build_parser() -> argparse.ArgumentParser:
                       help="panel height; the image is 3 H + 4 pixels tall (default: %(default)s)")
     demo.add_argument("--no-labels", action="store_true", help="leave out the FLAT / GOURAUD / PHONG labels")
     _add_output_option(demo, "demo.png")
+    return demo
 
+
+def _build_render(sub) -> argparse.ArgumentParser:
     render = sub.add_parser(
-        "render", help="render a TOML scene file, or a mesh file as it is",
+        "render",
         description="Render a TOML scene file (format: docs/scene-files.md). Options given here override the "
                     "file's [render] table, which overrides its [camera] size. Any other file is a mesh file "
                     "(OBJ, glTF/GLB, PLY, OFF, STL, ...): rendered with its own materials, framed by "
@@ -105,30 +157,12 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("scene", metavar="SCENE.toml|MODEL", help="scene file, or a mesh file")
     add_render_options(render)
     _add_output_option(render, None)
+    return render
 
-    from .animate import register_cli
 
-    register_cli(sub)
-
-    from .views import register_cli as register_views
-
-    register_views(sub)
-
-    from .inspect import register_cli as register_inspect
-
-    register_inspect(sub)
-
-    from .diagnose import register_cli as register_diagnose
-
-    register_diagnose(sub)
-
-    from .warmup import register_cli as register_warmup
-
-    register_warmup(sub)
-
-    sub.add_parser("info", help="versions and the Embree library in use",
-                   description="Print the versions of raycast_shade and its engines, and the Embree library path.")
-    return parser
+def _build_info(sub) -> argparse.ArgumentParser:
+    return sub.add_parser(
+        "info", description="Print the versions of raycast_shade and its engines, and the Embree library path.")
 
 
 def _ms(seconds: float) -> str:
@@ -267,6 +301,65 @@ def _cmd_info(args) -> int:
     return 0
 
 
+@dataclasses.dataclass(frozen=True)
+class Subcommand:
+    """One ``raycast-shade`` subcommand: an entry of :data:`COMMANDS`.
+
+    Parameters
+    ----------
+    name : str
+        What follows ``raycast-shade`` on the command line.
+    help : str
+        Its one line in ``raycast-shade --help`` and in this module's docstring.
+    build : callable or str
+        ``build(subparsers)`` adds the subcommand's parser (``subparsers.add_parser(name,
+        ...)``, the help left to the registry); a ``"module:function"`` string, relative
+        to this package, is imported when the parser is built.
+    run : callable or str
+        ``run(args) -> int``: the exit status, given the parsed arguments; a string as for
+        ``build``.
+    """
+
+    name: str
+    help: str
+    build: Callable | str
+    run: Callable | str
+
+    def builder(self) -> Callable:
+        """``build``, imported if need be."""
+        return _resolve(self.build)
+
+    def runner(self) -> Callable:
+        """``run``, imported if need be."""
+        return _resolve(self.run)
+
+
+def _resolve(ref):
+    if callable(ref):
+        return ref
+    module, name = ref.split(":")
+    return getattr(importlib.import_module(module, __package__), name)
+
+
+COMMANDS = (
+    Subcommand("demo", "render the built-in demo: one scene, flat | Gouraud | Phong", _build_demo, _cmd_demo),
+    Subcommand("render", "render a TOML scene file, or a mesh file as it is", _build_render, _cmd_render),
+    Subcommand("animate", "render a camera turntable or a light orbit as GIF, MP4 or PNG frames",
+               ".animate:register_cli", ".animate:run_cli"),
+    Subcommand("views", "render a data set of views: images, buffers and cameras",
+               ".views:register_cli", ".views:run_cli"),
+    Subcommand("inspect", "what a mesh file holds and what each field became",
+               ".inspect:register_cli", ".inspect:run_cli"),
+    Subcommand("diagnose", "say which lecture choice or common mistake explains a student's image",
+               ".diagnose:register_cli", ".diagnose:run_cli"),
+    Subcommand("warmup", "compile every kernel into the cache (run once before class)",
+               ".warmup:register_cli", ".warmup:run_cli"),
+    Subcommand("info", "versions and the Embree library in use", _build_info, _cmd_info),
+)
+_BY_NAME = {c.name: c for c in COMMANDS}
+__doc__ = __doc__.format(names=", ".join(f"``{c.name}``" for c in COMMANDS[:-1]) + f" and ``{COMMANDS[-1].name}``")
+
+
 def _one_line(exc: BaseException) -> str:
     if isinstance(exc, OSError) and exc.strerror and exc.filename:
         return f"{exc.filename}: {exc.strerror}"
@@ -299,18 +392,7 @@ def main(argv=None) -> int:
             return exc.code if isinstance(exc.code, int) else 0
         if getattr(args, "output", None) == "":  # would fall back to the default name without a word
             raise _UsageError("argument -o/--output: expected a path, got an empty string")
-        if args.command == "animate":
-            from .animate import run_cli as command
-        elif args.command == "views":
-            from .views import run_cli as command
-        elif args.command == "inspect":
-            from .inspect import run_cli as command
-        elif args.command == "diagnose":
-            from .diagnose import run_cli as command
-        elif args.command == "warmup":
-            from .warmup import run_cli as command
-        else:
-            command = {"demo": _cmd_demo, "render": _cmd_render, "info": _cmd_info}[args.command]
+        command = _BY_NAME[args.command].runner()
         with warnings.catch_warnings():  # restores showwarning on the way out
             warnings.showwarning = _show_warning
             return command(args)

@@ -136,7 +136,7 @@ def _write_view(job, base, spec: _ViewSpec, cache: SceneCache) -> str:
         return _STEM.format(job.index)
     if os.path.exists(files["record"]):
         os.unlink(files["record"])  # the record goes first: never a record beside half-replaced files
-    if "geometry" not in base.__dict__:
+    if not base.has_geometry:
         cache.count("builds")
     scene = base.replace(lights=job.lights, camera=job.camera, ambient=job.ambient, background=job.background)
     extra = [b for b in ("model_id",) + (("zdepth",) if "depth_png" in spec.formats else ()) if b not in spec.buffers]

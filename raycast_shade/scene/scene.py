@@ -310,48 +310,67 @@ class Scene:
         set_(self, "ambient", as_rgb(self.ambient, "scene.ambient"))
         set_(self, "background", as_rgb(self.background, "scene.background"))
         set_(self, "_geometry_lock", threading.Lock())
+        set_(self, "_geometry", None)  # the packed geometry once built: see geometry
 
     @property
     def geometry(self) -> SceneGeometry:
-        """The packed geometry, built on first use and kept (``__dict__["geometry"]``).
+        """The packed geometry, built on first use and kept (in the private ``_geometry``).
 
         Built once under the scene's lock: threads rendering a new scene at
         once share one :class:`SceneGeometry`, hence one Embree BVH (its
         :meth:`~SceneGeometry.memo`), instead of racing to build and replace it.
         """
-        geo = self.__dict__.get("geometry")
+        geo = self._geometry
         if geo is None:
             with self._geometry_lock:
-                geo = self.__dict__.get("geometry")
+                geo = self._geometry
                 if geo is None:
                     geo = SceneGeometry(self.models)
-                    self.__dict__["geometry"] = geo
+                    object.__setattr__(self, "_geometry", geo)  # frozen: the one write, under the lock
         return geo
 
     @property
     def has_geometry(self) -> bool:
         """Whether :attr:`geometry` has been built (reading this does not build it)."""
-        return "geometry" in self.__dict__
+        return self._geometry is not None
 
     def __getstate__(self):
         """Pickle the definition only (models, lights, camera, ambient,
         background): the packed geometry and its Embree BVH are rebuilt once,
         on first render, wherever the scene is unpickled; the lock is new there."""
         state = dict(self.__dict__)
-        state.pop("geometry", None)
+        state.pop("_geometry", None)
         state.pop("_geometry_lock", None)
         return state
 
     def __setstate__(self, state):
         self.__dict__.update(state)
-        self.__dict__["_geometry_lock"] = threading.Lock()
+        object.__setattr__(self, "_geometry_lock", threading.Lock())
+        object.__setattr__(self, "_geometry", None)
 
-    def replace(self, **changes) -> "Scene":
+    def replace(self, *, geometry: SceneGeometry | None = None, **changes) -> "Scene":
         """A copy with some fields changed; keeps the packed geometry and
-        Embree BVH when ``models`` is unchanged."""
+        Embree BVH when ``models`` is unchanged.
+
+        Parameters
+        ----------
+        geometry : SceneGeometry, optional
+            The copy's packed geometry instead: a variant of this scene's geometry
+            with other material rows or colours, sharing its arrays and BVH
+            (:func:`raycast_shade.shading.terms.with_materials`), for the same meshes
+            (``models`` may change their materials only).
+        **changes
+            Fields of the dataclass (``models``, ``lights``, ``camera``, ...).
+        """
         new = dataclasses.replace(self, **changes)
-        if "models" not in changes and "geometry" in self.__dict__:
-            new.__dict__["geometry"] = self.__dict__["geometry"]
+        if geometry is not None:
+            if not isinstance(geometry, SceneGeometry):
+                raise TypeError(f"geometry: expected a SceneGeometry, got {type(geometry).__name__}")
+            if geometry.n_models != len(new.models):
+                raise ValueError(f"geometry: packs {geometry.n_models} models, the scene has {len(new.models)}")
+        keep = geometry if geometry is not None else None if "models" in changes else self._geometry
+        if keep is not None:
+            object.__setattr__(new, "_geometry", keep)
         return new
 
     def packed_lights(self) -> np.ndarray:

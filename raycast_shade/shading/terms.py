@@ -119,9 +119,7 @@ def with_materials(scene, materials, colors=None, **changes):
         if colors != 0:
             twin.tex_index = geo.tex_index.copy()
             twin.tex_index[:, TEXMAP_KD] = -1
-    new = scene.replace(**changes)
-    new.__dict__["geometry"] = twin
-    return new
+    return scene.replace(geometry=twin, **changes)
 
 
 def _rows(materials, keep):

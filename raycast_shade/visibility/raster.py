@@ -84,6 +84,18 @@ _SERIAL_BELOW = 50_000  # faces: fewer run the geometry stages serially
 _MAX_SIDE = 1 << 24  # image sides beyond this are refused (float64 pixel arithmetic stays exact)
 
 
+def check_raster_camera(camera) -> None:
+    """TypeError/ValueError naming the field for a camera the rasterizer cannot draw: not a
+    :class:`~raycast_shade.scene.camera.Camera`, a distorted lens, or a side over 2**24 pixels
+    (``render(backend="raster")`` checks it in its plan, before any kernel)."""
+    if not isinstance(camera, Camera):
+        raise TypeError(f"camera: expected a Camera, got {type(camera).__name__}")
+    if camera.distorted:  # straight edges stay straight only through a pinhole
+        raise ValueError("camera.distortion: the rasterizer draws pinhole cameras only; use backend='raycast'")
+    if camera.width > _MAX_SIDE or camera.height > _MAX_SIDE:
+        raise ValueError(f"camera.width, camera.height: at most {_MAX_SIDE} pixels, got {camera.width}x{camera.height}")
+
+
 def _check(geometry, camera, near):
     from ..scene.scene import Scene, SceneGeometry
 
@@ -91,12 +103,7 @@ def _check(geometry, camera, near):
         geometry = geometry.geometry
     if not isinstance(geometry, SceneGeometry):
         raise TypeError(f"geometry: expected a SceneGeometry (scene.geometry), got {type(geometry).__name__}")
-    if not isinstance(camera, Camera):
-        raise TypeError(f"camera: expected a Camera, got {type(camera).__name__}")
-    if camera.distorted:  # straight edges stay straight only through a pinhole
-        raise ValueError("camera.distortion: the rasterizer draws pinhole cameras only; use backend='raycast'")
-    if camera.width > _MAX_SIDE or camera.height > _MAX_SIDE:
-        raise ValueError(f"camera.width, camera.height: at most {_MAX_SIDE} pixels, got {camera.width}x{camera.height}")
+    check_raster_camera(camera)
     if near is None:
         near = NEAR_FRACTION * geometry.scale
     else:

@@ -13,6 +13,8 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from .cast import _serial_twin
+
 _CHUNK = 4096  # faces per set-up and binning task
 
 # ----------------------------------------------------------------------------------
@@ -248,7 +250,8 @@ def _scan_triangle(corners, rlo, rhi, W, f, plane, band, count_mode):
 # kernels
 
 
-def _project(verts, view, near, ortho, W, H, hw, hh, cs, vx):
+@njit(cache=True, parallel=True)
+def _project_par(verts, view, near, ortho, W, H, hw, hh, cs, vx):
     """Camera-space coordinates ``cs`` of every vertex, and ``vx`` = pixel
     coordinates, camera depth and depth key (NaN but the depth for a
     perspective vertex at or behind the near plane)."""
@@ -274,7 +277,8 @@ def _project(verts, view, near, ortho, W, H, hw, hh, cs, vx):
             vx[i, 3] = np.nan
 
 
-def _setup(faces, vx, cs, near, ortho, W, H, hw, hh, band_h, ylo, yhi, counts):
+@njit(cache=True, parallel=True)
+def _setup_par(faces, vx, cs, near, ortho, W, H, hw, hh, band_h, ylo, yhi, counts):
     """Rows ``ylo[f]..yhi[f]`` of pixel centres in face ``f``'s (clipped)
     bounding box, or ``ylo[f] = -1`` when it holds no pixel centre; and
     ``counts[c, b]``, the faces of chunk ``c`` that touch band ``b``."""
@@ -335,7 +339,8 @@ def _setup(faces, vx, cs, near, ortho, W, H, hw, hh, band_h, ylo, yhi, counts):
                 counts[c, b] += 1
 
 
-def _bin_fill(ylo, yhi, band_h, pos, out):
+@njit(cache=True, parallel=True)
+def _bin_fill_par(ylo, yhi, band_h, pos, out):
     """Write each face into its bands' lists, at the slots ``pos`` reserved
     for its chunk, keeping face order within a band."""
     nf = ylo.shape[0]
@@ -478,9 +483,10 @@ def _resolve_rows(fid, rlo, faces, cs, face_model, face_off, screen, shear, hits
             t[y, x] = s
 
 
-_project_par = njit(cache=True, parallel=True)(_project)
-_project_ser = njit(cache=True)(_project)
-_setup_par = njit(cache=True, parallel=True)(_setup)
-_setup_ser = njit(cache=True)(_setup)
-_bin_fill_par = njit(cache=True, parallel=True)(_bin_fill)
-_bin_fill_ser = njit(cache=True)(_bin_fill)
+# The geometry stages of a small mesh run serially (raster.py). Each serial twin is a
+# function of its own name: Numba keys its disk cache on a function's name and bytecode,
+# not on ``parallel``, so one function compiled both ways would share one cache entry
+# and load whichever build was compiled first (tests/visibility/test_kernel_cache.py).
+_project_ser = _serial_twin(_project_par, "_project_ser")
+_setup_ser = _serial_twin(_setup_par, "_setup_ser")
+_bin_fill_ser = _serial_twin(_bin_fill_par, "_bin_fill_ser")

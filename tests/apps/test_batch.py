@@ -68,7 +68,7 @@ def test_scene_pickles_without_geometry(scene):
     assert has_embree_accel(s.geometry)
     data = pickle.dumps(s)
     back = pickle.loads(data)
-    assert "geometry" not in back.__dict__
+    assert not back.has_geometry
     assert batch.scene_key(back) == batch.scene_key(s)
     # Unpickled arrays are writeable: re-validate the camera so that Numba reuses the read-only specialisation.
     back = back.replace(camera=dataclasses.replace(back.camera), ambient=back.ambient)

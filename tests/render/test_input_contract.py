@@ -30,7 +30,7 @@ def test_render_checks_the_tolerance_in_every_mode(shading, tolerance, error, ma
     scene = small_scene()
     with pytest.raises(error, match=match):
         rs.render(scene, shading, tolerance=tolerance)
-    assert "geometry" not in scene.__dict__  # before anything was packed
+    assert not scene.has_geometry  # before anything was packed
 
 
 @pytest.mark.parametrize("max_depth, error", [(-1, ValueError), (2.0, TypeError), (True, TypeError),
@@ -39,7 +39,7 @@ def test_render_checks_max_depth(max_depth, error):
     scene = small_scene()
     with pytest.raises(error, match="max_depth"):
         rs.render(scene, max_depth=max_depth)
-    assert "geometry" not in scene.__dict__
+    assert not scene.has_geometry
 
 
 

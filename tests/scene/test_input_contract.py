@@ -447,7 +447,7 @@ def test_a_frame_beyond_memory_is_refused_with_the_figure(w, h, figure):
     msg += re.escape(figure) if figure else r"[0-9.e+]+ [TGM]B"
     with pytest.raises(ValueError, match=msg + r" for a frame; the limit is [0-9.]+ [TGM]B"):
         rs.render(scene, camera=cam)
-    assert "geometry" not in scene.__dict__
+    assert not scene.has_geometry
 
 
 def test_the_frame_limit_is_exact(monkeypatch):

@@ -202,14 +202,14 @@ def test_bad_render_arguments_fail_before_any_work(kwargs, exc, match):
     scene = fresh_scene()
     with pytest.raises(exc, match=match):
         rs.render(scene, **kwargs)
-    assert "geometry" not in scene.__dict__  # nothing packed, no BVH built, no kernel run
+    assert not scene.has_geometry  # nothing packed, no BVH built, no kernel run
 
 
 def test_render_without_camera():
     scene = fresh_scene(camera=None)
     with pytest.raises(ValueError, match=r"camera: the scene has no camera"):
         rs.render(scene)
-    assert "geometry" not in scene.__dict__
+    assert not scene.has_geometry
 
 
 def test_render_needs_a_scene():

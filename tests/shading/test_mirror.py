@@ -266,7 +266,7 @@ def test_mirror_depth_beyond_the_bound_is_refused_before_rendering(depth):
     scene = _inside_mirror(1.0)
     with pytest.raises(ValueError, match=rf"max_depth: at most {MAX_MIRROR_DEPTH} mirror bounces"):
         rs.render(scene, max_depth=depth)
-    assert "geometry" not in scene.__dict__
+    assert not scene.has_geometry
 
 
 def test_a_perfect_mirror_around_the_camera_finishes_at_the_bound():

@@ -2,16 +2,16 @@
 
 Numba keys a cached kernel on its function's qualified name, first line, signature and
 bytecode, not on ``parallel``: two dispatchers of one Python function share one cache
-entry. ``cast.py`` and ``illumination.py`` say so and compile their serial twins under a
-name of their own (``cast._serial_twin``); ``scan.py`` compiles ``_project``, ``_setup`` and
-``_bin_fill`` both ways from one function. Each test compiles the two variants in a
-fresh ``NUMBA_CACHE_DIR`` in a child process, then calls each variant alone in a new
-process and reads whether it loaded a parallel build: a parallel build launches Numba's
-thread pool when it runs (``numba.np.ufunc.parallel._is_initialized``), a serial one
-does not. Measured on Numba 0.68: scan.py's second variant loads the first one's build
-(the serial ``_project`` compiled first makes ``_project_par`` run serially in every later
-process; the parallel one first makes ``_project_ser`` launch threads), while the renamed
-twin loads its own.
+entry, and in every later process both run whichever build was compiled first (measured
+on Numba 0.68 with scan.py's ``_project`` compiled both ways from one function: the serial
+build compiled first made the parallel dispatcher run serially, and the other way round).
+A serial twin therefore gets a name of its own (``cast._serial_twin``), as ``scan.py``'s
+``_project_ser``, ``_setup_ser`` and ``_bin_fill_ser`` do, and
+``tests/project/test_compiled_once.py`` finds any function compiled twice. Each test here
+compiles the two variants in a fresh ``NUMBA_CACHE_DIR`` in a child process, then calls
+each variant alone in a new process and reads whether it loaded a parallel build: a
+parallel build launches Numba's thread pool when it runs
+(``numba.np.ufunc.parallel._is_initialized``), a serial one does not.
 """
 
 from __future__ import annotations
@@ -117,15 +117,8 @@ def scan_builds(tmp_path_factory):
     return loaded
 
 
-@pytest.mark.xfail(strict=True, reason="scan.py compiles _project (and _setup, _bin_fill) parallel and serial "
-                   "from one function: one cache entry, so the variant compiled second loads the first one's "
-                   "build. Remove this mark when scan.py gives its serial twins names of their own.")
 @pytest.mark.parametrize("first", ["ser", "par"])
 def test_scan_variants_load_their_own_builds(scan_builds, first):
+    """scan.py's serial and parallel ``_project`` each load their own build, whichever
+    was compiled first."""
     assert scan_builds(first) == {"ser": "serial", "par": "threads"}
-
-
-@pytest.mark.parametrize("first, shared", [("ser", "serial"), ("par", "threads")])
-def test_scan_variants_share_the_first_build(scan_builds, first, shared):
-    """What happens today, pinned: both variants run whichever build was compiled first."""
-    assert scan_builds(first) == {"ser": shared, "par": shared}

@@ -98,7 +98,7 @@ def render_image(job: FrameJob, base: Scene, options: BatchOptions, cache: Scene
     (H, W, 3) float32
         ``out`` when given.
     """
-    if "geometry" not in base.__dict__:
+    if not base.has_geometry:
         cache.count("builds")
     geometry = base.geometry  # packs once; Scene.replace below shares it
     if options.render_kwargs.get("caster", "auto") != "embreex" and options.render_kwargs.get("backend") != "raster":
