@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .alpha import mask_data, mask_filter, masked_geometries
+from .alpha import filter_address, mask_data, masked_geometries
 from .embree import EmbreeAccel, check_range
 
 __all__ = ["embree_accel", "embreex_scene", "has_embree_accel"]
@@ -30,7 +30,7 @@ def _build_embree(geo) -> EmbreeAccel:
         v0, f0, f1 = geo.vertex_offsets[g], geo.face_offsets[g], geo.face_offsets[g + 1]
         masks[g] = mask_data(alpha_map, cutoff, geo.uvs[v0:geo.vertex_offsets[g + 1]], geo.local_faces[f0:f1])
     return EmbreeAccel(v4, faces, geo.vertex_offsets, geo.face_offsets, masks,
-                       mask_filter.address if masks else 0)
+                       filter_address() if masks else 0)
 
 
 def _build_embreex(geo):

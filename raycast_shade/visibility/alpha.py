@@ -24,6 +24,7 @@ width)`` (row 0 at v = 0). Whole numbers below 2**24 are exact in float32.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -31,7 +32,7 @@ from numba import carray, cfunc, njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-__all__ = ["mask_data", "mask_filter", "masked_geometries", "masked_hits", "alpha_at", "HEADER"]
+__all__ = ["mask_data", "mask_filter", "filter_address", "masked_geometries", "masked_hits", "alpha_at", "HEADER"]
 
 HEADER = 8
 _H, _W, _CLAMP, _TU, _TV, _CUTOFF, _NF = range(7)
@@ -133,9 +134,9 @@ def _pointer(typingctx, address):
     return sig, codegen
 
 
-@cfunc(types.void(types.voidptr), cache=True)
 def mask_filter(args):
-    """``RTCFilterFunctionN`` for intersection and occlusion queries alike.
+    """``RTCFilterFunctionN`` for intersection and occlusion queries alike (compiled as a ``cfunc`` by
+    :func:`filter_address`).
 
     ``args`` is an ``RTCFilterFunctionNArguments`` (``rtcore_geometry.h``): ``valid`` (int*),
     ``geometryUserPtr``, ``context``, ``ray`` (``RTCRayN``), ``hit`` (``RTCHitN``), ``N``:
@@ -156,6 +157,19 @@ def mask_filter(args):
             continue
         if alpha_at(data, int(hit_u[5 * n + i]), hit_f[3 * n + i], hit_f[4 * n + i]) < cutoff:
             valid[i] = 0
+
+
+@functools.lru_cache(maxsize=1)
+def _compiled():
+    # Compiled (or loaded from the cache) on the first masked scene, not at import: a process that
+    # never masks never builds it.
+    return cfunc(types.void(types.voidptr), cache=True)(mask_filter)
+
+
+def filter_address() -> int:
+    """The address of the compiled :func:`mask_filter`, an ``RTCFilterFunctionN``; the compiled
+    function is held by this module for the life of the process."""
+    return _compiled().address
 
 
 def masked_hits(mask_data: dict, geom, prim, u, v) -> np.ndarray:

@@ -281,11 +281,11 @@ class EmbreeAccel:
         becomes Embree geometry ``g``.
     masks : dict of int to (N,) float32, optional
         Alpha-masked models: geometry ``g`` gets the intersection and
-        occlusion filter ``filter_address`` with the address of
+        occlusion filter at ``filter_address`` with the address of
         ``masks[g]`` (:func:`.alpha.mask_data`) as its user pointer; every
         other geometry gets no filter at all.
     filter_address : int, optional
-        The ``RTCFilterFunctionN`` (:data:`.alpha.mask_filter`'s address); needed with ``masks``.
+        The ``RTCFilterFunctionN`` (:func:`.alpha.filter_address`); needed with ``masks``.
 
     Attributes
     ----------

@@ -199,7 +199,7 @@ def test_masked_geometries_get_both_filters_and_user_data_the_accelerator_holds(
     assert set(acc.mask_data) == {1}
     data = acc.mask_data[1]
     assert data.flags.owndata and data.dtype == np.float32
-    address = alpha.mask_filter.address
+    address = alpha.filter_address()
     assert spy.calls == [("rtcSetGeometryUserData", data.ctypes.data),
                          ("rtcSetGeometryIntersectFilterFunction", address),
                          ("rtcSetGeometryOccludedFilterFunction", address)]
