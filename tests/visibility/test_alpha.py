@@ -390,3 +390,16 @@ def test_gltf_blend_is_drawn_as_mask_at_half_and_warns_naming_the_material(tmp_p
     assert model.material.alpha_cutoff == 0.5
     clear = _numpy_coverage(_checker_rgba()[..., 3], 1.0) < 0.5
     np.testing.assert_array_equal(hits.geom == 1, clear)
+
+
+@pytest.mark.parametrize("mode, fate", [("MASK", "mapped"), ("BLEND", "approximated"), ("OPAQUE", "mapped")])
+def test_inspect_says_what_alpha_became(tmp_path, mode, fate):
+    from raycast_shade.apps.inspect import inspect_file
+
+    _gltf_quad(tmp_path / "i.gltf", _checker_rgba(), {"alphaMode": mode, "alphaCutoff": 0.3})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        report = inspect_file(tmp_path / "i.gltf")
+    rows = {r[0]: r for m in report["models"] for r in m["fields"]}
+    assert rows["alphaMode"][2] == fate
+    assert rows["alphaCutoff"][2] == "mapped"
