@@ -117,6 +117,14 @@ def test_mirror_rays_pass_through_the_clear_texels():
     red = (fa.image[..., 0] > 2 * fa.image[..., 2])
     blue = (fa.image[..., 2] > 2 * fa.image[..., 0])
     assert 0.02 < red.mean() and blue.mean() > 0.3
+    # explain's own bounce cast agrees: inside the grid's reflection, a blue pixel's bounce hits the
+    # ceiling (through a clear cell), a red one the grid.
+    rows, cols = np.nonzero(red)
+    box = np.zeros_like(red)
+    box[rows.min() + 4:rows.max() - 3, cols.min() + 4:cols.max() - 3] = True
+    for sel, model in ((blue & box, 2), (red & box, 0)):
+        y, x = np.argwhere(sel)[len(np.argwhere(sel)) // 2]
+        assert rs.explain(fa, int(x), int(y)).bounces[0].model == model
 
 
 def test_cast_rays_and_explain_hit_what_lies_behind_a_clear_texel():
