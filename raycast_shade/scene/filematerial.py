@@ -474,8 +474,9 @@ def _alpha_mask(mat, js: dict, base, name: str, lost: list, ctx: FileContext, wr
         return {}
     if mode == "BLEND":
         cutoff = _BLEND_CUTOFF
-        lost.append(f"material {js.get('name', getattr(mat, 'name', None))!r}: alphaMode BLEND: approximated as MASK with cutoff 0.5 (points at least half opaque drawn "
-                    "opaque, the others see-through; no partial transparency)")
+        mname = js.get("name", getattr(mat, "name", None))
+        lost.append(f"material {mname!r}: alphaMode BLEND: approximated as MASK with cutoff 0.5 (points at "
+                    "least half opaque drawn opaque, the others see-through; no partial transparency)")
     else:
         cutoff = js.get("alphaCutoff", getattr(mat, "alphaCutoff", None))
         cutoff = 0.5 if cutoff is None else float(cutoff)

@@ -107,6 +107,9 @@ class SceneGeometry:
         See :meth:`Texture.packed_info`.
     textured : bool
         Whether any model has colours or maps (the kernels' third variant flag).
+    alpha_masks : tuple of (Texture, float) or None
+        Per model, its material's ``(alpha_map, alpha_cutoff)`` when it masks (the mesh checked
+        to have UVs), else None: :mod:`raycast_shade.visibility.alpha` turns them into Embree filters.
     """
 
     def __init__(self, models):
