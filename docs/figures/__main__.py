@@ -27,6 +27,7 @@ FIGURES = [
     dict(name="failure_cases", module="docs.figures.failure_cases", page="failure-cases.md"),
     dict(name="surfaces", module="docs.figures.surfaces", page="surfaces.md"),
     dict(name="textures", module="docs.figures.textures", page="textures.md"),
+    dict(name="alpha", module="docs.figures.alpha", page="textures.md"),
     dict(name="aa", module="docs.figures.aa", page="antialiasing.md"),
     dict(name="raster", module="docs.figures.raster", page="raster.md"),
     dict(name="vision", module="docs.figures.vision", page="vision.md"),

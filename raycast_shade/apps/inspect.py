@@ -19,9 +19,9 @@ __all__ = ["inspect_file", "format_report", "register_cli", "run_cli"]
 
 _GLTF_MAPPED = {"baseColorFactor": "kd, ka (x (1 - m + m a)), ks (metal part)", "baseColorTexture": "kd_map, ka_map",
                 "metallicFactor": "kd/ks split", "roughnessFactor": "shininess t = 2/a^2 - 2, a = r^2",
-                "doubleSided": "always (lit from the side seen)"}
+                "doubleSided": "always (lit from the side seen)", "alphaCutoff": "alpha_cutoff (with alphaMode MASK)"}
 _GLTF_APPROX = {"metallicRoughnessTexture": "per-texel kd and ks; one exponent from the median roughness"}
-_GLTF_DROPPED = ("normalTexture", "occlusionTexture", "emissiveTexture", "emissiveFactor", "alphaCutoff")
+_GLTF_DROPPED = ("normalTexture", "occlusionTexture", "emissiveTexture", "emissiveFactor")
 _MTL_MAPPED = {"kd": "kd", "ka": "ka", "ks": "ks", "ns": "shininess", "illum": "0/1: ks = 0; 2: as is",
                "map_kd": "kd_map", "map_ka": "ka_map", "map_ks": "ks_map"}
 
@@ -47,8 +47,9 @@ def _gltf_fields(js: dict, notes: list) -> list:
         elif key in _GLTF_APPROX:
             rows.append((key, shown, "approximated", _GLTF_APPROX[key]))
         elif key == "alphaMode":
-            rows.append((key, value, "mapped" if value == "OPAQUE" else "dropped",
-                         "opaque" if value == "OPAQUE" else "rendered opaque"))
+            rows.append((key, value, "approximated" if value == "BLEND" else "mapped",
+                         {"OPAQUE": "opaque", "MASK": "alpha_map: rays pass where alpha < cutoff"}.get(
+                             value, "as MASK at cutoff 0.5")))
         elif key == "emissiveFactor" and not any(np.asarray(value, float) > 0):
             rows.append((key, value, "mapped", "zero: nothing emitted"))
         else:

@@ -406,11 +406,6 @@ def from_pbr(mat, name: str, lost: list, ctx: FileContext) -> dict:
     js = ctx.gltf_material(mat) or {}
     pbr = js.get("pbrMetallicRoughness") or {}
     base = _factor(mat.baseColorFactor, 4, [1.0, 1.0, 1.0, 1.0])
-    mode = getattr(mat, "alphaMode", None) or "OPAQUE"
-    if mode != "OPAQUE":
-        cutoff = getattr(mat, "alphaCutoff", None)
-        extra = f" (cutoff {cutoff:g})" if mode == "MASK" and cutoff is not None else ""
-        lost.append(f"alphaMode {mode}{extra}: rendered opaque")
     rgb = base[:3]
     m = 1.0 if mat.metallicFactor is None else float(mat.metallicFactor)
     r = 1.0 if mat.roughnessFactor is None else float(mat.roughnessFactor)
@@ -418,6 +413,7 @@ def from_pbr(mat, name: str, lost: list, ctx: FileContext) -> dict:
     wrap_s, wrap_t, notes = ctx.sampler(pbr.get("baseColorTexture"))
     lost += notes
     kw = {"name": name, "specular": "blinn"}
+    kw.update(_alpha_mask(mat, js, base, name, lost, ctx, (wrap_s, wrap_t)))
     if mr is None:
         alpha = r * r
         kw["kd"] = rgb * ((1.0 - m) + m * alpha)
@@ -464,6 +460,53 @@ def from_pbr(mat, name: str, lost: list, ctx: FileContext) -> dict:
     if emissive is not None and np.any(np.asarray(emissive, np.float64) > 0):
         lost.append(f"emissiveFactor {np.round(np.asarray(emissive, np.float64), 4).tolist()}")
     return kw
+
+
+_BLEND_CUTOFF = 0.5  # BLEND drawn as MASK at half coverage: each point is whichever of opaque / clear is nearer
+
+
+def _alpha_mask(mat, js: dict, base, name: str, lost: list, ctx: FileContext, wraps) -> dict:
+    """glTF's alphaMode as :class:`Material` keywords: ``MASK`` keeps the base colour's alpha
+    (factor times texture alpha) as ``alpha_map`` with ``alphaCutoff`` (default 0.5); ``BLEND``
+    is approximated as ``MASK`` at 0.5 (noted in ``lost``); ``OPAQUE`` ignores alpha, as the spec says."""
+    mode = getattr(mat, "alphaMode", None) or js.get("alphaMode") or "OPAQUE"
+    if mode == "OPAQUE":
+        return {}
+    if mode == "BLEND":
+        cutoff = _BLEND_CUTOFF
+        mname = js.get("name", getattr(mat, "name", None))
+        lost.append(f"material {mname!r}: alphaMode BLEND: approximated as MASK with cutoff 0.5 (points at "
+                    "least half opaque drawn opaque, the others see-through; no partial transparency)")
+    else:
+        cutoff = js.get("alphaCutoff", getattr(mat, "alphaCutoff", None))
+        cutoff = 0.5 if cutoff is None else float(cutoff)
+    factor = float(base[3]) if len(base) > 3 else 1.0
+    tex = getattr(mat, "baseColorTexture", None)
+    if tex is None and factor >= cutoff:
+        return {}  # opaque everywhere: no mask to test
+    key = ("alpha", ctx.image_key(tex), factor, wraps)
+    if key not in ctx.cache:
+        if tex is None:
+            texels = np.full((1, 1, 3), factor, np.float32)
+        else:
+            a = _alpha_channel(tex)
+            texels = Texture.from_array(a, srgb=False, name=f"{name}.baseColorTexture.alpha").texels * factor
+        ctx.cache[key] = Wrapped(np.ascontiguousarray(texels, np.float32), wraps[0], wraps[1],
+                                 f"{name}.alpha")
+    return {"alpha_map": ctx.cache[key], "alpha_cutoff": cutoff}
+
+
+def _alpha_channel(image) -> np.ndarray:
+    """(h, w) uint8 or float alpha of an image (PIL or array), as stored (top row first); 255 where it has none."""
+    if hasattr(image, "convert"):
+        if image.mode in ("RGBA", "LA", "PA", "P", "RGBa", "La") or "transparency" in getattr(image, "info", {}):
+            return np.asarray(image.convert("RGBA"))[..., 3]
+        return np.full((image.size[1], image.size[0]), 255, np.uint8)
+    a = np.asarray(image)
+    if a.ndim == 3 and a.shape[2] in (2, 4):
+        return a[..., -1]
+    one = np.iinfo(a.dtype).max if a.dtype.kind in "ui" else 1.0
+    return np.full(a.shape[:2], one, a.dtype)
 
 
 def _resample(a: np.ndarray, shape) -> np.ndarray:

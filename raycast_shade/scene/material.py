@@ -61,6 +61,14 @@ class Material:
         point's kd is ``kd * kd_map(u, v)`` (likewise ka, ks), as OBJ's
         ``map_Kd`` scales ``Kd``. See ``docs/textures.md`` for what each
         shading method does with them.
+    alpha_map : Texture, optional
+        Coverage (glTF's alpha, the base colour's alpha times its texture's):
+        its first channel, sampled bilinearly at level 0 at the hit's UV (the
+        mesh needs UVs). Given together with ``alpha_cutoff``.
+    alpha_cutoff : float, optional
+        ``None``: opaque. Else rays (camera, shadow and mirror rays alike)
+        pass through the points where ``alpha_map < alpha_cutoff`` (glTF's
+        ``MASK``; 0.5 is glTF's default): see :mod:`raycast_shade.visibility.alpha`.
     """
 
     kd: object = None
@@ -74,13 +82,15 @@ class Material:
     kd_map: object = None
     ka_map: object = None
     ks_map: object = None
+    alpha_map: object = None
+    alpha_cutoff: object = None
 
     def __post_init__(self):
         set_ = object.__setattr__
         set_(self, "name", as_name(self.name, f"{type(self).__name__}.name"))  # first: every message uses it
         from .texture import Texture
 
-        for field in ("kd_map", "ka_map", "ks_map"):
+        for field in ("kd_map", "ka_map", "ks_map", "alpha_map"):
             tex = getattr(self, field)
             if tex is not None and not isinstance(tex, Texture):
                 raise TypeError(f"{self.name}.{field}: expected a Texture, got {type(tex).__name__}")
@@ -100,6 +110,7 @@ class Material:
 
             if not isinstance(self.bump, HeightMap):
                 raise TypeError(f"{self.name}.bump: expected a HeightMap, got {type(self.bump).__name__}")
+        _check_alpha(self)
 
     @property
     def maps(self) -> tuple:
@@ -122,6 +133,19 @@ class Material:
         row[MAT_BLINN] = 1.0 if self.specular == "blinn" else 0.0
         row[MAT_REFLECTIVITY] = self.reflectivity
         return row
+
+
+def _check_alpha(mat: Material) -> None:
+    """``alpha_map`` and ``alpha_cutoff`` come together (either alone would be silently ignored)."""
+    if mat.alpha_cutoff is None:
+        if mat.alpha_map is not None:
+            raise ValueError(f"{mat.name}.alpha_map: given without alpha_cutoff (None means opaque); "
+                             "set alpha_cutoff=0.5 (glTF's default) to mask")
+        return
+    object.__setattr__(mat, "alpha_cutoff", as_scalar(mat.alpha_cutoff, f"{mat.name}.alpha_cutoff", minimum=0.0))
+    if mat.alpha_map is None:
+        raise ValueError(f"{mat.name}.alpha_cutoff: given without an alpha_map (a Texture whose first channel "
+                         "is the coverage)")
 
 
 def overridden(base: Material, given: dict) -> dict:

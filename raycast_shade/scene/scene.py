@@ -107,6 +107,9 @@ class SceneGeometry:
         See :meth:`Texture.packed_info`.
     textured : bool
         Whether any model has colours or maps (the kernels' third variant flag).
+    alpha_masks : tuple of (Texture, float) or None
+        Per model, its material's ``(alpha_map, alpha_cutoff)`` when it masks (the mesh checked
+        to have UVs), else None: :mod:`raycast_shade.visibility.alpha` turns them into Embree filters.
     """
 
     def __init__(self, models):
@@ -152,6 +155,8 @@ class SceneGeometry:
         self.bump_texels = np.concatenate(texels).astype(np.float32) if texels else np.zeros(1, np.float32)
         self.bump_info = np.stack(info) if info else np.zeros((1, BUMP_SIZE))
         self.has_bump = bool(info)
+        # Alpha masks (installed as Embree filters by visibility.alpha): (alpha_map, cutoff) or None per model.
+        self.alpha_masks = tuple(_alpha_mask(g, m, preps[g]) for g, m in enumerate(models))
         self._pack_colors(models, preps, nv, nf)
         self._pack_textures(models, preps)
         self.face_model = np.repeat(np.arange(len(models), dtype=np.int32), nf)
@@ -236,6 +241,17 @@ class SceneGeometry:
         from .heightmap import tangent_frames
 
         return tangent_frames(self.vertices, self.faces, self.uvs, self.face_normals)
+
+
+def _alpha_mask(g: int, model, prep):
+    """``(alpha_map, alpha_cutoff)`` of a masked model (checked to have UVs), else None."""
+    mat = model.material
+    if getattr(mat, "alpha_cutoff", None) is None:
+        return None
+    if prep.uvs is None:
+        raise ValueError(f"scene.models[{g}] ({model.mesh.name}): material {mat.name!r} has an alpha_map "
+                         "but the mesh has no UVs")
+    return mat.alpha_map, float(mat.alpha_cutoff)
 
 
 def as_geometry(value, name: str = "geometry") -> SceneGeometry:

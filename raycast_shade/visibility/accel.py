@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .alpha import filter_address, mask_data, masked_geometries
 from .embree import EmbreeAccel, check_range
 
 __all__ = ["embree_accel", "embreex_scene", "has_embree_accel"]
@@ -23,7 +24,13 @@ def _build_embree(geo) -> EmbreeAccel:
     v4 = np.zeros((len(geo.vertices), 4), np.float32)
     v4[:, :3] = geo.vertices
     faces = np.ascontiguousarray(geo.local_faces, dtype=np.uint32)
-    return EmbreeAccel(v4, faces, geo.vertex_offsets, geo.face_offsets)
+    masks = {}
+    for g in masked_geometries(geo):
+        alpha_map, cutoff = geo.alpha_masks[g]
+        v0, f0, f1 = geo.vertex_offsets[g], geo.face_offsets[g], geo.face_offsets[g + 1]
+        masks[g] = mask_data(alpha_map, cutoff, geo.uvs[v0:geo.vertex_offsets[g + 1]], geo.local_faces[f0:f1])
+    return EmbreeAccel(v4, faces, geo.vertex_offsets, geo.face_offsets, masks,
+                       filter_address() if masks else 0)
 
 
 def _build_embreex(geo):
@@ -31,6 +38,10 @@ def _build_embreex(geo):
     from embreex.mesh_construction import TriangleMesh
 
     check_range(geo.reach, "scene vertices", scene=True)
+    masked = masked_geometries(geo)
+    if masked:
+        raise RuntimeError(f"alpha masks (scene.models{list(masked)}) need the direct Embree binding "
+                           "(embreex's API takes no filter functions)")
     scene = rtcore_scene.EmbreeScene()
     v32 = geo.vertices.astype(np.float32)
     for g in range(geo.n_models):

@@ -189,6 +189,10 @@ def _open():
     lib.rtcCommitScene.argtypes = [vp]
     lib.rtcReleaseScene.argtypes = [vp]
     lib.rtcReleaseDevice.argtypes = [vp]
+    # Filter functions (alpha masks, :mod:`.alpha`): installed on masked geometries only.
+    lib.rtcSetGeometryUserData.argtypes = [vp, vp]
+    lib.rtcSetGeometryIntersectFilterFunction.argtypes = [vp, vp]
+    lib.rtcSetGeometryOccludedFilterFunction.argtypes = [vp, vp]
     return lib, path
 
 
@@ -275,6 +279,13 @@ class EmbreeAccel:
     vertex_offsets, face_offsets : (G + 1,) int64
         Ranges of each model in ``vertices`` and ``faces``; model ``g``
         becomes Embree geometry ``g``.
+    masks : dict of int to (N,) float32, optional
+        Alpha-masked models: geometry ``g`` gets the intersection and
+        occlusion filter at ``filter_address`` with the address of
+        ``masks[g]`` (:func:`.alpha.mask_data`) as its user pointer; every
+        other geometry gets no filter at all.
+    filter_address : int, optional
+        The ``RTCFilterFunctionN`` (:func:`.alpha.filter_address`); needed with ``masks``.
 
     Attributes
     ----------
@@ -282,9 +293,11 @@ class EmbreeAccel:
         The ``RTCScene`` pointer, passed to the Numba kernels.
     build_seconds : float
         Wall time of ``rtcCommitScene`` (the BVH build).
+    mask_data : dict of int to (N,) float32
+        The user data Embree points into, held as long as this object (and so its scene).
     """
 
-    def __init__(self, vertices, faces, vertex_offsets, face_offsets):
+    def __init__(self, vertices, faces, vertex_offsets, face_offsets, masks=None, filter_address=0):
         import time
 
         lib, why = _load()
@@ -299,6 +312,12 @@ class EmbreeAccel:
         # here before any pointer is taken, dropped only after __del__ has
         # released the scene.
         self._arrays = (vertices, faces)
+        self.mask_data = dict(masks or {})
+        for g, data in self.mask_data.items():
+            if data.dtype != np.float32 or data.ndim != 1 or not data.flags.c_contiguous or not data.flags.owndata:
+                raise TypeError(f"masks[{g}]: expected a 1-D C-contiguous float32 array owning its memory")
+        if self.mask_data and not filter_address:
+            raise ValueError("filter_address: needed with masks")
         dev = _device()
         scene = lib.rtcNewScene(dev)
         _check(lib, dev, "rtcNewScene")
@@ -314,6 +333,10 @@ class EmbreeAccel:
                 geom, _RTC_BUFFER_TYPE_VERTEX, 0, _RTC_FORMAT_FLOAT3, vptr, v0 * 16, 16, v1 - v0
             )
             lib.rtcSetSharedGeometryBuffer(geom, _RTC_BUFFER_TYPE_INDEX, 0, _RTC_FORMAT_UINT3, fptr, f0 * 12, 12, f1 - f0)
+            if g in self.mask_data:  # the CPU invokes geometry filters whatever the queries' arguments
+                lib.rtcSetGeometryUserData(geom, ctypes.c_void_p(self.mask_data[g].ctypes.data))
+                lib.rtcSetGeometryIntersectFilterFunction(geom, ctypes.c_void_p(filter_address))
+                lib.rtcSetGeometryOccludedFilterFunction(geom, ctypes.c_void_p(filter_address))
             lib.rtcCommitGeometry(geom)
             lib.rtcAttachGeometryByID(scene, geom, g)
             lib.rtcReleaseGeometry(geom)

@@ -71,6 +71,7 @@ import numba
 import numpy as np
 
 from ..scene.camera import Camera
+from .alpha import masked_geometries
 from .hits import HitBuffer, image_buffer
 from .rays import offset_pair, subpixel_camera
 from .scan import (_CHUNK, _bin_fill_par, _bin_fill_ser, _project_par, _project_ser, _raster_kernel, _setup_par,
@@ -208,8 +209,16 @@ def rasterize(geometry, camera, *, near=None, offset=None, out=None) -> HitBuffe
     ------
     TypeError, ValueError
         For a bad argument (the message names it).
+    ValueError
+        For a scene with alpha-masked models (``Material.alpha_cutoff``): the
+        z-buffer fill keeps no fragment behind the nearest, so it cannot let
+        the masked texels through; the ray caster honours them.
     """
     geometry, near = _check(geometry, camera, near)
+    masked = masked_geometries(geometry)
+    if masked:
+        raise ValueError(f"rasterize: scene.models{list(masked)} are alpha-masked (Material.alpha_cutoff), which "
+                         "the rasterizer does not honour; use backend='raycast'")
     if offset is not None:
         camera = subpixel_camera(camera, *offset_pair(offset))
     if out is not None:

@@ -29,6 +29,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, prange
 
+from .accel import embree_accel
+from .alpha import masked_geometries, masked_hits
 from .hits import HitBuffer
 
 __all__ = ["VertexFans", "vertex_fans", "refine", "nudged_rays", "NUDGE", "MARGIN"]
@@ -198,6 +200,12 @@ def refine(geometry, origins, directions, tnear, tlimit, candidates) -> HitBuffe
                        (np.ascontiguousarray(origins, np.float64), np.ascontiguousarray(directions, np.float64),
                         np.ascontiguousarray(tnear, np.float64), np.ascontiguousarray(tlimit, np.float64)),
                        (candidates.geom, candidates.prim), tuple(out))
+        masked = (masked_hits(embree_accel(geometry).mask_data, out.geom, out.prim, out.u, out.v)
+                  if masked_geometries(geometry) else np.zeros(n, np.bool_))  # Embree's filters, honoured here too
+        if masked.any():
+            out.prim[masked] = out.geom[masked] = -1
+            out.u[masked] = out.v[masked] = 0.0
+            out.t[masked] = np.inf
     return out
 
 

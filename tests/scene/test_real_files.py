@@ -211,7 +211,7 @@ def test_a_missing_gltf_image_is_named(tmp_path):
 
 def test_no_transparency_warning_on_opaque_gltf_materials(tmp_path):
     """alphaMode OPAQUE (the default) ignores alpha: base alpha 0.99 and an RGBA texture say nothing;
-    MASK is named (rendered opaque)."""
+    MASK keeps the texture's alpha and the cutoff, silently (it is mapped, see tests/visibility/test_alpha.py)."""
     img = np.full((2, 2, 4), 200, np.uint8)
     img[..., 3] = 10
     _gltf_quad(tmp_path / "o.gltf", img, [[0, 0], [1, 0], [1, 1], [0, 1]], [(REPEAT, REPEAT)],
@@ -222,8 +222,11 @@ def test_no_transparency_warning_on_opaque_gltf_materials(tmp_path):
         rs.load_models(tmp_path / "o.gltf")
     _gltf_quad(tmp_path / "k.gltf", img, [[0, 0], [1, 0], [1, 1], [0, 1]], [(REPEAT, REPEAT)],
                material_extra={"alphaMode": "MASK", "alphaCutoff": 0.3})
-    with pytest.warns(rs.DroppedOnLoadWarning, match=r"alphaMode MASK \(cutoff 0.3\): rendered opaque"):
-        rs.load_models(tmp_path / "k.gltf")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", rs.DroppedOnLoadWarning)
+        (model,) = rs.load_models(tmp_path / "k.gltf")
+    assert model.material.alpha_cutoff == 0.3
+    np.testing.assert_allclose(model.material.alpha_map.texels, 10 / 255, rtol=1e-6)
 
 
 # -- glTF metallic-roughness ---------------------------------------------------------------------
