@@ -72,7 +72,7 @@ from benchmarks.outputs import results_file
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
-SECTIONS = ("limit", "memory", "load", "recast", "cold")
+SECTIONS = ("limit", "memory", "load", "recast", "cold", "openmp")
 KEYS = ["section", "mesh", "triangles", "width", "height", "variant", "metric", "value", "unit", "load1"]
 
 _RAY = embree.RAYHIT_SLOTS  # float32 slots per ray in a packet (the renderer's RTCRayHit16 stride)
@@ -190,8 +190,10 @@ def limit_case(kind, level, w, h, repeats):
         pristine, work, valid, npk, n = packs[name]
         return lambda: _trace_packets(handle, work, valid, args, npk, n)
 
-    def cast_kernel():  # the cast kernel alone over a whole frame: rays + packets + unpacking, no re-cast
-        _cast_camera_kernel(handle, cam, 0, *_frame_buffers(h, w))
+    counts = np.empty(h, np.int64)
+
+    def cast_kernel():  # the cast kernel alone over a whole frame: rays, packets, unpacking, the slip test
+        _cast_camera_kernel(handle, cam, *_frame_buffers(h, w), 0, 0, 0, h, counts, 1e-3)
 
     stages = {}
 
@@ -546,6 +548,10 @@ def run(quick=False, only=SECTIONS, repeats=None):
         rows += recast(cases[2] if not quick else cases[1], max(repeats, 15) * (1 if quick else 3))
     if "cold" in only:
         rows += cold()
+    if "openmp" in only:
+        from .bench_peers import neighbour_rows  # next to the peers it loads
+
+        rows += neighbour_rows(cases[:1] if quick else cases[:2], max(repeats, 5), ROOT)
     return rows
 
 
