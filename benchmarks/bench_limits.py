@@ -17,7 +17,7 @@ Sections (issue 16):
     Numba store, into preallocated arrays (the bandwidth) and into fresh
     ``np.empty`` arrays each time (what the renderer does: first-touch page
     faults included); the renderer's cast kernel alone over a whole frame
-    (rays, packets, unpacking; no re-cast); and ``rs.render`` itself, fresh
+    (rays, packets, unpacking, the slip test; no re-cast); and ``rs.render`` itself, fresh
     and with ``out=`` (one image reused). Reported: the frame over the sum of
     packets + preallocated store (issue 16 aims at <= 1.3), the stages of the
     frame and how many isolated misses it re-casts.
@@ -39,6 +39,11 @@ Sections (issue 16):
     serial (``cast_rays_serial``) for 1 to 4096 rays through random image
     points (the noisy sphere at 640x480), quiet and with a busy core: where
     the hole re-cast switches (``visibility.cast.SERIAL_BELOW``).
+``openmp``
+    The icosphere frame alone and right after a small call of another
+    library with its own thread pool (Open3D; FLIP's bundled GNU OpenMP,
+    loaded before or after us, spinning, or with the user's passive policy),
+    one subprocess per variant (:func:`benchmarks.bench_peers.neighbour_rows`).
 ``cold``
     ``python -m raycast_shade demo`` in a subprocess with an empty
     ``NUMBA_CACHE_DIR`` (every kernel compiled), then again with the cache

@@ -5,8 +5,9 @@ Two casters fill the same :class:`HitBuffer` with the camera's rays:
 ``"embree"`` (default)
     One parallel Numba kernel generates the camera rays in 4x4-pixel tiles,
     traces each tile as a 16-ray packet with ``rtcIntersect16``, flagged
-    coherent so that the primary rays share BVH traversal, and unpacks the
-    hits. Nothing crosses
+    coherent so that the primary rays share BVH traversal, unpacks the
+    hits and counts the pixels that show a vertex slip's marks (below) while
+    their rows are in cache. Nothing crosses
     into Python per ray or per chunk.
 ``"embreex"``
     Rays from a Numba kernel, then embreex's ``EmbreeScene.run`` over chunks
@@ -83,10 +84,9 @@ _INLINE = dict(cache=True, forceinline=True, _nrt=False)  # LLVM-inlined into th
 
 @njit(**_INLINE)
 def _fixed_slots(f32, u32, off, cam, ortho):
-    """The slots of a packet's 16 rays that Embree never writes and no pixel changes: tnear 0,
-    time 0, every mask bit, id and flags 0, and the eye as every origin (perspective) or the
-    forward axis as every direction (orthographic). Written once per block of tiles;
-    :func:`_tile_rays` writes the rest per tile."""
+    """The slots of a packet's 16 rays that Embree never writes and no pixel changes (tnear, time,
+    mask, id, flags; the eye as every origin, or orthographic, the forward axis as every direction),
+    once per block of tiles; :func:`_tile_rays` writes the rest per tile."""
     for k in range(_LANES):
         for c in range(3):
             if ortho:
@@ -104,12 +104,10 @@ def _fixed_slots(f32, u32, off, cam, ortho):
 def _tile_rays(f32, u32, off, valid, voff, col, x0, bu, d, nx, ny, ortho):
     """One 4x4 tile's rays into the packet: lane ``4 j + i`` is the pixel in column ``x0 + i``
     and the tile's row ``j``, active when ``i < nx`` and ``j < ny`` (an inactive lane gets a
-    valid dummy ray). ``col`` (3, W') holds each column's ``forward + sx right`` (perspective)
-    or ``eye + sx right`` (orthographic), ``bu`` (3, 4) each row's ``sy up``: the sum is
-    :func:`.rays.pixel_ray`'s, operation for operation, so every ray is bit for bit the one
-    it gives. ``d`` (3, 16) float64 is scratch: the sums staged there, then normalised in one
-    loop that vectorises (``error_model="numpy"``: no zero-division branch; no direction is
-    zero)."""
+    valid dummy ray). ``col`` (3, W') holds each column's ``forward + sx right`` (orthographic:
+    ``eye + sx right``), ``bu`` (3, 4) each row's ``sy up``: the sum is :func:`.rays.pixel_ray`'s,
+    operation for operation, so every ray is bit for bit its ray. ``d`` (3, 16) float64: the sums,
+    normalised in one loop that vectorises (``error_model="numpy"``: no zero-division branch)."""
     for k in range(_LANES):
         x = x0 + k % _TILE_W
         j = k // _TILE_W
@@ -137,16 +135,26 @@ def _tile_rays(f32, u32, off, valid, voff, col, x0, bu, d, nx, ny, ortho):
 def _tile_hits(f32, u32, off, x0, r, nx, ny, prim, geom, u, v, t):
     """Unpack one tile's hits (as :func:`.embree.read_hit`) into rows ``r ..`` and columns
     ``x0 ..`` of the hit arrays: ``nx`` columns and ``ny`` rows of it."""
-    for j in range(ny):
-        for i in range(nx):
-            k = j * _TILE_W + i
-            g = u32[off + embree.HIT_GEOM_ID * _LANES + k]
-            hit = g != embree.INVALID_ID
-            geom[r + j, x0 + i] = np.int32(g) if hit else np.int32(-1)
-            prim[r + j, x0 + i] = np.int32(u32[off + embree.HIT_PRIM_ID * _LANES + k]) if hit else np.int32(-1)
-            u[r + j, x0 + i] = f32[off + embree.HIT_U * _LANES + k] if hit else np.float32(0.0)
-            v[r + j, x0 + i] = f32[off + embree.HIT_V * _LANES + k] if hit else np.float32(0.0)
-            t[r + j, x0 + i] = f32[off + embree.RAY_TFAR * _LANES + k] if hit else np.float32(np.inf)
+    if nx == _TILE_W and ny == _TILE_H:  # a whole tile: constant trip counts, unrolled and vectorised
+        for j in range(_TILE_H):
+            for i in range(_TILE_W):
+                _lane_hit(f32, u32, off, j * _TILE_W + i, r + j, x0 + i, prim, geom, u, v, t)
+    else:
+        for j in range(ny):
+            for i in range(nx):
+                _lane_hit(f32, u32, off, j * _TILE_W + i, r + j, x0 + i, prim, geom, u, v, t)
+
+
+@njit(**_INLINE)
+def _lane_hit(f32, u32, off, k, y, x, prim, geom, u, v, t):
+    """Lane ``k``'s hit (as :func:`.embree.read_hit`) into pixel ``(y, x)`` of the hit arrays, without a branch."""
+    g = u32[off + embree.HIT_GEOM_ID * _LANES + k]
+    hit = g != embree.INVALID_ID
+    geom[y, x] = np.int32(g) if hit else np.int32(-1)
+    prim[y, x] = np.int32(u32[off + embree.HIT_PRIM_ID * _LANES + k]) if hit else np.int32(-1)
+    u[y, x] = f32[off + embree.HIT_U * _LANES + k] if hit else np.float32(0.0)
+    v[y, x] = f32[off + embree.HIT_V * _LANES + k] if hit else np.float32(0.0)
+    t[y, x] = f32[off + embree.RAY_TFAR * _LANES + k] if hit else np.float32(np.inf)
 
 
 @njit(cache=True, parallel=True)
@@ -167,9 +175,7 @@ def _cast_camera_kernel(scene, cam, prim, geom, u, v, t, y0, top, lo, hi, counts
         raise ValueError("_cast_camera_kernel: rows top, lo .. hi beyond the window or its counts")
     ntx = (w + _TILE_W - 1) // _TILE_W
     nty = (n - top + _TILE_H - 1) // _TILE_H
-    # Blocks of BLOCK_ROWS tile rows, or single tile rows for a band (or frame) too
-    # short to give every thread several blocks.
-    block = BLOCK_ROWS if nty >= 4 * BLOCK_ROWS else 1
+    block = BLOCK_ROWS if nty >= 4 * BLOCK_ROWS else 1  # tile rows a block: 1 if too few for several a thread
     nblk = (nty + block - 1) // block
     step = spread_step(nblk)
     ortho = cam[CAM_ORTHO] != 0.0
@@ -202,8 +208,7 @@ def _cast_camera_kernel(scene, cam, prim, geom, u, v, t, y0, top, lo, hi, counts
         _fixed_slots(buf, ib, off, cam, ortho)
         bu = np.empty((3, _TILE_H), np.float64)
         d = np.empty((3, _LANES), np.float64)
-        r0 = top + blk * block * _TILE_H  # the block's window rows r0 .. r1
-        r1 = min(n, top + (blk + 1) * block * _TILE_H)
+        r0 = top + blk * block * _TILE_H  # the block's first window row
         for ty in range(blk * block, min(nty, (blk + 1) * block)):
             r = top + ty * _TILE_H
             ny = min(_TILE_H, n - r)

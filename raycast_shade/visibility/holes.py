@@ -10,8 +10,10 @@ triangles around it (:func:`.watertight.refine`); a second round at ``1e-2``
 pixel takes what the first left. The exact hit is kept when nearer than the
 pixel's own by more than ``watertight.MARGIN``; a miss that finds no exact
 hit takes the nearest jittered one (moved by at most a hundredth of a
-pixel). A parallel count comes first, so a frame with no such pixel pays
-about 2 ms at 1080p; a frame with a few pays one serial gather of their
+pixel). The camera kernel counts them row by row while it casts (each row
+once it and its neighbours are cast, :func:`row_suspicious`; the rows at its
+block boundaries are finished serially, :func:`finish_counts`), so a frame
+with no such pixel pays no pass of its own; a frame with a few pays one serial gather of their
 coordinates and, per round, one cast of their jittered rays (serial when
 they are few: :data:`.cast.SERIAL_BELOW`) and one exact re-test.
 """
