@@ -17,7 +17,7 @@ Sections (issue 16):
     Numba store, into preallocated arrays (the bandwidth) and into fresh
     ``np.empty`` arrays each time (what the renderer does: first-touch page
     faults included); the renderer's cast kernel alone over a whole frame
-    (rays, packets, unpacking; no re-cast); and ``rs.render`` itself, fresh
+    (rays, packets, unpacking, the slip test; no re-cast); and ``rs.render`` itself, fresh
     and with ``out=`` (one image reused). Reported: the frame over the sum of
     packets + preallocated store (issue 16 aims at <= 1.3), the stages of the
     frame and how many isolated misses it re-casts.
@@ -39,6 +39,11 @@ Sections (issue 16):
     serial (``cast_rays_serial``) for 1 to 4096 rays through random image
     points (the noisy sphere at 640x480), quiet and with a busy core: where
     the hole re-cast switches (``visibility.cast.SERIAL_BELOW``).
+``openmp``
+    The icosphere frame alone and right after a small call of another
+    library with its own thread pool (Open3D; FLIP's bundled GNU OpenMP,
+    loaded before or after us, spinning, or with the user's passive policy),
+    one subprocess per variant (:func:`benchmarks.bench_peers.neighbour_rows`).
 ``cold``
     ``python -m raycast_shade demo`` in a subprocess with an empty
     ``NUMBA_CACHE_DIR`` (every kernel compiled), then again with the cache
@@ -72,7 +77,7 @@ from benchmarks.outputs import results_file
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
-SECTIONS = ("limit", "memory", "load", "recast", "cold")
+SECTIONS = ("limit", "memory", "load", "recast", "cold", "openmp")
 KEYS = ["section", "mesh", "triangles", "width", "height", "variant", "metric", "value", "unit", "load1"]
 
 _RAY = embree.RAYHIT_SLOTS  # float32 slots per ray in a packet (the renderer's RTCRayHit16 stride)
@@ -190,8 +195,10 @@ def limit_case(kind, level, w, h, repeats):
         pristine, work, valid, npk, n = packs[name]
         return lambda: _trace_packets(handle, work, valid, args, npk, n)
 
-    def cast_kernel():  # the cast kernel alone over a whole frame: rays + packets + unpacking, no re-cast
-        _cast_camera_kernel(handle, cam, 0, *_frame_buffers(h, w))
+    counts = np.empty(h, np.int64)
+
+    def cast_kernel():  # the cast kernel alone over a whole frame: rays, packets, unpacking, the slip test
+        _cast_camera_kernel(handle, cam, *_frame_buffers(h, w), 0, 0, 0, h, counts, 1e-3)
 
     stages = {}
 
@@ -546,6 +553,10 @@ def run(quick=False, only=SECTIONS, repeats=None):
         rows += recast(cases[2] if not quick else cases[1], max(repeats, 15) * (1 if quick else 3))
     if "cold" in only:
         rows += cold()
+    if "openmp" in only:
+        from .bench_peers import neighbour_rows  # next to the peers it loads
+
+        rows += neighbour_rows(cases[:1] if quick else cases[:2], max(repeats, 5), ROOT)
     return rows
 
 

@@ -39,9 +39,9 @@ default (``--gl-face-normals exact`` adds it, reading the face normal by
 ``gl_PrimitiveID`` from a storage buffer, about 20% slower). Pixel centres
 at +0.5 in both; GL's rows are bottom up.
 
-Outputs: ``benchmarks/results/peers.csv`` and ``docs/images/peers.png``;
-``--quick`` (small meshes and frames, 3 repeats) writes the same names under the
-git-ignored ``out/quick/results/`` and ``out/quick/images/`` (:mod:`benchmarks.outputs`).
+Outputs: ``benchmarks/results/peers.csv`` and ``docs/images/peers.png``; ``--quick`` (small meshes
+and frames, 3 repeats) writes them under the git-ignored ``out/quick/`` (:mod:`benchmarks.outputs`).
+``neighbour_rows`` is ``bench_limits --only openmp``: the frame next to another library's threads.
 
 Needs the ``peers`` extra (``pip install 'raycast_shade[peers]'``: moderngl,
 open3d) and, on Debian/Ubuntu, ``apt-get install -y libegl1 libegl-mesa0
@@ -54,9 +54,11 @@ from __future__ import annotations
 import argparse
 import csv
 import functools
+import json
 import math
 import os
 import re
+import subprocess
 import sys
 import time
 
@@ -333,6 +335,91 @@ def open3d_pipeline(scene, camera):
         return shade_hits(scene, camera, hits, "phong"), ~miss
 
     return setup, frame
+
+
+# -- a neighbour's thread pool in the same process (bench_limits --only openmp) --------------------------------
+
+# Frames alone and right after a small call of the neighbour, interleaved: what slows the second is its idle workers.
+NEIGHBOUR_CHILD = r"""
+import json, os, re, sys, time
+import numpy as np
+neighbour, order, kind, level, w, h, repeats = sys.argv[1:3] + [sys.argv[3]] + [int(a) for a in sys.argv[4:]]
+def load_neighbour():
+    if neighbour == "none":  # no neighbour: the reference frame
+        return (lambda: None), "none"
+    if neighbour == "open3d":
+        import open3d as o3d  # its runtime loads here, before ours unless ours_first
+        from raycast_shade.scene.shapes import icosphere
+        sc, ico = o3d.t.geometry.RaycastingScene(), icosphere(4)
+        sc.add_triangles(o3d.core.Tensor(ico.vertices.astype(np.float32)), o3d.core.Tensor(ico.faces.astype(np.uint32)))
+        rays = o3d.core.Tensor(np.tile(np.array([[0, 0, 3, 0, 0, -1]], np.float32), (4096, 1)))
+        return lambda: sc.cast_rays(rays), o3d.__version__
+    if neighbour == "flip_spinning":  # its runtime loads spinning (as Intel's or LLVM's 200 ms blocktime would)
+        os.environ["OMP_WAIT_POLICY"] = "ACTIVE"
+    import flip_evaluator
+    if neighbour == "flip_spinning":
+        os.environ.pop("OMP_WAIT_POLICY")
+    a = np.random.default_rng(0).random((48, 64, 3)).astype(np.float32)
+    call = lambda: flip_evaluator.evaluate(a, np.clip(a + 0.01, 0, 1).astype(np.float32), "LDR")
+    call()  # loads its OpenMP runtime now, under the wait policy of the moment
+    return call, neighbour
+if order == "neighbour_first":
+    call, version = load_neighbour()
+import raycast_shade as rs, numba
+if order == "ours_first":
+    call, version = load_neighbour()
+from benchmarks.bench_peers import make_mesh, make_scene
+scene = make_scene(make_mesh(kind, level), w, h)
+for _ in range(2):
+    rs.render(scene, "phong"), call()
+times = {"alone": [], "after": [], "neighbour": []}
+for r in range(repeats):
+    for k in (("alone", "after") if r % 2 == 0 else ("after", "alone")):
+        time.sleep(0.3)  # the neighbour's workers, if any still spin, go idle (or keep spinning)
+        if k == "after":
+            t0 = time.perf_counter(), call()
+            times["neighbour"].append(time.perf_counter() - t0[0])
+        t0 = time.perf_counter(), rs.render(scene, "phong")
+        times[k].append(time.perf_counter() - t0[0])
+libs = sorted({os.path.basename(line.split()[-1]) for line in open("/proc/self/maps")
+               if re.search(r"lib(gomp|iomp5|omp|tbb)[^/]*\.so", line)})
+print(json.dumps(dict(layer=numba.threading_layer(), version=version, runtimes=libs, load=os.getloadavg()[0],
+                      wait=os.environ.get("OMP_WAIT_POLICY", ""), **{k: float(np.median(v)) for k, v in times.items()})))
+"""
+
+
+# (neighbour, import order, environment): none, Open3D, FLIP's own GNU OpenMP (a second runtime), the same
+# loaded spinning before us (os.environ set and restored around its import), the remedy: the user's policy.
+OPENMP_VARIANTS = [("none", "ours_first", {}), ("open3d", "ours_first", {}), ("open3d", "neighbour_first", {}),
+                   ("flip", "ours_first", {}), ("flip", "neighbour_first", {}), ("flip_spinning", "neighbour_first", {}),
+                   ("flip", "neighbour_first", {"OMP_WAIT_POLICY": "PASSIVE"})]
+
+
+def neighbour_rows(cases, repeats, root=ROOT):
+    """Rows of ``bench_limits --only openmp``: the frame alone and right after a call of another library
+    with its own thread pool, one child per variant (a runtime reads its wait policy when it loads)."""
+    rows, times = [], ("alone", "after", "neighbour")  # the frame, the frame after a call, the call
+    for kind, level, w, h in cases:
+        for neighbour, order, extra in OPENMP_VARIANTS:
+            env = dict(os.environ, PYTHONPATH=root + os.pathsep + os.environ.get("PYTHONPATH", ""))
+            env = {k: v for k, v in env.items() if k not in ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT", "KMP_BLOCKTIME")}
+            env.update(extra)
+            res = subprocess.run([sys.executable, "-c", NEIGHBOUR_CHILD, neighbour, order, kind, str(level), str(w),
+                                  str(h), str(repeats)], cwd=root, env=env, capture_output=True, text=True)
+            variant = f"{neighbour} {order}" + "".join(f" {k}={v}" for k, v in extra.items())
+            if res.returncode != 0:
+                print(f"limits: openmp {variant} skipped: {res.stderr.strip().splitlines()[-1:]}", file=sys.stderr)
+                continue
+            out = json.loads(res.stdout.strip().splitlines()[-1])
+            base = dict(section="openmp", mesh=f"{kind}{level}", triangles=20 * 4 ** level, width=w, height=h,
+                        variant=f"{variant} ({out['version']}; {out['layer']}; {' '.join(out['runtimes'])})",
+                        load1=round(out["load"], 2))
+            rows += [dict(base, metric=f"{k}_ms", value=round(1e3 * out[k], 2), unit="ms") for k in times]
+            rows.append(dict(base, metric="after_over_alone", value=round(out["after"] / out["alone"], 3), unit="x"))
+            print(f"limits: openmp {kind}{level} {w}x{h} {variant:45} alone {1e3 * out['alone']:.1f} ms, after "
+                  f"{1e3 * out['after']:.1f} ms ({out['layer']}, {out['runtimes']}, load {out['load']:.1f})",
+                  file=sys.stderr)
+    return rows
 
 
 # -- the run ----------------------------------------------------------------------------------------------

@@ -18,6 +18,19 @@ kernel of ours runs). The user's choice wins: nothing is set when
 ``OMP_WAIT_POLICY`` or ``GOMP_SPINCOUNT`` is already in the environment.
 The variable is inherited by child processes, as any setting of the
 environment is.
+
+Other thread pools in the process. ``OMP_WAIT_POLICY`` is read by every
+OpenMP runtime when it loads (the variable is OpenMP's own, not GNU's), so
+a library imported after this package -- a second GNU OpenMP bundled in a
+wheel (FLIP's, pycolmap's), an Open3D built with OpenMP -- sleeps its idle
+workers too. A runtime loaded before keeps the
+policy it read, and a worker it leaves spinning takes a core from the next
+frame; nothing inside the process can change that afterwards, so the remedy
+is the user's: ``OMP_WAIT_POLICY=PASSIVE`` (or ``KMP_BLOCKTIME=0`` for an
+Intel runtime) in the environment before Python starts, or ``import
+raycast_shade`` first (docs/performance.md, "Another library's threads").
+The Open3D 0.20 wheel uses TBB, not OpenMP. The library sets nothing else:
+the threading layer stays Numba's choice.
 """
 
 from __future__ import annotations

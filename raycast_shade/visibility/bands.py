@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import holes
 from .accel import embree_accel
 from .cast import _TILE_H, _cast_camera_kernel, _fill_holes, cast_camera, check_camera_reach
 from .hits import HitBuffer, image_buffer
@@ -76,20 +77,22 @@ def cast_bands(geometry, camera, rows: int = BAND_ROWS):
     cam = camera_frame(camera, geometry.origin)
     handle = embree_accel(geometry).handle
     win = image_buffer(None, rows + 2, w)  # the row above the band, the last band's last row, then new rows
+    counts = np.zeros(rows + 2, np.int64)  # suspicious pixels per window row, counted by the cast kernel
     top = 0  # window rows before the new ones: 0 for the first band, then 2
     g = 0  # image row of the first new row (a multiple of the tile height)
     above = np.empty(w, np.int32), np.empty(w, np.float32)  # prim, t of the last finished row, as cast
     while True:
         m = min(rows, h - g)
-        _cast_camera_kernel(handle, cam, g, *(a[top:top + m] for a in win))
         n = top + m
         last = g + m == h
         lo, hi = (1 if top else 0), (n if last else n - 1)
+        counts[:] = 0
+        _cast_camera_kernel(handle, cam, *(a[:n] for a in win), g - top, top, lo, hi, counts[:n], holes._JUMP)
         if not last:  # the next window's row above, before this band's repair changes it
             above[0][:] = win.prim[n - 2]
             above[1][:] = win.t[n - 2]
         window = HitBuffer(*(a[:n] for a in win))
-        _fill_holes(geometry, cam, window, "embree", rows=(lo, hi), y0=g - top)
+        _fill_holes(geometry, cam, window, "embree", rows=(lo, hi), y0=g - top, counts=counts[:n])
         yield g - top + lo, HitBuffer(*(a[lo:hi] for a in win))
         if last:
             return

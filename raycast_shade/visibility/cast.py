@@ -5,8 +5,9 @@ Two casters fill the same :class:`HitBuffer` with the camera's rays:
 ``"embree"`` (default)
     One parallel Numba kernel generates the camera rays in 4x4-pixel tiles,
     traces each tile as a 16-ray packet with ``rtcIntersect16``, flagged
-    coherent so that the primary rays share BVH traversal, and unpacks the
-    hits. Nothing crosses
+    coherent so that the primary rays share BVH traversal, unpacks the
+    hits and counts the pixels that show a vertex slip's marks (below) while
+    their rows are in cache. Nothing crosses
     into Python per ray or per chunk.
 ``"embreex"``
     Rays from a Numba kernel, then embreex's ``EmbreeScene.run`` over chunks
@@ -62,10 +63,12 @@ from .accel import embree_accel, embreex_scene
 from ..common.schedule import BLOCK_ROWS, spread_step
 from ..common.validate import as_array
 from .hits import HitBuffer, image_buffer
-from .holes import empty_hits, fill_holes, rays_at
+from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH
+from . import holes
+from .holes import empty_hits, fill_holes, rays_at, row_suspicious
 from .holes import _count_isolated_kernel, _isolated_misses  # noqa: F401  (where tests look for them)
 from .watertight import nudged_rays, refine
-from .rays import camera_frame, generate_rays, offset_pair, pixel_ray, subpixel_camera
+from .rays import camera_frame, generate_rays, offset_pair, subpixel_camera
 
 __all__ = ["cast_camera", "cast_rays", "cast_recentred", "resolve_caster", "secondary_rays", "CASTERS"]
 
@@ -76,21 +79,117 @@ _TILE_H = 4
 _LANES = _TILE_W * _TILE_H
 
 
+_INLINE = dict(cache=True, forceinline=True, _nrt=False)  # LLVM-inlined into the kernel, compiled once
+
+
+@njit(**_INLINE)
+def _fixed_slots(f32, u32, off, cam, ortho):
+    """The slots of a packet's 16 rays that Embree never writes and no pixel changes (tnear, time,
+    mask, id, flags; the eye as every origin, or orthographic, the forward axis as every direction),
+    once per block of tiles; :func:`_tile_rays` writes the rest per tile."""
+    for k in range(_LANES):
+        for c in range(3):
+            if ortho:
+                f32[off + (embree.RAY_DIR + c) * _LANES + k] = cam[CAM_FORWARD + c]
+            else:
+                f32[off + (embree.RAY_ORG + c) * _LANES + k] = cam[CAM_EYE + c]
+        f32[off + embree.RAY_TNEAR * _LANES + k] = 0.0
+        f32[off + embree.RAY_TIME * _LANES + k] = 0.0
+        u32[off + embree.RAY_MASK * _LANES + k] = embree.INVALID_ID
+        u32[off + embree.RAY_ID * _LANES + k] = 0
+        u32[off + embree.RAY_FLAGS * _LANES + k] = 0
+
+
+@njit(cache=True, forceinline=True, _nrt=False, error_model="numpy")
+def _tile_rays(f32, u32, off, valid, voff, col, x0, bu, d, nx, ny, ortho):
+    """One 4x4 tile's rays into the packet: lane ``4 j + i`` is the pixel in column ``x0 + i``
+    and the tile's row ``j``, active when ``i < nx`` and ``j < ny`` (an inactive lane gets a
+    valid dummy ray). ``col`` (3, W') holds each column's ``forward + sx right`` (orthographic:
+    ``eye + sx right``), ``bu`` (3, 4) each row's ``sy up``: the sum is :func:`.rays.pixel_ray`'s,
+    operation for operation, so every ray is bit for bit its ray. ``d`` (3, 16) float64: the sums,
+    normalised in one loop that vectorises (``error_model="numpy"``: no zero-division branch)."""
+    for k in range(_LANES):
+        x = x0 + k % _TILE_W
+        j = k // _TILE_W
+        d[0, k] = col[0, x] + bu[0, j]
+        d[1, k] = col[1, x] + bu[1, j]
+        d[2, k] = col[2, x] + bu[2, j]
+    if ortho:  # the sums are the origins; the directions are fixed
+        for k in range(_LANES):
+            f32[off + (embree.RAY_ORG + 0) * _LANES + k] = d[0, k]
+            f32[off + (embree.RAY_ORG + 1) * _LANES + k] = d[1, k]
+            f32[off + (embree.RAY_ORG + 2) * _LANES + k] = d[2, k]
+    else:
+        for k in range(_LANES):
+            inv = 1.0 / np.sqrt(d[0, k] * d[0, k] + d[1, k] * d[1, k] + d[2, k] * d[2, k])
+            f32[off + (embree.RAY_DIR + 0) * _LANES + k] = d[0, k] * inv
+            f32[off + (embree.RAY_DIR + 1) * _LANES + k] = d[1, k] * inv
+            f32[off + (embree.RAY_DIR + 2) * _LANES + k] = d[2, k] * inv
+    for k in range(_LANES):
+        f32[off + embree.RAY_TFAR * _LANES + k] = np.inf
+        u32[off + embree.HIT_GEOM_ID * _LANES + k] = embree.INVALID_ID  # Embree writes it only on a hit
+        valid[voff + k] = -1 if k % _TILE_W < nx and k // _TILE_W < ny else 0
+
+
+@njit(**_INLINE)
+def _tile_hits(f32, u32, off, x0, r, nx, ny, prim, geom, u, v, t):
+    """Unpack one tile's hits (as :func:`.embree.read_hit`) into rows ``r ..`` and columns
+    ``x0 ..`` of the hit arrays: ``nx`` columns and ``ny`` rows of it."""
+    if nx == _TILE_W and ny == _TILE_H:  # a whole tile: constant trip counts, unrolled and vectorised
+        for j in range(_TILE_H):
+            for i in range(_TILE_W):
+                _lane_hit(f32, u32, off, j * _TILE_W + i, r + j, x0 + i, prim, geom, u, v, t)
+    else:
+        for j in range(ny):
+            for i in range(nx):
+                _lane_hit(f32, u32, off, j * _TILE_W + i, r + j, x0 + i, prim, geom, u, v, t)
+
+
+@njit(**_INLINE)
+def _lane_hit(f32, u32, off, k, y, x, prim, geom, u, v, t):
+    """Lane ``k``'s hit (as :func:`.embree.read_hit`) into pixel ``(y, x)`` of the hit arrays, without a branch."""
+    g = u32[off + embree.HIT_GEOM_ID * _LANES + k]
+    hit = g != embree.INVALID_ID
+    geom[y, x] = np.int32(g) if hit else np.int32(-1)
+    prim[y, x] = np.int32(u32[off + embree.HIT_PRIM_ID * _LANES + k]) if hit else np.int32(-1)
+    u[y, x] = f32[off + embree.HIT_U * _LANES + k] if hit else np.float32(0.0)
+    v[y, x] = f32[off + embree.HIT_V * _LANES + k] if hit else np.float32(0.0)
+    t[y, x] = f32[off + embree.RAY_TFAR * _LANES + k] if hit else np.float32(np.inf)
+
+
 @njit(cache=True, parallel=True)
-def _cast_camera_kernel(scene, cam, y0, prim, geom, u, v, t):
-    """Rows ``y0 ..`` of the camera's image into the (rows, W) arrays: array row ``r``
-    is image row ``y0 + r`` (the whole frame: ``y0 = 0`` and H rows). The tiles are
-    laid from array row 0, so a band whose ``y0`` is a multiple of ``_TILE_H`` traces
-    the very packets the whole frame does."""
-    w = prim.shape[1]
-    h = prim.shape[0]
+def _cast_camera_kernel(scene, cam, prim, geom, u, v, t, y0, top, lo, hi, counts, jump):
+    """Cast rows ``top ..`` of the (R, W) window into its hit arrays, and count the suspicious
+    pixels (:func:`.holes.row_suspicious`, depth jumps past ``jump``) of its rows ``lo .. hi``.
+
+    Window row ``r`` is image row ``y0 + r``; rows ``0 .. top`` are already cast (a band's
+    neighbours, read by the test), and the tiles are laid from row ``top`` (so a band whose
+    ``y0 + top`` is a multiple of ``_TILE_H`` traces the very packets the whole frame does; the
+    whole frame is ``y0 = top = lo = 0``, ``hi = R``). Each block of tile rows counts a row of
+    ``lo .. hi`` into ``counts`` (R,) int64 as soon as the row and both its neighbours are cast
+    by the block (or are rows before ``top``, or outside the window), while the rows are in
+    cache; the rows on either side of a block boundary keep ``-1``, for
+    :func:`.holes.finish_counts`. Rows outside ``lo .. hi`` keep what ``counts`` held."""
+    n, w = prim.shape
+    if not (0 <= top <= n and 0 <= lo <= hi <= n <= counts.shape[0]):  # no bounds checks below
+        raise ValueError("_cast_camera_kernel: rows top, lo .. hi beyond the window or its counts")
     ntx = (w + _TILE_W - 1) // _TILE_W
-    nty = (h + _TILE_H - 1) // _TILE_H
-    # Blocks of BLOCK_ROWS tile rows, or single tile rows for a band (or frame) too
-    # short to give every thread several blocks.
-    block = BLOCK_ROWS if nty >= 4 * BLOCK_ROWS else 1
+    nty = (n - top + _TILE_H - 1) // _TILE_H
+    block = BLOCK_ROWS if nty >= 4 * BLOCK_ROWS else 1  # tile rows a block: 1 if too few for several a thread
     nblk = (nty + block - 1) // block
     step = spread_step(nblk)
+    ortho = cam[CAM_ORTHO] != 0.0
+    far = 1.0 + jump
+    # Each column's forward + sx right (perspective) or eye + sx right (orthographic), with sx
+    # as pixel_ray computes it (every column of whole tiles: dummy lanes read them too).
+    base = CAM_EYE if ortho else CAM_FORWARD
+    col = np.empty((3, ntx * _TILE_W), np.float64)
+    for x in range(ntx * _TILE_W):
+        a = 2.0 * (x + 0.5) / cam[CAM_WIDTH] - 1.0
+        for c in range(3):
+            col[c, x] = cam[base + c] + a * cam[CAM_RIGHT + c]
+    for q in range(lo, hi):  # undecided until a block counts the row (rows at block boundaries stay so)
+        counts[q] = -1
     for it in prange(nblk):  # blocks of rows in a balanced order (see _schedule)
         blk = (it * step) % nblk
         # Per-block scratch: a 16-wide RTCRayHit16 (64-byte aligned) and its valid mask.
@@ -106,25 +205,27 @@ def _cast_camera_kernel(scene, cam, y0, prim, geom, u, v, t):
         aoff = ((8 - abuf.ctypes.data % 8) % 8) // 4
         abuf[aoff] = embree.RAY_QUERY_FLAG_COHERENT
         abuf[aoff + 1] = embree.FEATURE_FLAG_ALL
+        _fixed_slots(buf, ib, off, cam, ortho)
+        bu = np.empty((3, _TILE_H), np.float64)
+        d = np.empty((3, _LANES), np.float64)
+        r0 = top + blk * block * _TILE_H  # the block's first window row
         for ty in range(blk * block, min(nty, (blk + 1) * block)):
+            r = top + ty * _TILE_H
+            ny = min(_TILE_H, n - r)
+            for j in range(_TILE_H):
+                b = 1.0 - 2.0 * (y0 + r + j + 0.5) / cam[CAM_HEIGHT]
+                for c in range(3):
+                    bu[c, j] = b * cam[CAM_UP + c]
             for tx in range(ntx):
-                for k in range(_LANES):
-                    x = tx * _TILE_W + (k % _TILE_W)
-                    y = ty * _TILE_H + (k // _TILE_W)
-                    if x < w and y < h:
-                        vbuf[voff + k] = -1
-                        ox, oy, oz, dx, dy, dz = pixel_ray(cam, x, y0 + y)
-                    else:
-                        vbuf[voff + k] = 0
-                        ox, oy, oz, dx, dy, dz = 0.0, 0.0, 0.0, 0.0, 0.0, 1.0
-                    embree.write_ray(buf, ib, off + k, _LANES, (ox, oy, oz), (dx, dy, dz), 0.0, np.inf)
-                    embree.reset_hit(ib, off + k, _LANES)
+                nx = min(_TILE_W, w - tx * _TILE_W)
+                _tile_rays(buf, ib, off, vbuf, voff, col, tx * _TILE_W, bu, d, nx, ny, ortho)
                 embree.intersect16_packet(vbuf[voff:], scene, buf[off:], abuf[aoff:])
-                for k in range(_LANES):
-                    x = tx * _TILE_W + (k % _TILE_W)
-                    y = ty * _TILE_H + (k // _TILE_W)
-                    if x < w and y < h:
-                        geom[y, x], prim[y, x], u[y, x], v[y, x], t[y, x] = embree.read_hit(buf, ib, off + k, _LANES)
+                _tile_hits(buf, ib, off, tx * _TILE_W, r, nx, ny, prim, geom, u, v, t)
+            # The vertex-slip test of the rows whose neighbours are now cast (rows r0 .. c are).
+            c = r + ny
+            for q in range(max(lo, r - 1), min(hi, c)):
+                if (q - 1 < top or q - 1 >= r0) and (q + 1 < c or q + 1 >= n) and (q >= r0 or q < top):
+                    counts[q] = row_suspicious(prim, t, far, q)
 
 
 @njit(cache=True, parallel=True)
@@ -270,8 +371,9 @@ def cast_camera(geometry, camera, caster: str = "auto", threads: int = 2, *, off
     cam = camera_frame(camera, geometry.origin)
     if caster == "embree":
         hits = image_buffer(out, h, w)  # the kernel writes every pixel
-        _cast_camera_kernel(embree_accel(geometry).handle, cam, 0, hits.prim, hits.geom, hits.u, hits.v, hits.t)
-        _fill_holes(geometry, cam, hits, caster)
+        counts = np.empty(h, np.int64)
+        _cast_camera_kernel(embree_accel(geometry).handle, cam, *hits, 0, 0, 0, h, counts, holes._JUMP)
+        _fill_holes(geometry, cam, hits, caster, counts=counts)
         return hits
     origins, directions = generate_rays(camera, geometry.origin)
     res = run_embreex(embreex_scene(geometry), origins, directions, threads)
@@ -329,10 +431,11 @@ def _cast_points(geometry, cam, xs, ys, caster) -> HitBuffer:
                      t=np.where(geom < 0, np.inf, res["tfar"]).astype(np.float32))
 
 
-def _fill_holes(geometry, cam, hits, caster, rows=None, y0=0):
+def _fill_holes(geometry, cam, hits, caster, rows=None, y0=0, counts=None):
     """Re-test the pixels whose ray may have slipped through a vertex (:mod:`.holes`); in place.
-    ``rows``, ``y0``: a band of the image (see :func:`.holes.fill_holes`)."""
-    fill_holes(geometry, cam, hits, lambda xs, ys: _cast_points(geometry, cam, xs, ys, caster), rows, y0)
+    ``rows``, ``y0``: a band of the image; ``counts``: the camera kernel's (see
+    :func:`.holes.fill_holes`)."""
+    fill_holes(geometry, cam, hits, lambda xs, ys: _cast_points(geometry, cam, xs, ys, caster), rows, y0, counts)
 
 
 def run_embreex(embreex_scene, origins, directions, threads: int = 2):

@@ -10,8 +10,10 @@ triangles around it (:func:`.watertight.refine`); a second round at ``1e-2``
 pixel takes what the first left. The exact hit is kept when nearer than the
 pixel's own by more than ``watertight.MARGIN``; a miss that finds no exact
 hit takes the nearest jittered one (moved by at most a hundredth of a
-pixel). A parallel count comes first, so a frame with no such pixel pays
-about 2 ms at 1080p; a frame with a few pays one serial gather of their
+pixel). The camera kernel counts them row by row while it casts (each row
+once it and its neighbours are cast, :func:`row_suspicious`; the rows at its
+block boundaries are finished serially, :func:`finish_counts`), so a frame
+with no such pixel pays no pass of its own; a frame with a few pays one serial gather of their
 coordinates and, per round, one cast of their jittered rays (serial when
 they are few: :data:`.cast.SERIAL_BELOW`) and one exact re-test.
 """
@@ -25,7 +27,7 @@ from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIG
 from .hits import HitBuffer
 from .watertight import MARGIN, refine
 
-__all__ = ["fill_holes", "rays_at"]
+__all__ = ["fill_holes", "rays_at", "row_suspicious", "finish_counts"]
 
 
 _JITTER = (1e-3, 1e-2)  # pixels: the re-cast rays' distance from the pixel centre, per round
@@ -70,6 +72,41 @@ def _suspicious(prim, t, jump, y, x):
         if prim[y, x] < 0 or (t[y, x] > far * t[y - 1, x] and t[y, x] > far * t[y + 1, x]):
             return True
     return False
+
+
+@njit(cache=True, forceinline=True, _nrt=False)  # LLVM-inlined into the camera kernel
+def row_suspicious(prim, t, far, y):
+    """How many pixels of row ``y`` :func:`_suspicious` flags (``far = 1 + jump``): the same
+    test, written without branches over the row's interior so that it vectorises. The camera
+    kernel runs it on each row as soon as the row and its neighbours are cast."""
+    h, w = prim.shape
+    vert = 0 < y < h - 1
+    up = y - 1 if vert else y
+    dn = y + 1 if vert else y
+    n = 0
+    for x in range(1, w - 1):
+        miss = prim[y, x] < 0
+        tx = t[y, x]
+        side = (prim[y, x - 1] >= 0) & (prim[y, x + 1] >= 0) & (miss | ((tx > far * t[y, x - 1])
+                                                                       & (tx > far * t[y, x + 1])))
+        over = (prim[up, x] >= 0) & (prim[dn, x] >= 0) & (miss | ((tx > far * t[up, x]) & (tx > far * t[dn, x])))
+        n += side | (vert & over)
+    if vert:  # the first and last columns have no left or right neighbour: the vertical test alone
+        for x in range(0, w, max(1, w - 1)):
+            if prim[up, x] >= 0 and prim[dn, x] >= 0:
+                tx = t[y, x]
+                if prim[y, x] < 0 or (tx > far * t[up, x] and tx > far * t[dn, x]):
+                    n += 1
+    return n
+
+
+@njit(cache=True)  # serial: a few rows per band
+def finish_counts(prim, t, far, counts, lo, hi):
+    """Count the rows ``lo .. hi`` the camera kernel left undecided (``counts[q] < 0``: rows
+    at its block boundaries), in place; see :func:`row_suspicious`."""
+    for q in range(lo, hi):
+        if counts[q] < 0:
+            counts[q] = row_suspicious(prim, t, far, q)
 
 
 @njit(cache=True, parallel=True)
@@ -151,7 +188,7 @@ def _rows(hits: HitBuffer, sel) -> HitBuffer:
     return HitBuffer(*(a[sel] for a in hits))
 
 
-def fill_holes(geometry, cam, hits, cast_points, rows=None, y0=0):
+def fill_holes(geometry, cam, hits, cast_points, rows=None, y0=0, counts=None):
     """Re-test the suspicious pixels (see the module docstring); updates ``hits`` in place.
 
     Each round casts the four jittered rays of every pixel in one call of
@@ -173,14 +210,21 @@ def fill_holes(geometry, cam, hits, cast_points, rows=None, y0=0):
         The image row of ``hits``'s row 0. A band's top and bottom rows are
         image borders only when they are the image's: ``hits`` then starts or
         ends there.
+    counts : (R,) int64, optional
+        The suspicious pixels of each row of ``rows`` as the camera kernel
+        counted them while casting (``-1`` for a row it left: finished here);
+        without it, a parallel pass counts them.
     """
     if not _JITTER:
         return
-    rows_flagged = _suspicious_rows_kernel(hits.prim, hits.t, _JUMP)
-    if rows is not None:
-        rows_flagged[:rows[0]] = 0
-        rows_flagged[rows[1]:] = 0
-    rows = rows_flagged
+    lo, hi = (0, hits.prim.shape[0]) if rows is None else rows
+    if counts is None:
+        rows = _suspicious_rows_kernel(hits.prim, hits.t, _JUMP)
+    else:  # the camera kernel's counts: finish the rows it left, at its block boundaries
+        finish_counts(hits.prim, hits.t, 1.0 + _JUMP, counts, lo, hi)
+        rows = counts.copy()
+    rows[:lo] = 0
+    rows[hi:] = 0
     n = int(rows.sum())
     if n == 0:
         return

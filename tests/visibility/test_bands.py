@@ -60,7 +60,8 @@ def test_bands_are_the_whole_frame_cast_bit_for_bit(rows):
     geo, cam = scene.geometry, scene.camera
     whole = rs.cast_camera(geo, cam)
     raw = rs.HitBuffer.empty(cam.height, cam.width)
-    cast._cast_camera_kernel(embree_accel(geo).handle, camera_frame(cam, geo.origin), 0, *raw)
+    cast._cast_camera_kernel(embree_accel(geo).handle, camera_frame(cam, geo.origin), *raw, 0, 0, 0, 0,
+                             np.empty(cam.height, np.int64), 1e-3)
     repaired = np.flatnonzero((raw.prim != whole.prim).ravel()) // cam.width
     assert len(repaired) >= 10 and len(np.unique(repaired // rows)) >= min(3, -(-cam.height // rows))  # in most bands
     got, starts = _stitched(geo, cam, rows)
@@ -69,6 +70,36 @@ def test_bands_are_the_whole_frame_cast_bit_for_bit(rows):
     # The bands tile the image, top to bottom.
     assert [s for s, _ in starts] == list(np.cumsum([0] + [n for _, n in starts[:-1]]))
     assert sum(n for _, n in starts) == cam.height
+
+
+@pytest.mark.parametrize("top, lo, hi", [(0, 0, 0), (0, 0, -1), (2, 1, -1), (2, 1, 0), (2, 5, -40)])
+def test_the_cast_kernel_counts_the_slips_it_casts(top, lo, hi):
+    """The suspicious-pixel count folded into the packet loop: after the serial finish of
+    the rows it leaves at block boundaries, each row of ``lo .. hi`` has the count of the
+    separate test over the same window (rows before ``top`` cast beforehand, as a band's
+    neighbours are); rows outside keep their value. The hits are the whole frame's rows.
+    Rows beyond the window are refused."""
+    scene = _grid_scene(width=130, height=98 + 2)
+    geo, cam = scene.geometry, scene.camera
+    handle, cf = embree_accel(geo).handle, camera_frame(cam, geo.origin)
+    whole = rs.HitBuffer.empty(cam.height, cam.width)
+    cast._cast_camera_kernel(handle, cf, *whole, 0, 0, 0, 0, np.empty(cam.height, np.int64), 1e-3)
+    y0 = 4 - top  # window row ``top`` is image row 4 (a tile boundary)
+    n = top + 96
+    hi += n  # ``hi`` given from the window's end
+    win = rs.HitBuffer.empty(n, cam.width)
+    for dst, src in zip(win, whole):
+        dst[:top] = src[y0:y0 + top]  # the rows "cast before"
+    counts = np.full(n, 7, np.int64)
+    cast._cast_camera_kernel(handle, cf, *win, y0, top, lo, hi, counts, holes._JUMP)
+    for dst, src in zip(win, whole):
+        np.testing.assert_array_equal(dst, src[y0:y0 + n])
+    assert (counts[:lo] == 7).all() and (counts[hi:] == 7).all()
+    holes.finish_counts(win.prim, win.t, 1.0 + holes._JUMP, counts, lo, hi)
+    want = holes._suspicious_rows_kernel(win.prim, win.t, holes._JUMP)
+    assert counts[lo:hi].tolist() == want[lo:hi].tolist() and want[lo:hi].sum() >= 10
+    with pytest.raises(ValueError, match="rows"):
+        cast._cast_camera_kernel(handle, cf, *win, y0, top, lo, n + 1, counts, holes._JUMP)
 
 
 def test_a_frame_no_taller_than_a_band_is_one_band():

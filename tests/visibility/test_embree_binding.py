@@ -78,7 +78,7 @@ _POISONED = textwrap.dedent("""
     serial = numba.njit(parallel=False)
     for name, kernel in (("par", cast._cast_camera_kernel), ("ser", serial(cast._cast_camera_kernel.py_func))):
         hits = [np.empty((h, w), dt) for dt in (np.int32, np.int32, np.float32, np.float32, np.float32)]
-        kernel(handle, cam, 0, *hits)
+        kernel(handle, cam, *hits, 0, 0, 0, h, np.empty(h, np.int64), 1e-3)
         out.update({f"cam_{name}_{i}": a for i, a in enumerate(hits)})
     o, d = generate_rays(scene.camera, geo.origin)
     o, d = o.astype(np.float64), d.astype(np.float64)
@@ -138,7 +138,8 @@ def test_kernels_keep_their_embree_buffers_alive_when_frees_are_poisoned(tmp_pat
 
     h, w = scene.camera.height, scene.camera.width
     ref = [np.empty((h, w), dt) for dt in (np.int32, np.int32, np.float32, np.float32, np.float32)]
-    cast._cast_camera_kernel(embree_accel(geo).handle, camera_frame(scene.camera, geo.origin), 0, *ref)
+    cast._cast_camera_kernel(embree_accel(geo).handle, camera_frame(scene.camera, geo.origin), *ref, 0, 0, 0, h,
+                             np.empty(h, np.int64), 1e-3)
     assert (ref[0] >= 0).mean() > 0.3
     for name in ("par", "ser"):
         for i, a in enumerate(ref):

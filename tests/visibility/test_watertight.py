@@ -239,6 +239,24 @@ def test_suspicious_count_matches_the_mask(density):
         assert mask[0].tolist() == [bool(f) for f in flagged]
 
 
+@pytest.mark.parametrize("density", [0.3, 0.7, 0.97])
+def test_the_folded_row_count_is_the_mask_row_by_row(density):
+    """The branch-free count the camera kernel runs per row (``row_suspicious``), and the
+    serial finish of rows it leaves, equal the mask of ``_suspicious`` on every row, narrow
+    images and single rows included."""
+    rng = np.random.default_rng(int(density * 1000))
+    for shape in [(1, 1), (1, 2), (2, 1), (2, 2), (1, 7), (7, 1), (3, 3), (5, 2), (37, 53)]:
+        hit = rng.random(shape) < density
+        prim = np.where(hit, 5, -1).astype(np.int32)
+        t = np.where(hit, rng.choice([1.0, 1.0005, 1.002, 2.0], size=shape), np.inf).astype(np.float32)
+        mask = np.empty(shape, np.bool_)
+        holes._suspicious_kernel(prim, t, 1e-3, mask)
+        counts = np.full(shape[0], -1, np.int64)
+        holes.finish_counts(prim, t, 1.0 + 1e-3, counts, 0, shape[0])
+        assert counts.tolist() == mask.sum(axis=1).tolist()
+        assert [holes.row_suspicious.py_func(prim, t, 1.0 + 1e-3, y) for y in range(shape[0])] == counts.tolist()
+
+
 def test_exact_retest_closed_forms():
     """The exact test at a shared vertex and a shared edge of a flat fan, and
     past its border: barycentrics of the corner, the edge midpoint, a miss."""
