@@ -117,8 +117,12 @@ def _target(path, atomic):
 
 
 def save_npz(path, buffers: dict, *, image=None, camera=None, compressed: bool | int = False,
-             atomic: bool = False) -> str:
+             threads: int | None = None, atomic: bool = False) -> str:
     """Write buffers (and optionally the image and the camera's K, R, t) to one ``.npz``.
+
+    The arrays' CRCs and deflate run on threads while the file is written
+    (:mod:`~raycast_shade.output.npzwrite`); the file is what ``np.savez``
+    (``np.savez_compressed``) writes, read by ``np.load``.
 
     Parameters
     ----------
@@ -131,11 +135,15 @@ def save_npz(path, buffers: dict, *, image=None, camera=None, compressed: bool |
     image : (H, W, 3) float32, optional
     camera : Camera, optional
     compressed : bool or int
-        ``False`` (the default): stored, as ``np.savez`` (the fastest: at
-        1080p zlib costs several frames, see ``docs/performance.md``);
-        ``True``: zlib at level 6, as ``np.savez_compressed``; an int
-        ``0 <= level <= 9``: zlib at that level (1: the fastest that
-        compresses). Every variant is an ordinary ``.npz`` (``np.load``).
+        ``False`` (the default): stored, the fastest (see
+        ``docs/performance.md``); ``True``: deflated at level 1; an int
+        ``0 <= level <= 9``: deflated at that level. Levels 1-3 use ISA-L
+        (the ``isal`` package, extra ``vision``) when installed, several
+        times zlib's speed for a slightly larger file; the others zlib.
+    threads : int, optional
+        Workers for the CRCs and deflate (0 or 1: none); default: one per CPU.
+    atomic : bool
+        Write a temporary beside ``path`` and move it there once whole.
 
     Returns
     -------
@@ -147,8 +155,11 @@ def save_npz(path, buffers: dict, *, image=None, camera=None, compressed: bool |
     TypeError, ValueError
         Naming the buffer or argument at fault, before the file is opened.
     """
+    from .npzwrite import write_npz
+
     path = _check_path(path, ".npz")
     level = npz_level(compressed)
+    threads = _threads(threads)
     reserved = NPZ_RESERVED + (("image",) if image is not None else ()) + (("K", "R", "t") if camera is not None else ())
     arrays, _ = _check_buffers(buffers, image, reserved)
     if image is not None:
@@ -158,30 +169,25 @@ def save_npz(path, buffers: dict, *, image=None, camera=None, compressed: bool |
             raise TypeError(f"camera: expected a Camera, got {type(camera).__name__}")
         arrays["K"], arrays["R"], arrays["t"] = camera.to_opencv()
     with _target(path, atomic) as target, open(target, "wb") as fh:
-        _write_npz(fh, arrays, level)
+        write_npz(fh, arrays, level, threads=threads)
     return path
 
 
+def _threads(threads, field: str = "threads") -> int:
+    if threads is None:
+        return os.cpu_count() or 1
+    return as_int(threads, field, minimum=0)
+
+
 def npz_level(compressed, field: str = "compressed"):
-    """The zlib level of ``compressed`` (``None``: stored); TypeError/ValueError naming ``field``."""
+    """The deflate level of ``compressed`` (``None``: stored; ``True``: 1); TypeError/ValueError naming ``field``."""
     if isinstance(compressed, (bool, np.bool_)):
-        return 6 if compressed else None
+        return 1 if compressed else None
     if not isinstance(compressed, (int, np.integer)):
-        raise TypeError(f"{field}: expected a bool or a zlib level 0-9, got {type(compressed).__name__}")
+        raise TypeError(f"{field}: expected a bool or a deflate level 0-9, got {type(compressed).__name__}")
     if not 0 <= int(compressed) <= 9:
-        raise ValueError(f"{field}: expected a zlib level 0-9, got {compressed}")
+        raise ValueError(f"{field}: expected a deflate level 0-9, got {compressed}")
     return int(compressed)
-
-
-def _write_npz(fh, arrays: dict, level) -> None:
-    """``np.savez``'s layout (one ``name.npy`` member per array), stored or deflated at ``level``."""
-    import zipfile
-
-    mode = zipfile.ZIP_STORED if level is None else zipfile.ZIP_DEFLATED
-    with zipfile.ZipFile(fh, "w", compression=mode, compresslevel=level, allowZip64=True) as zf:
-        for name, a in arrays.items():
-            with zf.open(name + ".npy", "w", force_zip64=True) as member:
-                np.lib.format.write_array(member, np.asanyarray(a), allow_pickle=False)
 
 
 def load_npz(path) -> dict:
@@ -269,10 +275,7 @@ def write_exr(path, buffers: dict, *, image=None, compression: str = "none", thr
 
     path = _check_path(path, ".exr")
     compression = as_choice(compression, "compression", EXR_COMPRESSIONS)
-    if threads is None:
-        threads = os.cpu_count() or 1
-    else:
-        threads = as_int(threads, "threads", minimum=0)
+    threads = _threads(threads)
     channels = _exr_channels(buffers, image)
     codec = getattr(OpenEXR, ("NO" if compression == "none" else compression.upper()) + "_COMPRESSION", None)
     if codec is None:  # ZSTD came with OpenEXR 3.4

@@ -1,4 +1,4 @@
-"""save_npz's zlib levels and write_exr's compressions: every choice reads back bit for bit."""
+"""save_npz's deflate levels and write_exr's compressions: every choice reads back bit for bit."""
 
 from __future__ import annotations
 
