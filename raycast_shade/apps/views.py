@@ -127,13 +127,14 @@ class _ViewSpec:
     compression: str = "none"
 
 
-def _write_view(job, base, spec: _ViewSpec, cache: SceneCache) -> str:
-    """Render and write one view (unless its record shows it done); returns its stem."""
+def _render_view(job, base, spec: _ViewSpec, cache: SceneCache):
+    """Render one view: ``(files, frame, key, objects)`` for :func:`_store_view`, or None when its
+    record shows it done."""
     files = {k: os.path.join(spec.out_dir, v) for k, v in view_files(job.index, spec.formats, spec.image).items()}
     key = view_key(spec.settings_hash, job)
     if spec.options.resume and view_is_done(files, key):
         cache.count("skipped")
-        return _STEM.format(job.index)
+        return None
     if os.path.exists(files["record"]):
         os.unlink(files["record"])  # the record goes first: never a record beside half-replaced files
     if "geometry" not in base.__dict__:
@@ -147,9 +148,33 @@ def _write_view(job, base, spec: _ViewSpec, cache: SceneCache) -> str:
     boxes = [(m.mesh.vertices.min(axis=0), m.mesh.vertices.max(axis=0)) for m in scene.models]
     objects = view_objects(frame.buffers["model_id"], job.camera, rle=True, alone=alone, boxes_3d=boxes)
     cache.count("renders")
+    return files, frame, key, objects
+
+
+def _store_view(job, spec: _ViewSpec, files, frame, key, objects) -> None:
+    """Write a rendered view's files, then its record."""
     _write_files(files, frame, {k: v for k, v in frame.buffers.items() if k in spec.buffers}, job, spec)
     write_record(files, key, job, objects)
-    return _STEM.format(job.index)
+
+
+def _run_views(jobs, base_of, spec: _ViewSpec, cache: SceneCache) -> list:
+    """Render and store ``jobs`` in order; each view's files are written on a writer thread while the
+    next view renders (compression, writing, fsync and hashing release the GIL). At most two views'
+    frames are alive at once. Returns the views' stems."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    stems = []
+    with ThreadPoolExecutor(1, thread_name_prefix="view-writer") as writer:
+        pending = None
+        for job in jobs:
+            rendered = _render_view(job, base_of(job), spec, cache)
+            if pending is not None:
+                pending.result()  # the previous view's files and record (its error, if any, stops the set)
+            pending = None if rendered is None else writer.submit(_store_view, job, spec, *rendered)
+            stems.append(_STEM.format(job.index))
+        if pending is not None:
+            pending.result()
+    return stems
 
 
 def _write_files(files, frame, kept, job, spec: _ViewSpec) -> None:
@@ -160,11 +185,12 @@ def _write_files(files, frame, kept, job, spec: _ViewSpec) -> None:
     linear = frame.image if spec.float_image else None
     zipped = spec.compression == "zip"
     writers = {
-        "image": lambda p: write_image(p, frame.image, atomic=True, **spec.options.tone),
+        "image": lambda p: write_image(p, frame.image, atomic=True, fast=True, **spec.options.tone),
         "npz": lambda p: save_npz(p, kept, image=linear, camera=job.camera, compressed=1 if zipped else False,
                                   atomic=True),
         "exr": lambda p: write_exr(p, kept, image=linear, compression="zip" if zipped else "none", atomic=True),
-        "depth_png": lambda p: write_depth_png(p, frame.buffers["zdepth"], scale=spec.depth_scale, atomic=True),
+        "depth_png": lambda p: write_depth_png(p, frame.buffers["zdepth"], scale=spec.depth_scale, fast=True,
+                                                   atomic=True),
     }
     todo = [(writers[k], p) for k, p in files.items() if k in writers]
     if len(todo) == 1:
@@ -189,7 +215,7 @@ def _run_on_worker(jobs, scene, spec: _ViewSpec) -> list:
     # Rebuilt cameras and lights are read-only again: the workers load the cached kernels.
     jobs = [dataclasses.replace(j, camera=dataclasses.replace(j.camera),
                                 lights=tuple(dataclasses.replace(light) for light in j.lights)) for j in jobs]
-    return [_write_view(job, base, spec, cache) for job in jobs]
+    return _run_views(jobs, lambda job: base, spec, cache)
 
 
 def _iter_dask(client, bases, todo, spec, retries, per_task):
@@ -393,8 +419,7 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
     on_dask = workers is not None or scheduler is not None
     if not on_dask:
         cache = SceneCache()
-        for job in jobs:
-            _write_view(job, cache.base(job.key, bases[job.key]), spec, cache)
+        _run_views(jobs, lambda job: cache.base(job.key, bases[job.key]), spec, cache)
     else:
         from .batch.cluster import connect
 

@@ -33,7 +33,7 @@ import numpy as np
 
 from ..common.validate import as_int, as_scalar
 
-from .imagefile import atomic_target
+from .imagefile import atomic_target, png_deflate
 
 __all__ = ["EXR_COMPRESSIONS", "npz_level", "save_npz", "load_npz", "write_exr", "read_exr", "write_depth_png", "read_depth_png"]
 
@@ -313,7 +313,7 @@ def read_exr(path) -> dict:
     return out
 
 
-def write_depth_png(path, depth, *, scale: float = 1000.0, atomic: bool = False) -> str:
+def write_depth_png(path, depth, *, scale: float = 1000.0, fast: bool = False, atomic: bool = False) -> str:
     """Write depth as a 16-bit grey PNG of ``round(depth * scale)``.
 
     Parameters
@@ -324,6 +324,11 @@ def write_depth_png(path, depth, *, scale: float = 1000.0, atomic: bool = False)
         Depth in world units, ``>= 0``; 0 (or not finite) where there is none.
     scale : float
         Stored units per world unit (1000: millimetres from metres).
+    fast : bool
+        Deflate for speed, not size
+        (:func:`~raycast_shade.output.imagefile.png_deflate`).
+    atomic : bool
+        Write a temporary beside ``path`` and move it there once whole.
 
     Notes
     -----
@@ -354,7 +359,7 @@ def write_depth_png(path, depth, *, scale: float = 1000.0, atomic: bool = False)
 
     header = struct.pack(">IIBBBBB", w, h, 16, 0, 0, 0, 0)  # 16-bit greyscale, no interlace
     with _target(path, atomic) as target, open(target, "wb") as fh:
-        fh.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw.tobytes(), 6))
+        fh.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", png_deflate(raw.tobytes(), fast))
                  + chunk(b"IEND", b""))
     return path
 

@@ -47,3 +47,45 @@ def test_bad_file_options_are_refused_before_anything_is_written(scene, tmp_path
     with pytest.raises(TypeError, match="float_image: expected True or False"):
         render_views(scene, cam, tmp_path / "x", float_image="yes")
     assert not (tmp_path / "x").exists()
+
+
+def test_each_views_files_hold_that_views_frame_with_the_writer_thread(scene, tmp_path):
+    import imageio.v3 as iio
+
+    from raycast_shade.output.tonemap import to_uint8
+
+    cams = orbit_cameras(scene.camera, 3)
+    render_views(scene, cams, tmp_path, buffers=["zdepth", "normal", "id"], formats=["npz", "depth_png"])
+    for i, cam in enumerate(cams):  # view i rendered while view i - 1 was written: nothing crossed over
+        frame = rs.render(scene, camera=cam, buffers=("zdepth", "normal", "id"))
+        back = load_npz(tmp_path / f"view_{i:05d}.npz")
+        for name, buf in frame.buffers.items():
+            assert np.array_equal(back[name], buf), (i, name)
+        assert np.array_equal(iio.imread(tmp_path / f"view_{i:05d}.png"), to_uint8(frame.image)), i
+        assert (tmp_path / f"view_{i:05d}.json").exists()
+
+
+def test_a_failed_write_stops_the_set_without_its_record_and_a_rerun_finishes_it(scene, tmp_path, monkeypatch):
+    import raycast_shade.apps.views as views
+
+    cams = orbit_cameras(scene.camera, 3)
+    real = views.save_npz
+    calls = []
+
+    def failing(path, *args, **kw):
+        calls.append(path)
+        if len(calls) == 2:
+            raise OSError("disk full (simulated)")
+        return real(path, *args, **kw)
+
+    monkeypatch.setattr(views, "save_npz", failing)
+    with pytest.raises(OSError, match="disk full"):
+        render_views(scene, cams, tmp_path / "set", buffers=["zdepth"], image=None)
+    assert (tmp_path / "set" / "view_00000.json").exists()
+    assert not (tmp_path / "set" / "view_00001.json").exists()
+    monkeypatch.setattr(views, "save_npz", real)
+    render_views(scene, cams, tmp_path / "set", buffers=["zdepth"], image=None)
+    render_views(scene, cams, tmp_path / "one", buffers=["zdepth"], image=None)
+    for i in range(3):  # the finished set holds the bytes a single run writes
+        name = f"view_{i:05d}.npz"
+        assert (tmp_path / "set" / name).read_bytes() == (tmp_path / "one" / name).read_bytes(), name
