@@ -204,21 +204,22 @@ def _exr_channels(buffers, image):
     channels = {}
     if image is not None:
         img = as_array(image, "image", dtype=np.float32, finite=False)
-        for i, c in enumerate("RGB"):
-            channels[c] = np.ascontiguousarray(img[..., i])
+        channels.update(zip("RGB", _planes(img)))
     for name, buf in arrays.items():
         field = f"buffers[{name!r}]"
         if "." in name:
             raise ValueError(f"{field}: EXR names a 3-vector's channels name.X, name.Y, name.Z; "
                              f"a name with a dot would be read back as one")
         if name in _ID_BUFFERS:
-            ids = as_array(buf, field, dtype=np.int64, ndim=2)
+            ids = buf if buf.dtype == np.int32 else as_array(buf, field, dtype=np.int64, ndim=2)
+            if ids.ndim != 2:
+                raise ValueError(f"{field}: expected shape (H, W), got {ids.shape}")
             lo, hi = _ID_RANGE
             if ids.size and (ids.min() < lo or ids.max() > hi):
                 bad = ids.min() if ids.min() < lo else ids.max()
                 raise ValueError(f"{field}: id {int(bad)} outside the range EXR holds here, [{lo}, {hi}] "
                                  f"(stored as uint32 id + 1)")
-            channels[name] = np.ascontiguousarray(ids + 1, dtype=np.uint32)
+            channels[name] = ids.astype(np.uint32) + np.uint32(1)  # -1 wraps to 2**32 - 1, + 1 to 0
         elif name in _MASKS:
             if buf.dtype != np.bool_ or buf.ndim != 2:
                 raise TypeError(f"{field}: expected an (H, W) bool mask, got {buf.dtype} {buf.shape}")
@@ -230,13 +231,18 @@ def _exr_channels(buffers, image):
         else:
             buf = as_array(buf, field, dtype=np.float32, finite=False)
             if buf.ndim == 3:
-                for i, axis in enumerate(_AXES):
-                    channels[f"{name}.{axis}"] = np.ascontiguousarray(buf[..., i])
+                channels.update((f"{name}.{axis}", plane) for axis, plane in zip(_AXES, _planes(buf)))
             else:
                 channels[name] = buf
     if not channels:
         raise ValueError("buffers: nothing to write (no buffers and no image)")
     return channels
+
+
+def _planes(a: np.ndarray) -> np.ndarray:
+    """(3, H, W) contiguous copy of an (H, W, 3) array: one transposing copy, about 2x three strided
+    per-channel copies."""
+    return np.moveaxis(a, 2, 0).copy()
 
 
 def write_exr(path, buffers: dict, *, image=None, compression: str = "none", threads: int | None = None,
