@@ -2,9 +2,10 @@
 
 * ``.npz``: every buffer under its name (and the linear ``image`` and the
   camera's ``K``, ``R``, ``t`` when given), dtypes kept.
-* ``.exr`` (the ``openexr`` package, extra ``vision``): float32 channels,
-  stored uncompressed unless a compression is asked for (:data:`EXR_COMPRESSIONS`;
-  OpenEXR's own threads compress the blocks). The image is ``R, G, B``; a scalar buffer is the channel
+* ``.exr``: float32 channels, stored uncompressed unless a compression is
+  asked for (:data:`EXR_COMPRESSIONS`): uncompressed, ZIPS and ZIP laid out
+  with NumPy and deflated on threads (:mod:`~raycast_shade.output.exrwrite`),
+  the others and the reader through the ``openexr`` package (extra ``vision``). The image is ``R, G, B``; a scalar buffer is the channel
   ``name``; a 3-vector buffer ``name.X, name.Y, name.Z``; ids are ``UINT``
   channels holding ``id + 1`` (0 on the background), the mask a ``UINT``
   0/1 channel. :func:`read_exr` undoes all of it.
@@ -44,8 +45,9 @@ _AXES = ("X", "Y", "Z")
 # taken as the argument itself.
 NPZ_RESERVED = ("file", "allow_pickle")
 _ID_RANGE = (-1, 2**31 - 1)  # stored as uint32 id + 1, read back as int32
-#: write_exr's compressions (OpenEXR's names, lower case). At 1080p only "none" writes in less than
-#: a frame's time; "zstd" gives the smallest files (OpenEXR >= 3.4 reads them), "zip" the most widely read.
+#: write_exr's compressions (OpenEXR's names, lower case): "none", "zips" and "zip" written here with
+#: NumPy (blocks deflated on threads), the others by OpenEXR; "zstd" gives the smallest files (OpenEXR
+#: >= 3.4 reads them), "zip" the most widely read.
 EXR_COMPRESSIONS = ("none", "rle", "zips", "zip", "piz", "zstd")
 
 
@@ -261,31 +263,42 @@ def write_exr(path, buffers: dict, *, image=None, compression: str = "none", thr
     image : (H, W, 3) float, optional
     compression : str
         One of :data:`EXR_COMPRESSIONS`; ``"none"`` (the default) is the
-        fastest by far (see ``docs/performance.md`` for times and sizes).
+        fastest (see ``docs/performance.md`` for times and sizes). ``"none"``,
+        ``"zips"`` and ``"zip"`` are laid out here with NumPy, the blocks
+        deflated on threads (:mod:`~raycast_shade.output.exrwrite`); the
+        others by the ``openexr`` package.
     threads : int, optional
-        OpenEXR's worker threads while this file is written (its
-        process-wide count is put back afterwards); default: one per CPU.
+        Worker threads deflating the blocks (OpenEXR's, for its
+        compressions; its process-wide count is put back afterwards);
+        default: one per CPU.
 
     Raises
     ------
     ImportError
-        Without the ``openexr`` package (``pip install raycast_shade[vision]``).
+        ``"rle"``, ``"piz"`` or ``"zstd"`` without the ``openexr`` package
+        (``pip install raycast_shade[vision]``).
     TypeError, ValueError
         Naming the buffer, before the file is opened.
     """
-    try:
-        import OpenEXR
-    except ImportError as exc:
-        raise ImportError("write_exr: needs the openexr package (pip install 'raycast_shade[vision]')") from exc
     from ..common.validate import as_choice
+    from .exrwrite import LINES_PER_BLOCK, write_exr_numpy
 
     path = _check_path(path, ".exr")
     compression = as_choice(compression, "compression", EXR_COMPRESSIONS)
     threads = _threads(threads)
-    channels = _exr_channels(buffers, image)
-    codec = getattr(OpenEXR, ("NO" if compression == "none" else compression.upper()) + "_COMPRESSION", None)
+    if compression in LINES_PER_BLOCK:  # laid out with NumPy, blocks deflated on our threads
+        channels = _exr_channels(buffers, image)
+        with _target(path, atomic) as target, open(target, "wb") as fh:
+            write_exr_numpy(fh, channels, compression, threads=threads)
+        return path
+    try:
+        import OpenEXR
+    except ImportError as exc:
+        raise ImportError("write_exr: needs the openexr package (pip install 'raycast_shade[vision]')") from exc
+    codec = getattr(OpenEXR, compression.upper() + "_COMPRESSION", None)
     if codec is None:  # ZSTD came with OpenEXR 3.4
         raise ValueError(f"compression: {compression!r} needs a newer openexr package than the one installed")
+    channels = _exr_channels(buffers, image)
     header = {"compression": codec, "type": OpenEXR.scanlineimage}
     before = OpenEXR.global_thread_count()
     OpenEXR.set_global_thread_count(int(threads))
