@@ -64,6 +64,7 @@ from ..output.buffers import check_buffers
 from ..output.labels import object_table, semantic_classes, unoccluded_masks, view_objects, write_coco
 from ..output.imagefile import check_image_path, remove_stale_temps, write_image
 from ..render import render
+from ..visibility.accel import embree_accel
 from .batch.cache import PLUGIN_NAME, SceneCache, cache_of
 from .batch.options import check_options
 from .batch.plan import plan_batch
@@ -125,6 +126,7 @@ class _ViewSpec:
     unoccluded: bool = False
     float_image: bool = False
     compression: str = "none"
+    overlap: bool = True  # write a view's files while the next renders (two frames alive)
 
 
 def _render_view(job, base, spec: _ViewSpec, cache: SceneCache):
@@ -139,6 +141,9 @@ def _render_view(job, base, spec: _ViewSpec, cache: SceneCache):
         os.unlink(files["record"])  # the record goes first: never a record beside half-replaced files
     if "geometry" not in base.__dict__:
         cache.count("builds")
+    kwargs = spec.options.render_kwargs
+    if kwargs.get("caster", "auto") != "embreex" and kwargs.get("backend") != "raster":
+        embree_accel(base.geometry)  # packed and built once per mesh set; Scene.replace shares both
     scene = base.replace(lights=job.lights, camera=job.camera, ambient=job.ambient, background=job.background)
     extra = [b for b in ("model_id",) + (("zdepth",) if "depth_png" in spec.formats else ()) if b not in spec.buffers]
     frame = render(scene, spec.options.shading, camera=job.camera, buffers=spec.buffers + tuple(extra),
@@ -158,11 +163,19 @@ def _store_view(job, spec: _ViewSpec, files, frame, key, objects) -> None:
 
 
 def _run_views(jobs, base_of, spec: _ViewSpec, cache: SceneCache) -> list:
-    """Render and store ``jobs`` in order; each view's files are written on a writer thread while the
-    next view renders (compression, writing, fsync and hashing release the GIL). At most two views'
-    frames are alive at once. Returns the views' stems."""
+    """Render and store ``jobs`` in order; with ``spec.overlap`` each view's files are written on a
+    writer thread while the next view renders (compression, writing, fsync and hashing release the
+    GIL), so two views' frames are alive at once. Returns the views' stems."""
     from concurrent.futures import ThreadPoolExecutor
 
+    if not spec.overlap:
+        stems = []
+        for job in jobs:
+            rendered = _render_view(job, base_of(job), spec, cache)
+            if rendered is not None:
+                _store_view(job, spec, *rendered)
+            stems.append(_STEM.format(job.index))
+        return stems
     stems = []
     with ThreadPoolExecutor(1, thread_name_prefix="view-writer") as writer:
         pending = None
@@ -403,11 +416,12 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
     exports, compression = _check_set_options(exports, image, unoccluded, overwrite, depth_scale, float_image,
                                               compression)
     options = check_options(shading, render_kwargs, tone, resume)
-    bases, jobs = plan_batch(scene, cameras, memory=dict(buffers=names + ("model_id",),
-                                                         samples=options.render_kwargs.get("samples", 1)))
+    memory = dict(buffers=names + ("model_id",), samples=options.render_kwargs.get("samples", 1))
+    bases, jobs = plan_batch(scene, cameras, memory=memory)
     spec = _ViewSpec(options, names, formats, None if image is None else str(image).lower(), out_dir,
                      float(depth_scale), exports=exports, unoccluded=bool(unoccluded),
-                     float_image=bool(float_image), compression=compression)
+                     float_image=bool(float_image), compression=compression,
+                     overlap=_two_frames_fit(jobs, memory))
     spec = dataclasses.replace(spec, settings_hash=digest(json.dumps(_settings(spec), sort_keys=True)))
     plan = _make_plan(spec, jobs)
     os.makedirs(out_dir, exist_ok=True)
@@ -438,6 +452,16 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
     path = os.path.join(out_dir, INDEX_NAME)
     write_json(path, index)
     return path
+
+
+def _two_frames_fit(jobs, memory) -> bool:
+    """Whether two of the largest frame (the one writing, the next rendering) fit in the memory limit
+    that :meth:`~raycast_shade.scene.camera.Camera.check_frame_memory` holds one frame to."""
+    from ..common.validate import memory_limit
+    from ..scene.framememory import frame_bytes_per_pixel
+
+    pixels = max((float(j.camera.width) * float(j.camera.height) for j in jobs), default=0.0)
+    return 2.0 * pixels * frame_bytes_per_pixel(**memory) <= memory_limit()
 
 
 def _write_exports(scene, jobs, index, spec: _ViewSpec) -> None:

@@ -89,3 +89,36 @@ def test_a_failed_write_stops_the_set_without_its_record_and_a_rerun_finishes_it
     for i in range(3):  # the finished set holds the bytes a single run writes
         name = f"view_{i:05d}.npz"
         assert (tmp_path / "set" / name).read_bytes() == (tmp_path / "one" / name).read_bytes(), name
+
+
+def test_views_overlap_only_where_two_frames_fit_the_memory_limit(scene, monkeypatch, tmp_path):
+    import raycast_shade.common.validate as validate
+    from raycast_shade.apps import views
+    from raycast_shade.scene.framememory import frame_bytes_per_pixel
+
+    jobs = [type("Job", (), {"camera": c})() for c in orbit_cameras(scene.camera, 2)]
+    memory = dict(buffers=("zdepth", "model_id"), samples=1)
+    one = scene.camera.width * scene.camera.height * frame_bytes_per_pixel(**memory)
+    monkeypatch.setattr(validate, "memory_limit", lambda: 2 * one)
+    assert views._two_frames_fit(jobs, memory)
+    monkeypatch.setattr(validate, "memory_limit", lambda: 2 * one - 1)
+    assert not views._two_frames_fit(jobs, memory)
+    # without the overlap the set is written all the same, view after view
+    render_views(scene, orbit_cameras(scene.camera, 2), tmp_path, buffers=["zdepth"], image=None)
+    assert sorted(p.name for p in tmp_path.glob("view_*.npz")) == ["view_00000.npz", "view_00001.npz"]
+
+
+def test_a_view_set_packs_and_builds_its_bvh_once(scene, tmp_path, monkeypatch):
+    import raycast_shade.visibility.embree as embree
+
+    builds = []
+    real = embree.EmbreeAccel.__init__
+
+    def counting(self, *args, **kw):
+        builds.append(1)
+        real(self, *args, **kw)
+
+    monkeypatch.setattr(embree.EmbreeAccel, "__init__", counting)
+    fresh = rs.Scene([rs.Model(rs.shapes.icosphere(1))], lights=scene.lights, camera=scene.camera)  # no BVH yet
+    render_views(fresh, orbit_cameras(scene.camera, 3), tmp_path, buffers=["zdepth"], image=None)
+    assert len(builds) == 1  # one mesh set: one BVH, shared by the three views
