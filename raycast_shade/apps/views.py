@@ -11,11 +11,15 @@ scene per mesh set, the scene cache; serially, on a local Dask cluster with
   ``"npz"``), and the linear image with ``float_image=True``;
 * ``view_{i:05d}.exr``: the buffers (``"exr"``), and the linear image with
   ``float_image=True``;
-
-npz and EXR files are stored uncompressed unless ``compression="zip"``
-(npz: zlib level 1; EXR: ZIP, on OpenEXR's threads): at 1080p compressing
-costs several frames per view (``docs/performance.md``).
 * ``view_{i:05d}_depth.png``: 16-bit z-depth in millimetres (``"depth_png"``);
+
+npz and EXR files are compressed (``compression="zip"``: npz deflate level
+1, EXR ZIP, deflated on threads) or stored (``"none"``). The default,
+``"auto"``, is ``"zip"`` where ISA-L's deflate (the ``isal`` package) is
+installed, which compresses about as fast as the stored bytes are written
+(``benchmarks/bench_paths.py``: a view with zip took no longer than one
+stored, for files about 4x smaller), and ``"none"`` without it (zlib is
+several times slower). The plan records the choice made.
 
 * ``view_{i:05d}.json``: the view's record, written last: the hash of
   what it was rendered from, each file's size and BLAKE2b digest, and the
@@ -74,7 +78,7 @@ from .viewplan import (PLAN_FORMAT, PLAN_NAME, digest, prepare_folder, view_hash
 __all__ = ["render_views", "FORMATS", "EXPORTS", "INDEX_NAME", "PLAN_NAME", "view_files", "register_cli", "run_cli"]
 
 FORMATS = ("npz", "exr", "depth_png")
-COMPRESSIONS = ("none", "zip")  # render_views' compression: npz zlib level 1 and EXR ZIP, or neither
+COMPRESSIONS = ("auto", "none", "zip")  # npz deflate level 1 and EXR ZIP, or neither; auto: zip with ISA-L
 EXPORTS = ("coco", "nerfstudio", "colmap")
 EXPORT_FILES = {"coco": ("coco_instances.json",), "nerfstudio": ("transforms.json",),
                 "colmap": tuple(os.path.join("colmap", n) for n in ("cameras.txt", "images.txt", "points3D.txt"))}
@@ -320,6 +324,10 @@ def _check_set_options(exports, image, unoccluded, overwrite, depth_scale, float
 
     exports = _check_formats(exports, "exports", EXPORTS)
     compression = as_choice(compression, "compression", COMPRESSIONS)
+    if compression == "auto":
+        from ..output.npzwrite import deflate_backend
+
+        compression = "zip" if deflate_backend(1) == "isal" else "none"
     for e in ("nerfstudio", "colmap"):
         if e in exports and image is None:
             raise ValueError(f"exports: {e!r} names each view's image file, but image=None writes none")
@@ -336,7 +344,7 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
                  image: str | None = ".png", shading="phong", workers: int | None = None, scheduler=None,
                  resume: bool = True, tone: dict | None = None, retries: int = 2, views_per_task: int = 1,
                  numba_threads: int | None = None, depth_scale: float = 1000.0, overwrite: bool = False,
-                 exports=(), unoccluded: bool = False, float_image: bool = False, compression: str = "none",
+                 exports=(), unoccluded: bool = False, float_image: bool = False, compression: str = "auto",
                  **render_kwargs) -> str:
     """Render a set of views with their buffers and cameras into ``out_dir``.
 
@@ -375,9 +383,10 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
     float_image : bool
         Also store the linear float32 image in the npz and EXR files (it
         is the largest array there; default: the buffers only).
-    compression : {"none", "zip"}
-        npz and EXR files stored (the default, the fastest) or compressed
-        (npz: zlib level 1; EXR: ZIP).
+    compression : {"auto", "none", "zip"}
+        npz and EXR files compressed (npz: deflate level 1; EXR: ZIP) or
+        stored; ``"auto"`` (the default): ``"zip"`` where the ``isal``
+        package is installed, else ``"none"`` (see the module docstring).
     views_per_task : int
         Consecutive views per Dask task.
     depth_scale : float
@@ -523,9 +532,9 @@ def register_cli(subparsers):
                         "visible fraction, in index.json")
     p.add_argument("--float-image", action="store_true",
                    help="also store the linear float image in the npz/exr files (default: buffers only)")
-    p.add_argument("--compression", default="none", choices=COMPRESSIONS,
-                   help="npz/exr files stored (none, the default: fastest) or compressed (zip: npz zlib level 1, "
-                        "EXR ZIP)")
+    p.add_argument("--compression", default="auto", choices=COMPRESSIONS,
+                   help="npz/exr files compressed (zip: npz deflate level 1, EXR ZIP) or stored (none); auto, the "
+                        "default: zip where the isal package is installed (as fast as storing), else none")
     p.add_argument("--overwrite", action="store_true",
                    help="replace a view set of another plan in the output folder (default: refuse it)")
     add_render_options(p)

@@ -26,7 +26,8 @@ def _members(path):
 
 def test_float_image_and_zip_compression_when_asked(scene, tmp_path):
     cam = orbit_cameras(scene.camera, 1)
-    render_views(scene, cam, tmp_path / "a", buffers=["zdepth", "id"], formats=["npz", "exr"], image=None)
+    render_views(scene, cam, tmp_path / "a", buffers=["zdepth", "id"], formats=["npz", "exr"], image=None,
+                 compression="none")
     render_views(scene, cam, tmp_path / "b", buffers=["zdepth", "id"], formats=["npz", "exr"], image=None,
                  float_image=True, compression="zip")
     plain, zipped = _members(tmp_path / "a" / "view_00000.npz"), _members(tmp_path / "b" / "view_00000.npz")
@@ -38,6 +39,22 @@ def test_float_image_and_zip_compression_when_asked(scene, tmp_path):
     assert "image" not in ea and np.array_equal(eb["image"], frame.image) and np.array_equal(b["image"], frame.image)
     for name, buf in frame.buffers.items():
         assert np.array_equal(a[name], buf) and np.array_equal(b[name], buf) and np.array_equal(eb[name], buf)
+
+
+@pytest.mark.parametrize("isal", [True, False])
+def test_auto_compression_zips_where_isal_is_installed_and_the_plan_says_which(scene, tmp_path, monkeypatch, isal):
+    import json
+    import sys
+
+    if isal:
+        pytest.importorskip("isal")
+    else:
+        monkeypatch.setitem(sys.modules, "isal", None)
+    render_views(scene, orbit_cameras(scene.camera, 1), tmp_path, buffers=["zdepth"], image=None)
+    want = "zip" if isal else "none"
+    assert set(_members(tmp_path / "view_00000.npz").values()) == {zipfile.ZIP_DEFLATED if isal else zipfile.ZIP_STORED}
+    with open(tmp_path / "plan.json") as fh:
+        assert json.load(fh)["settings"]["compression"] == want
 
 
 def test_bad_file_options_are_refused_before_anything_is_written(scene, tmp_path):
