@@ -359,7 +359,10 @@ def write_depth_png(path, depth, *, scale: float = 1000.0, fast: bool = False, a
 
     from ..common.validate import as_array
 
+    from ..common.validate import as_bool
+
     path = _check_path(path, ".png")
+    fast = as_bool(fast, "fast")
     d = as_array(depth, "depth", dtype=np.float64, ndim=2, finite=False)
     if 0 in d.shape:
         raise ValueError(f"depth: expected a non-empty (H, W) array, got shape {d.shape}")

@@ -163,8 +163,11 @@ def write_image(path, image, *, atomic: bool = False, fast: bool = False, **tone
     str
         ``path``.
     """
+    from ..common.validate import as_bool
+
     path = os.fspath(path)
     check_image_path(path)
+    fast = as_bool(fast, "fast")
     if atomic:
         with atomic_target(path) as tmp:
             _write(tmp, image, tone, fast)

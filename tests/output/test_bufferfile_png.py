@@ -42,3 +42,13 @@ def test_fast_depth_png_reads_back_as_the_default(tmp_path, monkeypatch, isal):
     a, b = read_depth_png(tmp_path / "a.png"), read_depth_png(tmp_path / "b.png")
     assert np.array_equal(a, b) and b[3, 4] == 0.0
     assert np.abs(b[depth > 0] - depth[depth > 0]).max() <= 0.5e-3 + 1e-6
+
+
+def test_fast_must_be_a_flag(tmp_path):
+    from raycast_shade.output.imagefile import write_image
+
+    with pytest.raises(TypeError, match="fast: expected True or False"):
+        write_depth_png(tmp_path / "a.png", np.ones((2, 2)), fast="yes")
+    with pytest.raises(TypeError, match="fast: expected True or False"):
+        write_image(tmp_path / "b.png", np.ones((2, 2, 3), np.float32), fast=1)
+    assert not list(tmp_path.iterdir())
