@@ -198,15 +198,17 @@ def load_npz(path) -> dict:
         return {k: data[k] for k in data.files}
 
 
-def _exr_channels(buffers, image):
-    """EXR channels of checked buffers; refuses what EXR (as written here) cannot give back."""
+def _exr_channels(buffers, image, contiguous: bool = True):
+    """EXR channels of checked buffers; refuses what EXR (as written here) cannot give back.
+
+    ``contiguous=False``: a 3-vector's channels are strided views of it, not copies."""
     from ..common.validate import as_array
 
     arrays, _ = _check_buffers(buffers, image, ("R", "G", "B"))
     channels = {}
     if image is not None:
         img = as_array(image, "image", dtype=np.float32, finite=False)
-        channels.update(zip("RGB", _planes(img)))
+        channels.update(zip("RGB", _planes(img, contiguous)))
     for name, buf in arrays.items():
         field = f"buffers[{name!r}]"
         if "." in name:
@@ -233,7 +235,7 @@ def _exr_channels(buffers, image):
         else:
             buf = as_array(buf, field, dtype=np.float32, finite=False)
             if buf.ndim == 3:
-                channels.update((f"{name}.{axis}", plane) for axis, plane in zip(_AXES, _planes(buf)))
+                channels.update((f"{name}.{axis}", plane) for axis, plane in zip(_AXES, _planes(buf, contiguous)))
             else:
                 channels[name] = buf
     if not channels:
@@ -241,10 +243,11 @@ def _exr_channels(buffers, image):
     return channels
 
 
-def _planes(a: np.ndarray) -> np.ndarray:
-    """(3, H, W) contiguous copy of an (H, W, 3) array: one transposing copy, about 2x three strided
-    per-channel copies."""
-    return np.moveaxis(a, 2, 0).copy()
+def _planes(a: np.ndarray, contiguous: bool = True) -> np.ndarray:
+    """(3, H, W) of an (H, W, 3) array: a contiguous copy (one transposing copy, about 2x three
+    strided per-channel copies), or with ``contiguous=False`` a view."""
+    planes = np.moveaxis(a, 2, 0)
+    return planes.copy() if contiguous else planes
 
 
 def write_exr(path, buffers: dict, *, image=None, compression: str = "none", threads: int | None = None,
@@ -287,7 +290,7 @@ def write_exr(path, buffers: dict, *, image=None, compression: str = "none", thr
     compression = as_choice(compression, "compression", EXR_COMPRESSIONS)
     threads = _threads(threads)
     if compression in LINES_PER_BLOCK:  # laid out with NumPy, blocks deflated on our threads
-        channels = _exr_channels(buffers, image)
+        channels = _exr_channels(buffers, image, contiguous=False)
         with _target(path, atomic) as target, open(target, "wb") as fh:
             write_exr_numpy(fh, channels, compression, threads=threads)
         return path

@@ -37,6 +37,7 @@ __all__ = ["LINES_PER_BLOCK", "write_exr_numpy"]
 LINES_PER_BLOCK = {"none": 1, "zips": 1, "zip": 16}
 _CODE = {"none": 0, "zips": 2, "zip": 3}
 _PIXEL = {np.dtype(np.uint32): 0, np.dtype(np.float32): 2}
+_BAND_BYTES = 4 << 20  # uncompressed lines assembled per write
 
 
 def _attr(name: str, kind: str, value: bytes) -> bytes:
@@ -77,48 +78,68 @@ def _zip_block(block: np.ndarray, deflate) -> bytes:
     return packed if len(packed) < flat.size else flat.tobytes()
 
 
+def _fill(out: np.ndarray, arrays, offsets, y0: int, pad: int) -> None:
+    """Lines ``y0 .. y0 + len(out)`` into ``out`` (lines, ``pad`` + bytes): each channel's rows at its
+    offset; a channel may be a strided view (a 3-vector's component): read in place, never copied whole."""
+    rows = out.shape[0]
+    for a, start, stop in zip(arrays, offsets[:-1], offsets[1:]):
+        out[:, pad + start:pad + stop].view(a.dtype)[...] = a[y0:y0 + rows]
+
+
 def write_exr_numpy(fh, channels: dict, compression: str = "none", *, threads: int = 2, level: int = 1) -> None:
     """Write ``channels`` as a scanline EXR into the open binary file ``fh``.
+
+    The lines are assembled band by band (a few MiB at a time: no copy of
+    the whole image); ZIP and ZIPS blocks are each assembled, reordered,
+    predicted and deflated by one job on the thread pool.
 
     Parameters
     ----------
     fh : binary file
     channels : dict of str to (H, W) uint32 or float32
-        One size; written in sorted name order (the format's).
+        One size, any strides; written in sorted name order (the format's).
     compression : {"none", "zips", "zip"}
     threads : int
-        Workers deflating blocks (0 or 1: the calling thread).
+        Workers for the ZIP/ZIPS blocks (0 or 1: the calling thread).
     level : int
         Deflate level (ISA-L's levels stop at 3).
     """
     names = sorted(channels)
-    arrays = [np.ascontiguousarray(channels[n]) for n in names]
+    arrays = [np.asarray(channels[n]) for n in names]
+    arrays = [a if a.dtype.isnative else a.astype(a.dtype.newbyteorder("=")) for a in arrays]
     height, width = arrays[0].shape
     per = LINES_PER_BLOCK[compression]
     offsets = np.cumsum([0] + [4 * width for _ in arrays])  # each channel's byte offset within a line
-    pad = 8 if compression == "none" else 0  # uncompressed: each block's (y, size) ahead of its line
-    lines = np.empty((height, pad + offsets[-1]), np.uint8)
-    for a, start, stop in zip(arrays, offsets[:-1], offsets[1:]):
-        lines[:, pad + start:pad + stop] = a.view(np.uint8).reshape(height, 4 * width)
     head = _header(names, [a.dtype for a in arrays], width, height, compression)
     nblocks = -(-height // per)
-    table_at = len(head)
-    first = table_at + 8 * nblocks
-    if compression == "none":
-        prefix = lines[:, :8].view("<i4")
-        prefix[:, 0] = np.arange(height)
-        prefix[:, 1] = offsets[-1]
-        table = first + np.arange(height, dtype="<u8") * lines.shape[1]
-        fh.write(head + table.astype("<u8").tobytes())
-        fh.write(lines)
+    first = len(head) + 8 * nblocks
+    if compression == "none":  # one line a block: (y, byte count, the line)
+        line = 8 + int(offsets[-1])
+        table = first + np.arange(height, dtype="<u8") * line
+        fh.write(head + table.tobytes())
+        band = max(1, _BAND_BYTES // line)
+        buf = np.empty((band, line), np.uint8)
+        for y0 in range(0, height, band):
+            out = buf[:min(band, height - y0)]
+            prefix = out[:, :8].view("<i4")
+            prefix[:, 0] = np.arange(y0, y0 + len(out))
+            prefix[:, 1] = offsets[-1]
+            _fill(out, arrays, offsets, y0, 8)
+            fh.write(out)
         return
     deflate = _deflater(level)
-    blocks = [lines[y:y + per] for y in range(0, height, per)]
+
+    def block(y0: int) -> bytes:
+        lines = np.empty((min(per, height - y0), int(offsets[-1])), np.uint8)
+        _fill(lines, arrays, offsets, y0, 0)
+        return _zip_block(lines, deflate)
+
+    starts = range(0, height, per)
     if threads > 1:
         with ThreadPoolExecutor(threads) as pool:
-            packed = list(pool.map(lambda b: _zip_block(b, deflate), blocks))
+            packed = list(pool.map(block, starts))
     else:
-        packed = [_zip_block(b, deflate) for b in blocks]
+        packed = [block(y0) for y0 in starts]
     sizes = np.array([8 + len(p) for p in packed], np.uint64)
     table = first + np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.uint64)
     fh.write(head + table.astype("<u8").tobytes())

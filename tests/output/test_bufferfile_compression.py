@@ -100,3 +100,18 @@ def test_numpy_exr_writer_reads_back_in_openexr_bit_for_bit(tmp_path, monkeypatc
     assert np.array_equal(back["image"], image)
     for name, buf in b.items():
         assert back[name].dtype == buf.dtype and np.array_equal(back[name], buf), name
+
+
+@pytest.mark.parametrize("band_bytes", [1, 5000])
+def test_uncompressed_exr_written_band_by_band_reads_back(tmp_path, monkeypatch, band_bytes):
+    """Uncompressed lines assembled a band at a time (one line; a few lines and a short last band)."""
+    pytest.importorskip("OpenEXR")
+    from raycast_shade.output import exrwrite
+
+    monkeypatch.setattr(exrwrite, "_BAND_BYTES", band_bytes)
+    rng = np.random.default_rng(12)
+    b = {"position": rng.normal(size=(19, 7, 3)).astype(np.float32), "model_id": rng.integers(-1, 5, (19, 7)),
+         "mask": rng.random((19, 7)) > 0.3}
+    back = read_exr(write_exr(tmp_path / "a.exr", b))
+    for name, buf in b.items():
+        assert np.array_equal(back[name], buf), name
