@@ -17,9 +17,10 @@ npz and EXR files are compressed (``compression="zip"``: npz deflate level
 1, EXR ZIP, deflated on threads) or stored (``"none"``). The default,
 ``"auto"``, is ``"zip"`` where ISA-L's deflate (the ``isal`` package) is
 installed, which compresses about as fast as the stored bytes are written
-(``benchmarks/bench_paths.py``: a view with zip took no longer than one
-stored, for files about 4x smaller), and ``"none"`` without it (zlib is
-several times slower). The plan records the choice made.
+(``benchmarks/bench_paths.py``, two loaded runs: a view with zip was the
+faster in four of eight cases, within the noise of one stored, for npz
+files about 4x smaller), and ``"none"`` without it (zlib is several times
+slower). The plan records the choice made.
 
 * ``view_{i:05d}.json``: the view's record, written last: the hash of
   what it was rendered from, each file's size and BLAKE2b digest, and the
