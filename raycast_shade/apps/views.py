@@ -429,9 +429,8 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
     memory = dict(buffers=names + ("model_id",), samples=options.render_kwargs.get("samples", 1))
     bases, jobs = plan_batch(scene, cameras, memory=memory)
     spec = _ViewSpec(options, names, formats, None if image is None else str(image).lower(), out_dir,
-                     float(depth_scale), exports=exports, unoccluded=bool(unoccluded),
-                     float_image=bool(float_image), compression=compression,
-                     overlap=_two_frames_fit(jobs, memory))
+                     float(depth_scale), exports=exports, unoccluded=bool(unoccluded), float_image=bool(float_image),
+                     compression=compression, overlap=_two_frames_fit(jobs, memory))
     spec = dataclasses.replace(spec, settings_hash=digest(json.dumps(_settings(spec), sort_keys=True)))
     plan = _make_plan(spec, jobs)
     os.makedirs(out_dir, exist_ok=True)
