@@ -11,14 +11,20 @@ divided by the plain Phong frame's median:
 * ``buffers_all``: the 12 buffers of :data:`~raycast_shade.output.buffers.BUFFER_NAMES`
   but ``coverage``; ``position``; ``view_default``: ``zdepth, normal, id, mask``
   (the view sets' default), each the whole ``render`` call;
-* ``npz_plain``, ``npz_zlib1``, ``npz_zlib6``, ``exr``, ``exr_zip``,
+* ``write_floor``: the bytes of the 12 buffers and the image in one plain
+  ``open().write()``, the least any writer of them can take on this disk;
+* ``npz_plain``, ``npz_level1``, ``npz_level6``, ``exr``, ``exr_zip``,
   ``exr_zstd``: writing the 12 buffers and the image
-  (:func:`~raycast_shade.output.bufferfile.save_npz` stored, zlib level 1
-  and 6; :func:`~raycast_shade.output.bufferfile.write_exr` uncompressed,
+  (:func:`~raycast_shade.output.bufferfile.save_npz` stored, deflated at
+  level 1 (ISA-L) and 6 (zlib), on threads;
+  :func:`~raycast_shade.output.bufferfile.write_exr` uncompressed,
   ZIP and ZSTD on OpenEXR's threads), the write alone; their sizes in MiB;
-* ``view_npz``, ``view_npz_exr_png``: one view of
-  :func:`~raycast_shade.apps.views.render_views` with its default buffers and
-  files (PNG image, npz), and with npz, EXR and a depth PNG, render and files;
+* ``view_npz``, ``view_npz_zip``, ``view_npz_exr_png``:
+  :func:`~raycast_shade.apps.views.render_views` of three orbiting cameras,
+  per view, with the default buffers and files (PNG image, npz) stored and
+  with ``compression="zip"`` (the default where ISA-L is installed), and
+  with npz, EXR and a depth PNG (zip): render and files (each view's files
+  written while the next renders).
 * ``flat``, ``gouraud``: the frame flat- and Gouraud-shaded; ``samples4``:
   four rays per pixel; ``samples4_coverage``: the same with ``coverage`` and
   the view-set default buffers.
@@ -56,6 +62,7 @@ QUICK_CASES = [("icosphere", 4, 320, 240)]
 ALL = ("depth", "zdepth", "position", "normal", "normal_camera", "face_normal", "face_normal_camera",
        "barycentric", "model_id", "triangle_id", "mask", "semantic_id")
 VIEW_DEFAULT = ("zdepth", "normal", "id", "mask")
+VIEWS = 3  # cameras per timed view set
 
 
 def outputs(quick: bool = False) -> list:
@@ -64,47 +71,74 @@ def outputs(quick: bool = False) -> list:
 
 
 def _paths(scene, tmp):
-    """name -> (callable, file or None): every timed path of one case."""
+    """name -> (callable, file or None, divisor): every timed path of one case (its time / divisor)."""
     import raycast_shade as rs
-    from raycast_shade.apps.views import render_views
-    from raycast_shade.output.bufferfile import save_npz, write_exr
 
     full = rs.render(scene, buffers=ALL)
-    b, img, cam = full.buffers, full.image, full.camera
-    views = os.path.join(tmp, "views")
-
-    def view(formats):
-        def run():
-            render_views(scene, [cam], views, formats=formats, resume=False, overwrite=True)
-        return run
-
-    f = lambda name: os.path.join(tmp, name)  # noqa: E731
     return {
-        "frame": (lambda: rs.render(scene), None),
-        "buffers_all": (lambda: rs.render(scene, buffers=ALL), None),
-        "position": (lambda: rs.render(scene, buffers=("position",)), None),
-        "view_default": (lambda: rs.render(scene, buffers=VIEW_DEFAULT), None),
-        "npz_plain": (lambda: save_npz(f("p.npz"), b, image=img, camera=cam, compressed=False), f("p.npz")),
-        "npz_zlib1": (lambda: save_npz(f("z1.npz"), b, image=img, camera=cam, compressed=1), f("z1.npz")),
-        "npz_zlib6": (lambda: save_npz(f("z6.npz"), b, image=img, camera=cam, compressed=6), f("z6.npz")),
-        "exr": (lambda: write_exr(f("v.exr"), b, image=img), f("v.exr")),
-        "exr_zip": (lambda: write_exr(f("z.exr"), b, image=img, compression="zip"), f("z.exr")),
-        "exr_zstd": (lambda: write_exr(f("s.exr"), b, image=img, compression="zstd"), f("s.exr")),
-        "view_npz": (view(("npz",)), None),
-        "view_npz_exr_png": (view(("npz", "exr", "depth_png")), None),
+        "frame": (lambda: rs.render(scene), None, 1),
+        "buffers_all": (lambda: rs.render(scene, buffers=ALL), None, 1),
+        "position": (lambda: rs.render(scene, buffers=("position",)), None, 1),
+        "view_default": (lambda: rs.render(scene, buffers=VIEW_DEFAULT), None, 1),
+        **_writer_paths(full, tmp),
+        **_view_paths(scene, tmp),
         **_band_paths(scene),
+    }
+
+
+def _writer_paths(full, tmp):
+    """The writers of the 12 buffers and the image, and the floor: the same bytes in one plain write."""
+    import numpy as np
+
+    from raycast_shade.output.bufferfile import save_npz, write_exr
+
+    b, img, cam = full.buffers, full.image, full.camera
+    f = lambda name: os.path.join(tmp, name)  # noqa: E731
+    blob = b"".join(np.ascontiguousarray(a).tobytes() for a in [*b.values(), img])
+
+    def floor():
+        with open(f("floor.bin"), "wb") as fh:
+            fh.write(blob)
+
+    return {
+        "write_floor": (floor, f("floor.bin"), 1),
+        "npz_plain": (lambda: save_npz(f("p.npz"), b, image=img, camera=cam, compressed=False), f("p.npz"), 1),
+        "npz_level1": (lambda: save_npz(f("z1.npz"), b, image=img, camera=cam, compressed=1), f("z1.npz"), 1),
+        "npz_level6": (lambda: save_npz(f("z6.npz"), b, image=img, camera=cam, compressed=6), f("z6.npz"), 1),
+        "exr": (lambda: write_exr(f("v.exr"), b, image=img), f("v.exr"), 1),
+        "exr_zip": (lambda: write_exr(f("z.exr"), b, image=img, compression="zip"), f("z.exr"), 1),
+        "exr_zstd": (lambda: write_exr(f("s.exr"), b, image=img, compression="zstd"), f("s.exr"), 1),
+    }
+
+
+def _view_paths(scene, tmp, views: int = VIEWS):
+    """render_views over ``views`` orbiting cameras (so each view's writing overlaps the next render),
+    timed per view: the default files (PNG + npz), with compression="zip", and with npz, EXR, depth PNG."""
+    from raycast_shade.apps.animate import orbit_cameras
+    from raycast_shade.apps.views import render_views
+
+    cams = orbit_cameras(scene.camera, views)
+    folder = os.path.join(tmp, "views")
+
+    def view(**kw):
+        return lambda: render_views(scene, cams, folder, resume=False, overwrite=True, **kw)
+
+    return {
+        "view_npz": (view(compression="none"), None, views),
+        "view_npz_zip": (view(compression="zip"), None, views),
+        "view_npz_exr_png": (view(formats=("npz", "exr", "depth_png"), compression="zip"), None, views),
     }
 
 
 def _band_paths(scene):
     """The banded path's other frames (issue 27: flat and Gouraud banded like Phong, ``samples=N``
-    at most N frames + 10%): name -> (callable, None)."""
+    at most N frames + 10%): name -> (callable, None, 1)."""
     import raycast_shade as rs
 
-    return {"flat": (lambda: rs.render(scene, "flat"), None),
-            "gouraud": (lambda: rs.render(scene, "gouraud"), None),
-            "samples4": (lambda: rs.render(scene, samples=4), None),
-            "samples4_coverage": (lambda: rs.render(scene, samples=4, buffers=("coverage",) + VIEW_DEFAULT), None)}
+    return {"flat": (lambda: rs.render(scene, "flat"), None, 1),
+            "gouraud": (lambda: rs.render(scene, "gouraud"), None, 1),
+            "samples4": (lambda: rs.render(scene, samples=4), None, 1),
+            "samples4_coverage": (lambda: rs.render(scene, samples=4, buffers=("coverage",) + VIEW_DEFAULT), None, 1)}
 
 
 def bench_case(kind, level, width, height, repeats):
@@ -117,12 +151,12 @@ def bench_case(kind, level, width, height, repeats):
         paths = _paths(scene, tmp)
         times = {name: [] for name in paths}
         for r in range(repeats + 1):  # round 0: warm-up (JIT, Embree build, page faults)
-            for name, (fn, _) in paths.items():
+            for name, (fn, _, per) in paths.items():
                 t0 = time.perf_counter()
                 fn()
                 if r:
-                    times[name].append(time.perf_counter() - t0)
-        sizes = {name: os.path.getsize(path) / 2**20 for name, (_, path) in paths.items() if path}
+                    times[name].append((time.perf_counter() - t0) / per)
+        sizes = {name: os.path.getsize(path) / 2**20 for name, (_, path, _) in paths.items() if path}
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     unit = statistics.median(times["frame"])
@@ -166,10 +200,13 @@ def peak_mib(kind, level, width, height, names) -> float:
 
 BEGIN, END = "<!-- paths:begin (benchmarks/bench_paths.py) -->", "<!-- paths:end -->"
 LABELS = {"buffers_all": "all 12 buffers", "position": "`position` alone",
-          "view_default": "zdepth, normal, id, mask (the view-set default)", "npz_plain": "`save_npz`, stored (default)",
-          "npz_zlib1": "`save_npz`, zlib level 1", "npz_zlib6": "`save_npz`, zlib level 6",
+          "view_default": "zdepth, normal, id, mask (the view-set default)",
+          "write_floor": "the same bytes, one plain write (the floor)", "npz_plain": "`save_npz`, stored (default)",
+          "npz_level1": "`save_npz`, deflate level 1 (ISA-L)", "npz_level6": "`save_npz`, deflate level 6 (zlib)",
           "exr": "`write_exr`, uncompressed (default)", "exr_zip": "`write_exr`, ZIP", "exr_zstd": "`write_exr`, ZSTD",
-          "view_npz": "`render_views`, one view (PNG + npz)", "view_npz_exr_png": "`render_views`, one view (PNG + npz + EXR + depth PNG)",
+          "view_npz": "`render_views`, per view (PNG + npz, stored)",
+          "view_npz_zip": "`render_views`, per view (PNG + npz, zip: the default with ISA-L)",
+          "view_npz_exr_png": "`render_views`, per view (PNG + npz + EXR + depth PNG, zip)",
           "flat": "flat-shaded frame", "gouraud": "Gouraud-shaded frame", "samples4": "`samples=4`",
           "samples4_coverage": "`samples=4` with coverage and the view-set default"}
 

@@ -4,8 +4,9 @@ Run ``python -m benchmarks.bench_views [--quick]``. Measures
 
 * **files**: one 1920x1080 view of an icosphere (20,480 triangles) with the
   buffers ``zdepth, position, normal, normal_camera, id, mask``: the size
-  and write time of its ``.npz`` (zlib and plain), its ZIP-compressed
-  multi-channel ``.exr`` and its 16-bit depth PNG (best of 3 writes);
+  and write time of its ``.npz`` (stored, deflate level 1), its multi-channel
+  ``.exr`` (uncompressed, ZIP) and its 16-bit depth PNG (default, fast),
+  and of one plain write of the same bytes, the floor (best of 3 writes);
 * **views/s**: :func:`raycast_shade.apps.views.render_views` of an orbit
   (buffers ``zdepth, normal, id``, npz and PNG per view), serially and on a
   local Dask cluster of 2 single-threaded workers, after a warm-up run;
@@ -62,13 +63,21 @@ def bench_files(tmp, width, height):
     names = ("zdepth", "position", "normal", "normal_camera", "id", "mask")
     frame = rs.render(scene, buffers=names)
     b, rows = frame.buffers, []
+    blob = b"".join(np.ascontiguousarray(a).tobytes() for a in [*b.values(), frame.image])
+
+    def floor(p):
+        with open(p, "wb") as fh:
+            fh.write(blob)
+
     writers = {
-        "npz_zlib": (os.path.join(tmp, "v.npz"), lambda p: save_npz(p, b, image=frame.image, camera=frame.camera,
-                                                                   compressed=True)),
-        "npz_plain": (os.path.join(tmp, "p.npz"), lambda p: save_npz(p, b, image=frame.image, camera=frame.camera,
-                                                                    compressed=False)),
+        "plain write (floor)": (os.path.join(tmp, "f.bin"), floor),
+        "npz_plain": (os.path.join(tmp, "p.npz"), lambda p: save_npz(p, b, image=frame.image, camera=frame.camera)),
+        "npz_level1": (os.path.join(tmp, "v.npz"), lambda p: save_npz(p, b, image=frame.image, camera=frame.camera,
+                                                                     compressed=1)),
+        "exr_none": (os.path.join(tmp, "n.exr"), lambda p: write_exr(p, b, image=frame.image)),
         "exr_zip": (os.path.join(tmp, "v.exr"), lambda p: write_exr(p, b, image=frame.image, compression="zip")),
         "depth_png16": (os.path.join(tmp, "d.png"), lambda p: write_depth_png(p, b["zdepth"])),
+        "depth_png16_fast": (os.path.join(tmp, "e.png"), lambda p: write_depth_png(p, b["zdepth"], fast=True)),
     }
     note = "image + " + ",".join(names)
     for case, (path, write) in writers.items():

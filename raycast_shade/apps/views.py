@@ -11,11 +11,16 @@ scene per mesh set, the scene cache; serially, on a local Dask cluster with
   ``"npz"``), and the linear image with ``float_image=True``;
 * ``view_{i:05d}.exr``: the buffers (``"exr"``), and the linear image with
   ``float_image=True``;
-
-npz and EXR files are stored uncompressed unless ``compression="zip"``
-(npz: zlib level 1; EXR: ZIP, on OpenEXR's threads): at 1080p compressing
-costs several frames per view (``docs/performance.md``).
 * ``view_{i:05d}_depth.png``: 16-bit z-depth in millimetres (``"depth_png"``);
+
+npz and EXR files are compressed (``compression="zip"``: npz deflate level
+1, EXR ZIP, deflated on threads) or stored (``"none"``). The default,
+``"auto"``, is ``"zip"`` where ISA-L's deflate (the ``isal`` package) is
+installed, which compresses about as fast as the stored bytes are written
+(``benchmarks/bench_paths.py``, two loaded runs: a view with zip was the
+faster in four of eight cases, within the noise of one stored, for npz
+files about 4x smaller), and ``"none"`` without it (zlib is several times
+slower). The plan records the choice made.
 
 * ``view_{i:05d}.json``: the view's record, written last: the hash of
   what it was rendered from, each file's size and BLAKE2b digest, and the
@@ -64,6 +69,7 @@ from ..output.buffers import check_buffers
 from ..output.labels import object_table, semantic_classes, unoccluded_masks, view_objects, write_coco
 from ..output.imagefile import check_image_path, remove_stale_temps, write_image
 from ..render import render
+from ..visibility.accel import embree_accel
 from .batch.cache import PLUGIN_NAME, SceneCache, cache_of
 from .batch.options import check_options
 from .batch.plan import plan_batch
@@ -73,7 +79,7 @@ from .viewplan import (PLAN_FORMAT, PLAN_NAME, digest, prepare_folder, view_hash
 __all__ = ["render_views", "FORMATS", "EXPORTS", "INDEX_NAME", "PLAN_NAME", "view_files", "register_cli", "run_cli"]
 
 FORMATS = ("npz", "exr", "depth_png")
-COMPRESSIONS = ("none", "zip")  # render_views' compression: npz zlib level 1 and EXR ZIP, or neither
+COMPRESSIONS = ("auto", "none", "zip")  # npz deflate level 1 and EXR ZIP, or neither; auto: zip with ISA-L
 EXPORTS = ("coco", "nerfstudio", "colmap")
 EXPORT_FILES = {"coco": ("coco_instances.json",), "nerfstudio": ("transforms.json",),
                 "colmap": tuple(os.path.join("colmap", n) for n in ("cameras.txt", "images.txt", "points3D.txt"))}
@@ -125,19 +131,24 @@ class _ViewSpec:
     unoccluded: bool = False
     float_image: bool = False
     compression: str = "none"
+    overlap: bool = True  # write a view's files while the next renders (two frames alive)
 
 
-def _write_view(job, base, spec: _ViewSpec, cache: SceneCache) -> str:
-    """Render and write one view (unless its record shows it done); returns its stem."""
+def _render_view(job, base, spec: _ViewSpec, cache: SceneCache):
+    """Render one view: ``(files, frame, key, objects)`` for :func:`_store_view`, or None when its
+    record shows it done."""
     files = {k: os.path.join(spec.out_dir, v) for k, v in view_files(job.index, spec.formats, spec.image).items()}
     key = view_key(spec.settings_hash, job)
     if spec.options.resume and view_is_done(files, key):
         cache.count("skipped")
-        return _STEM.format(job.index)
+        return None
     if os.path.exists(files["record"]):
         os.unlink(files["record"])  # the record goes first: never a record beside half-replaced files
     if not base.has_geometry:
         cache.count("builds")
+    kwargs = spec.options.render_kwargs
+    if kwargs.get("caster", "auto") != "embreex" and kwargs.get("backend") != "raster":
+        embree_accel(base.geometry)  # packed and built once per mesh set; Scene.replace shares both
     scene = base.replace(lights=job.lights, camera=job.camera, ambient=job.ambient, background=job.background)
     extra = [b for b in ("model_id",) + (("zdepth",) if "depth_png" in spec.formats else ()) if b not in spec.buffers]
     frame = render(scene, spec.options.shading, camera=job.camera, buffers=spec.buffers + tuple(extra),
@@ -147,9 +158,41 @@ def _write_view(job, base, spec: _ViewSpec, cache: SceneCache) -> str:
     boxes = [(m.mesh.vertices.min(axis=0), m.mesh.vertices.max(axis=0)) for m in scene.models]
     objects = view_objects(frame.buffers["model_id"], job.camera, rle=True, alone=alone, boxes_3d=boxes)
     cache.count("renders")
+    return files, frame, key, objects
+
+
+def _store_view(job, spec: _ViewSpec, files, frame, key, objects) -> None:
+    """Write a rendered view's files, then its record."""
     _write_files(files, frame, {k: v for k, v in frame.buffers.items() if k in spec.buffers}, job, spec)
     write_record(files, key, job, objects)
-    return _STEM.format(job.index)
+
+
+def _run_views(jobs, base_of, spec: _ViewSpec, cache: SceneCache) -> list:
+    """Render and store ``jobs`` in order; with ``spec.overlap`` each view's files are written on a
+    writer thread while the next view renders (compression, writing, fsync and hashing release the
+    GIL), so two views' frames are alive at once. Returns the views' stems."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    if not spec.overlap:
+        stems = []
+        for job in jobs:
+            rendered = _render_view(job, base_of(job), spec, cache)
+            if rendered is not None:
+                _store_view(job, spec, *rendered)
+            stems.append(_STEM.format(job.index))
+        return stems
+    stems = []
+    with ThreadPoolExecutor(1, thread_name_prefix="view-writer") as writer:
+        pending = None
+        for job in jobs:
+            rendered = _render_view(job, base_of(job), spec, cache)
+            if pending is not None:
+                pending.result()  # the previous view's files and record (its error, if any, stops the set)
+            pending = None if rendered is None else writer.submit(_store_view, job, spec, *rendered)
+            stems.append(_STEM.format(job.index))
+        if pending is not None:
+            pending.result()
+    return stems
 
 
 def _write_files(files, frame, kept, job, spec: _ViewSpec) -> None:
@@ -160,11 +203,12 @@ def _write_files(files, frame, kept, job, spec: _ViewSpec) -> None:
     linear = frame.image if spec.float_image else None
     zipped = spec.compression == "zip"
     writers = {
-        "image": lambda p: write_image(p, frame.image, atomic=True, **spec.options.tone),
+        "image": lambda p: write_image(p, frame.image, atomic=True, fast=True, **spec.options.tone),
         "npz": lambda p: save_npz(p, kept, image=linear, camera=job.camera, compressed=1 if zipped else False,
                                   atomic=True),
         "exr": lambda p: write_exr(p, kept, image=linear, compression="zip" if zipped else "none", atomic=True),
-        "depth_png": lambda p: write_depth_png(p, frame.buffers["zdepth"], scale=spec.depth_scale, atomic=True),
+        "depth_png": lambda p: write_depth_png(p, frame.buffers["zdepth"], scale=spec.depth_scale, fast=True,
+                                                   atomic=True),
     }
     todo = [(writers[k], p) for k, p in files.items() if k in writers]
     if len(todo) == 1:
@@ -189,7 +233,7 @@ def _run_on_worker(jobs, scene, spec: _ViewSpec) -> list:
     # Rebuilt cameras and lights are read-only again: the workers load the cached kernels.
     jobs = [dataclasses.replace(j, camera=dataclasses.replace(j.camera),
                                 lights=tuple(dataclasses.replace(light) for light in j.lights)) for j in jobs]
-    return [_write_view(job, base, spec, cache) for job in jobs]
+    return _run_views(jobs, lambda job: base, spec, cache)
 
 
 def _iter_dask(client, bases, todo, spec, retries, per_task):
@@ -281,6 +325,10 @@ def _check_set_options(exports, image, unoccluded, overwrite, depth_scale, float
 
     exports = _check_formats(exports, "exports", EXPORTS)
     compression = as_choice(compression, "compression", COMPRESSIONS)
+    if compression == "auto":
+        from ..output.npzwrite import deflate_backend
+
+        compression = "zip" if deflate_backend(1) == "isal" else "none"
     for e in ("nerfstudio", "colmap"):
         if e in exports and image is None:
             raise ValueError(f"exports: {e!r} names each view's image file, but image=None writes none")
@@ -297,7 +345,7 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
                  image: str | None = ".png", shading="phong", workers: int | None = None, scheduler=None,
                  resume: bool = True, tone: dict | None = None, retries: int = 2, views_per_task: int = 1,
                  numba_threads: int | None = None, depth_scale: float = 1000.0, overwrite: bool = False,
-                 exports=(), unoccluded: bool = False, float_image: bool = False, compression: str = "none",
+                 exports=(), unoccluded: bool = False, float_image: bool = False, compression: str = "auto",
                  **render_kwargs) -> str:
     """Render a set of views with their buffers and cameras into ``out_dir``.
 
@@ -336,9 +384,10 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
     float_image : bool
         Also store the linear float32 image in the npz and EXR files (it
         is the largest array there; default: the buffers only).
-    compression : {"none", "zip"}
-        npz and EXR files stored (the default, the fastest) or compressed
-        (npz: zlib level 1; EXR: ZIP).
+    compression : {"auto", "none", "zip"}
+        npz and EXR files compressed (npz: deflate level 1; EXR: ZIP) or
+        stored; ``"auto"`` (the default): ``"zip"`` where the ``isal``
+        package is installed, else ``"none"`` (see the module docstring).
     views_per_task : int
         Consecutive views per Dask task.
     depth_scale : float
@@ -377,11 +426,11 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
     exports, compression = _check_set_options(exports, image, unoccluded, overwrite, depth_scale, float_image,
                                               compression)
     options = check_options(shading, render_kwargs, tone, resume)
-    bases, jobs = plan_batch(scene, cameras, memory=dict(buffers=names + ("model_id",),
-                                                         samples=options.render_kwargs.get("samples", 1)))
+    memory = dict(buffers=names + ("model_id",), samples=options.render_kwargs.get("samples", 1))
+    bases, jobs = plan_batch(scene, cameras, memory=memory)
     spec = _ViewSpec(options, names, formats, None if image is None else str(image).lower(), out_dir,
-                     float(depth_scale), exports=exports, unoccluded=bool(unoccluded),
-                     float_image=bool(float_image), compression=compression)
+                     float(depth_scale), exports=exports, unoccluded=bool(unoccluded), float_image=bool(float_image),
+                     compression=compression, overlap=_two_frames_fit(jobs, memory))
     spec = dataclasses.replace(spec, settings_hash=digest(json.dumps(_settings(spec), sort_keys=True)))
     plan = _make_plan(spec, jobs)
     os.makedirs(out_dir, exist_ok=True)
@@ -393,8 +442,7 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
     on_dask = workers is not None or scheduler is not None
     if not on_dask:
         cache = SceneCache()
-        for job in jobs:
-            _write_view(job, cache.base(job.key, bases[job.key]), spec, cache)
+        _run_views(jobs, lambda job: cache.base(job.key, bases[job.key]), spec, cache)
     else:
         from .batch.cluster import connect
 
@@ -413,6 +461,16 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
     path = os.path.join(out_dir, INDEX_NAME)
     write_json(path, index)
     return path
+
+
+def _two_frames_fit(jobs, memory) -> bool:
+    """Whether two of the largest frame (the one writing, the next rendering) fit in the memory limit
+    that :meth:`~raycast_shade.scene.camera.Camera.check_frame_memory` holds one frame to."""
+    from ..common.validate import memory_limit
+    from ..scene.framememory import frame_bytes_per_pixel
+
+    pixels = max((float(j.camera.width) * float(j.camera.height) for j in jobs), default=0.0)
+    return 2.0 * pixels * frame_bytes_per_pixel(**memory) <= memory_limit()
 
 
 def _write_exports(scene, jobs, index, spec: _ViewSpec) -> None:
@@ -474,9 +532,9 @@ def register_cli(subparsers):
                         "visible fraction, in index.json")
     p.add_argument("--float-image", action="store_true",
                    help="also store the linear float image in the npz/exr files (default: buffers only)")
-    p.add_argument("--compression", default="none", choices=COMPRESSIONS,
-                   help="npz/exr files stored (none, the default: fastest) or compressed (zip: npz zlib level 1, "
-                        "EXR ZIP)")
+    p.add_argument("--compression", default="auto", choices=COMPRESSIONS,
+                   help="npz/exr files compressed (zip: npz deflate level 1, EXR ZIP) or stored (none); auto, the "
+                        "default: zip where the isal package is installed (as fast as storing), else none")
     p.add_argument("--overwrite", action="store_true",
                    help="replace a view set of another plan in the output folder (default: refuse it)")
     add_render_options(p)

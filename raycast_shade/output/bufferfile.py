@@ -2,9 +2,10 @@
 
 * ``.npz``: every buffer under its name (and the linear ``image`` and the
   camera's ``K``, ``R``, ``t`` when given), dtypes kept.
-* ``.exr`` (the ``openexr`` package, extra ``vision``): float32 channels,
-  stored uncompressed unless a compression is asked for (:data:`EXR_COMPRESSIONS`;
-  OpenEXR's own threads compress the blocks). The image is ``R, G, B``; a scalar buffer is the channel
+* ``.exr``: float32 channels, stored uncompressed unless a compression is
+  asked for (:data:`EXR_COMPRESSIONS`): uncompressed, ZIPS and ZIP laid out
+  with NumPy and deflated on threads (:mod:`~raycast_shade.output.exrwrite`),
+  the others and the reader through the ``openexr`` package (extra ``vision``). The image is ``R, G, B``; a scalar buffer is the channel
   ``name``; a 3-vector buffer ``name.X, name.Y, name.Z``; ids are ``UINT``
   channels holding ``id + 1`` (0 on the background), the mask a ``UINT``
   0/1 channel. :func:`read_exr` undoes all of it.
@@ -33,7 +34,7 @@ import numpy as np
 
 from ..common.validate import as_int, as_scalar
 
-from .imagefile import atomic_target
+from .imagefile import atomic_target, png_deflate
 
 __all__ = ["EXR_COMPRESSIONS", "npz_level", "save_npz", "load_npz", "write_exr", "read_exr", "write_depth_png", "read_depth_png"]
 
@@ -44,8 +45,9 @@ _AXES = ("X", "Y", "Z")
 # taken as the argument itself.
 NPZ_RESERVED = ("file", "allow_pickle")
 _ID_RANGE = (-1, 2**31 - 1)  # stored as uint32 id + 1, read back as int32
-#: write_exr's compressions (OpenEXR's names, lower case). At 1080p only "none" writes in less than
-#: a frame's time; "zstd" gives the smallest files (OpenEXR >= 3.4 reads them), "zip" the most widely read.
+#: write_exr's compressions (OpenEXR's names, lower case): "none", "zips" and "zip" written here with
+#: NumPy (blocks deflated on threads), the others by OpenEXR; "zstd" gives the smallest files (OpenEXR
+#: >= 3.4 reads them), "zip" the most widely read.
 EXR_COMPRESSIONS = ("none", "rle", "zips", "zip", "piz", "zstd")
 
 
@@ -117,8 +119,12 @@ def _target(path, atomic):
 
 
 def save_npz(path, buffers: dict, *, image=None, camera=None, compressed: bool | int = False,
-             atomic: bool = False) -> str:
+             threads: int | None = None, atomic: bool = False) -> str:
     """Write buffers (and optionally the image and the camera's K, R, t) to one ``.npz``.
+
+    The arrays' CRCs and deflate run on threads while the file is written
+    (:mod:`~raycast_shade.output.npzwrite`); the file is what ``np.savez``
+    (``np.savez_compressed``) writes, read by ``np.load``.
 
     Parameters
     ----------
@@ -131,11 +137,15 @@ def save_npz(path, buffers: dict, *, image=None, camera=None, compressed: bool |
     image : (H, W, 3) float32, optional
     camera : Camera, optional
     compressed : bool or int
-        ``False`` (the default): stored, as ``np.savez`` (the fastest: at
-        1080p zlib costs several frames, see ``docs/performance.md``);
-        ``True``: zlib at level 6, as ``np.savez_compressed``; an int
-        ``0 <= level <= 9``: zlib at that level (1: the fastest that
-        compresses). Every variant is an ordinary ``.npz`` (``np.load``).
+        ``False`` (the default): stored, the fastest (see
+        ``docs/performance.md``); ``True``: deflated at level 1; an int
+        ``0 <= level <= 9``: deflated at that level. Levels 1-3 use ISA-L
+        (the ``isal`` package, extra ``vision``) when installed, several
+        times zlib's speed for a slightly larger file; the others zlib.
+    threads : int, optional
+        Workers for the CRCs and deflate (0 or 1: none); default: one per CPU.
+    atomic : bool
+        Write a temporary beside ``path`` and move it there once whole.
 
     Returns
     -------
@@ -147,8 +157,11 @@ def save_npz(path, buffers: dict, *, image=None, camera=None, compressed: bool |
     TypeError, ValueError
         Naming the buffer or argument at fault, before the file is opened.
     """
+    from .npzwrite import write_npz
+
     path = _check_path(path, ".npz")
     level = npz_level(compressed)
+    threads = _threads(threads)
     reserved = NPZ_RESERVED + (("image",) if image is not None else ()) + (("K", "R", "t") if camera is not None else ())
     arrays, _ = _check_buffers(buffers, image, reserved)
     if image is not None:
@@ -158,30 +171,25 @@ def save_npz(path, buffers: dict, *, image=None, camera=None, compressed: bool |
             raise TypeError(f"camera: expected a Camera, got {type(camera).__name__}")
         arrays["K"], arrays["R"], arrays["t"] = camera.to_opencv()
     with _target(path, atomic) as target, open(target, "wb") as fh:
-        _write_npz(fh, arrays, level)
+        write_npz(fh, arrays, level, threads=threads)
     return path
 
 
+def _threads(threads, field: str = "threads") -> int:
+    if threads is None:
+        return os.cpu_count() or 1
+    return as_int(threads, field, minimum=0)
+
+
 def npz_level(compressed, field: str = "compressed"):
-    """The zlib level of ``compressed`` (``None``: stored); TypeError/ValueError naming ``field``."""
+    """The deflate level of ``compressed`` (``None``: stored; ``True``: 1); TypeError/ValueError naming ``field``."""
     if isinstance(compressed, (bool, np.bool_)):
-        return 6 if compressed else None
+        return 1 if compressed else None
     if not isinstance(compressed, (int, np.integer)):
-        raise TypeError(f"{field}: expected a bool or a zlib level 0-9, got {type(compressed).__name__}")
+        raise TypeError(f"{field}: expected a bool or a deflate level 0-9, got {type(compressed).__name__}")
     if not 0 <= int(compressed) <= 9:
-        raise ValueError(f"{field}: expected a zlib level 0-9, got {compressed}")
+        raise ValueError(f"{field}: expected a deflate level 0-9, got {compressed}")
     return int(compressed)
-
-
-def _write_npz(fh, arrays: dict, level) -> None:
-    """``np.savez``'s layout (one ``name.npy`` member per array), stored or deflated at ``level``."""
-    import zipfile
-
-    mode = zipfile.ZIP_STORED if level is None else zipfile.ZIP_DEFLATED
-    with zipfile.ZipFile(fh, "w", compression=mode, compresslevel=level, allowZip64=True) as zf:
-        for name, a in arrays.items():
-            with zf.open(name + ".npy", "w", force_zip64=True) as member:
-                np.lib.format.write_array(member, np.asanyarray(a), allow_pickle=False)
 
 
 def load_npz(path) -> dict:
@@ -190,29 +198,32 @@ def load_npz(path) -> dict:
         return {k: data[k] for k in data.files}
 
 
-def _exr_channels(buffers, image):
-    """EXR channels of checked buffers; refuses what EXR (as written here) cannot give back."""
+def _exr_channels(buffers, image, contiguous: bool = True):
+    """EXR channels of checked buffers; refuses what EXR (as written here) cannot give back.
+
+    ``contiguous=False``: a 3-vector's channels are strided views of it, not copies."""
     from ..common.validate import as_array
 
     arrays, _ = _check_buffers(buffers, image, ("R", "G", "B"))
     channels = {}
     if image is not None:
         img = as_array(image, "image", dtype=np.float32, finite=False)
-        for i, c in enumerate("RGB"):
-            channels[c] = np.ascontiguousarray(img[..., i])
+        channels.update(zip("RGB", _planes(img, contiguous)))
     for name, buf in arrays.items():
         field = f"buffers[{name!r}]"
         if "." in name:
             raise ValueError(f"{field}: EXR names a 3-vector's channels name.X, name.Y, name.Z; "
                              f"a name with a dot would be read back as one")
         if name in _ID_BUFFERS:
-            ids = as_array(buf, field, dtype=np.int64, ndim=2)
+            ids = buf if buf.dtype == np.int32 else as_array(buf, field, dtype=np.int64, ndim=2)
+            if ids.ndim != 2:
+                raise ValueError(f"{field}: expected shape (H, W), got {ids.shape}")
             lo, hi = _ID_RANGE
             if ids.size and (ids.min() < lo or ids.max() > hi):
                 bad = ids.min() if ids.min() < lo else ids.max()
                 raise ValueError(f"{field}: id {int(bad)} outside the range EXR holds here, [{lo}, {hi}] "
                                  f"(stored as uint32 id + 1)")
-            channels[name] = np.ascontiguousarray(ids + 1, dtype=np.uint32)
+            channels[name] = ids.astype(np.uint32) + np.uint32(1)  # -1 wraps to 2**32 - 1, + 1 to 0
         elif name in _MASKS:
             if buf.dtype != np.bool_ or buf.ndim != 2:
                 raise TypeError(f"{field}: expected an (H, W) bool mask, got {buf.dtype} {buf.shape}")
@@ -224,13 +235,19 @@ def _exr_channels(buffers, image):
         else:
             buf = as_array(buf, field, dtype=np.float32, finite=False)
             if buf.ndim == 3:
-                for i, axis in enumerate(_AXES):
-                    channels[f"{name}.{axis}"] = np.ascontiguousarray(buf[..., i])
+                channels.update((f"{name}.{axis}", plane) for axis, plane in zip(_AXES, _planes(buf, contiguous)))
             else:
                 channels[name] = buf
     if not channels:
         raise ValueError("buffers: nothing to write (no buffers and no image)")
     return channels
+
+
+def _planes(a: np.ndarray, contiguous: bool = True) -> np.ndarray:
+    """(3, H, W) of an (H, W, 3) array: a contiguous copy (one transposing copy, about 2x three
+    strided per-channel copies), or with ``contiguous=False`` a view."""
+    planes = np.moveaxis(a, 2, 0)
+    return planes.copy() if contiguous else planes
 
 
 def write_exr(path, buffers: dict, *, image=None, compression: str = "none", threads: int | None = None,
@@ -249,34 +266,42 @@ def write_exr(path, buffers: dict, *, image=None, compression: str = "none", thr
     image : (H, W, 3) float, optional
     compression : str
         One of :data:`EXR_COMPRESSIONS`; ``"none"`` (the default) is the
-        fastest by far (see ``docs/performance.md`` for times and sizes).
+        fastest (see ``docs/performance.md`` for times and sizes). ``"none"``,
+        ``"zips"`` and ``"zip"`` are laid out here with NumPy, the blocks
+        deflated on threads (:mod:`~raycast_shade.output.exrwrite`); the
+        others by the ``openexr`` package.
     threads : int, optional
-        OpenEXR's worker threads while this file is written (its
-        process-wide count is put back afterwards); default: one per CPU.
+        Worker threads deflating the blocks (OpenEXR's, for its
+        compressions; its process-wide count is put back afterwards);
+        default: one per CPU.
 
     Raises
     ------
     ImportError
-        Without the ``openexr`` package (``pip install raycast_shade[vision]``).
+        ``"rle"``, ``"piz"`` or ``"zstd"`` without the ``openexr`` package
+        (``pip install raycast_shade[vision]``).
     TypeError, ValueError
         Naming the buffer, before the file is opened.
     """
+    from ..common.validate import as_choice
+    from .exrwrite import LINES_PER_BLOCK, write_exr_numpy
+
+    path = _check_path(path, ".exr")
+    compression = as_choice(compression, "compression", EXR_COMPRESSIONS)
+    threads = _threads(threads)
+    if compression in LINES_PER_BLOCK:  # laid out with NumPy, blocks deflated on our threads
+        channels = _exr_channels(buffers, image, contiguous=False)
+        with _target(path, atomic) as target, open(target, "wb") as fh:
+            write_exr_numpy(fh, channels, compression, threads=threads)
+        return path
     try:
         import OpenEXR
     except ImportError as exc:
         raise ImportError("write_exr: needs the openexr package (pip install 'raycast_shade[vision]')") from exc
-    from ..common.validate import as_choice
-
-    path = _check_path(path, ".exr")
-    compression = as_choice(compression, "compression", EXR_COMPRESSIONS)
-    if threads is None:
-        threads = os.cpu_count() or 1
-    else:
-        threads = as_int(threads, "threads", minimum=0)
-    channels = _exr_channels(buffers, image)
-    codec = getattr(OpenEXR, ("NO" if compression == "none" else compression.upper()) + "_COMPRESSION", None)
+    codec = getattr(OpenEXR, compression.upper() + "_COMPRESSION", None)
     if codec is None:  # ZSTD came with OpenEXR 3.4
         raise ValueError(f"compression: {compression!r} needs a newer openexr package than the one installed")
+    channels = _exr_channels(buffers, image)
     header = {"compression": codec, "type": OpenEXR.scanlineimage}
     before = OpenEXR.global_thread_count()
     OpenEXR.set_global_thread_count(int(threads))
@@ -310,7 +335,7 @@ def read_exr(path) -> dict:
     return out
 
 
-def write_depth_png(path, depth, *, scale: float = 1000.0, atomic: bool = False) -> str:
+def write_depth_png(path, depth, *, scale: float = 1000.0, fast: bool = False, atomic: bool = False) -> str:
     """Write depth as a 16-bit grey PNG of ``round(depth * scale)``.
 
     Parameters
@@ -321,6 +346,11 @@ def write_depth_png(path, depth, *, scale: float = 1000.0, atomic: bool = False)
         Depth in world units, ``>= 0``; 0 (or not finite) where there is none.
     scale : float
         Stored units per world unit (1000: millimetres from metres).
+    fast : bool
+        Deflate for speed, not size
+        (:func:`~raycast_shade.output.imagefile.png_deflate`).
+    atomic : bool
+        Write a temporary beside ``path`` and move it there once whole.
 
     Notes
     -----
@@ -332,7 +362,10 @@ def write_depth_png(path, depth, *, scale: float = 1000.0, atomic: bool = False)
 
     from ..common.validate import as_array
 
+    from ..common.validate import as_bool
+
     path = _check_path(path, ".png")
+    fast = as_bool(fast, "fast")
     d = as_array(depth, "depth", dtype=np.float64, ndim=2, finite=False)
     if 0 in d.shape:
         raise ValueError(f"depth: expected a non-empty (H, W) array, got shape {d.shape}")
@@ -351,7 +384,7 @@ def write_depth_png(path, depth, *, scale: float = 1000.0, atomic: bool = False)
 
     header = struct.pack(">IIBBBBB", w, h, 16, 0, 0, 0, 0)  # 16-bit greyscale, no interlace
     with _target(path, atomic) as target, open(target, "wb") as fh:
-        fh.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw.tobytes(), 6))
+        fh.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", png_deflate(raw.tobytes(), fast))
                  + chunk(b"IEND", b""))
     return path
 

@@ -26,7 +26,8 @@ def _members(path):
 
 def test_float_image_and_zip_compression_when_asked(scene, tmp_path):
     cam = orbit_cameras(scene.camera, 1)
-    render_views(scene, cam, tmp_path / "a", buffers=["zdepth", "id"], formats=["npz", "exr"], image=None)
+    render_views(scene, cam, tmp_path / "a", buffers=["zdepth", "id"], formats=["npz", "exr"], image=None,
+                 compression="none")
     render_views(scene, cam, tmp_path / "b", buffers=["zdepth", "id"], formats=["npz", "exr"], image=None,
                  float_image=True, compression="zip")
     plain, zipped = _members(tmp_path / "a" / "view_00000.npz"), _members(tmp_path / "b" / "view_00000.npz")
@@ -40,6 +41,22 @@ def test_float_image_and_zip_compression_when_asked(scene, tmp_path):
         assert np.array_equal(a[name], buf) and np.array_equal(b[name], buf) and np.array_equal(eb[name], buf)
 
 
+@pytest.mark.parametrize("isal", [True, False])
+def test_auto_compression_zips_where_isal_is_installed_and_the_plan_says_which(scene, tmp_path, monkeypatch, isal):
+    import json
+    import sys
+
+    if isal:
+        pytest.importorskip("isal")
+    else:
+        monkeypatch.setitem(sys.modules, "isal", None)
+    render_views(scene, orbit_cameras(scene.camera, 1), tmp_path, buffers=["zdepth"], image=None)
+    want = "zip" if isal else "none"
+    assert set(_members(tmp_path / "view_00000.npz").values()) == {zipfile.ZIP_DEFLATED if isal else zipfile.ZIP_STORED}
+    with open(tmp_path / "plan.json") as fh:
+        assert json.load(fh)["settings"]["compression"] == want
+
+
 def test_bad_file_options_are_refused_before_anything_is_written(scene, tmp_path):
     cam = orbit_cameras(scene.camera, 1)
     with pytest.raises(ValueError, match="compression: expected one of.*'zstd'"):
@@ -47,3 +64,78 @@ def test_bad_file_options_are_refused_before_anything_is_written(scene, tmp_path
     with pytest.raises(TypeError, match="float_image: expected True or False"):
         render_views(scene, cam, tmp_path / "x", float_image="yes")
     assert not (tmp_path / "x").exists()
+
+
+def test_each_views_files_hold_that_views_frame_with_the_writer_thread(scene, tmp_path):
+    import imageio.v3 as iio
+
+    from raycast_shade.output.tonemap import to_uint8
+
+    cams = orbit_cameras(scene.camera, 3)
+    render_views(scene, cams, tmp_path, buffers=["zdepth", "normal", "id"], formats=["npz", "depth_png"])
+    for i, cam in enumerate(cams):  # view i rendered while view i - 1 was written: nothing crossed over
+        frame = rs.render(scene, camera=cam, buffers=("zdepth", "normal", "id"))
+        back = load_npz(tmp_path / f"view_{i:05d}.npz")
+        for name, buf in frame.buffers.items():
+            assert np.array_equal(back[name], buf), (i, name)
+        assert np.array_equal(iio.imread(tmp_path / f"view_{i:05d}.png"), to_uint8(frame.image)), i
+        assert (tmp_path / f"view_{i:05d}.json").exists()
+
+
+def test_a_failed_write_stops_the_set_without_its_record_and_a_rerun_finishes_it(scene, tmp_path, monkeypatch):
+    import raycast_shade.apps.views as views
+
+    cams = orbit_cameras(scene.camera, 3)
+    real = views.save_npz
+    calls = []
+
+    def failing(path, *args, **kw):
+        calls.append(path)
+        if len(calls) == 2:
+            raise OSError("disk full (simulated)")
+        return real(path, *args, **kw)
+
+    monkeypatch.setattr(views, "save_npz", failing)
+    with pytest.raises(OSError, match="disk full"):
+        render_views(scene, cams, tmp_path / "set", buffers=["zdepth"], image=None)
+    assert (tmp_path / "set" / "view_00000.json").exists()
+    assert not (tmp_path / "set" / "view_00001.json").exists()
+    monkeypatch.setattr(views, "save_npz", real)
+    render_views(scene, cams, tmp_path / "set", buffers=["zdepth"], image=None)
+    render_views(scene, cams, tmp_path / "one", buffers=["zdepth"], image=None)
+    for i in range(3):  # the finished set holds the bytes a single run writes
+        name = f"view_{i:05d}.npz"
+        assert (tmp_path / "set" / name).read_bytes() == (tmp_path / "one" / name).read_bytes(), name
+
+
+def test_views_overlap_only_where_two_frames_fit_the_memory_limit(scene, monkeypatch, tmp_path):
+    import raycast_shade.common.validate as validate
+    from raycast_shade.apps import views
+    from raycast_shade.scene.framememory import frame_bytes_per_pixel
+
+    jobs = [type("Job", (), {"camera": c})() for c in orbit_cameras(scene.camera, 2)]
+    memory = dict(buffers=("zdepth", "model_id"), samples=1)
+    one = scene.camera.width * scene.camera.height * frame_bytes_per_pixel(**memory)
+    monkeypatch.setattr(validate, "memory_limit", lambda: 2 * one)
+    assert views._two_frames_fit(jobs, memory)
+    monkeypatch.setattr(validate, "memory_limit", lambda: 2 * one - 1)
+    assert not views._two_frames_fit(jobs, memory)
+    # without the overlap the set is written all the same, view after view
+    render_views(scene, orbit_cameras(scene.camera, 2), tmp_path, buffers=["zdepth"], image=None)
+    assert sorted(p.name for p in tmp_path.glob("view_*.npz")) == ["view_00000.npz", "view_00001.npz"]
+
+
+def test_a_view_set_packs_and_builds_its_bvh_once(scene, tmp_path, monkeypatch):
+    import raycast_shade.visibility.embree as embree
+
+    builds = []
+    real = embree.EmbreeAccel.__init__
+
+    def counting(self, *args, **kw):
+        builds.append(1)
+        real(self, *args, **kw)
+
+    monkeypatch.setattr(embree.EmbreeAccel, "__init__", counting)
+    fresh = rs.Scene([rs.Model(rs.shapes.icosphere(1))], lights=scene.lights, camera=scene.camera)  # no BVH yet
+    render_views(fresh, orbit_cameras(scene.camera, 3), tmp_path, buffers=["zdepth"], image=None)
+    assert len(builds) == 1  # one mesh set: one BVH, shared by the three views
