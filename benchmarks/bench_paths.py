@@ -16,6 +16,9 @@ divided by the plain Phong frame's median:
   (:func:`~raycast_shade.output.bufferfile.save_npz` stored, zlib level 1
   and 6; :func:`~raycast_shade.output.bufferfile.write_exr` uncompressed,
   ZIP and ZSTD on OpenEXR's threads), the write alone; their sizes in MiB;
+* ``terms``, ``shadows``, ``mirror``, ``explain``: ``render(terms=True)``, the light casting
+  shadows, the mesh a mirror with one bounce, and one ``frame.explain(x, y)`` of a rendered
+  frame (its milliseconds in the table too) (:func:`_teaching_paths`);
 * ``view_npz``, ``view_npz_exr_png``: one view of
   :func:`~raycast_shade.apps.views.render_views` with its default buffers and
   files (PNG image, npz), and with npz, EXR and a depth PNG, render and files.
@@ -92,6 +95,37 @@ def _paths(scene, tmp):
     }
 
 
+def _teaching_paths(scene):
+    """name -> (callable, None): the teaching and lighting paths of one case (issue 27's last rows).
+
+    ``terms`` renders the terms too; ``shadows`` the scene with its light casting shadows;
+    ``mirror`` the mesh as a mirror (reflectivity 0.5) with one bounce; ``explain`` one
+    ``frame.explain(x, y)`` on an already rendered plain frame (banded at 1080p: it casts the
+    pixel's packet rows, not the frame), cycling over nine pixels across the image."""
+    import dataclasses
+
+    import raycast_shade as rs
+
+    shadows = scene.replace(lights=[dataclasses.replace(light, shadows=True) for light in scene.lights])
+    mirror = scene.replace(models=[rs.Model(m.mesh, dataclasses.replace(m.material, reflectivity=0.5))
+                                   for m in scene.models])
+    frame = rs.render(scene)
+    w, h = frame.camera.width, frame.camera.height
+    pixels = [(w * i // 4, h * j // 4) for i in (1, 2, 3) for j in (1, 2, 3)]
+    turn = iter(range(1 << 62))
+
+    def explain():
+        x, y = pixels[next(turn) % len(pixels)]
+        frame.explain(x, y)
+
+    return {
+        "terms": (lambda: rs.render(scene, terms=True), None),
+        "shadows": (lambda: rs.render(shadows), None),
+        "mirror": (lambda: rs.render(mirror, max_depth=1), None),
+        "explain": (explain, None),
+    }
+
+
 def bench_case(kind, level, width, height, repeats):
     from benchmarks.bench_peers import make_mesh, make_scene
 
@@ -99,7 +133,7 @@ def bench_case(kind, level, width, height, repeats):
     scene = make_scene(mesh, width, height)
     tmp = tempfile.mkdtemp(prefix="bench_paths_")
     try:
-        paths = _paths(scene, tmp)
+        paths = {**_paths(scene, tmp), **_teaching_paths(scene)}
         times = {name: [] for name in paths}
         for r in range(repeats + 1):  # round 0: warm-up (JIT, Embree build, page faults)
             for name, (fn, _) in paths.items():
@@ -154,7 +188,12 @@ LABELS = {"buffers_all": "all 12 buffers", "position": "`position` alone",
           "view_default": "zdepth, normal, id, mask (the view-set default)", "npz_plain": "`save_npz`, stored (default)",
           "npz_zlib1": "`save_npz`, zlib level 1", "npz_zlib6": "`save_npz`, zlib level 6",
           "exr": "`write_exr`, uncompressed (default)", "exr_zip": "`write_exr`, ZIP", "exr_zstd": "`write_exr`, ZSTD",
-          "view_npz": "`render_views`, one view (PNG + npz)", "view_npz_exr_png": "`render_views`, one view (PNG + npz + EXR + depth PNG)"}
+          "view_npz": "`render_views`, one view (PNG + npz)", "view_npz_exr_png": "`render_views`, one view (PNG + npz + EXR + depth PNG)",
+          "terms": "`terms=True`", "shadows": "shadows on", "mirror": "a mirror material, one bounce",
+          "explain": "`frame.explain(x, y)`, one pixel"}
+
+
+MS_ROWS = ("explain",)  # shown with their milliseconds too (the target is in ms)
 
 
 def table(rows) -> str:
@@ -169,7 +208,8 @@ def table(rows) -> str:
         cells = []
         for m, _, w, h in cases:
             r = get.get((m, w, h, name))
-            cells.append("" if r is None else f"{r['ratio']}×" + (f" ({r['size_MiB']} MiB)" if r["size_MiB"] else ""))
+            tail = f" ({r['size_MiB']} MiB)" if r and r["size_MiB"] else (f" ({r['median_ms']} ms)" if r and name in MS_ROWS else "")
+            cells.append("" if r is None else f"{r['ratio']}×" + tail)
         out.append(f"| {label} | " + " | ".join(cells) + " |")
     for name, label in (("peak_frame", "peak memory growth, plain frame"), ("peak_buffers_all", "the same, all 12 buffers")):
         out.append(f"| {label} | " + " | ".join(f"{get[(m, w, h, name)]['size_MiB']} MiB" for m, _, w, h in cases) + " |")
@@ -243,7 +283,7 @@ def main(argv=None):
             rows.append(dict(mesh=case[0], triangles=20 * 4 ** case[1], width=case[2], height=case[3], path=label,
                              median_ms="", ratio="", size_MiB=f"{peak_mib(*case, names):.0f}", repeats=1,
                              note="peak RSS growth of one frame, fresh process"))
-        for r in rows[-14:]:
+        for r in rows[-(2 + 16):]:
             print(r["mesh"], r["width"], r["path"], r["median_ms"], r["ratio"], r["size_MiB"], flush=True)
     out = results_file("paths.csv", args.quick)
     os.makedirs(os.path.dirname(out), exist_ok=True)

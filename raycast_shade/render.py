@@ -8,7 +8,6 @@ hands the image and its buffers to the :class:`~raycast_shade.output.frame.Frame
 
 from __future__ import annotations
 
-import functools
 import time
 from dataclasses import dataclass
 
@@ -20,6 +19,7 @@ from .visibility import bands
 from .visibility.cast import cast_camera, resolve_caster, secondary_rays
 from .visibility.hits import image_buffer
 from .visibility.interpolation import to_screen_space
+from .visibility.pixel import CameraCast
 from .visibility.raster import rasterize
 from .visibility.rays import subpixel_camera
 from .output.buffers import check_buffers, compute_buffers
@@ -155,7 +155,7 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
     timings["total"] = te - t0
     return Frame(image=image, hits=hits, shading=shading, scene=scene, camera=camera, timings=timings,
                  decisions=plan.decisions, buffers=extra, terms=parts, max_depth=plan.max_depth,
-                 explainer=explain if plan.samples == 1 else _averaged, hit_mask=mask)
+                 explainer=explain if plan.samples == 1 else _averaged, hit_mask=mask, inputs=inputs)
 
 
 def _averaged(frame, x, y):
@@ -317,7 +317,7 @@ def _render_bands(scene, plan: _Plan, timings: dict, inputs):
         tc = time.perf_counter()
         shade += tc - ts
     timings["cast"], timings["shade"] = cast, shade
-    return functools.partial(cast_camera, scene.geometry, camera, plan.caster), image, mask
+    return CameraCast(scene.geometry, camera, plan.caster), image, mask
 
 
 def _render_samples(scene, plan: _Plan, timings: dict, inputs):
