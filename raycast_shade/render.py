@@ -148,7 +148,8 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
         extra = compute_buffers(scene, camera, hits, plan.buffers, shading, coverage=coverage)
         timings["buffers"] = time.perf_counter() - te
         te = time.perf_counter()
-    parts = {} if terms is None else shade_terms(scene, camera, hits, shading, plan.max_depth, "per_light" in terms)
+    parts = {} if terms is None else shade_terms(scene, camera, hits, shading, plan.max_depth, "per_light" in terms,
+                                                   inputs)
     if terms is not None:
         timings["terms"] = time.perf_counter() - te
         te = time.perf_counter()

@@ -229,3 +229,34 @@ def test_scene_without_lights_has_only_ambient():
     assert f.terms["shadow"].shape == (0, 12, 16) and f.terms["diffuse_per_light"].shape == (0, 12, 16, 3)
     assert np.all(f.terms["diffuse"] == 0) and np.all(f.terms["specular"] == 0)
     np.testing.assert_allclose(compose_terms(f.terms), f.image, rtol=SUM_RTOL)
+
+
+def test_term_variants_share_the_frames_inputs_and_repack_nothing():
+    """Each term shades a variant of the frame's kernel inputs: the packed arrays are the frame's
+    own objects (nothing repacked), only the varied rows differ, and the compile-time flags are
+    those a scene with those rows would have."""
+    from raycast_shade.common.layout import LIGHT_SIZE, MAT_KS
+    from raycast_shade.shading.inputs import prepare
+    from raycast_shade.shading.terms import variant_inputs
+
+    scene = lamp_scene(16, 12)
+    k = prepare(scene, scene.camera)
+    rows = k.materials.copy()
+    rows[:, MAT_KS:MAT_KS + 3] = 0.0  # no specular anywhere
+    v = variant_inputs(k, scene.geometry.origin, materials=rows, lights=())
+    assert v.geometry is k.geometry and v.bumps is k.bumps and v.cam is k.cam and v.colours is k.colours
+    assert v.materials is not k.materials and np.array_equal(v.materials, rows)
+    assert v.lighting[1].shape == (0, LIGHT_SIZE) and v.lighting[3] == 0 and not v.spec_on
+    assert np.array_equal(v.background, [0.0, 0.0, 0.0])
+    lit = variant_inputs(k, scene.geometry.origin, lights=scene.lights)
+    np.testing.assert_array_equal(lit.lighting[1], k.lighting[1])
+    assert lit.lighting[3] == k.lighting[3] != 0 and lit.spec_on == k.spec_on and lit.att_on == k.att_on
+    # The terms from the frame's inputs are the terms packed afresh, bit for bit.
+    from raycast_shade.shading.terms import shade_terms
+
+    hits = rs.cast_camera(scene.geometry, scene.camera)
+    a = shade_terms(scene, scene.camera, hits, "phong", per_light=True, inputs=k)
+    b = shade_terms(scene, scene.camera, hits, "phong", per_light=True)
+    assert set(a) == set(b)
+    for name in a:
+        np.testing.assert_array_equal(a[name], b[name])
