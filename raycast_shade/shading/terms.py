@@ -40,6 +40,12 @@ zero the mesh colours (a zero kd row alone would leave them in), and the
 shadow probe sets them to 1 and drops the kd map (their hue would skew the
 probe's ratio).
 
+A frame whose models are all Phong-shaded gets its local terms, per-light
+terms and shadow mask from one pass (:mod:`.terms_kernel`): each pixel's
+equation evaluated once with its parts stored apart, the same numbers the
+variant passes give (measured equal, bit for bit, on the test scenes). Flat
+and Gouraud frames shade the variants, one pass each.
+
 Every variant is the frame's kernel inputs with other material rows, mesh
 colours or lights (:func:`variant_inputs`): the packed geometry, the BVH, the
 height maps and texels are the frame's, so a term costs one shading pass, no
@@ -53,11 +59,13 @@ import dataclasses
 import numpy as np
 
 from ..common.layout import (ATT_NONE, COLOR_FACE, LIGHT_ATT, LIGHT_DIRECTIONAL, LIGHT_KIND, LIGHT_SHADOWS,
-                             LIGHT_SIZE, MAT_KA, MAT_KD, MAT_KS, MAT_REFLECTIVITY, TEXMAP_KD)
+                             LIGHT_SIZE, MAT_KA, MAT_KD, MAT_KS, MAT_REFLECTIVITY, METHOD_PHONG, TEXMAP_KD)
 from ..scene.lights import PointLight
 from .inputs import prepare
 from .mirrors import trace_mirrors
-from .shade import SampleShading
+from .jit import variant
+from .shade import SampleShading, resolve_methods
+from .terms_kernel import _PHONG_TERMS, TERM_SLOTS
 
 __all__ = ["TERM_OPTIONS", "check_terms", "shade_terms", "compose_terms", "variant_inputs", "with_materials"]
 
@@ -232,6 +240,43 @@ def shade_terms(scene, camera, hits, shading, max_depth: int = 0, per_light: boo
     def shaded(**variant):
         return SampleShading(scene, camera, shading, variant_inputs(k, geo.origin, **variant)).shade(hits)
 
+    modes = resolve_methods(scene, shading)
+    if np.all(modes == METHOD_PHONG):  # one pass writes every local term and the shadow mask
+        out = _phong_terms(k, hits, modes, len(scene.lights), per_light)
+    else:
+        out = _variant_terms(scene, shaded, mats, h, w, per_light)
+    seen = hits.prim >= 0
+    out["background"] = np.where(seen[..., None], np.float32(0.0),
+                                 np.asarray(scene.background, np.float32)).astype(np.float32)
+    keep = np.ones((h, w), np.float32)
+    reflected = np.zeros((h, w, 3), np.float32)
+    if geo.reflective and max_depth > 0:
+        rho = np.where(seen, mats[np.maximum(hits.geom, 0), MAT_REFLECTIVITY], 0.0)
+        keep = np.where(rho > 0, (1.0 - rho).astype(np.float32), np.float32(1.0))
+        trace_mirrors(scene, camera, hits, reflected, max_depth, k)  # over black: rho * what the mirror sees
+    out["keep"], out["reflected"] = keep, reflected
+    return out
+
+
+def _phong_terms(k, hits, modes, nlights, per_light) -> dict:
+    """The local terms, per-light terms and shadow mask of a Phong frame in one pass
+    (:mod:`.terms_kernel`)."""
+    h, w = hits.shape
+    local = np.empty((len(TERM_SLOTS), h, w, 3), np.float32)
+    each = np.empty((2, nlights if per_light else 0, h, w, 3), np.float32)
+    shadow = np.empty((nlights, h, w), np.float32)
+    variant(_PHONG_TERMS, k)(hits.prim, hits.geom, hits.u, hits.v, k.geometry, k.bumps, k.lighting, k.colours,
+                             k.face_off, k.materials, k.cam, modes, local, each, shadow)
+    out = dict(zip(TERM_SLOTS, local))
+    if per_light:
+        out["diffuse_per_light"], out["specular_per_light"] = each[0], each[1]
+    out["shadow"] = shadow
+    return out
+
+
+def _variant_terms(scene, shaded, mats, h, w, per_light) -> dict:
+    """The local terms, per-light terms and shadow mask, one shading pass of a variant each
+    (flat and Gouraud, whose per-face and per-vertex work has no one-pass form yet)."""
     out = {
         "ambient": shaded(lights=()),
         "diffuse": shaded(materials=_rows(mats, (MAT_KD,))),
@@ -243,17 +288,7 @@ def shade_terms(scene, camera, hits, shading, max_depth: int = 0, per_light: boo
             out[f"{name}_per_light"] = np.stack(
                 [shaded(materials=rows, colors=colors, lights=(light,)) for light in scene.lights]
             ) if scene.lights else np.zeros((0, h, w, 3), np.float32)
-    seen = hits.prim >= 0
-    out["background"] = np.where(seen[..., None], np.float32(0.0),
-                                 np.asarray(scene.background, np.float32)).astype(np.float32)
-    keep = np.ones((h, w), np.float32)
-    reflected = np.zeros((h, w, 3), np.float32)
-    if geo.reflective and max_depth > 0:
-        rho = np.where(seen, mats[np.maximum(hits.geom, 0), MAT_REFLECTIVITY], 0.0)
-        keep = np.where(rho > 0, (1.0 - rho).astype(np.float32), np.float32(1.0))
-        trace_mirrors(scene, camera, hits, reflected, max_depth, k)  # over black: rho * what the mirror sees
-    out["keep"], out["reflected"] = keep, reflected
-    out["shadow"] = _shadow_mask(scene, shaded, hits.shape, mats)
+    out["shadow"] = _shadow_mask(scene, shaded, (h, w), mats)
     return out
 
 
