@@ -246,10 +246,10 @@ def shade_terms(scene, camera, hits, shading, max_depth: int = 0, per_light: boo
     else:
         out = _variant_terms(scene, shaded, mats, h, w, per_light)
     seen = hits.prim >= 0
-    out["background"] = np.where(seen[..., None], np.float32(0.0),
-                                 np.asarray(scene.background, np.float32)).astype(np.float32)
+    # One pass each, no float64 or astype temporaries: (H, W, 3) float32 of the background where unseen.
+    out["background"] = np.multiply(~seen[..., None], np.asarray(scene.background, np.float32), dtype=np.float32)
     keep = np.ones((h, w), np.float32)
-    reflected = np.zeros((h, w, 3), np.float32)
+    reflected = np.zeros((h, w, 3), np.float32)  # untouched pages until a mirror writes them
     if geo.reflective and max_depth > 0:
         rho = np.where(seen, mats[np.maximum(hits.geom, 0), MAT_REFLECTIVITY], 0.0)
         keep = np.where(rho > 0, (1.0 - rho).astype(np.float32), np.float32(1.0))
