@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from .accel import embree_accel
 from .cast import _TILE_H, _cast_camera_kernel, _fill_holes, cast_camera, check_camera_reach
 from .hits import HitBuffer, image_buffer
+from .holes import _JUMP, _suspicious
 from .rays import camera_frame
 
 __all__ = ["cast_pixel", "CameraCast"]
@@ -59,7 +60,8 @@ def cast_pixel(geometry, camera, x: int, y: int) -> HitBuffer:
     win = image_buffer(None, hi - lo, w)
     _cast_camera_kernel(embree_accel(geometry).handle, cam, lo, *win)
     r = y - lo  # an inner row of the window unless it is the image's first or last
-    _fill_holes(geometry, cam, win, "embree", rows=(r, r + 1), y0=lo)
+    if _suspicious(win.prim, win.t, _JUMP, r, x):  # the repair's own test (most pixels: no repair to run)
+        _fill_holes(geometry, cam, win, "embree", rows=(r, r + 1), y0=lo)
     return HitBuffer(*(a[r:r + 1, x:x + 1].copy() for a in win))
 
 
