@@ -42,9 +42,9 @@ import numpy as np
 
 from ..common.layout import (CAM_EYE, CAM_FORWARD, CAM_ORTHO, MAT_BLINN, MAT_KA, MAT_KD, MAT_KS, MAT_REFLECTIVITY,
                              MAT_SHININESS)
-from ..shading.inputs import prepare
 from ..common.validate import as_int
 from ..scene.lights import DirectionalLight, SpotLight
+from ..shading.inputs import prepare
 from ..shading.shade import resolve_methods
 from ..visibility import embree
 from ..visibility.accel import embree_accel
