@@ -255,6 +255,7 @@ def shade_terms(scene, camera, hits, shading, max_depth: int = 0, per_light: boo
         keep = np.where(rho > 0, (1.0 - rho).astype(np.float32), np.float32(1.0))
         trace_mirrors(scene, camera, hits, reflected, max_depth, k)  # over black: rho * what the mirror sees
     out["keep"], out["reflected"] = keep, reflected
+    out["shadow"] = out.pop("shadow")  # last, as the montage and the docs list the terms
     return out
 
 
