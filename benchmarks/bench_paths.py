@@ -28,6 +28,9 @@ divided by the plain Phong frame's median:
 * ``flat``, ``gouraud``: the frame flat- and Gouraud-shaded; ``samples4``:
   four rays per pixel; ``samples4_coverage``: the same with ``coverage`` and
   the view-set default buffers.
+* ``terms``, ``shadows``, ``mirror``, ``explain``: ``render(terms=True)``, the light casting
+  shadows, the mesh a mirror with one bounce, and one ``frame.explain(x, y)`` of a rendered
+  frame (its milliseconds in the table too) (:func:`_teaching_paths`);
 
 Peak memory of a frame without and with all 12 buffers (``peak_frame``,
 ``peak_buffers_all``, in the ``size_MiB`` column) is measured in a fresh
@@ -141,6 +144,37 @@ def _band_paths(scene):
             "samples4_coverage": (lambda: rs.render(scene, samples=4, buffers=("coverage",) + VIEW_DEFAULT), None, 1)}
 
 
+def _teaching_paths(scene):
+    """name -> (callable, None, 1): the teaching and lighting paths of one case (issue 27's last rows).
+
+    ``terms`` renders the terms too; ``shadows`` the scene with its light casting shadows;
+    ``mirror`` the mesh as a mirror (reflectivity 0.5) with one bounce; ``explain`` one
+    ``frame.explain(x, y)`` on an already rendered plain frame (banded at 1080p: it casts the
+    pixel's packet rows, not the frame), cycling over nine pixels across the image."""
+    import dataclasses
+
+    import raycast_shade as rs
+
+    shadows = scene.replace(lights=[dataclasses.replace(light, shadows=True) for light in scene.lights])
+    mirror = scene.replace(models=[rs.Model(m.mesh, dataclasses.replace(m.material, reflectivity=0.5))
+                                   for m in scene.models])
+    frame = rs.render(scene)
+    w, h = frame.camera.width, frame.camera.height
+    pixels = [(w * i // 4, h * j // 4) for i in (1, 2, 3) for j in (1, 2, 3)]
+    turn = iter(range(1 << 62))
+
+    def explain():
+        x, y = pixels[next(turn) % len(pixels)]
+        frame.explain(x, y)
+
+    return {
+        "terms": (lambda: rs.render(scene, terms=True), None, 1),
+        "shadows": (lambda: rs.render(shadows), None, 1),
+        "mirror": (lambda: rs.render(mirror, max_depth=1), None, 1),
+        "explain": (explain, None, 1),
+    }
+
+
 def bench_case(kind, level, width, height, repeats):
     from benchmarks.bench_peers import make_mesh, make_scene
 
@@ -148,7 +182,7 @@ def bench_case(kind, level, width, height, repeats):
     scene = make_scene(mesh, width, height)
     tmp = tempfile.mkdtemp(prefix="bench_paths_")
     try:
-        paths = _paths(scene, tmp)
+        paths = {**_paths(scene, tmp), **_teaching_paths(scene)}
         times = {name: [] for name in paths}
         for r in range(repeats + 1):  # round 0: warm-up (JIT, Embree build, page faults)
             for name, (fn, _, per) in paths.items():
@@ -208,7 +242,12 @@ LABELS = {"buffers_all": "all 12 buffers", "position": "`position` alone",
           "view_npz_zip": "`render_views`, per view (PNG + npz, zip: the default with ISA-L)",
           "view_npz_exr_png": "`render_views`, per view (PNG + npz + EXR + depth PNG, zip)",
           "flat": "flat-shaded frame", "gouraud": "Gouraud-shaded frame", "samples4": "`samples=4`",
-          "samples4_coverage": "`samples=4` with coverage and the view-set default"}
+          "samples4_coverage": "`samples=4` with coverage and the view-set default",
+          "terms": "`terms=True`", "shadows": "shadows on", "mirror": "a mirror material, one bounce",
+          "explain": "`frame.explain(x, y)`, one pixel"}
+
+
+MS_ROWS = ("explain",)  # shown with their milliseconds too (the target is in ms)
 
 
 def table(rows) -> str:
@@ -223,7 +262,8 @@ def table(rows) -> str:
         cells = []
         for m, _, w, h in cases:
             r = get.get((m, w, h, name))
-            cells.append("" if r is None else f"{r['ratio']}×" + (f" ({r['size_MiB']} MiB)" if r["size_MiB"] else ""))
+            tail = f" ({r['size_MiB']} MiB)" if r and r["size_MiB"] else (f" ({r['median_ms']} ms)" if r and name in MS_ROWS else "")
+            cells.append("" if r is None else f"{r['ratio']}×" + tail)
         out.append(f"| {label} | " + " | ".join(cells) + " |")
     for name, label in (("peak_frame", "peak memory growth, plain frame"), ("peak_buffers_all", "the same, all 12 buffers")):
         out.append(f"| {label} | " + " | ".join(f"{get[(m, w, h, name)]['size_MiB']} MiB" for m, _, w, h in cases) + " |")

@@ -8,7 +8,6 @@ hands the image and its buffers to the :class:`~raycast_shade.output.frame.Frame
 
 from __future__ import annotations
 
-import functools
 import time
 from dataclasses import dataclass
 
@@ -20,6 +19,7 @@ from .visibility import bands
 from .visibility.cast import cast_camera, resolve_caster, secondary_rays
 from .visibility.hits import image_buffer
 from .visibility.interpolation import to_screen_space
+from .visibility.pixel import CameraCast
 from .visibility.raster import check_raster_camera, rasterize
 from .visibility.rays import subpixel_camera
 from .output.buffers import FrameBuffers, check_buffers, compute_buffers
@@ -148,14 +148,15 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
             extra = compute_buffers(scene, camera, hits, plan.buffers, shading, coverage=coverage)
             timings["buffers"] = time.perf_counter() - tb
     te = time.perf_counter()
-    parts = {} if terms is None else shade_terms(scene, camera, hits, shading, plan.max_depth, "per_light" in terms)
+    parts = {} if terms is None else shade_terms(scene, camera, hits, shading, plan.max_depth, "per_light" in terms,
+                                                   inputs)
     if terms is not None:
         timings["terms"] = time.perf_counter() - te
         te = time.perf_counter()
     timings["total"] = te - t0
     return Frame(image=image, hits=hits, shading=shading, scene=scene, camera=camera, timings=timings,
                  decisions=plan.decisions, buffers=extra, terms=parts, max_depth=plan.max_depth,
-                 explainer=explain if plan.samples == 1 else _averaged, hit_mask=mask)
+                 explainer=explain if plan.samples == 1 else _averaged, hit_mask=mask, inputs=inputs)
 
 
 def _averaged(frame, x, y):
@@ -364,7 +365,7 @@ def _render_bands(scene, plan: _Plan, timings: dict, inputs):
     timings["cast"] = time.perf_counter() - t_start - sum(spent.values())
     timings.update((k, v) for k, v in spent.items() if v or k == "shade")
     extra = buffers.result(mask, coverage) if buffers is not None else {}
-    return functools.partial(cast_camera, scene.geometry, camera, plan.caster), image, mask, extra
+    return CameraCast(scene.geometry, camera, plan.caster), image, mask, extra
 
 
 class _BandMean:

@@ -43,6 +43,14 @@ class _HitsSlot:
         obj.__dict__[self.slot] = value
         obj.__dict__["_hits_lock"] = threading.Lock()
 
+    def pending(self, obj):
+        """The recipe of ``obj``'s hit buffer while it has not run, else None."""
+        value = obj.__dict__[self.slot]
+        return value if callable(value) else None
+
+
+_HITS = _HitsSlot()  # Frame.hits (a module name: the class attribute answers only for an instance)
+
 
 class TermsMissingError(KeyError):
     """A term read from a frame rendered without its terms (a KeyError, so ``in`` and ``get`` behave)."""
@@ -135,10 +143,14 @@ class Frame:
     hit_mask : (H, W) bool or None
         ``hits.prim >= 0``, kept by a frame whose hit buffer is made on first
         use, so that :attr:`mask` needs no cast.
+    inputs : FrameInputs or None
+        The kernel inputs the frame was shaded with
+        (:func:`~raycast_shade.shading.inputs.prepare`), which :meth:`explain`
+        reads instead of packing them again; ``None``: not kept.
     """
 
     image: np.ndarray
-    hits: HitBuffer = _HitsSlot()
+    hits: HitBuffer = _HITS
     shading: str
     scene: object = None
     camera: object = None
@@ -150,6 +162,7 @@ class Frame:
     max_depth: int | None = None
     explainer: object = None
     hit_mask: np.ndarray | None = None
+    inputs: object = None
 
     @property
     def method(self) -> np.ndarray:
@@ -190,6 +203,16 @@ class Frame:
     def model_id(self) -> np.ndarray:
         """(H, W) int32 model index; -1 on the background."""
         return self.hits.geom
+
+    def hit(self, x: int, y: int) -> HitBuffer:
+        """Pixel ``(x, y)``'s hit as (1, 1) arrays, the hit buffer's bit for bit. A frame whose
+        buffer is still a recipe (shaded band by band) casts that pixel's rays alone
+        (:func:`~raycast_shade.visibility.pixel.cast_pixel`), not the frame.
+        ``x``, ``y`` are not checked here (:meth:`explain` checks them)."""
+        recipe = _HITS.pending(self)
+        if recipe is not None and hasattr(recipe, "pixel"):
+            return recipe.pixel(x, y)
+        return HitBuffer(*(a[y:y + 1, x:x + 1] for a in self.hits))
 
     def explain(self, x: int, y: int):
         """The reflectance equation at pixel ``(x, y)`` with its numbers filled in

@@ -44,6 +44,25 @@ def _mirror_ray(hp, unit):
     return (_nudge(p[0], g[0], unit), _nudge(p[1], g[1], unit), _nudge(p[2], g[2], unit)), r
 
 
+# The two blends run over the mirror pixels in place, in plain IEEE arithmetic (no fast-math:
+# the NumPy expressions they replace, bit for bit, without their gathers and float64 temporaries).
+@njit(parallel=True, cache=True)
+def _keep_kernel(flat, idx, rho):
+    """``flat[idx[j]] *= float32(1 - rho[j])``: a mirror pixel keeps ``1 - rho`` of its local shade."""
+    for j in prange(len(idx)):
+        keep = np.float32(1.0 - rho[j])
+        for c in range(3):
+            flat[idx[j], c] = flat[idx[j], c] * keep
+
+
+@njit(parallel=True, cache=True)
+def _add_kernel(flat, idx, weight, colour):
+    """``flat[idx[j]] = float32(min(flat[idx[j]] + weight[j] colour[j], FLT32_MAX))`` in float64."""
+    for j in prange(len(idx)):
+        for c in range(3):
+            flat[idx[j], c] = min(np.float64(flat[idx[j], c]) + weight[j] * colour[j, c], FLT32_MAX)
+
+
 @njit(parallel=True, **JIT)
 def _mirror_rows_kernel(prim, geom, materials, counts):
     """``counts[y]``: how many pixels of row ``y`` see a reflective surface."""
@@ -179,7 +198,7 @@ def trace_mirrors(scene, camera, hits, image, max_depth: int = 3, inputs=None) -
                             k["cam"], float(geo.scale), starts, idx, origins, dirs)
     flat = image.reshape(-1, 3)
     rho = geo.materials[hits.geom.reshape(-1)[idx], MAT_REFLECTIVITY]
-    flat[idx] *= (1.0 - rho)[:, None].astype(np.float32)
+    _keep_kernel(flat, idx, rho)
     weight = rho
     accel = embree_accel(geo).handle
     for depth in range(1, max_depth + 1):
@@ -198,7 +217,7 @@ def trace_mirrors(scene, camera, hits, image, max_depth: int = 3, inputs=None) -
         more = np.empty(m, np.bool_)
         points_kernel((prim, gm, u, v, dirs), k["G"], k["B"], k["L"], k["T"], k["face_off"], k["materials"], k["cam"],
                       k["background"], depth == max_depth, (colour, next_o, next_d, more))
-        flat[idx] = np.minimum(flat[idx] + weight[:, None] * colour, FLT32_MAX).astype(np.float32)
+        _add_kernel(flat, idx, weight, colour)
         weight = weight[more] * geo.materials[gm[more], MAT_REFLECTIVITY]
         idx, origins, dirs = idx[more], next_o[more], next_d[more]
         # A ray that can no longer change a float32 pixel of its own colour's size stops here.

@@ -40,8 +40,15 @@ zero the mesh colours (a zero kd row alone would leave them in), and the
 shadow probe sets them to 1 and drops the kd map (their hue would skew the
 probe's ratio).
 
-Material variants share the scene's packed geometry and Embree BVH (only the
-material rows and mesh colours differ), so a term costs one shading pass, no
+A frame whose models are all Phong-shaded gets its local terms, per-light
+terms and shadow mask from one pass (:mod:`.terms_kernel`): each pixel's
+equation evaluated once with its parts stored apart, the same numbers the
+variant passes give (measured equal, bit for bit, on the test scenes). Flat
+and Gouraud frames shade the variants, one pass each.
+
+Every variant is the frame's kernel inputs with other material rows, mesh
+colours or lights (:func:`variant_inputs`): the packed geometry, the BVH, the
+height maps and texels are the frame's, so a term costs one shading pass, no
 repacking.
 """
 
@@ -51,12 +58,16 @@ import dataclasses
 
 import numpy as np
 
-from ..common.layout import MAT_KA, MAT_KD, MAT_KS, MAT_REFLECTIVITY, TEXMAP_KD
+from ..common.layout import (ATT_NONE, COLOR_FACE, LIGHT_ATT, LIGHT_DIRECTIONAL, LIGHT_KIND, LIGHT_SHADOWS,
+                             LIGHT_SIZE, MAT_KA, MAT_KD, MAT_KS, MAT_REFLECTIVITY, METHOD_PHONG, TEXMAP_KD)
 from ..scene.lights import PointLight
+from .inputs import prepare
 from .mirrors import trace_mirrors
-from .shade import shade_hits
+from .jit import variant
+from .shade import SampleShading, resolve_methods
+from .terms_kernel import _PHONG_TERMS, TERM_SLOTS
 
-__all__ = ["TERM_OPTIONS", "check_terms", "shade_terms", "compose_terms", "with_materials"]
+__all__ = ["TERM_OPTIONS", "check_terms", "shade_terms", "compose_terms", "variant_inputs", "with_materials"]
 
 TERM_OPTIONS = ("per_light",)
 
@@ -97,8 +108,10 @@ def with_materials(scene, materials, colors=None, **changes):
 
     The copy of the packed geometry shares every array but ``materials``,
     and the memo of acceleration structures, so shading it needs no
-    repacking and no new BVH. For shading variants of a scene only: its
-    ``models`` still hold the original materials.
+    repacking and no new BVH. For the material explorer
+    (:mod:`raycast_shade.apps.explore`), whose frames carry the varied scene;
+    the terms vary the frame's kernel inputs instead (:func:`variant_inputs`).
+    Its ``models`` still hold the original materials.
 
     Parameters
     ----------
@@ -122,6 +135,57 @@ def with_materials(scene, materials, colors=None, **changes):
     return scene.replace(geometry=twin, **changes)
 
 
+def variant_inputs(inputs, origin, materials=None, colors=None, lights=None):
+    """The frame's kernel inputs with other material rows, colours or lights, on a black background.
+
+    Everything else (geometry, BVH, height maps, texels, camera row) is the frame's own,
+    shared, not repacked. The compile-time flags are those :func:`.inputs.prepare` would
+    give the varied scene, so the kernels are the variants they would be.
+
+    Parameters
+    ----------
+    inputs : FrameInputs
+        The frame's (:func:`.inputs.prepare`).
+    origin : (3,) float64
+        The scene's re-centring origin (lights pack themselves relative to it).
+    materials : (G, MAT_SIZE) float64, optional
+        Other material rows.
+    colors : float, optional
+        Every vertex and face colour set to this value (0: no kd from the mesh; 1: a
+        white kd, with the kd maps dropped too). ``None`` keeps them.
+    lights : sequence of Light, optional
+        Other lights (``()``: none). ``None`` keeps the frame's.
+
+    Returns
+    -------
+    FrameInputs
+    """
+    changes = dict(background=np.zeros(3))
+    mats = inputs.materials if materials is None else np.ascontiguousarray(materials, np.float64)
+    changes["materials"] = mats
+    if colors is not None and inputs.tex_on:
+        vc, fc, mode, tex_index, texels, info, _ = inputs.colours
+        if colors != 0:
+            tex_index = tex_index.copy()
+            tex_index[:, TEXMAP_KD] = -1
+        # The Gouraud "modulate" flag from the new maps, as prepare() derives it.
+        modulate = ((tex_index >= 0).any(axis=1) | (mode == COLOR_FACE)).astype(np.uint8)
+        changes["colours"] = (np.full_like(vc, colors), np.full_like(fc, colors), mode, tex_index, texels, info,
+                              modulate)
+    rows = inputs.lighting[1]
+    if lights is not None:
+        ambient, _, dmin, handle, unit = inputs.lighting
+        rows = np.zeros((len(lights), LIGHT_SIZE))
+        for i, light in enumerate(lights):
+            rows[i] = light.pack(origin)
+        # prepare() passes the BVH only when a light casts shadows (it moves the shadow-ray origin).
+        handle = handle if rows[:, LIGHT_SHADOWS].any() else np.uintp(0)
+        changes["lighting"] = (ambient, rows, dmin, handle, unit)
+    changes["spec_on"] = bool(np.any(mats[:, MAT_KS:MAT_KS + 3] > 0))
+    changes["att_on"] = bool(np.any((rows[:, LIGHT_KIND] != LIGHT_DIRECTIONAL) & (rows[:, LIGHT_ATT] != ATT_NONE)))
+    return dataclasses.replace(inputs, **changes)
+
+
 def _rows(materials, keep):
     """Material rows with the coefficient slots not in ``keep`` zeroed."""
     out = materials.copy()
@@ -142,7 +206,7 @@ def _shadow_probe(light):
             dataclasses.replace(light, color=(0.0, 1.0, 0.0), shadows=False, **common))
 
 
-def shade_terms(scene, camera, hits, shading, max_depth: int = 0, per_light: bool = False) -> dict:
+def shade_terms(scene, camera, hits, shading, max_depth: int = 0, per_light: bool = False, inputs=None) -> dict:
     """Each term of the reflectance equation shaded over a hit buffer.
 
     Parameters
@@ -153,6 +217,9 @@ def shade_terms(scene, camera, hits, shading, max_depth: int = 0, per_light: boo
         Mirror bounces, as ``render``'s.
     per_light : bool
         Also each light's diffuse and specular term.
+    inputs : FrameInputs, optional
+        The frame's kernel inputs (:func:`.inputs.prepare`); packed here when not given.
+        Every term shades a variant of them (:func:`variant_inputs`): nothing is repacked.
 
     Returns
     -------
@@ -164,44 +231,75 @@ def shade_terms(scene, camera, hits, shading, max_depth: int = 0, per_light: boo
         for what they mean and how they add up.
     """
     geo = scene.geometry
-    mats = geo.materials
+    k = prepare(scene, camera) if inputs is None else inputs
+    mats = k.materials
     h, w = hits.shape
-    black = dict(background=0.0)
+
+    def shaded(**variant):
+        return SampleShading(scene, camera, shading, variant_inputs(k, geo.origin, **variant)).shade(hits)
+
+    modes = resolve_methods(scene, shading)
+    if np.all(modes == METHOD_PHONG):  # one pass writes every local term and the shadow mask
+        out = _phong_terms(k, hits, modes, len(scene.lights), per_light)
+    else:
+        out = _variant_terms(scene, shaded, mats, h, w, per_light)
+    seen = hits.prim >= 0
+    # One pass each, no float64 or astype temporaries: (H, W, 3) float32 of the background where unseen.
+    out["background"] = np.multiply(~seen[..., None], np.asarray(scene.background, np.float32), dtype=np.float32)
+    keep = np.ones((h, w), np.float32)
+    reflected = np.zeros((h, w, 3), np.float32)  # untouched pages until a mirror writes them
+    if geo.reflective and max_depth > 0:
+        rho = np.where(seen, mats[np.maximum(hits.geom, 0), MAT_REFLECTIVITY], 0.0)
+        keep = np.where(rho > 0, (1.0 - rho).astype(np.float32), np.float32(1.0))
+        trace_mirrors(scene, camera, hits, reflected, max_depth, k)  # over black: rho * what the mirror sees
+    out["keep"], out["reflected"] = keep, reflected
+    out["shadow"] = out.pop("shadow")  # last, as the montage and the docs list the terms
+    return out
+
+
+def _phong_terms(k, hits, modes, nlights, per_light) -> dict:
+    """The local terms, per-light terms and shadow mask of a Phong frame in one pass
+    (:mod:`.terms_kernel`)."""
+    h, w = hits.shape
+    local = np.empty((len(TERM_SLOTS), h, w, 3), np.float32)
+    each = np.empty((2, nlights if per_light else 0, h, w, 3), np.float32)
+    shadow = np.empty((nlights, h, w), np.float32)
+    variant(_PHONG_TERMS, k)(hits.prim, hits.geom, hits.u, hits.v, k.geometry, k.bumps, k.lighting, k.colours,
+                             k.face_off, k.materials, k.cam, modes, local, each, shadow)
+    out = dict(zip(TERM_SLOTS, local))
+    if per_light:
+        out["diffuse_per_light"], out["specular_per_light"] = each[0], each[1]
+    out["shadow"] = shadow
+    return out
+
+
+def _variant_terms(scene, shaded, mats, h, w, per_light) -> dict:
+    """The local terms, per-light terms and shadow mask, one shading pass of a variant each
+    (flat and Gouraud, whose per-face and per-vertex work has no one-pass form yet)."""
     out = {
-        "ambient": shade_hits(scene.replace(lights=(), **black), camera, hits, shading),
-        "diffuse": shade_hits(with_materials(scene, _rows(mats, (MAT_KD,)), **black), camera, hits, shading),
-        "specular": shade_hits(with_materials(scene, _rows(mats, (MAT_KS,)), 0.0, **black), camera, hits, shading),
+        "ambient": shaded(lights=()),
+        "diffuse": shaded(materials=_rows(mats, (MAT_KD,))),
+        "specular": shaded(materials=_rows(mats, (MAT_KS,)), colors=0.0),
     }
     if per_light:
         for name, slot, colors in (("diffuse", MAT_KD, None), ("specular", MAT_KS, 0.0)):
             rows = _rows(mats, (slot,))
             out[f"{name}_per_light"] = np.stack(
-                [shade_hits(with_materials(scene, rows, colors, lights=(light,), **black), camera, hits, shading)
-                 for light in scene.lights]) if scene.lights else np.zeros((0, h, w, 3), np.float32)
-    seen = hits.prim >= 0
-    out["background"] = np.where(seen[..., None], np.float32(0.0),
-                                 np.asarray(scene.background, np.float32)).astype(np.float32)
-    keep = np.ones((h, w), np.float32)
-    reflected = np.zeros((h, w, 3), np.float32)
-    if geo.reflective and max_depth > 0:
-        rho = np.where(seen, mats[np.maximum(hits.geom, 0), MAT_REFLECTIVITY], 0.0)
-        keep = np.where(rho > 0, (1.0 - rho).astype(np.float32), np.float32(1.0))
-        trace_mirrors(scene, camera, hits, reflected, max_depth)  # over black: rho * what the mirror sees
-    out["keep"], out["reflected"] = keep, reflected
-    out["shadow"] = _shadow_mask(scene, camera, hits, shading)
+                [shaded(materials=rows, colors=colors, lights=(light,)) for light in scene.lights]
+            ) if scene.lights else np.zeros((0, h, w, 3), np.float32)
+    out["shadow"] = _shadow_mask(scene, shaded, (h, w), mats)
     return out
 
 
-def _shadow_mask(scene, camera, hits, shading) -> np.ndarray:
-    """(L, H, W) float32, see the module docstring."""
-    mask = np.ones((len(scene.lights),) + hits.shape, np.float32)
-    probe = _rows(scene.geometry.materials, ())
+def _shadow_mask(scene, shaded, shape, mats) -> np.ndarray:
+    """(L, H, W) float32, see the module docstring; ``shaded(**variant)`` shades a variant."""
+    mask = np.ones((len(scene.lights),) + shape, np.float32)
+    probe = _rows(mats, ())
     probe[:, MAT_KD:MAT_KD + 3] = 1.0
     for i, light in enumerate(scene.lights):
         if not light.shadows:
             continue
-        img = shade_hits(with_materials(scene, probe, 1.0, lights=_shadow_probe(light), background=0.0), camera,
-                         hits, shading)
+        img = shaded(materials=probe, colors=1.0, lights=_shadow_probe(light))
         through, reached = img[..., 0].astype(np.float64), img[..., 1].astype(np.float64)
         with np.errstate(divide="ignore", invalid="ignore"):
             mask[i] = np.where(reached > 0.0, np.minimum(through / reached, 1.0), 1.0)

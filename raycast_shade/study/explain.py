@@ -18,6 +18,14 @@ pixel's coefficients: explained as the three vertex shades evaluated with
 the pixel's ``ka, kd, Ks``, the same sum since the weights add up to 1. The
 total equals ``frame.image[y, x]`` to float32 rounding.
 
+The pixel's hit is the frame's: from its hit buffer, or, for a frame shaded
+band by band (which keeps no buffer), cast for that pixel alone
+(:meth:`~raycast_shade.output.frame.Frame.hit`,
+:func:`~raycast_shade.visibility.pixel.cast_pixel`: its packet rows and the
+neighbours the vertex repair reads, a few hundred microseconds at 1080p
+rather than the whole frame). The camera row, the shadow BVH and the ray
+offsets are the frame's own kernel inputs (``frame.inputs``).
+
 The geometry helpers are those of the plain-NumPy twin
 (:mod:`raycast_shade.study.reference`); shadow rays, bump maps and mirror
 rays, which the twin leaves out, are followed here for one pixel.
@@ -36,11 +44,11 @@ from ..common.layout import (CAM_EYE, CAM_FORWARD, CAM_ORTHO, MAT_BLINN, MAT_KA,
                              MAT_SHININESS)
 from ..common.validate import as_int
 from ..scene.lights import DirectionalLight, SpotLight
+from ..shading.inputs import prepare
 from ..shading.shade import resolve_methods
 from ..visibility import embree
 from ..visibility.accel import embree_accel
 from ..visibility.cast import cast_rays_kernel
-from ..visibility.rays import camera_frame
 from .explain_coef import _bumped, _coefficients, _face_footprint, _footprint, _modulated, _short, _spot_factor
 from .explain_text import format_explanation
 from .reference import _facing, _interpolated_normal, _view
@@ -271,14 +279,24 @@ class _Context:
 
 
 def _context(frame) -> _Context:
+    """The frame's own kernel inputs (:attr:`Frame.inputs`: camera row, shadow BVH, offsets),
+    packed here only for a frame that does not keep them."""
     scene, camera = frame.scene, frame.camera
     geo = scene.geometry
-    cam = camera_frame(camera, geo.origin)
-    shadows = any(light.shadows for light in scene.lights)
+    k = frame.inputs if getattr(frame, "inputs", None) is not None else prepare(scene, camera)
+    cam = k.cam
+    _, _, dmin, handle, unit = k.lighting
     return _Context(geo=geo, scene=scene, cam=cam, eye=cam[CAM_EYE:CAM_EYE + 3], fwd=cam[CAM_FORWARD:CAM_FORWARD + 3],
-                    ortho=cam[CAM_ORTHO] != 0.0, dmin=1e-6 * geo.scale, unit=float(geo.scale),
-                    shadow_handle=int(embree_accel(geo).handle) if shadows else 0,
-                    spec_on=bool(np.any(geo.materials[:, MAT_KS:MAT_KS + 3] > 0)))
+                    ortho=cam[CAM_ORTHO] != 0.0, dmin=float(dmin), unit=float(unit), shadow_handle=int(handle),
+                    spec_on=bool(k.spec_on))
+
+
+def _pixel_hit(frame, x, y):
+    """``(prim, geom, u, v)`` of pixel ``(x, y)``: :meth:`Frame.hit` (a banded frame casts that
+    pixel's rays alone, not the frame), or the hit buffer of a frame made by hand."""
+    hit = frame.hit(x, y) if callable(getattr(frame, "hit", None)) else \
+        type(frame.hits)(*(a[y:y + 1, x:x + 1] for a in frame.hits))
+    return int(hit.prim[0, 0]), int(hit.geom[0, 0]), float(hit.u[0, 0]), float(hit.v[0, 0])
 
 
 def _unit_view(ctx, p):
@@ -522,7 +540,9 @@ def explain(frame, x, y) -> Explanation:
     Parameters
     ----------
     frame : Frame
-        From :func:`raycast_shade.render` (its scene, camera, hit buffer and shading).
+        From :func:`raycast_shade.render` (its scene, camera, hit buffer or its recipe,
+        shading and kernel inputs). A banded frame's hit buffer is not cast: only the
+        pixel's rays are.
     x, y : int
         Column and row, ``0 <= x < width``, ``0 <= y < height``.
 
@@ -537,27 +557,25 @@ def explain(frame, x, y) -> Explanation:
     TypeError, ValueError
         For a pixel outside the image or a frame without its scene.
     """
-    if getattr(frame, "scene", None) is None or getattr(frame, "hits", None) is None:
+    if getattr(frame, "scene", None) is None or getattr(frame, "image", None) is None:  # not .hits: a recipe runs
         raise TypeError(f"frame: expected a Frame from raycast_shade.render, got {type(frame).__name__}")
     if getattr(frame.camera, "distorted", False):  # its rays are the lens's, not the pinhole's it re-casts
         raise ValueError("explain: the frame's camera has lens distortion; explain() follows pinhole rays: "
                          "render the frame with distortion=None to explain a pixel")
-    h, w = frame.hits.shape
+    h, w = frame.image.shape[:2]
     x = as_int(x, "x", minimum=0, maximum=w - 1)
     y = as_int(y, "y", minimum=0, maximum=h - 1)
     ctx = _context(frame)
-    geo, hits = ctx.geo, frame.hits
+    geo = ctx.geo
     image = np.asarray(frame.image[y, x], np.float32).copy()
-    prim = int(hits.prim[y, x])
+    prim, model, b1, b2 = _pixel_hit(frame, x, y)
     zero = np.zeros(3)
     if prim < 0:
         bg = np.asarray(frame.scene.background, np.float64)
         return Explanation(x, y, None, -1, "", -1, (), zero, (), np.zeros(0), zero, zero, zero, zero, 0.0, (), zero,
                            bg, image)
-    model = int(hits.geom[y, x])
     method = _METHOD_NAMES[int(resolve_methods(frame.scene, frame.shading)[model])]
     f = int(geo.face_offsets[model] + prim)
-    b1, b2 = float(hits.u[y, x]), float(hits.v[y, x])
     if method == "flat":
         shades, weights = _flat(ctx, f, model)
     elif method == "gouraud":
