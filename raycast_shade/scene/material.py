@@ -8,7 +8,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..common.choices import SPECULAR_MODELS
-from ..common.layout import MAT_BLINN, MAT_KA, MAT_KD, MAT_KS, MAT_REFLECTIVITY, MAT_SHININESS, MAT_SIZE
+from ..common.layout import (MAT_BLINN, MAT_KA, MAT_KA_COLORS, MAT_KD, MAT_KS, MAT_REFLECTIVITY, MAT_SHININESS,
+                             MAT_SIZE)
 from ..common.validate import as_choice, as_name, as_rgb, as_scalar
 from ..common.warnings import ColourRangeWarning
 
@@ -61,6 +62,13 @@ class Material:
         point's kd is ``kd * kd_map(u, v)`` (likewise ka, ks), as OBJ's
         ``map_Kd`` scales ``Kd``. See ``docs/textures.md`` for what each
         shading method does with them.
+    ka_colors : bool
+        The ambient term follows the mesh's colours: on a mesh with colours the
+        point's ka is ``ka`` times its colour (as its kd is the colour), so
+        ``ka=1`` gives an ambient term in the surface's own colour. False (the
+        default): ``ka`` is used as given. :func:`raycast_shade.load_models`
+        sets it (with ``ka=1``) for a coloured mesh whose file gives no ambient
+        colour. No effect on a mesh without colours.
     """
 
     kd: object = None
@@ -74,6 +82,7 @@ class Material:
     kd_map: object = None
     ka_map: object = None
     ks_map: object = None
+    ka_colors: bool = False
 
     def __post_init__(self):
         set_ = object.__setattr__
@@ -94,6 +103,9 @@ class Material:
             _warn_byte_range(getattr(self, field), f"{self.name}.{field}", field)
         set_(self, "shininess", as_scalar(self.shininess, f"{self.name}.shininess", minimum=0.0, exclusive=True))
         set_(self, "specular", as_choice(self.specular, f"{self.name}.specular", SPECULAR_MODELS))
+        if not isinstance(self.ka_colors, (bool, np.bool_)):
+            raise TypeError(f"{self.name}.ka_colors: expected True or False, got {type(self.ka_colors).__name__}")
+        set_(self, "ka_colors", bool(self.ka_colors))
         set_(self, "reflectivity", as_scalar(self.reflectivity, f"{self.name}.reflectivity", minimum=0.0, maximum=1.0))
         if self.bump is not None:
             from .heightmap import HeightMap
@@ -112,7 +124,8 @@ class Material:
         return bool(np.any(self.ks > 0))
 
     def packed(self) -> np.ndarray:
-        """(MAT_SIZE,) = (12,) float64: ka(3), kd(3), ks(3), t, blinn flag, reflectivity; the kernels' row
+        """(MAT_SIZE,) = (13,) float64: ka(3), kd(3), ks(3), t, blinn flag, reflectivity, ka_colors flag; the
+        kernels' row
         (slots named in :mod:`raycast_shade.common.layout`)."""
         row = np.empty(MAT_SIZE)
         row[MAT_KA:MAT_KA + 3] = self.ka
@@ -121,6 +134,7 @@ class Material:
         row[MAT_SHININESS] = self.shininess
         row[MAT_BLINN] = 1.0 if self.specular == "blinn" else 0.0
         row[MAT_REFLECTIVITY] = self.reflectivity
+        row[MAT_KA_COLORS] = 1.0 if self.ka_colors else 0.0
         return row
 
 
@@ -131,8 +145,11 @@ def overridden(base: Material, given: dict) -> dict:
     and ks_map): the override is the colour, not a factor on the file's
     texture. Where ``base``'s ka follows its kd (``ka == kd`` and the same
     map: a file without an ambient colour, see
-    :func:`raycast_shade.load_models`), a new kd or kd_map carries ka along,
-    unless ``ka`` or ``ka_map`` is given too.
+    :func:`raycast_shade.load_models`), or follows the mesh's colours
+    (``ka_colors``), a new kd or kd_map carries ka along, unless ``ka`` or
+    ``ka_map`` is given too. A ``ka`` given is used as given: ``ka_colors``
+    goes off with it (and with a ``kd``, which replaces the colours in scene
+    files) unless ``ka_colors`` is given too.
     """
     import dataclasses
 
@@ -141,9 +158,13 @@ def overridden(base: Material, given: dict) -> dict:
         out["kd_map"] = None
     if "ks" in given and "ks_map" not in given:
         out["ks_map"] = None
-    follows = np.array_equal(base.ka, base.kd) and base.ka_map is base.kd_map
+    follows = (np.array_equal(base.ka, base.kd) or base.ka_colors) and base.ka_map is base.kd_map
     if follows and "ka" not in given and "ka_map" not in given and ("kd" in given or "kd_map" in given):
-        out["ka"] = given["kd"] if "kd" in given else base.kd
+        out["ka"] = given["kd"] if "kd" in given else base.ka  # (base.ka is base.kd, or 1 scaled by the colours)
         out["ka_map"] = given.get("kd_map")
+        if "kd" in given:  # a kd replaces the colours too (scene files): ka is the new kd, not scaled by them
+            out["ka_colors"] = False
+    if "ka" in given and "ka_colors" not in given:  # an explicit ka is used as given
+        out["ka_colors"] = False
     out.update(given)
     return out

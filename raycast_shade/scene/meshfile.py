@@ -121,7 +121,8 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, *
     :meth:`Mesh.load`). Colours become the mesh's ``colors`` (its kd); a
     material's factor multiplies them (glTF: baseColor times ``COLOR_0``).
     Where the file gives no ambient colour, ka follows kd (and ka_map
-    kd_map). A face that repeats another with the opposite winding (a
+    kd_map; on a mesh with colours ``ka=1`` and ``ka_colors=True``: the
+    colours are its ka too). A face that repeats another with the opposite winding (a
     two-sided sheet) is dropped, counted in a warning: rendering lights
     every surface from the side it is seen from, and the pair would cancel
     every averaged normal around it. An image shared by several meshes is
@@ -199,7 +200,10 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, *
             if colors is not None and mode == "face":
                 colors = colors[~dup]
         if "ka" not in kw:  # the file gave no ambient colour: ka follows the diffuse colour and its texture
-            kw["ka"] = kw["kd"] if "kd" in kw else (1.0 if "kd_map" in kw else Material().kd)
+            if colors is not None:  # the colours (kd's factor already in them) are the point's ka too
+                kw["ka"], kw["ka_colors"] = 1.0, True
+            else:
+                kw["ka"] = kw["kd"] if "kd" in kw else (1.0 if "kd_map" in kw else Material().kd)
             if "kd_map" in kw and "ka_map" not in kw:
                 kw["ka_map"] = kw["kd_map"]
         kw.setdefault("name", name)

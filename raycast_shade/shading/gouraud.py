@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ..common.layout import COLOR_VERTEX, METHOD_GOURAUD
+from ..common.layout import COLOR_VERTEX, MAT_KA_COLORS, METHOD_GOURAUD
 from ..common.schedule import BLOCK_ROWS, spread_step
 from .illumination import _illuminate, _illuminate_call
 from .jit import CALLED, CHUNK, FLT32_MAX, HELPER, JIT, compile_variants
@@ -75,10 +75,14 @@ def _corner_shade(vcol, G, i, side, g, materials, m, cam, L, S, coef, spec_on, a
 
 @njit(**HELPER)
 def _vertex_kd(materials, m, cmode, vcolors, i, tex_on):
-    """The coefficients a vertex is shaded with: the row's, kd its colour if it has one."""
+    """The coefficients a vertex is shaded with: the row's, kd its colour if it has one (and ka
+    scaled by it with the row's ka-colours flag)."""
     kar, kag, kab, kdr, kdg, kdb, ksr, ksg, ksb = _row_coefficients(materials, m)
     if tex_on and cmode[m] == COLOR_VERTEX:
-        return kar, kag, kab, vcolors[i, 0], vcolors[i, 1], vcolors[i, 2], ksr, ksg, ksb
+        cr, cg, cb = vcolors[i, 0], vcolors[i, 1], vcolors[i, 2]
+        if materials[m, MAT_KA_COLORS] != 0.0:  # ambient follows the colours
+            return kar * cr, kag * cg, kab * cb, cr, cg, cb, ksr, ksg, ksb
+        return kar, kag, kab, cr, cg, cb, ksr, ksg, ksb
     return kar, kag, kab, kdr, kdg, kdb, ksr, ksg, ksb
 
 

@@ -1,8 +1,9 @@
 """Per-point coefficients: colour textures and mesh colours, sampled where shading happens.
 
 A point's ``ka, kd, ks`` are the material row's, with the mesh's colour (per
-vertex, interpolated, or per face) in place of kd, each times its map's texel
-when the material has one. Maps are sampled bilinearly at the point's UV and,
+vertex, interpolated, or per face) in place of kd (and scaling ka where the
+material's ``ka_colors`` says so), each times its map's texel when the
+material has one. Maps are sampled bilinearly at the point's UV and,
 for ``filter="mipmap"``, trilinearly between two levels of the pyramid
 (:class:`raycast_shade.Texture`): level ``log2(rho)`` with ``rho`` the larger
 of the pixel's two footprint axes in texels,
@@ -29,7 +30,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..common.layout import (CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH, COLOR_FACE,
-                             COLOR_VERTEX, MAT_KA, MAT_KD, MAT_KS, TEX_CLAMP, TEX_HEIGHT, TEX_LEVELS, TEX_MIPMAP,
+                             COLOR_NONE, COLOR_VERTEX, MAT_KA, MAT_KA_COLORS, MAT_KD, MAT_KS, TEX_CLAMP, TEX_HEIGHT, TEX_LEVELS, TEX_MIPMAP,
                              TEX_OFFSET, TEX_TILE_U, TEX_TILE_V, TEX_WIDTH, TEXMAP_KA, TEXMAP_KD, TEXMAP_KS)
 from .bump import _texel_corners
 from .jit import HELPER, JIT
@@ -216,7 +217,7 @@ def _row_coefficients(mats, mi):
 def _coefficients(mats, T, at, tri, uvs, footprint):
     """``ka, kd, ks`` (nine floats) at hit ``at`` (:class:`~raycast_shade.shading.records.At`:
     barycentrics (1 - b1 - b2, b1, b2) on face f, triangle ``tri``, of model gm): the material
-    row's, kd replaced by the mesh's colour, each times its map's texel filtered over
+    row's, kd replaced by the mesh's colour (ka scaled by it with the row's ka-colours flag), each times its map's texel filtered over
     ``footprint = (du/dx, dv/dx, du/dy, dv/dy)``. ``T`` as in
     :class:`~raycast_shade.shading.inputs.FrameInputs`."""
     vcolors, fcolors, cmode, tindex, texels, tinfo, _ = T
@@ -242,6 +243,10 @@ def _coefficients(mats, T, at, tri, uvs, footprint):
         kdr = fcolors[f, 0]
         kdg = fcolors[f, 1]
         kdb = fcolors[f, 2]
+    if mode != COLOR_NONE and mats[gm, MAT_KA_COLORS] != 0.0:  # ambient follows the colours
+        kar *= kdr
+        kag *= kdg
+        kab *= kdb
     if tindex[gm, TEXMAP_KA] >= 0 or tindex[gm, TEXMAP_KD] >= 0 or tindex[gm, TEXMAP_KS] >= 0:
         u = b0 * uvs[i0, 0] + b1 * uvs[i1, 0] + b2 * uvs[i2, 0]
         v = b0 * uvs[i0, 1] + b1 * uvs[i1, 1] + b2 * uvs[i2, 1]

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..common.layout import (BUMP_CLAMP, BUMP_COLS, BUMP_OFFSET, BUMP_ROWS, BUMP_SCALE, BUMP_TILE_U, BUMP_TILE_V,
                              CAM_FORWARD, CAM_HEIGHT, CAM_RIGHT, CAM_UP, CAM_WIDTH, COLOR_FACE, COLOR_VERTEX, MAT_KA,
-                             MAT_KD, MAT_KS)
+                             MAT_KA_COLORS, MAT_KD, MAT_KS)
 from .reference import _rho
 
 __all__ = []
@@ -138,9 +138,13 @@ def _coefficients(ctx, f, model, bary, duv, vertex=None):
     ka, kd, ks = row[MAT_KA:MAT_KA + 3].copy(), row[MAT_KD:MAT_KD + 3].copy(), row[MAT_KS:MAT_KS + 3].copy()
     notes = []
     mode = geo.color_mode[model] if geo.textured else -1
+    follow = row[MAT_KA_COLORS] != 0.0
     if vertex is not None:
         if mode == COLOR_VERTEX:
             kd, notes = geo.vertex_colors[vertex].copy(), [f"kd = the vertex's colour"]
+            if follow:
+                ka = ka * kd
+                notes.append("ka x the vertex's colour (ka_colors)")
         return ka, kd, ks, "; ".join(notes)
     tri = geo.faces[f]
     if mode == COLOR_VERTEX:
@@ -149,6 +153,9 @@ def _coefficients(ctx, f, model, bary, duv, vertex=None):
     elif mode == COLOR_FACE:
         kd = geo.face_colors[f].copy()
         notes.append("kd = the face's colour")
+    if follow and mode in (COLOR_VERTEX, COLOR_FACE):
+        ka = ka * kd
+        notes.append("ka x that colour (ka_colors)")
     maps = ctx.scene.models[model].material.maps if geo.textured else (None, None, None)
     if any(m is not None for m in maps):
         u, v = bary @ geo.uvs[tri]

@@ -392,7 +392,7 @@ def _rho(texture, duv):
 def coefficients_reference(scene, face, bary, duv=None):
     """``ka, kd, ks`` (each (N, 3) float64) at points given by face (N,) and
     barycentrics (N, 3): the material's, kd the mesh's colour where it has
-    colours, each times its map's texel (filtered by ``duv``, (N, 2, 2), or
+    colours (ka times it where the material's ``ka_colors`` is set), each times its map's texel (filtered by ``duv``, (N, 2, 2), or
     level 0 without it)."""
     geo = scene.geometry
     model = geo.face_model[face]
@@ -408,6 +408,8 @@ def coefficients_reference(scene, face, bary, duv=None):
             kd[sel] = np.einsum("nk,nkc->nc", bary[sel], geo.vertex_colors[tri[sel]])
         elif prep.color_mode == "face":
             kd[sel] = geo.face_colors[face[sel]]
+        if prep.color_mode is not None and mdl.material.ka_colors:  # ambient follows the colours
+            ka[sel] *= kd[sel]
         if not any(t is not None for t in mdl.material.maps):
             continue
         uv = np.einsum("nk,nkc->nc", bary[sel], geo.uvs[tri[sel]])
@@ -526,6 +528,7 @@ def shade_reference(scene, camera, hits, shading: str = "phong") -> np.ndarray:
             acc = np.zeros((len(p), 3))
             mod = _modulated(scene)[model] if geo.textured else np.zeros(len(p), bool)
             vcolour = np.array([m.mesh.prepared.color_mode == "vertex" for m in scene.models])[model]
+            kacol = np.array([m.material.ka_colors for m in scene.models])[model]
             diffuse, specular = np.zeros((len(p), 3)), np.zeros((len(p), 3))
             for k in range(3):
                 idx = tri[:, k]
@@ -537,11 +540,12 @@ def shade_reference(scene, camera, hits, shading: str = "phong") -> np.ndarray:
                 c = np.minimum(np.einsum("ij,ij->i", n, g), 0.0)
                 n = n - 2.0 * c[:, None] * g
                 vq = _view(eye, fwd, ortho, q)
-                kd = mats[1][model].copy()
+                kd, ka = mats[1][model].copy(), mats[0][model].copy()
                 if vcolour.any():
                     kd[vcolour] = geo.vertex_colors[idx[vcolour]]
-                colour = illuminate_reference(q, n, vq, model, mats, lights, ambient, dmin,
-                                              (mats[0][model], kd, mats[2][model]))
+                    follow = vcolour & kacol
+                    ka[follow] *= kd[follow]  # ambient follows the colours
+                colour = illuminate_reference(q, n, vq, model, mats, lights, ambient, dmin, (ka, kd, mats[2][model]))
                 acc += bary[:, k, None] * colour
                 if mod.any():
                     z, one = np.zeros((len(p), 3)), np.ones((len(p), 3))
