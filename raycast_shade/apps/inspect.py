@@ -19,11 +19,12 @@ __all__ = ["inspect_file", "format_report", "register_cli", "run_cli"]
 
 _GLTF_MAPPED = {"baseColorFactor": "kd, ka (x (1 - m + m a)), ks (metal part)", "baseColorTexture": "kd_map, ka_map",
                 "metallicFactor": "kd/ks split", "roughnessFactor": "shininess t = 2/a^2 - 2, a = r^2",
-                "doubleSided": "always (lit from the side seen)"}
+                "doubleSided": "always (lit from the side seen)",
+                "emissiveFactor": "ke (times KHR_materials_emissive_strength)", "emissiveTexture": "ke_map"}
 _GLTF_APPROX = {"metallicRoughnessTexture": "per-texel kd and ks; one exponent from the median roughness"}
-_GLTF_DROPPED = ("normalTexture", "occlusionTexture", "emissiveTexture", "emissiveFactor", "alphaCutoff")
+_GLTF_DROPPED = ("normalTexture", "occlusionTexture", "alphaCutoff")
 _MTL_MAPPED = {"kd": "kd", "ka": "ka", "ks": "ks", "ns": "shininess", "illum": "0/1: ks = 0; 2: as is",
-               "map_kd": "kd_map", "map_ka": "ka_map", "map_ks": "ks_map"}
+               "map_kd": "kd_map", "map_ka": "ka_map", "map_ks": "ks_map", "ke": "ke", "map_ke": "ke_map"}
 
 
 def _image_info(image) -> str:
@@ -42,15 +43,15 @@ def _gltf_fields(js: dict, notes: list) -> list:
     flat.update({k: v for k, v in js.items() if k not in ("pbrMetallicRoughness", "name", "extras")})
     for key, value in flat.items():
         shown = f"texture {value.get('index')}" if isinstance(value, dict) and "index" in value else value
-        if key in _GLTF_MAPPED:
+        if key == "emissiveFactor" and not any(np.asarray(value, float) > 0):
+            rows.append((key, value, "mapped", "zero: nothing emitted"))
+        elif key in _GLTF_MAPPED:
             rows.append((key, shown, "mapped", _GLTF_MAPPED[key]))
         elif key in _GLTF_APPROX:
             rows.append((key, shown, "approximated", _GLTF_APPROX[key]))
         elif key == "alphaMode":
             rows.append((key, value, "mapped" if value == "OPAQUE" else "dropped",
                          "opaque" if value == "OPAQUE" else "rendered opaque"))
-        elif key == "emissiveFactor" and not any(np.asarray(value, float) > 0):
-            rows.append((key, value, "mapped", "zero: nothing emitted"))
         else:
             rows.append((key, shown, "dropped", "no counterpart in the lecture's model"))
     return rows

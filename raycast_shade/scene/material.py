@@ -8,12 +8,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..common.choices import SPECULAR_MODELS
-from ..common.layout import (MAT_BLINN, MAT_KA, MAT_KA_COLORS, MAT_KD, MAT_KS, MAT_REFLECTIVITY, MAT_SHININESS,
-                             MAT_SIZE)
+from ..common.layout import (MAT_BLINN, MAT_KA, MAT_KA_COLORS, MAT_KD, MAT_KE, MAT_KS, MAT_REFLECTIVITY,
+                             MAT_SHININESS, MAT_SIZE)
 from ..common.validate import as_choice, as_name, as_rgb, as_scalar
 from ..common.warnings import ColourRangeWarning
 
-__all__ = ["Material", "SPECULAR_MODELS", "overridden"]
+__all__ = ["Material", "SPECULAR_MODELS", "MAP_FIELDS", "overridden"]
+
+MAP_FIELDS = ("ka_map", "kd_map", "ks_map", "ke_map")  # Material.maps' order: the TEXMAP_* columns
 
 
 
@@ -30,7 +32,7 @@ def _warn_byte_range(rgb: np.ndarray, name: str, field: str) -> None:
 
 @dataclass(frozen=True, eq=False)
 class Material:
-    """Coefficients of ``I = Ia ka + sum_i att(d) Ii (kd (n.s) + Ks (r.v)^t)``.
+    """Coefficients of ``I = Ia ka + sum_i att(d) Ii (kd (n.s) + Ks (r.v)^t) + ke``.
 
     Every coefficient is a scalar or an RGB triple (the lecture's
     ``k(lambda)`` sampled at three wavelengths) and must be ``>= 0``.
@@ -69,6 +71,15 @@ class Material:
         default): ``ka`` is used as given. :func:`raycast_shade.load_models`
         sets it (with ``ka=1``) for a coloured mesh whose file gives no ambient
         colour. No effect on a mesh without colours.
+    ke : float or (3,) float
+        Emission ``ke``: radiance the surface gives off by itself, added to
+        the point's intensity whatever the lights (glTF ``emissiveFactor``,
+        MTL ``Ke``). Default 0, or 1 with a ``ke_map``. ``>= 0``; may exceed 1
+        (a lamp brighter than white).
+    ke_map : Texture, optional
+        Emission texture: the point's ke is ``ke * ke_map(u, v)`` (glTF
+        ``emissiveTexture``, MTL ``map_Ke``); sampled per pixel in Phong and
+        Gouraud shading, at the face centre in flat shading.
     """
 
     kd: object = None
@@ -83,13 +94,15 @@ class Material:
     ka_map: object = None
     ks_map: object = None
     ka_colors: bool = False
+    ke: object = None
+    ke_map: object = None
 
     def __post_init__(self):
         set_ = object.__setattr__
         set_(self, "name", as_name(self.name, f"{type(self).__name__}.name"))  # first: every message uses it
         from .texture import Texture
 
-        for field in ("kd_map", "ka_map", "ks_map"):
+        for field in MAP_FIELDS:
             tex = getattr(self, field)
             if tex is not None and not isinstance(tex, Texture):
                 raise TypeError(f"{self.name}.{field}: expected a Texture, got {type(tex).__name__}")
@@ -98,9 +111,12 @@ class Material:
             set_(self, "kd", 1.0 if self.kd_map is not None else 0.8)
         if self.ks is None:
             set_(self, "ks", 1.0 if self.ks_map is not None else 0.0)
+        if self.ke is None:
+            set_(self, "ke", 1.0 if self.ke_map is not None else 0.0)
         for field in ("kd", "ka", "ks"):
             set_(self, field, as_rgb(getattr(self, field), f"{self.name}.{field}"))
             _warn_byte_range(getattr(self, field), f"{self.name}.{field}", field)
+        set_(self, "ke", as_rgb(self.ke, f"{self.name}.ke"))  # an emission may exceed 1: no 0-255 guess
         set_(self, "shininess", as_scalar(self.shininess, f"{self.name}.shininess", minimum=0.0, exclusive=True))
         set_(self, "specular", as_choice(self.specular, f"{self.name}.specular", SPECULAR_MODELS))
         if not isinstance(self.ka_colors, (bool, np.bool_)):
@@ -115,17 +131,21 @@ class Material:
 
     @property
     def maps(self) -> tuple:
-        """``(ka_map, kd_map, ks_map)``, ``None`` where absent (the order of
-        :data:`~raycast_shade.common.layout.TEXMAP_KA` and friends)."""
-        return (self.ka_map, self.kd_map, self.ks_map)
+        """``(ka_map, kd_map, ks_map, ke_map)``, ``None`` where absent (the order of
+        :data:`~raycast_shade.common.layout.TEXMAP_KA` and friends, :data:`MAP_FIELDS`)."""
+        return (self.ka_map, self.kd_map, self.ks_map, self.ke_map)
+
+    @property
+    def has_emission(self) -> bool:
+        return bool(np.any(self.ke > 0))
 
     @property
     def has_specular(self) -> bool:
         return bool(np.any(self.ks > 0))
 
     def packed(self) -> np.ndarray:
-        """(MAT_SIZE,) = (13,) float64: ka(3), kd(3), ks(3), t, blinn flag, reflectivity, ka_colors flag; the
-        kernels' row
+        """(MAT_SIZE,) = (16,) float64: ka(3), kd(3), ks(3), t, blinn flag, reflectivity, ka_colors flag,
+        ke(3); the kernels' row
         (slots named in :mod:`raycast_shade.common.layout`)."""
         row = np.empty(MAT_SIZE)
         row[MAT_KA:MAT_KA + 3] = self.ka
@@ -135,6 +155,7 @@ class Material:
         row[MAT_BLINN] = 1.0 if self.specular == "blinn" else 0.0
         row[MAT_REFLECTIVITY] = self.reflectivity
         row[MAT_KA_COLORS] = 1.0 if self.ka_colors else 0.0
+        row[MAT_KE:MAT_KE + 3] = self.ke
         return row
 
 

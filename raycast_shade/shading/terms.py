@@ -8,17 +8,18 @@ scene:
 =====================  ==============================================================
 term                   variant shaded
 =====================  ==============================================================
-``ambient``            no lights (``Ia ka`` only)
-``diffuse``            ``ka = ks = 0``
-``specular``           ``ka = kd = 0``
-``diffuse_per_light``  one light at a time, ``ka = ks = 0`` (``terms="per_light"``)
-``specular_per_light`` one light at a time, ``ka = kd = 0``
+``ambient``            no lights, ``ke = 0`` (``Ia ka`` only)
+``diffuse``            ``ka = ks = ke = 0``
+``specular``           ``ka = kd = ke = 0``
+``emissive``           no lights, ``ka = 0`` (``ke`` only; zeros without emission)
+``diffuse_per_light``  one light at a time, ``ka = ks = ke = 0`` (``terms="per_light"``)
+``specular_per_light`` one light at a time, ``ka = kd = ke = 0``
 ``reflected``          the mirror trace (:func:`.mirrors.trace_mirrors`) over a black image
 =====================  ==============================================================
 
 so that, per pixel and channel, to float32 rounding::
 
-    image = keep * (ambient + diffuse + specular) + reflected + background
+    image = keep * (ambient + diffuse + specular + emissive) + reflected + background
 
 with ``keep = 1 - rho`` on mirror pixels (1 elsewhere) and ``background`` the
 scene's background where no surface is seen. The local terms are the
@@ -51,7 +52,7 @@ import dataclasses
 
 import numpy as np
 
-from ..common.layout import MAT_KA, MAT_KD, MAT_KS, MAT_REFLECTIVITY, TEXMAP_KD
+from ..common.layout import MAT_KA, MAT_KD, MAT_KE, MAT_KS, MAT_REFLECTIVITY, TEXMAP_KD
 from ..scene.lights import PointLight
 from .mirrors import trace_mirrors
 from .shade import shade_hits
@@ -127,7 +128,7 @@ def with_materials(scene, materials, colors=None, **changes):
 def _rows(materials, keep):
     """Material rows with the coefficient slots not in ``keep`` zeroed."""
     out = materials.copy()
-    for slot in (MAT_KA, MAT_KD, MAT_KS):
+    for slot in (MAT_KA, MAT_KD, MAT_KS, MAT_KE):
         if slot not in keep:
             out[:, slot:slot + 3] = 0.0
     return out
@@ -159,7 +160,7 @@ def shade_terms(scene, camera, hits, shading, max_depth: int = 0, per_light: boo
     Returns
     -------
     dict of str to ndarray
-        ``ambient``, ``diffuse``, ``specular``, ``reflected``, ``background``
+        ``ambient``, ``diffuse``, ``specular``, ``emissive``, ``reflected``, ``background``
         (H, W, 3) float32; ``keep`` (H, W) float32; ``shadow`` (L, H, W)
         float32; with ``per_light``, ``diffuse_per_light`` and
         ``specular_per_light`` (L, H, W, 3) float32. See the module docstring
@@ -170,10 +171,16 @@ def shade_terms(scene, camera, hits, shading, max_depth: int = 0, per_light: boo
     h, w = hits.shape
     black = dict(background=0.0)
     out = {
-        "ambient": shade_hits(scene.replace(lights=(), **black), camera, hits, shading),
+        "ambient": shade_hits(with_materials(scene, _rows(mats, (MAT_KA,)), lights=(), **black), camera, hits,
+                              shading),
         "diffuse": shade_hits(with_materials(scene, _rows(mats, (MAT_KD,)), **black), camera, hits, shading),
         "specular": shade_hits(with_materials(scene, _rows(mats, (MAT_KS,)), 0.0, **black), camera, hits, shading),
     }
+    if np.any(mats[:, MAT_KE:MAT_KE + 3] > 0):
+        out["emissive"] = shade_hits(with_materials(scene, _rows(mats, (MAT_KE,)), lights=(), **black), camera,
+                                     hits, shading)
+    else:  # no emission anywhere: no shading pass
+        out["emissive"] = np.zeros((h, w, 3), np.float32)
     if per_light:
         for name, slot, colors in (("diffuse", MAT_KD, None), ("specular", MAT_KS, 0.0)):
             rows = _rows(mats, (slot,))
@@ -211,8 +218,10 @@ def _shadow_mask(scene, camera, hits, shading) -> np.ndarray:
 
 
 def compose_terms(terms: dict) -> np.ndarray:
-    """(H, W, 3) float32 ``keep * (ambient + diffuse + specular) + reflected + background``:
+    """(H, W, 3) float32 ``keep * (ambient + diffuse + specular + emissive) + reflected + background``:
     the image the terms add up to."""
     local = terms["ambient"].astype(np.float64) + terms["diffuse"] + terms["specular"]
+    if "emissive" in terms:
+        local = local + terms["emissive"]
     total = terms["keep"][..., None] * local + terms["reflected"] + terms["background"]
     return total.astype(np.float32)
