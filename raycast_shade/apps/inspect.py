@@ -20,9 +20,10 @@ __all__ = ["inspect_file", "format_report", "register_cli", "run_cli"]
 _GLTF_MAPPED = {"baseColorFactor": "kd, ka (x (1 - m + m a)), ks (metal part)", "baseColorTexture": "kd_map, ka_map",
                 "metallicFactor": "kd/ks split", "roughnessFactor": "shininess t = 2/a^2 - 2, a = r^2",
                 "doubleSided": "always (lit from the side seen)",
-                "emissiveFactor": "ke (times KHR_materials_emissive_strength)", "emissiveTexture": "ke_map"}
+                "emissiveFactor": "ke (times KHR_materials_emissive_strength)", "emissiveTexture": "ke_map",
+                "occlusionTexture": "ao_map (red channel, linear) and ao_strength: scales ka per texel"}
 _GLTF_APPROX = {"metallicRoughnessTexture": "per-texel kd and ks; one exponent from the median roughness"}
-_GLTF_DROPPED = ("normalTexture", "occlusionTexture", "alphaCutoff")
+_GLTF_DROPPED = ("normalTexture", "alphaCutoff")
 _MTL_MAPPED = {"kd": "kd", "ka": "ka", "ks": "ks", "ns": "shininess", "illum": "0/1: ks = 0; 2: as is",
                "map_kd": "kd_map", "map_ka": "ka_map", "map_ks": "ks_map", "ke": "ke", "map_ke": "ke_map"}
 

@@ -176,6 +176,8 @@ class FileContext:
                     ("pbrMetallicRoughness.metallicFactor", pbr.get("metallicFactor"), 1, 1.0),
                     ("pbrMetallicRoughness.roughnessFactor", pbr.get("roughnessFactor"), 1, 1.0),
                     ("emissiveFactor", m.get("emissiveFactor"), 3, 1.0),
+                    ("occlusionTexture.strength", (m.get("occlusionTexture") or {}).get("strength")
+                     if isinstance(m.get("occlusionTexture"), dict) else None, 1, 1.0),
                     ("extensions.KHR_materials_emissive_strength.emissiveStrength",
                      ((m.get("extensions") or {}).get("KHR_materials_emissive_strength") or {}).get("emissiveStrength"),
                      1, math.inf),
@@ -460,11 +462,26 @@ def from_pbr(mat, name: str, lost: list, ctx: FileContext) -> dict:
             kw["ka_map"] = col_w
         lost.append(f"metallicRoughnessTexture: per-texel kd and ks, one exponent from the median "
                     f"roughness {r_med:.3g} (approximated)")
-    for field in ("normalTexture", "occlusionTexture"):
-        if getattr(mat, field, None) is not None:
-            lost.append(field)
+    if getattr(mat, "normalTexture", None) is not None:
+        lost.append("normalTexture")
     _emission(mat, js, name, kw, lost, ctx)
+    _occlusion(mat, js, name, kw, lost, ctx)
     return kw
+
+
+def _occlusion(mat, js: dict, name: str, kw: dict, lost: list, ctx: FileContext) -> None:
+    """glTF ``occlusionTexture`` (linear, red channel, its own sampler) into ``kw["ao_map"]`` and
+    its ``strength`` (default 1) into ``kw["ao_strength"]``."""
+    tex = getattr(mat, "occlusionTexture", None)
+    if tex is None:
+        return
+    info = js.get("occlusionTexture") if isinstance(js.get("occlusionTexture"), dict) else {}
+    wrap_s, wrap_t, notes = ctx.sampler(info)
+    lost += notes
+    texels = ctx.linear(tex, f"{name}.occlusionTexture", srgb=False)
+    kw["ao_map"] = ctx.wrapped(("ao", ctx.image_key(tex), wrap_s, wrap_t),
+                               lambda: Wrapped(texels, wrap_s, wrap_t, f"{name}.occlusionTexture"))
+    kw["ao_strength"] = float(info.get("strength", 1.0))  # checked with the file's materials
 
 
 def _emission(mat, js: dict, name: str, kw: dict, lost: list, ctx: FileContext) -> None:

@@ -8,14 +8,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..common.choices import SPECULAR_MODELS
-from ..common.layout import (MAT_BLINN, MAT_KA, MAT_KA_COLORS, MAT_KD, MAT_KE, MAT_KS, MAT_REFLECTIVITY,
-                             MAT_SHININESS, MAT_SIZE)
+from ..common.layout import (MAT_AO_STRENGTH, MAT_BLINN, MAT_KA, MAT_KA_COLORS, MAT_KD, MAT_KE, MAT_KS,
+                             MAT_REFLECTIVITY, MAT_SHININESS, MAT_SIZE)
 from ..common.validate import as_choice, as_name, as_rgb, as_scalar
 from ..common.warnings import ColourRangeWarning
 
 __all__ = ["Material", "SPECULAR_MODELS", "MAP_FIELDS", "overridden"]
 
-MAP_FIELDS = ("ka_map", "kd_map", "ks_map", "ke_map")  # Material.maps' order: the TEXMAP_* columns
+MAP_FIELDS = ("ka_map", "kd_map", "ks_map", "ke_map", "ao_map")  # Material.maps' order: the TEXMAP_* columns
 
 
 
@@ -80,6 +80,15 @@ class Material:
         Emission texture: the point's ke is ``ke * ke_map(u, v)`` (glTF
         ``emissiveTexture``, MTL ``map_Ke``); sampled per pixel in Phong and
         Gouraud shading, at the face centre in flat shading.
+    ao_map : Texture, optional
+        Ambient occlusion: its red channel ``ao`` (linear: load it with
+        ``srgb=False``) scales the ambient term per texel, the lecture's
+        "radiosity" approximation of the light that reaches a crevice: the
+        point's ka is ``ka * (1 + ao_strength * (ao - 1))`` (glTF
+        ``occlusionTexture``). The other terms are unchanged.
+    ao_strength : float
+        In [0, 1]: 0 ignores the map, 1 (the default) applies it fully
+        (glTF's ``strength``).
     """
 
     kd: object = None
@@ -96,6 +105,8 @@ class Material:
     ka_colors: bool = False
     ke: object = None
     ke_map: object = None
+    ao_map: object = None
+    ao_strength: float = 1.0
 
     def __post_init__(self):
         set_ = object.__setattr__
@@ -122,6 +133,7 @@ class Material:
         if not isinstance(self.ka_colors, (bool, np.bool_)):
             raise TypeError(f"{self.name}.ka_colors: expected True or False, got {type(self.ka_colors).__name__}")
         set_(self, "ka_colors", bool(self.ka_colors))
+        set_(self, "ao_strength", as_scalar(self.ao_strength, f"{self.name}.ao_strength", minimum=0.0, maximum=1.0))
         set_(self, "reflectivity", as_scalar(self.reflectivity, f"{self.name}.reflectivity", minimum=0.0, maximum=1.0))
         if self.bump is not None:
             from .heightmap import HeightMap
@@ -131,9 +143,9 @@ class Material:
 
     @property
     def maps(self) -> tuple:
-        """``(ka_map, kd_map, ks_map, ke_map)``, ``None`` where absent (the order of
+        """``(ka_map, kd_map, ks_map, ke_map, ao_map)``, ``None`` where absent (the order of
         :data:`~raycast_shade.common.layout.TEXMAP_KA` and friends, :data:`MAP_FIELDS`)."""
-        return (self.ka_map, self.kd_map, self.ks_map, self.ke_map)
+        return (self.ka_map, self.kd_map, self.ks_map, self.ke_map, self.ao_map)
 
     @property
     def has_emission(self) -> bool:
@@ -144,8 +156,8 @@ class Material:
         return bool(np.any(self.ks > 0))
 
     def packed(self) -> np.ndarray:
-        """(MAT_SIZE,) = (16,) float64: ka(3), kd(3), ks(3), t, blinn flag, reflectivity, ka_colors flag,
-        ke(3); the kernels' row
+        """(MAT_SIZE,) = (17,) float64: ka(3), kd(3), ks(3), t, blinn flag, reflectivity, ka_colors flag,
+        ke(3), occlusion strength; the kernels' row
         (slots named in :mod:`raycast_shade.common.layout`)."""
         row = np.empty(MAT_SIZE)
         row[MAT_KA:MAT_KA + 3] = self.ka
@@ -156,6 +168,7 @@ class Material:
         row[MAT_REFLECTIVITY] = self.reflectivity
         row[MAT_KA_COLORS] = 1.0 if self.ka_colors else 0.0
         row[MAT_KE:MAT_KE + 3] = self.ke
+        row[MAT_AO_STRENGTH] = self.ao_strength
         return row
 
 

@@ -187,7 +187,7 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, *
             colors, mode = _off_colors(ctx.off, len(vertices), len(faces), name)
         if colors is not None and "kd" in kw:
             colors = colors * kw["kd"]  # kd's factor times the colours (glTF: baseColorFactor * COLOR_0)
-        maps = [k for k in ("kd_map", "ka_map", "ks_map", "ke_map") if k in kw]
+        maps = [k for k in ("kd_map", "ka_map", "ks_map", "ke_map", "ao_map") if k in kw]
         if maps and uvs is None:
             lost.append(f"{name}: {', '.join(maps)} (the mesh has no UVs)")
             for k in maps:

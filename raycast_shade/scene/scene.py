@@ -86,7 +86,7 @@ class SceneGeometry:
     face_normals : (F, 3) float64
     vertex_offsets, face_offsets : (G + 1,) int64
         Range of each model.
-    materials : (G, MAT_SIZE) = (G, 16) float64
+    materials : (G, MAT_SIZE) = (G, 17) float64
         One packed material row per model (see :meth:`Material.packed`).
     face_model, vertex_model : (F,) int32, (V,) int32
         The model each face and vertex belongs to.
@@ -100,8 +100,8 @@ class SceneGeometry:
     vertex_colors, face_colors : (V, 3), (F, 3) float64
         Linear kd per vertex / per face, zero where a model has none ((1, 3)
         placeholders when no model has any).
-    tex_index : (G, TEXMAP_COUNT) = (G, 4) int32
-        Row in ``tex_info`` of each model's ka, kd, ks and ke map, or -1.
+    tex_index : (G, TEXMAP_COUNT) = (G, 5) int32
+        Row in ``tex_info`` of each model's ka, kd, ks, ke and occlusion map, or -1.
     tex_texels : (T,) float32
         Every texture's mip pyramid, RGB triples.
     tex_info : (K, TEX_SIZE) = (K, 8) float64

@@ -3,7 +3,8 @@
 A point's ``ka, kd, ks`` are the material row's, with the mesh's colour (per
 vertex, interpolated, or per face) in place of kd (and scaling ka where the
 material's ``ka_colors`` says so), each times its map's texel when the
-material has one; likewise the emission ``ke``. Maps are sampled bilinearly at the point's UV and,
+material has one; likewise the emission ``ke``. An occlusion map's red
+channel ``ao`` scales ka by ``1 + s (ao - 1)``, ``s`` the material's strength. Maps are sampled bilinearly at the point's UV and,
 for ``filter="mipmap"``, trilinearly between two levels of the pyramid
 (:class:`raycast_shade.Texture`): level ``log2(rho)`` with ``rho`` the larger
 of the pixel's two footprint axes in texels,
@@ -30,9 +31,9 @@ import numpy as np
 from numba import njit, prange
 
 from ..common.layout import (CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH, COLOR_FACE,
-                             COLOR_NONE, COLOR_VERTEX, MAT_KA, MAT_KA_COLORS, MAT_KD, MAT_KE, MAT_KS, TEX_CLAMP, TEX_HEIGHT, TEX_LEVELS, TEX_MIPMAP,
-                             TEX_OFFSET, TEX_TILE_U, TEX_TILE_V, TEX_WIDTH, TEXMAP_KA, TEXMAP_KD, TEXMAP_KE,
-                             TEXMAP_KS)
+                             COLOR_NONE, COLOR_VERTEX, MAT_AO_STRENGTH, MAT_KA, MAT_KA_COLORS, MAT_KD, MAT_KE, MAT_KS, TEX_CLAMP, TEX_HEIGHT, TEX_LEVELS, TEX_MIPMAP,
+                             TEX_OFFSET, TEX_TILE_U, TEX_TILE_V, TEX_WIDTH, TEXMAP_AO, TEXMAP_KA, TEXMAP_KD,
+                             TEXMAP_KE, TEXMAP_KS)
 from .bump import _texel_corners
 from .jit import HELPER, JIT
 
@@ -253,7 +254,7 @@ def _coefficients(mats, T, at, tri, uvs, footprint):
         kag *= kdg
         kab *= kdb
     if tindex[gm, TEXMAP_KA] >= 0 or tindex[gm, TEXMAP_KD] >= 0 or tindex[gm, TEXMAP_KS] >= 0 \
-            or tindex[gm, TEXMAP_KE] >= 0:
+            or tindex[gm, TEXMAP_KE] >= 0 or tindex[gm, TEXMAP_AO] >= 0:
         u = b0 * uvs[i0, 0] + b1 * uvs[i1, 0] + b2 * uvs[i2, 0]
         v = b0 * uvs[i0, 1] + b1 * uvs[i1, 1] + b2 * uvs[i2, 1]
         k = tindex[gm, TEXMAP_KA]
@@ -280,6 +281,13 @@ def _coefficients(mats, T, at, tri, uvs, footprint):
             ker *= r
             keg *= g
             keb *= b
+        k = tindex[gm, TEXMAP_AO]
+        if k >= 0:  # occlusion: the red channel scales the ambient term
+            r, g, b = _sample(texels, tinfo, k, u, v, dudx, dvdx, dudy, dvdy)
+            occ = 1.0 + mats[gm, MAT_AO_STRENGTH] * (r - 1.0)
+            kar *= occ
+            kag *= occ
+            kab *= occ
     return kar, kag, kab, kdr, kdg, kdb, ksr, ksg, ksb, ker, keg, keb
 
 
@@ -292,14 +300,14 @@ def texture_levels(scene, camera, hits, slot: str = "kd") -> np.ndarray:
     scene : Scene
     camera : Camera
     hits : HitBuffer
-    slot : {"ka", "kd", "ks", "ke"}
+    slot : {"ka", "kd", "ks", "ke", "ao"}
 
     Returns
     -------
     (H, W) float64
         NaN on the background and on models without that map.
     """
-    slots = {"ka": TEXMAP_KA, "kd": TEXMAP_KD, "ks": TEXMAP_KS, "ke": TEXMAP_KE}
+    slots = {"ka": TEXMAP_KA, "kd": TEXMAP_KD, "ks": TEXMAP_KS, "ke": TEXMAP_KE, "ao": TEXMAP_AO}
     if slot not in slots:
         raise ValueError(f"slot: expected one of {list(slots)}, got {slot!r}")
     from ..visibility.rays import camera_frame

@@ -157,7 +157,8 @@ def _coefficients(ctx, f, model, bary, duv, vertex=None):
     if follow and mode in (COLOR_VERTEX, COLOR_FACE):
         ka = ka * kd
         notes.append("ka x that colour (ka_colors)")
-    maps = ctx.scene.models[model].material.maps if geo.textured else (None, None, None, None)
+    mat = ctx.scene.models[model].material
+    maps = mat.maps if geo.textured else (None,) * 5
     if any(m is not None for m in maps):
         u, v = bary @ geo.uvs[tri]
         for name, target, tex in zip(("ka", "kd", "Ks", "ke"), (ka, kd, ks, ke), maps):
@@ -166,6 +167,11 @@ def _coefficients(ctx, f, model, bary, duv, vertex=None):
                 target *= texel
                 notes.append(f"{name} x {name}_map{'' if duv is not None else ' (level 0)'} "
                              f"at uv ({u:.4g}, {v:.4g}) = {_short(texel)}")
+        if maps[4] is not None:
+            ao = float(_sample(maps[4], u, v, duv)[0])
+            occ = 1.0 + mat.ao_strength * (ao - 1.0)
+            ka *= occ
+            notes.append(f"ka x occlusion 1 + s (ao - 1) = 1 + {mat.ao_strength:.4g} x ({ao:.4g} - 1) = {occ:.4g}")
     return ka, kd, ks, ke, "; ".join(notes)
 
 

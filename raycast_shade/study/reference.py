@@ -396,7 +396,7 @@ def _rho(texture, duv):
 def coefficients_reference(scene, face, bary, duv=None):
     """``ka, kd, ks, ke`` (each (N, 3) float64) at points given by face (N,) and
     barycentrics (N, 3): the material's, kd the mesh's colour where it has
-    colours (ka times it where the material's ``ka_colors`` is set), each times its map's texel (filtered by ``duv``, (N, 2, 2), or
+    colours (ka times it where the material's ``ka_colors`` is set; ka times the occlusion), each times its map's texel (filtered by ``duv``, (N, 2, 2), or
     level 0 without it)."""
     geo = scene.geometry
     model = geo.face_model[face]
@@ -422,6 +422,11 @@ def coefficients_reference(scene, face, bary, duv=None):
             if tex is not None:
                 rho = None if duv is None else _rho(tex, duv[sel])
                 target[sel] *= sample_reference(tex, uv[:, 0], uv[:, 1], rho)
+        ao = mdl.material.ao_map
+        if ao is not None:  # occlusion: its red channel scales ka
+            rho = None if duv is None else _rho(ao, duv[sel])
+            occ = 1.0 + mdl.material.ao_strength * (sample_reference(ao, uv[:, 0], uv[:, 1], rho)[:, 0] - 1.0)
+            ka[sel] *= occ[:, None]
     return ka, kd, ks, ke
 
 

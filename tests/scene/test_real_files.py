@@ -570,3 +570,19 @@ def test_mtl_ke_and_map_ke_are_read(tmp_path):
     (tmp_path / "b.obj").write_text("mtllib b.mtl\n" + QUAD_OBJ + "usemtl lamp\nf 1/1 2/2 3/3\n")
     with pytest.raises(ValueError, match="b.mtl:2: Ke -1 0 0"):
         rs.load_models(tmp_path / "b.obj")
+
+
+def test_gltf_occlusion_texture_is_mapped_linear_with_its_strength(tmp_path):
+    img = np.zeros((4, 4, 3), np.uint8)
+    img[..., 0] = 64  # red: occlusion (linear, not sRGB-decoded)
+    _gltf_quad(tmp_path / "o.gltf", img, [[0, 0], [1, 0], [1, 1], [0, 1]], [(10497, 10497)],
+               material_extra={"occlusionTexture": {"index": 0, "strength": 0.7}})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", rs.DroppedOnLoadWarning)
+        (model,) = rs.load_models(tmp_path / "o.gltf")
+    assert model.material.ao_strength == 0.7
+    np.testing.assert_allclose(model.material.ao_map.texels[..., 0], 64 / 255, atol=1e-6)
+    _gltf_quad(tmp_path / "bad.gltf", img, [[0, 0], [1, 0], [1, 1], [0, 1]], [(10497, 10497)],
+               material_extra={"occlusionTexture": {"index": 0, "strength": 2}})
+    with pytest.raises(ValueError, match=r"materials\[0\].occlusionTexture.strength"):
+        rs.load_models(tmp_path / "bad.gltf")
