@@ -199,11 +199,17 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, *
             faces = faces[~dup]
             if colors is not None and mode == "face":
                 colors = colors[~dup]
-        if "ka" not in kw:  # the file gave no ambient colour: ka follows the diffuse colour and its texture
-            if colors is not None:  # the colours (kd's factor already in them) are the point's ka too
-                kw["ka"], kw["ka_colors"] = 1.0, True
-            else:
-                kw["ka"] = kw["kd"] if "kd" in kw else (1.0 if "kd_map" in kw else Material().kd)
+        no_ka = "ka" not in kw
+        gltf = getattr(ctx, "gltf", None) is not None  # glTF has no ambient colour: from_pbr's ka follows
+        if colors is not None and (no_ka or gltf):
+            # The colours carry kd's factor; ka = (its own colour) / that factor makes ka x colour the
+            # surface's ambient colour at every point (a factor 0 leaves no colour to follow).
+            factor = np.broadcast_to(np.asarray(kw.get("kd", 1.0), np.float64), (3,))
+            target = np.broadcast_to(np.asarray(kw.get("ka", factor), np.float64), (3,))
+            if np.all(factor > 0):
+                kw["ka"], kw["ka_colors"] = target / factor, True
+        if no_ka:  # the file gave no ambient colour: ka follows the diffuse colour and its texture
+            kw.setdefault("ka", kw["kd"] if "kd" in kw else (1.0 if "kd_map" in kw else Material().kd))
             if "kd_map" in kw and "ka_map" not in kw:
                 kw["ka_map"] = kw["kd_map"]
         kw.setdefault("name", name)

@@ -118,3 +118,17 @@ def test_a_kd_override_replaces_the_colours_and_carries_ka_along():
     assert out.ka.tolist() == [0.5] * 3 and not out.ka_colors
     out = rs.Material(**overridden(base, {"ka": 0.2}))
     assert out.ka.tolist() == [0.2] * 3 and not out.ka_colors
+
+
+def test_a_gltf_with_color_0_takes_its_colours_as_ka_too(tmp_path):
+    """COLOR_0 without a material: kd is the colours, and ka x colour is the colour as well."""
+    import trimesh
+
+    box = trimesh.creation.box()
+    rgba = np.random.default_rng(2).integers(0, 256, (8, 4)).astype(np.uint8)
+    rgba[:, 3] = 255
+    box.visual = trimesh.visual.ColorVisuals(box, vertex_colors=rgba)
+    box.export(tmp_path / "c.glb")
+    (model,) = rs.load_models(tmp_path / "c.glb")
+    assert model.mesh.color_mode == "vertex"
+    assert model.material.ka_colors and model.material.ka.tolist() == [1.0] * 3
