@@ -19,11 +19,14 @@ __all__ = ["inspect_file", "format_report", "register_cli", "run_cli"]
 
 _GLTF_MAPPED = {"baseColorFactor": "kd, ka (x (1 - m + m a)), ks (metal part)", "baseColorTexture": "kd_map, ka_map",
                 "metallicFactor": "kd/ks split", "roughnessFactor": "shininess t = 2/a^2 - 2, a = r^2",
-                "doubleSided": "always (lit from the side seen)", "alphaCutoff": "alpha_cutoff (with alphaMode MASK)"}
+                "doubleSided": "always (lit from the side seen)",
+                "emissiveFactor": "ke (times KHR_materials_emissive_strength)", "emissiveTexture": "ke_map",
+                "occlusionTexture": "ao_map (red channel, linear) and ao_strength: scales ka per texel",
+                "alphaCutoff": "alpha_cutoff (with alphaMode MASK)"}
 _GLTF_APPROX = {"metallicRoughnessTexture": "per-texel kd and ks; one exponent from the median roughness"}
-_GLTF_DROPPED = ("normalTexture", "occlusionTexture", "emissiveTexture", "emissiveFactor")
+_GLTF_DROPPED = ("normalTexture",)
 _MTL_MAPPED = {"kd": "kd", "ka": "ka", "ks": "ks", "ns": "shininess", "illum": "0/1: ks = 0; 2: as is",
-               "map_kd": "kd_map", "map_ka": "ka_map", "map_ks": "ks_map"}
+               "map_kd": "kd_map", "map_ka": "ka_map", "map_ks": "ks_map", "ke": "ke", "map_ke": "ke_map"}
 
 
 def _image_info(image) -> str:
@@ -42,7 +45,9 @@ def _gltf_fields(js: dict, notes: list) -> list:
     flat.update({k: v for k, v in js.items() if k not in ("pbrMetallicRoughness", "name", "extras")})
     for key, value in flat.items():
         shown = f"texture {value.get('index')}" if isinstance(value, dict) and "index" in value else value
-        if key in _GLTF_MAPPED:
+        if key == "emissiveFactor" and not any(np.asarray(value, float) > 0):
+            rows.append((key, value, "mapped", "zero: nothing emitted"))
+        elif key in _GLTF_MAPPED:
             rows.append((key, shown, "mapped", _GLTF_MAPPED[key]))
         elif key in _GLTF_APPROX:
             rows.append((key, shown, "approximated", _GLTF_APPROX[key]))
@@ -50,8 +55,6 @@ def _gltf_fields(js: dict, notes: list) -> list:
             rows.append((key, value, "approximated" if value == "BLEND" else "mapped",
                          {"OPAQUE": "opaque", "MASK": "alpha_map: rays pass where alpha < cutoff"}.get(
                              value, "as MASK at cutoff 0.5")))
-        elif key == "emissiveFactor" and not any(np.asarray(value, float) > 0):
-            rows.append((key, value, "mapped", "zero: nothing emitted"))
         else:
             rows.append((key, shown, "dropped", "no counterpart in the lecture's model"))
     return rows

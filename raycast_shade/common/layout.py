@@ -15,9 +15,11 @@ Light rows, ``(L, LIGHT_SIZE) = (L, 16)`` float64 (each light's ``pack``; :meth:
     (:data:`ATT_CODE`), heuristic ``k``, casts shadows (0/1); spot lights
     only (zero otherwise): unit axis the spot shines along (3), cosines of the
     inner and outer cone half-angles, Warn exponent ``n``.
-Material rows, ``(G, MAT_SIZE) = (G, 12)`` float64 (:meth:`raycast_shade.Material.packed`):
+Material rows, ``(G, MAT_SIZE) = (G, 17)`` float64 (:meth:`raycast_shade.Material.packed`):
     ka (3), kd (3), ks (3), shininess, reflectance model code (:data:`MODEL_PHONG`,
-    :data:`MODEL_BLINN`; the slot is also named ``MAT_BLINN``: 1 is Blinn), reflectivity.
+    :data:`MODEL_BLINN`; the slot is also named ``MAT_BLINN``: 1 is Blinn), reflectivity,
+    ambient-follows-colours flag (1: the mesh's colours scale ka too), ke (3, emission),
+    occlusion strength.
 Height-map rows, ``(B, BUMP_SIZE) = (B, 7)`` float64 (:meth:`raycast_shade.HeightMap.packed_info`):
     texel offset, rows, cols, clamp flag, tiling u, tiling v, height scale.
 Texture rows, ``(K, TEX_SIZE) = (K, 8)`` float64 (:meth:`raycast_shade.Texture.packed_info`):
@@ -73,7 +75,10 @@ MAT_SHININESS = 9
 MAT_MODEL = 10  # reflectance model code: MODEL_PHONG or MODEL_BLINN
 MAT_BLINN = MAT_MODEL  # the same slot under its first name: 1.0 for Blinn-Phong
 MAT_REFLECTIVITY = 11
-MAT_SIZE = 12
+MAT_KA_COLORS = 12  # 1.0: the mesh's colours scale ka as they replace kd (Material.ka_colors)
+MAT_KE = 13  # 13:16, emission: added to the point's intensity, whatever the lights
+MAT_AO_STRENGTH = 16  # occlusion map strength s: ka scaled by 1 + s (ao - 1)
+MAT_SIZE = 17
 
 MODEL_PHONG = 0  # MAT_MODEL values: Phong's (r.v)^t
 MODEL_BLINN = 1  # Blinn-Phong's (n.h)^t
@@ -111,5 +116,8 @@ COLOR_FACE = 2
 TEXMAP_KA = 0
 TEXMAP_KD = 1
 TEXMAP_KS = 2
+TEXMAP_KE = 3
+TEXMAP_AO = 4  # occlusion: its red channel scales ka
+TEXMAP_COUNT = 5  # tex_index columns
 
 __all__ = [name for name in dir() if name.isupper()]

@@ -17,8 +17,8 @@ from .texture import Texture
 __all__ = ["FileContext", "Wrapped", "from_mtl_cached", "from_simple", "from_pbr", "is_placeholder"]
 
 # MTL keys with no effect in the file's own model when they hold these values.
-_MTL_HARMLESS = {"d": 1.0, "tr": 0.0, "ke": 0.0}
-_MTL_READ = ("kd", "ka", "ks", "ns", "illum", "ni", "map_kd", "map_ka", "map_ks", "newmtl")
+_MTL_HARMLESS = {"d": 1.0, "tr": 0.0}
+_MTL_READ = ("kd", "ka", "ks", "ke", "ns", "illum", "ni", "map_kd", "map_ka", "map_ks", "map_ke", "newmtl")
 _MAX_SHININESS = 4096.0  # repeated squaring's limit (shading.illumination._power)
 _DIELECTRIC_F0 = 0.04  # a dielectric's Fresnel reflectance at normal incidence
 _PAD_LIMIT = 16  # a clamped axis is padded to at most this many times its texels (else approximated)
@@ -176,6 +176,11 @@ class FileContext:
                     ("pbrMetallicRoughness.metallicFactor", pbr.get("metallicFactor"), 1, 1.0),
                     ("pbrMetallicRoughness.roughnessFactor", pbr.get("roughnessFactor"), 1, 1.0),
                     ("emissiveFactor", m.get("emissiveFactor"), 3, 1.0),
+                    ("occlusionTexture.strength", (m.get("occlusionTexture") or {}).get("strength")
+                     if isinstance(m.get("occlusionTexture"), dict) else None, 1, 1.0),
+                    ("extensions.KHR_materials_emissive_strength.emissiveStrength",
+                     ((m.get("extensions") or {}).get("KHR_materials_emissive_strength") or {}).get("emissiveStrength"),
+                     1, math.inf),
                     ("alphaCutoff", m.get("alphaCutoff"), 1, math.inf)):
                 if value is None:
                     continue
@@ -294,7 +299,7 @@ def _from_mtl(mat, ctx: FileContext, lost: list) -> dict:
     """OBJ/MTL, from the MTL file itself: every value checked, naming the file and line."""
     f = mat.fields
     kw = {"name": mat.name}
-    for key in ("kd", "ka", "ks"):
+    for key in ("kd", "ka", "ks", "ke"):
         if key in f:
             kw[key] = fileparse.mtl_color(mat, key)
     if "ns" in f:
@@ -311,7 +316,7 @@ def _from_mtl(mat, ctx: FileContext, lost: list) -> dict:
             lost.append(f"illum {code:g} at {mat.where('illum')} (reflection/refraction models; shaded as illum 2)")
     if "ni" in f:
         fileparse.mtl_number(mat, "ni")  # refraction index: only meaningful with transparency, reported there
-    for key in ("map_kd", "map_ka", "map_ks"):
+    for key in ("map_kd", "map_ka", "map_ks", "map_ke"):
         if key not in f:
             continue
         where = f"{mat.where(key)}: {key}"
@@ -359,7 +364,7 @@ def from_simple(mat, name: str, lost: list, ctx: FileContext) -> dict:
     """OBJ/MTL through trimesh's copy (an MTL the file system does not hold, as inside a zip)."""
     raw = dict(getattr(mat, "kwargs", {}) or {})
     kw = {"name": name}
-    for key in ("kd", "ka", "ks"):
+    for key in ("kd", "ka", "ks", "ke"):
         if key in raw:
             kw[key] = np.clip(_rgb(raw.pop(key)), 0.0, None)
     if "ns" in raw:
@@ -381,7 +386,7 @@ def from_simple(mat, name: str, lost: list, ctx: FileContext) -> dict:
         kw["kd_map"] = ctx.wrapped(("simple", ctx.image_key(image)), lambda: Texture(
             ctx.linear(image, f"{name}.map_Kd"), name=f"{name}.map_Kd"))
         raw.pop("map_kd", None)
-    for key in ("map_ka", "map_ks"):
+    for key in ("map_ka", "map_ks", "map_ke"):
         if key in raw:
             lost.append(f"{key} {' '.join(map(str, raw.pop(key)))} (the MTL file is not on disk)")
     for key, value in raw.items():
@@ -453,12 +458,10 @@ def from_pbr(mat, name: str, lost: list, ctx: FileContext) -> dict:
             kw["ka_map"] = col_w
         lost.append(f"metallicRoughnessTexture: per-texel kd and ks, one exponent from the median "
                     f"roughness {r_med:.3g} (approximated)")
-    for field in ("normalTexture", "occlusionTexture", "emissiveTexture"):
-        if getattr(mat, field, None) is not None:
-            lost.append(field)
-    emissive = getattr(mat, "emissiveFactor", None)
-    if emissive is not None and np.any(np.asarray(emissive, np.float64) > 0):
-        lost.append(f"emissiveFactor {np.round(np.asarray(emissive, np.float64), 4).tolist()}")
+    if getattr(mat, "normalTexture", None) is not None:
+        lost.append("normalTexture")
+    _emission(mat, js, name, kw, lost, ctx)
+    _occlusion(mat, js, name, kw, lost, ctx)
     return kw
 
 
@@ -507,6 +510,42 @@ def _alpha_channel(image) -> np.ndarray:
         return a[..., -1]
     one = np.iinfo(a.dtype).max if a.dtype.kind in "ui" else 1.0
     return np.full(a.shape[:2], one, a.dtype)
+
+
+def _occlusion(mat, js: dict, name: str, kw: dict, lost: list, ctx: FileContext) -> None:
+    """glTF ``occlusionTexture`` (linear, red channel, its own sampler) into ``kw["ao_map"]`` and
+    its ``strength`` (default 1) into ``kw["ao_strength"]``."""
+    tex = getattr(mat, "occlusionTexture", None)
+    if tex is None:
+        return
+    info = js.get("occlusionTexture") if isinstance(js.get("occlusionTexture"), dict) else {}
+    wrap_s, wrap_t, notes = ctx.sampler(info)
+    lost += notes
+    texels = ctx.linear(tex, f"{name}.occlusionTexture", srgb=False)
+    kw["ao_map"] = ctx.wrapped(("ao", ctx.image_key(tex), wrap_s, wrap_t),
+                               lambda: Wrapped(texels, wrap_s, wrap_t, f"{name}.occlusionTexture"))
+    kw["ao_strength"] = float(info.get("strength", 1.0))  # checked with the file's materials
+
+
+def _emission(mat, js: dict, name: str, kw: dict, lost: list, ctx: FileContext) -> None:
+    """glTF ``emissiveFactor`` (times ``KHR_materials_emissive_strength``) into ``kw["ke"]`` and
+    ``emissiveTexture`` (sRGB, its own sampler) into ``kw["ke_map"]``. The factor defaults to
+    0, so a texture without a factor emits nothing, as the spec says (and is not packed)."""
+    ke = _factor(getattr(mat, "emissiveFactor", None), 3, [0.0, 0.0, 0.0])
+    strength = ((js.get("extensions") or {}).get("KHR_materials_emissive_strength") or {}).get("emissiveStrength")
+    if strength is not None:  # checked with the file's materials (FileContext)
+        ke = ke * float(strength)
+    if not np.any(ke > 0):
+        return
+    kw["ke"] = ke
+    tex = getattr(mat, "emissiveTexture", None)
+    if tex is None:
+        return
+    wrap_s, wrap_t, notes = ctx.sampler(js.get("emissiveTexture"))
+    lost += notes
+    texels = ctx.linear(tex, f"{name}.emissiveTexture")
+    kw["ke_map"] = ctx.wrapped(("pbr", ctx.image_key(tex), wrap_s, wrap_t),
+                               lambda: Wrapped(texels, wrap_s, wrap_t, f"{name}.emissiveTexture"))
 
 
 def _resample(a: np.ndarray, shape) -> np.ndarray:

@@ -8,11 +8,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..common.choices import SPECULAR_MODELS
-from ..common.layout import MAT_BLINN, MAT_KA, MAT_KD, MAT_KS, MAT_REFLECTIVITY, MAT_SHININESS, MAT_SIZE
+from ..common.layout import (MAT_AO_STRENGTH, MAT_BLINN, MAT_KA, MAT_KA_COLORS, MAT_KD, MAT_KE, MAT_KS,
+                             MAT_REFLECTIVITY, MAT_SHININESS, MAT_SIZE)
 from ..common.validate import as_choice, as_name, as_rgb, as_scalar
 from ..common.warnings import ColourRangeWarning
 
-__all__ = ["Material", "SPECULAR_MODELS", "overridden"]
+__all__ = ["Material", "SPECULAR_MODELS", "MAP_FIELDS", "overridden"]
+
+MAP_FIELDS = ("ka_map", "kd_map", "ks_map", "ke_map", "ao_map")  # Material.maps' order: the TEXMAP_* columns
 
 
 
@@ -29,7 +32,7 @@ def _warn_byte_range(rgb: np.ndarray, name: str, field: str) -> None:
 
 @dataclass(frozen=True, eq=False)
 class Material:
-    """Coefficients of ``I = Ia ka + sum_i att(d) Ii (kd (n.s) + Ks (r.v)^t)``.
+    """Coefficients of ``I = Ia ka + sum_i att(d) Ii (kd (n.s) + Ks (r.v)^t) + ke``.
 
     Every coefficient is a scalar or an RGB triple (the lecture's
     ``k(lambda)`` sampled at three wavelengths) and must be ``>= 0``.
@@ -69,6 +72,31 @@ class Material:
         ``None``: opaque. Else rays (camera, shadow and mirror rays alike)
         pass through the points where ``alpha_map < alpha_cutoff`` (glTF's
         ``MASK``; 0.5 is glTF's default): see :mod:`raycast_shade.visibility.alpha`.
+    ka_colors : bool
+        The ambient term follows the mesh's colours: on a mesh with colours the
+        point's ka is ``ka`` times its colour (as its kd is the colour), so
+        ``ka=1`` gives an ambient term in the surface's own colour. False (the
+        default): ``ka`` is used as given. :func:`raycast_shade.load_models`
+        sets it (with ``ka=1``) for a coloured mesh whose file gives no ambient
+        colour. No effect on a mesh without colours.
+    ke : float or (3,) float
+        Emission ``ke``: radiance the surface gives off by itself, added to
+        the point's intensity whatever the lights (glTF ``emissiveFactor``,
+        MTL ``Ke``). Default 0, or 1 with a ``ke_map``. ``>= 0``; may exceed 1
+        (a lamp brighter than white).
+    ke_map : Texture, optional
+        Emission texture: the point's ke is ``ke * ke_map(u, v)`` (glTF
+        ``emissiveTexture``, MTL ``map_Ke``); sampled per pixel in Phong and
+        Gouraud shading, at the face centre in flat shading.
+    ao_map : Texture, optional
+        Ambient occlusion: its red channel ``ao`` (linear: load it with
+        ``srgb=False``) scales the ambient term per texel, the lecture's
+        "radiosity" approximation of the light that reaches a crevice: the
+        point's ka is ``ka * (1 + ao_strength * (ao - 1))`` (glTF
+        ``occlusionTexture``). The other terms are unchanged.
+    ao_strength : float
+        In [0, 1]: 0 ignores the map, 1 (the default) applies it fully
+        (glTF's ``strength``).
     """
 
     kd: object = None
@@ -84,13 +112,18 @@ class Material:
     ks_map: object = None
     alpha_map: object = None
     alpha_cutoff: object = None
+    ka_colors: bool = False
+    ke: object = None
+    ke_map: object = None
+    ao_map: object = None
+    ao_strength: float = 1.0
 
     def __post_init__(self):
         set_ = object.__setattr__
         set_(self, "name", as_name(self.name, f"{type(self).__name__}.name"))  # first: every message uses it
         from .texture import Texture
 
-        for field in ("kd_map", "ka_map", "ks_map", "alpha_map"):
+        for field in MAP_FIELDS + ("alpha_map",):
             tex = getattr(self, field)
             if tex is not None and not isinstance(tex, Texture):
                 raise TypeError(f"{self.name}.{field}: expected a Texture, got {type(tex).__name__}")
@@ -99,11 +132,18 @@ class Material:
             set_(self, "kd", 1.0 if self.kd_map is not None else 0.8)
         if self.ks is None:
             set_(self, "ks", 1.0 if self.ks_map is not None else 0.0)
+        if self.ke is None:
+            set_(self, "ke", 1.0 if self.ke_map is not None else 0.0)
         for field in ("kd", "ka", "ks"):
             set_(self, field, as_rgb(getattr(self, field), f"{self.name}.{field}"))
             _warn_byte_range(getattr(self, field), f"{self.name}.{field}", field)
+        set_(self, "ke", as_rgb(self.ke, f"{self.name}.ke"))  # an emission may exceed 1: no 0-255 guess
         set_(self, "shininess", as_scalar(self.shininess, f"{self.name}.shininess", minimum=0.0, exclusive=True))
         set_(self, "specular", as_choice(self.specular, f"{self.name}.specular", SPECULAR_MODELS))
+        if not isinstance(self.ka_colors, (bool, np.bool_)):
+            raise TypeError(f"{self.name}.ka_colors: expected True or False, got {type(self.ka_colors).__name__}")
+        set_(self, "ka_colors", bool(self.ka_colors))
+        set_(self, "ao_strength", as_scalar(self.ao_strength, f"{self.name}.ao_strength", minimum=0.0, maximum=1.0))
         set_(self, "reflectivity", as_scalar(self.reflectivity, f"{self.name}.reflectivity", minimum=0.0, maximum=1.0))
         if self.bump is not None:
             from .heightmap import HeightMap
@@ -114,16 +154,21 @@ class Material:
 
     @property
     def maps(self) -> tuple:
-        """``(ka_map, kd_map, ks_map)``, ``None`` where absent (the order of
-        :data:`~raycast_shade.common.layout.TEXMAP_KA` and friends)."""
-        return (self.ka_map, self.kd_map, self.ks_map)
+        """``(ka_map, kd_map, ks_map, ke_map, ao_map)``, ``None`` where absent (the order of
+        :data:`~raycast_shade.common.layout.TEXMAP_KA` and friends, :data:`MAP_FIELDS`)."""
+        return (self.ka_map, self.kd_map, self.ks_map, self.ke_map, self.ao_map)
+
+    @property
+    def has_emission(self) -> bool:
+        return bool(np.any(self.ke > 0))
 
     @property
     def has_specular(self) -> bool:
         return bool(np.any(self.ks > 0))
 
     def packed(self) -> np.ndarray:
-        """(MAT_SIZE,) = (12,) float64: ka(3), kd(3), ks(3), t, blinn flag, reflectivity; the kernels' row
+        """(MAT_SIZE,) = (17,) float64: ka(3), kd(3), ks(3), t, blinn flag, reflectivity, ka_colors flag,
+        ke(3), occlusion strength; the kernels' row
         (slots named in :mod:`raycast_shade.common.layout`)."""
         row = np.empty(MAT_SIZE)
         row[MAT_KA:MAT_KA + 3] = self.ka
@@ -132,6 +177,9 @@ class Material:
         row[MAT_SHININESS] = self.shininess
         row[MAT_BLINN] = 1.0 if self.specular == "blinn" else 0.0
         row[MAT_REFLECTIVITY] = self.reflectivity
+        row[MAT_KA_COLORS] = 1.0 if self.ka_colors else 0.0
+        row[MAT_KE:MAT_KE + 3] = self.ke
+        row[MAT_AO_STRENGTH] = self.ao_strength
         return row
 
 
@@ -155,8 +203,11 @@ def overridden(base: Material, given: dict) -> dict:
     and ks_map): the override is the colour, not a factor on the file's
     texture. Where ``base``'s ka follows its kd (``ka == kd`` and the same
     map: a file without an ambient colour, see
-    :func:`raycast_shade.load_models`), a new kd or kd_map carries ka along,
-    unless ``ka`` or ``ka_map`` is given too.
+    :func:`raycast_shade.load_models`), or follows the mesh's colours
+    (``ka_colors``), a new kd or kd_map carries ka along, unless ``ka`` or
+    ``ka_map`` is given too. A ``ka`` given is used as given: ``ka_colors``
+    goes off with it (and with a ``kd``, which replaces the colours in scene
+    files) unless ``ka_colors`` is given too.
     """
     import dataclasses
 
@@ -165,9 +216,13 @@ def overridden(base: Material, given: dict) -> dict:
         out["kd_map"] = None
     if "ks" in given and "ks_map" not in given:
         out["ks_map"] = None
-    follows = np.array_equal(base.ka, base.kd) and base.ka_map is base.kd_map
+    follows = (np.array_equal(base.ka, base.kd) or base.ka_colors) and base.ka_map is base.kd_map
     if follows and "ka" not in given and "ka_map" not in given and ("kd" in given or "kd_map" in given):
-        out["ka"] = given["kd"] if "kd" in given else base.kd
+        out["ka"] = given["kd"] if "kd" in given else base.ka  # (base.ka is base.kd, or 1 scaled by the colours)
         out["ka_map"] = given.get("kd_map")
+        if "kd" in given:  # a kd replaces the colours too (scene files): ka is the new kd, not scaled by them
+            out["ka_colors"] = False
+    if "ka" in given and "ka_colors" not in given:  # an explicit ka is used as given
+        out["ka_colors"] = False
     out.update(given)
     return out

@@ -121,7 +121,8 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, *
     :meth:`Mesh.load`). Colours become the mesh's ``colors`` (its kd); a
     material's factor multiplies them (glTF: baseColor times ``COLOR_0``).
     Where the file gives no ambient colour, ka follows kd (and ka_map
-    kd_map). A face that repeats another with the opposite winding (a
+    kd_map; on a mesh with colours ``ka=1`` and ``ka_colors=True``: the
+    colours are its ka too). A face that repeats another with the opposite winding (a
     two-sided sheet) is dropped, counted in a warning: rendering lights
     every surface from the side it is seen from, and the pair would cancel
     every averaged normal around it. An image shared by several meshes is
@@ -186,7 +187,7 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, *
             colors, mode = _off_colors(ctx.off, len(vertices), len(faces), name)
         if colors is not None and "kd" in kw:
             colors = colors * kw["kd"]  # kd's factor times the colours (glTF: baseColorFactor * COLOR_0)
-        maps = [k for k in ("kd_map", "ka_map", "ks_map", "alpha_map") if k in kw]
+        maps = [k for k in ("kd_map", "ka_map", "ks_map", "ke_map", "ao_map", "alpha_map") if k in kw]
         if maps and uvs is None:
             lost.append(f"{name}: {', '.join(maps)} (the mesh has no UVs)")
             for k in maps:
@@ -199,8 +200,17 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, *
             faces = faces[~dup]
             if colors is not None and mode == "face":
                 colors = colors[~dup]
-        if "ka" not in kw:  # the file gave no ambient colour: ka follows the diffuse colour and its texture
-            kw["ka"] = kw["kd"] if "kd" in kw else (1.0 if "kd_map" in kw else Material().kd)
+        no_ka = "ka" not in kw
+        gltf = getattr(ctx, "gltf", None) is not None  # glTF has no ambient colour: from_pbr's ka follows
+        if colors is not None and (no_ka or gltf):
+            # The colours carry kd's factor; ka = (its own colour) / that factor makes ka x colour the
+            # surface's ambient colour at every point (a factor 0 leaves no colour to follow).
+            factor = np.broadcast_to(np.asarray(kw.get("kd", 1.0), np.float64), (3,))
+            target = np.broadcast_to(np.asarray(kw.get("ka", factor), np.float64), (3,))
+            if np.all(factor > 0):
+                kw["ka"], kw["ka_colors"] = target / factor, True
+        if no_ka:  # the file gave no ambient colour: ka follows the diffuse colour and its texture
+            kw.setdefault("ka", kw["kd"] if "kd" in kw else (1.0 if "kd_map" in kw else Material().kd))
             if "kd_map" in kw and "ka_map" not in kw:
                 kw["ka_map"] = kw["kd_map"]
         kw.setdefault("name", name)

@@ -16,9 +16,10 @@ import numpy as np
 
 from ..common.validate import as_rgb
 from .camera import Camera
-from ..common.layout import BUMP_SIZE, COLOR_FACE, COLOR_NONE, COLOR_VERTEX, LIGHT_SIZE, MAT_REFLECTIVITY, MAT_SIZE, TEX_SIZE
+from ..common.layout import (BUMP_SIZE, COLOR_FACE, COLOR_NONE, COLOR_VERTEX, LIGHT_SIZE, MAT_REFLECTIVITY, MAT_SIZE,
+                             TEX_SIZE, TEXMAP_COUNT)
 from .lights import Light
-from .material import Material
+from .material import MAP_FIELDS, Material
 from .mesh import Mesh
 
 __all__ = ["Model", "Scene", "SceneGeometry"]
@@ -85,7 +86,7 @@ class SceneGeometry:
     face_normals : (F, 3) float64
     vertex_offsets, face_offsets : (G + 1,) int64
         Range of each model.
-    materials : (G, MAT_SIZE) = (G, 12) float64
+    materials : (G, MAT_SIZE) = (G, 17) float64
         One packed material row per model (see :meth:`Material.packed`).
     face_model, vertex_model : (F,) int32, (V,) int32
         The model each face and vertex belongs to.
@@ -99,8 +100,8 @@ class SceneGeometry:
     vertex_colors, face_colors : (V, 3), (F, 3) float64
         Linear kd per vertex / per face, zero where a model has none ((1, 3)
         placeholders when no model has any).
-    tex_index : (G, 3) int32
-        Row in ``tex_info`` of each model's ka, kd and ks map, or -1.
+    tex_index : (G, TEXMAP_COUNT) = (G, 5) int32
+        Row in ``tex_info`` of each model's ka, kd, ks, ke and occlusion map, or -1.
     tex_texels : (T,) float32
         Every texture's mip pyramid, RGB triples.
     tex_info : (K, TEX_SIZE) = (K, 8) float64
@@ -178,14 +179,14 @@ class SceneGeometry:
 
     def _pack_textures(self, models, preps) -> None:
         """All maps' pyramids in one flat array, one info row per texture (shared maps once)."""
-        index = np.full((len(models), 3), -1, np.int32)
+        index = np.full((len(models), TEXMAP_COUNT), -1, np.int32)
         texels, info, seen, offset = [], [], {}, 0
         for g, m in enumerate(models):
             for slot, tex in enumerate(m.material.maps):
                 if tex is None:
                     continue
                 if preps[g].uvs is None:
-                    field = ("ka_map", "kd_map", "ks_map")[slot]
+                    field = MAP_FIELDS[slot]
                     raise ValueError(f"scene.models[{g}] ({m.mesh.name}): material {m.material.name!r} has a "
                                      f"{field} but the mesh has no UVs (see raycast_shade.bump.planar_uvs and friends)")
                 if id(tex) not in seen:

@@ -10,7 +10,7 @@ Vertex colours are the vertices' kd, inside their shades as any kd is. A
 model with a colour map or face colours is shaded the classic "modulate" way
 instead: each vertex stores its diffuse light ``sum att Ii (n.s)`` and its
 specular light ``sum att Ii (r.v)^t`` separately (kd = ks = 1), both are
-interpolated, and the pixel is ``Ia ka + D kd + S ks`` with the pixel's own
+interpolated, and the pixel is ``Ia ka + D kd + S ks + ke`` with the pixel's own
 (textured) coefficients.
 """
 
@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ..common.layout import COLOR_VERTEX, METHOD_GOURAUD
+from ..common.layout import COLOR_VERTEX, MAT_KA_COLORS, METHOD_GOURAUD
 from ..common.schedule import BLOCK_ROWS, spread_step
 from .illumination import _illuminate, _illuminate_call
 from .jit import CALLED, CHUNK, FLT32_MAX, HELPER, JIT, compile_variants
@@ -30,8 +30,8 @@ from .texture import _point_coefficients, _row_coefficients
 
 __all__ = []
 
-_DIFFUSE_ONLY = (0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0)  # ka, kd, ks of the modulate path's two passes
-_SPECULAR_ONLY = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0)
+_DIFFUSE_ONLY = (0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)  # ka, kd, ks, ke of the modulate
+_SPECULAR_ONLY = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0)  # path's two passes
 
 
 @njit(**HELPER)
@@ -75,11 +75,15 @@ def _corner_shade(vcol, G, i, side, g, materials, m, cam, L, S, coef, spec_on, a
 
 @njit(**HELPER)
 def _vertex_kd(materials, m, cmode, vcolors, i, tex_on):
-    """The coefficients a vertex is shaded with: the row's, kd its colour if it has one."""
-    kar, kag, kab, kdr, kdg, kdb, ksr, ksg, ksb = _row_coefficients(materials, m)
+    """The coefficients a vertex is shaded with: the row's, kd its colour if it has one (and ka
+    scaled by it with the row's ka-colours flag)."""
+    kar, kag, kab, kdr, kdg, kdb, ksr, ksg, ksb, ker, keg, keb = _row_coefficients(materials, m)
     if tex_on and cmode[m] == COLOR_VERTEX:
-        return kar, kag, kab, vcolors[i, 0], vcolors[i, 1], vcolors[i, 2], ksr, ksg, ksb
-    return kar, kag, kab, kdr, kdg, kdb, ksr, ksg, ksb
+        cr, cg, cb = vcolors[i, 0], vcolors[i, 1], vcolors[i, 2]
+        if materials[m, MAT_KA_COLORS] != 0.0:  # ambient follows the colours
+            return kar * cr, kag * cg, kab * cb, cr, cg, cb, ksr, ksg, ksb, ker, keg, keb
+        return kar, kag, kab, cr, cg, cb, ksr, ksg, ksb, ker, keg, keb
+    return kar, kag, kab, kdr, kdg, kdb, ksr, ksg, ksb, ker, keg, keb
 
 
 @njit(**CALLED)
@@ -149,7 +153,7 @@ def _make_vertices(spec_on: bool, att_on: bool, tex_on: bool = False):
 
 @njit(**HELPER)
 def _modulate(vcol, vspec, G, at, side, g, materials, cam, L, S, coef, spec_on, att_on):
-    """A modulate-path pixel at hit ``at``: ``Ia ka + D kd + S ks``, with the corners'
+    """A modulate-path pixel at hit ``at``: ``Ia ka + D kd + S ks + ke``, with the corners'
     diffuse light ``D`` and specular light ``S`` interpolated and the pixel's own
     (textured, footprint-filtered) coefficients ``coef``."""
     i0, i1, i2 = _triangle(G[2], at.f)
@@ -161,12 +165,12 @@ def _modulate(vcol, vspec, G, at, side, g, materials, cam, L, S, coef, spec_on, 
     (d2r, d2g, d2b), (s2r, s2g, s2b) = _corner_split(vcol, vspec, G, i2, side, g, materials, m, cam, L, S,
                                                      spec_on, att_on)
     ambient = L[0]
-    kar, kag, kab, kdr, kdg, kdb, ksr, ksg, ksb = coef
+    kar, kag, kab, kdr, kdg, kdb, ksr, ksg, ksb, ker, keg, keb = coef
     w0, w1, w2 = _convex_weights(at.b1, at.b2)
     r = ambient[0] * kar + (w0 * d0r + w1 * d1r + w2 * d2r) * kdr + (w0 * s0r + w1 * s1r + w2 * s2r) * ksr
     gg = ambient[1] * kag + (w0 * d0g + w1 * d1g + w2 * d2g) * kdg + (w0 * s0g + w1 * s1g + w2 * s2g) * ksg
     b = ambient[2] * kab + (w0 * d0b + w1 * d1b + w2 * d2b) * kdb + (w0 * s0b + w1 * s1b + w2 * s2b) * ksb
-    return r, gg, b
+    return r + ker, gg + keg, b + keb  # the pixel's own emission, added last as in _illuminate
 
 
 def _make_interpolate(spec_on: bool, att_on: bool, tex_on: bool = False):

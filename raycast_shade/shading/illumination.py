@@ -2,7 +2,7 @@
 
 Per channel::
 
-    I = Ia ka + sum_i vis_i att_i(d) Ii (kd max(n.s, 0) + Ks max(r.v, 0)^t)
+    I = Ia ka + sum_i vis_i att_i(d) Ii (kd max(n.s, 0) + Ks max(r.v, 0)^t) + ke
 
 with ``r = 2 (n.s) n - s`` (or Blinn-Phong ``(n.h)^t``), no specular term
 where ``n.s <= 0``, ``att`` one of ``1``, ``1/d^2``, ``1/(d + k)``, and
@@ -13,7 +13,9 @@ between its axis and the direction from the light to the point
 (:class:`raycast_shade.scene.lights.SpotLight`); outside its outer cone it
 contributes nothing and traces no shadow ray. The viewer's distance never enters: only the direction ``v`` to the
 eye does. Integer shininess, the usual case, is raised by repeated squaring
-rather than ``pow``.
+rather than ``pow``. The emission ``ke`` is added last, after the lights'
+sum (a zero ``ke`` adds exactly nothing: the images of surfaces without
+emission are bit for bit those before it).
 
 The material and light rows are read through the named slots of
 :mod:`raycast_shade.common.layout`. Every light kind is read in one place,
@@ -121,8 +123,8 @@ def _illuminate_py(hp, coef, mats, mi, L, S, spec_on, att_on):
     hp : Hit
         The point, view, normals and shadow origin (:mod:`.records`); shadow rays
         start at ``hp.o`` pushed off along ``hp.g``.
-    coef : 9-tuple of float
-        The point's own ``ka, kd, ks``: the material row's, or textured and
+    coef : 12-tuple of float
+        The point's own ``ka, kd, ks, ke``: the material row's, or textured and
         coloured ones (:mod:`.texture`).
     mats : (G, MAT_SIZE) float64
         Material rows; row ``mi`` (indexed, not sliced: a slice per pixel would
@@ -138,7 +140,7 @@ def _illuminate_py(hp, coef, mats, mi, L, S, spec_on, att_on):
         material or no attenuating light compiles without that arithmetic.
     """
     ambient, lights, dmin, handle, unit = L
-    kar, kag, kab, kdr, kdg, kdb, ksr, ksg, ksb = coef
+    kar, kag, kab, kdr, kdg, kdb, ksr, ksg, ksb, ker, keg, keb = coef
     n = hp.n
     r = ambient[0] * kar
     g = ambient[1] * kag
@@ -168,7 +170,7 @@ def _illuminate_py(hp, coef, mats, mi, L, S, spec_on, att_on):
         r += att * lights[i, LIGHT_RADIANCE + 0] * (kdr * ndots + ksr * spec)
         g += att * lights[i, LIGHT_RADIANCE + 1] * (kdg * ndots + ksg * spec)
         b += att * lights[i, LIGHT_RADIANCE + 2] * (kdb * ndots + ksb * spec)
-    return r, g, b
+    return r + ker, g + keg, b + keb
 
 
 _illuminate = njit(**HELPER)(_illuminate_py)

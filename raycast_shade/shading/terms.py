@@ -8,17 +8,18 @@ scene:
 =====================  ==============================================================
 term                   variant shaded
 =====================  ==============================================================
-``ambient``            no lights (``Ia ka`` only)
-``diffuse``            ``ka = ks = 0``
-``specular``           ``ka = kd = 0``
-``diffuse_per_light``  one light at a time, ``ka = ks = 0`` (``terms="per_light"``)
-``specular_per_light`` one light at a time, ``ka = kd = 0``
+``ambient``            no lights, ``ke = 0`` (``Ia ka`` only)
+``diffuse``            ``ka = ks = ke = 0``
+``specular``           ``ka = kd = ke = 0``
+``emissive``           no lights, ``ka = 0`` (``ke`` only; zeros without emission)
+``diffuse_per_light``  one light at a time, ``ka = ks = ke = 0`` (``terms="per_light"``)
+``specular_per_light`` one light at a time, ``ka = kd = ke = 0``
 ``reflected``          the mirror trace (:func:`.mirrors.trace_mirrors`) over a black image
 =====================  ==============================================================
 
 so that, per pixel and channel, to float32 rounding::
 
-    image = keep * (ambient + diffuse + specular) + reflected + background
+    image = keep * (ambient + diffuse + specular + emissive) + reflected + background
 
 with ``keep = 1 - rho`` on mirror pixels (1 elsewhere) and ``background`` the
 scene's background where no surface is seen. The local terms are the
@@ -59,7 +60,8 @@ import dataclasses
 import numpy as np
 
 from ..common.layout import (ATT_NONE, COLOR_FACE, LIGHT_ATT, LIGHT_DIRECTIONAL, LIGHT_KIND, LIGHT_SHADOWS,
-                             LIGHT_SIZE, MAT_KA, MAT_KD, MAT_KS, MAT_REFLECTIVITY, METHOD_PHONG, TEXMAP_KD)
+                             LIGHT_SIZE, MAT_KA, MAT_KD, MAT_KE, MAT_KS, MAT_REFLECTIVITY, METHOD_PHONG,
+                             TEXMAP_KD)
 from ..scene.lights import PointLight
 from .inputs import prepare
 from .mirrors import trace_mirrors
@@ -189,7 +191,7 @@ def variant_inputs(inputs, origin, materials=None, colors=None, lights=None):
 def _rows(materials, keep):
     """Material rows with the coefficient slots not in ``keep`` zeroed."""
     out = materials.copy()
-    for slot in (MAT_KA, MAT_KD, MAT_KS):
+    for slot in (MAT_KA, MAT_KD, MAT_KS, MAT_KE):
         if slot not in keep:
             out[:, slot:slot + 3] = 0.0
     return out
@@ -224,7 +226,7 @@ def shade_terms(scene, camera, hits, shading, max_depth: int = 0, per_light: boo
     Returns
     -------
     dict of str to ndarray
-        ``ambient``, ``diffuse``, ``specular``, ``reflected``, ``background``
+        ``ambient``, ``diffuse``, ``specular``, ``emissive``, ``reflected``, ``background``
         (H, W, 3) float32; ``keep`` (H, W) float32; ``shadow`` (L, H, W)
         float32; with ``per_light``, ``diffuse_per_light`` and
         ``specular_per_light`` (L, H, W, 3) float32. See the module docstring
@@ -277,10 +279,14 @@ def _variant_terms(scene, shaded, mats, h, w, per_light) -> dict:
     """The local terms, per-light terms and shadow mask, one shading pass of a variant each
     (flat and Gouraud, whose per-face and per-vertex work has no one-pass form yet)."""
     out = {
-        "ambient": shaded(lights=()),
+        "ambient": shaded(materials=_rows(mats, (MAT_KA,)), lights=()),
         "diffuse": shaded(materials=_rows(mats, (MAT_KD,))),
         "specular": shaded(materials=_rows(mats, (MAT_KS,)), colors=0.0),
     }
+    if np.any(mats[:, MAT_KE:MAT_KE + 3] > 0):
+        out["emissive"] = shaded(materials=_rows(mats, (MAT_KE,)), lights=())
+    else:  # no emission anywhere: no shading pass
+        out["emissive"] = np.zeros((h, w, 3), np.float32)
     if per_light:
         for name, slot, colors in (("diffuse", MAT_KD, None), ("specular", MAT_KS, 0.0)):
             rows = _rows(mats, (slot,))
@@ -307,8 +313,10 @@ def _shadow_mask(scene, shaded, shape, mats) -> np.ndarray:
 
 
 def compose_terms(terms: dict) -> np.ndarray:
-    """(H, W, 3) float32 ``keep * (ambient + diffuse + specular) + reflected + background``:
+    """(H, W, 3) float32 ``keep * (ambient + diffuse + specular + emissive) + reflected + background``:
     the image the terms add up to."""
     local = terms["ambient"].astype(np.float64) + terms["diffuse"] + terms["specular"]
+    if "emissive" in terms:
+        local = local + terms["emissive"]
     total = terms["keep"][..., None] * local + terms["reflected"] + terms["background"]
     return total.astype(np.float32)

@@ -11,6 +11,7 @@ output             per pixel
 ``local[TERM_AMBIENT]``   ``Ia ka``
 ``local[TERM_DIFFUSE]``   ``sum_i vis_i att_i Ii kd (n.s_i)``
 ``local[TERM_SPECULAR]``  ``sum_i vis_i att_i Ii Ks spec_i``
+``local[TERM_EMISSIVE]``  ``ke``, the point's emission
 ``per_light[0, i]``       light ``i``'s diffuse part (``per_light[1, i]`` its specular)
 ``shadow[i]``             0 where light ``i``'s shadow ray is blocked (and the light would
                           reach the point), else 1
@@ -18,9 +19,8 @@ output             per pixel
 
 ``ka, kd, Ks`` are the point's (maps, colours: :mod:`.texture`), as the variants'
 are: the equation is linear in them. A new term is one more slot of ``local``
-(:data:`TERM_SLOTS`) written where its part is computed: an emissive colour, for
-one, is the point's emission rgb stored in ``local[TERM_EMISSIVE]`` beside the
-ambient line of :func:`_illuminate_terms`.
+(:data:`TERM_SLOTS`) written where its part is computed, as the emission is,
+stored in ``local[TERM_EMISSIVE]`` beside the ambient line of :func:`_illuminate_terms`.
 """
 
 from __future__ import annotations
@@ -39,10 +39,10 @@ from .shadows import _occluded, _scratch
 from .surface import _terminator_point, _triangle
 from .texture import _point_coefficients, _row_coefficients
 
-__all__ = ["TERM_AMBIENT", "TERM_DIFFUSE", "TERM_SPECULAR", "TERM_SLOTS"]
+__all__ = ["TERM_AMBIENT", "TERM_DIFFUSE", "TERM_SPECULAR", "TERM_EMISSIVE", "TERM_SLOTS"]
 
-TERM_AMBIENT, TERM_DIFFUSE, TERM_SPECULAR = 0, 1, 2
-TERM_SLOTS = ("ambient", "diffuse", "specular")  # local's slots, in order: the names on frame.terms
+TERM_AMBIENT, TERM_DIFFUSE, TERM_SPECULAR, TERM_EMISSIVE = 0, 1, 2, 3
+TERM_SLOTS = ("ambient", "diffuse", "specular", "emissive")  # local's slots, in order: the names on frame.terms
 
 
 @njit(**HELPER)
@@ -58,9 +58,10 @@ def _illuminate_terms(hp, coef, mats, mi, L, S, spec_on, att_on, local, per_ligh
     stored in ``local`` (K, H, W, 3), ``per_light`` (2, L, H, W, 3) (or (2, 0, ...): none) and
     ``shadow`` (L, H, W) instead of summed."""
     ambient, lights, dmin, handle, unit = L
-    kar, kag, kab, kdr, kdg, kdb, ksr, ksg, ksb = coef
+    kar, kag, kab, kdr, kdg, kdb, ksr, ksg, ksb, ker, keg, keb = coef
     n = hp.n
     _store(local[TERM_AMBIENT], y, x, ambient[0] * kar, ambient[1] * kag, ambient[2] * kab)
+    _store(local[TERM_EMISSIVE], y, x, ker, keg, keb)
     dr = dg = db = sr = sg = sb = 0.0
     shin = mats[mi, MAT_SHININESS]
     model = mats[mi, MAT_MODEL]

@@ -1,8 +1,10 @@
 """Per-point coefficients: colour textures and mesh colours, sampled where shading happens.
 
 A point's ``ka, kd, ks`` are the material row's, with the mesh's colour (per
-vertex, interpolated, or per face) in place of kd, each times its map's texel
-when the material has one. Maps are sampled bilinearly at the point's UV and,
+vertex, interpolated, or per face) in place of kd (and scaling ka where the
+material's ``ka_colors`` says so), each times its map's texel when the
+material has one; likewise the emission ``ke``. An occlusion map's red
+channel ``ao`` scales ka by ``1 + s (ao - 1)``, ``s`` the material's strength. Maps are sampled bilinearly at the point's UV and,
 for ``filter="mipmap"``, trilinearly between two levels of the pyramid
 (:class:`raycast_shade.Texture`): level ``log2(rho)`` with ``rho`` the larger
 of the pixel's two footprint axes in texels,
@@ -29,8 +31,9 @@ import numpy as np
 from numba import njit, prange
 
 from ..common.layout import (CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH, COLOR_FACE,
-                             COLOR_VERTEX, MAT_KA, MAT_KD, MAT_KS, TEX_CLAMP, TEX_HEIGHT, TEX_LEVELS, TEX_MIPMAP,
-                             TEX_OFFSET, TEX_TILE_U, TEX_TILE_V, TEX_WIDTH, TEXMAP_KA, TEXMAP_KD, TEXMAP_KS)
+                             COLOR_NONE, COLOR_VERTEX, MAT_AO_STRENGTH, MAT_KA, MAT_KA_COLORS, MAT_KD, MAT_KE, MAT_KS, TEX_CLAMP, TEX_HEIGHT, TEX_LEVELS, TEX_MIPMAP,
+                             TEX_OFFSET, TEX_TILE_U, TEX_TILE_V, TEX_WIDTH, TEXMAP_AO, TEXMAP_KA, TEXMAP_KD,
+                             TEXMAP_KE, TEXMAP_KS)
 from .bump import _texel_corners
 from .jit import HELPER, JIT
 
@@ -204,19 +207,20 @@ def _face_footprint(uvs, tri):
 
 @njit(**HELPER)
 def _row_coefficients(mats, mi):
-    """The material row's ``ka, kd, ks``: the nine scalars
+    """The material row's ``ka, kd, ks, ke``: the twelve scalars
     :func:`~raycast_shade.shading.illumination._illuminate` takes for a point
     without textures or colours."""
     return (mats[mi, MAT_KA + 0], mats[mi, MAT_KA + 1], mats[mi, MAT_KA + 2],
             mats[mi, MAT_KD + 0], mats[mi, MAT_KD + 1], mats[mi, MAT_KD + 2],
-            mats[mi, MAT_KS + 0], mats[mi, MAT_KS + 1], mats[mi, MAT_KS + 2])
+            mats[mi, MAT_KS + 0], mats[mi, MAT_KS + 1], mats[mi, MAT_KS + 2],
+            mats[mi, MAT_KE + 0], mats[mi, MAT_KE + 1], mats[mi, MAT_KE + 2])
 
 
 @njit(**HELPER)
 def _coefficients(mats, T, at, tri, uvs, footprint):
-    """``ka, kd, ks`` (nine floats) at hit ``at`` (:class:`~raycast_shade.shading.records.At`:
+    """``ka, kd, ks, ke`` (twelve floats) at hit ``at`` (:class:`~raycast_shade.shading.records.At`:
     barycentrics (1 - b1 - b2, b1, b2) on face f, triangle ``tri``, of model gm): the material
-    row's, kd replaced by the mesh's colour, each times its map's texel filtered over
+    row's, kd replaced by the mesh's colour (ka scaled by it with the row's ka-colours flag), each times its map's texel filtered over
     ``footprint = (du/dx, dv/dx, du/dy, dv/dy)``. ``T`` as in
     :class:`~raycast_shade.shading.inputs.FrameInputs`."""
     vcolors, fcolors, cmode, tindex, texels, tinfo, _ = T
@@ -232,6 +236,9 @@ def _coefficients(mats, T, at, tri, uvs, footprint):
     ksr = mats[gm, MAT_KS + 0]
     ksg = mats[gm, MAT_KS + 1]
     ksb = mats[gm, MAT_KS + 2]
+    ker = mats[gm, MAT_KE + 0]
+    keg = mats[gm, MAT_KE + 1]
+    keb = mats[gm, MAT_KE + 2]
     b0 = 1.0 - b1 - b2
     mode = cmode[gm]
     if mode == COLOR_VERTEX:
@@ -242,7 +249,12 @@ def _coefficients(mats, T, at, tri, uvs, footprint):
         kdr = fcolors[f, 0]
         kdg = fcolors[f, 1]
         kdb = fcolors[f, 2]
-    if tindex[gm, TEXMAP_KA] >= 0 or tindex[gm, TEXMAP_KD] >= 0 or tindex[gm, TEXMAP_KS] >= 0:
+    if mode != COLOR_NONE and mats[gm, MAT_KA_COLORS] != 0.0:  # ambient follows the colours
+        kar *= kdr
+        kag *= kdg
+        kab *= kdb
+    if tindex[gm, TEXMAP_KA] >= 0 or tindex[gm, TEXMAP_KD] >= 0 or tindex[gm, TEXMAP_KS] >= 0 \
+            or tindex[gm, TEXMAP_KE] >= 0 or tindex[gm, TEXMAP_AO] >= 0:
         u = b0 * uvs[i0, 0] + b1 * uvs[i1, 0] + b2 * uvs[i2, 0]
         v = b0 * uvs[i0, 1] + b1 * uvs[i1, 1] + b2 * uvs[i2, 1]
         k = tindex[gm, TEXMAP_KA]
@@ -263,7 +275,20 @@ def _coefficients(mats, T, at, tri, uvs, footprint):
             ksr *= r
             ksg *= g
             ksb *= b
-    return kar, kag, kab, kdr, kdg, kdb, ksr, ksg, ksb
+        k = tindex[gm, TEXMAP_KE]
+        if k >= 0:
+            r, g, b = _sample(texels, tinfo, k, u, v, dudx, dvdx, dudy, dvdy)
+            ker *= r
+            keg *= g
+            keb *= b
+        k = tindex[gm, TEXMAP_AO]
+        if k >= 0:  # occlusion: the red channel scales the ambient term
+            r, g, b = _sample(texels, tinfo, k, u, v, dudx, dvdx, dudy, dvdy)
+            occ = 1.0 + mats[gm, MAT_AO_STRENGTH] * (r - 1.0)
+            kar *= occ
+            kag *= occ
+            kab *= occ
+    return kar, kag, kab, kdr, kdg, kdb, ksr, ksg, ksb, ker, keg, keb
 
 
 def texture_levels(scene, camera, hits, slot: str = "kd") -> np.ndarray:
@@ -275,14 +300,14 @@ def texture_levels(scene, camera, hits, slot: str = "kd") -> np.ndarray:
     scene : Scene
     camera : Camera
     hits : HitBuffer
-    slot : {"ka", "kd", "ks"}
+    slot : {"ka", "kd", "ks", "ke", "ao"}
 
     Returns
     -------
     (H, W) float64
         NaN on the background and on models without that map.
     """
-    slots = {"ka": TEXMAP_KA, "kd": TEXMAP_KD, "ks": TEXMAP_KS}
+    slots = {"ka": TEXMAP_KA, "kd": TEXMAP_KD, "ks": TEXMAP_KS, "ke": TEXMAP_KE, "ao": TEXMAP_AO}
     if slot not in slots:
         raise ValueError(f"slot: expected one of {list(slots)}, got {slot!r}")
     from ..visibility.rays import camera_frame

@@ -36,12 +36,12 @@ filled in (:mod:`raycast_shade.study.explain_text`).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..common.layout import (CAM_EYE, CAM_FORWARD, CAM_ORTHO, MAT_BLINN, MAT_KA, MAT_KD, MAT_KS, MAT_REFLECTIVITY,
-                             MAT_SHININESS)
+from ..common.layout import (CAM_EYE, CAM_FORWARD, CAM_ORTHO, MAT_BLINN, MAT_KA, MAT_KD, MAT_KE, MAT_KS,
+                             MAT_REFLECTIVITY, MAT_SHININESS)
 from ..common.validate import as_int
 from ..scene.lights import DirectionalLight, SpotLight
 from ..shading.inputs import prepare
@@ -150,6 +150,8 @@ class PointShade:
         How ``n`` was obtained.
     coef_note : str
         Where ``ka, kd, ks`` come from when not the material's own (colours, maps).
+    ke : (3,) float64
+        The emission added (the point's ``ke``; zero without one).
     """
 
     where: str
@@ -166,6 +168,12 @@ class PointShade:
     lights: tuple
     normal_note: str = ""
     coef_note: str = ""
+    ke: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    @property
+    def emissive(self) -> np.ndarray:
+        """(3,) the emission term ``ke``."""
+        return self.ke
 
     @property
     def diffuse(self) -> np.ndarray:
@@ -177,8 +185,8 @@ class PointShade:
 
     @property
     def total(self) -> np.ndarray:
-        """(3,) ``ambient + diffuse + specular``."""
-        return self.ambient + self.diffuse + self.specular
+        """(3,) ``ambient + diffuse + specular + emissive``."""
+        return self.ambient + self.diffuse + self.specular + self.ke
 
 
 @dataclass(frozen=True)
@@ -219,7 +227,7 @@ class Explanation:
     weights : (k,) float64
         The weights that combine ``shades``: (1,) or Gouraud's (3,) clamped
         barycentrics.
-    ambient, diffuse, specular, local : (3,) float64
+    ambient, diffuse, specular, emissive, local : (3,) float64
         The weighted terms, and their sum.
     rho : float
         Reflectivity of the surface (0: no mirror part).
@@ -246,6 +254,7 @@ class Explanation:
     ambient: np.ndarray
     diffuse: np.ndarray
     specular: np.ndarray
+    emissive: np.ndarray
     local: np.ndarray
     rho: float
     bounces: tuple
@@ -391,16 +400,16 @@ def _light_term(ctx, i, p, n, v, row, o, g, kd, ks) -> LightTerm:
 
 def _evaluate(ctx, where, p, n, v, model, o, g, note="", coef=None) -> PointShade:
     """The reflectance equation at ``p`` (re-centred) with shadow rays from ``o`` offset along ``g``;
-    ``coef``: the point's ``(ka, kd, ks, note)`` (:func:`_coefficients`), else the material row's."""
+    ``coef``: the point's ``(ka, kd, ks, ke, note)`` (:func:`_coefficients`), else the material row's."""
     row = ctx.geo.materials[model]
     if coef is None:
-        coef = (row[MAT_KA:MAT_KA + 3], row[MAT_KD:MAT_KD + 3], row[MAT_KS:MAT_KS + 3], "")
-    ka, kd, ks, coef_note = coef
+        coef = (row[MAT_KA:MAT_KA + 3], row[MAT_KD:MAT_KD + 3], row[MAT_KS:MAT_KS + 3], row[MAT_KE:MAT_KE + 3], "")
+    ka, kd, ks, ke, coef_note = coef
     ia = np.asarray(ctx.scene.ambient, np.float64)
     lights = tuple(_light_term(ctx, i, p, n, v, row, o, g, kd, ks) for i in range(len(ctx.scene.lights)))
     return PointShade(where=where, p=p + ctx.geo.origin, n=n, v=v, model=int(model), ka=ka, kd=kd, ks=ks,
                       shininess=float(row[MAT_SHININESS]), ia=ia, ambient=ia * ka, lights=lights, normal_note=note,
-                      coef_note=coef_note)
+                      coef_note=coef_note, ke=np.asarray(ke, np.float64))
 
 
 def _terminator(geo, tri, bary, p, sgn):
@@ -463,8 +472,9 @@ def _gouraud(ctx, f, model, b1, b2, x, y):
     g, sgn = _oriented(ctx, f, _unit_view(ctx, p))
     pixel = None
     if _modulated(ctx, model):  # the vertices' light times the pixel's own coefficients
-        ka, kd, ks, note = _coefficients(ctx, f, model, np.array([1.0 - b1 - b2, b1, b2]), _footprint(ctx, f, p, x, y))
-        pixel = (ka, kd, ks, "modulate: the pixel's coefficients" + (f" ({note})" if note else ""))
+        ka, kd, ks, ke, note = _coefficients(ctx, f, model, np.array([1.0 - b1 - b2, b1, b2]),
+                                             _footprint(ctx, f, p, x, y))
+        pixel = (ka, kd, ks, ke, "modulate: the pixel's coefficients" + (f" ({note})" if note else ""))
     sg = 1.0 if sgn > 0.0 else -1.0  # the side the pixel sees: front (vertex normal) or back (negated)
     shades = []
     for i in tri:
@@ -572,7 +582,8 @@ def explain(frame, x, y) -> Explanation:
     zero = np.zeros(3)
     if prim < 0:
         bg = np.asarray(frame.scene.background, np.float64)
-        return Explanation(x, y, None, -1, "", -1, (), zero, (), np.zeros(0), zero, zero, zero, zero, 0.0, (), zero,
+        return Explanation(x, y, None, -1, "", -1, (), zero, (), np.zeros(0), zero, zero, zero, zero, zero, 0.0, (),
+                           zero,
                            bg, image)
     method = _METHOD_NAMES[int(resolve_methods(frame.scene, frame.shading)[model])]
     f = int(geo.face_offsets[model] + prim)
@@ -583,7 +594,7 @@ def explain(frame, x, y) -> Explanation:
     else:
         shades, weights = (_phong(ctx, f, model, b1, b2, pixel=(x, y)),), np.ones(1)
     terms = [sum((wk * getattr(s, name) for wk, s in zip(weights, shades)), np.zeros(3))
-             for name in ("ambient", "diffuse", "specular")]
+             for name in ("ambient", "diffuse", "specular", "emissive")]
     local = sum((wk * s.total for wk, s in zip(weights, shades)), np.zeros(3))
     rho = float(geo.materials[model, MAT_REFLECTIVITY])
     depth = frame.max_depth if frame.max_depth is not None else 0

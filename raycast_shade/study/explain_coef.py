@@ -15,7 +15,7 @@ import numpy as np
 
 from ..common.layout import (BUMP_CLAMP, BUMP_COLS, BUMP_OFFSET, BUMP_ROWS, BUMP_SCALE, BUMP_TILE_U, BUMP_TILE_V,
                              CAM_FORWARD, CAM_HEIGHT, CAM_RIGHT, CAM_UP, CAM_WIDTH, COLOR_FACE, COLOR_VERTEX, MAT_KA,
-                             MAT_KD, MAT_KS)
+                             MAT_KA_COLORS, MAT_KD, MAT_KE, MAT_KS)
 from .reference import _rho
 
 __all__ = []
@@ -129,19 +129,24 @@ def _face_footprint(geo, f):
 
 
 def _coefficients(ctx, f, model, bary, duv, vertex=None):
-    """``(ka, kd, ks, note)`` at the point of face ``f`` with barycentrics ``bary`` (3,):
+    """``(ka, kd, ks, ke, note)`` at the point of face ``f`` with barycentrics ``bary`` (3,):
     the material row's, kd the mesh's colour, each times its map's texel filtered by
     ``duv`` (None: level 0). ``vertex``: a Gouraud vertex, whose coefficients are the
     row's with kd its colour (maps and face colours are the pixel's: modulate)."""
     geo = ctx.geo
     row = geo.materials[model]
     ka, kd, ks = row[MAT_KA:MAT_KA + 3].copy(), row[MAT_KD:MAT_KD + 3].copy(), row[MAT_KS:MAT_KS + 3].copy()
+    ke = row[MAT_KE:MAT_KE + 3].copy()
     notes = []
     mode = geo.color_mode[model] if geo.textured else -1
+    follow = row[MAT_KA_COLORS] != 0.0
     if vertex is not None:
         if mode == COLOR_VERTEX:
             kd, notes = geo.vertex_colors[vertex].copy(), [f"kd = the vertex's colour"]
-        return ka, kd, ks, "; ".join(notes)
+            if follow:
+                ka = ka * kd
+                notes.append("ka x the vertex's colour (ka_colors)")
+        return ka, kd, ks, ke, "; ".join(notes)
     tri = geo.faces[f]
     if mode == COLOR_VERTEX:
         kd = bary @ geo.vertex_colors[tri]
@@ -149,16 +154,25 @@ def _coefficients(ctx, f, model, bary, duv, vertex=None):
     elif mode == COLOR_FACE:
         kd = geo.face_colors[f].copy()
         notes.append("kd = the face's colour")
-    maps = ctx.scene.models[model].material.maps if geo.textured else (None, None, None)
+    if follow and mode in (COLOR_VERTEX, COLOR_FACE):
+        ka = ka * kd
+        notes.append("ka x that colour (ka_colors)")
+    mat = ctx.scene.models[model].material
+    maps = mat.maps if geo.textured else (None,) * 5
     if any(m is not None for m in maps):
         u, v = bary @ geo.uvs[tri]
-        for name, target, tex in zip(("ka", "kd", "Ks"), (ka, kd, ks), maps):
+        for name, target, tex in zip(("ka", "kd", "Ks", "ke"), (ka, kd, ks, ke), maps):
             if tex is not None:
                 texel = _sample(tex, u, v, duv)
                 target *= texel
                 notes.append(f"{name} x {name}_map{'' if duv is not None else ' (level 0)'} "
                              f"at uv ({u:.4g}, {v:.4g}) = {_short(texel)}")
-    return ka, kd, ks, "; ".join(notes)
+        if maps[4] is not None:
+            ao = float(_sample(maps[4], u, v, duv)[0])
+            occ = 1.0 + mat.ao_strength * (ao - 1.0)
+            ka *= occ
+            notes.append(f"ka x occlusion 1 + s (ao - 1) = 1 + {mat.ao_strength:.4g} x ({ao:.4g} - 1) = {occ:.4g}")
+    return ka, kd, ks, ke, "; ".join(notes)
 
 
 def _modulated(ctx, model) -> bool:

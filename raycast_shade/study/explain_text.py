@@ -147,9 +147,15 @@ def _shade_lines(s, indent: str = "  ") -> list:
              f"{indent}  ambient  Ia ka = " + _step((s.ia, s.ka), _product, s.ambient, " x ")]
     for t in s.lights:
         lines += _light_lines(_with_shininess(t, s.shininess), s.kd, s.ks, indent + "  ")
-    d = digits_for((s.ambient, s.diffuse, s.specular), lambda a, b, c: a + b + c, s.total)
-    lines.append(f"{indent}  I = ambient + diffuse + specular = {fmt(s.ambient, d)} + {fmt(s.diffuse, d)} + "
-                 f"{fmt(s.specular, d)}")
+    if np.any(s.ke != 0.0):  # the emission term, added last
+        lines.append(f"{indent}  emissive ke = {fmt(s.ke)}")
+        d = digits_for((s.ambient, s.diffuse, s.specular, s.ke), lambda a, b, c, e: a + b + c + e, s.total)
+        lines.append(f"{indent}  I = ambient + diffuse + specular + emissive = {fmt(s.ambient, d)} + "
+                     f"{fmt(s.diffuse, d)} + {fmt(s.specular, d)} + {fmt(s.ke, d)}")
+    else:
+        d = digits_for((s.ambient, s.diffuse, s.specular), lambda a, b, c: a + b + c, s.total)
+        lines.append(f"{indent}  I = ambient + diffuse + specular = {fmt(s.ambient, d)} + {fmt(s.diffuse, d)} + "
+                     f"{fmt(s.specular, d)}")
     lines.append(f"{indent}    = {fmt(s.total)}")
     return lines
 
@@ -174,7 +180,9 @@ def format_explanation(e) -> str:
     lines = [f"pixel ({e.x}, {e.y}): {e.method.capitalize()} shading of model {e.model}{name}, "
              f"triangle {e.triangle}",
              f"  vertices {', '.join(map(str, e.vertex_ids))}, barycentrics {fmt(e.barycentrics)}",
-             _FORMULA[model], _LEGEND]
+             _FORMULA[model].replace("^t),", "^t) + ke,") if np.any(e.emissive != 0.0) else _FORMULA[model],
+             _LEGEND + ("\n  (ke = material.ke: emission, added whatever the lights)" if np.any(e.emissive != 0.0)
+                        else "")]
     where = {"flat": "once per triangle, at its centre, with the face's normal",
              "gouraud": "at the three vertices, then the shades interpolated",
              "phong": "at the pixel's point, with the normal interpolated"}[e.method]
@@ -190,7 +198,8 @@ def format_explanation(e) -> str:
         parts = " + ".join(f"{fmt(w, d)} x {fmt(i, d)}" for w, i in zip(e.weights, totals))
         lines.append(f"  I = {names}")
         lines.append(f"    = {parts} = {fmt(e.local)}")
-        lines.append(f"    (ambient {fmt(e.ambient)}, diffuse {fmt(e.diffuse)}, specular {fmt(e.specular)})")
+        lines.append(f"    (ambient {fmt(e.ambient)}, diffuse {fmt(e.diffuse)}, specular {fmt(e.specular)}"
+                     + (f", emissive {fmt(e.emissive)})" if np.any(e.emissive != 0.0) else ")"))
     if e.bounces:
         lines.append(f"mirror: I = (1 - rho) I_local + sum_j w_j c_j, rho = {e.rho:.4g}")
         for b in e.bounces:

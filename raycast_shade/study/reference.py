@@ -81,7 +81,7 @@ def _camera(camera, origin):
 
 
 def _materials(scene):
-    """Per-model material arrays: ka, kd, ks (G, 3), shininess (G,), blinn (G,) bool."""
+    """Per-model material arrays: ka, kd, ks (G, 3), shininess (G,), blinn (G,) bool, ke (G, 3)."""
     mats = [m.material for m in scene.models]
     return (
         np.array([m.ka for m in mats], np.float64),
@@ -89,6 +89,7 @@ def _materials(scene):
         np.array([m.ks for m in mats], np.float64),
         np.array([m.shininess for m in mats], np.float64),
         np.array([m.specular == "blinn" for m in mats], bool),
+        np.array([m.ke for m in mats], np.float64),
     )
 
 
@@ -213,7 +214,8 @@ def illuminate_reference(p, n, v, model, materials, lights, ambient, dmin, coef=
     model : (N,) int
         Material (model) index of each point.
     materials : tuple
-        ``(ka, kd, ks, shininess, blinn)`` with shapes ``(G, 3) x 3, (G,), (G,)``.
+        ``(ka, kd, ks, shininess, blinn[, ke])`` with shapes ``(G, 3) x 3, (G,), (G,)[, (G, 3)]``
+        (no ``ke``: no emission).
     lights : list of tuple
         ``(directional, vec, radiance (3,), attenuation, k)``, optionally
         followed by a spot light's cone (:func:`spot_cone`); see :func:`_lights`.
@@ -221,8 +223,8 @@ def illuminate_reference(p, n, v, model, materials, lights, ambient, dmin, coef=
         Scene ambient intensity ``Ia``.
     dmin : float
         Lower clamp of ``d`` in the inverse-square law.
-    coef : tuple of three (N, 3) float64, optional
-        Per-point ``ka, kd, ks`` in place of the materials' (textures and
+    coef : tuple of three or four (N, 3) float64, optional
+        Per-point ``ka, kd, ks[, ke]`` in place of the materials' (textures and
         colours, :func:`coefficients_reference`).
 
     Returns
@@ -230,11 +232,13 @@ def illuminate_reference(p, n, v, model, materials, lights, ambient, dmin, coef=
     (N, 3) float64
         Reflected RGB intensity.
     """
-    ka, kd, ks, shin, blinn = materials
+    ka, kd, ks, shin, blinn = materials[:5]
     has_spec = np.any(ks[model] > 0, axis=1)  # the material's: a map cannot switch the term on
     ka, kd, ks, shin, blinn = ka[model], kd[model], ks[model], shin[model], blinn[model]
+    ke = materials[5][model] if len(materials) > 5 else np.zeros_like(ka)
     if coef is not None:
-        ka, kd, ks = coef
+        ka, kd, ks = coef[:3]
+        ke = coef[3] if len(coef) > 3 else ke
     out = ambient[None, :] * ka
     npts = len(p)
     for light in lights:
@@ -267,7 +271,7 @@ def illuminate_reference(p, n, v, model, materials, lights, ambient, dmin, coef=
         spec = np.where((c > 0.0) & has_spec, c ** shin, 0.0)
         term = att[:, None] * radiance[None, :] * (kd * ndots[:, None] + ks * spec[:, None])
         out = out + np.where(lit[:, None], term, 0.0)
-    return out
+    return out + ke  # emission, added last as the kernels do
 
 
 # -- textures and colours --------------------------------------------------------------------------
@@ -390,9 +394,9 @@ def _rho(texture, duv):
 
 
 def coefficients_reference(scene, face, bary, duv=None):
-    """``ka, kd, ks`` (each (N, 3) float64) at points given by face (N,) and
+    """``ka, kd, ks, ke`` (each (N, 3) float64) at points given by face (N,) and
     barycentrics (N, 3): the material's, kd the mesh's colour where it has
-    colours, each times its map's texel (filtered by ``duv``, (N, 2, 2), or
+    colours (ka times it where the material's ``ka_colors`` is set; ka times the occlusion), each times its map's texel (filtered by ``duv``, (N, 2, 2), or
     level 0 without it)."""
     geo = scene.geometry
     model = geo.face_model[face]
@@ -401,6 +405,7 @@ def coefficients_reference(scene, face, bary, duv=None):
     ka = np.array([m.ka for m in mats], np.float64)[model]
     kd = np.array([m.kd for m in mats], np.float64)[model]
     ks = np.array([m.ks for m in mats], np.float64)[model]
+    ke = np.array([m.ke for m in mats], np.float64)[model]
     for g, mdl in enumerate(scene.models):
         sel = model == g
         prep = mdl.mesh.prepared
@@ -408,14 +413,21 @@ def coefficients_reference(scene, face, bary, duv=None):
             kd[sel] = np.einsum("nk,nkc->nc", bary[sel], geo.vertex_colors[tri[sel]])
         elif prep.color_mode == "face":
             kd[sel] = geo.face_colors[face[sel]]
+        if prep.color_mode is not None and mdl.material.ka_colors:  # ambient follows the colours
+            ka[sel] *= kd[sel]
         if not any(t is not None for t in mdl.material.maps):
             continue
         uv = np.einsum("nk,nkc->nc", bary[sel], geo.uvs[tri[sel]])
-        for target, tex in zip((ka, kd, ks), mdl.material.maps):
+        for target, tex in zip((ka, kd, ks, ke), mdl.material.maps):
             if tex is not None:
                 rho = None if duv is None else _rho(tex, duv[sel])
                 target[sel] *= sample_reference(tex, uv[:, 0], uv[:, 1], rho)
-    return ka, kd, ks
+        ao = mdl.material.ao_map
+        if ao is not None:  # occlusion: its red channel scales ka
+            rho = None if duv is None else _rho(ao, duv[sel])
+            occ = 1.0 + mdl.material.ao_strength * (sample_reference(ao, uv[:, 0], uv[:, 1], rho)[:, 0] - 1.0)
+            ka[sel] *= occ[:, None]
+    return ka, kd, ks, ke
 
 
 def _face_duv(geo, faces):
@@ -526,6 +538,7 @@ def shade_reference(scene, camera, hits, shading: str = "phong") -> np.ndarray:
             acc = np.zeros((len(p), 3))
             mod = _modulated(scene)[model] if geo.textured else np.zeros(len(p), bool)
             vcolour = np.array([m.mesh.prepared.color_mode == "vertex" for m in scene.models])[model]
+            kacol = np.array([m.material.ka_colors for m in scene.models])[model]
             diffuse, specular = np.zeros((len(p), 3)), np.zeros((len(p), 3))
             for k in range(3):
                 idx = tri[:, k]
@@ -537,21 +550,23 @@ def shade_reference(scene, camera, hits, shading: str = "phong") -> np.ndarray:
                 c = np.minimum(np.einsum("ij,ij->i", n, g), 0.0)
                 n = n - 2.0 * c[:, None] * g
                 vq = _view(eye, fwd, ortho, q)
-                kd = mats[1][model].copy()
+                kd, ka = mats[1][model].copy(), mats[0][model].copy()
                 if vcolour.any():
                     kd[vcolour] = geo.vertex_colors[idx[vcolour]]
+                    follow = vcolour & kacol
+                    ka[follow] *= kd[follow]  # ambient follows the colours
                 colour = illuminate_reference(q, n, vq, model, mats, lights, ambient, dmin,
-                                              (mats[0][model], kd, mats[2][model]))
+                                              (ka, kd, mats[2][model], mats[5][model]))
                 acc += bary[:, k, None] * colour
                 if mod.any():
                     z, one = np.zeros((len(p), 3)), np.ones((len(p), 3))
                     diffuse += bary[:, k, None] * illuminate_reference(q, n, vq, model, mats, lights, 0 * ambient,
-                                                                       dmin, (z, one, z))
+                                                                       dmin, (z, one, z, z))
                     specular += bary[:, k, None] * illuminate_reference(q, n, vq, model, mats, lights,
-                                                                        0 * ambient, dmin, (z, z, one))
+                                                                        0 * ambient, dmin, (z, z, one, z))
             if mod.any():
-                ka, kd, ks = coefficients_reference(scene, face, bary, footprint_reference(scene, camera, hits))
-                acc[mod] = (ambient * ka + diffuse * kd + specular * ks)[mod]
+                ka, kd, ks, ke = coefficients_reference(scene, face, bary, footprint_reference(scene, camera, hits))
+                acc[mod] = (ambient * ka + diffuse * kd + specular * ks + ke)[mod]
             image[mask] = acc
     return image
 

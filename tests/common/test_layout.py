@@ -22,7 +22,8 @@ ROWS = {
     "LIGHT": ({"LIGHT_KIND": 1, "LIGHT_VEC": 3, "LIGHT_RADIANCE": 3, "LIGHT_ATT": 1, "LIGHT_K": 1,
                "LIGHT_SHADOWS": 1, "LIGHT_AXIS": 3, "LIGHT_COS_INNER": 1, "LIGHT_COS_OUTER": 1,
                "LIGHT_EXPONENT": 1}, lay.LIGHT_SIZE),
-    "MAT": ({"MAT_KA": 3, "MAT_KD": 3, "MAT_KS": 3, "MAT_SHININESS": 1, "MAT_MODEL": 1, "MAT_REFLECTIVITY": 1},
+    "MAT": ({"MAT_KA": 3, "MAT_KD": 3, "MAT_KS": 3, "MAT_SHININESS": 1, "MAT_MODEL": 1, "MAT_REFLECTIVITY": 1,
+             "MAT_KA_COLORS": 1, "MAT_KE": 3, "MAT_AO_STRENGTH": 1},
             lay.MAT_SIZE),
     "BUMP": ({"BUMP_OFFSET": 1, "BUMP_ROWS": 1, "BUMP_COLS": 1, "BUMP_CLAMP": 1, "BUMP_TILE_U": 1,
               "BUMP_TILE_V": 1, "BUMP_SCALE": 1}, lay.BUMP_SIZE),
@@ -57,7 +58,7 @@ def test_layout_docstring_states_the_constants():
     doc = lay.__doc__
     stated = dict(re.findall(r"\(([A-Z_]+),\) = \((\d+),\)", doc))
     stated.update((name, n) for name, n in re.findall(r"\([A-Z], ([A-Z_]+)\) = \([A-Z], (\d+)\)", doc))
-    assert stated == {"CAM_SIZE": "16", "LIGHT_SIZE": "16", "MAT_SIZE": "12", "BUMP_SIZE": "7", "TEX_SIZE": "8"}
+    assert stated == {"CAM_SIZE": "16", "LIGHT_SIZE": "16", "MAT_SIZE": "17", "BUMP_SIZE": "7", "TEX_SIZE": "8"}
     for name, n in stated.items():
         assert getattr(lay, name) == int(n), name
 
@@ -141,12 +142,14 @@ def test_texture_rows_in_the_scene():
     tex = rs.Texture.checker(2, 2)
     other = rs.Texture(np.ones((2, 2, 3)))
     models = [rs.Model(rs.shapes.plane(), rs.Material(kd_map=tex, ks_map=tex)),
-              rs.Model(rs.shapes.plane(center=(3, 0, 0)), rs.Material(ka_map=other)),
+              rs.Model(rs.shapes.plane(center=(3, 0, 0)), rs.Material(ka_map=other, ke_map=tex)),
               rs.Model(rs.shapes.plane(center=(6, 0, 0)))]
     geo = _scene([], models=models).geometry
     assert geo.tex_info.shape == (2, lay.TEX_SIZE)
-    assert geo.tex_index.tolist() == [[-1, 0, 0], [1, -1, -1], [-1, -1, -1]]
+    assert geo.tex_index.shape == (3, lay.TEXMAP_COUNT)
+    assert geo.tex_index.tolist() == [[-1, 0, 0, -1, -1], [1, -1, -1, 0, -1], [-1, -1, -1, -1, -1]]
     assert geo.tex_index[0, lay.TEXMAP_KD] == 0 and geo.tex_index[1, lay.TEXMAP_KA] == 1
+    assert geo.tex_index[1, lay.TEXMAP_KE] == 0
     assert geo.tex_info[1, lay.TEX_OFFSET] == tex.size == geo.tex_info[0, lay.TEX_OFFSET] + tex.size
     assert geo.tex_texels.size == tex.size + other.size and geo.textured
     assert not _scene([]).geometry.textured

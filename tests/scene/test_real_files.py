@@ -534,3 +534,58 @@ def test_a_one_axis_clamp_with_a_metallic_roughness_texture_moves_every_map_alik
             got = _sampled(ka, u, (i + 0.5) / 4)
             np.testing.assert_allclose(got, lin[i, min(max(j, 0), 5)], atol=1e-6)
     np.testing.assert_allclose(model.mesh.uvs[:, 1], [1, 1, 0, 0])
+
+
+def test_gltf_emission_is_mapped_factor_texture_and_strength(tmp_path):
+    """emissiveFactor -> ke, emissiveTexture -> ke_map (sRGB), KHR_materials_emissive_strength scales ke;
+    a texture without a factor emits nothing, as the spec's default factor 0 says; nothing is warned."""
+    img = np.zeros((4, 4, 3), np.uint8)
+    img[...] = (200, 100, 50)
+    extra = {"emissiveFactor": [1.0, 0.5, 0.25], "emissiveTexture": {"index": 0},
+             "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 3.0}}}
+    _gltf_quad(tmp_path / "e.gltf", img, [[0, 0], [1, 0], [1, 1], [0, 1]], [(10497, 10497)], material_extra=extra)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", rs.DroppedOnLoadWarning)
+        (model,) = rs.load_models(tmp_path / "e.gltf")
+    mat = model.material
+    np.testing.assert_allclose(mat.ke, [3.0, 1.5, 0.75])
+    np.testing.assert_allclose(mat.ke_map.texels, srgb_to_linear(np.full((4, 4, 3), [200, 100, 50]) / 255.0),
+                               atol=1e-6)
+    _gltf_quad(tmp_path / "t.gltf", img, [[0, 0], [1, 0], [1, 1], [0, 1]], [(10497, 10497)],
+               material_extra={"emissiveTexture": {"index": 0}})
+    (model,) = rs.load_models(tmp_path / "t.gltf")
+    assert not model.material.has_emission and model.material.ke_map is None
+    _gltf_quad(tmp_path / "bad.gltf", img, [[0, 0], [1, 0], [1, 1], [0, 1]], [(10497, 10497)],
+               material_extra={"extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": -1}}})
+    with pytest.raises(ValueError, match=r"materials\[0\].extensions.KHR_materials_emissive_strength"):
+        rs.load_models(tmp_path / "bad.gltf")
+
+
+def test_mtl_ke_and_map_ke_are_read(tmp_path):
+    Image.fromarray(np.full((2, 2, 3), 255, np.uint8)).save(tmp_path / "glow.png")
+    (tmp_path / "a.mtl").write_text("newmtl lamp\nKd 0.1 0.1 0.1\nKe 1 0.8 0.2\nmap_Ke glow.png\n")
+    (tmp_path / "a.obj").write_text("mtllib a.mtl\n" + QUAD_OBJ + "usemtl lamp\nf 1/1 2/2 3/3\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", rs.DroppedOnLoadWarning)
+        (model,) = rs.load_models(tmp_path / "a.obj")
+    assert model.material.ke.tolist() == [1.0, 0.8, 0.2] and model.material.ke_map is not None
+    (tmp_path / "b.mtl").write_text("newmtl lamp\nKe -1 0 0\n")
+    (tmp_path / "b.obj").write_text("mtllib b.mtl\n" + QUAD_OBJ + "usemtl lamp\nf 1/1 2/2 3/3\n")
+    with pytest.raises(ValueError, match="b.mtl:2: Ke -1 0 0"):
+        rs.load_models(tmp_path / "b.obj")
+
+
+def test_gltf_occlusion_texture_is_mapped_linear_with_its_strength(tmp_path):
+    img = np.zeros((4, 4, 3), np.uint8)
+    img[..., 0] = 64  # red: occlusion (linear, not sRGB-decoded)
+    _gltf_quad(tmp_path / "o.gltf", img, [[0, 0], [1, 0], [1, 1], [0, 1]], [(10497, 10497)],
+               material_extra={"occlusionTexture": {"index": 0, "strength": 0.7}})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", rs.DroppedOnLoadWarning)
+        (model,) = rs.load_models(tmp_path / "o.gltf")
+    assert model.material.ao_strength == 0.7
+    np.testing.assert_allclose(model.material.ao_map.texels[..., 0], 64 / 255, atol=1e-6)
+    _gltf_quad(tmp_path / "bad.gltf", img, [[0, 0], [1, 0], [1, 1], [0, 1]], [(10497, 10497)],
+               material_extra={"occlusionTexture": {"index": 0, "strength": 2}})
+    with pytest.raises(ValueError, match=r"materials\[0\].occlusionTexture.strength"):
+        rs.load_models(tmp_path / "bad.gltf")

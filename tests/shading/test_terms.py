@@ -13,7 +13,8 @@ from raycast_shade.shading.terms import check_terms, compose_terms
 
 EPS32 = float(np.finfo(np.float32).eps)
 # The terms are each rounded to float32 and are non-negative, so their sum is within a few
-# half-ulps of the image relative to the pixel: 3 terms + the mirror part, and the image's own rounding.
+# half-ulps of the image relative to the pixel: 3 terms + the mirror part, and the image's own rounding
+# (these scenes emit nothing: the emissive term is exact zeros).
 SUM_RTOL = 4 * EPS32
 
 
@@ -122,8 +123,8 @@ def test_terms_leave_the_image_bit_identical():
         a = rs.render(scene, mode)
         b = rs.render(scene, mode, terms=True)
         np.testing.assert_array_equal(a.image, b.image)
-        assert a.terms == {} and set(b.terms) == {"ambient", "diffuse", "specular", "reflected", "background",
-                                                  "keep", "shadow"}
+        assert a.terms == {} and set(b.terms) == {"ambient", "diffuse", "specular", "emissive", "reflected",
+                                                  "background", "keep", "shadow"}
         assert "terms" in b.timings
 
 

@@ -1,8 +1,9 @@
 """The teaching identities on random scenes: ``frame.explain(x, y).total`` equals the pixel, and the
 ``terms=True`` images add up to the image, whatever the material's colour comes from.
 
-Hypothesis draws each scene from every source a pixel's colour can have: colour maps on ka, kd and
-ks (wrapped or clamped, bilinear or mip-mapped, tiled), vertex and face colours, a Blinn bump map,
+Hypothesis draws each scene from every source a pixel's colour can have: colour maps on ka, kd,
+ks and ke and an occlusion map (wrapped or clamped, bilinear or mip-mapped, tiled), emission, vertex and face colours
+(with the ambient term following them or not), a Blinn bump map,
 point, directional and spot lights (a narrow cone, so some of the scene lies outside it), shadows,
 a mirror floor; and renders it flat, Gouraud or Phong, with perspective or screen-space
 interpolation, by ray casting or rasterization. Images are small (24 x 18) and the examples
@@ -30,7 +31,7 @@ import raycast_shade as rs
 from raycast_shade.shading.terms import compose_terms
 
 EPS32 = float(np.finfo(np.float32).eps)
-TERMS_RTOL = 4 * EPS32  # 3 local terms + the reflected one, each rounded to float32, + the image's rounding
+TERMS_RTOL = 5 * EPS32  # 4 local terms + the reflected one, each rounded to float32, + the image's rounding
 EXPLAIN_RTOL = 2 * EPS32  # per evaluation: the image's rounding and float64 re-association in the kernels
 ATOL = 1e-12
 W, H = 24, 18
@@ -71,14 +72,16 @@ def textures(draw):
 
 @st.composite
 def materials(draw, bump_ok):
-    maps = {slot: draw(st.none() | textures()) for slot in ("ka_map", "kd_map", "ks_map")}
+    maps = {slot: draw(st.none() | textures()) for slot in ("ka_map", "kd_map", "ks_map", "ke_map", "ao_map")}
     ks = draw(st.sampled_from([0.0, 0.3]) | rgb)
+    ke = draw(st.sampled_from([0.0, 0.0, 0.25]) | rgb)
     bump = None
     if bump_ok and draw(st.booleans()):
         bump = rs.HeightMap.dimples(4, 0.3, resolution=16, scale=draw(st.sampled_from([0.02, -0.05])),
                                     tiling=(2.0, 2.0))
     return rs.Material(kd=draw(rgb), ka=draw(rgb), ks=ks, shininess=draw(st.sampled_from([1.0, 8.0, 40.0, 15.5])),
-                       specular=draw(st.sampled_from(["phong", "blinn"])), bump=bump, **maps)
+                       specular=draw(st.sampled_from(["phong", "blinn"])), bump=bump, ke=ke,
+                       ka_colors=draw(st.booleans()), ao_strength=draw(st.sampled_from([1.0, 0.6])), **maps)
 
 
 def _coloured(mesh, mode, seed):
@@ -124,7 +127,9 @@ def cases(draw):
     rho = draw(st.sampled_from([0.0, 0.0, 0.4]))
     if rho:
         floor_mat = rs.Material(kd=floor_mat.kd, ka=floor_mat.ka, ks=floor_mat.ks, shininess=floor_mat.shininess,
-                                kd_map=floor_mat.kd_map, reflectivity=rho)
+                                kd_map=floor_mat.kd_map, reflectivity=rho, ke=floor_mat.ke, ke_map=floor_mat.ke_map,
+                                ka_colors=floor_mat.ka_colors, ao_map=floor_mat.ao_map,
+                                ao_strength=floor_mat.ao_strength)
     scene = rs.Scene([rs.Model(obj, draw(materials(bump_ok=True))), rs.Model(floor, floor_mat)],
                      lights=draw(st.lists(lights(), min_size=1, max_size=2)),
                      camera=rs.Camera(eye=(0.3, 1.4, 4.0), target=(0.0, -0.4, 0.0), width=W, height=H),
@@ -133,9 +138,10 @@ def cases(draw):
     options = dict(interpolation=draw(st.sampled_from(["perspective", "screen"])),
                    backend=draw(st.sampled_from(["raycast", "raster"])), max_depth=draw(st.sampled_from([0, 1, 3])))
     features = [(m.mesh.name, m.mesh.prepared.color_mode,
-                 {k: getattr(m.material, k).name for k in ("ka_map", "kd_map", "ks_map")
+                 {k: getattr(m.material, k).name for k in ("ka_map", "kd_map", "ks_map", "ke_map", "ao_map")
                   if getattr(m.material, k) is not None},
-                 dict(ks=m.material.ks.tolist(), spec=m.material.specular, bump=m.material.bump is not None,
+                 dict(ks=m.material.ks.tolist(), ke=m.material.ke.tolist(), ka_colors=m.material.ka_colors,
+                      spec=m.material.specular, bump=m.material.bump is not None,
                       rho=m.material.reflectivity)) for m in scene.models]
     features.append([(type(light).__name__, getattr(light, "attenuation", ""), light.shadows)
                      for light in scene.lights])
@@ -143,9 +149,13 @@ def cases(draw):
         event(f"{key}={value}")
     for m in scene.models:
         event(f"colours={m.mesh.prepared.color_mode}")
-        for slot, tex in zip(("ka_map", "kd_map", "ks_map"), m.material.maps):
+        for slot, tex in zip(("ka_map", "kd_map", "ks_map", "ke_map", "ao_map"), m.material.maps):
             if tex is not None:
                 event(f"{slot} {tex.wrap} {tex.filter}")
+        if m.material.has_emission:
+            event("emission")
+        if m.material.ka_colors and m.mesh.prepared.color_mode is not None:
+            event("ambient follows the colours")
         if m.material.bump is not None:
             event("bump map")
         if m.material.reflectivity > 0:
