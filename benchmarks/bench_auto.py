@@ -109,7 +109,7 @@ def run(quick: bool = False, repeats: int | None = None):
     """Measure every scene; returns the CSV rows (list of dict)."""
     import raycast_shade as rs
     from raycast_shade.study.analytic import exact_for_scene
-    from raycast_shade.study.auto import choose_methods
+    from raycast_shade.insight.auto import choose_methods
 
     width, height = (320, 240) if quick else (640, 480)
     repeats = repeats or (15 if quick else 25)

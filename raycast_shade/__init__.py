@@ -35,8 +35,8 @@ from .scene.mesh import Mesh
 from .scene.normals import WindingWarning, winding_conflicts
 from .render import render, render_file
 from .scene.scene import Model, Scene
-from .study.auto import choose_methods
-from .study.explain import explain
+from .insight.auto import choose_methods
+from .insight.explain import explain
 from .shading.normals import shading_normals
 from .shading.shade import SHADINGS, shade
 from .output.tonemap import read_pfm, to_uint8, write_pfm

@@ -26,8 +26,8 @@ from .output.buffers import FrameBuffers, check_buffers, compute_buffers
 from .output.frame import Frame
 from .scene.pitfalls import warn_render
 from .scene.scene import Scene
-from .study.auto import choose_methods
-from .study.explain import explain
+from .insight.auto import choose_methods
+from .insight.explain import explain
 from .common.choices import BACKENDS, CASTER_CHOICES, INTERPOLATIONS, SHADING_CHOICES
 from .common.samples import check_samples, sample_offsets
 from .common.validate import as_int, as_scalar
@@ -50,7 +50,7 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
     shading : {"flat", "gouraud", "phong", "auto"} or sequence
         One method for every model, one per model, or ``"auto"``: per model,
         the cheapest method whose predicted error is under ``tolerance``
-        (:mod:`raycast_shade.study.auto`; the choices and reasons are on
+        (:mod:`raycast_shade.insight.auto`; the choices and reasons are on
         ``frame.decisions``).
     camera : Camera, optional
         Overrides ``scene.camera``.

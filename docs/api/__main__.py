@@ -30,7 +30,7 @@ import tempfile
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
-PACKAGES = ("common", "scene", "visibility", "shading", "output", "study", "apps")
+PACKAGES = ("common", "scene", "visibility", "shading", "output", "study", "insight", "apps")
 
 # A reference: raycast_shade.a.b(.c...) not part of a path or a longer word.
 DOTTED = re.compile(r"(?<![\w/.`-])raycast_shade(?:\.[A-Za-z_]\w*)+")

@@ -60,7 +60,7 @@ from ..scene.scene import Model, Scene
 from ..shading.mirrors import MAX_MIRROR_DEPTH, trace_mirrors
 from ..shading.shade import shade_hits
 from ..shading.terms import with_materials
-from ..study.explain import explain
+from ..insight.explain import explain
 from ..visibility.cast import cast_camera, resolve_caster, secondary_rays
 from ..visibility.interpolation import to_screen_space
 

@@ -216,7 +216,7 @@ class Frame:
 
     def explain(self, x: int, y: int):
         """The reflectance equation at pixel ``(x, y)`` with its numbers filled in
-        (an :class:`~raycast_shade.study.explain.Explanation`; ``print`` it); see
+        (an :class:`~raycast_shade.insight.explain.Explanation`; ``print`` it); see
         :func:`raycast_shade.explain`."""
         if self.explainer is None:
             raise ValueError("explain: this frame was not made by raycast_shade.render; "

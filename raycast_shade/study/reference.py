@@ -35,7 +35,7 @@ import numpy as np
 
 from ..scene.lights import DirectionalLight, SpotLight
 
-__all__ = ["shade_reference", "shading_normals_reference", "hit_points", "illuminate_reference", "spot_cone",
+__all__ = ["view_vectors", "facing", "interpolated_normal", "footprint_rho", "shade_reference", "shading_normals_reference", "hit_points", "illuminate_reference", "spot_cone",
            "coefficients_reference", "sample_reference", "footprint_reference"]
 
 _MODES = ("flat", "gouraud", "phong")
@@ -594,3 +594,7 @@ def shading_normals_reference(scene, camera, hits, shading: str = "phong") -> np
         g, sgn = _facing(geo.face_normals[face], v)
         out[mask] = g if shading == "flat" else _interpolated_normal(geo.normals, tri, bary, g, sgn)
     return out
+
+
+# The float64 geometry that raycast_shade.insight.explain follows too, under public names.
+view_vectors, facing, interpolated_normal, footprint_rho = _view, _facing, _interpolated_normal, _rho

@@ -203,7 +203,7 @@ def _value(text):
 
 
 def _same_at_4(a, b):
-    from raycast_shade.study.explain_text import fmt
+    from raycast_shade.insight.explain_text import fmt
 
     return fmt(a) == fmt(b) if np.size(b) > 1 or np.size(a) == 1 else fmt(a[0]) == fmt(b)
 

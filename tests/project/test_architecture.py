@@ -17,8 +17,8 @@ import raycast_shade
 
 PKG = pathlib.Path(raycast_shade.__file__).parent
 
-# Lowest first. Root modules other than __init__ / __main__ (render.py) sit between study and apps.
-LAYERS = ("common", "scene", "visibility", "shading", "output", "study", "<root>", "apps", "<top>")
+# Lowest first. Root modules other than __init__ / __main__ (render.py) sit between insight and apps.
+LAYERS = ("common", "scene", "visibility", "shading", "output", "study", "insight", "<root>", "apps", "<top>")
 MAX_MODULE_LINES = 600
 MAX_FUNCTION_LINES = 120
 

@@ -171,7 +171,7 @@ class _with_shininess:
 
 
 def format_explanation(e) -> str:
-    """The text of an :class:`~raycast_shade.study.explain.Explanation`."""
+    """The text of an :class:`~raycast_shade.insight.explain.Explanation`."""
     if e.method is None:
         return (f"pixel ({e.x}, {e.y}): background, nothing hit: I = {fmt(e.total)}\n"
                 f"frame.image[{e.y}, {e.x}] = {fmt(e.image)}")

@@ -140,7 +140,7 @@ def test_str_prints_the_formula_with_the_numbers(frames):
     t = e.shades[0].lights[0]
     assert f"d = {t.d:.4g}" in text and f"att = {t.att:.4g}" in text and f"n.s = {t.ndots:.4g}" in text
     assert "inverse square" in text
-    from raycast_shade.study.explain_text import fmt
+    from raycast_shade.insight.explain_text import fmt
 
     assert f"total I = {fmt(e.total)}" in text and fmt(frame.image[y, x]) in text
     assert max(len(line) for line in text.splitlines()) <= 110

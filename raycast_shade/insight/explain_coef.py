@@ -1,4 +1,4 @@
-"""One point's inputs for :mod:`raycast_shade.study.explain`: coefficients (mesh colours, colour
+"""One point's inputs for :mod:`raycast_shade.insight.explain`: coefficients (mesh colours, colour
 maps), a spot light's cone factor, and the bump-mapped normal.
 
 Each helper follows the kernel it names (:mod:`raycast_shade.shading.texture`,
@@ -16,7 +16,7 @@ import numpy as np
 from ..common.layout import (BUMP_CLAMP, BUMP_COLS, BUMP_OFFSET, BUMP_ROWS, BUMP_SCALE, BUMP_TILE_U, BUMP_TILE_V,
                              CAM_FORWARD, CAM_HEIGHT, CAM_RIGHT, CAM_UP, CAM_WIDTH, COLOR_FACE, COLOR_VERTEX, MAT_KA,
                              MAT_KA_COLORS, MAT_KD, MAT_KE, MAT_KS)
-from .reference import _rho
+from ..study.reference import footprint_rho as _rho
 
 __all__ = []
 

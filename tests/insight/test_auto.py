@@ -6,7 +6,7 @@ Two kinds of test:
   render of its method would; ``frame.method`` and ``frame.decisions``;
   argument validation; which method auto picks in the textbook cases;
 * the core claim, against the analytic ground truth
-  (:mod:`raycast_shade.study.analytic`): wherever :func:`raycast_shade.study.auto.predicted_errors`
+  (:mod:`raycast_shade.study.analytic`): wherever :func:`raycast_shade.insight.auto.predicted_errors`
   says a method meets the tolerance, the rendered error of that model does.
 
 The error of a model is the largest absolute channel difference from the
@@ -26,7 +26,7 @@ import pytest
 
 import raycast_shade as rs
 from raycast_shade.study.analytic import Plane, Sphere, exact_for_scene
-from raycast_shade.study.auto import choose_methods, predicted_errors
+from raycast_shade.insight.auto import choose_methods, predicted_errors
 from raycast_shade.study.metrics import interior_mask
 
 METHODS = ("flat", "gouraud", "phong")

@@ -30,7 +30,7 @@ The geometry helpers are those of the plain-NumPy twin
 (:mod:`raycast_shade.study.reference`); shadow rays, bump maps and mirror
 rays, which the twin leaves out, are followed here for one pixel.
 ``str()`` of the result prints the lecture's formula with the numbers
-filled in (:mod:`raycast_shade.study.explain_text`).
+filled in (:mod:`raycast_shade.insight.explain_text`).
 """
 
 from __future__ import annotations
@@ -51,7 +51,7 @@ from ..visibility.accel import embree_accel
 from ..visibility.cast import cast_rays_kernel
 from .explain_coef import _bumped, _coefficients, _face_footprint, _footprint, _modulated, _short, _spot_factor
 from .explain_text import format_explanation
-from .reference import _facing, _interpolated_normal, _view
+from ..study.reference import facing as _facing, interpolated_normal as _interpolated_normal, view_vectors as _view
 
 __all__ = ["explain", "Explanation", "PointShade", "LightTerm", "Bounce"]
 
