@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import threading
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -30,22 +31,22 @@ class _HitsSlot:
     def __get__(self, obj, objtype=None):
         if obj is None:  # no default: the dataclass field stays required
             raise AttributeError(self.slot[1:])
-        value = obj.__dict__[self.slot]
+        value = getattr(obj, self.slot)  # a private instance attribute (the class has none of that name)
         if callable(value):
-            with obj.__dict__["_hits_lock"]:
-                value = obj.__dict__[self.slot]
+            with obj._hits_lock:
+                value = getattr(obj, self.slot)
                 if callable(value):
                     value = value()
-                    obj.__dict__[self.slot] = value
+                    object.__setattr__(obj, self.slot, value)  # the frame is frozen: set once, under the lock
         return value
 
     def __set__(self, obj, value):
-        obj.__dict__[self.slot] = value
-        obj.__dict__["_hits_lock"] = threading.Lock()
+        object.__setattr__(obj, self.slot, value)
+        object.__setattr__(obj, "_hits_lock", threading.Lock())
 
     def pending(self, obj):
         """The recipe of ``obj``'s hit buffer while it has not run, else None."""
-        value = obj.__dict__[self.slot]
+        value = getattr(obj, self.slot)
         return value if callable(value) else None
 
 
@@ -90,11 +91,11 @@ class _TermsSlot:
     def __get__(self, obj, objtype=None):
         if obj is None:
             return None  # the dataclass default: no terms
-        value = obj.__dict__.get(self.slot)
+        value = getattr(obj, self.slot, None)
         return value if value else NoTerms()
 
     def __set__(self, obj, value):
-        obj.__dict__[self.slot] = value
+        object.__setattr__(obj, self.slot, value)
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -226,9 +227,8 @@ class Frame:
     def with_tone(self, tone: dict) -> "Frame":
         """This frame with other default tone options (:attr:`tone`); everything else,
         the hit buffer included (made or still a recipe), is shared, not copied or cast."""
-        new = object.__new__(type(self))
-        new.__dict__.update(self.__dict__)
-        new.__dict__["tone"] = dict(tone)
+        new = copy.copy(self)  # shallow: the same arrays, hit buffer (or its recipe) and lock
+        object.__setattr__(new, "tone", dict(tone))
         return new
 
     def to_uint8(self, **kwargs) -> np.ndarray:
@@ -245,7 +245,7 @@ class Frame:
     @property
     def has_terms(self) -> bool:
         """Whether the frame holds its terms (``render(..., terms=True)``)."""
-        return bool(self.__dict__.get("_terms"))
+        return bool(getattr(self, "_terms", None))
 
     def show(self, scale: int | None = None, width: int | None = None, **tone):
         """The picture a notebook shows: the 8-bit image (:meth:`to_uint8` with ``tone``)

@@ -234,6 +234,14 @@ class SceneGeometry:
         self._memo = {}
         self._memo_lock = threading.Lock()
 
+    def __copy__(self):
+        """A shallow copy that shares every array and the memo of Embree structures (and its
+        lock): a variant whose caller replaces some arrays (a material variant for the terms
+        or the explorer) shades with the same BVH, no rebuild. Pickling, not this, drops the memo."""
+        twin = object.__new__(type(self))
+        twin.__dict__.update(self.__dict__)
+        return twin
+
     @cached_property
     def tangents(self) -> np.ndarray:
         """(F, 6) float64 per-face ``Pu, Pv`` for bump mapping (zeros if no bumps)."""

@@ -55,6 +55,7 @@ repacking.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 
 import numpy as np
@@ -124,8 +125,7 @@ def with_materials(scene, materials, colors=None, **changes):
         mesh; 1: a white kd with the kd maps dropped too). ``None`` keeps them.
     """
     geo = scene.geometry
-    twin = object.__new__(type(geo))
-    twin.__dict__.update(geo.__dict__)  # not copy.copy: its pickling hooks would drop the shared BVH memo
+    twin = copy.copy(geo)  # SceneGeometry.__copy__: the same arrays and BVH memo
     twin.materials = np.ascontiguousarray(materials, np.float64)
     twin.reflective = bool(np.any(twin.materials[:, MAT_REFLECTIVITY] > 0))
     if colors is not None and geo.textured:

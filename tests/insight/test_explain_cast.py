@@ -18,11 +18,12 @@ import pytest
 import raycast_shade as rs
 from raycast_shade.visibility import bands
 from raycast_shade.visibility.accel import embree_accel
+from raycast_shade.visibility.holes import _JUMP
 from raycast_shade.visibility.cast import _cast_camera_kernel
 from raycast_shade.visibility.pixel import CameraCast, cast_pixel
 from raycast_shade.visibility.rays import camera_frame
 
-from tests.study.test_explain import RTOL, _close
+from tests.insight.test_explain import RTOL, _close
 from tests.visibility.test_bands import _grid_scene, _textured_sphere
 
 BAND = 16
@@ -38,7 +39,9 @@ def small_bands(monkeypatch):
 def _repaired(geo, cam, whole):
     """(ys, xs) of the pixels the vertex repair changed."""
     raw = rs.HitBuffer.empty(cam.height, cam.width)
-    _cast_camera_kernel(embree_accel(geo).handle, camera_frame(cam, geo.origin), 0, *raw)
+    n = cam.height
+    _cast_camera_kernel(embree_accel(geo).handle, camera_frame(cam, geo.origin), *raw, 0, 0, 0, 0, np.zeros(n, np.int64),
+                        _JUMP)
     return np.nonzero((raw.prim != whole.prim) | (raw.t != whole.t))
 
 
@@ -95,7 +98,7 @@ def test_explain_is_the_same_on_the_banded_and_the_whole_frame():
     the whole frame's, number for number, and both equal the pixel."""
     scene = _textured_sphere(fov=45.0)
     banded = rs.render(scene, "phong")
-    whole = rs.render(scene, "phong", buffers=("zdepth",))  # a buffer keeps the frame whole
+    whole = rs.render(scene, "phong", terms=True)  # terms keep the frame whole (they read its hits)
     assert callable(banded.__dict__["_hits"]) and not callable(whole.__dict__["_hits"])
     rng = np.random.default_rng(3)
     ys, xs = np.nonzero(whole.mask)
