@@ -114,6 +114,7 @@ def _step_textures():
 def _step_terms_buffers():
     scene = _scene(floor=Material(kd=0.6, reflectivity=0.3))
     _methods(scene, terms="per_light")
+    _methods(scene, terms=True, interpolation="screen")  # screen-space weights: the terms kernel's other types
     render(scene, "phong", buffers=tuple(BUFFER_NAMES))
 
 

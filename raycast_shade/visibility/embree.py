@@ -26,8 +26,9 @@ it directly:
   frame of an 81,920-triangle sphere on 2 cores; the hits are bit-identical).
 
 Struct layouts (Embree 4 ``rtcore_ray.h``), as 4-byte slots, named once here
-(``RAY_*`` and ``HIT_*``) and written and read only through :func:`write_ray`,
-:func:`reset_hit` and :func:`read_hit`:
+(``RAY_*`` and ``HIT_*``) and written and read through :func:`write_ray`,
+:func:`reset_hit` and :func:`read_hit` (the camera's packet kernel writes and reads the same
+named slots lane by lane, :mod:`.cast`, so that its loops over a packet's lanes vectorise):
 ``RTCRayHit`` = org xyz, tnear, dir xyz, time, tfar, mask, id, flags |
 Ng xyz, u, v, primID, geomID, instID[1], (instPrimID[1]); 16-byte aligned.
 The packet forms ``RTCRayHit8`` / ``RTCRayHit16`` have the same fields, each an array of 8 / 16

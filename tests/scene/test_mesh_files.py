@@ -220,7 +220,7 @@ def test_obj_mtl_materials_and_textures(tmp_path):
 def test_gltf_base_colour_texture_vertex_colours_and_pbr_mapping(tmp_path):
     """kd = baseColor ((1 - m) + m alpha), ks = 0.04 (1 - m) + baseColor m (1 - alpha), ka = baseColor,
     Blinn t = 2/alpha^2 - 2 with alpha = roughness^2; COLOR_0 (linear in glTF, so not sRGB-decoded) becomes the vertex
-    colours times kd's factor; the texture is decoded from sRGB; emission is named."""
+    colours times kd's factor; the texture is decoded from sRGB; the emission becomes ke."""
     from PIL import Image
 
     box = trimesh.creation.box()
@@ -233,9 +233,11 @@ def test_gltf_base_colour_texture_vertex_colours_and_pbr_mapping(tmp_path):
     box.visual = trimesh.visual.TextureVisuals(uv=rng.random((len(box.vertices), 2)), material=mat)
     box.visual.vertex_attributes["color"] = colours
     box.export(tmp_path / "box.glb")
-    with pytest.warns(rs.DroppedOnLoadWarning, match="emissiveFactor"):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", rs.DroppedOnLoadWarning)  # emission is mapped now, not dropped
         (model,) = rs.load_models(tmp_path / "box.glb")
     m = model.material
+    np.testing.assert_allclose(m.ke, [0.1, 0.0, 0.0])
     base = np.array([255, 128, 51]) / 255
     alpha = 0.5 ** 2
     np.testing.assert_allclose(m.kd, base * (0.75 + 0.25 * alpha))
