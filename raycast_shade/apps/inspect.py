@@ -22,9 +22,9 @@ _GLTF_MAPPED = {"baseColorFactor": "kd, ka (x (1 - m + m a)), ks (metal part)", 
                 "doubleSided": "always (lit from the side seen)",
                 "emissiveFactor": "ke (times KHR_materials_emissive_strength)", "emissiveTexture": "ke_map",
                 "occlusionTexture": "ao_map (red channel, linear) and ao_strength: scales ka per texel",
-                "alphaCutoff": "alpha_cutoff (with alphaMode MASK)"}
+                "alphaCutoff": "alpha_cutoff (with alphaMode MASK)",
+                "normalTexture": "normal_map (linear, tangent space) and normal_scale; TANGENT or tangents from UVs"}
 _GLTF_APPROX = {"metallicRoughnessTexture": "per-texel kd and ks; one exponent from the median roughness"}
-_GLTF_DROPPED = ("normalTexture",)
 _MTL_MAPPED = {"kd": "kd", "ka": "ka", "ks": "ks", "ns": "shininess", "illum": "0/1: ks = 0; 2: as is",
                "map_kd": "kd_map", "map_ka": "ka_map", "map_ks": "ks_map", "ke": "ke", "map_ke": "ke_map"}
 

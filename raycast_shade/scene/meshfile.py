@@ -192,13 +192,7 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, *
             colors, mode = _off_colors(ctx.off, len(vertices), len(faces), name)
         if colors is not None and "kd" in kw:
             colors = colors * kw["kd"]  # kd's factor times the colours (glTF: baseColorFactor * COLOR_0)
-        maps = [k for k in ("kd_map", "ka_map", "ks_map", "ke_map", "ao_map", "alpha_map", "normal_map") if k in kw]
-        if maps and uvs is None:
-            lost.append(f"{name}: {', '.join(maps)} (the mesh has no UVs)")
-            for k in maps:
-                kw.pop(k)
-            kw.pop("alpha_cutoff", None)  # no mask without its map
-            kw.pop("normal_scale", None)
+        _drop_maps_without_uvs(kw, uvs, name, lost)
         tangents = _file_tangents(ctx, tm, g, transform, name, lost) if "normal_map" in kw else None
         uvs = _resolve_maps(kw, uvs, name, lost)
         dup = reversed_duplicates(faces, vertices)
@@ -239,6 +233,17 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, *
         warnings.warn(f"{base}: not mapped (no counterpart in the lecture's model): " + "; ".join(lost),
                       DroppedOnLoadWarning, stacklevel=2)
     return models
+
+
+def _drop_maps_without_uvs(kw: dict, uvs, name: str, lost: list) -> None:
+    """Every map dropped (named in ``lost``) from the keywords of a mesh without UVs."""
+    maps = [k for k in ("kd_map", "ka_map", "ks_map", "ke_map", "ao_map", "alpha_map", "normal_map") if k in kw]
+    if maps and uvs is None:
+        lost.append(f"{name}: {', '.join(maps)} (the mesh has no UVs)")
+        for k in maps:
+            kw.pop(k)
+        kw.pop("alpha_cutoff", None)  # no mask without its map
+        kw.pop("normal_scale", None)
 
 
 def _file_tangents(ctx, tm, g, transform, name: str, lost: list):

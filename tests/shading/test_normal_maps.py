@@ -139,3 +139,36 @@ def test_validation():
                      lights=[rs.DirectionalLight(LIGHT)], camera=down_camera())
     with pytest.raises(ValueError, match=r"normal_map but the mesh has no UVs"):
         rs.render(scene)
+
+
+@pytest.mark.parametrize("wrap, scale", [("repeat", 1.0), ("clamp", 0.6), ("repeat", -1.5)])
+def test_numpy_twin_and_explain_agree_with_the_kernel(wrap, scale):
+    """A random normal map (every direction, some bent past the horizon) on a sphere and a floor."""
+    from raycast_shade.study.reference import shade_reference, shading_normals_reference
+
+    rng = np.random.default_rng(7)
+    nmap = rs.Texture(rng.uniform(0, 1, (9, 7, 3)), wrap=wrap, tiling=(2.0, 1.5), name="random normals")
+    sphere = rs.shapes.uv_sphere(16, 32)
+    floor = rs.shapes.plane(6.0)
+    floor = rs.Mesh(np.asarray(floor.vertices) - [0, 0, 1.0], floor.faces, normals=floor.normals, uvs=floor.uvs)
+    mats = [rs.Material(kd=(0.7, 0.5, 0.3), ks=0.4, shininess=15, normal_map=nmap, normal_scale=scale),
+            rs.Material(kd=0.6, normal_map=nmap)]
+    cam = rs.Camera(eye=(1.5, -3.0, 2.5), target=(0, 0, -0.3), width=48, height=36)
+    scene = rs.Scene([rs.Model(sphere, mats[0]), rs.Model(floor, mats[1])],
+                     lights=[rs.PointLight((2.0, -1.0, 3.0)), rs.DirectionalLight((-0.3, 0.5, -1.0), intensity=0.4)],
+                     camera=cam, ambient=0.1)
+    frame = rs.render(scene, "phong")
+    seen = frame.hits.prim >= 0
+    assert seen.sum() > 800
+    ref = shade_reference(scene, cam, frame.hits, "phong")
+    np.testing.assert_allclose(frame.image[seen], ref[seen], rtol=1e-5, atol=1e-6)
+    nref = shading_normals_reference(scene, cam, frame.hits, "phong")
+    np.testing.assert_allclose(frame.normal[seen], nref[seen], atol=1e-6)
+    plain = shading_normals_reference(rs.Scene([rs.Model(sphere, rs.Material()), rs.Model(floor, rs.Material())],
+                                               lights=scene.lights, camera=cam), cam, frame.hits, "phong")
+    assert np.abs(nref[seen] - plain[seen]).max() > 0.3  # the map does bend the normals
+    ys, xs = np.nonzero(seen)
+    for i in rng.choice(len(xs), 6, replace=False):
+        e = frame.explain(int(xs[i]), int(ys[i]))
+        np.testing.assert_allclose(e.total, frame.image[ys[i], xs[i]], rtol=1e-5, atol=1e-6)
+        assert "normal map" in e.shades[0].normal_note
