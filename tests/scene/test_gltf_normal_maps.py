@@ -107,3 +107,18 @@ def test_bad_normal_scale_names_the_field(tmp_path):
     _quad(tmp_path / "n.gltf", scale="big")
     with pytest.raises(ValueError, match="normalTexture.scale"):
         rs.load_models(tmp_path / "n.gltf")
+
+
+def test_inspect_shows_the_normal_map_as_mapped(tmp_path):
+    from raycast_shade.apps.inspect import format_report, inspect_file
+
+    _quad(tmp_path / "n.gltf", tangents=np.tile([1.0, 0.0, 0.0, 1.0], (4, 1)), scale=0.5)
+    report = inspect_file(tmp_path / "n.gltf")
+    (model,) = report["models"]
+    assert model["tangents"] == "file"
+    assert ("normalTexture", "texture 0") == model["fields"][-1][:2] and model["fields"][-1][2] == "mapped"
+    assert any(m[0] == "normal_map" for m in model["maps"])
+    text = format_report(report)
+    assert "tangents file" in text and "mapped       normalTexture" in text
+    _quad(tmp_path / "c.gltf")
+    assert inspect_file(tmp_path / "c.gltf")["models"][0]["tangents"] == "from UVs"
