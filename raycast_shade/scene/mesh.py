@@ -254,7 +254,7 @@ class Mesh:
                 colors = colors[~dup]
             mesh = cls(mesh.vertices, mesh.faces[~dup], normals=mesh.normals, uvs=mesh.uvs, weighting=mesh.weighting,
                        crease_angle=mesh.crease_angle, name=mesh.name, colors=colors,
-                       color_mode=mesh.color_mode or "auto")
+                       color_mode=mesh.color_mode or "auto", tangents=mesh.tangents)
         return mesh
 
     # -- derived ------------------------------------------------------------------------

@@ -122,3 +122,14 @@ def test_inspect_shows_the_normal_map_as_mapped(tmp_path):
     assert "tangents file" in text and "mapped       normalTexture" in text
     _quad(tmp_path / "c.gltf")
     assert inspect_file(tmp_path / "c.gltf")["models"][0]["tangents"] == "from UVs"
+
+
+def test_placing_a_mesh_moves_its_tangents(tmp_path):
+    """A scene file's rotate turns the file's tangents with the mesh (w kept: a rotation keeps handedness)."""
+    from raycast_shade.scene.scenefile import _placed
+
+    tangents = np.tile([1.0, 0.0, 0.0, -1.0], (4, 1))
+    _quad(tmp_path / "n.gltf", tangents=tangents)
+    (model,) = rs.load_models(tmp_path / "n.gltf")
+    moved = _placed(model.mesh, {"rotate": [0.0, 0.0, 90.0], "scale": 2.0}, "object[0]")
+    np.testing.assert_allclose(moved.tangents, np.tile([0.0, 1.0, 0.0, -1.0], (4, 1)), atol=1e-12)
