@@ -266,8 +266,7 @@ def _placed(mesh: Mesh, obj: dict, where: str) -> Mesh:
         s = _call(where, as_scalar, obj.get("scale", 1.0), f"{where}.scale", minimum=0.0, exclusive=True)
         r = _rotation(_call(where, as_vec3, obj.get("rotate", (0.0, 0.0, 0.0)), f"{where}.rotate"))
         t = _call(where, as_vec3, obj.get("translate", (0.0, 0.0, 0.0)), f"{where}.translate")
-        # A uniform positive scale and a rotation keep normals unit and outward.
-        n = None if mesh.normals is None else mesh.normals @ r.T
+        n = None if mesh.normals is None else mesh.normals @ r.T  # a rotation keeps normals unit and outward
         tan = None if mesh.tangents is None else np.c_[mesh.tangents[:, :3] @ r.T, mesh.tangents[:, 3]]
         mesh = _call(where, Mesh, (mesh.vertices * s) @ r.T + t, mesh.faces, normals=n, uvs=mesh.uvs,
                      weighting=mesh.weighting, crease_angle=mesh.crease_angle, name=mesh.name,
