@@ -28,6 +28,7 @@ FIGURES = [
     dict(name="surfaces", module="docs.figures.surfaces", page="surfaces.md"),
     dict(name="textures", module="docs.figures.textures", page="textures.md"),
     dict(name="alpha", module="docs.figures.alpha", page="textures.md"),
+    dict(name="normalmaps", module="docs.figures.normalmaps", page="textures.md"),
     dict(name="aa", module="docs.figures.aa", page="antialiasing.md"),
     dict(name="raster", module="docs.figures.raster", page="raster.md"),
     dict(name="vision", module="docs.figures.vision", page="vision.md"),

@@ -22,9 +22,9 @@ _GLTF_MAPPED = {"baseColorFactor": "kd, ka (x (1 - m + m a)), ks (metal part)", 
                 "doubleSided": "always (lit from the side seen)",
                 "emissiveFactor": "ke (times KHR_materials_emissive_strength)", "emissiveTexture": "ke_map",
                 "occlusionTexture": "ao_map (red channel, linear) and ao_strength: scales ka per texel",
-                "alphaCutoff": "alpha_cutoff (with alphaMode MASK)"}
+                "alphaCutoff": "alpha_cutoff (with alphaMode MASK)",
+                "normalTexture": "normal_map (linear, tangent space) and normal_scale; TANGENT or tangents from UVs"}
 _GLTF_APPROX = {"metallicRoughnessTexture": "per-texel kd and ks; one exponent from the median roughness"}
-_GLTF_DROPPED = ("normalTexture",)
 _MTL_MAPPED = {"kd": "kd", "ka": "ka", "ks": "ks", "ns": "shininess", "illum": "0/1: ks = 0; 2: as is",
                "map_kd": "kd_map", "map_ka": "ka_map", "map_ks": "ks_map", "ke": "ke", "map_ke": "ke_map"}
 
@@ -131,11 +131,13 @@ def inspect_file(path) -> dict:
         elif mat.name in gltf_mats:
             rows = _gltf_fields(gltf_mats[mat.name], notes)
         maps = [(field, m.name, f"{m.shape[1]}x{m.shape[0]}", m.wrap, m.tiling)
-                for field, m in (("kd_map", mat.kd_map), ("ka_map", mat.ka_map), ("ks_map", mat.ks_map))
+                for field, m in (("kd_map", mat.kd_map), ("ka_map", mat.ka_map), ("ks_map", mat.ks_map),
+                                 ("normal_map", mat.normal_map))
                 if m is not None]
         report["models"].append({
             "name": mesh.name, "vertices": len(mesh.vertices), "faces": len(mesh.faces),
             "uvs": mesh.uvs is not None, "normals": mesh.normals is not None, "colors": mesh.color_mode,
+            "tangents": "file" if mesh.tangents is not None else ("from UVs" if mat.normal_map is not None else None),
             "material": {"name": mat.name, "kd": mat.kd.round(4).tolist(), "ka": mat.ka.round(4).tolist(),
                          "ks": mat.ks.round(4).tolist(), "shininess": round(float(mat.shininess), 3),
                          "specular": mat.specular},
@@ -149,7 +151,8 @@ def format_report(report: dict) -> str:
     for m in report["models"]:
         out.append(f"  model {m['name']}: {m['vertices']} vertices, {m['faces']} faces, "
                    f"UVs {'yes' if m['uvs'] else 'no'}, file normals {'yes' if m['normals'] else 'no'}, "
-                   f"colours {m['colors'] or 'none'}")
+                   f"colours {m['colors'] or 'none'}"
+                   + (f", tangents {m['tangents']}" if m.get("tangents") else ""))
         mat = m["material"]
         out.append(f"    material {mat['name']}: kd {mat['kd']} ka {mat['ka']} ks {mat['ks']} "
                    f"t {mat['shininess']} ({mat['specular']})")

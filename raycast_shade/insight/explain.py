@@ -4,7 +4,7 @@
 float64 NumPy: where the method evaluates the equation (the face centre for
 flat, the three vertices for Gouraud, the pixel's point for Phong), the
 normal it uses (the face's; the vertex's; interpolated, renormalised and
-bumped), and per light the direction ``s``, the distance ``d`` and the
+bumped or normal-mapped), and per light the direction ``s``, the distance ``d`` and the
 attenuation, the shadow ray's answer (traced with Embree from the same
 offset origin as the kernels), a spot light's cone factor, ``n.s``, ``r`` or
 ``h`` and the specular cosine, and the diffuse and specular terms; mirrors
@@ -49,9 +49,11 @@ from ..shading.shade import resolve_methods
 from ..visibility import embree
 from ..visibility.accel import embree_accel
 from ..visibility.cast import cast_rays_kernel
-from .explain_coef import _bumped, _coefficients, _face_footprint, _footprint, _modulated, _short, _spot_factor
+from .explain_coef import (_bumped, _coefficients, _convex_weights, _face_footprint, _footprint, _modulated, _short,
+                           _spot_factor, _terminator)
 from .explain_records import Bounce, Explanation, LightTerm, PointShade
-from ..study.reference import facing as _facing, interpolated_normal as _interpolated_normal, view_vectors as _view
+from ..study.reference import facing as _facing, interpolated_normal as _interpolated_normal, normal_mapped
+from ..study.reference import view_vectors as _view
 
 __all__ = ["explain", "Explanation", "PointShade", "LightTerm", "Bounce"]
 
@@ -203,17 +205,6 @@ def _evaluate(ctx, where, p, n, v, model, o, g, note="", coef=None) -> PointShad
                       coef_note=coef_note, ke=np.asarray(ke, np.float64))
 
 
-def _terminator(geo, tri, bary, p, sgn):
-    """Hanika's shadow-ray origin (:func:`raycast_shade.shading.surface._terminator_point`)."""
-    q = p.copy()
-    for k in range(3):
-        nk = sgn * geo.normals[tri[k]]
-        d = float((p - geo.vertices[tri[k]]) @ nk)
-        if d < 0.0:
-            q -= bary[k] * d * nk
-    return q
-
-
 def _surface(ctx, f, model, b1, b2, v=None):
     """Point, view, oriented geometric normal and sign, shading normal (interpolated,
     renormalised, bumped) and a note on it: the Phong kernels' ``_surface``."""
@@ -229,17 +220,10 @@ def _surface(ctx, f, model, b1, b2, v=None):
     bumped = _bumped(geo, n, f, model, tri, bary, sgn * g)
     if bumped is not n:
         note += f"; bumped (Blinn) from {_short(n)}"
-    return p, v, g, sgn, bumped, tri, bary, note
-
-
-def _convex_weights(b1, b2):
-    """Gouraud's weights clamped onto the triangle (:func:`raycast_shade.shading.surface._convex_weights`)."""
-    if not (b1 >= 0.0 and b2 >= 0.0 and b1 + b2 <= 1.0):
-        b1, b2 = min(max(b1, 0.0), 1.0), min(max(b2, 0.0), 1.0)
-        s = b1 + b2
-        if s > 1.0:
-            b1, b2 = b1 / s, b2 / s
-    return np.array([max(1.0 - b1 - b2, 0.0), b1, b2])
+    mapped = normal_mapped(ctx.scene, bumped[None], g[None], np.array([sgn]), tri[None], bary[None], np.array([model]))[0]
+    if geo.nmap_index[model] >= 0:
+        note += f"; normal map n' = normalize(T x s + B y s + N z) = {_short(mapped)} from {_short(bumped)}"
+    return p, v, g, sgn, mapped, tri, bary, note
 
 
 # -- the three methods ---------------------------------------------------------------------------------------

@@ -214,3 +214,24 @@ def _bumped(geo, n, f, model, tri, bary, front):
     if not (0.0 < al < np.inf):
         return n
     return a / al
+
+
+def _terminator(geo, tri, bary, p, sgn):
+    """Hanika's shadow-ray origin (:func:`raycast_shade.shading.surface._terminator_point`)."""
+    q = p.copy()
+    for k in range(3):
+        nk = sgn * geo.normals[tri[k]]
+        d = float((p - geo.vertices[tri[k]]) @ nk)
+        if d < 0.0:
+            q -= bary[k] * d * nk
+    return q
+
+
+def _convex_weights(b1, b2):
+    """Gouraud's weights clamped onto the triangle (:func:`raycast_shade.shading.surface._convex_weights`)."""
+    if not (b1 >= 0.0 and b2 >= 0.0 and b1 + b2 <= 1.0):
+        b1, b2 = min(max(b1, 0.0), 1.0), min(max(b2, 0.0), 1.0)
+        s = b1 + b2
+        if s > 1.0:
+            b1, b2 = b1 / s, b2 / s
+    return np.array([max(1.0 - b1 - b2, 0.0), b1, b2])

@@ -66,7 +66,9 @@ def move_model(scene, index: int, matrix):
     # colours stores as None).
     moved = type(mesh)(mesh.vertices @ A.T + M[:3, 3], mesh.faces, normals=normals, uvs=mesh.uvs,
                        weighting=mesh.weighting, crease_angle=mesh.crease_angle, name=mesh.name, colors=mesh.colors,
-                       color_mode=mesh.color_mode or "auto")
+                       color_mode=mesh.color_mode or "auto",
+                       tangents=None if mesh.tangents is None else  # tangents move with A, w with its handedness
+                       np.c_[mesh.tangents[:, :3] @ A.T, mesh.tangents[:, 3] * np.sign(np.linalg.det(A))])
     models = list(scene.models)
     models[index] = dataclasses.replace(model, mesh=moved)
     return scene.replace(models=models)

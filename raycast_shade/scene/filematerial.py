@@ -458,8 +458,7 @@ def from_pbr(mat, name: str, lost: list, ctx: FileContext) -> dict:
             kw["ka_map"] = col_w
         lost.append(f"metallicRoughnessTexture: per-texel kd and ks, one exponent from the median "
                     f"roughness {r_med:.3g} (approximated)")
-    if getattr(mat, "normalTexture", None) is not None:
-        lost.append("normalTexture")
+    _normal(mat, js, name, kw, lost, ctx)
     _emission(mat, js, name, kw, lost, ctx)
     _occlusion(mat, js, name, kw, lost, ctx)
     return kw
@@ -525,6 +524,25 @@ def _occlusion(mat, js: dict, name: str, kw: dict, lost: list, ctx: FileContext)
     kw["ao_map"] = ctx.wrapped(("ao", ctx.image_key(tex), wrap_s, wrap_t),
                                lambda: Wrapped(texels, wrap_s, wrap_t, f"{name}.occlusionTexture"))
     kw["ao_strength"] = float(info.get("strength", 1.0))  # checked with the file's materials
+
+
+def _normal(mat, js: dict, name: str, kw: dict, lost: list, ctx: FileContext) -> None:
+    """glTF ``normalTexture`` (linear, its own sampler) into ``kw["normal_map"]`` and its ``scale``
+    (default 1) into ``kw["normal_scale"]``; the mesh's ``TANGENT`` is read by :func:`load_models`."""
+    tex = getattr(mat, "normalTexture", None)
+    if tex is None:
+        return
+    info = js.get("normalTexture") if isinstance(js.get("normalTexture"), dict) else {}
+    wrap_s, wrap_t, notes = ctx.sampler(info)
+    lost += notes
+    texels = ctx.linear(tex, f"{name}.normalTexture", srgb=False)
+    kw["normal_map"] = ctx.wrapped(("normal", ctx.image_key(tex), wrap_s, wrap_t),
+                                   lambda: Wrapped(texels, wrap_s, wrap_t, f"{name}.normalTexture"))
+    scale = info.get("scale", 1.0)
+    if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not math.isfinite(scale):
+        raise ValueError(f"{os.path.basename(ctx.path)}: material {name!r}: normalTexture.scale: expected a "
+                         f"finite number, got {scale!r}")
+    kw["normal_scale"] = float(scale)
 
 
 def _emission(mat, js: dict, name: str, kw: dict, lost: list, ctx: FileContext) -> None:

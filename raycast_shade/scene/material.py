@@ -97,6 +97,17 @@ class Material:
     ao_strength : float
         In [0, 1]: 0 ignores the map, 1 (the default) applies it fully
         (glTF's ``strength``).
+    normal_map : Texture, optional
+        Tangent-space normal map (glTF ``normalTexture``), linear (load it with
+        ``srgb=False``): a texel ``(r, g, b)`` bends the shading normal to
+        ``normalize(T (2r - 1) s + B (2g - 1) s + N (2b - 1))`` in the frame of
+        the mesh's tangents ``T`` (:class:`~raycast_shade.Mesh` ``tangents``, or
+        computed from the UVs), ``B = w (N x T)``; sampled bilinearly at level 0.
+        Phong shading and mirror reflections only (flat and Gouraud warn, as for
+        ``bump``). The mesh needs UVs.
+    normal_scale : float
+        ``s`` above (glTF's ``normalTexture.scale``), default 1; 0 leaves the
+        normal unbent.
     """
 
     kd: object = None
@@ -117,13 +128,15 @@ class Material:
     ke_map: object = None
     ao_map: object = None
     ao_strength: float = 1.0
+    normal_map: object = None
+    normal_scale: float = 1.0
 
     def __post_init__(self):
         set_ = object.__setattr__
         set_(self, "name", as_name(self.name, f"{type(self).__name__}.name"))  # first: every message uses it
         from .texture import Texture
 
-        for field in MAP_FIELDS + ("alpha_map",):
+        for field in MAP_FIELDS + ("alpha_map", "normal_map"):
             tex = getattr(self, field)
             if tex is not None and not isinstance(tex, Texture):
                 raise TypeError(f"{self.name}.{field}: expected a Texture, got {type(tex).__name__}")
@@ -144,6 +157,7 @@ class Material:
             raise TypeError(f"{self.name}.ka_colors: expected True or False, got {type(self.ka_colors).__name__}")
         set_(self, "ka_colors", bool(self.ka_colors))
         set_(self, "ao_strength", as_scalar(self.ao_strength, f"{self.name}.ao_strength", minimum=0.0, maximum=1.0))
+        set_(self, "normal_scale", as_scalar(self.normal_scale, f"{self.name}.normal_scale"))
         set_(self, "reflectivity", as_scalar(self.reflectivity, f"{self.name}.reflectivity", minimum=0.0, maximum=1.0))
         if self.bump is not None:
             from .heightmap import HeightMap

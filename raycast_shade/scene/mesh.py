@@ -35,6 +35,8 @@ class PreparedMesh(NamedTuple):
     colors : (V, 3) or (F, 3) float64 or None
         Linear kd per (split) vertex or per face, as ``color_mode`` says.
     color_mode : {"vertex", "face"} or None
+    tangents : (V, 4) float64 or None
+        The mesh's tangents (xyz, handedness w) per (split) vertex, as given.
     """
 
     vertices: np.ndarray
@@ -44,6 +46,7 @@ class PreparedMesh(NamedTuple):
     face_normals: np.ndarray
     colors: np.ndarray | None = None
     color_mode: str | None = None
+    tangents: np.ndarray | None = None
 
 
 def _readonly(a):
@@ -85,6 +88,12 @@ class Mesh:
     color_mode : {"auto", "vertex", "face"}
         Which ``colors`` are; ``"auto"`` tells by the row count (an error
         when the mesh has as many vertices as faces).
+    tangents : (V, 4) array_like of float, optional
+        Per-vertex tangent ``xyz`` (along increasing u) and handedness ``w``
+        (+1 or -1: the bitangent is ``w (n x t)``), as glTF's ``TANGENT``; read
+        by a material's ``normal_map``, kept as written. When absent, a normal
+        map's tangents are computed from the UVs
+        (:func:`raycast_shade.scene.tangents.vertex_tangents`).
     """
 
     vertices: np.ndarray
@@ -96,6 +105,7 @@ class Mesh:
     name: str = field(default="mesh")
     colors: np.ndarray | None = None
     color_mode: str = "auto"
+    tangents: np.ndarray | None = None
 
     def __post_init__(self):
         set_ = object.__setattr__
@@ -127,6 +137,15 @@ class Mesh:
         if self.uvs is not None:
             uv = as_array(self.uvs, f"{self.name}.uvs", dtype=np.float64, shape=(v.shape[0], 2), copy=True)
             set_(self, "uvs", _readonly(uv))
+        if self.tangents is not None:
+            t = as_array(self.tangents, f"{self.name}.tangents", dtype=np.float64, shape=(v.shape[0], 4), copy=True)
+            if not np.all(np.isfinite(t)):
+                raise ValueError(f"{self.name}.tangents: must be finite")
+            bad = np.flatnonzero(np.abs(t[:, 3]) != 1.0)
+            if len(bad):
+                raise ValueError(f"{self.name}.tangents: the handedness w (column 3) must be +1 or -1, got "
+                                 f"{t[bad[0], 3]} at vertex {int(bad[0])}")
+            set_(self, "tangents", _readonly(t))
         _set_colors(self, v.shape[0], f.shape[0])
         set_(self, "weighting", as_choice(self.weighting, f"{self.name}.weighting", WEIGHTINGS))
         if self.crease_angle is not None:
@@ -235,7 +254,7 @@ class Mesh:
                 colors = colors[~dup]
             mesh = cls(mesh.vertices, mesh.faces[~dup], normals=mesh.normals, uvs=mesh.uvs, weighting=mesh.weighting,
                        crease_angle=mesh.crease_angle, name=mesh.name, colors=colors,
-                       color_mode=mesh.color_mode or "auto")
+                       color_mode=mesh.color_mode or "auto", tangents=mesh.tangents)
         return mesh
 
     # -- derived ------------------------------------------------------------------------
@@ -294,9 +313,10 @@ class Mesh:
             colors = self.colors
             if colors is not None and self.color_mode == "vertex":
                 colors = colors[source]
-            return PreparedMesh(verts, faces, normals, uvs, fn, colors, self.color_mode)
+            tangents = None if self.tangents is None else self.tangents[source]
+            return PreparedMesh(verts, faces, normals, uvs, fn, colors, self.color_mode, tangents)
         fn, _ = face_normals(verts, faces)
-        return PreparedMesh(verts, faces, normals, uvs, fn, self.colors, self.color_mode)
+        return PreparedMesh(verts, faces, normals, uvs, fn, self.colors, self.color_mode, self.tangents)
 
     def __repr__(self) -> str:
         return f"Mesh(name={self.name!r}, vertices={len(self.vertices)}, faces={len(self.faces)})"

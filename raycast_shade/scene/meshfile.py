@@ -20,8 +20,12 @@ colours), and maps it onto the lecture's coefficients (the table is in
 * Where a file gives no ambient colour, ka follows the diffuse colour: ka =
   kd, ka_map = kd_map (mesh colours: see ``docs/textures.md``).
 
-What cannot be mapped (normal, occlusion and emissive textures, emission,
-transparency, bump/displacement maps, unknown MTL keys) is named in a
+* glTF ``normalTexture`` (with its ``scale`` and sampler) -> normal_map,
+  normal_scale; the primitive's ``TANGENT`` -> the mesh's tangents (computed
+  from the UVs where the file has none).
+
+What cannot be mapped (transparency beyond alpha masks, bump/displacement
+maps, unknown MTL keys) is named in a
 :class:`~raycast_shade.DroppedOnLoadWarning`, and so is every referenced
 file that is missing.
 """
@@ -34,6 +38,7 @@ import warnings
 import numpy as np
 
 from ..common.warnings import DroppedOnLoadWarning
+from .gltftangents import primitive_tangents
 from .filematerial import FileContext, Wrapped, from_mtl_cached, from_pbr, from_simple, is_placeholder
 from .material import Material
 from .mesh import Mesh, _instance, _is_scene, read_trimesh, visual_colors
@@ -187,12 +192,8 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, *
             colors, mode = _off_colors(ctx.off, len(vertices), len(faces), name)
         if colors is not None and "kd" in kw:
             colors = colors * kw["kd"]  # kd's factor times the colours (glTF: baseColorFactor * COLOR_0)
-        maps = [k for k in ("kd_map", "ka_map", "ks_map", "ke_map", "ao_map", "alpha_map") if k in kw]
-        if maps and uvs is None:
-            lost.append(f"{name}: {', '.join(maps)} (the mesh has no UVs)")
-            for k in maps:
-                kw.pop(k)
-            kw.pop("alpha_cutoff", None)  # no mask without its map
+        _drop_maps_without_uvs(kw, uvs, name, lost)
+        tangents = _file_tangents(ctx, tm, g, transform, name, lost) if "normal_map" in kw else None
         uvs = _resolve_maps(kw, uvs, name, lost)
         dup = reversed_duplicates(faces, vertices)
         if dup.any():
@@ -215,7 +216,7 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, *
                 kw["ka_map"] = kw["kd_map"]
         kw.setdefault("name", name)
         mesh = Mesh(vertices, faces, normals=normals, uvs=uvs, colors=colors,
-                    color_mode=mode or "auto", name=name, **mesh_kwargs)
+                    color_mode=mode or "auto", name=name, tangents=tangents, **mesh_kwargs)
         models.append(Model(mesh, Material(**kw)))
     if ctx.missing or ctx.undefined:
         parts = []
@@ -232,6 +233,36 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, *
         warnings.warn(f"{base}: not mapped (no counterpart in the lecture's model): " + "; ".join(lost),
                       DroppedOnLoadWarning, stacklevel=2)
     return models
+
+
+def _drop_maps_without_uvs(kw: dict, uvs, name: str, lost: list) -> None:
+    """Every map dropped (named in ``lost``) from the keywords of a mesh without UVs."""
+    maps = [k for k in ("kd_map", "ka_map", "ks_map", "ke_map", "ao_map", "alpha_map", "normal_map") if k in kw]
+    if maps and uvs is None:
+        lost.append(f"{name}: {', '.join(maps)} (the mesh has no UVs)")
+        for k in maps:
+            kw.pop(k)
+        kw.pop("alpha_cutoff", None)  # no mask without its map
+        kw.pop("normal_scale", None)
+
+
+def _file_tangents(ctx, tm, g, transform, name: str, lost: list):
+    """The glTF ``TANGENT`` of mesh ``g`` placed by ``transform`` ((V, 4), w flipped by a mirroring
+    transform so the bitangent follows the mesh), or None (computed from the UVs then)."""
+    if ctx is None or ctx.gltf is None or not _is_scene(tm):
+        return None
+    if "prims" not in ctx.cache:
+        ctx.cache["prims"] = primitive_tangents(ctx.path, ctx.gltf)
+    prims, names = ctx.cache["prims"], list(tm.geometry)
+    idx = next((i for i, n in enumerate(names) if tm.geometry[n] is g), None)
+    if idx is None or len(prims) != len(names) or prims[idx] is None:
+        return None
+    pos, tan = prims[idx]
+    if pos.shape != g.vertices.shape or not np.array_equal(pos, np.asarray(g.vertices, np.float64)):
+        lost.append(f"{name}: TANGENT (not matched to trimesh's vertices; tangents computed from the UVs)")
+        return None
+    rot = transform[:3, :3]
+    return np.c_[tan[:, :3] @ rot.T, tan[:, 3] * np.sign(np.linalg.det(rot))]
 
 
 def _off_colors(off, nv: int, nf: int, name: str):

@@ -242,11 +242,11 @@ def warn_render(scene, methods, stacklevel: int = 3) -> None:
             EmptyViewWarning, stacklevel=stacklevel)
     per_model = [methods] * len(scene.models) if isinstance(methods, str) else list(methods)
     ignored = [(g, m.mesh.name, method) for g, (m, method) in enumerate(zip(scene.models, per_model))
-               if m.material.bump is not None and method in ("flat", "gouraud")]
+               if (m.material.bump is not None or m.material.normal_map is not None) and method in ("flat", "gouraud")]
     if ignored:
         which = ", ".join(f"scene.models[{g}] ({name}, {method})" for g, name, method in ignored)
         warnings.warn(
-            f"{which}: the bump map shows only in Phong shading (flat and Gouraud shading have no normal "
+            f"{which}: the bump or normal map shows only in Phong shading (flat and Gouraud shading have no normal "
             "per pixel to perturb): render with shading='phong' or 'auto', or, to show this on purpose, "
             "ignore raycast_shade.BumpIgnoredWarning in warnings.catch_warnings()",
             BumpIgnoredWarning, stacklevel=stacklevel)

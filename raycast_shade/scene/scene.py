@@ -16,6 +16,7 @@ import numpy as np
 
 from ..common.validate import as_rgb
 from .camera import Camera
+from .tangents import pack_normal_maps
 from ..common.layout import (BUMP_SIZE, COLOR_FACE, COLOR_NONE, COLOR_VERTEX, LIGHT_SIZE, MAT_REFLECTIVITY, MAT_SIZE,
                              TEX_SIZE, TEXMAP_COUNT)
 from .lights import Light
@@ -106,6 +107,14 @@ class SceneGeometry:
         Every texture's mip pyramid, RGB triples.
     tex_info : (K, TEX_SIZE) = (K, 8) float64
         See :meth:`Texture.packed_info`.
+    nmap_index : (G,) int32
+        Row of each model's normal map in ``nmap_info``, or -1.
+    nmap_texels : (N,) float32
+    nmap_info : (K, TEX_SIZE) float64
+    nmap_scale : (G,) float64
+        Each model's ``normal_scale`` (0 without a map).
+    vertex_tangents : (V, 4) float64
+        Tangent and handedness per vertex for the normal maps ((1, 4) zeros when none).
     textured : bool
         Whether any model has colours or maps (the kernels' third variant flag).
     alpha_masks : tuple of (Texture, float) or None
@@ -156,6 +165,10 @@ class SceneGeometry:
         self.bump_texels = np.concatenate(texels).astype(np.float32) if texels else np.zeros(1, np.float32)
         self.bump_info = np.stack(info) if info else np.zeros((1, BUMP_SIZE))
         self.has_bump = bool(info)
+        # Normal maps: their texels, one info row per map, and every vertex's tangent frame.
+        (self.nmap_index, self.nmap_texels, self.nmap_info, self.nmap_scale,
+         self.vertex_tangents) = pack_normal_maps(models, preps)
+        self.has_normal_map = bool((self.nmap_index >= 0).any())
         # Alpha masks (installed as Embree filters by visibility.alpha): (alpha_map, cutoff) or None per model.
         self.alpha_masks = tuple(_alpha_mask(g, m, preps[g]) for g, m in enumerate(models))
         self._pack_colors(models, preps, nv, nf)

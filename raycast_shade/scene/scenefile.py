@@ -266,11 +266,11 @@ def _placed(mesh: Mesh, obj: dict, where: str) -> Mesh:
         s = _call(where, as_scalar, obj.get("scale", 1.0), f"{where}.scale", minimum=0.0, exclusive=True)
         r = _rotation(_call(where, as_vec3, obj.get("rotate", (0.0, 0.0, 0.0)), f"{where}.rotate"))
         t = _call(where, as_vec3, obj.get("translate", (0.0, 0.0, 0.0)), f"{where}.translate")
-        # A uniform positive scale and a rotation keep normals unit and outward.
-        n = None if mesh.normals is None else mesh.normals @ r.T
+        n = None if mesh.normals is None else mesh.normals @ r.T  # a rotation keeps normals unit and outward
+        tan = None if mesh.tangents is None else np.c_[mesh.tangents[:, :3] @ r.T, mesh.tangents[:, 3]]
         mesh = _call(where, Mesh, (mesh.vertices * s) @ r.T + t, mesh.faces, normals=n, uvs=mesh.uvs,
                      weighting=mesh.weighting, crease_angle=mesh.crease_angle, name=mesh.name,
-                     colors=mesh.colors, color_mode=mesh.color_mode or "auto")
+                     colors=mesh.colors, color_mode=mesh.color_mode or "auto", tangents=tan)
     return mesh
 
 
@@ -278,7 +278,7 @@ def _without_colors(mesh: Mesh) -> Mesh:
     if mesh.colors is None:
         return mesh
     return Mesh(mesh.vertices, mesh.faces, normals=mesh.normals, uvs=mesh.uvs, weighting=mesh.weighting,
-                crease_angle=mesh.crease_angle, name=mesh.name)
+                crease_angle=mesh.crease_angle, name=mesh.name, tangents=mesh.tangents)
 
 
 def _choice(value, where: str, choices) -> str:

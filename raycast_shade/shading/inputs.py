@@ -10,7 +10,13 @@ from ..common.layout import ATT_NONE, COLOR_FACE, LIGHT_ATT, LIGHT_DIRECTIONAL, 
 from ..visibility.accel import embree_accel
 from ..visibility.rays import camera_frame
 
-__all__ = ["FrameInputs", "prepare", "kernel_inputs"]
+__all__ = ["FrameInputs", "prepare", "kernel_inputs", "bump_tuple"]
+
+
+def bump_tuple(geo, bump_index, nmap_index) -> tuple:
+    """``B``: the bump and normal maps of ``geo`` with the given per-model rows (-1: none)."""
+    return (geo.uvs, geo.tangents, bump_index, geo.bump_texels, geo.bump_info, nmap_index, geo.nmap_texels,
+            geo.nmap_info, geo.nmap_scale, geo.vertex_tangents)
 
 
 _FACES32 = "shading.faces_int32"
@@ -38,7 +44,8 @@ class FrameInputs:
         ``G`` = (verts (V,3) f8, normals (V,3) f8, faces (F,3) i4, face normals (F,3) f8).
     bumps : tuple
         ``B`` = (uvs (V,2) f8, tangents (F,6) f8, bump_index (G,) i4, texels (T,) f4,
-        info (B, BUMP_SIZE) f8).
+        info (B, BUMP_SIZE) f8, normal-map index (G,) i4, its texels (N,) f4, info (K, TEX_SIZE) f8,
+        scale (G,) f8, vertex tangents (V,4) f8) (:func:`bump_tuple`).
     lighting : tuple
         ``L`` = (ambient (3,) f8, lights (L, LIGHT_SIZE) f8 (each light's ``pack``), dmin f8,
         scene handle uintp or 0 when no light casts shadows, unit f8 = the scene's size for
@@ -94,7 +101,7 @@ def prepare(scene, camera) -> FrameInputs:
     handle = embree_accel(geo).handle if lights[:, LIGHT_SHADOWS].any() else 0
     return FrameInputs(
         geometry=(geo.vertices, geo.normals, geo.memo(_FACES32, _faces32), geo.face_normals),
-        bumps=(geo.uvs, geo.tangents, geo.bump_index, geo.bump_texels, geo.bump_info),
+        bumps=bump_tuple(geo, geo.bump_index, geo.nmap_index),
         lighting=(np.array(scene.ambient, np.float64), lights, 1e-6 * geo.scale, np.uintp(handle), float(geo.scale)),
         colours=(geo.vertex_colors, geo.face_colors, geo.color_mode, geo.tex_index, geo.tex_texels, geo.tex_info,
                  ((geo.tex_index >= 0).any(axis=1) | (geo.color_mode == COLOR_FACE)).astype(np.uint8)),

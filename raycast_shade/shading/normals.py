@@ -8,6 +8,7 @@ from numba import njit, prange
 from ..common.layout import METHOD_FLAT, METHOD_PHONG
 from ..common.schedule import BLOCK_ROWS, spread_step
 from ..visibility.rays import camera_frame
+from .inputs import bump_tuple
 from .jit import JIT
 from .phong import _surface
 from .records import At
@@ -72,7 +73,7 @@ def normal_inputs(scene, camera, shading="phong") -> tuple:
     geo = scene.geometry
     # Bumps only apply where the normal is per pixel.
     bump_index = np.where(modes == METHOD_PHONG, geo.bump_index, -1).astype(np.int32)
-    B = (geo.uvs, geo.tangents, bump_index, geo.bump_texels, geo.bump_info)
+    B = bump_tuple(geo, bump_index, np.where(modes == METHOD_PHONG, geo.nmap_index, -1).astype(np.int32))
     return ((geo.vertices, geo.normals, geo.faces, geo.face_normals), B, geo.face_offsets,
             camera_frame(camera, geo.origin), modes)
 

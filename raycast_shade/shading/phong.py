@@ -1,6 +1,6 @@
 """Phong shading: the reflectance equation at every pixel, at the true 3D hit
 point, with the normal interpolated (``a = n1 + mu1 (n2 - n1) + mu2 (n3 - n1)``),
-renormalised, and perturbed by the material's bump map if it has one.
+renormalised, and perturbed by the material's bump map or normal map if it has one.
 
 Shadow rays leave the pixel's point, lifted past the terminator
 (:func:`~raycast_shade.shading.surface._terminator_point`).
@@ -25,6 +25,7 @@ from ..common.layout import METHOD_PHONG
 from ..common.schedule import BLOCK_ROWS, spread_step
 from .bump import _bump
 from .illumination import _illuminate
+from .normalmap import _normal_map
 from .jit import FLT32_MAX, HELPER, JIT, compile_variants
 from .records import At, Hit
 from .shadows import _scratch
@@ -55,6 +56,7 @@ def _surface(G, B, cam, at, use_dir, d):
     g, sgn = _facing(fnormals, f, v)
     n = _shading_normal(normals, tri, b1, b2, g, sgn)
     n = _bump(n, B, at, tri, (sgn * g[0], sgn * g[1], sgn * g[2]))
+    n = _normal_map(n, B, normals, at, tri, g, sgn)
     return Hit(p, v, g, sgn, n, p)
 
 

@@ -34,6 +34,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..scene.lights import DirectionalLight, SpotLight
+from .reference_maps import _bilinear_level, _dot, normal_mapped
 
 __all__ = ["view_vectors", "facing", "interpolated_normal", "footprint_rho", "shade_reference", "shading_normals_reference", "hit_points", "illuminate_reference", "spot_cone",
            "coefficients_reference", "sample_reference", "footprint_reference"]
@@ -43,11 +44,6 @@ _CANCEL = 1e-6  # |interpolated normal| below this falls back to the geometric n
 
 
 # -- small vector helpers ---------------------------------------------------------------------------
-def _dot(a, b):
-    """Row-wise dot product of two (N, 3) arrays -> (N,)."""
-    return np.einsum("ij,ij->i", a, b)
-
-
 def _unit(a):
     """Rows of ``a`` divided by their length, and the lengths (zero rows stay zero)."""
     length = np.linalg.norm(a, axis=1)
@@ -275,43 +271,6 @@ def illuminate_reference(p, n, v, model, materials, lights, ambient, dmin, coef=
 
 
 # -- textures and colours --------------------------------------------------------------------------
-_WHOLE = 2.0 ** 52
-
-
-def _reduced(x, n, wrap):
-    """Texel coordinates (N,) with every ``|x| >= 2**52`` (or inf) reduced: the border, or modulo ``n``."""
-    big = ~(np.abs(x) < _WHOLE)
-    if not big.any():
-        return x
-    if wrap == "clamp":
-        return np.where(big, np.where(x < 0.0, -1.0, float(n)), x)
-    return np.where(big, np.where(np.isfinite(x), np.fmod(x, float(n)), 0.0), x)
-
-
-def _bilinear_level(level, wrap, tiling, u, v):
-    """Bilinear RGB (N, 3) of one (h, w, 3) level at UVs (N,), texel centres at (j + 1/2) / w."""
-    h, w = level.shape[:2]
-    su, sv = u * tiling[0], v * tiling[1]
-    with np.errstate(invalid="ignore"):
-        if wrap != "clamp":  # repeat's period is 1: past 2**52 (or overflowed) a whole number of periods
-            su, sv = np.where(np.abs(su) < _WHOLE, su, 0.0), np.where(np.abs(sv) < _WHOLE, sv, 0.0)
-        # Texel coordinates past 2**52 are whole numbers (int64 overflows past 2**63): the border, or
-        # exactly modulo the grid, as the kernels' _texel_corners.
-        x, y = _reduced(su * w - 0.5, w, wrap), _reduced(sv * h - 0.5, h, wrap)
-    j0, i0 = np.floor(x), np.floor(y)
-    tx, ty = (x - j0)[:, None], (y - i0)[:, None]
-    j0, i0 = j0.astype(np.int64), i0.astype(np.int64)
-
-    def idx(i, n):
-        return np.clip(i, 0, n - 1) if wrap == "clamp" else np.mod(i, n)
-
-    j1, i1 = idx(j0 + 1, w), idx(i0 + 1, h)
-    j0, i0 = idx(j0, w), idx(i0, h)
-    lv = level.astype(np.float64)
-    return ((1 - tx) * (1 - ty) * lv[i0, j0] + tx * (1 - ty) * lv[i0, j1] + (1 - tx) * ty * lv[i1, j0]
-            + tx * ty * lv[i1, j1])
-
-
 def sample_reference(texture, u, v, rho=None):
     """A :class:`~raycast_shade.Texture` at UVs (N,), trilinear at level ``log2 rho``.
 
@@ -528,7 +487,7 @@ def shade_reference(scene, camera, hits, shading: str = "phong") -> np.ndarray:
         elif shading == "phong":
             v = _view(eye, fwd, ortho, p)
             g, sgn = _facing(geo.face_normals[face], v)
-            n = _interpolated_normal(geo.normals, tri, bary, g, sgn)
+            n = normal_mapped(scene, _interpolated_normal(geo.normals, tri, bary, g, sgn), g, sgn, tri, bary, model)
             coef = coefficients_reference(scene, face, bary, footprint_reference(scene, camera, hits)) \
                 if geo.textured else None
             image[mask] = illuminate_reference(p, n, v, model, mats, lights, ambient, dmin, coef)
@@ -592,7 +551,10 @@ def shading_normals_reference(scene, camera, hits, shading: str = "phong") -> np
     with np.errstate(divide="ignore", invalid="ignore"):
         v = _view(eye, fwd, ortho, p)
         g, sgn = _facing(geo.face_normals[face], v)
-        out[mask] = g if shading == "flat" else _interpolated_normal(geo.normals, tri, bary, g, sgn)
+        n = _interpolated_normal(geo.normals, tri, bary, g, sgn)
+        if shading == "phong":  # normal maps bend the Phong normal only
+            n = normal_mapped(scene, n, g, sgn, tri, bary, geo.face_model[face])
+        out[mask] = g if shading == "flat" else n
     return out
 
 

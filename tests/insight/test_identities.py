@@ -3,7 +3,7 @@
 
 Hypothesis draws each scene from every source a pixel's colour can have: colour maps on ka, kd,
 ks and ke and an occlusion map (wrapped or clamped, bilinear or mip-mapped, tiled), emission, vertex and face colours
-(with the ambient term following them or not), a Blinn bump map,
+(with the ambient term following them or not), a Blinn bump map, a tangent-space normal map,
 point, directional and spot lights (a narrow cone, so some of the scene lies outside it), shadows,
 a mirror floor; and renders it flat, Gouraud or Phong, with perspective or screen-space
 interpolation, by ray casting or rasterization. Images are small (24 x 18) and the examples
@@ -79,9 +79,11 @@ def materials(draw, bump_ok):
     if bump_ok and draw(st.booleans()):
         bump = rs.HeightMap.dimples(4, 0.3, resolution=16, scale=draw(st.sampled_from([0.02, -0.05])),
                                     tiling=(2.0, 2.0))
+    normal_map = draw(st.none() | textures())  # random texels: normals bent every way, some past the horizon
     return rs.Material(kd=draw(rgb), ka=draw(rgb), ks=ks, shininess=draw(st.sampled_from([1.0, 8.0, 40.0, 15.5])),
                        specular=draw(st.sampled_from(["phong", "blinn"])), bump=bump, ke=ke,
-                       ka_colors=draw(st.booleans()), ao_strength=draw(st.sampled_from([1.0, 0.6])), **maps)
+                       ka_colors=draw(st.booleans()), ao_strength=draw(st.sampled_from([1.0, 0.6])),
+                       normal_map=normal_map, normal_scale=draw(st.sampled_from([1.0, 0.5, 2.0])), **maps)
 
 
 def _coloured(mesh, mode, seed):
@@ -142,6 +144,7 @@ def cases(draw):
                   if getattr(m.material, k) is not None},
                  dict(ks=m.material.ks.tolist(), ke=m.material.ke.tolist(), ka_colors=m.material.ka_colors,
                       spec=m.material.specular, bump=m.material.bump is not None,
+                      normal_map=m.material.normal_map is not None,
                       rho=m.material.reflectivity)) for m in scene.models]
     features.append([(type(light).__name__, getattr(light, "attenuation", ""), light.shadows)
                      for light in scene.lights])
@@ -158,6 +161,8 @@ def cases(draw):
             event("ambient follows the colours")
         if m.material.bump is not None:
             event("bump map")
+        if m.material.normal_map is not None:
+            event("normal map")
         if m.material.reflectivity > 0:
             event("mirror")
     for light in scene.lights:
