@@ -242,7 +242,10 @@ def test_gltf_base_colour_texture_vertex_colours_and_pbr_mapping(tmp_path):
     alpha = 0.5 ** 2
     np.testing.assert_allclose(m.kd, base * (0.75 + 0.25 * alpha))
     np.testing.assert_allclose(m.ks, 0.04 * 0.75 + base * 0.25 * (1 - alpha))
-    np.testing.assert_allclose(m.ka, base)
+    # COLOR_0 makes the ambient follow the colours (ka_colors): the point's ka is ka x colour, the colour
+    # being COLOR_0 x kd's factor, so ka = 1 / that factor gives an ambient of base colour x COLOR_0.
+    assert m.ka_colors
+    np.testing.assert_allclose(m.ka, 1.0 / (0.75 + 0.25 * alpha))
     assert m.specular == "blinn" and m.shininess == pytest.approx(2 / 0.25 ** 2 - 2)
     np.testing.assert_allclose(m.kd_map.texels, srgb_to_linear(img[::-1] / 255), rtol=1e-6)
     assert m.ks_map is m.kd_map  # the metallic part of ks is the base colour
