@@ -114,7 +114,7 @@ def _step_textures():
 def _step_terms_buffers():
     scene = _scene(floor=Material(kd=0.6, reflectivity=0.3))
     _methods(scene, terms="per_light")
-    _methods(scene, terms=True, interpolation="screen")  # screen-space weights: the terms kernel's other types
+    _variants(terms=True)  # the one-pass Phong terms kernel folds "any specular" / "any attenuation" too
     render(scene, "phong", buffers=tuple(BUFFER_NAMES))
 
 
