@@ -43,7 +43,7 @@ from .output.tonemap import read_pfm, to_uint8, write_pfm
 from .common.version import __version__
 from .common.warnings import (BumpIgnoredWarning, ColourRangeWarning, CreaseWarning, DroppedOnLoadWarning,
                               EmptyViewWarning, LightInsideWarning, NoLightsWarning, ShadingWarning,
-                              ZeroNormalWarning)
+                              SingleSidedWarning, ZeroNormalWarning)
 
 
 __all__ = [
@@ -51,7 +51,8 @@ __all__ = [
     "SHADINGS", "cast_camera", "cast_rays", "read_pfm", "render", "render_file", "choose_methods", "shade", "shading_normals", "shapes", "to_uint8", "write_pfm",
     "WindingWarning", "winding_conflicts",
     "ShadingWarning", "BumpIgnoredWarning", "ColourRangeWarning", "CreaseWarning", "DroppedOnLoadWarning",
-    "LightInsideWarning", "NoLightsWarning", "ZeroNormalWarning", "EmptyViewWarning", "figures", "overlays",
+    "LightInsideWarning", "NoLightsWarning", "ZeroNormalWarning", "EmptyViewWarning", "SingleSidedWarning",
+    "figures", "overlays",
     "explain", "explore", "render_views", "diagnose", "warmup", "animate_light", "animate_orbit",
     "save_npz", "load_npz", "write_exr", "read_exr", "write_depth_png", "read_depth_png",
     "optical_flow", "move_model", "semantic_classes", "object_table", "view_objects", "coco_instances", "write_coco",

@@ -17,6 +17,7 @@ from .scene.camera import Camera
 from .visibility.accel import embree_accel, has_embree_accel
 from .visibility import bands
 from .visibility.cast import cast_camera, resolve_caster, secondary_rays
+from .visibility.facing import warn_single_sided
 from .visibility.hits import image_buffer
 from .visibility.interpolation import to_screen_space
 from .visibility.pixel import CameraCast
@@ -135,6 +136,7 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
     warn_render(scene, shading)  # no lights, a light inside a closed mesh, a bump map the method ignores
     timings, mask, extra = {}, None, {}
     _build(scene, plan, timings)
+    warn_single_sided(scene, camera)  # back faces of a single-sided (glTF) model in view: said, not silent
     inputs = prepare(scene, camera)  # once per frame: shading, every sample and the mirror bounces
     if banded:
         hits, image, mask, extra = _render_bands(scene, plan, timings, inputs)

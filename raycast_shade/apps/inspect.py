@@ -19,7 +19,7 @@ __all__ = ["inspect_file", "format_report", "register_cli", "run_cli"]
 
 _GLTF_MAPPED = {"baseColorFactor": "kd, ka (x (1 - m + m a)), ks (metal part)", "baseColorTexture": "kd_map, ka_map",
                 "metallicFactor": "kd/ks split", "roughnessFactor": "shininess t = 2/a^2 - 2, a = r^2",
-                "doubleSided": "always (lit from the side seen)",
+                "doubleSided": "double_sided (back faces drawn two-sided; SingleSidedWarning where the camera sees them)",
                 "emissiveFactor": "ke (times KHR_materials_emissive_strength)", "emissiveTexture": "ke_map",
                 "occlusionTexture": "ao_map (red channel, linear) and ao_strength: scales ka per texel",
                 "alphaCutoff": "alpha_cutoff (with alphaMode MASK)",

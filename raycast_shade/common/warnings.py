@@ -19,7 +19,7 @@ from __future__ import annotations
 
 __all__ = [
     "ShadingWarning", "BumpIgnoredWarning", "ColourRangeWarning", "CreaseWarning", "DroppedOnLoadWarning",
-    "LightInsideWarning", "NoLightsWarning", "ZeroNormalWarning", "EmptyViewWarning",
+    "LightInsideWarning", "NoLightsWarning", "ZeroNormalWarning", "EmptyViewWarning", "SingleSidedWarning",
 ]
 
 
@@ -58,3 +58,9 @@ class ZeroNormalWarning(ShadingWarning):
 
 class EmptyViewWarning(ShadingWarning):
     """The camera sees none of the scene: every model lies outside its view."""
+
+
+class SingleSidedWarning(ShadingWarning):
+    """The camera sees back faces of a model whose material is single-sided (glTF's
+    ``doubleSided: false``): drawn and lit from the side seen, where a culling renderer would
+    show what lies behind."""

@@ -417,7 +417,7 @@ def from_pbr(mat, name: str, lost: list, ctx: FileContext) -> dict:
     tex, mr = getattr(mat, "baseColorTexture", None), getattr(mat, "metallicRoughnessTexture", None)
     wrap_s, wrap_t, notes = ctx.sampler(pbr.get("baseColorTexture"))
     lost += notes
-    kw = {"name": name, "specular": "blinn"}
+    kw = {"name": name, "specular": "blinn", "double_sided": bool(js.get("doubleSided", False))}
     kw.update(_alpha_mask(mat, js, base, name, lost, ctx, (wrap_s, wrap_t)))
     if mr is None:
         alpha = r * r

@@ -108,6 +108,13 @@ class Material:
     normal_scale : float
         ``s`` above (glTF's ``normalTexture.scale``), default 1; 0 leaves the
         normal unbent.
+    double_sided : bool
+        Whether the surface is meant to be seen from both sides (the default).
+        ``False`` (glTF's ``doubleSided: false``, its default) changes nothing
+        in the image: every surface is lit from the side it is seen from and
+        back faces are drawn; ``render`` then warns (``SingleSidedWarning``)
+        when the camera sees the back faces of such a model, which a culling
+        renderer would not draw.
     """
 
     kd: object = None
@@ -130,6 +137,7 @@ class Material:
     ao_strength: float = 1.0
     normal_map: object = None
     normal_scale: float = 1.0
+    double_sided: bool = True
 
     def __post_init__(self):
         set_ = object.__setattr__
@@ -156,6 +164,9 @@ class Material:
         if not isinstance(self.ka_colors, (bool, np.bool_)):
             raise TypeError(f"{self.name}.ka_colors: expected True or False, got {type(self.ka_colors).__name__}")
         set_(self, "ka_colors", bool(self.ka_colors))
+        if not isinstance(self.double_sided, (bool, np.bool_)):
+            raise TypeError(f"{self.name}.double_sided: expected True or False, got {type(self.double_sided).__name__}")
+        set_(self, "double_sided", bool(self.double_sided))
         set_(self, "ao_strength", as_scalar(self.ao_strength, f"{self.name}.ao_strength", minimum=0.0, maximum=1.0))
         set_(self, "normal_scale", as_scalar(self.normal_scale, f"{self.name}.normal_scale"))
         set_(self, "reflectivity", as_scalar(self.reflectivity, f"{self.name}.reflectivity", minimum=0.0, maximum=1.0))
