@@ -11,6 +11,11 @@ divided by the plain Phong frame's median:
 * ``buffers_all``: the 12 buffers of :data:`~raycast_shade.output.buffers.BUFFER_NAMES`
   but ``coverage``; ``position``; ``view_default``: ``zdepth, normal, id, mask``
   (the view sets' default), each the whole ``render`` call;
+* ``buffers_all_reused``: the 12 buffers written into an earlier frame's arrays
+  (``render(buffers_out=...)``): no fresh pages;
+* ``alloc_all``, ``alloc_view_default``: ``np.empty`` and one fill of exactly the
+  output arrays of those two sets, the page-fault floor no kernel removes (fresh
+  memory is what costs: ~5-8 ms for 50 MB with huge pages);
 * ``write_floor``: the bytes of the 12 buffers and the image in one plain
   ``open().write()``, the least any writer of them can take on this disk;
 * ``npz_plain``, ``npz_level1``, ``npz_level6``, ``exr``, ``exr_zip``,
@@ -83,10 +88,26 @@ def _paths(scene, tmp):
         "buffers_all": (lambda: rs.render(scene, buffers=ALL), None, 1),
         "position": (lambda: rs.render(scene, buffers=("position",)), None, 1),
         "view_default": (lambda: rs.render(scene, buffers=VIEW_DEFAULT), None, 1),
+        "buffers_all_reused": (lambda: rs.render(scene, buffers=ALL, buffers_out=full.buffers), None, 1),
+        "alloc_all": (lambda: _alloc(ALL, scene.camera), None, 1),
+        "alloc_view_default": (lambda: _alloc(VIEW_DEFAULT, scene.camera), None, 1),
         **_writer_paths(full, tmp),
         **_view_paths(scene, tmp),
         **_band_paths(scene),
     }
+
+
+def _alloc(names, camera):
+    """``np.empty`` and one write pass of exactly the output arrays ``render(buffers=names)`` makes:
+    the page faults of fresh outputs, which no buffer kernel can avoid."""
+    import numpy as np
+
+    from raycast_shade.common.bufferspec import BUFFERS
+    from raycast_shade.output.buffers import check_buffers
+
+    for name in check_buffers(names):
+        spec = BUFFERS[name]
+        np.empty(spec.shape(camera.height, camera.width), spec.dtype).fill(0)
 
 
 def _writer_paths(full, tmp):
@@ -233,8 +254,12 @@ def peak_mib(kind, level, width, height, names) -> float:
 
 
 BEGIN, END = "<!-- paths:begin (benchmarks/bench_paths.py) -->", "<!-- paths:end -->"
-LABELS = {"buffers_all": "all 12 buffers", "position": "`position` alone",
+LABELS = {"buffers_all": "all 12 buffers",
+          "alloc_all": "their arrays, `np.empty` + one fill (the page-fault floor)",
+          "buffers_all_reused": "all 12 buffers into an earlier frame's arrays (`buffers_out=`)",
+          "position": "`position` alone",
           "view_default": "zdepth, normal, id, mask (the view-set default)",
+          "alloc_view_default": "their arrays, `np.empty` + one fill (the floor)",
           "write_floor": "the same bytes, one plain write (the floor)", "npz_plain": "`save_npz`, stored (default)",
           "npz_level1": "`save_npz`, deflate level 1 (ISA-L)", "npz_level6": "`save_npz`, deflate level 6 (zlib)",
           "exr": "`write_exr`, uncompressed (default)", "exr_zip": "`write_exr`, ZIP", "exr_zstd": "`write_exr`, ZSTD",

@@ -23,7 +23,8 @@ from .visibility.interpolation import to_screen_space
 from .visibility.pixel import CameraCast
 from .visibility.raster import check_raster_camera, rasterize
 from .visibility.rays import subpixel_camera
-from .output.buffers import FrameBuffers, check_buffers, compute_buffers
+from .common.bufferspec import BUFFERS
+from .output.buffers import FrameBuffers, check_buffers, check_buffers_out
 from .output.frame import Frame
 from .scene.pitfalls import warn_render
 from .scene.scene import Scene
@@ -42,7 +43,8 @@ __all__ = ["render", "render_file"]
 
 def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backend: str = "raycast",
            interpolation: str = "perspective", caster: str = "auto", max_depth: int = 3,
-           tolerance: float = 0.01, buffers=(), terms=False, samples: int = 1, out=None) -> Frame:
+           tolerance: float = 0.01, buffers=(), terms=False, samples: int = 1, out=None,
+           buffers_out=None) -> Frame:
     """Render a scene.
 
     Parameters
@@ -93,6 +95,16 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
         size reuses one image instead of page-faulting a fresh one per frame
         (24 MB at 1080p). Its old contents are overwritten, so an earlier
         frame holding it changes too.
+    buffers_out : dict of str to ndarray, optional
+        Arrays to write some or all of the ``buffers`` asked for into, by
+        buffer name (``id``'s as ``model_id`` and ``triangle_id``): each
+        writeable, C-contiguous, of the buffer's shape and dtype, none
+        overlapping another or ``out``. An earlier frame's ``frame.buffers``
+        serves: a sequence of views of one size then faults in no fresh
+        pages for its buffers (186 MB for all of them at 1080p), and
+        ``frame.buffers`` holds these very arrays, so the earlier frame's
+        buffers change too (copy what must be kept). Buffers not given are
+        allocated as usual; a name not asked for in ``buffers`` is an error.
     terms : bool, str or sequence of str
         ``True``: the reflectance equation's terms as images on ``frame.terms``
         (ambient, diffuse, specular, reflected, shadow mask; ``"per_light"``
@@ -129,25 +141,31 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
     """
     t0 = time.perf_counter()
     plan = _plan(scene, shading, camera, backend, interpolation, caster, max_depth, tolerance, buffers, samples, out,
-                 terms)
+                 terms, buffers_out)
     camera, shading, terms = plan.camera, plan.shading, plan.terms
     banded = _banded(scene, plan, terms)  # then the memory of what is asked for, before any kernel
-    camera.check_frame_memory(plan.buffers, plan.samples, terms, len(scene.lights), bands.BAND_ROWS * banded)
+    camera.check_frame_memory(plan.buffers, plan.samples, terms, len(scene.lights), bands.BAND_ROWS * banded,
+                              reused=tuple(plan.buffers_out))
     warn_render(scene, shading)  # no lights, a light inside a closed mesh, a bump map the method ignores
     timings, mask, extra = {}, None, {}
     _build(scene, plan, timings)
     warn_single_sided(scene, camera)  # back faces of a single-sided (glTF) model in view: said, not silent
     inputs = prepare(scene, camera)  # once per frame: shading, every sample and the mirror bounces
+    fb = FrameBuffers(scene, camera, plan.buffers, shading, out=plan.buffers_out) if plan.buffers else None
     if banded:
-        hits, image, mask, extra = _render_bands(scene, plan, timings, inputs)
+        hits, image, mask, extra = _render_bands(scene, plan, timings, inputs, fb)
     else:
+        h, w = camera.height, camera.width
+        normal = None if fb is None else fb.normal_target(0, h, w)  # written by the Phong kernel as it shades
         if plan.samples == 1:
-            hits, image, coverage = _render_one(scene, plan, timings, inputs)
+            hits, image, coverage = _render_one(scene, plan, timings, inputs, normal)
         else:
-            hits, image, coverage = _render_samples(scene, plan, timings, inputs)
-        if plan.buffers:
+            hits, image, coverage = _render_samples(scene, plan, timings, inputs, normal)
+        if fb is not None:
             tb = time.perf_counter()
-            extra = compute_buffers(scene, camera, hits, plan.buffers, shading, coverage=coverage)
+            fb.band(hits, 0, shaded=normal is not None)
+            counted = any(BUFFERS[n].writer == "samples" for n in fb.names)
+            extra = fb.result(hits.prim >= 0 if counted else None, coverage)
             timings["buffers"] = time.perf_counter() - tb
     te = time.perf_counter()
     parts = {} if terms is None else shade_terms(scene, camera, hits, shading, plan.max_depth, "per_light" in terms,
@@ -182,10 +200,11 @@ class _Plan:
     samples: int = 1
     out: object = None  # the image array to fill, or None
     terms: object = None  # check_terms's options, or None for no terms
+    buffers_out: dict = None  # buffer name -> the caller's array to fill (check_buffers_out)
 
 
 def _plan(scene, shading, camera, backend, interpolation, caster, max_depth, tolerance, buffers,
-          samples=1, out=None, terms=False) -> _Plan:
+          samples=1, out=None, terms=False, buffers_out=None) -> _Plan:
     """Every argument checked before any kernel runs (the names as the user spelled them)."""
     if not isinstance(scene, Scene):
         raise TypeError(f"scene: expected a Scene, got {type(scene).__name__}")
@@ -223,11 +242,13 @@ def _plan(scene, shading, camera, backend, interpolation, caster, max_depth, tol
         decisions = tuple(choose_methods(scene, camera, tolerance))
         shading = tuple(d.method for d in decisions)
     out = _check_out(out, camera)
+    buffers_out = check_buffers_out(buffers_out, buffers, (camera.height, camera.width), others=(out,))
     terms = check_terms(terms)
     if terms is not None and samples > 1:
         raise ValueError(f"terms: the terms are those of one ray per pixel; with samples={samples} they "
                          "would not add up to the averaged image: render them with samples=1")
-    return _Plan(shading, camera, backend, interpolation, caster, max_depth, buffers, decisions, samples, out, terms)
+    return _Plan(shading, camera, backend, interpolation, caster, max_depth, buffers, decisions, samples, out, terms,
+                 buffers_out)
 
 
 def _check_out(out, camera):
@@ -293,11 +314,13 @@ _BACKENDS = {"raycast": ("cast", _cast), "raster": ("raster", _raster)}
 _WEIGHTS = {"perspective": _perspective, "screen": to_screen_space}
 
 
-def _render_one(scene, plan: _Plan, timings: dict, inputs):
-    """One ray per pixel: the hit buffer, its shaded image (mirrors blended in) and no coverage."""
+def _render_one(scene, plan: _Plan, timings: dict, inputs, normal=None):
+    """One ray per pixel: the hit buffer, its shaded image (mirrors blended in) and no coverage;
+    ``normal``: where the Phong kernel writes the shading normals (:meth:`FrameBuffers.normal_target`)."""
     hits = _visibility(scene, plan, timings)
     ts = time.perf_counter()
-    image = SampleShading(scene, plan.camera, plan.shading, inputs).shade(hits, out=plan.out)  # our hits: valid
+    image = SampleShading(scene, plan.camera, plan.shading, inputs).shade(hits, out=plan.out,
+                                                                          normal=normal)  # our hits: valid
     te = time.perf_counter()
     timings["shade"] = te - ts
     if scene.geometry.reflective and plan.max_depth > 0:
@@ -317,7 +340,7 @@ def _banded(scene, plan: _Plan, terms) -> bool:
             and cam.height > bands.BAND_ROWS and cam.width * cam.height >= bands.MIN_PIXELS)
 
 
-def _render_bands(scene, plan: _Plan, timings: dict, inputs):
+def _render_bands(scene, plan: _Plan, timings: dict, inputs, buffers=None):
     """Each band of rows cast, shaded and its buffers computed as soon as it is cast (while
     its hits are in cache), so the frame never holds (or page-faults in) a full-frame hit
     buffer: 20 bytes a pixel. Anti-aliasing casts every sample's band in turn (one window
@@ -334,25 +357,27 @@ def _render_bands(scene, plan: _Plan, timings: dict, inputs):
     image = np.empty((h, w, 3), np.float32) if plan.out is None else plan.out
     mask = np.empty((h, w), np.bool_)
     shader = SampleShading(scene, camera, plan.shading, inputs)
-    buffers = FrameBuffers(scene, camera, plan.buffers, plan.shading) if plan.buffers else None
     casts = [bands.cast_bands(scene.geometry, subpixel_camera(camera, dx, dy), bands.BAND_ROWS)
              for dx, dy in sample_offsets(plan.samples)]
     counted = plan.samples > 1 and "coverage" in plan.buffers
     mean = _BandMean(plan.samples, w, counted) if plan.samples > 1 else None
-    coverage = np.empty((h, w), np.float32) if counted else None
+    coverage = None
+    if counted:
+        coverage = plan.buffers_out["coverage"] if "coverage" in plan.buffers_out else np.empty((h, w), np.float32)
     spent = dict.fromkeys(("shade", "buffers", "average"), 0.0)
     t_start = time.perf_counter()
     for y, band in casts[0]:
         m = band.shape[0]
         rows = slice(y, y + m)
         t0 = time.perf_counter()
+        normal = None if buffers is None else buffers.normal_target(y, m, w)  # the Phong kernel writes them
         if mean is None:
-            shader.shade(band, out=image[rows], y0=y)
+            shader.shade(band, out=image[rows], y0=y, normal=normal)
         else:
             for i, cast in enumerate(casts):
                 hits = band if i == 0 else next(cast)[1]
                 ts = time.perf_counter()
-                shader.shade(hits, out=mean.image(i, m), y0=y)
+                shader.shade(hits, out=mean.image(i, m), y0=y, normal=None if i else normal)
                 ta = time.perf_counter()
                 mean.add(i, hits.prim, image[rows], None if coverage is None else coverage[rows])
                 spent["shade"] += ta - ts
@@ -362,7 +387,7 @@ def _render_bands(scene, plan: _Plan, timings: dict, inputs):
         if mean is None:
             spent["shade"] += t1 - t0
         if buffers is not None:
-            buffers.band(band, y)
+            buffers.band(band, y, shaded=normal is not None)
             spent["buffers"] += time.perf_counter() - t1
     timings["cast"] = time.perf_counter() - t_start - sum(spent.values())
     timings.update((k, v) for k, v in spent.items() if v or k == "shade")
@@ -411,7 +436,7 @@ class _BandMean:
             self.group = []
 
 
-def _render_samples(scene, plan: _Plan, timings: dict, inputs):
+def _render_samples(scene, plan: _Plan, timings: dict, inputs, normal=None):
     """Anti-aliasing: every sample's hit buffer, shaded (and mirrored) with the per-face and
     per-vertex work shared, then averaged. Returns sample 0's (the centre's) hits, the mean
     image and the coverage (None unless a "coverage" buffer was asked for).
@@ -444,7 +469,7 @@ def _render_samples(scene, plan: _Plan, timings: dict, inputs):
         hits = _visibility(scene, plan, timings, (dx, dy), None if i == 0 else scratch[j])
         image = images[i % GROUP]
         ts = time.perf_counter()
-        shader.shade(hits, out=image)
+        shader.shade(hits, out=image, normal=normal if i == 0 else None)  # sample 0's normals: the centre's
         te = time.perf_counter()
         timings["shade"] = timings.get("shade", 0.0) + te - ts
         if mirrors:  # per sample: a mirror's reflection is anti-aliased too

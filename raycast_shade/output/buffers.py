@@ -38,8 +38,8 @@ from ..common.layout import CAM_EYE
 from ..scene.framememory import BUFFER_BYTES
 from ..visibility.rays import camera_frame, pixel_ray
 
-__all__ = ["BUFFER_NAMES", "ALIASES", "BUFFER_BYTES", "buffer_bytes", "check_buffers", "compute_buffers",
-           "FrameBuffers"]
+__all__ = ["BUFFER_NAMES", "ALIASES", "BUFFER_BYTES", "buffer_bytes", "check_buffers", "check_buffers_out",
+           "compute_buffers", "FrameBuffers"]
 
 
 
@@ -270,11 +270,13 @@ _RAY_BUFFERS = ("zdepth", "position", "face_normal", "face_normal_camera")  # th
 class FrameBuffers:
     """The named buffers of one frame, filled band by band (or in one band: the whole frame).
 
-    Every full-frame output is allocated once, up front; :meth:`band` runs the buffer kernel
-    (and, for ``normal``/``normal_camera``, the shading-normal kernel) on one band's hits,
-    writing straight into the band's rows: no full-frame temporaries, and each output's pages
-    are touched while the band's hits are in cache. A pixel's values do not depend on the
-    band it is in, so any banding gives the whole frame's buffers, bit for bit.
+    Every full-frame output is allocated once, up front (or is the caller's, ``out``);
+    :meth:`band` runs the buffer kernel on one band's hits, writing straight into the band's
+    rows: no full-frame temporaries, and each output's pages are touched while the band's hits
+    are in cache. The shading normals (``normal``, ``normal_camera``) are written by the Phong
+    kernel as it shades (:meth:`normal_target`) when every model is Phong-shaded, and by the
+    shading-normal kernel otherwise. A pixel's values do not depend on the band it is in, so
+    any banding gives the whole frame's buffers, bit for bit.
 
     Parameters
     ----------
@@ -287,11 +289,16 @@ class FrameBuffers:
         The frame's methods (for the shading normals).
     shape : (int, int), optional
         The frame's (H, W); the camera's image by default.
+    out : dict of str to ndarray, optional
+        Arrays to write some of the buffers into instead of new ones, checked by
+        :func:`check_buffers_out` (their old contents are overwritten).
     """
 
-    def __init__(self, scene, camera, names, shading="phong", shape=None):
+    def __init__(self, scene, camera, names, shading="phong", shape=None, out=None):
+        from ..common.layout import METHOD_PHONG
         from ..scene.projection import extrinsics
         from ..shading.normals import normal_inputs
+        from ..shading.shade import resolve_methods
 
         self.names = check_buffers(names)
         h, w = (camera.height, camera.width) if shape is None else shape
@@ -310,29 +317,49 @@ class FrameBuffers:
             from .labels import semantic_classes
 
             self.lut = c(semantic_classes(scene)[1], np.int32)
-        self.full = {b.name: np.empty(b.shape(h, w), b.dtype) for b in KERNEL_BUFFERS if b.name in self.names}
+        out = {} if out is None else out
+        self.out = {name: out[name] for name in self.names if name in out}
+        self.full = {b.name: self.out[b.name] if b.name in self.out else np.empty(b.shape(h, w), b.dtype)
+                     for b in KERNEL_BUFFERS if b.name in self.names}
         self.empty = {b.name: np.empty(b.shape(0, 0), b.dtype) for b in KERNEL_BUFFERS}
         self.normals = None  # the shading normals' inputs, when a normal buffer is asked for
+        self.phong = False  # whether the Phong kernel writes every pixel's shading normal
         if "normal" in self.names or "normal_camera" in self.names:
             self.normals = normal_inputs(scene, camera, shading)
+            self.phong = bool(np.all(resolve_methods(scene, shading) == METHOD_PHONG))
         self._scratch = np.empty((0, 0, 3), np.float32)  # one band's normals when only normal_camera is asked
 
-    def band(self, hits, y0: int = 0) -> None:
-        """Fill the rows ``y0 .. y0 + R`` of every output from the band's (R, W) hits."""
+    def normal_target(self, y0: int, m: int, w: int):
+        """Where the shading kernel writes the shading normals of rows ``y0 .. y0 + m`` as it
+        shades them: the ``normal`` buffer's rows (or a band's scratch for ``normal_camera``
+        alone); None when no normal buffer is asked for or some model is not Phong-shaded
+        (then :meth:`band` computes them). Pass ``shaded=True`` to :meth:`band` after."""
+        if not self.phong:
+            return None
+        return self._normals(y0, m, w)
+
+    def _normals(self, y0, m, w):
+        if "normal" in self.full:
+            return self.full["normal"][y0:y0 + m]
+        if self._scratch.shape[0] < m or self._scratch.shape[1] != w:
+            self._scratch = np.empty((m, w, 3), np.float32)
+        return self._scratch[:m]
+
+    def band(self, hits, y0: int = 0, shaded: bool = False) -> None:
+        """Fill the rows ``y0 .. y0 + R`` of every output from the band's (R, W) hits;
+        ``shaded``: the shading kernel has written the band's shading normals into
+        :meth:`normal_target`."""
         from ..shading.normals import normals_into
 
         m, w = hits.prim.shape
         rows = slice(y0, y0 + m)
         outputs = {name: a[rows] for name, a in self.full.items()}
+        outputs.pop("normal", None)  # the shading normals themselves: written by the shading or normals kernel
         shading_n = self.empty["normal"]
         if self.normals is not None:
-            if "normal" in outputs:
-                shading_n = outputs.pop("normal")  # written by the normals kernel itself
-            else:
-                if self._scratch.shape[0] < m or self._scratch.shape[1] != w:
-                    self._scratch = np.empty((m, w, 3), np.float32)
-                shading_n = self._scratch[:m]
-            normals_into(self.normals, hits, shading_n)
+            shading_n = self._normals(y0, m, w)
+            if not (shaded and self.phong):
+                normals_into(self.normals, hits, shading_n)
         if not outputs:
             return
         c = np.ascontiguousarray
@@ -345,13 +372,75 @@ class FrameBuffers:
     def result(self, mask=None, coverage=None) -> dict:
         """The buffers in the order asked. ``coverage``: the samples' hit fraction, or None for
         one sample (then ``mask``, the (H, W) bool hit mask, as float32)."""
-        out = {}
+        res = {}
         for name in self.names:
             if BUFFERS[name].writer == "samples":  # the coverage
-                out[name] = mask.astype(np.float32) if coverage is None else np.asarray(coverage, np.float32)
+                value = mask if coverage is None else coverage
+                if name in self.out:
+                    if self.out[name] is not value:
+                        np.copyto(self.out[name], value)
+                    res[name] = self.out[name]
+                else:
+                    res[name] = np.asarray(value, np.float32) if coverage is not None else mask.astype(np.float32)
             else:
-                out[name] = self.full[name]
-        return out
+                res[name] = self.full[name]
+        return res
+
+
+def check_buffers_out(buffers_out, names, shape, others=(), field: str = "buffers_out") -> dict:
+    """Caller-provided arrays for some of the asked buffers, checked before any kernel runs.
+
+    Parameters
+    ----------
+    buffers_out : mapping of str to ndarray, or None
+        Buffer name (:data:`BUFFER_NAMES`, no alias) to the array to write it into: a
+        writeable C-contiguous array of the buffer's dtype and shape (e.g. an earlier
+        frame's ``frame.buffers``, whose arrays then change).
+    names : tuple of str
+        The checked names asked for (:func:`check_buffers`); every key must be one of them.
+    shape : (int, int)
+        The frame's (H, W).
+    others : sequence of ndarray
+        Arrays the frame writes too (``render(out=...)``): none of the given may overlap them.
+
+    Returns
+    -------
+    dict of str to ndarray
+
+    Raises
+    ------
+    TypeError, ValueError
+        Naming ``field`` and the buffer: not a mapping or not an array; a name not asked for;
+        a wrong shape or dtype; read-only, not C-contiguous, or sharing memory with another
+        output.
+    """
+    if buffers_out is None:
+        return {}
+    if not hasattr(buffers_out, "items"):
+        raise TypeError(f"{field}: expected a mapping of buffer names to arrays, got {type(buffers_out).__name__}")
+    out = {}
+    h, w = shape
+    for name, a in buffers_out.items():
+        if not isinstance(name, str):
+            raise TypeError(f"{field}: expected buffer names (str) as keys, got {type(name).__name__}")
+        if name not in names:
+            raise ValueError(f"{field}[{name!r}]: not among the buffers asked for ({', '.join(names) or 'none'}); "
+                             "ask for it in buffers= or leave it out")
+        if not isinstance(a, np.ndarray):
+            raise TypeError(f"{field}[{name!r}]: expected a numpy array, got {type(a).__name__}")
+        spec = BUFFERS[name]
+        want = spec.shape(h, w)
+        if a.shape != want or a.dtype != np.dtype(spec.dtype):
+            raise ValueError(f"{field}[{name!r}]: expected a {want} {spec.dtype} array, got {a.shape} {a.dtype}")
+        if not a.flags.c_contiguous or not a.flags.writeable:
+            raise ValueError(f"{field}[{name!r}]: expected a writeable C-contiguous array")
+        for other_name, b in list(out.items()) + [("out", o) for o in others if o is not None]:
+            if np.may_share_memory(a, b):
+                raise ValueError(f"{field}[{name!r}]: shares memory with "
+                                 f"{other_name if other_name == 'out' else f'{field}[{other_name!r}]'}; "
+                                 "each output needs its own array")
+        out[name] = a
+    return out
 
 
 def compute_buffers(scene, camera, hits, names, shading="phong", coverage=None) -> dict:

@@ -158,18 +158,18 @@ class Camera:
         return right, up, fwd
 
     def check_frame_memory(self, buffers=(), samples: int = 1, terms=None, lights: int = 0,
-                           band_rows: int = 0) -> None:
+                           band_rows: int = 0, reused=()) -> None:
         """Refuse (ValueError, with the figure) a frame larger than
         :func:`~raycast_shade.common.validate.memory_limit`.
 
         Parameters
         ----------
-        buffers, samples, terms, lights, band_rows
+        buffers, samples, terms, lights, band_rows, reused
             What the frame is asked for and how it is rendered, as
             :func:`~raycast_shade.scene.framememory.frame_bytes` counts it
             (the default: the plain frame, ``FRAME_BYTES_PER_PIXEL``).
         """
-        need = frame_bytes(self.width, self.height, buffers, samples, terms, lights, band_rows)
+        need = frame_bytes(self.width, self.height, buffers, samples, terms, lights, band_rows, reused)
         check_memory(need, f"camera.width x camera.height: {self.width} x {self.height} pixels", "a frame")
 
     @property

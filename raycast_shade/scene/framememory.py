@@ -11,7 +11,8 @@ kernel runs. Checked against measured peaks in
   8-bit image 3;
 * each buffer its stored bytes, :data:`BUFFER_BYTES` (the writers store
   the same), plus 12 for the shading normals a ``normal_camera`` buffer is
-  computed from (a ``normal`` buffer holds them itself);
+  computed from (a ``normal`` buffer holds them itself); a buffer written
+  into the caller's array (``render(buffers_out=...)``) counts nothing;
 * ``samples=N > 1``: one more hit buffer (one per sample of a group of 4
   when ``coverage`` is counted), up to 3 more images, a float64
   accumulator beyond 4 samples (and an int32 hit count with ``coverage``);
@@ -42,7 +43,7 @@ BUFFER_BYTES = {spec.name: spec.bytes for spec in REGISTRY}
 _HITS, _IMAGE, _NORMALS, _GROUP = 20, 12, 12, 4
 
 
-def frame_bytes_per_pixel(buffers=(), samples: int = 1, terms=None, lights: int = 0) -> int:
+def frame_bytes_per_pixel(buffers=(), samples: int = 1, terms=None, lights: int = 0, reused=()) -> int:
     """Bytes per pixel a frame needs with these options.
 
     Parameters
@@ -56,6 +57,9 @@ def frame_bytes_per_pixel(buffers=(), samples: int = 1, terms=None, lights: int 
         terms, ``("per_light",)`` for each light's too.
     lights : int
         The scene's lights (for the terms).
+    reused : sequence of str
+        Buffers written into the caller's arrays (``render(buffers_out=...)``): asked for, but
+        no new memory.
 
     Raises
     ------
@@ -64,7 +68,7 @@ def frame_bytes_per_pixel(buffers=(), samples: int = 1, terms=None, lights: int 
     """
     names = _names(buffers)
     n = _samples(samples)
-    total = FRAME_BYTES_PER_PIXEL + sum(BUFFER_BYTES[b] for b in names)
+    total = FRAME_BYTES_PER_PIXEL + sum(BUFFER_BYTES[b] for b in names - _names(reused))
     if "normal_camera" in names and "normal" not in names:
         total += _NORMALS
     if n > 1:
@@ -77,13 +81,13 @@ def frame_bytes_per_pixel(buffers=(), samples: int = 1, terms=None, lights: int 
 
 
 def frame_bytes(width: int, height: int, buffers=(), samples: int = 1, terms=None, lights: int = 0,
-                band_rows: int = 0) -> float:
+                band_rows: int = 0, reused=()) -> float:
     """Bytes a frame of ``width`` x ``height`` pixels needs with these options.
 
     Parameters
     ----------
     width, height : int
-    buffers, samples, terms, lights
+    buffers, samples, terms, lights, reused
         As :func:`frame_bytes_per_pixel`.
     band_rows : int
         Rows per band of a frame ``render()`` renders band by band (terms are
@@ -95,10 +99,10 @@ def frame_bytes(width: int, height: int, buffers=(), samples: int = 1, terms=Non
     """
     px = float(width) * float(height)
     if not band_rows:
-        return px * frame_bytes_per_pixel(buffers, samples, terms, lights)
+        return px * frame_bytes_per_pixel(buffers, samples, terms, lights, reused)
     names = _names(buffers)
     n = _samples(samples)
-    per_pixel = FRAME_BYTES_PER_PIXEL + 1 + sum(BUFFER_BYTES[b] for b in names)
+    per_pixel = FRAME_BYTES_PER_PIXEL + 1 + sum(BUFFER_BYTES[b] for b in names - _names(reused))
     rows = min(int(band_rows) + 2, int(height))  # a window: the band, the row above and the waiting row
     band = _HITS * n  # every sample's window
     if "normal_camera" in names and "normal" not in names:

@@ -81,10 +81,15 @@ def _make_phong(spec_on: bool, att_on: bool, tex_on: bool = False):
     """The Phong pixel kernel for one variant (see :mod:`.jit`; ``tex_on``: textured coefficients)."""
 
     @njit(parallel=True, **JIT)
-    def _shade_phong_kernel(prim, geom, u, v, G, B, L, T, face_off, materials, cam, background, modes, image, y0):
+    def _shade_phong_kernel(prim, geom, u, v, G, B, L, T, face_off, materials, cam, background, modes, outs, y0):
         """Phong: shade every pixel of the models whose method is METHOD_PHONG; array row ``r``
-        is image row ``y0 + r`` (a band of the frame; textures need the image position)."""
+        is image row ``y0 + r`` (a band of the frame; textures need the image position).
+        ``outs = (image, normal)``: the (h, W, 3) float32 image, and where to write each shaded
+        pixel's shading normal (zero on the background; ``frame.normal``'s values, for the
+        ``normal`` buffer), or a (0, 0, 3) array for none."""
         uvs = B[0]
+        image, normal = outs
+        want_n = normal.shape[0] != 0
         h, w = prim.shape
         nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
         step = spread_step(nblk)
@@ -97,6 +102,8 @@ def _make_phong(spec_on: bool, att_on: bool, tex_on: bool = False):
                     if p < 0:
                         for c in range(3):
                             image[y, x, c] = background[c]
+                            if want_n:
+                                normal[y, x, c] = 0.0
                         continue
                     gm = geom[y, x]
                     if modes[gm] != METHOD_PHONG:
@@ -106,8 +113,12 @@ def _make_phong(spec_on: bool, att_on: bool, tex_on: bool = False):
                         coef = _point_coefficients(G, uvs, at, cam, x, y0 + y, True, materials, T)
                     else:
                         coef = _row_coefficients(materials, gm)
-                    rgb, _ = _shade_surface(G, B, L, S, materials, cam, at, False, (0.0, 0.0, 0.0), coef,
-                                            spec_on, att_on)
+                    rgb, hp = _shade_surface(G, B, L, S, materials, cam, at, False, (0.0, 0.0, 0.0), coef,
+                                             spec_on, att_on)
+                    if want_n:
+                        normal[y, x, 0] = hp.n[0]
+                        normal[y, x, 1] = hp.n[1]
+                        normal[y, x, 2] = hp.n[2]
                     image[y, x, 0] = min(rgb[0], FLT32_MAX)
                     image[y, x, 1] = min(rgb[1], FLT32_MAX)
                     image[y, x, 2] = min(rgb[2], FLT32_MAX)

@@ -199,9 +199,11 @@ class SampleShading:
                                       self.vcol, self.vspec)
                 self.vertex_done |= new
 
-    def shade(self, hits, out=None, y0=0) -> np.ndarray:
+    def shade(self, hits, out=None, y0=0, normal=None) -> np.ndarray:
         """(H, W, 3) float32 linear image of one sample's hit buffer (valid by construction),
         written to ``out`` when given (one buffer serves every sample: no fresh pages each time).
+        ``normal``: an (H, W, 3) float32 array the Phong kernel writes the shading normal of its
+        pixels into as it shades them (zero on the background; other methods' pixels untouched).
 
         ``y0``: the image row of the buffer's first row, for a band of the frame
         (:func:`~raycast_shade.visibility.bands.cast_bands`): the bands of a frame share the
@@ -221,10 +223,12 @@ class SampleShading:
                                      (self.vcol, self.vspec, int(y0)), image)
         if self.phong:
             variant(_PHONG, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["T"], k["face_off"],
-                               k["materials"], k["cam"], k["background"], modes, image, y0)
+                               k["materials"], k["cam"], k["background"], modes,
+                               (image, _NO_NORMALS if normal is None else normal), y0)
         return image
 
 
+_NO_NORMALS = np.empty((0, 0, 3), np.float32)  # the Phong kernel's normal output when none is asked for
 GROUP = 4  # samples added to the accumulator per pass (images alive at a time); _group_sum takes 4
 
 
