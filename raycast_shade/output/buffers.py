@@ -34,7 +34,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..common.bufferspec import ALIASES, BUFFER_NAMES, BUFFERS, KERNEL_BUFFERS, REGISTRY
-from ..common.layout import CAM_EYE
+from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH
 from ..scene.framememory import BUFFER_BYTES
 from ..visibility.rays import camera_frame, pixel_ray
 
@@ -100,38 +100,6 @@ def buffer_bytes(names) -> int:
     return sum(BUFFER_BYTES[n] for n in check_buffers(names))
 
 
-@njit(cache=True, inline="always")
-def _ray(cam, dirs, w, x, y):
-    """The pixel's ray as the casters make it: origin and unit direction, float64
-    (``dirs``: the lens-distorted directions, row-major, or empty for a pinhole)."""
-    if dirs.shape[0] == 0:
-        return pixel_ray(cam, x, y)
-    i = y * w + x
-    return cam[CAM_EYE + 0], cam[CAM_EYE + 1], cam[CAM_EYE + 2], dirs[i, 0], dirs[i, 1], dirs[i, 2]
-
-
-@njit(cache=True, inline="always")
-def _plane_distance(vertices, faces, f, t, ox, oy, oz, dx, dy, dz):
-    """Where the ray ``o + s d`` meets the plane of triangle ``f``: ``s = ((p0 - o) . n) / (d . n)``
-    in float64, exact to rounding at any angle (the cast's ``t`` is float32, and its barycentrics
-    too); ``t`` itself if the ray is parallel to the plane to float64 precision."""
-    i0 = faces[f, 0]
-    i1 = faces[f, 1]
-    i2 = faces[f, 2]
-    p0x, p0y, p0z = vertices[i0, 0], vertices[i0, 1], vertices[i0, 2]
-    e1x, e1y, e1z = vertices[i1, 0] - p0x, vertices[i1, 1] - p0y, vertices[i1, 2] - p0z
-    e2x, e2y, e2z = vertices[i2, 0] - p0x, vertices[i2, 1] - p0y, vertices[i2, 2] - p0z
-    nx = e1y * e2z - e1z * e2y
-    ny = e1z * e2x - e1x * e2z
-    nz = e1x * e2y - e1y * e2x
-    den = dx * nx + dy * ny + dz * nz
-    if den != 0.0:
-        q = ((p0x - ox) * nx + (p0y - oy) * ny + (p0z - oz) * nz) / den
-        if np.isfinite(q) and q > 0.0:
-            return q
-    return t
-
-
 @njit(cache=True, parallel=True)
 def _buffers_kernel(view, hits, geometry, extra, outputs):
     """Every asked-for buffer of one pixel in one pass; an output of size 0 is not asked for.
@@ -177,9 +145,15 @@ def _buffers_kernel(view, hits, geometry, extra, outputs):
     depth, zdepth, position, normal, normal_cam, face_n, face_n_cam, bary, model_id, triangle_id, mask, \
         semantic_id = outputs
     h, w = prim.shape
-    rays = zdepth.shape[0] != 0 or position.shape[0] != 0 or face_n.shape[0] != 0 or face_n_cam.shape[0] != 0
+    hit_rays = position.shape[0] != 0 or face_n.shape[0] != 0 or face_n_cam.shape[0] != 0
+    rays = zdepth.shape[0] != 0 and not hit_rays  # the z-depth alone: from a row of rays
+    # The rotation as scalars: read from R inside a loop, each would be reloaded per pixel (an
+    # output might alias it), and the loops would not vectorise.
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = (R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2],
+                                                   R[2, 0], R[2, 1], R[2, 2])
     # One simple loop per asked output and row (the asked set is decided per row, not per
-    # pixel): the id, mask and depth loops vectorise, and only the ray loop computes rays.
+    # pixel): the ids, mask, depth and a z-depth asked alone (from a scratch row of rays,
+    # allocated once per block of rows) vectorise.
     for y in prange(h):
         if depth.shape[0] != 0:
             for x in range(w):
@@ -213,10 +187,104 @@ def _buffers_kernel(view, hits, geometry, extra, outputs):
                 n0 = np.float64(shading_n[y, x, 0])
                 n1 = np.float64(shading_n[y, x, 1])
                 n2 = np.float64(shading_n[y, x, 2])
-                for k in range(3):
-                    normal_cam[y, x, k] = n0 * R[k, 0] + n1 * R[k, 1] + n2 * R[k, 2]
-        if rays:
+                normal_cam[y, x, 0] = n0 * r00 + n1 * r01 + n2 * r02
+                normal_cam[y, x, 1] = n0 * r10 + n1 * r11 + n2 * r12
+                normal_cam[y, x, 2] = n0 * r20 + n1 * r21 + n2 * r22
+        if hit_rays:  # the pixel's ray computed where it is hit, shared by these buffers
             _ray_row(y, cam, fwd, R, dirs, y0, prim, geom, t, geometry, (zdepth, position, face_n, face_n_cam))
+        elif rays:
+            ray = np.empty((6, w), np.float64)
+            _row_rays(cam, dirs, w, y0 + y, ray)
+            _zdepth_row(y, fwd, ray, prim, t, zdepth)
+
+
+@njit(cache=True, inline="always")
+def _row_rays(cam, dirs, w, yy, ray):
+    """The rays of image row ``yy`` as the casters make them, into ``ray`` (6, W) float64: origins
+    x, y, z, then unit directions (``dirs``: the lens-distorted directions, row-major, or empty
+    for a pinhole). :func:`~raycast_shade.visibility.rays.pixel_ray`'s arithmetic, operation for
+    operation, with the camera read into scalars first: each loop is branch-free, so it vectorises."""
+    e0, e1, e2 = cam[CAM_EYE + 0], cam[CAM_EYE + 1], cam[CAM_EYE + 2]
+    r0, r1, r2 = cam[CAM_RIGHT + 0], cam[CAM_RIGHT + 1], cam[CAM_RIGHT + 2]
+    u0, u1, u2 = cam[CAM_UP + 0], cam[CAM_UP + 1], cam[CAM_UP + 2]
+    f0, f1, f2 = cam[CAM_FORWARD + 0], cam[CAM_FORWARD + 1], cam[CAM_FORWARD + 2]
+    cw = cam[CAM_WIDTH]
+    sy = 1.0 - 2.0 * (yy + 0.5) / cam[CAM_HEIGHT]
+    if dirs.shape[0] != 0:
+        i0 = yy * w
+        for x in range(w):
+            ray[0, x] = e0
+            ray[1, x] = e1
+            ray[2, x] = e2
+            ray[3, x] = dirs[i0 + x, 0]
+            ray[4, x] = dirs[i0 + x, 1]
+            ray[5, x] = dirs[i0 + x, 2]
+    elif cam[CAM_ORTHO] != 0.0:
+        for x in range(w):
+            sx = 2.0 * (x + 0.5) / cw - 1.0
+            ray[0, x] = e0 + sx * r0 + sy * u0
+            ray[1, x] = e1 + sx * r1 + sy * u1
+            ray[2, x] = e2 + sx * r2 + sy * u2
+            ray[3, x] = f0
+            ray[4, x] = f1
+            ray[5, x] = f2
+    else:
+        for x in range(w):
+            sx = 2.0 * (x + 0.5) / cw - 1.0
+            dx = f0 + sx * r0 + sy * u0
+            dy = f1 + sx * r1 + sy * u1
+            dz = f2 + sx * r2 + sy * u2
+            inv = 1.0 / np.sqrt(dx * dx + dy * dy + dz * dz)
+            ray[0, x] = e0
+            ray[1, x] = e1
+            ray[2, x] = e2
+            ray[3, x] = dx * inv
+            ray[4, x] = dy * inv
+            ray[5, x] = dz * inv
+
+
+@njit(cache=True, inline="always")
+def _zdepth_row(y, fwd, ray, prim, t, zdepth):
+    """Row ``y``'s z-depth from its rays (:func:`_row_rays`), branch-free: it vectorises (the
+    z-depth alone; with position or face normals it comes with their rays, :func:`_ray_row`)."""
+    g0, g1, g2 = fwd[0], fwd[1], fwd[2]
+    for x in range(prim.shape[1]):
+        z = np.float64(t[y, x]) * (ray[3, x] * g0 + ray[4, x] * g1 + ray[5, x] * g2)
+        zdepth[y, x] = z if prim[y, x] >= 0 else 0.0
+
+
+@njit(cache=True, inline="always")
+def _ray(cam, dirs, w, x, y):
+    """The pixel's ray as the casters make it: origin and unit direction, float64
+    (``dirs``: the lens-distorted directions, row-major, or empty for a pinhole)."""
+    if dirs.shape[0] == 0:
+        return pixel_ray(cam, x, y)
+    i = y * w + x
+    return cam[CAM_EYE + 0], cam[CAM_EYE + 1], cam[CAM_EYE + 2], dirs[i, 0], dirs[i, 1], dirs[i, 2]
+
+
+@njit(cache=True, inline="always")
+def _plane_distance(vertices, faces, f, t, ox, oy, oz, dx, dy, dz):
+    """Where the ray ``o + s d`` meets the plane of triangle ``f``: ``s = ((p0 - o) . n) / (d . n)``
+    in float64, exact to rounding at any angle (the cast's ``t`` is float32, and its barycentrics
+    too); ``t`` itself if the ray is parallel to the plane to float64 precision."""
+    i0 = faces[f, 0]
+    i1 = faces[f, 1]
+    i2 = faces[f, 2]
+    p0x, p0y, p0z = vertices[i0, 0], vertices[i0, 1], vertices[i0, 2]
+    e1x, e1y, e1z = vertices[i1, 0] - p0x, vertices[i1, 1] - p0y, vertices[i1, 2] - p0z
+    e2x, e2y, e2z = vertices[i2, 0] - p0x, vertices[i2, 1] - p0y, vertices[i2, 2] - p0z
+    nx = e1y * e2z - e1z * e2y
+    ny = e1z * e2x - e1x * e2z
+    nz = e1x * e2y - e1y * e2x
+    den = dx * nx + dy * ny + dz * nz
+    if den != 0.0:
+        q = ((p0x - ox) * nx + (p0y - oy) * ny + (p0z - oz) * nz) / den
+        if np.isfinite(q) and q > 0.0:
+            return q
+    return t
+
+
 
 
 @njit(cache=True, inline="always")
@@ -262,6 +330,8 @@ def _ray_row(y, cam, fwd, R, dirs, y0, prim, geom, t, geometry, outputs):
             if face_n_cam.shape[0] != 0:
                 for k in range(3):
                     face_n_cam[y, x, k] = n0 * R[k, 0] + n1 * R[k, 1] + n2 * R[k, 2]
+
+
 
 
 _RAY_BUFFERS = ("zdepth", "position", "face_normal", "face_normal_camera")  # those that need the pixel's ray

@@ -172,3 +172,21 @@ def test_every_buffer_is_defined_once_in_the_registry():
     assert rows == list(BUFFER_NAMES)
     for b in REGISTRY:
         assert " ".join(b.doc.split()[:4]) in " ".join(doc.split()), b.name
+
+
+@pytest.mark.parametrize("lens", ("pinhole", "orthographic", "distorted"))
+def test_zdepth_alone_is_the_zdepth_made_with_the_other_ray_buffers(lens):
+    """z-depth asked alone comes from a vectorised row of rays, with position or face normals from
+    each hit pixel's own ray: the same rays, the same float64 arithmetic, the same bits."""
+    scene = _two_spheres()
+    R = cv2.Rodrigues(np.array([0.05, -0.05, 0.02]))[0]
+    kw = dict(orthographic=dict(projection="orthographic"), distorted=dict(dist=(0.1, -0.03, 0.001, 0.002, 0.0)),
+              pinhole={})[lens]
+    Kc = np.array([[30.0, 0.0, 47.0], [0.0, 30.0, 36.5], [0.0, 0.0, 1.0]]) if lens == "orthographic" else K
+    cam = rs.Camera.from_opencv(Kc, R, np.array([0.1, -0.2, 3.5]), W, H, **kw)
+    alone = rs.render(scene, camera=cam, buffers=("zdepth",)).buffers["zdepth"]
+    mixed = rs.render(scene, camera=cam, buffers=("zdepth", "position", "face_normal")).buffers
+    m = mixed["position"].any(axis=-1)
+    assert 0.1 < m.mean() < 0.95
+    np.testing.assert_array_equal(alone, mixed["zdepth"])
+    assert np.all(alone[m] > 0) and np.all(alone[~m] == 0)
