@@ -196,7 +196,8 @@ def _teaching_paths(scene):
     }
 
 
-def bench_case(kind, level, width, height, repeats):
+def bench_case(kind, level, width, height, repeats, only=None):
+    """Rows of one case; ``only``: the names of the paths to time (and ``frame``, the unit)."""
     from benchmarks.bench_peers import make_mesh, make_scene
 
     mesh = make_mesh(kind, level)
@@ -204,6 +205,8 @@ def bench_case(kind, level, width, height, repeats):
     tmp = tempfile.mkdtemp(prefix="bench_paths_")
     try:
         paths = {**_paths(scene, tmp), **_teaching_paths(scene)}
+        if only:
+            paths = {k: v for k, v in paths.items() if k == "frame" or k in only}
         times = {name: [] for name in paths}
         for r in range(repeats + 1):  # round 0: warm-up (JIT, Embree build, page faults)
             for name, (fn, _, per) in paths.items():
@@ -283,15 +286,26 @@ def table(rows) -> str:
     out = ["| " + " | ".join(head) + " |", "|---" * len(head) + "|"]
     out.append("| plain Phong frame (the unit), ms | "
                + " | ".join(get[(m, w, h, "frame")]["median_ms"] for m, _, w, h in cases) + " |")
+    if any(r.get("note", "").startswith("re-timed") for r in rows):
+        units = {(r["mesh"], r["width"], r["height"]): r["note"].split("frame ")[-1].split(" ms")[0]
+                 for r in rows if r.get("note", "").startswith("re-timed")}
+        out.append("| the same, in the re-timed rounds (†), ms | "
+                   + " | ".join(units.get((m, w, h), "") for m, _, w, h in cases) + " |")
     for name, label in LABELS.items():
         cells = []
         for m, _, w, h in cases:
             r = get.get((m, w, h, name))
             tail = f" ({r['size_MiB']} MiB)" if r and r["size_MiB"] else (f" ({r['median_ms']} ms)" if r and name in MS_ROWS else "")
-            cells.append("" if r is None else f"{r['ratio']}×" + tail)
+            mark = "†" if r and r.get("note", "").startswith("re-timed") else ""
+            cells.append("" if r is None else f"{r['ratio']}×{mark}" + tail)
         out.append(f"| {label} | " + " | ".join(cells) + " |")
     for name, label in (("peak_frame", "peak memory growth, plain frame"), ("peak_buffers_all", "the same, all 12 buffers")):
         out.append(f"| {label} | " + " | ".join(f"{get[(m, w, h, name)]['size_MiB']} MiB" for m, _, w, h in cases) + " |")
+    notes = sorted({r["note"].split(", frame")[0] for r in rows if r.get("note", "").startswith("re-timed")})
+    if notes:
+        out.append("")
+        out.append("† Re-timed alone (`--only`), each ratio to the frame timed in the same rounds: "
+                   + "; ".join(notes) + ".")
     return "\n".join(out) + "\n"
 
 
@@ -341,11 +355,46 @@ def chart(rows, path):
     plt.close(fig)
 
 
+def _retime(cases, repeats, only, quick):
+    """Re-time the paths ``only`` (with the frame) and put their rows in place of the CSV's: every
+    ratio is still to a frame timed in the same rounds (the frame row re-timed with them is kept
+    apart, in the new rows' notes, so the other rows keep their unit)."""
+    path = results_file("paths.csv", quick)
+    with open(path, newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    stamp = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
+    load = os.getloadavg()[0]
+    for case in cases:
+        for r in bench_case(*case, repeats, only):
+            r = {k: str(v) for k, v in r.items()}
+            if r["path"] == "frame":
+                unit = r["median_ms"]
+                continue
+            r["note"] = f"re-timed {stamp}, load {load:.1f}, frame {unit} ms in these rounds"
+            key = (r["mesh"], str(r["width"]), str(r["height"]), r["path"])
+            at = [i for i, old in enumerate(rows) if (old["mesh"], old["width"], old["height"], old["path"]) == key]
+            if at:
+                rows[at[0]] = r
+            else:
+                rows.append(r)
+            print(r["mesh"], r["width"], r["path"], r["median_ms"], r["ratio"], flush=True)
+    with open(path, "w", newline="") as fh:
+        w = csv.DictWriter(fh, FIELDS)
+        w.writeheader()
+        w.writerows(rows)
+    chart(rows, image_file("paths.png", quick))
+    write_table(rows, quick)
+    return rows
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--quick", action="store_true", help="one small case; writes under out/quick/")
     p.add_argument("--repeats", type=int, default=None)
     p.add_argument("--table", action="store_true", help="only redo the table and chart from the CSV")
+    p.add_argument("--only", default=None,
+                   help="comma-separated paths to re-time (with the frame, their unit); their rows replace "
+                        "those of the CSV, each marked in its note")
     args = p.parse_args(argv)
     if args.table:
         with open(results_file("paths.csv", args.quick), newline="") as fh:
@@ -355,6 +404,8 @@ def main(argv=None):
         return rows
     cases = QUICK_CASES if args.quick else CASES
     repeats = args.repeats or (2 if args.quick else 3)
+    if args.only:
+        return _retime(cases, repeats, set(args.only.split(",")), args.quick)
     rows = []
     for case in cases:
         rows += bench_case(*case, repeats)
