@@ -96,15 +96,10 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
         (24 MB at 1080p). Its old contents are overwritten, so an earlier
         frame holding it changes too.
     buffers_out : dict of str to ndarray, optional
-        Arrays to write some or all of the ``buffers`` asked for into, by
-        buffer name (``id``'s as ``model_id`` and ``triangle_id``): each
-        writeable, C-contiguous, of the buffer's shape and dtype, none
-        overlapping another or ``out``. An earlier frame's ``frame.buffers``
-        serves: a sequence of views of one size then faults in no fresh
-        pages for its buffers (186 MB for all of them at 1080p), and
-        ``frame.buffers`` holds these very arrays, so the earlier frame's
-        buffers change too (copy what must be kept). Buffers not given are
-        allocated as usual; a name not asked for in ``buffers`` is an error.
+        Arrays to write asked-for buffers into, by name (e.g. an earlier
+        frame's ``frame.buffers``, which then changes too): no fresh pages
+        per view (186 MB for all buffers at 1080p); ``frame.buffers`` holds
+        these very arrays (:func:`~raycast_shade.output.buffers.check_buffers_out`).
     terms : bool, str or sequence of str
         ``True``: the reflectance equation's terms as images on ``frame.terms``
         (ambient, diffuse, specular, reflected, shadow mask; ``"per_light"``
@@ -147,7 +142,7 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
     camera.check_frame_memory(plan.buffers, plan.samples, terms, len(scene.lights), bands.BAND_ROWS * banded,
                               reused=tuple(plan.buffers_out))
     warn_render(scene, shading)  # no lights, a light inside a closed mesh, a bump map the method ignores
-    timings, mask, extra = {}, None, {}
+    timings, mask = {}, None
     _build(scene, plan, timings)
     warn_single_sided(scene, camera)  # back faces of a single-sided (glTF) model in view: said, not silent
     inputs = prepare(scene, camera)  # once per frame: shading, every sample and the mirror bounces
@@ -155,18 +150,7 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
     if banded:
         hits, image, mask, extra = _render_bands(scene, plan, timings, inputs, fb)
     else:
-        h, w = camera.height, camera.width
-        normal = None if fb is None else fb.normal_target(0, h, w)  # written by the Phong kernel as it shades
-        if plan.samples == 1:
-            hits, image, coverage = _render_one(scene, plan, timings, inputs, normal)
-        else:
-            hits, image, coverage = _render_samples(scene, plan, timings, inputs, normal)
-        if fb is not None:
-            tb = time.perf_counter()
-            fb.band(hits, 0, shaded=normal is not None)
-            counted = any(BUFFERS[n].writer == "samples" for n in fb.names)
-            extra = fb.result(hits.prim >= 0 if counted else None, coverage)
-            timings["buffers"] = time.perf_counter() - tb
+        hits, image, extra = _render_whole(scene, plan, timings, inputs, fb)
     te = time.perf_counter()
     parts = {} if terms is None else shade_terms(scene, camera, hits, shading, plan.max_depth, "per_light" in terms,
                                                    inputs)
@@ -312,6 +296,25 @@ def _perspective(hits, geometry, camera):
 # remap of its barycentrics per interpolation (tests/project/test_variant_registries.py).
 _BACKENDS = {"raycast": ("cast", _cast), "raster": ("raster", _raster)}
 _WEIGHTS = {"perspective": _perspective, "screen": to_screen_space}
+
+
+def _render_whole(scene, plan: _Plan, timings: dict, inputs, fb):
+    """The whole-frame path: the hit buffer, the image (one ray per pixel or the samples'
+    mean) and the buffers of ``fb`` (a :class:`FrameBuffers`, or None), whose shading
+    normals the Phong kernel writes as it shades."""
+    normal = None if fb is None else fb.normal_target(0, plan.camera.height, plan.camera.width)
+    if plan.samples == 1:
+        hits, image, coverage = _render_one(scene, plan, timings, inputs, normal)
+    else:
+        hits, image, coverage = _render_samples(scene, plan, timings, inputs, normal)
+    extra = {}
+    if fb is not None:
+        tb = time.perf_counter()
+        fb.band(hits, 0, shaded=normal is not None)
+        counted = any(BUFFERS[n].writer == "samples" for n in fb.names)
+        extra = fb.result(hits.prim >= 0 if counted else None, coverage)
+        timings["buffers"] = time.perf_counter() - tb
+    return hits, image, extra
 
 
 def _render_one(scene, plan: _Plan, timings: dict, inputs, normal=None):

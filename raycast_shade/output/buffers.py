@@ -7,7 +7,10 @@ the whole frame as one band otherwise), in one Numba pass over the band's
 pixels (parallel over rows, float64 arithmetic per pixel, written float32
 straight into the full-frame outputs: no full-frame temporaries); the shading
 normals are the shading kernels' own (:func:`raycast_shade.shading_normals`,
-as ``frame.normal``), written straight into the ``normal`` buffer.
+as ``frame.normal``), written into the ``normal`` buffer by the Phong kernel as
+it shades each pixel (by the normals kernel when a model is flat- or
+Gouraud-shaded). ``render(buffers_out=...)`` has them written into the caller's
+arrays instead of new ones (:func:`check_buffers_out`).
 
 ``position`` is the float64 intersection of the pixel's own ray (the ray the
 camera casts, lens distortion included) with the hit triangle's plane,
