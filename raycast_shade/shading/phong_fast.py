@@ -78,32 +78,40 @@ def applies(modes, k) -> bool:
 
 
 @njit(**HELPER)
-def _gather(S, k, G, materials, f, gm, b1, b2):
-    """Copy pixel inputs into lane ``k``: the hit on face ``f`` of model ``gm`` at ``(b1, b2)``.
-    Returns the lane's whole-number shininess (0 where ``pow`` serves) and whether it uses ``pow``."""
+def _gather(S, k, G, f, b1, b2):
+    """Copy the geometry of the hit on face ``f`` at ``(b1, b2)`` into lane ``k``."""
     verts, normals, faces, fnormals = G
     S[_B1 * LANES + k] = b1
     S[_B2 * LANES + k] = b2
+    fu = np.uint64(f)  # unsigned indices: no wrap-around test per read
     for j in range(3):
-        i = faces[f, j]
+        i = np.uint64(faces[fu, j])
         for c in range(3):
             S[(_V0 + 3 * j + c) * LANES + k] = verts[i, c]
             S[(_N0 + 3 * j + c) * LANES + k] = normals[i, c]
     for c in range(3):
-        S[(_FN + c) * LANES + k] = fnormals[f, c]
-        S[(_KA + c) * LANES + k] = materials[gm, MAT_KA + c]
-        S[(_KD + c) * LANES + k] = materials[gm, MAT_KD + c]
-        S[(_KS + c) * LANES + k] = materials[gm, MAT_KS + c]
-        S[(_KE + c) * LANES + k] = materials[gm, MAT_KE + c]
+        S[(_FN + c) * LANES + k] = fnormals[fu, c]
+
+
+@njit(**HELPER)
+def _material(S, lo, hi, materials, gm):
+    """Fill lanes ``lo`` to ``hi - 1`` with model ``gm``'s material row: its coefficients, its whole
+    shininess (0 where ``pow`` serves, as illumination._power decides), the shininess itself,
+    its reflectance model and whether it has a specular term."""
     t = materials[gm, MAT_SHININESS]
     n = int(t)
-    use_pow = n != t or n > 4096  # as illumination._power decides
-    S[_SHN * LANES + k] = 0.0 if use_pow else float(n)
-    S[_SHT * LANES + k] = t
-    S[_MODEL * LANES + k] = materials[gm, MAT_MODEL]
+    use_pow = n != t or n > 4096
     has = materials[gm, MAT_KS + 0] > 0.0 or materials[gm, MAT_KS + 1] > 0.0 or materials[gm, MAT_KS + 2] > 0.0
-    S[_HASSPEC * LANES + k] = 1.0 if has else 0.0
-    return (0 if use_pow else n), use_pow
+    for c in range(3):
+        for field, slot in ((_KA, MAT_KA), (_KD, MAT_KD), (_KS, MAT_KS), (_KE, MAT_KE)):
+            value = materials[gm, slot + c]
+            for k in range(lo, hi):
+                S[(field + c) * LANES + k] = value
+    rest = (0.0 if use_pow else float(n), t, materials[gm, MAT_MODEL], 1.0 if has else 0.0)
+    for j in range(4):
+        value = rest[j]
+        for k in range(lo, hi):
+            S[(_SHN + j) * LANES + k] = value
 
 
 @njit(**HELPER)
@@ -297,12 +305,18 @@ def _accumulate(S, lights, i, spec_on):
 
 
 @njit(**HELPER)
-def _shade_batch(S, L, cam, facts, spec_on, att_on):
-    """Shade the queued lanes: ``facts = (blinn lanes, pow lanes, largest whole shininess, lanes)``."""
+def _shade_batch(S, n, L, cam, spec_on, att_on):
+    """Shade the lanes (``n`` of them queued, the rest an earlier batch's or zeros)."""
     ambient, lights, dmin, _, _ = L
-    nblinn, npow, top, n = facts
+    nblinn = 0
+    npow = 0
+    top = 0.0
+    for k in range(n):
+        nblinn += 1 if S[_MODEL * LANES + k] == MODEL_BLINN else 0
+        npow += 1 if S[_SHN * LANES + k] == 0.0 else 0  # shininess > 0: 0 marks the lanes of pow
+        top = max(top, S[_SHN * LANES + k])
     nbits = 0
-    while (top >> nbits) > 0:
+    while (int(top) >> nbits) > 0:
         nbits += 1
     _geometry(S, cam, ambient)
     for i in range(lights.shape[0]):
@@ -311,6 +325,22 @@ def _shade_batch(S, L, cam, facts, spec_on, att_on):
         if spec_on:
             _specular(S, nbits, npow > 0)
         _accumulate(S, lights, i, spec_on)
+
+
+@njit(**HELPER)
+def _flush(S, XY, n, mixed, filled, materials, L, cam, image, spec_on, att_on):
+    """Fill the material fields (once for a batch of one model that the lanes already hold),
+    shade the batch and write it; returns the model whose row now fills every lane (-1: none)."""
+    if mixed:
+        for k in range(n):
+            _material(S, k, k + 1, materials, XY[2 * LANES + k])
+        filled = -1
+    elif XY[2 * LANES] != filled:
+        filled = XY[2 * LANES]
+        _material(S, 0, LANES, materials, filled)
+    _shade_batch(S, n, L, cam, spec_on, att_on)
+    _scatter(S, XY, n, image)
+    return filled
 
 
 @njit(**HELPER)
@@ -335,11 +365,10 @@ def _make_phong_fast(spec_on: bool, att_on: bool):
         for it in prange(nblk):  # blocks of rows in a balanced order (see common.schedule)
             blk = (it * step) % nblk
             S = np.zeros(_FIELDS * LANES)
-            XY = np.zeros(2 * LANES, np.int64)
+            XY = np.zeros(3 * LANES, np.int64)  # per lane: row, column, model
             n = 0
-            nblinn = 0
-            npow = 0
-            top = 0
+            mixed = False
+            filled = -1
             for y in range(blk * BLOCK_ROWS, min(h, (blk + 1) * BLOCK_ROWS)):
                 for x in range(w):
                     p = prim[y, x]
@@ -350,24 +379,18 @@ def _make_phong_fast(spec_on: bool, att_on: bool):
                     gm = geom[y, x]
                     if modes[gm] != METHOD_PHONG:
                         continue
-                    whole, use_pow = _gather(S, n, G, materials, face_off[gm] + p, gm, np.float64(u[y, x]),
-                                             np.float64(v[y, x]))
+                    _gather(S, n, G, face_off[gm] + p, np.float64(u[y, x]), np.float64(v[y, x]))
                     XY[n] = y
                     XY[LANES + n] = x
-                    nblinn += 1 if materials[gm, MAT_MODEL] == MODEL_BLINN else 0
-                    npow += 1 if use_pow else 0
-                    top = max(top, whole)
+                    XY[2 * LANES + n] = gm
+                    mixed = mixed or (n > 0 and gm != XY[2 * LANES])
                     n += 1
                     if n == LANES:
-                        _shade_batch(S, L, cam, (nblinn, npow, top, n), spec_on, att_on)
-                        _scatter(S, XY, n, image)
+                        filled = _flush(S, XY, n, mixed, filled, materials, L, cam, image, spec_on, att_on)
                         n = 0
-                        nblinn = 0
-                        npow = 0
-                        top = 0
+                        mixed = False
             if n > 0:  # the lanes past n hold an earlier batch's pixels (or zeros): shaded, not written
-                _shade_batch(S, L, cam, (nblinn, npow, top, n), spec_on, att_on)
-                _scatter(S, XY, n, image)
+                _flush(S, XY, n, mixed, filled, materials, L, cam, image, spec_on, att_on)
 
     return _shade_phong_fast_kernel
 
