@@ -47,11 +47,9 @@ __all__ = ["LANES", "applies"]
 LANES = 64  # pixels shaded together: 64 lanes of about 60 float64 fields stay in the L1 cache
 
 # Fields of the scratch array, each LANES wide: field F of lane k is S[F * LANES + k].
-(_B1, _B2, _V0, _V1, _V2, _N0, _N1, _N2, _FN, _KA, _KD, _KS, _KE, _SHN, _SHT, _MODEL, _HASSPEC,
- _P, _V, _G, _A, _N, _R, _S, _D, _ATT, _ND, _LIT, _CP, _CB, _CC, _PW) = (
-    0, 1, 2, 5, 8, 11, 14, 17, 20, 23, 26, 29, 32, 35, 36, 37, 38,
-    39, 42, 45, 48, 51, 54, 57, 60, 61, 62, 63, 64, 65, 66, 67)
-_FIELDS = 68
+(_P, _A, _FN, _KA, _KD, _KS, _KE, _SHN, _SHT, _MODEL, _HASSPEC, _V, _G, _N, _R, _S, _D, _ATT, _ND, _LIT, _CP,
+ _CB, _CC, _PW) = (0, 3, 6, 9, 12, 15, 18, 21, 22, 23, 24, 25, 28, 31, 34, 37, 40, 41, 42, 43, 44, 45, 46, 47)
+_FIELDS = 48
 
 
 def applies(modes, k) -> bool:
@@ -79,16 +77,18 @@ def applies(modes, k) -> bool:
 
 @njit(**HELPER)
 def _gather(S, k, G, f, b1, b2):
-    """Copy the geometry of the hit on face ``f`` at ``(b1, b2)`` into lane ``k``."""
+    """Lane ``k``'s point, interpolated (not yet renormalised) normal and face normal: the hit
+    on face ``f`` at ``(b1, b2)`` (surface._hit_point, surface._shading_normal's sums)."""
     verts, normals, faces, fnormals = G
-    S[_B1 * LANES + k] = b1
-    S[_B2 * LANES + k] = b2
     fu = np.uint64(f)  # unsigned indices: no wrap-around test per read
-    for j in range(3):
-        i = np.uint64(faces[fu, j])
-        for c in range(3):
-            S[(_V0 + 3 * j + c) * LANES + k] = verts[i, c]
-            S[(_N0 + 3 * j + c) * LANES + k] = normals[i, c]
+    i0 = np.uint64(faces[fu, 0])
+    i1 = np.uint64(faces[fu, 1])
+    i2 = np.uint64(faces[fu, 2])
+    b0 = 1.0 - b1 - b2
+    for c in range(3):
+        S[(_P + c) * LANES + k] = b0 * verts[i0, c] + b1 * verts[i1, c] + b2 * verts[i2, c]
+    for c in range(3):
+        S[(_A + c) * LANES + k] = b0 * normals[i0, c] + b1 * normals[i1, c] + b2 * normals[i2, c]
     for c in range(3):
         S[(_FN + c) * LANES + k] = fnormals[fu, c]
 
@@ -126,12 +126,9 @@ def _geometry(S, cam, ambient):
     ey = cam[CAM_EYE + 1]
     ez = cam[CAM_EYE + 2]
     for k in range(LANES):
-        b1 = S[_B1 * LANES + k]
-        b2 = S[_B2 * LANES + k]
-        b0 = 1.0 - b1 - b2
-        px = b0 * S[(_V0 + 0) * LANES + k] + b1 * S[(_V1 + 0) * LANES + k] + b2 * S[(_V2 + 0) * LANES + k]
-        py = b0 * S[(_V0 + 1) * LANES + k] + b1 * S[(_V1 + 1) * LANES + k] + b2 * S[(_V2 + 1) * LANES + k]
-        pz = b0 * S[(_V0 + 2) * LANES + k] + b1 * S[(_V1 + 2) * LANES + k] + b2 * S[(_V2 + 2) * LANES + k]
+        px = S[(_P + 0) * LANES + k]
+        py = S[(_P + 1) * LANES + k]
+        pz = S[(_P + 2) * LANES + k]
         dx = ex - px
         dy = ey - py
         dz = ez - pz
@@ -149,18 +146,15 @@ def _geometry(S, cam, ambient):
         gx = vx if degenerate else (-gx if flip else gx)
         gy = vy if degenerate else (-gy if flip else gy)
         gz = vz if degenerate else (-gz if flip else gz)
-        ax = b0 * S[(_N0 + 0) * LANES + k] + b1 * S[(_N1 + 0) * LANES + k] + b2 * S[(_N2 + 0) * LANES + k]
-        ay = b0 * S[(_N0 + 1) * LANES + k] + b1 * S[(_N1 + 1) * LANES + k] + b2 * S[(_N2 + 1) * LANES + k]
-        az = b0 * S[(_N0 + 2) * LANES + k] + b1 * S[(_N1 + 2) * LANES + k] + b2 * S[(_N2 + 2) * LANES + k]
+        ax = S[(_A + 0) * LANES + k]
+        ay = S[(_A + 1) * LANES + k]
+        az = S[(_A + 2) * LANES + k]
         al = np.sqrt(ax * ax + ay * ay + az * az)
         keep = al >= 1e-6
         s = sgn / al
         S[(_A + 0) * LANES + k] = ax * s if keep else gx
         S[(_A + 1) * LANES + k] = ay * s if keep else gy
         S[(_A + 2) * LANES + k] = az * s if keep else gz
-        S[(_P + 0) * LANES + k] = px
-        S[(_P + 1) * LANES + k] = py
-        S[(_P + 2) * LANES + k] = pz
         S[(_V + 0) * LANES + k] = vx
         S[(_V + 1) * LANES + k] = vy
         S[(_V + 2) * LANES + k] = vz
