@@ -18,7 +18,9 @@ Sections (issue 16):
     ``np.empty`` arrays each time (what the renderer does: first-touch page
     faults included); the renderer's cast kernel alone over a whole frame
     (rays, packets, unpacking, the slip test; no re-cast); and ``rs.render`` itself, fresh
-    and with ``out=`` (one image reused). Reported: the frame over the sum of
+    and with ``out=`` (one image reused), and fresh with the general Phong kernel
+    (``frame_general``: the dispatch to the batched kernel of
+    :mod:`raycast_shade.shading.phong_fast` turned off). Reported: the frame over the sum of
     packets + preallocated store (issue 16 aims at <= 1.3), the stages of the
     frame and how many isolated misses it re-casts.
 ``memory``
@@ -59,6 +61,7 @@ only under ``out/quick/results/`` (untracked).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import csv
 import json
 import os
@@ -66,6 +69,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from unittest import mock
 
 import numpy as np
 from numba import njit, prange
@@ -164,6 +168,7 @@ def _load():
 def limit_case(kind, level, w, h, repeats):
     """Rows of the ``limit`` section for one case."""
     import raycast_shade as rs
+    from raycast_shade.shading import shade as shading
     from raycast_shade.visibility.accel import embree_accel
     from raycast_shade.visibility.cast import _cast_camera_kernel, _count_isolated_kernel
     from raycast_shade.visibility.rays import camera_frame
@@ -202,14 +207,16 @@ def limit_case(kind, level, w, h, repeats):
 
     stages = {}
 
-    def render(**kw):
-        f = rs.render(scene, "phong", **kw)
+    def render(general=False, **kw):  # general: the general Phong kernel, the batched one's dispatch off
+        with mock.patch.object(shading, "_fast_applies", lambda *a: False) if general else contextlib.nullcontext():
+            f = rs.render(scene, "phong", **kw)
         for k in ("cast", "shade"):
-            stages.setdefault(k, []).append(f.timings[k])
+            stages.setdefault(k + "_general" * general, []).append(f.timings[k])
 
     fns = dict(packets=tracer("packets"), packets8=tracer("packets8"), cast_kernel=cast_kernel,
                store_prealloc=lambda: _store_frame(*pre), store_fresh=lambda: _store_frame(*_frame_outputs(h, w)),
-               numpy_fill=lambda: [a.fill(1) for a in pre], frame=render, frame_out=lambda: render(out=reused))
+               numpy_fill=lambda: [a.fill(1) for a in pre], frame=render, frame_out=lambda: render(out=reused),
+               frame_general=lambda: render(general=True))
 
     def restore():  # fresh tfar / hit fields, untimed
         for pristine, work, *_ in packs.values():
@@ -250,15 +257,18 @@ def limit_case(kind, level, w, h, repeats):
     rows += [dict(base, variant=n, metric="hits", value=v, unit="pixels") for n, v in hits_packets.items()]
     rows += [dict(base, variant=n, metric="write_gb_per_s", value=round(nbytes / med[n] / 1e9, 2), unit="GB/s")
              for n in ("store_prealloc", "store_fresh", "numpy_fill")]
+    rows += [dict(base, variant=var, metric=f"stage_{k}_ms", value=round(1e3 * float(np.median(stages[key])), 3),
+                  unit="ms") for var, k, key in (("frame", "cast", "cast"), ("frame", "shade", "shade"),
+                                                 ("frame_general", "cast", "cast_general"),
+                                                 ("frame_general", "shade", "shade_general"))]
     rows += [
-        dict(base, variant="frame", metric="stage_cast_ms", value=round(1e3 * float(np.median(stages["cast"])), 3), unit="ms"),
-        dict(base, variant="frame", metric="stage_shade_ms", value=round(1e3 * float(np.median(stages["shade"])), 3),
-             unit="ms"),
         dict(base, variant="frame", metric="isolated_misses", value=int(_count_isolated_kernel(frame.hits.prim)),
              unit="pixels"),
         dict(base, variant="frame", metric="hits", value=int(frame.mask.sum()), unit="pixels"),
         dict(base, variant="ratio", metric="frame_over_packets_plus_store", value=round(med["frame"] / floor, 3),
              unit="x"),
+        dict(base, variant="ratio", metric="frame_general_over_packets_plus_store",
+             value=round(med["frame_general"] / floor, 3), unit="x"),
         dict(base, variant="ratio", metric="frame_out_over_packets_plus_store", value=round(med["frame_out"] / floor, 3),
              unit="x"),
         # Under load a parallel launch can wait for a busy core: the floor is the faster store.
@@ -272,7 +282,9 @@ def limit_case(kind, level, w, h, repeats):
     print(f"limits: {kind}{level} {w}x{h}: frame {1e3 * med['frame']:.1f} ms (out= {1e3 * med['frame_out']:.1f}), "
           f"packets {1e3 * med['packets']:.1f} (8-wide {1e3 * med['packets8']:.1f}), store "
           f"{1e3 * med['store_prealloc']:.1f} (fresh {1e3 * med['store_fresh']:.1f}), ratio "
-          f"{med['frame'] / floor:.2f}, load {load0}-{load1}", file=sys.stderr)
+          f"{med['frame'] / floor:.2f} (general Phong kernel {med['frame_general'] / floor:.2f}: shade "
+          f"{1e3 * np.median(stages['shade_general']):.1f} -> {1e3 * np.median(stages['shade']):.1f} ms), "
+          f"load {load0}-{load1}", file=sys.stderr)
     return rows
 
 

@@ -76,6 +76,16 @@ def _step_variants():
     _variants()
 
 
+def _step_batched():
+    """The batched Phong kernel (shading/phong_fast.py) of frames without shadows, textures or
+    bump maps, in its four variants: with and without a specular term and an attenuating light."""
+    lamp = [PointLight((2.0, 3.0, 2.0), intensity=20.0, attenuation="inverse_square")]
+    sun = [DirectionalLight((-1.0, -1.0, -1.0), intensity=1.0)]
+    for material in (Material(kd=0.7, ks=0.0), None):
+        for lights in (lamp, sun):
+            render(_scene(material, lights), "phong")
+
+
 def _step_laws():
     lights = [PointLight((2.0, 3.0, 2.0), intensity=5.0, attenuation="heuristic", k=1.0),
               PointLight((-2.0, 2.0, 1.0), intensity=1.0, attenuation="none")]
@@ -143,6 +153,7 @@ def _step_display():
 STEPS = (
     ("flat, Gouraud, Phong", _step_core),
     ("no specular / no attenuation variants", _step_variants),
+    ("batched Phong (no shadows or maps)", _step_batched),
     ("heuristic and no attenuation, Blinn", _step_laws),
     ("2D (screen-space) interpolation", _step_screen),
     ("spot light", _step_spot),

@@ -32,6 +32,7 @@ from .gouraud import _INTERPOLATE, _VERTICES
 from .inputs import prepare
 from .jit import JIT, variant
 from .phong import _PHONG
+from .phong_fast import _PHONG_FAST, applies as _fast_applies
 
 __all__ = ["SHADINGS", "METHODS", "shade", "shade_hits", "resolve_methods", "SampleShading", "accumulate",
            "sample_mean", "GROUP"]
@@ -169,6 +170,7 @@ class SampleShading:
         self.flat = bool(np.any(self.modes == METHOD_FLAT))
         self.gouraud = bool(np.any(self.modes == METHOD_GOURAUD))
         self.phong = bool(np.any(self.modes == METHOD_PHONG))
+        self.fast_phong = self.phong and _fast_applies(self.modes, self.k)  # the batched kernel (phong_fast)
         nf = len(self.geo.faces) if self.flat else 1
         nv = len(self.geo.vertices) if self.gouraud else 1
         self.face_done = np.zeros(nf, np.uint8)
@@ -221,7 +223,10 @@ class SampleShading:
             variant(_INTERPOLATE, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["face_off"],
                                      k["materials"], k["cam"], k["L"], k["T"], k["background"], modes,
                                      (self.vcol, self.vspec, int(y0)), image)
-        if self.phong:
+        if self.fast_phong:
+            _PHONG_FAST[k["spec_on"], k["att_on"]](hits.prim, hits.geom, hits.u, hits.v, k["G"], k["L"], k["face_off"],
+                                                   k["materials"], k["cam"], k["background"], modes, image)
+        elif self.phong:
             variant(_PHONG, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["T"], k["face_off"],
                                k["materials"], k["cam"], k["background"], modes,
                                (image, _NO_NORMALS if normal is None else normal), y0)

@@ -1,0 +1,392 @@
+"""Phong shading that vectorises: the common scene's pixels in batches of :data:`LANES` lanes.
+
+The general Phong kernel (:mod:`.phong`) shades one pixel at a time: gathers, three square
+roots, several divisions and a branch per light and per test, a scalar float64 loop that LLVM
+does not vectorise. For the common scene — no textures or mesh colours, no bump or normal map
+on a Phong model, no light casting shadows — this kernel does the same arithmetic in passes:
+
+1. a gather pass copies each Phong pixel's inputs (barycentrics, the three vertices' positions
+   and normals, the face normal, the material row) into lane ``k`` of a small scratch array,
+   structure of arrays, until :data:`LANES` pixels (of any rows of the task's block) are queued;
+2. branch-free passes over the lanes (selects, not ``continue``): the point, the view vector,
+   the oriented normal; then per light its direction, distance and attenuation, ``n . s``, the
+   specular cosine and the whole-number power by repeated squaring (one pass per bit, a bit
+   applied to the lanes that have it), and the sum; these are the loops LLVM vectorises;
+3. a scatter pass writes the colours to their pixels.
+
+Every lane does the float64 operations of :func:`.phong._shade_surface` in the same order, so
+the image is the general kernel's bit for bit (``tests/shading/test_phong_fast.py``). The
+passes are split where the scalar kernel's operations lie in different basic blocks: the
+shading flags allow fused multiply-adds (``contract``), which LLVM forms only within a block,
+so a product that the scalar kernel computes in one block and adds in another (the rescaled
+normal before its reflection into the viewer's hemisphere; the light direction before the
+half vector) goes through the scratch array between two passes here too. Lanes whose
+shininess is not a whole number up to 4096 (``pow``), and spot lights' cone factors, are
+computed per lane by the scalar helpers. The scratch is indexed at constant offsets with
+constant trip counts, so LLVM sees that its fields never overlap and needs no run-time
+alias checks.
+
+:func:`applies` is the dispatch: :class:`~raycast_shade.shading.shade.SampleShading` takes this
+kernel when the frame's inputs allow it, from facts known before the cast.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from ..common.layout import (ATT_HEURISTIC, ATT_INVERSE_SQUARE, CAM_EYE, CAM_FORWARD, CAM_ORTHO, LIGHT_ATT,
+                             LIGHT_DIRECTIONAL, LIGHT_K, LIGHT_KIND, LIGHT_RADIANCE, LIGHT_SPOT, LIGHT_VEC, MAT_KA,
+                             MAT_KD, MAT_KE, MAT_KS, MAT_MODEL, MAT_SHININESS, METHOD_PHONG, MODEL_BLINN)
+from ..common.schedule import BLOCK_ROWS, spread_step
+from .illumination import _spot_factor
+from .jit import FLT32_MAX, HELPER, JIT
+
+__all__ = ["LANES", "applies"]
+
+LANES = 64  # pixels shaded together: 64 lanes of about 60 float64 fields stay in the L1 cache
+
+# Fields of the scratch array, each LANES wide: field F of lane k is S[F * LANES + k].
+(_P, _A, _FN, _KA, _KD, _KS, _KE, _SHN, _SHT, _MODEL, _HASSPEC, _V, _G, _N, _R, _S, _D, _ATT, _ND, _LIT, _CP,
+ _CB, _CC, _PW) = (0, 3, 6, 9, 12, 15, 18, 21, 22, 23, 24, 25, 28, 31, 34, 37, 40, 41, 42, 43, 44, 45, 46, 47)
+_FIELDS = 48
+
+
+def applies(modes, k) -> bool:
+    """Whether this kernel shades the frame's Phong pixels bit for bit as the general one.
+
+    Parameters
+    ----------
+    modes : (G,) int8
+        Per-model method codes.
+    k : FrameInputs
+        The frame's packed inputs.
+
+    Returns
+    -------
+    bool
+        True for a frame without textures or mesh colours, without shadow rays (no light casts
+        shadows: the scene handle is 0), and whose Phong models have neither a bump map nor a
+        normal map.
+    """
+    phong = np.asarray(modes) == METHOD_PHONG
+    B = k["B"]
+    return (not k["tex_on"] and int(k["L"][3]) == 0 and not bool(np.any(B[2][phong] >= 0))
+            and not bool(np.any(B[5][phong] >= 0)))
+
+
+@njit(**HELPER)
+def _gather(S, k, G, f, b1, b2):
+    """Lane ``k``'s point, interpolated (not yet renormalised) normal and face normal: the hit
+    on face ``f`` at ``(b1, b2)`` (surface._hit_point, surface._shading_normal's sums)."""
+    verts, normals, faces, fnormals = G
+    fu = np.uint64(f)  # unsigned indices: no wrap-around test per read
+    i0 = np.uint64(faces[fu, 0])
+    i1 = np.uint64(faces[fu, 1])
+    i2 = np.uint64(faces[fu, 2])
+    b0 = 1.0 - b1 - b2
+    for c in range(3):
+        S[(_P + c) * LANES + k] = b0 * verts[i0, c] + b1 * verts[i1, c] + b2 * verts[i2, c]
+    for c in range(3):
+        S[(_A + c) * LANES + k] = b0 * normals[i0, c] + b1 * normals[i1, c] + b2 * normals[i2, c]
+    for c in range(3):
+        S[(_FN + c) * LANES + k] = fnormals[fu, c]
+
+
+@njit(**HELPER)
+def _material(S, lo, hi, materials, gm):
+    """Fill lanes ``lo`` to ``hi - 1`` with model ``gm``'s material row: its coefficients, its whole
+    shininess (0 where ``pow`` serves, as illumination._power decides), the shininess itself,
+    its reflectance model and whether it has a specular term."""
+    t = materials[gm, MAT_SHININESS]
+    n = int(t)
+    use_pow = n != t or n > 4096
+    has = materials[gm, MAT_KS + 0] > 0.0 or materials[gm, MAT_KS + 1] > 0.0 or materials[gm, MAT_KS + 2] > 0.0
+    for c in range(3):
+        for field, slot in ((_KA, MAT_KA), (_KD, MAT_KD), (_KS, MAT_KS), (_KE, MAT_KE)):
+            value = materials[gm, slot + c]
+            for k in range(lo, hi):
+                S[(field + c) * LANES + k] = value
+    rest = (0.0 if use_pow else float(n), t, materials[gm, MAT_MODEL], 1.0 if has else 0.0)
+    for j in range(4):
+        value = rest[j]
+        for k in range(lo, hi):
+            S[(_SHN + j) * LANES + k] = value
+
+
+@njit(**HELPER)
+def _geometry(S, cam, ambient):
+    """Per lane: the point, the view vector, the geometric normal turned to it, the rescaled
+    interpolated normal (``_A``; the geometric normal where it cancels) and the ambient term."""
+    bx = -cam[CAM_FORWARD + 0]
+    by = -cam[CAM_FORWARD + 1]
+    bz = -cam[CAM_FORWARD + 2]
+    ortho = cam[CAM_ORTHO] != 0.0
+    ex = cam[CAM_EYE + 0]
+    ey = cam[CAM_EYE + 1]
+    ez = cam[CAM_EYE + 2]
+    for k in range(LANES):
+        px = S[(_P + 0) * LANES + k]
+        py = S[(_P + 1) * LANES + k]
+        pz = S[(_P + 2) * LANES + k]
+        dx = ex - px
+        dy = ey - py
+        dz = ez - pz
+        length = np.sqrt(dx * dx + dy * dy + dz * dz)
+        back = ortho | (length == 0.0)
+        vx = bx if back else dx / length
+        vy = by if back else dy / length
+        vz = bz if back else dz / length
+        gx = S[(_FN + 0) * LANES + k]
+        gy = S[(_FN + 1) * LANES + k]
+        gz = S[(_FN + 2) * LANES + k]
+        degenerate = (gx == 0.0) & (gy == 0.0) & (gz == 0.0)
+        flip = (gx * vx + gy * vy + gz * vz < 0.0) and not degenerate
+        sgn = -1.0 if flip else 1.0
+        gx = vx if degenerate else (-gx if flip else gx)
+        gy = vy if degenerate else (-gy if flip else gy)
+        gz = vz if degenerate else (-gz if flip else gz)
+        ax = S[(_A + 0) * LANES + k]
+        ay = S[(_A + 1) * LANES + k]
+        az = S[(_A + 2) * LANES + k]
+        al = np.sqrt(ax * ax + ay * ay + az * az)
+        keep = al >= 1e-6
+        s = sgn / al
+        S[(_A + 0) * LANES + k] = ax * s if keep else gx
+        S[(_A + 1) * LANES + k] = ay * s if keep else gy
+        S[(_A + 2) * LANES + k] = az * s if keep else gz
+        S[(_V + 0) * LANES + k] = vx
+        S[(_V + 1) * LANES + k] = vy
+        S[(_V + 2) * LANES + k] = vz
+        S[(_G + 0) * LANES + k] = gx
+        S[(_G + 1) * LANES + k] = gy
+        S[(_G + 2) * LANES + k] = gz
+        for c in range(3):
+            S[(_R + c) * LANES + k] = ambient[c] * S[(_KA + c) * LANES + k]
+    for k in range(LANES):  # into the viewer's hemisphere (records.reflect_into): a pass of its own, see above
+        ax = S[(_A + 0) * LANES + k]
+        ay = S[(_A + 1) * LANES + k]
+        az = S[(_A + 2) * LANES + k]
+        gx = S[(_G + 0) * LANES + k]
+        gy = S[(_G + 1) * LANES + k]
+        gz = S[(_G + 2) * LANES + k]
+        c = ax * gx + ay * gy + az * gz
+        below = c < 0.0
+        S[(_N + 0) * LANES + k] = ax - 2.0 * c * gx if below else ax
+        S[(_N + 1) * LANES + k] = ay - 2.0 * c * gy if below else ay
+        S[(_N + 2) * LANES + k] = az - 2.0 * c * gz if below else az
+
+
+@njit(**HELPER)
+def _direction(S, lights, i, dmin, att_on):
+    """Light ``i``'s unit direction, distance and attenuation (times a spot's cone) per lane
+    (illumination._light_at)."""
+    lx = lights[i, LIGHT_VEC + 0]
+    ly = lights[i, LIGHT_VEC + 1]
+    lz = lights[i, LIGHT_VEC + 2]
+    if lights[i, LIGHT_KIND] == LIGHT_DIRECTIONAL:
+        for k in range(LANES):
+            S[(_S + 0) * LANES + k] = lx
+            S[(_S + 1) * LANES + k] = ly
+            S[(_S + 2) * LANES + k] = lz
+            S[_D * LANES + k] = np.inf
+            S[_ATT * LANES + k] = 1.0
+        return
+    for k in range(LANES):
+        dx = lx - S[(_P + 0) * LANES + k]
+        dy = ly - S[(_P + 1) * LANES + k]
+        dz = lz - S[(_P + 2) * LANES + k]
+        d = np.sqrt(dx * dx + dy * dy + dz * dz)
+        S[(_S + 0) * LANES + k] = dx / d
+        S[(_S + 1) * LANES + k] = dy / d
+        S[(_S + 2) * LANES + k] = dz / d
+        S[_D * LANES + k] = d
+    law = lights[i, LIGHT_ATT]
+    if att_on and law == ATT_INVERSE_SQUARE:
+        for k in range(LANES):
+            dd = max(S[_D * LANES + k], dmin)
+            S[_ATT * LANES + k] = 1.0 / (dd * dd)
+    elif att_on and law == ATT_HEURISTIC:
+        kk = lights[i, LIGHT_K]
+        for k in range(LANES):
+            S[_ATT * LANES + k] = 1.0 / (S[_D * LANES + k] + kk)
+    else:
+        for k in range(LANES):
+            S[_ATT * LANES + k] = 1.0
+    if lights[i, LIGHT_KIND] == LIGHT_SPOT:  # Warn's cone: per lane by the scalar helper (a branch and a power)
+        for k in range(LANES):
+            cone = _spot_factor(lights, i, (S[(_S + 0) * LANES + k], S[(_S + 1) * LANES + k],
+                                            S[(_S + 2) * LANES + k]))
+            S[_ATT * LANES + k] = S[_ATT * LANES + k] * cone
+            if cone == 0.0:
+                S[_D * LANES + k] = 0.0  # outside the cone: unlit, as a light on the point
+
+
+@njit(**HELPER)
+def _cosines(S, spec_on, phong, blinn):
+    """Per lane: ``n . s`` (clamped to 1), whether the light counts (``_LIT``), and the specular
+    cosines of the models the batch uses (reflectance: Phong's ``_CP``, Blinn-Phong's ``_CB``)."""
+    for k in range(LANES):
+        ndots = (S[(_N + 0) * LANES + k] * S[(_S + 0) * LANES + k] + S[(_N + 1) * LANES + k] * S[(_S + 1) * LANES + k]
+                 + S[(_N + 2) * LANES + k] * S[(_S + 2) * LANES + k])
+        lit = S[_D * LANES + k] != 0.0 and not ndots <= 0.0
+        S[_LIT * LANES + k] = 1.0 if lit else 0.0
+        S[_ND * LANES + k] = 1.0 if ndots > 1.0 else ndots
+    if spec_on and phong:
+        for k in range(LANES):
+            nd = S[_ND * LANES + k]
+            rx = 2.0 * nd * S[(_N + 0) * LANES + k] - S[(_S + 0) * LANES + k]
+            ry = 2.0 * nd * S[(_N + 1) * LANES + k] - S[(_S + 1) * LANES + k]
+            rz = 2.0 * nd * S[(_N + 2) * LANES + k] - S[(_S + 2) * LANES + k]
+            S[_CP * LANES + k] = rx * S[(_V + 0) * LANES + k] + ry * S[(_V + 1) * LANES + k] + rz * S[(_V + 2) * LANES + k]
+    if spec_on and blinn:
+        for k in range(LANES):
+            hx = S[(_S + 0) * LANES + k] + S[(_V + 0) * LANES + k]
+            hy = S[(_S + 1) * LANES + k] + S[(_V + 1) * LANES + k]
+            hz = S[(_S + 2) * LANES + k] + S[(_V + 2) * LANES + k]
+            hl = np.sqrt(hx * hx + hy * hy + hz * hz)
+            c = (S[(_N + 0) * LANES + k] * hx + S[(_N + 1) * LANES + k] * hy + S[(_N + 2) * LANES + k] * hz) / hl
+            S[_CB * LANES + k] = c if hl > 0.0 else 0.0
+
+
+@njit(**HELPER)
+def _specular(S, nbits, any_pow):
+    """Per lane the specular factor ``max(c, 0)^t`` into ``_PW`` (0 without a specular term):
+    repeated squaring, one pass per bit of the largest whole shininess (illumination._power)."""
+    for k in range(LANES):
+        c = S[_CB * LANES + k] if S[_MODEL * LANES + k] == MODEL_BLINN else S[_CP * LANES + k]
+        S[_CC * LANES + k] = min(c, 1.0)
+        S[_PW * LANES + k] = 1.0
+        S[_LIT * LANES + k] = S[_LIT * LANES + k] + (2.0 if (S[_HASSPEC * LANES + k] != 0.0) & (c > 0.0) else 0.0)
+    for j in range(nbits):
+        for k in range(LANES):
+            c = S[_CC * LANES + k]
+            on = ((int(S[_SHN * LANES + k]) >> j) & 1) != 0
+            S[_PW * LANES + k] = S[_PW * LANES + k] * c if on else S[_PW * LANES + k]
+            S[_CC * LANES + k] = c * c
+    if any_pow:
+        for k in range(LANES):
+            t = S[_SHT * LANES + k]
+            n = int(t)
+            if (n != t or n > 4096) and S[_LIT * LANES + k] >= 2.0:
+                c = S[_CB * LANES + k] if S[_MODEL * LANES + k] == MODEL_BLINN else S[_CP * LANES + k]
+                S[_PW * LANES + k] = min(c, 1.0) ** t
+
+
+@njit(**HELPER)
+def _accumulate(S, lights, i, spec_on):
+    """Add light ``i``'s ``att Ii (kd n.s + Ks spec)`` to the lanes it lights."""
+    r0 = lights[i, LIGHT_RADIANCE + 0]
+    r1 = lights[i, LIGHT_RADIANCE + 1]
+    r2 = lights[i, LIGHT_RADIANCE + 2]
+    for k in range(LANES):
+        flags = S[_LIT * LANES + k]
+        lit = (flags == 1.0) | (flags == 3.0)
+        spec = 0.0
+        if spec_on:
+            spec = S[_PW * LANES + k] if flags >= 2.0 else 0.0
+        att = S[_ATT * LANES + k]
+        nd = S[_ND * LANES + k]
+        r = S[(_R + 0) * LANES + k]
+        g = S[(_R + 1) * LANES + k]
+        b = S[(_R + 2) * LANES + k]
+        nr = r + att * r0 * (S[(_KD + 0) * LANES + k] * nd + S[(_KS + 0) * LANES + k] * spec)
+        ng = g + att * r1 * (S[(_KD + 1) * LANES + k] * nd + S[(_KS + 1) * LANES + k] * spec)
+        nb = b + att * r2 * (S[(_KD + 2) * LANES + k] * nd + S[(_KS + 2) * LANES + k] * spec)
+        S[(_R + 0) * LANES + k] = nr if lit else r
+        S[(_R + 1) * LANES + k] = ng if lit else g
+        S[(_R + 2) * LANES + k] = nb if lit else b
+
+
+@njit(**HELPER)
+def _shade_batch(S, n, L, cam, spec_on, att_on):
+    """Shade the lanes (``n`` of them queued, the rest an earlier batch's or zeros)."""
+    ambient, lights, dmin, _, _ = L
+    nblinn = 0
+    npow = 0
+    top = 0.0
+    for k in range(n):
+        nblinn += 1 if S[_MODEL * LANES + k] == MODEL_BLINN else 0
+        npow += 1 if S[_SHN * LANES + k] == 0.0 else 0  # shininess > 0: 0 marks the lanes of pow
+        top = max(top, S[_SHN * LANES + k])
+    nbits = 0
+    while (int(top) >> nbits) > 0:
+        nbits += 1
+    _geometry(S, cam, ambient)
+    for i in range(lights.shape[0]):
+        _direction(S, lights, i, dmin, att_on)
+        _cosines(S, spec_on, nblinn < n, nblinn > 0)
+        if spec_on:
+            _specular(S, nbits, npow > 0)
+        _accumulate(S, lights, i, spec_on)
+
+
+@njit(**HELPER)
+def _flush(S, XY, n, mixed, filled, materials, L, cam, image, spec_on, att_on):
+    """Fill the material fields (once for a batch of one model that the lanes already hold),
+    shade the batch and write it; returns the model whose row now fills every lane (-1: none)."""
+    if mixed:
+        for k in range(n):
+            _material(S, k, k + 1, materials, XY[2 * LANES + k])
+        filled = -1
+    elif XY[2 * LANES] != filled:
+        filled = XY[2 * LANES]
+        _material(S, 0, LANES, materials, filled)
+    _shade_batch(S, n, L, cam, spec_on, att_on)
+    _scatter(S, XY, n, image)
+    return filled
+
+
+@njit(**HELPER)
+def _scatter(S, XY, n, image):
+    """Write the first ``n`` lanes' colours (plus emission, saturated at the float32 maximum)."""
+    for k in range(n):
+        y = XY[k]
+        x = XY[LANES + k]
+        for c in range(3):
+            image[y, x, c] = min(S[(_R + c) * LANES + k] + S[(_KE + c) * LANES + k], FLT32_MAX)
+
+
+def _make_phong_fast(spec_on: bool, att_on: bool):
+    """The batched Phong kernel for one variant (see :mod:`.jit`; untextured only)."""
+
+    @njit(parallel=True, **JIT)
+    def _shade_phong_fast_kernel(prim, geom, u, v, G, L, face_off, materials, cam, background, modes, image):
+        """As :func:`.phong._make_phong`'s kernel for a frame :func:`applies` to, bit for bit."""
+        h, w = prim.shape
+        nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
+        step = spread_step(nblk)
+        for it in prange(nblk):  # blocks of rows in a balanced order (see common.schedule)
+            blk = (it * step) % nblk
+            S = np.zeros(_FIELDS * LANES)
+            XY = np.zeros(3 * LANES, np.int64)  # per lane: row, column, model
+            n = 0
+            mixed = False
+            filled = -1
+            for y in range(blk * BLOCK_ROWS, min(h, (blk + 1) * BLOCK_ROWS)):
+                for x in range(w):
+                    p = prim[y, x]
+                    if p < 0:
+                        for c in range(3):
+                            image[y, x, c] = background[c]
+                        continue
+                    gm = geom[y, x]
+                    if modes[gm] != METHOD_PHONG:
+                        continue
+                    _gather(S, n, G, face_off[gm] + p, np.float64(u[y, x]), np.float64(v[y, x]))
+                    XY[n] = y
+                    XY[LANES + n] = x
+                    XY[2 * LANES + n] = gm
+                    mixed = mixed or (n > 0 and gm != XY[2 * LANES])
+                    n += 1
+                    if n == LANES:
+                        filled = _flush(S, XY, n, mixed, filled, materials, L, cam, image, spec_on, att_on)
+                        n = 0
+                        mixed = False
+            if n > 0:  # the lanes past n hold an earlier batch's pixels (or zeros): shaded, not written
+                _flush(S, XY, n, mixed, filled, materials, L, cam, image, spec_on, att_on)
+
+    return _shade_phong_fast_kernel
+
+
+_PHONG_FAST = {(s, a): _make_phong_fast(s, a) for s in (False, True) for a in (False, True)}

@@ -1,0 +1,165 @@
+"""The batched Phong kernel (shading/phong_fast.py) is the general Phong kernel bit for bit on the
+scenes it is dispatched to, and the dispatch takes it exactly for those scenes."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import raycast_shade as rs
+from raycast_shade.shading import shade as shade_mod
+from raycast_shade.shading.inputs import prepare
+from raycast_shade.shading.jit import variant
+from raycast_shade.shading.phong import _PHONG
+from raycast_shade.shading.phong_fast import _PHONG_FAST, LANES, applies
+from raycast_shade.shading.shade import resolve_methods
+
+W, H = 40, 30
+
+
+def _soup(seed, n=24):
+    """Random triangles with random vertex normals, some flipped and some zero (every branch of
+    the shading normal: reflected, cancelled), and one degenerate (zero-area) face."""
+    rng = np.random.default_rng(seed)
+    verts = rng.uniform(-1.0, 1.0, (3 * n, 3))
+    verts[3:6] = verts[3]  # a degenerate face: its face normal is zero
+    faces = np.arange(3 * n).reshape(n, 3)
+    normals = rng.normal(size=verts.shape)
+    normals[::4] *= -1.0
+    normals[::5] = 0.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return rs.Mesh(verts, faces, normals=normals)
+
+
+def _both(scene, shading, hits):
+    """The general and the batched kernel's images of ``hits`` (each on a NaN-filled canvas)."""
+    k = prepare(scene, scene.camera)
+    modes = resolve_methods(scene, shading)
+    assert applies(modes, k)
+    general = np.full(hits.shape + (3,), np.nan, np.float32)
+    fast = general.copy()
+    variant(_PHONG, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["T"], k["face_off"],
+                       k["materials"], k["cam"], k["background"], modes, general, 0)
+    _PHONG_FAST[k["spec_on"], k["att_on"]](hits.prim, hits.geom, hits.u, hits.v, k["G"], k["L"], k["face_off"],
+                                           k["materials"], k["cam"], k["background"], modes, fast)
+    return general, fast
+
+
+def _same_bits(a, b):
+    return np.array_equal(a.view(np.uint32), b.view(np.uint32))
+
+
+materials = st.builds(
+    lambda kd, ks, t, spec, ke: rs.Material(kd=kd, ks=ks, shininess=t, specular=spec, ke=ke),
+    st.tuples(*[st.floats(0.0, 1.0)] * 3), st.sampled_from([0.0, 0.3, (0.0, 0.5, 1.0), 1.0]),
+    st.one_of(st.integers(1, 300), st.sampled_from([0.5, 37.25, 5000.0, 4096.0])),
+    st.sampled_from(["phong", "blinn"]), st.sampled_from([0.0, (0.1, 0.0, 0.2)]))
+points = st.tuples(*[st.floats(-3.0, 3.0)] * 3)
+lights = st.one_of(
+    st.builds(lambda p, i, law: rs.PointLight(p, intensity=i, attenuation=law, k=0.5), points, st.floats(0.1, 20.0),
+              st.sampled_from(["none", "inverse_square", "heuristic"])),
+    st.builds(lambda d, i: rs.DirectionalLight(d, intensity=i), points.filter(lambda d: np.linalg.norm(d) > 0.1),
+              st.floats(0.1, 2.0)),
+    st.builds(lambda p, n, law: rs.SpotLight(p, direction=(-p[0], -p[1], -p[2]), intensity=3.0, exponent=n,
+                                             inner_angle=15, outer_angle=35, attenuation=law),
+              points.filter(lambda p: np.linalg.norm(p) > 0.5), st.sampled_from([0.0, 2.0, 7.0, 2.5]),
+              st.sampled_from(["none", "inverse_square"])))
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 2 ** 16), mats=st.lists(materials, min_size=3, max_size=3),
+       lits=st.lists(lights, min_size=1, max_size=3), ortho=st.booleans(), eye=points.filter(lambda e: np.linalg.norm(e) > 1.6 and abs(e[0]) + abs(e[2]) > 0.5),
+       methods=st.sampled_from(["phong", ("phong", "flat", "phong"), ("gouraud", "phong", "phong")]))
+def test_the_batched_kernel_is_the_general_one_bit_for_bit(seed, mats, lits, ortho, eye, methods):
+    """Random scenes (both specular models, whole and fractional shininess, every light kind and
+    attenuation law, perspective and orthographic), the hit buffer Embree casts and an arbitrary
+    one (barycentrics outside the triangle, every face, a mix of methods): the same bits."""
+    cam = (rs.Camera(eye=eye, width=W, height=H, projection="orthographic", ortho_height=3.0) if ortho
+           else rs.Camera(eye=eye, width=W, height=H, fov=50))
+    models = [rs.Model(_soup(seed), mats[0]), rs.Model(rs.shapes.icosphere(1, radius=0.6), mats[1]),
+              rs.Model(rs.shapes.torus(0.9, 0.2, 12, 6), mats[2])]
+    scene = rs.Scene(models, lights=lits, camera=cam, ambient=0.1, background=(0.1, 0.2, 0.3))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        hits = rs.render(scene, methods).hits
+    general, fast = _both(scene, methods, hits)
+    assert _same_bits(general, fast)
+    rng = np.random.default_rng(seed)
+    geo = scene.geometry
+    counts = np.diff(geo.face_offsets)
+    geom = rng.integers(-1, len(models), (H, W)).astype(np.int32)
+    prim = np.where(geom >= 0, (rng.uniform(size=(H, W)) * counts[np.maximum(geom, 0)]).astype(np.int32), -1)
+    u = rng.uniform(-0.2, 1.2, (H, W)).astype(np.float32)
+    v = rng.uniform(-0.2, 1.2, (H, W)).astype(np.float32)
+    made = rs.HitBuffer(prim.astype(np.int32), np.where(prim >= 0, geom, -1).astype(np.int32), u, v,
+                        np.ones((H, W), np.float32))
+    general, fast = _both(scene, methods, made)
+    assert _same_bits(general, fast)
+    assert np.isfinite(fast[prim >= 0]).any()  # not vacuous: lanes were shaded
+
+
+def test_full_and_partial_batches_and_rows_without_hits():
+    """More hits than two batches hold, and a last batch part full: the same bits."""
+    cam = rs.Camera(eye=(0.0, 0.0, 1.6), width=3 * LANES + 5, height=9, fov=10)
+    scene = rs.Scene([rs.Model(rs.shapes.icosphere(2), rs.Material(ks=0.4, shininess=12))],
+                     lights=[rs.PointLight((1.0, 2.0, 3.0), intensity=9.0, attenuation="inverse_square")], camera=cam)
+    hits = rs.render(scene).hits
+    assert (hits.prim >= 0).sum() > 2 * LANES
+    general, fast = _both(scene, "phong", hits)
+    assert _same_bits(general, fast)
+
+
+class _Spy:
+    """A registry whose kernels count their calls."""
+
+    def __init__(self, registry):
+        self.calls = 0
+        self.kernels = {key: self._wrap(fn) for key, fn in registry.items()}
+
+    def _wrap(self, fn):
+        def spy(*args):
+            self.calls += 1
+            return fn(*args)
+        return spy
+
+
+def _scene(material=None, light=None, mesh=None):
+    mesh = mesh if mesh is not None else rs.shapes.uv_sphere(8, 16)
+    return rs.Scene([rs.Model(mesh, material or rs.Material(ks=0.5, shininess=20))],
+                    lights=[light or rs.PointLight((2.0, 3.0, 4.0), intensity=20.0)],
+                    camera=rs.Camera(eye=(0.0, 0.0, 3.0), width=W, height=H))
+
+
+CHECKER = rs.Texture.checker(squares=4, texels_per_square=4)
+CASES = {
+    "plain": (_scene(), "phong", True),
+    "blinn, spot, heuristic": (_scene(rs.Material(ks=0.3, specular="blinn"),
+                                      rs.SpotLight((0.0, 2.0, 2.0), direction=(0.0, -1.0, -1.0), attenuation="heuristic")),
+                               "phong", True),
+    "shadows": (_scene(light=rs.PointLight((2.0, 3.0, 4.0), intensity=20.0, shadows=True)), "phong", False),
+    "texture": (_scene(rs.Material(kd_map=CHECKER)), "phong", False),
+    "bump": (_scene(rs.Material(bump=rs.HeightMap.dimples(4, 0.3, resolution=16, scale=0.02))), "phong", False),
+    "normal map": (_scene(rs.Material(normal_map=CHECKER)), "phong", False),
+    "bump under Gouraud": (_scene(rs.Material(bump=rs.HeightMap.dimples(4, 0.3, resolution=16, scale=0.02))),
+                           "gouraud", None),
+}
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_the_dispatch_takes_the_batched_kernel_exactly_where_it_applies(name, monkeypatch):
+    scene, shading, fast = CASES[name]
+    spy_fast, spy_general = _Spy(shade_mod._PHONG_FAST), _Spy(shade_mod._PHONG)
+    monkeypatch.setattr(shade_mod, "_PHONG_FAST", spy_fast.kernels)
+    monkeypatch.setattr(shade_mod, "_PHONG", spy_general.kernels)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        frame = rs.render(scene, shading)
+    assert (spy_fast.calls, spy_general.calls) == {True: (1, 0), False: (0, 1), None: (0, 0)}[fast]
+    if fast:  # and the image is the general kernel's
+        general, batched = _both(scene, shading, frame.hits)
+        assert _same_bits(general, batched) and _same_bits(frame.image, batched)
