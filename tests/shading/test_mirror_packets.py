@@ -138,3 +138,18 @@ def test_a_mirror_frame_times_its_bounces_apart():
                      camera=rs.Camera(eye=(0.9, 1.2, 4.0), target=(0.0, 0.0, 0.4), width=40, height=30))
     frame = rs.render(scene, max_depth=1)
     assert frame.timings["mirror"] > 0 and "mirror" not in rs.render(scene, max_depth=0).timings
+
+
+@given(p=st.floats(allow_nan=True, allow_infinity=True), n=st.floats(-1.0, 1.0),
+       unit=st.floats(1e-300, 1e300))
+@settings(max_examples=300, deadline=None)
+def test_the_mirror_origin_offset_is_the_shadow_nudge_bit_for_bit(p, n, unit):
+    """The mirror rays' origin offset (``frexp``/``ldexp`` replaced by the exponent's bits) is
+    :func:`~raycast_shade.shading.shadows._nudge` everywhere: near zero, across powers of two,
+    subnormal steps, inf and NaN."""
+    from raycast_shade.shading.mirrors import _offset
+    from raycast_shade.shading.shadows import _nudge
+
+    for q in (p, np.nextafter(p, 0.0), np.ldexp(1.0, int(np.clip(np.frexp(p)[1], -1074, 1023))) if np.isfinite(p) else p):
+        a, b = _offset(q, n, unit), _nudge(q, n, unit)
+        assert a == b or (np.isnan(a) and np.isnan(b)), (q, n, unit, a, b)
