@@ -153,3 +153,30 @@ def test_the_mirror_origin_offset_is_the_shadow_nudge_bit_for_bit(p, n, unit):
     for q in (p, np.nextafter(p, 0.0), np.ldexp(1.0, int(np.clip(np.frexp(p)[1], -1074, 1023))) if np.isfinite(p) else p):
         a, b = _offset(q, n, unit), _nudge(q, n, unit)
         assert a == b or (np.isnan(a) and np.isnan(b)), (q, n, unit, a, b)
+
+
+def test_the_mirror_kernel_hands_embree_arrays_not_addresses():
+    """The packets reach Embree only through ``embree.intersect16_packet`` with slices of arrays
+    the kernel task allocated itself (held by the call until Embree returns: see
+    visibility/embree.py), never through a raw Embree symbol and an address."""
+    import ast
+    import pathlib
+
+    import raycast_shade.shading as pkg
+
+    raw = {"intersect1", "intersect8", "intersect16", "occluded1"}
+    folder = pathlib.Path(pkg.__file__).parent
+    calls = {}
+    source = (folder / "mirrors.py").read_text(encoding="utf-8")
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute):
+            calls.setdefault(node.func.attr, []).append(node)
+    assert not [name for name in raw if name in calls], "raw Embree calls in mirrors.py"
+    assert "ctypes.data" not in source.replace(".ctypes.data % ", "")  # addresses taken only to align
+    (call,) = calls["intersect16_packet"]
+    for arg, name in zip(call.args, ("vbuf", None, "buf", "abuf")):
+        if name is None:
+            assert isinstance(arg, ast.Name) and arg.id == "handle"
+            continue
+        assert isinstance(arg, ast.Subscript) and arg.value.id == name, ast.unparse(arg)
+        assert f"            {name} = np.empty(" in source or f"            {name} = np.zeros(" in source
