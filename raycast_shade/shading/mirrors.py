@@ -120,7 +120,8 @@ def _add_pixel(image, y, x, weight, c0, c1, c2):
 @njit(**HELPER)
 def _packet_rays(buf, ib, off, vbuf, voff, org, dr, act, n):
     """Write the active lanes' rays (``org``, ``dr`` (3, 16) float64, ``act`` (16,) bool; lanes
-    ``n ..`` unused) into the ``RTCRayHit16`` at ``off``: segment ``[0, inf)``, no hit. Inactive
+    ``n ..`` unused) into the ``RTCRayHit16`` at ``off``: origin, direction, ``tfar = inf``, no
+    hit (the slots no bounce changes were written once, by :func:`embree.write_ray`). Inactive
     lanes carry the first active lane's ray (a valid dummy, masked off by ``vbuf``)."""
     first = 0
     while not act[first]:
@@ -128,8 +129,10 @@ def _packet_rays(buf, ib, off, vbuf, voff, org, dr, act, n):
     for k in range(_LANES):
         on = k < n and act[k]
         j = k if on else first
-        embree.write_ray(buf, ib, off + k, _LANES, (org[0, j], org[1, j], org[2, j]),
-                         (dr[0, j], dr[1, j], dr[2, j]), 0.0, np.inf)
+        for c in range(3):
+            buf[off + k + (embree.RAY_ORG + c) * _LANES] = org[c, j]
+            buf[off + k + (embree.RAY_DIR + c) * _LANES] = dr[c, j]
+        buf[off + k + embree.RAY_TFAR * _LANES] = np.inf
         embree.reset_hit(ib, off + k, _LANES)
         vbuf[voff + k] = -1 if on else 0
 
@@ -201,6 +204,8 @@ def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
             aoff = ((8 - abuf.ctypes.data % 8) % 8) // 4
             abuf[aoff] = flags
             abuf[aoff + 1] = embree.FEATURE_FLAG_ALL
+            for k in range(_LANES):  # tnear 0, time 0, every mask bit, id and flags 0: the same for every bounce
+                embree.write_ray(buf, ib, off + k, _LANES, (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 0.0, np.inf)
             ys = np.empty(_LANES, np.int64)
             xs = np.empty(_LANES, np.int64)
             weight = np.empty(_LANES, np.float64)
