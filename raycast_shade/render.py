@@ -334,21 +334,21 @@ def _render_one(scene, plan: _Plan, timings: dict, inputs, normal=None):
 
 def _banded(scene, plan: _Plan, terms) -> bool:
     """Whether the frame is cast and shaded band by band (:func:`_render_bands`): by the packet
-    caster with perspective-correct weights, any methods, buffers and samples, but no term or
-    mirror bounce (those read the whole frame's hits), taller than one band and of at least
+    caster with perspective-correct weights, any methods, buffers, samples and mirror bounces,
+    but no terms (they read the whole frame's hits), taller than one band and of at least
     :data:`~raycast_shade.visibility.bands.MIN_PIXELS` pixels."""
     cam = plan.camera
     return (plan.backend == "raycast" and plan.caster == "embree" and plan.interpolation == "perspective"
-            and terms is None and not (scene.geometry.reflective and plan.max_depth > 0)
-            and cam.height > bands.BAND_ROWS and cam.width * cam.height >= bands.MIN_PIXELS)
+            and terms is None and cam.height > bands.BAND_ROWS and cam.width * cam.height >= bands.MIN_PIXELS)
 
 
 def _render_bands(scene, plan: _Plan, timings: dict, inputs, buffers=None):
     """Each band of rows cast, shaded and its buffers computed as soon as it is cast (while
     its hits are in cache), so the frame never holds (or page-faults in) a full-frame hit
-    buffer: 20 bytes a pixel. Anti-aliasing casts every sample's band in turn (one window
-    per sample) and averages them into the band's rows of the image; flat faces and Gouraud
-    vertices are shaded once, by the first band (and sample) that sees them.
+    buffer: 20 bytes a pixel. Mirror bounces follow each shaded band (and sample), from its
+    hits. Anti-aliasing casts every sample's band in turn (one window per sample) and
+    averages them into the band's rows of the image; flat faces and Gouraud vertices are
+    shaded once, by the first band (and sample) that sees them.
 
     Returns the recipe of the hit buffer (the same cast again, run if ``frame.hits`` is read:
     :func:`~raycast_shade.visibility.cast.cast_camera` with the frame's camera and caster,
@@ -367,28 +367,36 @@ def _render_bands(scene, plan: _Plan, timings: dict, inputs, buffers=None):
     coverage = None
     if counted:
         coverage = plan.buffers_out["coverage"] if "coverage" in plan.buffers_out else np.empty((h, w), np.float32)
-    spent = dict.fromkeys(("shade", "buffers", "average"), 0.0)
+    spent = dict.fromkeys(("shade", "mirror", "buffers", "average"), 0.0)
+    mirrors = scene.geometry.reflective and plan.max_depth > 0
+
+    def shade(hits, out, y, normal=None):  # one band of one sample, its mirror bounces blended in
+        ts = time.perf_counter()
+        shader.shade(hits, out=out, y0=y, normal=normal)
+        tm = time.perf_counter()
+        spent["shade"] += tm - ts
+        if mirrors:
+            trace_mirrors(scene, camera, hits, out, plan.max_depth, inputs, y)
+            spent["mirror"] += time.perf_counter() - tm
+
     t_start = time.perf_counter()
     for y, band in casts[0]:
         m = band.shape[0]
         rows = slice(y, y + m)
-        t0 = time.perf_counter()
         normal = None if buffers is None else buffers.normal_target(y, m, w)  # the Phong kernel writes them
         if mean is None:
-            shader.shade(band, out=image[rows], y0=y, normal=normal)
+            shade(band, image[rows], y, normal)
         else:
             for i, cast in enumerate(casts):
                 hits = band if i == 0 else next(cast)[1]
-                ts = time.perf_counter()
-                shader.shade(hits, out=mean.image(i, m), y0=y, normal=None if i else normal)
+                shade(hits, mean.image(i, m), y, None if i else normal)
                 ta = time.perf_counter()
                 mean.add(i, hits.prim, image[rows], None if coverage is None else coverage[rows])
-                spent["shade"] += ta - ts
                 spent["average"] += time.perf_counter() - ta
+        t0 = time.perf_counter()
         np.greater_equal(band.prim, 0, out=mask[rows])
         t1 = time.perf_counter()
-        if mean is None:
-            spent["shade"] += t1 - t0
+        spent["shade"] += t1 - t0
         if buffers is not None:
             buffers.band(band, y, shaded=normal is not None)
             spent["buffers"] += time.perf_counter() - t1

@@ -2,19 +2,28 @@
 
 A reflective pixel becomes ``(1 - rho) local + rho reflected``. Mirror rays
 start from the hit pushed off the surface as shadow rays do
-(:func:`~raycast_shade.shading.shadows._nudge`).
+(:func:`~raycast_shade.shading.shadows._nudge`). One kernel does it all: the
+reflective pixels of a 4x4 tile become the lanes of one ``rtcIntersect16``
+packet (neighbours on a smooth mirror reflect in nearly parallel directions,
+so Embree traces them as one coherent packet, about 3x faster than one ray at
+a time), each bounce is Phong-shaded and blended into its pixel as soon as it
+returns, and the lanes that meet another mirror bounce on in the same packet.
+``render`` runs it band by band, after each band is shaded.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from llvmlite import ir
+from numba import njit, prange, types
+from numba.extending import intrinsic
 
 from ..common.layout import MAT_REFLECTIVITY
 from ..common.schedule import BLOCK_ROWS, spread_step
+from ..visibility import embree
 from ..visibility.accel import embree_accel
 from .inputs import prepare
-from .jit import CHUNK, FLT32_MAX, HELPER, JIT, compile_variants, variant
+from .jit import FLT32_MAX, HELPER, JIT, compile_variants, variant
 from .phong import _shade_surface, _surface
 from .records import At, reflect_into
 from .shadows import _nudge, _scratch
@@ -28,6 +37,48 @@ MAX_MIRROR_DEPTH = 64
 # A reflected ray whose weight (the product of the reflectivities it met) is under float32's
 # resolution changes its pixel by less than one part in 2**24 of its colour: it stops.
 _MIN_WEIGHT = 2.0 ** -24
+_LANES = 16  # rays a packet (rtcIntersect16): the mirror pixels of a 4x4 tile
+_TILE = 4
+assert BLOCK_ROWS % _TILE == 0
+_RAY = embree.RAYHIT_SLOTS  # float32 slots in one RTCRayHit
+# RTCIntersectArguments flags of the mirror packets.
+MIRROR_FLAGS = embree.RAY_QUERY_FLAG_COHERENT
+
+
+@intrinsic
+def _bits(typingctx, x):
+    """The IEEE-754 bits of a float64, as an int64."""
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(args[0], ir.IntType(64))
+
+    return types.int64(types.float64), codegen
+
+
+@intrinsic
+def _from_bits(typingctx, b):
+    """The float64 whose IEEE-754 bits are the int64 ``b``."""
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(args[0], ir.DoubleType())
+
+    return types.float64(types.int64), codegen
+
+
+@njit(**HELPER)
+def _offset(p, n, unit):
+    """:func:`~raycast_shade.shading.shadows._nudge`, bit for bit, with its step read off
+    ``p``'s exponent bits instead of ``frexp`` and ``ldexp`` (two library calls a coordinate,
+    a third of the cost of a mirror ray's origin): for a normal ``p`` of biased exponent ``E``,
+    ``frexp`` gives ``E - 1022`` and the step ``ldexp(256, E - 1022 - 24)`` is ``2**(E - 1038)``,
+    the float64 of biased exponent ``E - 15``. A subnormal step, inf and NaN take ``_nudge``
+    itself."""
+    e = (_bits(p) >> 52) & 0x7FF
+    if abs(p) < unit * (1.0 / 32.0):
+        step = unit * (1.0 / 65536.0)
+    elif e < 16 or e == 0x7FF:
+        return _nudge(p, n, unit)
+    else:
+        step = _from_bits((e - 15) << 52)
+    return p + n * step  # one expression for both steps, contracted as _nudge's (an exact product or not)
 
 
 @njit(**HELPER)
@@ -41,128 +92,181 @@ def _mirror_ray(hp, unit):
     r = (-vx - 2.0 * dn * nx, -vy - 2.0 * dn * ny, -vz - 2.0 * dn * nz)
     r = reflect_into(r, hp.g)  # a bent shading normal sent it below the surface
     p, g = hp.p, hp.g
-    return (_nudge(p[0], g[0], unit), _nudge(p[1], g[1], unit), _nudge(p[2], g[2], unit)), r
+    return (_offset(p[0], g[0], unit), _offset(p[1], g[1], unit), _offset(p[2], g[2], unit)), r
 
 
-# The two blends run over the mirror pixels in place, in plain IEEE arithmetic (no fast-math:
-# the NumPy expressions they replace, bit for bit, without their gathers and float64 temporaries).
-@njit(parallel=True, cache=True)
-def _keep_kernel(flat, idx, rho):
-    """``flat[idx[j]] *= float32(1 - rho[j])``: a mirror pixel keeps ``1 - rho`` of its local shade."""
-    for j in prange(len(idx)):
-        keep = np.float32(1.0 - rho[j])
+# The blends, in plain IEEE arithmetic (no fast-math, so no fused multiply-add even when LLVM
+# inlines them into the fast-math packet kernel: an instruction keeps its own flags), the same
+# operations as the NumPy expressions they once replaced.
+_PLAIN = dict(cache=True, forceinline=True, _nrt=False)
+
+
+@njit(**_PLAIN)
+def _keep_pixel(image, y, x, rho):
+    """``image[y, x] *= float32(1 - rho)``: a mirror pixel keeps ``1 - rho`` of its local shade."""
+    keep = np.float32(1.0 - rho)
+    for c in range(3):
+        image[y, x, c] = image[y, x, c] * keep
+
+
+@njit(**_PLAIN)
+def _add_pixel(image, y, x, weight, c0, c1, c2):
+    """``image[y, x] = float32(min(image[y, x] + weight colour, FLT32_MAX))``, in float64."""
+    image[y, x, 0] = min(np.float64(image[y, x, 0]) + weight * c0, FLT32_MAX)
+    image[y, x, 1] = min(np.float64(image[y, x, 1]) + weight * c1, FLT32_MAX)
+    image[y, x, 2] = min(np.float64(image[y, x, 2]) + weight * c2, FLT32_MAX)
+
+
+@njit(**HELPER)
+def _packet_rays(buf, ib, off, vbuf, voff, org, dr, act, n):
+    """Write the active lanes' rays (``org``, ``dr`` (3, 16) float64, ``act`` (16,) bool; lanes
+    ``n ..`` unused) into the ``RTCRayHit16`` at ``off``: origin, direction, ``tfar = inf``, no
+    hit (the slots no bounce changes were written once, by :func:`embree.write_ray`). Inactive
+    lanes carry the first active lane's ray (a valid dummy, masked off by ``vbuf``)."""
+    first = 0
+    while not act[first]:
+        first += 1
+    for k in range(_LANES):
+        on = k < n and act[k]
+        j = k if on else first
         for c in range(3):
-            flat[idx[j], c] = flat[idx[j], c] * keep
+            buf[off + k + (embree.RAY_ORG + c) * _LANES] = org[c, j]
+            buf[off + k + (embree.RAY_DIR + c) * _LANES] = dr[c, j]
+        buf[off + k + embree.RAY_TFAR * _LANES] = np.inf
+        embree.reset_hit(ib, off + k, _LANES)
+        vbuf[voff + k] = -1 if on else 0
 
 
-@njit(parallel=True, cache=True)
-def _add_kernel(flat, idx, weight, colour):
-    """``flat[idx[j]] = float32(min(flat[idx[j]] + weight[j] colour[j], FLT32_MAX))`` in float64."""
-    for j in prange(len(idx)):
-        for c in range(3):
-            flat[idx[j], c] = min(np.float64(flat[idx[j], c]) + weight[j] * colour[j, c], FLT32_MAX)
+@njit(**HELPER)
+def _start_lane(hits, G, B, materials, face_off, cam, unit, image, y, x, lanes):
+    """Pixel ``(y, x)`` of ``hits`` as the next lane of ``lanes`` = ``(n, ys, xs, weight, org,
+    dr, act)`` when its surface reflects (its mirror ray, weight ``rho``, its local shade
+    scaled by ``1 - rho``). Returns the lanes now filled."""
+    prim, geom, u, v = hits
+    n, ys, xs, weight, org, dr, act = lanes
+    p = prim[y, x]
+    if p < 0 or materials[geom[y, x], MAT_REFLECTIVITY] <= 0.0:
+        return n
+    gm = geom[y, x]
+    at = At(face_off[gm] + p, gm, np.float64(u[y, x]), np.float64(v[y, x]))
+    o, r = _mirror_ray(_surface(G, B, cam, at, False, (0.0, 0.0, 0.0)), unit)
+    rho = materials[gm, MAT_REFLECTIVITY]
+    _keep_pixel(image, y, x, rho)
+    ys[n] = y
+    xs[n] = x
+    weight[n] = rho
+    act[n] = True
+    for c in range(3):
+        org[c, n] = o[c]
+        dr[c, n] = r[c]
+    return n + 1
 
 
-@njit(parallel=True, **JIT)
-def _mirror_rows_kernel(prim, geom, materials, counts):
-    """``counts[y]``: how many pixels of row ``y`` see a reflective surface."""
-    h, w = prim.shape
-    for y in prange(h):
-        c = 0
-        for x in range(w):
-            if prim[y, x] >= 0 and materials[geom[y, x], MAT_REFLECTIVITY] > 0.0:
-                c += 1
-        counts[y] = c
-
-
-@njit(parallel=True, **JIT)
-def _reflect_primary_kernel(prim, geom, u, v, G, B, face_off, materials, cam, unit, starts, pixel, origins, dirs):
-    """Mirror rays from every pixel whose surface reflects, packed: row ``y``'s
-    rays go from ``starts[y]`` on (see :func:`_mirror_rows_kernel`), with
-    their flat pixel index in ``pixel``. Packed arrays hold the mirror pixels
-    only, not the whole image (at 1080p, 96 MB of mostly untouched memory
-    that cost more in page faults than the mirror rays themselves)."""
-    h, w = prim.shape
-    nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
-    step = spread_step(nblk)
-    for it in prange(nblk):  # blocks of rows in a balanced order (see common.schedule)
-        blk = (it * step) % nblk
-        for y in range(blk * BLOCK_ROWS, min(h, (blk + 1) * BLOCK_ROWS)):
-            j = starts[y]
-            for x in range(w):
-                p = prim[y, x]
-                if p < 0:
-                    continue
-                gm = geom[y, x]
-                if materials[gm, MAT_REFLECTIVITY] <= 0.0:
-                    continue
-                at = At(face_off[gm] + p, gm, np.float64(u[y, x]), np.float64(v[y, x]))
-                o, r = _mirror_ray(_surface(G, B, cam, at, False, (0.0, 0.0, 0.0)), unit)
-                pixel[j] = y * w + x
-                for k in range(3):
-                    origins[j, k] = o[k]
-                    dirs[j, k] = r[k]
-                j += 1
-
-
-def _make_bounce(spec_on: bool, att_on: bool, tex_on: bool = False):
-    """The secondary-hit kernel for one variant (see :mod:`.jit`; ``tex_on``: textured
-    coefficients, sampled at level 0: a bounced ray has no pixel footprint here)."""
+def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
+    """The mirror kernel for one variant (see :mod:`.jit`; ``tex_on``: textured coefficients at
+    the bounces, sampled at level 0: a bounced ray has no pixel footprint here)."""
 
     @njit(parallel=True, **JIT)
-    def _shade_points_kernel(rays, G, B, L, T, face_off, materials, cam, background, last, out):
-        """Phong-shade secondary hits seen along their rays; emit the next mirror rays.
+    def _mirror_packets_kernel(hits, G, B, L, T, face_off, materials, cam, background, image, trace):
+        """Blend every reflective pixel of ``hits`` into ``image``, all bounces, in packets.
 
-        ``rays`` = the hits ``(prim, geom, u, v)`` and their directions ``dirs``, (N,) and
-        (N, 3); ``out`` = ``(colour, origins, next_dirs, active)``. A reflective surface keeps
-        ``1 - rho`` of its local shade and passes ``rho`` on, except at the last bounce, where
-        it shows its local shade.
-        """
-        prim, geom, u, v, dirs = rays
-        colour, origins, next_dirs, active = out
+        ``hits`` = ``(prim, geom, u, v)`` (R, W) and ``image`` (R, W, 3) float32: rows
+        ``y0 ..`` of the frame (a band, or all of it: a pixel's bounces read nothing but its
+        own hit). ``trace`` = ``(scene handle, unit, max_depth, packet flags, y0)``. The
+        reflective pixels of each 4x4 tile of the image (on the frame's grid of tiles, cut by
+        the rows given) go as one ``rtcIntersect16`` packet per bounce; a lane whose ray met a
+        reflective surface (and whose weight can still change its pixel) bounces on in the
+        same packet. Per pixel the arithmetic is :func:`_keep_pixel`, then per bounce the
+        bounce's Phong-shaded colour (``1 - rho`` of it on a reflective surface, all of it at
+        the last bounce; the background on a miss) added with :func:`_add_pixel`, weighted by
+        the product of the reflectivities met before it."""
+        prim = hits[0]
+        handle, unit, max_depth, flags, y0 = trace
         uvs = B[0]
-        unit = L[4]
-        n = prim.shape[0]
-        nchunk = (n + CHUNK - 1) // CHUNK
-        step = spread_step(nchunk)
-        for it in prange(nchunk):  # chunks in a balanced order (see common.schedule)
-            c = (it * step) % nchunk
+        h, w = prim.shape
+        first = y0 // _TILE  # the frame's tile rows that meet rows y0 .. y0 + h
+        ntr = (y0 + h + _TILE - 1) // _TILE - first
+        ntx = (w + _TILE - 1) // _TILE
+        per = BLOCK_ROWS // _TILE
+        nblk = (ntr + per - 1) // per
+        step = spread_step(nblk)
+        for it in prange(nblk):  # blocks of tile rows in a balanced order (see common.schedule)
+            blk = (it * step) % nblk
             S = _scratch()
-            for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
-                active[i] = False
-                p = prim[i]
-                if p < 0:
-                    for k in range(3):
-                        colour[i, k] = background[k]
-                    continue
-                gm = geom[i]
-                at = At(face_off[gm] + p, gm, np.float64(u[i]), np.float64(v[i]))
-                if tex_on:
-                    coef = _point_coefficients(G, uvs, at, cam, 0, 0, False, materials, T)
-                else:
-                    coef = _row_coefficients(materials, gm)
-                rgb, hp = _shade_surface(G, B, L, S, materials, cam, at, True, (dirs[i, 0], dirs[i, 1], dirs[i, 2]),
-                                         coef, spec_on, att_on)
-                rho = materials[gm, MAT_REFLECTIVITY]
-                keep = 1.0
-                if rho > 0.0 and not last:
-                    keep = 1.0 - rho
-                    o, r = _mirror_ray(hp, unit)
-                    for k in range(3):
-                        origins[i, k] = o[k]
-                        next_dirs[i, k] = r[k]
-                    active[i] = True
-                colour[i, 0] = keep * rgb[0]
-                colour[i, 1] = keep * rgb[1]
-                colour[i, 2] = keep * rgb[2]
+            # Per-task RTCRayHit16 (64-byte aligned), its valid mask and RTCIntersectArguments:
+            # addresses are taken only to align; Embree gets the arrays (embree.intersect16_packet).
+            buf = np.empty(_LANES * _RAY + 16, np.float32)
+            off = ((64 - buf.ctypes.data % 64) % 64) // 4
+            ib = buf.view(np.uint32)
+            vbuf = np.empty(2 * _LANES, np.int32)
+            voff = ((64 - vbuf.ctypes.data % 64) % 64) // 4
+            abuf = np.zeros(embree.ARGS_SLOTS + 2, np.uint32)
+            aoff = ((8 - abuf.ctypes.data % 8) % 8) // 4
+            abuf[aoff] = flags
+            abuf[aoff + 1] = embree.FEATURE_FLAG_ALL
+            for k in range(_LANES):  # tnear 0, time 0, every mask bit, id and flags 0: the same for every bounce
+                embree.write_ray(buf, ib, off + k, _LANES, (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 0.0, np.inf)
+            ys = np.empty(_LANES, np.int64)
+            xs = np.empty(_LANES, np.int64)
+            weight = np.empty(_LANES, np.float64)
+            org = np.zeros((3, _LANES), np.float64)
+            dr = np.zeros((3, _LANES), np.float64)
+            act = np.zeros(_LANES, np.bool_)
+            for tr in range(blk * per, min(ntr, (blk + 1) * per)):
+                ya = max((first + tr) * _TILE - y0, 0)
+                yb = min((first + tr + 1) * _TILE - y0, h)
+                for tx in range(ntx):
+                    n = 0
+                    for y in range(ya, yb):
+                        for x in range(tx * _TILE, min(w, (tx + 1) * _TILE)):
+                            n = _start_lane(hits, G, B, materials, face_off, cam, unit, image, y, x,
+                                            (n, ys, xs, weight, org, dr, act))
+                    for depth in range(1, max_depth + 1):
+                        if n == 0:
+                            break
+                        _packet_rays(buf, ib, off, vbuf, voff, org, dr, act, n)
+                        embree.intersect16_packet(vbuf[voff:], handle, buf[off:], abuf[aoff:])
+                        more = 0
+                        for k in range(n):
+                            if not act[k]:
+                                continue
+                            gb, pb, ub, vb, _ = embree.read_hit(buf, ib, off + k, _LANES)
+                            act[k] = False
+                            if pb < 0:
+                                _add_pixel(image, ys[k], xs[k], weight[k], background[0], background[1],
+                                           background[2])
+                                continue
+                            at = At(face_off[gb] + pb, gb, np.float64(ub), np.float64(vb))
+                            if tex_on:
+                                coef = _point_coefficients(G, uvs, at, cam, 0, 0, False, materials, T)
+                            else:
+                                coef = _row_coefficients(materials, gb)
+                            rgb, hp = _shade_surface(G, B, L, S, materials, cam, at, True,
+                                                     (dr[0, k], dr[1, k], dr[2, k]), coef, spec_on, att_on)
+                            rho = materials[gb, MAT_REFLECTIVITY]
+                            keep = 1.0
+                            if rho > 0.0 and depth < max_depth:
+                                keep = 1.0 - rho
+                                o, r = _mirror_ray(hp, unit)
+                                for c in range(3):
+                                    org[c, k] = o[c]
+                                    dr[c, k] = r[c]
+                                # A ray that can no longer change a float32 pixel of its own colour's size stops.
+                                act[k] = weight[k] * rho >= _MIN_WEIGHT
+                            _add_pixel(image, ys[k], xs[k], weight[k], keep * rgb[0], keep * rgb[1], keep * rgb[2])
+                            if act[k]:
+                                weight[k] = weight[k] * rho
+                                more += 1
+                        if more == 0:
+                            break
 
-    return _shade_points_kernel
+    return _mirror_packets_kernel
 
 
-_BOUNCE = compile_variants(_make_bounce)  # the family's registry (see .jit)
+_PACKETS = compile_variants(_make_packets)  # the family's registry (see .jit)
 
 
-def trace_mirrors(scene, camera, hits, image, max_depth: int = 3, inputs=None) -> np.ndarray:
+def trace_mirrors(scene, camera, hits, image, max_depth: int = 3, inputs=None, y0: int = 0) -> np.ndarray:
     """Blend mirror reflections into a shaded image.
 
     Each reflective pixel becomes ``(1 - rho) local + rho reflected``, the
@@ -170,58 +274,34 @@ def trace_mirrors(scene, camera, hits, image, max_depth: int = 3, inputs=None) -
     along the bouncing ray) to ``max_depth`` bounces; the last bounce shows
     its local shade. ``max_depth=0`` is the same image as no mirror at all.
 
+    The reflective pixels of each 4x4 tile of the frame trace their bounces
+    together, as one 16-ray packet per bounce (:func:`_make_packets`), in
+    one parallel kernel: no gather, no per-ray arrays.
+
     Parameters
     ----------
+    scene : Scene
+    camera : Camera
+    hits : HitBuffer
+        (H, W) hits of the frame, or of ``H`` of its rows from ``y0`` on (a band).
     image : (H, W, 3) float32
         Local shading of ``hits``; updated in place and returned.
+    max_depth : int
+        Bounces, ``0 <= max_depth <= MAX_MIRROR_DEPTH``.
     inputs : FrameInputs, optional
         The frame's packed inputs (:func:`~raycast_shade.shading.inputs.prepare`), when the
         caller has them already; packed here otherwise.
+    y0 : int
+        The frame row of ``hits``' first row: its tiles are the frame's, so a band's pixels
+        travel with the same neighbours as in the whole frame (except where a band's edge cuts a
+        tile; a ray's hit does not depend on the packet it travels in).
     """
     geo = scene.geometry
     if max_depth <= 0 or not geo.reflective:
         return image
-    from ..visibility.cast import cast_rays_kernel
-
     k = prepare(scene, camera) if inputs is None else inputs
-    points_kernel = variant(_BOUNCE, k)
-    h, w = hits.shape
-    counts = np.empty(h, np.int64)
-    _mirror_rows_kernel(hits.prim, hits.geom, k["materials"], counts)
-    starts = np.zeros(h + 1, np.int64)
-    np.cumsum(counts, out=starts[1:])
-    m = int(starts[-1])
-    idx = np.empty(m, np.int64)
-    origins = np.empty((m, 3))
-    dirs = np.empty((m, 3))
-    _reflect_primary_kernel(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["face_off"], k["materials"],
-                            k["cam"], float(geo.scale), starts, idx, origins, dirs)
-    flat = image.reshape(-1, 3)
-    rho = geo.materials[hits.geom.reshape(-1)[idx], MAT_REFLECTIVITY]
-    _keep_kernel(flat, idx, rho)
-    weight = rho
-    accel = embree_accel(geo).handle
-    for depth in range(1, max_depth + 1):
-        m = len(idx)
-        if m == 0:
-            break
-        prim = np.empty(m, np.int32)
-        gm = np.empty(m, np.int32)
-        u = np.empty(m, np.float32)
-        v = np.empty(m, np.float32)
-        t = np.empty(m, np.float32)
-        cast_rays_kernel(accel, origins, dirs, np.zeros(m), np.full(m, np.inf), prim, gm, u, v, t)
-        colour = np.empty((m, 3))
-        next_o = np.empty((m, 3))
-        next_d = np.empty((m, 3))
-        more = np.empty(m, np.bool_)
-        points_kernel((prim, gm, u, v, dirs), k["G"], k["B"], k["L"], k["T"], k["face_off"], k["materials"], k["cam"],
-                      k["background"], depth == max_depth, (colour, next_o, next_d, more))
-        _add_kernel(flat, idx, weight, colour)
-        weight = weight[more] * geo.materials[gm[more], MAT_REFLECTIVITY]
-        idx, origins, dirs = idx[more], next_o[more], next_d[more]
-        # A ray that can no longer change a float32 pixel of its own colour's size stops here.
-        keep = weight >= _MIN_WEIGHT
-        if not keep.all():
-            weight, idx, origins, dirs = weight[keep], idx[keep], origins[keep], dirs[keep]
+    trace = (np.uintp(embree_accel(geo).handle), float(geo.scale), int(max_depth), np.uint32(MIRROR_FLAGS),
+             int(y0))
+    variant(_PACKETS, k)((hits.prim, hits.geom, hits.u, hits.v), k["G"], k["B"], k["L"], k["T"], k["face_off"],
+                         k["materials"], k["cam"], k["background"], image, trace)
     return image

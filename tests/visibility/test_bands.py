@@ -231,12 +231,15 @@ def test_a_distorted_camera_is_one_band_with_its_buffers():
     _same(*_both_methods(scene, "gouraud", camera=cam, buffers=("zdepth", "position", "normal"), samples=2))
 
 
+@pytest.mark.parametrize("depth", [1, 3])
 @pytest.mark.usefixtures("small_bands")
-def test_mirror_frames_are_not_banded():
+def test_mirror_frames_are_banded_and_the_whole_frame_bit_for_bit(depth):
+    """Mirror bounces follow each band (tests/shading/test_mirror_packets.py cuts them further)."""
     scene = _textured_sphere(fov=45.0)
     shiny = scene.replace(models=[rs.Model(m.mesh, rs.Material(reflectivity=0.5)) for m in scene.models])
-    assert not callable(rs.render(shiny, "phong", max_depth=1).__dict__["_hits"])
-    assert callable(rs.render(shiny, "phong", max_depth=0).__dict__["_hits"])
+    banded, whole = _both(shiny, max_depth=depth)
+    _same(banded, whole)
+    assert np.abs(banded.image - _both(shiny, max_depth=0)[0].image).max() > 0.05  # it does reflect
 
 
 @pytest.mark.usefixtures("small_bands")
