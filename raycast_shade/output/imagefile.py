@@ -1,8 +1,10 @@
 """Writing a rendered image to a file, by its extension.
 
 * ``.pfm`` and ``.npy``: the linear float32 image, losslessly;
-* ``.png``: 8-bit after :func:`~raycast_shade.output.tonemap.to_uint8`, with the
-  standard library's zlib (no imageio import on the demo's path);
+* ``.png``: 8-bit after :func:`~raycast_shade.output.tonemap.to_uint8` (for
+  float32 images by its table, :func:`~raycast_shade.output.quantize.to_uint8_table`:
+  the same bytes on one core), with the standard library's zlib (no imageio
+  import on the demo's path);
 * ``.jpg``/``.jpeg``, ``.bmp``, ``.tif``/``.tiff``, ``.gif``, ``.webp``:
   8-bit, through imageio's Pillow plugin.
 
@@ -177,7 +179,8 @@ def write_image(path, image, *, atomic: bool = False, fast: bool = False, **tone
 
 
 def _write(path: str, image, tone: dict, fast: bool = False) -> None:
-    from .tonemap import to_uint8, write_pfm
+    from .quantize import to_uint8_table as to_uint8  # to_uint8's bytes, by table for float32 images
+    from .tonemap import write_pfm
 
     ext = check_image_path(path)
     if ext == ".pfm":
