@@ -7,6 +7,11 @@ Run ``python -m benchmarks.bench_views [--quick]``. Measures
   and write time of its ``.npz`` (stored, deflate level 1), its multi-channel
   ``.exr`` (uncompressed, ZIP) and its 16-bit depth PNG (default, fast),
   and of one plain write of the same bytes, the floor (best of 3 writes);
+* **png**: the same view's 8-bit image: the tone mapping by the curve
+  (:func:`~raycast_shade.output.tonemap.to_uint8`) and by its table
+  (:func:`~raycast_shade.output.quantize.to_uint8_table`) on one thread, and
+  the filtered rows deflated by ISA-L at levels 0-3 and zlib at 1 and 6:
+  time (median of 5) and size, the choice behind ``png_deflate(fast=True)``;
 * **views/s**: :func:`raycast_shade.apps.views.render_views` of an orbit
   (buffers ``zdepth, normal, id``, npz and PNG per view), serially and on a
   local Dask cluster of 2 single-threaded workers, after a warm-up run;
@@ -88,6 +93,56 @@ def bench_files(tmp, width, height):
                          value=f"{seconds * 1e3:.0f}", unit="ms", note=note))
     rows.append(dict(benchmark="files", case="buffers compute", width=width, height=height,
                      value=f"{frame.timings['buffers'] * 1e3:.0f}", unit="ms", note=note))
+    return rows
+
+
+def bench_png(width, height):
+    import zlib
+
+    import numba
+
+    import raycast_shade as rs
+    from raycast_shade.output.quantize import to_uint8_table
+    from raycast_shade.output.tonemap import to_uint8
+
+    image = rs.render(_scene(width, height)).image
+    rows = []
+
+    def add(case, fn, size=None):
+        fn()
+        times = []
+        for _ in range(5):
+            t0 = time.perf_counter()
+            fn()
+            times.append(time.perf_counter() - t0)
+        rows.append(dict(benchmark="png", case=f"{case} time", width=width, height=height,
+                         value=f"{np.median(times) * 1e3:.1f}", unit="ms", note="median of 5, one thread"))
+        if size is not None:
+            rows.append(dict(benchmark="png", case=f"{case} size", width=width, height=height,
+                             value=f"{size / 2**20:.3f}", unit="MiB", note="IDAT of a rendered frame"))
+
+    before = numba.get_num_threads()
+    numba.set_num_threads(1)  # as on a view set's writer thread
+    try:
+        add("to_uint8 (curve)", lambda: to_uint8(image))
+        add("to_uint8_table", lambda: to_uint8_table(image))
+    finally:
+        numba.set_num_threads(before)
+    rgb = to_uint8(image)
+    h, w, _ = rgb.shape
+    flat = rgb.reshape(h, 3 * w)
+    raw = np.empty((h, 3 * w + 1), np.uint8)
+    raw[:, 0], raw[:, 1:4] = 1, flat[:, :3]  # PNG's Sub filter, as png_bytes writes
+    np.subtract(flat[:, 3:], flat[:, :-3], out=raw[:, 4:])
+    codecs = {f"zlib {lv}": (lambda lv=lv: zlib.compress(raw, lv)) for lv in (1, 6)}
+    try:
+        from isal import isal_zlib
+
+        codecs.update({f"isal {lv}": (lambda lv=lv: isal_zlib.compress(raw, lv)) for lv in (0, 1, 2, 3)})
+    except ImportError:
+        pass
+    for case, fn in codecs.items():
+        add(f"deflate {case}", fn, len(fn()))
     return rows
 
 
@@ -184,9 +239,11 @@ def main(argv=None):
     tmp = tempfile.mkdtemp(prefix="bench_views_")
     try:
         if args.quick:
-            rows = bench_files(tmp, 320, 180) + bench_views(tmp, 160, 120, 8) + bench_projection(96, 72)
+            rows = (bench_files(tmp, 320, 180) + bench_png(320, 180) + bench_views(tmp, 160, 120, 8)
+                    + bench_projection(96, 72))
         else:
-            rows = bench_files(tmp, 1920, 1080) + bench_views(tmp, 640, 480, 32) + bench_projection(320, 240)
+            rows = (bench_files(tmp, 1920, 1080) + bench_png(1920, 1080) + bench_views(tmp, 640, 480, 32)
+                    + bench_projection(320, 240))
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     for r in rows:
