@@ -157,7 +157,8 @@ def _render_view(job, base, spec: _ViewSpec, cache: SceneCache, out=None):
     frame = render(scene, spec.options.shading, camera=job.camera, buffers=spec.buffers + tuple(extra), out=out,
                    **spec.options.render_kwargs)
     alone = unoccluded_masks(scene, job.camera) if spec.unoccluded else None  # casts: on the rendering thread
-    boxes = [(m.mesh.vertices.min(axis=0), m.mesh.vertices.max(axis=0)) for m in scene.models]
+    boxes = scene.geometry.memo("views.boxes", lambda geo: [(m.mesh.vertices.min(axis=0), m.mesh.vertices.max(axis=0))
+                                                          for m in scene.models])  # once per mesh set
     cache.count("renders")
     return files, frame, key, alone, boxes
 
