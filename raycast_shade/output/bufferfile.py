@@ -336,7 +336,7 @@ def read_exr(path) -> dict:
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)  # on a view set's writer thread: the next render's thread runs on
 def _depth_rows(d, scale, raw):
     """PNG rows of ``round(d * scale)`` as 16-bit big-endian samples into ``raw`` (H, 2W + 1) uint8
     (filter byte 0): 0 where ``d`` is 0, not finite or rounds above 65535, the arithmetic in float64

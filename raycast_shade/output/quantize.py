@@ -13,8 +13,9 @@ table indexed by the top 19 bits of its pattern (sign, exponent, 10
 mantissa bits; 256 KiB) gives the code at the start of its bucket of 8,192
 patterns, and a short walk over the next thresholds finishes it. On one
 core this is about 3x faster than the curve (about 15-20 ms at 1080p, loaded;
-a copy of the image takes 8), and it runs on the calling thread only, so a
-view set's writer thread does not take the cores from the next render.
+a copy of the image takes 8), and it runs on the calling thread only and
+without the GIL, so a view set's writer thread neither takes the cores from
+the next render nor holds its Python thread.
 
 Non-negative float32 patterns order as their values, and the curve is
 non-decreasing in float64 with errors of an ulp of float64, far below the
@@ -58,7 +59,7 @@ def thresholds(exposure: float = 1.0, tonemap: str = "clamp", gamma="srgb") -> t
     return t, inf_code
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _bucket_codes(t, shift):
     """(0x7F800000 >> shift + 1,) uint8: the code of each bucket's first pattern (``j << shift``)."""
     n = (_INF >> shift) + 1
@@ -72,7 +73,7 @@ def _bucket_codes(t, shift):
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _quantize_kernel(bits, t, bucket, shift, inf_code, out):
     """``out[i]``: the code of pattern ``bits[i]`` (N,) int32 under thresholds ``t`` (257,) int32
     (``t[256]``: a sentinel above every finite pattern, so the walk needs no bound); returns how many
