@@ -162,3 +162,16 @@ def test_a_view_set_packs_and_builds_its_bvh_once(scene, tmp_path, monkeypatch):
     fresh = rs.Scene([rs.Model(rs.shapes.icosphere(1))], lights=scene.lights, camera=scene.camera)  # no BVH yet
     render_views(fresh, orbit_cameras(scene.camera, 3), tmp_path, buffers=["zdepth"], image=None)
     assert len(builds) == 1  # one mesh set: one BVH, shared by the three views
+
+
+def test_views_of_several_sizes_each_render_into_arrays_of_their_size(scene, tmp_path):
+    import imageio.v3 as iio
+
+    from raycast_shade.output.tonemap import to_uint8
+
+    small = scene.camera.replace(width=40, height=30)
+    cams = [scene.camera, small, small, scene.camera]  # the image arrays are replaced, then reused in turn
+    render_views(scene, cams, tmp_path, buffers=["zdepth"], formats=["npz"])
+    for i, cam in enumerate(cams):
+        want = to_uint8(rs.render(scene, camera=cam).image)
+        assert np.array_equal(iio.imread(tmp_path / f"view_{i:05d}.png"), want), i
