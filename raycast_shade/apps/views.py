@@ -187,7 +187,7 @@ def _run_views(jobs, base_of, spec: _ViewSpec, cache: SceneCache) -> list:
     image array is rendered into again only once its files are written). Returns the views' stems."""
     from concurrent.futures import ThreadPoolExecutor
 
-    images = _ImagePair()
+    images = _Images(2 if spec.overlap else 1)
     stems = []
     if not spec.overlap:
         for job in jobs:
@@ -209,19 +209,19 @@ def _run_views(jobs, base_of, spec: _ViewSpec, cache: SceneCache) -> list:
     return stems
 
 
-class _ImagePair:
-    """Two image arrays of the present camera size, handed out in turn (new ones when the size changes):
-    a view renders into one while the previous view's files are written from the other, and no view
-    pays for a fresh 24 MB image (1080p) and its page faults."""
+class _Images:
+    """``count`` image arrays of the present camera size, handed out in turn (new ones when the size
+    changes): with two, a view renders into one while the previous view's files are written from the
+    other; no view pays for a fresh 24 MB image (1080p) and its page faults."""
 
-    def __init__(self):
-        self.arrays, self.turn = [], 0
+    def __init__(self, count: int):
+        self.count, self.arrays, self.turn = count, [], 0
 
     def next(self, camera) -> np.ndarray:
         shape = (int(camera.height), int(camera.width), 3)
         if not self.arrays or self.arrays[0].shape != shape:
-            self.arrays = [np.empty(shape, np.float32), np.empty(shape, np.float32)]
-        self.turn ^= 1
+            self.arrays = [np.empty(shape, np.float32) for _ in range(self.count)]
+        self.turn = (self.turn + 1) % self.count
         return self.arrays[self.turn]
 
 

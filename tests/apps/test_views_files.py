@@ -164,10 +164,14 @@ def test_a_view_set_packs_and_builds_its_bvh_once(scene, tmp_path, monkeypatch):
     assert len(builds) == 1  # one mesh set: one BVH, shared by the three views
 
 
-def test_views_of_several_sizes_each_render_into_arrays_of_their_size(scene, tmp_path):
+@pytest.mark.parametrize("overlap", [True, False])
+def test_views_of_several_sizes_each_render_into_arrays_of_their_size(scene, tmp_path, monkeypatch, overlap):
     import imageio.v3 as iio
 
+    from raycast_shade.apps import views
     from raycast_shade.output.tonemap import to_uint8
+
+    monkeypatch.setattr(views, "_two_frames_fit", lambda jobs, memory: overlap)  # two image arrays, or one
 
     small = scene.camera.replace(width=40, height=30)
     cams = [scene.camera, small, small, scene.camera]  # the image arrays are replaced, then reused in turn
