@@ -50,9 +50,11 @@ cameras, another size, other buffers, ...) or view files without a plan is
 refused with a message saying what differs, before anything is written;
 ``overwrite=True`` replaces it, keeping only the views that match. Each
 file is written atomically, so a killed run, run again, finishes the set
-with the bytes a single run writes. Only one view's buffers are in memory
-per worker at a time, and the client holds paths, so memory stays flat in
-the number of views.
+with the bytes a single run writes. At most two views' buffers are in
+memory per worker at a time (one view's files are written on a writer thread
+while the next renders, where two frames fit the memory limit; one view
+otherwise), and the client holds paths, so memory stays flat in the number
+of views.
 """
 
 from __future__ import annotations
