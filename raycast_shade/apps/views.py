@@ -51,10 +51,9 @@ refused with a message saying what differs, before anything is written;
 ``overwrite=True`` replaces it, keeping only the views that match. Each
 file is written atomically, so a killed run, run again, finishes the set
 with the bytes a single run writes. At most two views' buffers are in
-memory per worker at a time (one view's files are written on a writer thread
-while the next renders, where two frames fit the memory limit; one view
-otherwise), and the client holds paths, so memory stays flat in the number
-of views.
+memory per worker (one written while the next renders, where two frames fit
+the memory limit), and the client holds paths: memory stays flat in the
+number of views.
 """
 
 from __future__ import annotations
