@@ -29,7 +29,9 @@ divided by the plain Phong frame's median:
   per view, with the default buffers and files (PNG image, npz) stored and
   with ``compression="zip"`` (the default where ISA-L is installed), and
   with npz, EXR and a depth PNG (zip): render and files (each view's files
-  written while the next renders).
+  written while the next renders); their sizes: one view's files;
+* ``view_floor``: one view's files of ``view_npz_zip`` (PNG, npz, record)
+  in one plain ``open().write()``, the least writing them can take here.
 * ``flat``, ``gouraud``: the frame flat- and Gouraud-shaded; ``samples4``:
   four rays per pixel; ``samples4_coverage``: the same with ``coverage`` and
   the view-set default buffers.
@@ -53,6 +55,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import glob
 import os
 import shutil
 import statistics
@@ -137,20 +140,33 @@ def _writer_paths(full, tmp):
 
 def _view_paths(scene, tmp, views: int = VIEWS):
     """render_views over ``views`` orbiting cameras (so each view's writing overlaps the next render),
-    timed per view: the default files (PNG + npz), with compression="zip", and with npz, EXR, depth PNG."""
+    timed per view: the default files (PNG + npz), with compression="zip", and with npz, EXR, depth PNG;
+    and ``view_floor``: the bytes of one view's files of the default set (PNG, zipped npz, record) in
+    one plain write. Each view row's file is its first view's files (their size: one view's)."""
     from raycast_shade.apps.animate import orbit_cameras
     from raycast_shade.apps.views import render_views
 
     cams = orbit_cameras(scene.camera, views)
-    folder = os.path.join(tmp, "views")
 
-    def view(**kw):
-        return lambda: render_views(scene, cams, folder, resume=False, overwrite=True, **kw)
+    def view(name, **kw):
+        folder = os.path.join(tmp, name)
+        run = lambda: render_views(scene, cams, folder, resume=False, overwrite=True, **kw)  # noqa: E731
+        return run, os.path.join(folder, "view_00000*"), views
+
+    blob = []
+
+    def floor():
+        if not blob:  # the first call (the warm-up round) reads what view_npz_zip wrote
+            files = sorted(glob.glob(os.path.join(tmp, "zip", "view_00000*")))
+            blob.append(b"".join(open(f, "rb").read() for f in files))
+        with open(os.path.join(tmp, "view_floor.bin"), "wb") as fh:
+            fh.write(blob[0])
 
     return {
-        "view_npz": (view(compression="none"), None, views),
-        "view_npz_zip": (view(compression="zip"), None, views),
-        "view_npz_exr_png": (view(formats=("npz", "exr", "depth_png"), compression="zip"), None, views),
+        "view_npz": view("none", compression="none"),
+        "view_npz_zip": view("zip", compression="zip"),
+        "view_npz_exr_png": view("all", formats=("npz", "exr", "depth_png"), compression="zip"),
+        "view_floor": (floor, os.path.join(tmp, "view_floor.bin"), 1),
     }
 
 
@@ -214,7 +230,8 @@ def bench_case(kind, level, width, height, repeats, only=None):
                 fn()
                 if r:
                     times[name].append((time.perf_counter() - t0) / per)
-        sizes = {name: os.path.getsize(path) / 2**20 for name, (_, path, _) in paths.items() if path}
+        sizes = {name: sum(os.path.getsize(f) for f in glob.glob(path)) / 2**20
+                 for name, (_, path, _) in paths.items() if path}
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     unit = statistics.median(times["frame"])
@@ -269,6 +286,7 @@ LABELS = {"buffers_all": "all 12 buffers",
           "view_npz": "`render_views`, per view (PNG + npz, stored)",
           "view_npz_zip": "`render_views`, per view (PNG + npz, zip: the default with ISA-L)",
           "view_npz_exr_png": "`render_views`, per view (PNG + npz + EXR + depth PNG, zip)",
+          "view_floor": "one view's files (PNG + zipped npz + record), one plain write (the floor)",
           "flat": "flat-shaded frame", "gouraud": "Gouraud-shaded frame", "samples4": "`samples=4`",
           "samples4_coverage": "`samples=4` with coverage and the view-set default",
           "terms": "`terms=True`", "shadows": "shadows on", "mirror": "a mirror material, one bounce",

@@ -7,6 +7,22 @@ Run ``python -m benchmarks.bench_views [--quick]``. Measures
   and write time of its ``.npz`` (stored, deflate level 1), its multi-channel
   ``.exr`` (uncompressed, ZIP) and its 16-bit depth PNG (default, fast),
   and of one plain write of the same bytes, the floor (best of 3 writes);
+* **png**: the same view's 8-bit image: the tone mapping by the curve
+  (:func:`~raycast_shade.output.tonemap.to_uint8`) and by its table
+  (:func:`~raycast_shade.output.quantize.to_uint8_table`) on one thread, and
+  the filtered rows deflated by ISA-L at levels 0-3 and zlib at 1 and 6:
+  time (median of 5) and size, the choice behind ``png_deflate(fast=True)``;
+* **cost**: one view of ``render_views``' default set (PNG image, npz of
+  ``zdepth, normal, id, mask``, zip) taken apart, 81,920 triangles
+  (:mod:`benchmarks.bench_peers`' scene) at 1920x1080 and 640x480: the
+  render with its buffers, the 8-bit pixels (table), the PNG deflate, the
+  objects and their RLE masks, the npz (zip and stored), the BLAKE2b digests
+  of the record, the same files in one plain write (the floor), fresh
+  arrays of the view's size (``np.empty`` + fill: the page-fault floor),
+  and whole views per view with and without the writer thread's overlap.
+  Each is timed interleaved with the plain frame, round after round; wall
+  and process CPU time, each as a ratio to the frame's (on 2 cores the
+  frame keeps both busy, so a view costs its CPU ratio whatever overlaps);
 * **views/s**: :func:`raycast_shade.apps.views.render_views` of an orbit
   (buffers ``zdepth, normal, id``, npz and PNG per view), serially and on a
   local Dask cluster of 2 single-threaded workers, after a warm-up run;
@@ -18,7 +34,8 @@ Run ``python -m benchmarks.bench_views [--quick]``. Measures
 * **round trips**: ``K -> Camera -> K`` and ``(R, t) -> Camera -> (R, t)``
   over 1,000 random poses, the largest absolute error.
 
-Results: ``benchmarks/results/views.csv``. ``--quick`` runs smaller sizes
+Results: ``benchmarks/results/views.csv`` (``--only cost,png`` runs those parts
+and replaces their rows, keeping the others). ``--quick`` runs smaller sizes
 and writes into the git-ignored ``out/quick/results/`` (:mod:`benchmarks.outputs`).
 """
 
@@ -88,6 +105,143 @@ def bench_files(tmp, width, height):
                          value=f"{seconds * 1e3:.0f}", unit="ms", note=note))
     rows.append(dict(benchmark="files", case="buffers compute", width=width, height=height,
                      value=f"{frame.timings['buffers'] * 1e3:.0f}", unit="ms", note=note))
+    return rows
+
+
+def bench_png(width, height):
+    import zlib
+
+    import numba
+
+    import raycast_shade as rs
+    from raycast_shade.output.quantize import to_uint8_table
+    from raycast_shade.output.tonemap import to_uint8
+
+    image = rs.render(_scene(width, height)).image
+    rows = []
+
+    def add(case, fn, size=None):
+        fn()
+        times = []
+        for _ in range(5):
+            t0 = time.perf_counter()
+            fn()
+            times.append(time.perf_counter() - t0)
+        rows.append(dict(benchmark="png", case=f"{case} time", width=width, height=height,
+                         value=f"{np.median(times) * 1e3:.1f}", unit="ms", note="median of 5, one thread"))
+        if size is not None:
+            rows.append(dict(benchmark="png", case=f"{case} size", width=width, height=height,
+                             value=f"{size / 2**20:.3f}", unit="MiB", note="IDAT of a rendered frame"))
+
+    before = numba.get_num_threads()
+    numba.set_num_threads(1)  # as on a view set's writer thread
+    try:
+        add("to_uint8 (curve)", lambda: to_uint8(image))
+        add("to_uint8_table", lambda: to_uint8_table(image))
+    finally:
+        numba.set_num_threads(before)
+    rgb = to_uint8(image)
+    h, w, _ = rgb.shape
+    flat = rgb.reshape(h, 3 * w)
+    raw = np.empty((h, 3 * w + 1), np.uint8)
+    raw[:, 0], raw[:, 1:4] = 1, flat[:, :3]  # PNG's Sub filter, as png_bytes writes
+    np.subtract(flat[:, 3:], flat[:, :-3], out=raw[:, 4:])
+    codecs = {f"zlib {lv}": (lambda lv=lv: zlib.compress(raw, lv)) for lv in (1, 6)}
+    try:
+        from isal import isal_zlib
+
+        codecs.update({f"isal {lv}": (lambda lv=lv: isal_zlib.compress(raw, lv)) for lv in (0, 1, 2, 3)})
+    except ImportError:
+        pass
+    for case, fn in codecs.items():
+        add(f"deflate {case}", fn, len(fn()))
+    return rows
+
+
+def bench_cost(tmp, width, height, repeats=5, level=6):
+    import hashlib
+    import statistics
+
+    import raycast_shade as rs
+    from benchmarks.bench_peers import make_mesh, make_scene
+    from raycast_shade.apps import views as views_mod
+    from raycast_shade.apps.animate import orbit_cameras
+    from raycast_shade.output.bufferfile import save_npz
+    from raycast_shade.output.buffers import check_buffers
+    from raycast_shade.output.imagefile import png_bytes
+    from raycast_shade.output.labels import view_objects
+    from raycast_shade.output.quantize import to_uint8_table
+
+    scene = make_scene(make_mesh("icosphere", level), width, height)
+    names = check_buffers(("zdepth", "normal", "id", "mask"))
+    frame = rs.render(scene, buffers=names)
+    rgb = to_uint8_table(frame.image)
+    cams = orbit_cameras(scene.camera, 3)
+    f = lambda name: os.path.join(tmp, name)  # noqa: E731
+    files = {}
+
+    def npz(name, level):
+        save_npz(f(name), frame.buffers, camera=frame.camera, compressed=level, atomic=True)
+        files[name] = f(name)
+
+    def blob(*names):
+        return b"".join(open(files[n], "rb").read() for n in names)
+
+    def floor():
+        if "floor" not in files:
+            with open(f("i.png"), "wb") as fh:
+                fh.write(png_bytes(rgb, fast=True))
+            files["i.png"] = f("i.png")
+            files["floor"] = blob("i.png", "z.npz")
+        with open(f("floor.bin"), "wb") as fh:
+            fh.write(files["floor"])
+
+    def fresh():
+        for a in [frame.image, *frame.buffers.values()]:
+            np.empty(a.shape, a.dtype).fill(0)
+
+    def view_set(overlap):
+        def run():
+            real = views_mod._two_frames_fit
+            views_mod._two_frames_fit = lambda jobs, memory: overlap
+            try:
+                views_mod.render_views(scene, cams, f("set"), resume=False, overwrite=True, compression="zip")
+            finally:
+                views_mod._two_frames_fit = real
+        return run
+
+    paths = {"frame": (lambda: rs.render(scene), 1),
+             "render with the buffers": (lambda: rs.render(scene, buffers=names), 1),
+             "8-bit pixels (table)": (lambda: to_uint8_table(frame.image), 1),
+             "PNG deflate (ISA-L 2)": (lambda: png_bytes(rgb, fast=True), 1),
+             "objects + RLE": (lambda: view_objects(frame.buffers["model_id"], frame.camera, rle=True), 1),
+             "npz zip": (lambda: npz("z.npz", 1), 1),
+             "npz stored": (lambda: npz("s.npz", False), 1),
+             "BLAKE2b of the zip npz": (lambda: hashlib.blake2b(blob("z.npz"), digest_size=16).digest(), 1),
+             "BLAKE2b of the stored npz": (lambda: hashlib.blake2b(blob("s.npz"), digest_size=16).digest(), 1),
+             "PNG + zip npz, one plain write (floor)": (floor, 1),
+             "fresh arrays (np.empty + fill)": (fresh, 1),
+             "view, writer thread overlapping": (view_set(True), len(cams)),
+             "view, no overlap": (view_set(False), len(cams))}
+    wall = {k: [] for k in paths}
+    cpu = {k: [] for k in paths}
+    for r in range(repeats + 1):  # round 0: warm-up
+        for name, (fn, per) in paths.items():
+            c0, t0 = time.process_time(), time.perf_counter()
+            fn()
+            if r:
+                wall[name].append((time.perf_counter() - t0) / per)
+                cpu[name].append((time.process_time() - c0) / per)
+    unit_wall, unit_cpu = statistics.median(wall["frame"]), statistics.median(cpu["frame"])
+    sizes = {"npz zip": "z.npz", "npz stored": "s.npz", "PNG deflate (ISA-L 2)": "i.png"}
+    rows = []
+    for name in paths:
+        w, c = statistics.median(wall[name]), statistics.median(cpu[name])
+        size = f", {os.path.getsize(files[sizes[name]]) / 2**20:.2f} MiB" if name in sizes else ""
+        rows.append(dict(benchmark="cost", case=f"{name} wall", width=width, height=height,
+                         value=f"{w / unit_wall:.2f}", unit="x frame", note=f"{w * 1e3:.1f} ms{size}"))
+        rows.append(dict(benchmark="cost", case=f"{name} cpu", width=width, height=height,
+                         value=f"{c / unit_cpu:.2f}", unit="x frame", note=f"{c * 1e3:.1f} ms cpu"))
     return rows
 
 
@@ -177,27 +331,52 @@ def outputs(quick: bool) -> list[str]:
     return [results_file("views.csv", quick)]
 
 
+PARTS = ("files", "png", "cost", "views", "projection")
+
+
+def _run(part, tmp, quick):
+    if part == "files":
+        return bench_files(tmp, *((320, 180) if quick else (1920, 1080)))
+    if part == "png":
+        return bench_png(*((320, 180) if quick else (1920, 1080)))
+    if part == "cost":
+        if quick:
+            return bench_cost(tmp, 160, 120, repeats=2, level=3)
+        return bench_cost(tmp, 1920, 1080) + bench_cost(tmp, 640, 480)
+    if part == "views":
+        return bench_views(tmp, *((160, 120, 8) if quick else (640, 480, 32)))
+    return bench_projection(*((96, 72) if quick else (320, 240)))
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="small sizes; untracked output")
+    ap.add_argument("--only", default="", metavar="PARTS",
+                    help=f"comma-separated parts to run ({', '.join(PARTS)}); their rows replace theirs in the CSV")
     args = ap.parse_args(argv)
+    parts = [p for p in args.only.split(",") if p] or list(PARTS)
+    bad = [p for p in parts if p not in PARTS]
+    if bad:
+        ap.error(f"--only: unknown part {bad[0]!r}; expected some of {', '.join(PARTS)}")
+    out, = outputs(args.quick)
+    kept = []
+    if args.only and os.path.exists(out):  # the other parts' rows stay as they were
+        with open(out, newline="") as fh:
+            part_of = {"roundtrip": "projection"}  # bench_projection writes both
+            kept = [r for r in csv.DictReader(fh) if part_of.get(r["benchmark"], r["benchmark"]) not in parts]
     tmp = tempfile.mkdtemp(prefix="bench_views_")
     try:
-        if args.quick:
-            rows = bench_files(tmp, 320, 180) + bench_views(tmp, 160, 120, 8) + bench_projection(96, 72)
-        else:
-            rows = bench_files(tmp, 1920, 1080) + bench_views(tmp, 640, 480, 32) + bench_projection(320, 240)
+        rows = [r for part in parts for r in _run(part, tmp, args.quick)]
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     for r in rows:
         print(f"{r['benchmark']:<10} {r['case']:<32} {r['width']!s:>5}x{r['height']!s:<5} {r['value']:>10} {r['unit']:<8} "
               f"{r['note']}")
-    out, = outputs(args.quick)
     os.makedirs(os.path.dirname(out), exist_ok=True)
     with open(out, "w", newline="") as fh:
         w = csv.DictWriter(fh, FIELDS)
         w.writeheader()
-        w.writerows(rows)
+        w.writerows(kept + rows)
     print(f"wrote {out}")
     return 0
 

@@ -50,9 +50,10 @@ cameras, another size, other buffers, ...) or view files without a plan is
 refused with a message saying what differs, before anything is written;
 ``overwrite=True`` replaces it, keeping only the views that match. Each
 file is written atomically, so a killed run, run again, finishes the set
-with the bytes a single run writes. Only one view's buffers are in memory
-per worker at a time, and the client holds paths, so memory stays flat in
-the number of views.
+with the bytes a single run writes. At most two views' buffers are in
+memory per worker (one written while the next renders, where two frames fit
+the memory limit), and the client holds paths: memory stays flat in the
+number of views.
 """
 
 from __future__ import annotations
@@ -134,9 +135,9 @@ class _ViewSpec:
     overlap: bool = True  # write a view's files while the next renders (two frames alive)
 
 
-def _render_view(job, base, spec: _ViewSpec, cache: SceneCache):
-    """Render one view: ``(files, frame, key, objects)`` for :func:`_store_view`, or None when its
-    record shows it done."""
+def _render_view(job, base, spec: _ViewSpec, cache: SceneCache, out=None):
+    """Render one view (its image into ``out``, an (H, W, 3) float32 array, when given):
+    ``(files, frame, key, alone, boxes)`` for :func:`_store_view`, or None when its record shows it done."""
     files = {k: os.path.join(spec.out_dir, v) for k, v in view_files(job.index, spec.formats, spec.image).items()}
     key = view_key(spec.settings_hash, job)
     if spec.options.resume and view_is_done(files, key):
@@ -151,41 +152,55 @@ def _render_view(job, base, spec: _ViewSpec, cache: SceneCache):
         embree_accel(base.geometry)  # packed and built once per mesh set; Scene.replace shares both
     scene = base.replace(lights=job.lights, camera=job.camera, ambient=job.ambient, background=job.background)
     extra = [b for b in ("model_id",) + (("zdepth",) if "depth_png" in spec.formats else ()) if b not in spec.buffers]
-    frame = render(scene, spec.options.shading, camera=job.camera, buffers=spec.buffers + tuple(extra),
+    # The buffers are fresh arrays each view (about 50 MB at 1080p for the default set); once render
+    # takes caller-provided buffer arrays (helper `buf`), they go here beside ``out``, two sets
+    # alternating as the images do (see _run_views).
+    frame = render(scene, spec.options.shading, camera=job.camera, buffers=spec.buffers + tuple(extra), out=out,
                    **spec.options.render_kwargs)
-    # Masks as RLE always: a later run may ask for the COCO export without rendering again.
-    alone = unoccluded_masks(scene, job.camera) if spec.unoccluded else None
-    boxes = [(m.mesh.vertices.min(axis=0), m.mesh.vertices.max(axis=0)) for m in scene.models]
-    objects = view_objects(frame.buffers["model_id"], job.camera, rle=True, alone=alone, boxes_3d=boxes)
+    alone = unoccluded_masks(scene, job.camera) if spec.unoccluded else None  # casts: on the rendering thread
+    boxes = scene.geometry.memo("views.boxes", lambda geo: [(m.mesh.vertices.min(axis=0), m.mesh.vertices.max(axis=0))
+                                                          for m in scene.models])  # once per mesh set
     cache.count("renders")
-    return files, frame, key, objects
+    return files, frame, key, alone, boxes
 
 
-def _store_view(job, spec: _ViewSpec, files, frame, key, objects) -> None:
-    """Write a rendered view's files, then its record."""
+def _store_view(job, spec: _ViewSpec, files, frame, key, alone, boxes) -> None:
+    """Write a rendered view's files, then its record with the visible objects (masks as RLE always:
+    a later run may ask for the COCO export without rendering again)."""
     _write_files(files, frame, {k: v for k, v in frame.buffers.items() if k in spec.buffers}, job, spec)
+    objects = view_objects(frame.buffers["model_id"], job.camera, rle=True, alone=alone, boxes_3d=boxes)
     write_record(files, key, job, objects)
+
+
+def _one_thread() -> None:
+    """Numba kernels called on the writer thread run on it alone: the next view renders on every core
+    meanwhile, and a second team of threads would stall the render's parallel loops at their barriers."""
+    import numba
+
+    if numba.get_num_threads() != 1:
+        numba.set_num_threads(1)  # per thread: the rendering thread keeps its count
 
 
 def _run_views(jobs, base_of, spec: _ViewSpec, cache: SceneCache) -> list:
     """Render and store ``jobs`` in order; with ``spec.overlap`` each view's files are written on a
     writer thread while the next view renders (compression, writing, fsync and hashing release the
-    GIL), so two views' frames are alive at once. Returns the views' stems."""
+    GIL), so two views' frames are alive at once, their images in two arrays used in turn (a view's
+    image array is rendered into again only once its files are written). Returns the views' stems."""
     from concurrent.futures import ThreadPoolExecutor
 
+    images = _Images(2 if spec.overlap else 1)
+    stems = []
     if not spec.overlap:
-        stems = []
         for job in jobs:
-            rendered = _render_view(job, base_of(job), spec, cache)
+            rendered = _render_view(job, base_of(job), spec, cache, images.next(job.camera))
             if rendered is not None:
                 _store_view(job, spec, *rendered)
             stems.append(_STEM.format(job.index))
         return stems
-    stems = []
-    with ThreadPoolExecutor(1, thread_name_prefix="view-writer") as writer:
+    with ThreadPoolExecutor(1, thread_name_prefix="view-writer", initializer=_one_thread) as writer:
         pending = None
         for job in jobs:
-            rendered = _render_view(job, base_of(job), spec, cache)
+            rendered = _render_view(job, base_of(job), spec, cache, images.next(job.camera))
             if pending is not None:
                 pending.result()  # the previous view's files and record (its error, if any, stops the set)
             pending = None if rendered is None else writer.submit(_store_view, job, spec, *rendered)
@@ -193,6 +208,22 @@ def _run_views(jobs, base_of, spec: _ViewSpec, cache: SceneCache) -> list:
         if pending is not None:
             pending.result()
     return stems
+
+
+class _Images:
+    """``count`` image arrays of the present camera size, handed out in turn (new ones when the size
+    changes): with two, a view renders into one while the previous view's files are written from the
+    other; no view pays for a fresh 24 MB image (1080p) and its page faults."""
+
+    def __init__(self, count: int):
+        self.count, self.arrays, self.turn = count, [], 0
+
+    def next(self, camera) -> np.ndarray:
+        shape = (int(camera.height), int(camera.width), 3)
+        if not self.arrays or self.arrays[0].shape != shape:
+            self.arrays = [np.empty(shape, np.float32) for _ in range(self.count)]
+        self.turn = (self.turn + 1) % self.count
+        return self.arrays[self.turn]
 
 
 def _write_files(files, frame, kept, job, spec: _ViewSpec) -> None:

@@ -31,6 +31,7 @@ import contextlib
 import os
 
 import numpy as np
+from numba import njit
 
 from ..common.validate import as_int, as_scalar
 
@@ -335,6 +336,29 @@ def read_exr(path) -> dict:
     return out
 
 
+@njit(cache=True, nogil=True)  # on a view set's writer thread: the next render's thread runs on
+def _depth_rows(d, scale, raw):
+    """PNG rows of ``round(d * scale)`` as 16-bit big-endian samples into ``raw`` (H, 2W + 1) uint8
+    (filter byte 0): 0 where ``d`` is 0, not finite or rounds above 65535, the arithmetic in float64
+    as NumPy's ``rint(d.astype(float64) * scale)``. Returns the first negative value's flat index
+    (row-major), or -1 (``raw`` then written whole)."""
+    h, w = d.shape
+    for i in range(h):
+        raw[i, 0] = 0
+        for j in range(w):
+            v = np.float64(d[i, j])
+            if v < 0.0:
+                return i * w + j
+            q = 0
+            if np.isfinite(v) and v > 0.0:
+                r = np.rint(v * scale)
+                if r <= 65535.0:
+                    q = np.int64(r)
+            raw[i, 1 + 2 * j] = q >> 8
+            raw[i, 2 + 2 * j] = q & 255
+    return -1
+
+
 def write_depth_png(path, depth, *, scale: float = 1000.0, fast: bool = False, atomic: bool = False) -> str:
     """Write depth as a 16-bit grey PNG of ``round(depth * scale)``.
 
@@ -360,31 +384,30 @@ def write_depth_png(path, depth, *, scale: float = 1000.0, fast: bool = False, a
     import struct
     import zlib
 
-    from ..common.validate import as_array
-
-    from ..common.validate import as_bool
+    from ..common.validate import as_array, as_bool
 
     path = _check_path(path, ".png")
     fast = as_bool(fast, "fast")
-    d = as_array(depth, "depth", dtype=np.float64, ndim=2, finite=False)
+    raw_depth = np.asarray(depth) if isinstance(depth, np.ndarray) else None
+    wide = np.float32 if raw_depth is not None and raw_depth.dtype == np.float32 else np.float64
+    d = as_array(depth, "depth", dtype=wide, ndim=2, finite=False)  # float32 read as it is: no float64 copy
     if 0 in d.shape:
         raise ValueError(f"depth: expected a non-empty (H, W) array, got shape {d.shape}")
-    if np.any(d < 0):
-        bad = tuple(int(i) for i in np.argwhere(d < 0)[0])
-        raise ValueError(f"depth: negative value {d[bad]:g} at (row, column) {bad}; depth is >= 0 (0: none)")
     scale = as_scalar(scale, "scale", minimum=0.0, exclusive=True)
-    q = np.where(np.isfinite(d) & (d > 0), np.rint(d * scale), 0.0)
-    q = np.where(q <= 65535, q, 0.0).astype(">u2")  # PNG stores 16-bit samples big-endian
-    h, w = q.shape
-    raw = np.zeros((h, 2 * w + 1), np.uint8)  # filter type 0 on every row
-    raw[:, 1:] = q.view(np.uint8).reshape(h, 2 * w)
+    h, w = d.shape
+    raw = np.empty((h, 2 * w + 1), np.uint8)  # filter type 0 on every row, then big-endian samples
+    bad = _depth_rows(d, float(scale), raw)
+    if bad >= 0:
+        bad = divmod(int(bad), w)
+        raise ValueError(f"depth: negative value {float(d[bad]):g} at (row, column) {bad}; depth is >= 0 (0: none)")
 
     def chunk(tag: bytes, data: bytes) -> bytes:
         return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data))
 
     header = struct.pack(">IIBBBBB", w, h, 16, 0, 0, 0, 0)  # 16-bit greyscale, no interlace
+    idat = png_deflate(memoryview(raw).cast("B"), fast)  # the rows in place: no bytes copy
     with _target(path, atomic) as target, open(target, "wb") as fh:
-        fh.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", png_deflate(raw.tobytes(), fast))
+        fh.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", idat)
                  + chunk(b"IEND", b""))
     return path
 

@@ -1,8 +1,10 @@
 """Writing a rendered image to a file, by its extension.
 
 * ``.pfm`` and ``.npy``: the linear float32 image, losslessly;
-* ``.png``: 8-bit after :func:`~raycast_shade.output.tonemap.to_uint8`, with the
-  standard library's zlib (no imageio import on the demo's path);
+* ``.png``: 8-bit after :func:`~raycast_shade.output.tonemap.to_uint8` (for
+  float32 images by its table, :func:`~raycast_shade.output.quantize.to_uint8_table`:
+  the same bytes on one core), with the standard library's zlib (no imageio
+  import on the demo's path);
 * ``.jpg``/``.jpeg``, ``.bmp``, ``.tif``/``.tiff``, ``.gif``, ``.webp``:
   8-bit, through imageio's Pillow plugin.
 
@@ -177,7 +179,8 @@ def write_image(path, image, *, atomic: bool = False, fast: bool = False, **tone
 
 
 def _write(path: str, image, tone: dict, fast: bool = False) -> None:
-    from .tonemap import to_uint8, write_pfm
+    from .quantize import to_uint8_table as to_uint8  # to_uint8's bytes, by table for float32 images
+    from .tonemap import write_pfm
 
     ext = check_image_path(path)
     if ext == ".pfm":
@@ -206,13 +209,15 @@ def write_png(path, rgb, *, fast: bool = False) -> None:
         fh.write(data)
 
 
-def png_deflate(raw: bytes, fast: bool = False) -> bytes:
-    """PNG's IDAT stream (zlib format) of ``raw``, the filtered rows.
+def png_deflate(raw, fast: bool = False) -> bytes:
+    """PNG's IDAT stream (zlib format) of ``raw`` (bytes-like), the filtered rows.
 
     ``fast=False``: zlib level 6. ``fast=True``: ISA-L's level 2 (the
-    ``isal`` package) when installed, else zlib level 1: at 1080p about 15x
-    (zlib 1: 4x) level 6's speed for a file 1.7x (1.9x) its size (a rendered
-    frame: 0.34 against 0.20 MB); the view sets write their PNGs so.
+    ``isal`` package) when installed, else zlib level 1. A rendered 1080p
+    frame (``benchmarks/bench_views.py``'s ``png`` rows, loaded machine):
+    ISA-L 1 and 2 about 4 ms for 0.33 MB, ISA-L 0 as fast for 0.44 MB,
+    ISA-L 3 three times slower for 2% less, zlib 1 about 19 ms for 0.35 MB,
+    zlib 6 about 77 ms for 0.19 MB; the view sets write their PNGs fast.
     """
     import zlib
 
@@ -241,5 +246,5 @@ def png_bytes(rgb, *, fast: bool = False) -> bytes:
         return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data))
 
     header = struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)  # 8-bit RGB, no interlace
-    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", png_deflate(raw.tobytes(), fast))
-            + chunk(b"IEND", b""))
+    idat = png_deflate(memoryview(raw).cast("B"), fast)  # the rows in place: no bytes copy
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", idat) + chunk(b"IEND", b"")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import zipfile
 
 import numpy as np
@@ -79,7 +80,29 @@ def test_each_views_files_hold_that_views_frame_with_the_writer_thread(scene, tm
         for name, buf in frame.buffers.items():
             assert np.array_equal(back[name], buf), (i, name)
         assert np.array_equal(iio.imread(tmp_path / f"view_{i:05d}.png"), to_uint8(frame.image)), i
-        assert (tmp_path / f"view_{i:05d}.json").exists()
+        record = json.loads((tmp_path / f"view_{i:05d}.json").read_text())
+        ids = frame.buffers["model_id"]  # the objects, now listed on the writer thread, are this view's
+        rows, cols = np.nonzero(ids == 0)
+        assert [(o["id"], o["pixels"], o["box"]) for o in record["objects"]] == \
+            [(0, rows.size, [cols.min(), rows.min(), cols.max() + 1, rows.max() + 1])], i
+
+
+@pytest.mark.parametrize("overlap", [True, False])
+def test_the_writer_threads_numba_threads_are_its_own(scene, tmp_path, monkeypatch, overlap):
+    import numba
+
+    from raycast_shade.apps import views
+
+    seen = []
+    real = views._write_files
+    monkeypatch.setattr(views, "_two_frames_fit", lambda jobs, memory: overlap)
+    monkeypatch.setattr(views, "_write_files", lambda *a: (seen.append(numba.get_num_threads()), real(*a)))
+    top = numba.config.NUMBA_NUM_THREADS
+    numba.set_num_threads(top)
+    render_views(scene, orbit_cameras(scene.camera, 2), tmp_path, buffers=["zdepth"])
+    # on the writer thread its kernels run alone; the caller's keep every thread they had
+    assert seen == ([1, 1] if overlap else [top, top])
+    assert numba.get_num_threads() == top
 
 
 def test_a_failed_write_stops_the_set_without_its_record_and_a_rerun_finishes_it(scene, tmp_path, monkeypatch):
@@ -139,3 +162,20 @@ def test_a_view_set_packs_and_builds_its_bvh_once(scene, tmp_path, monkeypatch):
     fresh = rs.Scene([rs.Model(rs.shapes.icosphere(1))], lights=scene.lights, camera=scene.camera)  # no BVH yet
     render_views(fresh, orbit_cameras(scene.camera, 3), tmp_path, buffers=["zdepth"], image=None)
     assert len(builds) == 1  # one mesh set: one BVH, shared by the three views
+
+
+@pytest.mark.parametrize("overlap", [True, False])
+def test_views_of_several_sizes_each_render_into_arrays_of_their_size(scene, tmp_path, monkeypatch, overlap):
+    import imageio.v3 as iio
+
+    from raycast_shade.apps import views
+    from raycast_shade.output.tonemap import to_uint8
+
+    monkeypatch.setattr(views, "_two_frames_fit", lambda jobs, memory: overlap)  # two image arrays, or one
+
+    small = scene.camera.replace(width=40, height=30)
+    cams = [scene.camera, small, small, scene.camera]  # the image arrays are replaced, then reused in turn
+    render_views(scene, cams, tmp_path, buffers=["zdepth"], formats=["npz"])
+    for i, cam in enumerate(cams):
+        want = to_uint8(rs.render(scene, camera=cam).image)
+        assert np.array_equal(iio.imread(tmp_path / f"view_{i:05d}.png"), want), i

@@ -52,3 +52,31 @@ def test_fast_must_be_a_flag(tmp_path):
     with pytest.raises(TypeError, match="fast: expected True or False"):
         write_image(tmp_path / "b.png", np.ones((2, 2, 3), np.float32), fast=1)
     assert not list(tmp_path.iterdir())
+
+
+def _depth_reference(depth, scale):
+    """The 16-bit samples in plain NumPy: round(depth * scale) in float64; 0 where none or past 16 bits."""
+    d = np.asarray(depth, np.float64)
+    q = np.where(np.isfinite(d) & (d > 0), np.rint(d * scale), 0.0)
+    return np.where(q <= 65535, q, 0.0).astype(np.uint16)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("scale", [1000.0, 1.0, 0.37])
+def test_depth_png_samples_equal_the_numpy_formula(tmp_path, dtype, scale):
+    rng = np.random.default_rng(11)
+    depth = rng.uniform(0, 80.0, (23, 31)).astype(dtype)
+    depth[0, :8] = [0.0, np.nan, np.inf, 65535.5 / scale, 65534.5 / scale, 0.5 / scale, 1.5 / scale, 2.5 / scale]
+    depth[1, :3] = [-0.0, 1e300 if dtype == np.float64 else 3e38, 65536.0 / scale]
+    write_depth_png(tmp_path / "d.png", depth, scale=scale, fast=True)
+    got = iio.imread(tmp_path / "d.png")
+    assert got.dtype == np.uint16
+    assert np.array_equal(got, _depth_reference(depth, scale))
+
+
+def test_depth_png_names_the_first_negative_value(tmp_path):
+    depth = np.ones((4, 5), np.float32)
+    depth[2, 3], depth[3, 0] = -0.25, -1.0
+    with pytest.raises(ValueError, match=r"negative value -0.25 at \(row, column\) \(2, 3\)"):
+        write_depth_png(tmp_path / "d.png", depth)
+    assert not (tmp_path / "d.png").exists()

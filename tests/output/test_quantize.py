@@ -1,0 +1,77 @@
+"""The 8-bit tone mapping by table (output/quantize.py) gives to_uint8's bytes, everywhere."""
+
+from __future__ import annotations
+
+import imageio.v3 as iio
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from raycast_shade.output.imagefile import write_image
+from raycast_shade.output.quantize import thresholds, to_uint8_table
+from raycast_shade.output.tonemap import to_uint8
+
+TONES = [{}, {"exposure": 2.5}, {"exposure": 1e-3, "gamma": 0.5}, {"tonemap": "reinhard"},
+         {"tonemap": "exponential", "gamma": 2.2}, {"gamma": 1}, {"exposure": 300.0, "tonemap": "reinhard", "gamma": 3}]
+SPECIALS = np.array([np.nan, -np.nan, np.inf, -np.inf, -0.0, 0.0, -1.0, 1e-45, 1.2e-38, 3.4e38, 1.0, 0.5, 1e-6],
+                    np.float32)
+
+
+def _values(rng, n=200_000):
+    """Log-uniform magnitudes over float32's range, a few negatives, and the specials."""
+    x = np.exp(rng.uniform(np.log(1e-40), np.log(1e38), n)).astype(np.float32)
+    x[: n // 10] *= -1
+    x[n // 10: n // 2] = rng.uniform(0, 1.2, n // 2 - n // 10)  # where the codes change
+    return np.concatenate([SPECIALS, x])
+
+
+@pytest.mark.parametrize("tone", TONES, ids=str)
+def test_table_equals_the_curve_on_random_values_and_at_every_threshold(tone):
+    x = _values(np.random.default_rng(5))
+    assert np.array_equal(to_uint8_table(x, **tone), to_uint8(x, **tone))
+    t, inf_code = thresholds(**tone)
+    # Each threshold and its neighbours, 4 patterns either side: where a wrong table would show.
+    near = (t[1:, None].astype(np.int64) + np.arange(-4, 5)).clip(0, 0x7F800000).astype(np.int32).view(np.float32)
+    near = near.ravel()
+    assert np.array_equal(to_uint8_table(near, **tone), to_uint8(near, **tone))
+    assert inf_code == to_uint8(np.array([np.inf], np.float32), **tone)[0]
+
+
+@pytest.mark.parametrize("tone", TONES[:4], ids=str)
+def test_thresholds_are_the_first_value_of_each_code(tone):
+    t, _ = thresholds(**tone)
+    assert t[0] == 0 and np.all(np.diff(t) >= 0)
+    reached = t[1:] < 0x7F800000
+    first = t[1:][reached].view(np.float32)
+    before = (t[1:][reached] - 1).view(np.float32)
+    codes = np.arange(1, 256)[reached]
+    assert np.all(to_uint8(first, **tone) >= codes)  # the threshold reaches its code ...
+    assert np.all(to_uint8(before, **tone) < codes)  # ... and the float32 below it does not
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.floats(width=32, allow_nan=True, allow_infinity=True), min_size=1, max_size=40),
+       st.floats(1e-3, 1e3), st.sampled_from(["clamp", "reinhard", "exponential"]),
+       st.sampled_from(["srgb", 1.0, 1.8, 2.2]))
+def test_table_equals_the_curve_for_any_values_and_setting(values, exposure, tonemap, gamma):
+    x = np.resize(np.array(values, np.float32), 300)  # repeated to the table's minimum size (256)
+    assert np.array_equal(to_uint8_table(x, exposure, tonemap, gamma), to_uint8(x, exposure, tonemap, gamma))
+
+
+def test_table_falls_back_to_the_curve_and_checks_the_settings():
+    x64 = np.linspace(0, 1, 300)
+    assert np.array_equal(to_uint8_table(x64), to_uint8(x64))  # float64: the curve itself
+    with pytest.raises(ValueError, match="tonemap"):
+        to_uint8_table(np.zeros(300, np.float32), tonemap="filmic")
+    with pytest.raises(ValueError, match="exposure"):
+        to_uint8_table(np.zeros(300, np.float32), exposure=-1)
+
+
+def test_png_file_holds_the_curves_pixels(tmp_path):
+    rng = np.random.default_rng(3)
+    img = rng.uniform(0, 1.3, (37, 53, 3)).astype(np.float32)
+    img[0, 0] = [np.nan, np.inf, -1]
+    for fast in (False, True):
+        write_image(tmp_path / "a.png", img, fast=fast, exposure=1.5)
+        assert np.array_equal(iio.imread(tmp_path / "a.png"), to_uint8(img, exposure=1.5))
