@@ -74,6 +74,7 @@ from ..visibility.accel import embree_accel
 from .batch.cache import PLUGIN_NAME, SceneCache, cache_of
 from .batch.options import check_options
 from .batch.plan import plan_batch
+from .viewslots import ViewSlots
 from .viewplan import (PLAN_FORMAT, PLAN_NAME, digest, prepare_folder, view_hashes, view_is_done, view_key, write_json,
                        write_record)
 
@@ -135,9 +136,10 @@ class _ViewSpec:
     overlap: bool = True  # write a view's files while the next renders (two frames alive)
 
 
-def _render_view(job, base, spec: _ViewSpec, cache: SceneCache, out=None):
-    """Render one view (its image into ``out``, an (H, W, 3) float32 array, when given):
-    ``(files, frame, key, alone, boxes)`` for :func:`_store_view`, or None when its record shows it done."""
+def _render_view(job, base, spec: _ViewSpec, cache: SceneCache, slot=None):
+    """Render one view (its image and buffers into the arrays of ``slot``, a turned
+    :class:`~raycast_shade.apps.viewslots.ViewSlots`, when given): ``(files, frame, key, alone,
+    boxes)`` for :func:`_store_view`, or None when its record shows it done."""
     files = {k: os.path.join(spec.out_dir, v) for k, v in view_files(job.index, spec.formats, spec.image).items()}
     key = view_key(spec.settings_hash, job)
     if spec.options.resume and view_is_done(files, key):
@@ -152,11 +154,14 @@ def _render_view(job, base, spec: _ViewSpec, cache: SceneCache, out=None):
         embree_accel(base.geometry)  # packed and built once per mesh set; Scene.replace shares both
     scene = base.replace(lights=job.lights, camera=job.camera, ambient=job.ambient, background=job.background)
     extra = [b for b in ("model_id",) + (("zdepth",) if "depth_png" in spec.formats else ()) if b not in spec.buffers]
-    # The buffers are fresh arrays each view (about 50 MB at 1080p for the default set); once render
-    # takes caller-provided buffer arrays (helper `buf`), they go here beside ``out``, two sets
-    # alternating as the images do (see _run_views).
-    frame = render(scene, spec.options.shading, camera=job.camera, buffers=spec.buffers + tuple(extra), out=out,
+    # The image and buffers go into the arrays of the view that last used this slot (about 75 MB at
+    # 1080p for the default set): no fresh pages per view; two slots alternate (see _run_views).
+    names = spec.buffers + tuple(extra)
+    out, reused = (None, None) if slot is None else slot.arrays(job.camera, check_buffers(names))
+    frame = render(scene, spec.options.shading, camera=job.camera, buffers=names, out=out, buffers_out=reused,
                    **spec.options.render_kwargs)
+    if slot is not None:
+        slot.keep(frame.buffers)
     alone = unoccluded_masks(scene, job.camera) if spec.unoccluded else None  # casts: on the rendering thread
     boxes = scene.geometry.memo("views.boxes", lambda geo: [(m.mesh.vertices.min(axis=0), m.mesh.vertices.max(axis=0))
                                                           for m in scene.models])  # once per mesh set
@@ -188,7 +193,7 @@ def _run_views(jobs, base_of, spec: _ViewSpec, cache: SceneCache) -> list:
     image array is rendered into again only once its files are written). Returns the views' stems."""
     from concurrent.futures import ThreadPoolExecutor
 
-    images = _Images(2 if spec.overlap else 1)
+    images = ViewSlots(2 if spec.overlap else 1)
     stems = []
     if not spec.overlap:
         for job in jobs:
@@ -208,22 +213,6 @@ def _run_views(jobs, base_of, spec: _ViewSpec, cache: SceneCache) -> list:
         if pending is not None:
             pending.result()
     return stems
-
-
-class _Images:
-    """``count`` image arrays of the present camera size, handed out in turn (new ones when the size
-    changes): with two, a view renders into one while the previous view's files are written from the
-    other; no view pays for a fresh 24 MB image (1080p) and its page faults."""
-
-    def __init__(self, count: int):
-        self.count, self.arrays, self.turn = count, [], 0
-
-    def next(self, camera) -> np.ndarray:
-        shape = (int(camera.height), int(camera.width), 3)
-        if not self.arrays or self.arrays[0].shape != shape:
-            self.arrays = [np.empty(shape, np.float32) for _ in range(self.count)]
-        self.turn = (self.turn + 1) % self.count
-        return self.arrays[self.turn]
 
 
 def _write_files(files, frame, kept, job, spec: _ViewSpec) -> None:
