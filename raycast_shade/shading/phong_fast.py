@@ -322,10 +322,9 @@ def _shade_batch(S, n, L, cam, spec_on, att_on):
 
 
 @njit(**HELPER)
-def _flush(S, XY, n, mixed, filled, materials, L, cam, outs, spec_on, att_on):
+def _flush(S, XY, n, mixed, filled, materials, L, cam, image, spec_on, att_on):
     """Fill the material fields (once for a batch of one model that the lanes already hold),
-    shade the batch and write it (``outs = (image, normal)``, as the kernel's); returns the
-    model whose row now fills every lane (-1: none)."""
+    shade the batch and write it; returns the model whose row now fills every lane (-1: none)."""
     if mixed:
         for k in range(n):
             _material(S, k, k + 1, materials, XY[2 * LANES + k])
@@ -334,35 +333,26 @@ def _flush(S, XY, n, mixed, filled, materials, L, cam, outs, spec_on, att_on):
         filled = XY[2 * LANES]
         _material(S, 0, LANES, materials, filled)
     _shade_batch(S, n, L, cam, spec_on, att_on)
-    _scatter(S, XY, n, outs)
+    _scatter(S, XY, n, image)
     return filled
 
 
 @njit(**HELPER)
-def _scatter(S, XY, n, outs):
-    """Write the first ``n`` lanes' colours (plus emission, saturated at the float32 maximum)
-    and, when a normal output is given, their shading normals (the general kernel's ``hp.n``)."""
-    image, normal = outs
-    want_n = normal.shape[0] != 0
+def _scatter(S, XY, n, image):
+    """Write the first ``n`` lanes' colours (plus emission, saturated at the float32 maximum)."""
     for k in range(n):
         y = XY[k]
         x = XY[LANES + k]
         for c in range(3):
             image[y, x, c] = min(S[(_R + c) * LANES + k] + S[(_KE + c) * LANES + k], FLT32_MAX)
-        if want_n:
-            for c in range(3):
-                normal[y, x, c] = S[(_N + c) * LANES + k]
 
 
 def _make_phong_fast(spec_on: bool, att_on: bool):
     """The batched Phong kernel for one variant (see :mod:`.jit`; untextured only)."""
 
     @njit(parallel=True, **JIT)
-    def _shade_phong_fast_kernel(prim, geom, u, v, G, L, face_off, materials, cam, background, modes, outs):
-        """As :func:`.phong._make_phong`'s kernel for a frame :func:`applies` to, bit for bit;
-        ``outs = (image, normal)`` as there (a (0, 0, 3) ``normal`` for none)."""
-        image, normal = outs
-        want_n = normal.shape[0] != 0
+    def _shade_phong_fast_kernel(prim, geom, u, v, G, L, face_off, materials, cam, background, modes, image):
+        """As :func:`.phong._make_phong`'s kernel for a frame :func:`applies` to, bit for bit."""
         h, w = prim.shape
         nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
         step = spread_step(nblk)
@@ -379,8 +369,6 @@ def _make_phong_fast(spec_on: bool, att_on: bool):
                     if p < 0:
                         for c in range(3):
                             image[y, x, c] = background[c]
-                            if want_n:
-                                normal[y, x, c] = 0.0
                         continue
                     gm = geom[y, x]
                     if modes[gm] != METHOD_PHONG:
@@ -392,11 +380,11 @@ def _make_phong_fast(spec_on: bool, att_on: bool):
                     mixed = mixed or (n > 0 and gm != XY[2 * LANES])
                     n += 1
                     if n == LANES:
-                        filled = _flush(S, XY, n, mixed, filled, materials, L, cam, outs, spec_on, att_on)
+                        filled = _flush(S, XY, n, mixed, filled, materials, L, cam, image, spec_on, att_on)
                         n = 0
                         mixed = False
             if n > 0:  # the lanes past n hold an earlier batch's pixels (or zeros): shaded, not written
-                _flush(S, XY, n, mixed, filled, materials, L, cam, outs, spec_on, att_on)
+                _flush(S, XY, n, mixed, filled, materials, L, cam, image, spec_on, att_on)
 
     return _shade_phong_fast_kernel
 

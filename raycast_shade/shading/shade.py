@@ -225,8 +225,7 @@ class SampleShading:
                                      (self.vcol, self.vspec, int(y0)), image)
         if self.fast_phong:
             _PHONG_FAST[k["spec_on"], k["att_on"]](hits.prim, hits.geom, hits.u, hits.v, k["G"], k["L"], k["face_off"],
-                                                   k["materials"], k["cam"], k["background"], modes,
-                                                   (image, _NO_NORMALS if normal is None else normal))
+                                                   k["materials"], k["cam"], k["background"], modes, image)
         elif self.phong:
             variant(_PHONG, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["T"], k["face_off"],
                                k["materials"], k["cam"], k["background"], modes,

@@ -43,12 +43,10 @@ def _both(scene, shading, hits):
     assert applies(modes, k)
     general = np.full(hits.shape + (3,), np.nan, np.float32)
     fast = general.copy()
-    normals = (general.copy(), general.copy())  # each kernel's shading normals (the "normal" buffer)
     variant(_PHONG, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["T"], k["face_off"],
-                       k["materials"], k["cam"], k["background"], modes, (general, normals[0]), 0)
+                       k["materials"], k["cam"], k["background"], modes, general, 0)
     _PHONG_FAST[k["spec_on"], k["att_on"]](hits.prim, hits.geom, hits.u, hits.v, k["G"], k["L"], k["face_off"],
-                                           k["materials"], k["cam"], k["background"], modes, (fast, normals[1]))
-    assert _same_bits(*normals), "the batched kernel's shading normals differ from the general kernel's"
+                                           k["materials"], k["cam"], k["background"], modes, fast)
     return general, fast
 
 
