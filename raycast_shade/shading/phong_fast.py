@@ -5,14 +5,15 @@ roots, several divisions and a branch per light and per test, a scalar float64 l
 does not vectorise. For the common scene — no textures or mesh colours, no bump or normal map
 on a Phong model, no light casting shadows — this kernel does the same arithmetic in passes:
 
-1. a gather pass copies each Phong pixel's inputs (barycentrics, the three vertices' positions
-   and normals, the face normal, the material row) into lane ``k`` of a small scratch array,
-   structure of arrays, until :data:`LANES` pixels (of any rows of the task's block) are queued;
+1. a gather pass sums each Phong pixel's point and interpolated normal (the sums of
+   :mod:`.surface`, in their order) and copies its face normal into lane ``k`` of a small scratch
+   array, structure of arrays, until :data:`LANES` pixels (of any rows of the task's block) are
+   queued; the material row fills the lanes once per batch of one model;
 2. branch-free passes over the lanes (selects, not ``continue``): the point, the view vector,
    the oriented normal; then per light its direction, distance and attenuation, ``n . s``, the
    specular cosine and the whole-number power by repeated squaring (one pass per bit, a bit
    applied to the lanes that have it), and the sum; these are the loops LLVM vectorises;
-3. a scatter pass writes the colours to their pixels.
+3. a scatter pass writes the colours (and, when asked, the shading normals) to their pixels.
 
 Every lane does the float64 operations of :func:`.phong._shade_surface` in the same order, so
 the image is the general kernel's bit for bit (``tests/shading/test_phong_fast.py``). The
@@ -44,7 +45,8 @@ from .jit import FLT32_MAX, HELPER, JIT
 
 __all__ = ["LANES", "applies"]
 
-LANES = 64  # pixels shaded together: 64 lanes of about 60 float64 fields stay in the L1 cache
+LANES = 64  # pixels shaded together: 64 lanes of 48 float64 fields (24 KiB) stay in the L1 cache
+_NO_NORMALS = np.empty((0, 0, 3), np.float32)  # the kernel's normal output when none is asked for
 
 # Fields of the scratch array, each LANES wide: field F of lane k is S[F * LANES + k].
 (_P, _A, _FN, _KA, _KD, _KS, _KE, _SHN, _SHT, _MODEL, _HASSPEC, _V, _G, _N, _R, _S, _D, _ATT, _ND, _LIT, _CP,
@@ -322,7 +324,7 @@ def _shade_batch(S, n, L, cam, spec_on, att_on):
 
 
 @njit(**HELPER)
-def _flush(S, XY, n, mixed, filled, materials, L, cam, image, spec_on, att_on):
+def _flush(S, XY, n, mixed, filled, materials, L, cam, outs, spec_on, att_on):
     """Fill the material fields (once for a batch of one model that the lanes already hold),
     shade the batch and write it; returns the model whose row now fills every lane (-1: none)."""
     if mixed:
@@ -333,26 +335,36 @@ def _flush(S, XY, n, mixed, filled, materials, L, cam, image, spec_on, att_on):
         filled = XY[2 * LANES]
         _material(S, 0, LANES, materials, filled)
     _shade_batch(S, n, L, cam, spec_on, att_on)
-    _scatter(S, XY, n, image)
+    _scatter(S, XY, n, outs)
     return filled
 
 
 @njit(**HELPER)
-def _scatter(S, XY, n, image):
-    """Write the first ``n`` lanes' colours (plus emission, saturated at the float32 maximum)."""
+def _scatter(S, XY, n, outs):
+    """Write the first ``n`` lanes' colours (plus emission, saturated at the float32 maximum) and,
+    when ``outs = (image, normal)`` has a normal array, their shading normals."""
+    image, normal = outs
+    want_n = normal.shape[0] != 0
     for k in range(n):
         y = XY[k]
         x = XY[LANES + k]
         for c in range(3):
             image[y, x, c] = min(S[(_R + c) * LANES + k] + S[(_KE + c) * LANES + k], FLT32_MAX)
+            if want_n:
+                normal[y, x, c] = S[(_N + c) * LANES + k]
 
 
 def _make_phong_fast(spec_on: bool, att_on: bool):
     """The batched Phong kernel for one variant (see :mod:`.jit`; untextured only)."""
 
     @njit(parallel=True, **JIT)
-    def _shade_phong_fast_kernel(prim, geom, u, v, G, L, face_off, materials, cam, background, modes, image):
-        """As :func:`.phong._make_phong`'s kernel for a frame :func:`applies` to, bit for bit."""
+    def _shade_phong_fast_kernel(prim, geom, u, v, G, L, face_off, materials, cam, background, modes, outs):
+        """As :func:`.phong._make_phong`'s kernel for a frame :func:`applies` to, bit for bit.
+        ``outs = (image, normal)``: the (h, W, 3) float32 image, and the (h, W, 3) float32 array
+        the shading normals of the Phong pixels go to (zero on the background), or
+        ``_NO_NORMALS`` for none."""
+        image, normal = outs
+        want_n = normal.shape[0] != 0
         h, w = prim.shape
         nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
         step = spread_step(nblk)
@@ -369,6 +381,8 @@ def _make_phong_fast(spec_on: bool, att_on: bool):
                     if p < 0:
                         for c in range(3):
                             image[y, x, c] = background[c]
+                            if want_n:
+                                normal[y, x, c] = 0.0
                         continue
                     gm = geom[y, x]
                     if modes[gm] != METHOD_PHONG:
@@ -380,11 +394,11 @@ def _make_phong_fast(spec_on: bool, att_on: bool):
                     mixed = mixed or (n > 0 and gm != XY[2 * LANES])
                     n += 1
                     if n == LANES:
-                        filled = _flush(S, XY, n, mixed, filled, materials, L, cam, image, spec_on, att_on)
+                        filled = _flush(S, XY, n, mixed, filled, materials, L, cam, outs, spec_on, att_on)
                         n = 0
                         mixed = False
             if n > 0:  # the lanes past n hold an earlier batch's pixels (or zeros): shaded, not written
-                _flush(S, XY, n, mixed, filled, materials, L, cam, image, spec_on, att_on)
+                _flush(S, XY, n, mixed, filled, materials, L, cam, outs, spec_on, att_on)
 
     return _shade_phong_fast_kernel
 

@@ -32,7 +32,7 @@ from .gouraud import _INTERPOLATE, _VERTICES
 from .inputs import prepare
 from .jit import JIT, variant
 from .phong import _PHONG
-from .phong_fast import _PHONG_FAST, applies as _fast_applies
+from .phong_fast import _NO_NORMALS, _PHONG_FAST, applies as _fast_applies
 
 __all__ = ["SHADINGS", "METHODS", "shade", "shade_hits", "resolve_methods", "SampleShading", "accumulate",
            "sample_mean", "GROUP"]
@@ -225,7 +225,8 @@ class SampleShading:
                                      (self.vcol, self.vspec, int(y0)), image)
         if self.fast_phong:
             _PHONG_FAST[k["spec_on"], k["att_on"]](hits.prim, hits.geom, hits.u, hits.v, k["G"], k["L"], k["face_off"],
-                                                   k["materials"], k["cam"], k["background"], modes, image)
+                                                   k["materials"], k["cam"], k["background"], modes,
+                                                   (image, _NO_NORMALS))
         elif self.phong:
             variant(_PHONG, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["T"], k["face_off"],
                                k["materials"], k["cam"], k["background"], modes,

@@ -15,7 +15,8 @@ from raycast_shade.shading import shade as shade_mod
 from raycast_shade.shading.inputs import prepare
 from raycast_shade.shading.jit import variant
 from raycast_shade.shading.phong import _PHONG
-from raycast_shade.shading.phong_fast import _PHONG_FAST, LANES, applies
+from raycast_shade.shading.normals import shading_normals
+from raycast_shade.shading.phong_fast import _NO_NORMALS, _PHONG_FAST, LANES, applies
 from raycast_shade.shading.shade import resolve_methods
 
 W, H = 40, 30
@@ -46,7 +47,7 @@ def _both(scene, shading, hits):
     variant(_PHONG, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["T"], k["face_off"],
                        k["materials"], k["cam"], k["background"], modes, general, 0)
     _PHONG_FAST[k["spec_on"], k["att_on"]](hits.prim, hits.geom, hits.u, hits.v, k["G"], k["L"], k["face_off"],
-                                           k["materials"], k["cam"], k["background"], modes, fast)
+                                           k["materials"], k["cam"], k["background"], modes, (fast, _NO_NORMALS))
     return general, fast
 
 
@@ -112,6 +113,27 @@ def test_full_and_partial_batches_and_rows_without_hits():
     assert (hits.prim >= 0).sum() > 2 * LANES
     general, fast = _both(scene, "phong", hits)
     assert _same_bits(general, fast)
+
+
+def test_the_normals_it_writes_are_those_the_frame_reports():
+    """Given a normal array, the kernel writes each pixel's shading normal (zero on the background):
+    ``frame.normal``'s values (:func:`shading_normals`) bit for bit, and the same image."""
+    scene = rs.Scene([rs.Model(_soup(3), rs.Material(ks=0.5, shininess=9)),
+                      rs.Model(rs.shapes.torus(0.9, 0.2, 12, 6), rs.Material(ks=0.2, specular="blinn"))],
+                     lights=[rs.PointLight((1.0, 2.0, 3.0), intensity=9.0, attenuation="heuristic")],
+                     camera=rs.Camera(eye=(0.4, 0.8, 3.0), width=W, height=H))
+    hits = rs.render(scene).hits
+    k = prepare(scene, scene.camera)
+    modes = resolve_methods(scene, "phong")
+    image = np.full(hits.shape + (3,), np.nan, np.float32)
+    normal = image.copy()
+    _PHONG_FAST[k["spec_on"], k["att_on"]](hits.prim, hits.geom, hits.u, hits.v, k["G"], k["L"], k["face_off"],
+                                           k["materials"], k["cam"], k["background"], modes, (image, normal))
+    expected = shading_normals(scene, scene.camera, hits, "phong")
+    assert _same_bits(normal, expected) and (normal[hits.prim < 0] == 0.0).all()
+    assert (np.abs(np.linalg.norm(normal[hits.prim >= 0], axis=-1) - 1.0) < 1e-6).all()
+    general, _ = _both(scene, "phong", hits)
+    assert _same_bits(image, general)
 
 
 class _Spy:
