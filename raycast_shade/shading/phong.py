@@ -32,8 +32,8 @@ from .illumination import _illuminate, _reflected, _request_shadows
 from .normalmap import _normal_map
 from .jit import FLT32_MAX, HELPER, JIT, compile_variants
 from .records import At, Hit
-from .shadows import (LANES, _packets, _scratch, clear_packets, store_coef, store_point, stored_coef, stored_point,
-                      trace_packets)
+from .shadows import (LANES, _packets, _scratch, clear_packets, store_coef, store_point, stored_coef,
+                      stored_material, stored_point, trace_packets)
 from .surface import _facing, _hit_point, _shading_normal, _terminator_point, _triangle, _view
 from .texture import _point_coefficients, _row_coefficients
 
@@ -175,9 +175,10 @@ def _make_phong_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
                         _request_shadows(P, k, hp, L)
                     trace_packets(handle, buf, off, valid, voff, args, aoff, vis)
                     for k in range(LANES):  # the tile's colours
-                        (pp, vv, gg, sg, nn, oo), gm = stored_point(points, k)
-                        if gm < 0:
+                        gm = stored_material(points, k)
+                        if gm < 0:  # background, another method's model, or outside the image
                             continue
+                        pp, vv, gg, sg, nn, oo = stored_point(points, k)
                         coef = stored_coef(points, k) if tex_on else _row_coefficients(materials, gm)
                         rgb = _reflected(Hit(pp, vv, gg, sg, nn, oo), coef, materials, gm, L, S, vis, k,
                                          spec_on, att_on)

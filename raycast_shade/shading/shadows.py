@@ -246,11 +246,16 @@ def store_point(points, k, hp, mi):
 
 
 @njit(**HELPER)
+def stored_material(points, k):
+    """Lane ``k``'s material row as :func:`store_point` kept it; -1: no point in this lane."""
+    return int(points[k, 0])
+
+
+@njit(**HELPER)
 def stored_point(points, k):
-    """Lane ``k``'s ``(p, v, g, sgn, n, o), mi`` as :func:`store_point` kept them (``mi`` -1: no
-    point in this lane)."""
-    return ((_get3(points, k, 1), _get3(points, k, 4), _get3(points, k, 7), points[k, 16], _get3(points, k, 10),
-             _get3(points, k, 13)), int(points[k, 0]))
+    """Lane ``k``'s ``(p, v, g, sgn, n, o)`` as :func:`store_point` kept them."""
+    return (_get3(points, k, 1), _get3(points, k, 4), _get3(points, k, 7), points[k, 16], _get3(points, k, 10),
+            _get3(points, k, 13))
 
 
 @njit(**HELPER)
