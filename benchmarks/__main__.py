@@ -61,7 +61,7 @@ REGISTRY = [
          csv=["paths.csv"], images=["paths.png"], page="performance.md"),
     dict(name="shadows", module="benchmarks.bench_shadows",
          title="Shadow rays: the shadowed frame against the plain one and the rays' bare Embree floor",
-         csv=["shadows.csv"], images=[]),
+         csv=["shadows.csv"], images=[], page="performance.md"),
     dict(name="aa", module="benchmarks.bench_aa", title="Anti-aliasing: cost per sample and edge error",
          csv=["aa.csv"], images=[], page="antialiasing.md"),
     dict(name="explore", module="benchmarks.bench_explore", title="The explorer's frame rate",

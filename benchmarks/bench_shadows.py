@@ -13,9 +13,13 @@ casting shadows), timed in turn, round after round, in one process after a warm-
   packets of 4x4 pixels) traced bare, one ``rtcOccluded1`` per ray and one ``rtcOccluded16`` per
   packet (coherent), in a parallel loop with nothing else: the floor of what the rays cost.
 
-``rays`` is the number of shadow rays (pixels lit by the light); ``ns_per_ray`` each time over it.
-Results: ``benchmarks/results/shadows.csv``; ``--quick`` runs one small case into ``out/quick/``.
-The machine load (``os.getloadavg``) before each case goes into ``note``.
+``rays`` is the number of shadow rays (pixels lit by the light); ``ns_per_ray`` is, for the bare
+rays, their time over that number, and for the shadowed frames what they take beyond the plain
+frame, over that number (what shadows add a ray, shading and bookkeeping included).
+Results: ``benchmarks/results/shadows.csv`` and the table between the ``shadows`` markers of
+``docs/performance.md`` (``--table`` redoes it from the CSV); ``--quick`` runs one small case into
+``out/quick/`` (the table to ``out/quick/results/shadows.md``). The machine load
+(``os.getloadavg``) before each case goes into ``note``.
 """
 
 from __future__ import annotations
@@ -30,7 +34,7 @@ import time
 import numpy as np
 from numba import njit, prange
 
-from benchmarks.outputs import results_file
+from benchmarks.outputs import ROOT, results_file
 from raycast_shade.shading import shadows
 from raycast_shade.shading.illumination import _request_shadows
 from raycast_shade.shading.phong import _shading_point
@@ -46,7 +50,8 @@ _LANES = shadows.LANES
 
 
 def outputs(quick: bool = False) -> list:
-    return [results_file("shadows.csv", quick)]
+    return [results_file("shadows.csv", quick)] + (
+        [results_file("shadows.md", True)] if quick else [os.path.join(ROOT, "docs", "performance.md")])
 
 
 @njit(parallel=True, cache=True)
@@ -128,6 +133,12 @@ def _shadow_rays(scene):
     return k["L"][3], rays, valid
 
 
+def _per_ray(name, med, unit, n) -> str:
+    if name == "frame":
+        return ""
+    return f"{(med - unit if name.startswith('shadows') else med) / n * 1e9:.0f}"
+
+
 def bench_case(kind, level, width, height, repeats):
     import raycast_shade as rs
     from benchmarks.bench_peers import make_mesh, make_scene
@@ -171,16 +182,64 @@ def bench_case(kind, level, width, height, repeats):
         med = statistics.median(ts)
         rows.append(dict(mesh=kind, triangles=20 * 4 ** level, width=width, height=height, path=name,
                          median_ms=f"{med * 1e3:.1f}", ratio=f"{med / unit:.2f}", rays=n,
-                         ns_per_ray=f"{med / n * 1e9:.0f}" if name != "frame" else "", repeats=repeats,
+                         ns_per_ray=_per_ray(name, med, unit, n), repeats=repeats,
                          note=f"load {load:.1f} on {os.cpu_count()} cores"))
     return rows
+
+
+BEGIN, END = "<!-- shadows:begin (benchmarks/bench_shadows.py) -->", "<!-- shadows:end -->"
+LABELS = {"shadows": "shadows on (packets; ns: added a ray)",
+          "shadows_single": "shadows on, one ray at a time (before; ns: added a ray)",
+          "rays_occluded1": "the same rays, bare `rtcOccluded1`", "rays_occluded16": "the same rays, bare `rtcOccluded16`"}
+
+
+def table(rows) -> str:
+    """The markdown table of ``rows``: per mesh and size, each path's ratio to the plain frame (ns a ray)."""
+    cases = list(dict.fromkeys((r["mesh"], r["triangles"], r["width"], r["height"]) for r in rows))
+    get = {(r["mesh"], r["width"], r["height"], r["path"]): r for r in rows}
+    head = ["path"] + [f"{int(t):,} tris, {w}×{h}" for _, t, w, h in cases]
+    out = ["| " + " | ".join(head) + " |", "|---" * len(head) + "|"]
+    out.append("| plain Phong frame (the unit), ms | "
+               + " | ".join(get[(m, w, h, "frame")]["median_ms"] for m, _, w, h in cases) + " |")
+    out.append("| shadow rays | " + " | ".join(f"{int(get[(m, w, h, 'frame')]['rays']):,}" for m, _, w, h in cases)
+               + " |")
+    for name, label in LABELS.items():
+        cells = [f"{get[(m, w, h, name)]['ratio']}× ({get[(m, w, h, name)]['ns_per_ray']} ns a ray)"
+                 for m, _, w, h in cases]
+        out.append(f"| {label} | " + " | ".join(cells) + " |")
+    out.append("| machine load | " + " | ".join(get[(m, w, h, "frame")]["note"] for m, _, w, h in cases) + " |")
+    return "\n".join(out) + "\n"
+
+
+def write_table(rows, quick: bool) -> str:
+    """Put :func:`table` between the markers of ``docs/performance.md`` (quick: ``out/quick/results/shadows.md``)."""
+    text = table(rows)
+    if quick:
+        path = results_file("shadows.md", True)
+        os.makedirs(os.path.dirname(path), exist_ok=True)
+        with open(path, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        return path
+    path = os.path.join(ROOT, "docs", "performance.md")
+    with open(path, encoding="utf-8") as fh:
+        page = fh.read()
+    start, end = page.index(BEGIN) + len(BEGIN), page.index(END)
+    with open(path, "w", encoding="utf-8") as fh:
+        fh.write(page[:start] + "\n" + text + page[end:])
+    return path
 
 
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--quick", action="store_true", help="one small case; writes under out/quick/")
     p.add_argument("--repeats", type=int, default=None)
+    p.add_argument("--table", action="store_true", help="only redo the table from the CSV")
     args = p.parse_args(argv)
+    if args.table:
+        with open(results_file("shadows.csv", args.quick), newline="") as fh:
+            rows = list(csv.DictReader(fh))
+        write_table(rows, args.quick)
+        return rows
     cases = QUICK_CASES if args.quick else CASES
     repeats = args.repeats or (2 if args.quick else 5)
     rows = []
@@ -194,6 +253,7 @@ def main(argv=None):
         w = csv.DictWriter(fh, FIELDS)
         w.writeheader()
         w.writerows(rows)
+    write_table(rows, args.quick)
     return rows
 
 
