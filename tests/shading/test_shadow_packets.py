@@ -11,6 +11,11 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
+import pathlib
+import subprocess
+import sys
+import textwrap
 import unittest.mock as mock
 
 import numpy as np
@@ -140,6 +145,41 @@ def test_alpha_masked_occluders_let_packet_rays_through_their_clear_texels(monke
     on_floor = rs.cast_camera(scene, cam).geom == 1
     lum = got.mean(axis=-1)[on_floor]
     assert (lum < 0.2).mean() > 0.05 and (lum > 0.3).mean() > 0.2  # shadows of covered cells, light through holes
+
+
+# Under glibc's free-poisoning (every free overwrites the block with 0xA5): a packet, valid mask or
+# RTCOccludedArguments freed before Embree read it would turn into garbage rays or pointers.
+_POISONED = textwrap.dedent("""
+    import ctypes, sys
+    import numpy as np
+    libc = ctypes.CDLL(None)
+    libc.malloc.restype = ctypes.c_void_p
+    libc.malloc.argtypes = [ctypes.c_size_t]
+    libc.free.argtypes = [ctypes.c_void_p]
+    p = libc.malloc(96)
+    ctypes.memset(p, 0, 96)
+    libc.free(p)
+    if ctypes.string_at(p + 32, 48) != b"\\xa5" * 48:
+        print("NOPOISON")
+        sys.exit(0)
+    import raycast_shade as rs
+    sys.path.insert(0, sys.argv[2])
+    from test_shadow_packets import _scene
+    np.save(sys.argv[1], rs.render(_scene("plain")).image)
+    print("OK")
+""")
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc's malloc tunables")
+def test_the_packet_kernel_keeps_its_embree_buffers_alive_when_frees_are_poisoned(tmp_path):
+    env = dict(os.environ, GLIBC_TUNABLES="glibc.malloc.tcache_count=0:glibc.malloc.perturb=165")
+    out = tmp_path / "image.npy"
+    proc = subprocess.run([sys.executable, "-c", _POISONED, str(out), str(pathlib.Path(__file__).parent)],
+                          env=env, capture_output=True, text=True, timeout=900)
+    if "NOPOISON" in proc.stdout:
+        pytest.skip("this libc does not poison freed memory")
+    assert proc.returncode == 0 and "OK" in proc.stdout, proc.stderr[-3000:]
+    np.testing.assert_array_equal(np.load(out), rs.render(_scene("plain")).image)
 
 
 # -- the packets against single rays, ray for ray -------------------------------------------------------
