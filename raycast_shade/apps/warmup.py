@@ -63,17 +63,19 @@ def _step_core():
     _methods(_scene())  # specular and attenuation on
 
 
-def _variants(floor=None, **kwargs):
+def _variants(floor=None, sun_shadows=False, **kwargs):
     """The three variants other than :func:`_step_core`'s. The kernels (the mirrors' bounce
-    shading too) fold "any specular" and "any attenuating light" at compile time: four each."""
+    shading too) fold "any specular" and "any attenuating light" at compile time: four each.
+    ``sun_shadows``: the sun casts shadows (Phong's shadow-packet kernel has its own variants)."""
     dull = Material(kd=0.7, ks=0.0)
-    sun = [DirectionalLight((-1.0, -1.0, -1.0), intensity=1.0)]
+    sun = [DirectionalLight((-1.0, -1.0, -1.0), intensity=1.0, shadows=sun_shadows)]
     for material, lights in ((dull, sun), (None, sun), (dull, None)):
         _methods(_scene(material, lights, floor=floor), **kwargs)
 
 
 def _step_variants():
     _variants()
+    _variants(sun_shadows=True)
 
 
 def _step_batched():

@@ -35,7 +35,7 @@ from ..common.layout import (ATT_HEURISTIC, ATT_INVERSE_SQUARE, LIGHT_ATT, LIGHT
 from .jit import CALLED, HELPER
 from .records import dot
 from .reflectance import _specular_cosine
-from .shadows import _occluded
+from .shadows import _occluded, request_ray
 
 __all__ = []
 
@@ -115,8 +115,12 @@ def _light_at(lights, i, p, dmin, att_on):
     return s, d, att, cone
 
 
+_NO_VIS = np.zeros((1, 1), np.int8)  # no packet visibility: every shadow ray is traced on its own
+
+
 def _illuminate_py(hp, coef, mats, mi, L, S, spec_on, att_on):
-    """RGB reflected towards ``hp.v`` at the shading point ``hp``.
+    """RGB reflected towards ``hp.v`` at the shading point ``hp``, each shadow ray traced on its own
+    (:func:`~raycast_shade.shading.shadows._occluded`).
 
     Parameters
     ----------
@@ -139,6 +143,15 @@ def _illuminate_py(hp, coef, mats, mi, L, S, spec_on, att_on):
         Compile-time constants (see :mod:`.jit`): a scene with no specular
         material or no attenuating light compiles without that arithmetic.
     """
+    return _reflected(hp, coef, mats, mi, L, S, _NO_VIS, -1, spec_on, att_on)
+
+
+@njit(**HELPER)
+def _reflected(hp, coef, mats, mi, L, S, vis, lane, spec_on, att_on):
+    """:func:`_illuminate_py` with the answers of traced shadow packets: ``vis[i, lane]`` is light
+    ``i``'s for this point (1 blocked, 0 lit, -1 not traced), from
+    :func:`~raycast_shade.shading.shadows.trace_packets` after :func:`_request_shadows`; a ray
+    not traced there (``lane`` -1: no packets) is traced on its own."""
     ambient, lights, dmin, handle, unit = L
     kar, kag, kab, kdr, kdg, kdb, ksr, ksg, ksb, ker, keg, keb = coef
     n = hp.n
@@ -159,8 +172,11 @@ def _illuminate_py(hp, coef, mats, mi, L, S, spec_on, att_on):
         if ndots > 1.0:
             ndots = 1.0
         if lights[i, LIGHT_SHADOWS] != 0.0 and handle != 0:
-            target = (lights[i, LIGHT_VEC + 0], lights[i, LIGHT_VEC + 1], lights[i, LIGHT_VEC + 2])
-            if _occluded(handle, S, hp.o, hp.g, s, target, d < np.inf, unit):
+            seen = vis[i, lane] if lane >= 0 else -1
+            if seen < 0:  # not in a packet
+                target = (lights[i, LIGHT_VEC + 0], lights[i, LIGHT_VEC + 1], lights[i, LIGHT_VEC + 2])
+                seen = 1 if _occluded(handle, S, hp.o, hp.g, s, target, d < np.inf, unit) else 0
+            if seen != 0:
                 continue
         spec = 0.0
         if spec_on and has_spec:
@@ -174,6 +190,24 @@ def _illuminate_py(hp, coef, mats, mi, L, S, spec_on, att_on):
 
 
 _illuminate = njit(**HELPER)(_illuminate_py)
+
+
+@njit(**HELPER)
+def _request_shadows(P, k, hp, L):
+    """Ask for lane ``k``'s shadow rays in the packets ``P = (buf, ib, off, valid, voff)``
+    (:mod:`.shadows`): one per light that :func:`_reflected` would trace a ray for at ``hp``
+    (casting shadows, in its cone, not on the point, ``n.s > 0``), the same ray."""
+    lights, dmin, handle, unit = L[1], L[2], L[3], L[4]
+    if handle == 0:
+        return
+    for i in range(lights.shape[0]):
+        if lights[i, LIGHT_SHADOWS] == 0.0:
+            continue
+        s, d, _, cone = _light_at(lights, i, hp.p, dmin, False)
+        if d == 0.0 or cone == 0.0 or dot(hp.n, s) <= 0.0:
+            continue
+        target = (lights[i, LIGHT_VEC + 0], lights[i, LIGHT_VEC + 1], lights[i, LIGHT_VEC + 2])
+        request_ray(P, i, k, hp.o, hp.g, s, target, d < np.inf, unit)
 
 
 @njit(**CALLED)

@@ -3,7 +3,11 @@ point, with the normal interpolated (``a = n1 + mu1 (n2 - n1) + mu2 (n3 - n1)``)
 renormalised, and perturbed by the material's bump map or normal map if it has one.
 
 Shadow rays leave the pixel's point, lifted past the terminator
-(:func:`~raycast_shade.shading.surface._terminator_point`).
+(:func:`~raycast_shade.shading.surface._terminator_point`). A frame whose lights cast
+shadows runs the packet kernel instead: it shades 4x4 tiles, first the tile's 16 shading
+points (kept in the task's scratch) with their shadow rays asked for, then one
+``rtcOccluded16`` per light for the tile, then the reflectance equation with those answers
+(:mod:`.shadows`): the same rays, traced as coherent packets rather than one by one.
 
 Speed notes. The kernels take the packed tuples of
 :class:`~raycast_shade.shading.inputs.FrameInputs` and hand them whole to the
@@ -24,11 +28,12 @@ from numba import njit, prange
 from ..common.layout import METHOD_PHONG
 from ..common.schedule import BLOCK_ROWS, spread_step
 from .bump import _bump
-from .illumination import _illuminate
+from .illumination import _illuminate, _reflected, _request_shadows
 from .normalmap import _normal_map
 from .jit import FLT32_MAX, HELPER, JIT, compile_variants
 from .records import At, Hit
-from .shadows import _scratch
+from .shadows import (LANES, _packets, _scratch, clear_packets, store_coef, store_point, stored_coef,
+                      stored_material, stored_point, trace_packets)
 from .surface import _facing, _hit_point, _shading_normal, _terminator_point, _triangle, _view
 from .texture import _point_coefficients, _row_coefficients
 
@@ -68,13 +73,20 @@ def _shade_surface(G, B, L, S, materials, cam, at, use_dir, d, coef, spec_on, at
     ``G``, ``B``, ``L`` as in :class:`~raycast_shade.shading.inputs.FrameInputs`;
     ``S`` the shadow scratch; ``use_dir``, ``d`` as in :func:`_surface`; ``coef``:
     the point's nine ``ka, kd, ks`` (:mod:`.texture`)."""
+    hp = _shading_point(G, B, L, cam, at, use_dir, d)
+    return _illuminate(hp, coef, materials, at.gm, L, S, spec_on, att_on), hp
+
+
+@njit(**HELPER)
+def _shading_point(G, B, L, cam, at, use_dir, d):
+    """:func:`_surface`'s point with its shadow origin past the terminator when shadow rays will
+    be traced (``L`` has a scene handle)."""
     hp = _surface(G, B, cam, at, use_dir, d)
     o = hp.p
     if L[3] != 0:  # shadow rays will be traced (a scene handle): start them past the terminator
         verts, normals, faces, _ = G
         o = _terminator_point(verts, normals, _triangle(faces, at.f), at.b1, at.b2, hp.p, hp.sgn)
-    hp = Hit(hp.p, hp.v, hp.g, hp.sgn, hp.n, o)
-    return _illuminate(hp, coef, materials, at.gm, L, S, spec_on, att_on), hp
+    return Hit(hp.p, hp.v, hp.g, hp.sgn, hp.n, o)
 
 
 def _make_phong(spec_on: bool, att_on: bool, tex_on: bool = False):
@@ -127,3 +139,75 @@ def _make_phong(spec_on: bool, att_on: bool, tex_on: bool = False):
 
 
 _PHONG = compile_variants(_make_phong)  # the family's registry (see .jit)
+
+_TILE = 4  # a packet is a 4x4 tile of pixels (LANES); BLOCK_ROWS is a multiple of it
+
+
+def _make_phong_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
+    """The Phong pixel kernel with shadow packets, for one variant (see :mod:`.jit`)."""
+
+    @njit(parallel=True, **JIT)
+    def _shade_phong_packets_kernel(prim, geom, u, v, G, B, L, T, face_off, materials, cam, background, modes, outs,
+                                    y0):
+        """:func:`_make_phong`'s kernel, its shadow rays traced per 4x4 tile of pixels as one
+        16-ray packet per light: the same image (and shading normals in ``outs``), bit for bit."""
+        uvs = B[0]
+        image, normal = outs
+        want_n = normal.shape[0] != 0
+        handle = L[3]
+        h, w = prim.shape
+        nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
+        step = spread_step(nblk)
+        for it in prange(nblk):  # blocks of rows in a balanced order (see common.schedule)
+            blk = (it * step) % nblk
+            S = _scratch()  # a single ray, should a point ask for one its tile did not trace
+            buf, ib, off, valid, voff, args, aoff, vis, points = _packets(L[1].shape[0])
+            P = (buf, ib, off, valid, voff)
+            ye = min(h, (blk + 1) * BLOCK_ROWS)
+            for ty in range(blk * BLOCK_ROWS, ye, _TILE):
+                for tx in range(0, w, _TILE):
+                    clear_packets(valid, voff, vis, points)
+                    for k in range(LANES):  # the tile's points, and their shadow rays asked for
+                        x = tx + k % _TILE
+                        y = ty + k // _TILE
+                        if x >= w or y >= ye:
+                            continue
+                        p = prim[y, x]
+                        if p < 0:
+                            for c in range(3):
+                                image[y, x, c] = background[c]
+                                if want_n:
+                                    normal[y, x, c] = 0.0
+                            continue
+                        gm = geom[y, x]
+                        if modes[gm] != METHOD_PHONG:
+                            continue
+                        at = At(face_off[gm] + p, gm, np.float64(u[y, x]), np.float64(v[y, x]))
+                        if tex_on:
+                            store_coef(points, k, _point_coefficients(G, uvs, at, cam, x, y0 + y, True, materials, T))
+                        hp = _shading_point(G, B, L, cam, at, False, (0.0, 0.0, 0.0))
+                        if want_n:
+                            normal[y, x, 0] = hp.n[0]
+                            normal[y, x, 1] = hp.n[1]
+                            normal[y, x, 2] = hp.n[2]
+                        store_point(points, k, hp, gm)
+                        _request_shadows(P, k, hp, L)
+                    trace_packets(handle, buf, off, valid, voff, args, aoff, vis)
+                    for k in range(LANES):  # the tile's colours
+                        gm = stored_material(points, k)
+                        if gm < 0:  # background, another method's model, or outside the image
+                            continue
+                        pp, vv, gg, sg, nn, oo = stored_point(points, k)
+                        coef = stored_coef(points, k) if tex_on else _row_coefficients(materials, gm)
+                        rgb = _reflected(Hit(pp, vv, gg, sg, nn, oo), coef, materials, gm, L, S, vis, k,
+                                         spec_on, att_on)
+                        x = tx + k % _TILE
+                        y = ty + k // _TILE
+                        image[y, x, 0] = min(rgb[0], FLT32_MAX)
+                        image[y, x, 1] = min(rgb[1], FLT32_MAX)
+                        image[y, x, 2] = min(rgb[2], FLT32_MAX)
+
+    return _shade_phong_packets_kernel
+
+
+_PHONG_PACKETS = compile_variants(_make_phong_packets)  # the family's registry (see .jit)

@@ -18,7 +18,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import intrinsic
 
 from ..visibility import embree
 from .jit import CALLED, HELPER
@@ -38,6 +39,30 @@ def _scratch():
     return buf, buf.view(np.uint32), off
 
 
+@intrinsic
+def _as_bits(typingctx, x):
+    """The IEEE-754 bits of a float64 as an int64 (a register move, no call)."""
+    if not isinstance(x, types.Float) or x.bitwidth != 64:
+        return None
+
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(args[0], context.get_value_type(types.int64))
+
+    return types.int64(x), codegen
+
+
+@intrinsic
+def _from_bits(typingctx, b):
+    """The float64 whose IEEE-754 bits are the int64 ``b``."""
+    if not isinstance(b, types.Integer) or b.bitwidth != 64:
+        return None
+
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(args[0], context.get_value_type(types.float64))
+
+    return types.float64(b), codegen
+
+
 @njit(**HELPER)
 def _nudge(p, n, unit):
     """Move coordinate ``p`` by 256 float32 ulps along normal component ``n``.
@@ -47,24 +72,27 @@ def _nudge(p, n, unit):
     ``unit / 65536`` instead: Wachter and Binder's constants (1/32, 1/65536)
     measured in ``unit``, the scene's size (bounding-box diagonal), rather
     than in absolute units, so that a scene at scale 1e5 is as safe as one
-    at scale 1."""
+    at scale 1.
+
+    256 float32 ulps of ``p`` are ``ldexp(256, e - 24) = 2**(e - 16)`` with ``e`` the exponent
+    ``math.frexp`` gives (``p = m 2**e``, ``0.5 <= |m| < 1``), read off the float64 bits here:
+    two library calls per coordinate cost as much as the packet traversal's share of a shadow ray.
+    Every ``p`` that reaches this branch is normal (``unit >= 1e-18``, the smallest Embree scene,
+    so ``|p| >= 3e-20``), or infinite or NaN, which stay so."""
     if abs(p) < unit * (1.0 / 32.0):
         return p + n * (unit * (1.0 / 65536.0))
-    _, e = math.frexp(p)
-    return p + n * math.ldexp(256.0, e - 24)
+    e = ((_as_bits(p) >> 52) & 0x7FF) - 1022  # frexp's exponent
+    return p + n * _from_bits((e - 16 + 1023) << 52)
 
 
 @njit(**HELPER)
-def _occluded(handle, S, o, g, s, target, is_point, unit):
-    """True if the scene blocks the way from ``o`` towards the light.
+def _shadow_ray(o, g, s, target, is_point, unit):
+    """The shadow ray from shading point ``o`` towards the light: ``(origin, direction, tfar)``.
 
-    ``o`` is the shading point's shadow origin, pushed off the surface along its
-    geometric normal ``g`` (on the side of the unit direction ``s`` to the light);
-    a point light's ray ends just short of ``target``, its position, a light at
-    infinity's (``is_point`` False) goes on along ``s``. ``S`` is the scratch from
-    :func:`_scratch`, unpacked only here: shadow rays are the rare path, and the
-    unpacking costs reference counting."""
-    buf, ib, off = S
+    The origin is ``o`` pushed off the surface along its geometric normal ``g`` (on the side
+    of the unit direction ``s`` to the light); a point light's ray ends just short of
+    ``target``, its position, a light at infinity's (``is_point`` False) goes on along ``s``.
+    One function for the single rays and the packets: both trace the same ray."""
     px, py, pz = o
     gx, gy, gz = g
     sx, sy, sz = s
@@ -73,15 +101,172 @@ def _occluded(handle, S, o, g, s, target, is_point, unit):
     oy = _nudge(py, side * gy, unit)
     oz = _nudge(pz, side * gz, unit)
     if is_point:
-        dx = target[0] - ox
-        dy = target[1] - oy
-        dz = target[2] - oz
-        tfar = _SHADOW_TFAR
-    else:
-        dx = sx
-        dy = sy
-        dz = sz
-        tfar = np.inf
-    embree.write_ray(buf, ib, off, 1, (ox, oy, oz), (dx, dy, dz), 0.0, tfar)
+        return (ox, oy, oz), (target[0] - ox, target[1] - oy, target[2] - oz), _SHADOW_TFAR
+    return (ox, oy, oz), (sx, sy, sz), np.inf
+
+
+@njit(**HELPER)
+def _occluded(handle, S, o, g, s, target, is_point, unit):
+    """True if the scene blocks the way from ``o`` towards the light (one ray, ``rtcOccluded1``).
+
+    ``o``, ``g``, ``s``, ``target``, ``is_point`` as in :func:`_shadow_ray`. ``S`` is the
+    scratch from :func:`_scratch`, unpacked only here: single shadow rays are the rare path
+    (Gouraud's and flat's, terms', mirrors'), and the unpacking costs reference counting."""
+    buf, ib, off = S
+    org, d, tfar = _shadow_ray(o, g, s, target, is_point, unit)
+    embree.write_ray(buf, ib, off, 1, org, d, 0.0, tfar)
     embree.occluded1(handle, buf.ctypes.data + off * 4, 0)  # the address taken from the live array, here
     return buf[off + embree.RAY_TFAR] < 0.0  # Embree sets tfar to -inf on a hit
+
+
+# -- packets: the shadow rays of 16 neighbouring points per light, one rtcOccluded16 each ----------------
+
+LANES = 16  # points per packet (a 4x4 tile of pixels)
+_RAY16 = embree.RAY16_SLOTS  # float32 slots of one RTCRay16: 768 bytes, so packet i + 1 stays 64-byte aligned
+LANE_SLOTS = 32  # float64 slots per lane of a packet task's stored points (:func:`store_point`, :func:`store_coef`)
+_UNTRACED = -1  # a packet visibility entry no ray was asked for
+
+
+@njit(**CALLED)  # allocates: NRT on
+def _packets(nlights):
+    """A per-task scratch for the shadow packets of ``nlights`` lights.
+
+    Returns
+    -------
+    buf, ib : (N,) float32, (N,) uint32
+        Two views of one buffer: ``nlights`` ``RTCRay16`` one after another from slot ``off``
+        (64-byte aligned), light ``i``'s at ``off + i * RAY16_SLOTS``.
+    off : int
+    valid : (M,) int32
+        The packets' valid masks, light ``i``'s 16 lanes from ``voff + 16 i`` (64-byte aligned).
+    voff : int
+    args : (K,) uint32
+        ``RTCOccludedArguments`` from ``aoff`` (8-byte aligned): every feature, coherent.
+    aoff : int
+    vis : (nlights, LANES) int8
+        Per light and lane: 1 blocked, 0 lit, -1 not traced (:func:`trace_packets` writes it).
+    points : (LANES, LANE_SLOTS) float64
+        The lanes' shading points, kept between the request and the shading (:func:`store_point`).
+    """
+    buf = np.empty(max(nlights, 1) * _RAY16 + 16, np.float32)
+    off = ((64 - buf.ctypes.data % 64) % 64) // 4
+    valid = np.zeros(max(nlights, 1) * LANES + 16, np.int32)
+    voff = ((64 - valid.ctypes.data % 64) % 64) // 4
+    args = np.zeros(embree.ARGS_SLOTS + 2, np.uint32)
+    aoff = ((8 - args.ctypes.data % 8) % 8) // 4
+    args[aoff] = embree.RAY_QUERY_FLAG_COHERENT  # neighbours' rays to one light: 1.9x faster than without
+    args[aoff + 1] = embree.FEATURE_FLAG_ALL
+    vis = np.full((max(nlights, 1), LANES), _UNTRACED, np.int8)
+    points = np.zeros((LANES, LANE_SLOTS), np.float64)
+    ib = buf.view(np.uint32)
+    for i in range(max(nlights, 1)):  # the slots no ray changes and Embree never writes, once
+        for k in range(LANES):
+            b = off + i * _RAY16 + k
+            buf[b + embree.RAY_TNEAR * LANES] = 0.0
+            buf[b + embree.RAY_TIME * LANES] = 0.0
+            ib[b + embree.RAY_MASK * LANES] = embree.INVALID_ID  # every mask bit, as write_ray
+            ib[b + embree.RAY_ID * LANES] = 0
+            ib[b + embree.RAY_FLAGS * LANES] = 0
+    return buf, ib, off, valid, voff, args, aoff, vis, points
+
+
+@njit(**HELPER)
+def clear_packets(valid, voff, vis, points):
+    """Start a packet task's tile: no ray asked for, no point stored."""
+    for i in range(vis.shape[0]):
+        for k in range(LANES):
+            valid[voff + i * LANES + k] = 0
+            vis[i, k] = _UNTRACED
+    for k in range(LANES):
+        points[k, 0] = -1.0
+
+
+@njit(**HELPER)
+def request_ray(P, i, k, o, g, s, target, is_point, unit):
+    """Ask for light ``i``'s shadow ray of lane ``k`` (:func:`_shadow_ray`'s ray) in the packets of
+    ``P = (buf, ib, off, valid, voff)``."""
+    buf, ib, off, valid, voff = P
+    org, d, tfar = _shadow_ray(o, g, s, target, is_point, unit)
+    b = off + i * _RAY16 + k  # tnear 0, time 0, every mask bit, id and flags 0: set by _packets
+    for c in range(3):
+        buf[b + (embree.RAY_ORG + c) * LANES] = org[c]
+        buf[b + (embree.RAY_DIR + c) * LANES] = d[c]
+    buf[b + embree.RAY_TFAR * LANES] = tfar
+    valid[voff + i * LANES + k] = -1
+
+
+@njit(**HELPER)
+def trace_packets(handle, buf, off, valid, voff, args, aoff, vis):
+    """Trace each light's packet that has an active lane (``rtcOccluded16``), and write ``vis``
+    (1 blocked, 0 lit) for its active lanes.
+
+    As in :func:`_occluded`, each address is computed from its live array in the very expression
+    that calls Embree, and the packet is read again after the call; compiled without reference
+    counting (:data:`~raycast_shade.shading.jit.HELPER`), this helper cannot release an array,
+    and its caller holds them all (slicing them for
+    :func:`~raycast_shade.visibility.embree.occluded16_packet` would cost two atomic reference
+    counts per slice per tile)."""
+    for i in range(vis.shape[0]):
+        v0 = voff + i * LANES
+        any_on = False
+        for k in range(LANES):
+            any_on = any_on or valid[v0 + k] != 0
+        if not any_on:
+            continue
+        b0 = off + i * _RAY16
+        embree.occluded16(valid.ctypes.data + v0 * 4, handle, buf.ctypes.data + b0 * 4, args.ctypes.data + aoff * 4)
+        for k in range(LANES):
+            if valid[v0 + k] != 0:
+                vis[i, k] = 1 if buf[b0 + embree.RAY_TFAR * LANES + k] < 0.0 else 0
+
+
+@njit(**HELPER)
+def _put3(points, k, j, a):
+    points[k, j] = a[0]
+    points[k, j + 1] = a[1]
+    points[k, j + 2] = a[2]
+
+
+@njit(**HELPER)
+def _get3(points, k, j):
+    return points[k, j], points[k, j + 1], points[k, j + 2]
+
+
+@njit(**HELPER)
+def store_point(points, k, hp, mi):
+    """Keep lane ``k``'s shading point ``hp`` (:class:`~raycast_shade.shading.records.Hit`) and its
+    material row ``mi`` until its packets are traced (float64: exact)."""
+    _put3(points, k, 1, hp.p)
+    _put3(points, k, 4, hp.v)
+    _put3(points, k, 7, hp.g)
+    _put3(points, k, 10, hp.n)
+    _put3(points, k, 13, hp.o)
+    points[k, 16] = hp.sgn
+    points[k, 0] = mi
+
+
+@njit(**HELPER)
+def stored_material(points, k):
+    """Lane ``k``'s material row as :func:`store_point` kept it; -1: no point in this lane."""
+    return int(points[k, 0])
+
+
+@njit(**HELPER)
+def stored_point(points, k):
+    """Lane ``k``'s ``(p, v, g, sgn, n, o)`` as :func:`store_point` kept them."""
+    return (_get3(points, k, 1), _get3(points, k, 4), _get3(points, k, 7), points[k, 16], _get3(points, k, 10),
+            _get3(points, k, 13))
+
+
+@njit(**HELPER)
+def store_coef(points, k, coef):
+    """Keep lane ``k``'s 12 coefficients (a textured point's: costly to look up twice)."""
+    for j in range(12):
+        points[k, 17 + j] = coef[j]
+
+
+@njit(**HELPER)
+def stored_coef(points, k):
+    """Lane ``k``'s 12 coefficients as :func:`store_coef` kept them."""
+    return (points[k, 17], points[k, 18], points[k, 19], points[k, 20], points[k, 21], points[k, 22],
+            points[k, 23], points[k, 24], points[k, 25], points[k, 26], points[k, 27], points[k, 28])

@@ -9,12 +9,14 @@ it directly:
 * scene building: ``rtcSetSharedGeometryBuffer`` points Embree at our own
   NumPy arrays (held by :class:`EmbreeAccel` for as long as its scene
   exists), so building costs the BVH build alone;
-* traversal: ``rtcIntersect1`` / ``rtcIntersect8`` / ``rtcIntersect16`` / ``rtcOccluded1`` are
+* traversal: ``rtcIntersect1`` / ``rtcIntersect8`` / ``rtcIntersect16`` / ``rtcOccluded1`` /
+  ``rtcOccluded16`` are
   declared as external symbols for Numba, so ray generation, traversal and
   hit unpacking run in one parallel kernel, with no Python per ray or chunk.
   Symbols (not addresses) keep ``cache=True`` valid across processes.
 * kernels call them through :func:`intersect1_ray`, :func:`intersect8_packet`,
-  :func:`intersect16_packet` and :func:`occluded1_ray`, which take the scratch *arrays*, not their
+  :func:`intersect16_packet`, :func:`occluded1_ray` and :func:`occluded16_packet`, which take the
+  scratch *arrays*, not their
   addresses: an address is a bare integer, and once a kernel has taken it
   Numba is free to free the array (it drops each array after its last use
   in the IR). Passed as arguments, the arrays are held by the caller until
@@ -33,13 +35,15 @@ named slots lane by lane, :mod:`.cast`, so that its loops over a packet's lanes 
 Ng xyz, u, v, primID, geomID, instID[1], (instPrimID[1]); 16-byte aligned.
 The packet forms ``RTCRayHit8`` / ``RTCRayHit16`` have the same fields, each an array of 8 / 16
 (32- / 64-byte aligned): slot ``s`` of lane ``k`` is at ``s * lanes + k``. ``RTCRay`` (what
-``rtcOccluded1`` reads) is the first 12 slots. ``tests/visibility/test_embree_binding.py`` checks these
+``rtcOccluded1`` reads) is the first 12 slots, and ``RTCRay16`` (``rtcOccluded16``'s, 64-byte aligned) the
+first 12 slots of ``RTCRayHit16``: :data:`RAY16_SLOTS` in all, a multiple of 16 (768 bytes), so packets laid
+one after another stay aligned. ``tests/visibility/test_embree_binding.py`` checks these
 slots against the header's field order and against what the bundled library writes. Camera rays go as 16-ray packets of 4x4 pixels: on this AVX-512 build
 (Embree 4.4, native 16-wide) they trace 1.08-1.31x faster than 4x2 packets of 8 (measured on
 pre-generated packets: 21.4 against 28.0 ms for a 1080p frame of an 81,920-triangle sphere,
 38.0 against 45.1 ms at 1.31 M triangles; 8x2 and 16x1 tiles are slower than 4x4).
-``RTCIntersectArguments`` (``rtcore_scene.h``) = flags, feature_mask, then
-three pointers. These layouts and the ``rtcIntersect*(scene, ray, args)``
+``RTCIntersectArguments`` and ``RTCOccludedArguments`` (``rtcore_scene.h``) = flags, feature_mask, then
+three pointers (context, filter, intersect or occluded): one layout. These layouts and the ``rtcIntersect*(scene, ray, args)``
 signatures are Embree 4's (Embree 3 takes a context first), so the binding
 reads the library's version and is unavailable, with that reason, for any
 other major version (:func:`unavailable_reason`).
@@ -60,8 +64,9 @@ import numpy as np
 from numba import njit, types
 
 __all__ = ["available", "unavailable_reason", "library_path", "embree_version", "EmbreeAccel", "intersect1",
-           "intersect8", "intersect16", "occluded1", "intersect1_ray", "intersect8_packet", "intersect16_packet",
-           "occluded1_ray", "write_ray", "reset_hit", "read_hit", "INVALID_ID", "RAY_SLOTS", "RAYHIT_SLOTS"]
+           "intersect8", "intersect16", "occluded1", "occluded16", "intersect1_ray", "intersect8_packet",
+           "intersect16_packet", "occluded1_ray", "occluded16_packet", "write_ray", "reset_hit", "read_hit",
+           "INVALID_ID", "RAY_SLOTS", "RAYHIT_SLOTS", "RAY16_SLOTS"]
 
 INVALID_ID = 0xFFFFFFFF  # RTC_INVALID_GEOMETRY_ID: geomID / primID of a miss
 
@@ -75,6 +80,7 @@ RAY_MASK = 9  # uint32
 RAY_ID = 10  # uint32
 RAY_FLAGS = 11  # uint32
 RAY_SLOTS = 12  # sizeof(RTCRay) / 4
+RAY16_SLOTS = 16 * RAY_SLOTS  # sizeof(RTCRay16) / 4: slot s of lane k at s * 16 + k
 # RTCHit, following the ray in RTCRayHit.
 HIT_NG = 12  # 12:15, unnormalised geometric normal xyz
 HIT_U = 15
@@ -103,7 +109,8 @@ MAX_COORDINATE = 1e18
 # The same products underflow below about 1e-19: a scene that small is missed entirely.
 MIN_EXTENT = 1e-18
 # RTCIntersectArguments (rtcore_scene.h): flags, feature_mask, then three
-# pointers (context, filter, intersect), all zero = Embree's defaults.
+# pointers (context, filter, intersect), all zero = Embree's defaults; RTCOccludedArguments
+# is the same with an occluded function in the last pointer.
 # 16 uint32 slots cover it, with room for the optional minWidth float.
 ARGS_SLOTS = 16
 RAY_QUERY_FLAG_COHERENT = 1 << 16
@@ -365,6 +372,9 @@ intersect16 = types.ExternalFunction(
     "rtcIntersect16", types.void(types.uintp, types.uintp, types.uintp, types.uintp)
 )
 occluded1 = types.ExternalFunction("rtcOccluded1", types.void(types.uintp, types.uintp, types.uintp))
+occluded16 = types.ExternalFunction(
+    "rtcOccluded16", types.void(types.uintp, types.uintp, types.uintp, types.uintp)
+)
 
 
 @njit(cache=True)
@@ -430,6 +440,25 @@ def occluded1_ray(scene, ray):
     ray : (>= 12,) float32 or uint32
         Starts at a 16-byte aligned ``RTCRay``; held by the caller for the call."""
     occluded1(scene, ray.ctypes.data, 0)
+
+
+@njit(cache=True)
+def occluded16_packet(valid, scene, ray, args):
+    """``rtcOccluded16(valid, scene, ray, args)``: sets each blocked active lane's ``tfar`` to ``-inf``.
+
+    Parameters
+    ----------
+    valid : (>= 16,) int32
+        Starts at a 64-byte boundary: -1 for an active ray, 0 for an inactive one
+        (an inactive lane's ray is neither read nor written).
+    scene : uintp
+    ray : (>= 192,) float32 or uint32
+        Starts at a 64-byte aligned ``RTCRay16`` (:data:`RAY16_SLOTS`).
+    args : (>= ARGS_SLOTS,) uint32
+        Starts at an 8-byte aligned ``RTCOccludedArguments``.
+
+    Each array stays alive for the whole call (held by the caller)."""
+    occluded16(valid.ctypes.data, scene, ray.ctypes.data, args.ctypes.data)
 
 
 # Helpers over the structs, for kernels and plain Python alike (``.py_func``). A ray or hit

@@ -44,10 +44,12 @@ def _both(scene, shading, hits):
     assert applies(modes, k)
     general = np.full(hits.shape + (3,), np.nan, np.float32)
     fast = general.copy()
+    normals = (general.copy(), general.copy())  # each kernel's shading normals (the "normal" buffer)
     variant(_PHONG, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["T"], k["face_off"],
-                       k["materials"], k["cam"], k["background"], modes, general, 0)
+                       k["materials"], k["cam"], k["background"], modes, (general, normals[0]), 0)
     _PHONG_FAST[k["spec_on"], k["att_on"]](hits.prim, hits.geom, hits.u, hits.v, k["G"], k["L"], k["face_off"],
-                                           k["materials"], k["cam"], k["background"], modes, (fast, _NO_NORMALS))
+                                           k["materials"], k["cam"], k["background"], modes, (fast, normals[1]))
+    assert _same_bits(*normals), "the batched kernel's shading normals differ from the general kernel's"
     return general, fast
 
 
@@ -176,12 +178,15 @@ CASES = {
 def test_the_dispatch_takes_the_batched_kernel_exactly_where_it_applies(name, monkeypatch):
     scene, shading, fast = CASES[name]
     spy_fast, spy_general = _Spy(shade_mod._PHONG_FAST), _Spy(shade_mod._PHONG)
+    spy_packets = _Spy(shade_mod._PHONG_PACKETS)  # the general kernel with shadow packets
     monkeypatch.setattr(shade_mod, "_PHONG_FAST", spy_fast.kernels)
     monkeypatch.setattr(shade_mod, "_PHONG", spy_general.kernels)
+    monkeypatch.setattr(shade_mod, "_PHONG_PACKETS", spy_packets.kernels)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         frame = rs.render(scene, shading)
-    assert (spy_fast.calls, spy_general.calls) == {True: (1, 0), False: (0, 1), None: (0, 0)}[fast]
+    general = spy_general.calls + spy_packets.calls
+    assert (spy_fast.calls, general) == {True: (1, 0), False: (0, 1), None: (0, 0)}[fast]
     if fast:  # and the image is the general kernel's
         general, batched = _both(scene, shading, frame.hits)
         assert _same_bits(general, batched) and _same_bits(frame.image, batched)

@@ -183,8 +183,15 @@ _IR_ORDER = textwrap.dedent("""
         buf = np.zeros(32, np.float32)
         embree.occluded1_ray(scene, buf[4:])
 
+    @njit
+    def shadow16(scene):
+        buf = np.zeros(256, np.float32)
+        valid = np.zeros(32, np.int32)
+        args = np.zeros(embree.ARGS_SLOTS + 2, np.uint32)
+        embree.occluded16_packet(valid[16:], scene, buf[16:], args[2:])
+
     for fn, sym in ((one, "rtcIntersect1"), (packet, "rtcIntersect8"), (packet16, "rtcIntersect16"),
-                    (shadow, "rtcOccluded1")):
+                    (shadow, "rtcOccluded1"), (shadow16, "rtcOccluded16")):
         fn.compile("(uintp,)")
         ir = fn.inspect_llvm()[fn.signatures[0]]
         body = ir[ir.index("define"):]
@@ -205,7 +212,7 @@ def test_the_wrappers_release_their_arrays_only_after_embree_returns():
     proc = subprocess.run([sys.executable, "-c", _IR_ORDER], env=env, capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]
     lines = dict(line.split(" ", 1) for line in proc.stdout.strip().splitlines())
-    assert set(lines) == {"one", "packet", "packet16", "shadow"}
+    assert set(lines) == {"one", "packet", "packet16", "shadow", "shadow16"}
     for name, events in lines.items():
         events = events.split()
         call = [i for i, e in enumerate(events) if e != "@NRT_decref"]
@@ -222,11 +229,14 @@ def _calls_to(tree, names):
                 yield node
 
 
+WRAPPERS = ("intersect1_ray", "intersect8_packet", "intersect16_packet", "occluded1_ray", "occluded16_packet")
+
+
 def test_no_raw_address_reaches_embree_outside_the_array_wrappers():
-    """Only embree.py's wrappers call the raw ``rtcIntersect1/8/16`` / ``rtcOccluded1``
+    """Only embree.py's wrappers call the raw ``rtcIntersect1/8/16`` / ``rtcOccluded1/16``
     symbols, and each pointer they pass is ``<parameter>.ctypes.data``: the kernels in
     visibility/ hand over arrays, which the call itself keeps alive."""
-    raw = {"intersect1", "intersect8", "intersect16", "occluded1"}
+    raw = {"intersect1", "intersect8", "intersect16", "occluded1", "occluded16"}
     bad = []
     for path in sorted(VISIBILITY.glob("*.py")):
         tree = ast.parse(path.read_text(encoding="utf-8"))
@@ -234,7 +244,7 @@ def test_no_raw_address_reaches_embree_outside_the_array_wrappers():
             bad += [f"{path.name}:{c.lineno}" for c in _calls_to(tree, raw)]
             continue
         wrappers = {f.name: f for f in tree.body if isinstance(f, ast.FunctionDef)}
-        for name in ("intersect1_ray", "intersect8_packet", "intersect16_packet", "occluded1_ray"):
+        for name in WRAPPERS:
             fn = wrappers[name]
             params = {a.arg for a in fn.args.args}
             (call,) = list(_calls_to(fn, raw))
@@ -247,8 +257,7 @@ def test_no_raw_address_reaches_embree_outside_the_array_wrappers():
                 elif not (isinstance(arg, ast.Name) and arg.id == "scene") and not (
                         isinstance(arg, ast.Constant) and arg.value == 0):
                     bad.append(f"embree.py:{arg.lineno}: {ast.unparse(arg)}")
-        others = [c for f in tree.body if isinstance(f, ast.FunctionDef) and f.name not in
-                  ("intersect1_ray", "intersect8_packet", "intersect16_packet", "occluded1_ray")
+        others = [c for f in tree.body if isinstance(f, ast.FunctionDef) and f.name not in WRAPPERS
                   for c in _calls_to(f, raw)]
         bad += [f"embree.py:{c.lineno}" for c in others]
     assert not bad, "raw Embree calls outside the array wrappers: " + ", ".join(bad)

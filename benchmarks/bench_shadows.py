@@ -1,0 +1,261 @@
+"""Shadow rays: the shadowed frame against the plain one, and against the rays' own floor (issue 27).
+
+Run ``python -m benchmarks.bench_shadows [--quick]``. For each mesh and size of
+:mod:`benchmarks.bench_paths` (the scene of :mod:`benchmarks.bench_peers`, its one point light
+casting shadows), timed in turn, round after round, in one process after a warm-up round:
+
+* ``frame``: the plain Phong frame (the unit of ``ratio``);
+* ``shadows``: the same frame, the light casting shadows (shadow rays as 16-ray packets per 4x4
+  tile, :mod:`raycast_shade.shading.shadows`);
+* ``shadows_single``: the same, shaded by the kernel that traces each shadow ray on its own
+  (``rtcOccluded1``), as before the packets: the images are bit-identical (checked here);
+* ``rays_occluded1`` and ``rays_occluded16``: the frame's very shadow rays (collected once, in
+  packets of 4x4 pixels) traced bare, one ``rtcOccluded1`` per ray and one ``rtcOccluded16`` per
+  packet (coherent), in a parallel loop with nothing else: the floor of what the rays cost.
+
+``rays`` is the number of shadow rays (pixels lit by the light); ``ns_per_ray`` is, for the bare
+rays, their time over that number, and for the shadowed frames what they take beyond the plain
+frame, over that number (what shadows add a ray, shading and bookkeeping included).
+Results: ``benchmarks/results/shadows.csv`` and the table between the ``shadows`` markers of
+``docs/performance.md`` (``--table`` redoes it from the CSV); ``--quick`` runs one small case into
+``out/quick/`` (the table to ``out/quick/results/shadows.md``). The machine load
+(``os.getloadavg``) before each case goes into ``note``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import dataclasses
+import os
+import statistics
+import time
+
+import numpy as np
+from numba import njit, prange
+
+from benchmarks.outputs import ROOT, results_file
+from raycast_shade.shading import shadows
+from raycast_shade.shading.illumination import _request_shadows
+from raycast_shade.shading.phong import _shading_point
+from raycast_shade.shading.records import At
+from raycast_shade.visibility import embree
+
+FIELDS = ["mesh", "triangles", "width", "height", "path", "median_ms", "ratio", "rays", "ns_per_ray", "repeats",
+          "note"]
+CASES = [("icosphere", 6, 640, 480), ("icosphere", 6, 1920, 1080), ("noisy_sphere", 8, 640, 480),
+         ("noisy_sphere", 8, 1920, 1080)]
+QUICK_CASES = [("icosphere", 4, 320, 240)]
+_LANES = shadows.LANES
+
+
+def outputs(quick: bool = False) -> list:
+    return [results_file("shadows.csv", quick)] + (
+        [results_file("shadows.md", True)] if quick else [os.path.join(ROOT, "docs", "performance.md")])
+
+
+@njit(parallel=True, cache=True)
+def _collect(prim, geom, u, v, G, B, L, face_off, cam, rays, valid):
+    """Light 0's shadow rays of every 4x4 tile, as the packet kernel asks for them:
+    ``rays`` (tiles, RAY16_SLOTS) float32, ``valid`` (tiles, 16) int32."""
+    h, w = prim.shape
+    ntx = (w + 3) // 4
+    for ty in prange((h + 3) // 4):
+        buf, ib, off, vd, voff, args, aoff, vis, points = shadows._packets(L[1].shape[0])
+        P = (buf, ib, off, vd, voff)
+        for tx in range(ntx):
+            shadows.clear_packets(vd, voff, vis, points)
+            for k in range(_LANES):
+                x = tx * 4 + k % 4
+                y = ty * 4 + k // 4
+                if x < w and y < h and prim[y, x] >= 0:
+                    gm = geom[y, x]
+                    at = At(face_off[gm] + prim[y, x], gm, np.float64(u[y, x]), np.float64(v[y, x]))
+                    _request_shadows(P, k, _shading_point(G, B, L, cam, at, False, (0.0, 0.0, 0.0)), L)
+            t = ty * ntx + tx
+            for j in range(embree.RAY16_SLOTS):
+                rays[t, j] = buf[off + j]
+            for k in range(_LANES):
+                valid[t, k] = vd[voff + k]
+
+
+@njit(parallel=True, cache=True)
+def _one_by_one(handle, rays, valid, out):
+    """Each active lane's ray alone: ``rtcOccluded1``."""
+    for t in prange(rays.shape[0]):
+        b = np.empty(2 * embree.RAY_SLOTS, np.float32)
+        o = ((16 - b.ctypes.data % 16) % 16) // 4
+        for k in range(_LANES):
+            if valid[t, k] != 0:
+                for s in range(embree.RAY_SLOTS):
+                    b[o + s] = rays[t, s * _LANES + k]
+                embree.occluded1_ray(handle, b[o:])
+                out[t, k] = b[o + embree.RAY_TFAR] < 0.0
+
+
+@njit(parallel=True, cache=True)
+def _packets(handle, rays, valid, out):
+    """Each tile's rays as one coherent ``rtcOccluded16`` packet."""
+    for t in prange(rays.shape[0]):
+        b = np.empty(embree.RAY16_SLOTS + 16, np.float32)
+        o = ((64 - b.ctypes.data % 64) % 64) // 4
+        vb = np.empty(2 * _LANES, np.int32)
+        vo = ((64 - vb.ctypes.data % 64) % 64) // 4
+        a = np.zeros(embree.ARGS_SLOTS + 2, np.uint32)
+        ao = ((8 - a.ctypes.data % 8) % 8) // 4
+        a[ao] = embree.RAY_QUERY_FLAG_COHERENT
+        a[ao + 1] = embree.FEATURE_FLAG_ALL
+        on = False
+        for k in range(_LANES):
+            vb[vo + k] = valid[t, k]
+            on = on or valid[t, k] != 0
+        if on:
+            for j in range(embree.RAY16_SLOTS):
+                b[o + j] = rays[t, j]
+            embree.occluded16_packet(vb[vo:], handle, b[o:], a[ao:])
+            for k in range(_LANES):
+                if valid[t, k] != 0:
+                    out[t, k] = b[o + embree.RAY_TFAR * _LANES + k] < 0.0
+
+
+def _shadow_rays(scene):
+    """The frame's shadow rays (light 0), collected once: (handle, rays, valid)."""
+    from raycast_shade.shading.inputs import prepare
+    from raycast_shade.visibility.cast import cast_camera
+
+    k = prepare(scene, scene.camera)
+    hits = cast_camera(scene.geometry, scene.camera)
+    w, h = scene.camera.width, scene.camera.height
+    tiles = ((w + 3) // 4) * ((h + 3) // 4)
+    rays = np.zeros((tiles, embree.RAY16_SLOTS), np.float32)
+    valid = np.zeros((tiles, _LANES), np.int32)
+    _collect(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["face_off"], k["cam"], rays, valid)
+    return k["L"][3], rays, valid
+
+
+def _per_ray(name, med, unit, n) -> str:
+    if name == "frame":
+        return ""
+    return f"{(med - unit if name.startswith('shadows') else med) / n * 1e9:.0f}"
+
+
+def bench_case(kind, level, width, height, repeats):
+    import raycast_shade as rs
+    from benchmarks.bench_peers import make_mesh, make_scene
+    from raycast_shade.shading import shade as shade_mod
+
+    load = os.getloadavg()[0]
+    scene = make_scene(make_mesh(kind, level), width, height)
+    shadowed = scene.replace(lights=[dataclasses.replace(light, shadows=True) for light in scene.lights])
+    packets = shade_mod._PHONG_PACKETS
+
+    def single():
+        shade_mod._PHONG_PACKETS = shade_mod._PHONG  # the one-ray-at-a-time kernel
+        try:
+            return rs.render(shadowed)
+        finally:
+            shade_mod._PHONG_PACKETS = packets
+
+    handle, rays, valid = _shadow_rays(shadowed)
+    one, pk = np.zeros(valid.shape, np.bool_), np.zeros(valid.shape, np.bool_)
+    paths = {"frame": lambda: rs.render(scene), "shadows": lambda: rs.render(shadowed), "shadows_single": single,
+             "rays_occluded1": lambda: _one_by_one(handle, rays, valid, one),
+             "rays_occluded16": lambda: _packets(handle, rays, valid, pk)}
+    times = {name: [] for name in paths}
+    images = {}
+    for r in range(repeats + 1):  # round 0: warm-up
+        for name, fn in paths.items():
+            t0 = time.perf_counter()
+            out = fn()
+            if r:
+                times[name].append(time.perf_counter() - t0)
+            if name.startswith("shadows"):
+                images[name] = out.image
+    if not np.array_equal(images["shadows"], images["shadows_single"]):
+        raise AssertionError("the packet kernel's image differs from the single-ray kernel's")
+    if not np.array_equal(one, pk):
+        raise AssertionError("rtcOccluded16 answered differently from rtcOccluded1")
+    n = int((valid != 0).sum())
+    unit = statistics.median(times["frame"])
+    rows = []
+    for name, ts in times.items():
+        med = statistics.median(ts)
+        rows.append(dict(mesh=kind, triangles=20 * 4 ** level, width=width, height=height, path=name,
+                         median_ms=f"{med * 1e3:.1f}", ratio=f"{med / unit:.2f}", rays=n,
+                         ns_per_ray=_per_ray(name, med, unit, n), repeats=repeats,
+                         note=f"load {load:.1f} on {os.cpu_count()} cores"))
+    return rows
+
+
+BEGIN, END = "<!-- shadows:begin (benchmarks/bench_shadows.py) -->", "<!-- shadows:end -->"
+LABELS = {"shadows": "shadows on (packets; ns: added a ray)",
+          "shadows_single": "shadows on, one ray at a time (before; ns: added a ray)",
+          "rays_occluded1": "the same rays, bare `rtcOccluded1`", "rays_occluded16": "the same rays, bare `rtcOccluded16`"}
+
+
+def table(rows) -> str:
+    """The markdown table of ``rows``: per mesh and size, each path's ratio to the plain frame (ns a ray)."""
+    cases = list(dict.fromkeys((r["mesh"], r["triangles"], r["width"], r["height"]) for r in rows))
+    get = {(r["mesh"], r["width"], r["height"], r["path"]): r for r in rows}
+    head = ["path"] + [f"{int(t):,} tris, {w}×{h}" for _, t, w, h in cases]
+    out = ["| " + " | ".join(head) + " |", "|---" * len(head) + "|"]
+    out.append("| plain Phong frame (the unit), ms | "
+               + " | ".join(get[(m, w, h, "frame")]["median_ms"] for m, _, w, h in cases) + " |")
+    out.append("| shadow rays | " + " | ".join(f"{int(get[(m, w, h, 'frame')]['rays']):,}" for m, _, w, h in cases)
+               + " |")
+    for name, label in LABELS.items():
+        cells = [f"{get[(m, w, h, name)]['ratio']}× ({get[(m, w, h, name)]['ns_per_ray']} ns a ray)"
+                 for m, _, w, h in cases]
+        out.append(f"| {label} | " + " | ".join(cells) + " |")
+    out.append("| machine load | " + " | ".join(get[(m, w, h, "frame")]["note"] for m, _, w, h in cases) + " |")
+    return "\n".join(out) + "\n"
+
+
+def write_table(rows, quick: bool) -> str:
+    """Put :func:`table` between the markers of ``docs/performance.md`` (quick: ``out/quick/results/shadows.md``)."""
+    text = table(rows)
+    if quick:
+        path = results_file("shadows.md", True)
+        os.makedirs(os.path.dirname(path), exist_ok=True)
+        with open(path, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        return path
+    path = os.path.join(ROOT, "docs", "performance.md")
+    with open(path, encoding="utf-8") as fh:
+        page = fh.read()
+    start, end = page.index(BEGIN) + len(BEGIN), page.index(END)
+    with open(path, "w", encoding="utf-8") as fh:
+        fh.write(page[:start] + "\n" + text + page[end:])
+    return path
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--quick", action="store_true", help="one small case; writes under out/quick/")
+    p.add_argument("--repeats", type=int, default=None)
+    p.add_argument("--table", action="store_true", help="only redo the table from the CSV")
+    args = p.parse_args(argv)
+    if args.table:
+        with open(results_file("shadows.csv", args.quick), newline="") as fh:
+            rows = list(csv.DictReader(fh))
+        write_table(rows, args.quick)
+        return rows
+    cases = QUICK_CASES if args.quick else CASES
+    repeats = args.repeats or (2 if args.quick else 5)
+    rows = []
+    for case in cases:
+        rows += bench_case(*case, repeats)
+        for r in rows[-5:]:
+            print(r["mesh"], r["width"], r["path"], r["median_ms"], r["ratio"], r["ns_per_ray"], r["note"], flush=True)
+    out = results_file("shadows.csv", args.quick)
+    os.makedirs(os.path.dirname(out), exist_ok=True)
+    with open(out, "w", newline="") as fh:
+        w = csv.DictWriter(fh, FIELDS)
+        w.writeheader()
+        w.writerows(rows)
+    write_table(rows, args.quick)
+    return rows
+
+
+if __name__ == "__main__":
+    main()
