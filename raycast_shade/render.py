@@ -36,6 +36,7 @@ from .shading.inputs import prepare
 from .shading.mirrors import MAX_MIRROR_DEPTH, trace_mirrors
 from .shading.shade import GROUP, SampleShading, accumulate, resolve_methods, sample_mean
 from .shading.terms import check_terms, shade_terms
+from .shading.termshade import TermShading, one_pass
 
 __all__ = ["render", "render_file"]
 
@@ -138,11 +139,12 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
     _build(scene, plan, timings)
     warn_single_sided(scene, camera)  # back faces of a single-sided (glTF) model in view: said, not silent
     inputs = prepare(scene, camera)  # once per frame: shading, every sample and the mirror bounces
+    shader = _shader(scene, plan, inputs)  # with terms=True, one pass writes the image and its terms
     if banded:
-        hits, image, mask, extra = _render_bands(scene, plan, timings, inputs)
+        hits, image, mask, extra = _render_bands(scene, plan, timings, inputs, shader)
     else:
         if plan.samples == 1:
-            hits, image, coverage = _render_one(scene, plan, timings, inputs)
+            hits, image, coverage = _render_one(scene, plan, timings, inputs, shader)
         else:
             hits, image, coverage = _render_samples(scene, plan, timings, inputs)
         if plan.buffers:
@@ -150,8 +152,11 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
             extra = compute_buffers(scene, camera, hits, plan.buffers, shading, coverage=coverage)
             timings["buffers"] = time.perf_counter() - tb
     te = time.perf_counter()
-    parts = {} if terms is None else shade_terms(scene, camera, hits, shading, plan.max_depth, "per_light" in terms,
-                                                   inputs)
+    if isinstance(shader, TermShading):  # shaded with the image: the mirror terms remain
+        parts = shader.terms(None if banded else hits, plan.max_depth)
+    else:
+        parts = {} if terms is None else shade_terms(scene, camera, hits, shading, plan.max_depth,
+                                                       "per_light" in terms, inputs)
     if terms is not None:
         timings["terms"] = time.perf_counter() - te
         te = time.perf_counter()
@@ -293,11 +298,20 @@ _BACKENDS = {"raycast": ("cast", _cast), "raster": ("raster", _raster)}
 _WEIGHTS = {"perspective": _perspective, "screen": to_screen_space}
 
 
-def _render_one(scene, plan: _Plan, timings: dict, inputs):
+def _shader(scene, plan: _Plan, inputs):
+    """The frame's shader: :class:`~raycast_shade.shading.termshade.TermShading` when terms are
+    asked for and every model is flat or Phong (the image and its terms in one pass), else
+    :class:`~raycast_shade.shading.shade.SampleShading`."""
+    if plan.terms is not None and one_pass(scene, plan.shading):
+        return TermShading(scene, plan.camera, plan.shading, inputs, "per_light" in plan.terms)
+    return SampleShading(scene, plan.camera, plan.shading, inputs)
+
+
+def _render_one(scene, plan: _Plan, timings: dict, inputs, shader):
     """One ray per pixel: the hit buffer, its shaded image (mirrors blended in) and no coverage."""
     hits = _visibility(scene, plan, timings)
     ts = time.perf_counter()
-    image = SampleShading(scene, plan.camera, plan.shading, inputs).shade(hits, out=plan.out)  # our hits: valid
+    image = shader.shade(hits, out=plan.out)  # our hits: valid
     te = time.perf_counter()
     timings["shade"] = te - ts
     if scene.geometry.reflective and plan.max_depth > 0:
@@ -308,16 +322,17 @@ def _render_one(scene, plan: _Plan, timings: dict, inputs):
 
 def _banded(scene, plan: _Plan, terms) -> bool:
     """Whether the frame is cast and shaded band by band (:func:`_render_bands`): by the packet
-    caster with perspective-correct weights, any methods, buffers and samples, but no term or
-    mirror bounce (those read the whole frame's hits), taller than one band and of at least
+    caster with perspective-correct weights, any methods, buffers and samples, terms when no
+    model is Gouraud-shaded (their variant passes read the whole frame's hits), but no mirror
+    bounce, taller than one band and of at least
     :data:`~raycast_shade.visibility.bands.MIN_PIXELS` pixels."""
     cam = plan.camera
     return (plan.backend == "raycast" and plan.caster == "embree" and plan.interpolation == "perspective"
-            and terms is None and not (scene.geometry.reflective and plan.max_depth > 0)
+            and (terms is None or one_pass(scene, plan.shading)) and not (scene.geometry.reflective and plan.max_depth > 0)
             and cam.height > bands.BAND_ROWS and cam.width * cam.height >= bands.MIN_PIXELS)
 
 
-def _render_bands(scene, plan: _Plan, timings: dict, inputs):
+def _render_bands(scene, plan: _Plan, timings: dict, inputs, shader):
     """Each band of rows cast, shaded and its buffers computed as soon as it is cast (while
     its hits are in cache), so the frame never holds (or page-faults in) a full-frame hit
     buffer: 20 bytes a pixel. Anti-aliasing casts every sample's band in turn (one window
@@ -333,7 +348,6 @@ def _render_bands(scene, plan: _Plan, timings: dict, inputs):
     h, w = camera.height, camera.width
     image = np.empty((h, w, 3), np.float32) if plan.out is None else plan.out
     mask = np.empty((h, w), np.bool_)
-    shader = SampleShading(scene, camera, plan.shading, inputs)
     buffers = FrameBuffers(scene, camera, plan.buffers, plan.shading) if plan.buffers else None
     casts = [bands.cast_bands(scene.geometry, subpixel_camera(camera, dx, dy), bands.BAND_ROWS)
              for dx, dy in sample_offsets(plan.samples)]
