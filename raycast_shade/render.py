@@ -35,8 +35,8 @@ from .common.validate import as_int, as_scalar
 from .shading.inputs import prepare
 from .shading.mirrors import MAX_MIRROR_DEPTH, trace_mirrors
 from .shading.shade import GROUP, SampleShading, accumulate, resolve_methods, sample_mean
-from .shading.terms import check_terms, shade_terms
-from .shading.termshade import TermShading, one_pass
+from .shading.terms import check_terms
+from .shading.termshade import TermShading
 
 __all__ = ["render", "render_file"]
 
@@ -152,11 +152,8 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
             extra = compute_buffers(scene, camera, hits, plan.buffers, shading, coverage=coverage)
             timings["buffers"] = time.perf_counter() - tb
     te = time.perf_counter()
-    if isinstance(shader, TermShading):  # shaded with the image: the mirror terms remain
-        parts = shader.terms(None if banded else hits, plan.max_depth)
-    else:
-        parts = {} if terms is None else shade_terms(scene, camera, hits, shading, plan.max_depth,
-                                                       "per_light" in terms, inputs)
+    # Shaded with the image: the mirror terms remain.
+    parts = {} if terms is None else shader.terms(None if banded else hits, plan.max_depth)
     if terms is not None:
         timings["terms"] = time.perf_counter() - te
         te = time.perf_counter()
@@ -300,9 +297,9 @@ _WEIGHTS = {"perspective": _perspective, "screen": to_screen_space}
 
 def _shader(scene, plan: _Plan, inputs):
     """The frame's shader: :class:`~raycast_shade.shading.termshade.TermShading` when terms are
-    asked for and every model is flat or Phong (the image and its terms in one pass), else
+    asked for (the image and its terms in one pass), else
     :class:`~raycast_shade.shading.shade.SampleShading`."""
-    if plan.terms is not None and one_pass(scene, plan.shading):
+    if plan.terms is not None:
         return TermShading(scene, plan.camera, plan.shading, inputs, "per_light" in plan.terms)
     return SampleShading(scene, plan.camera, plan.shading, inputs)
 
@@ -322,13 +319,12 @@ def _render_one(scene, plan: _Plan, timings: dict, inputs, shader):
 
 def _banded(scene, plan: _Plan, terms) -> bool:
     """Whether the frame is cast and shaded band by band (:func:`_render_bands`): by the packet
-    caster with perspective-correct weights, any methods, buffers and samples, terms when no
-    model is Gouraud-shaded (their variant passes read the whole frame's hits), but no mirror
-    bounce, taller than one band and of at least
+    caster with perspective-correct weights, any methods, buffers, samples and terms, but no
+    mirror bounce (it reads the whole frame's hits), taller than one band and of at least
     :data:`~raycast_shade.visibility.bands.MIN_PIXELS` pixels."""
     cam = plan.camera
     return (plan.backend == "raycast" and plan.caster == "embree" and plan.interpolation == "perspective"
-            and (terms is None or one_pass(scene, plan.shading)) and not (scene.geometry.reflective and plan.max_depth > 0)
+            and not (scene.geometry.reflective and plan.max_depth > 0)
             and cam.height > bands.BAND_ROWS and cam.width * cam.height >= bands.MIN_PIXELS)
 
 

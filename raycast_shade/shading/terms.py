@@ -68,7 +68,7 @@ from ..common.layout import (ATT_NONE, COLOR_FACE, LIGHT_ATT, LIGHT_DIRECTIONAL,
 from ..scene.lights import PointLight
 from .inputs import prepare
 from .shade import SampleShading
-from .termshade import TermShading, mirror_terms, one_pass
+from .termshade import TermShading
 
 __all__ = ["TERM_OPTIONS", "check_terms", "shade_terms", "compose_terms", "variant_inputs", "with_materials"]
 
@@ -233,28 +233,15 @@ def shade_terms(scene, camera, hits, shading, max_depth: int = 0, per_light: boo
         for what they mean and how they add up.
     """
     k = prepare(scene, camera) if inputs is None else inputs
-    if one_pass(scene, shading):  # flat and Phong: the image's own pass writes the terms
-        shader = TermShading(scene, camera, shading, k, per_light)
-        shader.shade(hits)
-        return shader.terms(hits, max_depth)
-    mats = k.materials
-    h, w = hits.shape
-
-    def shaded(**variant):
-        return SampleShading(scene, camera, shading, variant_inputs(k, scene.geometry.origin, **variant)).shade(hits)
-
-    out = _variant_terms(scene, shaded, mats, h, w, per_light)
-    seen = hits.prim >= 0
-    # One pass, no float64 or astype temporaries: (H, W, 3) float32 of the background where unseen.
-    out["background"] = np.multiply(~seen[..., None], np.asarray(scene.background, np.float32), dtype=np.float32)
-    out["keep"], out["reflected"] = mirror_terms(scene, camera, hits, max_depth, k)
-    out["shadow"] = out.pop("shadow")  # last, as the montage and the docs list the terms
-    return out
+    shader = TermShading(scene, camera, shading, k, per_light)  # the image's own pass writes the terms
+    shader.shade(hits)
+    return shader.terms(hits, max_depth)
 
 
 def _variant_terms(scene, shaded, mats, h, w, per_light) -> dict:
-    """The local terms, per-light terms and shadow mask, one shading pass of a variant each
-    (frames with a Gouraud model, whose per-vertex work has no one-pass form yet)."""
+    """The local terms, per-light terms and shadow mask, one shading pass of a variant each:
+    the definition the one-pass terms (:class:`.termshade.TermShading`) are tested against
+    (``shaded(**variant)`` shades a variant of the frame's inputs, :func:`variant_inputs`)."""
     out = {
         "ambient": shaded(materials=_rows(mats, (MAT_KA,)), lights=()),
         "diffuse": shaded(materials=_rows(mats, (MAT_KD,))),

@@ -23,28 +23,26 @@ from ..common.layout import MAT_KE, MAT_REFLECTIVITY, METHOD_FLAT, METHOD_GOURAU
 from .jit import variant
 from .mirrors import trace_mirrors
 from .shade import _visible_kernel, resolve_methods
+from .terms_gouraud import _GOURAUD_TERMS, _VERTEX_TERMS
 from .terms_kernel import (_FLAT_TERMS, _PHONG_TERMS, TERM_BACKGROUND, TERM_EMISSIVE, TERM_SLOTS, TERMS_EACH,
                            TERMS_SHADOW, _lookup_flat_terms)
 
-__all__ = ["TermShading", "one_pass", "mirror_terms"]
+__all__ = ["TermShading", "mirror_terms"]
 
 _NONE = np.zeros((1, 1, 3), np.float32)  # a term slot no kernel writes or reads (never indexed)
+_NONE64 = np.zeros((1, 1, 3), np.float64)
 
 
-def one_pass(scene, shading) -> bool:
-    """Whether :class:`TermShading` shades every model of the frame: no Gouraud model."""
-    return not bool(np.any(resolve_methods(scene, shading) == METHOD_GOURAUD))
-
-
-def _record(shape, slots, nlights, per_light, background, emit_on, bg_on):
+def _record(shape, slots, nlights, per_light, background, emit_on, bg_on, dtype=np.float32):
     """A terms record ``R`` (:mod:`.terms_kernel`) of ``shape`` = (rows, columns): the term
     arrays that get written are fresh (``np.empty``: every point of them is written), the ones
-    that are not written (no emission, a black background) zeros whose pages nobody touches."""
+    that are not written (no emission, a black background) ``slots``' zeros whose pages nobody
+    touches."""
     h, w = shape
-    local = tuple(np.empty((h, w, 3), np.float32) if on else slots[k]
+    local = tuple(np.empty((h, w, 3), dtype) if on else slots[k]
                   for k, on in enumerate((True, True, True, emit_on, bg_on)))
-    each = np.empty((2, nlights if per_light else 0, h, w, 3), np.float32)
-    shadow = np.empty((nlights, h, w), np.float32)
+    each = np.empty((2, nlights if per_light else 0, h, w, 3), dtype)
+    shadow = np.empty((nlights, h, w), dtype)
     return local + (each, shadow, bool(emit_on), bool(bg_on), background)
 
 
@@ -56,7 +54,7 @@ class TermShading:
     scene : Scene
     camera : Camera
     shading : str or sequence of str
-        As for :func:`~raycast_shade.shading.shade.shade`; no Gouraud model (:func:`one_pass`).
+        As for :func:`~raycast_shade.shading.shade.shade`.
     inputs : FrameInputs
         The frame's (:func:`~raycast_shade.shading.inputs.prepare`).
     per_light : bool
@@ -73,9 +71,8 @@ class TermShading:
         k = inputs
         self.k, self.scene, self.geo, self.camera = k, scene, scene.geometry, camera
         self.modes = resolve_methods(scene, shading)
-        if np.any(self.modes == METHOD_GOURAUD):
-            raise ValueError("shading: TermShading shades flat and Phong models only (one_pass)")
         self.flat = bool(np.any(self.modes == METHOD_FLAT))
+        self.gouraud = bool(np.any(self.modes == METHOD_GOURAUD))
         self.phong = bool(np.any(self.modes == METHOD_PHONG))
         h, w = camera.height, camera.width
         nl = k.lighting[1].shape[0]
@@ -87,21 +84,34 @@ class TermShading:
         self.per_light = per_light
         if self.flat:  # each visible face's colour and terms, computed once (the first band to see it)
             nf = len(self.geo.faces)
-            self.face_done = np.zeros(nf, np.uint8)
             self.fcol = np.zeros((nf, 3), np.float64)
             self.F = _record((nf, 1), {TERM_EMISSIVE: _NONE, TERM_BACKGROUND: _NONE}, nl, per_light, k.background,
                              emit_on, False)
+        nv = len(self.geo.vertices) if self.gouraud else 1
+        self.face_done = np.zeros(len(self.geo.faces) if self.flat else 1, np.uint8)
+        self.vertex_done = np.zeros(nv, np.uint8)
+        if self.gouraud:  # each visible vertex's colours and terms (float64, as its colours), once
+            V = _record((2 * nv, 1), {TERM_EMISSIVE: _NONE64, TERM_BACKGROUND: _NONE64}, nl, per_light,
+                        k.background, emit_on, False, np.float64)
+            self.V = V + (np.empty((nl, 2 * nv, 1)), np.zeros((nv, 2, 3)),
+                          np.zeros((nv if k.tex_on else 1, 2, 3)), 0)
 
     def _share(self, hits):
-        """Shade the faces of flat models that ``hits`` sees and no earlier band saw."""
+        """Shade the faces of flat models and the vertices of Gouraud ones that ``hits`` sees
+        and no earlier band saw."""
         k, geo = self.k, self.geo
-        flags = np.zeros_like(self.face_done)
-        _visible_kernel(hits.prim, hits.geom, geo.faces, k.face_off, self.modes, flags, np.zeros(1, np.uint8))
-        new = flags & (1 - self.face_done)
-        if new.any():
+        faces, vertices = np.zeros_like(self.face_done), np.zeros_like(self.vertex_done)
+        _visible_kernel(hits.prim, hits.geom, geo.faces, k.face_off, self.modes, faces, vertices)
+        new = faces & (1 - self.face_done)
+        if self.flat and new.any():
             variant(_FLAT_TERMS, k)(new, k.geometry, geo.face_model, k.materials, k.cam, k.lighting, k.colours,
                                     geo.uvs, self.fcol, self.F)
             self.face_done |= new
+        new = vertices & (1 - self.vertex_done)
+        if self.gouraud and new.any():
+            variant(_VERTEX_TERMS, k)(new, k.geometry, geo.vertex_model, k.materials, k.cam, k.lighting, k.colours,
+                                      self.V)
+            self.vertex_done |= new
 
     def shade(self, hits, out=None, y0=0) -> np.ndarray:
         """(h, W, 3) float32 image of a hit buffer whose first row is image row ``y0`` (the
@@ -112,9 +122,14 @@ class TermShading:
         h, w = hits.shape
         image = np.empty((h, w, 3), np.float32) if out is None else out
         y0 = int(y0)
-        if self.flat:
+        if self.flat or self.gouraud:
             self._share(hits)
+        if self.flat:
             _lookup_flat_terms(hits.prim, hits.geom, k.face_off, self.fcol, modes, image, y0, self.R, self.F)
+        if self.gouraud:
+            variant(_GOURAUD_TERMS, k)(hits.prim, hits.geom, hits.u, hits.v, k.geometry, k.bumps, k.face_off,
+                                       k.materials, k.cam, k.lighting, k.colours, modes, image, self.R,
+                                       self.V[:-1] + (y0,))
         if self.phong:
             variant(_PHONG_TERMS, k)(hits.prim, hits.geom, hits.u, hits.v, k.geometry, k.bumps, k.lighting,
                                      k.colours, k.face_off, k.materials, k.cam, modes, image, y0, self.R)
