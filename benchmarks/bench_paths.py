@@ -28,14 +28,20 @@ divided by the plain Phong frame's median:
 * ``flat``, ``gouraud``: the frame flat- and Gouraud-shaded; ``samples4``:
   four rays per pixel; ``samples4_coverage``: the same with ``coverage`` and
   the view-set default buffers.
-* ``terms``, ``shadows``, ``mirror``, ``explain``: ``render(terms=True)``, the light casting
-  shadows, the mesh a mirror with one bounce, and one ``frame.explain(x, y)`` of a rendered
-  frame (its milliseconds in the table too) (:func:`_teaching_paths`);
+* ``terms``, ``terms_flat``, ``terms_gouraud``, ``shadows``, ``mirror``, ``explain``:
+  ``render(terms=True)`` (Phong, flat, Gouraud: compare the last two with the ``flat`` and
+  ``gouraud`` rows), the light casting shadows, the mesh a mirror with one bounce, and one
+  ``frame.explain(x, y)`` of a rendered frame (its milliseconds in the table too)
+  (:func:`_teaching_paths`); ``terms_floor``: ``np.empty`` + fill of the arrays the terms
+  write, their page-fault floor;
 
 Peak memory of a frame without and with all 12 buffers (``peak_frame``,
 ``peak_buffers_all``, in the ``size_MiB`` column) is measured in a fresh
 subprocess each: how far the resident set peaks above its level before the
 frame (Linux's ``VmHWM``, reset through ``/proc/self/clear_refs``).
+
+``--only terms,terms_flat,...`` times those paths and the unit frame in every case (no peak
+memory) and writes ``out/quick/results/paths_only.csv``, never the tracked results.
 
 Results: ``benchmarks/results/paths.csv``, the chart ``docs/images/paths.png``
 and the table between the ``paths`` markers of ``docs/performance.md``
@@ -169,13 +175,35 @@ def _teaching_paths(scene):
 
     return {
         "terms": (lambda: rs.render(scene, terms=True), None, 1),
+        "terms_flat": (lambda: rs.render(scene, "flat", terms=True), None, 1),
+        "terms_gouraud": (lambda: rs.render(scene, "gouraud", terms=True), None, 1),
+        "terms_floor": (_terms_floor(scene), None, 1),
         "shadows": (lambda: rs.render(shadows), None, 1),
         "mirror": (lambda: rs.render(mirror, max_depth=1), None, 1),
         "explain": (explain, None, 1),
     }
 
 
-def bench_case(kind, level, width, height, repeats):
+def _terms_floor(scene):
+    """The fresh pages a ``terms=True`` frame writes beyond the plain frame's, and nothing else:
+    ``np.empty`` + fill of the ambient, diffuse and specular images, one light's shadow mask
+    and ``keep`` (the page-fault floor of the terms; emissive, background and reflected are
+    zeros nobody touches in this scene)."""
+    import numpy as np
+
+    h, w = scene.camera.height, scene.camera.width
+    nl = len(scene.lights)
+
+    def floor():
+        for shape in [(h, w, 3)] * 3 + [(nl, h, w), (h, w)]:
+            np.empty(shape, np.float32).fill(1.0)
+
+    return floor
+
+
+def bench_case(kind, level, width, height, repeats, only=None):
+    """Every path of one case (``only``: these paths and the unit frame), timed in turn, round
+    after round: one CSV row each."""
     from benchmarks.bench_peers import make_mesh, make_scene
 
     mesh = make_mesh(kind, level)
@@ -183,6 +211,8 @@ def bench_case(kind, level, width, height, repeats):
     tmp = tempfile.mkdtemp(prefix="bench_paths_")
     try:
         paths = {**_paths(scene, tmp), **_teaching_paths(scene)}
+        if only:
+            paths = {name: path for name, path in paths.items() if name == "frame" or name in only}
         times = {name: [] for name in paths}
         for r in range(repeats + 1):  # round 0: warm-up (JIT, Embree build, page faults)
             for name, (fn, _, per) in paths.items():
@@ -243,7 +273,10 @@ LABELS = {"buffers_all": "all 12 buffers", "position": "`position` alone",
           "view_npz_exr_png": "`render_views`, per view (PNG + npz + EXR + depth PNG, zip)",
           "flat": "flat-shaded frame", "gouraud": "Gouraud-shaded frame", "samples4": "`samples=4`",
           "samples4_coverage": "`samples=4` with coverage and the view-set default",
-          "terms": "`terms=True`", "shadows": "shadows on", "mirror": "a mirror material, one bounce",
+          "terms": "`terms=True`", "terms_flat": "`terms=True`, flat-shaded",
+          "terms_gouraud": "`terms=True`, Gouraud-shaded",
+          "terms_floor": "the term arrays' page faults (`np.empty` + fill: their floor)",
+          "shadows": "shadows on", "mirror": "a mirror material, one bounce",
           "explain": "`frame.explain(x, y)`, one pixel"}
 
 
@@ -321,7 +354,13 @@ def main(argv=None):
     p.add_argument("--quick", action="store_true", help="one small case; writes under out/quick/")
     p.add_argument("--repeats", type=int, default=None)
     p.add_argument("--table", action="store_true", help="only redo the table and chart from the CSV")
+    p.add_argument("--only", default="", help="comma-separated paths (and the unit frame), every case, no peak "
+                   "memory; written under out/quick/ like --quick")
     args = p.parse_args(argv)
+    only = tuple(n for n in args.only.split(",") if n)
+    unknown = set(only) - set(LABELS) - {"frame"}
+    if unknown:
+        p.error(f"--only: unknown paths {sorted(unknown)}; expected some of {sorted(LABELS)}")
     if args.table:
         with open(results_file("paths.csv", args.quick), newline="") as fh:
             rows = list(csv.DictReader(fh))
@@ -330,23 +369,30 @@ def main(argv=None):
         return rows
     cases = QUICK_CASES if args.quick else CASES
     repeats = args.repeats or (2 if args.quick else 3)
+    quick = args.quick or bool(only)  # a partial run never rewrites the tracked results
     rows = []
     for case in cases:
-        rows += bench_case(*case, repeats)
+        rows += bench_case(*case, repeats, only)
+        if only:
+            for r in rows[-(len(only) + 1):]:
+                print(r["mesh"], r["width"], r["path"], r["median_ms"], r["ratio"], flush=True)
+            continue
         for label, names in (("peak_frame", ()), ("peak_buffers_all", ALL)):
             rows.append(dict(mesh=case[0], triangles=20 * 4 ** case[1], width=case[2], height=case[3], path=label,
                              median_ms="", ratio="", size_MiB=f"{peak_mib(*case, names):.0f}", repeats=1,
                              note="peak RSS growth of one frame, fresh process"))
         for r in rows[-(len(LABELS) + 3):]:
             print(r["mesh"], r["width"], r["path"], r["median_ms"], r["ratio"], r["size_MiB"], flush=True)
-    out = results_file("paths.csv", args.quick)
+    out = results_file("paths_only.csv" if only else "paths.csv", quick)
     os.makedirs(os.path.dirname(out), exist_ok=True)
     with open(out, "w", newline="") as fh:
         w = csv.DictWriter(fh, FIELDS)
         w.writeheader()
         w.writerows(rows)
-    chart(rows, image_file("paths.png", args.quick))
-    write_table(rows, args.quick)
+    if only:
+        return rows
+    chart(rows, image_file("paths.png", quick))
+    write_table(rows, quick)
     return rows
 
 

@@ -15,7 +15,7 @@ float32's smallest subnormal. A model on the "modulate" path (maps or face colou
 vertex's diffuse and specular light (kd = ks = 1), and the pixel multiplies them by its own
 coefficients, as its colour does. A corner whose stored shade does not serve (a flipped or
 missing vertex normal, :func:`~raycast_shade.shading.gouraud._corner_normal`) is shaded on the
-spot into a per-row scratch record, as the image's corner is.
+spot into a per-task scratch record, as the image's corner is.
 """
 
 from __future__ import annotations
@@ -142,68 +142,75 @@ def _corner_terms(V, C, G, i, side, g, materials, m, cam, L, S, coef, spec_on, a
 
 
 @njit(**HELPER)
-def _lerp(a, w0, w1, w2, c):
-    """``w0 a[0] + w1 a[1] + w2 a[2]`` of channel ``c`` of an (3, 1, 3) corner array, as the
-    pixel kernel interpolates the corners' colours."""
-    return w0 * a[0, 0, c] + w1 * a[1, 0, c] + w2 * a[2, 0, c]
+def _lerp(a, rows, w, c):
+    """``w0 a[r0] + w1 a[r1] + w2 a[r2]`` of channel ``c`` of an (N, 1, 3) array of corner
+    rows, as the pixel kernel interpolates the corners' colours."""
+    return w[0] * a[rows[0], 0, c] + w[1] * a[rows[1], 0, c] + w[2] * a[rows[2], 0, c]
 
 
 @njit(**HELPER)
-def _pixel_terms(R, C, ambient, w, ty, x, coef, splitting):
-    """The pixel's terms from its corners' (``C``) with weights ``w``: interpolated, or on the
-    modulate path (``splitting``) the interpolated light times the pixel's coefficients."""
-    w0, w1, w2 = w
+def _lerp3(a, rows, w):
+    return _lerp(a, rows, w, 0), _lerp(a, rows, w, 1), _lerp(a, rows, w, 2)
+
+
+@njit(**HELPER)
+def _pixel_terms(R, C, rows, ambient, w, ty, x, coef, splitting):
+    """The pixel's terms from its corners' (rows ``rows`` of the record ``C``: the vertex
+    record, or the corner scratch) with weights ``w``: interpolated, or on the modulate path
+    (``splitting``) the interpolated light times the pixel's coefficients."""
     kar, kag, kab, kdr, kdg, kdb, ksr, ksg, ksb, ker, keg, keb = coef
-    dif, spe = C[TERM_DIFFUSE], C[TERM_SPECULAR]
     if splitting:
         _store(R[TERM_AMBIENT], ty, x, ambient[0] * kar, ambient[1] * kag, ambient[2] * kab)
-        _store(R[TERM_DIFFUSE], ty, x, _lerp(dif, w0, w1, w2, 0) * kdr, _lerp(dif, w0, w1, w2, 1) * kdg,
-               _lerp(dif, w0, w1, w2, 2) * kdb)
-        _store(R[TERM_SPECULAR], ty, x, _lerp(spe, w0, w1, w2, 0) * ksr, _lerp(spe, w0, w1, w2, 1) * ksg,
-               _lerp(spe, w0, w1, w2, 2) * ksb)
+        dr, dg, db = _lerp3(C[TERM_DIFFUSE], rows, w)
+        _store(R[TERM_DIFFUSE], ty, x, dr * kdr, dg * kdg, db * kdb)
+        sr, sg, sb = _lerp3(C[TERM_SPECULAR], rows, w)
+        _store(R[TERM_SPECULAR], ty, x, sr * ksr, sg * ksg, sb * ksb)
         if R[TERMS_EMIT_ON]:
             _store(R[TERM_EMISSIVE], ty, x, ker, keg, keb)
     else:
-        amb = C[TERM_AMBIENT]
-        _store(R[TERM_AMBIENT], ty, x, _lerp(amb, w0, w1, w2, 0), _lerp(amb, w0, w1, w2, 1),
-               _lerp(amb, w0, w1, w2, 2))
-        _store(R[TERM_DIFFUSE], ty, x, _lerp(dif, w0, w1, w2, 0), _lerp(dif, w0, w1, w2, 1),
-               _lerp(dif, w0, w1, w2, 2))
-        _store(R[TERM_SPECULAR], ty, x, _lerp(spe, w0, w1, w2, 0), _lerp(spe, w0, w1, w2, 1),
-               _lerp(spe, w0, w1, w2, 2))
+        r, g, b = _lerp3(C[TERM_AMBIENT], rows, w)
+        _store(R[TERM_AMBIENT], ty, x, r, g, b)
+        r, g, b = _lerp3(C[TERM_DIFFUSE], rows, w)
+        _store(R[TERM_DIFFUSE], ty, x, r, g, b)
+        r, g, b = _lerp3(C[TERM_SPECULAR], rows, w)
+        _store(R[TERM_SPECULAR], ty, x, r, g, b)
         if R[TERMS_EMIT_ON]:
-            emi = C[TERM_EMISSIVE]
-            _store(R[TERM_EMISSIVE], ty, x, _lerp(emi, w0, w1, w2, 0), _lerp(emi, w0, w1, w2, 1),
-                   _lerp(emi, w0, w1, w2, 2))
+            r, g, b = _lerp3(C[TERM_EMISSIVE], rows, w)
+            _store(R[TERM_EMISSIVE], ty, x, r, g, b)
     _hit_background(R, ty, x)
-    _pixel_lights(R, C, w, ty, x, coef, splitting)
+    _pixel_lights(R, C, rows, w, ty, x, coef, splitting)
 
 
 @njit(**HELPER)
-def _pixel_lights(R, C, w, ty, x, coef, splitting):
+def _pixel_lights(R, C, rows, w, ty, x, coef, splitting):
     """The pixel's per-light terms and shadow mask from its corners' (see :func:`_pixel_terms`)."""
     w0, w1, w2 = w
+    r0, r1, r2 = rows
     kar, kag, kab, kdr, kdg, kdb, ksr, ksg, ksb, ker, keg, keb = coef
     each, shadow, reach, vis = R[TERMS_EACH], R[TERMS_SHADOW], C[VERT_REACH], C[TERMS_SHADOW]
     for i in range(shadow.shape[0]):
-        through = w0 * (vis[i, 0, 0] * reach[i, 0, 0]) + w1 * (vis[i, 1, 0] * reach[i, 1, 0]) + w2 * (
-            vis[i, 2, 0] * reach[i, 2, 0])
-        reached = w0 * reach[i, 0, 0] + w1 * reach[i, 1, 0] + w2 * reach[i, 2, 0]
+        through = w0 * (vis[i, r0, 0] * reach[i, r0, 0]) + w1 * (vis[i, r1, 0] * reach[i, r1, 0]) + w2 * (
+            vis[i, r2, 0] * reach[i, r2, 0])
+        reached = w0 * reach[i, r0, 0] + w1 * reach[i, r1, 0] + w2 * reach[i, r2, 0]
         t32 = np.float32(min(through, FLT32_MAX))  # the probe's image values, rounded as stored
         r32 = np.float32(min(reached, FLT32_MAX))
         shadow[i, ty, x] = min(np.float64(t32) / np.float64(r32), 1.0) if r32 > 0.0 else 1.0
         if each.shape[1] > 0:
-            cd, cs = C[TERMS_EACH][0, i], C[TERMS_EACH][1, i]
+            dr, dg, db = _lerp3(C[TERMS_EACH][0, i], rows, w)
+            sr, sg, sb = _lerp3(C[TERMS_EACH][1, i], rows, w)
             if splitting:
-                _store(each[0, i], ty, x, _lerp(cd, w0, w1, w2, 0) * kdr, _lerp(cd, w0, w1, w2, 1) * kdg,
-                       _lerp(cd, w0, w1, w2, 2) * kdb)
-                _store(each[1, i], ty, x, _lerp(cs, w0, w1, w2, 0) * ksr, _lerp(cs, w0, w1, w2, 1) * ksg,
-                       _lerp(cs, w0, w1, w2, 2) * ksb)
+                _store(each[0, i], ty, x, dr * kdr, dg * kdg, db * kdb)
+                _store(each[1, i], ty, x, sr * ksr, sg * ksg, sb * ksb)
             else:
-                _store(each[0, i], ty, x, _lerp(cd, w0, w1, w2, 0), _lerp(cd, w0, w1, w2, 1),
-                       _lerp(cd, w0, w1, w2, 2))
-                _store(each[1, i], ty, x, _lerp(cs, w0, w1, w2, 0), _lerp(cs, w0, w1, w2, 1),
-                       _lerp(cs, w0, w1, w2, 2))
+                _store(each[0, i], ty, x, dr, dg, db)
+                _store(each[1, i], ty, x, sr, sg, sb)
+
+
+@njit(**HELPER)
+def _corners_stored(normals, tri, side, g):
+    """Whether every corner's stored vertex shade serves the face (:func:`_corner_normal`)."""
+    return (_corner_normal(normals, tri[0], side, g)[1] and _corner_normal(normals, tri[1], side, g)[1]
+            and _corner_normal(normals, tri[2], side, g)[1])
 
 
 def _corner_scratch(V):
@@ -236,9 +243,9 @@ def _make_gouraud_terms(spec_on: bool, att_on: bool, tex_on: bool = False):
         step = spread_step(nblk)
         for it in prange(nblk):
             blk = (it * step) % nblk
+            C = _corner_scratch_jit(V)  # per task: the corners shaded on the spot
             for y in range(blk * BLOCK_ROWS, min(h, (blk + 1) * BLOCK_ROWS)):
                 S = _scratch()
-                C = _corner_scratch_jit(V)
                 ty = y0 + y
                 for x in range(w):
                     p = prim[y, x]
@@ -264,10 +271,15 @@ def _make_gouraud_terms(spec_on: bool, att_on: bool, tex_on: bool = False):
                         image[y, x, 0] = min(r, FLT32_MAX)
                         image[y, x, 1] = min(gg, FLT32_MAX)
                         image[y, x, 2] = min(b, FLT32_MAX)
+                        w3 = _convex_weights(at.b1, at.b2)
+                        if _corners_stored(normals, tri, side, gn):
+                            _pixel_terms(R, V, (2 * i0 + side, 2 * i1 + side, 2 * i2 + side), L[0], w3, ty, x, coef,
+                                         True)
+                            continue
                         _corner_terms(V, C, G, i0, side, gn, materials, g, cam, L, S, _SPLIT, spec_on, att_on, 0)
                         _corner_terms(V, C, G, i1, side, gn, materials, g, cam, L, S, _SPLIT, spec_on, att_on, 1)
                         _corner_terms(V, C, G, i2, side, gn, materials, g, cam, L, S, _SPLIT, spec_on, att_on, 2)
-                        _pixel_terms(R, C, L[0], _convex_weights(at.b1, at.b2), ty, x, coef, True)
+                        _pixel_terms(R, C, (0, 1, 2), L[0], w3, ty, x, coef, True)
                         continue
                     k0 = _vertex_kd(materials, g, cmode, vcolors, i0, tex_on)
                     k1 = _vertex_kd(materials, g, cmode, vcolors, i1, tex_on)
@@ -279,10 +291,14 @@ def _make_gouraud_terms(spec_on: bool, att_on: bool, tex_on: bool = False):
                     image[y, x, 0] = min(b0 * r0 + b1 * r1 + b2 * r2, FLT32_MAX)
                     image[y, x, 1] = min(b0 * g0 + b1 * g1 + b2 * g2, FLT32_MAX)
                     image[y, x, 2] = min(b0 * c0 + b1 * c1 + b2 * c2, FLT32_MAX)
+                    if _corners_stored(normals, tri, side, gn):  # the usual case: the vertex record's rows
+                        _pixel_terms(R, V, (2 * i0 + side, 2 * i1 + side, 2 * i2 + side), L[0], (b0, b1, b2), ty, x,
+                                     k0, False)
+                        continue
                     _corner_terms(V, C, G, i0, side, gn, materials, g, cam, L, S, k0, spec_on, att_on, 0)
                     _corner_terms(V, C, G, i1, side, gn, materials, g, cam, L, S, k1, spec_on, att_on, 1)
                     _corner_terms(V, C, G, i2, side, gn, materials, g, cam, L, S, k2, spec_on, att_on, 2)
-                    _pixel_terms(R, C, L[0], (b0, b1, b2), ty, x, k0, False)
+                    _pixel_terms(R, C, (0, 1, 2), L[0], (b0, b1, b2), ty, x, k0, False)
 
     return _gouraud_terms_kernel
 
