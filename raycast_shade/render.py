@@ -98,8 +98,9 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
         ``True``: the reflectance equation's terms as images on ``frame.terms``
         (ambient, diffuse, specular, reflected, shadow mask; ``"per_light"``
         adds each light's), which add up to the image
-        (:mod:`raycast_shade.shading.terms`). ``frame.explain(x, y)`` works
-        either way.
+        (:mod:`raycast_shade.shading.terms`), written by the image's own
+        shading pass (the image is the same, bit for bit).
+        ``frame.explain(x, y)`` works either way.
 
     Returns
     -------
@@ -108,8 +109,8 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
     Notes
     -----
     A frame of at least 2**19 pixels cast by the packet caster with
-    perspective-correct weights and no term or mirror bounce is cast, shaded
-    and its buffers computed in bands of 128 rows
+    perspective-correct weights and no mirror bounce is cast, shaded
+    and its buffers and terms computed in bands of 128 rows
     (:mod:`raycast_shade.visibility.bands`), whatever its methods and number
     of samples: it never holds a full-frame hit buffer, and ``frame.hits``
     is cast again the first time it is read (the same buffer, bit for bit;

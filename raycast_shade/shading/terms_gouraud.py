@@ -27,7 +27,7 @@ from ..common.layout import METHOD_GOURAUD
 from ..common.schedule import BLOCK_ROWS, spread_step
 from .gouraud import _corner_normal, _corner_shade, _modulate, _split_shade, _vertex_kd, _vertex_point
 from .illumination import _light_at
-from .jit import CHUNK, FLT32_MAX, HELPER, JIT, compile_variants
+from .jit import CALLED, CHUNK, FLT32_MAX, HELPER, JIT, compile_variants
 from .records import At, Hit, dot
 from .shadows import _scratch
 from .surface import _convex_weights, _facing, _hit_point, _triangle, _view
@@ -126,11 +126,12 @@ def _copy_row(V, row, C, k):
                 C[TERMS_EACH][1, i, k, 0, c] = each[1, i, row, 0, c]
 
 
-@njit(**HELPER)
+@njit(**CALLED)
 def _corner_terms(V, C, G, i, side, g, materials, m, cam, L, S, coef, spec_on, att_on, k):
     """Corner ``k``'s terms into the scratch ``C``: vertex ``i``'s stored ones, or, where they
     do not serve, shaded on the spot as :func:`~raycast_shade.shading.gouraud._corner_shade`
-    shades the corner's colour."""
+    shades the corner's colour. A call, not inlined: it runs only for such rare corners, and
+    six inlined copies of the light loop would swell the hot pixel loop."""
     verts, normals, _, _ = G
     n, stored = _corner_normal(normals, i, side, g)
     if stored:
