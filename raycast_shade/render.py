@@ -98,9 +98,8 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
         ``True``: the reflectance equation's terms as images on ``frame.terms``
         (ambient, diffuse, specular, reflected, shadow mask; ``"per_light"``
         adds each light's), which add up to the image
-        (:mod:`raycast_shade.shading.terms`), written by the image's own
-        shading pass (the image is the same, bit for bit).
-        ``frame.explain(x, y)`` works either way.
+        (:mod:`raycast_shade.shading.terms`), written by the image's own shading
+        pass (the same image). ``frame.explain(x, y)`` works either way.
 
     Returns
     -------

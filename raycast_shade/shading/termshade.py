@@ -1,8 +1,9 @@
 """The image and its terms in one shading pass: :class:`TermShading`, ``render(terms=True)``'s shader.
 
-A frame whose models are flat- or Phong-shaded gets its image, local terms, per-light terms,
-background term and shadow mask from one pass per method (:mod:`.terms_kernel`): each point's
-equation is evaluated once, its parts stored beside the colour, where the variant passes of
+Every method gets its image, local terms, per-light terms, background term and shadow mask
+from one pass: each point's equation is evaluated once, its parts stored beside its colour
+(Phong per pixel and flat per visible face, :mod:`.terms_kernel`; Gouraud per visible vertex,
+the parts interpolated as the colour is, :mod:`.terms_gouraud`), where the variant passes of
 :mod:`.terms` shade the frame once per term, per light and per shadow probe. The image is the
 plain frame's, bit for bit; the terms are the variant passes' numbers (measured equal, bit for
 bit, on the test scenes).
@@ -11,8 +12,8 @@ Like :class:`~raycast_shade.shading.shade.SampleShading`, whose ``shade(hits, ou
 shares, it shades a whole frame's hit buffer or the frame band by band
 (:func:`~raycast_shade.visibility.bands.cast_bands`): the term images are the frame's
 full-size arrays, written at the band's rows, and each visible face's flat colour and terms
-are computed once, by the first band that sees it. Gouraud models have no one-pass form
-(:func:`one_pass` says so): their frames take the variant passes over the whole hit buffer.
+(each visible vertex's Gouraud colours and terms) are computed once, by the first band that
+sees it. Only the mirror part needs the whole frame's hits (:func:`mirror_terms`).
 """
 
 from __future__ import annotations
