@@ -15,7 +15,7 @@ float32's smallest subnormal. A model on the "modulate" path (maps or face colou
 vertex's diffuse and specular light (kd = ks = 1), and the pixel multiplies them by its own
 coefficients, as its colour does. A corner whose stored shade does not serve (a flipped or
 missing vertex normal, :func:`~raycast_shade.shading.gouraud._corner_normal`) is shaded on the
-spot into a per-task scratch record, as the image's corner is.
+spot into its parallel task's rows of a scratch record, as the image's corner is.
 """
 
 from __future__ import annotations
@@ -31,13 +31,15 @@ from .jit import CALLED, CHUNK, FLT32_MAX, HELPER, JIT, compile_variants
 from .records import At, Hit, dot
 from .shadows import _scratch
 from .surface import _convex_weights, _facing, _hit_point, _triangle, _view
-from .terms_kernel import (TERM_AMBIENT, TERM_DIFFUSE, TERM_EMISSIVE, TERM_SPECULAR, TERMS_EACH, TERMS_EMIT_ON,
-                           TERMS_SHADOW, _hit_background, _illuminate_terms, _miss, _store)
+from .terms_kernel import (TERM_AMBIENT, TERM_DIFFUSE, TERM_EMISSIVE, TERM_SPECULAR, TERMS_BACKGROUND_RGB,
+                           TERMS_EACH, TERMS_EMIT_ON, TERMS_SHADOW, _hit_background, _illuminate_terms, _miss,
+                           _store)
 from .texture import _point_coefficients
 
-__all__ = ["VERT_REACH", "VERT_COL", "VERT_SPEC", "VERT_Y0"]
+__all__ = ["VERT_REACH", "VERT_COL", "VERT_SPEC", "VERT_Y0", "VERT_SCRATCH", "scratch_slots"]
 
-VERT_REACH, VERT_COL, VERT_SPEC, VERT_Y0 = 10, 11, 12, 13  # the vertex record's slots after the terms record's
+# The vertex record's slots after the terms record's; VERT_SCRATCH on: scratch_slots().
+VERT_REACH, VERT_COL, VERT_SPEC, VERT_Y0, VERT_SCRATCH = 10, 11, 12, 13, 14
 _SPLIT = (0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0)  # the modulate path's kd = ks = 1
 
 
@@ -126,12 +128,11 @@ def _copy_row(V, row, C, k):
                 C[TERMS_EACH][1, i, k, 0, c] = each[1, i, row, 0, c]
 
 
-@njit(**CALLED)
+@njit(**HELPER)
 def _corner_terms(V, C, G, i, side, g, materials, m, cam, L, S, coef, spec_on, att_on, k):
     """Corner ``k``'s terms into the scratch ``C``: vertex ``i``'s stored ones, or, where they
     do not serve, shaded on the spot as :func:`~raycast_shade.shading.gouraud._corner_shade`
-    shades the corner's colour. A call, not inlined: it runs only for such rare corners, and
-    six inlined copies of the light loop would swell the hot pixel loop."""
+    shades the corner's colour."""
     verts, normals, _, _ = G
     n, stored = _corner_normal(normals, i, side, g)
     if stored:
@@ -155,10 +156,12 @@ def _lerp3(a, rows, w):
 
 
 @njit(**HELPER)
-def _pixel_terms(R, C, rows, ambient, w, ty, x, coef, splitting):
+def _pixel_terms(R, C, rows, L, w, ty, x, coef, splitting):
     """The pixel's terms from its corners' (rows ``rows`` of the record ``C``: the vertex
     record, or the corner scratch) with weights ``w``: interpolated, or on the modulate path
-    (``splitting``) the interpolated light times the pixel's coefficients."""
+    (``splitting``) the interpolated light times the pixel's coefficients (``L`` whole: an
+    array taken out of it in the kernel's loop would cost a reference count per pixel)."""
+    ambient = L[0]
     kar, kag, kab, kdr, kdg, kdb, ksr, ksg, ksb, ker, keg, keb = coef
     if splitting:
         _store(R[TERM_AMBIENT], ty, x, ambient[0] * kar, ambient[1] * kag, ambient[2] * kab)
@@ -214,18 +217,31 @@ def _corners_stored(normals, tri, side, g):
             and _corner_normal(normals, tri[2], side, g)[1])
 
 
-def _corner_scratch(V):
-    """A per-row scratch record of three corners, laid out as ``V``."""
+@njit(**CALLED)
+def _fallback_terms(R, V, G, tri, side, gn, materials, m, cam, L, S, coefs, spec_on, att_on, where):
+    """A pixel with a corner whose stored shade does not serve: its three corners' terms
+    gathered into its task's rows of the scratch slots of ``V`` (:data:`VERT_SCRATCH`), the one
+    it does not serve shaded on the spot, then interpolated. ``coefs``: the corners' and the
+    pixel's coefficients; ``where``: (weights, image row, column, task, modulate path). A call,
+    not inlined: it runs only for such rare pixels, and its light loops would swell the hot
+    pixel loop; the scratch is the caller's (an array made in a parallel loop costs a
+    reference count on every pixel)."""
+    w, ty, x, blk, splitting = where
+    C = (V[14], V[15], V[16], V[17], V[17], V[18], V[19], V[TERMS_EMIT_ON], False,  # VERT_SCRATCH = 14 on
+         V[TERMS_BACKGROUND_RGB], V[20])
+    r = 3 * blk
+    for k in range(3):
+        _corner_terms(V, C, G, tri[k], side, gn, materials, m, cam, L, S, coefs[k], spec_on, att_on, r + k)
+    _pixel_terms(R, C, (r, r + 1, r + 2), L, w, ty, x, coefs[3], splitting)
+
+
+def scratch_slots(V, tasks: int) -> tuple:
+    """The corner scratch of :func:`_fallback_terms`, three rows per parallel task, laid out as
+    ``V``'s terms and reach: the slots ``VERT_SCRATCH`` on of the vertex record."""
     nl, each = V[TERMS_SHADOW].shape[0], V[TERMS_EACH].shape[1]
-    a = np.empty((3, 1, 3))
-    d = np.empty((3, 1, 3))
-    s = np.empty((3, 1, 3))
-    e = np.empty((3, 1, 3))
-    return (a, d, s, e, e, np.empty((2, each, 3, 1, 3)), np.empty((nl, 3, 1)), V[TERMS_EMIT_ON], False, V[9],
-            np.empty((nl, 3, 1)))
-
-
-_corner_scratch_jit = njit(cache=True)(_corner_scratch)
+    rows = 3 * max(int(tasks), 1)
+    return tuple(np.empty((rows, 1, 3)) for _ in range(4)) + (
+        np.empty((2, each, rows, 1, 3)), np.empty((nl, rows, 1)), np.empty((nl, rows, 1)))
 
 
 def _make_gouraud_terms(spec_on: bool, att_on: bool, tex_on: bool = False):
@@ -244,7 +260,6 @@ def _make_gouraud_terms(spec_on: bool, att_on: bool, tex_on: bool = False):
         step = spread_step(nblk)
         for it in prange(nblk):
             blk = (it * step) % nblk
-            C = _corner_scratch_jit(V)  # per task: the corners shaded on the spot
             for y in range(blk * BLOCK_ROWS, min(h, (blk + 1) * BLOCK_ROWS)):
                 S = _scratch()
                 ty = y0 + y
@@ -274,13 +289,11 @@ def _make_gouraud_terms(spec_on: bool, att_on: bool, tex_on: bool = False):
                         image[y, x, 2] = min(b, FLT32_MAX)
                         w3 = _convex_weights(at.b1, at.b2)
                         if _corners_stored(normals, tri, side, gn):
-                            _pixel_terms(R, V, (2 * i0 + side, 2 * i1 + side, 2 * i2 + side), L[0], w3, ty, x, coef,
+                            _pixel_terms(R, V, (2 * i0 + side, 2 * i1 + side, 2 * i2 + side), L, w3, ty, x, coef,
                                          True)
                             continue
-                        _corner_terms(V, C, G, i0, side, gn, materials, g, cam, L, S, _SPLIT, spec_on, att_on, 0)
-                        _corner_terms(V, C, G, i1, side, gn, materials, g, cam, L, S, _SPLIT, spec_on, att_on, 1)
-                        _corner_terms(V, C, G, i2, side, gn, materials, g, cam, L, S, _SPLIT, spec_on, att_on, 2)
-                        _pixel_terms(R, C, (0, 1, 2), L[0], w3, ty, x, coef, True)
+                        _fallback_terms(R, V, G, tri, side, gn, materials, g, cam, L, S, (_SPLIT, _SPLIT, _SPLIT, coef),
+                                        spec_on, att_on, (w3, ty, x, blk, True))
                         continue
                     k0 = _vertex_kd(materials, g, cmode, vcolors, i0, tex_on)
                     k1 = _vertex_kd(materials, g, cmode, vcolors, i1, tex_on)
@@ -293,13 +306,11 @@ def _make_gouraud_terms(spec_on: bool, att_on: bool, tex_on: bool = False):
                     image[y, x, 1] = min(b0 * g0 + b1 * g1 + b2 * g2, FLT32_MAX)
                     image[y, x, 2] = min(b0 * c0 + b1 * c1 + b2 * c2, FLT32_MAX)
                     if _corners_stored(normals, tri, side, gn):  # the usual case: the vertex record's rows
-                        _pixel_terms(R, V, (2 * i0 + side, 2 * i1 + side, 2 * i2 + side), L[0], (b0, b1, b2), ty, x,
+                        _pixel_terms(R, V, (2 * i0 + side, 2 * i1 + side, 2 * i2 + side), L, (b0, b1, b2), ty, x,
                                      k0, False)
                         continue
-                    _corner_terms(V, C, G, i0, side, gn, materials, g, cam, L, S, k0, spec_on, att_on, 0)
-                    _corner_terms(V, C, G, i1, side, gn, materials, g, cam, L, S, k1, spec_on, att_on, 1)
-                    _corner_terms(V, C, G, i2, side, gn, materials, g, cam, L, S, k2, spec_on, att_on, 2)
-                    _pixel_terms(R, C, (0, 1, 2), L[0], (b0, b1, b2), ty, x, k0, False)
+                    _fallback_terms(R, V, G, tri, side, gn, materials, g, cam, L, S, (k0, k1, k2, k0), spec_on, att_on,
+                                    ((b0, b1, b2), ty, x, blk, False))
 
     return _gouraud_terms_kernel
 

@@ -21,10 +21,11 @@ from __future__ import annotations
 import numpy as np
 
 from ..common.layout import MAT_KE, MAT_REFLECTIVITY, METHOD_FLAT, METHOD_GOURAUD, METHOD_PHONG
+from ..common.schedule import BLOCK_ROWS
 from .jit import variant
 from .mirrors import trace_mirrors
 from .shade import _visible_kernel, resolve_methods
-from .terms_gouraud import _GOURAUD_TERMS, _VERTEX_TERMS
+from .terms_gouraud import _GOURAUD_TERMS, _VERTEX_TERMS, VERT_Y0, scratch_slots
 from .terms_kernel import (_FLAT_TERMS, _PHONG_TERMS, TERM_BACKGROUND, TERM_EMISSIVE, TERM_SLOTS, TERMS_EACH,
                            TERMS_SHADOW, _lookup_flat_terms)
 
@@ -128,9 +129,10 @@ class TermShading:
         if self.flat:
             _lookup_flat_terms(hits.prim, hits.geom, k.face_off, self.fcol, modes, image, y0, self.R, self.F)
         if self.gouraud:
+            tasks = (h + BLOCK_ROWS - 1) // BLOCK_ROWS  # the pixel kernel's parallel tasks
+            V = self.V[:VERT_Y0] + (y0,) + scratch_slots(self.V, tasks)
             variant(_GOURAUD_TERMS, k)(hits.prim, hits.geom, hits.u, hits.v, k.geometry, k.bumps, k.face_off,
-                                       k.materials, k.cam, k.lighting, k.colours, modes, image, self.R,
-                                       self.V[:-1] + (y0,))
+                                       k.materials, k.cam, k.lighting, k.colours, modes, image, self.R, V)
         if self.phong:
             variant(_PHONG_TERMS, k)(hits.prim, hits.geom, hits.u, hits.v, k.geometry, k.bumps, k.lighting,
                                      k.colours, k.face_off, k.materials, k.cam, modes, image, y0, self.R)
