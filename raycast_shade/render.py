@@ -139,7 +139,7 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
     _build(scene, plan, timings)
     warn_single_sided(scene, camera)  # back faces of a single-sided (glTF) model in view: said, not silent
     inputs = prepare(scene, camera)  # once per frame: shading, every sample and the mirror bounces
-    shader = _shader(scene, plan, inputs)  # with terms=True, one pass writes the image and its terms
+    shader = _shader(scene, plan, inputs) if banded or plan.samples == 1 else None  # samples: their own
     if banded:
         hits, image, mask, extra = _render_bands(scene, plan, timings, inputs, shader)
     else:
