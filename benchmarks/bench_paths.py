@@ -35,9 +35,12 @@ divided by the plain Phong frame's median:
 * ``flat``, ``gouraud``: the frame flat- and Gouraud-shaded; ``samples4``:
   four rays per pixel; ``samples4_coverage``: the same with ``coverage`` and
   the view-set default buffers.
-* ``terms``, ``shadows``, ``mirror``, ``explain``: ``render(terms=True)``, the light casting
-  shadows, the mesh a mirror with one bounce, and one ``frame.explain(x, y)`` of a rendered
-  frame (its milliseconds in the table too) (:func:`_teaching_paths`);
+* ``terms``, ``terms_flat``, ``terms_gouraud``, ``shadows``, ``mirror``, ``explain``:
+  ``render(terms=True)`` (Phong, flat, Gouraud: compare the last two with the ``flat`` and
+  ``gouraud`` rows), the light casting shadows, the mesh a mirror with one bounce, and one
+  ``frame.explain(x, y)`` of a rendered frame (its milliseconds in the table too)
+  (:func:`_teaching_paths`); ``terms_floor``: ``np.empty`` + fill of the arrays the terms
+  write, their page-fault floor;
 
 Peak memory of a frame without and with all 12 buffers (``peak_frame``,
 ``peak_buffers_all``, in the ``size_MiB`` column) is measured in a fresh
@@ -206,10 +209,30 @@ def _teaching_paths(scene):
 
     return {
         "terms": (lambda: rs.render(scene, terms=True), None, 1),
+        "terms_flat": (lambda: rs.render(scene, "flat", terms=True), None, 1),
+        "terms_gouraud": (lambda: rs.render(scene, "gouraud", terms=True), None, 1),
+        "terms_floor": (_terms_floor(scene), None, 1),
         "shadows": (lambda: rs.render(shadows), None, 1),
         "mirror": (lambda: rs.render(mirror, max_depth=1), None, 1),
         "explain": (explain, None, 1),
     }
+
+
+def _terms_floor(scene):
+    """The fresh pages a ``terms=True`` frame writes beyond the plain frame's, and nothing else:
+    ``np.empty`` + fill of the ambient, diffuse and specular images, one light's shadow mask
+    and ``keep`` (the page-fault floor of the terms; emissive, background and reflected are
+    zeros nobody touches in this scene)."""
+    import numpy as np
+
+    h, w = scene.camera.height, scene.camera.width
+    nl = len(scene.lights)
+
+    def floor():
+        for shape in [(h, w, 3)] * 3 + [(nl, h, w), (h, w)]:
+            np.empty(shape, np.float32).fill(1.0)
+
+    return floor
 
 
 def bench_case(kind, level, width, height, repeats, only=None):
@@ -289,7 +312,10 @@ LABELS = {"buffers_all": "all 12 buffers",
           "view_floor": "one view's files (PNG + zipped npz + record), one plain write (the floor)",
           "flat": "flat-shaded frame", "gouraud": "Gouraud-shaded frame", "samples4": "`samples=4`",
           "samples4_coverage": "`samples=4` with coverage and the view-set default",
-          "terms": "`terms=True`", "shadows": "shadows on", "mirror": "a mirror material, one bounce",
+          "terms": "`terms=True`", "terms_flat": "`terms=True`, flat-shaded",
+          "terms_gouraud": "`terms=True`, Gouraud-shaded",
+          "terms_floor": "the term arrays' page faults (`np.empty` + fill: their floor)",
+          "shadows": "shadows on", "mirror": "a mirror material, one bounce",
           "explain": "`frame.explain(x, y)`, one pixel"}
 
 
@@ -414,6 +440,9 @@ def main(argv=None):
                    help="comma-separated paths to re-time (with the frame, their unit); their rows replace "
                         "those of the CSV, each marked in its note")
     args = p.parse_args(argv)
+    unknown = set((args.only or "").split(",")) - set(LABELS) - {"frame", ""}
+    if unknown:
+        p.error(f"--only: unknown paths {sorted(unknown)}; expected some of {sorted(LABELS)}")
     if args.table:
         with open(results_file("paths.csv", args.quick), newline="") as fh:
             rows = list(csv.DictReader(fh))

@@ -36,7 +36,8 @@ from .common.validate import as_int, as_scalar
 from .shading.inputs import prepare
 from .shading.mirrors import MAX_MIRROR_DEPTH, trace_mirrors
 from .shading.shade import GROUP, SampleShading, accumulate, resolve_methods, sample_mean
-from .shading.terms import check_terms, shade_terms
+from .shading.terms import check_terms
+from .shading.termshade import TermShading
 
 __all__ = ["render", "render_file"]
 
@@ -104,8 +105,8 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
         ``True``: the reflectance equation's terms as images on ``frame.terms``
         (ambient, diffuse, specular, reflected, shadow mask; ``"per_light"``
         adds each light's), which add up to the image
-        (:mod:`raycast_shade.shading.terms`). ``frame.explain(x, y)`` works
-        either way.
+        (:mod:`raycast_shade.shading.terms`), written by the image's own shading
+        pass (the same image). ``frame.explain(x, y)`` works either way.
 
     Returns
     -------
@@ -114,8 +115,8 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
     Notes
     -----
     A frame of at least 2**19 pixels cast by the packet caster with
-    perspective-correct weights and no term or mirror bounce is cast, shaded
-    and its buffers computed in bands of 128 rows
+    perspective-correct weights and no mirror bounce is cast, shaded
+    and its buffers and terms computed in bands of 128 rows
     (:mod:`raycast_shade.visibility.bands`), whatever its methods and number
     of samples: it never holds a full-frame hit buffer, and ``frame.hits``
     is cast again the first time it is read (the same buffer, bit for bit;
@@ -147,13 +148,14 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
     warn_single_sided(scene, camera)  # back faces of a single-sided (glTF) model in view: said, not silent
     inputs = prepare(scene, camera)  # once per frame: shading, every sample and the mirror bounces
     fb = FrameBuffers(scene, camera, plan.buffers, shading, out=plan.buffers_out) if plan.buffers else None
+    shader = _shader(scene, plan, inputs) if banded or plan.samples == 1 else None  # samples: their own
     if banded:
-        hits, image, mask, extra = _render_bands(scene, plan, timings, inputs, fb)
+        hits, image, mask, extra = _render_bands(scene, plan, timings, inputs, shader, fb)
     else:
-        hits, image, extra = _render_whole(scene, plan, timings, inputs, fb)
+        hits, image, extra = _render_whole(scene, plan, timings, inputs, shader, fb)
     te = time.perf_counter()
-    parts = {} if terms is None else shade_terms(scene, camera, hits, shading, plan.max_depth, "per_light" in terms,
-                                                   inputs)
+    # Shaded with the image: the mirror terms remain.
+    parts = {} if terms is None else shader.terms(None if banded else hits, plan.max_depth)
     if terms is not None:
         timings["terms"] = time.perf_counter() - te
         te = time.perf_counter()
@@ -298,13 +300,14 @@ _BACKENDS = {"raycast": ("cast", _cast), "raster": ("raster", _raster)}
 _WEIGHTS = {"perspective": _perspective, "screen": to_screen_space}
 
 
-def _render_whole(scene, plan: _Plan, timings: dict, inputs, fb):
-    """The whole-frame path: the hit buffer, the image (one ray per pixel or the samples'
-    mean) and the buffers of ``fb`` (a :class:`FrameBuffers`, or None), whose shading
-    normals the Phong kernel writes as it shades."""
-    normal = None if fb is None else fb.normal_target(0, plan.camera.height, plan.camera.width)
+def _render_whole(scene, plan: _Plan, timings: dict, inputs, shader, fb):
+    """The whole-frame path: the hit buffer, the image (one ray per pixel by ``shader``, or the
+    samples' mean) and the buffers of ``fb`` (a :class:`FrameBuffers`, or None), whose shading
+    normals the Phong kernel writes as it shades (not the terms' kernels)."""
+    writes = shader is None or shader.WRITES_NORMALS  # samples: SampleShading
+    normal = None if fb is None or not writes else fb.normal_target(0, plan.camera.height, plan.camera.width)
     if plan.samples == 1:
-        hits, image, coverage = _render_one(scene, plan, timings, inputs, normal)
+        hits, image, coverage = _render_one(scene, plan, timings, inputs, shader, normal)
     else:
         hits, image, coverage = _render_samples(scene, plan, timings, inputs, normal)
     extra = {}
@@ -317,13 +320,21 @@ def _render_whole(scene, plan: _Plan, timings: dict, inputs, fb):
     return hits, image, extra
 
 
-def _render_one(scene, plan: _Plan, timings: dict, inputs, normal=None):
+def _shader(scene, plan: _Plan, inputs):
+    """The frame's shader: :class:`~raycast_shade.shading.termshade.TermShading` when terms are
+    asked for (the image and its terms in one pass), else
+    :class:`~raycast_shade.shading.shade.SampleShading`."""
+    if plan.terms is not None:
+        return TermShading(scene, plan.camera, plan.shading, inputs, "per_light" in plan.terms)
+    return SampleShading(scene, plan.camera, plan.shading, inputs)
+
+
+def _render_one(scene, plan: _Plan, timings: dict, inputs, shader, normal=None):
     """One ray per pixel: the hit buffer, its shaded image (mirrors blended in) and no coverage;
     ``normal``: where the Phong kernel writes the shading normals (:meth:`FrameBuffers.normal_target`)."""
     hits = _visibility(scene, plan, timings)
     ts = time.perf_counter()
-    image = SampleShading(scene, plan.camera, plan.shading, inputs).shade(hits, out=plan.out,
-                                                                          normal=normal)  # our hits: valid
+    image = shader.shade(hits, out=plan.out, normal=normal)  # our hits: valid
     te = time.perf_counter()
     timings["shade"] = te - ts
     if scene.geometry.reflective and plan.max_depth > 0:
@@ -334,15 +345,16 @@ def _render_one(scene, plan: _Plan, timings: dict, inputs, normal=None):
 
 def _banded(scene, plan: _Plan, terms) -> bool:
     """Whether the frame is cast and shaded band by band (:func:`_render_bands`): by the packet
-    caster with perspective-correct weights, any methods, buffers, samples and mirror bounces,
-    but no terms (they read the whole frame's hits), taller than one band and of at least
-    :data:`~raycast_shade.visibility.bands.MIN_PIXELS` pixels."""
+    caster with perspective-correct weights, any methods, buffers, samples, terms and mirror
+    bounces, but not terms with mirror bounces (the mirror terms read the whole frame's hits),
+    taller than one band and of at least :data:`~raycast_shade.visibility.bands.MIN_PIXELS` pixels."""
     cam = plan.camera
     return (plan.backend == "raycast" and plan.caster == "embree" and plan.interpolation == "perspective"
-            and terms is None and cam.height > bands.BAND_ROWS and cam.width * cam.height >= bands.MIN_PIXELS)
+            and not (terms is not None and scene.geometry.reflective and plan.max_depth > 0)
+            and cam.height > bands.BAND_ROWS and cam.width * cam.height >= bands.MIN_PIXELS)
 
 
-def _render_bands(scene, plan: _Plan, timings: dict, inputs, buffers=None):
+def _render_bands(scene, plan: _Plan, timings: dict, inputs, shader, buffers=None):
     """Each band of rows cast, shaded and its buffers computed as soon as it is cast (while
     its hits are in cache), so the frame never holds (or page-faults in) a full-frame hit
     buffer: 20 bytes a pixel. Mirror bounces follow each shaded band (and sample), from its
@@ -359,7 +371,6 @@ def _render_bands(scene, plan: _Plan, timings: dict, inputs, buffers=None):
     h, w = camera.height, camera.width
     image = np.empty((h, w, 3), np.float32) if plan.out is None else plan.out
     mask = np.empty((h, w), np.bool_)
-    shader = SampleShading(scene, camera, plan.shading, inputs)
     casts = [bands.cast_bands(scene.geometry, subpixel_camera(camera, dx, dy), bands.BAND_ROWS)
              for dx, dy in sample_offsets(plan.samples)]
     counted = plan.samples > 1 and "coverage" in plan.buffers
@@ -383,7 +394,8 @@ def _render_bands(scene, plan: _Plan, timings: dict, inputs, buffers=None):
     for y, band in casts[0]:
         m = band.shape[0]
         rows = slice(y, y + m)
-        normal = None if buffers is None else buffers.normal_target(y, m, w)  # the Phong kernel writes them
+        # The Phong kernel writes the shading normals (the terms' kernels do not: the buffers do)
+        normal = None if buffers is None or not shader.WRITES_NORMALS else buffers.normal_target(y, m, w)
         if mean is None:
             shade(band, image[rows], y, normal)
         else:

@@ -117,7 +117,9 @@ def _step_bump():
 
 def _step_textures():
     checker = Texture.checker(squares=4, texels_per_square=4)
-    _methods(_scene(Material(kd_map=checker, ks_map=checker, ks=0.3, shininess=30), mesh=shapes.uv_sphere(8, 16)))
+    mapped = _scene(Material(kd_map=checker, ks_map=checker, ks=0.3, shininess=30), mesh=shapes.uv_sphere(8, 16))
+    _methods(mapped)
+    _methods(mapped, terms=True)  # the terms kernels' textured variants (Gouraud's modulate path too)
     ico = shapes.icosphere(2)
     painted = Mesh(ico.vertices, ico.faces, normals=ico.normals, colors=(ico.vertices + 1.0) / 2.0)
     _methods(_scene(Material(ks=0.2), mesh=painted))
@@ -126,7 +128,7 @@ def _step_textures():
 def _step_terms_buffers():
     scene = _scene(floor=Material(kd=0.6, reflectivity=0.3))
     _methods(scene, terms="per_light")
-    _variants(terms=True)  # the one-pass Phong terms kernel folds "any specular" / "any attenuation" too
+    _variants(terms=True)  # the one-pass terms kernels (every method) fold "any specular" / "any attenuation" too
     render(scene, "phong", buffers=tuple(BUFFER_NAMES))
 
 

@@ -75,9 +75,14 @@ def frame_bytes_per_pixel(buffers=(), samples: int = 1, terms=None, lights: int 
         counted = "coverage" in names
         total += _HITS * (min(n - 1, _GROUP) if counted else 1) + _IMAGE * (min(n, _GROUP) - 1)
         total += (8 * 3 + (4 if counted else 0)) if n > _GROUP else 0
-    if terms is not None:
-        total += 5 * _IMAGE + 4 * lights + (2 * _IMAGE * lights if "per_light" in terms else 0)
-    return total
+    return total + _terms_bytes(terms, lights)
+
+
+def _terms_bytes(terms, lights: int) -> int:
+    """Bytes per pixel of the terms (none for ``terms=None``), on either path."""
+    if terms is None:
+        return 0
+    return 5 * _IMAGE + 4 * lights + (2 * _IMAGE * lights if "per_light" in terms else 0)
 
 
 def frame_bytes(width: int, height: int, buffers=(), samples: int = 1, terms=None, lights: int = 0,
@@ -90,8 +95,9 @@ def frame_bytes(width: int, height: int, buffers=(), samples: int = 1, terms=Non
     buffers, samples, terms, lights, reused
         As :func:`frame_bytes_per_pixel`.
     band_rows : int
-        Rows per band of a frame ``render()`` renders band by band (terms are
-        never banded); 0 for the whole-frame path.
+        Rows per band of a frame ``render()`` renders band by band (its terms,
+        if asked for, are full-frame arrays written band by band); 0 for the
+        whole-frame path.
 
     Returns
     -------
@@ -102,7 +108,8 @@ def frame_bytes(width: int, height: int, buffers=(), samples: int = 1, terms=Non
         return px * frame_bytes_per_pixel(buffers, samples, terms, lights, reused)
     names = _names(buffers)
     n = _samples(samples)
-    per_pixel = FRAME_BYTES_PER_PIXEL + 1 + sum(BUFFER_BYTES[b] for b in names - _names(reused))
+    per_pixel = (FRAME_BYTES_PER_PIXEL + 1 + sum(BUFFER_BYTES[b] for b in names - _names(reused))
+                 + _terms_bytes(terms, lights))
     rows = min(int(band_rows) + 2, int(height))  # a window: the band, the row above and the waiting row
     band = _HITS * n  # every sample's window
     if "normal_camera" in names and "normal" not in names:

@@ -201,6 +201,8 @@ class SampleShading:
                                       self.vcol, self.vspec)
                 self.vertex_done |= new
 
+    WRITES_NORMALS = True  # the Phong kernels write the normal buffer as they shade (shade's ``normal``)
+
     def shade(self, hits, out=None, y0=0, normal=None) -> np.ndarray:
         """(H, W, 3) float32 linear image of one sample's hit buffer (valid by construction),
         written to ``out`` when given (one buffer serves every sample: no fresh pages each time).

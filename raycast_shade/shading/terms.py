@@ -41,11 +41,13 @@ zero the mesh colours (a zero kd row alone would leave them in), and the
 shadow probe sets them to 1 and drops the kd map (their hue would skew the
 probe's ratio).
 
-A frame whose models are all Phong-shaded gets its local terms, per-light
-terms and shadow mask from one pass (:mod:`.terms_kernel`): each pixel's
+A frame whose models are all flat- or Phong-shaded gets its image, local
+terms, per-light terms and shadow mask from one pass
+(:class:`.termshade.TermShading`, :mod:`.terms_kernel`): each point's
 equation evaluated once with its parts stored apart, the same numbers the
-variant passes give (measured equal, bit for bit, on the test scenes). Flat
-and Gouraud frames shade the variants, one pass each.
+variant passes give (measured equal, bit for bit, on the test scenes); such
+a frame is rendered band by band like a plain one. A frame with a Gouraud
+model shades the variants, one pass each, over its whole hit buffer.
 
 Every variant is the frame's kernel inputs with other material rows, mesh
 colours or lights (:func:`variant_inputs`): the packed geometry, the BVH, the
@@ -61,14 +63,12 @@ import dataclasses
 import numpy as np
 
 from ..common.layout import (ATT_NONE, COLOR_FACE, LIGHT_ATT, LIGHT_DIRECTIONAL, LIGHT_KIND, LIGHT_SHADOWS,
-                             LIGHT_SIZE, MAT_KA, MAT_KD, MAT_KE, MAT_KS, MAT_REFLECTIVITY, METHOD_PHONG,
+                             LIGHT_SIZE, MAT_KA, MAT_KD, MAT_KE, MAT_KS, MAT_REFLECTIVITY,
                              TEXMAP_KD)
 from ..scene.lights import PointLight
 from .inputs import prepare
-from .mirrors import trace_mirrors
-from .jit import variant
-from .shade import SampleShading, resolve_methods
-from .terms_kernel import _PHONG_TERMS, TERM_SLOTS
+from .shade import SampleShading
+from .termshade import TermShading
 
 __all__ = ["TERM_OPTIONS", "check_terms", "shade_terms", "compose_terms", "variant_inputs", "with_materials"]
 
@@ -232,52 +232,16 @@ def shade_terms(scene, camera, hits, shading, max_depth: int = 0, per_light: boo
         ``specular_per_light`` (L, H, W, 3) float32. See the module docstring
         for what they mean and how they add up.
     """
-    geo = scene.geometry
     k = prepare(scene, camera) if inputs is None else inputs
-    mats = k.materials
-    h, w = hits.shape
-
-    def shaded(**variant):
-        return SampleShading(scene, camera, shading, variant_inputs(k, geo.origin, **variant)).shade(hits)
-
-    modes = resolve_methods(scene, shading)
-    if np.all(modes == METHOD_PHONG):  # one pass writes every local term and the shadow mask
-        out = _phong_terms(k, hits, modes, len(scene.lights), per_light)
-    else:
-        out = _variant_terms(scene, shaded, mats, h, w, per_light)
-    seen = hits.prim >= 0
-    # One pass each, no float64 or astype temporaries: (H, W, 3) float32 of the background where unseen.
-    out["background"] = np.multiply(~seen[..., None], np.asarray(scene.background, np.float32), dtype=np.float32)
-    keep = np.ones((h, w), np.float32)
-    reflected = np.zeros((h, w, 3), np.float32)  # untouched pages until a mirror writes them
-    if geo.reflective and max_depth > 0:
-        rho = np.where(seen, mats[np.maximum(hits.geom, 0), MAT_REFLECTIVITY], 0.0)
-        keep = np.where(rho > 0, (1.0 - rho).astype(np.float32), np.float32(1.0))
-        trace_mirrors(scene, camera, hits, reflected, max_depth, k)  # over black: rho * what the mirror sees
-    out["keep"], out["reflected"] = keep, reflected
-    out["shadow"] = out.pop("shadow")  # last, as the montage and the docs list the terms
-    return out
-
-
-def _phong_terms(k, hits, modes, nlights, per_light) -> dict:
-    """The local terms, per-light terms and shadow mask of a Phong frame in one pass
-    (:mod:`.terms_kernel`)."""
-    h, w = hits.shape
-    local = np.empty((len(TERM_SLOTS), h, w, 3), np.float32)
-    each = np.empty((2, nlights if per_light else 0, h, w, 3), np.float32)
-    shadow = np.empty((nlights, h, w), np.float32)
-    variant(_PHONG_TERMS, k)(hits.prim, hits.geom, hits.u, hits.v, k.geometry, k.bumps, k.lighting, k.colours,
-                             k.face_off, k.materials, k.cam, modes, local, each, shadow)
-    out = dict(zip(TERM_SLOTS, local))
-    if per_light:
-        out["diffuse_per_light"], out["specular_per_light"] = each[0], each[1]
-    out["shadow"] = shadow
-    return out
+    shader = TermShading(scene, camera, shading, k, per_light)  # the image's own pass writes the terms
+    shader.shade(hits)
+    return shader.terms(hits, max_depth)
 
 
 def _variant_terms(scene, shaded, mats, h, w, per_light) -> dict:
-    """The local terms, per-light terms and shadow mask, one shading pass of a variant each
-    (flat and Gouraud, whose per-face and per-vertex work has no one-pass form yet)."""
+    """The local terms, per-light terms and shadow mask, one shading pass of a variant each:
+    the definition the one-pass terms (:class:`.termshade.TermShading`) are tested against
+    (``shaded(**variant)`` shades a variant of the frame's inputs, :func:`variant_inputs`)."""
     out = {
         "ambient": shaded(materials=_rows(mats, (MAT_KA,)), lights=()),
         "diffuse": shaded(materials=_rows(mats, (MAT_KD,))),

@@ -1,26 +1,39 @@
-"""The terms of a Phong frame in one pass: each pixel's equation evaluated once, its parts stored.
+"""The terms in the shading pass itself: each point's equation evaluated once, the image and
+its parts stored together.
 
-The light loop is :func:`~raycast_shade.shading.illumination._illuminate`'s, with
-each part accumulated apart and stored in its own output slot, where the variant
-passes of :mod:`.terms` would each shade the frame again (one pass per term, per
-light and per shadow probe):
+:func:`_illuminate_terms` is :func:`~raycast_shade.shading.illumination._illuminate`'s light
+loop with each part also accumulated apart and stored in its own output; it returns the summed
+colour :func:`~raycast_shade.shading.illumination._illuminate` returns, by the same arithmetic
+in the same order, so the image a terms pass writes is the plain frame's, bit for bit. The
+kernels below write the image and the terms of their method's pixels in one pass, where the
+variant passes of :mod:`.terms` would shade the frame once per term, per light and per shadow
+probe. ``R``, the terms record every kernel writes into, is the flat tuple
+``(ambient, diffuse, specular, emissive, background, per_light, shadow, emit_on, bg_on, rgb)``
+(``rgb`` the scene's background, (3,) float64; slots :data:`TERM_SLOTS`, then ``TERMS_*``):
 
-=================  ===================================================================
-output             per pixel
-=================  ===================================================================
-``local[TERM_AMBIENT]``   ``Ia ka``
-``local[TERM_DIFFUSE]``   ``sum_i vis_i att_i Ii kd (n.s_i)``
-``local[TERM_SPECULAR]``  ``sum_i vis_i att_i Ii Ks spec_i``
-``local[TERM_EMISSIVE]``  ``ke``, the point's emission
-``per_light[0, i]``       light ``i``'s diffuse part (``per_light[1, i]`` its specular)
-``shadow[i]``             0 where light ``i``'s shadow ray is blocked (and the light would
-                          reach the point), else 1
-=================  ===================================================================
+==========================  ===================================================================
+output                      per point
+==========================  ===================================================================
+``ambient``                 ``Ia ka``, (H, W, 3) float32 (as the next four)
+``diffuse``                 ``sum_i vis_i att_i Ii kd (n.s_i)``
+``specular``                ``sum_i vis_i att_i Ii Ks spec_i``
+``emissive``                ``ke``, the point's emission (written only with ``emit_on``)
+``background``             the scene's background where nothing is seen, else 0 (written
+                            only with ``bg_on``)
+``per_light[0, i]``         light ``i``'s diffuse part (``per_light[1, i]`` its specular),
+                            (2, L, H, W, 3) float32, or (2, 0, ...): none
+``shadow[i]``               0 where light ``i``'s shadow ray is blocked (and the light would
+                            reach the point), else 1, (L, H, W) float32
+==========================  ===================================================================
 
-``ka, kd, Ks`` are the point's (maps, colours: :mod:`.texture`), as the variants'
-are: the equation is linear in them. A new term is one more slot of ``local``
-(:data:`TERM_SLOTS`) written where its part is computed, as the emission is,
-stored in ``local[TERM_EMISSIVE]`` beside the ambient line of :func:`_illuminate_terms`.
+A term not written (no emission, a black background) is a zero array nobody touches: its
+pages are never faulted in. ``ka, kd, Ks`` are the point's (maps, colours: :mod:`.texture`),
+as the variants' are: the equation is linear in them.
+
+The kernels take the frame's full-size term arrays and write the rows ``y0 + y`` of a band's
+row ``y`` (the whole frame: ``y0 = 0``), so the banded renderer and the whole-frame one run the
+same compiled kernels. Flat shading stores each visible face's terms once, in face-sized arrays
+of the same layout (``(F, 1, 3)``: row ``f``, column 0), and its pixel kernel copies them.
 """
 
 from __future__ import annotations
@@ -28,21 +41,27 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ..common.layout import LIGHT_RADIANCE, LIGHT_SHADOWS, LIGHT_VEC, MAT_KS, MAT_MODEL, MAT_SHININESS, METHOD_PHONG
+from ..common.layout import (LIGHT_RADIANCE, LIGHT_SHADOWS, LIGHT_VEC, MAT_KS, MAT_MODEL, MAT_SHININESS,
+                             METHOD_FLAT, METHOD_PHONG)
 from ..common.schedule import BLOCK_ROWS, spread_step
 from .illumination import _light_at, _power
-from .jit import FLT32_MAX, HELPER, JIT, compile_variants
+from .jit import CHUNK, FLT32_MAX, HELPER, JIT, compile_variants
 from .phong import _surface
 from .records import At, Hit, dot
 from .reflectance import _specular_cosine
 from .shadows import _occluded, _scratch
-from .surface import _terminator_point, _triangle
-from .texture import _point_coefficients, _row_coefficients
+from .surface import _facing, _hit_point, _terminator_point, _triangle, _view
+from .texture import _coefficients, _face_footprint, _point_coefficients, _row_coefficients
 
-__all__ = ["TERM_AMBIENT", "TERM_DIFFUSE", "TERM_SPECULAR", "TERM_EMISSIVE", "TERM_SLOTS"]
+__all__ = ["TERM_AMBIENT", "TERM_DIFFUSE", "TERM_SPECULAR", "TERM_EMISSIVE", "TERM_BACKGROUND", "TERM_SLOTS",
+           "TERMS_EACH", "TERMS_SHADOW", "TERMS_EMIT_ON", "TERMS_BG_ON", "TERMS_BACKGROUND_RGB"]
 
-TERM_AMBIENT, TERM_DIFFUSE, TERM_SPECULAR, TERM_EMISSIVE = 0, 1, 2, 3
-TERM_SLOTS = ("ambient", "diffuse", "specular", "emissive")  # local's slots, in order: the names on frame.terms
+TERM_AMBIENT, TERM_DIFFUSE, TERM_SPECULAR, TERM_EMISSIVE, TERM_BACKGROUND = 0, 1, 2, 3, 4
+# The term images of a terms record R, in order: the names on frame.terms
+TERM_SLOTS = ("ambient", "diffuse", "specular", "emissive", "background")
+# The rest of a terms record R, after its five term images (one flat tuple: Numba's parallel
+# loops take a tuple of arrays as an argument, not a tuple of tuples).
+TERMS_EACH, TERMS_SHADOW, TERMS_EMIT_ON, TERMS_BG_ON, TERMS_BACKGROUND_RGB = 5, 6, 7, 8, 9
 
 
 @njit(**HELPER)
@@ -53,15 +72,20 @@ def _store(arr, y, x, r, g, b):
 
 
 @njit(**HELPER)
-def _illuminate_terms(hp, coef, mats, mi, L, S, spec_on, att_on, local, per_light, shadow, y, x):
-    """:func:`~raycast_shade.shading.illumination._illuminate` at pixel ``(x, y)``, its parts
-    stored in ``local`` (K, H, W, 3), ``per_light`` (2, L, H, W, 3) (or (2, 0, ...): none) and
-    ``shadow`` (L, H, W) instead of summed."""
+def _illuminate_terms(hp, coef, mats, mi, L, S, spec_on, att_on, R, y, x):
+    """:func:`~raycast_shade.shading.illumination._illuminate` at ``hp``, returning the same
+    RGB (the same operations in the same order), with its parts also stored at ``(y, x)`` of
+    the terms record ``R`` (see the module docstring)."""
     ambient, lights, dmin, handle, unit = L
+    per_light, shadow, emit_on = R[TERMS_EACH], R[TERMS_SHADOW], R[TERMS_EMIT_ON]
     kar, kag, kab, kdr, kdg, kdb, ksr, ksg, ksb, ker, keg, keb = coef
     n = hp.n
-    _store(local[TERM_AMBIENT], y, x, ambient[0] * kar, ambient[1] * kag, ambient[2] * kab)
-    _store(local[TERM_EMISSIVE], y, x, ker, keg, keb)
+    r = ambient[0] * kar
+    g = ambient[1] * kag
+    b = ambient[2] * kab
+    _store(R[TERM_AMBIENT], y, x, r, g, b)
+    if emit_on:
+        _store(R[TERM_EMISSIVE], y, x, ker, keg, keb)
     dr = dg = db = sr = sg = sb = 0.0
     shin = mats[mi, MAT_SHININESS]
     model = mats[mi, MAT_MODEL]
@@ -76,6 +100,7 @@ def _illuminate_terms(hp, coef, mats, mi, L, S, spec_on, att_on, local, per_ligh
         s, d, att, cone = _light_at(lights, i, hp.p, dmin, att_on)
         if d == 0.0 or cone == 0.0:
             continue
+        att *= cone
         ndots = dot(n, s)
         if ndots <= 0.0:
             continue
@@ -88,7 +113,6 @@ def _illuminate_terms(hp, coef, mats, mi, L, S, spec_on, att_on, local, per_ligh
                 if np.float32(cone * ndots) > 0.0:
                     shadow[i, y, x] = 0.0
                 continue
-        att *= cone
         spec = 0.0
         if spec_on and has_spec:
             c = _specular_cosine(model, n, s, hp.v, ndots)
@@ -97,26 +121,63 @@ def _illuminate_terms(hp, coef, mats, mi, L, S, spec_on, att_on, local, per_ligh
         ar = att * lights[i, LIGHT_RADIANCE + 0]
         ag = att * lights[i, LIGHT_RADIANCE + 1]
         ab = att * lights[i, LIGHT_RADIANCE + 2]
-        dr += ar * (kdr * ndots)
-        dg += ag * (kdg * ndots)
-        db += ab * (kdb * ndots)
-        sr += ar * (ksr * spec)
-        sg += ag * (ksg * spec)
-        sb += ab * (ksb * spec)
+        r += ar * (kdr * ndots + ksr * spec)  # _illuminate's sum, as it forms it
+        g += ag * (kdg * ndots + ksg * spec)
+        b += ab * (kdb * ndots + ksb * spec)
+        pdr, pdg, pdb = ar * (kdr * ndots), ag * (kdg * ndots), ab * (kdb * ndots)
+        psr, psg, psb = ar * (ksr * spec), ag * (ksg * spec), ab * (ksb * spec)
+        dr += pdr
+        dg += pdg
+        db += pdb
+        sr += psr
+        sg += psg
+        sb += psb
         if each:
-            _store(per_light[0, i], y, x, ar * (kdr * ndots), ag * (kdg * ndots), ab * (kdb * ndots))
-            _store(per_light[1, i], y, x, ar * (ksr * spec), ag * (ksg * spec), ab * (ksb * spec))
-    _store(local[TERM_DIFFUSE], y, x, dr, dg, db)
-    _store(local[TERM_SPECULAR], y, x, sr, sg, sb)
+            _store(per_light[0, i], y, x, pdr, pdg, pdb)
+            _store(per_light[1, i], y, x, psr, psg, psb)
+    _store(R[TERM_DIFFUSE], y, x, dr, dg, db)
+    _store(R[TERM_SPECULAR], y, x, sr, sg, sb)
+    return r + ker, g + keg, b + keb
+
+
+@njit(**HELPER)
+def _miss(image, R, y, ty, x):
+    """A pixel that sees nothing: the background into ``image`` row ``y``; zero terms, the
+    background term and an unshadowed mask into ``R`` at row ``ty``."""
+    per_light, shadow, background = R[TERMS_EACH], R[TERMS_SHADOW], R[TERMS_BACKGROUND_RGB]
+    for c in range(3):
+        image[y, x, c] = background[c]
+        R[TERM_AMBIENT][ty, x, c] = 0.0
+        R[TERM_DIFFUSE][ty, x, c] = 0.0
+        R[TERM_SPECULAR][ty, x, c] = 0.0
+        if R[TERMS_EMIT_ON]:
+            R[TERM_EMISSIVE][ty, x, c] = 0.0
+        if R[TERMS_BG_ON]:
+            R[TERM_BACKGROUND][ty, x, c] = background[c]
+    for i in range(shadow.shape[0]):
+        shadow[i, ty, x] = 1.0
+        if per_light.shape[1] > 0:
+            for c in range(3):
+                per_light[0, i, ty, x, c] = 0.0
+                per_light[1, i, ty, x, c] = 0.0
+
+
+@njit(**HELPER)
+def _hit_background(R, y, x):
+    """A seen pixel's zero background term (when the background term is written at all)."""
+    if R[TERMS_BG_ON]:
+        for c in range(3):
+            R[TERM_BACKGROUND][y, x, c] = 0.0
 
 
 def _make_phong_terms(spec_on: bool, att_on: bool, tex_on: bool = False):
-    """The Phong terms kernel for one variant (see :mod:`.jit`)."""
+    """The Phong image-and-terms kernel for one variant (see :mod:`.jit`)."""
 
     @njit(parallel=True, **JIT)
-    def _phong_terms_kernel(prim, geom, u, v, G, B, L, T, face_off, materials, cam, modes, local, per_light, shadow):
-        """Every Phong pixel's terms (see the module docstring); misses get zero terms and an
-        unshadowed mask."""
+    def _phong_terms_kernel(prim, geom, u, v, G, B, L, T, face_off, materials, cam, modes, image, y0, R):
+        """Every Phong pixel's colour into ``image`` (the band's rows) and its terms into ``R``
+        at row ``y0 + y`` (see the module docstring); misses get the background, zero terms
+        and an unshadowed mask."""
         uvs = B[0]
         h, w = prim.shape
         nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
@@ -125,22 +186,18 @@ def _make_phong_terms(spec_on: bool, att_on: bool, tex_on: bool = False):
             blk = (it * step) % nblk
             for y in range(blk * BLOCK_ROWS, min(h, (blk + 1) * BLOCK_ROWS)):
                 S = _scratch()
+                ty = y0 + y
                 for x in range(w):
                     p = prim[y, x]
-                    if p < 0 or modes[geom[y, x]] != METHOD_PHONG:
-                        for k in range(local.shape[0]):
-                            for c in range(3):
-                                local[k, y, x, c] = 0.0
-                        for i in range(shadow.shape[0]):
-                            shadow[i, y, x] = 1.0
-                            for k in range(per_light.shape[0] if per_light.shape[1] > 0 else 0):
-                                for c in range(3):
-                                    per_light[k, i, y, x, c] = 0.0
+                    if p < 0:
+                        _miss(image, R, y, ty, x)
                         continue
                     gm = geom[y, x]
+                    if modes[gm] != METHOD_PHONG:
+                        continue
                     at = At(face_off[gm] + p, gm, np.float64(u[y, x]), np.float64(v[y, x]))
                     if tex_on:
-                        coef = _point_coefficients(G, uvs, at, cam, x, y, True, materials, T)
+                        coef = _point_coefficients(G, uvs, at, cam, x, ty, True, materials, T)
                     else:
                         coef = _row_coefficients(materials, gm)
                     hp = _surface(G, B, cam, at, False, (0.0, 0.0, 0.0))
@@ -148,9 +205,93 @@ def _make_phong_terms(spec_on: bool, att_on: bool, tex_on: bool = False):
                         verts, normals, faces, _ = G
                         o = _terminator_point(verts, normals, _triangle(faces, at.f), at.b1, at.b2, hp.p, hp.sgn)
                         hp = Hit(hp.p, hp.v, hp.g, hp.sgn, hp.n, o)
-                    _illuminate_terms(hp, coef, materials, gm, L, S, spec_on, att_on, local, per_light, shadow, y, x)
+                    rgb = _illuminate_terms(hp, coef, materials, gm, L, S, spec_on, att_on, R, ty, x)
+                    _hit_background(R, ty, x)
+                    image[y, x, 0] = min(rgb[0], FLT32_MAX)
+                    image[y, x, 1] = min(rgb[1], FLT32_MAX)
+                    image[y, x, 2] = min(rgb[2], FLT32_MAX)
 
     return _phong_terms_kernel
 
 
-_PHONG_TERMS = compile_variants(_make_phong_terms)
+def _make_flat_terms(spec_on: bool, att_on: bool, tex_on: bool = False):
+    """The per-face colour-and-terms kernel for one variant (see :mod:`.jit`)."""
+
+    @njit(parallel=True, **JIT)
+    def _flat_terms_kernel(face_flags, G, face_model, materials, cam, L, T, uvs, out, R):
+        """:func:`~raycast_shade.shading.flat._make_flat`'s face colours into ``out`` (F, 3)
+        float64, and each face's terms into the face-sized record ``R`` at row ``f``."""
+        verts, _, faces, fnormals = G
+        n = faces.shape[0]
+        nchunk = (n + CHUNK - 1) // CHUNK
+        step = spread_step(nchunk)
+        for it in prange(nchunk):
+            c = (it * step) % nchunk
+            S = _scratch()
+            for f in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
+                if face_flags[f] == 0:
+                    continue
+                third = 1.0 / 3.0
+                tri = _triangle(faces, f)
+                p = _hit_point(verts, tri, third, third)
+                v = _view(cam, p)
+                gn, sgn = _facing(fnormals, f, v)
+                m = face_model[f]
+                if tex_on:
+                    coef = _coefficients(materials, T, At(f, m, third, third), tri, uvs, _face_footprint(uvs, tri))
+                else:
+                    coef = _row_coefficients(materials, m)
+                r, g, b = _illuminate_terms(Hit(p, v, gn, sgn, gn, p), coef, materials, m, L, S, spec_on, att_on,
+                                            R, f, 0)
+                out[f, 0] = r
+                out[f, 1] = g
+                out[f, 2] = b
+
+    return _flat_terms_kernel
+
+
+@njit(**HELPER)
+def _face_terms(R, F, f, ty, x):
+    """Face ``f``'s terms (row ``f`` of the face record ``F``) into ``R`` at ``(ty, x)``."""
+    per_light, shadow = R[TERMS_EACH], R[TERMS_SHADOW]
+    fper, fshadow = F[TERMS_EACH], F[TERMS_SHADOW]
+    for c in range(3):
+        R[TERM_AMBIENT][ty, x, c] = F[TERM_AMBIENT][f, 0, c]
+        R[TERM_DIFFUSE][ty, x, c] = F[TERM_DIFFUSE][f, 0, c]
+        R[TERM_SPECULAR][ty, x, c] = F[TERM_SPECULAR][f, 0, c]
+        if R[TERMS_EMIT_ON]:
+            R[TERM_EMISSIVE][ty, x, c] = F[TERM_EMISSIVE][f, 0, c]
+    _hit_background(R, ty, x)
+    for i in range(shadow.shape[0]):
+        shadow[i, ty, x] = fshadow[i, f, 0]
+        if per_light.shape[1] > 0:
+            for c in range(3):
+                per_light[0, i, ty, x, c] = fper[0, i, f, 0, c]
+                per_light[1, i, ty, x, c] = fper[1, i, f, 0, c]
+
+
+@njit(parallel=True, **JIT)
+def _lookup_flat_terms(prim, geom, face_off, fcol, modes, image, y0, R, F):
+    """Flat: each pixel of the models whose method is METHOD_FLAT takes its face's colour
+    (``fcol``) into ``image`` and its face's terms (the face record ``F``) into ``R``. The
+    records travel whole into the helpers (a tuple of arrays unpacked here would be a
+    parallel loop's argument, which Numba refuses for a tuple of arrays)."""
+    h, w = prim.shape
+    for y in prange(h):
+        ty = y0 + y
+        for x in range(w):
+            p = prim[y, x]
+            if p < 0:
+                _miss(image, R, y, ty, x)
+                continue
+            g = geom[y, x]
+            if modes[g] != METHOD_FLAT:
+                continue
+            f = face_off[g] + p
+            for c in range(3):
+                image[y, x, c] = min(fcol[f, c], FLT32_MAX)
+            _face_terms(R, F, f, ty, x)
+
+
+_PHONG_TERMS = compile_variants(_make_phong_terms)  # the families' registries (see .jit)
+_FLAT_TERMS = compile_variants(_make_flat_terms)

@@ -19,7 +19,7 @@ CASES = [dict(), dict(buffers=ALL), dict(buffers=("zdepth", "normal", "id", "mas
          dict(samples=4), dict(samples=8, buffers=("coverage",)), dict(terms=True), dict(terms="per_light")]
 # 1280 x 720 takes the banded path (at least bands.MIN_PIXELS pixels): no full-frame hit buffer while rendering.
 BANDED = [dict(), dict(buffers=ALL), dict(buffers=("zdepth", "normal_camera", "id")), dict(samples=4),
-          dict(samples=9, buffers=("coverage", "mask"))]
+          dict(samples=9, buffers=("coverage", "mask")), dict(terms=True), dict(terms="per_light")]
 
 # One process, every case: the peak resident set (VmHWM, reset through /proc/self/clear_refs) of
 # render() and the frame's normals and 8-bit image, above the resident set before, per pixel.

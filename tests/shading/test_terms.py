@@ -3,6 +3,7 @@ each term has its closed form, and the shadow mask says where the shadow rays we
 
 from __future__ import annotations
 
+import sys
 import warnings
 
 import numpy as np
@@ -263,6 +264,19 @@ def test_term_variants_share_the_frames_inputs_and_repack_nothing():
         np.testing.assert_array_equal(a[name], b[name])
 
 
+def _flipped_normals_scene():
+    """lamp_scene whose sphere has every third vertex normal reversed: Gouraud shades those
+    corners on the spot (the stored vertex shade does not serve the face)."""
+    scene = lamp_scene(32, 24)
+    ico = rs.shapes.icosphere(2)
+    normals = ico.normals.copy()
+    normals[::3] *= -1.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        mesh = rs.Mesh(ico.vertices, ico.faces, normals=normals)
+    return scene.replace(models=(rs.Model(mesh, scene.models[0].material), scene.models[1]))
+
+
 def _coloured_textured_scene(mode, w=32, h=24):
     """Maps on ka, kd, ks, vertex or face colours, three kinds of light (two casting shadows)."""
     from raycast_shade.scene.texture import Texture
@@ -282,30 +296,87 @@ def _coloured_textured_scene(mode, w=32, h=24):
                     camera=_camera(w, h), ambient=(0.1, 0.05, 0.2))
 
 
+@pytest.mark.parametrize("mode", ["phong", "flat", "gouraud"])
 @pytest.mark.parametrize("make", [lambda: lamp_scene(32, 24), lambda: bump_scene(32, 24),
-                                  lambda: _coloured_textured_scene("vertex"), lambda: _coloured_textured_scene("face")],
-                         ids=["lamp", "bump", "vertex_colours_maps", "face_colours_maps"])
-def test_one_pass_phong_terms_are_the_variant_passes(make):
-    """The one-pass Phong terms (shading.terms_kernel) against one shading pass per term, light and
-    shadow probe (the variants flat and Gouraud still take): within 2 float32 ulp (measured: equal),
-    the shadow masks equal."""
+                                  lambda: _coloured_textured_scene("vertex"), lambda: _coloured_textured_scene("face"),
+                                  lambda: _flipped_normals_scene()],
+                         ids=["lamp", "bump", "vertex_colours_maps", "face_colours_maps", "flipped_normals"])
+def test_one_pass_terms_are_the_variant_passes(make, mode):
+    """The one-pass terms (shading.termshade, the image's own pass) against their definition, one
+    shading pass per term, light and shadow probe: within 2 float32 ulp (measured: equal), the
+    shadow masks equal, and the image the plain one, bit for bit. Gouraud's corners whose vertex
+    normal points away from the face (flipped_normals) are shaded on the spot, terms too."""
     from raycast_shade.shading import terms as T
     from raycast_shade.shading.inputs import prepare
+    from raycast_shade.shading.termshade import TermShading
 
     scene = make()
     k = prepare(scene, scene.camera)
     hits = rs.cast_camera(scene.geometry, scene.camera)
-    modes = T.resolve_methods(scene, "phong")
 
     def shaded(**variant):
-        return T.SampleShading(scene, scene.camera, "phong", T.variant_inputs(k, scene.geometry.origin, **variant)
+        return T.SampleShading(scene, scene.camera, mode, T.variant_inputs(k, scene.geometry.origin, **variant)
                                ).shade(hits)
 
-    one = T._phong_terms(k, hits, modes, len(scene.lights), True)
+    shader = TermShading(scene, scene.camera, mode, k, per_light=True)
+    image = shader.shade(hits)
+    np.testing.assert_array_equal(image, T.SampleShading(scene, scene.camera, mode, k).shade(hits))
+    one = shader.terms(hits)
     many = T._variant_terms(scene, shaded, k.materials, *hits.shape, True)
-    assert set(one) == set(many)
+    assert set(many) < set(one)
     assert (one["specular"] > 0).any() and (one["diffuse_per_light"] > 0).any()
-    assert (one["shadow"] == 0).any()  # blocked pixels in every scene (the bumps shadow themselves)
+    # Blocked pixels in every scene (Phong's bumps shadow themselves; flat's faces and Gouraud's
+    # vertices do not), Gouraud's fractions in between.
+    assert (one["shadow"] == 0).any() or (mode != "phong" and scene.models[0].material.bump is not None)
+    if mode == "gouraud" and scene.models[0].material.bump is None:
+        assert ((one["shadow"] > 0.01) & (one["shadow"] < 0.99)).any()
     np.testing.assert_array_equal(one["shadow"], many["shadow"])
     for name in ("ambient", "diffuse", "specular", "diffuse_per_light", "specular_per_light"):
         np.testing.assert_array_max_ulp(one[name], many[name], maxulp=2)
+
+
+@pytest.fixture
+def small_bands(monkeypatch):
+    """The band path for these small frames, in bands of 16 rows (several per frame)."""
+    from raycast_shade.visibility import bands
+
+    monkeypatch.setattr(bands, "BAND_ROWS", 16)
+    monkeypatch.setattr(bands, "MIN_PIXELS", 0)
+
+
+def _glowing_lamp_scene():
+    """lamp_scene with an emitting sphere (the emissive term written) on its coloured background."""
+    scene = lamp_scene(40, 52)
+    glow = rs.Model(scene.models[0].mesh, rs.Material(kd=(0.8, 0.3, 0.2), ks=0.5, shininess=40, ke=(0.2, 0.1, 0.0)))
+    return scene.replace(models=(glow, scene.models[1]))
+
+
+@pytest.mark.usefixtures("small_bands")
+@pytest.mark.parametrize("shading", ["phong", "flat", "gouraud", "mixed"])
+@pytest.mark.parametrize("make", [_glowing_lamp_scene, lambda: _coloured_textured_scene("vertex", 40, 52),
+                                  lambda: blinn_scene(40, 52)], ids=["glow", "textured", "blinn"])
+def test_banded_terms_are_the_whole_frames_bit_for_bit(make, shading):
+    """The terms are written band by band, in the image's own pass: the image and every term
+    are the whole-frame path's, bit for bit, and the frame keeps no hit buffer."""
+    RENDER = sys.modules["raycast_shade.render"]  # the module (rs.render is the function)
+    scene = make()
+    if shading == "mixed":
+        shading = ("gouraud", "phong", "flat")[:len(scene.models)]
+    banded = render_quiet(scene, shading, terms="per_light")
+    saved = RENDER._banded
+    try:
+        RENDER._banded = lambda *a: False
+        whole = render_quiet(scene, shading, terms="per_light")
+    finally:
+        RENDER._banded = saved
+    assert callable(banded.__dict__["_hits"]) and not callable(whole.__dict__["_hits"])
+    np.testing.assert_array_equal(banded.image, whole.image)
+    np.testing.assert_array_equal(banded.image, render_quiet(scene, shading).image)
+    assert list(banded.terms) == list(whole.terms)
+    for name in whole.terms:
+        np.testing.assert_array_equal(banded.terms[name], whole.terms[name], err_msg=name)
+    assert (banded.terms["shadow"] < 1).any() and (banded.terms["specular"] > 0).any()
+    np.testing.assert_allclose(compose_terms(banded.terms), banded.image, rtol=6 * EPS32, atol=1e-7)
+    if make is _glowing_lamp_scene:  # both optional terms written: the emission and the background
+        assert (banded.terms["emissive"][banded.hits.geom == 0][:, :2] > 0).all()
+        assert (banded.terms["background"][~banded.mask] > 0).all()

@@ -162,9 +162,10 @@ def test_the_vertex_grid_renders_the_same_banded():
     assert (banded.hits.geom == 0).all()  # no pixel shows the plane behind the grid
 
 
-@pytest.mark.parametrize("kw", [dict(terms=True), dict(interpolation="screen"), dict(backend="raster")])
+@pytest.mark.parametrize("kw", [dict(interpolation="screen"), dict(backend="raster")])
 @pytest.mark.usefixtures("small_bands")
 def test_frames_that_need_the_whole_hit_buffer_keep_it(kw):
+    """(Terms are banded, in the image's own pass: tests/shading/test_terms.py.)"""
     frame = rs.render(_textured_sphere(fov=45.0), "phong", **kw)
     assert not callable(frame.__dict__["_hits"])
 

@@ -1,0 +1,170 @@
+"""The image and its terms in one shading pass: :class:`TermShading`, ``render(terms=True)``'s shader.
+
+Every method gets its image, local terms, per-light terms, background term and shadow mask
+from one pass: each point's equation is evaluated once, its parts stored beside its colour
+(Phong per pixel and flat per visible face, :mod:`.terms_kernel`; Gouraud per visible vertex,
+the parts interpolated as the colour is, :mod:`.terms_gouraud`), where the variant passes of
+:mod:`.terms` shade the frame once per term, per light and per shadow probe. The image is the
+plain frame's, bit for bit; the terms are the variant passes' numbers (measured equal, bit for
+bit, on the test scenes).
+
+Like :class:`~raycast_shade.shading.shade.SampleShading`, whose ``shade(hits, out, y0)`` it
+shares, it shades a whole frame's hit buffer or the frame band by band
+(:func:`~raycast_shade.visibility.bands.cast_bands`): the term images are the frame's
+full-size arrays, written at the band's rows, and each visible face's flat colour and terms
+(each visible vertex's Gouraud colours and terms) are computed once, by the first band that
+sees it. Only the mirror part needs the whole frame's hits (:func:`mirror_terms`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..common.layout import MAT_KE, MAT_REFLECTIVITY, METHOD_FLAT, METHOD_GOURAUD, METHOD_PHONG
+from ..common.schedule import BLOCK_ROWS
+from .jit import variant
+from .mirrors import trace_mirrors
+from .shade import _visible_kernel, resolve_methods
+from .terms_gouraud import _GOURAUD_TERMS, _VERTEX_TERMS, VERT_Y0, scratch_slots
+from .terms_kernel import (_FLAT_TERMS, _PHONG_TERMS, TERM_BACKGROUND, TERM_EMISSIVE, TERM_SLOTS, TERMS_EACH,
+                           TERMS_SHADOW, _lookup_flat_terms)
+
+__all__ = ["TermShading", "mirror_terms"]
+
+_NONE = np.zeros((1, 1, 3), np.float32)  # a term slot no kernel writes or reads (never indexed)
+_NONE64 = np.zeros((1, 1, 3), np.float64)
+
+
+def _record(shape, slots, nlights, per_light, background, emit_on, bg_on, dtype=np.float32):
+    """A terms record ``R`` (:mod:`.terms_kernel`) of ``shape`` = (rows, columns): the term
+    arrays that get written are fresh (``np.empty``: every point of them is written), the ones
+    that are not written (no emission, a black background) ``slots``' zeros whose pages nobody
+    touches."""
+    h, w = shape
+    local = tuple(np.empty((h, w, 3), dtype) if on else slots[k]
+                  for k, on in enumerate((True, True, True, emit_on, bg_on)))
+    each = np.empty((2, nlights if per_light else 0, h, w, 3), dtype)
+    shadow = np.empty((nlights, h, w), dtype)
+    return local + (each, shadow, bool(emit_on), bool(bg_on), background)
+
+
+class TermShading:
+    """Shade one frame's hit buffer, whole or band by band, into its image and its terms.
+
+    Parameters
+    ----------
+    scene : Scene
+    camera : Camera
+    shading : str or sequence of str
+        As for :func:`~raycast_shade.shading.shade.shade`.
+    inputs : FrameInputs
+        The frame's (:func:`~raycast_shade.shading.inputs.prepare`).
+    per_light : bool
+        Also each light's diffuse and specular term.
+
+    Notes
+    -----
+    The term arrays are the frame's: (H, W, 3) float32 for ``ambient``, ``diffuse``,
+    ``specular``, ``emissive`` and ``background``, (L, H, W) float32 for ``shadow``, (L, H, W, 3)
+    for the per-light terms. :meth:`terms` hands them over with ``keep`` and ``reflected``.
+    """
+
+    def __init__(self, scene, camera, shading, inputs, per_light: bool = False):
+        k = inputs
+        self.k, self.scene, self.geo, self.camera = k, scene, scene.geometry, camera
+        self.modes = resolve_methods(scene, shading)
+        self.flat = bool(np.any(self.modes == METHOD_FLAT))
+        self.gouraud = bool(np.any(self.modes == METHOD_GOURAUD))
+        self.phong = bool(np.any(self.modes == METHOD_PHONG))
+        h, w = camera.height, camera.width
+        nl = k.lighting[1].shape[0]
+        emit_on = bool(np.any(k.materials[:, MAT_KE:MAT_KE + 3] > 0))
+        bg_on = bool(np.any(k.background != 0))
+        zeros = [np.zeros((h, w, 3), np.float32) for _ in range(2)]  # calloc'd: untouched unless written
+        slots = {TERM_EMISSIVE: zeros[0], TERM_BACKGROUND: zeros[1]}
+        self.R = _record((h, w), slots, nl, per_light, k.background, emit_on, bg_on)
+        self.per_light = per_light
+        if self.flat:  # each visible face's colour and terms, computed once (the first band to see it)
+            nf = len(self.geo.faces)
+            self.fcol = np.zeros((nf, 3), np.float64)
+            self.F = _record((nf, 1), {TERM_EMISSIVE: _NONE, TERM_BACKGROUND: _NONE}, nl, per_light, k.background,
+                             emit_on, False)
+        nv = len(self.geo.vertices) if self.gouraud else 1
+        self.face_done = np.zeros(len(self.geo.faces) if self.flat else 1, np.uint8)
+        self.vertex_done = np.zeros(nv, np.uint8)
+        if self.gouraud:  # each visible vertex's colours and terms (float64, as its colours), once
+            V = _record((2 * nv, 1), {TERM_EMISSIVE: _NONE64, TERM_BACKGROUND: _NONE64}, nl, per_light,
+                        k.background, emit_on, False, np.float64)
+            self.V = V + (np.empty((nl, 2 * nv, 1)), np.zeros((nv, 2, 3)),
+                          np.zeros((nv if k.tex_on else 1, 2, 3)), 0)
+
+    def _share(self, hits):
+        """Shade the faces of flat models and the vertices of Gouraud ones that ``hits`` sees
+        and no earlier band saw."""
+        k, geo = self.k, self.geo
+        faces, vertices = np.zeros_like(self.face_done), np.zeros_like(self.vertex_done)
+        _visible_kernel(hits.prim, hits.geom, geo.faces, k.face_off, self.modes, faces, vertices)
+        new = faces & (1 - self.face_done)
+        if self.flat and new.any():
+            variant(_FLAT_TERMS, k)(new, k.geometry, geo.face_model, k.materials, k.cam, k.lighting, k.colours,
+                                    geo.uvs, self.fcol, self.F)
+            self.face_done |= new
+        new = vertices & (1 - self.vertex_done)
+        if self.gouraud and new.any():
+            variant(_VERTEX_TERMS, k)(new, k.geometry, geo.vertex_model, k.materials, k.cam, k.lighting, k.colours,
+                                      self.V)
+            self.vertex_done |= new
+
+    WRITES_NORMALS = False  # the terms' kernels do not write the normal buffer (the buffer kernel does)
+
+    def shade(self, hits, out=None, y0=0, normal=None) -> np.ndarray:
+        """(h, W, 3) float32 image of a hit buffer whose first row is image row ``y0`` (the
+        whole frame: 0), written to ``out`` when given; its terms go to the frame's term
+        arrays at rows ``y0`` on. The image is :class:`~raycast_shade.shading.shade.SampleShading`'s,
+        bit for bit. ``normal`` must be None (see :attr:`WRITES_NORMALS`)."""
+        if normal is not None:
+            raise ValueError("normal: TermShading does not write the shading normals (WRITES_NORMALS is False)")
+        k, modes = self.k, self.modes
+        h, w = hits.shape
+        image = np.empty((h, w, 3), np.float32) if out is None else out
+        y0 = int(y0)
+        if self.flat or self.gouraud:
+            self._share(hits)
+        if self.flat:
+            _lookup_flat_terms(hits.prim, hits.geom, k.face_off, self.fcol, modes, image, y0, self.R, self.F)
+        if self.gouraud:
+            tasks = (h + BLOCK_ROWS - 1) // BLOCK_ROWS  # the pixel kernel's parallel tasks
+            V = self.V[:VERT_Y0] + (y0,) + scratch_slots(self.V, tasks)
+            variant(_GOURAUD_TERMS, k)(hits.prim, hits.geom, hits.u, hits.v, k.geometry, k.bumps, k.face_off,
+                                       k.materials, k.cam, k.lighting, k.colours, modes, image, self.R, V)
+        if self.phong:
+            variant(_PHONG_TERMS, k)(hits.prim, hits.geom, hits.u, hits.v, k.geometry, k.bumps, k.lighting,
+                                     k.colours, k.face_off, k.materials, k.cam, modes, image, y0, self.R)
+        return image
+
+    def terms(self, hits=None, max_depth: int = 0) -> dict:
+        """The frame's terms once every row is shaded (the keys of
+        :func:`~raycast_shade.shading.terms.shade_terms`); ``hits``: the whole frame's, needed
+        only for mirror bounces (``max_depth > 0`` on a scene with a mirror)."""
+        each, shadow = self.R[TERMS_EACH], self.R[TERMS_SHADOW]
+        out = dict(zip(TERM_SLOTS, self.R))
+        if self.per_light:
+            out["diffuse_per_light"], out["specular_per_light"] = each[0], each[1]
+        out["keep"], out["reflected"] = mirror_terms(self.scene, self.camera, hits, max_depth, self.k)
+        out["shadow"] = shadow  # last, as the montage and the docs list the terms
+        return out
+
+
+def mirror_terms(scene, camera, hits, max_depth, k):
+    """``keep`` (H, W) float32 (``1 - rho`` on mirror pixels, else 1) and ``reflected``
+    (H, W, 3) float32 (``rho`` times what the mirror rays see, traced over black; zeros whose
+    pages nobody touches without mirrors)."""
+    h, w = camera.height, camera.width
+    keep = np.ones((h, w), np.float32)
+    reflected = np.zeros((h, w, 3), np.float32)  # untouched pages until a mirror writes them
+    if scene.geometry.reflective and max_depth > 0:
+        seen = hits.prim >= 0
+        rho = np.where(seen, k.materials[np.maximum(hits.geom, 0), MAT_REFLECTIVITY], 0.0)
+        keep = np.where(rho > 0, (1.0 - rho).astype(np.float32), np.float32(1.0))
+        trace_mirrors(scene, camera, hits, reflected, max_depth, k)
+    return keep, reflected
