@@ -154,8 +154,7 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
     else:
         hits, image, extra = _render_whole(scene, plan, timings, inputs, shader, fb)
     te = time.perf_counter()
-    # Shaded with the image: the mirror terms remain.
-    parts = {} if terms is None else shader.terms(None if banded else hits, plan.max_depth)
+    parts = {} if terms is None else shader.terms(None if banded else hits, plan.max_depth)  # shaded with the image
     if terms is not None:
         timings["terms"] = time.perf_counter() - te
         te = time.perf_counter()
