@@ -263,6 +263,46 @@ def test_no_raw_address_reaches_embree_outside_the_array_wrappers():
     assert not bad, "raw Embree calls outside the array wrappers: " + ", ".join(bad)
 
 
+def _address_of_live_array(arg) -> bool:
+    """``X.ctypes.data`` or ``X.ctypes.data + offset``: an address taken from array ``X`` in the
+    very expression that calls Embree (never an address kept in a variable past its array)."""
+    if isinstance(arg, ast.BinOp) and isinstance(arg.op, ast.Add):
+        arg = arg.left
+    return (isinstance(arg, ast.Attribute) and arg.attr == "data" and isinstance(arg.value, ast.Attribute)
+            and arg.value.attr == "ctypes" and isinstance(arg.value.value, ast.Name))
+
+
+def test_raw_embree_calls_in_the_shading_kernels_take_addresses_from_live_arrays():
+    """The shading kernels call ``rtcOccluded1/16`` directly (slicing an array per tile for a
+    wrapper costs atomic reference counts): every pointer they pass is computed from its array in
+    the call expression itself, from an array that is a parameter of the function (its caller
+    holds it across the call) or is read again after the call (so it is live while Embree uses
+    the pointer); the scene handle is a name, the context 0."""
+    raw = {"intersect1", "intersect8", "intersect16", "occluded1", "occluded16"}
+    package = VISIBILITY.parent
+    bad, seen = [], 0
+    for path in sorted(package.rglob("*.py")):
+        if path.parent == VISIBILITY:
+            continue  # visibility/: the wrappers only (the test above)
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        for fn in [n for n in ast.walk(tree) if isinstance(n, ast.FunctionDef)]:
+            for call in _calls_to(fn, raw):
+                seen += 1
+                where = f"{path.relative_to(package)}:{call.lineno}"
+                for arg in call.args:
+                    if _address_of_live_array(arg):
+                        name = (arg.left if isinstance(arg, ast.BinOp) else arg).value.value.id
+                        later = [n for n in ast.walk(fn) if isinstance(n, ast.Name) and n.id == name
+                                 and n.lineno > call.end_lineno]
+                        if not later and name not in {a.arg for a in fn.args.args}:
+                            bad.append(f"{where}: {name} is neither a parameter nor read after the call")
+                    elif not (isinstance(arg, ast.Name) and arg.id in ("handle", "scene")) and not (
+                            isinstance(arg, ast.Constant) and arg.value == 0):
+                        bad.append(f"{where}: {ast.unparse(arg)}")  # e.g. an address kept in a variable
+    assert seen >= 2, "the shadow kernels' raw calls were not found: the test no longer looks where they are"
+    assert not bad, "raw Embree addresses not taken from a live array: " + ", ".join(bad)
+
+
 def test_the_accelerator_holds_the_buffers_embree_points_into():
     """Embree keeps raw pointers into the vertex and index arrays for the scene's
     lifetime: the accelerator holds those very arrays, whatever the caller drops."""
