@@ -43,8 +43,8 @@ around a candidate found by a nearby ray:
   nearest jittered hit. Every other pixel is the plain cast's; genuine gaps
   and holes stay open (their nearby rays find nothing nearer).
 * :func:`cast_rays` (``watertight=True``, the default), and
-  :func:`cast_recentred` for callers holding re-centred rays (mirror
-  bounces): every ray is re-cast once, nudged sideways by 2e-6 of the
+  :func:`cast_recentred` for callers holding re-centred rays (the
+  single-sided probe; mirror bounces go as packets, without this repair): every ray is re-cast once, nudged sideways by 2e-6 of the
   scene's scale and stopped just short of its first hit; where that finds a
   nearer surface, the exact re-test decides (see :func:`cast_rays`).
 """
