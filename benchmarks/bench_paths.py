@@ -67,6 +67,7 @@ import sys
 import tempfile
 import time
 
+from benchmarks import outputs as where
 from benchmarks.outputs import ROOT, image_file, results_file
 
 FIELDS = ["mesh", "triangles", "width", "height", "path", "median_ms", "ratio", "size_MiB", "repeats", "note"]
@@ -355,13 +356,7 @@ def table(rows) -> str:
 
 def write_table(rows, quick: bool) -> str:
     """Put :func:`table` between the markers of ``docs/performance.md`` (quick: ``out/quick/results/paths.md``)."""
-    text = table(rows)
-    if quick:
-        path = results_file("paths.md", True)
-        os.makedirs(os.path.dirname(path), exist_ok=True)
-        with open(path, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        return path
+    return where.write_table(table(rows), "paths.md", BEGIN, END, quick)
     path = os.path.join(ROOT, "docs", "performance.md")
     with open(path, encoding="utf-8") as fh:
         page = fh.read()

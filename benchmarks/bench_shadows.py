@@ -34,6 +34,7 @@ import time
 import numpy as np
 from numba import njit, prange
 
+from benchmarks import outputs as where
 from benchmarks.outputs import ROOT, results_file
 from raycast_shade.shading import shadows
 from raycast_shade.shading.illumination import _request_shadows
@@ -213,13 +214,7 @@ def table(rows) -> str:
 
 def write_table(rows, quick: bool) -> str:
     """Put :func:`table` between the markers of ``docs/performance.md`` (quick: ``out/quick/results/shadows.md``)."""
-    text = table(rows)
-    if quick:
-        path = results_file("shadows.md", True)
-        os.makedirs(os.path.dirname(path), exist_ok=True)
-        with open(path, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        return path
+    return where.write_table(table(rows), "shadows.md", BEGIN, END, quick)
     path = os.path.join(ROOT, "docs", "performance.md")
     with open(path, encoding="utf-8") as fh:
         page = fh.read()

@@ -47,3 +47,21 @@ def image_file(name: str, quick: bool) -> str:
 def page_file(name: str, quick: bool) -> str:
     """A generated page of the docs: ``docs/name`` (full) or ``out/quick/name``."""
     return os.path.join(QUICK, name) if quick else os.path.join(ROOT, "docs", name)
+
+
+def write_table(text: str, quick_name: str, begin: str, end: str, quick: bool) -> str:
+    """Put a generated table between the ``begin`` and ``end`` markers of ``docs/performance.md``
+    (quick: alone into ``out/quick/results/quick_name``, no tracked file touched); returns the path."""
+    if quick:
+        path = results_file(quick_name, True)
+        os.makedirs(os.path.dirname(path), exist_ok=True)
+        with open(path, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        return path
+    path = os.path.join(ROOT, "docs", "performance.md")
+    with open(path, encoding="utf-8") as fh:
+        page = fh.read()
+    start, stop = page.index(begin) + len(begin), page.index(end)
+    with open(path, "w", encoding="utf-8") as fh:
+        fh.write(page[:start] + "\n" + text + page[stop:])
+    return path
