@@ -22,10 +22,9 @@ non-decreasing in float64 with errors of an ulp of float64, far below the
 gap between two float32 inputs, so the codes equal :func:`to_uint8`'s bit
 for bit (``tests/output/test_quantize.py`` checks every setting on random
 values and on each threshold's neighbours). NaN maps to 0 as there; ``+inf``
-to what :func:`to_uint8` gives it (255, or 0 under ``"reinhard"``, whose
-``inf / inf`` is NaN); values with the sign bit set (negatives, ``-0``) are
-handed to :func:`to_uint8` itself (``"reinhard"`` maps values below -1 to
-255, not monotone in the value), rare in a rendered image.
+to what :func:`to_uint8` gives it (255); values with the sign bit set
+(negatives, ``-0``) are handed to :func:`to_uint8` itself, rare in a
+rendered image.
 """
 
 from __future__ import annotations

@@ -36,19 +36,20 @@ def _to_uint8_kernel(x, exposure, curve, inv_gamma, out):
     """Tone-map ``x`` (N,) float32/float64 into ``out`` (N,) uint8.
 
     ``curve``: 0 clamp, 1 reinhard, 2 exponential; ``inv_gamma`` 0 selects
-    sRGB. NaN maps to 0 (NumPy's cast of NaN to uint8 is undefined).
+    sRGB. Negatives and NaN map to 0 under every curve (NumPy's cast of NaN
+    to uint8 is undefined); ``+inf`` maps to 255 under every curve.
     """
     n = x.shape[0]
     for c in prange((n + _CHUNK - 1) // _CHUNK):
         for i in range(c * _CHUNK, min(n, (c + 1) * _CHUNK)):
             v = np.float64(x[i]) * exposure
-            if curve == 1:
-                v = v / (1.0 + v)
+            if not v > 0.0:  # negatives, -0 and NaN, before the curve: x / (1 + x) is large below -1
+                v = 0.0
+            elif curve == 1:
+                v = v / (1.0 + v) if v < math.inf else 1.0  # the limit, not inf / inf
             elif curve == 2:
                 v = -math.expm1(-v)
-            if not v > 0.0:  # negatives, -0 and NaN
-                v = 0.0
-            elif v > 1.0:
+            if v > 1.0:
                 v = 1.0
             if inv_gamma == 0.0:
                 v = 12.92 * v if v <= 0.0031308 else 1.055 * v ** (1.0 / 2.4) - 0.055

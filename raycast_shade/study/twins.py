@@ -174,10 +174,12 @@ def to_uint8_numpy(image, exposure: float = 1.0, tonemap: str = "clamp", gamma="
     uint8 array, the shape of ``image``
     """
     x = np.asarray(image, np.float64) * exposure
-    if tonemap == "reinhard":
-        x = x / (1.0 + x)
-    elif tonemap == "exponential":
-        x = -np.expm1(-x)
+    x = np.where(x > 0.0, x, 0.0)  # negatives and NaN give 0 under every curve
+    with np.errstate(invalid="ignore"):
+        if tonemap == "reinhard":
+            x = np.where(np.isinf(x), 1.0, x / (1.0 + x))
+        elif tonemap == "exponential":
+            x = -np.expm1(-x)
     x = np.clip(x, 0.0, 1.0)
     if isinstance(gamma, str):
         if gamma != "srgb":

@@ -244,6 +244,18 @@ def test_to_uint8_values():
     assert rs.to_uint8(np.full((1, 1, 3), 1.0), tonemap="reinhard", gamma=1.0)[0, 0, 0] == 128  # 1 / (1 + 1)
 
 
+@pytest.mark.parametrize("tonemap", ["clamp", "reinhard", "exponential"])
+def test_to_uint8_edges_under_every_curve(tonemap):
+    """Negatives (also below -1, where x / (1 + x) is large and positive) and NaN give 0; +inf gives
+    255, the curves' limit (reinhard's inf / inf would be NaN); the NumPy twin agrees."""
+    from raycast_shade.study.twins import to_uint8_numpy
+
+    img = np.array([[[-0.5, -1.0, -3.0], [-np.inf, np.nan, np.inf], [-0.0, 0.0, 2.0]]], np.float32)
+    out = rs.to_uint8(img, tonemap=tonemap)
+    assert out[0, 0].tolist() == [0, 0, 0] and out[0, 1].tolist() == [0, 0, 255] and out[0, 2, :2].tolist() == [0, 0]
+    np.testing.assert_array_equal(out, to_uint8_numpy(img, tonemap=tonemap))
+
+
 # -- arbitrary rays ----------------------------------------------------------------------------------
 @pytest.mark.parametrize("shift", [0.0, 1e5])
 def test_cast_rays_known_distances(shift):
