@@ -215,13 +215,6 @@ def table(rows) -> str:
 def write_table(rows, quick: bool) -> str:
     """Put :func:`table` between the markers of ``docs/performance.md`` (quick: ``out/quick/results/shadows.md``)."""
     return where.write_table(table(rows), "shadows.md", BEGIN, END, quick)
-    path = os.path.join(ROOT, "docs", "performance.md")
-    with open(path, encoding="utf-8") as fh:
-        page = fh.read()
-    start, end = page.index(BEGIN) + len(BEGIN), page.index(END)
-    with open(path, "w", encoding="utf-8") as fh:
-        fh.write(page[:start] + "\n" + text + page[end:])
-    return path
 
 
 def main(argv=None):

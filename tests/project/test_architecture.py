@@ -179,3 +179,33 @@ def test_module_and_function_sizes(name):
             if n > MAX_FUNCTION_LINES:
                 long.append(f"{node.name}() at line {node.lineno}: {n} lines")
     assert not long, f"{path.relative_to(PKG)}: " + "; ".join(long)
+
+
+_ENDS = (ast.Return, ast.Raise, ast.Continue, ast.Break)
+
+
+def unreachable(src: str) -> list:
+    """Lines of statements that follow a ``return``, ``raise``, ``continue`` or ``break`` in the same
+    block: code that never runs (left behind when a body was replaced by a call)."""
+    out = []
+    for node in ast.walk(ast.parse(src)):
+        for field in ("body", "orelse", "finalbody"):
+            block = getattr(node, field, None)
+            if not isinstance(block, list):
+                continue
+            for a, b in zip(block, block[1:]):
+                if isinstance(a, _ENDS):
+                    out.append(b.lineno)
+    return out
+
+
+def test_no_unreachable_statements():
+    """Package, benchmarks, docs generators and tests: no statement after a block's last exit."""
+    root = PKG.parent
+    found = []
+    for folder in ("raycast_shade", "benchmarks", "docs", "tests"):
+        for path in sorted((root / folder).rglob("*.py")):
+            found += [f"{path.relative_to(root)}:{line}" for line in unreachable(path.read_text(encoding="utf-8"))]
+    assert not found, "unreachable: " + ", ".join(found)
+    assert unreachable("def f():\n    return 1\n    x = 2\n") == [3]  # the check itself finds one
+    assert unreachable("for i in x:\n    if i:\n        continue\n    y = i\n") == []
