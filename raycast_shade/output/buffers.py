@@ -39,7 +39,8 @@ from numba import njit, prange
 from ..common.bufferspec import ALIASES, BUFFER_NAMES, BUFFERS, KERNEL_BUFFERS, REGISTRY
 from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH
 from ..scene.framememory import BUFFER_BYTES
-from ..visibility.rays import camera_frame, pixel_ray
+from ..visibility.rays import camera_frame
+from .bufferpages import HUGE_PAGE, PAGE, one_block, touch_pages
 
 __all__ = ["BUFFER_NAMES", "ALIASES", "BUFFER_BYTES", "buffer_bytes", "check_buffers", "check_buffers_out",
            "compute_buffers", "FrameBuffers"]
@@ -155,8 +156,8 @@ def _buffers_kernel(view, hits, geometry, extra, outputs):
     r00, r01, r02, r10, r11, r12, r20, r21, r22 = (R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2],
                                                    R[2, 0], R[2, 1], R[2, 2])
     # One simple loop per asked output and row (the asked set is decided per row, not per
-    # pixel): the ids, mask, depth and a z-depth asked alone (from a scratch row of rays,
-    # allocated once per block of rows) vectorise.
+    # pixel): the ids, mask, depth, the row's rays and a z-depth asked alone vectorise; the
+    # buffers that need a hit's triangle share its ray (one square root a pixel, vectorised).
     for y in prange(h):
         if depth.shape[0] != 0:
             for x in range(w):
@@ -193,12 +194,13 @@ def _buffers_kernel(view, hits, geometry, extra, outputs):
                 normal_cam[y, x, 0] = n0 * r00 + n1 * r01 + n2 * r02
                 normal_cam[y, x, 1] = n0 * r10 + n1 * r11 + n2 * r12
                 normal_cam[y, x, 2] = n0 * r20 + n1 * r21 + n2 * r22
-        if hit_rays:  # the pixel's ray computed where it is hit, shared by these buffers
-            _ray_row(y, cam, fwd, R, dirs, y0, prim, geom, t, geometry, (zdepth, position, face_n, face_n_cam))
-        elif rays:
+        if hit_rays or rays:  # the row's rays, branch-free (it vectorises), shared by these buffers
             ray = np.empty((6, w), np.float64)
             _row_rays(cam, dirs, w, y0 + y, ray)
-            _zdepth_row(y, fwd, ray, prim, t, zdepth)
+            if hit_rays:
+                _ray_row(y, fwd, R, ray, prim, geom, t, geometry, (zdepth, position, face_n, face_n_cam))
+            else:
+                _zdepth_row(y, fwd, ray, prim, t, zdepth)
 
 
 @njit(cache=True, inline="always")
@@ -257,16 +259,6 @@ def _zdepth_row(y, fwd, ray, prim, t, zdepth):
 
 
 @njit(cache=True, inline="always")
-def _ray(cam, dirs, w, x, y):
-    """The pixel's ray as the casters make it: origin and unit direction, float64
-    (``dirs``: the lens-distorted directions, row-major, or empty for a pinhole)."""
-    if dirs.shape[0] == 0:
-        return pixel_ray(cam, x, y)
-    i = y * w + x
-    return cam[CAM_EYE + 0], cam[CAM_EYE + 1], cam[CAM_EYE + 2], dirs[i, 0], dirs[i, 1], dirs[i, 2]
-
-
-@njit(cache=True, inline="always")
 def _plane_distance(vertices, faces, f, t, ox, oy, oz, dx, dy, dz):
     """Where the ray ``o + s d`` meets the plane of triangle ``f``: ``s = ((p0 - o) . n) / (d . n)``
     in float64, exact to rounding at any angle (the cast's ``t`` is float32, and its barycentrics
@@ -291,11 +283,15 @@ def _plane_distance(vertices, faces, f, t, ox, oy, oz, dx, dy, dz):
 
 
 @njit(cache=True, inline="always")
-def _ray_row(y, cam, fwd, R, dirs, y0, prim, geom, t, geometry, outputs):
-    """Row ``y``'s buffers that need each pixel's ray: z-depth, position, face normals."""
+def _ray_row(y, fwd, R, ray, prim, geom, t, geometry, outputs):
+    """Row ``y``'s buffers that need each pixel's ray (``ray``, the row's rays from
+    :func:`_row_rays`): z-depth, position, face normals."""
     vertices, faces, face_normals, face_offsets, origin = geometry
     zdepth, position, face_n, face_n_cam = outputs
     w = prim.shape[1]
+    g0, g1, g2 = fwd[0], fwd[1], fwd[2]
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = (R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2],
+                                                   R[2, 0], R[2, 1], R[2, 2])
     want_z = zdepth.shape[0] != 0
     want_p = position.shape[0] != 0
     want_f = face_n.shape[0] != 0 or face_n_cam.shape[0] != 0
@@ -311,9 +307,9 @@ def _ray_row(y, cam, fwd, R, dirs, y0, prim, geom, t, geometry, outputs):
             if want_z:
                 zdepth[y, x] = 0.0
             continue
-        ox, oy, oz, dx, dy, dz = _ray(cam, dirs, w, x, y0 + y)
+        ox, oy, oz, dx, dy, dz = ray[0, x], ray[1, x], ray[2, x], ray[3, x], ray[4, x], ray[5, x]
         if want_z:
-            zdepth[y, x] = np.float64(t[y, x]) * (dx * fwd[0] + dy * fwd[1] + dz * fwd[2])
+            zdepth[y, x] = np.float64(t[y, x]) * (dx * g0 + dy * g1 + dz * g2)
         f = face_offsets[geom[y, x]] + prim[y, x]
         if want_p:
             s = _plane_distance(vertices, faces, f, np.float64(t[y, x]), ox, oy, oz, dx, dy, dz)
@@ -331,8 +327,9 @@ def _ray_row(y, cam, fwd, R, dirs, y0, prim, geom, t, geometry, outputs):
                 face_n[y, x, 1] = n1
                 face_n[y, x, 2] = n2
             if face_n_cam.shape[0] != 0:
-                for k in range(3):
-                    face_n_cam[y, x, k] = n0 * R[k, 0] + n1 * R[k, 1] + n2 * R[k, 2]
+                face_n_cam[y, x, 0] = n0 * r00 + n1 * r01 + n2 * r02
+                face_n_cam[y, x, 1] = n0 * r10 + n1 * r11 + n2 * r12
+                face_n_cam[y, x, 2] = n0 * r20 + n1 * r21 + n2 * r22
 
 
 
@@ -392,8 +389,12 @@ class FrameBuffers:
             self.lut = c(semantic_classes(scene)[1], np.int32)
         out = {} if out is None else out
         self.out = {name: out[name] for name in self.names if name in out}
-        self.full = {b.name: self.out[b.name] if b.name in self.out else np.empty(b.shape(h, w), b.dtype)
+        self._block, fresh = one_block([b for b in KERNEL_BUFFERS if b.name in self.names and b.name not in self.out],
+                                        h, w)
+        self.full = {b.name: self.out[b.name] if b.name in self.out else fresh[b.name]
                      for b in KERNEL_BUFFERS if b.name in self.names}
+        self._fresh = tuple(a for a in fresh.values() if a.size)  # paged in a band at a time, by _fault
+        self._faulted = 0  # the fresh outputs' rows paged in so far
         self.empty = {b.name: np.empty(b.shape(0, 0), b.dtype) for b in KERNEL_BUFFERS}
         self.normals = None  # the shading normals' inputs, when a normal buffer is asked for
         self.phong = False  # whether the Phong kernel writes every pixel's shading normal
@@ -407,9 +408,27 @@ class FrameBuffers:
         shades them: the ``normal`` buffer's rows (or a band's scratch for ``normal_camera``
         alone); None when no normal buffer is asked for or some model is not Phong-shaded
         (then :meth:`band` computes them). Pass ``shaded=True`` to :meth:`band` after."""
+        self._fault(y0, m)
         if not self.phong:
             return None
         return self._normals(y0, m, w)
+
+    def _fault(self, y0: int, m: int) -> None:
+        """Page in rows ``y0 .. y0 + m`` of the fresh outputs before a kernel writes them, one
+        huge-page region per thread (:func:`~raycast_shade.output.bufferpages.touch_pages`):
+        left to the kernels, whose threads split a band by rows, two threads often fault the
+        same huge page at once and both zero it (issue 27, ``docs/performance.md``). Memory
+        still grows a band at a time."""
+        y1 = y0 + m
+        if y1 <= self._faulted or not self._fresh:
+            return
+        y0 = max(y0, self._faulted)
+        base = self._block.ctypes.data
+        ranges = np.array([(a.ctypes.data - base + y0 * (a.nbytes // a.shape[0]),
+                            a.ctypes.data - base + y1 * (a.nbytes // a.shape[0])) for a in self._fresh],
+                          np.int64)
+        touch_pages(self._block, ranges, base, PAGE, HUGE_PAGE)
+        self._faulted = y1
 
     def _normals(self, y0, m, w):
         if "normal" in self.full:
@@ -425,6 +444,7 @@ class FrameBuffers:
         from ..shading.normals import normals_into
 
         m, w = hits.prim.shape
+        self._fault(y0, m)
         rows = slice(y0, y0 + m)
         outputs = {name: a[rows] for name, a in self.full.items()}
         outputs.pop("normal", None)  # the shading normals themselves: written by the shading or normals kernel
