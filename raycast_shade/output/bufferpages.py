@@ -1,9 +1,8 @@
-"""Fresh buffer outputs: one allocation for a frame's buffers, paged in a band at a time.
+"""Fresh buffer outputs: one allocation for all of a frame's new buffers.
 
-A frame's new buffers are views of one block (:func:`one_block`), paged in by
-:func:`touch_pages` just before the kernels write each band: one huge-page region
-per thread, so the kernels' threads never fault (and zero) the same huge page at
-once. Used by :class:`~raycast_shade.output.buffers.FrameBuffers`.
+A frame's new buffers are views of one block (:func:`one_block`), each its own
+C-contiguous array; the kernels fault its pages in as they write each band. Used
+by :class:`~raycast_shade.output.buffers.FrameBuffers`.
 """
 
 from __future__ import annotations
@@ -11,9 +10,8 @@ from __future__ import annotations
 import mmap
 
 import numpy as np
-from numba import njit, prange
 
-__all__ = ["one_block", "touch_pages", "PAGE", "HUGE_PAGE"]
+__all__ = ["one_block", "PAGE"]
 
 PAGE = mmap.PAGESIZE
 
@@ -24,8 +22,9 @@ def one_block(specs, h: int, w: int):
     One allocation is one mapping of the operating system whatever the allocator's state
     (glibc serves blocks under its moving mmap threshold, up to 32 MiB, from its heap),
     advised as huge pages by numpy when 4 MiB or more, so a frame's fresh buffers fault in
-    the same way every time. The pages are not touched here (:func:`touch_pages`, a band
-    at a time). The block is freed when the last of its buffers is.
+    the same way every time (a few hundred huge-page faults for the 12 buffers at 1080p,
+    where separate arrays took thousands). The pages are not touched here: the kernels
+    fault them in as they write. The block is freed when the last of its buffers is.
 
     Returns
     -------
@@ -38,36 +37,3 @@ def one_block(specs, h: int, w: int):
     block = np.empty(int(starts[-1]), np.uint8)
     return block, {b.name: block[s:s + n].view(b.dtype).reshape(b.shape(h, w))
                    for b, s, n in zip(specs, starts, sizes)}
-
-
-HUGE_PAGE = 1 << 21  # what one fault zeroes under transparent huge pages (x86-64; arm64 with 4 KiB pages)
-
-
-@njit(cache=True, parallel=True)
-def touch_pages(block, ranges, base, page, huge):
-    """Write a zero at the start of every page of the byte ranges of ``block``, one
-    ``huge``-byte region of addresses per task: each region is paged in by one thread, so no
-    two threads fault (and zero) the same huge page at once.
-
-    Parameters
-    ----------
-    block : (N,) uint8
-    ranges : (K, 2) int64
-        Byte offsets ``[start, stop)`` into ``block``.
-    base : int
-        The address of ``block[0]``.
-    page, huge : int
-        The page size and the huge-page size, in bytes.
-    """
-    if ranges.shape[0] == 0:
-        return
-    r0 = (base + ranges[:, 0].min()) // huge
-    r1 = (base + ranges[:, 1].max() - 1) // huge
-    for r in prange(r0, r1 + 1):
-        a = r * huge - base
-        for i in range(ranges.shape[0]):
-            p = max(ranges[i, 0], a)
-            e = min(ranges[i, 1], a + huge)
-            while p < e:
-                block[p] = 0
-                p = ((base + p) // page + 1) * page - base

@@ -40,7 +40,7 @@ from ..common.bufferspec import ALIASES, BUFFER_NAMES, BUFFERS, KERNEL_BUFFERS, 
 from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH
 from ..scene.framememory import BUFFER_BYTES
 from ..visibility.rays import camera_frame
-from .bufferpages import HUGE_PAGE, PAGE, one_block, touch_pages
+from .bufferpages import one_block
 
 __all__ = ["BUFFER_NAMES", "ALIASES", "BUFFER_BYTES", "buffer_bytes", "check_buffers", "check_buffers_out",
            "compute_buffers", "FrameBuffers"]
@@ -389,12 +389,13 @@ class FrameBuffers:
             self.lut = c(semantic_classes(scene)[1], np.int32)
         out = {} if out is None else out
         self.out = {name: out[name] for name in self.names if name in out}
+        # The new outputs: views of one block (one mapping, huge pages), faulted in by the kernels'
+        # threads as they write each band (paging a band in first measured slower: the zeroed pages
+        # leave the cache before the kernel writes them).
         self._block, fresh = one_block([b for b in KERNEL_BUFFERS if b.name in self.names and b.name not in self.out],
-                                        h, w)
+                                       h, w)
         self.full = {b.name: self.out[b.name] if b.name in self.out else fresh[b.name]
                      for b in KERNEL_BUFFERS if b.name in self.names}
-        self._fresh = tuple(a for a in fresh.values() if a.size)  # paged in a band at a time, by _fault
-        self._faulted = 0  # the fresh outputs' rows paged in so far
         self.empty = {b.name: np.empty(b.shape(0, 0), b.dtype) for b in KERNEL_BUFFERS}
         self.normals = None  # the shading normals' inputs, when a normal buffer is asked for
         self.phong = False  # whether the Phong kernel writes every pixel's shading normal
@@ -408,27 +409,9 @@ class FrameBuffers:
         shades them: the ``normal`` buffer's rows (or a band's scratch for ``normal_camera``
         alone); None when no normal buffer is asked for or some model is not Phong-shaded
         (then :meth:`band` computes them). Pass ``shaded=True`` to :meth:`band` after."""
-        self._fault(y0, m)
         if not self.phong:
             return None
         return self._normals(y0, m, w)
-
-    def _fault(self, y0: int, m: int) -> None:
-        """Page in rows ``y0 .. y0 + m`` of the fresh outputs before a kernel writes them, one
-        huge-page region per thread (:func:`~raycast_shade.output.bufferpages.touch_pages`):
-        left to the kernels, whose threads split a band by rows, two threads often fault the
-        same huge page at once and both zero it (issue 27, ``docs/performance.md``). Memory
-        still grows a band at a time."""
-        y1 = y0 + m
-        if y1 <= self._faulted or not self._fresh:
-            return
-        y0 = max(y0, self._faulted)
-        base = self._block.ctypes.data
-        ranges = np.array([(a.ctypes.data - base + y0 * (a.nbytes // a.shape[0]),
-                            a.ctypes.data - base + y1 * (a.nbytes // a.shape[0])) for a in self._fresh],
-                          np.int64)
-        touch_pages(self._block, ranges, base, PAGE, HUGE_PAGE)
-        self._faulted = y1
 
     def _normals(self, y0, m, w):
         if "normal" in self.full:
@@ -444,7 +427,6 @@ class FrameBuffers:
         from ..shading.normals import normals_into
 
         m, w = hits.prim.shape
-        self._fault(y0, m)
         rows = slice(y0, y0 + m)
         outputs = {name: a[rows] for name, a in self.full.items()}
         outputs.pop("normal", None)  # the shading normals themselves: written by the shading or normals kernel
