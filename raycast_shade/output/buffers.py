@@ -40,7 +40,6 @@ from ..common.bufferspec import ALIASES, BUFFER_NAMES, BUFFERS, KERNEL_BUFFERS, 
 from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH
 from ..scene.framememory import BUFFER_BYTES
 from ..visibility.rays import camera_frame
-from .bufferpages import one_block
 
 __all__ = ["BUFFER_NAMES", "ALIASES", "BUFFER_BYTES", "buffer_bytes", "check_buffers", "check_buffers_out",
            "compute_buffers", "FrameBuffers"]
@@ -389,12 +388,11 @@ class FrameBuffers:
             self.lut = c(semantic_classes(scene)[1], np.int32)
         out = {} if out is None else out
         self.out = {name: out[name] for name in self.names if name in out}
-        # The new outputs: views of one block (one mapping, huge pages), faulted in by the kernels'
-        # threads as they write each band (paging a band in first measured slower: the zeroed pages
-        # leave the cache before the kernel writes them).
-        self._block, fresh = one_block([b for b in KERNEL_BUFFERS if b.name in self.names and b.name not in self.out],
-                                       h, w)
-        self.full = {b.name: self.out[b.name] if b.name in self.out else fresh[b.name]
+        # New outputs are separate arrays, faulted in by the kernels as they write each band: one
+        # block for all measured no faster (the OS zeroes the same pages) and would keep every
+        # buffer's memory alive while any one of them is; paging a band in before its kernels
+        # measured slower (the zeroed pages leave the cache before the kernel writes them).
+        self.full = {b.name: self.out[b.name] if b.name in self.out else np.empty(b.shape(h, w), b.dtype)
                      for b in KERNEL_BUFFERS if b.name in self.names}
         self.empty = {b.name: np.empty(b.shape(0, 0), b.dtype) for b in KERNEL_BUFFERS}
         self.normals = None  # the shading normals' inputs, when a normal buffer is asked for
