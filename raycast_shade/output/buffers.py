@@ -281,27 +281,30 @@ def _pinhole_zdepth_row(y, cam, fwd, y0, prim, t, zdepth):
 
 
 @njit(cache=True, inline="always")
-def _plane_distance(vertices, faces, f, t, ox, oy, oz, dx, dy, dz):
-    """Where the ray ``o + s d`` meets the plane of triangle ``f``: ``s = ((p0 - o) . n) / (d . n)``
-    in float64, exact to rounding at any angle (the cast's ``t`` is float32, and its barycentrics
-    too); ``t`` itself if the ray is parallel to the plane to float64 precision."""
+def _triangle_plane(vertices, faces, f):
+    """Triangle ``f``'s first vertex ``p0`` and its unnormalised normal ``n = e1 x e2``, float64."""
     i0 = faces[f, 0]
     i1 = faces[f, 1]
     i2 = faces[f, 2]
     p0x, p0y, p0z = vertices[i0, 0], vertices[i0, 1], vertices[i0, 2]
     e1x, e1y, e1z = vertices[i1, 0] - p0x, vertices[i1, 1] - p0y, vertices[i1, 2] - p0z
     e2x, e2y, e2z = vertices[i2, 0] - p0x, vertices[i2, 1] - p0y, vertices[i2, 2] - p0z
-    nx = e1y * e2z - e1z * e2y
-    ny = e1z * e2x - e1x * e2z
-    nz = e1x * e2y - e1y * e2x
+    return p0x, p0y, p0z, e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
+
+
+@njit(cache=True, inline="always")
+def _plane_distance(plane, t, ox, oy, oz, dx, dy, dz):
+    """Where the ray ``o + s d`` meets the plane ``plane`` (:func:`_triangle_plane`):
+    ``s = ((p0 - o) . n) / (d . n)`` in float64, exact to rounding at any angle (the cast's ``t``
+    is float32, and its barycentrics too); ``t`` itself if the ray is parallel to the plane to
+    float64 precision."""
+    p0x, p0y, p0z, nx, ny, nz = plane
     den = dx * nx + dy * ny + dz * nz
     if den != 0.0:
         q = ((p0x - ox) * nx + (p0y - oy) * ny + (p0z - oz) * nz) / den
         if np.isfinite(q) and q > 0.0:
             return q
     return t
-
-
 
 
 @njit(cache=True, inline="always")
@@ -317,6 +320,8 @@ def _ray_row(y, fwd, R, ray, prim, geom, t, geometry, outputs):
     want_z = zdepth.shape[0] != 0
     want_p = position.shape[0] != 0
     want_f = face_n.shape[0] != 0 or face_n_cam.shape[0] != 0
+    last = -1  # the triangle whose plane is in ``plane``: neighbouring pixels mostly hit the same one
+    plane = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     for x in range(w):
         if prim[y, x] < 0:
             for k in range(3):
@@ -334,7 +339,10 @@ def _ray_row(y, fwd, R, ray, prim, geom, t, geometry, outputs):
             zdepth[y, x] = np.float64(t[y, x]) * (dx * g0 + dy * g1 + dz * g2)
         f = face_offsets[geom[y, x]] + prim[y, x]
         if want_p:
-            s = _plane_distance(vertices, faces, f, np.float64(t[y, x]), ox, oy, oz, dx, dy, dz)
+            if f != last:
+                plane = _triangle_plane(vertices, faces, f)
+                last = f
+            s = _plane_distance(plane, np.float64(t[y, x]), ox, oy, oz, dx, dy, dz)
             position[y, x, 0] = (ox + s * dx) + origin[0]
             position[y, x, 1] = (oy + s * dy) + origin[1]
             position[y, x, 2] = (oz + s * dz) + origin[2]
