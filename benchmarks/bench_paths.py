@@ -13,9 +13,9 @@ divided by the plain Phong frame's median:
   (the view sets' default), each the whole ``render`` call;
 * ``buffers_all_reused``: the 12 buffers written into an earlier frame's arrays
   (``render(buffers_out=...)``): no fresh pages;
-* ``alloc_all``, ``alloc_view_default``: ``np.empty`` and one fill of exactly the
-  output arrays of those two sets, the page-fault floor no kernel removes (fresh
-  memory is what costs: ~5-8 ms for 50 MB with huge pages);
+* ``alloc_all``, ``alloc_view_default``: the bytes of the output arrays of those two
+  sets as one fresh block, filled once: the page-fault floor no kernel removes (fresh
+  memory is what costs: the OS zeroes each page, ~5-8 ms for 50 MB with huge pages);
 * ``write_floor``: the bytes of the 12 buffers and the image in one plain
   ``open().write()``, the least any writer of them can take on this disk;
 * ``npz_plain``, ``npz_level1``, ``npz_level6``, ``exr``, ``exr_zip``,
@@ -105,16 +105,16 @@ def _paths(scene, tmp):
 
 
 def _alloc(names, camera):
-    """``np.empty`` and one write pass of exactly the output arrays ``render(buffers=names)`` makes:
-    the page faults of fresh outputs, which no buffer kernel can avoid."""
+    """The bytes of the output arrays ``render(buffers=names)`` makes, as one fresh block, filled
+    once: the page faults (the OS zeroing each new page) and one write, which no buffer kernel
+    avoids. (The arrays one after another, each freed before the next, measure less: glibc
+    serves each from heap pages the one before freed, already faulted; a block of 32 MiB or more
+    is always a new mapping.)"""
     import numpy as np
 
-    from raycast_shade.common.bufferspec import BUFFERS
-    from raycast_shade.output.buffers import check_buffers
+    from raycast_shade.output.buffers import buffer_bytes
 
-    for name in check_buffers(names):
-        spec = BUFFERS[name]
-        np.empty(spec.shape(camera.height, camera.width), spec.dtype).fill(0)
+    np.empty(buffer_bytes(names) * camera.height * camera.width, np.uint8).fill(0)
 
 
 def _writer_paths(full, tmp):
@@ -299,11 +299,11 @@ def peak_mib(kind, level, width, height, names) -> float:
 
 BEGIN, END = "<!-- paths:begin (benchmarks/bench_paths.py) -->", "<!-- paths:end -->"
 LABELS = {"buffers_all": "all 12 buffers",
-          "alloc_all": "their arrays, `np.empty` + one fill (the page-fault floor)",
+          "alloc_all": "their bytes, one fresh block + one fill (the page-fault floor)",
           "buffers_all_reused": "all 12 buffers into an earlier frame's arrays (`buffers_out=`)",
           "position": "`position` alone",
           "view_default": "zdepth, normal, id, mask (the view-set default)",
-          "alloc_view_default": "their arrays, `np.empty` + one fill (the floor)",
+          "alloc_view_default": "their bytes, one fresh block + one fill (the floor)",
           "write_floor": "the same bytes, one plain write (the floor)", "npz_plain": "`save_npz`, stored (default)",
           "npz_level1": "`save_npz`, deflate level 1 (ISA-L)", "npz_level6": "`save_npz`, deflate level 6 (zlib)",
           "exr": "`write_exr`, uncompressed (default)", "exr_zip": "`write_exr`, ZIP", "exr_zstd": "`write_exr`, ZSTD",

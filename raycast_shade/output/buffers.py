@@ -39,7 +39,7 @@ from numba import njit, prange
 from ..common.bufferspec import ALIASES, BUFFER_NAMES, BUFFERS, KERNEL_BUFFERS, REGISTRY
 from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH
 from ..scene.framememory import BUFFER_BYTES
-from ..visibility.rays import camera_frame, pixel_ray
+from ..visibility.rays import camera_frame
 
 __all__ = ["BUFFER_NAMES", "ALIASES", "BUFFER_BYTES", "buffer_bytes", "check_buffers", "check_buffers_out",
            "compute_buffers", "FrameBuffers"]
@@ -155,8 +155,8 @@ def _buffers_kernel(view, hits, geometry, extra, outputs):
     r00, r01, r02, r10, r11, r12, r20, r21, r22 = (R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2],
                                                    R[2, 0], R[2, 1], R[2, 2])
     # One simple loop per asked output and row (the asked set is decided per row, not per
-    # pixel): the ids, mask, depth and a z-depth asked alone (from a scratch row of rays,
-    # allocated once per block of rows) vectorise.
+    # pixel): the ids, mask, depth, the row's rays and a z-depth asked alone vectorise; the
+    # buffers that need a hit's triangle share its ray (one square root a pixel, vectorised).
     for y in prange(h):
         if depth.shape[0] != 0:
             for x in range(w):
@@ -193,12 +193,15 @@ def _buffers_kernel(view, hits, geometry, extra, outputs):
                 normal_cam[y, x, 0] = n0 * r00 + n1 * r01 + n2 * r02
                 normal_cam[y, x, 1] = n0 * r10 + n1 * r11 + n2 * r12
                 normal_cam[y, x, 2] = n0 * r20 + n1 * r21 + n2 * r22
-        if hit_rays:  # the pixel's ray computed where it is hit, shared by these buffers
-            _ray_row(y, cam, fwd, R, dirs, y0, prim, geom, t, geometry, (zdepth, position, face_n, face_n_cam))
-        elif rays:
+        if rays and dirs.shape[0] == 0 and cam[CAM_ORTHO] == 0.0:  # a pinhole's z-depth alone: no scratch
+            _pinhole_zdepth_row(y, cam, fwd, y0, prim, t, zdepth)
+        elif hit_rays or rays:  # the row's rays, branch-free (it vectorises), shared by these buffers
             ray = np.empty((6, w), np.float64)
             _row_rays(cam, dirs, w, y0 + y, ray)
-            _zdepth_row(y, fwd, ray, prim, t, zdepth)
+            if hit_rays:
+                _ray_row(y, fwd, R, ray, prim, geom, t, geometry, (zdepth, position, face_n, face_n_cam))
+            else:
+                _zdepth_row(y, fwd, ray, prim, t, zdepth)
 
 
 @njit(cache=True, inline="always")
@@ -257,29 +260,45 @@ def _zdepth_row(y, fwd, ray, prim, t, zdepth):
 
 
 @njit(cache=True, inline="always")
-def _ray(cam, dirs, w, x, y):
-    """The pixel's ray as the casters make it: origin and unit direction, float64
-    (``dirs``: the lens-distorted directions, row-major, or empty for a pinhole)."""
-    if dirs.shape[0] == 0:
-        return pixel_ray(cam, x, y)
-    i = y * w + x
-    return cam[CAM_EYE + 0], cam[CAM_EYE + 1], cam[CAM_EYE + 2], dirs[i, 0], dirs[i, 1], dirs[i, 2]
+def _pinhole_zdepth_row(y, cam, fwd, y0, prim, t, zdepth):
+    """Row ``y``'s z-depth for a pinhole perspective camera, each ray made where it is used:
+    :func:`_row_rays` then :func:`_zdepth_row`, operation for operation, without the scratch row
+    (branch-free: it vectorises)."""
+    r0, r1, r2 = cam[CAM_RIGHT + 0], cam[CAM_RIGHT + 1], cam[CAM_RIGHT + 2]
+    u0, u1, u2 = cam[CAM_UP + 0], cam[CAM_UP + 1], cam[CAM_UP + 2]
+    f0, f1, f2 = cam[CAM_FORWARD + 0], cam[CAM_FORWARD + 1], cam[CAM_FORWARD + 2]
+    g0, g1, g2 = fwd[0], fwd[1], fwd[2]
+    cw = cam[CAM_WIDTH]
+    sy = 1.0 - 2.0 * (y0 + y + 0.5) / cam[CAM_HEIGHT]
+    for x in range(prim.shape[1]):
+        sx = 2.0 * (x + 0.5) / cw - 1.0
+        dx = f0 + sx * r0 + sy * u0
+        dy = f1 + sx * r1 + sy * u1
+        dz = f2 + sx * r2 + sy * u2
+        inv = 1.0 / np.sqrt(dx * dx + dy * dy + dz * dz)
+        z = np.float64(t[y, x]) * ((dx * inv) * g0 + (dy * inv) * g1 + (dz * inv) * g2)
+        zdepth[y, x] = z if prim[y, x] >= 0 else 0.0
 
 
 @njit(cache=True, inline="always")
-def _plane_distance(vertices, faces, f, t, ox, oy, oz, dx, dy, dz):
-    """Where the ray ``o + s d`` meets the plane of triangle ``f``: ``s = ((p0 - o) . n) / (d . n)``
-    in float64, exact to rounding at any angle (the cast's ``t`` is float32, and its barycentrics
-    too); ``t`` itself if the ray is parallel to the plane to float64 precision."""
+def _triangle_plane(vertices, faces, f):
+    """Triangle ``f``'s first vertex ``p0`` and its unnormalised normal ``n = e1 x e2``, float64."""
     i0 = faces[f, 0]
     i1 = faces[f, 1]
     i2 = faces[f, 2]
     p0x, p0y, p0z = vertices[i0, 0], vertices[i0, 1], vertices[i0, 2]
     e1x, e1y, e1z = vertices[i1, 0] - p0x, vertices[i1, 1] - p0y, vertices[i1, 2] - p0z
     e2x, e2y, e2z = vertices[i2, 0] - p0x, vertices[i2, 1] - p0y, vertices[i2, 2] - p0z
-    nx = e1y * e2z - e1z * e2y
-    ny = e1z * e2x - e1x * e2z
-    nz = e1x * e2y - e1y * e2x
+    return p0x, p0y, p0z, e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
+
+
+@njit(cache=True, inline="always")
+def _plane_distance(plane, t, ox, oy, oz, dx, dy, dz):
+    """Where the ray ``o + s d`` meets the plane ``plane`` (:func:`_triangle_plane`):
+    ``s = ((p0 - o) . n) / (d . n)`` in float64, exact to rounding at any angle (the cast's ``t``
+    is float32, and its barycentrics too); ``t`` itself if the ray is parallel to the plane to
+    float64 precision."""
+    p0x, p0y, p0z, nx, ny, nz = plane
     den = dx * nx + dy * ny + dz * nz
     if den != 0.0:
         q = ((p0x - ox) * nx + (p0y - oy) * ny + (p0z - oz) * nz) / den
@@ -288,17 +307,21 @@ def _plane_distance(vertices, faces, f, t, ox, oy, oz, dx, dy, dz):
     return t
 
 
-
-
 @njit(cache=True, inline="always")
-def _ray_row(y, cam, fwd, R, dirs, y0, prim, geom, t, geometry, outputs):
-    """Row ``y``'s buffers that need each pixel's ray: z-depth, position, face normals."""
+def _ray_row(y, fwd, R, ray, prim, geom, t, geometry, outputs):
+    """Row ``y``'s buffers that need each pixel's ray (``ray``, the row's rays from
+    :func:`_row_rays`): z-depth, position, face normals."""
     vertices, faces, face_normals, face_offsets, origin = geometry
     zdepth, position, face_n, face_n_cam = outputs
     w = prim.shape[1]
+    g0, g1, g2 = fwd[0], fwd[1], fwd[2]
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = (R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2],
+                                                   R[2, 0], R[2, 1], R[2, 2])
     want_z = zdepth.shape[0] != 0
     want_p = position.shape[0] != 0
     want_f = face_n.shape[0] != 0 or face_n_cam.shape[0] != 0
+    last = -1  # the triangle whose plane is in ``plane``: neighbouring pixels mostly hit the same one
+    plane = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     for x in range(w):
         if prim[y, x] < 0:
             for k in range(3):
@@ -311,12 +334,15 @@ def _ray_row(y, cam, fwd, R, dirs, y0, prim, geom, t, geometry, outputs):
             if want_z:
                 zdepth[y, x] = 0.0
             continue
-        ox, oy, oz, dx, dy, dz = _ray(cam, dirs, w, x, y0 + y)
+        ox, oy, oz, dx, dy, dz = ray[0, x], ray[1, x], ray[2, x], ray[3, x], ray[4, x], ray[5, x]
         if want_z:
-            zdepth[y, x] = np.float64(t[y, x]) * (dx * fwd[0] + dy * fwd[1] + dz * fwd[2])
+            zdepth[y, x] = np.float64(t[y, x]) * (dx * g0 + dy * g1 + dz * g2)
         f = face_offsets[geom[y, x]] + prim[y, x]
         if want_p:
-            s = _plane_distance(vertices, faces, f, np.float64(t[y, x]), ox, oy, oz, dx, dy, dz)
+            if f != last:
+                plane = _triangle_plane(vertices, faces, f)
+                last = f
+            s = _plane_distance(plane, np.float64(t[y, x]), ox, oy, oz, dx, dy, dz)
             position[y, x, 0] = (ox + s * dx) + origin[0]
             position[y, x, 1] = (oy + s * dy) + origin[1]
             position[y, x, 2] = (oz + s * dz) + origin[2]
@@ -331,8 +357,9 @@ def _ray_row(y, cam, fwd, R, dirs, y0, prim, geom, t, geometry, outputs):
                 face_n[y, x, 1] = n1
                 face_n[y, x, 2] = n2
             if face_n_cam.shape[0] != 0:
-                for k in range(3):
-                    face_n_cam[y, x, k] = n0 * R[k, 0] + n1 * R[k, 1] + n2 * R[k, 2]
+                face_n_cam[y, x, 0] = n0 * r00 + n1 * r01 + n2 * r02
+                face_n_cam[y, x, 1] = n0 * r10 + n1 * r11 + n2 * r12
+                face_n_cam[y, x, 2] = n0 * r20 + n1 * r21 + n2 * r22
 
 
 
@@ -392,6 +419,10 @@ class FrameBuffers:
             self.lut = c(semantic_classes(scene)[1], np.int32)
         out = {} if out is None else out
         self.out = {name: out[name] for name in self.names if name in out}
+        # New outputs are separate arrays, faulted in by the kernels as they write each band: one
+        # block for all measured no faster (the OS zeroes the same pages) and would keep every
+        # buffer's memory alive while any one of them is; paging a band in before its kernels
+        # measured slower (the zeroed pages leave the cache before the kernel writes them).
         self.full = {b.name: self.out[b.name] if b.name in self.out else np.empty(b.shape(h, w), b.dtype)
                      for b in KERNEL_BUFFERS if b.name in self.names}
         self.empty = {b.name: np.empty(b.shape(0, 0), b.dtype) for b in KERNEL_BUFFERS}
