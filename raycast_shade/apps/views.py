@@ -65,18 +65,19 @@ import os
 import numpy as np
 
 from ..common.validate import as_instance, as_int, as_scalar
-from ..output.bufferfile import save_npz, write_depth_png, write_exr
+from ..output.bufferfile import depth_png_bytes, exr_into, npz_into
 from ..output.buffers import check_buffers
 from ..output.labels import object_table, semantic_classes, unoccluded_masks, view_objects, write_coco
-from ..output.imagefile import check_image_path, remove_stale_temps, write_image
+from ..output.imagefile import check_image_path, png_bytes, remove_stale_temps, write_hashed, write_image
+from ..output.quantize import to_uint8_table
 from ..render import render
 from ..visibility.accel import embree_accel
 from .batch.cache import PLUGIN_NAME, SceneCache, cache_of
 from .batch.options import check_options
 from .batch.plan import plan_batch
 from .viewslots import ViewSlots
-from .viewplan import (PLAN_FORMAT, PLAN_NAME, digest, prepare_folder, view_hashes, view_is_done, view_key, write_json,
-                       write_record)
+from .viewplan import (PLAN_FORMAT, PLAN_NAME, digest, file_hasher, prepare_folder, view_hashes, view_is_done, view_key,
+                       write_json, write_record)
 
 __all__ = ["render_views", "FORMATS", "EXPORTS", "INDEX_NAME", "PLAN_NAME", "view_files", "register_cli", "run_cli"]
 
@@ -172,9 +173,9 @@ def _render_view(job, base, spec: _ViewSpec, cache: SceneCache, slot=None):
 def _store_view(job, spec: _ViewSpec, files, frame, key, alone, boxes) -> None:
     """Write a rendered view's files, then its record with the visible objects (masks as RLE always:
     a later run may ask for the COCO export without rendering again)."""
-    _write_files(files, frame, {k: v for k, v in frame.buffers.items() if k in spec.buffers}, job, spec)
+    written = _write_files(files, frame, {k: v for k, v in frame.buffers.items() if k in spec.buffers}, job, spec)
     objects = view_objects(frame.buffers["model_id"], job.camera, rle=True, alone=alone, boxes_3d=boxes)
-    write_record(files, key, job, objects)
+    write_record(files, key, job, objects, written)
 
 
 def _one_thread() -> None:
@@ -215,28 +216,38 @@ def _run_views(jobs, base_of, spec: _ViewSpec, cache: SceneCache) -> list:
     return stems
 
 
-def _write_files(files, frame, kept, job, spec: _ViewSpec) -> None:
+def _write_files(files, frame, kept, job, spec: _ViewSpec) -> dict:
     """The view's image and buffer files, written side by side on threads (compression, writing and
-    fsync release the GIL, so one file's disk wait overlaps another's compression)."""
+    fsync release the GIL, so one file's disk wait overlaps another's compression). Returns
+    ``{path: (bytes, digest)}`` of the files hashed as they were written (all but a non-PNG image)."""
     from concurrent.futures import ThreadPoolExecutor
 
     linear = frame.image if spec.float_image else None
     zipped = spec.compression == "zip"
+
+    def hashed(fill):
+        return lambda p: (p, write_hashed(p, fill, file_hasher()))
+
+    def image(p):
+        if not p.endswith(".png"):
+            write_image(p, frame.image, atomic=True, fast=True, **spec.options.tone)
+            return None  # hashed from the file by the record
+        return hashed(lambda fh: fh.write(png_bytes(to_uint8_table(frame.image, **spec.options.tone), fast=True)))(p)
+
     writers = {
-        "image": lambda p: write_image(p, frame.image, atomic=True, fast=True, **spec.options.tone),
-        "npz": lambda p: save_npz(p, kept, image=linear, camera=job.camera, compressed=1 if zipped else False,
-                                  atomic=True),
-        "exr": lambda p: write_exr(p, kept, image=linear, compression="zip" if zipped else "none", atomic=True),
-        "depth_png": lambda p: write_depth_png(p, frame.buffers["zdepth"], scale=spec.depth_scale, fast=True,
-                                                   atomic=True),
+        "image": image,
+        "npz": hashed(lambda fh: npz_into(fh, kept, image=linear, camera=job.camera, compressed=1 if zipped else False)),
+        "exr": hashed(lambda fh: exr_into(fh, kept, image=linear, compression="zip" if zipped else "none")),
+        "depth_png": hashed(lambda fh: fh.write(depth_png_bytes(frame.buffers["zdepth"], scale=spec.depth_scale,
+                                                                fast=True))),
     }
     todo = [(writers[k], p) for k, p in files.items() if k in writers]
     if len(todo) == 1:
-        todo[0][0](todo[0][1])
-        return
-    with ThreadPoolExecutor(len(todo)) as pool:
-        for future in [pool.submit(write, p) for write, p in todo]:
-            future.result()  # the first failure is raised; the record is not written
+        done = [todo[0][0](todo[0][1])]
+    else:
+        with ThreadPoolExecutor(len(todo)) as pool:
+            done = [future.result() for future in [pool.submit(write, p) for write, p in todo]]  # the first failure
+    return dict(d for d in done if d is not None)  # is raised; the record is not written
 
 
 def _run_on_worker(jobs, scene, spec: _ViewSpec) -> list:

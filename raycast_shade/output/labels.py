@@ -31,11 +31,12 @@ import json
 import os
 
 import numpy as np
+from numba import njit
 
 from ..common.validate import as_bool, as_instance, as_int, as_name, as_path, as_sequence
 
 __all__ = ["semantic_classes", "object_table", "box_corners", "view_objects", "unoccluded_masks", "rle_encode", "rle_decode", "coco_instances",
-           "write_coco"]
+           "write_coco", "id_labels"]
 
 
 def _check_scene(scene):
@@ -144,20 +145,21 @@ def view_objects(model_id, camera, *, rle: bool = False, alone=None, boxes_3d=No
     pose = np.eye(4)
     pose[:3, :3], pose[:3, 3] = R, t
     out = []
-    seen = set(np.unique(ids[ids >= 0]).tolist())
+    labels = id_labels(ids, rle)
+    seen = set(labels)
     if alone is not None:
         seen |= {int(g) for g, m in alone.items() if np.any(m)}
     for i in sorted(seen):
-        mask = ids == i
-        rows, cols = np.nonzero(mask)
-        entry = {"id": int(i), "pixels": int(rows.size), "box": _box(rows, cols) if rows.size else None,
-                 "pose": pose.tolist()}
+        pixels, box, counts = labels.get(i, (0, None, None))
+        entry = {"id": int(i), "pixels": pixels, "box": box, "pose": pose.tolist()}
         if rle:
-            entry["rle"] = rle_encode(mask)
+            entry["rle"] = rle_encode(np.zeros(ids.shape, bool)) if counts is None else \
+                {"size": [int(ids.shape[0]), int(ids.shape[1])], "counts": counts}
         if boxes_3d is not None:
             uv = project_points(camera, box_corners(boxes_3d[i]))[0]
             entry["corners"] = [None if not np.isfinite(c).all() else c.tolist() for c in uv]
         if alone is not None:
+            mask = ids == i
             solo = np.asarray(alone.get(i, np.zeros_like(mask)), bool)
             r2, c2 = np.nonzero(solo)
             entry["unoccluded"] = int(r2.size)
@@ -165,6 +167,144 @@ def view_objects(model_id, camera, *, rle: bool = False, alone=None, boxes_3d=No
             entry["visible_fraction"] = float(np.count_nonzero(mask & solo) / r2.size) if r2.size else 0.0
         out.append(entry)
     return out
+
+
+def id_labels(ids, rle: bool = True) -> dict:
+    """Per id ``>= 0`` present in ``ids`` (H, W): ``(pixels, box, counts)``, the pixel count, the box
+    (module docstring) and the COCO RLE ``counts`` string of ``ids == id`` (None unless ``rle``).
+
+    Two passes of one kernel over ``ids`` in column-major order (COCO's), the ids read in place:
+    the first counts each id's pixels, box and mask edges (where the id changes along the column-major
+    order), the second stores the edges; the runs are the gaps between edges, coded as
+    :func:`rle_encode` codes them. Ids up to ``2**20`` (or the pixel count) index the tables directly;
+    larger ones are numbered densely first (``np.unique``).
+    """
+    ids = np.asarray(ids)
+    if ids.size == 0:
+        return {}
+    top = int(ids.max())
+    if top < 0:
+        return {}
+    if top < max(1 << 20, ids.size):
+        dense, values = ids, None
+    else:  # sparse large ids: numbered 0..n-1 in order, the background negative
+        uniq, inverse = np.unique(ids, return_inverse=True)
+        below = int(np.searchsorted(uniq, 0))
+        dense = (inverse.reshape(ids.shape) - below).astype(np.int64)
+        values, top = uniq[below:], len(uniq) - below - 1
+    count, box, edges = _id_table(dense, top + 1, rle)
+    chars, starts = _rle_chars(edges, ids.size) if rle else (None, None)
+    out = {}
+    for g in np.flatnonzero(count).tolist():
+        counts = bytes(chars[starts[g]:starts[g + 1]]).decode("ascii") if rle else None
+        key = g if values is None else int(values[g])
+        out[key] = (int(count[g]), [int(v) for v in box[g]], counts)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _id_pass(ids, n, store, offsets, edges):
+    """One column-major pass over ``ids`` (H, W): per id below ``n`` its pixel count and box
+    ``(n, 4)`` ``[x0, y0, x1, y1]``, and its edges (the flat column-major positions where ``ids == id``
+    changes; position 0 when the first pixel is the id's). ``store``: write edge ``k`` of id ``g`` at
+    ``edges[offsets[g] + k]`` (else only count them). Returns ``(count, box, edge counts)``."""
+    h, w = ids.shape
+    count = np.zeros(n, np.int64)
+    nedge = np.zeros(n, np.int64)
+    box = np.empty((n, 4), np.int64)
+    box[:, 0] = w
+    box[:, 1] = h
+    box[:, 2] = 0
+    box[:, 3] = 0
+    prev = -1
+    p = 0
+    for c in range(w):
+        for r in range(h):
+            v = np.int64(ids[r, c])
+            if v >= 0:
+                count[v] += 1
+                if c < box[v, 0]:
+                    box[v, 0] = c
+                if r < box[v, 1]:
+                    box[v, 1] = r
+                if c + 1 > box[v, 2]:
+                    box[v, 2] = c + 1
+                if r + 1 > box[v, 3]:
+                    box[v, 3] = r + 1
+            if v != prev:
+                if prev >= 0:
+                    if store:
+                        edges[offsets[prev] + nedge[prev]] = p
+                    nedge[prev] += 1
+                if v >= 0:
+                    if store:
+                        edges[offsets[v] + nedge[v]] = p
+                    nedge[v] += 1
+                prev = v
+            p += 1
+    return count, box, nedge
+
+
+def _id_table(ids, n: int, rle: bool) -> tuple:
+    """``(count (n,), box (n, 4), edges)``: :func:`_id_pass` once, twice with ``rle`` (edges: a list of
+    each id's edge positions, int64)."""
+    none = np.zeros(1, np.int64)
+    count, box, nedge = _id_pass(ids, n, False, none, none)
+    if not rle:
+        return count, box, None
+    offsets = np.zeros(n + 1, np.int64)
+    np.cumsum(nedge, out=offsets[1:])
+    flat = np.empty(max(1, int(offsets[-1])), np.int64)
+    _id_pass(ids, n, True, offsets, flat)
+    return count, box, (flat, offsets)
+
+
+@njit(cache=True, nogil=True)
+def _encode_runs(edges, lo, hi, size, out, at):
+    """COCO's compressed counts of one mask into ``out`` from ``at``: its runs are the gaps between
+    0, ``edges[lo:hi]`` and ``size`` (:func:`rle_encode`'s coding). Returns the end position."""
+    m = hi - lo + 1  # runs
+    back2 = np.int64(0)
+    back1 = np.int64(0)
+    last = np.int64(0)
+    for i in range(m):
+        end = edges[lo + i] if i < m - 1 else size
+        run = end - last
+        last = end
+        x = run - back2 if i > 2 else run  # after the second run: the change from two runs back
+        back2 = back1
+        back1 = run
+        more = True
+        while more:
+            c = x & 0x1F
+            x >>= 5
+            more = (x != -1) if (c & 0x10) else (x != 0)
+            if more:
+                c |= 0x20
+            out[at] = c + 48
+            at += 1
+    return at
+
+
+@njit(cache=True, nogil=True)
+def _rle_all(flat, offsets, size, out, starts):
+    n = offsets.shape[0] - 1
+    at = 0
+    for g in range(n):
+        starts[g] = at
+        at = _encode_runs(flat, offsets[g], offsets[g + 1], size, out, at)
+    starts[n] = at
+    return at
+
+
+def _rle_chars(edges, size: int) -> tuple:
+    """``(chars uint8, starts (n + 1,))``: every id's counts string, id ``g``'s at ``chars[starts[g]:starts[g + 1]]``."""
+    flat, offsets = edges
+    n = offsets.shape[0] - 1
+    out = np.empty(8 * (int(offsets[-1]) + n), np.uint8)  # a run below 2**39 codes in at most 8 characters
+    starts = np.empty(n + 1, np.int64)
+    _rle_all(flat, offsets, np.int64(size), out, starts)
+    return out, starts
 
 
 def unoccluded_masks(scene, camera) -> dict:
@@ -187,17 +327,6 @@ def unoccluded_masks(scene, camera) -> dict:
 # -- COCO run-length encoding -----------------------------------------------------------------------
 
 
-def _runs(mask: np.ndarray) -> np.ndarray:
-    """Run lengths of a column-major flattened mask, starting with a run of 0s (maybe empty)."""
-    flat = np.asarray(mask, bool).ravel(order="F")
-    change = np.flatnonzero(flat[1:] != flat[:-1]) + 1
-    edges = np.concatenate([[0], change, [flat.size]])
-    runs = np.diff(edges)
-    if flat.size and flat[0]:
-        runs = np.concatenate([[0], runs])
-    return runs.astype(np.int64)
-
-
 def rle_encode(mask) -> dict:
     """COCO's compressed RLE of a binary mask.
 
@@ -214,20 +343,9 @@ def rle_encode(mask) -> dict:
     m = np.asarray(mask)
     if m.ndim != 2 or m.dtype != np.bool_:
         raise ValueError(f"mask: expected an (H, W) bool array, got {m.dtype} {m.shape}")
-    runs = _runs(m)
-    chars = []
-    for i, run in enumerate(runs.tolist()):
-        x = run - runs[i - 2] if i > 2 else run  # after the second run: the change from two runs back
-        x = int(x)
-        more = True
-        while more:
-            c = x & 0x1F
-            x >>= 5  # arithmetic shift: a negative difference ends at -1
-            more = (x != -1) if (c & 0x10) else (x != 0)
-            if more:
-                c |= 0x20
-            chars.append(chr(c + 48))
-    return {"size": [int(m.shape[0]), int(m.shape[1])], "counts": "".join(chars)}
+    _, _, edges = _id_table(m.view(np.int8) - np.int8(1), 1, True)  # True -> id 0, False -> -1
+    chars, starts = _rle_chars(edges, m.size)
+    return {"size": [int(m.shape[0]), int(m.shape[1])], "counts": bytes(chars[:starts[1]]).decode("ascii")}
 
 
 def rle_decode(rle) -> np.ndarray:
