@@ -145,7 +145,7 @@ def view_objects(model_id, camera, *, rle: bool = False, alone=None, boxes_3d=No
     pose = np.eye(4)
     pose[:3, :3], pose[:3, 3] = R, t
     out = []
-    labels = id_labels(ids, rle)
+    labels = id_labels(ids, rle, None if boxes_3d is None else len(boxes_3d))
     seen = set(labels)
     if alone is not None:
         seen |= {int(g) for g, m in alone.items() if np.any(m)}
@@ -169,30 +169,35 @@ def view_objects(model_id, camera, *, rle: bool = False, alone=None, boxes_3d=No
     return out
 
 
-def id_labels(ids, rle: bool = True) -> dict:
+def id_labels(ids, rle: bool = True, bound: int | None = None) -> dict:
     """Per id ``>= 0`` present in ``ids`` (H, W): ``(pixels, box, counts)``, the pixel count, the box
     (module docstring) and the COCO RLE ``counts`` string of ``ids == id`` (None unless ``rle``).
 
-    Two passes of one kernel over ``ids`` in column-major order (COCO's), the ids read in place:
-    the first counts each id's pixels, box and mask edges (where the id changes along the column-major
-    order), the second stores the edges; the runs are the gaps between edges, coded as
-    :func:`rle_encode` codes them. Ids up to ``2**20`` (or the pixel count) index the tables directly;
-    larger ones are numbered densely first (``np.unique``).
+    One pass of one kernel over ``ids`` in column-major order (COCO's), the ids read in place: each
+    id's pixels and box, and the places where the id changes along that order (its mask's edges),
+    sorted by id after the pass; the runs are the gaps between an id's edges, coded as
+    :func:`rle_encode` codes them. ``bound``: the ids are known to lie below it (a scene's model
+    count), so the tables need no search for the largest id first (an id at or above it is found,
+    and the ids are searched after all). Ids up to ``2**20`` (or the pixel count) index the tables
+    directly; larger ones are numbered densely first (``np.unique``).
     """
     ids = np.asarray(ids)
     if ids.size == 0:
         return {}
-    top = int(ids.max())
-    if top < 0:
-        return {}
-    if top < max(1 << 20, ids.size):
-        dense, values = ids, None
-    else:  # sparse large ids: numbered 0..n-1 in order, the background negative
-        uniq, inverse = np.unique(ids, return_inverse=True)
-        below = int(np.searchsorted(uniq, 0))
-        dense = (inverse.reshape(ids.shape) - below).astype(np.int64)
-        values, top = uniq[below:], len(uniq) - below - 1
-    count, box, edges = _id_table(dense, top + 1, rle)
+    table = None if bound is None else _id_table(ids, int(bound), rle)
+    values = None
+    if table is None:  # no bound, or an id at or above it
+        top = int(ids.max())
+        if top < 0:
+            return {}
+        dense = ids
+        if top >= max(1 << 20, ids.size):  # sparse large ids: numbered 0..n-1 in order, the background negative
+            uniq, inverse = np.unique(ids, return_inverse=True)
+            below = int(np.searchsorted(uniq, 0))
+            dense = (inverse.reshape(ids.shape) - below).astype(np.int64)
+            values, top = uniq[below:], len(uniq) - below - 1
+        table = _id_table(dense, top + 1, rle)
+    count, box, edges = table
     chars, starts = _rle_chars(edges, ids.size) if rle else (None, None)
     out = {}
     for g in np.flatnonzero(count).tolist():
@@ -203,11 +208,11 @@ def id_labels(ids, rle: bool = True) -> dict:
 
 
 @njit(cache=True, nogil=True)
-def _id_pass(ids, n, store, offsets, edges):
-    """One column-major pass over ``ids`` (H, W): per id below ``n`` its pixel count and box
-    ``(n, 4)`` ``[x0, y0, x1, y1]``, and its edges (the flat column-major positions where ``ids == id``
-    changes; position 0 when the first pixel is the id's). ``store``: write edge ``k`` of id ``g`` at
-    ``edges[offsets[g] + k]`` (else only count them). Returns ``(count, box, edge counts)``."""
+def _id_pass(ids, n, events):
+    """One column-major pass over ``ids`` (H, W): per id below ``n`` its pixel count ``(n,)``, box
+    ``(n, 4)`` ``[x0, y0, x1, y1]`` and edge count ``(n,)``, and the changes of id along that order
+    into ``events`` (E, 3) int64 rows ``(flat position, id before, id after)`` (the first pixel is a
+    change from -1). Returns ``(count, box, edge counts, changes)``; changes is -1 at an id ``>= n``."""
     h, w = ids.shape
     count = np.zeros(n, np.int64)
     nedge = np.zeros(n, np.int64)
@@ -216,12 +221,15 @@ def _id_pass(ids, n, store, offsets, edges):
     box[:, 1] = h
     box[:, 2] = 0
     box[:, 3] = 0
-    prev = -1
+    prev = np.int64(-1)
     p = 0
+    changes = 0
     for c in range(w):
         for r in range(h):
             v = np.int64(ids[r, c])
             if v >= 0:
+                if v >= n:
+                    return count, box, nedge, -1
                 count[v] += 1
                 if c < box[v, 0]:
                     box[v, 0] = c
@@ -232,31 +240,47 @@ def _id_pass(ids, n, store, offsets, edges):
                 if r + 1 > box[v, 3]:
                     box[v, 3] = r + 1
             if v != prev:
+                events[changes, 0] = p
+                events[changes, 1] = prev
+                events[changes, 2] = v
+                changes += 1
                 if prev >= 0:
-                    if store:
-                        edges[offsets[prev] + nedge[prev]] = p
                     nedge[prev] += 1
                 if v >= 0:
-                    if store:
-                        edges[offsets[v] + nedge[v]] = p
                     nedge[v] += 1
                 prev = v
             p += 1
-    return count, box, nedge
+    return count, box, nedge, changes
 
 
-def _id_table(ids, n: int, rle: bool) -> tuple:
-    """``(count (n,), box (n, 4), edges)``: :func:`_id_pass` once, twice with ``rle`` (edges: a list of
-    each id's edge positions, int64)."""
-    none = np.zeros(1, np.int64)
-    count, box, nedge = _id_pass(ids, n, False, none, none)
-    if not rle:
-        return count, box, None
+@njit(cache=True, nogil=True)
+def _sort_edges(events, changes, nedge):
+    """Each id's edge positions in order, from :func:`_id_pass`' changes: ``(flat, offsets)``, id
+    ``g``'s at ``flat[offsets[g]:offsets[g + 1]]``."""
+    n = nedge.shape[0]
     offsets = np.zeros(n + 1, np.int64)
-    np.cumsum(nedge, out=offsets[1:])
-    flat = np.empty(max(1, int(offsets[-1])), np.int64)
-    _id_pass(ids, n, True, offsets, flat)
-    return count, box, (flat, offsets)
+    for g in range(n):
+        offsets[g + 1] = offsets[g] + nedge[g]
+    flat = np.empty(max(1, offsets[n]), np.int64)
+    at = offsets[:n].copy()
+    for e in range(changes):
+        for k in (1, 2):
+            g = events[e, k]
+            if g >= 0:
+                flat[at[g]] = events[e, 0]
+                at[g] += 1
+    return flat, offsets
+
+
+def _id_table(ids, n: int, rle: bool):
+    """``(count (n,), box (n, 4), edges)`` (edges: :func:`_sort_edges`' pair, None unless ``rle``), or
+    None when an id is ``>= n``."""
+    # At most one change a pixel; only the rows written are ever touched (fresh pages on demand).
+    events = np.empty((ids.size, 3), np.int64)
+    count, box, nedge, changes = _id_pass(ids, n, events)
+    if changes < 0:
+        return None
+    return count, box, (_sort_edges(events, changes, nedge) if rle else None)
 
 
 @njit(cache=True, nogil=True)
@@ -343,7 +367,7 @@ def rle_encode(mask) -> dict:
     m = np.asarray(mask)
     if m.ndim != 2 or m.dtype != np.bool_:
         raise ValueError(f"mask: expected an (H, W) bool array, got {m.dtype} {m.shape}")
-    _, _, edges = _id_table(m.view(np.int8) - np.int8(1), 1, True)  # True -> id 0, False -> -1
+    _, _, edges = _id_table(m.view(np.int8) - np.int8(1), 1, True)  # True: id 0, False: -1
     chars, starts = _rle_chars(edges, m.size)
     return {"size": [int(m.shape[0]), int(m.shape[1])], "counts": bytes(chars[:starts[1]]).decode("ascii")}
 

@@ -287,3 +287,12 @@ def test_id_labels_of_sparse_large_ids_and_a_rendered_frame(scene):
     assert id_labels(mid) == _numpy_labels(mid)
     for o in view_objects(mid, scene.camera, rle=True):
         assert o["rle"]["counts"] == _numpy_counts(mid == o["id"]) and o["rle"]["size"] == [H, W]
+
+
+def test_id_labels_with_a_bound_are_those_without_even_when_an_id_passes_it():
+    from raycast_shade.output.labels import id_labels
+
+    ids = np.random.default_rng(5).integers(-1, 6, (19, 23)).astype(np.int32)
+    want = _numpy_labels(ids)
+    for bound in (6, 7, 100, 3, 0):  # 3 and 0: an id at or above the bound, the ids searched after all
+        assert id_labels(ids, bound=bound) == want
