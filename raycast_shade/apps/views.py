@@ -79,7 +79,8 @@ from .viewslots import ViewSlots
 from .viewplan import (PLAN_FORMAT, PLAN_NAME, digest, file_hasher, prepare_folder, view_hashes, view_is_done, view_key,
                        write_json, write_record)
 
-__all__ = ["render_views", "FORMATS", "EXPORTS", "INDEX_NAME", "PLAN_NAME", "view_files", "register_cli", "run_cli"]
+__all__ = ["render_views", "ViewFiles", "FORMATS", "EXPORTS", "INDEX_NAME", "PLAN_NAME", "view_files", "register_cli",
+           "run_cli"]
 
 FORMATS = ("npz", "exr", "depth_png")
 COMPRESSIONS = ("auto", "none", "zip")  # npz deflate level 1 and EXR ZIP, or neither; auto: zip with ISA-L
@@ -116,6 +117,77 @@ def view_files(index: int, formats, image) -> dict:
     for f in formats:
         files[f] = stem + ("_depth.png" if f == "depth_png" else "." + f)
     files["record"] = stem + ".json"
+    return files
+
+
+_DEFAULT_BUFFERS = ("zdepth", "normal", "id", "mask")
+_DEFAULT_FORMATS = ("npz",)
+
+
+@dataclasses.dataclass(frozen=True)
+class ViewFiles:
+    """What each view of a set writes: :func:`render_views`' file options, passed whole as ``files=``.
+
+    Parameters
+    ----------
+    buffers : sequence of str
+        Buffer names (:mod:`raycast_shade.output.buffers`).
+    formats : sequence of {"npz", "exr", "depth_png"}
+        Buffer files per view (see the module docstring).
+    image : {".png", ".pfm", ".npy", ...} or None
+        Extension of the per-view image file, or None for none.
+    depth_scale : float
+        Units per world unit of the depth PNG (1000: millimetres).
+    float_image : bool
+        Also store the linear float32 image in the npz and EXR files.
+    compression : {"auto", "none", "zip"}
+        npz and EXR files compressed or stored (see :func:`render_views`).
+
+    Raises
+    ------
+    TypeError, ValueError
+        Naming the field, when the instance is made.
+    """
+
+    buffers: tuple = _DEFAULT_BUFFERS
+    formats: tuple = _DEFAULT_FORMATS
+    image: str | None = ".png"
+    depth_scale: float = 1000.0
+    float_image: bool = False
+    compression: str = "auto"
+
+    def __post_init__(self):
+        from ..common.validate import as_choice
+
+        check_buffers(self.buffers)
+        buffers = (self.buffers,) if isinstance(self.buffers, str) else tuple(self.buffers)
+        formats = _check_formats(self.formats)
+        image = self.image
+        if image is not None:
+            if not isinstance(image, str):
+                raise TypeError(f"image: expected an extension such as '.png', or None; got {type(image).__name__}")
+            check_image_path("view" + image, "image")
+            image = image.lower()
+        _check_outputs(check_buffers(buffers), formats, image)
+        if not isinstance(self.float_image, (bool, np.bool_)):
+            raise TypeError(f"float_image: expected True or False, got {type(self.float_image).__name__}")
+        depth_scale = float(as_scalar(self.depth_scale, "depth_scale", minimum=0.0, exclusive=True))
+        compression = as_choice(self.compression, "compression", COMPRESSIONS)
+        for name, value in (("buffers", buffers), ("formats", formats), ("image", image), ("depth_scale", depth_scale),
+                            ("float_image", bool(self.float_image)), ("compression", compression)):
+            object.__setattr__(self, name, value)
+
+
+def _view_files(files, given: dict) -> ViewFiles:
+    """``files`` (checked), or the :class:`ViewFiles` of the keyword arguments ``given``; a keyword
+    argument given besides ``files`` (not its default object) is refused, naming it."""
+    if files is None:
+        return ViewFiles(**given)
+    as_instance(files, "files", ViewFiles)
+    defaults = render_views.__kwdefaults__
+    clash = [k for k, v in given.items() if v is not defaults[k]]
+    if clash:
+        raise ValueError(f"files: {clash[0]} is given both in files and as a keyword argument; pass it in one place")
     return files
 
 
@@ -372,12 +444,12 @@ def _check_set_options(exports, image, unoccluded, overwrite, depth_scale, float
     return exports, compression
 
 
-def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", "mask"), formats=("npz",),
-                 image: str | None = ".png", shading="phong", workers: int | None = None, scheduler=None,
-                 resume: bool = True, tone: dict | None = None, retries: int = 2, views_per_task: int = 1,
-                 numba_threads: int | None = None, depth_scale: float = 1000.0, overwrite: bool = False,
-                 exports=(), unoccluded: bool = False, float_image: bool = False, compression: str = "auto",
-                 **render_kwargs) -> str:
+def render_views(scene, cameras, out_dir, *, files: ViewFiles | None = None, buffers=_DEFAULT_BUFFERS,
+                 formats=_DEFAULT_FORMATS, image: str | None = ".png", shading="phong", workers: int | None = None,
+                 scheduler=None, resume: bool = True, tone: dict | None = None, retries: int = 2,
+                 views_per_task: int = 1, numba_threads: int | None = None, depth_scale: float = 1000.0,
+                 overwrite: bool = False, exports=(), unoccluded: bool = False, float_image: bool = False,
+                 compression: str = "auto", **render_kwargs) -> str:
     """Render a set of views with their buffers and cameras into ``out_dir``.
 
     Parameters
@@ -387,6 +459,10 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
         One per view.
     out_dir : str or path-like
         Created if need be.
+    files : ViewFiles, optional
+        The per-view file options (``buffers``, ``formats``, ``image``,
+        ``depth_scale``, ``float_image``, ``compression``) in one object; those
+        keyword arguments are then left out (one given too is refused).
     buffers : sequence of str
         Buffer names (:mod:`raycast_shade.output.buffers`).
     formats : sequence of {"npz", "exr", "depth_png"}
@@ -446,21 +522,18 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
     out_dir = os.fspath(out_dir)
     if os.path.exists(out_dir) and not os.path.isdir(out_dir):
         raise ValueError(f"out_dir: {out_dir!r} is a file, not a folder")
-    depth_scale = as_scalar(depth_scale, "depth_scale", minimum=0.0, exclusive=True)
     as_int(retries, "retries", minimum=0)
-    names = check_buffers(buffers)
-    formats = _check_formats(formats)
-    if image is not None:
-        check_image_path("view" + str(image), "image")
-    _check_outputs(names, formats, image)
+    files = _view_files(files, dict(buffers=buffers, formats=formats, image=image, depth_scale=depth_scale,
+                                    float_image=float_image, compression=compression))
+    names, formats, image, depth_scale = check_buffers(files.buffers), files.formats, files.image, files.depth_scale
     views_per_task = as_int(views_per_task, "views_per_task", minimum=1)
-    exports, compression = _check_set_options(exports, image, unoccluded, overwrite, depth_scale, float_image,
-                                              compression)
+    exports, compression = _check_set_options(exports, image, unoccluded, overwrite, depth_scale, files.float_image,
+                                              files.compression)
     options = check_options(shading, render_kwargs, tone, resume)
     memory = dict(buffers=names + ("model_id",), samples=options.render_kwargs.get("samples", 1))
     bases, jobs = plan_batch(scene, cameras, memory=memory)
     spec = _ViewSpec(options, names, formats, None if image is None else str(image).lower(), out_dir,
-                     float(depth_scale), exports=exports, unoccluded=bool(unoccluded), float_image=bool(float_image),
+                     float(depth_scale), exports=exports, unoccluded=bool(unoccluded), float_image=files.float_image,
                      compression=compression, overlap=_two_frames_fit(jobs, memory))
     spec = dataclasses.replace(spec, settings_hash=digest(json.dumps(_settings(spec), sort_keys=True)))
     plan = _make_plan(spec, jobs)
@@ -588,11 +661,11 @@ def run_cli(ns) -> int:
     shading = render_kwargs.pop("shading", "phong")
     image = None if ns.image.lower() == "none" else (ns.image if ns.image.startswith(".") else "." + ns.image)
     t0 = time.perf_counter()
-    index = render_views(scene, orbit_cameras(scene.camera, ns.orbit), ns.output, buffers=ns.buffers,
-                         formats=ns.formats, image=image, shading=shading, workers=ns.workers,
-                         scheduler=ns.scheduler, tone=tone, overwrite=ns.overwrite,
-                         exports=ns.export, unoccluded=ns.unoccluded, float_image=ns.float_image,
-                         compression=ns.compression, **render_kwargs)
+    files = ViewFiles(buffers=ns.buffers, formats=ns.formats, image=image, float_image=ns.float_image,
+                      compression=ns.compression)
+    index = render_views(scene, orbit_cameras(scene.camera, ns.orbit), ns.output, files=files, shading=shading,
+                         workers=ns.workers, scheduler=ns.scheduler, tone=tone, overwrite=ns.overwrite,
+                         exports=ns.export, unoccluded=ns.unoccluded, **render_kwargs)
     secs = time.perf_counter() - t0
     cam = scene.camera
     print(f"wrote {index} ({ns.orbit} views, {cam.width}x{cam.height}, buffers {','.join(ns.buffers)}): "

@@ -211,3 +211,42 @@ def test_the_records_sizes_and_digests_are_hashlibs_over_the_files(scene, tmp_pa
     for suffix, path in ref.items():
         name = f"view_00001{suffix if suffix.startswith('_') else '.' + suffix.lstrip('.')}"
         assert (tmp_path / "v" / name).read_bytes() == open(path, "rb").read(), name
+
+
+def test_view_files_passed_whole_write_what_the_keyword_arguments_write(scene, tmp_path):
+    from raycast_shade.apps.views import ViewFiles
+
+    cams = orbit_cameras(scene.camera, 2)
+    kw = dict(buffers=["zdepth", "id"], formats=["npz", "depth_png"], image=".PNG", depth_scale=500.0,
+              float_image=True, compression="none")
+    render_views(scene, cams, tmp_path / "kw", **kw)
+    files = ViewFiles(**kw)
+    assert files.buffers == ("zdepth", "id") and files.formats == ("npz", "depth_png") and files.image == ".png"
+    render_views(scene, cams, tmp_path / "whole", files=files)
+    for name in ("plan.json", "view_00001.npz", "view_00001_depth.png", "view_00001.png", "view_00001.json"):
+        assert (tmp_path / "kw" / name).read_bytes() == (tmp_path / "whole" / name).read_bytes(), name
+    # the same plan: the folder written with keyword arguments resumes with files= (nothing rendered again)
+    render_views(scene, cams, tmp_path / "kw", files=files)
+    with pytest.raises(ValueError, match="files: depth_scale is given both in files and as a keyword argument"):
+        render_views(scene, cams, tmp_path / "x", files=files, depth_scale=1000.0)
+    with pytest.raises(TypeError, match="files: expected"):
+        render_views(scene, cams, tmp_path / "x", files={"buffers": ["zdepth"]})
+    assert not (tmp_path / "x").exists()
+
+
+@pytest.mark.parametrize("field, value, error, match", [
+    ("buffers", ["zdepth", "nope"], ValueError, "buffers"),
+    ("formats", ["npz", "tiff"], ValueError, "formats: unknown format"),
+    ("image", ".exr", ValueError, "image"),
+    ("image", 5, TypeError, "image"),
+    ("depth_scale", 0.0, ValueError, "depth_scale"),
+    ("float_image", "yes", TypeError, "float_image"),
+    ("compression", "lzma", ValueError, "compression"),
+])
+def test_view_files_refuse_bad_fields_naming_them(field, value, error, match):
+    from raycast_shade.apps.views import ViewFiles
+
+    with pytest.raises(error, match=match):
+        ViewFiles(**{field: value})
+    with pytest.raises(ValueError, match="formats: nothing to write"):
+        ViewFiles(formats=(), image=None)
