@@ -180,6 +180,20 @@ def id_labels(ids, rle: bool = True, bound: int | None = None) -> dict:
     count), so the tables need no search for the largest id first (an id at or above it is found,
     and the ids are searched after all). Ids up to ``2**20`` (or the pixel count) index the tables
     directly; larger ones are numbered densely first (``np.unique``).
+
+    Parameters
+    ----------
+    ids : (H, W) int
+        Negative: background.
+    rle : bool
+        Also each id's RLE counts string.
+    bound : int, optional
+        An upper bound (exclusive) of the ids, when known.
+
+    Returns
+    -------
+    dict of int to tuple
+        ``{id: (pixels, [x0, y0, x1, y1], counts or None)}``, ids in increasing order.
     """
     ids = np.asarray(ids)
     if ids.size == 0:
