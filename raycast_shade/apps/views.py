@@ -64,17 +64,18 @@ import os
 
 import numpy as np
 
-from ..common.validate import as_instance, as_int, as_scalar
+from ..common.validate import as_instance, as_int
 from ..output.bufferfile import depth_png_bytes, exr_into, npz_into
 from ..output.buffers import check_buffers
 from ..output.labels import object_table, semantic_classes, unoccluded_masks, view_objects, write_coco
-from ..output.imagefile import check_image_path, png_bytes, remove_stale_temps, write_hashed, write_image
+from ..output.imagefile import png_bytes, remove_stale_temps, write_hashed, write_image
 from ..output.quantize import to_uint8_table
 from ..render import render
 from ..visibility.accel import embree_accel
 from .batch.cache import PLUGIN_NAME, SceneCache, cache_of
 from .batch.options import check_options
 from .batch.plan import plan_batch
+from .viewfiles import _DEFAULT_BUFFERS, _DEFAULT_FORMATS, COMPRESSIONS, FORMATS, ViewFiles, _check_formats
 from .viewslots import ViewSlots
 from .viewplan import (PLAN_FORMAT, PLAN_NAME, digest, file_hasher, prepare_folder, view_hashes, view_is_done, view_key,
                        write_json, write_record)
@@ -82,31 +83,11 @@ from .viewplan import (PLAN_FORMAT, PLAN_NAME, digest, file_hasher, prepare_fold
 __all__ = ["render_views", "ViewFiles", "FORMATS", "EXPORTS", "INDEX_NAME", "PLAN_NAME", "view_files", "register_cli",
            "run_cli"]
 
-FORMATS = ("npz", "exr", "depth_png")
-COMPRESSIONS = ("auto", "none", "zip")  # npz deflate level 1 and EXR ZIP, or neither; auto: zip with ISA-L
 EXPORTS = ("coco", "nerfstudio", "colmap")
 EXPORT_FILES = {"coco": ("coco_instances.json",), "nerfstudio": ("transforms.json",),
                 "colmap": tuple(os.path.join("colmap", n) for n in ("cameras.txt", "images.txt", "points3D.txt"))}
 INDEX_NAME = "index.json"
 _STEM = "view_{:05d}"
-
-
-def _check_formats(formats, field="formats", choices=FORMATS) -> tuple:
-    if formats is None:
-        return ()
-    if isinstance(formats, str):
-        formats = [f for f in formats.split(",") if f.strip()]
-    elif not hasattr(formats, "__iter__"):
-        raise TypeError(f"{field}: expected a sequence of names, got {type(formats).__name__}")
-    out = []
-    for f in formats:
-        if not isinstance(f, str):
-            raise TypeError(f"{field}: expected names (str), got {type(f).__name__}")
-        key = f.strip().lower()
-        if key not in choices:
-            raise ValueError(f"{field}: unknown {field[:-1]} {f!r}; expected some of {', '.join(choices)}")
-        out.append(key)
-    return tuple(dict.fromkeys(out))
 
 
 def view_files(index: int, formats, image) -> dict:
@@ -118,64 +99,6 @@ def view_files(index: int, formats, image) -> dict:
         files[f] = stem + ("_depth.png" if f == "depth_png" else "." + f)
     files["record"] = stem + ".json"
     return files
-
-
-_DEFAULT_BUFFERS = ("zdepth", "normal", "id", "mask")
-_DEFAULT_FORMATS = ("npz",)
-
-
-@dataclasses.dataclass(frozen=True)
-class ViewFiles:
-    """What each view of a set writes: :func:`render_views`' file options, passed whole as ``files=``.
-
-    Parameters
-    ----------
-    buffers : sequence of str
-        Buffer names (:mod:`raycast_shade.output.buffers`).
-    formats : sequence of {"npz", "exr", "depth_png"}
-        Buffer files per view (see the module docstring).
-    image : {".png", ".pfm", ".npy", ...} or None
-        Extension of the per-view image file, or None for none.
-    depth_scale : float
-        Units per world unit of the depth PNG (1000: millimetres).
-    float_image : bool
-        Also store the linear float32 image in the npz and EXR files.
-    compression : {"auto", "none", "zip"}
-        npz and EXR files compressed or stored (see :func:`render_views`).
-
-    Raises
-    ------
-    TypeError, ValueError
-        Naming the field, when the instance is made.
-    """
-
-    buffers: tuple = _DEFAULT_BUFFERS
-    formats: tuple = _DEFAULT_FORMATS
-    image: str | None = ".png"
-    depth_scale: float = 1000.0
-    float_image: bool = False
-    compression: str = "auto"
-
-    def __post_init__(self):
-        from ..common.validate import as_choice
-
-        check_buffers(self.buffers)
-        buffers = (self.buffers,) if isinstance(self.buffers, str) else tuple(self.buffers)
-        formats = _check_formats(self.formats)
-        image = self.image
-        if image is not None:
-            if not isinstance(image, str):
-                raise TypeError(f"image: expected an extension such as '.png', or None; got {type(image).__name__}")
-            check_image_path("view" + image, "image")
-            image = image.lower()
-        _check_outputs(check_buffers(buffers), formats, image)
-        if not isinstance(self.float_image, (bool, np.bool_)):
-            raise TypeError(f"float_image: expected True or False, got {type(self.float_image).__name__}")
-        depth_scale = float(as_scalar(self.depth_scale, "depth_scale", minimum=0.0, exclusive=True))
-        compression = as_choice(self.compression, "compression", COMPRESSIONS)
-        for name, value in (("buffers", buffers), ("formats", formats), ("image", image), ("depth_scale", depth_scale),
-                            ("float_image", bool(self.float_image)), ("compression", compression)):
-            object.__setattr__(self, name, value)
 
 
 def _view_files(files, given: dict) -> ViewFiles:
@@ -308,7 +231,8 @@ def _write_files(files, frame, kept, job, spec: _ViewSpec) -> dict:
 
     writers = {
         "image": image,
-        "npz": hashed(lambda fh: npz_into(fh, kept, image=linear, camera=job.camera, compressed=1 if zipped else False)),
+        "npz": hashed(lambda fh: npz_into(fh, kept, image=linear, camera=job.camera,
+                                          compressed=1 if zipped else False)),
         "exr": hashed(lambda fh: exr_into(fh, kept, image=linear, compression="zip" if zipped else "none")),
         "depth_png": hashed(lambda fh: fh.write(depth_png_bytes(frame.buffers["zdepth"], scale=spec.depth_scale,
                                                                 fast=True))),
@@ -413,15 +337,6 @@ def _make_plan(spec: _ViewSpec, jobs) -> dict:
                        "files": view_files(j.index, spec.formats, spec.image)} for j in jobs]}
 
 
-def _check_outputs(names, formats, image) -> None:
-    if not formats and image is None:
-        raise ValueError("formats: nothing to write (no buffer format and image=None)")
-    if formats and not names and "depth_png" not in formats:
-        raise ValueError("buffers: no buffers asked for, but formats names buffer files")
-    if "exr" in formats:
-        import OpenEXR  # noqa: F401 - fail now, not on the first view
-
-
 def _check_set_options(exports, image, unoccluded, overwrite, depth_scale, float_image, compression) -> tuple:
     """The checked exports and compression; TypeError/ValueError naming the argument otherwise."""
     from ..common.validate import as_choice
@@ -460,9 +375,8 @@ def render_views(scene, cameras, out_dir, *, files: ViewFiles | None = None, buf
     out_dir : str or path-like
         Created if need be.
     files : ViewFiles, optional
-        The per-view file options (``buffers``, ``formats``, ``image``,
-        ``depth_scale``, ``float_image``, ``compression``) in one object; those
-        keyword arguments are then left out (one given too is refused).
+        The file options ``buffers``, ``formats``, ``image``, ``depth_scale``, ``float_image``
+        and ``compression`` in one object, those keyword arguments left out (one given too: refused).
     buffers : sequence of str
         Buffer names (:mod:`raycast_shade.output.buffers`).
     formats : sequence of {"npz", "exr", "depth_png"}

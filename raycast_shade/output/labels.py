@@ -336,7 +336,8 @@ def _rle_all(flat, offsets, size, out, starts):
 
 
 def _rle_chars(edges, size: int) -> tuple:
-    """``(chars uint8, starts (n + 1,))``: every id's counts string, id ``g``'s at ``chars[starts[g]:starts[g + 1]]``."""
+    """``(chars uint8, starts (n + 1,))``: every id's counts string, id ``g``'s at
+    ``chars[starts[g]:starts[g + 1]]``."""
     flat, offsets = edges
     n = offsets.shape[0] - 1
     out = np.empty(8 * (int(offsets[-1]) + n), np.uint8)  # a run below 2**39 codes in at most 8 characters
