@@ -16,13 +16,16 @@ Run ``python -m benchmarks.bench_views [--quick]``. Measures
   ``zdepth, normal, id, mask``, zip) taken apart, 81,920 triangles
   (:mod:`benchmarks.bench_peers`' scene) at 1920x1080 and 640x480: the
   render with its buffers, the 8-bit pixels (table), the PNG deflate, the
-  objects and their RLE masks, the npz (zip and stored), the BLAKE2b digests
-  of the record, the same files in one plain write (the floor), fresh
-  arrays of the view's size (``np.empty`` + fill: the page-fault floor),
-  and whole views per view with and without the writer thread's overlap.
-  Each is timed interleaved with the plain frame, round after round; wall
-  and process CPU time, each as a ratio to the frame's (on 2 cores the
-  frame keeps both busy, so a view costs its CPU ratio whatever overlaps);
+  objects and their RLE masks (one kernel pass over the ids), the npz
+  (zip and stored) each written through the BLAKE2b of the record
+  (:func:`~raycast_shade.output.imagefile.write_hashed`, as a view writes
+  it), that hash alone over the npz's bytes in memory, the same files in
+  one plain write (the floor), fresh arrays of the view's size
+  (``np.empty`` + fill: the page-fault floor), and whole views per view
+  with and without the writer thread's overlap. Each is timed interleaved
+  with the plain frame, round after round; wall and process CPU time, each
+  as a ratio to the frame's (on 2 cores the frame keeps both busy, so a
+  view costs its CPU ratio whatever overlaps);
 * **views/s**: :func:`raycast_shade.apps.views.render_views` of an orbit
   (buffers ``zdepth, normal, id``, npz and PNG per view), serially and on a
   local Dask cluster of 2 single-threaded workers, after a warm-up run;
@@ -166,9 +169,10 @@ def bench_cost(tmp, width, height, repeats=5, level=6):
     from benchmarks.bench_peers import make_mesh, make_scene
     from raycast_shade.apps import views as views_mod
     from raycast_shade.apps.animate import orbit_cameras
-    from raycast_shade.output.bufferfile import save_npz
+    from raycast_shade.apps.viewplan import file_hasher
+    from raycast_shade.output.bufferfile import npz_into
     from raycast_shade.output.buffers import check_buffers
-    from raycast_shade.output.imagefile import png_bytes
+    from raycast_shade.output.imagefile import png_bytes, write_hashed
     from raycast_shade.output.labels import view_objects
     from raycast_shade.output.quantize import to_uint8_table
 
@@ -180,9 +184,15 @@ def bench_cost(tmp, width, height, repeats=5, level=6):
     f = lambda name: os.path.join(tmp, name)  # noqa: E731
     files = {}
 
-    def npz(name, level):
-        save_npz(f(name), frame.buffers, camera=frame.camera, compressed=level, atomic=True)
+    def npz(name, level):  # as a view writes it: atomically, hashed for the record as it is written
+        write_hashed(f(name), lambda fh: npz_into(fh, frame.buffers, camera=frame.camera, compressed=level),
+                     file_hasher())
         files[name] = f(name)
+
+    def hashed(name):
+        if name + " bytes" not in files:
+            files[name + " bytes"] = blob(name)
+        hashlib.blake2b(files[name + " bytes"], digest_size=16).digest()
 
     def blob(*names):
         return b"".join(open(files[n], "rb").read() for n in names)
@@ -215,10 +225,10 @@ def bench_cost(tmp, width, height, repeats=5, level=6):
              "8-bit pixels (table)": (lambda: to_uint8_table(frame.image), 1),
              "PNG deflate (ISA-L 2)": (lambda: png_bytes(rgb, fast=True), 1),
              "objects + RLE": (lambda: view_objects(frame.buffers["model_id"], frame.camera, rle=True), 1),
-             "npz zip": (lambda: npz("z.npz", 1), 1),
-             "npz stored": (lambda: npz("s.npz", False), 1),
-             "BLAKE2b of the zip npz": (lambda: hashlib.blake2b(blob("z.npz"), digest_size=16).digest(), 1),
-             "BLAKE2b of the stored npz": (lambda: hashlib.blake2b(blob("s.npz"), digest_size=16).digest(), 1),
+             "npz zip, hashed as written": (lambda: npz("z.npz", 1), 1),
+             "npz stored, hashed as written": (lambda: npz("s.npz", False), 1),
+             "BLAKE2b alone, zip npz in memory": (lambda: hashed("z.npz"), 1),
+             "BLAKE2b alone, stored npz in memory": (lambda: hashed("s.npz"), 1),
              "PNG + zip npz, one plain write (floor)": (floor, 1),
              "fresh arrays (np.empty + fill)": (fresh, 1),
              "view, writer thread overlapping": (view_set(True), len(cams)),
@@ -233,7 +243,8 @@ def bench_cost(tmp, width, height, repeats=5, level=6):
                 wall[name].append((time.perf_counter() - t0) / per)
                 cpu[name].append((time.process_time() - c0) / per)
     unit_wall, unit_cpu = statistics.median(wall["frame"]), statistics.median(cpu["frame"])
-    sizes = {"npz zip": "z.npz", "npz stored": "s.npz", "PNG deflate (ISA-L 2)": "i.png"}
+    sizes = {"npz zip, hashed as written": "z.npz", "npz stored, hashed as written": "s.npz",
+             "PNG deflate (ISA-L 2)": "i.png"}
     rows = []
     for name in paths:
         w, c = statistics.median(wall[name]), statistics.median(cpu[name])

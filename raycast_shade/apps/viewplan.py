@@ -20,7 +20,7 @@ import re
 from ..output.imagefile import atomic_target
 from .batch.plan import _digest
 
-__all__ = ["PLAN_NAME", "PLAN_FORMAT", "digest", "view_hashes", "view_key", "view_is_done", "write_record",
+__all__ = ["PLAN_NAME", "PLAN_FORMAT", "digest", "file_hasher", "view_hashes", "view_key", "view_is_done", "write_record",
            "plan_differences", "prepare_folder", "write_json"]
 
 PLAN_NAME = "plan.json"
@@ -35,8 +35,13 @@ def digest(obj) -> str:
     return h.hexdigest()
 
 
+def file_hasher():
+    """The hash of a view's files in its record (BLAKE2b, 16 bytes), fresh."""
+    return hashlib.blake2b(digest_size=16)
+
+
 def _file_digest(path) -> str:
-    h = hashlib.blake2b(digest_size=16)
+    h = file_hasher()
     with open(path, "rb") as fh:
         for block in iter(lambda: fh.read(1 << 20), b""):
             h.update(block)
@@ -74,17 +79,26 @@ def view_is_done(files: dict, key: str) -> bool:
         return False
 
 
-def write_record(files: dict, key: str, job, objects) -> None:
+def write_record(files: dict, key: str, job, objects, written: dict | None = None) -> None:
     """Write view ``job``'s record (last, atomically): ``key``, its camera, each file's size and
-    digest, and its ``objects``."""
-    K, R, t = job.camera.to_opencv()
-    from concurrent.futures import ThreadPoolExecutor
+    digest, and its ``objects``.
 
+    ``written`` maps a file's path to ``(bytes, digest)`` taken as it was written
+    (:func:`raycast_shade.output.imagefile.write_hashed` with :func:`file_hasher`); the files it
+    does not hold are read back and hashed here.
+    """
+    K, R, t = job.camera.to_opencv()
+    written = dict(written or {})
     paths = [p for kind, p in files.items() if kind != "record"]
-    with ThreadPoolExecutor(max(1, len(paths))) as pool:  # hashlib releases the GIL on large blocks
-        digests = list(pool.map(_file_digest, paths))
-    written = {os.path.basename(p): {"bytes": os.path.getsize(p), "blake2b": d} for p, d in zip(paths, digests)}
-    record = {"index": job.index, "key": key, "K": K.tolist(), "R": R.tolist(), "t": t.tolist(), "files": written,
+    missing = [p for p in paths if p not in written]
+    if missing:
+        from concurrent.futures import ThreadPoolExecutor
+
+        with ThreadPoolExecutor(len(missing)) as pool:  # hashlib releases the GIL on large blocks
+            for p, d in zip(missing, pool.map(_file_digest, missing)):
+                written[p] = (os.path.getsize(p), d)
+    entries = {os.path.basename(p): {"bytes": int(written[p][0]), "blake2b": written[p][1]} for p in paths}
+    record = {"index": job.index, "key": key, "K": K.tolist(), "R": R.tolist(), "t": t.tolist(), "files": entries,
               "objects": objects}
     with atomic_target(files["record"]) as tmp, open(tmp, "w") as fh:
         json.dump(record, fh, indent=1)

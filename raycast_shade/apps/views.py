@@ -64,47 +64,30 @@ import os
 
 import numpy as np
 
-from ..common.validate import as_instance, as_int, as_scalar
-from ..output.bufferfile import save_npz, write_depth_png, write_exr
+from ..common.validate import as_instance, as_int
+from ..output.bufferfile import depth_png_bytes, exr_into, npz_into
 from ..output.buffers import check_buffers
 from ..output.labels import object_table, semantic_classes, unoccluded_masks, view_objects, write_coco
-from ..output.imagefile import check_image_path, remove_stale_temps, write_image
+from ..output.imagefile import png_bytes, remove_stale_temps, write_hashed, write_image
+from ..output.quantize import to_uint8_table
 from ..render import render
 from ..visibility.accel import embree_accel
 from .batch.cache import PLUGIN_NAME, SceneCache, cache_of
 from .batch.options import check_options
 from .batch.plan import plan_batch
+from .viewfiles import _DEFAULT_BUFFERS, _DEFAULT_FORMATS, COMPRESSIONS, FORMATS, ViewFiles, _check_formats
 from .viewslots import ViewSlots
-from .viewplan import (PLAN_FORMAT, PLAN_NAME, digest, prepare_folder, view_hashes, view_is_done, view_key, write_json,
-                       write_record)
+from .viewplan import (PLAN_FORMAT, PLAN_NAME, digest, file_hasher, prepare_folder, view_hashes, view_is_done, view_key,
+                       write_json, write_record)
 
-__all__ = ["render_views", "FORMATS", "EXPORTS", "INDEX_NAME", "PLAN_NAME", "view_files", "register_cli", "run_cli"]
+__all__ = ["render_views", "ViewFiles", "FORMATS", "EXPORTS", "INDEX_NAME", "PLAN_NAME", "view_files", "register_cli",
+           "run_cli"]
 
-FORMATS = ("npz", "exr", "depth_png")
-COMPRESSIONS = ("auto", "none", "zip")  # npz deflate level 1 and EXR ZIP, or neither; auto: zip with ISA-L
 EXPORTS = ("coco", "nerfstudio", "colmap")
 EXPORT_FILES = {"coco": ("coco_instances.json",), "nerfstudio": ("transforms.json",),
                 "colmap": tuple(os.path.join("colmap", n) for n in ("cameras.txt", "images.txt", "points3D.txt"))}
 INDEX_NAME = "index.json"
 _STEM = "view_{:05d}"
-
-
-def _check_formats(formats, field="formats", choices=FORMATS) -> tuple:
-    if formats is None:
-        return ()
-    if isinstance(formats, str):
-        formats = [f for f in formats.split(",") if f.strip()]
-    elif not hasattr(formats, "__iter__"):
-        raise TypeError(f"{field}: expected a sequence of names, got {type(formats).__name__}")
-    out = []
-    for f in formats:
-        if not isinstance(f, str):
-            raise TypeError(f"{field}: expected names (str), got {type(f).__name__}")
-        key = f.strip().lower()
-        if key not in choices:
-            raise ValueError(f"{field}: unknown {field[:-1]} {f!r}; expected some of {', '.join(choices)}")
-        out.append(key)
-    return tuple(dict.fromkeys(out))
 
 
 def view_files(index: int, formats, image) -> dict:
@@ -115,6 +98,19 @@ def view_files(index: int, formats, image) -> dict:
     for f in formats:
         files[f] = stem + ("_depth.png" if f == "depth_png" else "." + f)
     files["record"] = stem + ".json"
+    return files
+
+
+def _view_files(files, given: dict) -> ViewFiles:
+    """``files`` (checked), or the :class:`ViewFiles` of the keyword arguments ``given``; a keyword
+    argument given besides ``files`` (not its default object) is refused, naming it."""
+    if files is None:
+        return ViewFiles(**given)
+    as_instance(files, "files", ViewFiles)
+    defaults = render_views.__kwdefaults__
+    clash = [k for k, v in given.items() if v is not defaults[k]]
+    if clash:
+        raise ValueError(f"files: {clash[0]} is given both in files and as a keyword argument; pass it in one place")
     return files
 
 
@@ -172,9 +168,9 @@ def _render_view(job, base, spec: _ViewSpec, cache: SceneCache, slot=None):
 def _store_view(job, spec: _ViewSpec, files, frame, key, alone, boxes) -> None:
     """Write a rendered view's files, then its record with the visible objects (masks as RLE always:
     a later run may ask for the COCO export without rendering again)."""
-    _write_files(files, frame, {k: v for k, v in frame.buffers.items() if k in spec.buffers}, job, spec)
+    written = _write_files(files, frame, {k: v for k, v in frame.buffers.items() if k in spec.buffers}, job, spec)
     objects = view_objects(frame.buffers["model_id"], job.camera, rle=True, alone=alone, boxes_3d=boxes)
-    write_record(files, key, job, objects)
+    write_record(files, key, job, objects, written)
 
 
 def _one_thread() -> None:
@@ -215,28 +211,39 @@ def _run_views(jobs, base_of, spec: _ViewSpec, cache: SceneCache) -> list:
     return stems
 
 
-def _write_files(files, frame, kept, job, spec: _ViewSpec) -> None:
+def _write_files(files, frame, kept, job, spec: _ViewSpec) -> dict:
     """The view's image and buffer files, written side by side on threads (compression, writing and
-    fsync release the GIL, so one file's disk wait overlaps another's compression)."""
+    fsync release the GIL, so one file's disk wait overlaps another's compression). Returns
+    ``{path: (bytes, digest)}`` of the files hashed as they were written (all but a non-PNG image)."""
     from concurrent.futures import ThreadPoolExecutor
 
     linear = frame.image if spec.float_image else None
     zipped = spec.compression == "zip"
+
+    def hashed(fill):
+        return lambda p: (p, write_hashed(p, fill, file_hasher()))
+
+    def image(p):
+        if not p.endswith(".png"):
+            write_image(p, frame.image, atomic=True, fast=True, **spec.options.tone)
+            return None  # hashed from the file by the record
+        return hashed(lambda fh: fh.write(png_bytes(to_uint8_table(frame.image, **spec.options.tone), fast=True)))(p)
+
     writers = {
-        "image": lambda p: write_image(p, frame.image, atomic=True, fast=True, **spec.options.tone),
-        "npz": lambda p: save_npz(p, kept, image=linear, camera=job.camera, compressed=1 if zipped else False,
-                                  atomic=True),
-        "exr": lambda p: write_exr(p, kept, image=linear, compression="zip" if zipped else "none", atomic=True),
-        "depth_png": lambda p: write_depth_png(p, frame.buffers["zdepth"], scale=spec.depth_scale, fast=True,
-                                                   atomic=True),
+        "image": image,
+        "npz": hashed(lambda fh: npz_into(fh, kept, image=linear, camera=job.camera,
+                                          compressed=1 if zipped else False)),
+        "exr": hashed(lambda fh: exr_into(fh, kept, image=linear, compression="zip" if zipped else "none")),
+        "depth_png": hashed(lambda fh: fh.write(depth_png_bytes(frame.buffers["zdepth"], scale=spec.depth_scale,
+                                                                fast=True))),
     }
     todo = [(writers[k], p) for k, p in files.items() if k in writers]
     if len(todo) == 1:
-        todo[0][0](todo[0][1])
-        return
-    with ThreadPoolExecutor(len(todo)) as pool:
-        for future in [pool.submit(write, p) for write, p in todo]:
-            future.result()  # the first failure is raised; the record is not written
+        done = [todo[0][0](todo[0][1])]
+    else:
+        with ThreadPoolExecutor(len(todo)) as pool:
+            done = [future.result() for future in [pool.submit(write, p) for write, p in todo]]  # the first failure
+    return dict(d for d in done if d is not None)  # is raised; the record is not written
 
 
 def _run_on_worker(jobs, scene, spec: _ViewSpec) -> list:
@@ -330,15 +337,6 @@ def _make_plan(spec: _ViewSpec, jobs) -> dict:
                        "files": view_files(j.index, spec.formats, spec.image)} for j in jobs]}
 
 
-def _check_outputs(names, formats, image) -> None:
-    if not formats and image is None:
-        raise ValueError("formats: nothing to write (no buffer format and image=None)")
-    if formats and not names and "depth_png" not in formats:
-        raise ValueError("buffers: no buffers asked for, but formats names buffer files")
-    if "exr" in formats:
-        import OpenEXR  # noqa: F401 - fail now, not on the first view
-
-
 def _check_set_options(exports, image, unoccluded, overwrite, depth_scale, float_image, compression) -> tuple:
     """The checked exports and compression; TypeError/ValueError naming the argument otherwise."""
     from ..common.validate import as_choice
@@ -361,12 +359,12 @@ def _check_set_options(exports, image, unoccluded, overwrite, depth_scale, float
     return exports, compression
 
 
-def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", "mask"), formats=("npz",),
-                 image: str | None = ".png", shading="phong", workers: int | None = None, scheduler=None,
-                 resume: bool = True, tone: dict | None = None, retries: int = 2, views_per_task: int = 1,
-                 numba_threads: int | None = None, depth_scale: float = 1000.0, overwrite: bool = False,
-                 exports=(), unoccluded: bool = False, float_image: bool = False, compression: str = "auto",
-                 **render_kwargs) -> str:
+def render_views(scene, cameras, out_dir, *, files: ViewFiles | None = None, buffers=_DEFAULT_BUFFERS,
+                 formats=_DEFAULT_FORMATS, image: str | None = ".png", shading="phong", workers: int | None = None,
+                 scheduler=None, resume: bool = True, tone: dict | None = None, retries: int = 2,
+                 views_per_task: int = 1, numba_threads: int | None = None, depth_scale: float = 1000.0,
+                 overwrite: bool = False, exports=(), unoccluded: bool = False, float_image: bool = False,
+                 compression: str = "auto", **render_kwargs) -> str:
     """Render a set of views with their buffers and cameras into ``out_dir``.
 
     Parameters
@@ -376,6 +374,9 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
         One per view.
     out_dir : str or path-like
         Created if need be.
+    files : ViewFiles, optional
+        The file options ``buffers``, ``formats``, ``image``, ``depth_scale``, ``float_image``
+        and ``compression`` in one object, those keyword arguments left out (one given too: refused).
     buffers : sequence of str
         Buffer names (:mod:`raycast_shade.output.buffers`).
     formats : sequence of {"npz", "exr", "depth_png"}
@@ -435,21 +436,18 @@ def render_views(scene, cameras, out_dir, *, buffers=("zdepth", "normal", "id", 
     out_dir = os.fspath(out_dir)
     if os.path.exists(out_dir) and not os.path.isdir(out_dir):
         raise ValueError(f"out_dir: {out_dir!r} is a file, not a folder")
-    depth_scale = as_scalar(depth_scale, "depth_scale", minimum=0.0, exclusive=True)
     as_int(retries, "retries", minimum=0)
-    names = check_buffers(buffers)
-    formats = _check_formats(formats)
-    if image is not None:
-        check_image_path("view" + str(image), "image")
-    _check_outputs(names, formats, image)
+    files = _view_files(files, dict(buffers=buffers, formats=formats, image=image, depth_scale=depth_scale,
+                                    float_image=float_image, compression=compression))
+    names, formats, image, depth_scale = check_buffers(files.buffers), files.formats, files.image, files.depth_scale
     views_per_task = as_int(views_per_task, "views_per_task", minimum=1)
-    exports, compression = _check_set_options(exports, image, unoccluded, overwrite, depth_scale, float_image,
-                                              compression)
+    exports, compression = _check_set_options(exports, image, unoccluded, overwrite, depth_scale, files.float_image,
+                                              files.compression)
     options = check_options(shading, render_kwargs, tone, resume)
     memory = dict(buffers=names + ("model_id",), samples=options.render_kwargs.get("samples", 1))
     bases, jobs = plan_batch(scene, cameras, memory=memory)
     spec = _ViewSpec(options, names, formats, None if image is None else str(image).lower(), out_dir,
-                     float(depth_scale), exports=exports, unoccluded=bool(unoccluded), float_image=bool(float_image),
+                     float(depth_scale), exports=exports, unoccluded=bool(unoccluded), float_image=files.float_image,
                      compression=compression, overlap=_two_frames_fit(jobs, memory))
     spec = dataclasses.replace(spec, settings_hash=digest(json.dumps(_settings(spec), sort_keys=True)))
     plan = _make_plan(spec, jobs)
@@ -577,11 +575,11 @@ def run_cli(ns) -> int:
     shading = render_kwargs.pop("shading", "phong")
     image = None if ns.image.lower() == "none" else (ns.image if ns.image.startswith(".") else "." + ns.image)
     t0 = time.perf_counter()
-    index = render_views(scene, orbit_cameras(scene.camera, ns.orbit), ns.output, buffers=ns.buffers,
-                         formats=ns.formats, image=image, shading=shading, workers=ns.workers,
-                         scheduler=ns.scheduler, tone=tone, overwrite=ns.overwrite,
-                         exports=ns.export, unoccluded=ns.unoccluded, float_image=ns.float_image,
-                         compression=ns.compression, **render_kwargs)
+    files = ViewFiles(buffers=ns.buffers, formats=ns.formats, image=image, float_image=ns.float_image,
+                      compression=ns.compression)
+    index = render_views(scene, orbit_cameras(scene.camera, ns.orbit), ns.output, files=files, shading=shading,
+                         workers=ns.workers, scheduler=ns.scheduler, tone=tone, overwrite=ns.overwrite,
+                         exports=ns.export, unoccluded=ns.unoccluded, **render_kwargs)
     secs = time.perf_counter() - t0
     cam = scene.camera
     print(f"wrote {index} ({ns.orbit} views, {cam.width}x{cam.height}, buffers {','.join(ns.buffers)}): "

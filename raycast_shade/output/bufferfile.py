@@ -37,7 +37,8 @@ from ..common.validate import as_int, as_scalar
 
 from .imagefile import atomic_target, png_deflate
 
-__all__ = ["EXR_COMPRESSIONS", "npz_level", "save_npz", "load_npz", "write_exr", "read_exr", "write_depth_png", "read_depth_png"]
+__all__ = ["EXR_COMPRESSIONS", "npz_level", "save_npz", "npz_into", "load_npz", "write_exr", "exr_into", "read_exr",
+           "write_depth_png", "depth_png_bytes", "read_depth_png"]
 
 _ID_BUFFERS = ("model_id", "triangle_id", "instance_id", "semantic_id")
 _MASKS = ("mask",)
@@ -158,11 +159,17 @@ def save_npz(path, buffers: dict, *, image=None, camera=None, compressed: bool |
     TypeError, ValueError
         Naming the buffer or argument at fault, before the file is opened.
     """
-    from .npzwrite import write_npz
-
     path = _check_path(path, ".npz")
     level = npz_level(compressed)
     threads = _threads(threads)
+    arrays = _npz_arrays(buffers, image, camera)
+    with _target(path, atomic) as target, open(target, "wb") as fh:
+        _write_npz(fh, arrays, level, threads)
+    return path
+
+
+def _npz_arrays(buffers, image, camera) -> dict:
+    """The checked arrays of an npz, by member name (:func:`save_npz`'s rules)."""
     reserved = NPZ_RESERVED + (("image",) if image is not None else ()) + (("K", "R", "t") if camera is not None else ())
     arrays, _ = _check_buffers(buffers, image, reserved)
     if image is not None:
@@ -171,9 +178,29 @@ def save_npz(path, buffers: dict, *, image=None, camera=None, compressed: bool |
         if not hasattr(camera, "to_opencv"):
             raise TypeError(f"camera: expected a Camera, got {type(camera).__name__}")
         arrays["K"], arrays["R"], arrays["t"] = camera.to_opencv()
-    with _target(path, atomic) as target, open(target, "wb") as fh:
-        write_npz(fh, arrays, level, threads=threads)
-    return path
+    return arrays
+
+
+def _write_npz(fh, arrays, level, threads) -> None:
+    from .npzwrite import write_npz
+
+    write_npz(fh, arrays, level, threads=threads)
+
+
+def npz_into(fh, buffers: dict, *, image=None, camera=None, compressed: bool | int = False,
+             threads: int | None = None) -> None:
+    """:func:`save_npz`'s bytes into the open binary file ``fh``, written front to back (no seek).
+
+    Parameters
+    ----------
+    fh : binary file
+        For instance an :class:`~raycast_shade.output.imagefile.HashingWriter`.
+    buffers, image, camera, compressed, threads
+        As :func:`save_npz` (checked before anything is written).
+    """
+    level = npz_level(compressed)
+    threads = _threads(threads)
+    _write_npz(fh, _npz_arrays(buffers, image, camera), level, threads)
 
 
 def _threads(threads, field: str = "threads") -> int:
@@ -314,6 +341,26 @@ def write_exr(path, buffers: dict, *, image=None, compression: str = "none", thr
     return path
 
 
+def exr_into(fh, buffers: dict, *, image=None, compression: str = "none", threads: int | None = None) -> None:
+    """:func:`write_exr`'s bytes into the open binary file ``fh``, front to back (no seek), for the
+    compressions laid out here with NumPy (``"none"``, ``"zips"``, ``"zip"``).
+
+    Parameters
+    ----------
+    fh : binary file
+        For instance an :class:`~raycast_shade.output.imagefile.HashingWriter`.
+    buffers, image, threads
+        As :func:`write_exr` (checked before anything is written).
+    compression : {"none", "zips", "zip"}
+    """
+    from ..common.validate import as_choice
+    from .exrwrite import LINES_PER_BLOCK, write_exr_numpy
+
+    compression = as_choice(compression, "compression", tuple(LINES_PER_BLOCK))
+    threads = _threads(threads)
+    write_exr_numpy(fh, _exr_channels(buffers, image, contiguous=False), compression, threads=threads)
+
+
 def read_exr(path) -> dict:
     """The buffers (and ``image``) of a :func:`write_exr` file, with their written dtypes and shapes."""
     import OpenEXR
@@ -381,12 +428,20 @@ def write_depth_png(path, depth, *, scale: float = 1000.0, fast: bool = False, a
     Values that round to more than 65535 are stored as 0 (no depth), not
     clamped, so a reader never mistakes them for a surface.
     """
+    path = _check_path(path, ".png")
+    data = depth_png_bytes(depth, scale=scale, fast=fast)  # encoded first: a bad value leaves no file
+    with _target(path, atomic) as target, open(target, "wb") as fh:
+        fh.write(data)
+    return path
+
+
+def depth_png_bytes(depth, *, scale: float = 1000.0, fast: bool = False) -> bytes:
+    """The bytes of :func:`write_depth_png`'s file (arguments as there)."""
     import struct
     import zlib
 
     from ..common.validate import as_array, as_bool
 
-    path = _check_path(path, ".png")
     fast = as_bool(fast, "fast")
     raw_depth = np.asarray(depth) if isinstance(depth, np.ndarray) else None
     wide = np.float32 if raw_depth is not None and raw_depth.dtype == np.float32 else np.float64
@@ -406,10 +461,7 @@ def write_depth_png(path, depth, *, scale: float = 1000.0, fast: bool = False, a
 
     header = struct.pack(">IIBBBBB", w, h, 16, 0, 0, 0, 0)  # 16-bit greyscale, no interlace
     idat = png_deflate(memoryview(raw).cast("B"), fast)  # the rows in place: no bytes copy
-    with _target(path, atomic) as target, open(target, "wb") as fh:
-        fh.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", idat)
-                 + chunk(b"IEND", b""))
-    return path
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", idat) + chunk(b"IEND", b"")
 
 
 def read_depth_png(path, *, scale: float = 1000.0) -> np.ndarray:

@@ -29,7 +29,7 @@ import numpy as np
 from ..common.choices import EIGHT_BIT_EXTS, LINEAR_EXTS
 
 __all__ = ["LINEAR_EXTS", "EIGHT_BIT_EXTS", "check_image_path", "write_image", "write_png", "atomic_target",
-           "remove_stale_temps", "png_bytes", "png_deflate"]
+           "remove_stale_temps", "png_bytes", "png_deflate", "HashingWriter", "write_hashed"]
 
 _FLOAT_FORMATS = (".exr", ".hdr", ".rgbe", ".fits", ".fit")
 # What atomic_target names its temporaries: ".<name>.<12 hex digits>.tmp<ext>".
@@ -115,6 +115,53 @@ def atomic_target(path):
         with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
+
+
+class HashingWriter:
+    """A binary file that also feeds every byte written to a hash (``hashlib``'s interface) and counts
+    them: a file's digest taken as it is written, not by reading it back.
+
+    Parameters
+    ----------
+    fh : binary file
+        Written front to back (no seek).
+    hasher : hashlib hash object
+    """
+
+    def __init__(self, fh, hasher):
+        self.fh, self.hasher, self.size = fh, hasher, 0
+
+    def write(self, data) -> int:
+        """Write ``data`` (bytes-like, C-contiguous) to the file and the hash."""
+        view = memoryview(data)
+        self.hasher.update(view)  # hashlib releases the GIL on large blocks
+        self.size += view.nbytes
+        return self.fh.write(view)
+
+
+def write_hashed(path, fill, hasher, *, atomic: bool = True) -> tuple:
+    """Write a file through ``fill(fh)`` (``fh`` a :class:`HashingWriter`), atomically by default.
+
+    Parameters
+    ----------
+    path : str or path-like
+    fill : callable
+        Writes the file's bytes front to back into its one argument.
+    hasher : hashlib hash object
+        Fed every byte written.
+    atomic : bool
+        Through :func:`atomic_target`.
+
+    Returns
+    -------
+    tuple
+        ``(size in bytes, hasher.hexdigest())``: what :mod:`hashlib` gives over the whole file.
+    """
+    target = atomic_target(path) if atomic else contextlib.nullcontext(os.fspath(path))
+    with target as tmp, open(tmp, "wb") as fh:
+        sink = HashingWriter(fh, hasher)
+        fill(sink)
+    return sink.size, hasher.hexdigest()
 
 
 def remove_stale_temps(folder, names) -> int:

@@ -31,11 +31,12 @@ import json
 import os
 
 import numpy as np
+from numba import njit
 
 from ..common.validate import as_bool, as_instance, as_int, as_name, as_path, as_sequence
 
 __all__ = ["semantic_classes", "object_table", "box_corners", "view_objects", "unoccluded_masks", "rle_encode", "rle_decode", "coco_instances",
-           "write_coco"]
+           "write_coco", "id_labels"]
 
 
 def _check_scene(scene):
@@ -144,20 +145,21 @@ def view_objects(model_id, camera, *, rle: bool = False, alone=None, boxes_3d=No
     pose = np.eye(4)
     pose[:3, :3], pose[:3, 3] = R, t
     out = []
-    seen = set(np.unique(ids[ids >= 0]).tolist())
+    labels = id_labels(ids, rle, None if boxes_3d is None else len(boxes_3d))
+    seen = set(labels)
     if alone is not None:
         seen |= {int(g) for g, m in alone.items() if np.any(m)}
     for i in sorted(seen):
-        mask = ids == i
-        rows, cols = np.nonzero(mask)
-        entry = {"id": int(i), "pixels": int(rows.size), "box": _box(rows, cols) if rows.size else None,
-                 "pose": pose.tolist()}
+        pixels, box, counts = labels.get(i, (0, None, None))
+        entry = {"id": int(i), "pixels": pixels, "box": box, "pose": pose.tolist()}
         if rle:
-            entry["rle"] = rle_encode(mask)
+            entry["rle"] = rle_encode(np.zeros(ids.shape, bool)) if counts is None else \
+                {"size": [int(ids.shape[0]), int(ids.shape[1])], "counts": counts}
         if boxes_3d is not None:
             uv = project_points(camera, box_corners(boxes_3d[i]))[0]
             entry["corners"] = [None if not np.isfinite(c).all() else c.tolist() for c in uv]
         if alone is not None:
+            mask = ids == i
             solo = np.asarray(alone.get(i, np.zeros_like(mask)), bool)
             r2, c2 = np.nonzero(solo)
             entry["unoccluded"] = int(r2.size)
@@ -165,6 +167,183 @@ def view_objects(model_id, camera, *, rle: bool = False, alone=None, boxes_3d=No
             entry["visible_fraction"] = float(np.count_nonzero(mask & solo) / r2.size) if r2.size else 0.0
         out.append(entry)
     return out
+
+
+def id_labels(ids, rle: bool = True, bound: int | None = None) -> dict:
+    """Per id ``>= 0`` present in ``ids`` (H, W): ``(pixels, box, counts)``, the pixel count, the box
+    (module docstring) and the COCO RLE ``counts`` string of ``ids == id`` (None unless ``rle``).
+
+    One pass of one kernel over ``ids`` in column-major order (COCO's), the ids read in place: each
+    id's pixels and box, and the places where the id changes along that order (its mask's edges),
+    sorted by id after the pass; the runs are the gaps between an id's edges, coded as
+    :func:`rle_encode` codes them. ``bound``: the ids are known to lie below it (a scene's model
+    count), so the tables need no search for the largest id first (an id at or above it is found,
+    and the ids are searched after all). Ids up to ``2**20`` (or the pixel count) index the tables
+    directly; larger ones are numbered densely first (``np.unique``).
+
+    Parameters
+    ----------
+    ids : (H, W) int
+        Negative: background.
+    rle : bool
+        Also each id's RLE counts string.
+    bound : int, optional
+        An upper bound (exclusive) of the ids, when known.
+
+    Returns
+    -------
+    dict of int to tuple
+        ``{id: (pixels, [x0, y0, x1, y1], counts or None)}``, ids in increasing order.
+    """
+    ids = np.asarray(ids)
+    if ids.size == 0:
+        return {}
+    table = None if bound is None else _id_table(ids, int(bound), rle)
+    values = None
+    if table is None:  # no bound, or an id at or above it
+        top = int(ids.max())
+        if top < 0:
+            return {}
+        dense = ids
+        if top >= max(1 << 20, ids.size):  # sparse large ids: numbered 0..n-1 in order, the background negative
+            uniq, inverse = np.unique(ids, return_inverse=True)
+            below = int(np.searchsorted(uniq, 0))
+            dense = (inverse.reshape(ids.shape) - below).astype(np.int64)
+            values, top = uniq[below:], len(uniq) - below - 1
+        table = _id_table(dense, top + 1, rle)
+    count, box, edges = table
+    chars, starts = _rle_chars(edges, ids.size) if rle else (None, None)
+    out = {}
+    for g in np.flatnonzero(count).tolist():
+        counts = bytes(chars[starts[g]:starts[g + 1]]).decode("ascii") if rle else None
+        key = g if values is None else int(values[g])
+        out[key] = (int(count[g]), [int(v) for v in box[g]], counts)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _id_pass(ids, n, events):
+    """One column-major pass over ``ids`` (H, W): per id below ``n`` its pixel count ``(n,)``, box
+    ``(n, 4)`` ``[x0, y0, x1, y1]`` and edge count ``(n,)``, and the changes of id along that order
+    into ``events`` (E, 3) int64 rows ``(flat position, id before, id after)`` (the first pixel is a
+    change from -1). Returns ``(count, box, edge counts, changes)``; changes is -1 at an id ``>= n``."""
+    h, w = ids.shape
+    count = np.zeros(n, np.int64)
+    nedge = np.zeros(n, np.int64)
+    box = np.empty((n, 4), np.int64)
+    box[:, 0] = w
+    box[:, 1] = h
+    box[:, 2] = 0
+    box[:, 3] = 0
+    prev = np.int64(-1)
+    p = 0
+    changes = 0
+    for c in range(w):
+        for r in range(h):
+            v = np.int64(ids[r, c])
+            if v >= 0:
+                if v >= n:
+                    return count, box, nedge, -1
+                count[v] += 1
+                if c < box[v, 0]:
+                    box[v, 0] = c
+                if r < box[v, 1]:
+                    box[v, 1] = r
+                if c + 1 > box[v, 2]:
+                    box[v, 2] = c + 1
+                if r + 1 > box[v, 3]:
+                    box[v, 3] = r + 1
+            if v != prev:
+                events[changes, 0] = p
+                events[changes, 1] = prev
+                events[changes, 2] = v
+                changes += 1
+                if prev >= 0:
+                    nedge[prev] += 1
+                if v >= 0:
+                    nedge[v] += 1
+                prev = v
+            p += 1
+    return count, box, nedge, changes
+
+
+@njit(cache=True, nogil=True)
+def _sort_edges(events, changes, nedge):
+    """Each id's edge positions in order, from :func:`_id_pass`' changes: ``(flat, offsets)``, id
+    ``g``'s at ``flat[offsets[g]:offsets[g + 1]]``."""
+    n = nedge.shape[0]
+    offsets = np.zeros(n + 1, np.int64)
+    for g in range(n):
+        offsets[g + 1] = offsets[g] + nedge[g]
+    flat = np.empty(max(1, offsets[n]), np.int64)
+    at = offsets[:n].copy()
+    for e in range(changes):
+        for k in (1, 2):
+            g = events[e, k]
+            if g >= 0:
+                flat[at[g]] = events[e, 0]
+                at[g] += 1
+    return flat, offsets
+
+
+def _id_table(ids, n: int, rle: bool):
+    """``(count (n,), box (n, 4), edges)`` (edges: :func:`_sort_edges`' pair, None unless ``rle``), or
+    None when an id is ``>= n``."""
+    # At most one change a pixel; only the rows written are ever touched (fresh pages on demand).
+    events = np.empty((ids.size, 3), np.int64)
+    count, box, nedge, changes = _id_pass(ids, n, events)
+    if changes < 0:
+        return None
+    return count, box, (_sort_edges(events, changes, nedge) if rle else None)
+
+
+@njit(cache=True, nogil=True)
+def _encode_runs(edges, lo, hi, size, out, at):
+    """COCO's compressed counts of one mask into ``out`` from ``at``: its runs are the gaps between
+    0, ``edges[lo:hi]`` and ``size`` (:func:`rle_encode`'s coding). Returns the end position."""
+    m = hi - lo + 1  # runs
+    back2 = np.int64(0)
+    back1 = np.int64(0)
+    last = np.int64(0)
+    for i in range(m):
+        end = edges[lo + i] if i < m - 1 else size
+        run = end - last
+        last = end
+        x = run - back2 if i > 2 else run  # after the second run: the change from two runs back
+        back2 = back1
+        back1 = run
+        more = True
+        while more:
+            c = x & 0x1F
+            x >>= 5
+            more = (x != -1) if (c & 0x10) else (x != 0)
+            if more:
+                c |= 0x20
+            out[at] = c + 48
+            at += 1
+    return at
+
+
+@njit(cache=True, nogil=True)
+def _rle_all(flat, offsets, size, out, starts):
+    n = offsets.shape[0] - 1
+    at = 0
+    for g in range(n):
+        starts[g] = at
+        at = _encode_runs(flat, offsets[g], offsets[g + 1], size, out, at)
+    starts[n] = at
+    return at
+
+
+def _rle_chars(edges, size: int) -> tuple:
+    """``(chars uint8, starts (n + 1,))``: every id's counts string, id ``g``'s at
+    ``chars[starts[g]:starts[g + 1]]``."""
+    flat, offsets = edges
+    n = offsets.shape[0] - 1
+    out = np.empty(8 * (int(offsets[-1]) + n), np.uint8)  # a run below 2**39 codes in at most 8 characters
+    starts = np.empty(n + 1, np.int64)
+    _rle_all(flat, offsets, np.int64(size), out, starts)
+    return out, starts
 
 
 def unoccluded_masks(scene, camera) -> dict:
@@ -187,17 +366,6 @@ def unoccluded_masks(scene, camera) -> dict:
 # -- COCO run-length encoding -----------------------------------------------------------------------
 
 
-def _runs(mask: np.ndarray) -> np.ndarray:
-    """Run lengths of a column-major flattened mask, starting with a run of 0s (maybe empty)."""
-    flat = np.asarray(mask, bool).ravel(order="F")
-    change = np.flatnonzero(flat[1:] != flat[:-1]) + 1
-    edges = np.concatenate([[0], change, [flat.size]])
-    runs = np.diff(edges)
-    if flat.size and flat[0]:
-        runs = np.concatenate([[0], runs])
-    return runs.astype(np.int64)
-
-
 def rle_encode(mask) -> dict:
     """COCO's compressed RLE of a binary mask.
 
@@ -214,20 +382,9 @@ def rle_encode(mask) -> dict:
     m = np.asarray(mask)
     if m.ndim != 2 or m.dtype != np.bool_:
         raise ValueError(f"mask: expected an (H, W) bool array, got {m.dtype} {m.shape}")
-    runs = _runs(m)
-    chars = []
-    for i, run in enumerate(runs.tolist()):
-        x = run - runs[i - 2] if i > 2 else run  # after the second run: the change from two runs back
-        x = int(x)
-        more = True
-        while more:
-            c = x & 0x1F
-            x >>= 5  # arithmetic shift: a negative difference ends at -1
-            more = (x != -1) if (c & 0x10) else (x != 0)
-            if more:
-                c |= 0x20
-            chars.append(chr(c + 48))
-    return {"size": [int(m.shape[0]), int(m.shape[1])], "counts": "".join(chars)}
+    _, _, edges = _id_table(m.view(np.int8) - np.int8(1), 1, True)  # True: id 0, False: -1
+    chars, starts = _rle_chars(edges, m.size)
+    return {"size": [int(m.shape[0]), int(m.shape[1])], "counts": bytes(chars[:starts[1]]).decode("ascii")}
 
 
 def rle_decode(rle) -> np.ndarray:

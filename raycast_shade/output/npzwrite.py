@@ -4,8 +4,8 @@
 CRC-32 and (``savez_compressed``) deflate run one after the other before or
 while the bytes go to disk. Here every member's CRC-32 and every 4 MiB
 chunk's deflate are jobs on a thread pool (zlib and ISA-L release the GIL),
-and the calling thread writes the chunks in order as they finish, so the
-disk write overlaps the work still to do.
+and the calling thread writes the members in order as they finish, front
+to back, so the disk write of one member overlaps the work on the next.
 
 The file is an ordinary zip of ``name.npy`` members, as ``np.savez`` makes
 (ZIP64 size fields on every member, as ``np.savez`` forces too), read by
@@ -131,8 +131,9 @@ def write_npz(fh, arrays: dict, level: int | None, *, threads: int = 2, prefer_i
     Parameters
     ----------
     fh : binary file
-        Open for writing at its start, seekable (each member's sizes and
-        CRC go into its header once its data is written).
+        Open for writing at its start; written front to back (no seek or
+        tell: a pipe or a hashing wrapper will do), each member's header
+        once its CRC and deflated chunks are done.
     arrays : dict of str to ndarray
         Written as ``name.npy`` members in the dict's order.
     level : int or None
@@ -161,23 +162,21 @@ def write_npz(fh, arrays: dict, level: int | None, *, threads: int = 2, prefer_i
                                k == len(bounds) - 1) for k, i in enumerate(bounds)])
         method = 0 if backend == "stored" else 8
         central = []
+        offset = 0
         for (entry, flags, head, data), crc, parts in zip(members, crcs, pieces):
-            offset = fh.tell()
-            fh.write(_local_header(entry, flags, method, 0, 0, 0))  # sizes and CRC filled in below
-            csize = 0
-            for part in parts:
-                chunk = part.result()
+            # The member's sizes and CRC go into its header, so its chunks are awaited first: the file is
+            # written front to back (no seek back; a hash of the stream is the file's), and while this
+            # member's bytes go to disk the pool works on the next member's.
+            chunks = [part.result() for part in parts]
+            csize, usize, crc = sum(len(c) for c in chunks), len(head) + len(data), crc.result()
+            local = _local_header(entry, flags, method, crc, csize, usize)
+            fh.write(local)
+            for chunk in chunks:
                 fh.write(chunk)
-                csize += len(chunk)
-            usize, crc = len(head) + len(data), crc.result()
-            end = fh.tell()
-            fh.seek(offset)
-            fh.write(_local_header(entry, flags, method, crc, csize, usize))
-            fh.seek(end)
             central.append(_central_header(entry, flags, method, crc, csize, usize, offset))
-        cd_offset = fh.tell()
+            offset += len(local) + csize
         cd = b"".join(central)
-        fh.write(cd + _end_records(len(central), cd_offset, len(cd)))
+        fh.write(cd + _end_records(len(central), offset, len(cd)))
     finally:
         if pool is not None:
             pool.shutdown(wait=True, cancel_futures=True)

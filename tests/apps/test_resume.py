@@ -133,18 +133,18 @@ def test_a_killed_run_resumes_where_it_stopped(scene, tmp_path, monkeypatch):
 
 def test_a_view_killed_between_its_files_is_rendered_again(scene, tmp_path, counted, monkeypatch):
     cams = orbit_cameras(scene.camera, 3)
-    real = views.write_depth_png
+    real = views.write_hashed  # every file of a view but a non-PNG image goes through it
 
     def fail_on_view_1(path, *args, **kwargs):
-        if "view_00001" in os.fspath(path):
+        if "view_00001_depth" in os.fspath(path):
             raise OSError("disk full")
         return real(path, *args, **kwargs)
 
-    monkeypatch.setattr(views, "write_depth_png", fail_on_view_1)
+    monkeypatch.setattr(views, "write_hashed", fail_on_view_1)
     with pytest.raises(OSError, match="disk full"):
         render_views(scene, cams, tmp_path, buffers=["zdepth"], formats=["npz", "depth_png"])
     assert (tmp_path / "view_00001.npz").exists() and not (tmp_path / "view_00001.json").exists()
-    monkeypatch.setattr(views, "write_depth_png", real)
+    monkeypatch.setattr(views, "write_hashed", real)
     counted.clear()
     render_views(scene, cams, tmp_path, buffers=["zdepth"], formats=["npz", "depth_png"])
     assert counted == cams[1:]  # view 1 (npz but no record) and view 2 (never reached)

@@ -96,7 +96,7 @@ def test_the_writer_threads_numba_threads_are_its_own(scene, tmp_path, monkeypat
     seen = []
     real = views._write_files
     monkeypatch.setattr(views, "_two_frames_fit", lambda jobs, memory: overlap)
-    monkeypatch.setattr(views, "_write_files", lambda *a: (seen.append(numba.get_num_threads()), real(*a)))
+    monkeypatch.setattr(views, "_write_files", lambda *a: (seen.append(numba.get_num_threads()), real(*a))[1])
     top = numba.config.NUMBA_NUM_THREADS
     numba.set_num_threads(top)
     render_views(scene, orbit_cameras(scene.camera, 2), tmp_path, buffers=["zdepth"])
@@ -109,21 +109,23 @@ def test_a_failed_write_stops_the_set_without_its_record_and_a_rerun_finishes_it
     import raycast_shade.apps.views as views
 
     cams = orbit_cameras(scene.camera, 3)
-    real = views.save_npz
+    real = views.npz_into
     calls = []
 
-    def failing(path, *args, **kw):
-        calls.append(path)
+    def failing(fh, *args, **kw):  # fails halfway through the second view's npz
+        calls.append(fh)
         if len(calls) == 2:
+            fh.write(b"PK\x03\x04 half a file")
             raise OSError("disk full (simulated)")
-        return real(path, *args, **kw)
+        return real(fh, *args, **kw)
 
-    monkeypatch.setattr(views, "save_npz", failing)
+    monkeypatch.setattr(views, "npz_into", failing)
     with pytest.raises(OSError, match="disk full"):
         render_views(scene, cams, tmp_path / "set", buffers=["zdepth"], image=None)
     assert (tmp_path / "set" / "view_00000.json").exists()
     assert not (tmp_path / "set" / "view_00001.json").exists()
-    monkeypatch.setattr(views, "save_npz", real)
+    assert not (tmp_path / "set" / "view_00001.npz").exists()  # the atomic write left no half file
+    monkeypatch.setattr(views, "npz_into", real)
     render_views(scene, cams, tmp_path / "set", buffers=["zdepth"], image=None)
     render_views(scene, cams, tmp_path / "one", buffers=["zdepth"], image=None)
     for i in range(3):  # the finished set holds the bytes a single run writes
@@ -179,3 +181,72 @@ def test_views_of_several_sizes_each_render_into_arrays_of_their_size(scene, tmp
     for i, cam in enumerate(cams):
         want = to_uint8(rs.render(scene, camera=cam).image)
         assert np.array_equal(iio.imread(tmp_path / f"view_{i:05d}.png"), want), i
+
+
+@pytest.mark.parametrize("image", [".png", ".pfm"])
+def test_the_records_sizes_and_digests_are_hashlibs_over_the_files(scene, tmp_path, image):
+    """Hashed as written (PNG, npz, EXR, depth PNG) or read back (other images): hashlib's BLAKE2b
+    over each file on disk, and the files equal those of the path-taking writers."""
+    import hashlib
+
+    from raycast_shade.output.bufferfile import save_npz, write_depth_png, write_exr
+    from raycast_shade.output.imagefile import write_image
+
+    cams = orbit_cameras(scene.camera, 2)
+    render_views(scene, cams, tmp_path / "v", buffers=["zdepth", "normal", "id", "mask"],
+                 formats=["npz", "exr", "depth_png"], image=image, compression="zip")
+    for i in range(2):
+        record = json.loads((tmp_path / "v" / f"view_{i:05d}.json").read_text())
+        assert len(record["files"]) == 4
+        for name, entry in record["files"].items():
+            data = (tmp_path / "v" / name).read_bytes()
+            assert entry["bytes"] == len(data) > 0
+            assert entry["blake2b"] == hashlib.blake2b(data, digest_size=16).hexdigest(), name
+    frame = rs.render(scene, camera=cams[1], buffers=("zdepth", "normal", "id", "mask"))
+    kept = {k: frame.buffers[k] for k in ("zdepth", "normal", "model_id", "triangle_id", "mask")}
+    ref = {"npz": save_npz(tmp_path / "r.npz", kept, camera=cams[1], compressed=1),
+           "exr": write_exr(tmp_path / "r.exr", kept, compression="zip"),
+           "_depth.png": write_depth_png(tmp_path / "r.png", frame.buffers["zdepth"], fast=True),
+           image: write_image(tmp_path / ("i" + image), frame.image, fast=True)}
+    for suffix, path in ref.items():
+        name = f"view_00001{suffix if suffix.startswith('_') else '.' + suffix.lstrip('.')}"
+        assert (tmp_path / "v" / name).read_bytes() == open(path, "rb").read(), name
+
+
+def test_view_files_passed_whole_write_what_the_keyword_arguments_write(scene, tmp_path):
+    from raycast_shade.apps.views import ViewFiles
+
+    cams = orbit_cameras(scene.camera, 2)
+    kw = dict(buffers=["zdepth", "id"], formats=["npz", "depth_png"], image=".PNG", depth_scale=500.0,
+              float_image=True, compression="none")
+    render_views(scene, cams, tmp_path / "kw", **kw)
+    files = ViewFiles(**kw)
+    assert files.buffers == ("zdepth", "id") and files.formats == ("npz", "depth_png") and files.image == ".png"
+    render_views(scene, cams, tmp_path / "whole", files=files)
+    for name in ("plan.json", "view_00001.npz", "view_00001_depth.png", "view_00001.png", "view_00001.json"):
+        assert (tmp_path / "kw" / name).read_bytes() == (tmp_path / "whole" / name).read_bytes(), name
+    # the same plan: the folder written with keyword arguments resumes with files= (nothing rendered again)
+    render_views(scene, cams, tmp_path / "kw", files=files)
+    with pytest.raises(ValueError, match="files: depth_scale is given both in files and as a keyword argument"):
+        render_views(scene, cams, tmp_path / "x", files=files, depth_scale=1000.0)
+    with pytest.raises(TypeError, match="files: expected"):
+        render_views(scene, cams, tmp_path / "x", files={"buffers": ["zdepth"]})
+    assert not (tmp_path / "x").exists()
+
+
+@pytest.mark.parametrize("field, value, error, match", [
+    ("buffers", ["zdepth", "nope"], ValueError, "buffers"),
+    ("formats", ["npz", "tiff"], ValueError, "formats: unknown format"),
+    ("image", ".exr", ValueError, "image"),
+    ("image", 5, TypeError, "image"),
+    ("depth_scale", 0.0, ValueError, "depth_scale"),
+    ("float_image", "yes", TypeError, "float_image"),
+    ("compression", "lzma", ValueError, "compression"),
+])
+def test_view_files_refuse_bad_fields_naming_them(field, value, error, match):
+    from raycast_shade.apps.views import ViewFiles
+
+    with pytest.raises(error, match=match):
+        ViewFiles(**{field: value})
+    with pytest.raises(ValueError, match="formats: nothing to write"):
+        ViewFiles(formats=(), image=None)

@@ -227,3 +227,72 @@ def test_box_corners_project_like_opencv(scene):
             uv, _ = cv2.projectPoints(box_corners(table[o["id"]]["box_3d"]), cv2.Rodrigues(R)[0], t, K,
                                       None if dist is None else np.array(dist))
             assert np.abs(np.array(o["corners"]) - uv.reshape(-1, 2)).max() < 1e-9
+
+
+# -- the one-kernel labels against the NumPy version they replaced ---------------------------------------
+
+
+def _numpy_runs(mask):
+    """Run lengths of a column-major flattened mask, starting with a run of 0s (the former NumPy code)."""
+    flat = np.asarray(mask, bool).ravel(order="F")
+    edges = np.concatenate([[0], np.flatnonzero(flat[1:] != flat[:-1]) + 1, [flat.size]])
+    runs = np.diff(edges)
+    return np.concatenate([[0], runs]) if flat.size and flat[0] else runs
+
+
+def _numpy_counts(mask) -> str:
+    runs = _numpy_runs(mask).tolist()
+    chars = []
+    for i, run in enumerate(runs):
+        x = run - runs[i - 2] if i > 2 else run
+        more = True
+        while more:
+            c = x & 0x1F
+            x >>= 5
+            more = (x != -1) if (c & 0x10) else (x != 0)
+            chars.append(chr((c | 0x20 if more else c) + 48))
+    return "".join(chars)
+
+
+def _numpy_labels(ids) -> dict:
+    out = {}
+    for g in np.unique(ids[ids >= 0]).tolist():
+        m = ids == g
+        rows, cols = np.nonzero(m)
+        out[g] = (int(rows.size), [int(cols.min()), int(rows.min()), int(cols.max()) + 1, int(rows.max()) + 1],
+                  _numpy_counts(m))
+    return out
+
+
+@settings(max_examples=200, deadline=None)
+@given(arrays(st.sampled_from([np.int8, np.int32, np.int64]), st.tuples(st.integers(1, 17), st.integers(1, 13)),
+              elements=st.integers(-3, 4)))
+def test_id_labels_are_the_numpy_counts_boxes_and_rle(ids):
+    from raycast_shade.output.labels import id_labels
+
+    assert id_labels(ids) == _numpy_labels(ids)
+    assert {g: v[:2] for g, v in id_labels(ids, rle=False).items()} == {g: v[:2] for g, v in _numpy_labels(ids).items()}
+
+
+def test_id_labels_of_sparse_large_ids_and_a_rendered_frame(scene):
+    from raycast_shade.output.labels import id_labels
+
+    rng = np.random.default_rng(4)
+    blocks = rng.integers(-1, 4, (6, 8))
+    ids = np.repeat(np.repeat(blocks, 9, 0), 7, 1).astype(np.int64)
+    sparse = np.where(ids >= 0, ids * (1 << 40) + 5, -1)  # numbered densely first
+    dense = id_labels(ids)
+    assert id_labels(sparse) == {g * (1 << 40) + 5: v for g, v in dense.items()} and dense == _numpy_labels(ids)
+    mid = rs.render(scene, buffers=("model_id",)).buffers["model_id"]
+    assert id_labels(mid) == _numpy_labels(mid)
+    for o in view_objects(mid, scene.camera, rle=True):
+        assert o["rle"]["counts"] == _numpy_counts(mid == o["id"]) and o["rle"]["size"] == [H, W]
+
+
+def test_id_labels_with_a_bound_are_those_without_even_when_an_id_passes_it():
+    from raycast_shade.output.labels import id_labels
+
+    ids = np.random.default_rng(5).integers(-1, 6, (19, 23)).astype(np.int32)
+    want = _numpy_labels(ids)
+    for bound in (6, 7, 100, 3, 0):  # 3 and 0: an id at or above the bound, the ids searched after all
+        assert id_labels(ids, bound=bound) == want

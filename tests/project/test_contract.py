@@ -224,7 +224,7 @@ def baselines(tmp):
         "SpotLight.falloff": (rs.SpotLight((0.0, 3.0, 0.0), direction=(0.0, -1.0, 0.0)).falloff,
                               dict(cos_angle=0.9)),
         "render_views": (rs.render_views, dict(scene=scene, cameras=[cam], out_dir=str(tmp / "views"),
-                                               retries=0, views_per_task=1, depth_scale=1000.0)),
+                                               retries=0, views_per_task=1, depth_scale=1000.0, files=None)),
     }
     return table
 
@@ -334,6 +334,7 @@ LEGAL = {
     ("overlays.overlay", "color", "0"): "black",
     ("render_views", "cameras", "None"): "the scene's own camera (plan_batch)",
     ("render_views", "out_dir", "'abc'"): "a folder name",
+    ("render_views", "files", "None"): "the default: the file options of the keyword arguments",
     ("render", "tolerance", "1e308"): "any method is good enough",
     ("choose_methods", "tolerance", "1e308"): "any method is good enough",
     ("choose_methods", "max_pixels", "1e308"): "no limit on the pixels sampled",

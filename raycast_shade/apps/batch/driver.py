@@ -10,7 +10,7 @@ import tempfile
 
 from ...output.imagefile import remove_stale_temps
 from .cache import SceneCache
-from .options import check_counts, check_options, check_shading_fits, check_transfer
+from .options import BatchOptions, check_counts, check_options, check_shading_fits, check_transfer
 from .plan import plan_batch
 from .pool import ProcessPool, cores
 from .serial import iter_serial
@@ -88,7 +88,7 @@ def iter_batch(scene_or_scenes, cameras=None, lights=None, *, shading="phong", o
                pattern: str = "frame_{:05d}.png", workers: int | None = None, scheduler=None, progress: bool = True,
                retries: int = 2, resume: bool = True, tone: dict | None = None, numba_threads: int | None = None,
                frames_per_task: int | None = None, window: int | None = None, cache: SceneCache | None = None,
-               transfer: str = "auto", executor="auto", **render_kwargs):
+               transfer: str = "auto", executor="auto", options: BatchOptions | None = None, **render_kwargs):
     """Render a batch, yielding each frame's result in frame order.
 
     Same parameters as :func:`render_batch`, plus ``window``: at most that
@@ -103,7 +103,7 @@ def iter_batch(scene_or_scenes, cameras=None, lights=None, *, shading="phong", o
     (H, W, 3) float32 ndarray or str
         The linear image, or the written path when ``out_dir`` is given.
     """
-    options = check_options(shading, render_kwargs, tone, resume)
+    options = _frame_options(options, dict(shading=shading, tone=tone, resume=resume), render_kwargs)
     check_counts(retries, frames_per_task, window)
     transfer = check_transfer(transfer)
     kind = check_executor(executor, workers, scheduler)
@@ -147,7 +147,7 @@ def render_batch(scene_or_scenes, cameras=None, lights=None, *, shading="phong",
                  progress: bool = True, retries: int = 2, resume: bool = True, tone: dict | None = None,
                  numba_threads: int | None = None, frames_per_task: int | None = None,
                  cache: SceneCache | None = None, transfer: str = "auto", executor="auto",
-                 **render_kwargs) -> list:
+                 options: BatchOptions | None = None, **render_kwargs) -> list:
     """Render many frames, in order.
 
     Each of ``scene_or_scenes``, ``cameras`` and ``lights`` is one value
@@ -222,6 +222,11 @@ def render_batch(scene_or_scenes, cameras=None, lights=None, *, shading="phong",
         ``"dask"``: a local Dask cluster of ``workers`` processes, or
         ``scheduler``'s. ``"auto"`` (default): Dask with ``scheduler``, the
         process pool with ``workers``, else this process.
+    options : BatchOptions, optional
+        How every frame renders (``shading``, the render keywords, ``tone``,
+        ``resume``) in one object, checked as the keyword arguments are;
+        those are then left out (one given too is refused; one at its
+        default counts as not given).
     **render_kwargs
         ``backend``, ``interpolation``, ``caster``, ``max_depth``,
         ``tolerance`` of :func:`raycast_shade.render`.
@@ -245,4 +250,21 @@ def render_batch(scene_or_scenes, cameras=None, lights=None, *, shading="phong",
     return list(iter_batch(scene_or_scenes, cameras, lights, shading=shading, out_dir=out_dir, pattern=pattern,
                            workers=workers, scheduler=scheduler, progress=progress, retries=retries, resume=resume,
                            tone=tone, numba_threads=numba_threads, frames_per_task=frames_per_task, cache=cache,
-                           transfer=transfer, executor=executor, **render_kwargs))
+                           transfer=transfer, executor=executor, options=options, **render_kwargs))
+
+
+def _frame_options(options, given: dict, render_kwargs: dict) -> BatchOptions:
+    """The checked frame options: of the keyword arguments, or of ``options`` (checked again, as a
+    :class:`BatchOptions` made by hand is not), refusing a keyword argument given besides it."""
+    if options is None:
+        return check_options(given["shading"], render_kwargs, given["tone"], given["resume"])
+    if not isinstance(options, BatchOptions):
+        raise TypeError(f"options: expected a BatchOptions, got {type(options).__name__}")
+    defaults = iter_batch.__kwdefaults__
+    clash = [k for k, v in given.items() if v is not defaults[k]] + list(render_kwargs)
+    if clash:
+        raise ValueError(f"options: {clash[0]} is given both in options and as a keyword argument; "
+                         "pass it in one place")
+    if not isinstance(options.render_kwargs, dict):
+        raise TypeError(f"options.render_kwargs: expected a dict, got {type(options.render_kwargs).__name__}")
+    return check_options(options.shading, dict(options.render_kwargs), options.tone, options.resume)

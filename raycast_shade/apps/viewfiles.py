@@ -1,0 +1,105 @@
+"""The per-view file options of a view set (:class:`ViewFiles`), checked: what each view writes.
+
+:func:`raycast_shade.apps.views.render_views` takes them as keyword arguments or passed whole
+(``files=ViewFiles(...)``); see its docstring for the files themselves.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ..common.validate import as_scalar
+from ..output.buffers import check_buffers
+from ..output.imagefile import check_image_path
+
+__all__ = ["ViewFiles", "FORMATS", "COMPRESSIONS"]
+
+FORMATS = ("npz", "exr", "depth_png")
+COMPRESSIONS = ("auto", "none", "zip")  # npz deflate level 1 and EXR ZIP, or neither; auto: zip with ISA-L
+
+
+def _check_formats(formats, field="formats", choices=FORMATS) -> tuple:
+    if formats is None:
+        return ()
+    if isinstance(formats, str):
+        formats = [f for f in formats.split(",") if f.strip()]
+    elif not hasattr(formats, "__iter__"):
+        raise TypeError(f"{field}: expected a sequence of names, got {type(formats).__name__}")
+    out = []
+    for f in formats:
+        if not isinstance(f, str):
+            raise TypeError(f"{field}: expected names (str), got {type(f).__name__}")
+        key = f.strip().lower()
+        if key not in choices:
+            raise ValueError(f"{field}: unknown {field[:-1]} {f!r}; expected some of {', '.join(choices)}")
+        out.append(key)
+    return tuple(dict.fromkeys(out))
+
+
+def _check_outputs(names, formats, image) -> None:
+    if not formats and image is None:
+        raise ValueError("formats: nothing to write (no buffer format and image=None)")
+    if formats and not names and "depth_png" not in formats:
+        raise ValueError("buffers: no buffers asked for, but formats names buffer files")
+    if "exr" in formats:
+        import OpenEXR  # noqa: F401 - fail now, not on the first view
+
+
+_DEFAULT_BUFFERS = ("zdepth", "normal", "id", "mask")
+_DEFAULT_FORMATS = ("npz",)
+
+
+@dataclasses.dataclass(frozen=True)
+class ViewFiles:
+    """What each view of a set writes: :func:`~raycast_shade.apps.views.render_views`' file options in one.
+
+    Parameters
+    ----------
+    buffers : sequence of str
+        Buffer names (:mod:`raycast_shade.output.buffers`).
+    formats : sequence of {"npz", "exr", "depth_png"}
+        Buffer files per view (see the module docstring).
+    image : {".png", ".pfm", ".npy", ...} or None
+        Extension of the per-view image file, or None for none.
+    depth_scale : float
+        Units per world unit of the depth PNG (1000: millimetres).
+    float_image : bool
+        Also store the linear float32 image in the npz and EXR files.
+    compression : {"auto", "none", "zip"}
+        npz and EXR files compressed or stored (see :func:`~raycast_shade.apps.views.render_views`).
+
+    Raises
+    ------
+    TypeError, ValueError
+        Naming the field, when the instance is made.
+    """
+
+    buffers: tuple = _DEFAULT_BUFFERS
+    formats: tuple = _DEFAULT_FORMATS
+    image: str | None = ".png"
+    depth_scale: float = 1000.0
+    float_image: bool = False
+    compression: str = "auto"
+
+    def __post_init__(self):
+        from ..common.validate import as_choice
+
+        check_buffers(self.buffers)
+        buffers = (self.buffers,) if isinstance(self.buffers, str) else tuple(self.buffers)
+        formats = _check_formats(self.formats)
+        image = self.image
+        if image is not None:
+            if not isinstance(image, str):
+                raise TypeError(f"image: expected an extension such as '.png', or None; got {type(image).__name__}")
+            check_image_path("view" + image, "image")
+            image = image.lower()
+        _check_outputs(check_buffers(buffers), formats, image)
+        if not isinstance(self.float_image, (bool, np.bool_)):
+            raise TypeError(f"float_image: expected True or False, got {type(self.float_image).__name__}")
+        depth_scale = float(as_scalar(self.depth_scale, "depth_scale", minimum=0.0, exclusive=True))
+        compression = as_choice(self.compression, "compression", COMPRESSIONS)
+        for name, value in (("buffers", buffers), ("formats", formats), ("image", image), ("depth_scale", depth_scale),
+                            ("float_image", bool(self.float_image)), ("compression", compression)):
+            object.__setattr__(self, name, value)
