@@ -439,6 +439,9 @@ def main(argv=None):
         return rows
     cases = QUICK_CASES if args.quick else CASES
     repeats = args.repeats or (2 if args.quick else 3)
+    if args.only and not os.path.exists(results_file("paths.csv", args.quick)):
+        p.error(f"--only: re-times rows of {results_file('paths.csv', args.quick)}, which does not exist yet; "
+                "run without --only first")
     if args.only:
         return _retime(cases, repeats, set(args.only.split(",")), args.quick)
     rows = []

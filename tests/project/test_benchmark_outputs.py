@@ -222,3 +222,13 @@ def test_the_figure_check_finds_every_changed_picture(tmp_path):
     found = dict(differing(str(new), str(old)))
     assert sorted(found) == ["changed.png", "new.png", "resized.png"]
     assert found["changed.png"] == "max difference 7, in 1 pixel(s)"
+
+
+def test_bench_paths_only_without_a_csv_says_so(tmp_path, monkeypatch, capsys):
+    """``--only`` re-times rows of an existing CSV; with none yet it ends with one line, exit 2."""
+    import benchmarks.bench_paths as bp
+
+    monkeypatch.setattr(bp, "results_file", lambda name, quick: str(tmp_path / name))
+    with pytest.raises(SystemExit) as e:
+        bp.main(["--quick", "--only", "explain"])
+    assert e.value.code == 2 and "does not exist yet" in capsys.readouterr().err
