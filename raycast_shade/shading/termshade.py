@@ -18,6 +18,8 @@ sees it. Only the mirror part needs the whole frame's hits (:func:`mirror_terms`
 
 from __future__ import annotations
 
+import mmap
+
 import numpy as np
 
 from ..common.layout import MAT_KE, MAT_REFLECTIVITY, METHOD_FLAT, METHOD_GOURAUD, METHOD_PHONG
@@ -30,6 +32,30 @@ from .terms_kernel import (_FLAT_TERMS, _PHONG_TERMS, TERM_BACKGROUND, TERM_EMIS
                            TERMS_SHADOW, _lookup_flat_terms)
 
 __all__ = ["TermShading", "mirror_terms"]
+
+def _untouched_zeros(shape, dtype=np.float32) -> np.ndarray:
+    """A writable zero array on fresh anonymous pages: nothing is written until someone writes
+    it (a term no kernel writes costs no page faults and no memory bandwidth). ``np.zeros``
+    does not promise that: its ``calloc`` clears memory it takes back from the heap, which
+    after a few large frames is 25 MB of writes per (1080, 1920, 3) float32 array.
+
+    Parameters
+    ----------
+    shape : tuple of int
+    dtype : numpy dtype
+
+    Returns
+    -------
+    shape dtype
+        Zeros, writable, owning its mapping (freed with the array).
+    """
+    nbytes = int(np.prod(shape)) * np.dtype(dtype).itemsize
+    if nbytes == 0:
+        return np.zeros(shape, dtype)
+    private = getattr(mmap, "MAP_PRIVATE", None)  # POSIX: private, not shared-memory pages
+    buf = mmap.mmap(-1, nbytes) if private is None else mmap.mmap(-1, nbytes, flags=private | mmap.MAP_ANONYMOUS)
+    return np.frombuffer(buf, dtype).reshape(shape)
+
 
 _NONE = np.zeros((1, 1, 3), np.float32)  # a term slot no kernel writes or reads (never indexed)
 _NONE64 = np.zeros((1, 1, 3), np.float64)
@@ -80,7 +106,7 @@ class TermShading:
         nl = k.lighting[1].shape[0]
         emit_on = bool(np.any(k.materials[:, MAT_KE:MAT_KE + 3] > 0))
         bg_on = bool(np.any(k.background != 0))
-        zeros = [np.zeros((h, w, 3), np.float32) for _ in range(2)]  # calloc'd: untouched unless written
+        zeros = [_untouched_zeros((h, w, 3)) for _ in range(2)]  # untouched unless written
         slots = {TERM_EMISSIVE: zeros[0], TERM_BACKGROUND: zeros[1]}
         self.R = _record((h, w), slots, nl, per_light, k.background, emit_on, bg_on)
         self.per_light = per_light
@@ -161,7 +187,7 @@ def mirror_terms(scene, camera, hits, max_depth, k):
     pages nobody touches without mirrors)."""
     h, w = camera.height, camera.width
     keep = np.ones((h, w), np.float32)
-    reflected = np.zeros((h, w, 3), np.float32)  # untouched pages until a mirror writes them
+    reflected = _untouched_zeros((h, w, 3))  # untouched pages until a mirror writes them
     if scene.geometry.reflective and max_depth > 0:
         seen = hits.prim >= 0
         rho = np.where(seen, k.materials[np.maximum(hits.geom, 0), MAT_REFLECTIVITY], 0.0)
