@@ -26,6 +26,8 @@ from ..common.layout import MAT_KE, MAT_REFLECTIVITY, METHOD_FLAT, METHOD_GOURAU
 from ..common.schedule import BLOCK_ROWS
 from .jit import variant
 from .mirrors import trace_mirrors
+from .phong_fast import _NO_NORMALS, _PHONG_FAST_TERMS
+from .phong_fast import applies as _fast_applies
 from .shade import _visible_kernel, resolve_methods
 from .terms_gouraud import _GOURAUD_TERMS, _VERTEX_TERMS, VERT_Y0, scratch_slots
 from .terms_kernel import (_FLAT_TERMS, _PHONG_TERMS, TERM_BACKGROUND, TERM_EMISSIVE, TERM_SLOTS, TERMS_EACH,
@@ -110,6 +112,8 @@ class TermShading:
         slots = {TERM_EMISSIVE: zeros[0], TERM_BACKGROUND: zeros[1]}
         self.R = _record((h, w), slots, nl, per_light, k.background, emit_on, bg_on)
         self.per_light = per_light
+        # The batched Phong kernel (phong_fast) where it applies; per-light terms: the general one
+        self.fast_phong = self.phong and not per_light and _fast_applies(self.modes, k)
         if self.flat:  # each visible face's colour and terms, computed once (the first band to see it)
             nf = len(self.geo.faces)
             self.fcol = np.zeros((nf, 3), np.float64)
@@ -163,7 +167,11 @@ class TermShading:
             V = self.V[:VERT_Y0] + (y0,) + scratch_slots(self.V, tasks)
             variant(_GOURAUD_TERMS, k)(hits.prim, hits.geom, hits.u, hits.v, k.geometry, k.bumps, k.face_off,
                                        k.materials, k.cam, k.lighting, k.colours, modes, image, self.R, V)
-        if self.phong:
+        if self.fast_phong:
+            _PHONG_FAST_TERMS[k.spec_on, k.att_on](hits.prim, hits.geom, hits.u, hits.v, k.geometry, k.lighting,
+                                                   k.face_off, k.materials, k.cam, k.background, modes,
+                                                   (image, _NO_NORMALS, self.R, y0))
+        elif self.phong:
             variant(_PHONG_TERMS, k)(hits.prim, hits.geom, hits.u, hits.v, k.geometry, k.bumps, k.lighting,
                                      k.colours, k.face_off, k.materials, k.cam, modes, image, y0, self.R)
         return image
