@@ -30,8 +30,8 @@ from .phong_fast import _NO_NORMALS, _PHONG_FAST_TERMS
 from .phong_fast import applies as _fast_applies
 from .shade import _visible_kernel, resolve_methods
 from .terms_gouraud import _GOURAUD_TERMS, _VERTEX_TERMS, VERT_Y0, scratch_slots
-from .terms_kernel import (_FLAT_TERMS, _PHONG_TERMS, TERM_BACKGROUND, TERM_EMISSIVE, TERM_SLOTS, TERMS_EACH,
-                           TERMS_SHADOW, _lookup_flat_terms)
+from .flat import _FLAT_TERMS, _lookup_flat_terms
+from .terms_kernel import _PHONG_TERMS, TERM_BACKGROUND, TERM_EMISSIVE, TERM_SLOTS, TERMS_EACH, TERMS_SHADOW
 
 __all__ = ["TermShading", "mirror_terms"]
 
@@ -137,7 +137,7 @@ class TermShading:
         new = faces & (1 - self.face_done)
         if self.flat and new.any():
             variant(_FLAT_TERMS, k)(new, k.geometry, geo.face_model, k.materials, k.cam, k.lighting, k.colours,
-                                    geo.uvs, self.fcol, self.F)
+                                    geo.uvs, (self.fcol, self.F))
             self.face_done |= new
         new = vertices & (1 - self.vertex_done)
         if self.gouraud and new.any():
@@ -161,7 +161,8 @@ class TermShading:
         if self.flat or self.gouraud:
             self._share(hits)
         if self.flat:
-            _lookup_flat_terms(hits.prim, hits.geom, k.face_off, self.fcol, modes, image, y0, self.R, self.F)
+            _lookup_flat_terms(hits.prim, hits.geom, k.face_off, self.fcol, k.background, modes,
+                               (image, y0, self.R, self.F))
         if self.gouraud:
             tasks = (h + BLOCK_ROWS - 1) // BLOCK_ROWS  # the pixel kernel's parallel tasks
             V = self.V[:VERT_Y0] + (y0,) + scratch_slots(self.V, tasks)
