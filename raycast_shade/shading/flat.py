@@ -38,12 +38,12 @@ def _make_flat(spec_on: bool, att_on: bool, tex_on: bool = False, terms_on: bool
         """Flat shading: one shade per visible face, at its centre.
 
         ``G``, ``L`` and ``T`` as in :class:`~raycast_shade.shading.inputs.FrameInputs`;
-        ``out`` (F, 3) float64 (the terms build: ``(out, F, slot)``, each face's terms into the
-        terms record ``F`` at row ``slot[f]``, :mod:`.terms_kernel`). A textured face
+        ``out`` (F, 3) float64 (the terms build: ``(out, F)``, each face's terms into the
+        face-sized terms record ``F`` at row ``f``, :mod:`.terms_kernel`). A textured face
         takes the texel at its centre from the mip level whose texels are as large as the
         face's UV triangle: the face's average colour, one shade per polygon."""
         if terms_on:  # a closure constant: the other build's branches are dropped before typing
-            fcol, F, slot = out
+            fcol, F = out
         else:
             fcol = out
         verts, _, faces, fnormals = G
@@ -69,7 +69,7 @@ def _make_flat(spec_on: bool, att_on: bool, tex_on: bool = False, terms_on: bool
                 # The face's centre, lit with its true normal; shadow rays leave the centre.
                 hp = Hit(p, v, gn, sgn, gn, p)
                 if terms_on:
-                    r, g, b = _illuminate_terms(hp, coef, materials, m, L, S, spec_on, att_on, F, slot[f], 0)
+                    r, g, b = _illuminate_terms(hp, coef, materials, m, L, S, spec_on, att_on, F, f, 0)
                 else:
                     r, g, b = _illuminate(hp, coef, materials, m, L, S, spec_on, att_on)
                 fcol[f, 0] = r
@@ -89,12 +89,12 @@ def _make_lookup(terms_on: bool):
     @njit(parallel=True, **JIT)
     def _lookup_flat_kernel(prim, geom, face_off, fcol, background, modes, image):
         """Flat: each pixel of the models whose method is METHOD_FLAT takes its face's shade.
-        The terms build's ``image`` is ``(image, y0, R, F, slot)``: also the face's terms (row
-        ``slot[f]`` of the face record ``F``) into the frame's terms record ``R`` at row
-        ``y0 + y``, and zero terms on the background (records travel whole into the helpers:
-        Numba's parallel loops do not take a tuple of arrays unpacked from one)."""
+        The terms build's ``image`` is ``(image, y0, R, F)``: also the face's terms (the face
+        record ``F``) into the frame's terms record ``R`` at row ``y0 + y``, and zero terms on
+        the background (records travel whole into the helpers: Numba's parallel loops do not
+        take a tuple of arrays unpacked from one)."""
         if terms_on:
-            img, y0, R, F, slot = image
+            img, y0, R, F = image
         else:
             img = image
         h, w = prim.shape
@@ -115,7 +115,7 @@ def _make_lookup(terms_on: bool):
                 for c in range(3):
                     img[y, x, c] = min(fcol[f, c], FLT32_MAX)
                 if terms_on:
-                    _face_terms(R, F, slot[f], y0 + y, x)
+                    _face_terms(R, F, f, y0 + y, x)
 
     return _lookup_flat_kernel
 

@@ -32,9 +32,8 @@ as the variants' are: the equation is linear in them.
 
 The kernels take the frame's full-size term arrays and write the rows ``y0 + y`` of a band's
 row ``y`` (the whole frame: ``y0 = 0``), so the banded renderer and the whole-frame one run the
-same compiled kernels. Flat shading stores each visible face's terms once, in arrays of the
-same layout (``(N, 1, 3)``: a row per face seen, in the order the faces are first seen; column 0),
-and its pixel kernel copies them
+same compiled kernels. Flat shading stores each visible face's terms once, in face-sized arrays
+of the same layout (``(F, 1, 3)``: row ``f``, column 0), and its pixel kernel copies them
 (:func:`_face_terms`); its kernels are :mod:`.flat`'s, built with ``terms_on``. The batched
 Phong kernel (:mod:`.phong_fast`) writes the same terms where it applies.
 """
