@@ -13,7 +13,9 @@ on a Phong model, no light casting shadows — this kernel does the same arithme
    the oriented normal; then per light its direction, distance and attenuation, ``n . s``, the
    specular cosine and the whole-number power by repeated squaring (one pass per bit, a bit
    applied to the lanes that have it), and the sum; these are the loops LLVM vectorises;
-3. a scatter pass writes the colours (and, when asked, the shading normals) to their pixels.
+3. a scatter pass writes the colours (and, when asked, the shading normals) to their pixels;
+   the ``terms_on`` build (``render(terms=True)``) also sums each light's diffuse and specular
+   parts in the accumulate pass and writes the terms in a scatter pass of its own.
 
 Every lane does the float64 operations of :func:`.phong._shade_surface` in the same order, so
 the image is the general kernel's bit for bit (``tests/shading/test_phong_fast.py``). The
@@ -47,7 +49,7 @@ from .terms_kernel import (TERM_AMBIENT, TERM_DIFFUSE, TERM_EMISSIVE, TERM_SPECU
 
 __all__ = ["LANES", "applies"]
 
-LANES = 64  # pixels shaded together: 64 lanes of 48 float64 fields (24 KiB) stay in the L1 cache
+LANES = 64  # pixels shaded together: 64 lanes of 54 float64 fields (27 KiB) stay in the L1 cache
 _NO_NORMALS = np.empty((0, 0, 3), np.float32)  # the kernel's normal output when none is asked for
 
 # Fields of the scratch array, each LANES wide: field F of lane k is S[F * LANES + k].
