@@ -77,20 +77,6 @@ def _record(shape, slots, nlights, per_light, background, emit_on, bg_on, dtype=
     return local + (each, shadow, bool(emit_on), bool(bg_on), background)
 
 
-def _face_record(nf, nl, per_light, emit_on, background):
-    """The flat faces' terms record (rows ``f``, column 0): each face's ambient, diffuse,
-    specular (emission) and shadow mask side by side in one row of a packed (F, 1, 16 k) float32
-    array, views of it in the record's slots. On a mesh with faces about a pixel in size every
-    pixel reads another face's row: one cache line instead of one per term array."""
-    width = 16 * ((12 + nl + 15) // 16)
-    packed = np.empty((nf, 1, width), np.float32)
-    local = (packed[:, :, 0:3], packed[:, :, 3:6], packed[:, :, 6:9],
-             packed[:, :, 9:12] if emit_on else _NONE, _NONE)
-    each = np.empty((2, nl if per_light else 0, nf, 1, 3), np.float32)
-    shadow = packed[:, :, 12:12 + nl].transpose(2, 0, 1)  # (L, F, 1)
-    return local + (each, shadow, bool(emit_on), False, background)
-
-
 class TermShading:
     """Shade one frame's hit buffer, whole or band by band, into its image and its terms.
 
@@ -132,7 +118,8 @@ class TermShading:
         if self.flat:  # each visible face's colour and terms, computed once (the first band to see it)
             nf = len(self.geo.faces)
             self.fcol = np.empty((nf, 3), np.float64)  # read only at the faces shaded
-            self.F = _face_record(nf, nl, per_light, emit_on, k.background)
+            self.F = _record((nf, 1), {TERM_EMISSIVE: _NONE, TERM_BACKGROUND: _NONE}, nl, per_light, k.background,
+                             emit_on, False)
         nv = len(self.geo.vertices) if self.gouraud else 1
         self.face_done = np.zeros(len(self.geo.faces) if self.flat else 1, np.uint8)
         self.vertex_done = np.zeros(nv, np.uint8)
