@@ -117,7 +117,7 @@ class TermShading:
         self.fast_phong = self.phong and not per_light and _fast_applies(self.modes, k)
         if self.flat:  # each visible face's colour and terms, computed once (the first band to see it)
             nf = len(self.geo.faces)
-            self.fcol = np.empty((nf, 3), np.float64)  # read only at the faces shaded
+            self.fcol = np.zeros((nf, 3), np.float64)
             self.F = _record((nf, 1), {TERM_EMISSIVE: _NONE, TERM_BACKGROUND: _NONE}, nl, per_light, k.background,
                              emit_on, False)
         nv = len(self.geo.vertices) if self.gouraud else 1
@@ -126,9 +126,8 @@ class TermShading:
         if self.gouraud:  # each visible vertex's colours and terms (float64, as its colours), once
             V = _record((2 * nv, 1), {TERM_EMISSIVE: _NONE64, TERM_BACKGROUND: _NONE64}, nl, per_light,
                         k.background, emit_on, False, np.float64)
-            # vcol, vspec: read only at the vertices shaded (np.zeros would clear them all)
-            self.V = V + (np.empty((nl, 2 * nv, 1)), np.empty((nv, 2, 3)),
-                          np.empty((nv if k.tex_on else 1, 2, 3)), 0)
+            self.V = V + (np.empty((nl, 2 * nv, 1)), np.zeros((nv, 2, 3)),
+                          np.zeros((nv if k.tex_on else 1, 2, 3)), 0)
 
     def _share(self, hits):
         """Shade the faces of flat models and the vertices of Gouraud ones that ``hits`` sees
