@@ -80,12 +80,14 @@ def _step_variants():
 
 def _step_batched():
     """The batched Phong kernel (shading/phong_fast.py) of frames without shadows, textures or
-    bump maps, in its four variants: with and without a specular term and an attenuating light."""
+    bump maps, in its four variants: with and without a specular term and an attenuating light;
+    its terms build too (``terms=True``)."""
     lamp = [PointLight((2.0, 3.0, 2.0), intensity=20.0, attenuation="inverse_square")]
     sun = [DirectionalLight((-1.0, -1.0, -1.0), intensity=1.0)]
     for material in (Material(kd=0.7, ks=0.0), None):
         for lights in (lamp, sun):
             render(_scene(material, lights), "phong")
+            render(_scene(material, lights), "phong", terms=True)
 
 
 def _step_laws():

@@ -3,6 +3,12 @@ with its true (geometric) normal; every pixel of the triangle takes that shade.
 
 Only the faces some pixel sees are shaded (:func:`.shade._visible_kernel`
 marks them); the shadow ray of a face leaves its centre.
+
+Each kernel comes in two builds from one body: the plain one, and with ``terms_on`` the one
+``render(terms=True)`` runs (:mod:`.termshade`), which also stores each face's terms
+(:func:`~raycast_shade.shading.terms_kernel._illuminate_terms`, the same colour bit for bit)
+and copies them to its pixels. The flag is a closure constant: Numba drops the other build's
+branches before typing, so the plain kernels compile to what they were.
 """
 
 from __future__ import annotations
@@ -16,23 +22,30 @@ from .jit import CHUNK, FLT32_MAX, JIT, compile_variants
 from .records import At, Hit
 from .shadows import _scratch
 from .surface import _facing, _hit_point, _triangle, _view
+from .terms_kernel import _face_terms, _illuminate_terms, _miss
 from .texture import _coefficients, _face_footprint, _row_coefficients
 
 __all__ = []
 
 
-def _make_flat(spec_on: bool, att_on: bool, tex_on: bool = False):
+def _make_flat(spec_on: bool, att_on: bool, tex_on: bool = False, terms_on: bool = False):
     """The per-face kernel for one variant (see :mod:`.jit`); ``tex_on``: the
-    face's coefficients come from its colours and maps (:mod:`.texture`)."""
+    face's coefficients come from its colours and maps (:mod:`.texture`); ``terms_on``: the
+    build that also stores each face's terms."""
 
     @njit(parallel=True, **JIT)
     def _shade_faces_kernel(face_flags, G, face_model, materials, cam, L, T, uvs, out):
         """Flat shading: one shade per visible face, at its centre.
 
         ``G``, ``L`` and ``T`` as in :class:`~raycast_shade.shading.inputs.FrameInputs`;
-        ``out`` (F, 3) float64. A textured face takes the texel at its centre
-        from the mip level whose texels are as large as the face's UV
-        triangle: the face's average colour, one shade per polygon."""
+        ``out`` (F, 3) float64 (the terms build: ``(out, F)``, each face's terms into the
+        face-sized terms record ``F`` at row ``f``, :mod:`.terms_kernel`). A textured face
+        takes the texel at its centre from the mip level whose texels are as large as the
+        face's UV triangle: the face's average colour, one shade per polygon."""
+        if terms_on:  # a closure constant: the other build's branches are dropped before typing
+            fcol, F = out
+        else:
+            fcol = out
         verts, _, faces, fnormals = G
         n = faces.shape[0]
         nchunk = (n + CHUNK - 1) // CHUNK
@@ -54,31 +67,58 @@ def _make_flat(spec_on: bool, att_on: bool, tex_on: bool = False):
                 else:
                     coef = _row_coefficients(materials, m)
                 # The face's centre, lit with its true normal; shadow rays leave the centre.
-                r, g, b = _illuminate(Hit(p, v, gn, sgn, gn, p), coef, materials, m, L, S, spec_on, att_on)
-                out[f, 0] = r
-                out[f, 1] = g
-                out[f, 2] = b
+                hp = Hit(p, v, gn, sgn, gn, p)
+                if terms_on:
+                    r, g, b = _illuminate_terms(hp, coef, materials, m, L, S, spec_on, att_on, F, f, 0)
+                else:
+                    r, g, b = _illuminate(hp, coef, materials, m, L, S, spec_on, att_on)
+                fcol[f, 0] = r
+                fcol[f, 1] = g
+                fcol[f, 2] = b
 
     return _shade_faces_kernel
 
 
-_FLAT = compile_variants(_make_flat)  # the family's registry (see .jit)
+_FLAT = compile_variants(_make_flat)  # the families' registries (see .jit)
+_FLAT_TERMS = compile_variants(lambda spec_on, att_on, tex_on: _make_flat(spec_on, att_on, tex_on, True))
 
 
-@njit(parallel=True, **JIT)
-def _lookup_flat_kernel(prim, geom, face_off, fcol, background, modes, image):
-    """Flat: each pixel of the models whose method is METHOD_FLAT takes its face's shade."""
-    h, w = prim.shape
-    for y in prange(h):
-        for x in range(w):
-            p = prim[y, x]
-            if p < 0:
+def _make_lookup(terms_on: bool):
+    """The flat pixel kernel; ``terms_on``: the build that also copies each pixel's face terms."""
+
+    @njit(parallel=True, **JIT)
+    def _lookup_flat_kernel(prim, geom, face_off, fcol, background, modes, image):
+        """Flat: each pixel of the models whose method is METHOD_FLAT takes its face's shade.
+        The terms build's ``image`` is ``(image, y0, R, F)``: also the face's terms (the face
+        record ``F``) into the frame's terms record ``R`` at row ``y0 + y``, and zero terms on
+        the background (records travel whole into the helpers: Numba's parallel loops do not
+        take a tuple of arrays unpacked from one)."""
+        if terms_on:
+            img, y0, R, F = image
+        else:
+            img = image
+        h, w = prim.shape
+        for y in prange(h):
+            for x in range(w):
+                p = prim[y, x]
+                if p < 0:
+                    if terms_on:
+                        _miss(img, R, y, y0 + y, x)  # the background too
+                    else:
+                        for c in range(3):
+                            img[y, x, c] = background[c]
+                    continue
+                g = geom[y, x]
+                if modes[g] != METHOD_FLAT:
+                    continue
+                f = face_off[g] + p
                 for c in range(3):
-                    image[y, x, c] = background[c]
-                continue
-            g = geom[y, x]
-            if modes[g] != METHOD_FLAT:
-                continue
-            f = face_off[g] + p
-            for c in range(3):
-                image[y, x, c] = min(fcol[f, c], FLT32_MAX)
+                    img[y, x, c] = min(fcol[f, c], FLT32_MAX)
+                if terms_on:
+                    _face_terms(R, F, f, y0 + y, x)
+
+    return _lookup_flat_kernel
+
+
+_lookup_flat_kernel = _make_lookup(False)
+_lookup_flat_terms = _make_lookup(True)

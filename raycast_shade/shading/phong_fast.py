@@ -13,7 +13,9 @@ on a Phong model, no light casting shadows — this kernel does the same arithme
    the oriented normal; then per light its direction, distance and attenuation, ``n . s``, the
    specular cosine and the whole-number power by repeated squaring (one pass per bit, a bit
    applied to the lanes that have it), and the sum; these are the loops LLVM vectorises;
-3. a scatter pass writes the colours (and, when asked, the shading normals) to their pixels.
+3. a scatter pass writes the colours (and, when asked, the shading normals) to their pixels;
+   the ``terms_on`` build (``render(terms=True)``) also sums each light's diffuse and specular
+   parts in the accumulate pass and writes the terms in a scatter pass of its own.
 
 Every lane does the float64 operations of :func:`.phong._shade_surface` in the same order, so
 the image is the general kernel's bit for bit (``tests/shading/test_phong_fast.py``). The
@@ -42,16 +44,19 @@ from ..common.layout import (ATT_HEURISTIC, ATT_INVERSE_SQUARE, CAM_EYE, CAM_FOR
 from ..common.schedule import BLOCK_ROWS, spread_step
 from .illumination import _spot_factor
 from .jit import FLT32_MAX, HELPER, JIT
+from .terms_kernel import (TERM_AMBIENT, TERM_DIFFUSE, TERM_EMISSIVE, TERM_SPECULAR, TERMS_EMIT_ON, TERMS_SHADOW,
+                           _hit_background, _miss, _store)
 
 __all__ = ["LANES", "applies"]
 
-LANES = 64  # pixels shaded together: 64 lanes of 48 float64 fields (24 KiB) stay in the L1 cache
+LANES = 64  # pixels shaded together: 64 lanes of 54 float64 fields (27 KiB) stay in the L1 cache
 _NO_NORMALS = np.empty((0, 0, 3), np.float32)  # the kernel's normal output when none is asked for
 
 # Fields of the scratch array, each LANES wide: field F of lane k is S[F * LANES + k].
 (_P, _A, _FN, _KA, _KD, _KS, _KE, _SHN, _SHT, _MODEL, _HASSPEC, _V, _G, _N, _R, _S, _D, _ATT, _ND, _LIT, _CP,
- _CB, _CC, _PW) = (0, 3, 6, 9, 12, 15, 18, 21, 22, 23, 24, 25, 28, 31, 34, 37, 40, 41, 42, 43, 44, 45, 46, 47)
-_FIELDS = 48
+ _CB, _CC, _PW, _TD, _TS) = (0, 3, 6, 9, 12, 15, 18, 21, 22, 23, 24, 25, 28, 31, 34, 37, 40, 41, 42, 43, 44, 45, 46,
+                             47, 48, 51)
+_FIELDS = 54  # _TD, _TS: the diffuse and specular terms, summed only by the terms kernel
 
 
 def applies(modes, k) -> bool:
@@ -276,8 +281,20 @@ def _specular(S, nbits, any_pow):
 
 
 @njit(**HELPER)
-def _accumulate(S, lights, i, spec_on):
-    """Add light ``i``'s ``att Ii (kd n.s + Ks spec)`` to the lanes it lights."""
+def _add_terms(S, k, c, ar, nd, spec, lit):
+    """Lane ``k``'s channel ``c``: ``_TD += ar (kd n.s)``, ``_TS += ar (Ks spec)`` where ``lit``."""
+    td = S[(_TD + c) * LANES + k]
+    ts = S[(_TS + c) * LANES + k]
+    S[(_TD + c) * LANES + k] = td + ar * (S[(_KD + c) * LANES + k] * nd) if lit else td
+    S[(_TS + c) * LANES + k] = ts + ar * (S[(_KS + c) * LANES + k] * spec) if lit else ts
+
+
+@njit(**HELPER)
+def _accumulate(S, lights, i, spec_on, terms):
+    """Add light ``i``'s ``att Ii (kd n.s + Ks spec)`` to the lanes it lights; ``terms`` (a
+    constant of the kernel): also its diffuse part ``att Ii (kd n.s)`` to ``_TD`` and its
+    specular part ``att Ii (Ks spec)`` to ``_TS``, formed as terms_kernel._illuminate_terms forms
+    them."""
     r0 = lights[i, LIGHT_RADIANCE + 0]
     r1 = lights[i, LIGHT_RADIANCE + 1]
     r2 = lights[i, LIGHT_RADIANCE + 2]
@@ -298,11 +315,16 @@ def _accumulate(S, lights, i, spec_on):
         S[(_R + 0) * LANES + k] = nr if lit else r
         S[(_R + 1) * LANES + k] = ng if lit else g
         S[(_R + 2) * LANES + k] = nb if lit else b
+        if terms:
+            _add_terms(S, k, 0, att * r0, nd, spec, lit)
+            _add_terms(S, k, 1, att * r1, nd, spec, lit)
+            _add_terms(S, k, 2, att * r2, nd, spec, lit)
 
 
 @njit(**HELPER)
-def _shade_batch(S, n, L, cam, spec_on, att_on):
-    """Shade the lanes (``n`` of them queued, the rest an earlier batch's or zeros)."""
+def _shade_batch(S, n, L, cam, spec_on, att_on, terms):
+    """Shade the lanes (``n`` of them queued, the rest an earlier batch's or zeros); ``terms``:
+    sum the diffuse and specular terms too (:func:`_accumulate`)."""
     ambient, lights, dmin, _, _ = L
     nblinn = 0
     npow = 0
@@ -315,18 +337,22 @@ def _shade_batch(S, n, L, cam, spec_on, att_on):
     while (int(top) >> nbits) > 0:
         nbits += 1
     _geometry(S, cam, ambient)
+    if terms:
+        for k in range(6 * LANES):
+            S[_TD * LANES + k] = 0.0  # _TD and _TS: six fields from _TD on
     for i in range(lights.shape[0]):
         _direction(S, lights, i, dmin, att_on)
         _cosines(S, spec_on, nblinn < n, nblinn > 0)
         if spec_on:
             _specular(S, nbits, npow > 0)
-        _accumulate(S, lights, i, spec_on)
+        _accumulate(S, lights, i, spec_on, terms)
 
 
 @njit(**HELPER)
-def _flush(S, XY, n, mixed, filled, materials, L, cam, outs, spec_on, att_on):
+def _flush(S, XY, n, mixed, filled, materials, L, cam, outs, spec_on, att_on, terms):
     """Fill the material fields (once for a batch of one model that the lanes already hold),
-    shade the batch and write it; returns the model whose row now fills every lane (-1: none)."""
+    shade the batch and write it (``outs = (image, normal)``; with ``terms``, the kernel writes the
+    terms, :func:`_scatter_terms`); returns the model whose row now fills every lane (-1: none)."""
     if mixed:
         for k in range(n):
             _material(S, k, k + 1, materials, XY[2 * LANES + k])
@@ -334,7 +360,7 @@ def _flush(S, XY, n, mixed, filled, materials, L, cam, outs, spec_on, att_on):
     elif XY[2 * LANES] != filled:
         filled = XY[2 * LANES]
         _material(S, 0, LANES, materials, filled)
-    _shade_batch(S, n, L, cam, spec_on, att_on)
+    _shade_batch(S, n, L, cam, spec_on, att_on, terms)
     _scatter(S, XY, n, outs)
     return filled
 
@@ -354,16 +380,43 @@ def _scatter(S, XY, n, outs):
                 normal[y, x, c] = S[(_N + c) * LANES + k]
 
 
-def _make_phong_fast(spec_on: bool, att_on: bool):
-    """The batched Phong kernel for one variant (see :mod:`.jit`; untextured only)."""
+@njit(**HELPER)
+def _scatter_terms(S, XY, n, R, y0, ambient):
+    """Write the first ``n`` lanes' terms to the terms record ``R`` at rows ``y0 + y``: ambient
+    ``Ia ka``, the summed diffuse and specular parts, the emission (with ``emit_on``), a zero
+    background term (with ``bg_on``) and an unshadowed mask (no light casts shadows here)."""
+    shadow = R[TERMS_SHADOW]
+    for k in range(n):
+        ty = y0 + XY[k]
+        x = XY[LANES + k]
+        _store(R[TERM_AMBIENT], ty, x, ambient[0] * S[(_KA + 0) * LANES + k], ambient[1] * S[(_KA + 1) * LANES + k],
+               ambient[2] * S[(_KA + 2) * LANES + k])
+        _store(R[TERM_DIFFUSE], ty, x, S[(_TD + 0) * LANES + k], S[(_TD + 1) * LANES + k], S[(_TD + 2) * LANES + k])
+        _store(R[TERM_SPECULAR], ty, x, S[(_TS + 0) * LANES + k], S[(_TS + 1) * LANES + k], S[(_TS + 2) * LANES + k])
+        if R[TERMS_EMIT_ON]:
+            _store(R[TERM_EMISSIVE], ty, x, S[(_KE + 0) * LANES + k], S[(_KE + 1) * LANES + k],
+                   S[(_KE + 2) * LANES + k])
+        _hit_background(R, ty, x)
+        for i in range(shadow.shape[0]):
+            shadow[i, ty, x] = 1.0
+
+
+def _make_phong_fast(spec_on: bool, att_on: bool, terms_on: bool = False):
+    """The batched Phong kernel for one variant (see :mod:`.jit`; untextured only); ``terms_on``:
+    the kernel that also writes the frame's terms (``render(terms=True)``)."""
 
     @njit(parallel=True, **JIT)
     def _shade_phong_fast_kernel(prim, geom, u, v, G, L, face_off, materials, cam, background, modes, outs):
         """As :func:`.phong._make_phong`'s kernel for a frame :func:`applies` to, bit for bit.
         ``outs = (image, normal)``: the (h, W, 3) float32 image, and the (h, W, 3) float32 array
         the shading normals of the Phong pixels go to (zero on the background), or
-        ``_NO_NORMALS`` for none."""
-        image, normal = outs
+        ``_NO_NORMALS`` for none. The terms kernel's ``outs = (image, normal, R, y0)``: also each
+        pixel's terms into the terms record ``R`` (:mod:`.terms_kernel`, without per-light terms)
+        at image row ``y0 + y``, the numbers :func:`.terms_kernel._make_phong_terms` writes."""
+        if terms_on:  # a closure constant: Numba prunes the other branch before typing
+            image, normal, R, y0 = outs
+        else:
+            image, normal = outs
         want_n = normal.shape[0] != 0
         h, w = prim.shape
         nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
@@ -383,6 +436,8 @@ def _make_phong_fast(spec_on: bool, att_on: bool):
                             image[y, x, c] = background[c]
                             if want_n:
                                 normal[y, x, c] = 0.0
+                        if terms_on:
+                            _miss(image, R, y, y0 + y, x)
                         continue
                     gm = geom[y, x]
                     if modes[gm] != METHOD_PHONG:
@@ -394,13 +449,19 @@ def _make_phong_fast(spec_on: bool, att_on: bool):
                     mixed = mixed or (n > 0 and gm != XY[2 * LANES])
                     n += 1
                     if n == LANES:
-                        filled = _flush(S, XY, n, mixed, filled, materials, L, cam, outs, spec_on, att_on)
+                        filled = _flush(S, XY, n, mixed, filled, materials, L, cam, (image, normal), spec_on,
+                                        att_on, terms_on)
+                        if terms_on:
+                            _scatter_terms(S, XY, n, R, y0, L[0])
                         n = 0
                         mixed = False
             if n > 0:  # the lanes past n hold an earlier batch's pixels (or zeros): shaded, not written
-                _flush(S, XY, n, mixed, filled, materials, L, cam, outs, spec_on, att_on)
+                _flush(S, XY, n, mixed, filled, materials, L, cam, (image, normal), spec_on, att_on, terms_on)
+                if terms_on:
+                    _scatter_terms(S, XY, n, R, y0, L[0])
 
     return _shade_phong_fast_kernel
 
 
 _PHONG_FAST = {(s, a): _make_phong_fast(s, a) for s in (False, True) for a in (False, True)}
+_PHONG_FAST_TERMS = {(s, a): _make_phong_fast(s, a, True) for s in (False, True) for a in (False, True)}

@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ..common.layout import METHOD_GOURAUD
+from ..common.layout import LIGHT_SHADOWS, METHOD_GOURAUD
 from ..common.schedule import BLOCK_ROWS, spread_step
 from .gouraud import _corner_normal, _corner_shade, _modulate, _split_shade, _vertex_kd, _vertex_point
 from .illumination import _light_at
@@ -182,23 +182,25 @@ def _pixel_terms(R, C, rows, L, w, ty, x, coef, splitting):
             r, g, b = _lerp3(C[TERM_EMISSIVE], rows, w)
             _store(R[TERM_EMISSIVE], ty, x, r, g, b)
     _hit_background(R, ty, x)
-    _pixel_lights(R, C, rows, w, ty, x, coef, splitting)
+    _pixel_lights(R, C, rows, L, w, ty, x, coef, splitting)
 
 
 @njit(**HELPER)
-def _pixel_lights(R, C, rows, w, ty, x, coef, splitting):
-    """The pixel's per-light terms and shadow mask from its corners' (see :func:`_pixel_terms`)."""
+def _pixel_lights(R, C, rows, L, w, ty, x, coef, splitting):
+    """The pixel's per-light terms and shadow mask from its corners' (see :func:`_pixel_terms`);
+    a light that casts no shadow rays (or a frame without a scene handle) lets all of its
+    light through: its mask is 1, as the variant passes' (whose ratio is then ``x / x``), and
+    its corners are not read."""
     w0, w1, w2 = w
     r0, r1, r2 = rows
     kar, kag, kab, kdr, kdg, kdb, ksr, ksg, ksb, ker, keg, keb = coef
+    lights, handle = L[1], L[3]
     each, shadow, reach, vis = R[TERMS_EACH], R[TERMS_SHADOW], C[VERT_REACH], C[TERMS_SHADOW]
     for i in range(shadow.shape[0]):
-        through = w0 * (vis[i, r0, 0] * reach[i, r0, 0]) + w1 * (vis[i, r1, 0] * reach[i, r1, 0]) + w2 * (
-            vis[i, r2, 0] * reach[i, r2, 0])
-        reached = w0 * reach[i, r0, 0] + w1 * reach[i, r1, 0] + w2 * reach[i, r2, 0]
-        t32 = np.float32(min(through, FLT32_MAX))  # the probe's image values, rounded as stored
-        r32 = np.float32(min(reached, FLT32_MAX))
-        shadow[i, ty, x] = min(np.float64(t32) / np.float64(r32), 1.0) if r32 > 0.0 else 1.0
+        if handle == 0 or lights[i, LIGHT_SHADOWS] == 0.0:
+            shadow[i, ty, x] = 1.0
+        else:
+            _mask(shadow, vis, reach, i, rows, w, ty, x)
         if each.shape[1] > 0:
             dr, dg, db = _lerp3(C[TERMS_EACH][0, i], rows, w)
             sr, sg, sb = _lerp3(C[TERMS_EACH][1, i], rows, w)
@@ -208,6 +210,19 @@ def _pixel_lights(R, C, rows, w, ty, x, coef, splitting):
             else:
                 _store(each[0, i], ty, x, dr, dg, db)
                 _store(each[1, i], ty, x, sr, sg, sb)
+
+
+@njit(**HELPER)
+def _mask(shadow, vis, reach, i, rows, w, ty, x):
+    """Light ``i``'s mask at the pixel: the corners' light let through over the light reaching them."""
+    w0, w1, w2 = w
+    r0, r1, r2 = rows
+    through = w0 * (vis[i, r0, 0] * reach[i, r0, 0]) + w1 * (vis[i, r1, 0] * reach[i, r1, 0]) + w2 * (
+        vis[i, r2, 0] * reach[i, r2, 0])
+    reached = w0 * reach[i, r0, 0] + w1 * reach[i, r1, 0] + w2 * reach[i, r2, 0]
+    t32 = np.float32(min(through, FLT32_MAX))  # the probe's image values, rounded as stored
+    r32 = np.float32(min(reached, FLT32_MAX))
+    shadow[i, ty, x] = min(np.float64(t32) / np.float64(r32), 1.0) if r32 > 0.0 else 1.0
 
 
 @njit(**HELPER)

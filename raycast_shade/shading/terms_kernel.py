@@ -33,7 +33,9 @@ as the variants' are: the equation is linear in them.
 The kernels take the frame's full-size term arrays and write the rows ``y0 + y`` of a band's
 row ``y`` (the whole frame: ``y0 = 0``), so the banded renderer and the whole-frame one run the
 same compiled kernels. Flat shading stores each visible face's terms once, in face-sized arrays
-of the same layout (``(F, 1, 3)``: row ``f``, column 0), and its pixel kernel copies them.
+of the same layout (``(F, 1, 3)``: row ``f``, column 0), and its pixel kernel copies them
+(:func:`_face_terms`); its kernels are :mod:`.flat`'s, built with ``terms_on``. The batched
+Phong kernel (:mod:`.phong_fast`) writes the same terms where it applies.
 """
 
 from __future__ import annotations
@@ -42,16 +44,16 @@ import numpy as np
 from numba import njit, prange
 
 from ..common.layout import (LIGHT_RADIANCE, LIGHT_SHADOWS, LIGHT_VEC, MAT_KS, MAT_MODEL, MAT_SHININESS,
-                             METHOD_FLAT, METHOD_PHONG)
+                             METHOD_PHONG)
 from ..common.schedule import BLOCK_ROWS, spread_step
 from .illumination import _light_at, _power
-from .jit import CHUNK, FLT32_MAX, HELPER, JIT, compile_variants
+from .jit import FLT32_MAX, HELPER, JIT, compile_variants
 from .phong import _surface
 from .records import At, Hit, dot
 from .reflectance import _specular_cosine
 from .shadows import _occluded, _scratch
-from .surface import _facing, _hit_point, _terminator_point, _triangle, _view
-from .texture import _coefficients, _face_footprint, _point_coefficients, _row_coefficients
+from .surface import _terminator_point, _triangle
+from .texture import _point_coefficients, _row_coefficients
 
 __all__ = ["TERM_AMBIENT", "TERM_DIFFUSE", "TERM_SPECULAR", "TERM_EMISSIVE", "TERM_BACKGROUND", "TERM_SLOTS",
            "TERMS_EACH", "TERMS_SHADOW", "TERMS_EMIT_ON", "TERMS_BG_ON", "TERMS_BACKGROUND_RGB"]
@@ -214,42 +216,6 @@ def _make_phong_terms(spec_on: bool, att_on: bool, tex_on: bool = False):
     return _phong_terms_kernel
 
 
-def _make_flat_terms(spec_on: bool, att_on: bool, tex_on: bool = False):
-    """The per-face colour-and-terms kernel for one variant (see :mod:`.jit`)."""
-
-    @njit(parallel=True, **JIT)
-    def _flat_terms_kernel(face_flags, G, face_model, materials, cam, L, T, uvs, out, R):
-        """:func:`~raycast_shade.shading.flat._make_flat`'s face colours into ``out`` (F, 3)
-        float64, and each face's terms into the face-sized record ``R`` at row ``f``."""
-        verts, _, faces, fnormals = G
-        n = faces.shape[0]
-        nchunk = (n + CHUNK - 1) // CHUNK
-        step = spread_step(nchunk)
-        for it in prange(nchunk):
-            c = (it * step) % nchunk
-            S = _scratch()
-            for f in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
-                if face_flags[f] == 0:
-                    continue
-                third = 1.0 / 3.0
-                tri = _triangle(faces, f)
-                p = _hit_point(verts, tri, third, third)
-                v = _view(cam, p)
-                gn, sgn = _facing(fnormals, f, v)
-                m = face_model[f]
-                if tex_on:
-                    coef = _coefficients(materials, T, At(f, m, third, third), tri, uvs, _face_footprint(uvs, tri))
-                else:
-                    coef = _row_coefficients(materials, m)
-                r, g, b = _illuminate_terms(Hit(p, v, gn, sgn, gn, p), coef, materials, m, L, S, spec_on, att_on,
-                                            R, f, 0)
-                out[f, 0] = r
-                out[f, 1] = g
-                out[f, 2] = b
-
-    return _flat_terms_kernel
-
-
 @njit(**HELPER)
 def _face_terms(R, F, f, ty, x):
     """Face ``f``'s terms (row ``f`` of the face record ``F``) into ``R`` at ``(ty, x)``."""
@@ -270,28 +236,4 @@ def _face_terms(R, F, f, ty, x):
                 per_light[1, i, ty, x, c] = fper[1, i, f, 0, c]
 
 
-@njit(parallel=True, **JIT)
-def _lookup_flat_terms(prim, geom, face_off, fcol, modes, image, y0, R, F):
-    """Flat: each pixel of the models whose method is METHOD_FLAT takes its face's colour
-    (``fcol``) into ``image`` and its face's terms (the face record ``F``) into ``R``. The
-    records travel whole into the helpers (a tuple of arrays unpacked here would be a
-    parallel loop's argument, which Numba refuses for a tuple of arrays)."""
-    h, w = prim.shape
-    for y in prange(h):
-        ty = y0 + y
-        for x in range(w):
-            p = prim[y, x]
-            if p < 0:
-                _miss(image, R, y, ty, x)
-                continue
-            g = geom[y, x]
-            if modes[g] != METHOD_FLAT:
-                continue
-            f = face_off[g] + p
-            for c in range(3):
-                image[y, x, c] = min(fcol[f, c], FLT32_MAX)
-            _face_terms(R, F, f, ty, x)
-
-
-_PHONG_TERMS = compile_variants(_make_phong_terms)  # the families' registries (see .jit)
-_FLAT_TERMS = compile_variants(_make_flat_terms)
+_PHONG_TERMS = compile_variants(_make_phong_terms)  # the family's registry (see .jit)

@@ -18,18 +18,54 @@ sees it. Only the mirror part needs the whole frame's hits (:func:`mirror_terms`
 
 from __future__ import annotations
 
+import mmap
+
 import numpy as np
 
 from ..common.layout import MAT_KE, MAT_REFLECTIVITY, METHOD_FLAT, METHOD_GOURAUD, METHOD_PHONG
 from ..common.schedule import BLOCK_ROWS
 from .jit import variant
 from .mirrors import trace_mirrors
+from .phong_fast import _NO_NORMALS, _PHONG_FAST_TERMS
+from .phong_fast import applies as _fast_applies
 from .shade import _visible_kernel, resolve_methods
 from .terms_gouraud import _GOURAUD_TERMS, _VERTEX_TERMS, VERT_Y0, scratch_slots
-from .terms_kernel import (_FLAT_TERMS, _PHONG_TERMS, TERM_BACKGROUND, TERM_EMISSIVE, TERM_SLOTS, TERMS_EACH,
-                           TERMS_SHADOW, _lookup_flat_terms)
+from .flat import _FLAT_TERMS, _lookup_flat_terms
+from .terms_kernel import _PHONG_TERMS, TERM_BACKGROUND, TERM_EMISSIVE, TERM_SLOTS, TERMS_EACH, TERMS_SHADOW
 
 __all__ = ["TermShading", "mirror_terms"]
+
+
+# Zero arrays from this size on get pages of their own (_untouched_zeros): measured, a 1080p
+# frame's three (25 MB) spent 3-7 ms clearing reused heap memory, while at 640x480 (3.7 MB each)
+# mapping them apart cost more (the heap they left gave 2,400 page faults elsewhere a frame).
+_MAPPED_FROM = 16 << 20
+
+
+def _untouched_zeros(shape, dtype=np.float32) -> np.ndarray:
+    """A writable zero array on fresh anonymous pages: nothing is written until someone writes
+    it (a term no kernel writes costs no page faults and no memory bandwidth). ``np.zeros``
+    does not promise that: its ``calloc`` clears memory it takes back from the heap, which
+    after a few large frames is 25 MB of writes per (1080, 1920, 3) float32 array. Arrays
+    under :data:`_MAPPED_FROM` bytes are ``np.zeros``.
+
+    Parameters
+    ----------
+    shape : tuple of int
+    dtype : numpy dtype
+
+    Returns
+    -------
+    shape dtype
+        Zeros, writable, owning its mapping (freed with the array).
+    """
+    nbytes = int(np.prod(shape)) * np.dtype(dtype).itemsize
+    if nbytes < _MAPPED_FROM:  # clearing it costs little, and its heap memory serves the next frame
+        return np.zeros(shape, dtype)
+    private = getattr(mmap, "MAP_PRIVATE", None)  # POSIX: private, not shared-memory pages
+    buf = mmap.mmap(-1, nbytes) if private is None else mmap.mmap(-1, nbytes, flags=private | mmap.MAP_ANONYMOUS)
+    return np.frombuffer(buf, dtype).reshape(shape)
+
 
 _NONE = np.zeros((1, 1, 3), np.float32)  # a term slot no kernel writes or reads (never indexed)
 _NONE64 = np.zeros((1, 1, 3), np.float64)
@@ -80,10 +116,12 @@ class TermShading:
         nl = k.lighting[1].shape[0]
         emit_on = bool(np.any(k.materials[:, MAT_KE:MAT_KE + 3] > 0))
         bg_on = bool(np.any(k.background != 0))
-        zeros = [np.zeros((h, w, 3), np.float32) for _ in range(2)]  # calloc'd: untouched unless written
+        zeros = [_untouched_zeros((h, w, 3)) for _ in range(2)]  # untouched unless written
         slots = {TERM_EMISSIVE: zeros[0], TERM_BACKGROUND: zeros[1]}
         self.R = _record((h, w), slots, nl, per_light, k.background, emit_on, bg_on)
         self.per_light = per_light
+        # The batched Phong kernel (phong_fast) where it applies; per-light terms: the general one
+        self.fast_phong = self.phong and not per_light and _fast_applies(self.modes, k)
         if self.flat:  # each visible face's colour and terms, computed once (the first band to see it)
             nf = len(self.geo.faces)
             self.fcol = np.zeros((nf, 3), np.float64)
@@ -107,7 +145,7 @@ class TermShading:
         new = faces & (1 - self.face_done)
         if self.flat and new.any():
             variant(_FLAT_TERMS, k)(new, k.geometry, geo.face_model, k.materials, k.cam, k.lighting, k.colours,
-                                    geo.uvs, self.fcol, self.F)
+                                    geo.uvs, (self.fcol, self.F))
             self.face_done |= new
         new = vertices & (1 - self.vertex_done)
         if self.gouraud and new.any():
@@ -131,13 +169,18 @@ class TermShading:
         if self.flat or self.gouraud:
             self._share(hits)
         if self.flat:
-            _lookup_flat_terms(hits.prim, hits.geom, k.face_off, self.fcol, modes, image, y0, self.R, self.F)
+            _lookup_flat_terms(hits.prim, hits.geom, k.face_off, self.fcol, k.background, modes,
+                               (image, y0, self.R, self.F))
         if self.gouraud:
             tasks = (h + BLOCK_ROWS - 1) // BLOCK_ROWS  # the pixel kernel's parallel tasks
             V = self.V[:VERT_Y0] + (y0,) + scratch_slots(self.V, tasks)
             variant(_GOURAUD_TERMS, k)(hits.prim, hits.geom, hits.u, hits.v, k.geometry, k.bumps, k.face_off,
                                        k.materials, k.cam, k.lighting, k.colours, modes, image, self.R, V)
-        if self.phong:
+        if self.fast_phong:
+            _PHONG_FAST_TERMS[k.spec_on, k.att_on](hits.prim, hits.geom, hits.u, hits.v, k.geometry, k.lighting,
+                                                   k.face_off, k.materials, k.cam, k.background, modes,
+                                                   (image, _NO_NORMALS, self.R, y0))
+        elif self.phong:
             variant(_PHONG_TERMS, k)(hits.prim, hits.geom, hits.u, hits.v, k.geometry, k.bumps, k.lighting,
                                      k.colours, k.face_off, k.materials, k.cam, modes, image, y0, self.R)
         return image
@@ -161,7 +204,7 @@ def mirror_terms(scene, camera, hits, max_depth, k):
     pages nobody touches without mirrors)."""
     h, w = camera.height, camera.width
     keep = np.ones((h, w), np.float32)
-    reflected = np.zeros((h, w, 3), np.float32)  # untouched pages until a mirror writes them
+    reflected = _untouched_zeros((h, w, 3))  # untouched pages until a mirror writes them
     if scene.geometry.reflective and max_depth > 0:
         seen = hits.prim >= 0
         rho = np.where(seen, k.materials[np.maximum(hits.geom, 0), MAT_REFLECTIVITY], 0.0)
