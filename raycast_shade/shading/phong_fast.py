@@ -37,11 +37,14 @@ import numpy as np
 from numba import njit, prange
 
 from ..common.layout import (ATT_HEURISTIC, ATT_INVERSE_SQUARE, CAM_EYE, CAM_FORWARD, CAM_ORTHO, LIGHT_ATT,
-                             LIGHT_DIRECTIONAL, LIGHT_K, LIGHT_KIND, LIGHT_RADIANCE, LIGHT_SPOT, LIGHT_VEC, MAT_KA,
-                             MAT_KD, MAT_KE, MAT_KS, MAT_MODEL, MAT_SHININESS, METHOD_PHONG, MODEL_BLINN)
+                             LIGHT_DIRECTIONAL, LIGHT_K, LIGHT_KIND, LIGHT_RADIANCE, LIGHT_SHADOWS, LIGHT_SPOT,
+                             LIGHT_VEC, MAT_KA, MAT_KD, MAT_KE, MAT_KS, MAT_MODEL, MAT_SHININESS, METHOD_PHONG,
+                             MODEL_BLINN)
 from ..common.schedule import BLOCK_ROWS, spread_step
 from .illumination import _spot_factor
 from .jit import FLT32_MAX, HELPER, JIT
+from .shadows import LANES as PACKET_LANES, _packets, clear_packets, request_ray, trace_packets
+from .surface import _terminator_point
 
 __all__ = ["LANES", "applies"]
 
@@ -51,7 +54,9 @@ _NO_NORMALS = np.empty((0, 0, 3), np.float32)  # the kernel's normal output when
 # Fields of the scratch array, each LANES wide: field F of lane k is S[F * LANES + k].
 (_P, _A, _FN, _KA, _KD, _KS, _KE, _SHN, _SHT, _MODEL, _HASSPEC, _V, _G, _N, _R, _S, _D, _ATT, _ND, _LIT, _CP,
  _CB, _CC, _PW) = (0, 3, 6, 9, 12, 15, 18, 21, 22, 23, 24, 25, 28, 31, 34, 37, 40, 41, 42, 43, 44, 45, 46, 47)
-_FIELDS = 48
+# Shadowed frames only: the barycentrics, the sign that turned the geometric normal, the shadow origin.
+_B1, _B2, _SG, _O = 48, 49, 50, 51
+_FIELDS = 54
 
 
 def applies(modes, k) -> bool:
@@ -73,14 +78,15 @@ def applies(modes, k) -> bool:
     """
     phong = np.asarray(modes) == METHOD_PHONG
     B = k["B"]
-    return (not k["tex_on"] and int(k["L"][3]) == 0 and not bool(np.any(B[2][phong] >= 0))
+    return (not k["tex_on"] and not bool(np.any(B[2][phong] >= 0))
             and not bool(np.any(B[5][phong] >= 0)))
 
 
 @njit(**HELPER)
-def _gather(S, k, G, f, b1, b2):
+def _gather(S, k, G, f, b1, b2, shadows_on):
     """Lane ``k``'s point, interpolated (not yet renormalised) normal and face normal: the hit
-    on face ``f`` at ``(b1, b2)`` (surface._hit_point, surface._shading_normal's sums)."""
+    on face ``f`` at ``(b1, b2)`` (surface._hit_point, surface._shading_normal's sums); with
+    ``shadows_on``, the barycentrics too (for the shadow origin, :func:`_origins`)."""
     verts, normals, faces, fnormals = G
     fu = np.uint64(f)  # unsigned indices: no wrap-around test per read
     i0 = np.uint64(faces[fu, 0])
@@ -93,6 +99,9 @@ def _gather(S, k, G, f, b1, b2):
         S[(_A + c) * LANES + k] = b0 * normals[i0, c] + b1 * normals[i1, c] + b2 * normals[i2, c]
     for c in range(3):
         S[(_FN + c) * LANES + k] = fnormals[fu, c]
+    if shadows_on:
+        S[_B1 * LANES + k] = b1
+        S[_B2 * LANES + k] = b2
 
 
 @njit(**HELPER)
@@ -154,6 +163,7 @@ def _geometry(S, cam, ambient):
         al = np.sqrt(ax * ax + ay * ay + az * az)
         keep = al >= 1e-6
         s = sgn / al
+        S[_SG * LANES + k] = sgn
         S[(_A + 0) * LANES + k] = ax * s if keep else gx
         S[(_A + 1) * LANES + k] = ay * s if keep else gy
         S[(_A + 2) * LANES + k] = az * s if keep else gz
@@ -252,6 +262,43 @@ def _cosines(S, spec_on, phong, blinn):
 
 
 @njit(**HELPER)
+def _origins(S, XY, n, G):
+    """Per queued lane the shadow rays' origin ``_O``: the point lifted past the terminator
+    (surface._terminator_point, as phong._shading_point does when shadow rays are traced)."""
+    verts, normals, faces, _ = G
+    for k in range(n):
+        f = XY[3 * LANES + k]
+        o = _terminator_point(verts, normals, (faces[f, 0], faces[f, 1], faces[f, 2]), S[_B1 * LANES + k],
+                              S[_B2 * LANES + k], (S[(_P + 0) * LANES + k], S[(_P + 1) * LANES + k],
+                                                   S[(_P + 2) * LANES + k]), S[_SG * LANES + k])
+        for c in range(3):
+            S[(_O + c) * LANES + k] = o[c]
+
+
+@njit(**HELPER)
+def _shadow_pass(S, n, lights, i, handle, unit, Q):
+    """Light ``i``'s shadow rays from the queued lanes it lights (``_LIT`` 1: in its cone, not on
+    the point, ``n . s > 0``, the rays the general kernel traces) as ``rtcOccluded16`` packets of
+    16 lanes (:func:`~raycast_shade.shading.shadows.request_ray`: the same rays); the occluded
+    lanes' ``_LIT`` becomes 0. ``Q``: the task's packet scratch (:func:`.shadows._packets`, one
+    packet per 16 lanes)."""
+    buf, ib, off, valid, voff, args, aoff, vis, points = Q
+    clear_packets(valid, voff, vis, points)
+    target = (lights[i, LIGHT_VEC + 0], lights[i, LIGHT_VEC + 1], lights[i, LIGHT_VEC + 2])
+    for k in range(n):
+        if S[_LIT * LANES + k] == 1.0:
+            request_ray((buf, ib, off, valid, voff), k // PACKET_LANES, k % PACKET_LANES,
+                        (S[(_O + 0) * LANES + k], S[(_O + 1) * LANES + k], S[(_O + 2) * LANES + k]),
+                        (S[(_G + 0) * LANES + k], S[(_G + 1) * LANES + k], S[(_G + 2) * LANES + k]),
+                        (S[(_S + 0) * LANES + k], S[(_S + 1) * LANES + k], S[(_S + 2) * LANES + k]),
+                        target, S[_D * LANES + k] < np.inf, unit)
+    trace_packets(handle, buf, off, valid, voff, args, aoff, vis)
+    for k in range(n):
+        if vis[k // PACKET_LANES, k % PACKET_LANES] == 1:
+            S[_LIT * LANES + k] = 0.0
+
+
+@njit(**HELPER)
 def _specular(S, nbits, any_pow):
     """Per lane the specular factor ``max(c, 0)^t`` into ``_PW`` (0 without a specular term):
     repeated squaring, one pass per bit of the largest whole shininess (illumination._power)."""
@@ -301,9 +348,10 @@ def _accumulate(S, lights, i, spec_on):
 
 
 @njit(**HELPER)
-def _shade_batch(S, n, L, cam, spec_on, att_on):
-    """Shade the lanes (``n`` of them queued, the rest an earlier batch's or zeros)."""
-    ambient, lights, dmin, _, _ = L
+def _shade_batch(S, XY, n, G, L, cam, Q, spec_on, att_on, shadows_on):
+    """Shade the lanes (``n`` of them queued, the rest an earlier batch's or zeros); with
+    ``shadows_on`` (a scene handle), the lights that cast shadows trace them (:func:`_shadow_pass`)."""
+    ambient, lights, dmin, handle, unit = L
     nblinn = 0
     npow = 0
     top = 0.0
@@ -315,16 +363,20 @@ def _shade_batch(S, n, L, cam, spec_on, att_on):
     while (int(top) >> nbits) > 0:
         nbits += 1
     _geometry(S, cam, ambient)
+    if shadows_on:
+        _origins(S, XY, n, G)
     for i in range(lights.shape[0]):
         _direction(S, lights, i, dmin, att_on)
         _cosines(S, spec_on, nblinn < n, nblinn > 0)
+        if shadows_on and lights[i, LIGHT_SHADOWS] != 0.0:
+            _shadow_pass(S, n, lights, i, handle, unit, Q)
         if spec_on:
             _specular(S, nbits, npow > 0)
         _accumulate(S, lights, i, spec_on)
 
 
 @njit(**HELPER)
-def _flush(S, XY, n, mixed, filled, materials, L, cam, outs, spec_on, att_on):
+def _flush(S, XY, n, mixed, filled, materials, G, L, cam, outs, Q, spec_on, att_on, shadows_on):
     """Fill the material fields (once for a batch of one model that the lanes already hold),
     shade the batch and write it; returns the model whose row now fills every lane (-1: none)."""
     if mixed:
@@ -334,7 +386,7 @@ def _flush(S, XY, n, mixed, filled, materials, L, cam, outs, spec_on, att_on):
     elif XY[2 * LANES] != filled:
         filled = XY[2 * LANES]
         _material(S, 0, LANES, materials, filled)
-    _shade_batch(S, n, L, cam, spec_on, att_on)
+    _shade_batch(S, XY, n, G, L, cam, Q, spec_on, att_on, shadows_on)
     _scatter(S, XY, n, outs)
     return filled
 
@@ -354,8 +406,9 @@ def _scatter(S, XY, n, outs):
                 normal[y, x, c] = S[(_N + c) * LANES + k]
 
 
-def _make_phong_fast(spec_on: bool, att_on: bool):
-    """The batched Phong kernel for one variant (see :mod:`.jit`; untextured only)."""
+def _make_phong_fast(spec_on: bool, att_on: bool, shadows_on: bool = False):
+    """The batched Phong kernel for one variant (see :mod:`.jit`; untextured only). ``shadows_on``:
+    the frame's lights cast shadows (a scene handle in ``L``), traced from the lanes."""
 
     @njit(parallel=True, **JIT)
     def _shade_phong_fast_kernel(prim, geom, u, v, G, L, face_off, materials, cam, background, modes, outs):
@@ -371,7 +424,8 @@ def _make_phong_fast(spec_on: bool, att_on: bool):
         for it in prange(nblk):  # blocks of rows in a balanced order (see common.schedule)
             blk = (it * step) % nblk
             S = np.zeros(_FIELDS * LANES)
-            XY = np.zeros(3 * LANES, np.int64)  # per lane: row, column, model
+            XY = np.zeros(4 * LANES, np.int64)  # per lane: row, column, model, face
+            Q = _packets(4 if shadows_on else 0)  # one shadow packet per 16 lanes (a stand-in without shadows)
             n = 0
             mixed = False
             filled = -1
@@ -387,20 +441,23 @@ def _make_phong_fast(spec_on: bool, att_on: bool):
                     gm = geom[y, x]
                     if modes[gm] != METHOD_PHONG:
                         continue
-                    _gather(S, n, G, face_off[gm] + p, np.float64(u[y, x]), np.float64(v[y, x]))
+                    f = face_off[gm] + p
+                    _gather(S, n, G, f, np.float64(u[y, x]), np.float64(v[y, x]), shadows_on)
                     XY[n] = y
                     XY[LANES + n] = x
                     XY[2 * LANES + n] = gm
+                    XY[3 * LANES + n] = f
                     mixed = mixed or (n > 0 and gm != XY[2 * LANES])
                     n += 1
                     if n == LANES:
-                        filled = _flush(S, XY, n, mixed, filled, materials, L, cam, outs, spec_on, att_on)
+                        filled = _flush(S, XY, n, mixed, filled, materials, G, L, cam, outs, Q, spec_on, att_on, shadows_on)
                         n = 0
                         mixed = False
             if n > 0:  # the lanes past n hold an earlier batch's pixels (or zeros): shaded, not written
-                _flush(S, XY, n, mixed, filled, materials, L, cam, outs, spec_on, att_on)
+                _flush(S, XY, n, mixed, filled, materials, G, L, cam, outs, Q, spec_on, att_on, shadows_on)
 
     return _shade_phong_fast_kernel
 
 
 _PHONG_FAST = {(s, a): _make_phong_fast(s, a) for s in (False, True) for a in (False, True)}
+_PHONG_FAST_SHADOWS = {(s, a): _make_phong_fast(s, a, True) for s in (False, True) for a in (False, True)}
