@@ -43,11 +43,13 @@ from ..common.layout import (ATT_HEURISTIC, ATT_INVERSE_SQUARE, CAM_EYE, CAM_FOR
 from ..common.schedule import BLOCK_ROWS, spread_step
 from .illumination import _spot_factor
 from .jit import FLT32_MAX, HELPER, JIT
-from .shadows import LANES as PACKET_LANES, _packets, clear_packets, request_ray, trace_packets
+from ..visibility.embree import RAY16_SLOTS, RAY_DIR, RAY_ORG, RAY_TFAR
+from .shadows import LANES as PACKET_LANES, _packets, _shadow_ray, trace_packets
 from .surface import _terminator_point
 
 __all__ = ["LANES", "applies"]
 
+_TILE = 4  # a shadowed frame's pixels are queued by tiles of 4x4 (BLOCK_ROWS is a multiple of it)
 LANES = 64  # pixels shaded together: 64 lanes of 48 float64 fields (24 KiB) stay in the L1 cache
 _NO_NORMALS = np.empty((0, 0, 3), np.float32)  # the kernel's normal output when none is asked for
 
@@ -55,8 +57,8 @@ _NO_NORMALS = np.empty((0, 0, 3), np.float32)  # the kernel's normal output when
 (_P, _A, _FN, _KA, _KD, _KS, _KE, _SHN, _SHT, _MODEL, _HASSPEC, _V, _G, _N, _R, _S, _D, _ATT, _ND, _LIT, _CP,
  _CB, _CC, _PW) = (0, 3, 6, 9, 12, 15, 18, 21, 22, 23, 24, 25, 28, 31, 34, 37, 40, 41, 42, 43, 44, 45, 46, 47)
 # Shadowed frames only: the barycentrics, the sign that turned the geometric normal, the shadow origin.
-_B1, _B2, _SG, _O = 48, 49, 50, 51
-_FIELDS = 54
+_B1, _B2, _SG, _O, _RAY = 48, 49, 50, 51, 54  # _RAY: a shadow ray's origin, direction and tfar (7)
+_FIELDS = 61
 
 
 def applies(modes, k) -> bool:
@@ -278,24 +280,39 @@ def _origins(S, XY, n, G):
 @njit(**HELPER)
 def _shadow_pass(S, n, lights, i, handle, unit, Q):
     """Light ``i``'s shadow rays from the queued lanes it lights (``_LIT`` 1: in its cone, not on
-    the point, ``n . s > 0``, the rays the general kernel traces) as ``rtcOccluded16`` packets of
-    16 lanes (:func:`~raycast_shade.shading.shadows.request_ray`: the same rays); the occluded
-    lanes' ``_LIT`` becomes 0. ``Q``: the task's packet scratch (:func:`.shadows._packets`, one
-    packet per 16 lanes)."""
+    the point, ``n . s > 0``: the rays the general kernel traces) as ``rtcOccluded16`` packets, 16
+    lanes each; the occluded lanes' ``_LIT`` becomes 0. ``Q``: the task's packet scratch
+    (:func:`.shadows._packets` of one packet per 16 lanes, its fixed slots set there).
+
+    Every lane's ray is :func:`~raycast_shade.shading.shadows._shadow_ray`'s, computed in a pass
+    without branches over the scratch (vectorised), then copied to the packets; a lane outside
+    the mask is not traced, and a stale answer in ``vis`` can only zero a lane that is 0 already."""
     buf, ib, off, valid, voff, args, aoff, vis, points = Q
-    clear_packets(valid, voff, vis, points)
     target = (lights[i, LIGHT_VEC + 0], lights[i, LIGHT_VEC + 1], lights[i, LIGHT_VEC + 2])
-    for k in range(n):
-        if S[_LIT * LANES + k] == 1.0:
-            request_ray((buf, ib, off, valid, voff), k // PACKET_LANES, k % PACKET_LANES,
-                        (S[(_O + 0) * LANES + k], S[(_O + 1) * LANES + k], S[(_O + 2) * LANES + k]),
-                        (S[(_G + 0) * LANES + k], S[(_G + 1) * LANES + k], S[(_G + 2) * LANES + k]),
-                        (S[(_S + 0) * LANES + k], S[(_S + 1) * LANES + k], S[(_S + 2) * LANES + k]),
-                        target, S[_D * LANES + k] < np.inf, unit)
+    for k in range(LANES):
+        org, d, tfar = _shadow_ray(
+            (S[(_O + 0) * LANES + k], S[(_O + 1) * LANES + k], S[(_O + 2) * LANES + k]),
+            (S[(_G + 0) * LANES + k], S[(_G + 1) * LANES + k], S[(_G + 2) * LANES + k]),
+            (S[(_S + 0) * LANES + k], S[(_S + 1) * LANES + k], S[(_S + 2) * LANES + k]),
+            target, S[_D * LANES + k] < np.inf, unit)
+        for c in range(3):
+            S[(_RAY + c) * LANES + k] = org[c]
+            S[(_RAY + 3 + c) * LANES + k] = d[c]
+        S[(_RAY + 6) * LANES + k] = tfar
+    for j in range(LANES // PACKET_LANES):
+        b = off + j * RAY16_SLOTS
+        for q in range(PACKET_LANES):
+            k = j * PACKET_LANES + q
+            for c in range(3):
+                buf[b + (RAY_ORG + c) * PACKET_LANES + q] = S[(_RAY + c) * LANES + k]
+                buf[b + (RAY_DIR + c) * PACKET_LANES + q] = S[(_RAY + 3 + c) * LANES + k]
+            buf[b + RAY_TFAR * PACKET_LANES + q] = S[(_RAY + 6) * LANES + k]
+            valid[voff + k] = -1 if (k < n) & (S[_LIT * LANES + k] == 1.0) else 0
     trace_packets(handle, buf, off, valid, voff, args, aoff, vis)
-    for k in range(n):
-        if vis[k // PACKET_LANES, k % PACKET_LANES] == 1:
-            S[_LIT * LANES + k] = 0.0
+    for j in range(LANES // PACKET_LANES):
+        for q in range(PACKET_LANES):
+            k = j * PACKET_LANES + q
+            S[_LIT * LANES + k] = 0.0 if vis[j, q] == 1 else S[_LIT * LANES + k]
 
 
 @njit(**HELPER)
@@ -419,6 +436,10 @@ def _make_phong_fast(spec_on: bool, att_on: bool, shadows_on: bool = False):
         image, normal = outs
         want_n = normal.shape[0] != 0
         h, w = prim.shape
+        # The pixels are queued row by row; with shadows, by 4x4 tiles (each row-major), so that a
+        # packet's 16 lanes are neighbours in both directions: coherent rays, cheaper to trace.
+        th = _TILE if shadows_on else 1
+        tw = _TILE if shadows_on else w
         nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
         step = spread_step(nblk)
         for it in prange(nblk):  # blocks of rows in a balanced order (see common.schedule)
@@ -429,30 +450,34 @@ def _make_phong_fast(spec_on: bool, att_on: bool, shadows_on: bool = False):
             n = 0
             mixed = False
             filled = -1
-            for y in range(blk * BLOCK_ROWS, min(h, (blk + 1) * BLOCK_ROWS)):
-                for x in range(w):
-                    p = prim[y, x]
-                    if p < 0:
-                        for c in range(3):
-                            image[y, x, c] = background[c]
-                            if want_n:
-                                normal[y, x, c] = 0.0
-                        continue
-                    gm = geom[y, x]
-                    if modes[gm] != METHOD_PHONG:
-                        continue
-                    f = face_off[gm] + p
-                    _gather(S, n, G, f, np.float64(u[y, x]), np.float64(v[y, x]), shadows_on)
-                    XY[n] = y
-                    XY[LANES + n] = x
-                    XY[2 * LANES + n] = gm
-                    XY[3 * LANES + n] = f
-                    mixed = mixed or (n > 0 and gm != XY[2 * LANES])
-                    n += 1
-                    if n == LANES:
-                        filled = _flush(S, XY, n, mixed, filled, materials, G, L, cam, outs, Q, spec_on, att_on, shadows_on)
-                        n = 0
-                        mixed = False
+            ye = min(h, (blk + 1) * BLOCK_ROWS)
+            for ty in range(blk * BLOCK_ROWS, ye, th):  # rows (tiles of rows: see above)
+                for tx in range(0, w, tw):
+                    for y in range(ty, min(ty + th, ye)):
+                        for x in range(tx, min(tx + tw, w)):
+                            p = prim[y, x]
+                            if p < 0:
+                                for c in range(3):
+                                    image[y, x, c] = background[c]
+                                    if want_n:
+                                        normal[y, x, c] = 0.0
+                                continue
+                            gm = geom[y, x]
+                            if modes[gm] != METHOD_PHONG:
+                                continue
+                            f = face_off[gm] + p
+                            _gather(S, n, G, f, np.float64(u[y, x]), np.float64(v[y, x]), shadows_on)
+                            XY[n] = y
+                            XY[LANES + n] = x
+                            XY[2 * LANES + n] = gm
+                            XY[3 * LANES + n] = f
+                            mixed = mixed or (n > 0 and gm != XY[2 * LANES])
+                            n += 1
+                            if n == LANES:
+                                filled = _flush(S, XY, n, mixed, filled, materials, G, L, cam, outs, Q, spec_on, att_on,
+                                                shadows_on)
+                                n = 0
+                                mixed = False
             if n > 0:  # the lanes past n hold an earlier batch's pixels (or zeros): shaded, not written
                 _flush(S, XY, n, mixed, filled, materials, G, L, cam, outs, Q, spec_on, att_on, shadows_on)
 
