@@ -57,8 +57,8 @@ _NO_NORMALS = np.empty((0, 0, 3), np.float32)  # the kernel's normal output when
 (_P, _A, _FN, _KA, _KD, _KS, _KE, _SHN, _SHT, _MODEL, _HASSPEC, _V, _G, _N, _R, _S, _D, _ATT, _ND, _LIT, _CP,
  _CB, _CC, _PW) = (0, 3, 6, 9, 12, 15, 18, 21, 22, 23, 24, 25, 28, 31, 34, 37, 40, 41, 42, 43, 44, 45, 46, 47)
 # Shadowed frames only: the barycentrics, the sign that turned the geometric normal, the shadow origin.
-_B1, _B2, _SG, _O, _RAY = 48, 49, 50, 51, 54  # _RAY: a shadow ray's origin, direction and tfar (7)
-_FIELDS = 61
+_B1, _B2, _SG, _O = 48, 49, 50, 51
+_FIELDS = 54
 
 
 def applies(modes, k) -> bool:
@@ -289,24 +289,19 @@ def _shadow_pass(S, n, lights, i, handle, unit, Q):
     the mask is not traced, and a stale answer in ``vis`` can only zero a lane that is 0 already."""
     buf, ib, off, valid, voff, args, aoff, vis, points = Q
     target = (lights[i, LIGHT_VEC + 0], lights[i, LIGHT_VEC + 1], lights[i, LIGHT_VEC + 2])
-    for k in range(LANES):
-        org, d, tfar = _shadow_ray(
-            (S[(_O + 0) * LANES + k], S[(_O + 1) * LANES + k], S[(_O + 2) * LANES + k]),
-            (S[(_G + 0) * LANES + k], S[(_G + 1) * LANES + k], S[(_G + 2) * LANES + k]),
-            (S[(_S + 0) * LANES + k], S[(_S + 1) * LANES + k], S[(_S + 2) * LANES + k]),
-            target, S[_D * LANES + k] < np.inf, unit)
-        for c in range(3):
-            S[(_RAY + c) * LANES + k] = org[c]
-            S[(_RAY + 3 + c) * LANES + k] = d[c]
-        S[(_RAY + 6) * LANES + k] = tfar
+    ub = np.uint64(off)  # unsigned: no wrap-around test per write, so the stores vectorise
     for j in range(LANES // PACKET_LANES):
-        b = off + j * RAY16_SLOTS
         for q in range(PACKET_LANES):
             k = j * PACKET_LANES + q
+            org, d, tfar = _shadow_ray(
+                (S[(_O + 0) * LANES + k], S[(_O + 1) * LANES + k], S[(_O + 2) * LANES + k]),
+                (S[(_G + 0) * LANES + k], S[(_G + 1) * LANES + k], S[(_G + 2) * LANES + k]),
+                (S[(_S + 0) * LANES + k], S[(_S + 1) * LANES + k], S[(_S + 2) * LANES + k]),
+                target, S[_D * LANES + k] < np.inf, unit)
             for c in range(3):
-                buf[b + (RAY_ORG + c) * PACKET_LANES + q] = S[(_RAY + c) * LANES + k]
-                buf[b + (RAY_DIR + c) * PACKET_LANES + q] = S[(_RAY + 3 + c) * LANES + k]
-            buf[b + RAY_TFAR * PACKET_LANES + q] = S[(_RAY + 6) * LANES + k]
+                buf[ub + np.uint64(j * RAY16_SLOTS + (RAY_ORG + c) * PACKET_LANES + q)] = org[c]
+                buf[ub + np.uint64(j * RAY16_SLOTS + (RAY_DIR + c) * PACKET_LANES + q)] = d[c]
+            buf[ub + np.uint64(j * RAY16_SLOTS + RAY_TFAR * PACKET_LANES + q)] = tfar
             valid[voff + k] = -1 if (k < n) & (S[_LIT * LANES + k] == 1.0) else 0
     trace_packets(handle, buf, off, valid, voff, args, aoff, vis)
     for j in range(LANES // PACKET_LANES):
