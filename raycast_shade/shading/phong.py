@@ -30,7 +30,8 @@ from ..common.schedule import BLOCK_ROWS, spread_step
 from .bump import _bump
 from .illumination import _illuminate, _reflected, _request_shadows
 from .normalmap import _normal_map
-from .jit import FLT32_MAX, HELPER, JIT, compile_variants
+from .phong_fast import store_pixel
+from .jit import HELPER, JIT, compile_variants
 from .records import At, Hit
 from .shadows import (LANES, _packets, _scratch, clear_packets, store_coef, store_point, stored_coef,
                       stored_material, stored_point, trace_packets)
@@ -127,13 +128,7 @@ def _make_phong(spec_on: bool, att_on: bool, tex_on: bool = False):
                         coef = _row_coefficients(materials, gm)
                     rgb, hp = _shade_surface(G, B, L, S, materials, cam, at, False, (0.0, 0.0, 0.0), coef,
                                              spec_on, att_on)
-                    if want_n:
-                        normal[y, x, 0] = hp.n[0]
-                        normal[y, x, 1] = hp.n[1]
-                        normal[y, x, 2] = hp.n[2]
-                    image[y, x, 0] = min(rgb[0], FLT32_MAX)
-                    image[y, x, 1] = min(rgb[1], FLT32_MAX)
-                    image[y, x, 2] = min(rgb[2], FLT32_MAX)
+                    store_pixel(outs, y, x, rgb, hp.n)
 
     return _shade_phong_kernel
 
@@ -186,10 +181,6 @@ def _make_phong_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
                         if tex_on:
                             store_coef(points, k, _point_coefficients(G, uvs, at, cam, x, y0 + y, True, materials, T))
                         hp = _shading_point(G, B, L, cam, at, False, (0.0, 0.0, 0.0))
-                        if want_n:
-                            normal[y, x, 0] = hp.n[0]
-                            normal[y, x, 1] = hp.n[1]
-                            normal[y, x, 2] = hp.n[2]
                         store_point(points, k, hp, gm)
                         _request_shadows(P, k, hp, L)
                     trace_packets(handle, buf, off, valid, voff, args, aoff, vis)
@@ -201,11 +192,7 @@ def _make_phong_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
                         coef = stored_coef(points, k) if tex_on else _row_coefficients(materials, gm)
                         rgb = _reflected(Hit(pp, vv, gg, sg, nn, oo), coef, materials, gm, L, S, vis, k,
                                          spec_on, att_on)
-                        x = tx + k % _TILE
-                        y = ty + k // _TILE
-                        image[y, x, 0] = min(rgb[0], FLT32_MAX)
-                        image[y, x, 1] = min(rgb[1], FLT32_MAX)
-                        image[y, x, 2] = min(rgb[2], FLT32_MAX)
+                        store_pixel(outs, ty + k // _TILE, tx + k % _TILE, rgb, nn)
 
     return _shade_phong_packets_kernel
 

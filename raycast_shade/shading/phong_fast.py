@@ -404,18 +404,28 @@ def _flush(S, XY, n, mixed, filled, materials, G, L, cam, outs, Q, spec_on, att_
 
 
 @njit(**HELPER)
-def _scatter(S, XY, n, outs):
-    """Write the first ``n`` lanes' colours (plus emission, saturated at the float32 maximum) and,
-    when ``outs = (image, normal)`` has a normal array, their shading normals."""
+def store_pixel(outs, y, x, rgb, n):
+    """Write pixel ``(y, x)`` of ``outs = (image, normal)``: its colour ``rgb`` saturated at the
+    float32 maximum and, when ``normal`` is an array (not the (0, 0, 3) stand-in), its shading
+    normal ``n``. Every Phong kernel (general, tile packets, batched) stores its pixels here."""
     image, normal = outs
-    want_n = normal.shape[0] != 0
+    image[y, x, 0] = min(rgb[0], FLT32_MAX)
+    image[y, x, 1] = min(rgb[1], FLT32_MAX)
+    image[y, x, 2] = min(rgb[2], FLT32_MAX)
+    if normal.shape[0] != 0:
+        normal[y, x, 0] = n[0]
+        normal[y, x, 1] = n[1]
+        normal[y, x, 2] = n[2]
+
+
+@njit(**HELPER)
+def _scatter(S, XY, n, outs):
+    """Write the first ``n`` lanes' colours (plus emission) and shading normals (:func:`store_pixel`)."""
     for k in range(n):
-        y = XY[k]
-        x = XY[LANES + k]
-        for c in range(3):
-            image[y, x, c] = min(S[(_R + c) * LANES + k] + S[(_KE + c) * LANES + k], FLT32_MAX)
-            if want_n:
-                normal[y, x, c] = S[(_N + c) * LANES + k]
+        store_pixel(outs, XY[k], XY[LANES + k],
+                    (S[(_R + 0) * LANES + k] + S[(_KE + 0) * LANES + k], S[(_R + 1) * LANES + k]
+                     + S[(_KE + 1) * LANES + k], S[(_R + 2) * LANES + k] + S[(_KE + 2) * LANES + k]),
+                    (S[(_N + 0) * LANES + k], S[(_N + 1) * LANES + k], S[(_N + 2) * LANES + k]))
 
 
 def _make_phong_fast(spec_on: bool, att_on: bool, shadows_on: bool = False):
