@@ -3,8 +3,9 @@ point, with the normal interpolated (``a = n1 + mu1 (n2 - n1) + mu2 (n3 - n1)``)
 renormalised, and perturbed by the material's bump map or normal map if it has one.
 
 Shadow rays leave the pixel's point, lifted past the terminator
-(:func:`~raycast_shade.shading.surface._terminator_point`). A frame whose lights cast
-shadows runs the packet kernel instead: it shades 4x4 tiles, first the tile's 16 shading
+(:func:`~raycast_shade.shading.surface._terminator_point`). Untextured frames without maps run
+the batched kernel (:mod:`.phong_fast`), shadows or not. A textured or bump-mapped frame whose
+lights cast shadows runs the packet kernel: it shades 4x4 tiles, first the tile's 16 shading
 points (kept in the task's scratch) with their shadow rays asked for, then one
 ``rtcOccluded16`` per light for the tile, then the reflectance equation with those answers
 (:mod:`.shadows`): the same rays, traced as coherent packets rather than one by one.

@@ -3,7 +3,7 @@
 The general Phong kernel (:mod:`.phong`) shades one pixel at a time: gathers, three square
 roots, several divisions and a branch per light and per test, a scalar float64 loop that LLVM
 does not vectorise. For the common scene — no textures or mesh colours, no bump or normal map
-on a Phong model, no light casting shadows — this kernel does the same arithmetic in passes:
+on a Phong model — this kernel does the same arithmetic in passes:
 
 1. a gather pass sums each Phong pixel's point and interpolated normal (the sums of
    :mod:`.surface`, in their order) and copies its face normal into lane ``k`` of a small scratch
@@ -14,6 +14,13 @@ on a Phong model, no light casting shadows — this kernel does the same arithme
    specular cosine and the whole-number power by repeated squaring (one pass per bit, a bit
    applied to the lanes that have it), and the sum; these are the loops LLVM vectorises;
 3. a scatter pass writes the colours (and, when asked, the shading normals) to their pixels.
+
+Shadows (a variant of its own, :data:`_PHONG_FAST_SHADOWS`, for frames with a scene handle): the
+pixels are queued by 4x4 tiles, each lane's shadow origin is lifted past the terminator once per
+batch (:func:`_origins`), and per light that casts shadows, after ``n . s``, a branch-free pass
+writes every lane's shadow ray (:func:`~raycast_shade.shading.shadows._shadow_ray`, the ray the
+general kernel traces) into four ``RTCRay16`` packets, the lanes the light reaches active; one
+``rtcOccluded16`` per packet, and the lanes found blocked lose the light before the sum.
 
 Every lane does the float64 operations of :func:`.phong._shade_surface` in the same order, so
 the image is the general kernel's bit for bit (``tests/shading/test_phong_fast.py``). The
@@ -74,9 +81,8 @@ def applies(modes, k) -> bool:
     Returns
     -------
     bool
-        True for a frame without textures or mesh colours, without shadow rays (no light casts
-        shadows: the scene handle is 0), and whose Phong models have neither a bump map nor a
-        normal map.
+        True for a frame without textures or mesh colours whose Phong models have neither a bump
+        map nor a normal map (shadow rays or not).
     """
     phong = np.asarray(modes) == METHOD_PHONG
     B = k["B"]
