@@ -48,16 +48,16 @@ from ..common.layout import (ATT_HEURISTIC, ATT_INVERSE_SQUARE, CAM_EYE, CAM_FOR
                              LIGHT_VEC, MAT_KA, MAT_KD, MAT_KE, MAT_KS, MAT_MODEL, MAT_SHININESS, METHOD_PHONG,
                              MODEL_BLINN)
 from ..common.schedule import BLOCK_ROWS, spread_step
+from ..visibility.embree import RAY16_SLOTS, RAY_DIR, RAY_ORG, RAY_TFAR
 from .illumination import _spot_factor
 from .jit import FLT32_MAX, HELPER, JIT
-from ..visibility.embree import RAY16_SLOTS, RAY_DIR, RAY_ORG, RAY_TFAR
 from .shadows import LANES as PACKET_LANES, _packets, _shadow_ray, trace_packets
 from .surface import _terminator_point
 
 __all__ = ["LANES", "applies"]
 
 _TILE = 4  # a shadowed frame's pixels are queued by tiles of 4x4 (BLOCK_ROWS is a multiple of it)
-LANES = 64  # pixels shaded together: 64 lanes of 48 float64 fields (24 KiB) stay in the L1 cache
+LANES = 64  # pixels shaded together: 64 lanes of 54 float64 fields (27 KiB) stay in the L1 cache
 _NO_NORMALS = np.empty((0, 0, 3), np.float32)  # the kernel's normal output when none is asked for
 
 # Fields of the scratch array, each LANES wide: field F of lane k is S[F * LANES + k].
@@ -290,9 +290,10 @@ def _shadow_pass(S, n, lights, i, handle, unit, Q):
     lanes each; the occluded lanes' ``_LIT`` becomes 0. ``Q``: the task's packet scratch
     (:func:`.shadows._packets` of one packet per 16 lanes, its fixed slots set there).
 
-    Every lane's ray is :func:`~raycast_shade.shading.shadows._shadow_ray`'s, computed in a pass
-    without branches over the scratch (vectorised), then copied to the packets; a lane outside
-    the mask is not traced, and a stale answer in ``vis`` can only zero a lane that is 0 already."""
+    Every lane's ray is :func:`~raycast_shade.shading.shadows._shadow_ray`'s, written straight into
+    its packet in a pass without branches (vectorised); a lane outside the mask is not traced, and
+    a stale answer in ``vis`` (an earlier light's or batch's) can only zero a lane that is 0 already
+    or is not written."""
     buf, ib, off, valid, voff, args, aoff, vis, points = Q
     target = (lights[i, LIGHT_VEC + 0], lights[i, LIGHT_VEC + 1], lights[i, LIGHT_VEC + 2])
     ub = np.uint64(off)  # unsigned: no wrap-around test per write, so the stores vectorise
