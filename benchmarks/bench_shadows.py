@@ -5,10 +5,12 @@ Run ``python -m benchmarks.bench_shadows [--quick]``. For each mesh and size of
 casting shadows), timed in turn, round after round, in one process after a warm-up round:
 
 * ``frame``: the plain Phong frame (the unit of ``ratio``);
-* ``shadows``: the same frame, the light casting shadows (shadow rays as 16-ray packets per 4x4
-  tile, :mod:`raycast_shade.shading.shadows`);
+* ``shadows``: the same frame, the light casting shadows: the batched Phong kernel
+  (:mod:`raycast_shade.shading.phong_fast`) traces its lanes' shadow rays as 16-ray packets;
+* ``shadows_tiles``: the same, shaded by the general kernel with a packet per 4x4 tile (what
+  textured or bump-mapped shadowed frames take, and every shadowed frame before);
 * ``shadows_single``: the same, shaded by the kernel that traces each shadow ray on its own
-  (``rtcOccluded1``), as before the packets: the images are bit-identical (checked here);
+  (``rtcOccluded1``), as before the packets: the three images are bit-identical (checked here);
 * ``rays_occluded1`` and ``rays_occluded16``: the frame's very shadow rays (collected once, in
   packets of 4x4 pixels) traced bare, one ``rtcOccluded1`` per ray and one ``rtcOccluded16`` per
   packet (coherent), in a parallel loop with nothing else: the floor of what the rays cost.
@@ -148,18 +150,21 @@ def bench_case(kind, level, width, height, repeats):
     load = os.getloadavg()[0]
     scene = make_scene(make_mesh(kind, level), width, height)
     shadowed = scene.replace(lights=[dataclasses.replace(light, shadows=True) for light in scene.lights])
-    packets = shade_mod._PHONG_PACKETS
+    packets, fast = shade_mod._PHONG_PACKETS, shade_mod._fast_applies
 
-    def single():
-        shade_mod._PHONG_PACKETS = shade_mod._PHONG  # the one-ray-at-a-time kernel
+    def general(one_by_one):
+        shade_mod._fast_applies = lambda modes, k: False  # the general kernel
+        if one_by_one:
+            shade_mod._PHONG_PACKETS = shade_mod._PHONG  # the one-ray-at-a-time kernel
         try:
             return rs.render(shadowed)
         finally:
-            shade_mod._PHONG_PACKETS = packets
+            shade_mod._PHONG_PACKETS, shade_mod._fast_applies = packets, fast
 
     handle, rays, valid = _shadow_rays(shadowed)
     one, pk = np.zeros(valid.shape, np.bool_), np.zeros(valid.shape, np.bool_)
-    paths = {"frame": lambda: rs.render(scene), "shadows": lambda: rs.render(shadowed), "shadows_single": single,
+    paths = {"frame": lambda: rs.render(scene), "shadows": lambda: rs.render(shadowed),
+             "shadows_tiles": lambda: general(False), "shadows_single": lambda: general(True),
              "rays_occluded1": lambda: _one_by_one(handle, rays, valid, one),
              "rays_occluded16": lambda: _packets(handle, rays, valid, pk)}
     times = {name: [] for name in paths}
@@ -172,8 +177,9 @@ def bench_case(kind, level, width, height, repeats):
                 times[name].append(time.perf_counter() - t0)
             if name.startswith("shadows"):
                 images[name] = out.image
-    if not np.array_equal(images["shadows"], images["shadows_single"]):
-        raise AssertionError("the packet kernel's image differs from the single-ray kernel's")
+    for name in ("shadows", "shadows_tiles"):
+        if not np.array_equal(images[name], images["shadows_single"]):
+            raise AssertionError(f"{name}: the image differs from the single-ray kernel's")
     if not np.array_equal(one, pk):
         raise AssertionError("rtcOccluded16 answered differently from rtcOccluded1")
     n = int((valid != 0).sum())
@@ -189,8 +195,9 @@ def bench_case(kind, level, width, height, repeats):
 
 
 BEGIN, END = "<!-- shadows:begin (benchmarks/bench_shadows.py) -->", "<!-- shadows:end -->"
-LABELS = {"shadows": "shadows on (packets; ns: added a ray)",
-          "shadows_single": "shadows on, one ray at a time (before; ns: added a ray)",
+LABELS = {"shadows": "shadows on (batched kernel, packets of its lanes; ns: added a ray)",
+          "shadows_tiles": "shadows on, general kernel, a packet per 4x4 tile (before; ns: added a ray)",
+          "shadows_single": "shadows on, one ray at a time (ns: added a ray)",
           "rays_occluded1": "the same rays, bare `rtcOccluded1`", "rays_occluded16": "the same rays, bare `rtcOccluded16`"}
 
 
@@ -233,7 +240,7 @@ def main(argv=None):
     rows = []
     for case in cases:
         rows += bench_case(*case, repeats)
-        for r in rows[-5:]:
+        for r in rows[-len(LABELS) - 1:]:
             print(r["mesh"], r["width"], r["path"], r["median_ms"], r["ratio"], r["ns_per_ray"], r["note"], flush=True)
     out = results_file("shadows.csv", args.quick)
     os.makedirs(os.path.dirname(out), exist_ok=True)

@@ -66,7 +66,8 @@ def _step_core():
 def _variants(floor=None, sun_shadows=False, **kwargs):
     """The three variants other than :func:`_step_core`'s. The kernels (the mirrors' bounce
     shading too) fold "any specular" and "any attenuating light" at compile time: four each.
-    ``sun_shadows``: the sun casts shadows (Phong's shadow-packet kernel has its own variants)."""
+    ``sun_shadows``: the sun casts shadows (the batched Phong kernel's shadowed variants; with
+    :func:`_step_core`'s shadowing lamp, all four)."""
     dull = Material(kd=0.7, ks=0.0)
     sun = [DirectionalLight((-1.0, -1.0, -1.0), intensity=1.0, shadows=sun_shadows)]
     for material, lights in ((dull, sun), (None, sun), (dull, None)):
@@ -81,7 +82,8 @@ def _step_variants():
 def _step_batched():
     """The batched Phong kernel (shading/phong_fast.py) of frames without shadows, textures or
     bump maps, in its four variants: with and without a specular term and an attenuating light;
-    its terms build too (``terms=True``)."""
+    its terms build too (``terms=True``) (its shadowed variants: :func:`_step_core` and
+    :func:`_step_variants`)."""
     lamp = [PointLight((2.0, 3.0, 2.0), intensity=20.0, attenuation="inverse_square")]
     sun = [DirectionalLight((-1.0, -1.0, -1.0), intensity=1.0)]
     for material in (Material(kd=0.7, ks=0.0), None):

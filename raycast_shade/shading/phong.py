@@ -3,8 +3,9 @@ point, with the normal interpolated (``a = n1 + mu1 (n2 - n1) + mu2 (n3 - n1)``)
 renormalised, and perturbed by the material's bump map or normal map if it has one.
 
 Shadow rays leave the pixel's point, lifted past the terminator
-(:func:`~raycast_shade.shading.surface._terminator_point`). A frame whose lights cast
-shadows runs the packet kernel instead: it shades 4x4 tiles, first the tile's 16 shading
+(:func:`~raycast_shade.shading.surface._terminator_point`). Untextured frames without maps run
+the batched kernel (:mod:`.phong_fast`), shadows or not. A textured or bump-mapped frame whose
+lights cast shadows runs the packet kernel: it shades 4x4 tiles, first the tile's 16 shading
 points (kept in the task's scratch) with their shadow rays asked for, then one
 ``rtcOccluded16`` per light for the tile, then the reflectance equation with those answers
 (:mod:`.shadows`): the same rays, traced as coherent packets rather than one by one.
@@ -30,7 +31,8 @@ from ..common.schedule import BLOCK_ROWS, spread_step
 from .bump import _bump
 from .illumination import _illuminate, _reflected, _request_shadows
 from .normalmap import _normal_map
-from .jit import FLT32_MAX, HELPER, JIT, compile_variants
+from .pixelstore import store_pixel
+from .jit import HELPER, JIT, compile_variants
 from .records import At, Hit
 from .shadows import (LANES, _packets, _scratch, clear_packets, store_coef, store_point, stored_coef,
                       stored_material, stored_point, trace_packets)
@@ -127,13 +129,7 @@ def _make_phong(spec_on: bool, att_on: bool, tex_on: bool = False):
                         coef = _row_coefficients(materials, gm)
                     rgb, hp = _shade_surface(G, B, L, S, materials, cam, at, False, (0.0, 0.0, 0.0), coef,
                                              spec_on, att_on)
-                    if want_n:
-                        normal[y, x, 0] = hp.n[0]
-                        normal[y, x, 1] = hp.n[1]
-                        normal[y, x, 2] = hp.n[2]
-                    image[y, x, 0] = min(rgb[0], FLT32_MAX)
-                    image[y, x, 1] = min(rgb[1], FLT32_MAX)
-                    image[y, x, 2] = min(rgb[2], FLT32_MAX)
+                    store_pixel(outs, y, x, rgb, hp.n)
 
     return _shade_phong_kernel
 
@@ -186,10 +182,6 @@ def _make_phong_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
                         if tex_on:
                             store_coef(points, k, _point_coefficients(G, uvs, at, cam, x, y0 + y, True, materials, T))
                         hp = _shading_point(G, B, L, cam, at, False, (0.0, 0.0, 0.0))
-                        if want_n:
-                            normal[y, x, 0] = hp.n[0]
-                            normal[y, x, 1] = hp.n[1]
-                            normal[y, x, 2] = hp.n[2]
                         store_point(points, k, hp, gm)
                         _request_shadows(P, k, hp, L)
                     trace_packets(handle, buf, off, valid, voff, args, aoff, vis)
@@ -201,11 +193,7 @@ def _make_phong_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
                         coef = stored_coef(points, k) if tex_on else _row_coefficients(materials, gm)
                         rgb = _reflected(Hit(pp, vv, gg, sg, nn, oo), coef, materials, gm, L, S, vis, k,
                                          spec_on, att_on)
-                        x = tx + k % _TILE
-                        y = ty + k // _TILE
-                        image[y, x, 0] = min(rgb[0], FLT32_MAX)
-                        image[y, x, 1] = min(rgb[1], FLT32_MAX)
-                        image[y, x, 2] = min(rgb[2], FLT32_MAX)
+                        store_pixel(outs, ty + k // _TILE, tx + k % _TILE, rgb, nn)
 
     return _shade_phong_packets_kernel
 

@@ -3,7 +3,7 @@
 The general Phong kernel (:mod:`.phong`) shades one pixel at a time: gathers, three square
 roots, several divisions and a branch per light and per test, a scalar float64 loop that LLVM
 does not vectorise. For the common scene — no textures or mesh colours, no bump or normal map
-on a Phong model, no light casting shadows — this kernel does the same arithmetic in passes:
+on a Phong model — this kernel does the same arithmetic in passes:
 
 1. a gather pass sums each Phong pixel's point and interpolated normal (the sums of
    :mod:`.surface`, in their order) and copies its face normal into lane ``k`` of a small scratch
@@ -16,6 +16,13 @@ on a Phong model, no light casting shadows — this kernel does the same arithme
 3. a scatter pass writes the colours (and, when asked, the shading normals) to their pixels;
    the ``terms_on`` build (``render(terms=True)``) also sums each light's diffuse and specular
    parts in the accumulate pass and writes the terms in a scatter pass of its own.
+
+Shadows (a variant of its own, :data:`_PHONG_FAST_SHADOWS`, for frames with a scene handle): the
+pixels are queued by 4x4 tiles, each lane's shadow origin is lifted past the terminator once per
+batch (:func:`_origins`), and per light that casts shadows, after ``n . s``, a branch-free pass
+writes every lane's shadow ray (:func:`~raycast_shade.shading.shadows._shadow_ray`, the ray the
+general kernel traces) into four ``RTCRay16`` packets, the lanes the light reaches active; one
+``rtcOccluded16`` per packet, and the lanes found blocked lose the light before the sum.
 
 Every lane does the float64 operations of :func:`.phong._shade_surface` in the same order, so
 the image is the general kernel's bit for bit (``tests/shading/test_phong_fast.py``). The
@@ -39,24 +46,34 @@ import numpy as np
 from numba import njit, prange
 
 from ..common.layout import (ATT_HEURISTIC, ATT_INVERSE_SQUARE, CAM_EYE, CAM_FORWARD, CAM_ORTHO, LIGHT_ATT,
-                             LIGHT_DIRECTIONAL, LIGHT_K, LIGHT_KIND, LIGHT_RADIANCE, LIGHT_SPOT, LIGHT_VEC, MAT_KA,
-                             MAT_KD, MAT_KE, MAT_KS, MAT_MODEL, MAT_SHININESS, METHOD_PHONG, MODEL_BLINN)
+                             LIGHT_DIRECTIONAL, LIGHT_K, LIGHT_KIND, LIGHT_RADIANCE, LIGHT_SHADOWS, LIGHT_SPOT,
+                             LIGHT_VEC, MAT_KA, MAT_KD, MAT_KE, MAT_KS, MAT_MODEL, MAT_SHININESS, METHOD_PHONG,
+                             MODEL_BLINN)
 from ..common.schedule import BLOCK_ROWS, spread_step
+from ..visibility.embree import RAY16_SLOTS, RAY_DIR, RAY_ORG, RAY_TFAR
 from .illumination import _spot_factor
 from .jit import FLT32_MAX, HELPER, JIT
+from .pixelstore import store_pixel
+from .shadows import LANES as PACKET_LANES, _packets, _shadow_ray, trace_packets
+from .surface import _terminator_point
 from .terms_kernel import (TERM_AMBIENT, TERM_DIFFUSE, TERM_EMISSIVE, TERM_SPECULAR, TERMS_EMIT_ON, TERMS_SHADOW,
                            _hit_background, _miss, _store)
 
 __all__ = ["LANES", "applies"]
 
+_TILE = 4  # a shadowed frame's pixels are queued by tiles of 4x4 (BLOCK_ROWS is a multiple of it)
 LANES = 64  # pixels shaded together: 64 lanes of 54 float64 fields (27 KiB) stay in the L1 cache
 _NO_NORMALS = np.empty((0, 0, 3), np.float32)  # the kernel's normal output when none is asked for
 
 # Fields of the scratch array, each LANES wide: field F of lane k is S[F * LANES + k].
 (_P, _A, _FN, _KA, _KD, _KS, _KE, _SHN, _SHT, _MODEL, _HASSPEC, _V, _G, _N, _R, _S, _D, _ATT, _ND, _LIT, _CP,
- _CB, _CC, _PW, _TD, _TS) = (0, 3, 6, 9, 12, 15, 18, 21, 22, 23, 24, 25, 28, 31, 34, 37, 40, 41, 42, 43, 44, 45, 46,
-                             47, 48, 51)
-_FIELDS = 54  # _TD, _TS: the diffuse and specular terms, summed only by the terms kernel
+ _CB, _CC, _PW) = (0, 3, 6, 9, 12, 15, 18, 21, 22, 23, 24, 25, 28, 31, 34, 37, 40, 41, 42, 43, 44, 45, 46, 47)
+# Fields 48-53 serve one of two builds that never meet (terms are not traced with shadows here):
+# shadowed frames' barycentrics, the sign that turned the geometric normal and the shadow origin;
+# the terms build's diffuse and specular terms, summed by the accumulate pass.
+_B1, _B2, _SG, _O = 48, 49, 50, 51
+_TD, _TS = 48, 51
+_FIELDS = 54
 
 
 def applies(modes, k) -> bool:
@@ -72,20 +89,20 @@ def applies(modes, k) -> bool:
     Returns
     -------
     bool
-        True for a frame without textures or mesh colours, without shadow rays (no light casts
-        shadows: the scene handle is 0), and whose Phong models have neither a bump map nor a
-        normal map.
+        True for a frame without textures or mesh colours whose Phong models have neither a bump
+        map nor a normal map (shadow rays or not).
     """
     phong = np.asarray(modes) == METHOD_PHONG
     B = k["B"]
-    return (not k["tex_on"] and int(k["L"][3]) == 0 and not bool(np.any(B[2][phong] >= 0))
+    return (not k["tex_on"] and not bool(np.any(B[2][phong] >= 0))
             and not bool(np.any(B[5][phong] >= 0)))
 
 
 @njit(**HELPER)
-def _gather(S, k, G, f, b1, b2):
+def _gather(S, k, G, f, b1, b2, shadows_on):
     """Lane ``k``'s point, interpolated (not yet renormalised) normal and face normal: the hit
-    on face ``f`` at ``(b1, b2)`` (surface._hit_point, surface._shading_normal's sums)."""
+    on face ``f`` at ``(b1, b2)`` (surface._hit_point, surface._shading_normal's sums); with
+    ``shadows_on``, the barycentrics too (for the shadow origin, :func:`_origins`)."""
     verts, normals, faces, fnormals = G
     fu = np.uint64(f)  # unsigned indices: no wrap-around test per read
     i0 = np.uint64(faces[fu, 0])
@@ -98,6 +115,9 @@ def _gather(S, k, G, f, b1, b2):
         S[(_A + c) * LANES + k] = b0 * normals[i0, c] + b1 * normals[i1, c] + b2 * normals[i2, c]
     for c in range(3):
         S[(_FN + c) * LANES + k] = fnormals[fu, c]
+    if shadows_on:
+        S[_B1 * LANES + k] = b1
+        S[_B2 * LANES + k] = b2
 
 
 @njit(**HELPER)
@@ -159,6 +179,7 @@ def _geometry(S, cam, ambient):
         al = np.sqrt(ax * ax + ay * ay + az * az)
         keep = al >= 1e-6
         s = sgn / al
+        S[_SG * LANES + k] = sgn
         S[(_A + 0) * LANES + k] = ax * s if keep else gx
         S[(_A + 1) * LANES + k] = ay * s if keep else gy
         S[(_A + 2) * LANES + k] = az * s if keep else gz
@@ -257,6 +278,54 @@ def _cosines(S, spec_on, phong, blinn):
 
 
 @njit(**HELPER)
+def _origins(S, XY, n, G):
+    """Per queued lane the shadow rays' origin ``_O``: the point lifted past the terminator
+    (surface._terminator_point, as phong._shading_point does when shadow rays are traced)."""
+    verts, normals, faces, _ = G
+    for k in range(n):
+        f = XY[3 * LANES + k]
+        o = _terminator_point(verts, normals, (faces[f, 0], faces[f, 1], faces[f, 2]), S[_B1 * LANES + k],
+                              S[_B2 * LANES + k], (S[(_P + 0) * LANES + k], S[(_P + 1) * LANES + k],
+                                                   S[(_P + 2) * LANES + k]), S[_SG * LANES + k])
+        for c in range(3):
+            S[(_O + c) * LANES + k] = o[c]
+
+
+@njit(**HELPER)
+def _shadow_pass(S, n, lights, i, handle, unit, Q):
+    """Light ``i``'s shadow rays from the queued lanes it lights (``_LIT`` 1: in its cone, not on
+    the point, ``n . s > 0``: the rays the general kernel traces) as ``rtcOccluded16`` packets, 16
+    lanes each; the occluded lanes' ``_LIT`` becomes 0. ``Q``: the task's packet scratch
+    (:func:`.shadows._packets` of one packet per 16 lanes, its fixed slots set there).
+
+    Every lane's ray is :func:`~raycast_shade.shading.shadows._shadow_ray`'s, written straight into
+    its packet in a pass without branches (vectorised); a lane outside the mask is not traced, and
+    a stale answer in ``vis`` (an earlier light's or batch's) can only zero a lane that is 0 already
+    or is not written."""
+    buf, ib, off, valid, voff, args, aoff, vis, points = Q
+    target = (lights[i, LIGHT_VEC + 0], lights[i, LIGHT_VEC + 1], lights[i, LIGHT_VEC + 2])
+    ub = np.uint64(off)  # unsigned: no wrap-around test per write, so the stores vectorise
+    for j in range(LANES // PACKET_LANES):
+        for q in range(PACKET_LANES):
+            k = j * PACKET_LANES + q
+            org, d, tfar = _shadow_ray(
+                (S[(_O + 0) * LANES + k], S[(_O + 1) * LANES + k], S[(_O + 2) * LANES + k]),
+                (S[(_G + 0) * LANES + k], S[(_G + 1) * LANES + k], S[(_G + 2) * LANES + k]),
+                (S[(_S + 0) * LANES + k], S[(_S + 1) * LANES + k], S[(_S + 2) * LANES + k]),
+                target, S[_D * LANES + k] < np.inf, unit)
+            for c in range(3):
+                buf[ub + np.uint64(j * RAY16_SLOTS + (RAY_ORG + c) * PACKET_LANES + q)] = org[c]
+                buf[ub + np.uint64(j * RAY16_SLOTS + (RAY_DIR + c) * PACKET_LANES + q)] = d[c]
+            buf[ub + np.uint64(j * RAY16_SLOTS + RAY_TFAR * PACKET_LANES + q)] = tfar
+            valid[voff + k] = -1 if (k < n) & (S[_LIT * LANES + k] == 1.0) else 0
+    trace_packets(handle, buf, off, valid, voff, args, aoff, vis)
+    for j in range(LANES // PACKET_LANES):
+        for q in range(PACKET_LANES):
+            k = j * PACKET_LANES + q
+            S[_LIT * LANES + k] = 0.0 if vis[j, q] == 1 else S[_LIT * LANES + k]
+
+
+@njit(**HELPER)
 def _specular(S, nbits, any_pow):
     """Per lane the specular factor ``max(c, 0)^t`` into ``_PW`` (0 without a specular term):
     repeated squaring, one pass per bit of the largest whole shininess (illumination._power)."""
@@ -322,10 +391,11 @@ def _accumulate(S, lights, i, spec_on, terms):
 
 
 @njit(**HELPER)
-def _shade_batch(S, n, L, cam, spec_on, att_on, terms):
-    """Shade the lanes (``n`` of them queued, the rest an earlier batch's or zeros); ``terms``:
-    sum the diffuse and specular terms too (:func:`_accumulate`)."""
-    ambient, lights, dmin, _, _ = L
+def _shade_batch(S, XY, n, G, L, cam, Q, spec_on, att_on, shadows_on, terms):
+    """Shade the lanes (``n`` of them queued, the rest an earlier batch's or zeros); with
+    ``shadows_on`` (a scene handle), the lights that cast shadows trace them (:func:`_shadow_pass`);
+    ``terms``: sum the diffuse and specular terms too (:func:`_accumulate`)."""
+    ambient, lights, dmin, handle, unit = L
     nblinn = 0
     npow = 0
     top = 0.0
@@ -340,16 +410,20 @@ def _shade_batch(S, n, L, cam, spec_on, att_on, terms):
     if terms:
         for k in range(6 * LANES):
             S[_TD * LANES + k] = 0.0  # _TD and _TS: six fields from _TD on
+    if shadows_on:
+        _origins(S, XY, n, G)
     for i in range(lights.shape[0]):
         _direction(S, lights, i, dmin, att_on)
         _cosines(S, spec_on, nblinn < n, nblinn > 0)
+        if shadows_on and lights[i, LIGHT_SHADOWS] != 0.0:
+            _shadow_pass(S, n, lights, i, handle, unit, Q)
         if spec_on:
             _specular(S, nbits, npow > 0)
         _accumulate(S, lights, i, spec_on, terms)
 
 
 @njit(**HELPER)
-def _flush(S, XY, n, mixed, filled, materials, L, cam, outs, spec_on, att_on, terms):
+def _flush(S, XY, n, mixed, filled, materials, G, L, cam, outs, Q, spec_on, att_on, shadows_on, terms):
     """Fill the material fields (once for a batch of one model that the lanes already hold),
     shade the batch and write it (``outs = (image, normal)``; with ``terms``, the kernel writes the
     terms, :func:`_scatter_terms`); returns the model whose row now fills every lane (-1: none)."""
@@ -360,24 +434,19 @@ def _flush(S, XY, n, mixed, filled, materials, L, cam, outs, spec_on, att_on, te
     elif XY[2 * LANES] != filled:
         filled = XY[2 * LANES]
         _material(S, 0, LANES, materials, filled)
-    _shade_batch(S, n, L, cam, spec_on, att_on, terms)
+    _shade_batch(S, XY, n, G, L, cam, Q, spec_on, att_on, shadows_on, terms)
     _scatter(S, XY, n, outs)
     return filled
 
 
 @njit(**HELPER)
 def _scatter(S, XY, n, outs):
-    """Write the first ``n`` lanes' colours (plus emission, saturated at the float32 maximum) and,
-    when ``outs = (image, normal)`` has a normal array, their shading normals."""
-    image, normal = outs
-    want_n = normal.shape[0] != 0
+    """Write the first ``n`` lanes' colours (plus emission) and shading normals (:func:`store_pixel`)."""
     for k in range(n):
-        y = XY[k]
-        x = XY[LANES + k]
-        for c in range(3):
-            image[y, x, c] = min(S[(_R + c) * LANES + k] + S[(_KE + c) * LANES + k], FLT32_MAX)
-            if want_n:
-                normal[y, x, c] = S[(_N + c) * LANES + k]
+        store_pixel(outs, XY[k], XY[LANES + k],
+                    (S[(_R + 0) * LANES + k] + S[(_KE + 0) * LANES + k], S[(_R + 1) * LANES + k]
+                     + S[(_KE + 1) * LANES + k], S[(_R + 2) * LANES + k] + S[(_KE + 2) * LANES + k]),
+                    (S[(_N + 0) * LANES + k], S[(_N + 1) * LANES + k], S[(_N + 2) * LANES + k]))
 
 
 @njit(**HELPER)
@@ -401,9 +470,12 @@ def _scatter_terms(S, XY, n, R, y0, ambient):
             shadow[i, ty, x] = 1.0
 
 
-def _make_phong_fast(spec_on: bool, att_on: bool, terms_on: bool = False):
-    """The batched Phong kernel for one variant (see :mod:`.jit`; untextured only); ``terms_on``:
-    the kernel that also writes the frame's terms (``render(terms=True)``)."""
+def _make_phong_fast(spec_on: bool, att_on: bool, terms_on: bool = False, shadows_on: bool = False):
+    """The batched Phong kernel for one variant (see :mod:`.jit`; untextured only). ``terms_on``:
+    the kernel that also writes the frame's terms (``render(terms=True)``, never with shadows);
+    ``shadows_on``: the frame's lights cast shadows (a scene handle in ``L``), traced from the lanes."""
+    if terms_on and shadows_on:  # their scratch fields overlap (see _FIELDS)
+        raise ValueError("terms_on and shadows_on: the batched kernel builds one or the other")
 
     @njit(parallel=True, **JIT)
     def _shade_phong_fast_kernel(prim, geom, u, v, G, L, face_off, materials, cam, background, modes, outs):
@@ -419,44 +491,55 @@ def _make_phong_fast(spec_on: bool, att_on: bool, terms_on: bool = False):
             image, normal = outs
         want_n = normal.shape[0] != 0
         h, w = prim.shape
+        # The pixels are queued row by row; with shadows, by 4x4 tiles (each row-major), so that a
+        # packet's 16 lanes are neighbours in both directions: coherent rays, cheaper to trace.
+        th = _TILE if shadows_on else 1
+        tw = _TILE if shadows_on else w
         nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
         step = spread_step(nblk)
         for it in prange(nblk):  # blocks of rows in a balanced order (see common.schedule)
             blk = (it * step) % nblk
             S = np.zeros(_FIELDS * LANES)
-            XY = np.zeros(3 * LANES, np.int64)  # per lane: row, column, model
+            XY = np.zeros(4 * LANES, np.int64)  # per lane: row, column, model, face
+            Q = _packets(4 if shadows_on else 0)  # one shadow packet per 16 lanes (a stand-in without shadows)
             n = 0
             mixed = False
             filled = -1
-            for y in range(blk * BLOCK_ROWS, min(h, (blk + 1) * BLOCK_ROWS)):
-                for x in range(w):
-                    p = prim[y, x]
-                    if p < 0:
-                        for c in range(3):
-                            image[y, x, c] = background[c]
-                            if want_n:
-                                normal[y, x, c] = 0.0
-                        if terms_on:
-                            _miss(image, R, y, y0 + y, x)
-                        continue
-                    gm = geom[y, x]
-                    if modes[gm] != METHOD_PHONG:
-                        continue
-                    _gather(S, n, G, face_off[gm] + p, np.float64(u[y, x]), np.float64(v[y, x]))
-                    XY[n] = y
-                    XY[LANES + n] = x
-                    XY[2 * LANES + n] = gm
-                    mixed = mixed or (n > 0 and gm != XY[2 * LANES])
-                    n += 1
-                    if n == LANES:
-                        filled = _flush(S, XY, n, mixed, filled, materials, L, cam, (image, normal), spec_on,
-                                        att_on, terms_on)
-                        if terms_on:
-                            _scatter_terms(S, XY, n, R, y0, L[0])
-                        n = 0
-                        mixed = False
+            ye = min(h, (blk + 1) * BLOCK_ROWS)
+            for ty in range(blk * BLOCK_ROWS, ye, th):  # rows (tiles of rows: see above)
+                for tx in range(0, w, tw):
+                    for y in range(ty, min(ty + th, ye)):
+                        for x in range(tx, min(tx + tw, w)):
+                            p = prim[y, x]
+                            if p < 0:
+                                for c in range(3):
+                                    image[y, x, c] = background[c]
+                                    if want_n:
+                                        normal[y, x, c] = 0.0
+                                if terms_on:
+                                    _miss(image, R, y, y0 + y, x)
+                                continue
+                            gm = geom[y, x]
+                            if modes[gm] != METHOD_PHONG:
+                                continue
+                            f = face_off[gm] + p
+                            _gather(S, n, G, f, np.float64(u[y, x]), np.float64(v[y, x]), shadows_on)
+                            XY[n] = y
+                            XY[LANES + n] = x
+                            XY[2 * LANES + n] = gm
+                            XY[3 * LANES + n] = f
+                            mixed = mixed or (n > 0 and gm != XY[2 * LANES])
+                            n += 1
+                            if n == LANES:
+                                filled = _flush(S, XY, n, mixed, filled, materials, G, L, cam, (image, normal), Q,
+                                                spec_on, att_on, shadows_on, terms_on)
+                                if terms_on:
+                                    _scatter_terms(S, XY, n, R, y0, L[0])
+                                n = 0
+                                mixed = False
             if n > 0:  # the lanes past n hold an earlier batch's pixels (or zeros): shaded, not written
-                _flush(S, XY, n, mixed, filled, materials, L, cam, (image, normal), spec_on, att_on, terms_on)
+                _flush(S, XY, n, mixed, filled, materials, G, L, cam, (image, normal), Q, spec_on, att_on,
+                       shadows_on, terms_on)
                 if terms_on:
                     _scatter_terms(S, XY, n, R, y0, L[0])
 
@@ -464,4 +547,5 @@ def _make_phong_fast(spec_on: bool, att_on: bool, terms_on: bool = False):
 
 
 _PHONG_FAST = {(s, a): _make_phong_fast(s, a) for s in (False, True) for a in (False, True)}
-_PHONG_FAST_TERMS = {(s, a): _make_phong_fast(s, a, True) for s in (False, True) for a in (False, True)}
+_PHONG_FAST_TERMS = {(s, a): _make_phong_fast(s, a, terms_on=True) for s in (False, True) for a in (False, True)}
+_PHONG_FAST_SHADOWS = {(s, a): _make_phong_fast(s, a, shadows_on=True) for s in (False, True) for a in (False, True)}

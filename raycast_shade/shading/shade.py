@@ -32,7 +32,7 @@ from .gouraud import _INTERPOLATE, _VERTICES
 from .inputs import prepare
 from .jit import JIT, variant
 from .phong import _PHONG, _PHONG_PACKETS
-from .phong_fast import _NO_NORMALS, _PHONG_FAST, applies as _fast_applies
+from .phong_fast import _NO_NORMALS, _PHONG_FAST, _PHONG_FAST_SHADOWS, applies as _fast_applies
 
 __all__ = ["SHADINGS", "METHODS", "shade", "shade_hits", "resolve_methods", "SampleShading", "accumulate",
            "sample_mean", "GROUP"]
@@ -226,10 +226,11 @@ class SampleShading:
                                      k["materials"], k["cam"], k["L"], k["T"], k["background"], modes,
                                      (self.vcol, self.vspec, int(y0)), image)
         normals = _NO_NORMALS if normal is None else normal
-        if self.fast_phong:
-            _PHONG_FAST[k["spec_on"], k["att_on"]](hits.prim, hits.geom, hits.u, hits.v, k["G"], k["L"], k["face_off"],
-                                                   k["materials"], k["cam"], k["background"], modes, (image, normals))
-        elif self.phong:  # shadow rays (a scene handle) go as packets of 4x4 pixels
+        if self.fast_phong:  # shadow rays (a scene handle) go as packets of 16 of its lanes
+            fast = _PHONG_FAST_SHADOWS if k["L"][3] != 0 else _PHONG_FAST
+            fast[k["spec_on"], k["att_on"]](hits.prim, hits.geom, hits.u, hits.v, k["G"], k["L"], k["face_off"],
+                                            k["materials"], k["cam"], k["background"], modes, (image, normals))
+        elif self.phong:  # textures or maps; shadow rays (a scene handle) go as packets of 4x4 pixels
             variant(_PHONG_PACKETS if k["L"][3] != 0 else _PHONG, k)(
                 hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["T"], k["face_off"], k["materials"],
                 k["cam"], k["background"], modes, (image, normals), y0)

@@ -79,10 +79,9 @@ def _nudge(p, n, unit):
     two library calls per coordinate cost as much as the packet traversal's share of a shadow ray.
     Every ``p`` that reaches this branch is normal (``unit >= 1e-18``, the smallest Embree scene,
     so ``|p| >= 3e-20``), or infinite or NaN, which stay so."""
-    if abs(p) < unit * (1.0 / 32.0):
-        return p + n * (unit * (1.0 / 65536.0))
     e = ((_as_bits(p) >> 52) & 0x7FF) - 1022  # frexp's exponent
-    return p + n * _from_bits((e - 16 + 1023) << 52)
+    step = unit * (1.0 / 65536.0) if abs(p) < unit * (1.0 / 32.0) else _from_bits((e - 16 + 1023) << 52)
+    return p + n * step  # one expression for both cases, without a branch: loops of rays vectorise
 
 
 @njit(**HELPER)

@@ -121,7 +121,8 @@ class TermShading:
         self.R = _record((h, w), slots, nl, per_light, k.background, emit_on, bg_on)
         self.per_light = per_light
         # The batched Phong kernel (phong_fast) where it applies; per-light terms: the general one
-        self.fast_phong = self.phong and not per_light and _fast_applies(self.modes, k)
+        self.fast_phong = (self.phong and not per_light and _fast_applies(self.modes, k)
+                           and int(k["L"][3]) == 0)  # its terms build traces no shadow rays
         if self.flat:  # each visible face's colour and terms, computed once (the first band to see it)
             nf = len(self.geo.faces)
             self.fcol = np.zeros((nf, 3), np.float64)

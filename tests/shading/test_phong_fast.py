@@ -3,6 +3,7 @@ scenes it is dispatched to, and the dispatch takes it exactly for those scenes."
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 
 import numpy as np
@@ -16,7 +17,8 @@ from raycast_shade.shading.inputs import prepare
 from raycast_shade.shading.jit import variant
 from raycast_shade.shading.phong import _PHONG
 from raycast_shade.shading.normals import shading_normals
-from raycast_shade.shading.phong_fast import _NO_NORMALS, _PHONG_FAST, LANES, applies
+from raycast_shade.shading.phong import _PHONG_PACKETS
+from raycast_shade.shading.phong_fast import _NO_NORMALS, _PHONG_FAST, _PHONG_FAST_SHADOWS, LANES, applies
 from raycast_shade.shading.shade import resolve_methods
 
 W, H = 40, 30
@@ -37,8 +39,14 @@ def _soup(seed, n=24):
         return rs.Mesh(verts, faces, normals=normals)
 
 
+def _fast(k):
+    """The batched kernel for the frame inputs ``k``: with shadow rays when it has a scene handle."""
+    return (_PHONG_FAST_SHADOWS if k["L"][3] != 0 else _PHONG_FAST)[k["spec_on"], k["att_on"]]
+
+
 def _both(scene, shading, hits):
-    """The general and the batched kernel's images of ``hits`` (each on a NaN-filled canvas)."""
+    """The general kernel's (one shadow ray at a time, ``rtcOccluded1``) and the batched kernel's
+    images of ``hits`` (each on a NaN-filled canvas)."""
     k = prepare(scene, scene.camera)
     modes = resolve_methods(scene, shading)
     assert applies(modes, k)
@@ -47,8 +55,8 @@ def _both(scene, shading, hits):
     normals = (general.copy(), general.copy())  # each kernel's shading normals (the "normal" buffer)
     variant(_PHONG, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["T"], k["face_off"],
                        k["materials"], k["cam"], k["background"], modes, (general, normals[0]), 0)
-    _PHONG_FAST[k["spec_on"], k["att_on"]](hits.prim, hits.geom, hits.u, hits.v, k["G"], k["L"], k["face_off"],
-                                           k["materials"], k["cam"], k["background"], modes, (fast, normals[1]))
+    _fast(k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["L"], k["face_off"], k["materials"], k["cam"],
+             k["background"], modes, (fast, normals[1]))
     assert _same_bits(*normals), "the batched kernel's shading normals differ from the general kernel's"
     return general, fast
 
@@ -63,15 +71,15 @@ materials = st.builds(
     st.one_of(st.integers(1, 300), st.sampled_from([0.5, 37.25, 5000.0, 4096.0])),
     st.sampled_from(["phong", "blinn"]), st.sampled_from([0.0, (0.1, 0.0, 0.2)]))
 points = st.tuples(*[st.floats(-3.0, 3.0)] * 3)
-lights = st.one_of(
-    st.builds(lambda p, i, law: rs.PointLight(p, intensity=i, attenuation=law, k=0.5), points, st.floats(0.1, 20.0),
-              st.sampled_from(["none", "inverse_square", "heuristic"])),
-    st.builds(lambda d, i: rs.DirectionalLight(d, intensity=i), points.filter(lambda d: np.linalg.norm(d) > 0.1),
-              st.floats(0.1, 2.0)),
-    st.builds(lambda p, n, law: rs.SpotLight(p, direction=(-p[0], -p[1], -p[2]), intensity=3.0, exponent=n,
-                                             inner_angle=15, outer_angle=35, attenuation=law),
+lights = st.one_of(  # each casting shadows or not
+    st.builds(lambda p, i, law, sh: rs.PointLight(p, intensity=i, attenuation=law, k=0.5, shadows=sh), points,
+              st.floats(0.1, 20.0), st.sampled_from(["none", "inverse_square", "heuristic"]), st.booleans()),
+    st.builds(lambda d, i, sh: rs.DirectionalLight(d, intensity=i, shadows=sh),
+              points.filter(lambda d: np.linalg.norm(d) > 0.1), st.floats(0.1, 2.0), st.booleans()),
+    st.builds(lambda p, n, law, sh: rs.SpotLight(p, direction=(-p[0], -p[1], -p[2]), intensity=3.0, exponent=n,
+                                                 inner_angle=15, outer_angle=35, attenuation=law, shadows=sh),
               points.filter(lambda p: np.linalg.norm(p) > 0.5), st.sampled_from([0.0, 2.0, 7.0, 2.5]),
-              st.sampled_from(["none", "inverse_square"])))
+              st.sampled_from(["none", "inverse_square"]), st.booleans()))
 
 
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -80,8 +88,9 @@ lights = st.one_of(
        methods=st.sampled_from(["phong", ("phong", "flat", "phong"), ("gouraud", "phong", "phong")]))
 def test_the_batched_kernel_is_the_general_one_bit_for_bit(seed, mats, lits, ortho, eye, methods):
     """Random scenes (both specular models, whole and fractional shininess, every light kind and
-    attenuation law, perspective and orthographic), the hit buffer Embree casts and an arbitrary
-    one (barycentrics outside the triangle, every face, a mix of methods): the same bits."""
+    attenuation law, lights casting shadows or not, perspective and orthographic), the hit buffer
+    Embree casts and an arbitrary one (barycentrics outside the triangle, every face, a mix of
+    methods): the same bits."""
     cam = (rs.Camera(eye=eye, width=W, height=H, projection="orthographic", ortho_height=3.0) if ortho
            else rs.Camera(eye=eye, width=W, height=H, fov=50))
     models = [rs.Model(_soup(seed), mats[0]), rs.Model(rs.shapes.icosphere(1, radius=0.6), mats[1]),
@@ -129,8 +138,8 @@ def test_the_normals_it_writes_are_those_the_frame_reports():
     modes = resolve_methods(scene, "phong")
     image = np.full(hits.shape + (3,), np.nan, np.float32)
     normal = image.copy()
-    _PHONG_FAST[k["spec_on"], k["att_on"]](hits.prim, hits.geom, hits.u, hits.v, k["G"], k["L"], k["face_off"],
-                                           k["materials"], k["cam"], k["background"], modes, (image, normal))
+    _fast(k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["L"], k["face_off"], k["materials"], k["cam"],
+             k["background"], modes, (image, normal))
     expected = shading_normals(scene, scene.camera, hits, "phong")
     assert _same_bits(normal, expected) and (normal[hits.prim < 0] == 0.0).all()
     assert (np.abs(np.linalg.norm(normal[hits.prim >= 0], axis=-1) - 1.0) < 1e-6).all()
@@ -165,8 +174,10 @@ CASES = {
     "blinn, spot, heuristic": (_scene(rs.Material(ks=0.3, specular="blinn"),
                                       rs.SpotLight((0.0, 2.0, 2.0), direction=(0.0, -1.0, -1.0), attenuation="heuristic")),
                                "phong", True),
-    "shadows": (_scene(light=rs.PointLight((2.0, 3.0, 4.0), intensity=20.0, shadows=True)), "phong", False),
+    "shadows": (_scene(light=rs.PointLight((2.0, 3.0, 4.0), intensity=20.0, shadows=True)), "phong", True),
     "texture": (_scene(rs.Material(kd_map=CHECKER)), "phong", False),
+    "texture, shadows": (_scene(rs.Material(kd_map=CHECKER), rs.PointLight((2.0, 3.0, 4.0), shadows=True)),
+                         "phong", False),
     "bump": (_scene(rs.Material(bump=rs.HeightMap.dimples(4, 0.3, resolution=16, scale=0.02))), "phong", False),
     "normal map": (_scene(rs.Material(normal_map=CHECKER)), "phong", False),
     "bump under Gouraud": (_scene(rs.Material(bump=rs.HeightMap.dimples(4, 0.3, resolution=16, scale=0.02))),
@@ -178,15 +189,92 @@ CASES = {
 def test_the_dispatch_takes_the_batched_kernel_exactly_where_it_applies(name, monkeypatch):
     scene, shading, fast = CASES[name]
     spy_fast, spy_general = _Spy(shade_mod._PHONG_FAST), _Spy(shade_mod._PHONG)
+    spy_fast_shadows = _Spy(shade_mod._PHONG_FAST_SHADOWS)  # the batched kernel with shadow rays
     spy_packets = _Spy(shade_mod._PHONG_PACKETS)  # the general kernel with shadow packets
     monkeypatch.setattr(shade_mod, "_PHONG_FAST", spy_fast.kernels)
+    monkeypatch.setattr(shade_mod, "_PHONG_FAST_SHADOWS", spy_fast_shadows.kernels)
     monkeypatch.setattr(shade_mod, "_PHONG", spy_general.kernels)
     monkeypatch.setattr(shade_mod, "_PHONG_PACKETS", spy_packets.kernels)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         frame = rs.render(scene, shading)
     general = spy_general.calls + spy_packets.calls
-    assert (spy_fast.calls, general) == {True: (1, 0), False: (0, 1), None: (0, 0)}[fast]
+    shadowed = any(light.shadows for light in scene.lights)
+    batched = (spy_fast_shadows if shadowed else spy_fast).calls
+    assert (spy_fast_shadows if not shadowed else spy_fast).calls == 0  # the variant of the frame's shadows
+    assert (batched, general) == {True: (1, 0), False: (0, 1), None: (0, 0)}[fast]
     if fast:  # and the image is the general kernel's
         general, batched = _both(scene, shading, frame.hits)
         assert _same_bits(general, batched) and _same_bits(frame.image, batched)
+
+
+# -- shadowed frames: the batched kernel traces the shadow rays of its lanes as 16-ray packets -------------
+
+
+def _alpha_grid(n=4):
+    """A 4x4 grid of quads at y = 0.3 whose alpha map clears every other cell: shadow rays pass
+    through the clear texels (visibility/alpha.py's occlusion filter sees packets too)."""
+    xs = np.linspace(-1.0, 1.0, n + 1)
+    v = np.array([(x, 0.3, z) for z in xs for x in xs])
+    faces = []
+    for i in range(n):
+        for j in range(n):
+            a = i * (n + 1) + j
+            faces += [(a, a + n + 2, a + 1), (a, a + n + 1, a + n + 2)]
+    cover = (np.indices((n, n)).sum(0) % 2 == 0).astype(np.float64)
+    amap = rs.Texture(np.repeat(cover[..., None], 3, axis=2), wrap="clamp", name="alpha")
+    return rs.Model(rs.Mesh(v, np.array(faces), uvs=(v[:, [0, 2]] + 1.0) / 2.0),
+                    rs.Material(kd=0.6, alpha_map=amap, alpha_cutoff=0.5))
+
+
+def _shadowed(kind, width=67, height=53):
+    """Spheres over a floor under a point light, a sun and a spot light casting shadows and a point
+    light casting none; ``"alpha"``: a masked grid over the floor instead of the spheres."""
+    floor = rs.Model(rs.shapes.plane(6.0, subdivisions=3, center=(0.0, -0.7, 0.0), normal="+y"),
+                     rs.Material(kd=0.7, ks=0.2, shininess=10.0))
+    lights = [rs.PointLight((1.5, 3.0, 2.0), intensity=12.0, attenuation="inverse_square", shadows=True),
+              rs.DirectionalLight((-0.4, -1.0, -0.3), intensity=0.4, shadows=True),
+              rs.SpotLight((-1.0, 2.5, 1.0), direction=(0.4, -1.0, -0.3), intensity=6.0, inner_angle=15.0,
+                           outer_angle=25.0, shadows=True, attenuation="heuristic"),
+              rs.PointLight((0.0, 1.0, 4.0), intensity=0.5)]
+    models = [rs.Model(rs.shapes.icosphere(3, radius=0.6), rs.Material(kd=(0.8, 0.3, 0.2), ks=0.4, shininess=30.0)),
+              rs.Model(rs.shapes.icosphere(2, radius=0.25, center=(0.8, -0.2, 0.5)),
+                       rs.Material(kd=0.5, ks=0.3, specular="blinn", shininess=7.5)), floor]
+    if kind == "alpha":
+        models = [_alpha_grid(), floor]
+    cam = rs.Camera(eye=(0.5, 1.5, 3.5), target=(0.0, -0.3, 0.0), width=width, height=height,
+                    **({"projection": "orthographic", "ortho_height": 3.0} if kind == "ortho" else {}))
+    return rs.Scene(models, lights=lights, camera=cam, ambient=0.1)
+
+
+@pytest.mark.parametrize("kind", ["spheres", "ortho", "alpha"])
+def test_shadowed_frames_are_the_general_kernels_bit_for_bit(kind):
+    """Every light kind casting shadows (a spot light's cone too), alpha-masked occluders, odd sizes
+    (a last batch part full): the batched kernel's image and normals are those of the general
+    kernel tracing one ray at a time, and there are shadows to lose (not vacuous)."""
+    scene = _shadowed(kind)
+    frame = rs.render(scene, "phong")
+    general, fast = _both(scene, "phong", frame.hits)
+    assert _same_bits(general, fast) and _same_bits(frame.image, fast)
+    plain = rs.render(scene.replace(lights=[dataclasses.replace(light, shadows=False) for light in scene.lights]))
+    lost = np.any(fast != plain.image, axis=-1)
+    assert lost.mean() > 0.05, lost.mean()
+    if kind == "alpha":  # light through the clear cells: the floor brighter than under an opaque grid
+        grid = scene.models[0]
+        opaque = scene.replace(models=[rs.Model(grid.mesh, rs.Material(kd=0.6)), scene.models[1]])
+        through = (fast > rs.render(opaque, "phong").image).any(axis=-1)[frame.hits.geom == 1]
+        assert through.mean() > 0.05, through.mean()
+
+
+def test_the_shadowed_kernel_is_the_packet_kernel_on_a_banded_frame():
+    """Large enough for the banded path: the batched kernel's lanes cross rows and bands differently
+    from the packet kernel's 4x4 tiles; the rays, and so the image, are the same."""
+    scene = _shadowed("spheres", 1024, 512)
+    frame = rs.render(scene, "phong")
+    k = prepare(scene, scene.camera)
+    hits = frame.hits
+    tiles = np.full(hits.shape + (3,), np.nan, np.float32)
+    variant(_PHONG_PACKETS, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["T"], k["face_off"],
+                               k["materials"], k["cam"], k["background"], resolve_methods(scene, "phong"),
+                               (tiles, _NO_NORMALS), 0)
+    assert _same_bits(frame.image, tiles)

@@ -1,7 +1,9 @@
 """Shadow rays as packets: the same rays as one by one, so the same images bit for bit.
 
-A Phong frame whose lights cast shadows traces each 4x4 tile's shadow rays as one
-``rtcOccluded16`` packet per light (:mod:`raycast_shade.shading.shadows`). The oracle is the
+A Phong frame whose lights cast shadows traces them as ``rtcOccluded16`` packets
+(:mod:`raycast_shade.shading.shadows`): the batched kernel 16 of its lanes per packet and light
+(:mod:`raycast_shade.shading.phong_fast`), the packet kernel of textured or bump-mapped frames each
+4x4 tile's rays per light (:mod:`raycast_shade.shading.phong`). The oracle is the
 single-ray kernel the packets replace (``rtcOccluded1`` per point, still what Gouraud, flat,
 terms and mirrors use): every scene below renders bit for bit as it does, and each scene has
 shadows to lose (its image differs from the one without shadows), so no comparison is vacuous.
@@ -35,7 +37,15 @@ from raycast_shade.visibility.accel import embree_accel
 def _single_ray_image(scene, monkeypatch, **kwargs):
     """The frame rendered by the one-ray-at-a-time Phong kernel."""
     with monkeypatch.context() as m:
+        m.setattr(shade_mod, "_fast_applies", lambda modes, k: False)
         m.setattr(shade_mod, "_PHONG_PACKETS", _PHONG)
+        return rs.render(scene, **kwargs).image
+
+
+def _tile_image(scene, monkeypatch, **kwargs):
+    """The frame rendered by the packet kernel of 4x4 tiles (the batched kernel refused)."""
+    with monkeypatch.context() as m:
+        m.setattr(shade_mod, "_fast_applies", lambda modes, k: False)
         return rs.render(scene, **kwargs).image
 
 
@@ -73,20 +83,23 @@ def _scene(kind, width=67, height=53):
 @pytest.mark.parametrize("kind", ["plain", "textured", "ortho"])
 def test_packets_render_the_single_ray_image_bit_for_bit(kind, monkeypatch):
     """Odd sizes (partial tiles at the right and bottom), three shadowing lights of every kind,
-    one that casts none, textured and orthographic variants."""
+    one that casts none, textured and orthographic variants: the frame (the batched kernel's,
+    untextured) and the 4x4-tile kernel's."""
     scene = _scene(kind)
     got = rs.render(scene).image
     want = _single_ray_image(scene, monkeypatch)
     np.testing.assert_array_equal(got, want)
+    np.testing.assert_array_equal(_tile_image(scene, monkeypatch), want)
     lost = np.any(got != rs.render(_without_shadows(scene)).image, axis=-1)
     assert lost.mean() > 0.05, lost.mean()  # shadows there to lose: the comparison is not vacuous
 
 
 def test_the_packet_kernel_is_the_one_that_runs():
-    """A frame with a shadowing light runs the packet kernel; one without, the plain kernel."""
+    """A textured frame with a shadowing light runs the packet kernel; one without, the plain
+    kernel (untextured frames run the batched kernel: tests/shading/test_phong_fast.py)."""
     from raycast_shade.shading.inputs import prepare
 
-    scene = _scene("plain", 16, 12)
+    scene = _scene("textured", 16, 12)
     k = prepare(scene, scene.camera)
     packets = variant(_PHONG_PACKETS, k)
     calls = []
@@ -106,7 +119,8 @@ def test_the_packet_kernel_is_the_one_that_runs():
 
 def test_a_banded_frame_with_packets_is_the_single_ray_frame(monkeypatch):
     """Large enough for the banded path (2**19 pixels): each band, whatever its first row, tiles its
-    own rows (the packets group pixels differently from the whole frame; the answers are the same)."""
+    own rows (the packets group pixels differently from the whole frame; the answers are the same).
+    The frame is the batched kernel's; the 4x4-tile kernel's the same."""
     scene = _scene("plain", 1024, 512)
     rows = []
     band_shade = shade_mod.SampleShading.shade
@@ -120,6 +134,7 @@ def test_a_banded_frame_with_packets_is_the_single_ray_frame(monkeypatch):
         got = rs.render(scene).image
     assert len(rows) >= 4 and rows[0] == 0  # shaded band by band
     np.testing.assert_array_equal(got, _single_ray_image(scene, monkeypatch))
+    np.testing.assert_array_equal(_tile_image(scene, monkeypatch), got)
 
 
 def test_alpha_masked_occluders_let_packet_rays_through_their_clear_texels(monkeypatch):
@@ -142,6 +157,7 @@ def test_alpha_masked_occluders_let_packet_rays_through_their_clear_texels(monke
                      camera=cam, ambient=0.1)
     got = rs.render(scene).image
     np.testing.assert_array_equal(got, _single_ray_image(scene, monkeypatch))
+    np.testing.assert_array_equal(_tile_image(scene, monkeypatch), got)
     on_floor = rs.cast_camera(scene, cam).geom == 1
     lum = got.mean(axis=-1)[on_floor]
     assert (lum < 0.2).mean() > 0.05 and (lum > 0.3).mean() > 0.2  # shadows of covered cells, light through holes
@@ -165,7 +181,7 @@ _POISONED = textwrap.dedent("""
     import raycast_shade as rs
     sys.path.insert(0, sys.argv[2])
     from test_shadow_packets import _scene
-    np.save(sys.argv[1], rs.render(_scene("plain")).image)
+    np.save(sys.argv[1], np.stack([rs.render(_scene(kind)).image for kind in ("plain", "textured")]))
     print("OK")
 """)
 
@@ -179,7 +195,8 @@ def test_the_packet_kernel_keeps_its_embree_buffers_alive_when_frees_are_poisone
     if "NOPOISON" in proc.stdout:
         pytest.skip("this libc does not poison freed memory")
     assert proc.returncode == 0 and "OK" in proc.stdout, proc.stderr[-3000:]
-    np.testing.assert_array_equal(np.load(out), rs.render(_scene("plain")).image)
+    np.testing.assert_array_equal(np.load(out), np.stack([rs.render(_scene(kind)).image
+                                                          for kind in ("plain", "textured")]))
 
 
 # -- the packets against single rays, ray for ray -------------------------------------------------------
@@ -266,11 +283,12 @@ def test_the_nudge_equals_frexp_and_ldexp_everywhere(p, n, unit):
     assert a == b or (math.isnan(a) and math.isnan(b)), (p, n, unit, a, b)
 
 
-@pytest.mark.parametrize("shadowed", [True, False])
-def test_every_phong_kernel_writes_the_normal_buffer_as_frame_normal(shadowed):
-    """The ``normal`` buffer is written by whichever Phong kernel shades the frame (shadow packets,
-    or the batched kernel without shadows): bit for bit the normals pass of ``frame.normal``."""
-    scene = _scene("plain") if shadowed else _without_shadows(_scene("plain"))
+@pytest.mark.parametrize("kind, shadowed", [("plain", True), ("textured", True), ("plain", False)])
+def test_every_phong_kernel_writes_the_normal_buffer_as_frame_normal(kind, shadowed):
+    """The ``normal`` buffer is written by whichever Phong kernel shades the frame (the batched
+    kernel with or without shadow rays, the tile packets of a textured frame): bit for bit the
+    normals pass of ``frame.normal``."""
+    scene = _scene(kind) if shadowed else _without_shadows(_scene(kind))
     frame = rs.render(scene, buffers=("normal", "normal_camera"))
     assert np.array_equal(frame.buffers["normal"].view(np.uint32), frame.normal.view(np.uint32))
     assert np.any(frame.buffers["normal"] != 0.0)

@@ -1,0 +1,28 @@
+"""Where a Phong pixel is stored: one helper every Phong kernel (general, tile packets, batched) calls.
+
+A module of its own so that :mod:`.phong` and :mod:`.phong_fast` both import it without importing
+each other (the terms kernels import :mod:`.phong`, and the batched kernel the terms kernels).
+"""
+
+from __future__ import annotations
+
+from numba import njit
+
+from .jit import FLT32_MAX, HELPER
+
+__all__ = ["store_pixel"]
+
+
+@njit(**HELPER)
+def store_pixel(outs, y, x, rgb, n):
+    """Write pixel ``(y, x)`` of ``outs = (image, normal)``: its colour ``rgb`` saturated at the
+    float32 maximum and, when ``normal`` is an array (not the (0, 0, 3) stand-in), its shading
+    normal ``n``. Every Phong kernel (general, tile packets, batched) stores its pixels here."""
+    image, normal = outs
+    image[y, x, 0] = min(rgb[0], FLT32_MAX)
+    image[y, x, 1] = min(rgb[1], FLT32_MAX)
+    image[y, x, 2] = min(rgb[2], FLT32_MAX)
+    if normal.shape[0] != 0:
+        normal[y, x, 0] = n[0]
+        normal[y, x, 1] = n[1]
+        normal[y, x, 2] = n[2]
