@@ -8,7 +8,7 @@ packet (neighbours on a smooth mirror reflect in nearly parallel directions,
 so Embree traces them as one coherent packet, about 3x faster than one ray at
 a time), each bounce is Phong-shaded and blended into its pixel as soon as it
 returns, and the lanes that meet another mirror bounce on in the same packet. The gathers of the
-tiles a few steps ahead are prefetched (on a large mesh each pixel's face and vertices miss the
+tiles a few steps ahead are prefetched on a large mesh (there each pixel's face and vertices miss the
 caches, and one pixel's arithmetic is too long for the processor to overlap the next one's misses).
 ``render`` runs it band by band, after each band is shaded.
 """
@@ -51,6 +51,10 @@ MIRROR_FLAGS = embree.RAY_QUERY_FLAG_COHERENT
 # starting the lanes took 32 ms, 16 ms with these distances, 18 ms with 2 and 1).
 _AHEAD_FACES = 4
 _AHEAD_VERTS = 2
+# Prefetch only when the gathered arrays (vertices, vertex normals, faces, face normals) exceed
+# this: at 81,920 triangles (4.7 MiB) the hint cost 1-7% of the kernel, at 1.31 M (75 MiB) it saved
+# 15-25% (docs/performance.md). The threshold lies between the two; it is not tuned finer.
+PREFETCH_BYTES = 32 << 20
 
 
 @intrinsic
@@ -224,7 +228,8 @@ def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
 
         ``hits`` = ``(prim, geom, u, v)`` (R, W) and ``image`` (R, W, 3) float32: rows
         ``y0 ..`` of the frame (a band, or all of it: a pixel's bounces read nothing but its
-        own hit). ``trace`` = ``(scene handle, unit, max_depth, packet flags, y0)``. The
+        own hit). ``trace`` = ``(scene handle, unit, max_depth, packet flags, y0, ahead)``, ``ahead``:
+        prefetch the gathers of the tiles ahead (:data:`PREFETCH_BYTES`). The
         reflective pixels of each 4x4 tile of the image (on the frame's grid of tiles, cut by
         the rows given) go as one ``rtcIntersect16`` packet per bounce; a lane whose ray met a
         reflective surface (and whose weight can still change its pixel) bounces on in the
@@ -233,7 +238,7 @@ def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
         the last bounce; the background on a miss) added with :func:`_add_pixel`, weighted by
         the product of the reflectivities met before it."""
         prim = hits[0]
-        handle, unit, max_depth, flags, y0 = trace
+        handle, unit, max_depth, flags, y0, ahead = trace
         uvs = B[0]
         h, w = prim.shape
         first = y0 // _TILE  # the frame's tile rows that meet rows y0 .. y0 + h
@@ -270,10 +275,10 @@ def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
                 for tx in range(ntx):
                     # The gathers of tiles ahead, issued now so that their cache misses overlap.
                     t2 = tx + _AHEAD_FACES
-                    if t2 < ntx:
+                    if ahead and t2 < ntx:
                         _prefetch_tile(prim, hits[1], G, face_off, ya, yb, t2 * _TILE, min(w, (t2 + 1) * _TILE), False)
                     t1 = tx + _AHEAD_VERTS
-                    if t1 < ntx:
+                    if ahead and t1 < ntx:
                         _prefetch_tile(prim, hits[1], G, face_off, ya, yb, t1 * _TILE, min(w, (t1 + 1) * _TILE), True)
                     n = 0
                     for y in range(ya, yb):
@@ -359,8 +364,9 @@ def trace_mirrors(scene, camera, hits, image, max_depth: int = 3, inputs=None, y
     if max_depth <= 0 or not geo.reflective:
         return image
     k = prepare(scene, camera) if inputs is None else inputs
+    ahead = sum(a.nbytes for a in k["G"]) > PREFETCH_BYTES
     trace = (np.uintp(embree_accel(geo).handle), float(geo.scale), int(max_depth), np.uint32(MIRROR_FLAGS),
-             int(y0))
+             int(y0), ahead)
     variant(_PACKETS, k)((hits.prim, hits.geom, hits.u, hits.v), k["G"], k["B"], k["L"], k["T"], k["face_off"],
                          k["materials"], k["cam"], k["background"], image, trace)
     return image

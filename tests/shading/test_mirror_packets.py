@@ -210,3 +210,20 @@ def test_the_prefetch_hint_compiles_to_a_prefetch_and_changes_nothing():
     assert "prefetcht0" in asm
     with pytest.raises(Exception, match="_prefetch|prefetch"):
         njit(lambda a: _prefetch(a, 0))(1.5)  # not an array: refused at typing
+
+
+@pytest.mark.parametrize("depth", [1, 3])
+def test_prefetching_the_gathers_changes_no_bit_of_the_mirror_image(depth, monkeypatch):
+    """The hall's mirror bounces with the gathers of the tiles ahead prefetched (the threshold
+    at 0 bytes) and without (a threshold no mesh reaches): the same image, bit for bit."""
+    from raycast_shade.shading import mirrors
+
+    k = prepare(_HALL, _HALL.camera)
+
+    def traced(threshold):
+        monkeypatch.setattr(mirrors, "PREFETCH_BYTES", threshold)
+        return trace_mirrors(_HALL, _HALL.camera, _HITS, _LOCAL.copy(), depth, k)
+
+    with_hint, without = traced(0), traced(1 << 62)
+    assert not np.array_equal(with_hint, _LOCAL)  # the bounces changed the image
+    assert np.array_equal(with_hint.view(np.uint32), without.view(np.uint32))
