@@ -180,3 +180,50 @@ def test_the_mirror_kernel_hands_embree_arrays_not_addresses():
             continue
         assert isinstance(arg, ast.Subscript) and arg.value.id == name, ast.unparse(arg)
         assert f"            {name} = np.empty(" in source or f"            {name} = np.zeros(" in source
+
+
+def test_the_prefetch_hint_compiles_to_a_prefetch_and_changes_nothing():
+    """The mirror kernel's cache hint (:func:`~raycast_shade.shading.mirrors._prefetch`) is an
+    x86 ``prefetch`` instruction, whatever row it names (first, last, of 1-D and 2-D arrays of
+    any dtype), and a loop that issues it computes what the same loop without it computes."""
+    from numba import njit
+
+    from raycast_shade.shading.mirrors import _prefetch
+
+    @njit
+    def sums(rows, ids, hint):
+        total = 0.0
+        for k in range(ids.shape[0]):
+            if hint:
+                _prefetch(rows, ids[min(k + 3, ids.shape[0] - 1)])
+                _prefetch(ids, k)
+            total += rows[ids[k], 0] + 2.0 * rows[ids[k], 2]
+        return total
+
+    rng = np.random.default_rng(27)
+    rows = rng.normal(size=(1000, 3))
+    ids = rng.integers(0, 1000, 4000).astype(np.int32)
+    ids[:2] = (0, 999)
+    assert sums(rows, ids, True) == sums(rows, ids, False) == float(
+        sum(rows[i, 0] + 2.0 * rows[i, 2] for i in ids))
+    asm = sums.inspect_asm(sums.signatures[0])
+    assert "prefetcht0" in asm
+    with pytest.raises(Exception, match="_prefetch|prefetch"):
+        njit(lambda a: _prefetch(a, 0))(1.5)  # not an array: refused at typing
+
+
+@pytest.mark.parametrize("depth", [1, 3])
+def test_prefetching_the_gathers_changes_no_bit_of_the_mirror_image(depth, monkeypatch):
+    """The hall's mirror bounces with the gathers of the tiles ahead prefetched (the threshold
+    at 0 bytes) and without (a threshold no mesh reaches): the same image, bit for bit."""
+    from raycast_shade.shading import mirrors
+
+    k = prepare(_HALL, _HALL.camera)
+
+    def traced(threshold):
+        monkeypatch.setattr(mirrors, "PREFETCH_BYTES", threshold)
+        return trace_mirrors(_HALL, _HALL.camera, _HITS, _LOCAL.copy(), depth, k)
+
+    with_hint, without = traced(0), traced(1 << 62)
+    assert not np.array_equal(with_hint, _LOCAL)  # the bounces changed the image
+    assert np.array_equal(with_hint.view(np.uint32), without.view(np.uint32))
