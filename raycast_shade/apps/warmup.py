@@ -133,6 +133,9 @@ def _step_terms_buffers():
     scene = _scene(floor=Material(kd=0.6, reflectivity=0.3))
     _methods(scene, terms="per_light")
     _variants(terms=True)  # the one-pass terms kernels (every method) fold "any specular" / "any attenuation" too
+    # and with shadow rays, in every variant: Phong's general terms kernel (the batched one traces none)
+    _methods(_scene(), terms=True)
+    _variants(terms=True, sun_shadows=True)
     render(scene, "phong", buffers=tuple(BUFFER_NAMES))
 
 
@@ -156,6 +159,9 @@ def _step_display():
     ys, xs = np.nonzero(frame.mask)
     for method in ("flat", "gouraud", "phong"):
         render(frame.scene, method).explain(int(xs[0]), int(ys[0]))
+    mirror = render(_scene(floor=Material(kd=0.6, reflectivity=0.3)), max_depth=1)
+    on_floor = np.argwhere(mirror.model_id == 1)
+    mirror.explain(int(on_floor[0, 1]), int(on_floor[0, 0]))  # a mirror pixel: its bounce as one cast ray
 
 
 STEPS = (
