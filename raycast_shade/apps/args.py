@@ -142,3 +142,36 @@ def buffer_list(text: str) -> tuple:
         return check_buffers(text, "--buffers")
     except ValueError as exc:
         raise argparse.ArgumentTypeError(str(exc).removeprefix("--buffers: ")) from None
+
+
+def model_for_render(path: str, given: dict):
+    """A mesh file (not a TOML scene) as ``render`` and ``views`` take it: framed and lit by
+    :func:`~raycast_shade.scene.meshfile.model_scene`, with the command line's options.
+
+    Parameters
+    ----------
+    path : str
+        Any file :func:`raycast_shade.load_models` reads.
+    given : dict
+        The command line's ``[render]`` options (:func:`overrides`); ``None`` for not given.
+
+    Returns
+    -------
+    scene : Scene
+    render_kwargs : dict
+        ``shading`` (default ``"phong"``) and the pipeline options given.
+    tone : dict
+
+    Raises
+    ------
+    ValueError
+        For a per-model ``--shading`` list (a mesh file's models are not named on the command line).
+    """
+    from ..scene.meshfile import model_scene
+    from ..scene.scenefile import check_render_options, split_options
+
+    size, kwargs, tone = split_options(check_render_options({k: v for k, v in given.items() if v is not None}))
+    kwargs.setdefault("shading", "phong")
+    if isinstance(kwargs["shading"], tuple):
+        raise ValueError("--shading: one method for a mesh file (per-model lists need a scene file)")
+    return model_scene(path, **size), kwargs, tone

@@ -261,14 +261,9 @@ def _cmd_render(args) -> int:
 def _render_model(path: str, given: dict):
     """``render MODEL``: the mesh file framed and lit (:func:`~raycast_shade.scene.meshfile.model_scene`)."""
     from ..render import render
-    from ..scene.meshfile import model_scene
-    from ..scene.scenefile import check_render_options, split_options
+    from .args import model_for_render
 
-    size, kwargs, tone = split_options(check_render_options({k: v for k, v in given.items() if v is not None}))
-    kwargs.setdefault("shading", "phong")
-    if isinstance(kwargs["shading"], tuple):
-        raise _UsageError("--shading: one method for a mesh file (per-model lists need a scene file)")
-    scene = model_scene(path, **size)
+    scene, kwargs, tone = model_for_render(path, given)
     return render(scene, **kwargs).with_tone(tone)
 
 

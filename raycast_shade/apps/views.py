@@ -522,7 +522,8 @@ def register_cli(subparsers):
 
     p = subparsers.add_parser(
         "views", help="render a data set of views: images, buffers and cameras",
-        description="Render a TOML scene file from N cameras orbiting its target: per view the image and "
+        description="Render a TOML scene file (or a mesh file, framed and lit as `render` does) from N "
+                    "cameras orbiting its target: per view the image and "
                     "the buffers (npz, exr, 16-bit depth png), and index.json with each view's K, R, t "
                     "(OpenCV's convention) and files. Views already written for the same plan are skipped; a "
                     "folder holding another plan is refused (--overwrite replaces it).",
@@ -532,7 +533,7 @@ def register_cli(subparsers):
                "--workers 2 -o views",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("scene", metavar="SCENE.toml", help="scene file")
+    p.add_argument("scene", metavar="SCENE", help="scene file (.toml) or mesh file (.glb, .obj, .stl, ...)")
     p.add_argument("--orbit", type=positive_int, required=True, metavar="N",
                    help="number of views, the camera turned about its target by 360/N degrees each")
     p.add_argument("--buffers", type=buffer_list, default=("zdepth", "normal", "model_id", "triangle_id", "mask"),
@@ -569,9 +570,12 @@ def run_cli(ns) -> int:
 
     from ..scene.scenefile import load_for_render
     from .animate import orbit_cameras
-    from .args import overrides
+    from .args import model_for_render, overrides
 
-    scene, render_kwargs, tone = load_for_render(ns.scene, **overrides(ns))
+    if ns.scene.lower().endswith(".toml"):
+        scene, render_kwargs, tone = load_for_render(ns.scene, **overrides(ns))
+    else:  # a mesh file, framed and lit as ``raycast-shade render`` frames it
+        scene, render_kwargs, tone = model_for_render(ns.scene, overrides(ns))
     shading = render_kwargs.pop("shading", "phong")
     image = None if ns.image.lower() == "none" else (ns.image if ns.image.startswith(".") else "." + ns.image)
     t0 = time.perf_counter()

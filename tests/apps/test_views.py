@@ -111,6 +111,31 @@ def test_cli_views(tmp_path, capsys):
     assert code == 2 and err.count("\n") == 1 and "unknown buffer 'foo'" in err and "Traceback" not in err
 
 
+def test_cli_views_of_a_mesh_file(tmp_path, capsys):
+    """``views`` takes a mesh file as ``render`` does: framed and lit by ``model_scene``; each view's
+    buffers are those of a render of that scene from the orbit's camera."""
+    import imageio.v3 as iio
+    import trimesh
+
+    from raycast_shade.scene.meshfile import model_scene
+
+    path = tmp_path / "ball.obj"
+    trimesh.creation.icosphere(2).export(path)
+    out = tmp_path / "set"
+    code = main(["views", str(path), "--orbit", "3", "--width", "32", "--height", "24", "-o", str(out)])
+    assert code == 0 and "3 views" in capsys.readouterr().out
+    scene = model_scene(path, width=32, height=24)
+    cam = orbit_cameras(scene.camera, 3)[2]
+    frame = rs.render(scene, camera=cam, buffers=("zdepth", "normal", "id", "mask"))
+    data = load_npz(out / "view_00002.npz")
+    np.testing.assert_array_equal(data["zdepth"], frame.buffers["zdepth"])
+    assert data["mask"].any() and not data["mask"].all()
+    np.testing.assert_array_equal(iio.imread(out / "view_00002.png"), frame.to_uint8())
+    code = main(["views", str(path), "--orbit", "2", "--shading", "flat,phong", "-o", str(tmp_path / "b")])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "one method for a mesh file" in err
+
+
 def test_memory_stays_flat_as_the_number_of_views_grows(scene, tmp_path):
     """Each view's buffers are written and dropped before the next: the peak of traced
     allocations (NumPy's included) for 24 views is that of 3, not 8 times it."""
