@@ -23,24 +23,24 @@ __all__ = ["positive_int", "nonnegative_int", "positive_float", "finite_float", 
            "add_render_options", "add_tone_options", "overrides", "shading_label", "buffer_list"]
 
 
-def positive_int(text: str) -> int:
+def _int_at_least(text: str, low: int) -> int:
+    """``text`` as an integer ``>= low``, or the ``ArgumentTypeError`` argparse prints."""
+    want = "an integer > 0" if low == 1 else f"an integer >= {low}"
     try:
         value = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer > 0, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected an integer > 0, got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected {want}, got {text!r}") from None
+    if value < low:
+        raise argparse.ArgumentTypeError(f"expected {want}, got {text!r}")
     return value
+
+
+def positive_int(text: str) -> int:
+    return _int_at_least(text, 1)
 
 
 def nonnegative_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}")
-    return value
+    return _int_at_least(text, 0)
 
 
 def positive_float(text: str) -> float:

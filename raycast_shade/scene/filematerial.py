@@ -511,33 +511,37 @@ def _alpha_channel(image) -> np.ndarray:
     return np.full(a.shape[:2], one, a.dtype)
 
 
+def _linear_map(mat, js: dict, name: str, slot: str, lost: list, ctx: FileContext):
+    """glTF texture ``slot`` of a material (linear, its own sampler): the
+    wrapped texels and the texture-info dict, or ``(None, {})`` without the slot."""
+    tex = getattr(mat, slot, None)
+    if tex is None:
+        return None, {}
+    info = js.get(slot) if isinstance(js.get(slot), dict) else {}
+    wrap_s, wrap_t, notes = ctx.sampler(info)
+    lost += notes
+    texels = ctx.linear(tex, f"{name}.{slot}", srgb=False)
+    key = (slot.replace("Texture", ""), ctx.image_key(tex), wrap_s, wrap_t)
+    return ctx.wrapped(key, lambda: Wrapped(texels, wrap_s, wrap_t, f"{name}.{slot}")), info
+
+
 def _occlusion(mat, js: dict, name: str, kw: dict, lost: list, ctx: FileContext) -> None:
     """glTF ``occlusionTexture`` (linear, red channel, its own sampler) into ``kw["ao_map"]`` and
     its ``strength`` (default 1) into ``kw["ao_strength"]``."""
-    tex = getattr(mat, "occlusionTexture", None)
-    if tex is None:
+    wrapped, info = _linear_map(mat, js, name, "occlusionTexture", lost, ctx)
+    if wrapped is None:
         return
-    info = js.get("occlusionTexture") if isinstance(js.get("occlusionTexture"), dict) else {}
-    wrap_s, wrap_t, notes = ctx.sampler(info)
-    lost += notes
-    texels = ctx.linear(tex, f"{name}.occlusionTexture", srgb=False)
-    kw["ao_map"] = ctx.wrapped(("ao", ctx.image_key(tex), wrap_s, wrap_t),
-                               lambda: Wrapped(texels, wrap_s, wrap_t, f"{name}.occlusionTexture"))
+    kw["ao_map"] = wrapped
     kw["ao_strength"] = float(info.get("strength", 1.0))  # checked with the file's materials
 
 
 def _normal(mat, js: dict, name: str, kw: dict, lost: list, ctx: FileContext) -> None:
     """glTF ``normalTexture`` (linear, its own sampler) into ``kw["normal_map"]`` and its ``scale``
     (default 1) into ``kw["normal_scale"]``; the mesh's ``TANGENT`` is read by :func:`load_models`."""
-    tex = getattr(mat, "normalTexture", None)
-    if tex is None:
+    wrapped, info = _linear_map(mat, js, name, "normalTexture", lost, ctx)
+    if wrapped is None:
         return
-    info = js.get("normalTexture") if isinstance(js.get("normalTexture"), dict) else {}
-    wrap_s, wrap_t, notes = ctx.sampler(info)
-    lost += notes
-    texels = ctx.linear(tex, f"{name}.normalTexture", srgb=False)
-    kw["normal_map"] = ctx.wrapped(("normal", ctx.image_key(tex), wrap_s, wrap_t),
-                                   lambda: Wrapped(texels, wrap_s, wrap_t, f"{name}.normalTexture"))
+    kw["normal_map"] = wrapped
     scale = info.get("scale", 1.0)
     if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not math.isfinite(scale):
         raise ValueError(f"{os.path.basename(ctx.path)}: material {name!r}: normalTexture.scale: expected a "
