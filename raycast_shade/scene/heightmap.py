@@ -29,6 +29,7 @@ from ..common.choices import WRAPS
 from ..common.layout import (BUMP_CLAMP, BUMP_COLS, BUMP_OFFSET, BUMP_ROWS, BUMP_SCALE, BUMP_SIZE, BUMP_TILE_U,
                              BUMP_TILE_V)
 from ..common.validate import as_array, as_choice, as_int, as_scalar, as_vec3, check_memory
+from .tangents import face_edges
 
 __all__ = ["HeightMap", "spherical_uvs", "cylindrical_uvs", "planar_uvs", "tangent_frames", "WRAPS"]
 
@@ -231,13 +232,7 @@ def tangent_frames(vertices, faces, uvs, face_normals) -> np.ndarray:
                          f"outside [0, {len(vertices)})")
     uvs = as_array(uvs, "uvs", dtype=np.float64, shape=(len(vertices), 2))
     face_normals = as_array(face_normals, "face_normals", dtype=np.float64, shape=(len(faces), 3))
-    p0 = vertices[faces[:, 0]]
-    e1 = vertices[faces[:, 1]] - p0
-    e2 = vertices[faces[:, 2]] - p0
-    t0 = uvs[faces[:, 0]]
-    d1 = uvs[faces[:, 1]] - t0
-    d2 = uvs[faces[:, 2]] - t0
-    det = d1[:, 0] * d2[:, 1] - d2[:, 0] * d1[:, 1]
+    e1, e2, d1, d2, det = face_edges(vertices, faces, uvs)
     edge = np.maximum(np.linalg.norm(e1, axis=1), np.linalg.norm(e2, axis=1))
     uv_edge = np.maximum(np.linalg.norm(d1, axis=1), np.linalg.norm(d2, axis=1))
     ok = np.abs(det) > 1e-12 * np.maximum(uv_edge**2, 1e-300)

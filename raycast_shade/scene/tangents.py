@@ -14,7 +14,33 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["vertex_tangents"]
+__all__ = ["vertex_tangents", "face_edges"]
+
+
+def face_edges(vertices, faces, uvs):
+    """Each triangle's edges from its first corner, in space and in UV, and the UV determinant.
+
+    Parameters
+    ----------
+    vertices : (V, 3) float64
+    faces : (F, 3) int64
+    uvs : (V, 2) float64
+
+    Returns
+    -------
+    e1, e2 : (F, 3) float64
+        ``p1 - p0`` and ``p2 - p0``.
+    d1, d2 : (F, 2) float64
+        ``uv1 - uv0`` and ``uv2 - uv0``.
+    det : (F,) float64
+        ``d1 x d2``: zero where the UVs are degenerate; its sign, the UV map's handedness.
+    """
+    p0 = vertices[faces[:, 0]]
+    t0 = uvs[faces[:, 0]]
+    d1 = uvs[faces[:, 1]] - t0
+    d2 = uvs[faces[:, 2]] - t0
+    det = d1[:, 0] * d2[:, 1] - d2[:, 0] * d1[:, 1]
+    return vertices[faces[:, 1]] - p0, vertices[faces[:, 2]] - p0, d1, d2, det
 
 
 def vertex_tangents(vertices, faces, uvs, normals) -> np.ndarray:
@@ -39,13 +65,7 @@ def vertex_tangents(vertices, faces, uvs, normals) -> np.ndarray:
     faces = np.asarray(faces, np.int64)
     uvs = np.asarray(uvs, np.float64)
     normals = np.asarray(normals, np.float64)
-    p0 = vertices[faces[:, 0]]
-    e1 = vertices[faces[:, 1]] - p0
-    e2 = vertices[faces[:, 2]] - p0
-    t0 = uvs[faces[:, 0]]
-    d1 = uvs[faces[:, 1]] - t0
-    d2 = uvs[faces[:, 2]] - t0
-    det = d1[:, 0] * d2[:, 1] - d2[:, 0] * d1[:, 1]
+    e1, e2, d1, d2, det = face_edges(vertices, faces, uvs)
     ok = det != 0.0
     inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)[:, None]
     # dP/du and dP/dv of each triangle, scaled by its UV area's sign only through inv.
