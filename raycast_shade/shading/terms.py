@@ -41,13 +41,14 @@ zero the mesh colours (a zero kd row alone would leave them in), and the
 shadow probe sets them to 1 and drops the kd map (their hue would skew the
 probe's ratio).
 
-A frame whose models are all flat- or Phong-shaded gets its image, local
-terms, per-light terms and shadow mask from one pass
-(:class:`.termshade.TermShading`, :mod:`.terms_kernel`): each point's
-equation evaluated once with its parts stored apart, the same numbers the
-variant passes give (measured equal, bit for bit, on the test scenes); such
-a frame is rendered band by band like a plain one. A frame with a Gouraud
-model shades the variants, one pass each, over its whole hit buffer.
+A frame gets its image, local terms, per-light terms and shadow mask from
+one pass (:class:`.termshade.TermShading`; :mod:`.terms_kernel`, and
+:mod:`.terms_gouraud` for Gouraud models): each point's equation (a Phong
+pixel's, a flat face's, a Gouraud vertex's) evaluated once with its parts
+stored apart, the same numbers the variant passes give (measured equal, bit
+for bit, on the test scenes); the frame is rendered band by band like a
+plain one. The variant passes (:func:`_variant_terms`) are the definition
+those are tested against.
 
 Every variant is the frame's kernel inputs with other material rows, mesh
 colours or lights (:func:`variant_inputs`): the packed geometry, the BVH, the
