@@ -5,10 +5,13 @@ Helpers of :func:`.cast._cast_camera_kernel`, LLVM-inlined into it. Each ray is
 bit the single ray's. Written for LLVM's loop vectoriser, the only vectoriser Numba runs
 (its SLP vectoriser is off): a loop over a packet's 16 lanes with a constant trip count is
 fully unrolled into scalar code first, so the lane loops here run to ``valid.shape[0]``
-(16, a runtime value) and read their inputs from arrays laid out lane by lane; and the
-hit arrays are indexed with unsigned integers (a signed index costs a negative-index wrap
-per access). Measured at 1920x1080 (81,920 triangles, 1 thread): ray generation 10.0 ->
-4.6 ms, unpacking 8.3 -> 2.5 ms (``benchmarks/bench_limits.py``, ``cast_kernel``).
+(16, a runtime value) and read their inputs from arrays laid out lane by lane; each
+packet's hit fields start as a miss's, so that unpacking is plain copies; and the hit
+arrays are indexed with unsigned integers (a signed index costs a negative-index wrap per
+access). Measured at 1920x1080 (81,920 triangles, 1 thread CPU time, load 4-5): ray
+generation 10.0 -> 1.2 ms, unpacking 8.3 -> 3.3 ms (most of it now the 20 bytes a pixel
+written to memory); the kernel 0.69x what it was (``benchmarks/bench_limits.py``,
+``cast_kernel``).
 
 Packet layout (:mod:`.embree`): slot ``s`` of lane ``k`` at ``s * 16 + k``; lane
 ``4 j + i`` is the tile's pixel in column ``i`` and row ``j``.
@@ -91,8 +94,9 @@ def tile_valid(valid, nx, ny):
 def tile_rays(pk, pu, valid, ct, tx, rt, ortho):
     """One tile's rays into the packet ``pk`` (float32, its uint32 view ``pu``): lane ``k`` is
     ``ct[tx, 16 c + k] + rt[16 c + k]`` in component ``c``, the origin (orthographic) or the
-    direction, normalised (perspective); ``tfar`` infinite and no hit. ``valid`` (16,) int32 gives
-    the lane count (see the module docstring)."""
+    direction, normalised (perspective); ``tfar`` infinite and the hit fields a miss's (what
+    :func:`.embree.read_hit` returns for one, so that :func:`tile_hits` copies them). ``valid``
+    (16,) int32 gives the lane count (see the module docstring)."""
     if ortho:
         for k in range(valid.shape[0]):
             pk[embree.RAY_ORG * LANES + k] = ct[tx, k] + rt[k]
@@ -109,34 +113,28 @@ def tile_rays(pk, pu, valid, ct, tx, rt, ortho):
             pk[(embree.RAY_DIR + 1) * LANES + k] = y * inv
             pk[(embree.RAY_DIR + 2) * LANES + k] = z * inv
             pk[embree.RAY_TFAR * LANES + k] = np.inf
-    for k in range(valid.shape[0]):
-        pu[embree.HIT_GEOM_ID * LANES + k] = embree.INVALID_ID  # Embree writes it only on a hit
+    for k in range(valid.shape[0]):  # a miss as read_hit returns it: Embree writes the hit only on a hit
+        pu[embree.HIT_GEOM_ID * LANES + k] = embree.INVALID_ID
+        pu[embree.HIT_PRIM_ID * LANES + k] = embree.INVALID_ID  # -1 as int32
+        pk[embree.HIT_U * LANES + k] = 0.0
+        pk[embree.HIT_V * LANES + k] = 0.0
 
 
 @njit(**_INLINE)
 def _hits4(pk, pu, s, q, prim, geom, u, v, t):
-    """Lanes ``s .. s + 4`` of the packet (a tile's row) into ``q .. q + 4`` of the flat hit arrays,
-    as :func:`.embree.read_hit` unpacks them; branch-free."""
-    a = embree.HIT_GEOM_ID * LANES + s
-    g0, g1, g2, g3 = pu[a], pu[a + 1], pu[a + 2], pu[a + 3]
-    a = embree.HIT_PRIM_ID * LANES + s
-    p0, p1, p2, p3 = pu[a], pu[a + 1], pu[a + 2], pu[a + 3]
-    a = embree.HIT_U * LANES + s
-    u0, u1, u2, u3 = pk[a], pk[a + 1], pk[a + 2], pk[a + 3]
-    a = embree.HIT_V * LANES + s
-    v0, v1, v2, v3 = pk[a], pk[a + 1], pk[a + 2], pk[a + 3]
-    a = embree.RAY_TFAR * LANES + s
-    t0, t1, t2, t3 = pk[a], pk[a + 1], pk[a + 2], pk[a + 3]
-    h0, h1, h2, h3 = g0 != embree.INVALID_ID, g1 != embree.INVALID_ID, g2 != embree.INVALID_ID, g3 != embree.INVALID_ID
+    """Lanes ``s .. s + 4`` of the packet (a tile's row) into ``q .. q + 4`` of the flat hit arrays:
+    copies, as :func:`tile_rays` left a miss's fields as :func:`.embree.read_hit` returns them."""
     q1, q2, q3 = q + np.uint64(1), q + np.uint64(2), q + np.uint64(3)
-    # A miss's INVALID_ID is -1 as int32.
-    geom[q], geom[q1], geom[q2], geom[q3] = np.int32(g0), np.int32(g1), np.int32(g2), np.int32(g3)
-    m, z, inf = np.int32(-1), np.float32(0.0), np.float32(np.inf)
-    prim[q], prim[q1], prim[q2], prim[q3] = (np.int32(p0) if h0 else m, np.int32(p1) if h1 else m,
-                                             np.int32(p2) if h2 else m, np.int32(p3) if h3 else m)
-    u[q], u[q1], u[q2], u[q3] = u0 if h0 else z, u1 if h1 else z, u2 if h2 else z, u3 if h3 else z
-    v[q], v[q1], v[q2], v[q3] = v0 if h0 else z, v1 if h1 else z, v2 if h2 else z, v3 if h3 else z
-    t[q], t[q1], t[q2], t[q3] = t0 if h0 else inf, t1 if h1 else inf, t2 if h2 else inf, t3 if h3 else inf
+    a = embree.HIT_GEOM_ID * LANES + s
+    geom[q], geom[q1], geom[q2], geom[q3] = np.int32(pu[a]), np.int32(pu[a + 1]), np.int32(pu[a + 2]), np.int32(pu[a + 3])
+    a = embree.HIT_PRIM_ID * LANES + s
+    prim[q], prim[q1], prim[q2], prim[q3] = np.int32(pu[a]), np.int32(pu[a + 1]), np.int32(pu[a + 2]), np.int32(pu[a + 3])
+    a = embree.HIT_U * LANES + s
+    u[q], u[q1], u[q2], u[q3] = pk[a], pk[a + 1], pk[a + 2], pk[a + 3]
+    a = embree.HIT_V * LANES + s
+    v[q], v[q1], v[q2], v[q3] = pk[a], pk[a + 1], pk[a + 2], pk[a + 3]
+    a = embree.RAY_TFAR * LANES + s
+    t[q], t[q1], t[q2], t[q3] = pk[a], pk[a + 1], pk[a + 2], pk[a + 3]
 
 
 @njit(**_INLINE)
