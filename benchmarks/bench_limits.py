@@ -21,8 +21,9 @@ Sections (issue 16):
     and with ``out=`` (one image reused), and fresh with the general Phong kernel
     (``frame_general``: the dispatch to the batched kernel of
     :mod:`raycast_shade.shading.phong_fast` turned off). Reported: the frame over the sum of
-    packets + preallocated store (issue 16 aims at <= 1.3), the stages of the
-    frame and how many isolated misses it re-casts.
+    packets + preallocated store (issue 16 aims at <= 1.3), the cast kernel and
+    the frame's cast stage over the packets (issue 27 aims at <= 1.15), the stages
+    of the frame and how many isolated misses it re-casts.
 ``memory``
     Peak resident memory of a 7680x4320 Phong frame, one subprocess per mesh
     (the high-water mark ``VmHWM`` after a small warm-up frame, after the 8K
@@ -278,9 +279,15 @@ def limit_case(kind, level, w, h, repeats):
              value=round(med["frame"] / (med["packets"] + med["store_fresh"]), 3), unit="x"),
         dict(base, variant="ratio", metric="packets8_over_packets", value=round(med["packets8"] / med["packets"], 3),
              unit="x"),
+        # The cast against the packets alone (issue 27 aims at <= 1.15): the kernel, and the frame's cast stage.
+        dict(base, variant="ratio", metric="cast_kernel_over_packets", value=round(med["cast_kernel"] / med["packets"], 3),
+             unit="x"),
+        dict(base, variant="ratio", metric="stage_cast_over_packets",
+             value=round(float(np.median(stages["cast"])) / med["packets"], 3), unit="x"),
     ]
     print(f"limits: {kind}{level} {w}x{h}: frame {1e3 * med['frame']:.1f} ms (out= {1e3 * med['frame_out']:.1f}), "
-          f"packets {1e3 * med['packets']:.1f} (8-wide {1e3 * med['packets8']:.1f}), store "
+          f"packets {1e3 * med['packets']:.1f} (8-wide {1e3 * med['packets8']:.1f}), cast kernel "
+          f"{1e3 * med['cast_kernel']:.1f}, cast stage {1e3 * np.median(stages['cast']):.1f}, store "
           f"{1e3 * med['store_prealloc']:.1f} (fresh {1e3 * med['store_fresh']:.1f}), ratio "
           f"{med['frame'] / floor:.2f} (general Phong kernel {med['frame_general'] / floor:.2f}: shade "
           f"{1e3 * np.median(stages['shade_general']):.1f} -> {1e3 * np.median(stages['shade']):.1f} ms), "

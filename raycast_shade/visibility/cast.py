@@ -63,98 +63,20 @@ from .accel import embree_accel, embreex_scene
 from ..common.schedule import BLOCK_ROWS, spread_step
 from ..common.validate import as_array
 from .hits import HitBuffer, image_buffer
-from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH
+from ..common.layout import CAM_ORTHO
 from . import holes
 from .holes import empty_hits, fill_holes, rays_at, row_suspicious
 from .holes import _count_isolated_kernel, _isolated_misses  # noqa: F401  (where tests look for them)
 from .watertight import nudged_rays, refine
 from .rays import camera_frame, generate_rays, offset_pair, subpixel_camera
+from .tiles import LANES, RAY, TILE_H, TILE_W, edge_hits, fixed_slots, row_terms, tile_columns, tile_hits, tile_rays
+from .tiles import tile_valid
 
 __all__ = ["cast_camera", "cast_rays", "cast_recentred", "resolve_caster", "secondary_rays", "CASTERS"]
 
 
-_RAY = embree.RAYHIT_SLOTS  # float32 slots in one RTCRayHit (96 bytes, room for instPrimID)
-_TILE_W = 4  # a 16-ray packet is a 4x4 tile (faster than 8x2 or 16x1: see embree's module docstring)
-_TILE_H = 4
-_LANES = _TILE_W * _TILE_H
-
-
-_INLINE = dict(cache=True, forceinline=True, _nrt=False)  # LLVM-inlined into the kernel, compiled once
-
-
-@njit(**_INLINE)
-def _fixed_slots(f32, u32, off, cam, ortho):
-    """The slots of a packet's 16 rays that Embree never writes and no pixel changes (tnear, time,
-    mask, id, flags; the eye as every origin, or orthographic, the forward axis as every direction),
-    once per block of tiles; :func:`_tile_rays` writes the rest per tile."""
-    for k in range(_LANES):
-        for c in range(3):
-            if ortho:
-                f32[off + (embree.RAY_DIR + c) * _LANES + k] = cam[CAM_FORWARD + c]
-            else:
-                f32[off + (embree.RAY_ORG + c) * _LANES + k] = cam[CAM_EYE + c]
-        f32[off + embree.RAY_TNEAR * _LANES + k] = 0.0
-        f32[off + embree.RAY_TIME * _LANES + k] = 0.0
-        u32[off + embree.RAY_MASK * _LANES + k] = embree.INVALID_ID
-        u32[off + embree.RAY_ID * _LANES + k] = 0
-        u32[off + embree.RAY_FLAGS * _LANES + k] = 0
-
-
-@njit(cache=True, forceinline=True, _nrt=False, error_model="numpy")
-def _tile_rays(f32, u32, off, valid, voff, col, x0, bu, d, nx, ny, ortho):
-    """One 4x4 tile's rays into the packet: lane ``4 j + i`` is the pixel in column ``x0 + i``
-    and the tile's row ``j``, active when ``i < nx`` and ``j < ny`` (an inactive lane gets a
-    valid dummy ray). ``col`` (3, W') holds each column's ``forward + sx right`` (orthographic:
-    ``eye + sx right``), ``bu`` (3, 4) each row's ``sy up``: the sum is :func:`.rays.pixel_ray`'s,
-    operation for operation, so every ray is bit for bit its ray. ``d`` (3, 16) float64: the sums,
-    normalised in one loop that vectorises (``error_model="numpy"``: no zero-division branch)."""
-    for k in range(_LANES):
-        x = x0 + k % _TILE_W
-        j = k // _TILE_W
-        d[0, k] = col[0, x] + bu[0, j]
-        d[1, k] = col[1, x] + bu[1, j]
-        d[2, k] = col[2, x] + bu[2, j]
-    if ortho:  # the sums are the origins; the directions are fixed
-        for k in range(_LANES):
-            f32[off + (embree.RAY_ORG + 0) * _LANES + k] = d[0, k]
-            f32[off + (embree.RAY_ORG + 1) * _LANES + k] = d[1, k]
-            f32[off + (embree.RAY_ORG + 2) * _LANES + k] = d[2, k]
-    else:
-        for k in range(_LANES):
-            inv = 1.0 / np.sqrt(d[0, k] * d[0, k] + d[1, k] * d[1, k] + d[2, k] * d[2, k])
-            f32[off + (embree.RAY_DIR + 0) * _LANES + k] = d[0, k] * inv
-            f32[off + (embree.RAY_DIR + 1) * _LANES + k] = d[1, k] * inv
-            f32[off + (embree.RAY_DIR + 2) * _LANES + k] = d[2, k] * inv
-    for k in range(_LANES):
-        f32[off + embree.RAY_TFAR * _LANES + k] = np.inf
-        u32[off + embree.HIT_GEOM_ID * _LANES + k] = embree.INVALID_ID  # Embree writes it only on a hit
-        valid[voff + k] = -1 if k % _TILE_W < nx and k // _TILE_W < ny else 0
-
-
-@njit(**_INLINE)
-def _tile_hits(f32, u32, off, x0, r, nx, ny, prim, geom, u, v, t):
-    """Unpack one tile's hits (as :func:`.embree.read_hit`) into rows ``r ..`` and columns
-    ``x0 ..`` of the hit arrays: ``nx`` columns and ``ny`` rows of it."""
-    if nx == _TILE_W and ny == _TILE_H:  # a whole tile: constant trip counts, unrolled and vectorised
-        for j in range(_TILE_H):
-            for i in range(_TILE_W):
-                _lane_hit(f32, u32, off, j * _TILE_W + i, r + j, x0 + i, prim, geom, u, v, t)
-    else:
-        for j in range(ny):
-            for i in range(nx):
-                _lane_hit(f32, u32, off, j * _TILE_W + i, r + j, x0 + i, prim, geom, u, v, t)
-
-
-@njit(**_INLINE)
-def _lane_hit(f32, u32, off, k, y, x, prim, geom, u, v, t):
-    """Lane ``k``'s hit (as :func:`.embree.read_hit`) into pixel ``(y, x)`` of the hit arrays, without a branch."""
-    g = u32[off + embree.HIT_GEOM_ID * _LANES + k]
-    hit = g != embree.INVALID_ID
-    geom[y, x] = np.int32(g) if hit else np.int32(-1)
-    prim[y, x] = np.int32(u32[off + embree.HIT_PRIM_ID * _LANES + k]) if hit else np.int32(-1)
-    u[y, x] = f32[off + embree.HIT_U * _LANES + k] if hit else np.float32(0.0)
-    v[y, x] = f32[off + embree.HIT_V * _LANES + k] if hit else np.float32(0.0)
-    t[y, x] = f32[off + embree.RAY_TFAR * _LANES + k] if hit else np.float32(np.inf)
+_RAY = RAY  # float32 slots in one RTCRayHit (96 bytes, room for instPrimID)
+_TILE_W, _TILE_H, _LANES = TILE_W, TILE_H, LANES  # a 16-ray packet is a 4x4 tile (see .tiles)
 
 
 @njit(cache=True, parallel=True)
@@ -180,23 +102,16 @@ def _cast_camera_kernel(scene, cam, prim, geom, u, v, t, y0, top, lo, hi, counts
     step = spread_step(nblk)
     ortho = cam[CAM_ORTHO] != 0.0
     far = 1.0 + jump
-    # Each column's forward + sx right (perspective) or eye + sx right (orthographic), with sx
-    # as pixel_ray computes it (every column of whole tiles: dummy lanes read them too).
-    base = CAM_EYE if ortho else CAM_FORWARD
-    col = np.empty((3, ntx * _TILE_W), np.float64)
-    for x in range(ntx * _TILE_W):
-        a = 2.0 * (x + 0.5) / cam[CAM_WIDTH] - 1.0
-        for c in range(3):
-            col[c, x] = cam[base + c] + a * cam[CAM_RIGHT + c]
+    ct = tile_columns(cam, ntx, ortho)
     for q in range(lo, hi):  # undecided until a block counts the row (rows at block boundaries stay so)
         counts[q] = -1
+    pf, gf, uf, vf, tf = prim.reshape(n * w), geom.reshape(n * w), u.reshape(n * w), v.reshape(n * w), t.reshape(n * w)
     for it in prange(nblk):  # blocks of rows in a balanced order (see _schedule)
         blk = (it * step) % nblk
         # Per-block scratch: a 16-wide RTCRayHit16 (64-byte aligned) and its valid mask.
         # Addresses are taken only to align; Embree gets the arrays (see embree.intersect16_packet).
         buf = np.empty(_LANES * _RAY + 16, np.float32)
         off = ((64 - buf.ctypes.data % 64) % 64) // 4
-        ib = buf.view(np.uint32)
         vbuf = np.empty(2 * _LANES, np.int32)
         voff = ((64 - vbuf.ctypes.data % 64) % 64) // 4
         # RTCIntersectArguments (8-byte aligned): the coherent flag lets
@@ -205,22 +120,29 @@ def _cast_camera_kernel(scene, cam, prim, geom, u, v, t, y0, top, lo, hi, counts
         aoff = ((8 - abuf.ctypes.data % 8) % 8) // 4
         abuf[aoff] = embree.RAY_QUERY_FLAG_COHERENT
         abuf[aoff + 1] = embree.FEATURE_FLAG_ALL
-        _fixed_slots(buf, ib, off, cam, ortho)
-        bu = np.empty((3, _TILE_H), np.float64)
-        d = np.empty((3, _LANES), np.float64)
+        # Views taken once a block, not per tile (each view costs a reference count).
+        pk, vv, args = buf[off:off + _LANES * _RAY], vbuf[voff:voff + _LANES], abuf[aoff:]
+        pu = pk.view(np.uint32)
+        fixed_slots(pk, pu, cam, ortho)
+        rt = np.empty(3 * _LANES, np.float64)
+        shape = -1  # the valid mask's tile shape, 4 nx + ny (rewritten only when it changes)
         r0 = top + blk * block * _TILE_H  # the block's first window row
         for ty in range(blk * block, min(nty, (blk + 1) * block)):
             r = top + ty * _TILE_H
             ny = min(_TILE_H, n - r)
-            for j in range(_TILE_H):
-                b = 1.0 - 2.0 * (y0 + r + j + 0.5) / cam[CAM_HEIGHT]
-                for c in range(3):
-                    bu[c, j] = b * cam[CAM_UP + c]
+            row_terms(rt, cam, y0 + r)
             for tx in range(ntx):
-                nx = min(_TILE_W, w - tx * _TILE_W)
-                _tile_rays(buf, ib, off, vbuf, voff, col, tx * _TILE_W, bu, d, nx, ny, ortho)
-                embree.intersect16_packet(vbuf[voff:], scene, buf[off:], abuf[aoff:])
-                _tile_hits(buf, ib, off, tx * _TILE_W, r, nx, ny, prim, geom, u, v, t)
+                x0 = tx * _TILE_W
+                nx = min(_TILE_W, w - x0)
+                if _TILE_W * nx + ny != shape:
+                    shape = _TILE_W * nx + ny
+                    tile_valid(vv, nx, ny)
+                tile_rays(pk, pu, vv, ct, tx, rt, ortho)
+                embree.intersect16_packet(vv, scene, pk, args)
+                if shape == _TILE_W * _TILE_W + _TILE_H:
+                    tile_hits(pk, pu, r * w + x0, w, pf, gf, uf, vf, tf)
+                else:
+                    edge_hits(pk, pu, x0, r, nx, ny, prim, geom, u, v, t)
             # The vertex-slip test of the rows whose neighbours are now cast (rows r0 .. c are).
             c = r + ny
             for q in range(max(lo, r - 1), min(hi, c)):
