@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["BufferSpec", "REGISTRY", "BUFFERS", "BUFFER_NAMES", "ALIASES", "KERNEL_BUFFERS"]
+__all__ = ["BufferSpec", "REGISTRY", "BUFFERS", "BUFFER_NAMES", "ALIASES", "KERNEL_BUFFERS", "registry_table"]
 
 
 @dataclass(frozen=True)
@@ -76,3 +76,19 @@ BUFFER_NAMES = tuple(BUFFERS)
 #: The buffer kernel's outputs, in the order of its ``outputs`` tuple.
 KERNEL_BUFFERS = tuple(spec for spec in REGISTRY if spec.writer == "kernel")
 ALIASES = {"id": ("model_id", "triangle_id")}
+
+
+def registry_table() -> str:
+    """A reStructuredText table of :data:`REGISTRY` (name, shape and dtype, meaning), as
+    :mod:`raycast_shade.output.buffers`' docstring shows it."""
+    import textwrap
+
+    rule = "=" * 22 + "  " + "=" * 15 + "  " + "=" * 56
+    rows = [rule]
+    for spec in REGISTRY:
+        shape = ("(H, W)" if spec.channels == 0 else f"(H, W, {spec.channels})") + " " + (
+            "f32" if spec.channels and spec.dtype == "float32" else spec.dtype)
+        lines = textwrap.wrap(spec.doc, 56, break_on_hyphens=False, break_long_words=False) or [""]
+        rows.append(f"{'``' + spec.name + '``':<22}  {shape:<15}  {lines[0]}")
+        rows += [" " * 41 + line for line in lines[1:]]
+    return "\n".join(rows + [rule])

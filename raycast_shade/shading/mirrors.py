@@ -98,6 +98,9 @@ def _prefetch(typingctx, arr, i):
     return types.void(arr, i), codegen
 
 
+prefetch = _prefetch  # for the buffer kernel's gathers too (raycast_shade.output.buffers)
+
+
 @njit(**HELPER)
 def _prefetch_tile(prim, geom, G, face_off, ya, yb, x0, x1, deep):
     """Prefetch what :func:`_start_lane` gathers for the hit pixels of rows ``ya .. yb`` and

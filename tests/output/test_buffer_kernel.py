@@ -134,8 +134,10 @@ def test_only_the_asked_buffers_are_made_and_the_byte_table_matches_them():
     assert buffer_bytes("id, mask") == 9
 
 
-def test_a_band_of_rows_gives_the_whole_frames_rows():
-    """The kernel over rows y0..y1 of the hits (as the banded path would call it) writes those rows."""
+@pytest.mark.parametrize("ahead", (False, True))
+def test_a_band_of_rows_gives_the_whole_frames_rows(ahead):
+    """The kernel over rows y0..y1 of the hits (as the banded path would call it) writes those rows,
+    with the gathers prefetched (``ahead``, a large mesh's path) or not."""
     from raycast_shade.output import buffers as B
     from raycast_shade.scene.projection import extrinsics
     from raycast_shade.visibility.rays import camera_frame
@@ -144,16 +146,17 @@ def test_a_band_of_rows_gives_the_whole_frames_rows():
     cam = rs.Camera.from_opencv(K, np.eye(3), np.array([0.1, -0.2, 3.5]), W, H, dist=(0.05, -0.01, 0.0, 0.0, 0.0))
     frame = rs.render(scene, camera=cam)
     names = ("zdepth", "position", "face_normal_camera", "mask")
-    whole = compute_buffers(scene, cam, frame.hits, names)
     geo, (y0, y1) = scene.geometry, (20, 47)
     from raycast_shade.visibility.distortion import ray_directions
 
+    names += ("face_normal",) if ahead else ()
+    whole = compute_buffers(scene, cam, frame.hits, names)
     out = {name: np.empty(BUFFERS[name].shape(y1 - y0, W), BUFFERS[name].dtype) for name in names}
     h = frame.hits
     B._buffers_kernel((camera_frame(cam, geo.origin), cam.basis[2].copy(), extrinsics(cam)[0],
                        ray_directions(cam)[0], y0),
                       tuple(np.ascontiguousarray(a[y0:y1]) for a in (h.prim, h.geom, h.u, h.v, h.t)),
-                      (geo.vertices, geo.faces, geo.face_normals, geo.face_offsets, geo.origin),
+                      (geo.vertices, geo.faces, geo.face_normals, geo.face_offsets, geo.origin, ahead),
                       (np.empty((0, 0, 3), np.float32), np.zeros(2, np.int32)),
                       tuple(out.get(b.name, np.empty(b.shape(0, 0), b.dtype)) for b in KERNEL_BUFFERS))
     for name in names:
