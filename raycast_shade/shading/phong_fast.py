@@ -506,6 +506,7 @@ def _make_phong_fast(spec_on: bool, att_on: bool, terms_on: bool = False, shadow
         else:
             image, normal = outs
         want_n = normal.shape[0] != 0
+        bg = (np.float32(background[0]), np.float32(background[1]), np.float32(background[2]))
         h, w = prim.shape
         faces, fnormals = G[2], G[3]
         ahead = G[0].nbytes + G[1].nbytes + faces.nbytes + fnormals.nbytes > PREFETCH_BYTES
@@ -530,9 +531,11 @@ def _make_phong_fast(spec_on: bool, att_on: bool, terms_on: bool = False, shadow
                         for x in range(tx, min(tx + tw, w)):
                             p = prim[y, x]
                             if p < 0:
-                                for c in range(3):
-                                    image[y, x, c] = background[c]
-                                    if want_n:
+                                image[y, x, 0] = bg[0]
+                                image[y, x, 1] = bg[1]
+                                image[y, x, 2] = bg[2]
+                                if want_n:
+                                    for c in range(3):
                                         normal[y, x, c] = 0.0
                                 if terms_on:
                                     _miss(image, R, y, y0 + y, x)
