@@ -5,10 +5,14 @@ roots, several divisions and a branch per light and per test, a scalar float64 l
 does not vectorise. For the common scene — no textures or mesh colours, no bump or normal map
 on a Phong model — this kernel does the same arithmetic in passes:
 
-1. a gather pass sums each Phong pixel's point and interpolated normal (the sums of
-   :mod:`.surface`, in their order) and copies its face normal into lane ``k`` of a small scratch
-   array, structure of arrays, until :data:`LANES` pixels (of any rows of the task's block) are
-   queued; the material row fills the lanes once per batch of one model;
+1. the Phong pixels (of any rows of the task's block) are queued, their face and barycentrics
+   into lane ``k`` of a small scratch array, structure of arrays, until :data:`LANES` are; then a
+   gather (:func:`_gather`) reads the lanes' vertex indices in one pass and sums each lane's point
+   and interpolated normal (the sums of :mod:`.surface`, in their order) and copies its face
+   normal in another, passes whose iterations are independent so that the lanes' cache misses
+   overlap (on a large mesh the rows are also prefetched: the faces as they are queued, the
+   vertices a pass before they are read); the material row fills the lanes once per batch of one
+   model;
 2. branch-free passes over the lanes (selects, not ``continue``): the point, the view vector,
    the oriented normal; then per light its direction, distance and attenuation, ``n . s``, the
    specular cosine and the whole-number power by repeated squaring (one pass per bit, a bit
@@ -53,6 +57,7 @@ from ..common.schedule import BLOCK_ROWS, spread_step
 from ..visibility.embree import RAY16_SLOTS, RAY_DIR, RAY_ORG, RAY_TFAR
 from .illumination import _spot_factor
 from .jit import FLT32_MAX, HELPER, JIT
+from .mirrors import PREFETCH_BYTES, _prefetch
 from .pixelstore import store_pixel
 from .shadows import LANES as PACKET_LANES, _packets, _shadow_ray, trace_packets
 from .surface import _terminator_point
@@ -69,8 +74,9 @@ _NO_NORMALS = np.empty((0, 0, 3), np.float32)  # the kernel's normal output when
 (_P, _A, _FN, _KA, _KD, _KS, _KE, _SHN, _SHT, _MODEL, _HASSPEC, _V, _G, _N, _R, _S, _D, _ATT, _ND, _LIT, _CP,
  _CB, _CC, _PW) = (0, 3, 6, 9, 12, 15, 18, 21, 22, 23, 24, 25, 28, 31, 34, 37, 40, 41, 42, 43, 44, 45, 46, 47)
 # Fields 48-53 serve one of two builds that never meet (terms are not traced with shadows here):
-# shadowed frames' barycentrics, the sign that turned the geometric normal and the shadow origin;
-# the terms build's diffuse and specular terms, summed by the accumulate pass.
+# the barycentrics (every build's until the gather), the sign that turned the geometric normal and
+# shadowed frames' shadow origin; the terms build's diffuse and specular terms, summed by the
+# accumulate pass (zeroed after the gather).
 _B1, _B2, _SG, _O = 48, 49, 50, 51
 _TD, _TS = 48, 51
 _FIELDS = 54
@@ -99,25 +105,35 @@ def applies(modes, k) -> bool:
 
 
 @njit(**HELPER)
-def _gather(S, k, G, f, b1, b2, shadows_on):
-    """Lane ``k``'s point, interpolated (not yet renormalised) normal and face normal: the hit
-    on face ``f`` at ``(b1, b2)`` (surface._hit_point, surface._shading_normal's sums); with
-    ``shadows_on``, the barycentrics too (for the shadow origin, :func:`_origins`)."""
+def _gather(S, XY, n, G, ahead):
+    """The queued lanes' points, interpolated (not yet renormalised) normals and face normals:
+    lane ``k``'s hit on face ``XY[3 * LANES + k]`` at ``(_B1, _B2)`` (surface._hit_point,
+    surface._shading_normal's sums). Two passes whose iterations are independent, so that the
+    lanes' cache misses overlap: the faces' vertex indices (``ahead``: then their rows
+    prefetched), then the sums."""
     verts, normals, faces, fnormals = G
-    fu = np.uint64(f)  # unsigned indices: no wrap-around test per read
-    i0 = np.uint64(faces[fu, 0])
-    i1 = np.uint64(faces[fu, 1])
-    i2 = np.uint64(faces[fu, 2])
-    b0 = 1.0 - b1 - b2
-    for c in range(3):
-        S[(_P + c) * LANES + k] = b0 * verts[i0, c] + b1 * verts[i1, c] + b2 * verts[i2, c]
-    for c in range(3):
-        S[(_A + c) * LANES + k] = b0 * normals[i0, c] + b1 * normals[i1, c] + b2 * normals[i2, c]
-    for c in range(3):
-        S[(_FN + c) * LANES + k] = fnormals[fu, c]
-    if shadows_on:
-        S[_B1 * LANES + k] = b1
-        S[_B2 * LANES + k] = b2
+    for k in range(n):
+        fu = np.uint64(XY[3 * LANES + k])  # unsigned indices: no wrap-around test per read
+        for c in range(3):
+            i = faces[fu, c]
+            XY[(4 + c) * LANES + k] = i
+            if ahead:
+                _prefetch(verts, i)
+                _prefetch(normals, i)
+    for k in range(n):
+        fu = np.uint64(XY[3 * LANES + k])
+        i0 = np.uint64(XY[4 * LANES + k])
+        i1 = np.uint64(XY[5 * LANES + k])
+        i2 = np.uint64(XY[6 * LANES + k])
+        b1 = S[_B1 * LANES + k]
+        b2 = S[_B2 * LANES + k]
+        b0 = 1.0 - b1 - b2
+        for c in range(3):
+            S[(_P + c) * LANES + k] = b0 * verts[i0, c] + b1 * verts[i1, c] + b2 * verts[i2, c]
+        for c in range(3):
+            S[(_A + c) * LANES + k] = b0 * normals[i0, c] + b1 * normals[i1, c] + b2 * normals[i2, c]
+        for c in range(3):
+            S[(_FN + c) * LANES + k] = fnormals[fu, c]
 
 
 @njit(**HELPER)
@@ -490,7 +506,10 @@ def _make_phong_fast(spec_on: bool, att_on: bool, terms_on: bool = False, shadow
         else:
             image, normal = outs
         want_n = normal.shape[0] != 0
+        bg = (np.float32(background[0]), np.float32(background[1]), np.float32(background[2]))
         h, w = prim.shape
+        faces, fnormals = G[2], G[3]
+        ahead = G[0].nbytes + G[1].nbytes + faces.nbytes + fnormals.nbytes > PREFETCH_BYTES
         # The pixels are queued row by row; with shadows, by 4x4 tiles (each row-major), so that a
         # packet's 16 lanes are neighbours in both directions: coherent rays, cheaper to trace.
         th = _TILE if shadows_on else 1
@@ -500,7 +519,7 @@ def _make_phong_fast(spec_on: bool, att_on: bool, terms_on: bool = False, shadow
         for it in prange(nblk):  # blocks of rows in a balanced order (see common.schedule)
             blk = (it * step) % nblk
             S = np.zeros(_FIELDS * LANES)
-            XY = np.zeros(4 * LANES, np.int64)  # per lane: row, column, model, face
+            XY = np.zeros(7 * LANES, np.int64)  # per lane: row, column, model, face, its three vertices
             Q = _packets(4 if shadows_on else 0)  # one shadow packet per 16 lanes (a stand-in without shadows)
             n = 0
             mixed = False
@@ -512,9 +531,11 @@ def _make_phong_fast(spec_on: bool, att_on: bool, terms_on: bool = False, shadow
                         for x in range(tx, min(tx + tw, w)):
                             p = prim[y, x]
                             if p < 0:
-                                for c in range(3):
-                                    image[y, x, c] = background[c]
-                                    if want_n:
+                                image[y, x, 0] = bg[0]
+                                image[y, x, 1] = bg[1]
+                                image[y, x, 2] = bg[2]
+                                if want_n:
+                                    for c in range(3):
                                         normal[y, x, c] = 0.0
                                 if terms_on:
                                     _miss(image, R, y, y0 + y, x)
@@ -523,7 +544,11 @@ def _make_phong_fast(spec_on: bool, att_on: bool, terms_on: bool = False, shadow
                             if modes[gm] != METHOD_PHONG:
                                 continue
                             f = face_off[gm] + p
-                            _gather(S, n, G, f, np.float64(u[y, x]), np.float64(v[y, x]), shadows_on)
+                            if ahead:  # the face's row a batch before it is read (_gather)
+                                _prefetch(faces, f)
+                                _prefetch(fnormals, f)
+                            S[_B1 * LANES + n] = u[y, x]
+                            S[_B2 * LANES + n] = v[y, x]
                             XY[n] = y
                             XY[LANES + n] = x
                             XY[2 * LANES + n] = gm
@@ -531,6 +556,7 @@ def _make_phong_fast(spec_on: bool, att_on: bool, terms_on: bool = False, shadow
                             mixed = mixed or (n > 0 and gm != XY[2 * LANES])
                             n += 1
                             if n == LANES:
+                                _gather(S, XY, n, G, ahead)
                                 filled = _flush(S, XY, n, mixed, filled, materials, G, L, cam, (image, normal), Q,
                                                 spec_on, att_on, shadows_on, terms_on)
                                 if terms_on:
@@ -538,6 +564,7 @@ def _make_phong_fast(spec_on: bool, att_on: bool, terms_on: bool = False, shadow
                                 n = 0
                                 mixed = False
             if n > 0:  # the lanes past n hold an earlier batch's pixels (or zeros): shaded, not written
+                _gather(S, XY, n, G, ahead)
                 _flush(S, XY, n, mixed, filled, materials, G, L, cam, (image, normal), Q, spec_on, att_on,
                        shadows_on, terms_on)
                 if terms_on:
