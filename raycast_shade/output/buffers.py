@@ -39,7 +39,7 @@ from numba import njit, prange
 from ..common.bufferspec import ALIASES, BUFFER_NAMES, BUFFERS, KERNEL_BUFFERS, registry_table
 from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH
 from ..scene.framememory import BUFFER_BYTES
-from ..shading.mirrors import PREFETCH_BYTES, prefetch
+from ..common.prefetch import PREFETCH_BYTES, prefetch
 from ..visibility.rays import camera_frame
 
 __all__ = ["BUFFER_NAMES", "ALIASES", "BUFFER_BYTES", "buffer_bytes", "check_buffers", "check_buffers_out",
@@ -383,7 +383,7 @@ def _prefetch_ahead(face, x, faces, face_normals, vertices, want_p, want_f):
 
 _ray_row, _ray_row_ahead = _make_ray_row(False), _make_ray_row(True)
 # Pixels ahead of the one being done whose triangles' rows (then vertices) are prefetched, on a mesh
-# whose gathered arrays exceed PREFETCH_BYTES (mirrors' threshold). Measured at 1.31 M triangles,
+# whose gathered arrays exceed PREFETCH_BYTES (the kernels' common threshold). Measured at 1.31 M triangles,
 # 1080p, all 12 buffers: 48/24, 32/16 and 16/8 within noise of one another, each 20-27% faster.
 _AHEAD_FACES, _AHEAD_VERTS = 48, 24
 _RAY_BUFFERS = ("zdepth", "position", "face_normal", "face_normal_camera")  # those that need the pixel's ray

@@ -18,10 +18,10 @@ from __future__ import annotations
 import numpy as np
 from llvmlite import ir
 from numba import njit, prange, types
-from numba.core import cgutils
 from numba.extending import intrinsic
 
 from ..common.layout import MAT_REFLECTIVITY
+from ..common.prefetch import PREFETCH_BYTES, prefetch
 from ..common.schedule import BLOCK_ROWS, spread_step
 from ..visibility import embree
 from ..visibility.accel import embree_accel
@@ -51,10 +51,6 @@ MIRROR_FLAGS = embree.RAY_QUERY_FLAG_COHERENT
 # starting the lanes took 32 ms, 16 ms with these distances, 18 ms with 2 and 1).
 _AHEAD_FACES = 4
 _AHEAD_VERTS = 2
-# Prefetch only when the gathered arrays (vertices, vertex normals, faces, face normals) exceed
-# this: at 81,920 triangles (4.7 MiB) the hint cost 1-7% of the kernel, at 1.31 M (75 MiB) it saved
-# 15-25% (docs/performance.md). The threshold lies between the two; it is not tuned finer.
-PREFETCH_BYTES = 32 << 20
 
 
 @intrinsic
@@ -75,30 +71,6 @@ def _from_bits(typingctx, b):
     return types.float64(types.int64), codegen
 
 
-@intrinsic
-def _prefetch(typingctx, arr, i):
-    """Hint the cache to load row ``i`` of ``arr`` (``llvm.prefetch``, for reading, kept in every
-    level): no result, no fault whatever the address, so nothing computed depends on it."""
-    if not isinstance(arr, types.Array) or not isinstance(i, types.Integer):
-        return None
-
-    def codegen(context, builder, signature, args):
-        aryty, ity = signature.args
-        ary = context.make_array(aryty)(context, builder, args[0])
-        stride = cgutils.unpack_tuple(builder, ary.strides)[0]
-        idx = context.cast(builder, args[1], ity, types.intp)
-        addr = builder.add(builder.ptrtoint(ary.data, stride.type), builder.mul(idx, stride))
-        ptr = builder.inttoptr(addr, ir.IntType(8).as_pointer())
-        i32 = ir.IntType(32)
-        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ir.VoidType(), [ptr.type, i32, i32, i32]),
-                                            "llvm.prefetch.p0")
-        builder.call(fn, [ptr, i32(0), i32(3), i32(1)])
-        return context.get_dummy_value()
-
-    return types.void(arr, i), codegen
-
-
-prefetch = _prefetch  # for the buffer kernel's gathers too (raycast_shade.output.buffers)
 
 
 @njit(**HELPER)
@@ -115,11 +87,11 @@ def _prefetch_tile(prim, geom, G, face_off, ya, yb, x0, x1, deep):
                 if deep:
                     for c in range(3):
                         i = faces[f, c]
-                        _prefetch(verts, i)
-                        _prefetch(normals, i)
-                    _prefetch(fnormals, f)
+                        prefetch(verts, i)
+                        prefetch(normals, i)
+                    prefetch(fnormals, f)
                 else:
-                    _prefetch(faces, f)
+                    prefetch(faces, f)
 
 
 @njit(**HELPER)

@@ -53,11 +53,11 @@ from ..common.layout import (ATT_HEURISTIC, ATT_INVERSE_SQUARE, CAM_EYE, CAM_FOR
                              LIGHT_DIRECTIONAL, LIGHT_K, LIGHT_KIND, LIGHT_RADIANCE, LIGHT_SHADOWS, LIGHT_SPOT,
                              LIGHT_VEC, MAT_KA, MAT_KD, MAT_KE, MAT_KS, MAT_MODEL, MAT_SHININESS, METHOD_PHONG,
                              MODEL_BLINN)
+from ..common.prefetch import PREFETCH_BYTES, prefetch
 from ..common.schedule import BLOCK_ROWS, spread_step
 from ..visibility.embree import RAY16_SLOTS, RAY_DIR, RAY_ORG, RAY_TFAR
 from .illumination import _spot_factor
 from .jit import FLT32_MAX, HELPER, JIT
-from .mirrors import PREFETCH_BYTES, _prefetch
 from .pixelstore import store_pixel
 from .shadows import LANES as PACKET_LANES, _packets, _shadow_ray, trace_packets
 from .surface import _terminator_point
@@ -118,8 +118,8 @@ def _gather(S, XY, n, G, ahead):
             i = faces[fu, c]
             XY[(4 + c) * LANES + k] = i
             if ahead:
-                _prefetch(verts, i)
-                _prefetch(normals, i)
+                prefetch(verts, i)
+                prefetch(normals, i)
     for k in range(n):
         fu = np.uint64(XY[3 * LANES + k])
         i0 = np.uint64(XY[4 * LANES + k])
@@ -545,8 +545,8 @@ def _make_phong_fast(spec_on: bool, att_on: bool, terms_on: bool = False, shadow
                                 continue
                             f = face_off[gm] + p
                             if ahead:  # the face's row a batch before it is read (_gather)
-                                _prefetch(faces, f)
-                                _prefetch(fnormals, f)
+                                prefetch(faces, f)
+                                prefetch(fnormals, f)
                             S[_B1 * LANES + n] = u[y, x]
                             S[_B2 * LANES + n] = v[y, x]
                             XY[n] = y

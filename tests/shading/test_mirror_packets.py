@@ -183,12 +183,12 @@ def test_the_mirror_kernel_hands_embree_arrays_not_addresses():
 
 
 def test_the_prefetch_hint_compiles_to_a_prefetch_and_changes_nothing():
-    """The mirror kernel's cache hint (:func:`~raycast_shade.shading.mirrors._prefetch`) is an
+    """The mirror kernel's cache hint (:func:`~raycast_shade.common.prefetch.prefetch`) is an
     x86 ``prefetch`` instruction, whatever row it names (first, last, of 1-D and 2-D arrays of
     any dtype), and a loop that issues it computes what the same loop without it computes."""
     from numba import njit
 
-    from raycast_shade.shading.mirrors import _prefetch
+    from raycast_shade.common.prefetch import prefetch as _prefetch
 
     @njit
     def sums(rows, ids, hint):
