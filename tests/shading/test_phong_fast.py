@@ -278,3 +278,28 @@ def test_the_shadowed_kernel_is_the_packet_kernel_on_a_banded_frame():
                                k["materials"], k["cam"], k["background"], resolve_methods(scene, "phong"),
                                (tiles, _NO_NORMALS), 0)
     assert _same_bits(frame.image, tiles)
+
+
+@pytest.mark.parametrize("shadows", [False, True])
+def test_on_a_mesh_beyond_the_caches_the_prefetching_gather_is_the_general_kernel_bit_for_bit(shadows):
+    """A mesh whose gathered arrays exceed PREFETCH_BYTES takes the gather that prefetches rows
+    ahead (the faces as they are queued, the vertices a pass before they are read): the image and
+    normals are still the general kernel's bit for bit, with and without shadow rays."""
+    from raycast_shade.common.prefetch import PREFETCH_BYTES
+
+    mesh = rs.shapes.icosphere(8)  # 1.31 M triangles, about 80 MB gathered
+    k_light = rs.PointLight((2.0, 3.0, 4.0), intensity=20.0, shadows=shadows)
+    models = [rs.Model(mesh, rs.Material(ks=0.5, shininess=20))]
+    if shadows:  # a floor for the sphere's shadow
+        models.append(rs.Model(rs.shapes.plane(6.0, center=(0.0, -1.0, 0.0), normal="+y"), rs.Material(kd=0.6)))
+    scene = rs.Scene(models,
+                     lights=[k_light], camera=rs.Camera(eye=(0.5, 1.0, 3.0), target=(0.0, -0.5, 0.0),
+                                                        width=96, height=72))
+    k = prepare(scene, scene.camera)
+    assert sum(a.nbytes for a in k["G"]) > PREFETCH_BYTES  # the prefetching path, not vacuous
+    frame = rs.render(scene, "phong")
+    general, fast = _both(scene, "phong", frame.hits)
+    assert _same_bits(general, fast) and _same_bits(frame.image, fast)
+    if shadows:  # the sphere's shadow on the floor: shadow rays traced, some blocked
+        plain = rs.render(scene.replace(lights=[dataclasses.replace(k_light, shadows=False)]), "phong")
+        assert np.any(fast != plain.image, axis=-1).mean() > 0.02
