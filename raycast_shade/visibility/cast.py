@@ -52,7 +52,6 @@ around a candidate found by a nearby ray:
 from __future__ import annotations
 
 import threading
-import types
 
 import numpy as np
 from numba import njit, prange
@@ -66,6 +65,7 @@ from .hits import HitBuffer, image_buffer
 from ..common.layout import CAM_ORTHO
 from . import holes
 from .holes import empty_hits, fill_holes, rays_at, row_suspicious
+from .holes import serial_twin as _serial_twin  # where scan.py looks for it
 from .holes import _count_isolated_kernel, _isolated_misses  # noqa: F401  (where tests look for them)
 from .watertight import nudged_rays, refine
 from .rays import camera_frame, generate_rays, offset_pair, subpixel_camera
@@ -168,17 +168,6 @@ def cast_rays_kernel(scene, origins, directions, tnear, tfar, prim, geom, u, v, 
             embree.reset_hit(ib, off, 1)
             embree.intersect1_ray(scene, buf[off:])
             geom[i], prim[i], u[i], v[i], t[i] = embree.read_hit(buf, ib, off, 1)
-
-
-def _serial_twin(kernel, name: str):
-    """``kernel`` compiled without ``parallel`` (``prange`` runs as ``range``), under
-    its own name: Numba's disk cache is keyed by the function's name and bytecode,
-    not by ``parallel``, so the same function compiled both ways would share one
-    cache entry."""
-    fn = kernel.py_func
-    twin = types.FunctionType(fn.__code__, fn.__globals__, name, fn.__defaults__, fn.__closure__)
-    twin.__qualname__ = name
-    return njit(cache=True)(twin)
 
 
 cast_rays_serial = _serial_twin(cast_rays_kernel, "cast_rays_serial")  # a handful of rays: no parallel launch
@@ -357,7 +346,9 @@ def _fill_holes(geometry, cam, hits, caster, rows=None, y0=0, counts=None):
     """Re-test the pixels whose ray may have slipped through a vertex (:mod:`.holes`); in place.
     ``rows``, ``y0``: a band of the image; ``counts``: the camera kernel's (see
     :func:`.holes.fill_holes`)."""
-    fill_holes(geometry, cam, hits, lambda xs, ys: _cast_points(geometry, cam, xs, ys, caster), rows, y0, counts)
+    scene = embree_accel(geometry).handle if caster == "embree" else None  # the serial repair: few rays
+    fill_holes(geometry, cam, hits, lambda xs, ys: _cast_points(geometry, cam, xs, ys, caster), rows, y0, counts,
+               scene, SERIAL_BELOW)
 
 
 def run_embreex(embreex_scene, origins, directions, threads: int = 2):

@@ -20,18 +20,36 @@ they are few: :data:`.cast.SERIAL_BELOW`) and one exact re-test.
 
 from __future__ import annotations
 
+import types
+
 import numpy as np
 from numba import njit, prange
 
 from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH
+from . import embree
+from .alpha import masked_geometries
 from .hits import HitBuffer
-from .watertight import MARGIN, refine
+from .watertight import MARGIN, _refine_kernel, refine, vertex_fans
 
-__all__ = ["fill_holes", "rays_at", "row_suspicious", "finish_counts"]
+__all__ = ["fill_holes", "rays_at", "row_suspicious", "finish_counts", "serial_twin"]
 
 
 _JITTER = (1e-3, 1e-2)  # pixels: the re-cast rays' distance from the pixel centre, per round
 _JUMP = 1e-3  # a hit farther than both neighbours by this fraction of their depth is re-tested
+
+
+def serial_twin(kernel, name: str):
+    """``kernel`` compiled without ``parallel`` (``prange`` runs as ``range``), under
+    its own name: Numba's disk cache is keyed by the function's name and bytecode,
+    not by ``parallel``, so the same function compiled both ways would share one
+    cache entry."""
+    fn = kernel.py_func
+    twin = types.FunctionType(fn.__code__, fn.__globals__, name, fn.__defaults__, fn.__closure__)
+    twin.__qualname__ = name
+    return njit(cache=True)(twin)
+
+
+_refine_serial = serial_twin(_refine_kernel, "_refine_serial")  # a few rays: no parallel launch
 
 
 @njit(cache=True, parallel=True)
@@ -171,6 +189,99 @@ def rays_at(cam, xs, ys):
     return np.ascontiguousarray(o), np.ascontiguousarray(d)
 
 
+@njit(cache=True, inline="always")
+def _ray_at(cam, x, y, o, d):
+    """:func:`rays_at`'s ray through the image point (x + 0.5, y + 0.5) into ``o``, ``d`` (3,)
+    float64, operation for operation (the norm summed left to right, as NumPy's is), so the
+    same bits."""
+    sx = 2.0 * (x + 0.5) / cam[CAM_WIDTH] - 1.0
+    sy = 1.0 - 2.0 * (y + 0.5) / cam[CAM_HEIGHT]
+    for c in range(3):
+        if cam[CAM_ORTHO] != 0.0:
+            o[c] = cam[CAM_EYE + c] + sx * cam[CAM_RIGHT + c] + sy * cam[CAM_UP + c]
+            d[c] = cam[CAM_FORWARD + c]
+        else:
+            o[c] = cam[CAM_EYE + c]
+            d[c] = cam[CAM_FORWARD + c] + sx * cam[CAM_RIGHT + c] + sy * cam[CAM_UP + c]
+    if cam[CAM_ORTHO] == 0.0:
+        norm = np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+        for c in range(3):
+            d[c] = d[c] / norm
+
+
+@njit(cache=True)  # serial: a few pixels a band; one call instead of a dozen NumPy steps and launches
+def _repair_serial(scene, cam, fans, hits, rows, y0, jump, jitters, margin):
+    """:func:`fill_holes`'s repair of the flagged pixels of ``rows`` (their count per row, zero
+    outside the band), step for step, in one serial call: the gather, then per jitter round
+    each pixel's four jittered rays cast one by one (as :func:`.cast.cast_rays_serial` does),
+    the exact re-test (:func:`.watertight.refine` without its alpha filters: the caller has
+    none) and the same choice of hit. ``scene`` is the Embree handle; ``fans`` the
+    :class:`.watertight.VertexFans` arrays; ``hits`` the window's (R, W) arrays, updated in place."""
+    prim, geom, u, v, t = hits
+    n = 0
+    for q in range(rows.shape[0]):
+        n += rows[q]
+    ys, xs = np.empty(n, np.int64), np.empty(n, np.int64)
+    _gather_kernel(prim, t, jump, rows, ys, xs)
+    buf = np.empty(embree.RAYHIT_SLOTS + 4, np.float32)
+    off = ((16 - buf.ctypes.data % 16) % 16) // 4  # RTCRayHit is 16-byte aligned
+    ib = buf.view(np.uint32)
+    ray = buf[off:]
+    for jitter in jitters:
+        if n == 0:
+            return
+        m = 4 * n
+        o, d = np.empty((m, 3)), np.empty((m, 3))
+        t0, limit = np.empty(n), np.empty(m)
+        cg, cp = np.empty(m, np.int32), np.empty(m, np.int32)
+        cu, cv, ct = np.empty(m, np.float32), np.empty(m, np.float32), np.empty(m, np.float32)
+        cand = np.empty(m, np.bool_)
+        jo, jd = np.empty(3), np.empty(3)
+        for i in range(n):
+            t0[i] = np.float64(t[ys[i], xs[i]])
+            lim = t0[i] * (1.0 - margin) if np.isfinite(t0[i]) else np.inf
+            _ray_at(cam, xs[i], ys[i] + y0, o[i], d[i])  # the pixel's own ray, re-tested exactly
+            for k in range(4):  # the jitters' order of fill_holes: (+,+), (-,+), (+,-), (-,-)
+                j = k * n + i
+                if k:
+                    o[j], d[j] = o[i], d[i]
+                limit[j] = lim
+                jx = jitter if k % 2 == 0 else -jitter
+                jy = jitter if k < 2 else -jitter
+                _ray_at(cam, xs[i] + jx, ys[i] + y0 + jy, jo, jd)
+                embree.write_ray(buf, ib, off, 1, (jo[0], jo[1], jo[2]), (jd[0], jd[1], jd[2]), 0.0, np.inf)
+                embree.reset_hit(ib, off, 1)
+                embree.intersect1_ray(scene, ray)
+                g, p, hu, hv, ht = embree.read_hit(buf, ib, off, 1)
+                cand[j] = ht < limit[j]  # a surface in front of the pixel's hit: its fan is re-tested
+                if cand[j]:
+                    cg[j], cp[j], cu[j], cv[j], ct[j] = g, p, hu, hv, ht
+                else:
+                    cg[j], cp[j], cu[j], cv[j], ct[j] = -1, -1, 0.0, 0.0, np.inf
+        fp, fg = np.empty(m, np.int32), np.empty(m, np.int32)
+        fu, fv, ft = np.empty(m, np.float32), np.empty(m, np.float32), np.empty(m, np.float32)
+        _refine_serial(fans, (o, d, np.zeros(m), limit), (cg, cp), (fp, fg, fu, fv, ft))
+        k = 0
+        for i in range(n):
+            eg, ep, eu, ev, et = -1, -1, np.float32(0.0), np.float32(0.0), np.float32(np.inf)
+            mg, mp, mu, mv, mt = -1, -1, np.float32(0.0), np.float32(0.0), np.float32(np.inf)
+            for r in range(4):  # in the jitters' order: ties keep the earlier one
+                j = r * n + i
+                if cand[j] and fg[j] >= 0 and ft[j] < et:
+                    eg, ep, eu, ev, et = fg[j], fp[j], fu[j], fv[j], ft[j]
+                if cand[j] and cg[j] >= 0 and ct[j] < mt:
+                    mg, mp, mu, mv, mt = cg[j], cp[j], cu[j], cv[j], ct[j]
+            y, x = ys[i], xs[i]
+            if eg >= 0:  # the exact hit where there is one; else, for a miss only, the nearest jittered hit
+                geom[y, x], prim[y, x], u[y, x], v[y, x], t[y, x] = eg, ep, eu, ev, et
+            elif mg >= 0 and not np.isfinite(t0[i]):
+                geom[y, x], prim[y, x], u[y, x], v[y, x], t[y, x] = mg, mp, mu, mv, mt
+            else:  # left for the next round
+                ys[k], xs[k] = y, x
+                k += 1
+        n = k
+
+
 def empty_hits(n: int) -> HitBuffer:
     """(n,) misses."""
     return HitBuffer(prim=np.full(n, -1, np.int32), geom=np.full(n, -1, np.int32), u=np.zeros(n, np.float32),
@@ -188,7 +299,7 @@ def _rows(hits: HitBuffer, sel) -> HitBuffer:
     return HitBuffer(*(a[sel] for a in hits))
 
 
-def fill_holes(geometry, cam, hits, cast_points, rows=None, y0=0, counts=None):
+def fill_holes(geometry, cam, hits, cast_points, rows=None, y0=0, counts=None, scene=None, serial_below=0):
     """Re-test the suspicious pixels (see the module docstring); updates ``hits`` in place.
 
     Each round casts the four jittered rays of every pixel in one call of
@@ -214,6 +325,13 @@ def fill_holes(geometry, cam, hits, cast_points, rows=None, y0=0, counts=None):
         The suspicious pixels of each row of ``rows`` as the camera kernel
         counted them while casting (``-1`` for a row it left: finished here);
         without it, a parallel pass counts them.
+    scene : int, optional
+        The Embree handle ``cast_points`` casts with (direct binding). With it, fewer
+        than ``serial_below`` jittered rays (four a pixel) and no alpha-masked model,
+        the whole repair runs as one serial kernel (:func:`_repair_serial`): the same
+        hits, bit for bit, without a parallel launch or a NumPy step per round.
+    serial_below : int
+        See ``scene``.
     """
     if not _JITTER:
         return
@@ -227,6 +345,11 @@ def fill_holes(geometry, cam, hits, cast_points, rows=None, y0=0, counts=None):
     rows[hi:] = 0
     n = int(rows.sum())
     if n == 0:
+        return
+    if scene is not None and 4 * n < serial_below and not masked_geometries(geometry):
+        f = vertex_fans(geometry)
+        _repair_serial(scene, cam, (f.vertices, f.faces, f.points, f.face_model, f.face_offsets, f.start, f.around),
+                       tuple(hits), rows, y0, _JUMP, np.array(_JITTER, np.float64), MARGIN)
         return
     ys, xs = np.empty(n, np.int64), np.empty(n, np.int64)
     _gather_kernel(hits.prim, hits.t, _JUMP, rows, ys, xs)
