@@ -59,8 +59,20 @@ def _methods(scene, **kwargs):
     return [render(scene, m, **kwargs) for m in ("flat", "gouraud", "phong")]
 
 
+def _gap_scene():
+    """Two squares a pixel apart, a plane behind: the gap's pixels are flagged, and re-tested
+    by the serial repair (:func:`raycast_shade.visibility.holes.fill_holes`)."""
+    pitch = 1.0 / 8.0
+    squares = [Model(shapes.plane(1.0, center=(x, 0.0, 0.0)), Material(kd=0.6)) for x in (-0.5, 0.5 + pitch)]
+    return Scene(squares + [Model(shapes.plane(8.0, center=(0.0, 0.0, -2.0)), Material(kd=0.6))],
+                 lights=[DirectionalLight((0.0, 0.0, -1.0), intensity=1.0)],
+                 camera=Camera(eye=(0.0, 0.0, 3.0), width=24, height=16, projection="orthographic",
+                               ortho_height=16 * pitch))
+
+
 def _step_core():
     _methods(_scene())  # specular and attenuation on
+    render(_gap_scene())
 
 
 def _variants(floor=None, sun_shadows=False, **kwargs):

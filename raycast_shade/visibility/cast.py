@@ -97,8 +97,9 @@ def _cast_camera_kernel(scene, cam, prim, geom, u, v, t, y0, top, lo, hi, counts
         raise ValueError("_cast_camera_kernel: rows top, lo .. hi beyond the window or its counts")
     ntx = (w + _TILE_W - 1) // _TILE_W
     nty = (n - top + _TILE_H - 1) // _TILE_H
-    block = BLOCK_ROWS if nty >= 4 * BLOCK_ROWS else 1  # tile rows a block: 1 if too few for several a thread
-    nblk = (nty + block - 1) // block
+    nblk = nty  # blocks of one tile row when there are too few for several a thread; else of about
+    if nty >= 4 * BLOCK_ROWS:  # BLOCK_ROWS, a multiple of 4 of them: prange gives each of 1, 2 or 4 threads
+        nblk = (nty + 4 * BLOCK_ROWS - 1) // (4 * BLOCK_ROWS) * 4  # as many (480 rows: 16, not 15 split 8/7)
     step = spread_step(nblk)
     ortho = cam[CAM_ORTHO] != 0.0
     far = 1.0 + jump
@@ -126,8 +127,9 @@ def _cast_camera_kernel(scene, cam, prim, geom, u, v, t, y0, top, lo, hi, counts
         fixed_slots(pk, pu, cam, ortho)
         rt = np.empty(3 * _LANES, np.float64)
         shape = -1  # the valid mask's tile shape, 4 nx + ny (rewritten only when it changes)
-        r0 = top + blk * block * _TILE_H  # the block's first window row
-        for ty in range(blk * block, min(nty, (blk + 1) * block)):
+        ty0, ty1 = blk * nty // nblk, (blk + 1) * nty // nblk  # the block's tile rows (sizes differ by <= 1)
+        r0 = top + ty0 * _TILE_H  # the block's first window row
+        for ty in range(ty0, ty1):
             r = top + ty * _TILE_H
             ny = min(_TILE_H, n - r)
             row_terms(rt, cam, y0 + r)
