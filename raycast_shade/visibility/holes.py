@@ -13,9 +13,11 @@ hit takes the nearest jittered one (moved by at most a hundredth of a
 pixel). The camera kernel counts them row by row while it casts (each row
 once it and its neighbours are cast, :func:`row_suspicious`; the rows at its
 block boundaries are finished serially, :func:`finish_counts`), so a frame
-with no such pixel pays no pass of its own; a frame with a few pays one serial gather of their
-coordinates and, per round, one cast of their jittered rays (serial when
-they are few: :data:`.cast.SERIAL_BELOW`) and one exact re-test.
+with no such pixel pays no pass of its own. A band (or frame) with a few -- fewer than
+:data:`.cast.SERIAL_BELOW` jittered rays, four a pixel, as the noisy sphere's 13-18 silhouette
+gaps -- is repaired by one serial kernel (:func:`_repair_serial`: the gather, both rounds' casts
+and exact re-tests), with no parallel launch and no NumPy step; more take, per round, one cast of
+their jittered rays and one exact re-test over NumPy arrays. The same hits either way, bit for bit.
 """
 
 from __future__ import annotations
