@@ -20,7 +20,7 @@ from ..common.samples import MAX_SAMPLES
 from ..scene.scenefile import RENDER_KEYS
 
 __all__ = ["positive_int", "nonnegative_int", "positive_float", "finite_float", "gamma", "shading",
-           "add_render_options", "add_tone_options", "overrides", "shading_label", "buffer_list"]
+           "add_render_options", "add_mesh_options", "add_tone_options", "overrides", "shading_label", "buffer_list"]
 
 
 def _int_at_least(text: str, low: int) -> int:
@@ -51,6 +51,25 @@ def positive_float(text: str) -> float:
     if not (value > 0 and value < float("inf")):
         raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text!r}")
     return value
+
+
+def crease_angle(text: str) -> float:
+    """Degrees in (0, 180], as :class:`~raycast_shade.scene.mesh.Mesh` takes ``crease_angle``."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected degrees in (0, 180], got {text!r}") from None
+    if not 0.0 < value <= 180.0:
+        raise argparse.ArgumentTypeError(f"expected degrees in (0, 180], got {text!r}")
+    return value
+
+
+def add_mesh_options(p) -> None:
+    """--crease-angle: how a mesh file's computed vertex normals treat sharp edges."""
+    p.add_argument("--crease-angle", type=crease_angle, metavar="DEG",
+                   help="a mesh file whose normals are computed (none in the file): edges whose faces meet at "
+                        "more than DEG degrees stay hard (default: every edge smoothed; a warning counts the "
+                        "edges sharper than 60); a scene file sets crease_angle per [[object]]")
 
 
 def finite_float(text: str) -> float:
@@ -144,7 +163,7 @@ def buffer_list(text: str) -> tuple:
         raise argparse.ArgumentTypeError(str(exc).removeprefix("--buffers: ")) from None
 
 
-def model_for_render(path: str, given: dict):
+def model_for_render(path: str, given: dict, crease_angle: float | None = None):
     """A mesh file (not a TOML scene) as ``render`` and ``views`` take it: framed and lit by
     :func:`~raycast_shade.scene.meshfile.model_scene`, with the command line's options.
 
@@ -154,6 +173,8 @@ def model_for_render(path: str, given: dict):
         Any file :func:`raycast_shade.load_models` reads.
     given : dict
         The command line's ``[render]`` options (:func:`overrides`); ``None`` for not given.
+    crease_angle : float, optional
+        ``--crease-angle``: passed to :func:`raycast_shade.load_models` (None: not given).
 
     Returns
     -------
@@ -174,4 +195,5 @@ def model_for_render(path: str, given: dict):
     kwargs.setdefault("shading", "phong")
     if isinstance(kwargs["shading"], tuple):
         raise ValueError("--shading: one method for a mesh file (per-model lists need a scene file)")
-    return model_scene(path, **size), kwargs, tone
+    load = {} if crease_angle is None else {"crease_angle": crease_angle}
+    return model_scene(path, **size, **load), kwargs, tone

@@ -28,7 +28,7 @@ import warnings
 from typing import Callable
 
 from ..common.choices import EIGHT_BIT_EXTS, LINEAR_EXTS
-from .args import add_render_options, add_tone_options, overrides, positive_int, shading_label
+from .args import add_mesh_options, add_render_options, add_tone_options, overrides, positive_int, shading_label
 
 __all__ = ["main", "build_parser", "Subcommand", "COMMANDS"]
 
@@ -156,6 +156,7 @@ def _build_render(sub) -> argparse.ArgumentParser:
     )
     render.add_argument("scene", metavar="SCENE.toml|MODEL", help="scene file, or a mesh file")
     add_render_options(render)
+    add_mesh_options(render)
     _add_output_option(render, None)
     return render
 
@@ -237,7 +238,9 @@ def _cmd_render(args) -> int:
     _check_tone_for(out, args)
     t0 = time.perf_counter()
     if not args.scene.lower().endswith(".toml"):
-        frame = _render_model(args.scene, overrides(args))
+        frame = _render_model(args.scene, overrides(args), args.crease_angle)
+    elif args.crease_angle is not None:
+        raise _UsageError("--crease-angle: for a mesh file; a scene file sets crease_angle per [[object]]")
     else:
         frame = None
     try:
@@ -258,12 +261,12 @@ def _cmd_render(args) -> int:
     return 0
 
 
-def _render_model(path: str, given: dict):
+def _render_model(path: str, given: dict, crease_angle=None):
     """``render MODEL``: the mesh file framed and lit (:func:`~raycast_shade.scene.meshfile.model_scene`)."""
     from ..render import render
     from .args import model_for_render
 
-    scene, kwargs, tone = model_for_render(path, given)
+    scene, kwargs, tone = model_for_render(path, given, crease_angle)
     return render(scene, **kwargs).with_tone(tone)
 
 

@@ -518,7 +518,7 @@ def register_cli(subparsers):
     """Add the ``views`` command to the ``raycast-shade`` parser; dispatch to :func:`run_cli`."""
     import argparse
 
-    from .args import add_render_options, add_tone_options, buffer_list, positive_int
+    from .args import add_mesh_options, add_render_options, add_tone_options, buffer_list, positive_int
 
     p = subparsers.add_parser(
         "views", help="render a data set of views: images, buffers and cameras",
@@ -557,6 +557,7 @@ def register_cli(subparsers):
     p.add_argument("--overwrite", action="store_true",
                    help="replace a view set of another plan in the output folder (default: refuse it)")
     add_render_options(p)
+    add_mesh_options(p)
     where = p.add_mutually_exclusive_group()
     where.add_argument("--workers", type=positive_int, metavar="N", help="render on a local Dask cluster of N workers")
     where.add_argument("--scheduler", metavar="ADDR", help="render on an existing Dask cluster, e.g. tcp://host:8786")
@@ -573,9 +574,11 @@ def run_cli(ns) -> int:
     from .args import model_for_render, overrides
 
     if ns.scene.lower().endswith(".toml"):
+        if ns.crease_angle is not None:
+            raise ValueError("--crease-angle: for a mesh file; a scene file sets crease_angle per [[object]]")
         scene, render_kwargs, tone = load_for_render(ns.scene, **overrides(ns))
     else:  # a mesh file, framed and lit as ``raycast-shade render`` frames it
-        scene, render_kwargs, tone = model_for_render(ns.scene, overrides(ns))
+        scene, render_kwargs, tone = model_for_render(ns.scene, overrides(ns), ns.crease_angle)
     shading = render_kwargs.pop("shading", "phong")
     image = None if ns.image.lower() == "none" else (ns.image if ns.image.startswith(".") else "." + ns.image)
     t0 = time.perf_counter()

@@ -14,12 +14,18 @@ from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-__all__ = ["PREFETCH_BYTES", "prefetch"]
+__all__ = ["PREFETCH_BYTES", "beyond_caches", "prefetch"]
 
 # Kernels prefetch only when the gathered arrays (vertices, vertex normals, faces, face normals) exceed
 # this: at 81,920 triangles (4.7 MiB) the hint cost 1-7% of the kernel, at 1.31 M (75 MiB) it saved
 # 15-25% (docs/performance.md). The threshold lies between the two; it is not tuned finer.
 PREFETCH_BYTES = 32 << 20
+
+
+def beyond_caches(*arrays) -> bool:
+    """Whether a kernel that gathers from ``arrays`` (the ones it reads per pixel: vertices,
+    faces, normals) should prefetch: their bytes together exceed :data:`PREFETCH_BYTES`."""
+    return sum(a.nbytes for a in arrays) > PREFETCH_BYTES
 
 
 @intrinsic

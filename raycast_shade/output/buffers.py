@@ -39,7 +39,7 @@ from numba import njit, prange
 from ..common.bufferspec import ALIASES, BUFFER_NAMES, BUFFERS, KERNEL_BUFFERS, registry_table
 from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH
 from ..scene.framememory import BUFFER_BYTES
-from ..common.prefetch import PREFETCH_BYTES, prefetch
+from ..common.prefetch import beyond_caches, prefetch
 from ..visibility.rays import camera_frame
 
 __all__ = ["BUFFER_NAMES", "ALIASES", "BUFFER_BYTES", "buffer_bytes", "check_buffers", "check_buffers_out",
@@ -426,7 +426,7 @@ class FrameBuffers:
         h, w = (camera.height, camera.width) if shape is None else shape
         geo = scene.geometry
         c = np.ascontiguousarray
-        ahead = geo.vertices.nbytes + geo.faces.nbytes + geo.face_normals.nbytes > PREFETCH_BYTES
+        ahead = beyond_caches(geo.vertices, geo.faces, geo.face_normals)  # no vertex normals read
         self.geometry = (geo.vertices, geo.faces, geo.face_normals, geo.face_offsets, c(geo.origin, np.float64), ahead)
         R, _ = extrinsics(camera)
         dirs = np.empty((0, 3), np.float64)

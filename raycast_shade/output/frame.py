@@ -178,9 +178,13 @@ class Frame:
     def normal(self) -> np.ndarray:
         """(H, W, 3) float32 unit normal each pixel was shaded with, turned to
         the viewer (world axes); zero on the background. Computed on first
-        access: most frames never need it, and it is 12 bytes a pixel."""
+        access: most frames never need it, and it is 12 bytes a pixel. A frame
+        rendered with the ``normal`` buffer returns that array (the same values,
+        not computed twice)."""
         from ..shading.normals import shading_normals
 
+        if "normal" in self.buffers:
+            return self.buffers["normal"]
         return shading_normals(self.scene, self.camera, self.hits, self.shading)
 
     @property

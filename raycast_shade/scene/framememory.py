@@ -7,8 +7,9 @@ kernel runs. Checked against measured peaks in
 ``render()``'s whole-frame path (:func:`frame_bytes_per_pixel`):
 
 * the frame itself, :data:`FRAME_BYTES_PER_PIXEL` = 47: the hit buffer 20,
-  the linear image 12, the shading normals 12 (on first access) and the
-  8-bit image 3;
+  the linear image 12, the shading normals 12 (on first access; none when
+  the ``normal`` buffer is asked for: ``frame.normal`` is that buffer) and
+  the 8-bit image 3;
 * each buffer its stored bytes, :data:`BUFFER_BYTES` (the writers store
   the same), plus 12 for the shading normals a ``normal_camera`` buffer is
   computed from (a ``normal`` buffer holds them itself); a buffer written
@@ -22,8 +23,9 @@ kernel runs. Checked against measured peaks in
 
 The banded path (:func:`frame_bytes` with ``band_rows``) holds no
 full-frame hit buffer while it renders (the frame casts it again when
-``frame.hits`` is read, so the plain frame's 47 stay counted), only its hit
-mask (1) and per band: each sample's cast window (20 bytes a pixel of
+``frame.hits`` is read, as ``frame.normal`` does, so the plain frame's 47 stay
+counted; with the ``normal`` buffer nothing reads the hits, and the frame
+counts 15: its images), only its hit mask (1) and per band: each sample's cast window (20 bytes a pixel of
 ``band_rows + 2`` rows), the shading normals of a ``normal_camera`` buffer
 (12) and, with several samples, up to 4 band images and a float64
 accumulator (and int32 count). That scratch is freed before the hits,
@@ -69,6 +71,8 @@ def frame_bytes_per_pixel(buffers=(), samples: int = 1, terms=None, lights: int 
     names = _names(buffers)
     n = _samples(samples)
     total = FRAME_BYTES_PER_PIXEL + sum(BUFFER_BYTES[b] for b in names - _names(reused))
+    if "normal" in names:  # frame.normal is the buffer
+        total -= _NORMALS
     if "normal_camera" in names and "normal" not in names:
         total += _NORMALS
     if n > 1:
@@ -108,8 +112,11 @@ def frame_bytes(width: int, height: int, buffers=(), samples: int = 1, terms=Non
         return px * frame_bytes_per_pixel(buffers, samples, terms, lights, reused)
     names = _names(buffers)
     n = _samples(samples)
-    per_pixel = (FRAME_BYTES_PER_PIXEL + 1 + sum(BUFFER_BYTES[b] for b in names - _names(reused))
-                 + _terms_bytes(terms, lights))
+    # Made on access after the bands: the hits and the shading normals (unless the normal buffer is
+    # frame.normal; then nothing reads the hits) and the 8-bit image.
+    after = 3 if "normal" in names else _HITS + _NORMALS + 3
+    per_pixel = (FRAME_BYTES_PER_PIXEL - (_HITS + _NORMALS + 3) + after + 1
+                 + sum(BUFFER_BYTES[b] for b in names - _names(reused)) + _terms_bytes(terms, lights))
     rows = min(int(band_rows) + 2, int(height))  # a window: the band, the row above and the waiting row
     band = _HITS * n  # every sample's window
     if "normal_camera" in names and "normal" not in names:
@@ -117,7 +124,7 @@ def frame_bytes(width: int, height: int, buffers=(), samples: int = 1, terms=Non
     if n > 1:
         band += _IMAGE * min(n, _GROUP) + ((8 * 3 + (4 if "coverage" in names else 0)) if n > _GROUP else 0)
     # The band scratch is gone before the frame's hits, normals and 8-bit image are made on access.
-    return px * per_pixel + max(0.0, float(rows) * float(width) * band - px * (_HITS + _NORMALS + 3))
+    return px * per_pixel + max(0.0, float(rows) * float(width) * band - px * after)
 
 
 def _names(buffers) -> set:

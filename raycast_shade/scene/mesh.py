@@ -302,7 +302,8 @@ class Mesh:
                     warnings.warn(
                         f"{self.name}: {sharp} edge(s) join faces at more than {SHARP_DEGREES:g} degrees, and "
                         "the computed vertex normals average across them, rounding hard edges off: pass "
-                        "crease_angle=30 (degrees) to keep them hard, or normals",
+                        "crease_angle=30 (degrees; on the command line --crease-angle 30) to keep them hard, "
+                        "or normals",
                         CreaseWarning,
                         stacklevel=2,
                     )

@@ -21,7 +21,7 @@ from numba import njit, prange, types
 from numba.extending import intrinsic
 
 from ..common.layout import MAT_REFLECTIVITY
-from ..common.prefetch import PREFETCH_BYTES, prefetch
+from ..common.prefetch import beyond_caches, prefetch
 from ..common.schedule import BLOCK_ROWS, spread_step
 from ..visibility import embree
 from ..visibility.accel import embree_accel
@@ -204,7 +204,7 @@ def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
         ``hits`` = ``(prim, geom, u, v)`` (R, W) and ``image`` (R, W, 3) float32: rows
         ``y0 ..`` of the frame (a band, or all of it: a pixel's bounces read nothing but its
         own hit). ``trace`` = ``(scene handle, unit, max_depth, packet flags, y0, ahead)``, ``ahead``:
-        prefetch the gathers of the tiles ahead (:data:`PREFETCH_BYTES`). The
+        prefetch the gathers of the tiles ahead (:data:`~raycast_shade.common.prefetch.PREFETCH_BYTES`). The
         reflective pixels of each 4x4 tile of the image (on the frame's grid of tiles, cut by
         the rows given) go as one ``rtcIntersect16`` packet per bounce; a lane whose ray met a
         reflective surface (and whose weight can still change its pixel) bounces on in the
@@ -339,7 +339,7 @@ def trace_mirrors(scene, camera, hits, image, max_depth: int = 3, inputs=None, y
     if max_depth <= 0 or not geo.reflective:
         return image
     k = prepare(scene, camera) if inputs is None else inputs
-    ahead = sum(a.nbytes for a in k["G"]) > PREFETCH_BYTES
+    ahead = beyond_caches(*k["G"])
     trace = (np.uintp(embree_accel(geo).handle), float(geo.scale), int(max_depth), np.uint32(MIRROR_FLAGS),
              int(y0), ahead)
     variant(_PACKETS, k)((hits.prim, hits.geom, hits.u, hits.v), k["G"], k["B"], k["L"], k["T"], k["face_off"],

@@ -292,3 +292,30 @@ def test_render_warns_in_one_line_about_inconsistent_winding(capsys, tmp_path, s
     assert code == 0 and (tmp_path / "x.png").exists()
     assert err.startswith("raycast-shade: warning: bad.obj: ") and err.count("\n") == 1, err
     assert "wound in opposite directions" in err and "Traceback" not in err
+
+
+def test_crease_angle_keeps_a_mesh_files_hard_edges(tmp_path, capsys):
+    """An STL cube (no normals in the file): smoothed over its 90-degree edges, with the warning naming
+    the flag; with --crease-angle 30 every face is flat, so under the mesh file's two directional
+    lights and no specular term each visible face is one colour."""
+    import trimesh
+
+    path = tmp_path / "cube.stl"
+    trimesh.creation.box().export(path)
+    a, b = tmp_path / "smooth.png", tmp_path / "hard.png"
+    code, out, err = run(capsys, "render", path, "-o", a, "--width", 64, "--height", 48)
+    assert code == 0 and "edge(s) join faces at more than 60 degrees" in err and "--crease-angle 30" in err, err
+    code, out, err = run(capsys, "render", path, "--crease-angle", 30, "-o", b, "--width", 64, "--height", 48)
+    assert code == 0 and err == "", err
+    colours = [np.unique(iio.imread(p).reshape(-1, 3), axis=0) for p in (a, b)]
+    assert len(colours[1]) <= 4  # the background and at most three faces
+    assert len(colours[0]) > 20  # smoothed: shades vary across each face
+
+
+@pytest.mark.parametrize("argv, fragment", [
+    (["--crease-angle", "0"], "argument --crease-angle: expected degrees in (0, 180], got '0'"),
+    (["--crease-angle", "181"], "expected degrees in (0, 180]"),
+    (["--crease-angle", "30"], "--crease-angle: for a mesh file; a scene file sets crease_angle per [[object]]"),
+])
+def test_crease_angle_refusals(scene_file, capsys, tmp_path, argv, fragment):
+    assert_one_line_error(*run(capsys, "render", scene_file(), "-o", tmp_path / "x.png", *argv), fragment)

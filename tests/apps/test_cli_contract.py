@@ -87,8 +87,9 @@ def assert_contract(code, out, err, fragment=None):
 
 BIG = ["--width", "1000000", "--height", "1000000"]
 HUGE_FRAME = "camera.width x camera.height: 1000000 x 1000000 pixels need about 47 TB for a frame"
-# views counts its default buffers too (zdepth, normal, ids, mask: 25 bytes a pixel; the normal buffer holds its normals)
-HUGE_VIEWS = "camera.width x camera.height: 1000000 x 1000000 pixels need about 72 TB for a frame"
+# views counts its default buffers too (zdepth, normal, ids, mask: 25 bytes a pixel), less the frame's own normals
+# (12: frame.normal is the normal buffer)
+HUGE_VIEWS = "camera.width x camera.height: 1000000 x 1000000 pixels need about 60 TB for a frame"
 
 # (subcommand argv, fragment). Scene-file classes are added below for render and animate.
 CASES = [

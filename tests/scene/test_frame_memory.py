@@ -80,7 +80,7 @@ def test_the_table_is_within_a_quarter_of_measured_peaks(w, h, cases):
 def test_the_table_counts_what_is_asked():
     assert frame_bytes_per_pixel() == FRAME_BYTES_PER_PIXEL == 47
     assert frame_bytes_per_pixel(["id", "model_id"]) == 47 + 8  # aliases expanded, counted once
-    assert frame_bytes_per_pixel(["normal"]) == 47 + 12  # the buffer holds the normals it is made from
+    assert frame_bytes_per_pixel(["normal"]) == 47  # the buffer is frame.normal: the 12 bytes move into it
     assert frame_bytes_per_pixel(["normal_camera"]) == 47 + 12 + 12  # the buffer and the normals
     # Banded: the mask, and the band scratch beyond the 35 bytes a pixel made on access after it.
     assert frame_bytes(100, 1000, ["mask"], samples=2, band_rows=128) == 100 * 1000 * 49
