@@ -150,7 +150,7 @@ class Camera:
         """Orthonormal ``(right, up, forward)``, each (3,) float64, read-only."""
         # Computed once: eye, target and up are read-only copies, and a frame asks for the basis
         # about six times (0.13 ms each: np.cross is slow on 3-vectors), 6% of a 640x480 frame.
-        b = self.__dict__.get("_basis")
+        b = getattr(self, "_basis", None)  # two threads may both compute it: the same bits
         if b is None:
             # Powers of two first (exact, so the bits are those of the plain formula):
             # an up of 1e-200 or a view of 1e300 would under/overflow in the norms.
