@@ -59,8 +59,7 @@ from ..visibility.embree import RAY16_SLOTS, RAY_DIR, RAY_ORG, RAY_TFAR
 from .illumination import _spot_factor
 from .jit import FLT32_MAX, HELPER, JIT
 from .pixelstore import store_pixel
-from .shadows import LANES as PACKET_LANES, _packets, _shadow_ray, trace_packets
-from .surface import _terminator_point
+from .shadows import LANES as PACKET_LANES, _packets, _shadow_ray, _strip_background, trace_packets
 from .terms_kernel import (TERM_AMBIENT, TERM_DIFFUSE, TERM_EMISSIVE, TERM_SPECULAR, TERMS_EMIT_ON, TERMS_SHADOW,
                            _hit_background, _miss, _store)
 
@@ -294,17 +293,37 @@ def _cosines(S, spec_on, phong, blinn):
 
 
 @njit(**HELPER)
-def _origins(S, XY, n, G):
-    """Per queued lane the shadow rays' origin ``_O``: the point lifted past the terminator
-    (surface._terminator_point, as phong._shading_point does when shadow rays are traced)."""
-    verts, normals, faces, _ = G
-    for k in range(n):
-        f = XY[3 * LANES + k]
-        o = _terminator_point(verts, normals, (faces[f, 0], faces[f, 1], faces[f, 2]), S[_B1 * LANES + k],
-                              S[_B2 * LANES + k], (S[(_P + 0) * LANES + k], S[(_P + 1) * LANES + k],
-                                                   S[(_P + 2) * LANES + k]), S[_SG * LANES + k])
-        for c in range(3):
-            S[(_O + c) * LANES + k] = o[c]
+def _origins(S, XY, G):
+    """Per lane the shadow rays' origin ``_O``: the point lifted past the terminator as
+    surface._terminator_point lifts it (phong._shading_point with shadow rays), the same operations
+    in order, over every lane without branches (a select per vertex: on a noisy mesh the branches
+    mispredict), from the gather's vertices (``XY``); the lanes past the queued ones are not traced."""
+    verts, normals, _, _ = G
+    for k in range(LANES):
+        b1 = S[_B1 * LANES + k]
+        b2 = S[_B2 * LANES + k]
+        b0 = 1.0 - b1 - b2
+        px = S[(_P + 0) * LANES + k]
+        py = S[(_P + 1) * LANES + k]
+        pz = S[(_P + 2) * LANES + k]
+        sgn = S[_SG * LANES + k]
+        qx = px
+        qy = py
+        qz = pz
+        for j in range(3):
+            i = np.uint64(XY[(4 + j) * LANES + k])  # unsigned: no wrap-around test per read
+            w = b0 if j == 0 else (b1 if j == 1 else b2)
+            nx = sgn * normals[i, 0]
+            ny = sgn * normals[i, 1]
+            nz = sgn * normals[i, 2]
+            d = (px - verts[i, 0]) * nx + (py - verts[i, 1]) * ny + (pz - verts[i, 2]) * nz
+            below = d < 0.0
+            qx = qx - w * d * nx if below else qx
+            qy = qy - w * d * ny if below else qy
+            qz = qz - w * d * nz if below else qz
+        S[(_O + 0) * LANES + k] = qx
+        S[(_O + 1) * LANES + k] = qy
+        S[(_O + 2) * LANES + k] = qz
 
 
 @njit(**HELPER)
@@ -427,7 +446,7 @@ def _shade_batch(S, XY, n, G, L, cam, Q, spec_on, att_on, shadows_on, terms):
         for k in range(6 * LANES):
             S[_TD * LANES + k] = 0.0  # _TD and _TS: six fields from _TD on
     if shadows_on:
-        _origins(S, XY, n, G)
+        _origins(S, XY, G)
     for i in range(lights.shape[0]):
         _direction(S, lights, i, dmin, att_on)
         _cosines(S, spec_on, nblinn < n, nblinn > 0)
@@ -510,8 +529,8 @@ def _make_phong_fast(spec_on: bool, att_on: bool, terms_on: bool = False, shadow
         h, w = prim.shape
         faces, fnormals = G[2], G[3]
         ahead = G[0].nbytes + G[1].nbytes + faces.nbytes + fnormals.nbytes > PREFETCH_BYTES
-        # The pixels are queued row by row; with shadows, by 4x4 tiles (each row-major), so that a
-        # packet's 16 lanes are neighbours in both directions: coherent rays, cheaper to trace.
+        # The pixels are queued row by row; with shadows, by 4x4 tiles (each row-major: a packet's 16
+        # lanes neighbours both ways, coherent rays), after their strip's background (_strip_background).
         th = _TILE if shadows_on else 1
         tw = _TILE if shadows_on else w
         nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
@@ -526,19 +545,22 @@ def _make_phong_fast(spec_on: bool, att_on: bool, terms_on: bool = False, shadow
             filled = -1
             ye = min(h, (blk + 1) * BLOCK_ROWS)
             for ty in range(blk * BLOCK_ROWS, ye, th):  # rows (tiles of rows: see above)
+                if shadows_on:
+                    _strip_background((prim, geom, u, v), (image, normal), bg, ty, min(ty + th, ye))
                 for tx in range(0, w, tw):
                     for y in range(ty, min(ty + th, ye)):
                         for x in range(tx, min(tx + tw, w)):
                             p = prim[y, x]
                             if p < 0:
-                                image[y, x, 0] = bg[0]
-                                image[y, x, 1] = bg[1]
-                                image[y, x, 2] = bg[2]
-                                if want_n:
-                                    for c in range(3):
-                                        normal[y, x, c] = 0.0
-                                if terms_on:
-                                    _miss(image, R, y, y0 + y, x)
+                                if not shadows_on:  # (a shadowed frame's strip wrote its background)
+                                    image[y, x, 0] = bg[0]
+                                    image[y, x, 1] = bg[1]
+                                    image[y, x, 2] = bg[2]
+                                    if want_n:
+                                        for c in range(3):
+                                            normal[y, x, c] = 0.0
+                                    if terms_on:
+                                        _miss(image, R, y, y0 + y, x)
                                 continue
                             gm = geom[y, x]
                             if modes[gm] != METHOD_PHONG:

@@ -21,6 +21,7 @@ import numpy as np
 from numba import njit, types
 from numba.extending import intrinsic
 
+from ..common.prefetch import prefetch
 from ..visibility import embree
 from .jit import CALLED, HELPER
 
@@ -269,3 +270,41 @@ def stored_coef(points, k):
     """Lane ``k``'s 12 coefficients as :func:`store_coef` kept them."""
     return (points[k, 17], points[k, 18], points[k, 19], points[k, 20], points[k, 21], points[k, 22],
             points[k, 23], points[k, 24], points[k, 25], points[k, 26], points[k, 27], points[k, 28])
+
+
+# -- a strip of 4x4 tiles' background, row by row ------------------------------------------------------------
+
+_GROUP = 16  # strip_background's columns per group: one 64-byte line of the int32 and float32 hit arrays
+
+
+@njit(**HELPER)
+def _strip_background(H, outs, bg, y0, y1):
+    """Rows ``y0`` to ``y1 - 1`` (a strip of tiles) in row order: the background's pixels written
+    (colour ``bg``; a zero normal when ``outs``' normal array is not the empty stand-in), and for
+    each group of :data:`_GROUP` columns with a hit, its lines of ``geom``, ``u``, ``v`` and the
+    image asked for (:func:`prefetch`), which the tile order then reads and writes four rows at a
+    time. Queued by 4x4 tiles with the background written and the hit rows read in that order, the
+    shading (shadow rays aside) took 1.2-1.5x the row order's at 1080p; after this pass, 0.95-1.2x."""
+    prim, geom, u, v = H
+    image, normal = outs
+    want_n = normal.shape[0] != 0
+    w = prim.shape[1]
+    for y in range(y0, y1):
+        for x0 in range(0, w, _GROUP):
+            hit = False
+            for x in range(x0, min(x0 + _GROUP, w)):
+                if prim[y, x] < 0:
+                    image[y, x, 0] = bg[0]
+                    image[y, x, 1] = bg[1]
+                    image[y, x, 2] = bg[2]
+                    if want_n:
+                        for c in range(3):
+                            normal[y, x, c] = 0.0
+                else:
+                    hit = True
+            if hit:  # rows borrowed without reference counts (a helper compiled without NRT)
+                prefetch(geom[y], x0)
+                prefetch(u[y], x0)
+                prefetch(v[y], x0)
+                for c in range(0, _GROUP, 6):  # 16 pixels of 12 bytes: three lines
+                    prefetch(image[y], min(x0 + c, w - 1))
