@@ -124,6 +124,13 @@ def _give(spares, key, arrays) -> None:
         kept.append(arrays)
 
 
+def _unseen(seen, done) -> np.ndarray:
+    """``seen & ~done`` of two uint8 flag arrays (0 or 1), written over ``seen`` in one pass: a
+    band of a 1.31 M-triangle frame made four face-sized temporaries with ``seen & (1 - done)``."""
+    np.greater(seen, done, out=seen.view(np.bool_))
+    return seen
+
+
 class TermShading:
     """Shade one frame's hit buffer, whole or band by band, into its image and its terms.
 
@@ -193,12 +200,12 @@ class TermShading:
         k, geo = self.k, self.geo
         faces, vertices = np.zeros_like(self.face_done), np.zeros_like(self.vertex_done)
         _visible_kernel(hits.prim, hits.geom, geo.faces, k.face_off, self.modes, faces, vertices)
-        new = faces & (1 - self.face_done)
+        new = _unseen(faces, self.face_done)
         if self.flat and new.any():
             variant(_FLAT_TERMS, k)(new, k.geometry, geo.face_model, k.materials, k.cam, k.lighting, k.colours,
                                     geo.uvs, (self.fcol, self.F))
             self.face_done |= new
-        new = vertices & (1 - self.vertex_done)
+        new = _unseen(vertices, self.vertex_done)
         if self.gouraud and new.any():
             variant(_VERTEX_TERMS, k)(new, k.geometry, geo.vertex_model, k.materials, k.cam, k.lighting, k.colours,
                                       self.V)
