@@ -5,7 +5,8 @@ image.
 The vertex record ``V`` is a terms record (:mod:`.terms_kernel`) of float64 rows ``2 i + side``
 (vertex ``i`` lit from the front, side 0, or the back, side 1), followed by :data:`VERT_REACH`
 (L, 2V, 1) float64, each light's ``cone (n.s)`` at the vertex (0 where it does not reach: the
-shadow probe's unit light), the vertex colours ``vcol`` and ``vspec`` of
+shadow probe's unit light; written only in a frame with shadow rays, the only one whose mask
+reads it), the vertex colours ``vcol`` and ``vspec`` of
 :mod:`.gouraud` (V, 2, 3) float64, and the image row of the buffer's first row. Each pixel
 interpolates every term with the weights its colour is interpolated with, as the variant
 passes of :mod:`.terms` do, so the numbers are theirs (measured equal, bit for bit, on the test
@@ -76,7 +77,8 @@ def _vertex_side(V, hp, coef, materials, m, L, S, spec_on, att_on, splitting, i,
     vcol[i, side, 0] = rgb[0]
     vcol[i, side, 1] = rgb[1]
     vcol[i, side, 2] = rgb[2]
-    _reach(L[1], hp.p, hp.n, L[2], att_on, V[VERT_REACH], row)
+    if L[3] != 0:  # the reach is read only for the mask of a light with shadow rays (_pixel_lights)
+        _reach(L[1], hp.p, hp.n, L[2], att_on, V[VERT_REACH], row)
 
 
 def _make_vertex_terms(spec_on: bool, att_on: bool, tex_on: bool = False):
@@ -140,7 +142,8 @@ def _corner_terms(V, C, G, i, side, g, materials, m, cam, L, S, coef, spec_on, a
         return
     p, v = _vertex_point(verts, cam, i)
     _illuminate_terms(Hit(p, v, g, 1.0, n, p), coef, materials, m, L, S, spec_on, att_on, C, k, 0)
-    _reach(L[1], p, n, L[2], att_on, C[VERT_REACH], k)
+    if L[3] != 0:
+        _reach(L[1], p, n, L[2], att_on, C[VERT_REACH], k)
 
 
 @njit(**HELPER)
