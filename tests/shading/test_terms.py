@@ -380,3 +380,33 @@ def test_banded_terms_are_the_whole_frames_bit_for_bit(make, shading):
     if make is _glowing_lamp_scene:  # both optional terms written: the emission and the background
         assert (banded.terms["emissive"][banded.hits.geom == 0][:, :2] > 0).all()
         assert (banded.terms["background"][~banded.mask] > 0).all()
+
+
+@pytest.mark.parametrize("shading", ["flat", "gouraud", "mixed"])
+def test_a_frame_reuses_the_last_frames_face_and_vertex_records(shading):
+    """The mesh-sized face and vertex records go back to the geometry's spares when the frame
+    is done, and the next terms frame of the scene writes into them: poisoned with NaN in
+    between, another view's image and terms are still those of fresh records, bit for bit."""
+    from raycast_shade.shading.termshade import _SPARES
+
+    scene = _coloured_textured_scene("vertex", 40, 30)
+    if shading == "mixed":
+        shading = ("gouraud", "flat")
+    other = scene.camera.replace(eye=(1.5, 2.0, 3.0))
+    render_quiet(scene, shading, terms="per_light")
+    spares = scene.geometry.memo(_SPARES, lambda _: {})
+    kept = [arrays for kind in spares.values() for arrays in kind]
+    assert len(kept) == (2 if isinstance(shading, tuple) else 1)
+    for arrays in kept:
+        for a in arrays:
+            a.fill(np.nan)
+    reused = render_quiet(scene, shading, camera=other, terms="per_light")
+    again = [arrays for kind in spares.values() for arrays in kind]
+    assert len(again) == len(kept) and all(any(a is b for b in kept) for a in again)  # the same records
+    spares.clear()  # fresh records
+    fresh = render_quiet(scene, shading, camera=other, terms="per_light")
+    np.testing.assert_array_equal(reused.image, fresh.image)
+    assert list(reused.terms) == list(fresh.terms)
+    for name in fresh.terms:
+        np.testing.assert_array_equal(reused.terms[name], fresh.terms[name], err_msg=name)
+    assert not np.isnan(reused.terms["diffuse"]).any() and (reused.terms["diffuse"] > 0).any()
