@@ -136,13 +136,6 @@ def _unseen(seen, done) -> np.ndarray:
     return seen
 
 
-def _unseen(seen, done) -> np.ndarray:
-    """``seen & ~done`` of two uint8 flag arrays (0 or 1), written over ``seen`` in one pass: a
-    band of a 1.31 M-triangle frame made four face-sized temporaries with ``seen & (1 - done)``."""
-    np.greater(seen, done, out=seen.view(np.bool_))
-    return seen
-
-
 class TermShading:
     """Shade one frame's hit buffer, whole or band by band, into its image and its terms.
 
