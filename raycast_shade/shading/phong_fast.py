@@ -58,7 +58,7 @@ from ..common.schedule import BLOCK_ROWS, spread_step
 from ..visibility.embree import RAY16_SLOTS, RAY_DIR, RAY_ORG, RAY_TFAR
 from .illumination import _spot_factor
 from .jit import FLT32_MAX, HELPER, JIT
-from .pixelstore import store_pixel
+from .pixelstore import store_background, store_pixel
 from .shadows import LANES as PACKET_LANES, _packets, _shadow_ray, _strip_background, trace_packets
 from .terms_kernel import (TERM_AMBIENT, TERM_DIFFUSE, TERM_EMISSIVE, TERM_SPECULAR, TERMS_EMIT_ON, TERMS_SHADOW,
                            _hit_background, _miss, _store)
@@ -524,7 +524,6 @@ def _make_phong_fast(spec_on: bool, att_on: bool, terms_on: bool = False, shadow
             image, normal, R, y0 = outs
         else:
             image, normal = outs
-        want_n = normal.shape[0] != 0
         bg = (np.float32(background[0]), np.float32(background[1]), np.float32(background[2]))
         h, w = prim.shape
         faces, fnormals = G[2], G[3]
@@ -553,12 +552,7 @@ def _make_phong_fast(spec_on: bool, att_on: bool, terms_on: bool = False, shadow
                             p = prim[y, x]
                             if p < 0:
                                 if not shadows_on:  # (a shadowed frame's strip wrote its background)
-                                    image[y, x, 0] = bg[0]
-                                    image[y, x, 1] = bg[1]
-                                    image[y, x, 2] = bg[2]
-                                    if want_n:
-                                        for c in range(3):
-                                            normal[y, x, c] = 0.0
+                                    store_background((image, normal), y, x, bg)
                                     if terms_on:
                                         _miss(image, R, y, y0 + y, x)
                                 continue

@@ -10,7 +10,7 @@ from numba import njit
 
 from .jit import FLT32_MAX, HELPER
 
-__all__ = ["store_pixel"]
+__all__ = ["store_pixel", "store_background"]
 
 
 @njit(**HELPER)
@@ -26,3 +26,17 @@ def store_pixel(outs, y, x, rgb, n):
         normal[y, x, 0] = n[0]
         normal[y, x, 1] = n[1]
         normal[y, x, 2] = n[2]
+
+
+@njit(**HELPER)
+def store_background(outs, y, x, bg):
+    """Write background pixel ``(y, x)`` of ``outs = (image, normal)``: the colour ``bg`` (three
+    float32) and, when ``normal`` is an array, a zero normal. The batched kernel's queue loop and
+    the shadowed kernel's strip pass (:func:`.shadows._strip_background`) store their misses here."""
+    image, normal = outs
+    image[y, x, 0] = bg[0]
+    image[y, x, 1] = bg[1]
+    image[y, x, 2] = bg[2]
+    if normal.shape[0] != 0:
+        for c in range(3):
+            normal[y, x, c] = 0.0
