@@ -216,12 +216,12 @@ def test_the_prefetch_hint_compiles_to_a_prefetch_and_changes_nothing():
 def test_prefetching_the_gathers_changes_no_bit_of_the_mirror_image(depth, monkeypatch):
     """The hall's mirror bounces with the gathers of the tiles ahead prefetched (the threshold
     at 0 bytes) and without (a threshold no mesh reaches): the same image, bit for bit."""
-    from raycast_shade.shading import mirrors
+    from raycast_shade.common import prefetch
 
     k = prepare(_HALL, _HALL.camera)
 
     def traced(threshold):
-        monkeypatch.setattr(mirrors, "PREFETCH_BYTES", threshold)
+        monkeypatch.setattr(prefetch, "PREFETCH_BYTES", threshold)  # read by prefetch.beyond_caches
         return trace_mirrors(_HALL, _HALL.camera, _HITS, _LOCAL.copy(), depth, k)
 
     with_hint, without = traced(0), traced(1 << 62)
