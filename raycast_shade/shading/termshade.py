@@ -102,11 +102,10 @@ def _record(shape, slots, nlights, per_light, background, emit_on, bg_on, dtype=
 
 
 _SPARES = "shading.terms_spares"  # the geometry's memo key of the spare face and vertex records
-_KEEP = 1  # spare record sets kept per kind (a frame takes one; concurrent frames make their own)
 
 
 def _spares(geo) -> dict:
-    """The geometry's spare face and vertex records (kind -> list of array tuples): kept with
+    """The geometry's spare face and vertex records (kind -> (shape key, array tuple)): kept with
     the geometry, so a scene's next terms frame writes into memory the last one faulted in.
     Measured: at 1.31 M triangles and 1080p a Gouraud terms frame took some 130 MB of fresh
     mesh-sized pages per frame (page faults and the kernel's zeroing, in the kernels' time)."""
@@ -114,19 +113,17 @@ def _spares(geo) -> dict:
 
 
 def _take(spares, key, build) -> tuple:
-    """A spare array tuple of kind ``key`` (no other frame holds it: ``list.pop`` is atomic),
-    or ``build()``."""
-    try:
-        return spares.setdefault(key, []).pop()
-    except IndexError:
-        return build()
+    """The spare array tuple of shape ``key`` (no other frame holds it: ``dict.pop`` is atomic),
+    or ``build()``. One spare per kind (``key[0]``: flat or Gouraud) whatever its shape, so a
+    scene rendered with changing lights holds one set of records, not one per light count."""
+    kept = spares.pop(key[0], None)
+    return kept[1] if kept is not None and kept[0] == key else build()
 
 
 def _give(spares, key, arrays) -> None:
-    """``arrays`` back to the spares once their frame's shader is gone."""
-    kept = spares.setdefault(key, [])
-    if len(kept) < _KEEP:
-        kept.append(arrays)
+    """``arrays`` back to the spares once their frame's shader is gone (replacing a spare of
+    another shape: the newest frame's is the likeliest to fit the next one)."""
+    spares[key[0]] = (key, arrays)
 
 
 def _unseen(seen, done) -> np.ndarray:

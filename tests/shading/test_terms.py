@@ -395,13 +395,13 @@ def test_a_frame_reuses_the_last_frames_face_and_vertex_records(shading):
     other = scene.camera.replace(eye=(1.5, 2.0, 3.0))
     render_quiet(scene, shading, terms="per_light")
     spares = scene.geometry.memo(_SPARES, lambda _: {})
-    kept = [arrays for kind in spares.values() for arrays in kind]
+    kept = [arrays for _, arrays in spares.values()]
     assert len(kept) == (2 if isinstance(shading, tuple) else 1)
     for arrays in kept:
         for a in arrays:
             a.fill(np.nan)
     reused = render_quiet(scene, shading, camera=other, terms="per_light")
-    again = [arrays for kind in spares.values() for arrays in kind]
+    again = [arrays for _, arrays in spares.values()]
     assert len(again) == len(kept) and all(any(a is b for b in kept) for a in again)  # the same records
     spares.clear()  # fresh records
     fresh = render_quiet(scene, shading, camera=other, terms="per_light")
@@ -410,3 +410,6 @@ def test_a_frame_reuses_the_last_frames_face_and_vertex_records(shading):
     for name in fresh.terms:
         np.testing.assert_array_equal(reused.terms[name], fresh.terms[name], err_msg=name)
     assert not np.isnan(reused.terms["diffuse"]).any() and (reused.terms["diffuse"] > 0).any()
+    # Another light count: its records replace the spares of the same kind, not beside them.
+    render_quiet(scene.replace(lights=scene.lights[:1]), shading, terms="per_light")
+    assert len(spares) == len(kept) and all(key[2] == 1 for key, _ in spares.values())
