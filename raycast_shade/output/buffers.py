@@ -37,10 +37,11 @@ import numpy as np
 from numba import njit, prange
 
 from ..common.bufferspec import ALIASES, BUFFER_NAMES, BUFFERS, KERNEL_BUFFERS, registry_table
-from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH
+from ..common.layout import CAM_ORTHO
 from ..scene.framememory import BUFFER_BYTES
-from ..common.prefetch import beyond_caches, prefetch
+from ..common.prefetch import beyond_caches
 from ..visibility.rays import camera_frame
+from .pixelrays import _RAY_BUFFERS, _pinhole_zdepth_row, _ray_row, _ray_row_ahead, _row_rays, _zdepth_row
 
 __all__ = ["BUFFER_NAMES", "ALIASES", "BUFFER_BYTES", "buffer_bytes", "check_buffers", "check_buffers_out",
            "compute_buffers", "FrameBuffers"]
@@ -86,7 +87,8 @@ def buffer_bytes(names) -> int:
     return sum(BUFFER_BYTES[n] for n in check_buffers(names))
 
 
-@njit(cache=True, parallel=True)
+# error_model="numpy": the inlined ray-row helpers divide without a zero test (output.pixelrays)
+@njit(cache=True, parallel=True, error_model="numpy")
 def _buffers_kernel(view, hits, geometry, extra, outputs):
     """Every asked-for buffer of one pixel in one pass; an output of size 0 is not asked for.
 
@@ -159,25 +161,27 @@ def _buffers_kernel(view, hits, geometry, extra, outputs):
             for x in range(w):
                 semantic_id[y, x] = lut[geom[y, x]] if prim[y, x] >= 0 else np.int32(-1)
         if bary.shape[0] != 0:
+            out = bary[y].reshape(-1)  # flat rows (a stride known when compiled, 3): the loops vectorise
             for x in range(w):
                 hit = prim[y, x] >= 0
                 a = np.float64(u[y, x]) if hit else 0.0
                 b = np.float64(v[y, x]) if hit else 0.0
-                bary[y, x, 0] = 1.0 - a - b if hit else 0.0
-                bary[y, x, 1] = a
-                bary[y, x, 2] = b
+                out[3 * x] = 1.0 - a - b if hit else 0.0
+                out[3 * x + 1] = a
+                out[3 * x + 2] = b
         if normal.shape[0] != 0:
             for x in range(w):
                 for k in range(3):
                     normal[y, x, k] = shading_n[y, x, k]
         if normal_cam.shape[0] != 0:
+            sn, out = shading_n[y].reshape(-1), normal_cam[y].reshape(-1)
             for x in range(w):
-                n0 = np.float64(shading_n[y, x, 0])
-                n1 = np.float64(shading_n[y, x, 1])
-                n2 = np.float64(shading_n[y, x, 2])
-                normal_cam[y, x, 0] = n0 * r00 + n1 * r01 + n2 * r02
-                normal_cam[y, x, 1] = n0 * r10 + n1 * r11 + n2 * r12
-                normal_cam[y, x, 2] = n0 * r20 + n1 * r21 + n2 * r22
+                n0 = np.float64(sn[3 * x])
+                n1 = np.float64(sn[3 * x + 1])
+                n2 = np.float64(sn[3 * x + 2])
+                out[3 * x] = n0 * r00 + n1 * r01 + n2 * r02
+                out[3 * x + 1] = n0 * r10 + n1 * r11 + n2 * r12
+                out[3 * x + 2] = n0 * r20 + n1 * r21 + n2 * r22
         if rays and dirs.shape[0] == 0 and cam[CAM_ORTHO] == 0.0:  # a pinhole's z-depth alone: no scratch
             _pinhole_zdepth_row(y, cam, fwd, y0, prim, t, zdepth)
         elif hit_rays or rays:  # the row's rays, branch-free (it vectorises), shared by these buffers
@@ -189,204 +193,6 @@ def _buffers_kernel(view, hits, geometry, extra, outputs):
                 _ray_row(y, fwd, R, ray, prim, geom, t, geometry, (zdepth, position, face_n, face_n_cam))
             else:
                 _zdepth_row(y, fwd, ray, prim, t, zdepth)
-
-
-@njit(cache=True, inline="always")
-def _row_rays(cam, dirs, w, yy, ray):
-    """The rays of image row ``yy`` as the casters make them, into ``ray`` (6, W) float64: origins
-    x, y, z, then unit directions (``dirs``: the lens-distorted directions, row-major, or empty
-    for a pinhole). :func:`~raycast_shade.visibility.rays.pixel_ray`'s arithmetic, operation for
-    operation, with the camera read into scalars first: each loop is branch-free, so it vectorises."""
-    e0, e1, e2 = cam[CAM_EYE + 0], cam[CAM_EYE + 1], cam[CAM_EYE + 2]
-    r0, r1, r2 = cam[CAM_RIGHT + 0], cam[CAM_RIGHT + 1], cam[CAM_RIGHT + 2]
-    u0, u1, u2 = cam[CAM_UP + 0], cam[CAM_UP + 1], cam[CAM_UP + 2]
-    f0, f1, f2 = cam[CAM_FORWARD + 0], cam[CAM_FORWARD + 1], cam[CAM_FORWARD + 2]
-    cw = cam[CAM_WIDTH]
-    sy = 1.0 - 2.0 * (yy + 0.5) / cam[CAM_HEIGHT]
-    if dirs.shape[0] != 0:
-        i0 = yy * w
-        for x in range(w):
-            ray[0, x] = e0
-            ray[1, x] = e1
-            ray[2, x] = e2
-            ray[3, x] = dirs[i0 + x, 0]
-            ray[4, x] = dirs[i0 + x, 1]
-            ray[5, x] = dirs[i0 + x, 2]
-    elif cam[CAM_ORTHO] != 0.0:
-        for x in range(w):
-            sx = 2.0 * (x + 0.5) / cw - 1.0
-            ray[0, x] = e0 + sx * r0 + sy * u0
-            ray[1, x] = e1 + sx * r1 + sy * u1
-            ray[2, x] = e2 + sx * r2 + sy * u2
-            ray[3, x] = f0
-            ray[4, x] = f1
-            ray[5, x] = f2
-    else:
-        for x in range(w):
-            sx = 2.0 * (x + 0.5) / cw - 1.0
-            dx = f0 + sx * r0 + sy * u0
-            dy = f1 + sx * r1 + sy * u1
-            dz = f2 + sx * r2 + sy * u2
-            inv = 1.0 / np.sqrt(dx * dx + dy * dy + dz * dz)
-            ray[0, x] = e0
-            ray[1, x] = e1
-            ray[2, x] = e2
-            ray[3, x] = dx * inv
-            ray[4, x] = dy * inv
-            ray[5, x] = dz * inv
-
-
-@njit(cache=True, inline="always")
-def _zdepth_row(y, fwd, ray, prim, t, zdepth):
-    """Row ``y``'s z-depth from its rays (:func:`_row_rays`), branch-free: it vectorises (the
-    z-depth alone; with position or face normals it comes with their rays, :func:`_ray_row`)."""
-    g0, g1, g2 = fwd[0], fwd[1], fwd[2]
-    for x in range(prim.shape[1]):
-        z = np.float64(t[y, x]) * (ray[3, x] * g0 + ray[4, x] * g1 + ray[5, x] * g2)
-        zdepth[y, x] = z if prim[y, x] >= 0 else 0.0
-
-
-@njit(cache=True, inline="always")
-def _pinhole_zdepth_row(y, cam, fwd, y0, prim, t, zdepth):
-    """Row ``y``'s z-depth for a pinhole perspective camera, each ray made where it is used:
-    :func:`_row_rays` then :func:`_zdepth_row`, operation for operation, without the scratch row
-    (branch-free: it vectorises)."""
-    r0, r1, r2 = cam[CAM_RIGHT + 0], cam[CAM_RIGHT + 1], cam[CAM_RIGHT + 2]
-    u0, u1, u2 = cam[CAM_UP + 0], cam[CAM_UP + 1], cam[CAM_UP + 2]
-    f0, f1, f2 = cam[CAM_FORWARD + 0], cam[CAM_FORWARD + 1], cam[CAM_FORWARD + 2]
-    g0, g1, g2 = fwd[0], fwd[1], fwd[2]
-    cw = cam[CAM_WIDTH]
-    sy = 1.0 - 2.0 * (y0 + y + 0.5) / cam[CAM_HEIGHT]
-    for x in range(prim.shape[1]):
-        sx = 2.0 * (x + 0.5) / cw - 1.0
-        dx = f0 + sx * r0 + sy * u0
-        dy = f1 + sx * r1 + sy * u1
-        dz = f2 + sx * r2 + sy * u2
-        inv = 1.0 / np.sqrt(dx * dx + dy * dy + dz * dz)
-        z = np.float64(t[y, x]) * ((dx * inv) * g0 + (dy * inv) * g1 + (dz * inv) * g2)
-        zdepth[y, x] = z if prim[y, x] >= 0 else 0.0
-
-
-@njit(cache=True, inline="always")
-def _triangle_plane(vertices, faces, f):
-    """Triangle ``f``'s first vertex ``p0`` and its unnormalised normal ``n = e1 x e2``, float64."""
-    i0 = faces[f, 0]
-    i1 = faces[f, 1]
-    i2 = faces[f, 2]
-    p0x, p0y, p0z = vertices[i0, 0], vertices[i0, 1], vertices[i0, 2]
-    e1x, e1y, e1z = vertices[i1, 0] - p0x, vertices[i1, 1] - p0y, vertices[i1, 2] - p0z
-    e2x, e2y, e2z = vertices[i2, 0] - p0x, vertices[i2, 1] - p0y, vertices[i2, 2] - p0z
-    return p0x, p0y, p0z, e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
-
-
-@njit(cache=True, inline="always")
-def _plane_distance(plane, t, ox, oy, oz, dx, dy, dz):
-    """Where the ray ``o + s d`` meets the plane ``plane`` (:func:`_triangle_plane`):
-    ``s = ((p0 - o) . n) / (d . n)`` in float64, exact to rounding at any angle (the cast's ``t``
-    is float32, and its barycentrics too); ``t`` itself if the ray is parallel to the plane to
-    float64 precision."""
-    p0x, p0y, p0z, nx, ny, nz = plane
-    den = dx * nx + dy * ny + dz * nz
-    if den != 0.0:
-        q = ((p0x - ox) * nx + (p0y - oy) * ny + (p0z - oz) * nz) / den
-        if np.isfinite(q) and q > 0.0:
-            return q
-    return t
-
-
-def _make_ray_row(ahead: bool):
-    """:func:`_ray_row` without (``ahead`` False) or with prefetching, ``ahead`` a closure constant
-    folded at compile time: the plain loop is compiled as if prefetching did not exist (a loop
-    invariant test of it, or a loop over chunks, measured 20% slower at 82k triangles)."""
-
-    @njit(cache=True, inline="always")
-    def ray_row(y, fwd, R, ray, prim, geom, t, geometry, outputs):
-        """Row ``y``'s buffers that need each pixel's ray (``ray``, the row's rays from :func:`_row_rays`):
-        z-depth, position, face normals; with ``ahead``, prefetching (:func:`_prefetch_ahead`)."""
-        vertices, faces, face_normals, face_offsets, origin, _ = geometry
-        zdepth, position, face_n, face_n_cam = outputs
-        w = prim.shape[1]
-        g0, g1, g2 = fwd[0], fwd[1], fwd[2]
-        r00, r01, r02, r10, r11, r12, r20, r21, r22 = (R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2],
-                                                       R[2, 0], R[2, 1], R[2, 2])
-        want_z = zdepth.shape[0] != 0
-        want_p = position.shape[0] != 0
-        want_f = face_n.shape[0] != 0 or face_n_cam.shape[0] != 0
-        face = np.empty(w if ahead else 0, np.int64)  # the row's triangles (0 for a miss), to prefetch
-        for x in range(face.shape[0]):
-            hit = prim[y, x] >= 0
-            face[x] = face_offsets[geom[y, x] if hit else 0] + prim[y, x] if hit else 0
-        last = -1  # the triangle whose plane is in ``plane``: neighbouring pixels mostly hit the same one
-        plane = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-        for x in range(w):
-            if ahead:
-                _prefetch_ahead(face, x, faces, face_normals, vertices, want_p, want_f)
-            if prim[y, x] < 0:
-                for k in range(3):
-                    if want_p:
-                        position[y, x, k] = 0.0
-                    if face_n.shape[0] != 0:
-                        face_n[y, x, k] = 0.0
-                    if face_n_cam.shape[0] != 0:
-                        face_n_cam[y, x, k] = 0.0
-                if want_z:
-                    zdepth[y, x] = 0.0
-                continue
-            ox, oy, oz, dx, dy, dz = ray[0, x], ray[1, x], ray[2, x], ray[3, x], ray[4, x], ray[5, x]
-            if want_z:
-                zdepth[y, x] = np.float64(t[y, x]) * (dx * g0 + dy * g1 + dz * g2)
-            f = face_offsets[geom[y, x]] + prim[y, x]
-            if want_p:
-                if f != last:
-                    plane = _triangle_plane(vertices, faces, f)
-                    last = f
-                s = _plane_distance(plane, np.float64(t[y, x]), ox, oy, oz, dx, dy, dz)
-                position[y, x, 0] = (ox + s * dx) + origin[0]
-                position[y, x, 1] = (oy + s * dy) + origin[1]
-                position[y, x, 2] = (oz + s * dz) + origin[2]
-            if want_f:
-                n0 = face_normals[f, 0]
-                n1 = face_normals[f, 1]
-                n2 = face_normals[f, 2]
-                if n0 * dx + n1 * dy + n2 * dz > 0.0:  # turned to the viewer, as shading does
-                    n0, n1, n2 = -n0, -n1, -n2
-                if face_n.shape[0] != 0:
-                    face_n[y, x, 0] = n0
-                    face_n[y, x, 1] = n1
-                    face_n[y, x, 2] = n2
-                if face_n_cam.shape[0] != 0:
-                    face_n_cam[y, x, 0] = n0 * r00 + n1 * r01 + n2 * r02
-                    face_n_cam[y, x, 1] = n0 * r10 + n1 * r11 + n2 * r12
-                    face_n_cam[y, x, 2] = n0 * r20 + n1 * r21 + n2 * r22
-
-    return ray_row
-
-
-@njit(cache=True, inline="always")
-def _prefetch_ahead(face, x, faces, face_normals, vertices, want_p, want_f):
-    """Prefetch the rows (faces, face normals) of the triangle of the pixel :data:`_AHEAD_FACES`
-    ahead of ``x`` in the row whose triangles are ``face``, and the vertices of that of the pixel
-    :data:`_AHEAD_VERTS` ahead (whose face row was prefetched before). The arrays come one by one: a
-    tuple of them made per pixel would take and drop a reference on each."""
-    w = face.shape[0]
-    if x + _AHEAD_FACES < w:
-        f = face[x + _AHEAD_FACES]
-        if want_p:
-            prefetch(faces, f)
-        if want_f:
-            prefetch(face_normals, f)
-    if want_p and x + _AHEAD_VERTS < w:
-        f = face[x + _AHEAD_VERTS]
-        for c in range(3):
-            prefetch(vertices, faces[f, c])
-
-
-_ray_row, _ray_row_ahead = _make_ray_row(False), _make_ray_row(True)
-# Pixels ahead of the one being done whose triangles' rows (then vertices) are prefetched, on a mesh
-# whose gathered arrays exceed PREFETCH_BYTES (the kernels' common threshold). Measured at 1.31 M triangles,
-# 1080p, all 12 buffers: 48/24, 32/16 and 16/8 within noise of one another, each 20-27% faster.
-_AHEAD_FACES, _AHEAD_VERTS = 48, 24
-_RAY_BUFFERS = ("zdepth", "position", "face_normal", "face_normal_camera")  # those that need the pixel's ray
 
 
 class FrameBuffers:
