@@ -1,8 +1,13 @@
 """Gouraud shading: the reflectance equation at each vertex with its averaged
 normal; the colours interpolated over each triangle with the barycentrics.
 
-A vertex is lit from whichever side the viewer sees its triangle, so each
-visible vertex gets two shades, front (its normal) and back (negated).
+A vertex is lit from whichever side the viewer sees its triangle: front (its
+normal) or back (negated). Only the sides some visible face needs are shaded
+(:func:`_face_sides_kernel`): a closed mesh's visible vertices are seen from
+one side only, so half the lighting of shading both. A face whose side is
+certain and whose corners' stored shades all serve is marked so that its
+pixels interpolate the stored shades at once, without the hit point, the view
+and the corner tests (every pixel's colour is the one those give, bit for bit).
 Shadow rays leave the vertex, so Gouraud's shadows are as coarse as its
 highlights.
 
@@ -19,11 +24,11 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ..common.layout import COLOR_VERTEX, MAT_KA_COLORS, METHOD_GOURAUD
+from ..common.layout import CAM_EYE, CAM_ORTHO, COLOR_VERTEX, MAT_KA_COLORS, METHOD_GOURAUD
 from ..common.schedule import BLOCK_ROWS, spread_step
 from .illumination import _illuminate, _illuminate_call
 from .jit import CALLED, CHUNK, FLT32_MAX, HELPER, JIT, compile_variants
-from .records import At, Hit, dot, reflect_into
+from .records import At, Hit, dot, neg, reflect_into
 from .shadows import _scratch
 from .surface import _convex_weights, _facing, _hit_point, _triangle, _view
 from .texture import _point_coefficients, _row_coefficients
@@ -32,6 +37,12 @@ __all__ = []
 
 _DIFFUSE_ONLY = (0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)  # ka, kd, ks, ke of the modulate
 _SPECULAR_ONLY = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0)  # path's two passes
+# A face's side is certain when each corner lies beyond the face's plane, seen from the eye, by
+# _CERTAIN of the scale its rounding errors are measured in; its pixels inherit the side when
+# their weights lie within _NEAR of the triangle. A pixel's computed facing then differs from
+# the plane test by at most 6 _NEAR + some 40 ulps of the scale: the margin is 1e-4 > 6e-6.
+_CERTAIN = 1e-4
+_NEAR = 1e-6
 
 
 @njit(**HELPER)
@@ -110,16 +121,98 @@ def _corner_split(vcol, vspec, G, i, side, g, materials, m, cam, L, S, spec_on, 
     return _split_shade(Hit(p, v, g, 1.0, n, p), materials, m, L, S, spec_on, att_on)
 
 
+@njit(**HELPER)
+def _near_face(b1, b2):
+    """Whether the weights ``(1 - b1 - b2, b1, b2)`` lie within :data:`_NEAR` of the triangle (a
+    hit's always do, up to Embree's few ulps): then the pixel is seen from its face's side."""
+    return b1 >= -_NEAR and b2 >= -_NEAR and b1 + b2 <= 1.0 + _NEAR
+
+
+@njit(**HELPER)
+def _face_side(G, cam, f):
+    """The side (0 front, 1 back) from which :func:`~.surface._facing` sees face ``f`` at every
+    point with :func:`_near_face` weights, or -1 where that is not certain (a degenerate face,
+    an eye near the face's plane): each corner's ``g . (eye - v)`` must clear 0 by
+    :data:`_CERTAIN` of ``sum |g| (|eye| + |v|)``, which bounds the rounding of the pixels'
+    hit point, view and dot product. An orthographic view's side is the pixels' test itself."""
+    verts, normals, faces, fnormals = G
+    g = (fnormals[f, 0], fnormals[f, 1], fnormals[f, 2])
+    if g[0] == 0.0 and g[1] == 0.0 and g[2] == 0.0:  # the pixels face the viewer with v itself
+        return -1
+    if cam[CAM_ORTHO] != 0.0:
+        _, sgn = _facing(fnormals, f, _view(cam, g))  # the view ignores the point
+        return 0 if sgn > 0.0 else 1
+    lo, hi, scale = np.inf, -np.inf, 0.0
+    for k in range(3):
+        i = faces[f, k]
+        d = 0.0
+        s = 0.0
+        for c in range(3):
+            e = cam[CAM_EYE + c]
+            d += g[c] * (e - verts[i, c])
+            s += abs(g[c]) * (abs(e) + abs(verts[i, c]))
+        lo = min(lo, d)
+        hi = max(hi, d)
+        scale = max(scale, s)
+    if lo > _CERTAIN * scale:
+        return 0
+    if hi < -_CERTAIN * scale:
+        return 1
+    return -1  # NaN lands here too
+
+
+@njit(parallel=True, **JIT)
+def _face_sides_kernel(face_flags, G, cam, state, vertex_flags):
+    """The flagged faces' sides: each face's pixels need its corners' shades from one side
+    (:func:`_face_side`), or from either where that is not certain, and ``vertex_flags`` (V, 2)
+    uint8 gets 1 at ``[i, side]`` for each. ``state`` (F,) uint8: ``1 + side`` for a face of
+    certain side whose corners' stored shades all serve (:func:`_corner_normal`), whose
+    near-face pixels (:func:`_near_face`) interpolate them at once; 0 for the others."""
+    verts, normals, faces, fnormals = G
+    n = faces.shape[0]
+    nchunk = (n + CHUNK - 1) // CHUNK
+    for c in prange(nchunk):  # cheap and even work: plain chunks
+        for f in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
+            if face_flags[f] == 0:
+                continue
+            side = _face_side(G, cam, f)
+            tri = _triangle(faces, f)
+            if side < 0:
+                state[f] = 0
+                for k in range(3):  # racy, but every writer stores the same 1
+                    vertex_flags[tri[k], 0] = 1
+                    vertex_flags[tri[k], 1] = 1
+                continue
+            g = (fnormals[f, 0], fnormals[f, 1], fnormals[f, 2])
+            gn = g if side == 0 else neg(g)  # _facing's turned normal
+            served = True
+            for k in range(3):
+                vertex_flags[tri[k], side] = 1
+                served = served and _corner_normal(normals, tri[k], side, gn)[1]
+            state[f] = 1 + side if served else 0
+
+
+@njit(**HELPER)
+def _stored_pixel(vcol, tri, side, b1, b2, image, y, x):
+    """A pixel of a face whose corners' stored shades serve: their shades from ``side``
+    interpolated into ``image[y, x]`` (as the general pixel does); returns the weights."""
+    i0, i1, i2 = tri
+    w0, w1, w2 = _convex_weights(b1, b2)
+    for c in range(3):
+        image[y, x, c] = min(w0 * vcol[i0, side, c] + w1 * vcol[i1, side, c] + w2 * vcol[i2, side, c], FLT32_MAX)
+    return w0, w1, w2
+
+
 def _make_vertices(spec_on: bool, att_on: bool, tex_on: bool = False):
     """The per-vertex kernel for one variant (see :mod:`.jit`; ``tex_on``: vertex colours
     and the modulate path)."""
 
     @njit(parallel=True, **JIT)
     def _shade_vertices_kernel(vertex_flags, G, vertex_model, materials, cam, L, T, out, spec_out):
-        """Gouraud: the shade of each visible vertex, lit from the front (normal)
-        and from the back (negated normal); ``out`` (V, 2, 3) float64. For a
-        model on the modulate path (``T``'s split flag), ``out`` holds the
-        diffuse light and ``spec_out`` (V, 2, 3) the specular light."""
+        """Gouraud: the shade of each visible vertex from each side its faces need
+        (``vertex_flags`` (V, 2): front, lit with its normal, and back, with the negated
+        one); ``out`` (V, 2, 3) float64. For a model on the modulate path (``T``'s split
+        flag), ``out`` holds the diffuse light and ``spec_out`` (V, 2, 3) the specular light."""
         verts, normals, _, _ = G
         vcolors, fcolors, cmode, tindex, ttexels, tinfo, split = T
         n = verts.shape[0]
@@ -129,12 +222,14 @@ def _make_vertices(spec_on: bool, att_on: bool, tex_on: bool = False):
             c = (it * step) % nchunk
             S = _scratch()
             for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
-                if vertex_flags[i] == 0:
+                if vertex_flags[i, 0] == 0 and vertex_flags[i, 1] == 0:
                     continue
                 p, view = _vertex_point(verts, cam, i)
                 m = vertex_model[i]
                 coef = _vertex_kd(materials, m, cmode, vcolors, i, tex_on)
                 for side in range(2):
+                    if vertex_flags[i, side] == 0:
+                        continue
                     sg = 1.0 - 2.0 * side
                     nv = (sg * normals[i, 0], sg * normals[i, 1], sg * normals[i, 2])
                     hp = Hit(p, view, nv, 1.0, nv, p)  # a vertex: its own normal is its geometric one
@@ -182,9 +277,10 @@ def _make_interpolate(spec_on: bool, att_on: bool, tex_on: bool = False):
     def _interp_gouraud_kernel(prim, geom, u, v, G, B, face_off, materials, cam, L, T, background, modes, shades,
                                image):
         """Gouraud: interpolate vertex shades over the models whose method is METHOD_GOURAUD;
-        ``shades`` = ``(vcol, vspec, y0)``: the vertex kernel's, and the image row of the
-        buffer's first row (a band of the frame; textures need the image position)."""
-        vcol, vspec, y0 = shades
+        ``shades`` = ``(vcol, vspec, y0, state)``: the vertex kernel's, the image row of the
+        buffer's first row (a band of the frame; textures need the image position) and the
+        faces' states (:func:`_face_sides_kernel`)."""
+        vcol, vspec, y0, state = shades
         verts, normals, faces, fnormals = G
         uvs = B[0]
         vcolors, fcolors, cmode, tindex, ttexels, tinfo, split = T
@@ -208,6 +304,9 @@ def _make_interpolate(spec_on: bool, att_on: bool, tex_on: bool = False):
                     b1 = np.float64(u[y, x])
                     b2 = np.float64(v[y, x])
                     tri = _triangle(faces, f)
+                    if state[f] != 0 and _near_face(b1, b2) and not (tex_on and split[g] != 0):
+                        _stored_pixel(vcol, tri, state[f] - 1, b1, b2, image, y, x)  # the usual pixel
+                        continue
                     i0, i1, i2 = tri
                     view = _view(cam, _hit_point(verts, tri, b1, b2))
                     gn, sgn = _facing(fnormals, f, view)
