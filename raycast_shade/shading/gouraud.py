@@ -3,11 +3,11 @@ normal; the colours interpolated over each triangle with the barycentrics.
 
 A vertex is lit from whichever side the viewer sees its triangle: front (its
 normal) or back (negated). Only the sides some visible face needs are shaded
-(:func:`_face_sides_kernel`): a closed mesh's visible vertices are seen from
-one side only, so half the lighting of shading both. A face whose side is
-certain and whose corners' stored shades all serve is marked so that its
-pixels interpolate the stored shades at once, without the hit point, the view
-and the corner tests (every pixel's colour is the one those give, bit for bit).
+(:mod:`.gouraud_sides`): a closed mesh's visible vertices are seen from one
+side only, half the lighting of shading both. A face whose side is certain
+and whose corners' stored shades all serve is marked there, and its pixels
+interpolate the stored shades at once, without the hit point, the view and
+the corner tests (every pixel's colour is the one those give, bit for bit).
 Shadow rays leave the vertex, so Gouraud's shadows are as coarse as its
 highlights.
 
@@ -24,11 +24,13 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ..common.layout import CAM_EYE, CAM_ORTHO, COLOR_VERTEX, MAT_KA_COLORS, METHOD_GOURAUD
+from ..common.layout import COLOR_VERTEX, MAT_KA_COLORS, METHOD_GOURAUD
+from ..common.prefetch import prefetch
 from ..common.schedule import BLOCK_ROWS, spread_step
+from .gouraud_sides import _near_face
 from .illumination import _illuminate, _illuminate_call
 from .jit import CALLED, CHUNK, FLT32_MAX, HELPER, JIT, compile_variants
-from .records import At, Hit, dot, neg, reflect_into
+from .records import At, Hit, dot, reflect_into
 from .shadows import _scratch
 from .surface import _convex_weights, _facing, _hit_point, _triangle, _view
 from .texture import _point_coefficients, _row_coefficients
@@ -37,12 +39,6 @@ __all__ = []
 
 _DIFFUSE_ONLY = (0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)  # ka, kd, ks, ke of the modulate
 _SPECULAR_ONLY = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0)  # path's two passes
-# A face's side is certain when each corner lies beyond the face's plane, seen from the eye, by
-# _CERTAIN of the scale its rounding errors are measured in; its pixels inherit the side when
-# their weights lie within _NEAR of the triangle. A pixel's computed facing then differs from
-# the plane test by at most 6 _NEAR + some 40 ulps of the scale: the margin is 1e-4 > 6e-6.
-_CERTAIN = 1e-4
-_NEAR = 1e-6
 
 
 @njit(**HELPER)
@@ -122,77 +118,6 @@ def _corner_split(vcol, vspec, G, i, side, g, materials, m, cam, L, S, spec_on, 
 
 
 @njit(**HELPER)
-def _near_face(b1, b2):
-    """Whether the weights ``(1 - b1 - b2, b1, b2)`` lie within :data:`_NEAR` of the triangle (a
-    hit's always do, up to Embree's few ulps): then the pixel is seen from its face's side."""
-    return b1 >= -_NEAR and b2 >= -_NEAR and b1 + b2 <= 1.0 + _NEAR
-
-
-@njit(**HELPER)
-def _face_side(G, cam, f):
-    """The side (0 front, 1 back) from which :func:`~.surface._facing` sees face ``f`` at every
-    point with :func:`_near_face` weights, or -1 where that is not certain (a degenerate face,
-    an eye near the face's plane): each corner's ``g . (eye - v)`` must clear 0 by
-    :data:`_CERTAIN` of ``sum |g| (|eye| + |v|)``, which bounds the rounding of the pixels'
-    hit point, view and dot product. An orthographic view's side is the pixels' test itself."""
-    verts, normals, faces, fnormals = G
-    g = (fnormals[f, 0], fnormals[f, 1], fnormals[f, 2])
-    if g[0] == 0.0 and g[1] == 0.0 and g[2] == 0.0:  # the pixels face the viewer with v itself
-        return -1
-    if cam[CAM_ORTHO] != 0.0:
-        _, sgn = _facing(fnormals, f, _view(cam, g))  # the view ignores the point
-        return 0 if sgn > 0.0 else 1
-    lo, hi, scale = np.inf, -np.inf, 0.0
-    for k in range(3):
-        i = faces[f, k]
-        d = 0.0
-        s = 0.0
-        for c in range(3):
-            e = cam[CAM_EYE + c]
-            d += g[c] * (e - verts[i, c])
-            s += abs(g[c]) * (abs(e) + abs(verts[i, c]))
-        lo = min(lo, d)
-        hi = max(hi, d)
-        scale = max(scale, s)
-    if lo > _CERTAIN * scale:
-        return 0
-    if hi < -_CERTAIN * scale:
-        return 1
-    return -1  # NaN lands here too
-
-
-@njit(parallel=True, **JIT)
-def _face_sides_kernel(face_flags, G, cam, state, vertex_flags):
-    """The flagged faces' sides: each face's pixels need its corners' shades from one side
-    (:func:`_face_side`), or from either where that is not certain, and ``vertex_flags`` (V, 2)
-    uint8 gets 1 at ``[i, side]`` for each. ``state`` (F,) uint8: ``1 + side`` for a face of
-    certain side whose corners' stored shades all serve (:func:`_corner_normal`), whose
-    near-face pixels (:func:`_near_face`) interpolate them at once; 0 for the others."""
-    verts, normals, faces, fnormals = G
-    n = faces.shape[0]
-    nchunk = (n + CHUNK - 1) // CHUNK
-    for c in prange(nchunk):  # cheap and even work: plain chunks
-        for f in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
-            if face_flags[f] == 0:
-                continue
-            side = _face_side(G, cam, f)
-            tri = _triangle(faces, f)
-            if side < 0:
-                state[f] = 0
-                for k in range(3):  # racy, but every writer stores the same 1
-                    vertex_flags[tri[k], 0] = 1
-                    vertex_flags[tri[k], 1] = 1
-                continue
-            g = (fnormals[f, 0], fnormals[f, 1], fnormals[f, 2])
-            gn = g if side == 0 else neg(g)  # _facing's turned normal
-            served = True
-            for k in range(3):
-                vertex_flags[tri[k], side] = 1
-                served = served and _corner_normal(normals, tri[k], side, gn)[1]
-            state[f] = 1 + side if served else 0
-
-
-@njit(**HELPER)
 def _stored_pixel(vcol, tri, side, b1, b2, image, y, x):
     """A pixel of a face whose corners' stored shades serve: their shades from ``side``
     interpolated into ``image[y, x]`` (as the general pixel does); returns the weights."""
@@ -201,6 +126,22 @@ def _stored_pixel(vcol, tri, side, b1, b2, image, y, x):
     for c in range(3):
         image[y, x, c] = min(w0 * vcol[i0, side, c] + w1 * vcol[i1, side, c] + w2 * vcol[i2, side, c], FLT32_MAX)
     return w0, w1, w2
+
+
+@njit(**HELPER)
+def _prefetch_pixel(prim, geom, face_off, faces, vcol, y, x, ahead):
+    """On a mesh beyond the caches, the rows the pixel ``ahead`` columns on will read: its
+    face's vertex indices now, and the vertex shades of the pixel half as far on (whose face
+    row an earlier call asked for)."""
+    w = prim.shape[1]
+    xa = x + ahead
+    if xa < w and prim[y, xa] >= 0:
+        prefetch(faces, face_off[geom[y, xa]] + prim[y, xa])
+    xb = x + ahead // 2
+    if xb < w and prim[y, xb] >= 0:
+        f = face_off[geom[y, xb]] + prim[y, xb]
+        for k in range(3):
+            prefetch(vcol, faces[f, k])
 
 
 def _make_vertices(spec_on: bool, att_on: bool, tex_on: bool = False):
@@ -277,10 +218,11 @@ def _make_interpolate(spec_on: bool, att_on: bool, tex_on: bool = False):
     def _interp_gouraud_kernel(prim, geom, u, v, G, B, face_off, materials, cam, L, T, background, modes, shades,
                                image):
         """Gouraud: interpolate vertex shades over the models whose method is METHOD_GOURAUD;
-        ``shades`` = ``(vcol, vspec, y0, state)``: the vertex kernel's, the image row of the
-        buffer's first row (a band of the frame; textures need the image position) and the
-        faces' states (:func:`_face_sides_kernel`)."""
-        vcol, vspec, y0, state = shades
+        ``shades`` = ``(vcol, vspec, y0, state, ahead)``: the vertex kernel's, the image row of
+        the buffer's first row (a band of the frame; textures need the image position), the
+        faces' states (:func:`~raycast_shade.shading.gouraud_sides._face_sides_kernel`) and
+        how many pixels ahead to prefetch (0: not at all)."""
+        vcol, vspec, y0, state, ahead = shades
         verts, normals, faces, fnormals = G
         uvs = B[0]
         vcolors, fcolors, cmode, tindex, ttexels, tinfo, split = T
@@ -292,6 +234,8 @@ def _make_interpolate(spec_on: bool, att_on: bool, tex_on: bool = False):
             for y in range(blk * BLOCK_ROWS, min(h, (blk + 1) * BLOCK_ROWS)):
                 S = _scratch()
                 for x in range(w):
+                    if ahead > 0:
+                        _prefetch_pixel(prim, geom, face_off, faces, vcol, y, x, ahead)
                     p = prim[y, x]
                     if p < 0:
                         for c in range(3):

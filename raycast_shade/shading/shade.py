@@ -26,9 +26,11 @@ from numba import njit, prange
 
 from ..common.choices import SHADINGS
 from ..common.layout import METHOD_FLAT, METHOD_GOURAUD, METHOD_PHONG
+from ..common.prefetch import beyond_caches
 from ..visibility.hits import check_hits
 from .flat import _FLAT, _lookup_flat_kernel
-from .gouraud import _INTERPOLATE, _VERTICES, _face_sides_kernel, _near_face
+from .gouraud import _INTERPOLATE, _VERTICES
+from .gouraud_sides import _face_sides_kernel, _near_face, face_planes
 from .inputs import prepare
 from .jit import JIT, variant
 from .phong import _PHONG, _PHONG_PACKETS
@@ -38,6 +40,7 @@ __all__ = ["SHADINGS", "METHODS", "shade", "shade_hits", "resolve_methods", "Sam
            "sample_mean", "GROUP"]
 
 METHODS = {"flat": METHOD_FLAT, "gouraud": METHOD_GOURAUD, "phong": METHOD_PHONG}  # name: code (layout.py)
+_AHEAD = 16  # pixels ahead the Gouraud pixel kernel prefetches for, beyond the caches
 
 
 def resolve_methods(scene, shading) -> np.ndarray:
@@ -118,8 +121,8 @@ def _check_inputs(scene, camera, hits) -> None:
 def _visible_kernel(prim, geom, u, v, faces, face_off, modes, flags):
     """Mark what some pixel sees, into ``flags`` = ``(flat, gouraud, sides)``: the faces of
     flat-shaded models and those of Gouraud-shaded ones (F,) uint8; only those get shaded,
-    Gouraud's vertices from the sides their faces need (:func:`.gouraud._face_sides_kernel`).
-    A Gouraud pixel whose weights stray from its triangle (:func:`.gouraud._near_face`) may see
+    Gouraud's vertices from the sides their faces need (:mod:`.gouraud_sides`).
+    A Gouraud pixel whose weights stray from its triangle (:func:`.gouraud_sides._near_face`) may see
     it from either side: both sides of its corners ``sides[i, side]`` (V, 2) uint8."""
     flat, gouraud, sides = flags
     h, w = prim.shape
@@ -150,7 +153,7 @@ def _unseen(seen, done) -> np.ndarray:
 class Seen:
     """What one frame's hit buffers (its bands, its samples) have seen so far: the faces of
     flat-shaded models, the faces of Gouraud-shaded ones with their states (see
-    :func:`~raycast_shade.shading.gouraud._face_sides_kernel`) and the vertex sides those
+    :mod:`~raycast_shade.shading.gouraud_sides`) and the vertex sides those
     need; each is shaded once, by the first buffer that sees it.
 
     Attributes
@@ -183,7 +186,7 @@ class Seen:
         self.face_done |= flat
         gouraud = _unseen(gouraud, self.gouraud_done)
         if self.gouraud and gouraud.any():
-            _face_sides_kernel(gouraud, k["G"], k["cam"], self.state, sides)
+            _face_sides_kernel(gouraud, k["G"], k["cam"], face_planes(geo), self.state, sides)
             self.gouraud_done |= gouraud
         sides = _unseen(sides, self.vertex_done)
         self.vertex_done |= sides
@@ -232,6 +235,8 @@ class SampleShading:
         self.vcol = np.zeros((len(self.geo.vertices), 2, 3), np.float64) if self.gouraud else None
         # Specular vertex light apart from the diffuse: the textured "modulate" path only.
         self.vspec = np.zeros((len(self.geo.vertices) if self.k["tex_on"] and self.gouraud else 1, 2, 3), np.float64)
+        # The Gouraud pixels' gathers (face rows, vertex shades) prefetched beyond the caches
+        self.ahead = _AHEAD if self.gouraud and beyond_caches(self.k["G"][2], self.vcol) else 0
 
     def _share(self, hits):
         """Shade the faces and vertex sides ``hits`` sees that no earlier sample saw."""
@@ -267,7 +272,7 @@ class SampleShading:
         if self.gouraud:
             variant(_INTERPOLATE, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["face_off"],
                                      k["materials"], k["cam"], k["L"], k["T"], k["background"], modes,
-                                     (self.vcol, self.vspec, int(y0), self.seen.state), image)
+                                     (self.vcol, self.vspec, int(y0), self.seen.state, self.ahead), image)
         normals = _NO_NORMALS if normal is None else normal
         if self.fast_phong:  # shadow rays (a scene handle) go as packets of 16 of its lanes
             fast = _PHONG_FAST_SHADOWS if k["L"][3] != 0 else _PHONG_FAST

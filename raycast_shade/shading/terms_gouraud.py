@@ -8,7 +8,7 @@ The vertex record ``V`` is a terms record (:mod:`.terms_kernel`) of float64 rows
 shadow probe's unit light; written only in a frame with shadow rays, the only one whose mask
 reads it), the vertex colours ``vcol`` and ``vspec`` of
 :mod:`.gouraud` (V, 2, 3) float64, the image row of the buffer's first row and the faces' states
-(F,) uint8 (:func:`~raycast_shade.shading.gouraud._face_sides_kernel`). Only the vertex sides some
+(F,) uint8 (:mod:`.gouraud_sides`). Only the vertex sides some
 seen face needs are written (and read). Each pixel
 interpolates every term with the weights its colour is interpolated with, as the variant
 passes of :mod:`.terms` do, so the numbers are theirs (measured equal, bit for bit, on the test
@@ -28,8 +28,8 @@ from numba import njit, prange
 
 from ..common.layout import LIGHT_SHADOWS, METHOD_GOURAUD
 from ..common.schedule import BLOCK_ROWS, spread_step
-from .gouraud import (_corner_normal, _corner_shade, _modulate, _near_face, _split_shade, _stored_pixel, _vertex_kd,
-                      _vertex_point)
+from .gouraud import _corner_normal, _corner_shade, _modulate, _split_shade, _stored_pixel, _vertex_kd, _vertex_point
+from .gouraud_sides import _near_face
 from .illumination import _light_at
 from .jit import CALLED, CHUNK, FLT32_MAX, HELPER, JIT, compile_variants
 from .records import At, Hit, dot

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import raycast_shade as rs
-from raycast_shade.shading.gouraud import _face_sides_kernel
+from raycast_shade.shading.gouraud_sides import _face_sides_kernel, face_planes
 from raycast_shade.shading.inputs import prepare
 from raycast_shade.shading.shade import SampleShading
 from raycast_shade.study.reference import shade_reference
@@ -78,7 +78,7 @@ def test_face_side_is_certain_or_both_sides_are_shaded(eye, projection, state, s
     k = prepare(scene, scene.camera)
     out = np.full(1, 9, np.uint8)
     flags = np.zeros((3, 2), np.uint8)
-    _face_sides_kernel(np.ones(1, np.uint8), k["G"], k["cam"], out, flags)
+    _face_sides_kernel(np.ones(1, np.uint8), k["G"], k["cam"], face_planes(scene.geometry), out, flags)
     assert out[0] == state
     np.testing.assert_array_equal(flags, np.tile(sides, (3, 1)))
 
