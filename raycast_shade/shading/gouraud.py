@@ -25,7 +25,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..common.layout import COLOR_VERTEX, MAT_KA_COLORS, METHOD_GOURAUD
-from ..common.prefetch import prefetch
+from ..common.prefetch import beyond_caches, prefetch
 from ..common.schedule import BLOCK_ROWS, spread_step
 from .gouraud_sides import _near_face
 from .illumination import _illuminate, _illuminate_call
@@ -35,8 +35,9 @@ from .shadows import _scratch
 from .surface import _convex_weights, _facing, _hit_point, _triangle, _view
 from .texture import _point_coefficients, _row_coefficients
 
-__all__ = []
+__all__ = ["prefetch_distance"]
 
+_AHEAD = 16  # pixels ahead the pixel kernels prefetch for, beyond the caches (8: 14% slower, 32: 6%)
 _DIFFUSE_ONLY = (0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)  # ka, kd, ks, ke of the modulate
 _SPECULAR_ONLY = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0)  # path's two passes
 
@@ -126,6 +127,13 @@ def _stored_pixel(vcol, tri, side, b1, b2, image, y, x):
     for c in range(3):
         image[y, x, c] = min(w0 * vcol[i0, side, c] + w1 * vcol[i1, side, c] + w2 * vcol[i2, side, c], FLT32_MAX)
     return w0, w1, w2
+
+
+def prefetch_distance(faces, vcol) -> int:
+    """How many pixels ahead the pixel kernels prefetch: :data:`_AHEAD` when the face rows and
+    vertex shades they gather exceed the caches (:func:`~raycast_shade.common.prefetch.beyond_caches`;
+    at 82k triangles the hint cost 16-36% of the kernel), else 0."""
+    return _AHEAD if beyond_caches(faces, vcol) else 0
 
 
 @njit(**HELPER)

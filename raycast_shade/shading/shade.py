@@ -26,10 +26,9 @@ from numba import njit, prange
 
 from ..common.choices import SHADINGS
 from ..common.layout import METHOD_FLAT, METHOD_GOURAUD, METHOD_PHONG
-from ..common.prefetch import beyond_caches
 from ..visibility.hits import check_hits
 from .flat import _FLAT, _lookup_flat_kernel
-from .gouraud import _INTERPOLATE, _VERTICES
+from .gouraud import _INTERPOLATE, _VERTICES, prefetch_distance
 from .gouraud_sides import _face_sides_kernel, _near_face, face_planes
 from .inputs import prepare
 from .jit import JIT, variant
@@ -40,7 +39,6 @@ __all__ = ["SHADINGS", "METHODS", "shade", "shade_hits", "resolve_methods", "Sam
            "sample_mean", "GROUP"]
 
 METHODS = {"flat": METHOD_FLAT, "gouraud": METHOD_GOURAUD, "phong": METHOD_PHONG}  # name: code (layout.py)
-_AHEAD = 16  # pixels ahead the Gouraud pixel kernel prefetches for, beyond the caches
 
 
 def resolve_methods(scene, shading) -> np.ndarray:
@@ -235,8 +233,7 @@ class SampleShading:
         self.vcol = np.zeros((len(self.geo.vertices), 2, 3), np.float64) if self.gouraud else None
         # Specular vertex light apart from the diffuse: the textured "modulate" path only.
         self.vspec = np.zeros((len(self.geo.vertices) if self.k["tex_on"] and self.gouraud else 1, 2, 3), np.float64)
-        # The Gouraud pixels' gathers (face rows, vertex shades) prefetched beyond the caches
-        self.ahead = _AHEAD if self.gouraud and beyond_caches(self.k["G"][2], self.vcol) else 0
+        self.ahead = prefetch_distance(self.k["G"][2], self.vcol) if self.gouraud else 0
 
     def _share(self, hits):
         """Shade the faces and vertex sides ``hits`` sees that no earlier sample saw."""

@@ -35,7 +35,8 @@ from .mirrors import trace_mirrors
 from .phong_fast import _NO_NORMALS, _PHONG_FAST_TERMS
 from .phong_fast import applies as _fast_applies
 from .shade import Seen, resolve_methods
-from .terms_gouraud import _GOURAUD_TERMS, _VERTEX_TERMS, VERT_Y0, scratch_slots
+from .gouraud import prefetch_distance
+from .terms_gouraud import _GOURAUD_TERMS, _VERTEX_TERMS, VERT_COL, VERT_Y0, scratch_slots
 from .flat import _FLAT_TERMS, _lookup_flat_terms
 from .terms_kernel import _PHONG_TERMS, TERM_BACKGROUND, TERM_EMISSIVE, TERM_SLOTS, TERMS_EACH, TERMS_SHADOW
 
@@ -186,6 +187,7 @@ class TermShading:
             V = _assemble(arrays[:-3], {TERM_EMISSIVE: _NONE64, TERM_BACKGROUND: _NONE64}, emit_on, False,
                           k.background)
             self.V = V + arrays[-3:] + (0,)
+            self.ahead = prefetch_distance(k.geometry[2], self.V[VERT_COL])
             weakref.finalize(self, _give, spares, key, arrays)
 
     def _share(self, hits):
@@ -220,7 +222,7 @@ class TermShading:
                                (image, y0, self.R, self.F))
         if self.gouraud:
             tasks = (h + BLOCK_ROWS - 1) // BLOCK_ROWS  # the pixel kernel's parallel tasks
-            V = self.V[:VERT_Y0] + (y0, self.seen.state) + scratch_slots(self.V, tasks)
+            V = self.V[:VERT_Y0] + (y0, self.seen.state, self.ahead) + scratch_slots(self.V, tasks)
             variant(_GOURAUD_TERMS, k)(hits.prim, hits.geom, hits.u, hits.v, k.geometry, k.bumps, k.face_off,
                                        k.materials, k.cam, k.lighting, k.colours, modes, image, self.R, V)
         if self.fast_phong:
