@@ -28,7 +28,8 @@ from ..common.choices import SHADINGS
 from ..common.layout import METHOD_FLAT, METHOD_GOURAUD, METHOD_PHONG
 from ..visibility.hits import check_hits
 from .flat import _FLAT, _lookup_flat_kernel
-from .gouraud import _INTERPOLATE, _VERTICES
+from .gouraud import _INTERPOLATE, _VERTICES, prefetch_distance
+from .gouraud_sides import _face_sides_kernel, _near_face, face_planes
 from .inputs import prepare
 from .jit import JIT, variant
 from .phong import _PHONG, _PHONG_PACKETS
@@ -115,9 +116,13 @@ def _check_inputs(scene, camera, hits) -> None:
 
 
 @njit(parallel=True, **JIT)
-def _visible_kernel(prim, geom, faces, face_off, modes, face_flags, vertex_flags):
-    """Mark the faces of flat-shaded models and the vertices of Gouraud-shaded
-    ones that some pixel sees: only those get shaded."""
+def _visible_kernel(prim, geom, u, v, faces, face_off, modes, flags):
+    """Mark what some pixel sees, into ``flags`` = ``(flat, gouraud, sides)``: the faces of
+    flat-shaded models and those of Gouraud-shaded ones (F,) uint8; only those get shaded,
+    Gouraud's vertices from the sides their faces need (:mod:`.gouraud_sides`).
+    A Gouraud pixel whose weights stray from its triangle (:func:`.gouraud_sides._near_face`) may see
+    it from either side: both sides of its corners ``sides[i, side]`` (V, 2) uint8."""
+    flat, gouraud, sides = flags
     h, w = prim.shape
     for y in prange(h):
         for x in range(w):
@@ -127,11 +132,63 @@ def _visible_kernel(prim, geom, faces, face_off, modes, face_flags, vertex_flags
                 f = face_off[g] + p
                 # Racy, but every writer stores the same 1.
                 if modes[g] == METHOD_FLAT:
-                    face_flags[f] = 1
+                    flat[f] = 1
                 elif modes[g] == METHOD_GOURAUD:
-                    vertex_flags[faces[f, 0]] = 1
-                    vertex_flags[faces[f, 1]] = 1
-                    vertex_flags[faces[f, 2]] = 1
+                    gouraud[f] = 1
+                    if not _near_face(np.float64(u[y, x]), np.float64(v[y, x])):
+                        for k in range(3):
+                            sides[faces[f, k], 0] = 1
+                            sides[faces[f, k], 1] = 1
+
+
+def _unseen(seen, done) -> np.ndarray:
+    """``seen & ~done`` of two uint8 flag arrays (0 or 1), written over ``seen`` in one pass: a
+    band of a 1.31 M-triangle frame made four face-sized temporaries with ``seen & (1 - done)``."""
+    np.greater(seen, done, out=seen.view(np.bool_))
+    return seen
+
+
+class Seen:
+    """What one frame's hit buffers (its bands, its samples) have seen so far: the faces of
+    flat-shaded models, the faces of Gouraud-shaded ones with their states (see
+    :mod:`~raycast_shade.shading.gouraud_sides`) and the vertex sides those
+    need; each is shaded once, by the first buffer that sees it.
+
+    Attributes
+    ----------
+    face_done : (F,) uint8
+        Flat faces seen (F = 1 without flat models, as every array here without its method).
+    gouraud_done : (F,) uint8
+        Gouraud faces seen.
+    state : (F,) uint8
+        The Gouraud faces' states, valid where ``gouraud_done``.
+    vertex_done : (V, 2) uint8
+        Vertex sides seen (front, back).
+    """
+
+    def __init__(self, geo, modes):
+        nf, nv = len(geo.faces), len(geo.vertices)
+        flat, gouraud = bool(np.any(modes == METHOD_FLAT)), bool(np.any(modes == METHOD_GOURAUD))
+        self.gouraud = gouraud
+        self.face_done = np.zeros(nf if flat else 1, np.uint8)
+        self.gouraud_done = np.zeros(nf if gouraud else 1, np.uint8)
+        self.state = np.zeros(nf if gouraud else 1, np.uint8)
+        self.vertex_done = np.zeros((nv if gouraud else 1, 2), np.uint8)
+
+    def new(self, hits, geo, k, modes) -> tuple:
+        """The flat faces (F,) and vertex sides (V, 2) that ``hits`` sees and no earlier buffer
+        saw (uint8 0 or 1), counted as seen from now on; the new Gouraud faces' states set."""
+        flat, gouraud, sides = (np.zeros_like(a) for a in (self.face_done, self.gouraud_done, self.vertex_done))
+        _visible_kernel(hits.prim, hits.geom, hits.u, hits.v, geo.faces, k["face_off"], modes, (flat, gouraud, sides))
+        flat = _unseen(flat, self.face_done)
+        self.face_done |= flat
+        gouraud = _unseen(gouraud, self.gouraud_done)
+        if self.gouraud and gouraud.any():
+            _face_sides_kernel(gouraud, k["G"], k["cam"], face_planes(geo), self.state, sides)
+            self.gouraud_done |= gouraud
+        sides = _unseen(sides, self.vertex_done)
+        self.vertex_done |= sides
+        return flat, sides
 
 
 def shade_hits(scene, camera, hits, shading="phong") -> np.ndarray:
@@ -171,35 +228,23 @@ class SampleShading:
         self.gouraud = bool(np.any(self.modes == METHOD_GOURAUD))
         self.phong = bool(np.any(self.modes == METHOD_PHONG))
         self.fast_phong = self.phong and _fast_applies(self.modes, self.k)  # the batched kernel (phong_fast)
-        nf = len(self.geo.faces) if self.flat else 1
-        nv = len(self.geo.vertices) if self.gouraud else 1
-        self.face_done = np.zeros(nf, np.uint8)
-        self.vertex_done = np.zeros(nv, np.uint8)
+        self.seen = Seen(self.geo, self.modes)
         self.fcol = np.zeros((len(self.geo.faces), 3), np.float64) if self.flat else None
         self.vcol = np.zeros((len(self.geo.vertices), 2, 3), np.float64) if self.gouraud else None
         # Specular vertex light apart from the diffuse: the textured "modulate" path only.
         self.vspec = np.zeros((len(self.geo.vertices) if self.k["tex_on"] and self.gouraud else 1, 2, 3), np.float64)
-        self.first = True
+        self.ahead = prefetch_distance(self.k["G"][2], self.vcol) if self.gouraud else 0
 
     def _share(self, hits):
-        """Shade the faces and vertices ``hits`` sees that no earlier sample saw."""
+        """Shade the faces and vertex sides ``hits`` sees that no earlier sample saw."""
         k, geo = self.k, self.geo
-        face_flags = np.zeros_like(self.face_done)
-        vertex_flags = np.zeros_like(self.vertex_done)
-        _visible_kernel(hits.prim, hits.geom, geo.faces, k["face_off"], self.modes, face_flags, vertex_flags)
-        first, self.first = self.first, False
-        if self.flat:
-            new = face_flags if first else face_flags & (1 - self.face_done)
-            if first or new.any():
-                variant(_FLAT, k)(new, k["G"], geo.face_model, k["materials"], k["cam"], k["L"], k["T"], geo.uvs,
-                                  self.fcol)
-                self.face_done |= new
-        if self.gouraud:
-            new = vertex_flags if first else vertex_flags & (1 - self.vertex_done)
-            if first or new.any():
-                variant(_VERTICES, k)(new, k["G"], geo.vertex_model, k["materials"], k["cam"], k["L"], k["T"],
-                                      self.vcol, self.vspec)
-                self.vertex_done |= new
+        faces, sides = self.seen.new(hits, geo, k, self.modes)
+        if self.flat and faces.any():
+            variant(_FLAT, k)(faces, k["G"], geo.face_model, k["materials"], k["cam"], k["L"], k["T"], geo.uvs,
+                              self.fcol)
+        if self.gouraud and sides.any():
+            variant(_VERTICES, k)(sides, k["G"], geo.vertex_model, k["materials"], k["cam"], k["L"], k["T"],
+                                  self.vcol, self.vspec)
 
     WRITES_NORMALS = True  # the Phong kernels write the normal buffer as they shade (shade's ``normal``)
 
@@ -224,7 +269,7 @@ class SampleShading:
         if self.gouraud:
             variant(_INTERPOLATE, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["face_off"],
                                      k["materials"], k["cam"], k["L"], k["T"], k["background"], modes,
-                                     (self.vcol, self.vspec, int(y0)), image)
+                                     (self.vcol, self.vspec, int(y0), self.seen.state, self.ahead), image)
         normals = _NO_NORMALS if normal is None else normal
         if self.fast_phong:  # shadow rays (a scene handle) go as packets of 16 of its lanes
             fast = _PHONG_FAST_SHADOWS if k["L"][3] != 0 else _PHONG_FAST

@@ -7,7 +7,10 @@ The vertex record ``V`` is a terms record (:mod:`.terms_kernel`) of float64 rows
 (L, 2V, 1) float64, each light's ``cone (n.s)`` at the vertex (0 where it does not reach: the
 shadow probe's unit light; written only in a frame with shadow rays, the only one whose mask
 reads it), the vertex colours ``vcol`` and ``vspec`` of
-:mod:`.gouraud` (V, 2, 3) float64, and the image row of the buffer's first row. Each pixel
+:mod:`.gouraud` (V, 2, 3) float64, the image row of the buffer's first row, and the faces' states
+(F,) uint8 (:mod:`.gouraud_sides`) with the pixels' prefetch distance
+(:func:`~raycast_shade.shading.gouraud.prefetch_distance`). Only the vertex sides some
+seen face needs are written (and read). Each pixel
 interpolates every term with the weights its colour is interpolated with, as the variant
 passes of :mod:`.terms` do, so the numbers are theirs (measured equal, bit for bit, on the test
 scenes); the shadow mask is ``sum w_k vis_k reach_k / sum w_k reach_k`` (each sum rounded to
@@ -25,8 +28,11 @@ import numpy as np
 from numba import njit, prange
 
 from ..common.layout import LIGHT_SHADOWS, METHOD_GOURAUD
+from ..common.prefetch import prefetch
 from ..common.schedule import BLOCK_ROWS, spread_step
-from .gouraud import _corner_normal, _corner_shade, _modulate, _split_shade, _vertex_kd, _vertex_point
+from .gouraud import (_corner_normal, _corner_shade, _modulate, _prefetch_pixel, _split_shade, _stored_pixel,
+                      _vertex_kd, _vertex_point)
+from .gouraud_sides import _near_face
 from .illumination import _light_at
 from .jit import CALLED, CHUNK, FLT32_MAX, HELPER, JIT, compile_variants
 from .records import At, Hit, dot
@@ -37,10 +43,11 @@ from .terms_kernel import (TERM_AMBIENT, TERM_DIFFUSE, TERM_EMISSIVE, TERM_SPECU
                            _store)
 from .texture import _point_coefficients
 
-__all__ = ["VERT_REACH", "VERT_COL", "VERT_SPEC", "VERT_Y0", "VERT_SCRATCH", "scratch_slots"]
+__all__ = ["VERT_REACH", "VERT_COL", "VERT_SPEC", "VERT_Y0", "VERT_STATE", "VERT_AHEAD", "VERT_SCRATCH",
+           "scratch_slots"]
 
 # The vertex record's slots after the terms record's; VERT_SCRATCH on: scratch_slots().
-VERT_REACH, VERT_COL, VERT_SPEC, VERT_Y0, VERT_SCRATCH = 10, 11, 12, 13, 14
+VERT_REACH, VERT_COL, VERT_SPEC, VERT_Y0, VERT_STATE, VERT_AHEAD, VERT_SCRATCH = 10, 11, 12, 13, 14, 15, 16
 _SPLIT = (0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0)  # the modulate path's kd = ks = 1
 
 
@@ -86,8 +93,8 @@ def _make_vertex_terms(spec_on: bool, att_on: bool, tex_on: bool = False):
 
     @njit(parallel=True, **JIT)
     def _vertex_terms_kernel(vertex_flags, G, vertex_model, materials, cam, L, T, V):
-        """Each flagged vertex's colours and terms, from the front and the back (``V``: the
-        vertex record, see the module docstring)."""
+        """Each flagged vertex side's colours and terms (``vertex_flags`` (V, 2): front, back;
+        ``V``: the vertex record, see the module docstring)."""
         verts, normals, _, _ = G
         vcolors, fcolors, cmode, tindex, ttexels, tinfo, split = T
         n = verts.shape[0]
@@ -97,12 +104,14 @@ def _make_vertex_terms(spec_on: bool, att_on: bool, tex_on: bool = False):
             c = (it * step) % nchunk
             S = _scratch()
             for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
-                if vertex_flags[i] == 0:
+                if vertex_flags[i, 0] == 0 and vertex_flags[i, 1] == 0:
                     continue
                 p, view = _vertex_point(verts, cam, i)
                 m = vertex_model[i]
                 coef = _vertex_kd(materials, m, cmode, vcolors, i, tex_on)
                 for side in range(2):
+                    if vertex_flags[i, side] == 0:
+                        continue
                     sg = 1.0 - 2.0 * side
                     nv = (sg * normals[i, 0], sg * normals[i, 1], sg * normals[i, 2])
                     _vertex_side(V, Hit(p, view, nv, 1.0, nv, p), coef, materials, m, L, S, spec_on, att_on,
@@ -245,8 +254,8 @@ def _fallback_terms(R, V, G, tri, side, gn, materials, m, cam, L, S, coefs, spec
     pixel loop; the scratch is the caller's (an array made in a parallel loop costs a
     reference count on every pixel)."""
     w, ty, x, blk, splitting = where
-    C = (V[14], V[15], V[16], V[17], V[17], V[18], V[19], V[TERMS_EMIT_ON], False,  # VERT_SCRATCH = 14 on
-         V[TERMS_BACKGROUND_RGB], V[20])
+    C = (V[16], V[17], V[18], V[19], V[19], V[20], V[21], V[TERMS_EMIT_ON], False,  # VERT_SCRATCH = 16 on
+         V[TERMS_BACKGROUND_RGB], V[22])
     r = 3 * blk
     for k in range(3):
         _corner_terms(V, C, G, tri[k], side, gn, materials, m, cam, L, S, coefs[k], spec_on, att_on, r + k)
@@ -262,6 +271,21 @@ def scratch_slots(V, tasks: int) -> tuple:
         np.empty((2, each, rows, 1, 3)), np.empty((nl, rows, 1)), np.empty((nl, rows, 1)))
 
 
+@njit(**HELPER)
+def _prefetch_terms(prim, geom, face_off, faces, V, y, x, ahead):
+    """:func:`~raycast_shade.shading.gouraud._prefetch_pixel` for the terms kernel: also the local
+    terms' rows (both sides: rows ``2 i`` and ``2 i + 1`` share a cache line or two)."""
+    _prefetch_pixel(prim, geom, face_off, faces, V[VERT_COL], y, x, ahead)
+    xb = x + ahead // 2
+    if xb < prim.shape[1] and prim[y, xb] >= 0:
+        f = face_off[geom[y, xb]] + prim[y, xb]
+        for k in range(3):
+            i = 2 * faces[f, k]
+            prefetch(V[TERM_AMBIENT], i)
+            prefetch(V[TERM_DIFFUSE], i)
+            prefetch(V[TERM_SPECULAR], i)
+
+
 def _make_gouraud_terms(spec_on: bool, att_on: bool, tex_on: bool = False):
     """The Gouraud image-and-terms pixel kernel for one variant (see :mod:`.jit`)."""
 
@@ -270,6 +294,7 @@ def _make_gouraud_terms(spec_on: bool, att_on: bool, tex_on: bool = False):
         """:mod:`.gouraud`'s pixel kernel (the image, the same arithmetic) that also writes each
         pixel's terms into ``R`` at row ``y0 + y`` (``y0`` and the vertex colours: ``V``)."""
         vcol, vspec, y0 = V[VERT_COL], V[VERT_SPEC], V[VERT_Y0]
+        state, ahead = V[VERT_STATE], V[VERT_AHEAD]
         verts, normals, faces, fnormals = G
         uvs = B[0]
         vcolors, fcolors, cmode, tindex, ttexels, tinfo, split = T
@@ -282,6 +307,8 @@ def _make_gouraud_terms(spec_on: bool, att_on: bool, tex_on: bool = False):
                 S = _scratch()
                 ty = y0 + y
                 for x in range(w):
+                    if ahead > 0:
+                        _prefetch_terms(prim, geom, face_off, faces, V, y, x, ahead)
                     p = prim[y, x]
                     if p < 0:
                         _miss(image, R, y, ty, x)
@@ -294,6 +321,12 @@ def _make_gouraud_terms(spec_on: bool, att_on: bool, tex_on: bool = False):
                     b2 = np.float64(v[y, x])
                     tri = _triangle(faces, f)
                     i0, i1, i2 = tri
+                    if state[f] != 0 and _near_face(b1, b2) and not (tex_on and split[g] != 0):  # the usual pixel
+                        side = state[f] - 1
+                        w3 = _stored_pixel(vcol, tri, side, b1, b2, image, y, x)
+                        _pixel_terms(R, V, (2 * i0 + side, 2 * i1 + side, 2 * i2 + side), L, w3, ty, x,
+                                     _vertex_kd(materials, g, cmode, vcolors, i0, tex_on), False)
+                        continue
                     view = _view(cam, _hit_point(verts, tri, b1, b2))
                     gn, sgn = _facing(fnormals, f, view)
                     side = 0 if sgn > 0.0 else 1

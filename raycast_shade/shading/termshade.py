@@ -34,8 +34,9 @@ from .jit import variant
 from .mirrors import trace_mirrors
 from .phong_fast import _NO_NORMALS, _PHONG_FAST_TERMS
 from .phong_fast import applies as _fast_applies
-from .shade import _visible_kernel, resolve_methods
-from .terms_gouraud import _GOURAUD_TERMS, _VERTEX_TERMS, VERT_Y0, scratch_slots
+from .shade import Seen, resolve_methods
+from .gouraud import prefetch_distance
+from .terms_gouraud import _GOURAUD_TERMS, _VERTEX_TERMS, VERT_COL, VERT_Y0, scratch_slots
 from .flat import _FLAT_TERMS, _lookup_flat_terms
 from .terms_kernel import _PHONG_TERMS, TERM_BACKGROUND, TERM_EMISSIVE, TERM_SLOTS, TERMS_EACH, TERMS_SHADOW
 
@@ -126,13 +127,6 @@ def _give(spares, key, arrays) -> None:
     spares[key[0]] = (key, arrays)
 
 
-def _unseen(seen, done) -> np.ndarray:
-    """``seen & ~done`` of two uint8 flag arrays (0 or 1), written over ``seen`` in one pass: a
-    band of a 1.31 M-triangle frame made four face-sized temporaries with ``seen & (1 - done)``."""
-    np.greater(seen, done, out=seen.view(np.bool_))
-    return seen
-
-
 class TermShading:
     """Shade one frame's hit buffer, whole or band by band, into its image and its terms.
 
@@ -178,8 +172,7 @@ class TermShading:
         spares = _spares(self.geo)
         nf = len(self.geo.faces) if self.flat else 1
         nv = len(self.geo.vertices) if self.gouraud else 1
-        self.face_done = np.zeros(nf, np.uint8)
-        self.vertex_done = np.zeros(nv, np.uint8)
+        self.seen = Seen(self.geo, self.modes)
         if self.flat:
             key = ("flat", nf, nl, per_light, emit_on)
             arrays = _take(spares, key, lambda: (np.empty((nf, 3)),) + _arrays((nf, 1), nl, per_light, emit_on, False))
@@ -194,24 +187,20 @@ class TermShading:
             V = _assemble(arrays[:-3], {TERM_EMISSIVE: _NONE64, TERM_BACKGROUND: _NONE64}, emit_on, False,
                           k.background)
             self.V = V + arrays[-3:] + (0,)
+            self.ahead = prefetch_distance(k.geometry[2], self.V[VERT_COL])
             weakref.finalize(self, _give, spares, key, arrays)
 
     def _share(self, hits):
         """Shade the faces of flat models and the vertices of Gouraud ones that ``hits`` sees
         and no earlier band saw."""
         k, geo = self.k, self.geo
-        faces, vertices = np.zeros_like(self.face_done), np.zeros_like(self.vertex_done)
-        _visible_kernel(hits.prim, hits.geom, geo.faces, k.face_off, self.modes, faces, vertices)
-        new = _unseen(faces, self.face_done)
-        if self.flat and new.any():
-            variant(_FLAT_TERMS, k)(new, k.geometry, geo.face_model, k.materials, k.cam, k.lighting, k.colours,
+        faces, sides = self.seen.new(hits, geo, k, self.modes)
+        if self.flat and faces.any():
+            variant(_FLAT_TERMS, k)(faces, k.geometry, geo.face_model, k.materials, k.cam, k.lighting, k.colours,
                                     geo.uvs, (self.fcol, self.F))
-            self.face_done |= new
-        new = _unseen(vertices, self.vertex_done)
-        if self.gouraud and new.any():
-            variant(_VERTEX_TERMS, k)(new, k.geometry, geo.vertex_model, k.materials, k.cam, k.lighting, k.colours,
+        if self.gouraud and sides.any():
+            variant(_VERTEX_TERMS, k)(sides, k.geometry, geo.vertex_model, k.materials, k.cam, k.lighting, k.colours,
                                       self.V)
-            self.vertex_done |= new
 
     WRITES_NORMALS = False  # the terms' kernels do not write the normal buffer (the buffer kernel does)
 
@@ -233,7 +222,7 @@ class TermShading:
                                (image, y0, self.R, self.F))
         if self.gouraud:
             tasks = (h + BLOCK_ROWS - 1) // BLOCK_ROWS  # the pixel kernel's parallel tasks
-            V = self.V[:VERT_Y0] + (y0,) + scratch_slots(self.V, tasks)
+            V = self.V[:VERT_Y0] + (y0, self.seen.state, self.ahead) + scratch_slots(self.V, tasks)
             variant(_GOURAUD_TERMS, k)(hits.prim, hits.geom, hits.u, hits.v, k.geometry, k.bumps, k.face_off,
                                        k.materials, k.cam, k.lighting, k.colours, modes, image, self.R, V)
         if self.fast_phong:

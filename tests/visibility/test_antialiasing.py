@@ -108,9 +108,9 @@ def test_shared_shading_is_shade_hits_bit_for_bit(shading):
         hits = cast_camera(scene.geometry, sub)
         assert np.array_equal(shader.shade(hits), shade_hits(scene, cam, hits, shading))
     if shader.flat:
-        assert shader.face_done.sum() > 0
+        assert shader.seen.face_done.sum() > 0
     if shader.gouraud:
-        assert shader.vertex_done.sum() > 0
+        assert shader.seen.vertex_done.sum() > 0
 
 
 def test_box_filter_of_a_uniform_colour_is_that_colour():
