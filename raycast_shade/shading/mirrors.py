@@ -28,7 +28,8 @@ from ..visibility.accel import embree_accel
 from .inputs import prepare
 from .jit import FLT32_MAX, HELPER, JIT, compile_variants, variant
 from .phong import _shade_surface, _surface
-from .records import At, reflect_into
+from .phong_fast import _B1, _B2, _FIELDS, _G, _N, _P, _SG, _V, LANES as _BATCH, _gather, _geometry
+from .records import At, Hit, reflect_into
 from .shadows import _nudge, _scratch
 from .texture import _point_coefficients, _row_coefficients
 
@@ -193,6 +194,49 @@ def _start_lane(hits, G, B, materials, face_off, cam, unit, image, y, x, lanes):
     return n + 1
 
 
+@njit(**HELPER)
+def _start_tile(hits, G, materials, face_off, cam, unit, image, box, lanes, F):
+    """The reflective pixels of rows ``box[0] .. box[1] - 1`` and columns ``box[2] .. box[3] - 1`` as
+    the lanes of ``lanes`` (from 0), as :func:`_start_lane` starts them, bit for bit, for a frame
+    without bump or normal maps: their points, view vectors and normals by the batched Phong
+    kernel's passes (:func:`.phong_fast._gather`, :func:`.phong_fast._geometry`, which vectorise)
+    over the scratch ``F = (S, XY)``, not pixel by pixel. Returns the lanes filled."""
+    prim, geom, u, v = hits
+    _, ys, xs, weight, org, dr, act = lanes
+    S, XY = F
+    n = 0
+    for y in range(box[0], box[1]):
+        for x in range(box[2], box[3]):
+            p = prim[y, x]
+            if p < 0 or materials[geom[y, x], MAT_REFLECTIVITY] <= 0.0:
+                continue
+            gm = geom[y, x]
+            rho = materials[gm, MAT_REFLECTIVITY]
+            _keep_pixel(image, y, x, rho)
+            S[_B1 * _BATCH + n] = u[y, x]
+            S[_B2 * _BATCH + n] = v[y, x]
+            XY[3 * _BATCH + n] = face_off[gm] + p
+            ys[n] = y
+            xs[n] = x
+            weight[n] = rho
+            act[n] = True
+            n += 1
+    if n == 0:
+        return 0
+    _gather(S, XY, n, G, False)
+    _geometry(S, cam, (0.0, 0.0, 0.0))
+    for k in range(n):
+        pt = (S[(_P + 0) * _BATCH + k], S[(_P + 1) * _BATCH + k], S[(_P + 2) * _BATCH + k])
+        hp = Hit(pt, (S[(_V + 0) * _BATCH + k], S[(_V + 1) * _BATCH + k], S[(_V + 2) * _BATCH + k]),
+                 (S[(_G + 0) * _BATCH + k], S[(_G + 1) * _BATCH + k], S[(_G + 2) * _BATCH + k]), S[_SG * _BATCH + k],
+                 (S[(_N + 0) * _BATCH + k], S[(_N + 1) * _BATCH + k], S[(_N + 2) * _BATCH + k]), pt)
+        o, r = _mirror_ray(hp, unit)
+        for c in range(3):
+            org[c, k] = o[c]
+            dr[c, k] = r[c]
+    return n
+
+
 def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
     """The mirror kernel for one variant (see :mod:`.jit`; ``tex_on``: textured coefficients at
     the bounces, sampled at level 0: a bounced ray has no pixel footprint here)."""
@@ -213,7 +257,7 @@ def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
         the last bounce; the background on a miss) added with :func:`_add_pixel`, weighted by
         the product of the reflectivities met before it."""
         prim = hits[0]
-        handle, unit, max_depth, flags, y0, ahead = trace
+        handle, unit, max_depth, flags, y0, ahead, batched = trace
         uvs = B[0]
         h, w = prim.shape
         first = y0 // _TILE  # the frame's tile rows that meet rows y0 .. y0 + h
@@ -244,6 +288,7 @@ def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
             org = np.zeros((3, _LANES), np.float64)
             dr = np.zeros((3, _LANES), np.float64)
             act = np.zeros(_LANES, np.bool_)
+            F = (np.zeros(_FIELDS * _BATCH), np.zeros(7 * _BATCH, np.int64))  # _start_tile's scratch
             for tr in range(blk * per, min(ntr, (blk + 1) * per)):
                 ya = max((first + tr) * _TILE - y0, 0)
                 yb = min((first + tr + 1) * _TILE - y0, h)
@@ -256,10 +301,15 @@ def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
                     if ahead and t1 < ntx:
                         _prefetch_tile(prim, hits[1], G, face_off, ya, yb, t1 * _TILE, min(w, (t1 + 1) * _TILE), True)
                     n = 0
-                    for y in range(ya, yb):
-                        for x in range(tx * _TILE, min(w, (tx + 1) * _TILE)):
-                            n = _start_lane(hits, G, B, materials, face_off, cam, unit, image, y, x,
-                                            (n, ys, xs, weight, org, dr, act))
+                    if batched:
+                        box = (ya, yb, tx * _TILE, min(w, (tx + 1) * _TILE))
+                        n = _start_tile(hits, G, materials, face_off, cam, unit, image, box,
+                                        (n, ys, xs, weight, org, dr, act), F)
+                    else:
+                        for y in range(ya, yb):
+                            for x in range(tx * _TILE, min(w, (tx + 1) * _TILE)):
+                                n = _start_lane(hits, G, B, materials, face_off, cam, unit, image, y, x,
+                                                (n, ys, xs, weight, org, dr, act))
                     for depth in range(1, max_depth + 1):
                         if n == 0:
                             break
@@ -340,8 +390,10 @@ def trace_mirrors(scene, camera, hits, image, max_depth: int = 3, inputs=None, y
         return image
     k = prepare(scene, camera) if inputs is None else inputs
     ahead = beyond_caches(*k["G"])
+    B = k["B"]
+    batched = not bool(np.any(B[2] >= 0)) and not bool(np.any(B[5] >= 0))  # no bump or normal map: _start_tile
     trace = (np.uintp(embree_accel(geo).handle), float(geo.scale), int(max_depth), np.uint32(MIRROR_FLAGS),
-             int(y0), ahead)
+             int(y0), ahead, batched)
     variant(_PACKETS, k)((hits.prim, hits.geom, hits.u, hits.v), k["G"], k["B"], k["L"], k["T"], k["face_off"],
                          k["materials"], k["cam"], k["background"], image, trace)
     return image
