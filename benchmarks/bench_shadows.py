@@ -103,25 +103,36 @@ def _one_by_one(handle, rays, valid, out):
                 out[t, k] = b[o + embree.RAY_TFAR] < 0.0
 
 
+@njit(cache=True, forceinline=True)  # inlined: the floor's loop as before, no call per tile
+def _tile_packet(rays, valid, t, flags):
+    """Tile ``t``'s packet (``rays[t]``: an ``RTCRay16`` or ``RTCRayHit16``) copied to a 64-byte aligned
+    buffer, its valid mask and its query arguments (``flags``, every feature): ``(b, o, vb, vo, a, ao,
+    on)``, each array with the slot its struct starts at, and whether any lane is active."""
+    slots = rays.shape[1]
+    b = np.empty(slots + 16, np.float32)
+    o = ((64 - b.ctypes.data % 64) % 64) // 4
+    vb = np.empty(2 * _LANES, np.int32)
+    vo = ((64 - vb.ctypes.data % 64) % 64) // 4
+    a = np.zeros(embree.ARGS_SLOTS + 2, np.uint32)
+    ao = ((8 - a.ctypes.data % 8) % 8) // 4
+    a[ao] = flags
+    a[ao + 1] = embree.FEATURE_FLAG_ALL
+    on = False
+    for k in range(_LANES):
+        vb[vo + k] = valid[t, k]
+        on = on or valid[t, k] != 0
+    if on:
+        for j in range(slots):
+            b[o + j] = rays[t, j]
+    return b, o, vb, vo, a, ao, on
+
+
 @njit(parallel=True, cache=True)
 def _packets(handle, rays, valid, out):
     """Each tile's rays as one coherent ``rtcOccluded16`` packet."""
     for t in prange(rays.shape[0]):
-        b = np.empty(embree.RAY16_SLOTS + 16, np.float32)
-        o = ((64 - b.ctypes.data % 64) % 64) // 4
-        vb = np.empty(2 * _LANES, np.int32)
-        vo = ((64 - vb.ctypes.data % 64) % 64) // 4
-        a = np.zeros(embree.ARGS_SLOTS + 2, np.uint32)
-        ao = ((8 - a.ctypes.data % 8) % 8) // 4
-        a[ao] = embree.RAY_QUERY_FLAG_COHERENT
-        a[ao + 1] = embree.FEATURE_FLAG_ALL
-        on = False
-        for k in range(_LANES):
-            vb[vo + k] = valid[t, k]
-            on = on or valid[t, k] != 0
+        b, o, vb, vo, a, ao, on = _tile_packet(rays, valid, t, embree.RAY_QUERY_FLAG_COHERENT)
         if on:
-            for j in range(embree.RAY16_SLOTS):
-                b[o + j] = rays[t, j]
             embree.occluded16_packet(vb[vo:], handle, b[o:], a[ao:])
             for k in range(_LANES):
                 if valid[t, k] != 0:
@@ -166,24 +177,10 @@ def _collect_bounces(hits, G, B, materials, face_off, cam, unit, image, rays, va
 def _bounce_packets(handle, rays, valid, out):
     """Each tile's bounce rays as one coherent ``rtcIntersect16`` packet; ``out`` (tiles, 16) int32:
     each active lane's hit model (-1: a miss)."""
-    slots = _LANES * embree.RAYHIT_SLOTS
     for t in prange(rays.shape[0]):
-        b = np.empty(slots + 16, np.float32)
-        o = ((64 - b.ctypes.data % 64) % 64) // 4
+        b, o, vb, vo, a, ao, on = _tile_packet(rays, valid, t, mirrors.MIRROR_FLAGS)
         ib = b.view(np.uint32)
-        vb = np.empty(2 * _LANES, np.int32)
-        vo = ((64 - vb.ctypes.data % 64) % 64) // 4
-        a = np.zeros(embree.ARGS_SLOTS + 2, np.uint32)
-        ao = ((8 - a.ctypes.data % 8) % 8) // 4
-        a[ao] = mirrors.MIRROR_FLAGS
-        a[ao + 1] = embree.FEATURE_FLAG_ALL
-        on = False
-        for k in range(_LANES):
-            vb[vo + k] = valid[t, k]
-            on = on or valid[t, k] != 0
         if on:
-            for j in range(slots):
-                b[o + j] = rays[t, j]
             embree.intersect16_packet(vb[vo:], handle, b[o:], a[ao:])
             for k in range(_LANES):
                 if valid[t, k] != 0:
