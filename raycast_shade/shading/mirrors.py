@@ -10,6 +10,8 @@ a time), each bounce is Phong-shaded and blended into its pixel as soon as it
 returns, and the lanes that meet another mirror bounce on in the same packet. The gathers of the
 tiles a few steps ahead are prefetched on a large mesh (there each pixel's face and vertices miss the
 caches, and one pixel's arithmetic is too long for the processor to overlap the next one's misses).
+Without bump or normal maps, the lanes of four tiles start together, their points and normals by
+the batched Phong kernel's vectorised passes (:func:`_start_group`).
 ``render`` runs it band by band, after each band is shaded.
 """
 
