@@ -406,6 +406,12 @@ def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
 _PACKETS = compile_variants(_make_packets)  # the family's registry (see .jit)
 
 
+def _batched_start(B) -> bool:
+    """Whether the lanes start by :func:`_start_group`: no model has a bump or a normal map
+    (``B``: the frame's height-map tuple; those bend the normal, which only ``_surface`` does)."""
+    return not bool(np.any(B[2] >= 0)) and not bool(np.any(B[5] >= 0))
+
+
 def trace_mirrors(scene, camera, hits, image, max_depth: int = 3, inputs=None, y0: int = 0) -> np.ndarray:
     """Blend mirror reflections into a shaded image.
 
@@ -441,10 +447,8 @@ def trace_mirrors(scene, camera, hits, image, max_depth: int = 3, inputs=None, y
         return image
     k = prepare(scene, camera) if inputs is None else inputs
     ahead = beyond_caches(*k["G"])
-    B = k["B"]
-    batched = not bool(np.any(B[2] >= 0)) and not bool(np.any(B[5] >= 0))  # no bump or normal map: _start_group
     trace = (np.uintp(embree_accel(geo).handle), float(geo.scale), int(max_depth), np.uint32(MIRROR_FLAGS),
-             int(y0), ahead, batched)
+             int(y0), ahead, _batched_start(k["B"]))
     variant(_PACKETS, k)((hits.prim, hits.geom, hits.u, hits.v), k["G"], k["B"], k["L"], k["T"], k["face_off"],
                          k["materials"], k["cam"], k["background"], image, trace)
     return image
