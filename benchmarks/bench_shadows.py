@@ -13,11 +13,18 @@ casting shadows), timed in turn, round after round, in one process after a warm-
   (``rtcOccluded1``), as before the packets: the three images are bit-identical (checked here);
 * ``rays_occluded1`` and ``rays_occluded16``: the frame's very shadow rays (collected once, in
   packets of 4x4 pixels) traced bare, one ``rtcOccluded1`` per ray and one ``rtcOccluded16`` per
-  packet (coherent), in a parallel loop with nothing else: the floor of what the rays cost.
+  packet (coherent), in a parallel loop with nothing else: the floor of what the rays cost;
+* ``mirror``: the plain frame's mesh as a mirror (reflectivity 0.5), one bounce (the ``mirror``
+  row of :mod:`benchmarks.bench_paths`);
+* ``rays_bounce16``: that frame's very bounce rays (collected once as the mirror kernel packs
+  them, :func:`raycast_shade.shading.mirrors._start_lane` and ``_packet_rays``: the reflective
+  pixels of a 4x4 tile in one packet) traced bare, one coherent ``rtcIntersect16`` per packet:
+  the floor of the mirror frame is ``frame`` plus this.
 
-``rays`` is the number of shadow rays (pixels lit by the light); ``ns_per_ray`` is, for the bare
-rays, their time over that number, and for the shadowed frames what they take beyond the plain
-frame, over that number (what shadows add a ray, shading and bookkeeping included).
+``rays`` is the number of shadow rays (pixels lit by the light), or for the mirror rows of bounce
+rays (reflective pixels); ``ns_per_ray`` is, for the bare rays, their time over that number, and
+for the shadowed and mirror frames what they take beyond the plain frame, over that number (what
+a ray adds, shading and bookkeeping included).
 Results: ``benchmarks/results/shadows.csv`` and the table between the ``shadows`` markers of
 ``docs/performance.md`` (``--table`` redoes it from the CSV); ``--quick`` runs one small case into
 ``out/quick/`` (the table to ``out/quick/results/shadows.md``). The machine load
@@ -38,7 +45,7 @@ from numba import njit, prange
 
 from benchmarks import outputs as where
 from benchmarks.outputs import ROOT, results_file
-from raycast_shade.shading import shadows
+from raycast_shade.shading import mirrors, shadows
 from raycast_shade.shading.illumination import _request_shadows
 from raycast_shade.shading.phong import _shading_point
 from raycast_shade.shading.records import At
@@ -96,29 +103,105 @@ def _one_by_one(handle, rays, valid, out):
                 out[t, k] = b[o + embree.RAY_TFAR] < 0.0
 
 
+@njit(cache=True, forceinline=True)  # inlined: the floor's loop as before, no call per tile
+def _tile_packet(rays, valid, t, flags):
+    """Tile ``t``'s packet (``rays[t]``: an ``RTCRay16`` or ``RTCRayHit16``) copied to a 64-byte aligned
+    buffer, its valid mask and its query arguments (``flags``, every feature): ``(b, o, vb, vo, a, ao,
+    on)``, each array with the slot its struct starts at, and whether any lane is active."""
+    slots = rays.shape[1]
+    b = np.empty(slots + 16, np.float32)
+    o = ((64 - b.ctypes.data % 64) % 64) // 4
+    vb = np.empty(2 * _LANES, np.int32)
+    vo = ((64 - vb.ctypes.data % 64) % 64) // 4
+    a = np.zeros(embree.ARGS_SLOTS + 2, np.uint32)
+    ao = ((8 - a.ctypes.data % 8) % 8) // 4
+    a[ao] = flags
+    a[ao + 1] = embree.FEATURE_FLAG_ALL
+    on = False
+    for k in range(_LANES):
+        vb[vo + k] = valid[t, k]
+        on = on or valid[t, k] != 0
+    if on:
+        for j in range(slots):
+            b[o + j] = rays[t, j]
+    return b, o, vb, vo, a, ao, on
+
+
 @njit(parallel=True, cache=True)
 def _packets(handle, rays, valid, out):
     """Each tile's rays as one coherent ``rtcOccluded16`` packet."""
     for t in prange(rays.shape[0]):
-        b = np.empty(embree.RAY16_SLOTS + 16, np.float32)
-        o = ((64 - b.ctypes.data % 64) % 64) // 4
-        vb = np.empty(2 * _LANES, np.int32)
-        vo = ((64 - vb.ctypes.data % 64) % 64) // 4
-        a = np.zeros(embree.ARGS_SLOTS + 2, np.uint32)
-        ao = ((8 - a.ctypes.data % 8) % 8) // 4
-        a[ao] = embree.RAY_QUERY_FLAG_COHERENT
-        a[ao + 1] = embree.FEATURE_FLAG_ALL
-        on = False
-        for k in range(_LANES):
-            vb[vo + k] = valid[t, k]
-            on = on or valid[t, k] != 0
+        b, o, vb, vo, a, ao, on = _tile_packet(rays, valid, t, embree.RAY_QUERY_FLAG_COHERENT)
         if on:
-            for j in range(embree.RAY16_SLOTS):
-                b[o + j] = rays[t, j]
             embree.occluded16_packet(vb[vo:], handle, b[o:], a[ao:])
             for k in range(_LANES):
                 if valid[t, k] != 0:
                     out[t, k] = b[o + embree.RAY_TFAR * _LANES + k] < 0.0
+
+
+@njit(parallel=True, cache=True)
+def _collect_bounces(hits, G, B, materials, face_off, cam, unit, image, rays, valid):
+    """The bounce rays of every 4x4 tile, packed as the mirror kernel packs them (its lanes, its
+    ``RTCRayHit16``): ``rays`` (tiles, 16 RAYHIT_SLOTS) float32, ``valid`` (tiles, 16) int32;
+    ``image`` (H, W, 3) float32 takes the kernel's ``1 - rho`` scaling (a scratch here)."""
+    h, w = hits[0].shape
+    ntx = (w + 3) // 4
+    slots = _LANES * embree.RAYHIT_SLOTS
+    for ty in prange((h + 3) // 4):
+        buf = np.empty(slots + 16, np.float32)
+        off = ((64 - buf.ctypes.data % 64) % 64) // 4
+        ib = buf.view(np.uint32)
+        vb = np.zeros(2 * _LANES, np.int32)
+        vo = ((64 - vb.ctypes.data % 64) % 64) // 4
+        for k in range(_LANES):  # the slots the kernel writes once per task
+            embree.write_ray(buf, ib, off + k, _LANES, (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 0.0, np.inf)
+        lanes = (np.empty(_LANES, np.int64), np.empty(_LANES, np.int64), np.empty(_LANES, np.float64),
+                 np.zeros((3, _LANES), np.float64), np.zeros((3, _LANES), np.float64), np.zeros(_LANES, np.bool_))
+        ys, xs, weight, org, dr, act = lanes
+        for tx in range(ntx):
+            n = 0
+            for y in range(ty * 4, min(h, ty * 4 + 4)):
+                for x in range(tx * 4, min(w, tx * 4 + 4)):
+                    n = mirrors._start_lane(hits, G, B, materials, face_off, cam, unit, image, y, x,
+                                            (n, ys, xs, weight, org, dr, act))
+            t = ty * ntx + tx
+            if n > 0:
+                mirrors._packet_rays(buf, ib, off, vb, vo, org, dr, act, n)
+                for j in range(slots):
+                    rays[t, j] = buf[off + j]
+            for k in range(_LANES):
+                valid[t, k] = vb[vo + k] if n > 0 else 0
+
+
+@njit(parallel=True, cache=True)
+def _bounce_packets(handle, rays, valid, out):
+    """Each tile's bounce rays as one coherent ``rtcIntersect16`` packet; ``out`` (tiles, 16) int32:
+    each active lane's hit model (-1: a miss)."""
+    for t in prange(rays.shape[0]):
+        b, o, vb, vo, a, ao, on = _tile_packet(rays, valid, t, mirrors.MIRROR_FLAGS)
+        ib = b.view(np.uint32)
+        if on:
+            embree.intersect16_packet(vb[vo:], handle, b[o:], a[ao:])
+            for k in range(_LANES):
+                if valid[t, k] != 0:
+                    out[t, k] = embree.read_hit(b, ib, o + k, _LANES)[0]
+
+
+def _bounce_rays(scene):
+    """The mirror frame's bounce rays (one bounce), collected once: (handle, rays, valid)."""
+    from raycast_shade.shading.inputs import prepare
+    from raycast_shade.visibility.accel import embree_accel
+    from raycast_shade.visibility.cast import cast_camera
+
+    k = prepare(scene, scene.camera)
+    hits = cast_camera(scene.geometry, scene.camera)
+    w, h = scene.camera.width, scene.camera.height
+    tiles = ((w + 3) // 4) * ((h + 3) // 4)
+    rays = np.zeros((tiles, _LANES * embree.RAYHIT_SLOTS), np.float32)
+    valid = np.zeros((tiles, _LANES), np.int32)
+    _collect_bounces((hits.prim, hits.geom, hits.u, hits.v), k["G"], k["B"], k["materials"], k["face_off"], k["cam"],
+                     float(scene.geometry.scale), np.zeros((h, w, 3), np.float32), rays, valid)
+    return np.uintp(embree_accel(scene.geometry).handle), rays, valid
 
 
 def _shadow_rays(scene):
@@ -139,7 +222,7 @@ def _shadow_rays(scene):
 def _per_ray(name, med, unit, n) -> str:
     if name == "frame":
         return ""
-    return f"{(med - unit if name.startswith('shadows') else med) / n * 1e9:.0f}"
+    return f"{(med - unit if name.startswith(('shadows', 'mirror')) else med) / n * 1e9:.0f}"
 
 
 def bench_case(kind, level, width, height, repeats):
@@ -150,6 +233,8 @@ def bench_case(kind, level, width, height, repeats):
     load = os.getloadavg()[0]
     scene = make_scene(make_mesh(kind, level), width, height)
     shadowed = scene.replace(lights=[dataclasses.replace(light, shadows=True) for light in scene.lights])
+    mirror = scene.replace(models=[rs.Model(m.mesh, dataclasses.replace(m.material, reflectivity=0.5))
+                                   for m in scene.models])
     packets, fast = shade_mod._PHONG_PACKETS, shade_mod._fast_applies
 
     def general(one_by_one):
@@ -163,10 +248,14 @@ def bench_case(kind, level, width, height, repeats):
 
     handle, rays, valid = _shadow_rays(shadowed)
     one, pk = np.zeros(valid.shape, np.bool_), np.zeros(valid.shape, np.bool_)
+    bhandle, bounces, bvalid = _bounce_rays(mirror)
+    bhit = np.zeros(bvalid.shape, np.int32)
     paths = {"frame": lambda: rs.render(scene), "shadows": lambda: rs.render(shadowed),
              "shadows_tiles": lambda: general(False), "shadows_single": lambda: general(True),
              "rays_occluded1": lambda: _one_by_one(handle, rays, valid, one),
-             "rays_occluded16": lambda: _packets(handle, rays, valid, pk)}
+             "rays_occluded16": lambda: _packets(handle, rays, valid, pk),
+             "mirror": lambda: rs.render(mirror, max_depth=1),
+             "rays_bounce16": lambda: _bounce_packets(bhandle, bounces, bvalid, bhit)}
     times = {name: [] for name in paths}
     images = {}
     for r in range(repeats + 1):  # round 0: warm-up
@@ -183,13 +272,15 @@ def bench_case(kind, level, width, height, repeats):
     if not np.array_equal(one, pk):
         raise AssertionError("rtcOccluded16 answered differently from rtcOccluded1")
     n = int((valid != 0).sum())
+    nb = int((bvalid != 0).sum())
     unit = statistics.median(times["frame"])
     rows = []
     for name, ts in times.items():
         med = statistics.median(ts)
+        nr = nb if name in ("mirror", "rays_bounce16") else n
         rows.append(dict(mesh=kind, triangles=20 * 4 ** level, width=width, height=height, path=name,
-                         median_ms=f"{med * 1e3:.1f}", ratio=f"{med / unit:.2f}", rays=n,
-                         ns_per_ray=_per_ray(name, med, unit, n), repeats=repeats,
+                         median_ms=f"{med * 1e3:.1f}", ratio=f"{med / unit:.2f}", rays=nr,
+                         ns_per_ray=_per_ray(name, med, unit, nr), repeats=repeats,
                          note=f"load {load:.1f} on {os.cpu_count()} cores"))
     return rows
 
@@ -198,7 +289,9 @@ BEGIN, END = "<!-- shadows:begin (benchmarks/bench_shadows.py) -->", "<!-- shado
 LABELS = {"shadows": "shadows on (batched kernel, packets of its lanes; ns: added a ray)",
           "shadows_tiles": "shadows on, general kernel, a packet per 4x4 tile (before; ns: added a ray)",
           "shadows_single": "shadows on, one ray at a time (ns: added a ray)",
-          "rays_occluded1": "the same rays, bare `rtcOccluded1`", "rays_occluded16": "the same rays, bare `rtcOccluded16`"}
+          "rays_occluded1": "the same rays, bare `rtcOccluded1`", "rays_occluded16": "the same rays, bare `rtcOccluded16`",
+          "mirror": "a mirror material, one bounce (ns: added a bounce ray)",
+          "rays_bounce16": "its bounce rays, bare `rtcIntersect16` (the mirror's floor: the frame + this)"}
 
 
 def table(rows) -> str:
@@ -211,7 +304,12 @@ def table(rows) -> str:
                + " | ".join(get[(m, w, h, "frame")]["median_ms"] for m, _, w, h in cases) + " |")
     out.append("| shadow rays | " + " | ".join(f"{int(get[(m, w, h, 'frame')]['rays']):,}" for m, _, w, h in cases)
                + " |")
+    if all((m, w, h, "mirror") in get for m, _, w, h in cases):  # (a CSV from before the mirror rows has none)
+        out.append("| bounce rays | " + " | ".join(f"{int(get[(m, w, h, 'mirror')]['rays']):,}"
+                                                   for m, _, w, h in cases) + " |")
     for name, label in LABELS.items():
+        if not all((m, w, h, name) in get for m, _, w, h in cases):
+            continue
         cells = [f"{get[(m, w, h, name)]['ratio']}× ({get[(m, w, h, name)]['ns_per_ray']} ns a ray)"
                  for m, _, w, h in cases]
         out.append(f"| {label} | " + " | ".join(cells) + " |")

@@ -10,6 +10,8 @@ a time), each bounce is Phong-shaded and blended into its pixel as soon as it
 returns, and the lanes that meet another mirror bounce on in the same packet. The gathers of the
 tiles a few steps ahead are prefetched on a large mesh (there each pixel's face and vertices miss the
 caches, and one pixel's arithmetic is too long for the processor to overlap the next one's misses).
+Without bump or normal maps, the lanes of four tiles start together, their points and normals by
+the batched Phong kernel's vectorised passes (:func:`_start_group`).
 ``render`` runs it band by band, after each band is shaded.
 """
 
@@ -28,7 +30,8 @@ from ..visibility.accel import embree_accel
 from .inputs import prepare
 from .jit import FLT32_MAX, HELPER, JIT, compile_variants, variant
 from .phong import _shade_surface, _surface
-from .records import At, reflect_into
+from .phong_fast import _A, _B1, _B2, _FIELDS, _FN, _G, _KD, _N, _P, _SG, _V, LANES as _BATCH, _gather, _geometry
+from .records import At, Hit, reflect_into
 from .shadows import _nudge, _scratch
 from .texture import _point_coefficients, _row_coefficients
 
@@ -193,6 +196,103 @@ def _start_lane(hits, G, B, materials, face_off, cam, unit, image, y, x, lanes):
     return n + 1
 
 
+_GROUP = _BATCH // _LANES  # tiles whose lanes _start_group starts together: one batch of the Phong passes
+
+
+@njit(**HELPER)
+def _start_group(hits, G, materials, face_off, cam, unit, image, box, F):
+    """The reflective pixels of the :data:`_GROUP` tiles of rows ``box[0] .. box[1] - 1`` from column
+    ``box[2]`` (to ``box[3]``), tile after tile, as :func:`_start_lane` starts them, bit for bit, for
+    a frame without bump or normal maps: their points, view vectors and normals by the batched Phong
+    kernel's passes (:func:`.phong_fast._gather`, :func:`.phong_fast._geometry`, which vectorise)
+    over the scratch ``F = (S, XY)``, not pixel by pixel. Kept in ``F`` for :func:`_take_tile`: lane
+    ``k``'s row and column in ``XY[k]``, ``XY[B + k]`` (``B`` lanes a field), tile ``j``'s lane count
+    in ``XY[2 B + j]``, its weight in field ``_KD``, its ray's origin and direction in the fields
+    ``_A`` and ``_FN`` (free once ``_geometry`` has run)."""
+    prim, geom, u, v = hits
+    S, XY = F
+    n = 0
+    for j in range(_GROUP):
+        n0 = n
+        for y in range(box[0], box[1]):
+            for x in range(min(box[2] + j * _TILE, box[3]), min(box[2] + (j + 1) * _TILE, box[3])):
+                p = prim[y, x]
+                if p < 0 or materials[geom[y, x], MAT_REFLECTIVITY] <= 0.0:
+                    continue
+                gm = geom[y, x]
+                rho = materials[gm, MAT_REFLECTIVITY]
+                _keep_pixel(image, y, x, rho)
+                S[_B1 * _BATCH + n] = u[y, x]
+                S[_B2 * _BATCH + n] = v[y, x]
+                S[_KD * _BATCH + n] = rho
+                XY[n] = y
+                XY[_BATCH + n] = x
+                XY[3 * _BATCH + n] = face_off[gm] + p
+                n += 1
+        XY[2 * _BATCH + j] = n - n0
+    if n == 0:
+        return
+    _gather(S, XY, n, G, False)
+    _geometry(S, cam, (0.0, 0.0, 0.0))
+    for k in range(n):
+        pt = (S[(_P + 0) * _BATCH + k], S[(_P + 1) * _BATCH + k], S[(_P + 2) * _BATCH + k])
+        hp = Hit(pt, (S[(_V + 0) * _BATCH + k], S[(_V + 1) * _BATCH + k], S[(_V + 2) * _BATCH + k]),
+                 (S[(_G + 0) * _BATCH + k], S[(_G + 1) * _BATCH + k], S[(_G + 2) * _BATCH + k]), S[_SG * _BATCH + k],
+                 (S[(_N + 0) * _BATCH + k], S[(_N + 1) * _BATCH + k], S[(_N + 2) * _BATCH + k]), pt)
+        o, r = _mirror_ray(hp, unit)
+        for c in range(3):
+            S[(_A + c) * _BATCH + k] = o[c]
+            S[(_FN + c) * _BATCH + k] = r[c]
+
+
+@njit(**HELPER)
+def _take_tile(F, j, lanes):
+    """Tile ``j`` of the group :func:`_start_group` started, as the lanes of ``lanes = (n, ys, xs,
+    weight, org, dr, act)`` from 0 (as :func:`_start_lane` fills them). Returns the lanes filled."""
+    _, ys, xs, weight, org, dr, act = lanes
+    S, XY = F
+    b = 0
+    for i in range(j):
+        b += XY[2 * _BATCH + i]
+    n = XY[2 * _BATCH + j]
+    for k in range(n):
+        ys[k] = XY[b + k]
+        xs[k] = XY[_BATCH + b + k]
+        weight[k] = S[_KD * _BATCH + b + k]
+        act[k] = True
+        for c in range(3):
+            org[c, k] = S[(_A + c) * _BATCH + b + k]
+            dr[c, k] = S[(_FN + c) * _BATCH + b + k]
+    return n
+
+
+@njit(**HELPER)
+def _prefetch_ahead(prim, geom, G, face_off, rows, w, tx, batched):
+    """Prefetch the gathers of the tiles ahead of tile ``tx`` (rows ``rows = (ya, yb)``) so that their
+    cache misses overlap: faces :data:`_AHEAD_FACES` tiles ahead, then (``deep``) their vertices
+    :data:`_AHEAD_VERTS` ahead; ``batched`` (:func:`_start_group`), a group's at its first tile: the
+    group after next's faces and the next group's vertices."""
+    ntx = (w + _TILE - 1) // _TILE
+    ya, yb = rows
+    if batched:
+        if tx % _GROUP != 0:
+            return
+        for j in range(_GROUP):
+            t2 = tx + 2 * _GROUP + j
+            if t2 < ntx:
+                _prefetch_tile(prim, geom, G, face_off, ya, yb, t2 * _TILE, min(w, (t2 + 1) * _TILE), False)
+            t1 = tx + _GROUP + j
+            if t1 < ntx:
+                _prefetch_tile(prim, geom, G, face_off, ya, yb, t1 * _TILE, min(w, (t1 + 1) * _TILE), True)
+        return
+    t2 = tx + _AHEAD_FACES
+    if t2 < ntx:
+        _prefetch_tile(prim, geom, G, face_off, ya, yb, t2 * _TILE, min(w, (t2 + 1) * _TILE), False)
+    t1 = tx + _AHEAD_VERTS
+    if t1 < ntx:
+        _prefetch_tile(prim, geom, G, face_off, ya, yb, t1 * _TILE, min(w, (t1 + 1) * _TILE), True)
+
+
 def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
     """The mirror kernel for one variant (see :mod:`.jit`; ``tex_on``: textured coefficients at
     the bounces, sampled at level 0: a bounced ray has no pixel footprint here)."""
@@ -213,7 +313,7 @@ def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
         the last bounce; the background on a miss) added with :func:`_add_pixel`, weighted by
         the product of the reflectivities met before it."""
         prim = hits[0]
-        handle, unit, max_depth, flags, y0, ahead = trace
+        handle, unit, max_depth, flags, y0, ahead, batched = trace
         uvs = B[0]
         h, w = prim.shape
         first = y0 // _TILE  # the frame's tile rows that meet rows y0 .. y0 + h
@@ -244,22 +344,23 @@ def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
             org = np.zeros((3, _LANES), np.float64)
             dr = np.zeros((3, _LANES), np.float64)
             act = np.zeros(_LANES, np.bool_)
+            F = (np.zeros(_FIELDS * _BATCH), np.zeros(7 * _BATCH, np.int64))  # _start_group's scratch
             for tr in range(blk * per, min(ntr, (blk + 1) * per)):
                 ya = max((first + tr) * _TILE - y0, 0)
                 yb = min((first + tr + 1) * _TILE - y0, h)
                 for tx in range(ntx):
-                    # The gathers of tiles ahead, issued now so that their cache misses overlap.
-                    t2 = tx + _AHEAD_FACES
-                    if ahead and t2 < ntx:
-                        _prefetch_tile(prim, hits[1], G, face_off, ya, yb, t2 * _TILE, min(w, (t2 + 1) * _TILE), False)
-                    t1 = tx + _AHEAD_VERTS
-                    if ahead and t1 < ntx:
-                        _prefetch_tile(prim, hits[1], G, face_off, ya, yb, t1 * _TILE, min(w, (t1 + 1) * _TILE), True)
+                    if ahead:
+                        _prefetch_ahead(prim, hits[1], G, face_off, (ya, yb), w, tx, batched)
                     n = 0
-                    for y in range(ya, yb):
-                        for x in range(tx * _TILE, min(w, (tx + 1) * _TILE)):
-                            n = _start_lane(hits, G, B, materials, face_off, cam, unit, image, y, x,
-                                            (n, ys, xs, weight, org, dr, act))
+                    if batched:
+                        if tx % _GROUP == 0:
+                            _start_group(hits, G, materials, face_off, cam, unit, image, (ya, yb, tx * _TILE, w), F)
+                        n = _take_tile(F, tx % _GROUP, (n, ys, xs, weight, org, dr, act))
+                    else:
+                        for y in range(ya, yb):
+                            for x in range(tx * _TILE, min(w, (tx + 1) * _TILE)):
+                                n = _start_lane(hits, G, B, materials, face_off, cam, unit, image, y, x,
+                                                (n, ys, xs, weight, org, dr, act))
                     for depth in range(1, max_depth + 1):
                         if n == 0:
                             break
@@ -305,6 +406,12 @@ def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
 _PACKETS = compile_variants(_make_packets)  # the family's registry (see .jit)
 
 
+def _batched_start(B) -> bool:
+    """Whether the lanes start by :func:`_start_group`: no model has a bump or a normal map
+    (``B``: the frame's height-map tuple; those bend the normal, which only ``_surface`` does)."""
+    return not bool(np.any(B[2] >= 0)) and not bool(np.any(B[5] >= 0))
+
+
 def trace_mirrors(scene, camera, hits, image, max_depth: int = 3, inputs=None, y0: int = 0) -> np.ndarray:
     """Blend mirror reflections into a shaded image.
 
@@ -341,7 +448,7 @@ def trace_mirrors(scene, camera, hits, image, max_depth: int = 3, inputs=None, y
     k = prepare(scene, camera) if inputs is None else inputs
     ahead = beyond_caches(*k["G"])
     trace = (np.uintp(embree_accel(geo).handle), float(geo.scale), int(max_depth), np.uint32(MIRROR_FLAGS),
-             int(y0), ahead)
+             int(y0), ahead, _batched_start(k["B"]))
     variant(_PACKETS, k)((hits.prim, hits.geom, hits.u, hits.v), k["G"], k["B"], k["L"], k["T"], k["face_off"],
                          k["materials"], k["cam"], k["background"], image, trace)
     return image

@@ -227,3 +227,33 @@ def test_prefetching_the_gathers_changes_no_bit_of_the_mirror_image(depth, monke
     with_hint, without = traced(0), traced(1 << 62)
     assert not np.array_equal(with_hint, _LOCAL)  # the bounces changed the image
     assert np.array_equal(with_hint.view(np.uint32), without.view(np.uint32))
+
+
+@pytest.mark.parametrize("depth", [1, 3])
+@pytest.mark.parametrize("projection", ["perspective", "orthographic"])
+@pytest.mark.parametrize("threshold", [0, 1 << 62])
+def test_lanes_started_in_groups_are_the_pixel_by_pixel_lanes(depth, projection, threshold, monkeypatch):
+    """The hall's lanes started four tiles at a time by the batched Phong passes
+    (``mirrors._start_group``) and pixel by pixel (``_start_lane``, what bump-mapped frames take),
+    prefetching or not, under both projections: the same image, bit for bit."""
+    from dataclasses import replace
+
+    from raycast_shade.common import prefetch
+    from raycast_shade.shading import mirrors
+
+    cam = _HALL.camera if projection == "perspective" else replace(_HALL.camera, projection="orthographic",
+                                                                    ortho_height=3.0)
+    hall = _HALL.replace(camera=cam)
+    hits = rs.cast_camera(hall.geometry, cam)
+    local = rs.shade(hall, cam, hits)
+    k = prepare(hall, cam)
+    monkeypatch.setattr(prefetch, "PREFETCH_BYTES", threshold)
+    assert mirrors._batched_start(k["B"])
+
+    def traced(batched):
+        monkeypatch.setattr(mirrors, "_batched_start", lambda B: batched)
+        return trace_mirrors(hall, cam, hits, local.copy(), depth, k)
+
+    grouped, single = traced(True), traced(False)
+    assert not np.array_equal(grouped, local)  # the bounces changed the image
+    assert np.array_equal(grouped.view(np.uint32), single.view(np.uint32))
