@@ -45,6 +45,20 @@ def _packet_range():
     return f"{lo}–{hi}×"
 
 
+def _cold_start():
+    """The demo's first run from an empty kernel cache (``limits.csv``'s ``cold`` rows), as ``N s of CPU``."""
+    values = [float(r["value"]) for r in _rows("limits.csv")
+              if (r["section"], r["variant"], r["metric"]) == ("cold", "cold_cache", "demo_cpu_s")]
+    assert len(values) == 1
+    return f"{values[0]:.0f} s of CPU"
+
+
+def test_the_cold_start_has_one_figure():
+    quote = _cold_start()
+    for page in ("README.md", "docs/performance.md"):
+        assert quote in _page(page), f"{page} should quote {quote} (benchmarks/results/limits.csv, cold rows)"
+
+
 def _failure_quotes():
     f = _failure
     misses = "{} / {} / {}"
