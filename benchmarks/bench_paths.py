@@ -16,6 +16,9 @@ divided by the plain Phong frame's median:
 * ``alloc_all``, ``alloc_view_default``: the bytes of the output arrays of those two
   sets as one fresh block, filled once: the page-fault floor no kernel removes (fresh
   memory is what costs: the OS zeroes each page, ~5-8 ms for 50 MB with huge pages);
+  the frame plus ``alloc_view_default`` is the view-set default's floor;
+* ``store_all``: the bytes of the 12 buffers stored once into one warm block (allocated
+  and faulted in before the rounds): the frame plus it is ``buffers_all_reused``'s floor;
 * ``write_floor``: the bytes of the 12 buffers and the image in one plain
   ``open().write()``, the least any writer of them can take on this disk;
 * ``npz_plain``, ``npz_level1``, ``npz_level6``, ``exr``, ``exr_zip``,
@@ -98,6 +101,7 @@ def _paths(scene, tmp):
         "buffers_all_reused": (lambda: rs.render(scene, buffers=ALL, buffers_out=full.buffers), None, 1),
         "alloc_all": (lambda: _alloc(ALL, scene.camera), None, 1),
         "alloc_view_default": (lambda: _alloc(VIEW_DEFAULT, scene.camera), None, 1),
+        "store_all": (_store(ALL, scene.camera), None, 1),
         **_writer_paths(full, tmp),
         **_view_paths(scene, tmp),
         **_band_paths(scene),
@@ -115,6 +119,18 @@ def _alloc(names, camera):
     from raycast_shade.output.buffers import buffer_bytes
 
     np.empty(buffer_bytes(names) * camera.height * camera.width, np.uint8).fill(0)
+
+
+def _store(names, camera):
+    """One plain store (``fill``) of the bytes of the output arrays ``render(buffers=names)`` makes,
+    into one block allocated and faulted in here, before the rounds: the least a kernel writing
+    them into reused arrays (``buffers_out=``) takes."""
+    import numpy as np
+
+    from raycast_shade.output.buffers import buffer_bytes
+
+    block = np.zeros(buffer_bytes(names) * camera.height * camera.width, np.uint8)
+    return lambda: block.fill(0)
 
 
 def _writer_paths(full, tmp):
@@ -301,6 +317,7 @@ BEGIN, END = "<!-- paths:begin (benchmarks/bench_paths.py) -->", "<!-- paths:end
 LABELS = {"buffers_all": "all 12 buffers",
           "alloc_all": "their bytes, one fresh block + one fill (the page-fault floor)",
           "buffers_all_reused": "all 12 buffers into an earlier frame's arrays (`buffers_out=`)",
+          "store_all": "the 12 buffers' bytes, one fill of a warm block (the reused floor)",
           "position": "`position` alone",
           "view_default": "zdepth, normal, id, mask (the view-set default)",
           "alloc_view_default": "their bytes, one fresh block + one fill (the floor)",
