@@ -10,8 +10,11 @@ a time), each bounce is Phong-shaded and blended into its pixel as soon as it
 returns, and the lanes that meet another mirror bounce on in the same packet. The gathers of the
 tiles a few steps ahead are prefetched on a large mesh (there each pixel's face and vertices miss the
 caches, and one pixel's arithmetic is too long for the processor to overlap the next one's misses).
-Without bump or normal maps, the lanes of four tiles start together, their points and normals by
-the batched Phong kernel's vectorised passes (:func:`_start_group`).
+When every reflective model is Phong-shaded, the Phong kernel that shaded the pixels has handed
+each reflective pixel's first ray over (:mod:`.mirror_rays`) and the lanes start from those
+(:func:`_take_handed`: no gather). Otherwise, without bump or normal maps, the lanes of four tiles
+start together, their points and normals by the batched Phong kernel's vectorised passes
+(:func:`_start_group`).
 ``render`` runs it band by band, after each band is shaded.
 """
 
@@ -273,7 +276,8 @@ def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
         ``hits`` = ``(prim, geom, u, v)`` (R, W) and ``image`` (R, W, 3) float32: rows
         ``y0 ..`` of the frame (a band, or all of it: a pixel's bounces read nothing but its
         own hit). ``trace`` = ``(scene handle, unit, max_depth, packet flags, y0, ahead)``, ``ahead``:
-        prefetch the gathers of the tiles ahead (:data:`~raycast_shade.common.prefetch.PREFETCH_BYTES`). The
+        prefetch the gathers of the tiles ahead (:data:`~raycast_shade.common.prefetch.PREFETCH_BYTES`);
+        ``rays``: the first rays handed over (:func:`_take_handed`), or ``NO_RAYS``. The
         reflective pixels of each 4x4 tile of the image (on the frame's grid of tiles, cut by
         the rows given) go as one ``rtcIntersect16`` packet per bounce; a lane whose ray met a
         reflective surface (and whose weight can still change its pixel) bounces on in the
