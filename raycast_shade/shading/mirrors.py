@@ -32,7 +32,8 @@ from .inputs import prepare
 from .jit import FLT32_MAX, HELPER, JIT, compile_variants, variant
 from .phong import _shade_surface, _surface
 from .lanes import _A, _B1, _B2, _FIELDS, _FN, _KD, LANES as _BATCH
-from .mirror_rays import NO_RAYS, _mirror_ray, _offset, lane_rays  # noqa: F401 (_offset: tests/shading/test_mirror_packets.py)
+from .mirror_rays import _offset  # noqa: F401 (tests/shading/test_mirror_packets.py reads it here)
+from .mirror_rays import NO_RAYS, _mirror_ray, lane_rays
 from .phong_fast import _gather, _geometry
 from .records import At
 from .shadows import _scratch
@@ -128,14 +129,23 @@ def _start_lane(hits, G, B, materials, face_off, cam, unit, image, y, x, lanes):
     dr, act)`` when its surface reflects (its mirror ray, weight ``rho``, its local shade
     scaled by ``1 - rho``). Returns the lanes now filled."""
     prim, geom, u, v = hits
-    n, ys, xs, weight, org, dr, act = lanes
+    n = lanes[0]
     p = prim[y, x]
     if p < 0 or materials[geom[y, x], MAT_REFLECTIVITY] <= 0.0:
         return n
     gm = geom[y, x]
     at = At(face_off[gm] + p, gm, np.float64(u[y, x]), np.float64(v[y, x]))
-    o, r = _mirror_ray(_surface(G, B, cam, at, False, (0.0, 0.0, 0.0)), unit)
-    rho = materials[gm, MAT_REFLECTIVITY]
+    ray = _mirror_ray(_surface(G, B, cam, at, False, (0.0, 0.0, 0.0)), unit)
+    return _add_lane(image, y, x, materials[gm, MAT_REFLECTIVITY], ray, lanes)
+
+
+@njit(**HELPER)
+def _add_lane(image, y, x, rho, ray, lanes):
+    """Pixel ``(y, x)`` as lane ``n`` of ``lanes = (n, ys, xs, weight, org, dr, act)``: its mirror
+    ``ray = (origin, direction)``, weight ``rho``, its local shade scaled by ``1 - rho``. Returns
+    ``n + 1``."""
+    n, ys, xs, weight, org, dr, act = lanes
+    o, r = ray
     _keep_pixel(image, y, x, rho)
     ys[n] = y
     xs[n] = x
@@ -226,15 +236,9 @@ def _take_handed(hits, materials, image, rays, box, lanes):
             rho = materials[geom[y, x], MAT_REFLECTIVITY]
             if rho <= 0.0:
                 continue
-            _keep_pixel(image, y, x, rho)
-            ys[n] = y
-            xs[n] = x
-            weight[n] = rho
-            act[n] = True
-            for c in range(3):
-                org[c, n] = given_org[y, x, c]
-                dr[c, n] = given_dr[y, x, c]
-            n += 1
+            ray = ((given_org[y, x, 0], given_org[y, x, 1], given_org[y, x, 2]),
+                   (given_dr[y, x, 0], given_dr[y, x, 1], given_dr[y, x, 2]))
+            n = _add_lane(image, y, x, rho, ray, (n, ys, xs, weight, org, dr, act))
     return n
 
 

@@ -58,7 +58,7 @@ from ..common.schedule import BLOCK_ROWS, spread_step
 from ..visibility.embree import RAY16_SLOTS, RAY_DIR, RAY_ORG, RAY_TFAR
 from .illumination import _spot_factor
 from .jit import FLT32_MAX, HELPER, JIT
-from .lanes import (_A, _ATT, _B1, _B2, _CB, _CC, _CP, _D, _FIELDS, _FN, _G, _HASSPEC, _KA, _KD, _KE, _KS, _LIT,  # noqa: F401
+from .lanes import (_A, _ATT, _B1, _B2, _CB, _CC, _CP, _D, _FIELDS, _FN, _G, _HASSPEC, _KA, _KD, _KE, _KS, _LIT,
                     _MODEL, _N, _ND, _O, _P, _PW, _R, _S, _SG, _SHN, _SHT, _TD, _TS, _V, LANES)
 from .mirror_rays import hand_over_lanes
 from .pixelstore import store_background, store_pixel
