@@ -34,6 +34,7 @@ from .common.choices import BACKENDS, CASTER_CHOICES, INTERPOLATIONS, SHADING_CH
 from .common.samples import check_samples, sample_offsets
 from .common.validate import as_int, as_scalar
 from .shading.inputs import prepare
+from .shading.mirror_rays import hand_over_buffers
 from .shading.mirrors import MAX_MIRROR_DEPTH, trace_mirrors
 from .shading.shade import GROUP, SampleShading, accumulate, resolve_methods, sample_mean
 from .shading.terms import check_terms
@@ -328,16 +329,26 @@ def _shader(scene, plan: _Plan, inputs):
     return SampleShading(scene, plan.camera, plan.shading, inputs)
 
 
+def _handed_rays(scene, plan: _Plan, shader, rows: int):
+    """Where the shading kernel hands each reflective pixel's mirror ray over to the mirror kernel
+    (:func:`~raycast_shade.shading.mirror_rays.hand_over_buffers`, ``rows`` rows), or None: no
+    mirror bounce, or a reflective model not Phong-shaded (the mirror kernel computes them)."""
+    if scene.geometry.reflective and plan.max_depth > 0 and shader.hands_over:
+        return hand_over_buffers(rows, plan.camera.width)
+    return None
+
+
 def _render_one(scene, plan: _Plan, timings: dict, inputs, shader, normal=None):
     """One ray per pixel: the hit buffer, its shaded image (mirrors blended in) and no coverage;
     ``normal``: where the Phong kernel writes the shading normals (:meth:`FrameBuffers.normal_target`)."""
     hits = _visibility(scene, plan, timings)
     ts = time.perf_counter()
-    image = shader.shade(hits, out=plan.out, normal=normal)  # our hits: valid
+    rays = _handed_rays(scene, plan, shader, plan.camera.height)
+    image = shader.shade(hits, out=plan.out, normal=normal, rays=rays)  # our hits: valid
     te = time.perf_counter()
     timings["shade"] = te - ts
     if scene.geometry.reflective and plan.max_depth > 0:
-        trace_mirrors(scene, plan.camera, hits, image, plan.max_depth, inputs)
+        trace_mirrors(scene, plan.camera, hits, image, plan.max_depth, inputs, rays=rays)
         timings["mirror"] = time.perf_counter() - te
     return hits, image, None
 
@@ -379,14 +390,20 @@ def _render_bands(scene, plan: _Plan, timings: dict, inputs, shader, buffers=Non
         coverage = plan.buffers_out["coverage"] if "coverage" in plan.buffers_out else np.empty((h, w), np.float32)
     spent = dict.fromkeys(("shade", "mirror", "buffers", "average"), 0.0)
     mirrors = scene.geometry.reflective and plan.max_depth > 0
+    handed = _handed_rays(scene, plan, shader, bands.BAND_ROWS)  # one band's, reused by every band
 
     def shade(hits, out, y, normal=None):  # one band of one sample, its mirror bounces blended in
+        nonlocal handed
         ts = time.perf_counter()
-        shader.shade(hits, out=out, y0=y, normal=normal)
+        m = hits.shape[0]
+        if handed is not None and handed[0].shape[0] < m:  # a distorted camera's one band: the frame
+            handed = _handed_rays(scene, plan, shader, m)
+        rays = None if handed is None else (handed[0][:m], handed[1][:m])
+        shader.shade(hits, out=out, y0=y, normal=normal, rays=rays)
         tm = time.perf_counter()
         spent["shade"] += tm - ts
         if mirrors:
-            trace_mirrors(scene, camera, hits, out, plan.max_depth, inputs, y)
+            trace_mirrors(scene, camera, hits, out, plan.max_depth, inputs, y, rays)
             spent["mirror"] += time.perf_counter() - tm
 
     t_start = time.perf_counter()
@@ -473,6 +490,7 @@ def _render_samples(scene, plan: _Plan, timings: dict, inputs, normal=None):
     h, w = camera.height, camera.width
     shader = SampleShading(scene, camera, plan.shading, inputs)
     mirrors = scene.geometry.reflective and plan.max_depth > 0
+    rays = _handed_rays(scene, plan, shader, h)  # reused by every sample
     offsets = sample_offsets(plan.samples)
     n = len(offsets)
     # The accumulator is read only once a group has gone before (a 1x1 stand-in until: never
@@ -491,11 +509,11 @@ def _render_samples(scene, plan: _Plan, timings: dict, inputs, normal=None):
         hits = _visibility(scene, plan, timings, (dx, dy), None if i == 0 else scratch[j])
         image = images[i % GROUP]
         ts = time.perf_counter()
-        shader.shade(hits, out=image, normal=normal if i == 0 else None)  # sample 0's normals: the centre's
+        shader.shade(hits, out=image, normal=normal if i == 0 else None, rays=rays)  # sample 0's normals: the centre's
         te = time.perf_counter()
         timings["shade"] = timings.get("shade", 0.0) + te - ts
         if mirrors:  # per sample: a mirror's reflection is anti-aliased too
-            trace_mirrors(scene, camera, hits, image, plan.max_depth, inputs)
+            trace_mirrors(scene, camera, hits, image, plan.max_depth, inputs, rays=rays)
             timings["mirror"] = timings.get("mirror", 0.0) + time.perf_counter() - te
         if i == 0:
             centre = hits

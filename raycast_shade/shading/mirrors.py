@@ -10,17 +10,18 @@ a time), each bounce is Phong-shaded and blended into its pixel as soon as it
 returns, and the lanes that meet another mirror bounce on in the same packet. The gathers of the
 tiles a few steps ahead are prefetched on a large mesh (there each pixel's face and vertices miss the
 caches, and one pixel's arithmetic is too long for the processor to overlap the next one's misses).
-Without bump or normal maps, the lanes of four tiles start together, their points and normals by
-the batched Phong kernel's vectorised passes (:func:`_start_group`).
+When every reflective model is Phong-shaded, the Phong kernel that shaded the pixels has handed
+each reflective pixel's first ray over (:mod:`.mirror_rays`) and the lanes start from those
+(:func:`_take_handed`: no gather). Otherwise, without bump or normal maps, the lanes of four tiles
+start together, their points and normals by the batched Phong kernel's vectorised passes
+(:func:`_start_group`).
 ``render`` runs it band by band, after each band is shaded.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from llvmlite import ir
-from numba import njit, prange, types
-from numba.extending import intrinsic
+from numba import njit, prange
 
 from ..common.layout import MAT_REFLECTIVITY
 from ..common.prefetch import beyond_caches, prefetch
@@ -30,9 +31,12 @@ from ..visibility.accel import embree_accel
 from .inputs import prepare
 from .jit import FLT32_MAX, HELPER, JIT, compile_variants, variant
 from .phong import _shade_surface, _surface
-from .phong_fast import _A, _B1, _B2, _FIELDS, _FN, _G, _KD, _N, _P, _SG, _V, LANES as _BATCH, _gather, _geometry
-from .records import At, Hit, reflect_into
-from .shadows import _nudge, _scratch
+from .lanes import _A, _B1, _B2, _FIELDS, _FN, _KD, LANES as _BATCH
+from .mirror_rays import _offset  # noqa: F401 (tests/shading/test_mirror_packets.py reads it here)
+from .mirror_rays import NO_RAYS, _mirror_ray, lane_rays
+from .phong_fast import _gather, _geometry
+from .records import At
+from .shadows import _scratch
 from .texture import _point_coefficients, _row_coefficients
 
 __all__ = ["trace_mirrors", "MAX_MIRROR_DEPTH"]
@@ -56,26 +60,6 @@ _AHEAD_FACES = 4
 _AHEAD_VERTS = 2
 
 
-@intrinsic
-def _bits(typingctx, x):
-    """The IEEE-754 bits of a float64, as an int64."""
-    def codegen(context, builder, signature, args):
-        return builder.bitcast(args[0], ir.IntType(64))
-
-    return types.int64(types.float64), codegen
-
-
-@intrinsic
-def _from_bits(typingctx, b):
-    """The float64 whose IEEE-754 bits are the int64 ``b``."""
-    def codegen(context, builder, signature, args):
-        return builder.bitcast(args[0], ir.DoubleType())
-
-    return types.float64(types.int64), codegen
-
-
-
-
 @njit(**HELPER)
 def _prefetch_tile(prim, geom, G, face_off, ya, yb, x0, x1, deep):
     """Prefetch what :func:`_start_lane` gathers for the hit pixels of rows ``ya .. yb`` and
@@ -95,38 +79,6 @@ def _prefetch_tile(prim, geom, G, face_off, ya, yb, x0, x1, deep):
                     prefetch(fnormals, f)
                 else:
                     prefetch(faces, f)
-
-
-@njit(**HELPER)
-def _offset(p, n, unit):
-    """:func:`~raycast_shade.shading.shadows._nudge`, bit for bit, with its step read off
-    ``p``'s exponent bits instead of ``frexp`` and ``ldexp`` (two library calls a coordinate,
-    a third of the cost of a mirror ray's origin): for a normal ``p`` of biased exponent ``E``,
-    ``frexp`` gives ``E - 1022`` and the step ``ldexp(256, E - 1022 - 24)`` is ``2**(E - 1038)``,
-    the float64 of biased exponent ``E - 15``. A subnormal step, inf and NaN take ``_nudge``
-    itself."""
-    e = (_bits(p) >> 52) & 0x7FF
-    if abs(p) < unit * (1.0 / 32.0):
-        step = unit * (1.0 / 65536.0)
-    elif e < 16 or e == 0x7FF:
-        return _nudge(p, n, unit)
-    else:
-        step = _from_bits((e - 15) << 52)
-    return p + n * step  # one expression for both steps, contracted as _nudge's (an exact product or not)
-
-
-@njit(**HELPER)
-def _mirror_ray(hp, unit):
-    """The mirror ray of shading point ``hp`` (:class:`~raycast_shade.shading.records.Hit`):
-    the incoming direction ``d = -v`` reflected about ``n``, ``r = d - 2 (d.n) n``, kept above
-    the geometric surface, from an origin pushed off along ``g``. Returns ``(origin, r)``."""
-    vx, vy, vz = hp.v
-    nx, ny, nz = hp.n
-    dn = -(vx * nx + vy * ny + vz * nz)
-    r = (-vx - 2.0 * dn * nx, -vy - 2.0 * dn * ny, -vz - 2.0 * dn * nz)
-    r = reflect_into(r, hp.g)  # a bent shading normal sent it below the surface
-    p, g = hp.p, hp.g
-    return (_offset(p[0], g[0], unit), _offset(p[1], g[1], unit), _offset(p[2], g[2], unit)), r
 
 
 # The blends, in plain IEEE arithmetic (no fast-math, so no fused multiply-add even when LLVM
@@ -177,14 +129,23 @@ def _start_lane(hits, G, B, materials, face_off, cam, unit, image, y, x, lanes):
     dr, act)`` when its surface reflects (its mirror ray, weight ``rho``, its local shade
     scaled by ``1 - rho``). Returns the lanes now filled."""
     prim, geom, u, v = hits
-    n, ys, xs, weight, org, dr, act = lanes
+    n = lanes[0]
     p = prim[y, x]
     if p < 0 or materials[geom[y, x], MAT_REFLECTIVITY] <= 0.0:
         return n
     gm = geom[y, x]
     at = At(face_off[gm] + p, gm, np.float64(u[y, x]), np.float64(v[y, x]))
-    o, r = _mirror_ray(_surface(G, B, cam, at, False, (0.0, 0.0, 0.0)), unit)
-    rho = materials[gm, MAT_REFLECTIVITY]
+    ray = _mirror_ray(_surface(G, B, cam, at, False, (0.0, 0.0, 0.0)), unit)
+    return _add_lane(image, y, x, materials[gm, MAT_REFLECTIVITY], ray, lanes)
+
+
+@njit(**HELPER)
+def _add_lane(image, y, x, rho, ray, lanes):
+    """Pixel ``(y, x)`` as lane ``n`` of ``lanes = (n, ys, xs, weight, org, dr, act)``: its mirror
+    ``ray = (origin, direction)``, weight ``rho``, its local shade scaled by ``1 - rho``. Returns
+    ``n + 1``."""
+    n, ys, xs, weight, org, dr, act = lanes
+    o, r = ray
     _keep_pixel(image, y, x, rho)
     ys[n] = y
     xs[n] = x
@@ -234,15 +195,7 @@ def _start_group(hits, G, materials, face_off, cam, unit, image, box, F):
         return
     _gather(S, XY, n, G, False)
     _geometry(S, cam, (0.0, 0.0, 0.0))
-    for k in range(n):
-        pt = (S[(_P + 0) * _BATCH + k], S[(_P + 1) * _BATCH + k], S[(_P + 2) * _BATCH + k])
-        hp = Hit(pt, (S[(_V + 0) * _BATCH + k], S[(_V + 1) * _BATCH + k], S[(_V + 2) * _BATCH + k]),
-                 (S[(_G + 0) * _BATCH + k], S[(_G + 1) * _BATCH + k], S[(_G + 2) * _BATCH + k]), S[_SG * _BATCH + k],
-                 (S[(_N + 0) * _BATCH + k], S[(_N + 1) * _BATCH + k], S[(_N + 2) * _BATCH + k]), pt)
-        o, r = _mirror_ray(hp, unit)
-        for c in range(3):
-            S[(_A + c) * _BATCH + k] = o[c]
-            S[(_FN + c) * _BATCH + k] = r[c]
+    lane_rays(S, n, unit)
 
 
 @njit(**HELPER)
@@ -263,6 +216,29 @@ def _take_tile(F, j, lanes):
         for c in range(3):
             org[c, k] = S[(_A + c) * _BATCH + b + k]
             dr[c, k] = S[(_FN + c) * _BATCH + b + k]
+    return n
+
+
+@njit(**HELPER)
+def _take_handed(hits, materials, image, rays, box, lanes):
+    """The reflective pixels of rows ``box[0] .. box[1] - 1`` and columns ``box[2] .. box[3] - 1`` (a
+    tile) as the lanes of ``lanes = (n, ys, xs, weight, org, dr, act)`` from 0, as :func:`_start_lane`
+    fills them, their rays read from ``rays`` (:mod:`.mirror_rays`: the Phong kernel handed them
+    over as it shaded the pixels). Returns the lanes filled."""
+    prim, geom, _, _ = hits
+    given_org, given_dr = rays
+    _, ys, xs, weight, org, dr, act = lanes
+    n = 0
+    for y in range(box[0], box[1]):
+        for x in range(box[2], box[3]):
+            if prim[y, x] < 0:
+                continue
+            rho = materials[geom[y, x], MAT_REFLECTIVITY]
+            if rho <= 0.0:
+                continue
+            ray = ((given_org[y, x, 0], given_org[y, x, 1], given_org[y, x, 2]),
+                   (given_dr[y, x, 0], given_dr[y, x, 1], given_dr[y, x, 2]))
+            n = _add_lane(image, y, x, rho, ray, (n, ys, xs, weight, org, dr, act))
     return n
 
 
@@ -298,13 +274,14 @@ def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
     the bounces, sampled at level 0: a bounced ray has no pixel footprint here)."""
 
     @njit(parallel=True, **JIT)
-    def _mirror_packets_kernel(hits, G, B, L, T, face_off, materials, cam, background, image, trace):
+    def _mirror_packets_kernel(hits, G, B, L, T, face_off, materials, cam, background, image, trace, rays):
         """Blend every reflective pixel of ``hits`` into ``image``, all bounces, in packets.
 
         ``hits`` = ``(prim, geom, u, v)`` (R, W) and ``image`` (R, W, 3) float32: rows
         ``y0 ..`` of the frame (a band, or all of it: a pixel's bounces read nothing but its
         own hit). ``trace`` = ``(scene handle, unit, max_depth, packet flags, y0, ahead)``, ``ahead``:
-        prefetch the gathers of the tiles ahead (:data:`~raycast_shade.common.prefetch.PREFETCH_BYTES`). The
+        prefetch the gathers of the tiles ahead (:data:`~raycast_shade.common.prefetch.PREFETCH_BYTES`);
+        ``rays``: the first rays handed over (:func:`_take_handed`), or ``NO_RAYS``. The
         reflective pixels of each 4x4 tile of the image (on the frame's grid of tiles, cut by
         the rows given) go as one ``rtcIntersect16`` packet per bounce; a lane whose ray met a
         reflective surface (and whose weight can still change its pixel) bounces on in the
@@ -314,6 +291,8 @@ def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
         the product of the reflectivities met before it."""
         prim = hits[0]
         handle, unit, max_depth, flags, y0, ahead, batched = trace
+        handed = rays[0].shape[0] != 0
+        ahead = ahead and not handed  # (nothing is gathered)
         uvs = B[0]
         h, w = prim.shape
         first = y0 // _TILE  # the frame's tile rows that meet rows y0 .. y0 + h
@@ -352,7 +331,10 @@ def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
                     if ahead:
                         _prefetch_ahead(prim, hits[1], G, face_off, (ya, yb), w, tx, batched)
                     n = 0
-                    if batched:
+                    if handed:
+                        n = _take_handed(hits, materials, image, rays, (ya, yb, tx * _TILE, min(w, (tx + 1) * _TILE)),
+                                         (n, ys, xs, weight, org, dr, act))
+                    elif batched:
                         if tx % _GROUP == 0:
                             _start_group(hits, G, materials, face_off, cam, unit, image, (ya, yb, tx * _TILE, w), F)
                         n = _take_tile(F, tx % _GROUP, (n, ys, xs, weight, org, dr, act))
@@ -412,7 +394,8 @@ def _batched_start(B) -> bool:
     return not bool(np.any(B[2] >= 0)) and not bool(np.any(B[5] >= 0))
 
 
-def trace_mirrors(scene, camera, hits, image, max_depth: int = 3, inputs=None, y0: int = 0) -> np.ndarray:
+def trace_mirrors(scene, camera, hits, image, max_depth: int = 3, inputs=None, y0: int = 0,
+                  rays=None) -> np.ndarray:
     """Blend mirror reflections into a shaded image.
 
     Each reflective pixel becomes ``(1 - rho) local + rho reflected``, the
@@ -441,6 +424,10 @@ def trace_mirrors(scene, camera, hits, image, max_depth: int = 3, inputs=None, y
         The frame row of ``hits``' first row: its tiles are the frame's, so a band's pixels
         travel with the same neighbours as in the whole frame (except where a band's edge cuts a
         tile; a ray's hit does not depend on the packet it travels in).
+    rays : tuple of (H, W, 3) float32 and float64 arrays, optional
+        Every reflective pixel's first mirror ray, handed over by the Phong kernel that shaded
+        ``image`` (:func:`~raycast_shade.shading.mirror_rays.hand_over_buffers`); computed here
+        otherwise.
     """
     geo = scene.geometry
     if max_depth <= 0 or not geo.reflective:
@@ -450,5 +437,6 @@ def trace_mirrors(scene, camera, hits, image, max_depth: int = 3, inputs=None, y
     trace = (np.uintp(embree_accel(geo).handle), float(geo.scale), int(max_depth), np.uint32(MIRROR_FLAGS),
              int(y0), ahead, _batched_start(k["B"]))
     variant(_PACKETS, k)((hits.prim, hits.geom, hits.u, hits.v), k["G"], k["B"], k["L"], k["T"], k["face_off"],
-                         k["materials"], k["cam"], k["background"], image, trace)
+                         k["materials"], k["cam"], k["background"], image, trace,
+                         NO_RAYS if rays is None else rays)
     return image

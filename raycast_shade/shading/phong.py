@@ -26,13 +26,14 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ..common.layout import METHOD_PHONG
+from ..common.layout import MAT_REFLECTIVITY, METHOD_PHONG
 from ..common.schedule import BLOCK_ROWS, spread_step
 from .bump import _bump
 from .illumination import _illuminate, _reflected, _request_shadows
 from .normalmap import _normal_map
 from .pixelstore import store_pixel
 from .jit import HELPER, JIT, compile_variants
+from .mirror_rays import hand_over
 from .records import At, Hit
 from .shadows import (LANES, _packets, _scratch, clear_packets, store_coef, store_point, stored_coef,
                       stored_material, stored_point, trace_packets)
@@ -98,11 +99,12 @@ def _make_phong(spec_on: bool, att_on: bool, tex_on: bool = False):
     def _shade_phong_kernel(prim, geom, u, v, G, B, L, T, face_off, materials, cam, background, modes, outs, y0):
         """Phong: shade every pixel of the models whose method is METHOD_PHONG; array row ``r``
         is image row ``y0 + r`` (a band of the frame; textures need the image position).
-        ``outs = (image, normal)``: the (h, W, 3) float32 image, and where to write each shaded
+        ``outs = (image, normal, rays)``: the (h, W, 3) float32 image, where to write each shaded
         pixel's shading normal (zero on the background; ``frame.normal``'s values, for the
-        ``normal`` buffer), or a (0, 0, 3) array for none."""
+        ``normal`` buffer), or a (0, 0, 3) array for none, and where to hand over the reflective
+        pixels' mirror rays (:mod:`.mirror_rays`; ``NO_RAYS`` for none)."""
         uvs = B[0]
-        image, normal = outs
+        image, normal, rays = outs
         want_n = normal.shape[0] != 0
         h, w = prim.shape
         nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
@@ -129,7 +131,8 @@ def _make_phong(spec_on: bool, att_on: bool, tex_on: bool = False):
                         coef = _row_coefficients(materials, gm)
                     rgb, hp = _shade_surface(G, B, L, S, materials, cam, at, False, (0.0, 0.0, 0.0), coef,
                                              spec_on, att_on)
-                    store_pixel(outs, y, x, rgb, hp.n)
+                    store_pixel((image, normal), y, x, rgb, hp.n)
+                    hand_over(rays, y, x, hp, materials[gm, MAT_REFLECTIVITY], L[4])
 
     return _shade_phong_kernel
 
@@ -146,9 +149,10 @@ def _make_phong_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
     def _shade_phong_packets_kernel(prim, geom, u, v, G, B, L, T, face_off, materials, cam, background, modes, outs,
                                     y0):
         """:func:`_make_phong`'s kernel, its shadow rays traced per 4x4 tile of pixels as one
-        16-ray packet per light: the same image (and shading normals in ``outs``), bit for bit."""
+        16-ray packet per light: the same image (and shading normals and mirror rays in ``outs``),
+        bit for bit."""
         uvs = B[0]
-        image, normal = outs
+        image, normal, rays = outs
         want_n = normal.shape[0] != 0
         handle = L[3]
         h, w = prim.shape
@@ -183,6 +187,7 @@ def _make_phong_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
                             store_coef(points, k, _point_coefficients(G, uvs, at, cam, x, y0 + y, True, materials, T))
                         hp = _shading_point(G, B, L, cam, at, False, (0.0, 0.0, 0.0))
                         store_point(points, k, hp, gm)
+                        hand_over(rays, y, x, hp, materials[gm, MAT_REFLECTIVITY], L[4])
                         _request_shadows(P, k, hp, L)
                     trace_packets(handle, buf, off, valid, voff, args, aoff, vis)
                     for k in range(LANES):  # the tile's colours
@@ -193,7 +198,7 @@ def _make_phong_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
                         coef = stored_coef(points, k) if tex_on else _row_coefficients(materials, gm)
                         rgb = _reflected(Hit(pp, vv, gg, sg, nn, oo), coef, materials, gm, L, S, vis, k,
                                          spec_on, att_on)
-                        store_pixel(outs, ty + k // _TILE, tx + k % _TILE, rgb, nn)
+                        store_pixel((image, normal), ty + k // _TILE, tx + k % _TILE, rgb, nn)
 
     return _shade_phong_packets_kernel
 

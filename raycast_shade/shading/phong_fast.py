@@ -58,6 +58,9 @@ from ..common.schedule import BLOCK_ROWS, spread_step
 from ..visibility.embree import RAY16_SLOTS, RAY_DIR, RAY_ORG, RAY_TFAR
 from .illumination import _spot_factor
 from .jit import FLT32_MAX, HELPER, JIT
+from .lanes import (_A, _ATT, _B1, _B2, _CB, _CC, _CP, _D, _FIELDS, _FN, _G, _HASSPEC, _KA, _KD, _KE, _KS, _LIT,
+                    _MODEL, _N, _ND, _O, _P, _PW, _R, _S, _SG, _SHN, _SHT, _TD, _TS, _V, LANES)
+from .mirror_rays import hand_over_lanes
 from .pixelstore import store_background, store_pixel
 from .shadows import LANES as PACKET_LANES, _packets, _shadow_ray, _strip_background, trace_packets
 from .terms_kernel import (TERM_AMBIENT, TERM_DIFFUSE, TERM_EMISSIVE, TERM_SPECULAR, TERMS_EMIT_ON, TERMS_SHADOW,
@@ -66,19 +69,7 @@ from .terms_kernel import (TERM_AMBIENT, TERM_DIFFUSE, TERM_EMISSIVE, TERM_SPECU
 __all__ = ["LANES", "applies"]
 
 _TILE = 4  # a shadowed frame's pixels are queued by tiles of 4x4 (BLOCK_ROWS is a multiple of it)
-LANES = 64  # pixels shaded together: 64 lanes of 54 float64 fields (27 KiB) stay in the L1 cache
 _NO_NORMALS = np.empty((0, 0, 3), np.float32)  # the kernel's normal output when none is asked for
-
-# Fields of the scratch array, each LANES wide: field F of lane k is S[F * LANES + k].
-(_P, _A, _FN, _KA, _KD, _KS, _KE, _SHN, _SHT, _MODEL, _HASSPEC, _V, _G, _N, _R, _S, _D, _ATT, _ND, _LIT, _CP,
- _CB, _CC, _PW) = (0, 3, 6, 9, 12, 15, 18, 21, 22, 23, 24, 25, 28, 31, 34, 37, 40, 41, 42, 43, 44, 45, 46, 47)
-# Fields 48-53 serve one of two builds that never meet (terms are not traced with shadows here):
-# the barycentrics (every build's until the gather), the sign that turned the geometric normal and
-# shadowed frames' shadow origin; the terms build's diffuse and specular terms, summed by the
-# accumulate pass (zeroed after the gather).
-_B1, _B2, _SG, _O = 48, 49, 50, 51
-_TD, _TS = 48, 51
-_FIELDS = 54
 
 
 def applies(modes, k) -> bool:
@@ -523,7 +514,7 @@ def _make_phong_fast(spec_on: bool, att_on: bool, terms_on: bool = False, shadow
         if terms_on:  # a closure constant: Numba prunes the other branch before typing
             image, normal, R, y0 = outs
         else:
-            image, normal = outs
+            image, normal, rays = outs
         bg = (np.float32(background[0]), np.float32(background[1]), np.float32(background[2]))
         h, w = prim.shape
         faces, fnormals = G[2], G[3]
@@ -577,6 +568,8 @@ def _make_phong_fast(spec_on: bool, att_on: bool, terms_on: bool = False, shadow
                                                 spec_on, att_on, shadows_on, terms_on)
                                 if terms_on:
                                     _scatter_terms(S, XY, n, R, y0, L[0])
+                                else:
+                                    hand_over_lanes(S, XY, n, materials, L[4], rays)
                                 n = 0
                                 mixed = False
             if n > 0:  # the lanes past n hold an earlier batch's pixels (or zeros): shaded, not written
@@ -585,6 +578,8 @@ def _make_phong_fast(spec_on: bool, att_on: bool, terms_on: bool = False, shadow
                        shadows_on, terms_on)
                 if terms_on:
                     _scatter_terms(S, XY, n, R, y0, L[0])
+                else:
+                    hand_over_lanes(S, XY, n, materials, L[4], rays)
 
     return _shade_phong_fast_kernel
 

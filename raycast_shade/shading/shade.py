@@ -25,13 +25,14 @@ import numpy as np
 from numba import njit, prange
 
 from ..common.choices import SHADINGS
-from ..common.layout import METHOD_FLAT, METHOD_GOURAUD, METHOD_PHONG
+from ..common.layout import MAT_REFLECTIVITY, METHOD_FLAT, METHOD_GOURAUD, METHOD_PHONG
 from ..visibility.hits import check_hits
 from .flat import _FLAT, _lookup_flat_kernel
 from .gouraud import _INTERPOLATE, _VERTICES, prefetch_distance
 from .gouraud_sides import _face_sides_kernel, _near_face, face_planes
 from .inputs import prepare
 from .jit import JIT, variant
+from .mirror_rays import NO_RAYS
 from .phong import _PHONG, _PHONG_PACKETS
 from .phong_fast import _NO_NORMALS, _PHONG_FAST, _PHONG_FAST_SHADOWS, applies as _fast_applies
 
@@ -228,6 +229,10 @@ class SampleShading:
         self.gouraud = bool(np.any(self.modes == METHOD_GOURAUD))
         self.phong = bool(np.any(self.modes == METHOD_PHONG))
         self.fast_phong = self.phong and _fast_applies(self.modes, self.k)  # the batched kernel (phong_fast)
+        # The Phong kernels hand every reflective pixel's mirror ray over (shade's ``rays``) when only
+        # Phong models reflect: flat faces and Gouraud vertices have no per-pixel shading point.
+        reflective = self.k["materials"][:, MAT_REFLECTIVITY] > 0.0
+        self.hands_over = bool(reflective.any()) and bool(np.all(self.modes[reflective] == METHOD_PHONG))
         self.seen = Seen(self.geo, self.modes)
         self.fcol = np.zeros((len(self.geo.faces), 3), np.float64) if self.flat else None
         self.vcol = np.zeros((len(self.geo.vertices), 2, 3), np.float64) if self.gouraud else None
@@ -248,7 +253,7 @@ class SampleShading:
 
     WRITES_NORMALS = True  # the Phong kernels write the normal buffer as they shade (shade's ``normal``)
 
-    def shade(self, hits, out=None, y0=0, normal=None) -> np.ndarray:
+    def shade(self, hits, out=None, y0=0, normal=None, rays=None) -> np.ndarray:
         """(H, W, 3) float32 linear image of one sample's hit buffer (valid by construction),
         written to ``out`` when given (one buffer serves every sample: no fresh pages each time).
         ``normal``: an (H, W, 3) float32 array the Phong kernel writes the shading normal of its
@@ -256,9 +261,14 @@ class SampleShading:
 
         ``y0``: the image row of the buffer's first row, for a band of the frame
         (:func:`~raycast_shade.visibility.bands.cast_bands`): the bands of a frame share the
-        per-face and per-vertex work as its samples do, each face and vertex shaded once."""
+        per-face and per-vertex work as its samples do, each face and vertex shaded once.
+        ``rays``: (H, W, 3) float32 and float64 arrays (:func:`.mirror_rays.hand_over_buffers`) the
+        Phong kernel writes each reflective pixel's first mirror ray into, for
+        :func:`.mirrors.trace_mirrors` (only when :attr:`hands_over`: every reflective model is Phong)."""
         k, geo, modes = self.k, self.geo, self.modes
         h, w = hits.shape
+        if rays is not None and not (self.hands_over and rays[0].shape == rays[1].shape == (h, w, 3)):
+            raise ValueError(f"rays: two ({h}, {w}, 3) arrays, for a frame whose reflective models are all Phong")
         image = np.empty((h, w, 3), np.float32) if out is None else out
         if self.flat or self.gouraud:
             self._share(hits)
@@ -271,14 +281,15 @@ class SampleShading:
                                      k["materials"], k["cam"], k["L"], k["T"], k["background"], modes,
                                      (self.vcol, self.vspec, int(y0), self.seen.state, self.ahead), image)
         normals = _NO_NORMALS if normal is None else normal
+        outs = (image, normals, NO_RAYS if rays is None else rays)
         if self.fast_phong:  # shadow rays (a scene handle) go as packets of 16 of its lanes
             fast = _PHONG_FAST_SHADOWS if k["L"][3] != 0 else _PHONG_FAST
             fast[k["spec_on"], k["att_on"]](hits.prim, hits.geom, hits.u, hits.v, k["G"], k["L"], k["face_off"],
-                                            k["materials"], k["cam"], k["background"], modes, (image, normals))
+                                            k["materials"], k["cam"], k["background"], modes, outs)
         elif self.phong:  # textures or maps; shadow rays (a scene handle) go as packets of 4x4 pixels
             variant(_PHONG_PACKETS if k["L"][3] != 0 else _PHONG, k)(
                 hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["T"], k["face_off"], k["materials"],
-                k["cam"], k["background"], modes, (image, normals), y0)
+                k["cam"], k["background"], modes, outs, y0)
         return image
 
 

@@ -204,13 +204,18 @@ class TermShading:
 
     WRITES_NORMALS = False  # the terms' kernels do not write the normal buffer (the buffer kernel does)
 
-    def shade(self, hits, out=None, y0=0, normal=None) -> np.ndarray:
+    hands_over = False  # the terms' kernels hand no mirror rays over (SampleShading.hands_over)
+
+    def shade(self, hits, out=None, y0=0, normal=None, rays=None) -> np.ndarray:
         """(h, W, 3) float32 image of a hit buffer whose first row is image row ``y0`` (the
         whole frame: 0), written to ``out`` when given; its terms go to the frame's term
         arrays at rows ``y0`` on. The image is :class:`~raycast_shade.shading.shade.SampleShading`'s,
-        bit for bit. ``normal`` must be None (see :attr:`WRITES_NORMALS`)."""
+        bit for bit. ``normal`` and ``rays`` must be None (see :attr:`WRITES_NORMALS`,
+        :attr:`hands_over`)."""
         if normal is not None:
             raise ValueError("normal: TermShading does not write the shading normals (WRITES_NORMALS is False)")
+        if rays is not None:
+            raise ValueError("rays: TermShading hands no mirror rays over (hands_over is False)")
         k, modes = self.k, self.modes
         h, w = hits.shape
         image = np.empty((h, w, 3), np.float32) if out is None else out

@@ -15,6 +15,7 @@ import raycast_shade as rs
 from raycast_shade.shading import shade as shade_mod
 from raycast_shade.shading.inputs import prepare
 from raycast_shade.shading.jit import variant
+from raycast_shade.shading.mirror_rays import NO_RAYS
 from raycast_shade.shading.phong import _PHONG
 from raycast_shade.shading.normals import shading_normals
 from raycast_shade.shading.phong import _PHONG_PACKETS
@@ -54,9 +55,9 @@ def _both(scene, shading, hits):
     fast = general.copy()
     normals = (general.copy(), general.copy())  # each kernel's shading normals (the "normal" buffer)
     variant(_PHONG, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["T"], k["face_off"],
-                       k["materials"], k["cam"], k["background"], modes, (general, normals[0]), 0)
+                       k["materials"], k["cam"], k["background"], modes, (general, normals[0], NO_RAYS), 0)
     _fast(k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["L"], k["face_off"], k["materials"], k["cam"],
-             k["background"], modes, (fast, normals[1]))
+             k["background"], modes, (fast, normals[1], NO_RAYS))
     assert _same_bits(*normals), "the batched kernel's shading normals differ from the general kernel's"
     return general, fast
 
@@ -139,7 +140,7 @@ def test_the_normals_it_writes_are_those_the_frame_reports():
     image = np.full(hits.shape + (3,), np.nan, np.float32)
     normal = image.copy()
     _fast(k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["L"], k["face_off"], k["materials"], k["cam"],
-             k["background"], modes, (image, normal))
+             k["background"], modes, (image, normal, NO_RAYS))
     expected = shading_normals(scene, scene.camera, hits, "phong")
     assert _same_bits(normal, expected) and (normal[hits.prim < 0] == 0.0).all()
     assert (np.abs(np.linalg.norm(normal[hits.prim >= 0], axis=-1) - 1.0) < 1e-6).all()
@@ -276,7 +277,7 @@ def test_the_shadowed_kernel_is_the_packet_kernel_on_a_banded_frame():
     tiles = np.full(hits.shape + (3,), np.nan, np.float32)
     variant(_PHONG_PACKETS, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["T"], k["face_off"],
                                k["materials"], k["cam"], k["background"], resolve_methods(scene, "phong"),
-                               (tiles, _NO_NORMALS), 0)
+                               (tiles, _NO_NORMALS, NO_RAYS), 0)
     assert _same_bits(frame.image, tiles)
 
 

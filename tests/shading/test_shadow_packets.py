@@ -125,9 +125,9 @@ def test_a_banded_frame_with_packets_is_the_single_ray_frame(monkeypatch):
     rows = []
     band_shade = shade_mod.SampleShading.shade
 
-    def shade(self, hits, out=None, y0=0, normal=None):
+    def shade(self, hits, out=None, y0=0, normal=None, rays=None):
         rows.append(y0)
-        return band_shade(self, hits, out, y0, normal)
+        return band_shade(self, hits, out, y0, normal, rays)
 
     with monkeypatch.context() as m:
         m.setattr(shade_mod.SampleShading, "shade", shade)
