@@ -17,6 +17,8 @@ the batched Phong kernel's vectorised passes (:func:`_start_group`).
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from llvmlite import ir
 from numba import njit, prange, types
@@ -167,7 +169,7 @@ def _packet_rays(buf, ib, off, vbuf, voff, org, dr, act, n):
             buf[off + k + (embree.RAY_ORG + c) * _LANES] = org[c, j]
             buf[off + k + (embree.RAY_DIR + c) * _LANES] = dr[c, j]
         buf[off + k + embree.RAY_TFAR * _LANES] = np.inf
-        embree.reset_hit(ib, off + k, _LANES)
+        embree.reset_hit(ib, off + k, np.int64(_LANES))
         vbuf[voff + k] = -1 if on else 0
 
 
@@ -211,7 +213,7 @@ def _start_group(hits, G, materials, face_off, cam, unit, image, box, F):
     ``_A`` and ``_FN`` (free once ``_geometry`` has run)."""
     prim, geom, u, v = hits
     S, XY = F
-    n = 0
+    n = np.int64(0)  # not the constant 0: type inference would first compile _gather for Literal[int](0)
     for j in range(_GROUP):
         n0 = n
         for y in range(box[0], box[1]):
@@ -274,28 +276,31 @@ def _prefetch_ahead(prim, geom, G, face_off, rows, w, tx, batched):
     group after next's faces and the next group's vertices."""
     ntx = (w + _TILE - 1) // _TILE
     ya, yb = rows
+    shallow, deep = np.bool_(False), np.bool_(True)  # not the constants: one compile of _prefetch_tile, not two
     if batched:
         if tx % _GROUP != 0:
             return
         for j in range(_GROUP):
             t2 = tx + 2 * _GROUP + j
             if t2 < ntx:
-                _prefetch_tile(prim, geom, G, face_off, ya, yb, t2 * _TILE, min(w, (t2 + 1) * _TILE), False)
+                _prefetch_tile(prim, geom, G, face_off, ya, yb, t2 * _TILE, min(w, (t2 + 1) * _TILE), shallow)
             t1 = tx + _GROUP + j
             if t1 < ntx:
-                _prefetch_tile(prim, geom, G, face_off, ya, yb, t1 * _TILE, min(w, (t1 + 1) * _TILE), True)
+                _prefetch_tile(prim, geom, G, face_off, ya, yb, t1 * _TILE, min(w, (t1 + 1) * _TILE), deep)
         return
     t2 = tx + _AHEAD_FACES
     if t2 < ntx:
-        _prefetch_tile(prim, geom, G, face_off, ya, yb, t2 * _TILE, min(w, (t2 + 1) * _TILE), False)
+        _prefetch_tile(prim, geom, G, face_off, ya, yb, t2 * _TILE, min(w, (t2 + 1) * _TILE), shallow)
     t1 = tx + _AHEAD_VERTS
     if t1 < ntx:
-        _prefetch_tile(prim, geom, G, face_off, ya, yb, t1 * _TILE, min(w, (t1 + 1) * _TILE), True)
+        _prefetch_tile(prim, geom, G, face_off, ya, yb, t1 * _TILE, min(w, (t1 + 1) * _TILE), deep)
 
 
-def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
+def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False, batched: bool = False):
     """The mirror kernel for one variant (see :mod:`.jit`; ``tex_on``: textured coefficients at
-    the bounces, sampled at level 0: a bounced ray has no pixel footprint here)."""
+    the bounces, sampled at level 0: a bounced ray has no pixel footprint here; ``batched``: the
+    lanes start by :func:`_start_group`, else by :func:`_start_lane`, a compile-time constant too,
+    so that a frame compiles only the start it takes)."""
 
     @njit(parallel=True, **JIT)
     def _mirror_packets_kernel(hits, G, B, L, T, face_off, materials, cam, background, image, trace):
@@ -313,7 +318,7 @@ def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
         the last bounce; the background on a miss) added with :func:`_add_pixel`, weighted by
         the product of the reflectivities met before it."""
         prim = hits[0]
-        handle, unit, max_depth, flags, y0, ahead, batched = trace
+        handle, unit, max_depth, flags, y0, ahead = trace
         uvs = B[0]
         h, w = prim.shape
         first = y0 // _TILE  # the frame's tile rows that meet rows y0 .. y0 + h
@@ -337,7 +342,8 @@ def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
             abuf[aoff] = flags
             abuf[aoff + 1] = embree.FEATURE_FLAG_ALL
             for k in range(_LANES):  # tnear 0, time 0, every mask bit, id and flags 0: the same for every bounce
-                embree.write_ray(buf, ib, off + k, _LANES, (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 0.0, np.inf)
+                embree.write_ray(buf, ib, off + k, np.int64(_LANES), (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 0.0,
+                                 np.inf)
             ys = np.empty(_LANES, np.int64)
             xs = np.empty(_LANES, np.int64)
             weight = np.empty(_LANES, np.float64)
@@ -351,7 +357,7 @@ def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
                 for tx in range(ntx):
                     if ahead:
                         _prefetch_ahead(prim, hits[1], G, face_off, (ya, yb), w, tx, batched)
-                    n = 0
+                    n = np.int64(0)  # not 0: _start_lane would compile for Literal[int](0) first, then int64
                     if batched:
                         if tx % _GROUP == 0:
                             _start_group(hits, G, materials, face_off, cam, unit, image, (ya, yb, tx * _TILE, w), F)
@@ -370,7 +376,7 @@ def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
                         for k in range(n):
                             if not act[k]:
                                 continue
-                            gb, pb, ub, vb, _ = embree.read_hit(buf, ib, off + k, _LANES)
+                            gb, pb, ub, vb, _ = embree.read_hit(buf, ib, off + k, np.int64(_LANES))
                             act[k] = False
                             if pb < 0:
                                 _add_pixel(image, ys[k], xs[k], weight[k], background[0], background[1],
@@ -403,7 +409,10 @@ def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
     return _mirror_packets_kernel
 
 
-_PACKETS = compile_variants(_make_packets)  # the family's registry (see .jit)
+# The family's registries (see .jit), one per start of the lanes (:func:`_batched_start`): the
+# bump-mapped demo's first run compiles neither _start_group nor the batched passes it inlines.
+_PACKETS = compile_variants(_make_packets)
+_PACKETS_BATCHED = compile_variants(functools.partial(_make_packets, batched=True))
 
 
 def _batched_start(B) -> bool:
@@ -447,8 +456,10 @@ def trace_mirrors(scene, camera, hits, image, max_depth: int = 3, inputs=None, y
         return image
     k = prepare(scene, camera) if inputs is None else inputs
     ahead = beyond_caches(*k["G"])
-    trace = (np.uintp(embree_accel(geo).handle), float(geo.scale), int(max_depth), np.uint32(MIRROR_FLAGS),
-             int(y0), ahead, _batched_start(k["B"]))
-    variant(_PACKETS, k)((hits.prim, hits.geom, hits.u, hits.v), k["G"], k["B"], k["L"], k["T"], k["face_off"],
-                         k["materials"], k["cam"], k["background"], image, trace)
+    # The handle as the camera cast passes it (int64): one compile of embree.intersect16_packet.
+    trace = (int(embree_accel(geo).handle), float(geo.scale), int(max_depth), np.uint32(MIRROR_FLAGS),
+             int(y0), ahead)
+    kernel = variant(_PACKETS_BATCHED if _batched_start(k["B"]) else _PACKETS, k)
+    kernel((hits.prim, hits.geom, hits.u, hits.v), k["G"], k["B"], k["L"], k["T"], k["face_off"], k["materials"],
+           k["cam"], k["background"], image, trace)
     return image

@@ -257,3 +257,24 @@ def test_lanes_started_in_groups_are_the_pixel_by_pixel_lanes(depth, projection,
     grouped, single = traced(True), traced(False)
     assert not np.array_equal(grouped, local)  # the bounces changed the image
     assert np.array_equal(grouped.view(np.uint32), single.view(np.uint32))
+
+
+def test_each_start_of_the_lanes_is_a_build_of_its_own(monkeypatch):
+    """How the lanes start is a compile-time constant of the kernel (a closure value, as the
+    variant flags): a frame runs, so compiles, only the build of the start it takes (the demo's
+    bump-mapped frames compile no ``_start_group``)."""
+    import inspect
+
+    from raycast_shade.shading import mirrors
+
+    for registry, batched in ((mirrors._PACKETS, False), (mirrors._PACKETS_BATCHED, True)):
+        assert len(registry) == 8
+        assert all(inspect.getclosurevars(fn.py_func).nonlocals["batched"] is batched for fn in registry.values())
+    seen = []
+    for name in ("_PACKETS", "_PACKETS_BATCHED"):
+        monkeypatch.setattr(mirrors, name, {key: lambda *a, n=name: seen.append(n) for key in getattr(mirrors, name)})
+    k = prepare(_HALL, _HALL.camera)
+    for batched in (True, False):
+        monkeypatch.setattr(mirrors, "_batched_start", lambda B, b=batched: b)
+        trace_mirrors(_HALL, _HALL.camera, _HITS, _LOCAL.copy(), 2, k)
+    assert seen == ["_PACKETS_BATCHED", "_PACKETS"]
