@@ -127,8 +127,11 @@ def _step_mirror():
 
 
 def _step_bump():
+    """A bump map, above a mirror floor: a bump-mapped frame's mirror lanes start pixel by pixel,
+    a build of the mirror kernel of its own (``raycast-shade demo``'s)."""
     bumps = HeightMap.dimples(6, 0.35, resolution=32, scale=0.02, tiling=(2.0, 2.0))
-    _methods(_scene(Material(kd=(0.8, 0.6, 0.3), ks=0.5, shininess=30, bump=bumps)))
+    _methods(_scene(Material(kd=(0.8, 0.6, 0.3), ks=0.5, shininess=30, bump=bumps),
+                    floor=Material(kd=0.6, reflectivity=0.4)), max_depth=3)
 
 
 def _step_textures():
@@ -184,7 +187,7 @@ STEPS = (
     ("2D (screen-space) interpolation", _step_screen),
     ("spot light", _step_spot),
     ("mirrors", _step_mirror),
-    ("bump map", _step_bump),
+    ("bump map above a mirror", _step_bump),
     ("textures and vertex colours", _step_textures),
     ("terms and buffers", _step_terms_buffers),
     ("anti-aliasing (samples)", _step_samples),

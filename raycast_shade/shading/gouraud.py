@@ -259,7 +259,7 @@ def _make_interpolate(spec_on: bool, att_on: bool, tex_on: bool = False):
                     if state[f] != 0 and _near_face(b1, b2) and not (tex_on and split[g] != 0):
                         _stored_pixel(vcol, tri, state[f] - 1, b1, b2, image, y, x)  # the usual pixel
                         continue
-                    i0, i1, i2 = tri
+                    i0, i1, i2 = np.int64(tri[0]), np.int64(tri[1]), np.int64(tri[2])  # as _shade_vertices_kernel's
                     view = _view(cam, _hit_point(verts, tri, b1, b2))
                     gn, sgn = _facing(fnormals, f, view)
                     side = 0 if sgn > 0.0 else 1

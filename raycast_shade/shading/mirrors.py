@@ -20,6 +20,8 @@ start together, their points and normals by the batched Phong kernel's vectorise
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from numba import njit, prange
 
@@ -119,7 +121,7 @@ def _packet_rays(buf, ib, off, vbuf, voff, org, dr, act, n):
             buf[off + k + (embree.RAY_ORG + c) * _LANES] = org[c, j]
             buf[off + k + (embree.RAY_DIR + c) * _LANES] = dr[c, j]
         buf[off + k + embree.RAY_TFAR * _LANES] = np.inf
-        embree.reset_hit(ib, off + k, _LANES)
+        embree.reset_hit(ib, off + k, np.int64(_LANES))
         vbuf[voff + k] = -1 if on else 0
 
 
@@ -172,7 +174,7 @@ def _start_group(hits, G, materials, face_off, cam, unit, image, box, F):
     ``_A`` and ``_FN`` (free once ``_geometry`` has run)."""
     prim, geom, u, v = hits
     S, XY = F
-    n = 0
+    n = np.int64(0)  # not the constant 0: type inference would first compile _gather for Literal[int](0)
     for j in range(_GROUP):
         n0 = n
         for y in range(box[0], box[1]):
@@ -250,28 +252,33 @@ def _prefetch_ahead(prim, geom, G, face_off, rows, w, tx, batched):
     group after next's faces and the next group's vertices."""
     ntx = (w + _TILE - 1) // _TILE
     ya, yb = rows
+    shallow, deep = np.bool_(False), np.bool_(True)  # not the constants: one compile of _prefetch_tile, not two
     if batched:
         if tx % _GROUP != 0:
             return
         for j in range(_GROUP):
             t2 = tx + 2 * _GROUP + j
             if t2 < ntx:
-                _prefetch_tile(prim, geom, G, face_off, ya, yb, t2 * _TILE, min(w, (t2 + 1) * _TILE), False)
+                _prefetch_tile(prim, geom, G, face_off, ya, yb, t2 * _TILE, min(w, (t2 + 1) * _TILE), shallow)
             t1 = tx + _GROUP + j
             if t1 < ntx:
-                _prefetch_tile(prim, geom, G, face_off, ya, yb, t1 * _TILE, min(w, (t1 + 1) * _TILE), True)
+                _prefetch_tile(prim, geom, G, face_off, ya, yb, t1 * _TILE, min(w, (t1 + 1) * _TILE), deep)
         return
     t2 = tx + _AHEAD_FACES
     if t2 < ntx:
-        _prefetch_tile(prim, geom, G, face_off, ya, yb, t2 * _TILE, min(w, (t2 + 1) * _TILE), False)
+        _prefetch_tile(prim, geom, G, face_off, ya, yb, t2 * _TILE, min(w, (t2 + 1) * _TILE), shallow)
     t1 = tx + _AHEAD_VERTS
     if t1 < ntx:
-        _prefetch_tile(prim, geom, G, face_off, ya, yb, t1 * _TILE, min(w, (t1 + 1) * _TILE), True)
+        _prefetch_tile(prim, geom, G, face_off, ya, yb, t1 * _TILE, min(w, (t1 + 1) * _TILE), deep)
 
 
-def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
+def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False, batched: bool = False,
+                  handed: bool = False):
     """The mirror kernel for one variant (see :mod:`.jit`; ``tex_on``: textured coefficients at
-    the bounces, sampled at level 0: a bounced ray has no pixel footprint here)."""
+    the bounces, sampled at level 0: a bounced ray has no pixel footprint here). How the lanes
+    start is a compile-time constant too, so that a frame compiles only the start it takes:
+    ``handed``, from the first rays the Phong kernel handed over (:func:`_take_handed`); else
+    ``batched``, by :func:`_start_group`; else by :func:`_start_lane`."""
 
     @njit(parallel=True, **JIT)
     def _mirror_packets_kernel(hits, G, B, L, T, face_off, materials, cam, background, image, trace, rays):
@@ -290,8 +297,7 @@ def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
         the last bounce; the background on a miss) added with :func:`_add_pixel`, weighted by
         the product of the reflectivities met before it."""
         prim = hits[0]
-        handle, unit, max_depth, flags, y0, ahead, batched = trace
-        handed = rays[0].shape[0] != 0
+        handle, unit, max_depth, flags, y0, ahead = trace
         ahead = ahead and not handed  # (nothing is gathered)
         uvs = B[0]
         h, w = prim.shape
@@ -316,7 +322,8 @@ def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
             abuf[aoff] = flags
             abuf[aoff + 1] = embree.FEATURE_FLAG_ALL
             for k in range(_LANES):  # tnear 0, time 0, every mask bit, id and flags 0: the same for every bounce
-                embree.write_ray(buf, ib, off + k, _LANES, (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 0.0, np.inf)
+                embree.write_ray(buf, ib, off + k, np.int64(_LANES), (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 0.0,
+                                 np.inf)
             ys = np.empty(_LANES, np.int64)
             xs = np.empty(_LANES, np.int64)
             weight = np.empty(_LANES, np.float64)
@@ -330,7 +337,7 @@ def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
                 for tx in range(ntx):
                     if ahead:
                         _prefetch_ahead(prim, hits[1], G, face_off, (ya, yb), w, tx, batched)
-                    n = 0
+                    n = np.int64(0)  # not 0: _start_lane would compile for Literal[int](0) first, then int64
                     if handed:
                         n = _take_handed(hits, materials, image, rays, (ya, yb, tx * _TILE, min(w, (tx + 1) * _TILE)),
                                          (n, ys, xs, weight, org, dr, act))
@@ -352,7 +359,7 @@ def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
                         for k in range(n):
                             if not act[k]:
                                 continue
-                            gb, pb, ub, vb, _ = embree.read_hit(buf, ib, off + k, _LANES)
+                            gb, pb, ub, vb, _ = embree.read_hit(buf, ib, off + k, np.int64(_LANES))
                             act[k] = False
                             if pb < 0:
                                 _add_pixel(image, ys[k], xs[k], weight[k], background[0], background[1],
@@ -385,7 +392,12 @@ def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
     return _mirror_packets_kernel
 
 
-_PACKETS = compile_variants(_make_packets)  # the family's registry (see .jit)
+# The family's registries (see .jit), one per start of the lanes (handed over by the Phong kernel,
+# :func:`_start_group` or :func:`_start_lane`): a frame compiles only the start it takes (the
+# demo's Phong frames compile neither _start_group nor the batched passes it inlines).
+_PACKETS = compile_variants(_make_packets)
+_PACKETS_BATCHED = compile_variants(functools.partial(_make_packets, batched=True))
+_PACKETS_HANDED = compile_variants(functools.partial(_make_packets, handed=True))
 
 
 def _batched_start(B) -> bool:
@@ -434,9 +446,13 @@ def trace_mirrors(scene, camera, hits, image, max_depth: int = 3, inputs=None, y
         return image
     k = prepare(scene, camera) if inputs is None else inputs
     ahead = beyond_caches(*k["G"])
-    trace = (np.uintp(embree_accel(geo).handle), float(geo.scale), int(max_depth), np.uint32(MIRROR_FLAGS),
-             int(y0), ahead, _batched_start(k["B"]))
-    variant(_PACKETS, k)((hits.prim, hits.geom, hits.u, hits.v), k["G"], k["B"], k["L"], k["T"], k["face_off"],
-                         k["materials"], k["cam"], k["background"], image, trace,
-                         NO_RAYS if rays is None else rays)
+    # The handle as the camera cast passes it (int64): one compile of embree.intersect16_packet.
+    trace = (int(embree_accel(geo).handle), float(geo.scale), int(max_depth), np.uint32(MIRROR_FLAGS),
+             int(y0), ahead)
+    if rays is not None:
+        family = _PACKETS_HANDED
+    else:
+        family = _PACKETS_BATCHED if _batched_start(k["B"]) else _PACKETS
+    variant(family, k)((hits.prim, hits.geom, hits.u, hits.v), k["G"], k["B"], k["L"], k["T"], k["face_off"],
+                       k["materials"], k["cam"], k["background"], image, trace, NO_RAYS if rays is None else rays)
     return image

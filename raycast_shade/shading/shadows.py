@@ -115,7 +115,7 @@ def _occluded(handle, S, o, g, s, target, is_point, unit):
     (Gouraud's and flat's, terms', mirrors'), and the unpacking costs reference counting."""
     buf, ib, off = S
     org, d, tfar = _shadow_ray(o, g, s, target, is_point, unit)
-    embree.write_ray(buf, ib, off, 1, org, d, 0.0, tfar)
+    embree.write_ray(buf, ib, off, np.int64(1), org, d, 0.0, tfar)
     embree.occluded1(handle, buf.ctypes.data + off * 4, 0)  # the address taken from the live array, here
     return buf[off + embree.RAY_TFAR] < 0.0  # Embree sets tfar to -inf on a hit
 
@@ -237,11 +237,12 @@ def _get3(points, k, j):
 def store_point(points, k, hp, mi):
     """Keep lane ``k``'s shading point ``hp`` (:class:`~raycast_shade.shading.records.Hit`) and its
     material row ``mi`` until its packets are traced (float64: exact)."""
-    _put3(points, k, 1, hp.p)
-    _put3(points, k, 4, hp.v)
-    _put3(points, k, 7, hp.g)
-    _put3(points, k, 10, hp.n)
-    _put3(points, k, 13, hp.o)
+    # np.int64 offsets: a constant argument is typed Literal[int], one compile of _put3 per value.
+    _put3(points, k, np.int64(1), hp.p)
+    _put3(points, k, np.int64(4), hp.v)
+    _put3(points, k, np.int64(7), hp.g)
+    _put3(points, k, np.int64(10), hp.n)
+    _put3(points, k, np.int64(13), hp.o)
     points[k, 16] = hp.sgn
     points[k, 0] = mi
 
@@ -249,14 +250,14 @@ def store_point(points, k, hp, mi):
 @njit(**HELPER)
 def stored_material(points, k):
     """Lane ``k``'s material row as :func:`store_point` kept it; -1: no point in this lane."""
-    return int(points[k, 0])
+    return np.int32(points[k, 0])  # int32, as a hit's geometry id: the shading helpers compile once
 
 
 @njit(**HELPER)
 def stored_point(points, k):
     """Lane ``k``'s ``(p, v, g, sgn, n, o)`` as :func:`store_point` kept them."""
-    return (_get3(points, k, 1), _get3(points, k, 4), _get3(points, k, 7), points[k, 16], _get3(points, k, 10),
-            _get3(points, k, 13))
+    return (_get3(points, k, np.int64(1)), _get3(points, k, np.int64(4)), _get3(points, k, np.int64(7)),
+            points[k, 16], _get3(points, k, np.int64(10)), _get3(points, k, np.int64(13)))  # see store_point
 
 
 @njit(**HELPER)

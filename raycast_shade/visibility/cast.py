@@ -165,11 +165,11 @@ def cast_rays_kernel(scene, origins, directions, tnear, tfar, prim, geom, u, v, 
         off = ((16 - buf.ctypes.data % 16) % 16) // 4  # RTCRayHit is 16-byte aligned
         ib = buf.view(np.uint32)
         for i in range(c * chunk, min(n, (c + 1) * chunk)):
-            embree.write_ray(buf, ib, off, 1, (origins[i, 0], origins[i, 1], origins[i, 2]),
+            embree.write_ray(buf, ib, off, np.int64(1), (origins[i, 0], origins[i, 1], origins[i, 2]),
                              (directions[i, 0], directions[i, 1], directions[i, 2]), tnear[i], tfar[i])
-            embree.reset_hit(ib, off, 1)
+            embree.reset_hit(ib, off, np.int64(1))
             embree.intersect1_ray(scene, buf[off:])
-            geom[i], prim[i], u[i], v[i], t[i] = embree.read_hit(buf, ib, off, 1)
+            geom[i], prim[i], u[i], v[i], t[i] = embree.read_hit(buf, ib, off, np.int64(1))
 
 
 cast_rays_serial = _serial_twin(cast_rays_kernel, "cast_rays_serial")  # a handful of rays: no parallel launch

@@ -251,10 +251,10 @@ def _repair_serial(scene, cam, fans, hits, rows, y0, jump, jitters, margin):
                 jx = jitter if k % 2 == 0 else -jitter
                 jy = jitter if k < 2 else -jitter
                 _ray_at(cam, xs[i] + jx, ys[i] + y0 + jy, jo, jd)
-                embree.write_ray(buf, ib, off, 1, (jo[0], jo[1], jo[2]), (jd[0], jd[1], jd[2]), 0.0, np.inf)
-                embree.reset_hit(ib, off, 1)
+                embree.write_ray(buf, ib, off, np.int64(1), (jo[0], jo[1], jo[2]), (jd[0], jd[1], jd[2]), 0.0, np.inf)
+                embree.reset_hit(ib, off, np.int64(1))
                 embree.intersect1_ray(scene, ray)
-                g, p, hu, hv, ht = embree.read_hit(buf, ib, off, 1)
+                g, p, hu, hv, ht = embree.read_hit(buf, ib, off, np.int64(1))
                 cand[j] = ht < limit[j]  # a surface in front of the pixel's hit: its fan is re-tested
                 if cand[j]:
                     cg[j], cp[j], cu[j], cv[j], ct[j] = g, p, hu, hv, ht

@@ -140,8 +140,9 @@ def _hits4(pk, pu, s, q, prim, geom, u, v, t):
 @njit(**_INLINE)
 def tile_hits(pk, pu, o, w, prim, geom, u, v, t):
     """Unpack a whole tile's hits into the flat (R W,) hit arrays: its pixel ``(j, i)`` at ``o + j w + i``."""
-    _hits4(pk, pu, 0, np.uint64(o), prim, geom, u, v, t)
-    _hits4(pk, pu, TILE_W, np.uint64(o + w), prim, geom, u, v, t)
+    # np.int64: a constant argument would be typed Literal[int] and compile _hits4 once per value.
+    _hits4(pk, pu, np.int64(0), np.uint64(o), prim, geom, u, v, t)
+    _hits4(pk, pu, np.int64(TILE_W), np.uint64(o + w), prim, geom, u, v, t)
     _hits4(pk, pu, 2 * TILE_W, np.uint64(o + 2 * w), prim, geom, u, v, t)
     _hits4(pk, pu, 3 * TILE_W, np.uint64(o + 3 * w), prim, geom, u, v, t)
 
@@ -152,6 +153,6 @@ def edge_hits(pk, pu, x0, r, nx, ny, prim, geom, u, v, t):
     columns ``x0 ..`` of the (R, W) hit arrays."""
     for j in range(ny):
         for i in range(nx):
-            g, p, hu, hv, ht = embree.read_hit(pk, pu, j * TILE_W + i, LANES)
+            g, p, hu, hv, ht = embree.read_hit(pk, pu, j * TILE_W + i, np.int64(LANES))
             geom[r + j, x0 + i], prim[r + j, x0 + i] = g, p
             u[r + j, x0 + i], v[r + j, x0 + i], t[r + j, x0 + i] = hu, hv, ht

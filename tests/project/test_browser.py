@@ -70,6 +70,10 @@ def lab(tmp_path_factory):
     settings = folder / ".settings" / "@jupyterlab" / "apputils-extension"
     settings.mkdir(parents=True)
     (settings / "notification.jupyterlab-settings").write_text('{"fetchNews": "false", "checkForUpdates": false}')
+    # No "Build Recommended" dialog over the notebook where another package (Open3D's dash, of the
+    # peers extra) brings a prebuilt-less lab extension: this lab is never rebuilt.
+    (folder / ".config" / "labconfig").mkdir(parents=True)
+    (folder / ".config" / "labconfig" / "page_config.json").write_text('{"buildCheck": false, "buildAvailable": false}')
     log = open(folder / "lab.log", "w")
     proc = subprocess.Popen([sys.executable, "-m", "jupyterlab", "--no-browser", "--ServerApp.ip=127.0.0.1",
                              f"--ServerApp.port={port}", "--ServerApp.port_retries=0",

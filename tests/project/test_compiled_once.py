@@ -13,7 +13,10 @@ from __future__ import annotations
 
 import ast
 import collections
+import os
 import pathlib
+import subprocess
+import sys
 import textwrap
 
 import raycast_shade
@@ -98,3 +101,55 @@ def test_the_walk_reads_the_kernels():
     paths = {str(p.relative_to(ROOT)) for p in _modules()}
     assert {"raycast_shade/visibility/scan.py", "raycast_shade/visibility/cast.py",
             "raycast_shade/shading/illumination.py"} <= paths
+
+
+# A new process with an empty kernel cache: callers that pass helpers constants (tiles.tile_hits'
+# lane offsets, shadows.store_point's and stored_point's field offsets, mirrors._prefetch_ahead's
+# depth flag), compiled from scratch.
+_CONSTANTS = """
+import collections
+import numpy as np
+from numba import njit
+from numba.core import event
+from raycast_shade.shading import mirrors, shadows
+from raycast_shade.shading.records import Hit
+from raycast_shade.visibility import embree, tiles
+
+@njit
+def round_trip(points, hp):
+    shadows.store_point(points, 0, hp, 2)
+    return shadows.stored_point(points, 0)
+
+@njit
+def unpack(pk, pu, prim, geom, u, v, t):
+    tiles.tile_hits(pk, pu, 0, 4, prim, geom, u, v, t)
+
+@njit
+def ahead(prim, geom, G, face_off):
+    mirrors._prefetch_ahead(prim, geom, G, face_off, (0, 4), 64, 0, False)
+
+with event.install_recorder("numba:compile") as rec:
+    hp = Hit((1.0, 2.0, 3.0), (4.0, 5.0, 6.0), (7.0, 8.0, 9.0), -1.0, (10.0, 11.0, 12.0), (13.0, 14.0, 15.0))
+    back = round_trip(np.zeros((1, 29)), hp)
+    pk = np.arange(embree.RAYHIT_SLOTS * tiles.LANES, dtype=np.float32)
+    flat = [np.zeros(16, np.int32), np.zeros(16, np.int32)] + [np.zeros(16, np.float32) for _ in range(3)]
+    unpack(pk, pk.view(np.uint32), *flat)
+    G = (np.zeros((3, 3)), np.zeros((3, 3)), np.zeros((1, 3), np.int32), np.zeros((1, 3)))
+    ahead(np.zeros((4, 64), np.int32), np.zeros((4, 64), np.int32), G, np.zeros(1, np.int64))
+names = collections.Counter(ev.data["dispatcher"].py_func.__qualname__ for _, ev in rec.buffer if ev.is_start)
+print("ROUND", back == (hp.p, hp.v, hp.g, hp.sgn, hp.n, hp.o))
+print("TWICE", sorted(n for n, c in names.items() if c > 1 and n != "impl"))
+print("SEEN", all(n in names for n in ("_put3", "_get3", "_hits4", "_prefetch_tile")))
+"""
+
+
+def test_a_helper_given_constants_compiles_once(tmp_path):
+    """Numba types a constant argument as ``Literal[int]`` and compiles a helper once per value
+    (``_put3`` five times, ``_hits4`` three): the callers pass ``np.int64`` (``np.bool_``) values, and an
+    empty cache compiles each helper once (the demo's first run: 177 compiles, was 200)."""
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path),
+               PYTHONPATH=os.pathsep.join([str(ROOT)] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep)
+                                                           if p]))
+    run = subprocess.run([sys.executable, "-c", _CONSTANTS], capture_output=True, text=True, env=env, timeout=600)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.splitlines() == ["ROUND True", "TWICE []", "SEEN True"], run.stdout
