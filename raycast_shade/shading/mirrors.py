@@ -230,7 +230,7 @@ def _take_handed(hits, materials, image, rays, box, lanes):
     prim, geom, _, _ = hits
     given_org, given_dr = rays
     _, ys, xs, weight, org, dr, act = lanes
-    n = 0
+    n = np.int64(0)  # not 0, and the origin widened (exactly): _add_lane compiles once, as _start_lane's
     for y in range(box[0], box[1]):
         for x in range(box[2], box[3]):
             if prim[y, x] < 0:
@@ -238,7 +238,7 @@ def _take_handed(hits, materials, image, rays, box, lanes):
             rho = materials[geom[y, x], MAT_REFLECTIVITY]
             if rho <= 0.0:
                 continue
-            ray = ((given_org[y, x, 0], given_org[y, x, 1], given_org[y, x, 2]),
+            ray = ((np.float64(given_org[y, x, 0]), np.float64(given_org[y, x, 1]), np.float64(given_org[y, x, 2])),
                    (given_dr[y, x, 0], given_dr[y, x, 1], given_dr[y, x, 2]))
             n = _add_lane(image, y, x, rho, ray, (n, ys, xs, weight, org, dr, act))
     return n
@@ -272,13 +272,13 @@ def _prefetch_ahead(prim, geom, G, face_off, rows, w, tx, batched):
         _prefetch_tile(prim, geom, G, face_off, ya, yb, t1 * _TILE, min(w, (t1 + 1) * _TILE), deep)
 
 
-def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False, batched: bool = False,
-                  handed: bool = False):
+def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False, batched: bool = False):
     """The mirror kernel for one variant (see :mod:`.jit`; ``tex_on``: textured coefficients at
-    the bounces, sampled at level 0: a bounced ray has no pixel footprint here). How the lanes
-    start is a compile-time constant too, so that a frame compiles only the start it takes:
-    ``handed``, from the first rays the Phong kernel handed over (:func:`_take_handed`); else
-    ``batched``, by :func:`_start_group`; else by :func:`_start_lane`."""
+    the bounces, sampled at level 0: a bounced ray has no pixel footprint here). ``batched``, a
+    compile-time constant too, so that a frame compiles only the start it takes: the lanes start
+    by :func:`_start_group`; else from the first rays the Phong kernel handed over
+    (:func:`_take_handed`) if it was given some, else by :func:`_start_lane` (one build for both:
+    a frame of Phong and of flat or Gouraud mirrors, as the demo renders, compiles it once)."""
 
     @njit(parallel=True, **JIT)
     def _mirror_packets_kernel(hits, G, B, L, T, face_off, materials, cam, background, image, trace, rays):
@@ -298,6 +298,7 @@ def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False, batched: bo
         the product of the reflectivities met before it."""
         prim = hits[0]
         handle, unit, max_depth, flags, y0, ahead = trace
+        handed = False if batched else rays[0].shape[0] != 0
         ahead = ahead and not handed  # (nothing is gathered)
         uvs = B[0]
         h, w = prim.shape
@@ -392,12 +393,11 @@ def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False, batched: bo
     return _mirror_packets_kernel
 
 
-# The family's registries (see .jit), one per start of the lanes (handed over by the Phong kernel,
-# :func:`_start_group` or :func:`_start_lane`): a frame compiles only the start it takes (the
-# demo's Phong frames compile neither _start_group nor the batched passes it inlines).
+# The family's registries (see .jit), one per start of the lanes (by :func:`_start_group`; else
+# handed over by the Phong kernel or by :func:`_start_lane`): a frame compiles only the start it
+# takes (the demo's frames compile neither _start_group nor the batched passes it inlines).
 _PACKETS = compile_variants(_make_packets)
 _PACKETS_BATCHED = compile_variants(functools.partial(_make_packets, batched=True))
-_PACKETS_HANDED = compile_variants(functools.partial(_make_packets, handed=True))
 
 
 def _batched_start(B) -> bool:
@@ -449,10 +449,7 @@ def trace_mirrors(scene, camera, hits, image, max_depth: int = 3, inputs=None, y
     # The handle as the camera cast passes it (int64): one compile of embree.intersect16_packet.
     trace = (int(embree_accel(geo).handle), float(geo.scale), int(max_depth), np.uint32(MIRROR_FLAGS),
              int(y0), ahead)
-    if rays is not None:
-        family = _PACKETS_HANDED
-    else:
-        family = _PACKETS_BATCHED if _batched_start(k["B"]) else _PACKETS
+    family = _PACKETS_BATCHED if rays is None and _batched_start(k["B"]) else _PACKETS
     variant(family, k)((hits.prim, hits.geom, hits.u, hits.v), k["G"], k["B"], k["L"], k["T"], k["face_off"],
                        k["materials"], k["cam"], k["background"], image, trace, NO_RAYS if rays is None else rays)
     return image
