@@ -88,7 +88,8 @@ def _light_at(lights, i, p, dmin, att_on):
         Distance to the light: ``inf`` for a light at infinity, 0 for a light on
         the point (which then has no direction and gives no light).
     att : float
-        The distance law (1 without ``att_on``, a compile-time constant; see :mod:`.jit`).
+        The distance law (1 without ``att_on``; callers pass an ``np.bool_``, so that this compiles
+        once, and LLVM folds the branch where it inlines this into a variant's kernel; see :mod:`.jit`).
     cone : float
         The emission factor towards ``p``: Warn's for a spot light (0 outside its
         cone), 1 otherwise.
@@ -162,7 +163,7 @@ def _reflected(hp, coef, mats, mi, L, S, vis, lane, spec_on, att_on):
     model = mats[mi, MAT_MODEL]
     has_spec = mats[mi, MAT_KS + 0] > 0.0 or mats[mi, MAT_KS + 1] > 0.0 or mats[mi, MAT_KS + 2] > 0.0
     for i in range(lights.shape[0]):
-        s, d, att, cone = _light_at(lights, i, hp.p, dmin, att_on)
+        s, d, att, cone = _light_at(lights, i, hp.p, dmin, np.bool_(att_on))
         if d == 0.0 or cone == 0.0:
             continue  # on the point (no direction), or outside a spot's cone: no light, no shadow ray
         att *= cone
@@ -203,7 +204,7 @@ def _request_shadows(P, k, hp, L):
     for i in range(lights.shape[0]):
         if lights[i, LIGHT_SHADOWS] == 0.0:
             continue
-        s, d, _, cone = _light_at(lights, i, hp.p, dmin, False)
+        s, d, _, cone = _light_at(lights, i, hp.p, dmin, np.bool_(False))
         if d == 0.0 or cone == 0.0 or dot(hp.n, s) <= 0.0:
             continue
         target = (lights[i, LIGHT_VEC + 0], lights[i, LIGHT_VEC + 1], lights[i, LIGHT_VEC + 2])

@@ -137,7 +137,7 @@ def _start_lane(hits, G, B, materials, face_off, cam, unit, image, y, x, lanes):
         return n
     gm = geom[y, x]
     at = At(face_off[gm] + p, gm, np.float64(u[y, x]), np.float64(v[y, x]))
-    ray = _mirror_ray(_surface(G, B, cam, at, False, (0.0, 0.0, 0.0)), unit)
+    ray = _mirror_ray(_surface(G, B, cam, at, np.bool_(False), (0.0, 0.0, 0.0)), unit)
     return _add_lane(image, y, x, materials[gm, MAT_REFLECTIVITY], ray, lanes)
 
 
@@ -371,7 +371,7 @@ def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False, batched: bo
                                 coef = _point_coefficients(G, uvs, at, cam, 0, 0, False, materials, T)
                             else:
                                 coef = _row_coefficients(materials, gb)
-                            rgb, hp = _shade_surface(G, B, L, S, materials, cam, at, True,
+                            rgb, hp = _shade_surface(G, B, L, S, materials, cam, at, np.bool_(True),
                                                      (dr[0, k], dr[1, k], dr[2, k]), coef, spec_on, att_on)
                             rho = materials[gb, MAT_REFLECTIVITY]
                             keep = 1.0

@@ -33,8 +33,8 @@ def _normals_kernel(prim, geom, u, v, G, B, face_off, cam, modes, nbuf):
                         nbuf[y, x, c] = 0.0
                     continue
                 gm = geom[y, x]
-                hp = _surface(G, B, cam, At(face_off[gm] + p, gm, np.float64(u[y, x]), np.float64(v[y, x])), False,
-                              (0.0, 0.0, 0.0))
+                hp = _surface(G, B, cam, At(face_off[gm] + p, gm, np.float64(u[y, x]), np.float64(v[y, x])),
+                              np.bool_(False), (0.0, 0.0, 0.0))
                 n = hp.g if modes[gm] == METHOD_FLAT else hp.n
                 nbuf[y, x, 0] = n[0]
                 nbuf[y, x, 1] = n[1]

@@ -129,7 +129,7 @@ def _make_phong(spec_on: bool, att_on: bool, tex_on: bool = False):
                         coef = _point_coefficients(G, uvs, at, cam, x, y0 + y, True, materials, T)
                     else:
                         coef = _row_coefficients(materials, gm)
-                    rgb, hp = _shade_surface(G, B, L, S, materials, cam, at, False, (0.0, 0.0, 0.0), coef,
+                    rgb, hp = _shade_surface(G, B, L, S, materials, cam, at, np.bool_(False), (0.0, 0.0, 0.0), coef,
                                              spec_on, att_on)
                     store_pixel((image, normal), y, x, rgb, hp.n)
                     hand_over(rays, y, x, hp, materials[gm, MAT_REFLECTIVITY], L[4])
@@ -185,7 +185,7 @@ def _make_phong_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
                         at = At(face_off[gm] + p, gm, np.float64(u[y, x]), np.float64(v[y, x]))
                         if tex_on:
                             store_coef(points, k, _point_coefficients(G, uvs, at, cam, x, y0 + y, True, materials, T))
-                        hp = _shading_point(G, B, L, cam, at, False, (0.0, 0.0, 0.0))
+                        hp = _shading_point(G, B, L, cam, at, np.bool_(False), (0.0, 0.0, 0.0))
                         store_point(points, k, hp, gm)
                         hand_over(rays, y, x, hp, materials[gm, MAT_REFLECTIVITY], L[4])
                         _request_shadows(P, k, hp, L)

@@ -57,7 +57,7 @@ def _reach(lights, p, n, dmin, att_on, reach, row):
     it does not reach): what the shadow probe's unit light gives there unshadowed."""
     for i in range(lights.shape[0]):
         reach[i, row, 0] = 0.0
-        s, d, att, cone = _light_at(lights, i, p, dmin, att_on)
+        s, d, att, cone = _light_at(lights, i, p, dmin, np.bool_(att_on))
         if d == 0.0 or cone == 0.0:
             continue
         ndots = dot(n, s)

@@ -99,7 +99,7 @@ def _illuminate_terms(hp, coef, mats, mi, L, S, spec_on, att_on, R, y, x):
             for c in range(3):
                 per_light[0, i, y, x, c] = 0.0
                 per_light[1, i, y, x, c] = 0.0
-        s, d, att, cone = _light_at(lights, i, hp.p, dmin, att_on)
+        s, d, att, cone = _light_at(lights, i, hp.p, dmin, np.bool_(att_on))
         if d == 0.0 or cone == 0.0:
             continue
         att *= cone
@@ -202,7 +202,7 @@ def _make_phong_terms(spec_on: bool, att_on: bool, tex_on: bool = False):
                         coef = _point_coefficients(G, uvs, at, cam, x, ty, True, materials, T)
                     else:
                         coef = _row_coefficients(materials, gm)
-                    hp = _surface(G, B, cam, at, False, (0.0, 0.0, 0.0))
+                    hp = _surface(G, B, cam, at, np.bool_(False), (0.0, 0.0, 0.0))
                     if L[3] != 0:  # shadow rays leave past the terminator, as _shade_surface's
                         verts, normals, faces, _ = G
                         o = _terminator_point(verts, normals, _triangle(faces, at.f), at.b1, at.b2, hp.p, hp.sgn)
