@@ -47,6 +47,14 @@ def _from_bits(typingctx, b):
 
 
 @njit(**HELPER)
+def _odd(p):
+    """Whether :func:`_offset` leaves coordinate ``p`` to ``_nudge`` (exponent bits of a subnormal
+    step, inf or NaN), given that ``p`` is not near zero (shared by :func:`lane_rays`' redo)."""
+    e = (_bits(p) >> 52) & 0x7FF
+    return e < 16 or e == 0x7FF
+
+
+@njit(**HELPER)
 def _offset(p, n, unit):
     """:func:`~raycast_shade.shading.shadows._nudge`, bit for bit, with its step read off
     ``p``'s exponent bits instead of ``frexp`` and ``ldexp`` (two library calls a coordinate,
@@ -54,13 +62,12 @@ def _offset(p, n, unit):
     ``frexp`` gives ``E - 1022`` and the step ``ldexp(256, E - 1022 - 24)`` is ``2**(E - 1038)``,
     the float64 of biased exponent ``E - 15``. A subnormal step, inf and NaN take ``_nudge``
     itself."""
-    e = (_bits(p) >> 52) & 0x7FF
     if abs(p) < unit * (1.0 / 32.0):
         step = unit * (1.0 / 65536.0)
-    elif e < 16 or e == 0x7FF:
+    elif _odd(p):
         return _nudge(p, n, unit)
     else:
-        step = _from_bits((e - 15) << 52)
+        step = _from_bits((((_bits(p) >> 52) & 0x7FF) - 15) << 52)
     return p + n * step  # one expression for both steps, contracted as _nudge's (an exact product or not)
 
 
@@ -101,14 +108,6 @@ def hand_over(rays, y, x, hp, rho, unit):
 
 
 @njit(**HELPER)
-def _odd(p):
-    """Whether :func:`_offset` leaves coordinate ``p`` to ``_nudge`` (exponent bits of a subnormal
-    step, inf or NaN), given that ``p`` is not near zero."""
-    e = (_bits(p) >> 52) & 0x7FF
-    return e < 16 or e == 0x7FF
-
-
-@njit(**HELPER)
 def lane_rays(S, n, unit):
     """The first ``n`` lanes' :func:`_mirror_ray` from the batched Phong kernel's scratch ``S``
     (:mod:`.lanes`, once :func:`.phong_fast._geometry` has run): each origin into field ``_A``, each
@@ -138,8 +137,7 @@ def lane_rays(S, n, unit):
     for k in range(n):
         for j in range(3):
             p = S[(_P + j) * LANES + k]
-            e = (_bits(p) >> 52) & 0x7FF
-            if not abs(p) < unit * (1.0 / 32.0) and (e < 16 or e == 0x7FF):
+            if not abs(p) < unit * (1.0 / 32.0) and _odd(p):
                 S[(_A + j) * LANES + k] = _offset(p, S[(_G + j) * LANES + k], unit)
 
 

@@ -34,7 +34,6 @@ from .inputs import prepare
 from .jit import FLT32_MAX, HELPER, JIT, compile_variants, variant
 from .phong import _shade_surface, _surface
 from .lanes import _A, _B1, _B2, _FIELDS, _FN, _KD, LANES as _BATCH
-from .mirror_rays import _offset  # noqa: F401 (tests/shading/test_mirror_packets.py reads it here)
 from .mirror_rays import NO_RAYS, _mirror_ray, lane_rays
 from .phong_fast import _gather, _geometry
 from .records import At

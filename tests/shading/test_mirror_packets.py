@@ -147,7 +147,7 @@ def test_the_mirror_origin_offset_is_the_shadow_nudge_bit_for_bit(p, n, unit):
     """The mirror rays' origin offset (``frexp``/``ldexp`` replaced by the exponent's bits) is
     :func:`~raycast_shade.shading.shadows._nudge` everywhere: near zero, across powers of two,
     subnormal steps, inf and NaN."""
-    from raycast_shade.shading.mirrors import _offset
+    from raycast_shade.shading.mirror_rays import _offset
     from raycast_shade.shading.shadows import _nudge
 
     for q in (p, np.nextafter(p, 0.0), np.ldexp(1.0, int(np.clip(np.frexp(p)[1], -1074, 1023))) if np.isfinite(p) else p):
