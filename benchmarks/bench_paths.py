@@ -48,7 +48,9 @@ divided by the plain Phong frame's median:
 Peak memory of a frame without and with all 12 buffers (``peak_frame``,
 ``peak_buffers_all``, in the ``size_MiB`` column) is measured in a fresh
 subprocess each: how far the resident set peaks above its level before the
-frame (Linux's ``VmHWM``, reset through ``/proc/self/clear_refs``).
+frame (Linux's ``VmHWM``, reset through ``/proc/self/clear_refs``), with glibc's mmap threshold
+fixed (``MALLOC_MMAP_THRESHOLD_``) so that every large array is mapped fresh rather than served
+from heap that building the mesh freed.
 
 Results: ``benchmarks/results/paths.csv``, the chart ``docs/images/paths.png``
 and the table between the ``paths`` markers of ``docs/performance.md``
@@ -238,16 +240,19 @@ def _teaching_paths(scene):
 def _terms_floor(scene):
     """The fresh pages a ``terms=True`` frame writes beyond the plain frame's, and nothing else:
     ``np.empty`` + fill of the ambient, diffuse and specular images, one light's shadow mask
-    and ``keep`` (the page-fault floor of the terms; emissive, background and reflected are
-    zeros nobody touches in this scene)."""
+    and ``keep``, all alive at once as on the frame (the page-fault floor of the terms;
+    emissive, background and reflected are zeros nobody touches in this scene). Each freed
+    before the next is made would measure a fifth of it at 1080p: glibc serves the next from
+    the pages the last one freed, already faulted in."""
     import numpy as np
 
     h, w = scene.camera.height, scene.camera.width
     nl = len(scene.lights)
 
     def floor():
-        for shape in [(h, w, 3)] * 3 + [(nl, h, w), (h, w)]:
-            np.empty(shape, np.float32).fill(1.0)
+        arrays = [np.empty(shape, np.float32) for shape in [(h, w, 3)] * 3 + [(nl, h, w), (h, w)]]
+        for a in arrays:
+            a.fill(1.0)
 
     return floor
 
@@ -309,7 +314,11 @@ def peak_mib(kind, level, width, height, names) -> float:
     compiled and with the BVH built; Linux's VmHWM, reset through ``/proc/self/clear_refs``)."""
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     code = _PEAK.format(root=root, kind=kind, level=level, w=width, h=height, names=tuple(names))
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    # A fixed mmap threshold (as tests/scene/test_frame_memory.py): every large array is mapped fresh,
+    # none served from heap the mesh build freed (glibc raises the threshold to the largest freed
+    # block), which showed the 1.31 M-triangle frames growing by 0 MiB.
+    env = dict(os.environ, MALLOC_MMAP_THRESHOLD_="131072")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env)
     return float(out.stdout.strip().splitlines()[-1])
 
 
@@ -455,7 +464,7 @@ def main(argv=None):
         write_table(rows, args.quick)
         return rows
     cases = QUICK_CASES if args.quick else CASES
-    repeats = args.repeats or (2 if args.quick else 3)
+    repeats = args.repeats or (2 if args.quick else 5)  # 5: a median that one slow moment of a VM does not move
     if args.only and not os.path.exists(results_file("paths.csv", args.quick)):
         p.error(f"--only: re-times rows of {results_file('paths.csv', args.quick)}, which does not exist yet; "
                 "run without --only first")

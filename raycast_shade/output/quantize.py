@@ -7,8 +7,9 @@ or 30 ms on two. For float32 input the mapping is a non-decreasing step
 function of the value, so it is fixed by 255 thresholds: ``t[k]``, the
 smallest float32 that maps to ``k`` or more. They are found by bisection
 over the float32 bit patterns, evaluating :func:`to_uint8` itself (31 calls
-on 255 values, under a millisecond), so no second copy of the curve
-exists. A value's code is then the number of thresholds at or below it: a
+on 255 values, about 3 ms whatever the image's size), so no second copy of
+the curve exists; the tables of the last 16 settings are kept, so the frames
+of a view set or an animation pay that once. A value's code is then the number of thresholds at or below it: a
 table indexed by the top 19 bits of its pattern (sign, exponent, 10
 mantissa bits; 256 KiB) gives the code at the start of its bucket of 8,192
 patterns, and a short walk over the next thresholds finishes it. On one
@@ -28,6 +29,8 @@ rendered image.
 """
 
 from __future__ import annotations
+
+import functools
 
 import numpy as np
 from numba import njit
@@ -92,6 +95,29 @@ def _quantize_kernel(bits, t, bucket, shift, inf_code, out):
     return signed
 
 
+def _make_tables(exposure, tonemap, gamma) -> tuple:
+    """``(walk, bucket, inf_code)`` of one setting, read-only: the thresholds with the sentinel, the
+    bucket codes and the code of ``+inf``."""
+    t, inf_code = thresholds(exposure, tonemap, gamma)
+    walk = np.append(t, np.int32(0x7FFFFFFF))
+    bucket = _bucket_codes(t, _SHIFT)
+    walk.setflags(write=False)
+    bucket.setflags(write=False)
+    return walk, bucket, inf_code
+
+
+# The bisection takes about 3 ms whatever the image's size (a fifth of a 640x480 frame), and a
+# view set or an animation writes every frame with the same setting: a few settings are kept.
+_cached_tables = functools.lru_cache(maxsize=16, typed=True)(_make_tables)  # typed: True is not 1 here
+
+
+def _tables(exposure, tonemap, gamma) -> tuple:
+    try:
+        return _cached_tables(exposure, tonemap, gamma)
+    except TypeError:  # an unhashable setting (or a wrong type, which to_uint8 names): not kept
+        return _make_tables(exposure, tonemap, gamma)
+
+
 def to_uint8_table(image, exposure: float = 1.0, tonemap: str = "clamp", gamma="srgb") -> np.ndarray:
     """:func:`~raycast_shade.output.tonemap.to_uint8` of ``image``, by table for float32 input.
 
@@ -110,12 +136,11 @@ def to_uint8_table(image, exposure: float = 1.0, tonemap: str = "clamp", gamma="
     img = np.asarray(image) if isinstance(image, np.ndarray) else None
     if img is None or img.dtype != np.float32 or img.size < 256:
         return to_uint8(image, exposure, tonemap, gamma)  # small or not float32: the curve itself
-    t, inf_code = thresholds(exposure, tonemap, gamma)  # checks the settings (to_uint8 raises)
-    walk = np.append(t, np.int32(0x7FFFFFFF))
+    walk, bucket, inf_code = _tables(exposure, tonemap, gamma)  # checks the settings (to_uint8 raises)
     flat = np.ascontiguousarray(img).reshape(-1)
     out = np.empty(flat.shape[0], np.uint8)
     bits = flat.view(np.int32)
-    if _quantize_kernel(bits, walk, _bucket_codes(t, _SHIFT), _SHIFT, np.uint8(inf_code), out):
+    if _quantize_kernel(bits, walk, bucket, _SHIFT, np.uint8(inf_code), out):
         signed = np.flatnonzero(bits < 0)  # rare in a rendered image: the curve itself
         out[signed] = to_uint8(flat[signed], exposure, tonemap, gamma)
     return out.reshape(img.shape)

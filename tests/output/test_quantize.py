@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from raycast_shade.output.imagefile import write_image
-from raycast_shade.output.quantize import thresholds, to_uint8_table
+from raycast_shade.output.quantize import _tables, thresholds, to_uint8_table
 from raycast_shade.output.tonemap import to_uint8
 
 TONES = [{}, {"exposure": 2.5}, {"exposure": 1e-3, "gamma": 0.5}, {"tonemap": "reinhard"},
@@ -66,6 +66,23 @@ def test_table_falls_back_to_the_curve_and_checks_the_settings():
         to_uint8_table(np.zeros(300, np.float32), tonemap="filmic")
     with pytest.raises(ValueError, match="exposure"):
         to_uint8_table(np.zeros(300, np.float32), exposure=-1)
+
+
+def test_kept_tables_are_read_only_and_checked_again_for_every_setting():
+    x = _values(np.random.default_rng(8), 5_000)
+    first = to_uint8_table(x, 2.0, "reinhard", 2.2)
+    walk, bucket, _ = _tables(2.0, "reinhard", 2.2)
+    assert _tables(2.0, "reinhard", 2.2)[0] is walk  # kept, not bisected again
+    assert not walk.flags.writeable and not bucket.flags.writeable
+    assert np.array_equal(to_uint8_table(x, 2.0, "reinhard", 2.2), first)
+    assert np.array_equal(first, to_uint8(x, 2.0, "reinhard", 2.2))
+    to_uint8_table(x, exposure=1)  # a kept setting of 1 does not admit True, which to_uint8 refuses
+    with pytest.raises((TypeError, ValueError), match="exposure"):
+        to_uint8(x, exposure=True)
+    with pytest.raises((TypeError, ValueError), match="exposure"):
+        to_uint8_table(x, exposure=True)
+    gamma = np.array(2.2)  # unhashable: not kept, still mapped
+    assert np.array_equal(to_uint8_table(x, gamma=gamma), to_uint8(x, gamma=gamma))
 
 
 def test_png_file_holds_the_curves_pixels(tmp_path):
