@@ -20,7 +20,7 @@ import re
 from ..output.imagefile import atomic_target
 from .batch.plan import _digest
 
-__all__ = ["PLAN_NAME", "PLAN_FORMAT", "digest", "file_hasher", "view_hashes", "view_key", "view_is_done", "write_record",
+__all__ = ["PLAN_NAME", "PLAN_FORMAT", "FILE_HASH", "digest", "file_hasher", "view_hashes", "view_key", "view_is_done", "write_record",
            "plan_differences", "prepare_folder", "write_json"]
 
 PLAN_NAME = "plan.json"
@@ -35,13 +35,25 @@ def digest(obj) -> str:
     return h.hexdigest()
 
 
+FILE_HASH = "sha256"  # a record's key for each file's digest
+
+
 def file_hasher():
-    """The hash of a view's files in its record (BLAKE2b, 16 bytes), fresh."""
-    return hashlib.blake2b(digest_size=16)
+    """The hash of a view's files in its record (SHA-256: what ``sha256sum`` prints), fresh.
+
+    SHA-256 rather than BLAKE2b: on CPUs with SHA extensions (this project's machines: 1.7
+    against 0.63 GB/s) it takes about a third of the writer thread's time, and anyone can check a
+    file with ``sha256sum``. Records written with BLAKE2b (16 bytes, key ``"blake2b"``) are still
+    checked with it (:func:`view_is_done`)."""
+    return hashlib.sha256()
 
 
-def _file_digest(path) -> str:
-    h = file_hasher()
+# The digests a record may hold, by its key: the current one and the one of older records.
+_HASHERS = {FILE_HASH: file_hasher, "blake2b": lambda: hashlib.blake2b(digest_size=16)}
+
+
+def _file_digest(path, algorithm: str = FILE_HASH) -> str:
+    h = _HASHERS[algorithm]()
     with open(path, "rb") as fh:
         for block in iter(lambda: fh.read(1 << 20), b""):
             h.update(block)
@@ -71,11 +83,12 @@ def view_is_done(files: dict, key: str) -> bool:
             if kind == "record":
                 continue
             entry = listed[os.path.basename(path)]
+            algorithm = next(a for a in _HASHERS if a in entry)  # none: StopIteration, not done
             size = os.path.getsize(path)
-            if size == 0 or size != entry["bytes"] or _file_digest(path) != entry["blake2b"]:
+            if size == 0 or size != entry["bytes"] or _file_digest(path, algorithm) != entry[algorithm]:
                 return False
         return True
-    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+    except (OSError, ValueError, KeyError, TypeError, AttributeError, StopIteration):
         return False
 
 
@@ -97,7 +110,7 @@ def write_record(files: dict, key: str, job, objects, written: dict | None = Non
         with ThreadPoolExecutor(len(missing)) as pool:  # hashlib releases the GIL on large blocks
             for p, d in zip(missing, pool.map(_file_digest, missing)):
                 written[p] = (os.path.getsize(p), d)
-    entries = {os.path.basename(p): {"bytes": int(written[p][0]), "blake2b": written[p][1]} for p in paths}
+    entries = {os.path.basename(p): {"bytes": int(written[p][0]), FILE_HASH: written[p][1]} for p in paths}
     record = {"index": job.index, "key": key, "K": K.tolist(), "R": R.tolist(), "t": t.tolist(), "files": entries,
               "objects": objects}
     with atomic_target(files["record"]) as tmp, open(tmp, "w") as fh:

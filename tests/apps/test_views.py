@@ -70,6 +70,34 @@ def test_views_resume_and_leave_no_partial_file(scene, tmp_path):
     assert redone == {"view_00001.npz", "view_00001.png", "view_00001.json", INDEX_NAME, PLAN_NAME}
 
 
+def test_records_of_blake2b_digests_still_resume_and_still_catch_a_changed_file(scene, tmp_path):
+    """Records written before the digests were SHA-256 hold 16-byte BLAKE2b ones ("blake2b"): such a
+    view is still done if its files match them, and rendered again if one does not."""
+    import hashlib
+
+    cams = orbit_cameras(scene.camera, 2)
+    render_views(scene, cams, tmp_path, buffers=["zdepth"])
+    for i in range(2):
+        path = tmp_path / f"view_{i:05d}.json"
+        record = json.loads(path.read_text())
+        for name, entry in record["files"].items():
+            data = (tmp_path / name).read_bytes()
+            assert entry.pop("sha256") == hashlib.sha256(data).hexdigest()
+            entry["blake2b"] = hashlib.blake2b(data, digest_size=16).hexdigest()
+        path.write_text(json.dumps(record))
+    npz = tmp_path / "view_00001.npz"
+    data = bytearray(npz.read_bytes())
+    data[-30] ^= 1  # one bit of view 1's npz, its size kept
+    npz.write_bytes(bytes(data))
+    stamps = {n: os.stat(tmp_path / n).st_mtime_ns for n in _names(tmp_path)}
+    render_views(scene, cams, tmp_path, buffers=["zdepth"])
+    after = {n: os.stat(tmp_path / n).st_mtime_ns for n in _names(tmp_path)}
+    redone = {n for n in after if after[n] != stamps[n]}
+    assert redone == {"view_00001.npz", "view_00001.png", "view_00001.json", INDEX_NAME, PLAN_NAME}
+    assert "sha256" in json.loads((tmp_path / "view_00001.json").read_text())["files"]["view_00001.npz"]
+    assert "blake2b" in json.loads((tmp_path / "view_00000.json").read_text())["files"]["view_00000.npz"]
+
+
 def test_views_on_two_workers_match_serial(scene, tmp_path):
     cams = orbit_cameras(scene.camera, 5)
     render_views(scene, cams, tmp_path / "serial", buffers=["zdepth", "position", "id"], image=None)
