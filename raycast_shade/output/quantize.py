@@ -9,12 +9,13 @@ smallest float32 that maps to ``k`` or more. They are found by bisection
 over the float32 bit patterns, evaluating :func:`to_uint8` itself (31 calls
 on 255 values, about 3 ms whatever the image's size), so no second copy of
 the curve exists; the tables of the last 16 settings are kept, so the frames
-of a view set or an animation pay that once. A value's code is then the number of thresholds at or below it: a
-table indexed by the top 19 bits of its pattern (sign, exponent, 10
-mantissa bits; 256 KiB) gives the code at the start of its bucket of 8,192
-patterns, and a short walk over the next thresholds finishes it. On one
-core this is about 3x faster than the curve (about 15-20 ms at 1080p, loaded;
-a copy of the image takes 8), and it runs on the calling thread only and
+of a view set or an animation pay that once. A value's code is then the
+number of thresholds at or below it: a table indexed by the top 19 bits of
+its pattern (sign, exponent, 10 mantissa bits; 256 KiB) gives the code at
+the start of its bucket of 8,192 patterns, and a short walk over the next
+thresholds finishes it. On one core this is several times faster than the
+curve (about 6 ms for a rendered 1080p frame, quiet; 15-20 ms loaded; a
+copy of the image takes 8), and it runs on the calling thread only and
 without the GIL, so a view set's writer thread neither takes the cores from
 the next render nor holds its Python thread.
 
