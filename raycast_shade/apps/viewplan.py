@@ -83,12 +83,14 @@ def view_is_done(files: dict, key: str) -> bool:
             if kind == "record":
                 continue
             entry = listed[os.path.basename(path)]
-            algorithm = next(a for a in _HASHERS if a in entry)  # none: StopIteration, not done
+            algorithm = next((a for a in _HASHERS if a in entry), None)
+            if algorithm is None:  # no digest this version knows
+                return False
             size = os.path.getsize(path)
             if size == 0 or size != entry["bytes"] or _file_digest(path, algorithm) != entry[algorithm]:
                 return False
         return True
-    except (OSError, ValueError, KeyError, TypeError, AttributeError, StopIteration):
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return False
 
 

@@ -114,9 +114,10 @@ _cached_tables = functools.lru_cache(maxsize=16, typed=True)(_make_tables)  # ty
 
 def _tables(exposure, tonemap, gamma) -> tuple:
     try:
-        return _cached_tables(exposure, tonemap, gamma)
-    except TypeError:  # an unhashable setting (or a wrong type, which to_uint8 names): not kept
+        hash((exposure, tonemap, gamma))
+    except TypeError:  # an unhashable setting (a 0-d array, say): computed, not kept
         return _make_tables(exposure, tonemap, gamma)
+    return _cached_tables(exposure, tonemap, gamma)
 
 
 def to_uint8_table(image, exposure: float = 1.0, tonemap: str = "clamp", gamma="srgb") -> np.ndarray:
