@@ -64,13 +64,21 @@ def _untouched_zeros(shape, dtype=np.float32) -> np.ndarray:
     Returns
     -------
     shape dtype
-        Zeros, writable, owning its mapping (freed with the array).
+        Zeros, writable, owning its mapping (freed with the array); where the OS offers
+        transparent huge pages (``mmap.MADV_HUGEPAGE``), the mapping asks for them.
     """
     nbytes = int(np.prod(shape)) * np.dtype(dtype).itemsize
     if nbytes < _MAPPED_FROM:  # clearing it costs little, and its heap memory serves the next frame
         return np.zeros(shape, dtype)
     private = getattr(mmap, "MAP_PRIVATE", None)  # POSIX: private, not shared-memory pages
     buf = mmap.mmap(-1, nbytes) if private is None else mmap.mmap(-1, nbytes, flags=private | mmap.MAP_ANONYMOUS)
+    huge = getattr(mmap, "MADV_HUGEPAGE", None)
+    if huge is not None:
+        # Huge pages, as NumPy asks for its own large arrays: a read of the untouched zeros
+        # (the image adds the emissive and background terms) maps one zero page per 2 MiB,
+        # not per 4 KiB, and a mirror writing `reflected` faults 512 times less. Measured at
+        # 1080p (82k triangles): terms 87-89 -> 80-82 ms, with a mirror 227-254 -> 208-209 ms.
+        buf.madvise(huge)
     return np.frombuffer(buf, dtype).reshape(shape)
 
 

@@ -3,6 +3,7 @@ is dispatched to, its image and terms are the general terms kernel's (terms_kern
 
 from __future__ import annotations
 
+import os
 import warnings
 
 import numpy as np
@@ -131,3 +132,36 @@ def test_render_takes_the_batched_terms_kernel_where_it_applies(per_light, monke
     shadowed = scene.replace(lights=[rs.PointLight((1.0, 2.0, 3.0), intensity=9.0, shadows=True)])
     rs.render(shadowed, terms=True)
     assert not calls
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/smaps"), reason="reads Linux's /proc/self/smaps")
+def test_large_untouched_zeros_are_zero_writable_and_ask_for_huge_pages():
+    """The term arrays a frame may never write (emissive, background, reflected) are zeros on a
+    mapping of their own that asks for transparent huge pages (``hg`` in the mapping's
+    ``VmFlags``), so that reading or writing them faults once per 2 MiB; small ones are plain
+    ``np.zeros``."""
+    from raycast_shade.shading.termshade import _MAPPED_FROM, _untouched_zeros
+
+    big = _untouched_zeros((1080, 1920, 3))
+    assert big.nbytes >= _MAPPED_FROM and big.flags.writeable and big.dtype == np.float32
+    assert not big.any()
+    big[7, 9, 1] = 2.5
+    assert big.sum() == 2.5
+
+    addr = big.ctypes.data
+    flags = None
+    with open("/proc/self/smaps") as fh:
+        inside = False
+        for line in fh:
+            head = line.split()[0]
+            if "-" in head and all(c in "0123456789abcdef-" for c in head):
+                lo, hi = (int(x, 16) for x in head.split("-"))
+                inside = lo <= addr < hi
+            elif inside and head == "VmFlags:":
+                flags = line.split()[1:]
+                break
+    assert flags is not None, "the array's mapping is not in /proc/self/smaps"
+    assert "hg" in flags
+
+    small = _untouched_zeros((30, 40, 3))
+    assert small.nbytes < _MAPPED_FROM and not small.any() and small.flags.writeable
