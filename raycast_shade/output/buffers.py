@@ -137,6 +137,7 @@ def _buffers_kernel(view, hits, geometry, extra, outputs):
     h, w = prim.shape
     hit_rays = position.shape[0] != 0 or face_n.shape[0] != 0 or face_n_cam.shape[0] != 0
     rays = zdepth.shape[0] != 0 and not hit_rays  # the z-depth alone: from a row of rays
+    one_origin = cam[CAM_ORTHO] == 0.0  # a perspective camera's rays (lens-distorted too) share the eye
     # The rotation as scalars: read from R inside a loop, each would be reloaded per pixel (an
     # output might alias it), and the loops would not vectorise.
     r00, r01, r02, r10, r11, r12, r20, r21, r22 = (R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2],
@@ -188,9 +189,9 @@ def _buffers_kernel(view, hits, geometry, extra, outputs):
             ray = np.empty((6, w), np.float64)
             _row_rays(cam, dirs, w, y0 + y, ray)
             if hit_rays and geometry[5]:
-                _ray_row_ahead(y, fwd, R, ray, prim, geom, t, geometry, (zdepth, position, face_n, face_n_cam))
+                _ray_row_ahead(y, fwd, R, ray, prim, geom, t, geometry, (zdepth, position, face_n, face_n_cam), one_origin)
             elif hit_rays:
-                _ray_row(y, fwd, R, ray, prim, geom, t, geometry, (zdepth, position, face_n, face_n_cam))
+                _ray_row(y, fwd, R, ray, prim, geom, t, geometry, (zdepth, position, face_n, face_n_cam), one_origin)
             else:
                 _zdepth_row(y, fwd, ray, prim, t, zdepth)
 
