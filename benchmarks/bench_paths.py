@@ -45,6 +45,12 @@ divided by the plain Phong frame's median:
   (:func:`_teaching_paths`); ``terms_floor``: ``np.empty`` + fill of the arrays the terms
   write, their page-fault floor;
 
+Each path's median minor page faults and system CPU per call go beside its time (``faults``,
+``sys_ms``), and into a second table for the paths that fault more than :data:`KERNEL_FAULTS`
+times a call: on this machine (a Firecracker VM whose guest hands free 8 MiB blocks back to
+the host, ``page_reporting_order=11``) the same faults cost many times more in one round than in
+the next, which is what moves the ratios of the paths that write fresh memory.
+
 Peak memory of a frame without and with all 12 buffers (``peak_frame``,
 ``peak_buffers_all``, in the ``size_MiB`` column) is measured in a fresh
 subprocess each: how far the resident set peaks above its level before the
@@ -75,7 +81,8 @@ import time
 from benchmarks import outputs as where
 from benchmarks.outputs import ROOT, image_file, results_file
 
-FIELDS = ["mesh", "triangles", "width", "height", "path", "median_ms", "ratio", "size_MiB", "repeats", "note"]
+FIELDS = ["mesh", "triangles", "width", "height", "path", "median_ms", "ratio", "size_MiB", "repeats", "note",
+          "faults", "sys_ms"]
 CASES = [("icosphere", 6, 640, 480), ("icosphere", 6, 1920, 1080), ("noisy_sphere", 8, 640, 480),
          ("noisy_sphere", 8, 1920, 1080)]
 QUICK_CASES = [("icosphere", 4, 320, 240)]
@@ -269,12 +276,15 @@ def bench_case(kind, level, width, height, repeats, only=None):
         if only:
             paths = {k: v for k, v in paths.items() if k == "frame" or k in only}
         times = {name: [] for name in paths}
+        kernel = {name: [] for name in paths}  # (minor page faults, system CPU seconds) of each call
         for r in range(repeats + 1):  # round 0: warm-up (JIT, Embree build, page faults)
             for name, (fn, _, per) in paths.items():
+                k0 = _kernel_side()
                 t0 = time.perf_counter()
                 fn()
                 if r:
                     times[name].append((time.perf_counter() - t0) / per)
+                    kernel[name].append(tuple(b - a for a, b in zip(k0, _kernel_side())))
         sizes = {name: sum(os.path.getsize(f) for f in glob.glob(path)) / 2**20
                  for name, (_, path, _) in paths.items() if path}
     finally:
@@ -283,10 +293,21 @@ def bench_case(kind, level, width, height, repeats, only=None):
     rows = []
     for name, ts in times.items():
         med = statistics.median(ts)
+        faults, sys_s = (statistics.median(k[i] for k in kernel[name]) for i in (0, 1))
         rows.append(dict(mesh=kind, triangles=len(mesh.faces), width=width, height=height, path=name,
                          median_ms=f"{med * 1e3:.1f}", ratio=f"{med / unit:.2f}",
-                         size_MiB=f"{sizes[name]:.1f}" if name in sizes else "", repeats=repeats, note=""))
+                         size_MiB=f"{sizes[name]:.1f}" if name in sizes else "", repeats=repeats, note="",
+                         faults=f"{faults:.0f}", sys_ms=f"{sys_s * 1e3:.1f}"))
     return rows
+
+
+def _kernel_side():
+    """(minor page faults, system CPU seconds) of this process so far: what a call spent in the OS,
+    mostly giving it fresh pages (on a VM, what the host charges for them moves by the minute)."""
+    import resource
+
+    use = resource.getrusage(resource.RUSAGE_SELF)
+    return use.ru_minflt, use.ru_stime
 
 
 _PEAK = """
@@ -347,6 +368,7 @@ LABELS = {"buffers_all": "all 12 buffers",
 
 
 MS_ROWS = ("explain",)  # shown with their milliseconds too (the target is in ms)
+KERNEL_FAULTS = 100  # paths above this many minor page faults a call get a row in the faults table
 
 
 def table(rows) -> str:
@@ -372,12 +394,31 @@ def table(rows) -> str:
         out.append(f"| {label} | " + " | ".join(cells) + " |")
     for name, label in (("peak_frame", "peak memory growth, plain frame"), ("peak_buffers_all", "the same, all 12 buffers")):
         out.append(f"| {label} | " + " | ".join(f"{get[(m, w, h, name)]['size_MiB']} MiB" for m, _, w, h in cases) + " |")
+    out += _kernel_table(rows, cases)
     notes = sorted({r["note"].split(", frame")[0] for r in rows if r.get("note", "").startswith("re-timed")})
     if notes:
         out.append("")
         out.append("† Re-timed alone (`--only`), each ratio to the frame timed in the same rounds: "
                    + "; ".join(notes) + ".")
     return "\n".join(out) + "\n"
+
+
+def _kernel_table(rows, cases) -> list:
+    """Lines of a second table: the median minor page faults and system CPU of one call, for the
+    paths that took more than :data:`KERNEL_FAULTS` faults a call in some case (none: no lines).
+    Rows from a CSV without those columns (older runs) count as none."""
+    get = {(r["mesh"], r["width"], r["height"], r["path"]): r for r in rows}
+    names = [n for n in LABELS
+             if any(int(r.get("faults") or 0) > KERNEL_FAULTS for r in rows if r["path"] == n)]
+    if not names:
+        return []
+    head = ["page faults / system CPU of one call"] + [f"{int(t):,} tris, {w}×{h}" for _, t, w, h in cases]
+    out = ["", "| " + " | ".join(head) + " |", "|---" * len(head) + "|"]
+    for name in ["frame"] + names:
+        cells = [(lambda r: "" if r is None or not r.get("faults") else f"{int(r['faults']):,} / {r['sys_ms']} ms")(
+            get.get((m, w, h, name))) for m, _, w, h in cases]
+        out.append(f"| {'plain Phong frame' if name == 'frame' else LABELS[name]} | " + " | ".join(cells) + " |")
+    return out
 
 
 def write_table(rows, quick: bool) -> str:
