@@ -3,9 +3,8 @@
 The row's rays are made as the casters make them (:func:`_row_rays`, branch-free: it vectorises).
 A row's position and face normals then take passes over the row: its triangles (branch-free), a
 gather of each pixel's triangle (its plane, reused from the pixel before when it is the same
-triangle; its face normal; a miss reads triangle 0; for rays from one origin, a perspective
-camera's, the plane's numerator ``(p0 - o) . n`` is the triangle's, so 4 numbers a pixel, not 6)
-into float64 rows, and the arithmetic,
+triangle, as are the numerator ``(p0 - o) . n`` of rays from one origin; its face normal; a
+miss reads triangle 0) into float64 rows, and the arithmetic,
 branch-free, misses chosen to 0 at the store, which vectorises (8 pixels a step with AVX-512).
 Two things keep those loops vector loops: each (W, 3) output row is stored through a flat view
 (``3 x + k``: a stride known when compiled; through ``[y, x, k]`` the stride is the array's, known
@@ -137,34 +136,25 @@ def _make_ray_row(ahead: bool):
         for x in range(w):
             hit = prim[y, x] >= 0
             face[x] = face_offsets[geom[y, x] if hit else 0] + prim[y, x] if hit else 0
-        if want_p and one_origin:
-            # One origin o: the numerator (p0 - o) . n is the triangle's, computed once per run
-            # of pixels on it (the same operations as per pixel: the same bits), and each pixel
-            # gathers 4 numbers, not 6.
-            ox, oy, oz = ray[0, 0], ray[1, 0], ray[2, 0]
-            plane = np.empty((4, w), np.float64)  # each pixel's triangle normal and numerator
+        if want_p:
+            # Each pixel's triangle normal n and numerator (p0 - o) . n, gathered: neighbouring
+            # pixels mostly hit the same triangle, and rays from one origin (a perspective
+            # camera) share the numerator too, so it is computed once per run of pixels on a
+            # triangle; an orthographic row's origins differ, so per pixel. Either way the same
+            # operations on the same operands: the same bits.
+            plane = np.empty((4, w), np.float64)
             last = -1
-            q = (0.0, 0.0, 0.0, 0.0)
+            p0x = p0y = p0z = nx = ny = nz = num = 0.0
             for x in range(w):
                 if ahead:
                     _prefetch_ahead(face, x, faces, face_normals, vertices, want_p, want_f)
-                if face[x] != last:
+                fresh = face[x] != last
+                if fresh:
                     last = face[x]
                     p0x, p0y, p0z, nx, ny, nz = _triangle_plane(vertices, faces, last)
-                    q = (nx, ny, nz, (p0x - ox) * nx + (p0y - oy) * ny + (p0z - oz) * nz)
-                plane[0, x], plane[1, x], plane[2, x], plane[3, x] = q
-            _position_row_one_origin(y, ray, prim, t, plane, origin, position)
-        elif want_p:
-            plane = np.empty((6, w), np.float64)  # each pixel's triangle plane, gathered
-            last = -1  # neighbouring pixels mostly hit the same triangle
-            p = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-            for x in range(w):
-                if ahead:
-                    _prefetch_ahead(face, x, faces, face_normals, vertices, want_p, want_f)
-                if face[x] != last:
-                    last = face[x]
-                    p = _triangle_plane(vertices, faces, last)
-                plane[0, x], plane[1, x], plane[2, x], plane[3, x], plane[4, x], plane[5, x] = p
+                if fresh or not one_origin:
+                    num = (p0x - ray[0, x]) * nx + (p0y - ray[1, x]) * ny + (p0z - ray[2, x]) * nz
+                plane[0, x], plane[1, x], plane[2, x], plane[3, x] = nx, ny, nz, num
             _position_row(y, ray, prim, t, plane, origin, position)
         if want_f:
             if ahead and not want_p:  # the gather's rows a pass ahead (with position: its gather asked)
@@ -178,33 +168,15 @@ def _make_ray_row(ahead: bool):
 @njit(**_ROW)
 def _position_row(y, ray, prim, t, plane, origin, position):
     """Row ``y``'s positions, branch-free (it vectorises): the ray ``o + s d`` meets the pixel's
-    triangle plane (``plane``: (6, W), ``p0`` and ``n`` of :func:`_triangle_plane`) at
-    ``s = ((p0 - o) . n) / (d . n)`` in float64, exact to rounding at any angle (the cast's ``t``
-    is float32, and its barycentrics too); at ``t`` itself if the ray is parallel to the plane to
-    float64 precision (or ``s`` is not a finite positive number); 0 for a miss."""
+    triangle plane (``plane``: (4, W), its normal ``n`` of :func:`_triangle_plane` and the
+    numerator ``(p0 - o) . n``) at ``s = ((p0 - o) . n) / (d . n)`` in float64, exact to rounding
+    at any angle (the cast's ``t`` is float32, and its barycentrics too); at ``t`` itself if the
+    ray is parallel to the plane to float64 precision (or ``s`` is not a finite positive number);
+    0 for a miss."""
     o0, o1, o2 = origin[0], origin[1], origin[2]
     out = position[y].reshape(-1)  # flat: a store stride known at compile time (3), so the loop vectorises
     for x in range(prim.shape[1]):
         ox, oy, oz, dx, dy, dz = ray[0, x], ray[1, x], ray[2, x], ray[3, x], ray[4, x], ray[5, x]
-        nx, ny, nz = plane[3, x], plane[4, x], plane[5, x]
-        den = dx * nx + dy * ny + dz * nz
-        q = ((plane[0, x] - ox) * nx + (plane[1, x] - oy) * ny + (plane[2, x] - oz) * nz) / den
-        s = q if (den != 0.0) & np.isfinite(q) & (q > 0.0) else np.float64(t[y, x])
-        hit = prim[y, x] >= 0
-        out[3 * x] = (ox + s * dx) + o0 if hit else 0.0
-        out[3 * x + 1] = (oy + s * dy) + o1 if hit else 0.0
-        out[3 * x + 2] = (oz + s * dz) + o2 if hit else 0.0
-
-
-@njit(**_ROW)
-def _position_row_one_origin(y, ray, prim, t, plane, origin, position):
-    """:func:`_position_row` for rays from one origin ``ray[:3, 0]``, operation for operation
-    (the same bits): ``plane`` is (4, W), each pixel's triangle normal ``n`` and ``(p0 - o) . n``."""
-    o0, o1, o2 = origin[0], origin[1], origin[2]
-    ox, oy, oz = ray[0, 0], ray[1, 0], ray[2, 0]
-    out = position[y].reshape(-1)
-    for x in range(prim.shape[1]):
-        dx, dy, dz = ray[3, x], ray[4, x], ray[5, x]
         den = dx * plane[0, x] + dy * plane[1, x] + dz * plane[2, x]
         q = plane[3, x] / den
         s = q if (den != 0.0) & np.isfinite(q) & (q > 0.0) else np.float64(t[y, x])

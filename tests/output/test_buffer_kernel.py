@@ -193,35 +193,3 @@ def test_zdepth_alone_is_the_zdepth_made_with_the_other_ray_buffers(lens):
     assert 0.1 < m.mean() < 0.95
     np.testing.assert_array_equal(alone, mixed["zdepth"])
     assert np.all(alone[m] > 0) and np.all(alone[~m] == 0)
-
-
-@pytest.mark.parametrize("seed", [0, 1, 2])
-def test_position_of_rays_from_one_origin_is_the_general_rows_bit_for_bit(seed):
-    """A perspective camera's row (every ray from the eye) takes the 4-number gather
-    (``_position_row_one_origin``: the numerator per triangle); it gives the general row's
-    bits, including rays parallel to their plane, behind the origin and misses."""
-    from raycast_shade.output.pixelrays import _position_row, _position_row_one_origin
-
-    rng = np.random.default_rng(seed)
-    w = 257
-    eye = rng.normal(size=3) * 3.0
-    d = rng.normal(size=(3, w))
-    d /= np.linalg.norm(d, axis=0)
-    ray = np.vstack([np.repeat(eye[:, None], w, axis=1), d])
-    p0 = rng.normal(size=(3, w))
-    n = rng.normal(size=(3, w)) * 10.0 ** rng.uniform(-3, 3, size=w)
-    n[:, 5] = np.cross(d[:, 5], [0.0, 0.0, 1.0])  # parallel to its plane: den 0 up to rounding
-    n[:, 9] = 0.0  # a degenerate triangle: den exactly 0
-    plane6 = np.vstack([p0, n])
-    num = (p0[0] - eye[0]) * n[0] + (p0[1] - eye[1]) * n[1] + (p0[2] - eye[2]) * n[2]
-    plane4 = np.vstack([n, num[None]])
-    prim = rng.integers(-1, 50, size=(1, w)).astype(np.int32)
-    t = rng.uniform(0.1, 9.0, size=(1, w)).astype(np.float32)
-    origin = rng.normal(size=3)
-    a = np.full((1, w, 3), np.nan, np.float32)
-    b = np.full((1, w, 3), np.nan, np.float32)
-    _position_row(0, ray, prim, t, plane6, origin, a)
-    _position_row_one_origin(0, ray, prim, t, plane4, origin, b)
-    assert not np.isnan(a).any()
-    assert np.array_equal(a.view(np.uint32), b.view(np.uint32))
-    assert (a[0, prim[0] < 0] == 0).all() and (prim < 0).any()

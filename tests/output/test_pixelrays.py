@@ -4,6 +4,7 @@ chooses instead of branching, each choice against its closed form."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from numba import njit
 
 from raycast_shade.output import pixelrays
@@ -22,9 +23,9 @@ def test_position_falls_back_to_the_cast_t_where_the_plane_gives_no_point_and_mi
     d = np.array([[0, 0, 1], [1, 0, 0], [0, 1, 0], [0, 0, 1], [0, 0, 1]], np.float64)
     ray = np.zeros((6, w))
     ray[3:] = d.T
-    plane = np.zeros((6, w))
-    plane[:3] = np.array([[0, 0, 2], [0, 0, 2], [0, 0, 2], [0, 0, -2], [0, 0, 2]], np.float64).T
-    plane[3:] = np.array([[0, 0, 1], [0, 0, 1], [0, 0, 0], [0, 0, 1], [0, 0, 1]], np.float64).T
+    p0 = np.array([[0, 0, 2], [0, 0, 2], [0, 0, 2], [0, 0, -2], [0, 0, 2]], np.float64)
+    n = np.array([[0, 0, 1], [0, 0, 1], [0, 0, 0], [0, 0, 1], [0, 0, 1]], np.float64)
+    plane = np.vstack([n.T, (p0 * n).sum(axis=1)[None]])  # n and (p0 - o) . n, the origin o at 0
     prim = np.array([[0, 0, 0, 0, -1]], np.int32)
     t = np.array([[9.0, 3.0, 4.0, 5.0, 7.0]], np.float32)
     origin = np.array([10.0, 20.0, 30.0])
@@ -34,6 +35,41 @@ def test_position_falls_back_to_the_cast_t_where_the_plane_gives_no_point_and_mi
     expected = np.vstack([d[:4] * s[:, None] + origin, np.zeros(3)]).astype(np.float32)
     np.testing.assert_array_equal(position[0], expected)
     assert not np.signbit(position[0, 4]).any()
+
+
+@pytest.mark.parametrize("one_origin", [True, False])
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_position_row_is_its_numpy_twin_bit_for_bit(seed, one_origin):
+    """``_position_row`` (the vectorised loop over a row's gathered normals and numerators) is
+    the plain-NumPy evaluation of the same float64 operations, to the bit of its float32 output:
+    rays from one origin (a perspective row) and from one origin each (an orthographic row),
+    with misses, a ray parallel to its plane, a degenerate triangle and planes behind the origin
+    (those fall back to the cast's ``t``)."""
+    rng = np.random.default_rng(seed)
+    w = 257
+    o = np.repeat(rng.normal(size=(3, 1)) * 3.0, w, axis=1) if one_origin else rng.normal(size=(3, w)) * 3.0
+    d = rng.normal(size=(3, w))
+    d /= np.linalg.norm(d, axis=0)
+    ray = np.vstack([o, d])
+    p0 = rng.normal(size=(3, w))
+    n = rng.normal(size=(3, w)) * 10.0 ** rng.uniform(-3, 3, size=w)
+    n[:, 5] = np.cross(d[:, 5], [0.0, 0.0, 1.0])  # parallel to its plane: den 0 up to rounding
+    n[:, 9] = 0.0  # a degenerate triangle: den exactly 0
+    num = (p0[0] - o[0]) * n[0] + (p0[1] - o[1]) * n[1] + (p0[2] - o[2]) * n[2]
+    prim = rng.integers(-1, 50, size=(1, w)).astype(np.int32)
+    t = rng.uniform(0.1, 9.0, size=(1, w)).astype(np.float32)
+    origin = rng.normal(size=3)
+    got = np.full((1, w, 3), np.nan, np.float32)
+    _position(ray, prim, t, np.vstack([n, num[None]]), origin, got)
+
+    with np.errstate(divide="ignore", invalid="ignore"):
+        den = d[0] * n[0] + d[1] * n[1] + d[2] * n[2]
+        q = num / den
+    ok = (den != 0.0) & np.isfinite(q) & (q > 0.0)
+    s = np.where(ok, q, t[0].astype(np.float64))
+    want = np.where((prim[0] >= 0)[:, None], ((o + s * d) + origin[:, None]).T, 0.0).astype(np.float32)
+    assert (~ok).sum() >= 3 and (prim < 0).any()  # the fallbacks and the misses are exercised
+    assert np.array_equal(got[0].view(np.uint32), want.view(np.uint32))
 
 
 @njit(error_model="numpy")
