@@ -414,9 +414,11 @@ def _kernel_table(rows, cases) -> list:
         return []
     head = ["page faults / system CPU of one call"] + [f"{int(t):,} tris, {w}×{h}" for _, t, w, h in cases]
     out = ["", "| " + " | ".join(head) + " |", "|---" * len(head) + "|"]
+    def cell(r):
+        return "" if r is None or not r.get("faults") else f"{int(r['faults']):,} / {r['sys_ms']} ms"
+
     for name in ["frame"] + names:
-        cells = [(lambda r: "" if r is None or not r.get("faults") else f"{int(r['faults']):,} / {r['sys_ms']} ms")(
-            get.get((m, w, h, name))) for m, _, w, h in cases]
+        cells = [cell(get.get((m, w, h, name))) for m, _, w, h in cases]
         out.append(f"| {'plain Phong frame' if name == 'frame' else LABELS[name]} | " + " | ".join(cells) + " |")
     return out
 
