@@ -87,7 +87,7 @@ def _context(frame) -> _Context:
     geo = scene.geometry
     k = frame.inputs if getattr(frame, "inputs", None) is not None else prepare(scene, camera)
     cam = k.cam
-    _, _, dmin, handle, unit = k.lighting
+    dmin, handle, unit = k.lighting.dmin, k.lighting.handle, k.lighting.unit
     return _Context(geo=geo, scene=scene, cam=cam, eye=cam[CAM_EYE:CAM_EYE + 3], fwd=cam[CAM_FORWARD:CAM_FORWARD + 3],
                     ortho=cam[CAM_ORTHO] != 0.0, dmin=float(dmin), unit=float(unit), shadow_handle=int(handle),
                     spec_on=bool(k.spec_on))

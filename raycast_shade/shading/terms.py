@@ -63,11 +63,9 @@ import dataclasses
 
 import numpy as np
 
-from ..common.layout import (ATT_NONE, COLOR_FACE, LIGHT_ATT, LIGHT_DIRECTIONAL, LIGHT_KIND, LIGHT_SHADOWS,
-                             LIGHT_SIZE, MAT_KA, MAT_KD, MAT_KE, MAT_KS, MAT_REFLECTIVITY,
-                             TEXMAP_KD)
+from ..common.layout import LIGHT_SHADOWS, LIGHT_SIZE, MAT_KA, MAT_KD, MAT_KE, MAT_KS, MAT_REFLECTIVITY, TEXMAP_KD
 from ..scene.lights import PointLight
-from .inputs import prepare
+from .inputs import colours, lighting, prepare
 from .shade import SampleShading
 from .termshade import TermShading
 
@@ -167,25 +165,22 @@ def variant_inputs(inputs, origin, materials=None, colors=None, lights=None):
     mats = inputs.materials if materials is None else np.ascontiguousarray(materials, np.float64)
     changes["materials"] = mats
     if colors is not None and inputs.tex_on:
-        vc, fc, mode, tex_index, texels, info, _ = inputs.colours
+        T = inputs.colours
+        tex_index = T.tex_index
         if colors != 0:
             tex_index = tex_index.copy()
             tex_index[:, TEXMAP_KD] = -1
-        # The Gouraud "modulate" flag from the new maps, as prepare() derives it.
-        modulate = ((tex_index >= 0).any(axis=1) | (mode == COLOR_FACE)).astype(np.uint8)
-        changes["colours"] = (np.full_like(vc, colors), np.full_like(fc, colors), mode, tex_index, texels, info,
-                              modulate)
-    rows = inputs.lighting[1]
+        changes["colours"] = colours(np.full_like(T.vertex_colors, colors), np.full_like(T.face_colors, colors),
+                                     T.color_mode, tex_index, T.tex_texels, T.tex_info)
+    L = inputs.lighting
+    rows, handle = L.lights, L.handle
     if lights is not None:
-        ambient, _, dmin, handle, unit = inputs.lighting
         rows = np.zeros((len(lights), LIGHT_SIZE))
         for i, light in enumerate(lights):
             rows[i] = light.pack(origin)
         # prepare() passes the BVH only when a light casts shadows (it moves the shadow-ray origin).
         handle = handle if rows[:, LIGHT_SHADOWS].any() else np.uintp(0)
-        changes["lighting"] = (ambient, rows, dmin, handle, unit)
-    changes["spec_on"] = bool(np.any(mats[:, MAT_KS:MAT_KS + 3] > 0))
-    changes["att_on"] = bool(np.any((rows[:, LIGHT_KIND] != LIGHT_DIRECTIONAL) & (rows[:, LIGHT_ATT] != ATT_NONE)))
+    changes["lighting"] = lighting(L.ambient, rows, mats, L.dmin, handle, L.unit)  # the flags, as prepare()'s
     return dataclasses.replace(inputs, **changes)
 
 

@@ -248,11 +248,11 @@ def test_term_variants_share_the_frames_inputs_and_repack_nothing():
     v = variant_inputs(k, scene.geometry.origin, materials=rows, lights=())
     assert v.geometry is k.geometry and v.bumps is k.bumps and v.cam is k.cam and v.colours is k.colours
     assert v.materials is not k.materials and np.array_equal(v.materials, rows)
-    assert v.lighting[1].shape == (0, LIGHT_SIZE) and v.lighting[3] == 0 and not v.spec_on
+    assert v.lighting.lights.shape == (0, LIGHT_SIZE) and v.lighting.handle == 0 and not v.spec_on
     assert np.array_equal(v.background, [0.0, 0.0, 0.0])
     lit = variant_inputs(k, scene.geometry.origin, lights=scene.lights)
-    np.testing.assert_array_equal(lit.lighting[1], k.lighting[1])
-    assert lit.lighting[3] == k.lighting[3] != 0 and lit.spec_on == k.spec_on and lit.att_on == k.att_on
+    np.testing.assert_array_equal(lit.lighting.lights, k.lighting.lights)
+    assert lit.lighting.handle == k.lighting.handle != 0 and lit.spec_on == k.spec_on and lit.att_on == k.att_on
     # The terms from the frame's inputs are the terms packed afresh, bit for bit.
     from raycast_shade.shading.terms import shade_terms
 
