@@ -62,9 +62,7 @@ import dataclasses
 import json
 import os
 
-import numpy as np
-
-from ..common.validate import as_instance, as_int
+from ..common.validate import as_bool, as_instance, as_int, as_names, as_scalar
 from ..output.bufferfile import depth_png_bytes, exr_into, npz_into
 from ..output.buffers import check_buffers
 from ..output.labels import object_table, semantic_classes, unoccluded_masks, view_objects, write_coco
@@ -75,7 +73,7 @@ from ..visibility.accel import embree_accel
 from .batch.cache import PLUGIN_NAME, SceneCache, cache_of
 from .batch.options import check_options
 from .batch.plan import plan_batch
-from .viewfiles import _DEFAULT_BUFFERS, _DEFAULT_FORMATS, COMPRESSIONS, FORMATS, ViewFiles, _check_formats
+from .viewfiles import _DEFAULT_BUFFERS, _DEFAULT_FORMATS, COMPRESSIONS, FORMATS, ViewFiles
 from .viewslots import ViewSlots
 from .viewplan import (PLAN_FORMAT, PLAN_NAME, digest, file_hasher, prepare_folder, view_hashes, view_is_done, view_key,
                        write_json, write_record)
@@ -341,7 +339,7 @@ def _check_set_options(exports, image, unoccluded, overwrite, depth_scale, float
     """The checked exports and compression; TypeError/ValueError naming the argument otherwise."""
     from ..common.validate import as_choice
 
-    exports = _check_formats(exports, "exports", EXPORTS)
+    exports = as_names(exports, "exports", EXPORTS)
     compression = as_choice(compression, "compression", COMPRESSIONS)
     if compression == "auto":
         from ..output.npzwrite import deflate_backend
@@ -351,11 +349,8 @@ def _check_set_options(exports, image, unoccluded, overwrite, depth_scale, float
         if e in exports and image is None:
             raise ValueError(f"exports: {e!r} names each view's image file, but image=None writes none")
     for name, value in (("unoccluded", unoccluded), ("overwrite", overwrite), ("float_image", float_image)):
-        if not isinstance(value, (bool, np.bool_)):
-            raise TypeError(f"{name}: expected True or False, got {type(value).__name__}")
-    if isinstance(depth_scale, bool) or not isinstance(depth_scale, (int, float, np.integer, np.floating)) \
-            or not (np.isfinite(depth_scale) and depth_scale > 0):
-        raise ValueError(f"depth_scale: expected a finite number > 0, got {depth_scale!r}")
+        as_bool(value, name)
+    as_scalar(depth_scale, "depth_scale", minimum=0.0, exclusive=True)
     return exports, compression
 
 

@@ -12,7 +12,7 @@ from ..common.layout import (AREA_DISC, AREA_RECTANGLE, ATT_CODE, LIGHT_AREA, LI
                              LIGHT_COS_INNER, LIGHT_COS_OUTER, LIGHT_DIRECTIONAL, LIGHT_EDGE_U, LIGHT_EDGE_V,
                              LIGHT_EXPONENT, LIGHT_K, LIGHT_KIND, LIGHT_POINT, LIGHT_RADIANCE, LIGHT_SAMPLES,
                              LIGHT_SHADOWS, LIGHT_SHAPE, LIGHT_SIZE, LIGHT_SPOT, LIGHT_VEC)
-from ..common.validate import (MAX_RADIANCE, as_array, as_choice, as_int, as_name, as_rgb, as_scalar, as_vec3,
+from ..common.validate import (MAX_RADIANCE, as_array, as_bool, as_choice, as_int, as_name, as_rgb, as_scalar, as_vec3,
                                pow2_scaled)
 
 __all__ = ["Light", "PointLight", "SpotLight", "DirectionalLight", "AreaLight", "ATTENUATIONS", "MAX_SPOT_EXPONENT",
@@ -22,12 +22,6 @@ MAX_SPOT_EXPONENT = 1e4  # cos^n: beyond this the beam is a few hundredths of a 
 MAX_AREA_SAMPLES = 4096  # shadow rays per area light and shaded point: bounded work
 AREA_SHAPES = {"rectangle": AREA_RECTANGLE, "disc": AREA_DISC}  # LIGHT_SHAPE codes
 _GOLDEN = 0.6180339887498949  # the sample lattice's second axis (shading.illumination.GOLDEN)
-
-def _as_bool(value, name):
-    if not isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"{name}: expected True or False, got {type(value).__name__}")
-    return bool(value)
-
 
 class Light:
     """What every light kind has: a radiance, whether it casts shadows, and a row for the kernels.
@@ -114,7 +108,7 @@ class PointLight(Light):
         if k < 0:  # read by the heuristic law only, but never kept: 1/(d + k) divides by zero at d = -k
             raise ValueError(f"{self.name}.k: must be >= 0, got {k}")
         set_(self, "k", k)
-        set_(self, "shadows", _as_bool(self.shadows, f"{self.name}.shadows"))
+        set_(self, "shadows", as_bool(self.shadows, f"{self.name}.shadows"))
 
     kind = LIGHT_POINT
 
@@ -160,7 +154,7 @@ class DirectionalLight(Light):
         set_(self, "direction", d)
         set_(self, "intensity", as_scalar(self.intensity, f"{self.name}.intensity", minimum=0.0, maximum=MAX_RADIANCE))
         set_(self, "color", as_rgb(self.color, f"{self.name}.color"))
-        set_(self, "shadows", _as_bool(self.shadows, f"{self.name}.shadows"))
+        set_(self, "shadows", as_bool(self.shadows, f"{self.name}.shadows"))
 
     kind = LIGHT_DIRECTIONAL
 

@@ -11,11 +11,10 @@ import dataclasses
 import os
 from dataclasses import dataclass
 
-import numpy as np
-
+from ...common.validate import as_bool, as_count
 from ...scene.scenefile import RENDER_KEYS, SIZE_KEYS, TONE_KEYS, check_render_options
 
-__all__ = ["cores", "check_positive", "BatchOptions", "RENDER_KWARGS", "TRANSFERS", "check_options", "check_counts", "check_shading_fits",
+__all__ = ["cores", "BatchOptions", "RENDER_KWARGS", "TRANSFERS", "check_options", "check_counts", "check_shading_fits",
            "check_transfer", "WINDOW_BYTES"]
 
 # render() keywords a batch passes on; the camera (hence the size) is per frame.
@@ -58,13 +57,6 @@ def cores() -> int:
         return os.cpu_count() or 1
 
 
-def check_positive(value, name: str) -> int:
-    """``value`` as an int ``> 0`` (NumPy integers too); ValueError naming ``name`` otherwise."""
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-        raise ValueError(f"{name}: expected an integer > 0, got {value!r}")
-    return int(value)
-
-
 def check_options(shading, render_kwargs: dict, tone, resume) -> BatchOptions:
     """The validated, normalised options of a batch.
 
@@ -86,10 +78,9 @@ def check_options(shading, render_kwargs: dict, tone, resume) -> BatchOptions:
             raise TypeError(f"tone: unexpected key {k!r} (expected some of {list(TONE_KEYS)})")
     checked = check_render_options({"shading": shading, **render_kwargs})
     tone = check_render_options(dict(tone))
-    if not isinstance(resume, (bool, np.bool_)):
-        raise TypeError(f"resume: expected True or False, got {type(resume).__name__}")
+    resume = as_bool(resume, "resume")
     shading = checked.pop("shading")
-    return BatchOptions(shading, checked, tone, bool(resume))
+    return BatchOptions(shading, checked, tone, resume)
 
 
 def check_shading_fits(options: BatchOptions, bases: dict) -> None:
@@ -104,13 +95,9 @@ def check_shading_fits(options: BatchOptions, bases: dict) -> None:
 
 def check_counts(retries, frames_per_task, window) -> None:
     """``retries >= 0``; ``frames_per_task`` and ``window`` None or ``> 0``."""
-    if not isinstance(retries, (int, np.integer)) or isinstance(retries, bool) or retries < 0:
-        raise ValueError(f"retries: expected an integer >= 0, got {retries!r}")
-    for name, value in (("frames_per_task", frames_per_task), ("window", window)):
-        if value is None:
-            continue
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-            raise ValueError(f"{name}: expected an integer > 0 or None, got {value!r}")
+    as_count(retries, "retries", minimum=0)
+    as_count(frames_per_task, "frames_per_task", optional=True)
+    as_count(window, "window", optional=True)
 
 
 def check_transfer(transfer) -> str:
