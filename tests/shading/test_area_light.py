@@ -152,3 +152,23 @@ def test_an_area_light_packs_its_axes_samples_and_shape():
     assert np.linalg.norm(row[lay.LIGHT_EDGE_U:lay.LIGHT_EDGE_U + 3]) == pytest.approx(2.0, rel=1e-15)
     assert disc.area == pytest.approx(4 * math.pi, rel=1e-15) and rect.area == pytest.approx(8.0, rel=1e-15)
     assert rs.PointLight((0, 0, 1)).pack(np.zeros(3))[lay.LIGHT_SAMPLES] == 1.0
+
+
+def test_explain_lists_each_sample_and_adds_up_to_the_pixel():
+    """explain walks the same samples (each its own term, 1/N of the light in ``att``): its total is
+    the pixel, in the shade and in the penumbra, where some samples are blocked and some lit."""
+    light = rs.AreaLight((1.0, 1.5, 2.0), u=(1.2, 0.0, 0.0), v=(0.0, 0.0, 1.2), samples=9, intensity=8.0,
+                         attenuation="inverse_square", shadows=True)
+    frame = rs.render(_scene(light))
+    kinds = set()
+    for y in range(0, 30, 3):
+        for x in range(0, 40, 3):
+            if frame.hits.prim[y, x] < 0:
+                continue
+            e = frame.explain(x, y)
+            np.testing.assert_allclose(e.total, frame.image[y, x], rtol=1e-5, atol=1e-7)
+            terms = [t for t in e.shades[0].lights if t.index == 0]
+            assert [t.sample for t in terms] == list(range(9)) and {t.samples for t in terms} == {9}
+            kinds.add(tuple(sorted({t.shadow for t in terms})))
+    assert ("blocked", "lit") in kinds  # a penumbra pixel was explained
+    assert "area sample 3 of 9" in str(frame.explain(20, 28))
