@@ -172,3 +172,18 @@ def test_explain_lists_each_sample_and_adds_up_to_the_pixel():
             kinds.add(tuple(sorted({t.shadow for t in terms})))
     assert ("blocked", "lit") in kinds  # a penumbra pixel was explained
     assert "area sample 3 of 9" in str(frame.explain(20, 28))
+
+
+def test_the_numpy_twin_and_the_exact_renderer_sum_the_same_samples():
+    """Without shadow rays (which they do not model), the float64 twins evaluate an area light as
+    its samples: the kernels' image within float32 rounding."""
+    from raycast_shade.study.reference import shade_reference
+
+    light = rs.AreaLight.disc((1.0, 1.5, 2.0), (-0.4, -0.6, -0.8), 0.8, samples=7, intensity=8.0,
+                              attenuation="heuristic", k=0.5)
+    scene = _scene(light)
+    frame = rs.render(scene, "phong")
+    ref = shade_reference(scene, scene.camera, frame.hits, "phong")
+    np.testing.assert_allclose(frame.image, ref, rtol=2e-6, atol=2e-7)
+    point = rs.render(_scene(rs.PointLight((1.0, 1.5, 2.0), intensity=8.0, attenuation="heuristic", k=0.5)))
+    assert np.abs(point.image - frame.image).max() > 1e-3  # the samples are not the centre
