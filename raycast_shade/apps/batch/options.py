@@ -3,6 +3,7 @@
 The values go through :func:`raycast_shade.scene.scenefile.check_render_options`,
 the checks of a scene file's ``[render]`` table, so a batch accepts what a
 scene file, :func:`raycast_shade.render_file` and the command line accept.
+Where and how the frames run (workers, retries, ...) is :class:`~raycast_shade.apps.batch.run.RunOptions`.
 """
 
 from __future__ import annotations
@@ -15,8 +16,8 @@ import numpy as np
 
 from ...scene.scenefile import RENDER_KEYS, SIZE_KEYS, TONE_KEYS, check_render_options
 
-__all__ = ["cores", "check_positive", "BatchOptions", "RENDER_KWARGS", "TRANSFERS", "check_options", "check_counts", "check_shading_fits",
-           "check_transfer", "WINDOW_BYTES"]
+__all__ = ["cores", "check_positive", "BatchOptions", "RENDER_KWARGS", "TRANSFERS", "check_options",
+           "check_shading_fits", "WINDOW_BYTES"]
 
 # render() keywords a batch passes on; the camera (hence the size) is per frame.
 RENDER_KWARGS = tuple(k for k in RENDER_KEYS if k not in ("shading",) + SIZE_KEYS + TONE_KEYS)
@@ -101,22 +102,3 @@ def check_shading_fits(options: BatchOptions, bases: dict) -> None:
             raise ValueError(f"shading: expected one method per model ({len(base.models)}), "
                              f"got {len(options.shading)}")
 
-
-def check_counts(retries, frames_per_task, window) -> None:
-    """``retries >= 0``; ``frames_per_task`` and ``window`` None or ``> 0``."""
-    if not isinstance(retries, (int, np.integer)) or isinstance(retries, bool) or retries < 0:
-        raise ValueError(f"retries: expected an integer >= 0, got {retries!r}")
-    for name, value in (("frames_per_task", frames_per_task), ("window", window)):
-        if value is None:
-            continue
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-            raise ValueError(f"{name}: expected an integer > 0 or None, got {value!r}")
-
-
-def check_transfer(transfer) -> str:
-    """One of :data:`TRANSFERS`, lower-cased."""
-    if not isinstance(transfer, str):
-        raise TypeError(f"transfer: expected one of {list(TRANSFERS)}, got {type(transfer).__name__}")
-    if transfer.lower() not in TRANSFERS:
-        raise ValueError(f"transfer: expected one of {list(TRANSFERS)}, got {transfer!r}")
-    return transfer.lower()
