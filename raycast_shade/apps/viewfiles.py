@@ -1,7 +1,7 @@
 """The per-view file options of a view set (:class:`ViewFiles`), checked: what each view writes.
 
-:func:`raycast_shade.apps.views.render_views` takes them as keyword arguments or passed whole
-(``files=ViewFiles(...)``); see its docstring for the files themselves.
+:func:`raycast_shade.apps.views.render_views` takes them whole, ``files=ViewFiles(...)`` (its flat
+keywords ``buffers=``, ``formats=``, ... are deprecated); see its docstring for the files themselves.
 """
 
 from __future__ import annotations
