@@ -10,7 +10,7 @@ import dataclasses
 
 import numpy as np
 
-from ..common.validate import as_scalar
+from ..common.validate import as_scalar, as_sequence
 from ..output.buffers import check_buffers
 from ..output.imagefile import check_image_path
 
@@ -25,8 +25,8 @@ def _check_formats(formats, field="formats", choices=FORMATS) -> tuple:
         return ()
     if isinstance(formats, str):
         formats = [f for f in formats.split(",") if f.strip()]
-    elif not hasattr(formats, "__iter__"):
-        raise TypeError(f"{field}: expected a sequence of names, got {type(formats).__name__}")
+    else:  # an array or a mapping iterates, but nobody means its items as names
+        formats = as_sequence(formats, field)
     out = []
     for f in formats:
         if not isinstance(f, str):
@@ -86,8 +86,9 @@ class ViewFiles:
     def __post_init__(self):
         from ..common.validate import as_choice
 
-        check_buffers(self.buffers)
-        buffers = (self.buffers,) if isinstance(self.buffers, str) else tuple(self.buffers)
+        check_buffers(self.buffers)  # None: no buffers, as render(buffers=None)
+        buffers = () if self.buffers is None else (self.buffers,) if isinstance(self.buffers, str) \
+            else tuple(self.buffers)
         formats = _check_formats(self.formats)
         image = self.image
         if image is not None:
