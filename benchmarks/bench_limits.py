@@ -171,7 +171,8 @@ def limit_case(kind, level, w, h, repeats):
     import raycast_shade as rs
     from raycast_shade.shading import shade as shading
     from raycast_shade.visibility.accel import embree_accel
-    from raycast_shade.visibility.cast import _cast_camera_kernel, _count_isolated_kernel
+    from raycast_shade.study.twins import isolated_misses_numpy
+    from raycast_shade.visibility.cast import _cast_camera_kernel
     from raycast_shade.visibility.rays import camera_frame
 
     from .bench_peers import make_mesh, make_scene
@@ -263,7 +264,7 @@ def limit_case(kind, level, w, h, repeats):
                                                  ("frame_general", "cast", "cast_general"),
                                                  ("frame_general", "shade", "shade_general"))]
     rows += [
-        dict(base, variant="frame", metric="isolated_misses", value=int(_count_isolated_kernel(frame.hits.prim)),
+        dict(base, variant="frame", metric="isolated_misses", value=int(isolated_misses_numpy(frame.hits.prim).sum()),
              unit="pixels"),
         dict(base, variant="frame", metric="hits", value=int(frame.mask.sum()), unit="pixels"),
         dict(base, variant="ratio", metric="frame_over_packets_plus_store", value=round(med["frame"] / floor, 3),

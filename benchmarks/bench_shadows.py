@@ -71,7 +71,7 @@ def _collect(prim, geom, u, v, G, B, L, face_off, cam, rays, valid):
     h, w = prim.shape
     ntx = (w + 3) // 4
     for ty in prange((h + 3) // 4):
-        buf, ib, off, vd, voff, args, aoff, vis, points = shadows._packets(L[1].shape[0])
+        buf, ib, off, vd, voff, args, aoff, vis, points = shadows._packets(L.lights.shape[0])
         P = (buf, ib, off, vd, voff)
         for tx in range(ntx):
             shadows.clear_packets(vd, voff, vis, points)
@@ -216,7 +216,7 @@ def _shadow_rays(scene):
     rays = np.zeros((tiles, embree.RAY16_SLOTS), np.float32)
     valid = np.zeros((tiles, _LANES), np.int32)
     _collect(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["face_off"], k["cam"], rays, valid)
-    return k["L"][3], rays, valid
+    return k["L"].handle, rays, valid
 
 
 def _per_ray(name, med, unit, n) -> str:

@@ -27,7 +27,7 @@ from .scene.camera import Camera
 from .visibility.cast import cast_camera, cast_rays
 from .output.frame import Frame
 from .visibility.hits import HitBuffer
-from .scene.lights import DirectionalLight, PointLight, SpotLight
+from .scene.lights import AreaLight, DirectionalLight, PointLight, SpotLight
 from .scene.material import Material
 from .scene.texture import Texture
 from .scene.meshfile import load_models
@@ -47,7 +47,7 @@ from .common.warnings import (BumpIgnoredWarning, ColourRangeWarning, CreaseWarn
 
 
 __all__ = [
-    "Camera", "DirectionalLight", "HeightMap", "Texture", "load_models", "bump", "Frame", "HitBuffer", "Material", "Mesh", "Model", "PointLight", "Scene", "SpotLight",
+    "AreaLight", "Camera", "DirectionalLight", "HeightMap", "Texture", "load_models", "bump", "Frame", "HitBuffer", "Material", "Mesh", "Model", "PointLight", "Scene", "SpotLight",
     "SHADINGS", "cast_camera", "cast_rays", "read_pfm", "render", "render_file", "choose_methods", "shade", "shading_normals", "shapes", "to_uint8", "write_pfm",
     "WindingWarning", "winding_conflicts",
     "ShadingWarning", "BumpIgnoredWarning", "ColourRangeWarning", "CreaseWarning", "DroppedOnLoadWarning",

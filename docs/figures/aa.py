@@ -7,7 +7,10 @@ Run ``python -m docs.figures.aa [--quick]``. Writes to ``docs/images/``:
   (bottom);
 * ``aa_pattern.png``: the sample positions in a pixel for N = 4, 16, 64;
 * ``spot_light.png``: a spot light with shadows on a floor (left), and the
-  rendered falloff along a row of the floor against Warn's closed form (right).
+  rendered falloff along a row of the floor against Warn's closed form (right);
+* ``area_light.png``: one scene under a point light and under disc area lights of 1 and 64
+  samples (top), and the penumbra of an edge against the closed-form fraction of the
+  disc it uncovers (bottom).
 """
 
 from __future__ import annotations
@@ -152,6 +155,68 @@ def spot_figure(size=360):
     print(f"wrote {os.path.relpath(path, ROOT)}")
 
 
+def _segment(c, radius):
+    """The fraction of a disc of ``radius`` with x >= c (a circular segment over the disc)."""
+    d = np.clip(np.asarray(c, np.float64) / radius, -1.0, 1.0)
+    return (np.arccos(d) - d * np.sqrt(1.0 - d * d)) / np.pi
+
+
+def area_figure(size=260):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    floor = rs.Model(rs.shapes.plane(8, subdivisions=4, normal="+y"), rs.Material(kd=0.8))
+    ball = rs.Model(rs.shapes.icosphere(4, radius=0.5, center=(0.0, 0.9, 0.0)),
+                    rs.Material(kd=(0.3, 0.5, 0.9), ks=0.4, shininess=50))
+    box = rs.Model(rs.shapes.cube(0.5, center=(-1.1, 0.25, 0.6)), rs.Material(kd=(0.85, 0.4, 0.2)))
+    cam = rs.Camera(eye=(0.0, 3.0, 4.2), target=(0.0, 0.3, 0.0), width=size, height=size, fov=45)
+    kw = dict(intensity=9.0, attenuation="inverse_square", shadows=True)
+    where, radius = (0.6, 3.0, -0.3), 0.6
+    lights = [("point light", rs.PointLight(where, **kw)),
+              ("disc, 1 sample", rs.AreaLight.disc(where, (0, -1, 0), radius, samples=1, **kw)),
+              ("disc r = 0.6, 64 samples", rs.AreaLight.disc(where, (0, -1, 0), radius, samples=64, **kw))]
+    fill = rs.DirectionalLight((0.3, -1.0, -0.6), intensity=0.08)
+    images = [rs.to_uint8(rs.render(rs.Scene([floor, ball, box], lights=[light, fill], camera=cam, ambient=0.04,
+                                             background=0.0), "phong", samples=4).image) for _, light in lights]
+
+    # The penumbra of a straight edge: a half-plane x <= 0 at height h under a disc at height H.
+    R, H, h, n = 0.5, 2.0, 1.0, 256
+    disc = rs.AreaLight.disc((0.0, 0.0, H), (0.0, 0.0, -1.0), R, samples=n, shadows=True)
+    quad = np.array([[0, 1, 2], [0, 2, 3]])
+    ground = rs.Mesh(np.array([[-3.0, -3, 0], [3, -3, 0], [3, 3, 0], [-3, 3, 0]]), quad)
+    blocker = rs.Mesh(np.array([[-9.0, -9, h], [0, -9, h], [0, 9, h], [-9, 9, h]]), quad)
+    top = rs.Camera(eye=(0.3, 0.0, 5.0), target=(0.3, 0.0, 0.0), width=401, height=5,
+                    projection="orthographic", ortho_height=0.6 * 5 / 401)
+    scene = rs.Scene([rs.Model(ground, rs.Material(kd=0.8)), rs.Model(blocker, rs.Material(kd=0.1))],
+                     lights=[disc], camera=top, ambient=0.0)
+    frame = rs.render(scene, terms=True, buffers=("position",))
+    x = frame.buffers["position"][2, :, 0].astype(np.float64)
+    got = frame.terms["shadow"][0, 2]
+    closed = _segment(-x * (H - h) / h, R)
+
+    fig = plt.figure(figsize=(9.6, 6.4))
+    grid = fig.add_gridspec(2, 3, height_ratios=(1.0, 0.8))
+    for i, ((title, _), img) in enumerate(zip(lights, images)):
+        ax = fig.add_subplot(grid[0, i])
+        ax.imshow(img)
+        ax.set_axis_off()
+        ax.set_title(title, fontsize=10)
+    ax = fig.add_subplot(grid[1, :])
+    ax.plot(x, got, lw=3, color="tab:orange", label=f"rendered: unblocked samples of {n} (terms['shadow'])")
+    ax.plot(x, closed, "k--", lw=1, label="closed form: the segment of the disc uncovered")
+    ax.set_xlabel("x on the floor (edge of the blocker above x = 0; disc r = 0.5 at 2, blocker at 1)")
+    ax.set_ylabel("fraction of the light")
+    ax.set_title(f"penumbra: max |rendered - closed form| = {np.abs(got - closed).max():.1e}", fontsize=10)
+    ax.legend(fontsize=8, loc="lower right")
+    fig.tight_layout()
+    path = os.path.join(IMAGES, "area_light.png")
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    print(f"wrote {os.path.relpath(path, ROOT)}")
+
+
 def main(argv=None):
     """Draw the figures; ``--quick`` writes them into the git-ignored ``out/quick/images/``."""
     global IMAGES
@@ -162,6 +227,7 @@ def main(argv=None):
     aa_figure()
     pattern_figure()
     spot_figure()
+    area_figure()
     return 0
 
 

@@ -261,8 +261,7 @@ def write_animation(images, output, *, fps: float = 12.0, tone: dict | None = No
     kind = output_kind(output)
     if kind == "frames":
         raise ValueError(f"output: {os.fspath(output)!r} is a folder; write_animation writes .gif or video files")
-    if isinstance(fps, bool) or not isinstance(fps, (int, float, np.integer, np.floating)) or not (0 < fps < np.inf):
-        raise ValueError(f"fps: expected a finite number > 0, got {fps!r}")
+    as_scalar(fps, "fps", minimum=0.0, exclusive=True)
     tone = dict(tone or {})
     path = os.fspath(output)
     folder = os.path.dirname(os.path.abspath(path))
@@ -372,8 +371,7 @@ def animate(scene: Scene, output, *, orbit: str = "camera", frames: int = 36, li
     run = merge_keywords(run, RunOptions, render_kwargs, FLAT_RUN_KEYWORDS, "run")
     orbit = as_choice(orbit, "orbit", ORBITS)
     kind = output_kind(output)
-    if isinstance(fps, bool) or not isinstance(fps, (int, float, np.integer, np.floating)) or not (0 < fps < np.inf):
-        raise ValueError(f"fps: expected a finite number > 0, got {fps!r}")
+    as_scalar(fps, "fps", minimum=0.0, exclusive=True)
     if orbit == "camera":
         batch = dict(scene_or_scenes=scene, cameras=orbit_cameras(scene.camera, frames, degrees=degrees, axis=axis))
     else:

@@ -25,6 +25,8 @@ of start-up that ``raycast-shade demo`` does not need).
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from ..scene.heightmap import HeightMap
@@ -35,7 +37,8 @@ from ..scene.mesh import Mesh
 from ..scene.scene import Model, Scene
 from ..scene.shapes import plane, torus, uv_sphere
 
-__all__ = ["demo_scene", "render_demo", "render_demo_frames", "compose", "draw_text", "LABELS", "MODES"]
+__all__ = ["demo_scene", "render_demo", "render_demo_frames", "compose", "draw_text", "LABELS", "MODES",
+           "FONT_SIZE"]
 
 MODES = ("flat", "gouraud", "phong")
 LABELS = ("FLAT", "GOURAUD", "PHONG")
@@ -182,51 +185,67 @@ def render_demo(width: int = DEFAULT_WIDTH, height: int = DEFAULT_HEIGHT, *, lab
     return compose([f.image for f in frames], LABELS if labels else None)
 
 
-# A 5x7 bitmap font, only the letters the labels need: one string per row.
-_GLYPHS = {
-    "A": (".###.", "#...#", "#...#", "#####", "#...#", "#...#", "#...#"),
-    "D": ("####.", "#...#", "#...#", "#...#", "#...#", "#...#", "####."),
-    "F": ("#####", "#....", "#....", "####.", "#....", "#....", "#...."),
-    "G": (".###.", "#...#", "#....", "#.###", "#...#", "#...#", ".###."),
-    "H": ("#...#", "#...#", "#...#", "#####", "#...#", "#...#", "#...#"),
-    "L": ("#....", "#....", "#....", "#....", "#....", "#....", "#####"),
-    "N": ("#...#", "##..#", "#.#.#", "#..##", "#...#", "#...#", "#...#"),
-    "O": (".###.", "#...#", "#...#", "#...#", "#...#", "#...#", ".###."),
-    "P": ("####.", "#...#", "#...#", "####.", "#....", "#....", "#...."),
-    "R": ("####.", "#...#", "#...#", "####.", "#.#..", "#..#.", "#...#"),
-    "T": ("#####", "..#..", "..#..", "..#..", "..#..", "..#..", "..#.."),
-    "U": ("#...#", "#...#", "#...#", "#...#", "#...#", "#...#", ".###."),
-    " ": (".....",) * 7,
-}
+#: Font pixels per ``scale`` of :func:`draw_text`: capitals about 7 ``scale`` tall.
+FONT_SIZE = 10
+
+
+@functools.lru_cache(maxsize=8)
+def _font(size: int):
+    """Pillow's built-in font (Aileron Regular, shipped inside Pillow: nothing downloaded) at ``size`` pixels;
+    Pillow's fixed bitmap font where it is built without FreeType."""
+    from PIL import ImageFont
+
+    return ImageFont.load_default(size=size)
+
+
+def _coverage(text: str, size: int) -> tuple:
+    """``(alpha, left, top)``: the text's anti-aliased coverage in [0, 1] as (h, w) float32, and where
+    its top-left pixel lies relative to the anchor (the top-left of the text)."""
+    from PIL import Image, ImageDraw
+
+    font = _font(size)
+    left, top, right, bottom = font.getbbox(text, anchor="lt")
+    if right <= left or bottom <= top:
+        return np.zeros((0, 0), np.float32), 0, 0
+    mask = Image.new("L", (right - left, bottom - top), 0)
+    ImageDraw.Draw(mask).text((-left, -top), text, fill=255, font=font, anchor="lt")
+    return np.asarray(mask, np.float32) / np.float32(255.0), left, top
 
 
 def draw_text(image: np.ndarray, text: str, x: int, y: int, scale: int = 1, value: float = 1.0) -> None:
-    """Write ``text`` into ``image`` in place, with a black drop shadow.
+    """Write ``text`` into ``image`` in place, with a black drop shadow, in Pillow's built-in font.
 
     Parameters
     ----------
     image : (H, W, 3) float array
         Modified in place; the text is clipped at the borders.
     text : str
-        Upper-cased; only the letters of :data:`LABELS` and space exist, other
-        characters are skipped.
+        Written as given (any characters the font has).
     x, y : int
-        Top-left corner in pixels.
+        Top-left corner of the text in pixels.
     scale : int
-        Pixels per font dot (a glyph is 5 x 7 dots, 6 dots apart).
+        Size: the font is ``FONT_SIZE * scale`` pixels (capitals about
+        ``7 * scale`` tall, as the 5x7 bitmap font this replaced), the
+        shadow ``scale`` pixels down and right.
     value : float
-        Linear intensity of the letters (1.0 is white after tone mapping).
+        Linear intensity of the letters (1.0 is white after tone mapping);
+        edge pixels blend it with the image by the glyph's coverage.
     """
+    from ..common.validate import as_int
+
+    scale = as_int(scale, "scale", minimum=1)
+    alpha, left, top = _coverage(str(text), FONT_SIZE * scale)
+    for shift, val in ((scale, 0.0), (0, value)):  # the shadow first, the letters over it
+        _blend(image, alpha, int(y) + top + shift, int(x) + left + shift, val)
+
+
+def _blend(image: np.ndarray, alpha: np.ndarray, y: int, x: int, value: float) -> None:
+    """``image = value * alpha + image * (1 - alpha)`` over ``alpha``'s box at row ``y``, column ``x``, clipped."""
     h, w = image.shape[:2]
-    for shadow, val in ((1, 0.0), (0, value)):
-        cx = x
-        for ch in text.upper():
-            glyph = _GLYPHS.get(ch)
-            if glyph is not None:
-                for r, row in enumerate(glyph):
-                    for c, bit in enumerate(row):
-                        if bit == "#":
-                            y0 = y + (r + shadow) * scale
-                            x0 = cx + (c + shadow) * scale
-                            image[max(y0, 0):min(y0 + scale, h), max(x0, 0):min(x0 + scale, w)] = val
-            cx += 6 * scale
+    ah, aw = alpha.shape
+    y0, x0, y1, x1 = max(y, 0), max(x, 0), min(y + ah, h), min(x + aw, w)
+    if y0 >= y1 or x0 >= x1:
+        return
+    a = alpha[y0 - y:y1 - y, x0 - x:x1 - x, None]
+    region = image[y0:y1, x0:x1]
+    region[...] = value * a + region * (1.0 - a)  # coverage 1: exactly value

@@ -8,9 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 
-import numpy as np
-
-from ..common.validate import as_scalar, as_sequence
+from ..common.validate import as_bool, as_names, as_scalar
 from ..output.buffers import check_buffers
 from ..output.imagefile import check_image_path
 
@@ -18,24 +16,6 @@ __all__ = ["ViewFiles", "FORMATS", "COMPRESSIONS"]
 
 FORMATS = ("npz", "exr", "depth_png")
 COMPRESSIONS = ("auto", "none", "zip")  # npz deflate level 1 and EXR ZIP, or neither; auto: zip with ISA-L
-
-
-def _check_formats(formats, field="formats", choices=FORMATS) -> tuple:
-    if formats is None:
-        return ()
-    if isinstance(formats, str):
-        formats = [f for f in formats.split(",") if f.strip()]
-    else:  # an array or a mapping iterates, but nobody means its items as names
-        formats = as_sequence(formats, field)
-    out = []
-    for f in formats:
-        if not isinstance(f, str):
-            raise TypeError(f"{field}: expected names (str), got {type(f).__name__}")
-        key = f.strip().lower()
-        if key not in choices:
-            raise ValueError(f"{field}: unknown {field[:-1]} {f!r}; expected some of {', '.join(choices)}")
-        out.append(key)
-    return tuple(dict.fromkeys(out))
 
 
 def _check_outputs(names, formats, image) -> None:
@@ -89,7 +69,7 @@ class ViewFiles:
         check_buffers(self.buffers)  # None: no buffers, as render(buffers=None)
         buffers = () if self.buffers is None else (self.buffers,) if isinstance(self.buffers, str) \
             else tuple(self.buffers)
-        formats = _check_formats(self.formats)
+        formats = as_names(self.formats, "formats", FORMATS)
         image = self.image
         if image is not None:
             if not isinstance(image, str):
@@ -97,10 +77,9 @@ class ViewFiles:
             check_image_path("view" + image, "image")
             image = image.lower()
         _check_outputs(check_buffers(buffers), formats, image)
-        if not isinstance(self.float_image, (bool, np.bool_)):
-            raise TypeError(f"float_image: expected True or False, got {type(self.float_image).__name__}")
+        float_image = as_bool(self.float_image, "float_image")
         depth_scale = float(as_scalar(self.depth_scale, "depth_scale", minimum=0.0, exclusive=True))
         compression = as_choice(self.compression, "compression", COMPRESSIONS)
         for name, value in (("buffers", buffers), ("formats", formats), ("image", image), ("depth_scale", depth_scale),
-                            ("float_image", bool(self.float_image)), ("compression", compression)):
+                            ("float_image", float_image), ("compression", compression)):
             object.__setattr__(self, name, value)

@@ -63,9 +63,7 @@ import dataclasses
 import json
 import os
 
-import numpy as np
-
-from ..common.validate import as_instance
+from ..common.validate import as_bool, as_instance, as_names
 from ..output.bufferfile import depth_png_bytes, exr_into, npz_into
 from ..output.buffers import check_buffers
 from ..output.labels import object_table, semantic_classes, unoccluded_masks, view_objects, write_coco
@@ -78,7 +76,7 @@ from .batch.options import check_options
 from .batch.plan import plan_batch
 from .batch.pool import ProcessPool, cores
 from .batch.run import RunOptions, merge_keywords
-from .viewfiles import COMPRESSIONS, FORMATS, ViewFiles, _check_formats
+from .viewfiles import COMPRESSIONS, FORMATS, ViewFiles
 from .viewslots import ViewSlots
 from .viewplan import (PLAN_FORMAT, PLAN_NAME, digest, file_hasher, prepare_folder, view_hashes, view_is_done, view_key,
                        write_json, write_record)
@@ -334,7 +332,7 @@ def _make_plan(spec: _ViewSpec, jobs) -> dict:
 def _check_set_options(exports, files: ViewFiles, unoccluded, overwrite) -> tuple:
     """The checked exports and compression (``"auto"`` resolved); TypeError/ValueError naming the argument
     otherwise. The file options themselves were checked by :class:`ViewFiles`."""
-    exports = _check_formats(exports, "exports", EXPORTS)
+    exports = as_names(exports, "exports", EXPORTS)
     compression = files.compression
     if compression == "auto":
         from ..output.npzwrite import deflate_backend
@@ -344,8 +342,7 @@ def _check_set_options(exports, files: ViewFiles, unoccluded, overwrite) -> tupl
         if e in exports and files.image is None:
             raise ValueError(f"exports: {e!r} names each view's image file, but image=None writes none")
     for name, value in (("unoccluded", unoccluded), ("overwrite", overwrite)):
-        if not isinstance(value, (bool, np.bool_)):
-            raise TypeError(f"{name}: expected True or False, got {type(value).__name__}")
+        as_bool(value, name)
     return exports, compression
 
 

@@ -257,9 +257,9 @@ def warmup(progress: bool = True) -> WarmupReport:
 
     from numba.core import event
 
-    if not isinstance(progress, (bool, np.bool_)):
-        raise TypeError(f"progress: expected True or False, got {type(progress).__name__}")
-    bar = _bar(len(STEPS), bool(progress))
+    from ..common.validate import as_bool
+
+    bar = _bar(len(STEPS), as_bool(progress, "progress"))
     done = []
     t0 = time.perf_counter()
     try:

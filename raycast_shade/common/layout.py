@@ -9,12 +9,15 @@ these sizes and slots.
 Camera row, ``(CAM_SIZE,) = (16,)`` float64 (:func:`raycast_shade.visibility.rays.camera_frame`):
     eye (3, re-centred), right * half width (3), up * half height (3),
     forward (3), orthographic flag, width, height, unused.
-Light rows, ``(L, LIGHT_SIZE) = (L, 16)`` float64 (each light's ``pack``; :meth:`raycast_shade.Scene.packed_lights`):
-    kind (0 point, 1 directional, 2 spot), position or unit direction towards
-    the light (3), radiance ``Ii * color`` (3), attenuation code
+Light rows, ``(L, LIGHT_SIZE) = (L, 24)`` float64 (each light's ``pack``; :meth:`raycast_shade.Scene.packed_lights`):
+    kind (0 point, 1 directional, 2 spot, 3 area), position (an area light's centre) or
+    unit direction towards the light (3), radiance ``Ii * color`` (3), attenuation code
     (:data:`ATT_CODE`), heuristic ``k``, casts shadows (0/1); spot lights
     only (zero otherwise): unit axis the spot shines along (3), cosines of the
-    inner and outer cone half-angles, Warn exponent ``n``.
+    inner and outer cone half-angles, Warn exponent ``n``; area lights only: the
+    emitter's two half-edge vectors (a rectangle) or radius-scaled axes (a disc) (3 + 3),
+    its shape (:data:`AREA_RECTANGLE`, :data:`AREA_DISC`); every light: its sample count
+    (1 but for an area light's N point samples).
 Material rows, ``(G, MAT_SIZE) = (G, 17)`` float64 (:meth:`raycast_shade.Material.packed`):
     ka (3), kd (3), ks (3), shininess, reflectance model code (:data:`MODEL_PHONG`,
     :data:`MODEL_BLINN`; the slot is also named ``MAT_BLINN``: 1 is Blinn), reflectivity,
@@ -58,10 +61,18 @@ LIGHT_AXIS = 10  # 10:13, spot lights: unit direction from the light into its co
 LIGHT_COS_INNER = 13  # spot lights: full intensity inside this cone
 LIGHT_COS_OUTER = 14  # spot lights: none outside this one
 LIGHT_EXPONENT = 15  # spot lights: Warn's n in cos^n
-LIGHT_SIZE = 16
+LIGHT_EDGE_U = 16  # 16:19, area lights: half-edge vector (rectangle) or radius along the first axis (disc)
+LIGHT_EDGE_V = 19  # 19:22, area lights: the other half-edge vector, or radius along the second axis
+LIGHT_SHAPE = 22  # area lights: AREA_RECTANGLE or AREA_DISC
+LIGHT_SAMPLES = 23  # point samples the light is evaluated at: 1, or an area light's N
+LIGHT_SIZE = 24
 LIGHT_POINT = 0  # LIGHT_KIND values
 LIGHT_DIRECTIONAL = 1
 LIGHT_SPOT = 2
+LIGHT_AREA = 3
+AREA_RECTANGLE = 0  # LIGHT_SHAPE values
+AREA_DISC = 1
+LIGHT_KINDS = {"point": 0, "directional": 1, "spot": 2, "area": 3}  # LIGHT_KIND values, every one
 ATT_CODE = {"none": 0, "inverse_square": 1, "heuristic": 2}  # LIGHT_ATT values
 ATT_NONE = 0
 ATT_INVERSE_SQUARE = 1
@@ -82,6 +93,7 @@ MAT_SIZE = 17
 
 MODEL_PHONG = 0  # MAT_MODEL values: Phong's (r.v)^t
 MODEL_BLINN = 1  # Blinn-Phong's (n.h)^t
+MODEL_CODE = {"phong": MODEL_PHONG, "blinn": MODEL_BLINN}  # every MAT_MODEL value
 
 # shading methods, one per model
 METHOD_FLAT = 0

@@ -7,6 +7,7 @@ and out-of-range indices, so nothing of that kind may reach it.
 
 from __future__ import annotations
 
+import collections.abc as abc
 import numbers
 import os
 
@@ -28,7 +29,9 @@ __all__ = [
     "as_scalar",
     "as_choice",
     "as_int",
+    "as_count",
     "as_name",
+    "as_names",
     "as_instance",
     "as_bool",
 ]
@@ -248,11 +251,77 @@ def as_int(value, name: str, *, minimum: int | None = None, maximum: int | None 
     return x
 
 
+def as_count(value, name: str, *, minimum: int = 1, optional: bool = False):
+    """A count: an integer (Python or NumPy; not a bool, not a float) ``>= minimum``, or None if ``optional``.
+
+    Unlike :func:`as_int`, every refusal is a ValueError (worker and retry
+    counts have always been refused so), with the same message.
+
+    Raises
+    ------
+    ValueError
+        ``"<name>: expected an integer >= <minimum>[ or None], got <value!r>"``.
+    """
+    if optional and value is None:
+        return None
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Integral, np.integer)) \
+            or value < minimum:
+        raise ValueError(f"{name}: expected an integer >= {minimum}{' or None' if optional else ''}, got {value!r}")
+    return int(value)
+
+
 def as_name(value, name: str) -> str:
     """A name: a string (NumPy's included), never a number, None or an array."""
     if not isinstance(value, str):
         raise TypeError(f"{name}: expected a string, got {type(value).__name__}")
     return str(value)
+
+
+def as_names(value, name: str, choices, *, item: str | None = None) -> tuple:
+    """Some of ``choices`` (strings, case-insensitive): a sequence of names or one comma-separated string.
+
+    Parameters
+    ----------
+    value : str, sequence of str or None
+        ``None`` and ``""`` are none; repeats are dropped, the first order kept. A NumPy
+        array or a mapping is refused (it iterates, but not as a list of names).
+    name : str
+        Field name used in error messages.
+    choices : sequence of str
+        Lower-case; listed in the messages in this order.
+    item : str, optional
+        What one name is, in the messages ("unknown format 'tiff'"); default
+        ``name`` less a trailing "s".
+
+    Returns
+    -------
+    tuple of str
+        Lower-cased, stripped.
+
+    Raises
+    ------
+    TypeError
+        For a non-sequence (an array and a mapping included) or a name that is not a string.
+    ValueError
+        For a name not in ``choices``.
+    """
+    item = item or (name[:-1] if name.endswith("s") else name)
+    if value is None:
+        return ()
+    if isinstance(value, str):
+        value = [v for v in value.split(",") if v.strip()]
+    elif isinstance(value, (bytes, np.ndarray, abc.Mapping)) or not hasattr(value, "__iter__"):
+        # an array or a mapping iterates, but nobody means its items (or keys) as names
+        raise TypeError(f"{name}: expected a sequence of {item} names, got {type(value).__name__}")
+    out = []
+    for v in value:
+        if not isinstance(v, str):
+            raise TypeError(f"{name}: expected {item} names (str), got {type(v).__name__}")
+        key = v.strip().lower()
+        if key not in choices:
+            raise ValueError(f"{name}: unknown {item} {v!r}; expected some of {', '.join(choices)}")
+        out.append(key)
+    return tuple(dict.fromkeys(out))
 
 
 def as_bool(value, name: str) -> bool:

@@ -43,7 +43,7 @@ import numpy as np
 from ..common.layout import (CAM_EYE, CAM_FORWARD, CAM_ORTHO, MAT_BLINN, MAT_KA, MAT_KD, MAT_KE, MAT_KS,
                              MAT_REFLECTIVITY, MAT_SHININESS)
 from ..common.validate import as_int
-from ..scene.lights import DirectionalLight, SpotLight
+from ..scene.lights import AreaLight, DirectionalLight, SpotLight
 from ..shading.inputs import prepare
 from ..shading.shade import resolve_methods
 from ..visibility import embree
@@ -87,7 +87,7 @@ def _context(frame) -> _Context:
     geo = scene.geometry
     k = frame.inputs if getattr(frame, "inputs", None) is not None else prepare(scene, camera)
     cam = k.cam
-    _, _, dmin, handle, unit = k.lighting
+    dmin, handle, unit = k.lighting.dmin, k.lighting.handle, k.lighting.unit
     return _Context(geo=geo, scene=scene, cam=cam, eye=cam[CAM_EYE:CAM_EYE + 3], fwd=cam[CAM_FORWARD:CAM_FORWARD + 3],
                     ortho=cam[CAM_ORTHO] != 0.0, dmin=float(dmin), unit=float(unit), shadow_handle=int(handle),
                     spec_on=bool(k.spec_on))
@@ -132,9 +132,20 @@ def _occluded(ctx, o, g, s, target, is_point) -> bool:
     return bool(ray[embree.RAY_TFAR] < 0.0)
 
 
-def _light_term(ctx, i, p, n, v, row, o, g, kd, ks) -> LightTerm:
+def _light_terms(ctx, i, p, n, v, row, o, g, kd, ks) -> tuple:
+    """Light ``i``'s terms at ``p``: one, or one per sample of an area light (as the kernels
+    evaluate it: each sample a point light with ``1/N`` of the intensity)."""
+    light = ctx.scene.lights[i]
+    if not isinstance(light, AreaLight):
+        return (_light_term(ctx, i, p, n, v, row, o, g, kd, ks),)
+    n_s = light.samples
+    return tuple(_light_term(ctx, i, p, n, v, row, o, g, kd, ks, (q, j, n_s))
+                 for j, q in enumerate(light.sample_points()))
+
+
+def _light_term(ctx, i, p, n, v, row, o, g, kd, ks, sample=None) -> LightTerm:
     """Light ``i`` at point ``p`` as :func:`raycast_shade.shading.illumination._illuminate_py` sees it,
-    with the point's own ``kd, ks`` (3,)."""
+    with the point's own ``kd, ks`` (3,); ``sample``: ``(position, j, N)`` of an area light's sample."""
     light = ctx.scene.lights[i]
     radiance = np.asarray(light.radiance, np.float64)
     directional = isinstance(light, DirectionalLight)
@@ -144,18 +155,22 @@ def _light_term(ctx, i, p, n, v, row, o, g, kd, ks) -> LightTerm:
     zero = np.zeros(3)
     base = dict(index=i, directional=directional, law=law, k=k, radiance=radiance,
                 specular_model="blinn" if blinn else "phong")
+    world, share = light.position if not directional else None, 1.0
+    if sample is not None:
+        world, share = sample[0], 1.0 / sample[2]
+        base.update(sample=sample[1], samples=sample[2])
     if directional:
         target, d, att, s = None, None, 1.0, -np.asarray(light.direction, np.float64)
     else:
-        target = light.position - ctx.geo.origin
+        target = world - ctx.geo.origin
         dv = target - p
         d = float(np.sqrt(dv @ dv))
         if d == 0.0:  # the light on the point: no direction, no light
-            return LightTerm(position=light.position, d=d, att=1.0, s=None, ndots=None, shadow="not traced",
+            return LightTerm(position=world, d=d, att=1.0, s=None, ndots=None, shadow="not traced",
                              rh=None, cos=None, spec=0.0, diffuse=zero, specular=zero, **base)
         s = dv / d
-        att = {"none": 1.0, "inverse_square": 1.0 / max(d, ctx.dmin) ** 2, "heuristic": 1.0 / (d + k)}[law]
-    position = None if directional else light.position
+        att = {"none": 1.0, "inverse_square": 1.0 / max(d, ctx.dmin) ** 2, "heuristic": 1.0 / (d + k)}[law] * share
+    position = world
     spot = None
     if isinstance(light, SpotLight):
         spot = _spot_factor(light, s)
@@ -199,7 +214,7 @@ def _evaluate(ctx, where, p, n, v, model, o, g, note="", coef=None) -> PointShad
         coef = (row[MAT_KA:MAT_KA + 3], row[MAT_KD:MAT_KD + 3], row[MAT_KS:MAT_KS + 3], row[MAT_KE:MAT_KE + 3], "")
     ka, kd, ks, ke, coef_note = coef
     ia = np.asarray(ctx.scene.ambient, np.float64)
-    lights = tuple(_light_term(ctx, i, p, n, v, row, o, g, kd, ks) for i in range(len(ctx.scene.lights)))
+    lights = tuple(t for i in range(len(ctx.scene.lights)) for t in _light_terms(ctx, i, p, n, v, row, o, g, kd, ks))
     return PointShade(where=where, p=p + ctx.geo.origin, n=n, v=v, model=int(model), ka=ka, kd=kd, ks=ks,
                       shininess=float(row[MAT_SHININESS]), ia=ia, ambient=ia * ka, lights=lights, normal_note=note,
                       coef_note=coef_note, ke=np.asarray(ke, np.float64))

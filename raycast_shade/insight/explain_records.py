@@ -54,6 +54,10 @@ class LightTerm:
         A spot light's cone factor ``cos^n(a) smoothstep(cos outer, cos inner, cos a)``,
         already in ``att`` (0: outside the cone, no light, no shadow ray); ``None``
         for other lights.
+    sample, samples : int
+        Which of the light's point samples this is, of how many: an area light is one term per
+        sample (``position`` the sample's, its share ``1/samples`` of the intensity in ``att``),
+        every other light one term (0 of 1).
     """
 
     index: int
@@ -74,6 +78,8 @@ class LightTerm:
     diffuse: np.ndarray
     specular: np.ndarray
     spot: object = None
+    sample: int = 0
+    samples: int = 1
 
     @property
     def arrives(self) -> bool:

@@ -96,7 +96,8 @@ def _light_lines(t, kd, ks, indent: str) -> list:
         return [f"{indent}light {t.index}, point: on the surface point itself (d = 0): no direction, no light"]
     else:
         law = _LAW[t.law] + (f", k = {t.k:.4g}" if t.law == "heuristic" else "")
-        head = f"light {t.index}, point at {fmt(t.position)}, {law}: d = {t.d:.4g}, att = {t.att:.4g}"
+        what = "point" if t.samples == 1 else f"area sample {t.sample + 1} of {t.samples} (1/{t.samples} in att)"
+        head = f"light {t.index}, {what} at {fmt(t.position)}, {law}: d = {t.d:.4g}, att = {t.att:.4g}"
     lines = [indent + head]
     if t.directional is False:
         lines.append(f"{indent}  Ii = {fmt(t.radiance)}, s = {fmt(t.s)}")

@@ -35,7 +35,7 @@ from numba import njit
 
 from ..common.validate import as_int, as_scalar
 
-from .imagefile import atomic_target, png_deflate
+from .imagefile import atomic_target, png_file, write_bytes
 
 __all__ = ["EXR_COMPRESSIONS", "npz_level", "save_npz", "npz_into", "load_npz", "write_exr", "exr_into", "read_exr",
            "write_depth_png", "depth_png_bytes", "read_depth_png"]
@@ -429,17 +429,16 @@ def write_depth_png(path, depth, *, scale: float = 1000.0, fast: bool = False, a
     clamped, so a reader never mistakes them for a surface.
     """
     path = _check_path(path, ".png")
-    data = depth_png_bytes(depth, scale=scale, fast=fast)  # encoded first: a bad value leaves no file
-    with _target(path, atomic) as target, open(target, "wb") as fh:
-        fh.write(data)
-    return path
+    return write_bytes(path, depth_png_bytes(depth, scale=scale, fast=fast), atomic=atomic)  # a bad value: no file
 
 
 def depth_png_bytes(depth, *, scale: float = 1000.0, fast: bool = False) -> bytes:
-    """The bytes of :func:`write_depth_png`'s file (arguments as there)."""
-    import struct
-    import zlib
+    """The bytes of :func:`write_depth_png`'s file (arguments as there).
 
+    The samples are quantised straight into PNG rows (:func:`_depth_rows`: no
+    uint16 image in between); the file is what
+    :func:`~raycast_shade.output.imagefile.png_bytes` makes of that uint16 image.
+    """
     from ..common.validate import as_array, as_bool
 
     fast = as_bool(fast, "fast")
@@ -455,13 +454,7 @@ def depth_png_bytes(depth, *, scale: float = 1000.0, fast: bool = False) -> byte
     if bad >= 0:
         bad = divmod(int(bad), w)
         raise ValueError(f"depth: negative value {float(d[bad]):g} at (row, column) {bad}; depth is >= 0 (0: none)")
-
-    def chunk(tag: bytes, data: bytes) -> bytes:
-        return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data))
-
-    header = struct.pack(">IIBBBBB", w, h, 16, 0, 0, 0, 0)  # 16-bit greyscale, no interlace
-    idat = png_deflate(memoryview(raw).cast("B"), fast)  # the rows in place: no bytes copy
-    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", idat) + chunk(b"IEND", b"")
+    return png_file(raw, w, h, bits=16, channels=1, fast=fast)
 
 
 def read_depth_png(path, *, scale: float = 1000.0) -> np.ndarray:

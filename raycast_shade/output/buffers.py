@@ -64,22 +64,10 @@ def check_buffers(names, field: str = "buffers") -> tuple:
     TypeError, ValueError
         Naming ``field`` and listing the valid names.
     """
-    if names is None:
-        return ()
-    if isinstance(names, str):
-        names = [n for n in names.split(",") if n.strip()]
-    elif not hasattr(names, "__iter__"):
-        raise TypeError(f"{field}: expected a sequence of buffer names, got {type(names).__name__}")
-    out = []
-    for name in names:
-        if not isinstance(name, str):
-            raise TypeError(f"{field}: expected buffer names (str), got {type(name).__name__}")
-        key = name.strip().lower()
-        if key not in BUFFER_NAMES and key not in ALIASES:
-            raise ValueError(f"{field}: unknown buffer {name!r}; expected some of "
-                             f"{', '.join(BUFFER_NAMES + tuple(ALIASES))}")
-        out.extend(ALIASES.get(key, (key,)))
-    return tuple(dict.fromkeys(out))
+    from ..common.validate import as_names
+
+    keys = as_names(names, field, BUFFER_NAMES + tuple(ALIASES), item="buffer")
+    return tuple(dict.fromkeys(n for key in keys for n in ALIASES.get(key, (key,))))
 
 
 def buffer_bytes(names) -> int:

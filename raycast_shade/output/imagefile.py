@@ -1,10 +1,11 @@
 """Writing a rendered image to a file, by its extension.
 
 * ``.pfm`` and ``.npy``: the linear float32 image, losslessly;
-* ``.png``: 8-bit after :func:`~raycast_shade.output.tonemap.to_uint8` (for
+* ``.png``: 8-bit RGB after :func:`~raycast_shade.output.tonemap.to_uint8` (for
   float32 images by its table, :func:`~raycast_shade.output.quantize.to_uint8_table`:
-  the same bytes on one core), with the standard library's zlib (no imageio
-  import on the demo's path);
+  the same bytes on one core), with this module's encoder (:func:`png_bytes`,
+  the standard library's zlib: no imageio import on the demo's path), which
+  also writes the 16-bit grey depth PNGs;
 * ``.jpg``/``.jpeg``, ``.bmp``, ``.tif``/``.tiff``, ``.gif``, ``.webp``:
   8-bit, through imageio's Pillow plugin.
 
@@ -28,8 +29,9 @@ import numpy as np
 
 from ..common.choices import EIGHT_BIT_EXTS, LINEAR_EXTS
 
-__all__ = ["LINEAR_EXTS", "EIGHT_BIT_EXTS", "check_image_path", "write_image", "write_png", "atomic_target",
-           "remove_stale_temps", "png_bytes", "png_deflate", "HashingWriter", "write_hashed"]
+__all__ = ["LINEAR_EXTS", "EIGHT_BIT_EXTS", "check_image_path", "write_image", "write_png", "write_bytes",
+           "atomic_target", "remove_stale_temps", "png_bytes", "png_file", "png_deflate", "HashingWriter",
+           "write_hashed"]
 
 _FLOAT_FORMATS = (".exr", ".hdr", ".rgbe", ".fits", ".fit")
 # What atomic_target names its temporaries: ".<name>.<12 hex digits>.tmp<ext>".
@@ -243,17 +245,38 @@ def _write(path: str, image, tone: dict, fast: bool = False) -> None:
         iio.imwrite(path, to_uint8(image, **tone), plugin="pillow", extension=ext)
 
 
-def write_png(path, rgb, *, fast: bool = False) -> None:
-    """Write an (H, W, 3) uint8 image as PNG with the standard library's zlib.
+def write_png(path, image, *, fast: bool = False, atomic: bool = False) -> str:
+    """Write an 8- or 16-bit grey or RGB image as PNG (:func:`png_bytes`).
 
     Importing imageio and Pillow and their adaptive filtering cost about
     0.2 s, a sixth of ``raycast-shade demo``; the "Sub" filter on every row
     followed by zlib level 6 is 4x faster and the file comes out no larger
     on rendered images.
+
+    Parameters
+    ----------
+    path : str or path-like
+    image : (H, W) or (H, W, 3) uint8 or uint16
+    fast : bool
+        Deflate for speed, not size (:func:`png_deflate`).
+    atomic : bool
+        Through :func:`atomic_target`: ``path`` is the old file or the whole new one.
+
+    Returns
+    -------
+    str
+        ``path``.
     """
-    data = png_bytes(rgb, fast=fast)  # encode first: a failure leaves no truncated file
-    with open(os.fspath(path), "wb") as fh:
+    return write_bytes(path, png_bytes(image, fast=fast), atomic=atomic)  # encoded first: no truncated file
+
+
+def write_bytes(path, data, *, atomic: bool = False) -> str:
+    """Write the bytes ``data`` to ``path``, through :func:`atomic_target` if ``atomic``; returns ``path``."""
+    path = os.fspath(path)
+    target = atomic_target(path) if atomic else contextlib.nullcontext(path)
+    with target as tmp, open(tmp, "wb") as fh:
         fh.write(data)
+    return path
 
 
 def png_deflate(raw, fast: bool = False) -> bytes:
@@ -277,21 +300,73 @@ def png_deflate(raw, fast: bool = False) -> bytes:
     return zlib.compress(raw, 6)
 
 
-def png_bytes(rgb, *, fast: bool = False) -> bytes:
-    """An (H, W, 3) uint8 image encoded as a PNG file's bytes (see :func:`write_png`, :func:`png_deflate`)."""
+def png_file(raw, width: int, height: int, *, bits: int, channels: int, fast: bool = False) -> bytes:
+    """The PNG file of already filtered rows: signature, IHDR, one IDAT (:func:`png_deflate`), IEND.
+
+    The one place the PNG container is written; :func:`png_bytes` and
+    :func:`~raycast_shade.output.bufferfile.depth_png_bytes` make the rows.
+
+    Parameters
+    ----------
+    raw : (height, 1 + width * channels * bits // 8) uint8, C-contiguous
+        Each row's filter type byte, then its filtered samples (16-bit ones big-endian).
+    width, height : int
+    bits : {8, 16}
+        Bits per sample.
+    channels : {1, 3}
+        Grey or RGB (PNG colour types 0 and 2).
+    fast : bool
+        As :func:`png_deflate`.
+    """
     import struct
     import zlib
-
-    h, w, _ = rgb.shape
-    rows = np.ascontiguousarray(rgb, np.uint8).reshape(h, 3 * w)
-    raw = np.empty((h, 3 * w + 1), np.uint8)
-    raw[:, 0] = 1  # filter type Sub: each byte minus the one a pixel to its left
-    raw[:, 1:4] = rows[:, :3]
-    np.subtract(rows[:, 3:], rows[:, :-3], out=raw[:, 4:])  # uint8 arithmetic wraps, as PNG wants
 
     def chunk(tag: bytes, data: bytes) -> bytes:
         return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data))
 
-    header = struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)  # 8-bit RGB, no interlace
+    colour = {1: 0, 3: 2}[channels]
+    header = struct.pack(">IIBBBBB", width, height, bits, colour, 0, 0, 0)  # no interlace
     idat = png_deflate(memoryview(raw).cast("B"), fast)  # the rows in place: no bytes copy
     return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", idat) + chunk(b"IEND", b"")
+
+
+def png_bytes(image, *, fast: bool = False) -> bytes:
+    """An 8- or 16-bit grey or RGB image encoded as a PNG file's bytes.
+
+    8-bit rows are filtered "Sub" (each byte minus the one a pixel to its
+    left: smaller files on rendered images, see :func:`write_png`); 16-bit
+    rows are stored unfiltered, big-endian, as the depth PNGs always were.
+
+    Parameters
+    ----------
+    image : (H, W) or (H, W, 3) uint8 or uint16
+        Grey or RGB; the bit depth is the dtype's.
+    fast : bool
+        As :func:`png_deflate`.
+
+    Raises
+    ------
+    TypeError, ValueError
+        Naming ``image``, for another dtype or shape, or no pixels.
+    """
+    from ..common.validate import as_bool
+
+    fast = as_bool(fast, "fast")
+    a = np.asarray(image)
+    if a.dtype not in (np.uint8, np.uint16):
+        raise TypeError(f"image: expected uint8 or uint16 pixels, got dtype {a.dtype}")
+    if not (a.ndim == 2 or (a.ndim == 3 and a.shape[2] == 3)) or 0 in a.shape:
+        raise ValueError(f"image: expected a non-empty (H, W) or (H, W, 3) array, got shape {a.shape}")
+    h, w = a.shape[:2]
+    c = 1 if a.ndim == 2 else 3
+    if a.dtype == np.uint8:
+        rows = np.ascontiguousarray(a).reshape(h, c * w)
+        raw = np.empty((h, c * w + 1), np.uint8)
+        raw[:, 0] = 1  # filter type Sub
+        raw[:, 1:c + 1] = rows[:, :c]
+        np.subtract(rows[:, c:], rows[:, :-c], out=raw[:, c + 1:])  # uint8 arithmetic wraps, as PNG wants
+    else:
+        raw = np.empty((h, 2 * c * w + 1), np.uint8)
+        raw[:, 0] = 0  # filter type None
+        raw[:, 1:] = a.astype(">u2").reshape(h, c * w).view(np.uint8)
+    return png_file(raw, w, h, bits=8 * a.itemsize, channels=c, fast=fast)

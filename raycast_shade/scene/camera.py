@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..common.choices import PROJECTIONS
-from ..common.validate import as_choice, as_int, as_scalar, as_vec3, check_memory, pow2_scaled
+from ..common.validate import as_bool, as_choice, as_int, as_scalar, as_vec3, check_memory, pow2_scaled
 from .framememory import FRAME_BYTES_PER_PIXEL, frame_bytes
 
 __all__ = ["Camera", "PROJECTIONS", "FRAME_BYTES_PER_PIXEL"]
@@ -215,8 +215,7 @@ class Camera:
         ``distortion``. :meth:`to_opencv` gives ``K, R, t`` back."""
         from .projection import opencv_kwargs
 
-        if not isinstance(fisheye, (bool, np.bool_)):
-            raise TypeError(f"fisheye: expected True or False, got {type(fisheye).__name__}")
+        fisheye = as_bool(fisheye, "fisheye")
         lens = {} if dist is None else {"distortion": dist, "distortion_model": "fisheye" if fisheye else "opencv"}
         return cls(width=width, height=height, **opencv_kwargs(K, R, t, projection), **lens)
 

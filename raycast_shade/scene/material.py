@@ -10,7 +10,7 @@ import numpy as np
 from ..common.choices import SPECULAR_MODELS
 from ..common.layout import (MAT_AO_STRENGTH, MAT_BLINN, MAT_KA, MAT_KA_COLORS, MAT_KD, MAT_KE, MAT_KS,
                              MAT_REFLECTIVITY, MAT_SHININESS, MAT_SIZE)
-from ..common.validate import as_choice, as_name, as_rgb, as_scalar
+from ..common.validate import as_bool, as_choice, as_name, as_rgb, as_scalar
 from ..common.warnings import ColourRangeWarning
 
 __all__ = ["Material", "SPECULAR_MODELS", "MAP_FIELDS", "overridden"]
@@ -161,12 +161,8 @@ class Material:
         set_(self, "ke", as_rgb(self.ke, f"{self.name}.ke"))  # an emission may exceed 1: no 0-255 guess
         set_(self, "shininess", as_scalar(self.shininess, f"{self.name}.shininess", minimum=0.0, exclusive=True))
         set_(self, "specular", as_choice(self.specular, f"{self.name}.specular", SPECULAR_MODELS))
-        if not isinstance(self.ka_colors, (bool, np.bool_)):
-            raise TypeError(f"{self.name}.ka_colors: expected True or False, got {type(self.ka_colors).__name__}")
-        set_(self, "ka_colors", bool(self.ka_colors))
-        if not isinstance(self.double_sided, (bool, np.bool_)):
-            raise TypeError(f"{self.name}.double_sided: expected True or False, got {type(self.double_sided).__name__}")
-        set_(self, "double_sided", bool(self.double_sided))
+        set_(self, "ka_colors", as_bool(self.ka_colors, f"{self.name}.ka_colors"))
+        set_(self, "double_sided", as_bool(self.double_sided, f"{self.name}.double_sided"))
         set_(self, "ao_strength", as_scalar(self.ao_strength, f"{self.name}.ao_strength", minimum=0.0, maximum=1.0))
         set_(self, "normal_scale", as_scalar(self.normal_scale, f"{self.name}.normal_scale"))
         set_(self, "reflectivity", as_scalar(self.reflectivity, f"{self.name}.reflectivity", minimum=0.0, maximum=1.0))

@@ -72,7 +72,7 @@ def _bump(n, B, at, tri, front):
     sign, so a negative height is a dent on every mesh. ``B`` is the height-map
     tuple of :class:`~raycast_shade.shading.inputs.FrameInputs`; ``at`` the hit
     (:class:`~raycast_shade.shading.records.At`) on triangle ``tri = (i0, i1, i2)``."""
-    uvs, tangents, bump_index, texels, info = B[0], B[1], B[2], B[3], B[4]
+    uvs, tangents, bump_index, texels, info = B.uvs, B.tangents, B.bump_index, B.bump_texels, B.bump_info
     f, gm, b1, b2 = at
     i0, i1, i2 = tri
     nx, ny, nz = n

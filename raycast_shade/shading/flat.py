@@ -28,7 +28,7 @@ from .texture import _coefficients, _face_footprint, _row_coefficients
 __all__ = []
 
 
-def _make_flat(spec_on: bool, att_on: bool, tex_on: bool = False, terms_on: bool = False):
+def _make_flat(tex_on: bool = False, terms_on: bool = False):
     """The per-face kernel for one variant (see :mod:`.jit`); ``tex_on``: the
     face's coefficients come from its colours and maps (:mod:`.texture`); ``terms_on``: the
     build that also stores each face's terms."""
@@ -42,6 +42,7 @@ def _make_flat(spec_on: bool, att_on: bool, tex_on: bool = False, terms_on: bool
         face-sized terms record ``F`` at row ``f``, :mod:`.terms_kernel`). A textured face
         takes the texel at its centre from the mip level whose texels are as large as the
         face's UV triangle: the face's average colour, one shade per polygon."""
+        spec_on, att_on = L.spec_on, L.att_on  # run-time flags of the frame (records.Lighting)
         if terms_on:  # a closure constant: the other build's branches are dropped before typing
             fcol, F = out
         else:
@@ -80,7 +81,7 @@ def _make_flat(spec_on: bool, att_on: bool, tex_on: bool = False, terms_on: bool
 
 
 _FLAT = compile_variants(_make_flat)  # the families' registries (see .jit)
-_FLAT_TERMS = compile_variants(lambda spec_on, att_on, tex_on: _make_flat(spec_on, att_on, tex_on, True))
+_FLAT_TERMS = compile_variants(lambda tex_on: _make_flat(tex_on, True))
 
 
 def _make_lookup(terms_on: bool):

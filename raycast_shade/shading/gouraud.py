@@ -152,7 +152,7 @@ def _prefetch_pixel(prim, geom, face_off, faces, vcol, y, x, ahead):
             prefetch(vcol, faces[f, k])
 
 
-def _make_vertices(spec_on: bool, att_on: bool, tex_on: bool = False):
+def _make_vertices(tex_on: bool = False):
     """The per-vertex kernel for one variant (see :mod:`.jit`; ``tex_on``: vertex colours
     and the modulate path)."""
 
@@ -162,6 +162,7 @@ def _make_vertices(spec_on: bool, att_on: bool, tex_on: bool = False):
         (``vertex_flags`` (V, 2): front, lit with its normal, and back, with the negated
         one); ``out`` (V, 2, 3) float64. For a model on the modulate path (``T``'s split
         flag), ``out`` holds the diffuse light and ``spec_out`` (V, 2, 3) the specular light."""
+        spec_on, att_on = L.spec_on, L.att_on  # run-time flags of the frame (records.Lighting)
         verts, normals, _, _ = G
         vcolors, fcolors, cmode, tindex, ttexels, tinfo, split = T
         n = verts.shape[0]
@@ -200,7 +201,7 @@ def _modulate(vcol, vspec, G, at, side, g, materials, cam, L, S, coef, spec_on, 
     """A modulate-path pixel at hit ``at``: ``Ia ka + D kd + S ks + ke``, with the corners'
     diffuse light ``D`` and specular light ``S`` interpolated and the pixel's own
     (textured, footprint-filtered) coefficients ``coef``."""
-    i0, i1, i2 = _triangle(G[2], at.f)
+    i0, i1, i2 = _triangle(G.faces, at.f)
     m = at.gm
     (d0r, d0g, d0b), (s0r, s0g, s0b) = _corner_split(vcol, vspec, G, i0, side, g, materials, m, cam, L, S,
                                                      spec_on, att_on)
@@ -208,7 +209,7 @@ def _modulate(vcol, vspec, G, at, side, g, materials, cam, L, S, coef, spec_on, 
                                                      spec_on, att_on)
     (d2r, d2g, d2b), (s2r, s2g, s2b) = _corner_split(vcol, vspec, G, i2, side, g, materials, m, cam, L, S,
                                                      spec_on, att_on)
-    ambient = L[0]
+    ambient = L.ambient
     kar, kag, kab, kdr, kdg, kdb, ksr, ksg, ksb, ker, keg, keb = coef
     w0, w1, w2 = _convex_weights(at.b1, at.b2)
     r = ambient[0] * kar + (w0 * d0r + w1 * d1r + w2 * d2r) * kdr + (w0 * s0r + w1 * s1r + w2 * s2r) * ksr
@@ -217,7 +218,7 @@ def _modulate(vcol, vspec, G, at, side, g, materials, cam, L, S, coef, spec_on, 
     return r + ker, gg + keg, b + keb  # the pixel's own emission, added last as in _illuminate
 
 
-def _make_interpolate(spec_on: bool, att_on: bool, tex_on: bool = False):
+def _make_interpolate(tex_on: bool = False):
     """The pixel kernel for one variant (see :mod:`.jit`; ``tex_on``: vertex colours in the
     corner fallbacks and the modulate path): its rare corner fallbacks evaluate the
     reflectance equation."""
@@ -230,9 +231,10 @@ def _make_interpolate(spec_on: bool, att_on: bool, tex_on: bool = False):
         the buffer's first row (a band of the frame; textures need the image position), the
         faces' states (:func:`~raycast_shade.shading.gouraud_sides._face_sides_kernel`) and
         how many pixels ahead to prefetch (0: not at all)."""
+        spec_on, att_on = L.spec_on, L.att_on  # run-time flags of the frame (records.Lighting)
         vcol, vspec, y0, state, ahead = shades
         verts, normals, faces, fnormals = G
-        uvs = B[0]
+        uvs = B.uvs
         vcolors, fcolors, cmode, tindex, ttexels, tinfo, split = T
         h, w = prim.shape
         nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS

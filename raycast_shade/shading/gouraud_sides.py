@@ -130,7 +130,7 @@ def _face_sides_kernel(face_flags, G, cam, planes, state, vertex_flags):
     uint8 gets 1 at ``[i, side]`` for each. ``state`` (F,) uint8: ``1 + side`` for a face of
     certain side whose corners' stored shades all serve (``planes``: :func:`face_planes`), whose
     near-face pixels interpolate them at once; 0 for the others."""
-    faces, fnormals = G[2], G[3]
+    faces, fnormals = G.faces, G.face_normals
     n = faces.shape[0]
     nchunk = (n + CHUNK - 1) // CHUNK
     for c in prange(nchunk):  # cheap, even work: plain chunks

@@ -1,13 +1,15 @@
-"""The reflectance equation, evaluated at one point.
+"""The reflectance equation, evaluated at one point: the one evaluator every shading path calls.
 
 Per channel::
 
-    I = Ia ka + sum_i vis_i att_i(d) Ii (kd max(n.s, 0) + Ks max(r.v, 0)^t) + ke
+    I = Ia ka + sum_i sum_j vis_ij att_ij(d) Ii/N_i (kd max(n.s, 0) + Ks max(r.v, 0)^t) + ke
 
 with ``r = 2 (n.s) n - s`` (or Blinn-Phong ``(n.h)^t``), no specular term
 where ``n.s <= 0``, ``att`` one of ``1``, ``1/d^2``, ``1/(d + k)``, and
 ``vis`` 0 or 1 from a shadow ray (:mod:`.shadows`) for lights that cast
-shadows. A spot light is a point light whose ``att`` also carries Warn's
+shadows. A light is evaluated at its ``N_i`` point samples ``j`` (one, but for an
+area light: :class:`raycast_shade.scene.lights.AreaLight`), each carrying ``1/N_i`` of its
+intensity. A spot light is a point light whose ``att`` also carries Warn's
 factor ``cos^n(a) smoothstep(cos outer, cos inner, cos a)``, ``a`` the angle
 between its axis and the direction from the light to the point
 (:class:`raycast_shade.scene.lights.SpotLight`); outside its outer cone it
@@ -17,10 +19,15 @@ rather than ``pow``. The emission ``ke`` is added last, after the lights'
 sum (a zero ``ke`` adds exactly nothing: the images of surfaces without
 emission are bit for bit those before it).
 
-The material and light rows are read through the named slots of
-:mod:`raycast_shade.common.layout`. Every light kind is read in one place,
-:func:`_light_at` (direction, distance, attenuation and cone at a point); the
-specular lobe is the material's reflectance model (:mod:`.reflectance`).
+:func:`_reflected` is the equation, once: the general Phong kernels, flat's faces, Gouraud's
+vertices, the mirrors' bounces and the one-pass terms (:mod:`.terms_kernel`, with a terms
+record ``R``: the parts stored apart, the same sum) all call it. The material and light rows
+are read through the named slots of :mod:`raycast_shade.common.layout`. Every light kind is
+read in one place, :func:`_light_at` (direction, distance, attenuation and cone of sample
+``j`` at a point) with :func:`_light_point` (where sample ``j`` is, the shadow ray's target);
+the specular lobe is the material's reflectance model (:mod:`.reflectance`). The batched
+kernel (:mod:`.phong_fast`) evaluates the same equation lane-parallel for the light kinds,
+laws and models it declares (``phong_fast.HANDLES``); every other frame comes here.
 """
 
 from __future__ import annotations
@@ -28,16 +35,19 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..common.layout import (ATT_HEURISTIC, ATT_INVERSE_SQUARE, LIGHT_ATT, LIGHT_AXIS, LIGHT_COS_INNER,
-                             LIGHT_COS_OUTER, LIGHT_DIRECTIONAL, LIGHT_EXPONENT, LIGHT_K, LIGHT_KIND,
-                             LIGHT_RADIANCE, LIGHT_SHADOWS, LIGHT_SPOT, LIGHT_VEC, MAT_KS, MAT_MODEL,
-                             MAT_SHININESS)
+from ..common.layout import (AREA_DISC, ATT_HEURISTIC, ATT_INVERSE_SQUARE, LIGHT_AREA, LIGHT_ATT, LIGHT_AXIS,
+                             LIGHT_COS_INNER, LIGHT_COS_OUTER, LIGHT_DIRECTIONAL, LIGHT_EDGE_U, LIGHT_EDGE_V,
+                             LIGHT_EXPONENT, LIGHT_K, LIGHT_KIND, LIGHT_RADIANCE, LIGHT_SAMPLES, LIGHT_SHADOWS,
+                             LIGHT_SHAPE, LIGHT_SPOT, LIGHT_VEC, MAT_KS, MAT_MODEL, MAT_SHININESS)
 from .jit import CALLED, HELPER
-from .records import dot
+from .records import (TERM_AMBIENT, TERM_DIFFUSE, TERM_EMISSIVE, TERM_SPECULAR, TERMS_EACH, TERMS_EMIT_ON,
+                      TERMS_SHADOW, dot, store3)
 from .reflectance import _specular_cosine
 from .shadows import _occluded, request_ray
 
-__all__ = []
+__all__ = ["GOLDEN"]
+
+GOLDEN = 0.6180339887498949  # the golden ratio's fractional part: the sample lattice's second axis
 
 
 @njit(**HELPER)
@@ -77,8 +87,41 @@ def _spot_factor(lights, i, s):
 
 
 @njit(**HELPER)
-def _light_at(lights, i, p, dmin, att_on):
-    """Light ``i`` (a row of ``lights``, any kind) seen from point ``p``.
+def _samples(lights, i):
+    """How many point samples light ``i`` is evaluated at (1 but for an area light's N)."""
+    return max(1, int(lights[i, LIGHT_SAMPLES]))
+
+
+@njit(**HELPER)
+def _light_point(lights, i, j):
+    """Where sample ``j`` of light ``i`` is: its position, or for an area light the ``j``-th point
+    of a rank-1 lattice over the emitter (``((j + 1/2) / N, frac(j phi + 1/2))`` in the unit
+    square, mapped onto the rectangle's half-edges or, by Shirley and Chiu's concentric map, the
+    disc's axes). The lattice is stratified in both axes, and its one point (``N = 1``) is the centre
+    exactly. (A light at infinity: its unit direction, not a point.)"""
+    cx = lights[i, LIGHT_VEC + 0]
+    cy = lights[i, LIGHT_VEC + 1]
+    cz = lights[i, LIGHT_VEC + 2]
+    if lights[i, LIGHT_KIND] != LIGHT_AREA:
+        return cx, cy, cz
+    ns = _samples(lights, i)
+    a = 2.0 * ((j + 0.5) / ns) - 1.0
+    t = j * GOLDEN + 0.5
+    b = 2.0 * (t - np.floor(t)) - 1.0
+    if lights[i, LIGHT_SHAPE] == AREA_DISC and (a != 0.0 or b != 0.0):  # concentric: squares to rings
+        if abs(a) > abs(b):
+            rad, phi = a, (np.pi / 4.0) * (b / a)
+        else:
+            rad, phi = b, np.pi / 2.0 - (np.pi / 4.0) * (a / b)
+        a, b = rad * np.cos(phi), rad * np.sin(phi)
+    return (cx + a * lights[i, LIGHT_EDGE_U + 0] + b * lights[i, LIGHT_EDGE_V + 0],
+            cy + a * lights[i, LIGHT_EDGE_U + 1] + b * lights[i, LIGHT_EDGE_V + 1],
+            cz + a * lights[i, LIGHT_EDGE_U + 2] + b * lights[i, LIGHT_EDGE_V + 2])
+
+
+@njit(**HELPER)
+def _light_at(lights, i, j, p, dmin, att_on):
+    """Sample ``j`` of light ``i`` (a row of ``lights``, any kind) seen from point ``p``.
 
     Returns
     -------
@@ -89,16 +132,17 @@ def _light_at(lights, i, p, dmin, att_on):
         the point (which then has no direction and gives no light).
     att : float
         The distance law (1 without ``att_on``; callers pass an ``np.bool_``, so that this compiles
-        once, and LLVM folds the branch where it inlines this into a variant's kernel; see :mod:`.jit`).
+        once, and LLVM folds the branch where it inlines this with a constant).
     cone : float
         The emission factor towards ``p``: Warn's for a spot light (0 outside its
-        cone), 1 otherwise.
+        cone), the sample's share ``1/N`` of an area light's intensity, 1 otherwise.
     """
     if lights[i, LIGHT_KIND] == LIGHT_DIRECTIONAL:
         return (lights[i, LIGHT_VEC + 0], lights[i, LIGHT_VEC + 1], lights[i, LIGHT_VEC + 2]), np.inf, 1.0, 1.0
-    dx = lights[i, LIGHT_VEC + 0] - p[0]
-    dy = lights[i, LIGHT_VEC + 1] - p[1]
-    dz = lights[i, LIGHT_VEC + 2] - p[2]
+    q = _light_point(lights, i, j)
+    dx = q[0] - p[0]
+    dy = q[1] - p[1]
+    dz = q[2] - p[2]
     d = np.sqrt(dx * dx + dy * dy + dz * dz)
     if d == 0.0:
         return (0.0, 0.0, 0.0), 0.0, 1.0, 0.0
@@ -113,6 +157,8 @@ def _light_at(lights, i, p, dmin, att_on):
     cone = 1.0
     if lights[i, LIGHT_KIND] == LIGHT_SPOT:  # a point light with a cone
         cone = _spot_factor(lights, i, s)
+    elif lights[i, LIGHT_KIND] == LIGHT_AREA:
+        cone = 1.0 / _samples(lights, i)
     return s, d, att, cone
 
 
@@ -121,7 +167,7 @@ _NO_VIS = np.zeros((1, 1), np.int8)  # no packet visibility: every shadow ray is
 
 def _illuminate_py(hp, coef, mats, mi, L, S, spec_on, att_on):
     """RGB reflected towards ``hp.v`` at the shading point ``hp``, each shadow ray traced on its own
-    (:func:`~raycast_shade.shading.shadows._occluded`).
+    (:func:`~raycast_shade.shading.shadows._occluded`): :func:`_reflected` without packets or terms.
 
     Parameters
     ----------
@@ -135,58 +181,104 @@ def _illuminate_py(hp, coef, mats, mi, L, S, spec_on, att_on):
         Material rows; row ``mi`` (indexed, not sliced: a slice per pixel would
         cost an atomic reference count shared by all threads) gives the
         shininess, the reflectance model and whether there is a specular term.
-    L : tuple
-        ``(ambient, lights, dmin, handle, unit)`` of
-        :class:`~raycast_shade.shading.inputs.FrameInputs`.
+    L : Lighting
+        The frame's lights (:class:`~raycast_shade.shading.records.Lighting`).
     S : tuple
         The shadow-ray scratch (:func:`~raycast_shade.shading.shadows._scratch`).
     spec_on, att_on : bool
-        Compile-time constants (see :mod:`.jit`): a scene with no specular
-        material or no attenuating light compiles without that arithmetic.
+        The frame's flags (``L.spec_on``, ``L.att_on``; Gouraud's diffuse-only pass turns
+        ``spec_on`` off): a scene with no specular material or no attenuating light skips
+        that arithmetic.
     """
-    return _reflected(hp, coef, mats, mi, L, S, _NO_VIS, -1, spec_on, att_on)
+    return _reflected(hp, coef, mats, mi, L, S, _NO_VIS, -1, spec_on, att_on, None, 0, 0)
 
 
 @njit(**HELPER)
-def _reflected(hp, coef, mats, mi, L, S, vis, lane, spec_on, att_on):
-    """:func:`_illuminate_py` with the answers of traced shadow packets: ``vis[i, lane]`` is light
-    ``i``'s for this point (1 blocked, 0 lit, -1 not traced), from
-    :func:`~raycast_shade.shading.shadows.trace_packets` after :func:`_request_shadows`; a ray
-    not traced there (``lane`` -1: no packets) is traced on its own."""
-    ambient, lights, dmin, handle, unit = L
+def _reflected(hp, coef, mats, mi, L, S, vis, lane, spec_on, att_on, R, y, x):
+    """The reflectance equation at ``hp`` (see the module docstring): the RGB reflected towards
+    ``hp.v`` plus the emission.
+
+    ``vis[i, lane]`` is light ``i``'s answer from traced shadow packets (1 blocked, 0 lit, -1 not
+    traced: :func:`~raycast_shade.shading.shadows.trace_packets` after :func:`_request_shadows`);
+    a ray not traced there (``lane`` -1: no packets; an area light's samples) is traced on its own.
+
+    ``R``: None, or a terms record (:mod:`.records`, ``TERM_*``) that also receives the point's
+    parts at ``(y, x)``: ambient, emission, the summed diffuse and specular parts, each light's
+    (with per-light terms) and its shadow mask (the fraction of its samples not blocked where a
+    unit light would reach the point). ``R is None`` prunes every store at compile time, and the
+    returned sum is formed by the same operations in the same order either way: the image of a
+    terms pass is the plain frame's, bit for bit."""
+    ambient, lights, dmin, handle, unit = L.ambient, L.lights, L.dmin, L.handle, L.unit
     kar, kag, kab, kdr, kdg, kdb, ksr, ksg, ksb, ker, keg, keb = coef
     n = hp.n
     r = ambient[0] * kar
     g = ambient[1] * kag
     b = ambient[2] * kab
+    if R is not None:
+        store3(R[TERM_AMBIENT], y, x, r, g, b)
+        if R[TERMS_EMIT_ON]:
+            store3(R[TERM_EMISSIVE], y, x, ker, keg, keb)
+    dr = dg = db = sr = sg = sb = 0.0
     shin = mats[mi, MAT_SHININESS]
     model = mats[mi, MAT_MODEL]
     has_spec = mats[mi, MAT_KS + 0] > 0.0 or mats[mi, MAT_KS + 1] > 0.0 or mats[mi, MAT_KS + 2] > 0.0
     for i in range(lights.shape[0]):
-        s, d, att, cone = _light_at(lights, i, hp.p, dmin, np.bool_(att_on))
-        if d == 0.0 or cone == 0.0:
-            continue  # on the point (no direction), or outside a spot's cone: no light, no shadow ray
-        att *= cone
-        ndots = dot(n, s)
-        if ndots <= 0.0:
-            continue
-        if ndots > 1.0:
-            ndots = 1.0
-        if lights[i, LIGHT_SHADOWS] != 0.0 and handle != 0:
-            seen = vis[i, lane] if lane >= 0 else -1
-            if seen < 0:  # not in a packet
-                target = (lights[i, LIGHT_VEC + 0], lights[i, LIGHT_VEC + 1], lights[i, LIGHT_VEC + 2])
-                seen = 1 if _occluded(handle, S, hp.o, hp.g, s, target, d < np.inf, unit) else 0
-            if seen != 0:
+        ns = _samples(lights, i)
+        ldr = ldg = ldb = lsr = lsg = lsb = 0.0
+        blocked = 0
+        for j in range(ns):
+            s, d, att, cone = _light_at(lights, i, j, hp.p, dmin, np.bool_(att_on))
+            if d == 0.0 or cone == 0.0:
+                continue  # on the point (no direction), or outside a spot's cone: no light, no shadow ray
+            att *= cone
+            ndots = dot(n, s)
+            if ndots <= 0.0:
                 continue
-        spec = 0.0
-        if spec_on and has_spec:
-            c = _specular_cosine(model, n, s, hp.v, ndots)
-            if c > 0.0:
-                spec = _power(min(c, 1.0), shin)
-        r += att * lights[i, LIGHT_RADIANCE + 0] * (kdr * ndots + ksr * spec)
-        g += att * lights[i, LIGHT_RADIANCE + 1] * (kdg * ndots + ksg * spec)
-        b += att * lights[i, LIGHT_RADIANCE + 2] * (kdb * ndots + ksb * spec)
+            if ndots > 1.0:
+                ndots = 1.0
+            if lights[i, LIGHT_SHADOWS] != 0.0 and handle != 0:
+                seen = vis[i, lane] if lane >= 0 and ns == 1 else -1
+                if seen < 0:  # not in a packet
+                    seen = 1 if _occluded(handle, S, hp.o, hp.g, s, _light_point(lights, i, j), d < np.inf,
+                                          unit) else 0
+                if seen != 0:
+                    if np.float32(cone * ndots) > 0.0:  # blocked where a unit light would have reached it
+                        blocked += 1
+                    continue
+            spec = 0.0
+            if spec_on and has_spec:
+                c = _specular_cosine(model, n, s, hp.v, ndots)
+                if c > 0.0:
+                    spec = _power(min(c, 1.0), shin)
+            ar = att * lights[i, LIGHT_RADIANCE + 0]
+            ag = att * lights[i, LIGHT_RADIANCE + 1]
+            ab = att * lights[i, LIGHT_RADIANCE + 2]
+            r += ar * (kdr * ndots + ksr * spec)
+            g += ag * (kdg * ndots + ksg * spec)
+            b += ab * (kdb * ndots + ksb * spec)
+            if R is not None:  # the parts, formed apart from the sum (it is not their sum, bit for bit)
+                pdr, pdg, pdb = ar * (kdr * ndots), ag * (kdg * ndots), ab * (kdb * ndots)
+                psr, psg, psb = ar * (ksr * spec), ag * (ksg * spec), ab * (ksb * spec)
+                dr += pdr
+                dg += pdg
+                db += pdb
+                sr += psr
+                sg += psg
+                sb += psb
+                ldr += pdr
+                ldg += pdg
+                ldb += pdb
+                lsr += psr
+                lsg += psg
+                lsb += psb
+        if R is not None:
+            R[TERMS_SHADOW][i, y, x] = 1.0 - blocked / ns
+            if R[TERMS_EACH].shape[1] > 0:
+                store3(R[TERMS_EACH][0, i], y, x, ldr, ldg, ldb)
+                store3(R[TERMS_EACH][1, i], y, x, lsr, lsg, lsb)
+    if R is not None:
+        store3(R[TERM_DIFFUSE], y, x, dr, dg, db)
+        store3(R[TERM_SPECULAR], y, x, sr, sg, sb)
     return r + ker, g + keg, b + keb
 
 
@@ -197,18 +289,18 @@ _illuminate = njit(**HELPER)(_illuminate_py)
 def _request_shadows(P, k, hp, L):
     """Ask for lane ``k``'s shadow rays in the packets ``P = (buf, ib, off, valid, voff)``
     (:mod:`.shadows`): one per light that :func:`_reflected` would trace a ray for at ``hp``
-    (casting shadows, in its cone, not on the point, ``n.s > 0``), the same ray."""
-    lights, dmin, handle, unit = L[1], L[2], L[3], L[4]
+    (casting shadows, in its cone, not on the point, ``n.s > 0``; one sample: an area light's
+    samples are traced by :func:`_reflected` itself), the same ray."""
+    lights, dmin, handle, unit = L.lights, L.dmin, L.handle, L.unit
     if handle == 0:
         return
     for i in range(lights.shape[0]):
-        if lights[i, LIGHT_SHADOWS] == 0.0:
+        if lights[i, LIGHT_SHADOWS] == 0.0 or _samples(lights, i) != 1:
             continue
-        s, d, _, cone = _light_at(lights, i, hp.p, dmin, np.bool_(False))
+        s, d, _, cone = _light_at(lights, i, 0, hp.p, dmin, np.bool_(False))
         if d == 0.0 or cone == 0.0 or dot(hp.n, s) <= 0.0:
             continue
-        target = (lights[i, LIGHT_VEC + 0], lights[i, LIGHT_VEC + 1], lights[i, LIGHT_VEC + 2])
-        request_ray(P, i, k, hp.o, hp.g, s, target, d < np.inf, unit)
+        request_ray(P, i, k, hp.o, hp.g, s, _light_point(lights, i, 0), d < np.inf, unit)
 
 
 @njit(**CALLED)

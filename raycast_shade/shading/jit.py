@@ -4,14 +4,17 @@ The flags are the same for every shading kernel. No nnan/ninf: misses and
 degenerate cases must compare as written; the other fast-math flags keep the
 arithmetic the golden images were made with.
 
-A scene with no specular material, or no attenuating light, needs none of
-that arithmetic, and one with no colours or maps none of the texture lookups.
-The kernels that evaluate the reflectance equation are therefore built by a
-small factory per kernel family, ``make(spec_on, att_on, tex_on)``, whose
-closure constants Numba folds at compile time: one registry per family
-(:func:`compile_variants`), eight variants keyed by those three flags, each
-cached on disk separately (Numba keys its cache on the closure's values), and
-compiled only when a frame first needs it (:func:`variant` picks a frame's).
+A scene with no colours or maps needs none of the texture lookups. The kernels
+that evaluate the reflectance equation are therefore built by a small factory
+per kernel family, ``make(tex_on)``, whose closure constant Numba folds at
+compile time: one registry per family (:func:`compile_variants`), two variants,
+each cached on disk separately (Numba keys its cache on the closure's values),
+and compiled only when a frame first needs it (:func:`variant` picks a frame's).
+The other flags of a frame (``spec_on``: some material has a specular term;
+``att_on``: some light attenuates) are run-time fields of the lighting record
+(:class:`~raycast_shade.shading.records.Lighting`): a branch per light that
+costs less than the noise of a frame, where each compile-time flag doubled
+every family's compile time.
 
 The helpers the kernels share are compiled with :data:`HELPER` (see there),
 the few that must stay calls with :data:`CALLED`.
@@ -39,23 +42,22 @@ FLT32_MAX = float(np.finfo(np.float32).max)  # radiance saturates here instead o
 CHUNK = 1024  # faces, vertices or secondary rays per parallel task
 
 
-VARIANT_FLAGS = ("spec_on", "att_on", "tex_on")  # a variant's key, in order: fields of the frame's inputs
+VARIANT_FLAGS = ("tex_on",)  # a variant's key, in order: fields of the frame's inputs
 
 
 def compile_variants(make):
-    """One kernel family's registry: ``make(spec_on, att_on, tex_on)`` for the eight combinations.
+    """One kernel family's registry: ``make(tex_on)`` for both values.
 
     Returns
     -------
-    dict of (bool, bool, bool) to object
-        Keyed by ``(spec_on, att_on, tex_on)`` (:data:`VARIANT_FLAGS`); the dispatchers
-        compile lazily.
+    dict of (bool,) to object
+        Keyed by ``(tex_on,)`` (:data:`VARIANT_FLAGS`); the dispatchers compile lazily.
     """
-    return {(s, a, t): make(s, a, t) for s in (False, True) for a in (False, True) for t in (False, True)}
+    return {(t,): make(t) for t in (False, True)}
 
 
 def variant(variants, k):
     """The entry of :func:`compile_variants`'s registry for a frame's
     :class:`~raycast_shade.shading.inputs.FrameInputs` ``k``: the untextured variants'
     arithmetic is the untextured renderer's, bit for bit."""
-    return variants[tuple(k[flag] for flag in VARIANT_FLAGS)]
+    return variants[tuple(bool(k[flag]) for flag in VARIANT_FLAGS)]

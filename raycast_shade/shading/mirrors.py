@@ -271,7 +271,7 @@ def _prefetch_ahead(prim, geom, G, face_off, rows, w, tx, batched):
         _prefetch_tile(prim, geom, G, face_off, ya, yb, t1 * _TILE, min(w, (t1 + 1) * _TILE), deep)
 
 
-def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False, batched: bool = False):
+def _make_packets(tex_on: bool = False, batched: bool = False):
     """The mirror kernel for one variant (see :mod:`.jit`; ``tex_on``: textured coefficients at
     the bounces, sampled at level 0: a bounced ray has no pixel footprint here). ``batched``, a
     compile-time constant too, so that a frame compiles only the start it takes: the lanes start
@@ -295,11 +295,12 @@ def _make_packets(spec_on: bool, att_on: bool, tex_on: bool = False, batched: bo
         bounce's Phong-shaded colour (``1 - rho`` of it on a reflective surface, all of it at
         the last bounce; the background on a miss) added with :func:`_add_pixel`, weighted by
         the product of the reflectivities met before it."""
+        spec_on, att_on = L.spec_on, L.att_on  # run-time flags of the frame (records.Lighting)
         prim = hits[0]
         handle, unit, max_depth, flags, y0, ahead = trace
         handed = False if batched else rays[0].shape[0] != 0
         ahead = ahead and not handed  # (nothing is gathered)
-        uvs = B[0]
+        uvs = B.uvs
         h, w = prim.shape
         first = y0 // _TILE  # the frame's tile rows that meet rows y0 .. y0 + h
         ntr = (y0 + h + _TILE - 1) // _TILE - first
@@ -402,7 +403,7 @@ _PACKETS_BATCHED = compile_variants(functools.partial(_make_packets, batched=Tru
 def _batched_start(B) -> bool:
     """Whether the lanes start by :func:`_start_group`: no model has a bump or a normal map
     (``B``: the frame's height-map tuple; those bend the normal, which only ``_surface`` does)."""
-    return not bool(np.any(B[2] >= 0)) and not bool(np.any(B[5] >= 0))
+    return not bool(np.any(B.bump_index >= 0)) and not bool(np.any(B.nmap_index >= 0))
 
 
 def trace_mirrors(scene, camera, hits, image, max_depth: int = 3, inputs=None, y0: int = 0,

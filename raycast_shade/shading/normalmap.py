@@ -32,15 +32,15 @@ def _normal_map(n, B, normals, at, tri, g, sgn):
     :class:`~raycast_shade.shading.inputs.FrameInputs` (its normal-map fields from index 5);
     ``normals`` the vertex normals; ``at`` the hit on triangle ``tri``; ``g, sgn`` the
     geometric normal turned to the viewer and the sign that turned it."""
-    uvs = B[0]
-    nmap_index = B[5]
+    uvs = B.uvs
+    nmap_index = B.nmap_index
     k = nmap_index[at.gm]
     if k < 0:
         return n
-    texels = B[6]
-    info = B[7]
-    scale = B[8][at.gm]
-    tangents = B[9]
+    texels = B.nmap_texels
+    info = B.nmap_info
+    scale = B.nmap_scale[at.gm]
+    tangents = B.vertex_tangents
     i0, i1, i2 = tri
     b1 = at.b1
     b2 = at.b2

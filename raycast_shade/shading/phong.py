@@ -86,13 +86,13 @@ def _shading_point(G, B, L, cam, at, use_dir, d):
     be traced (``L`` has a scene handle)."""
     hp = _surface(G, B, cam, at, use_dir, d)
     o = hp.p
-    if L[3] != 0:  # shadow rays will be traced (a scene handle): start them past the terminator
+    if L.handle != 0:  # shadow rays will be traced (a scene handle): start them past the terminator
         verts, normals, faces, _ = G
         o = _terminator_point(verts, normals, _triangle(faces, at.f), at.b1, at.b2, hp.p, hp.sgn)
     return Hit(hp.p, hp.v, hp.g, hp.sgn, hp.n, o)
 
 
-def _make_phong(spec_on: bool, att_on: bool, tex_on: bool = False):
+def _make_phong(tex_on: bool = False):
     """The Phong pixel kernel for one variant (see :mod:`.jit`; ``tex_on``: textured coefficients)."""
 
     @njit(parallel=True, **JIT)
@@ -103,7 +103,8 @@ def _make_phong(spec_on: bool, att_on: bool, tex_on: bool = False):
         pixel's shading normal (zero on the background; ``frame.normal``'s values, for the
         ``normal`` buffer), or a (0, 0, 3) array for none, and where to hand over the reflective
         pixels' mirror rays (:mod:`.mirror_rays`; ``NO_RAYS`` for none)."""
-        uvs = B[0]
+        spec_on, att_on = L.spec_on, L.att_on  # run-time flags of the frame (records.Lighting)
+        uvs = B.uvs
         image, normal, rays = outs
         want_n = normal.shape[0] != 0
         h, w = prim.shape
@@ -132,7 +133,7 @@ def _make_phong(spec_on: bool, att_on: bool, tex_on: bool = False):
                     rgb, hp = _shade_surface(G, B, L, S, materials, cam, at, np.bool_(False), (0.0, 0.0, 0.0), coef,
                                              spec_on, att_on)
                     store_pixel((image, normal), y, x, rgb, hp.n)
-                    hand_over(rays, y, x, hp, materials[gm, MAT_REFLECTIVITY], L[4])
+                    hand_over(rays, y, x, hp, materials[gm, MAT_REFLECTIVITY], L.unit)
 
     return _shade_phong_kernel
 
@@ -142,7 +143,7 @@ _PHONG = compile_variants(_make_phong)  # the family's registry (see .jit)
 _TILE = 4  # a packet is a 4x4 tile of pixels (LANES); BLOCK_ROWS is a multiple of it
 
 
-def _make_phong_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
+def _make_phong_packets(tex_on: bool = False):
     """The Phong pixel kernel with shadow packets, for one variant (see :mod:`.jit`)."""
 
     @njit(parallel=True, **JIT)
@@ -151,17 +152,18 @@ def _make_phong_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
         """:func:`_make_phong`'s kernel, its shadow rays traced per 4x4 tile of pixels as one
         16-ray packet per light: the same image (and shading normals and mirror rays in ``outs``),
         bit for bit."""
-        uvs = B[0]
+        spec_on, att_on = L.spec_on, L.att_on  # run-time flags of the frame (records.Lighting)
+        uvs = B.uvs
         image, normal, rays = outs
         want_n = normal.shape[0] != 0
-        handle = L[3]
+        handle = L.handle
         h, w = prim.shape
         nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
         step = spread_step(nblk)
         for it in prange(nblk):  # blocks of rows in a balanced order (see common.schedule)
             blk = (it * step) % nblk
             S = _scratch()  # a single ray, should a point ask for one its tile did not trace
-            buf, ib, off, valid, voff, args, aoff, vis, points = _packets(L[1].shape[0])
+            buf, ib, off, valid, voff, args, aoff, vis, points = _packets(L.lights.shape[0])
             P = (buf, ib, off, valid, voff)
             ye = min(h, (blk + 1) * BLOCK_ROWS)
             for ty in range(blk * BLOCK_ROWS, ye, _TILE):
@@ -187,7 +189,7 @@ def _make_phong_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
                             store_coef(points, k, _point_coefficients(G, uvs, at, cam, x, y0 + y, True, materials, T))
                         hp = _shading_point(G, B, L, cam, at, np.bool_(False), (0.0, 0.0, 0.0))
                         store_point(points, k, hp, gm)
-                        hand_over(rays, y, x, hp, materials[gm, MAT_REFLECTIVITY], L[4])
+                        hand_over(rays, y, x, hp, materials[gm, MAT_REFLECTIVITY], L.unit)
                         _request_shadows(P, k, hp, L)
                     trace_packets(handle, buf, off, valid, voff, args, aoff, vis)
                     for k in range(LANES):  # the tile's colours
@@ -197,7 +199,7 @@ def _make_phong_packets(spec_on: bool, att_on: bool, tex_on: bool = False):
                         pp, vv, gg, sg, nn, oo = stored_point(points, k)
                         coef = stored_coef(points, k) if tex_on else _row_coefficients(materials, gm)
                         rgb = _reflected(Hit(pp, vv, gg, sg, nn, oo), coef, materials, gm, L, S, vis, k,
-                                         spec_on, att_on)
+                                         spec_on, att_on, None, 0, 0)
                         store_pixel((image, normal), ty + k // _TILE, tx + k % _TILE, rgb, nn)
 
     return _shade_phong_packets_kernel

@@ -40,8 +40,15 @@ computed per lane by the scalar helpers. The scratch is indexed at constant offs
 constant trip counts, so LLVM sees that its fields never overlap and needs no run-time
 alias checks.
 
-:func:`applies` is the dispatch: :class:`~raycast_shade.shading.shade.SampleShading` takes this
-kernel when the frame's inputs allow it, from facts known before the cast.
+:data:`HANDLES` declares what the passes implement: the light kinds (``_direction`` computes
+each one's direction, distance, attenuation and cone), the attenuation laws and the reflectance
+models (``_cosines``, ``_specular``). :func:`applies` is the dispatch:
+:class:`~raycast_shade.shading.shade.SampleShading` takes this kernel only for a frame all of whose
+lights, laws and Phong models are declared there and that has no textures, colours, bump or
+normal maps (facts known before the cast); everything else goes to the general kernel, the one
+evaluator (:func:`.illumination._reflected`). A new light kind or model is therefore never shaded
+here as another one: it takes the general kernel until these passes implement it and it is
+declared.
 """
 
 from __future__ import annotations
@@ -49,10 +56,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ..common.layout import (ATT_HEURISTIC, ATT_INVERSE_SQUARE, CAM_EYE, CAM_FORWARD, CAM_ORTHO, LIGHT_ATT,
-                             LIGHT_DIRECTIONAL, LIGHT_K, LIGHT_KIND, LIGHT_RADIANCE, LIGHT_SHADOWS, LIGHT_SPOT,
-                             LIGHT_VEC, MAT_KA, MAT_KD, MAT_KE, MAT_KS, MAT_MODEL, MAT_SHININESS, METHOD_PHONG,
-                             MODEL_BLINN)
+from ..common.layout import (ATT_HEURISTIC, ATT_INVERSE_SQUARE, ATT_NONE, CAM_EYE, CAM_FORWARD, CAM_ORTHO,
+                             LIGHT_ATT, LIGHT_DIRECTIONAL, LIGHT_K, LIGHT_KIND, LIGHT_POINT, LIGHT_RADIANCE,
+                             LIGHT_SHADOWS, LIGHT_SPOT, LIGHT_VEC, MAT_KA, MAT_KD, MAT_KE, MAT_KS, MAT_MODEL,
+                             MAT_SHININESS, METHOD_PHONG, MODEL_BLINN, MODEL_PHONG)
 from ..common.prefetch import PREFETCH_BYTES, prefetch
 from ..common.schedule import BLOCK_ROWS, spread_step
 from ..visibility.embree import RAY16_SLOTS, RAY_DIR, RAY_ORG, RAY_TFAR
@@ -66,10 +73,18 @@ from .shadows import LANES as PACKET_LANES, _packets, _shadow_ray, _strip_backgr
 from .terms_kernel import (TERM_AMBIENT, TERM_DIFFUSE, TERM_EMISSIVE, TERM_SPECULAR, TERMS_EMIT_ON, TERMS_SHADOW,
                            _hit_background, _miss, _store)
 
-__all__ = ["LANES", "applies"]
+__all__ = ["LANES", "applies", "HANDLES"]
 
 _TILE = 4  # a shadowed frame's pixels are queued by tiles of 4x4 (BLOCK_ROWS is a multiple of it)
 _NO_NORMALS = np.empty((0, 0, 3), np.float32)  # the kernel's normal output when none is asked for
+
+
+HANDLES = {
+    "light_kinds": frozenset({LIGHT_POINT, LIGHT_DIRECTIONAL, LIGHT_SPOT}),  # _direction's branches
+    "attenuations": frozenset({ATT_NONE, ATT_INVERSE_SQUARE, ATT_HEURISTIC}),  # _direction's laws
+    "models": frozenset({MODEL_PHONG, MODEL_BLINN}),  # _cosines' and _specular's lobes
+}
+"""What the batched passes implement (layout codes): a frame with anything else takes the general kernel."""
 
 
 def applies(modes, k) -> bool:
@@ -86,12 +101,18 @@ def applies(modes, k) -> bool:
     -------
     bool
         True for a frame without textures or mesh colours whose Phong models have neither a bump
-        map nor a normal map (shadow rays or not).
+        map nor a normal map (shadow rays or not), all of whose lights are of the kinds, with the
+        attenuation laws, and whose Phong models use the reflectance models of :data:`HANDLES`.
     """
     phong = np.asarray(modes) == METHOD_PHONG
-    B = k["B"]
-    return (not k["tex_on"] and not bool(np.any(B[2][phong] >= 0))
-            and not bool(np.any(B[5][phong] >= 0)))
+    B, lights = k.bumps, k.lighting.lights
+    if k.tex_on or bool(np.any(B.bump_index[phong] >= 0)) or bool(np.any(B.nmap_index[phong] >= 0)):
+        return False
+    kinds = lights[:, LIGHT_KIND]
+    laws = lights[kinds != LIGHT_DIRECTIONAL, LIGHT_ATT]  # a light at infinity reads no law
+    return (all(float(c) in HANDLES["light_kinds"] for c in kinds)
+            and all(float(c) in HANDLES["attenuations"] for c in laws)
+            and all(float(c) in HANDLES["models"] for c in k.materials[phong, MAT_MODEL]))
 
 
 @njit(**HELPER)
@@ -385,7 +406,7 @@ def _add_terms(S, k, c, ar, nd, spec, lit):
 
 
 @njit(**HELPER)
-def _accumulate(S, lights, i, spec_on, terms):
+def _accumulate(S, lights, i, terms):
     """Add light ``i``'s ``att Ii (kd n.s + Ks spec)`` to the lanes it lights; ``terms`` (a
     constant of the kernel): also its diffuse part ``att Ii (kd n.s)`` to ``_TD`` and its
     specular part ``att Ii (Ks spec)`` to ``_TS``, formed as terms_kernel._illuminate_terms forms
@@ -396,9 +417,7 @@ def _accumulate(S, lights, i, spec_on, terms):
     for k in range(LANES):
         flags = S[_LIT * LANES + k]
         lit = (flags == 1.0) | (flags == 3.0)
-        spec = 0.0
-        if spec_on:
-            spec = S[_PW * LANES + k] if flags >= 2.0 else 0.0
+        spec = S[_PW * LANES + k] if flags >= 2.0 else 0.0  # 2 is set only by _specular (spec_on)
         att = S[_ATT * LANES + k]
         nd = S[_ND * LANES + k]
         r = S[(_R + 0) * LANES + k]
@@ -421,7 +440,7 @@ def _shade_batch(S, XY, n, G, L, cam, Q, spec_on, att_on, shadows_on, terms):
     """Shade the lanes (``n`` of them queued, the rest an earlier batch's or zeros); with
     ``shadows_on`` (a scene handle), the lights that cast shadows trace them (:func:`_shadow_pass`);
     ``terms``: sum the diffuse and specular terms too (:func:`_accumulate`)."""
-    ambient, lights, dmin, handle, unit = L
+    ambient, lights, dmin, handle, unit = L.ambient, L.lights, L.dmin, L.handle, L.unit
     nblinn = 0
     npow = 0
     top = 0.0
@@ -445,7 +464,7 @@ def _shade_batch(S, XY, n, G, L, cam, Q, spec_on, att_on, shadows_on, terms):
             _shadow_pass(S, n, lights, i, handle, unit, Q)
         if spec_on:
             _specular(S, nbits, npow > 0)
-        _accumulate(S, lights, i, spec_on, terms)
+        _accumulate(S, lights, i, terms)
 
 
 @njit(**HELPER)
@@ -496,7 +515,7 @@ def _scatter_terms(S, XY, n, R, y0, ambient):
             shadow[i, ty, x] = 1.0
 
 
-def _make_phong_fast(spec_on: bool, att_on: bool, terms_on: bool = False, shadows_on: bool = False):
+def _make_phong_fast(terms_on: bool = False, shadows_on: bool = False):
     """The batched Phong kernel for one variant (see :mod:`.jit`; untextured only). ``terms_on``:
     the kernel that also writes the frame's terms (``render(terms=True)``, never with shadows);
     ``shadows_on``: the frame's lights cast shadows (a scene handle in ``L``), traced from the lanes."""
@@ -511,14 +530,15 @@ def _make_phong_fast(spec_on: bool, att_on: bool, terms_on: bool = False, shadow
         ``_NO_NORMALS`` for none. The terms kernel's ``outs = (image, normal, R, y0)``: also each
         pixel's terms into the terms record ``R`` (:mod:`.terms_kernel`, without per-light terms)
         at image row ``y0 + y``, the numbers :func:`.terms_kernel._make_phong_terms` writes."""
+        spec_on, att_on = L.spec_on, L.att_on  # run-time flags of the frame (records.Lighting)
         if terms_on:  # a closure constant: Numba prunes the other branch before typing
             image, normal, R, y0 = outs
         else:
             image, normal, rays = outs
         bg = (np.float32(background[0]), np.float32(background[1]), np.float32(background[2]))
         h, w = prim.shape
-        faces, fnormals = G[2], G[3]
-        ahead = G[0].nbytes + G[1].nbytes + faces.nbytes + fnormals.nbytes > PREFETCH_BYTES
+        faces, fnormals = G.faces, G.face_normals
+        ahead = G.verts.nbytes + G.normals.nbytes + faces.nbytes + fnormals.nbytes > PREFETCH_BYTES
         # The pixels are queued row by row; with shadows, by 4x4 tiles (each row-major: a packet's 16
         # lanes neighbours both ways, coherent rays), after their strip's background (_strip_background).
         th = _TILE if shadows_on else 1
@@ -567,9 +587,9 @@ def _make_phong_fast(spec_on: bool, att_on: bool, terms_on: bool = False, shadow
                                 filled = _flush(S, XY, n, mixed, filled, materials, G, L, cam, (image, normal), Q,
                                                 spec_on, att_on, shadows_on, terms_on)
                                 if terms_on:
-                                    _scatter_terms(S, XY, n, R, y0, L[0])
+                                    _scatter_terms(S, XY, n, R, y0, L.ambient)
                                 else:
-                                    hand_over_lanes(S, XY, n, materials, L[4], rays)
+                                    hand_over_lanes(S, XY, n, materials, L.unit, rays)
                                 n = 0
                                 mixed = False
             if n > 0:  # the lanes past n hold an earlier batch's pixels (or zeros): shaded, not written
@@ -577,13 +597,13 @@ def _make_phong_fast(spec_on: bool, att_on: bool, terms_on: bool = False, shadow
                 _flush(S, XY, n, mixed, filled, materials, G, L, cam, (image, normal), Q, spec_on, att_on,
                        shadows_on, terms_on)
                 if terms_on:
-                    _scatter_terms(S, XY, n, R, y0, L[0])
+                    _scatter_terms(S, XY, n, R, y0, L.ambient)
                 else:
-                    hand_over_lanes(S, XY, n, materials, L[4], rays)
+                    hand_over_lanes(S, XY, n, materials, L.unit, rays)
 
     return _shade_phong_fast_kernel
 
 
-_PHONG_FAST = {(s, a): _make_phong_fast(s, a) for s in (False, True) for a in (False, True)}
-_PHONG_FAST_TERMS = {(s, a): _make_phong_fast(s, a, terms_on=True) for s in (False, True) for a in (False, True)}
-_PHONG_FAST_SHADOWS = {(s, a): _make_phong_fast(s, a, shadows_on=True) for s in (False, True) for a in (False, True)}
+_PHONG_FAST = _make_phong_fast()  # one build each: the frame's flags are run-time fields of L
+_PHONG_FAST_TERMS = _make_phong_fast(terms_on=True)
+_PHONG_FAST_SHADOWS = _make_phong_fast(shadows_on=True)

@@ -238,7 +238,7 @@ class SampleShading:
         self.vcol = np.zeros((len(self.geo.vertices), 2, 3), np.float64) if self.gouraud else None
         # Specular vertex light apart from the diffuse: the textured "modulate" path only.
         self.vspec = np.zeros((len(self.geo.vertices) if self.k["tex_on"] and self.gouraud else 1, 2, 3), np.float64)
-        self.ahead = prefetch_distance(self.k["G"][2], self.vcol) if self.gouraud else 0
+        self.ahead = prefetch_distance(self.k.geometry.faces, self.vcol) if self.gouraud else 0
 
     def _share(self, hits):
         """Shade the faces and vertex sides ``hits`` sees that no earlier sample saw."""
@@ -283,11 +283,11 @@ class SampleShading:
         normals = _NO_NORMALS if normal is None else normal
         outs = (image, normals, NO_RAYS if rays is None else rays)
         if self.fast_phong:  # shadow rays (a scene handle) go as packets of 16 of its lanes
-            fast = _PHONG_FAST_SHADOWS if k["L"][3] != 0 else _PHONG_FAST
-            fast[k["spec_on"], k["att_on"]](hits.prim, hits.geom, hits.u, hits.v, k["G"], k["L"], k["face_off"],
+            fast = _PHONG_FAST_SHADOWS if k.lighting.handle != 0 else _PHONG_FAST
+            fast(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["L"], k["face_off"],
                                             k["materials"], k["cam"], k["background"], modes, outs)
         elif self.phong:  # textures or maps; shadow rays (a scene handle) go as packets of 4x4 pixels
-            variant(_PHONG_PACKETS if k["L"][3] != 0 else _PHONG, k)(
+            variant(_PHONG_PACKETS if k.lighting.handle != 0 else _PHONG, k)(
                 hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["T"], k["face_off"], k["materials"],
                 k["cam"], k["background"], modes, outs, y0)
         return image

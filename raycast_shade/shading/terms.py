@@ -47,31 +47,23 @@ one pass (:class:`.termshade.TermShading`; :mod:`.terms_kernel`, and
 pixel's, a flat face's, a Gouraud vertex's) evaluated once with its parts
 stored apart, the same numbers the variant passes give (measured equal, bit
 for bit, on the test scenes); the frame is rendered band by band like a
-plain one. The variant passes (:func:`_variant_terms`) are the definition
-those are tested against.
-
-Every variant is the frame's kernel inputs with other material rows, mesh
-colours or lights (:func:`variant_inputs`): the packed geometry, the BVH, the
-height maps and texels are the frame's, so a term costs one shading pass, no
-repacking.
+plain one. The variant passes, one shading pass of the frame's kernel
+inputs with other material rows, mesh colours or lights each, are the
+definition those are tested against; they live with the other oracles
+(:mod:`raycast_shade.study.variant_terms`).
 """
 
 from __future__ import annotations
 
 import copy
-import dataclasses
 
 import numpy as np
 
-from ..common.layout import (ATT_NONE, COLOR_FACE, LIGHT_ATT, LIGHT_DIRECTIONAL, LIGHT_KIND, LIGHT_SHADOWS,
-                             LIGHT_SIZE, MAT_KA, MAT_KD, MAT_KE, MAT_KS, MAT_REFLECTIVITY,
-                             TEXMAP_KD)
-from ..scene.lights import PointLight
+from ..common.layout import MAT_REFLECTIVITY, TEXMAP_KD
 from .inputs import prepare
-from .shade import SampleShading
 from .termshade import TermShading
 
-__all__ = ["TERM_OPTIONS", "check_terms", "shade_terms", "compose_terms", "variant_inputs", "with_materials"]
+__all__ = ["TERM_OPTIONS", "check_terms", "shade_terms", "compose_terms", "with_materials"]
 
 TERM_OPTIONS = ("per_light",)
 
@@ -114,7 +106,8 @@ def with_materials(scene, materials, colors=None, **changes):
     and the memo of acceleration structures, so shading it needs no
     repacking and no new BVH. For the material explorer
     (:mod:`raycast_shade.apps.explore`), whose frames carry the varied scene;
-    the terms vary the frame's kernel inputs instead (:func:`variant_inputs`).
+    the terms' definition varies the frame's kernel inputs instead
+    (:func:`raycast_shade.study.variant_terms.variant_inputs`).
     Its ``models`` still hold the original materials.
 
     Parameters
@@ -138,77 +131,6 @@ def with_materials(scene, materials, colors=None, **changes):
     return scene.replace(geometry=twin, **changes)
 
 
-def variant_inputs(inputs, origin, materials=None, colors=None, lights=None):
-    """The frame's kernel inputs with other material rows, colours or lights, on a black background.
-
-    Everything else (geometry, BVH, height maps, texels, camera row) is the frame's own,
-    shared, not repacked. The compile-time flags are those :func:`.inputs.prepare` would
-    give the varied scene, so the kernels are the variants they would be.
-
-    Parameters
-    ----------
-    inputs : FrameInputs
-        The frame's (:func:`.inputs.prepare`).
-    origin : (3,) float64
-        The scene's re-centring origin (lights pack themselves relative to it).
-    materials : (G, MAT_SIZE) float64, optional
-        Other material rows.
-    colors : float, optional
-        Every vertex and face colour set to this value (0: no kd from the mesh; 1: a
-        white kd, with the kd maps dropped too). ``None`` keeps them.
-    lights : sequence of Light, optional
-        Other lights (``()``: none). ``None`` keeps the frame's.
-
-    Returns
-    -------
-    FrameInputs
-    """
-    changes = dict(background=np.zeros(3))
-    mats = inputs.materials if materials is None else np.ascontiguousarray(materials, np.float64)
-    changes["materials"] = mats
-    if colors is not None and inputs.tex_on:
-        vc, fc, mode, tex_index, texels, info, _ = inputs.colours
-        if colors != 0:
-            tex_index = tex_index.copy()
-            tex_index[:, TEXMAP_KD] = -1
-        # The Gouraud "modulate" flag from the new maps, as prepare() derives it.
-        modulate = ((tex_index >= 0).any(axis=1) | (mode == COLOR_FACE)).astype(np.uint8)
-        changes["colours"] = (np.full_like(vc, colors), np.full_like(fc, colors), mode, tex_index, texels, info,
-                              modulate)
-    rows = inputs.lighting[1]
-    if lights is not None:
-        ambient, _, dmin, handle, unit = inputs.lighting
-        rows = np.zeros((len(lights), LIGHT_SIZE))
-        for i, light in enumerate(lights):
-            rows[i] = light.pack(origin)
-        # prepare() passes the BVH only when a light casts shadows (it moves the shadow-ray origin).
-        handle = handle if rows[:, LIGHT_SHADOWS].any() else np.uintp(0)
-        changes["lighting"] = (ambient, rows, dmin, handle, unit)
-    changes["spec_on"] = bool(np.any(mats[:, MAT_KS:MAT_KS + 3] > 0))
-    changes["att_on"] = bool(np.any((rows[:, LIGHT_KIND] != LIGHT_DIRECTIONAL) & (rows[:, LIGHT_ATT] != ATT_NONE)))
-    return dataclasses.replace(inputs, **changes)
-
-
-def _rows(materials, keep):
-    """Material rows with the coefficient slots not in ``keep`` zeroed."""
-    out = materials.copy()
-    for slot in (MAT_KA, MAT_KD, MAT_KS, MAT_KE):
-        if slot not in keep:
-            out[:, slot:slot + 3] = 0.0
-    return out
-
-
-def _shadow_probe(light):
-    """Two unit white lights where ``light`` is, one tracing shadow rays into
-    the red channel, one not into green: their ratio is the shadow fraction."""
-    if isinstance(light, PointLight):
-        common = dict(intensity=1.0, attenuation="none")
-    else:
-        common = dict(intensity=1.0)
-    return (dataclasses.replace(light, color=(1.0, 0.0, 0.0), shadows=True, **common),
-            dataclasses.replace(light, color=(0.0, 1.0, 0.0), shadows=False, **common))
-
-
 def shade_terms(scene, camera, hits, shading, max_depth: int = 0, per_light: bool = False, inputs=None) -> dict:
     """Each term of the reflectance equation shaded over a hit buffer.
 
@@ -222,7 +144,7 @@ def shade_terms(scene, camera, hits, shading, max_depth: int = 0, per_light: boo
         Also each light's diffuse and specular term.
     inputs : FrameInputs, optional
         The frame's kernel inputs (:func:`.inputs.prepare`); packed here when not given.
-        Every term shades a variant of them (:func:`variant_inputs`): nothing is repacked.
+        The image's own pass writes the terms: nothing is repacked.
 
     Returns
     -------
@@ -237,44 +159,6 @@ def shade_terms(scene, camera, hits, shading, max_depth: int = 0, per_light: boo
     shader = TermShading(scene, camera, shading, k, per_light)  # the image's own pass writes the terms
     shader.shade(hits)
     return shader.terms(hits, max_depth)
-
-
-def _variant_terms(scene, shaded, mats, h, w, per_light) -> dict:
-    """The local terms, per-light terms and shadow mask, one shading pass of a variant each:
-    the definition the one-pass terms (:class:`.termshade.TermShading`) are tested against
-    (``shaded(**variant)`` shades a variant of the frame's inputs, :func:`variant_inputs`)."""
-    out = {
-        "ambient": shaded(materials=_rows(mats, (MAT_KA,)), lights=()),
-        "diffuse": shaded(materials=_rows(mats, (MAT_KD,))),
-        "specular": shaded(materials=_rows(mats, (MAT_KS,)), colors=0.0),
-    }
-    if np.any(mats[:, MAT_KE:MAT_KE + 3] > 0):
-        out["emissive"] = shaded(materials=_rows(mats, (MAT_KE,)), lights=())
-    else:  # no emission anywhere: no shading pass
-        out["emissive"] = np.zeros((h, w, 3), np.float32)
-    if per_light:
-        for name, slot, colors in (("diffuse", MAT_KD, None), ("specular", MAT_KS, 0.0)):
-            rows = _rows(mats, (slot,))
-            out[f"{name}_per_light"] = np.stack(
-                [shaded(materials=rows, colors=colors, lights=(light,)) for light in scene.lights]
-            ) if scene.lights else np.zeros((0, h, w, 3), np.float32)
-    out["shadow"] = _shadow_mask(scene, shaded, (h, w), mats)
-    return out
-
-
-def _shadow_mask(scene, shaded, shape, mats) -> np.ndarray:
-    """(L, H, W) float32, see the module docstring; ``shaded(**variant)`` shades a variant."""
-    mask = np.ones((len(scene.lights),) + shape, np.float32)
-    probe = _rows(mats, ())
-    probe[:, MAT_KD:MAT_KD + 3] = 1.0
-    for i, light in enumerate(scene.lights):
-        if not light.shadows:
-            continue
-        img = shaded(materials=probe, colors=1.0, lights=_shadow_probe(light))
-        through, reached = img[..., 0].astype(np.float64), img[..., 1].astype(np.float64)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            mask[i] = np.where(reached > 0.0, np.minimum(through / reached, 1.0), 1.0)
-    return mask
 
 
 def compose_terms(terms: dict) -> np.ndarray:

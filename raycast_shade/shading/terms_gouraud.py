@@ -33,7 +33,7 @@ from ..common.schedule import BLOCK_ROWS, spread_step
 from .gouraud import (_corner_normal, _corner_shade, _modulate, _prefetch_pixel, _split_shade, _stored_pixel,
                       _vertex_kd, _vertex_point)
 from .gouraud_sides import _near_face
-from .illumination import _light_at
+from .illumination import _light_at, _samples
 from .jit import CALLED, CHUNK, FLT32_MAX, HELPER, JIT, compile_variants
 from .records import At, Hit, dot
 from .shadows import _scratch
@@ -53,19 +53,22 @@ _SPLIT = (0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0)  # the mod
 
 @njit(**HELPER)
 def _reach(lights, p, n, dmin, att_on, reach, row):
-    """Each light's ``cone (n.s)`` at ``p`` with normal ``n`` into ``reach[:, row, 0]`` (0 where
-    it does not reach): what the shadow probe's unit light gives there unshadowed."""
+    """Each light's ``cone (n.s)`` at ``p`` with normal ``n``, summed over its samples, into
+    ``reach[:, row, 0]`` (0 where it does not reach): what the shadow probe's unit light gives
+    there unshadowed."""
     for i in range(lights.shape[0]):
-        reach[i, row, 0] = 0.0
-        s, d, att, cone = _light_at(lights, i, p, dmin, np.bool_(att_on))
-        if d == 0.0 or cone == 0.0:
-            continue
-        ndots = dot(n, s)
-        if ndots <= 0.0:
-            continue
-        if ndots > 1.0:
-            ndots = 1.0
-        reach[i, row, 0] = cone * ndots
+        total = 0.0
+        for j in range(_samples(lights, i)):
+            s, d, att, cone = _light_at(lights, i, j, p, dmin, np.bool_(att_on))
+            if d == 0.0 or cone == 0.0:
+                continue
+            ndots = dot(n, s)
+            if ndots <= 0.0:
+                continue
+            if ndots > 1.0:
+                ndots = 1.0
+            total += cone * ndots
+        reach[i, row, 0] = total
 
 
 @njit(**HELPER)
@@ -84,17 +87,18 @@ def _vertex_side(V, hp, coef, materials, m, L, S, spec_on, att_on, splitting, i,
     vcol[i, side, 0] = rgb[0]
     vcol[i, side, 1] = rgb[1]
     vcol[i, side, 2] = rgb[2]
-    if L[3] != 0:  # the reach is read only for the mask of a light with shadow rays (_pixel_lights)
-        _reach(L[1], hp.p, hp.n, L[2], att_on, V[VERT_REACH], row)
+    if L.handle != 0:  # the reach is read only for the mask of a light with shadow rays (_pixel_lights)
+        _reach(L.lights, hp.p, hp.n, L.dmin, att_on, V[VERT_REACH], row)
 
 
-def _make_vertex_terms(spec_on: bool, att_on: bool, tex_on: bool = False):
+def _make_vertex_terms(tex_on: bool = False):
     """The per-vertex colours-and-terms kernel for one variant (see :mod:`.jit`)."""
 
     @njit(parallel=True, **JIT)
     def _vertex_terms_kernel(vertex_flags, G, vertex_model, materials, cam, L, T, V):
         """Each flagged vertex side's colours and terms (``vertex_flags`` (V, 2): front, back;
         ``V``: the vertex record, see the module docstring)."""
+        spec_on, att_on = L.spec_on, L.att_on  # run-time flags of the frame (records.Lighting)
         verts, normals, _, _ = G
         vcolors, fcolors, cmode, tindex, ttexels, tinfo, split = T
         n = verts.shape[0]
@@ -151,8 +155,8 @@ def _corner_terms(V, C, G, i, side, g, materials, m, cam, L, S, coef, spec_on, a
         return
     p, v = _vertex_point(verts, cam, i)
     _illuminate_terms(Hit(p, v, g, 1.0, n, p), coef, materials, m, L, S, spec_on, att_on, C, k, 0)
-    if L[3] != 0:
-        _reach(L[1], p, n, L[2], att_on, C[VERT_REACH], k)
+    if L.handle != 0:
+        _reach(L.lights, p, n, L.dmin, att_on, C[VERT_REACH], k)
 
 
 @njit(**HELPER)
@@ -173,7 +177,7 @@ def _pixel_terms(R, C, rows, L, w, ty, x, coef, splitting):
     record, or the corner scratch) with weights ``w``: interpolated, or on the modulate path
     (``splitting``) the interpolated light times the pixel's coefficients (``L`` whole: an
     array taken out of it in the kernel's loop would cost a reference count per pixel)."""
-    ambient = L[0]
+    ambient = L.ambient
     kar, kag, kab, kdr, kdg, kdb, ksr, ksg, ksb, ker, keg, keb = coef
     if splitting:
         _store(R[TERM_AMBIENT], ty, x, ambient[0] * kar, ambient[1] * kag, ambient[2] * kab)
@@ -206,7 +210,7 @@ def _pixel_lights(R, C, rows, L, w, ty, x, coef, splitting):
     w0, w1, w2 = w
     r0, r1, r2 = rows
     kar, kag, kab, kdr, kdg, kdb, ksr, ksg, ksb, ker, keg, keb = coef
-    lights, handle = L[1], L[3]
+    lights, handle = L.lights, L.handle
     each, shadow, reach, vis = R[TERMS_EACH], R[TERMS_SHADOW], C[VERT_REACH], C[TERMS_SHADOW]
     for i in range(shadow.shape[0]):
         if handle == 0 or lights[i, LIGHT_SHADOWS] == 0.0:
@@ -286,17 +290,18 @@ def _prefetch_terms(prim, geom, face_off, faces, V, y, x, ahead):
             prefetch(V[TERM_SPECULAR], i)
 
 
-def _make_gouraud_terms(spec_on: bool, att_on: bool, tex_on: bool = False):
+def _make_gouraud_terms(tex_on: bool = False):
     """The Gouraud image-and-terms pixel kernel for one variant (see :mod:`.jit`)."""
 
     @njit(parallel=True, **JIT)
     def _gouraud_terms_kernel(prim, geom, u, v, G, B, face_off, materials, cam, L, T, modes, image, R, V):
         """:mod:`.gouraud`'s pixel kernel (the image, the same arithmetic) that also writes each
         pixel's terms into ``R`` at row ``y0 + y`` (``y0`` and the vertex colours: ``V``)."""
+        spec_on, att_on = L.spec_on, L.att_on  # run-time flags of the frame (records.Lighting)
         vcol, vspec, y0 = V[VERT_COL], V[VERT_SPEC], V[VERT_Y0]
         state, ahead = V[VERT_STATE], V[VERT_AHEAD]
         verts, normals, faces, fnormals = G
-        uvs = B[0]
+        uvs = B.uvs
         vcolors, fcolors, cmode, tindex, ttexels, tinfo, split = T
         h, w = prim.shape
         nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS

@@ -1,10 +1,11 @@
 """The terms in the shading pass itself: each point's equation evaluated once, the image and
 its parts stored together.
 
-:func:`_illuminate_terms` is :func:`~raycast_shade.shading.illumination._illuminate`'s light
-loop with each part also accumulated apart and stored in its own output; it returns the summed
-colour :func:`~raycast_shade.shading.illumination._illuminate` returns, by the same arithmetic
-in the same order, so the image a terms pass writes is the plain frame's, bit for bit. The
+:func:`_illuminate_terms` is the one evaluator,
+:func:`~raycast_shade.shading.illumination._reflected`, given a terms record: each part is also
+accumulated apart and stored in its own output, and the summed colour is the one the plain
+frame's kernels get from the same function, so the image a terms pass writes is the plain
+frame's, bit for bit. The
 kernels below write the image and the terms of their method's pixels in one pass, where the
 variant passes of :mod:`.terms` would shade the frame once per term, per light and per shadow
 probe. ``R``, the terms record every kernel writes into, is the flat tuple
@@ -43,103 +44,29 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ..common.layout import (LIGHT_RADIANCE, LIGHT_SHADOWS, LIGHT_VEC, MAT_KS, MAT_MODEL, MAT_SHININESS,
-                             METHOD_PHONG)
+from ..common.layout import METHOD_PHONG
 from ..common.schedule import BLOCK_ROWS, spread_step
-from .illumination import _light_at, _power
+from .illumination import _NO_VIS, _reflected
 from .jit import FLT32_MAX, HELPER, JIT, compile_variants
 from .phong import _surface
-from .records import At, Hit, dot
-from .reflectance import _specular_cosine
-from .shadows import _occluded, _scratch
+from .records import (TERM_AMBIENT, TERM_BACKGROUND, TERM_DIFFUSE, TERM_EMISSIVE, TERM_SLOTS, TERM_SPECULAR,
+                      TERMS_BACKGROUND_RGB, TERMS_BG_ON, TERMS_EACH, TERMS_EMIT_ON, TERMS_SHADOW, At, Hit, store3)
+from .shadows import _scratch
 from .surface import _terminator_point, _triangle
 from .texture import _point_coefficients, _row_coefficients
 
 __all__ = ["TERM_AMBIENT", "TERM_DIFFUSE", "TERM_SPECULAR", "TERM_EMISSIVE", "TERM_BACKGROUND", "TERM_SLOTS",
            "TERMS_EACH", "TERMS_SHADOW", "TERMS_EMIT_ON", "TERMS_BG_ON", "TERMS_BACKGROUND_RGB"]
 
-TERM_AMBIENT, TERM_DIFFUSE, TERM_SPECULAR, TERM_EMISSIVE, TERM_BACKGROUND = 0, 1, 2, 3, 4
-# The term images of a terms record R, in order: the names on frame.terms
-TERM_SLOTS = ("ambient", "diffuse", "specular", "emissive", "background")
-# The rest of a terms record R, after its five term images (one flat tuple: Numba's parallel
-# loops take a tuple of arrays as an argument, not a tuple of tuples).
-TERMS_EACH, TERMS_SHADOW, TERMS_EMIT_ON, TERMS_BG_ON, TERMS_BACKGROUND_RGB = 5, 6, 7, 8, 9
-
-
-@njit(**HELPER)
-def _store(arr, y, x, r, g, b):
-    arr[y, x, 0] = min(r, FLT32_MAX)
-    arr[y, x, 1] = min(g, FLT32_MAX)
-    arr[y, x, 2] = min(b, FLT32_MAX)
+_store = store3  # the name the terms kernels have used
 
 
 @njit(**HELPER)
 def _illuminate_terms(hp, coef, mats, mi, L, S, spec_on, att_on, R, y, x):
-    """:func:`~raycast_shade.shading.illumination._illuminate` at ``hp``, returning the same
-    RGB (the same operations in the same order), with its parts also stored at ``(y, x)`` of
-    the terms record ``R`` (see the module docstring)."""
-    ambient, lights, dmin, handle, unit = L
-    per_light, shadow, emit_on = R[TERMS_EACH], R[TERMS_SHADOW], R[TERMS_EMIT_ON]
-    kar, kag, kab, kdr, kdg, kdb, ksr, ksg, ksb, ker, keg, keb = coef
-    n = hp.n
-    r = ambient[0] * kar
-    g = ambient[1] * kag
-    b = ambient[2] * kab
-    _store(R[TERM_AMBIENT], y, x, r, g, b)
-    if emit_on:
-        _store(R[TERM_EMISSIVE], y, x, ker, keg, keb)
-    dr = dg = db = sr = sg = sb = 0.0
-    shin = mats[mi, MAT_SHININESS]
-    model = mats[mi, MAT_MODEL]
-    has_spec = mats[mi, MAT_KS + 0] > 0.0 or mats[mi, MAT_KS + 1] > 0.0 or mats[mi, MAT_KS + 2] > 0.0
-    each = per_light.shape[1] > 0
-    for i in range(lights.shape[0]):
-        shadow[i, y, x] = 1.0
-        if each:
-            for c in range(3):
-                per_light[0, i, y, x, c] = 0.0
-                per_light[1, i, y, x, c] = 0.0
-        s, d, att, cone = _light_at(lights, i, hp.p, dmin, np.bool_(att_on))
-        if d == 0.0 or cone == 0.0:
-            continue
-        att *= cone
-        ndots = dot(n, s)
-        if ndots <= 0.0:
-            continue
-        if ndots > 1.0:
-            ndots = 1.0
-        if lights[i, LIGHT_SHADOWS] != 0.0 and handle != 0:
-            target = (lights[i, LIGHT_VEC + 0], lights[i, LIGHT_VEC + 1], lights[i, LIGHT_VEC + 2])
-            if _occluded(handle, S, hp.o, hp.g, s, target, d < np.inf, unit):
-                # The variants' probe: blocked where a unit light would have reached it (float32).
-                if np.float32(cone * ndots) > 0.0:
-                    shadow[i, y, x] = 0.0
-                continue
-        spec = 0.0
-        if spec_on and has_spec:
-            c = _specular_cosine(model, n, s, hp.v, ndots)
-            if c > 0.0:
-                spec = _power(min(c, 1.0), shin)
-        ar = att * lights[i, LIGHT_RADIANCE + 0]
-        ag = att * lights[i, LIGHT_RADIANCE + 1]
-        ab = att * lights[i, LIGHT_RADIANCE + 2]
-        r += ar * (kdr * ndots + ksr * spec)  # _illuminate's sum, as it forms it
-        g += ag * (kdg * ndots + ksg * spec)
-        b += ab * (kdb * ndots + ksb * spec)
-        pdr, pdg, pdb = ar * (kdr * ndots), ag * (kdg * ndots), ab * (kdb * ndots)
-        psr, psg, psb = ar * (ksr * spec), ag * (ksg * spec), ab * (ksb * spec)
-        dr += pdr
-        dg += pdg
-        db += pdb
-        sr += psr
-        sg += psg
-        sb += psb
-        if each:
-            _store(per_light[0, i], y, x, pdr, pdg, pdb)
-            _store(per_light[1, i], y, x, psr, psg, psb)
-    _store(R[TERM_DIFFUSE], y, x, dr, dg, db)
-    _store(R[TERM_SPECULAR], y, x, sr, sg, sb)
-    return r + ker, g + keg, b + keb
+    """:func:`~raycast_shade.shading.illumination._reflected` at ``hp`` with the terms record ``R``:
+    the same RGB (the same evaluator), its parts also stored at ``(y, x)`` of ``R`` (see the
+    module docstring); shadow rays traced one at a time."""
+    return _reflected(hp, coef, mats, mi, L, S, _NO_VIS, -1, spec_on, att_on, R, y, x)
 
 
 @njit(**HELPER)
@@ -172,7 +99,7 @@ def _hit_background(R, y, x):
             R[TERM_BACKGROUND][y, x, c] = 0.0
 
 
-def _make_phong_terms(spec_on: bool, att_on: bool, tex_on: bool = False):
+def _make_phong_terms(tex_on: bool = False):
     """The Phong image-and-terms kernel for one variant (see :mod:`.jit`)."""
 
     @njit(parallel=True, **JIT)
@@ -180,7 +107,8 @@ def _make_phong_terms(spec_on: bool, att_on: bool, tex_on: bool = False):
         """Every Phong pixel's colour into ``image`` (the band's rows) and its terms into ``R``
         at row ``y0 + y`` (see the module docstring); misses get the background, zero terms
         and an unshadowed mask."""
-        uvs = B[0]
+        spec_on, att_on = L.spec_on, L.att_on  # run-time flags of the frame (records.Lighting)
+        uvs = B.uvs
         h, w = prim.shape
         nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
         step = spread_step(nblk)
@@ -203,7 +131,7 @@ def _make_phong_terms(spec_on: bool, att_on: bool, tex_on: bool = False):
                     else:
                         coef = _row_coefficients(materials, gm)
                     hp = _surface(G, B, cam, at, np.bool_(False), (0.0, 0.0, 0.0))
-                    if L[3] != 0:  # shadow rays leave past the terminator, as _shade_surface's
+                    if L.handle != 0:  # shadow rays leave past the terminator, as _shade_surface's
                         verts, normals, faces, _ = G
                         o = _terminator_point(verts, normals, _triangle(faces, at.f), at.b1, at.b2, hp.p, hp.sgn)
                         hp = Hit(hp.p, hp.v, hp.g, hp.sgn, hp.n, o)

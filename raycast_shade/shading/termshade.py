@@ -164,7 +164,7 @@ class TermShading:
         self.gouraud = bool(np.any(self.modes == METHOD_GOURAUD))
         self.phong = bool(np.any(self.modes == METHOD_PHONG))
         h, w = camera.height, camera.width
-        nl = k.lighting[1].shape[0]
+        nl = k.lighting.lights.shape[0]
         emit_on = bool(np.any(k.materials[:, MAT_KE:MAT_KE + 3] > 0))
         bg_on = bool(np.any(k.background != 0))
         zeros = [_untouched_zeros((h, w, 3)) for _ in range(2)]  # untouched unless written
@@ -173,7 +173,7 @@ class TermShading:
         self.per_light = per_light
         # The batched Phong kernel (phong_fast) where it applies; per-light terms: the general one
         self.fast_phong = (self.phong and not per_light and _fast_applies(self.modes, k)
-                           and int(k["L"][3]) == 0)  # its terms build traces no shadow rays
+                           and int(k.lighting.handle) == 0)  # its terms build traces no shadow rays
         # Each visible face's colour and terms (each visible vertex's colours and terms), computed
         # once by the first band that sees it, into mesh-sized arrays an earlier frame left
         # (_spares): only the entries of seen faces and vertices are written, and only those read.
@@ -239,7 +239,7 @@ class TermShading:
             variant(_GOURAUD_TERMS, k)(hits.prim, hits.geom, hits.u, hits.v, k.geometry, k.bumps, k.face_off,
                                        k.materials, k.cam, k.lighting, k.colours, modes, image, self.R, V)
         if self.fast_phong:
-            _PHONG_FAST_TERMS[k.spec_on, k.att_on](hits.prim, hits.geom, hits.u, hits.v, k.geometry, k.lighting,
+            _PHONG_FAST_TERMS(hits.prim, hits.geom, hits.u, hits.v, k.geometry, k.lighting,
                                                    k.face_off, k.materials, k.cam, k.background, modes,
                                                    (image, _NO_NORMALS, self.R, y0))
         elif self.phong:

@@ -50,7 +50,7 @@ from numba import njit, prange
 
 from ..common.validate import as_rgb, as_scalar, as_vec3
 from ..scene.camera import Camera
-from ..scene.lights import DirectionalLight, PointLight
+from ..scene.lights import AreaLight, DirectionalLight, PointLight
 from .reference import spot_cone
 from ..scene.material import Material
 from ..visibility.rays import camera_frame, pixel_ray
@@ -418,6 +418,9 @@ def _reference_lights(lights):
     for i, light in enumerate(lights):
         if isinstance(light, DirectionalLight):
             out.append((True, -np.asarray(light.direction, np.float64), light.intensity * light.color, "none", 1.0))
+        elif isinstance(light, AreaLight):  # its samples, each 1/N of it (as the kernels)
+            out.extend((False, q, light.intensity * light.color / light.samples, light.attenuation, light.k, None)
+                       for q in light.sample_points())
         elif isinstance(light, PointLight):
             out.append((False, np.asarray(light.position, np.float64), light.intensity * light.color,
                         light.attenuation, light.k, spot_cone(light)))  # spot_cone: None but for a SpotLight

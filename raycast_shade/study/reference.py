@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..scene.lights import DirectionalLight, SpotLight
+from ..scene.lights import AreaLight, DirectionalLight, SpotLight
 from .reference_maps import _bilinear_level, _dot, normal_mapped
 
 __all__ = ["view_vectors", "facing", "interpolated_normal", "footprint_rho", "shade_reference", "shading_normals_reference", "hit_points", "illuminate_reference", "spot_cone",
@@ -107,11 +107,15 @@ def _lights(scene, origin):
     """The scene's lights as plain tuples ``(directional, vec, radiance, attenuation, k, cone)``.
 
     ``vec`` is the unit vector towards a directional light, or a point light's
-    re-centred position; ``cone`` is :func:`spot_cone`'s (``None`` but for spots).
+    re-centred position; ``cone`` is :func:`spot_cone`'s (``None`` but for spots). An area light
+    is its samples, each a point light with ``1/N`` of its radiance (as the kernels evaluate it).
     """
     out = []
     for light in scene.lights:
-        if isinstance(light, DirectionalLight):
+        if isinstance(light, AreaLight):
+            share = light.intensity * light.color / light.samples
+            out.extend((False, q - origin, share, light.attenuation, light.k, None) for q in light.sample_points())
+        elif isinstance(light, DirectionalLight):
             out.append((True, -np.asarray(light.direction, np.float64), light.intensity * light.color, "none", 1.0,
                         None))
         else:

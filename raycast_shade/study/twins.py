@@ -10,6 +10,9 @@ what renders.
 - :func:`corner_weights_numpy`: the corner weights of ``scene.normals._faces_kernel``;
 - :func:`generate_rays_numpy`: :func:`raycast_shade.visibility.rays.generate_rays`;
 - :func:`to_screen_space_numpy`: :func:`raycast_shade.visibility.interpolation.to_screen_space`;
+- :func:`suspicious_numpy`: the per-pixel test of ``visibility.holes`` (a ray that slipped
+  through a vertex), which its row count and gather kernels apply; :func:`isolated_misses_numpy`,
+  its misses alone (the benchmarks count them in a frame);
 - :func:`to_uint8_numpy`: :func:`raycast_shade.output.tonemap.to_uint8`.
 """
 
@@ -24,7 +27,7 @@ from ..visibility.interpolation import vertex_depths
 from ..visibility.rays import camera_frame
 
 __all__ = ["face_normals_numpy", "corner_weights_numpy", "generate_rays_numpy", "to_screen_space_numpy",
-           "to_uint8_numpy"]
+           "suspicious_numpy", "isolated_misses_numpy", "to_uint8_numpy"]
 
 
 # -- scene: normals --------------------------------------------------------------------------------
@@ -155,6 +158,56 @@ def to_screen_space_numpy(hits, geometry, camera) -> HitBuffer:
             u[hit] = np.where(ok, a[:, 1] / den, u[hit])
             v[hit] = np.where(ok, a[:, 2] / den, v[hit])
     return HitBuffer(prim=hits.prim, geom=hits.geom, u=u.astype(np.float32), v=v.astype(np.float32), t=hits.t)
+
+
+# -- visibility: the marks of a ray that slipped through a vertex -------------------------------------
+def suspicious_numpy(prim: np.ndarray, t: np.ndarray, jump: float) -> np.ndarray:
+    """Plain-NumPy twin of the per-pixel test of :mod:`raycast_shade.visibility.holes`.
+
+    A pixel is flagged when its left and right (or upper and lower) neighbours are hits and it
+    is a miss, or a hit farther than both of them by ``jump`` of their depth.
+
+    Parameters
+    ----------
+    prim : (H, W) int32
+        Triangle index, < 0 on a miss.
+    t : (H, W) float32
+        Ray distance.
+    jump : float
+        The depth jump, a fraction of the neighbours' depth.
+
+    Returns
+    -------
+    (H, W) bool
+    """
+    hit = prim >= 0
+    t = t.astype(np.float64)  # the kernel compares float64 products of the float32 depths
+    far = 1.0 + jump
+    out = np.zeros(prim.shape, np.bool_)
+    mid = (slice(None), slice(1, -1))
+    side = hit[:, :-2] & hit[:, 2:] & (~hit[mid] | ((t[mid] > far * t[:, :-2]) & (t[mid] > far * t[:, 2:])))
+    out[mid] |= side
+    mid = (slice(1, -1), slice(None))
+    over = hit[:-2] & hit[2:] & (~hit[mid] | ((t[mid] > far * t[:-2]) & (t[mid] > far * t[2:])))
+    out[mid] |= over
+    return out
+
+
+def isolated_misses_numpy(prim: np.ndarray) -> np.ndarray:
+    """The misses between two hits, left and right or above and below: the misses
+    :func:`suspicious_numpy` flags, whatever the depths.
+
+    Parameters
+    ----------
+    prim : (H, W) int32
+        Triangle index, < 0 on a miss.
+
+    Returns
+    -------
+    (H, W) bool
+    """
+    hit = np.pad(prim >= 0, 1, constant_values=False)
+    return ~hit[1:-1, 1:-1] & ((hit[1:-1, :-2] & hit[1:-1, 2:]) | (hit[:-2, 1:-1] & hit[2:, 1:-1]))
 
 
 # -- output: tone mapping ------------------------------------------------------------------------------

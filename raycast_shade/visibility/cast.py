@@ -66,7 +66,6 @@ from ..common.layout import CAM_ORTHO
 from . import holes
 from .holes import empty_hits, fill_holes, rays_at, row_suspicious
 from .holes import serial_twin as _serial_twin  # where scan.py looks for it
-from .holes import _count_isolated_kernel, _isolated_misses  # noqa: F401  (where tests look for them)
 from .watertight import nudged_rays, refine
 from .rays import camera_frame, generate_rays, offset_pair, subpixel_camera
 from .tiles import LANES, RAY, TILE_H, TILE_W, edge_hits, fixed_slots, row_terms, tile_columns, tile_hits, tile_rays

@@ -54,31 +54,6 @@ def serial_twin(kernel, name: str):
 _refine_serial = serial_twin(_refine_kernel, "_refine_serial")  # a few rays: no parallel launch
 
 
-@njit(cache=True, parallel=True)
-def _count_isolated_kernel(prim):
-    """How many pixels :func:`_isolated_misses` would flag (a parallel count, as
-    :func:`_count_suspicious_kernel` does for the whole re-test set)."""
-    h, w = prim.shape
-    rows = np.zeros(h, np.int64)
-    for y in prange(h):
-        row = 0
-        for x in range(w):
-            if prim[y, x] >= 0:
-                continue
-            if 0 < x < w - 1 and prim[y, x - 1] >= 0 and prim[y, x + 1] >= 0:
-                row += 1
-            elif 0 < y < h - 1 and prim[y - 1, x] >= 0 and prim[y + 1, x] >= 0:
-                row += 1
-        rows[y] = row
-    return rows.sum()
-
-
-def _isolated_misses(prim):
-    """(H, W) bool: misses between hits, left and right or above and below."""
-    hit = np.pad(prim >= 0, 1, constant_values=False)
-    return ~hit[1:-1, 1:-1] & ((hit[1:-1, :-2] & hit[1:-1, 2:]) | (hit[:-2, 1:-1] & hit[2:, 1:-1]))
-
-
 @njit(cache=True, inline="always")  # called per pixel: a call costs more than the test
 def _suspicious(prim, t, jump, y, x):
     """A miss between two hits, or a hit farther than both of them by ``jump`` of
@@ -145,15 +120,10 @@ def _suspicious_rows_kernel(prim, t, jump):
     return rows
 
 
-def _count_suspicious_kernel(prim, t, jump) -> int:
-    """How many pixels :func:`_suspicious` flags (the sum of :func:`_suspicious_rows_kernel`)."""
-    return int(_suspicious_rows_kernel(prim, t, jump).sum())
-
-
 @njit(cache=True)  # serial: it reads only the rows that have a flag, a parallel launch would cost more
 def _gather_kernel(prim, t, jump, rows, ys, xs):
-    """The flagged pixels' ``ys``, ``xs`` (n,) int64 in row-major order, as
-    ``np.nonzero`` of :func:`_suspicious_kernel`'s mask gives them."""
+    """The flagged pixels' ``ys``, ``xs`` (n,) int64 in row-major order, as ``np.nonzero``
+    of the mask of :func:`_suspicious` gives them."""
     k = 0
     for y in range(prim.shape[0]):
         if rows[y] == 0:
@@ -163,15 +133,6 @@ def _gather_kernel(prim, t, jump, rows, ys, xs):
                 ys[k] = y
                 xs[k] = x
                 k += 1
-
-
-@njit(cache=True, parallel=True)
-def _suspicious_kernel(prim, t, jump, out):
-    """(H, W) bool ``out``: the pixels :func:`_suspicious` flags."""
-    h, w = prim.shape
-    for y in prange(h):
-        for x in range(w):
-            out[y, x] = _suspicious(prim, t, jump, y, x)
 
 
 def rays_at(cam, xs, ys):

@@ -234,7 +234,7 @@ def test_pool_bad_input_names_the_field(scene, pool):
         (TypeError, "executor", dict(executor=2)),
         (ValueError, "workers", dict(executor="processes", workers=0)),
         (ValueError, "workers", dict(workers=-1)),
-        (TypeError, "workers", dict(workers=True)),
+        (ValueError, "workers", dict(workers=True)),
         (ValueError, "numba_threads", dict(executor="processes", numba_threads=0)),
         (ValueError, "workers", dict(executor="serial", workers=2)),
         (ValueError, "scheduler", dict(executor="processes", scheduler="tcp://127.0.0.1:1")),

@@ -105,11 +105,42 @@ def test_demo_image_layout_and_labels():
     assert labelled.shape == plain.shape == (112, 96, 3) and labelled.dtype == np.float32
     assert not labelled[36:38].any() and not labelled[74:76].any()  # black gaps between panels
     diff = np.any(labelled != plain, axis=2)
-    rows, cols = np.nonzero(diff)
-    # Labels only in the top-left corner of each panel, and in all three.
-    assert cols.max() < 48
-    assert {r // 38 for r in rows} == {0, 1, 2}
-    assert all(r % 38 < 12 for r in rows)
+    widths = []
+    for i, label in enumerate(demo.LABELS):
+        panel, image = diff[38 * i:38 * i + 36], labelled[38 * i:38 * i + 36]
+        rows, cols = np.nonzero(panel)
+        # At 36 rows (scale 1): a 10-pixel font from (3, 3), its shadow one pixel lower; nothing elsewhere.
+        assert rows.min() >= 3 and rows.max() < 3 + demo.FONT_SIZE + 2, label
+        assert cols.min() >= 3 and cols.max() < 3 + 8 * len(label), label  # under 8 pixels a letter
+        # The strokes (a pixel wide at this size, anti-aliased): near white, several per letter.
+        white = np.all(image >= 0.9, axis=2) & panel
+        assert white.sum() >= 4 * len(label), label
+        widths.append(cols.max() - cols.min())
+    assert widths[0] < widths[2] < widths[1]  # FLAT, PHONG, GOURAUD: the text, not a fixed stamp
+
+
+def test_draw_text_writes_white_letters_over_a_black_shadow():
+    """On mid grey: the letters' fully covered pixels are exactly ``value``, the shadow's darken, the rest is
+    untouched; ``scale`` scales the text; text at the border is clipped, not an error."""
+    white = lambda im: np.all(im >= 0.9, axis=2)  # noqa: E731 - the strokes
+    img = np.full((40, 120, 3), 0.5, np.float32)
+    demo.draw_text(img, "PHONG", 5, 6, 1)
+    changed = np.any(img != 0.5, axis=2)
+    rows, cols = np.nonzero(changed)
+    assert rows.min() >= 6 and cols.min() >= 5 and rows.max() < 6 + 12 and cols.max() < 5 + 40
+    assert white(img).sum() > 20 and img.max() <= 1.0
+    assert np.all(img[changed] < 0.5, axis=1).sum() > 10  # the shadow, down and right of the strokes
+    big = np.full((80, 300, 3), 0.5, np.float32)
+    demo.draw_text(big, "PHONG", 5, 6, 3, value=2.0)
+    full = np.all(big == 2.0, axis=2)
+    assert full.sum() > 100 and big.max() == 2.0  # at 30 pixels the strokes are fully covered: exactly value
+    tall = lambda im: np.ptp(np.nonzero(white(im))[0]) + 1  # noqa: E731
+    assert 6 <= tall(img) <= 8 and 19 <= tall(big) <= 22  # capitals about 7 scale tall
+    edge = np.zeros((8, 8, 3), np.float32)
+    demo.draw_text(edge, "GOURAUD", -3, 2, 1)
+    assert edge.max() > 0.9
+    with pytest.raises(ValueError, match="scale: must be >= 1"):
+        demo.draw_text(edge, "X", 0, 0, 0)
 
 
 def test_demo_scene_contents():

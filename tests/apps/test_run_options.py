@@ -37,21 +37,21 @@ def test_the_record_is_public_frozen_and_normalised():
 
 
 @pytest.mark.parametrize("field, value, error, match", [
-    ("workers", 0, ValueError, "workers: must be >= 1"),
-    ("workers", 2.0, TypeError, "workers: expected an integer"),
-    ("workers", True, TypeError, "workers: expected an integer"),
+    ("workers", 0, ValueError, "workers: expected an integer >= 1 or None, got 0"),
+    ("workers", 2.0, ValueError, "workers: expected an integer >= 1 or None, got 2.0"),
+    ("workers", True, ValueError, "workers: expected an integer >= 1 or None, got True"),
     ("scheduler", 8786, TypeError, "scheduler: expected a scheduler address"),
     ("scheduler", "", ValueError, "scheduler: an empty address"),
     ("executor", "threads", ValueError, "executor: expected one of"),
     ("executor", None, TypeError, "executor: expected one of"),
-    ("retries", -1, ValueError, "retries: must be >= 0"),
-    ("retries", "2", TypeError, "retries: expected an integer"),
+    ("retries", -1, ValueError, "retries: expected an integer >= 0, got -1"),
+    ("retries", "2", ValueError, "retries: expected an integer >= 0, got '2'"),
     ("resume", 1, TypeError, "resume: expected True or False"),
-    ("numba_threads", 0, ValueError, "numba_threads: must be >= 1"),
-    ("per_task", 0, ValueError, "per_task: must be >= 1"),
-    ("per_task", True, TypeError, "per_task: expected an integer"),
+    ("numba_threads", 0, ValueError, "numba_threads: expected an integer >= 1 or None, got 0"),
+    ("per_task", 0, ValueError, "per_task: expected an integer >= 1 or None, got 0"),
+    ("per_task", True, ValueError, "per_task: expected an integer >= 1 or None, got True"),
     ("progress", None, TypeError, "progress: expected True or False"),
-    ("window", 0, ValueError, "window: must be >= 1"),
+    ("window", 0, ValueError, "window: expected an integer >= 1 or None, got 0"),
     ("transfer", "ftp", ValueError, "transfer: expected one of"),
     ("transfer", 3, TypeError, "transfer: expected one of"),
 ])
@@ -103,7 +103,7 @@ def test_a_flat_keyword_contradicting_the_record_is_refused_and_one_agreeing_onl
 
 
 def test_a_bad_deprecated_keyword_is_refused_by_its_old_name_and_new_field(scene):
-    with pytest.raises(ValueError, match=r"frames_per_task \(run.per_task\): must be >= 1"), \
+    with pytest.raises(ValueError, match=r"frames_per_task \(run.per_task\): expected an integer >= 1 or None, got 0"), \
             pytest.warns(DeprecationWarning):
         render_batch(scene, frames_per_task=0)
     with pytest.raises(TypeError, match="run: expected a RunOptions"):

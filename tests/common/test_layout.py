@@ -192,7 +192,7 @@ def test_spot_light_row():
     assert rows[0, lay.LIGHT_COS_OUTER] == pytest.approx(0.0, abs=1e-15)
     assert rows[0, lay.LIGHT_EXPONENT] == 8.0
     k = kernel_inputs(_scene([spot]), _scene([spot]).camera)
-    assert k["att_on"]  # a spot's attenuation switches the attenuating variant on, as a point light's
+    assert k["att_on"]  # a spot's attenuation switches the attenuation flag on, as a point light's
 
 
 def test_attenuation_codes_are_the_named_ones():
@@ -214,14 +214,14 @@ def test_scene_geometry_rows():
 
 
 def test_kernel_inputs_use_the_rows():
-    """The packed arguments have the documented widths, and the compile-time variants read
-    the named slots: ks switches the specular variant, a point light's attenuation the other."""
+    """The packed arguments have the documented widths, and the frame's flags read the named
+    slots: ks switches the specular flag on, a point light's attenuation the other."""
     dull = _scene([rs.PointLight((0, 0, 5)), rs.DirectionalLight((0, 0, -1))])
     k = kernel_inputs(dull, dull.camera)
     assert k["cam"].shape == (lay.CAM_SIZE,)
-    assert k["L"][1].shape == (2, lay.LIGHT_SIZE)
+    assert k["L"].lights.shape == (2, lay.LIGHT_SIZE)
     assert k["materials"].shape == (1, lay.MAT_SIZE)
-    assert k["B"][4].shape[1] == lay.BUMP_SIZE
+    assert k["B"].bump_info.shape[1] == lay.BUMP_SIZE
     assert (k["spec_on"], k["att_on"]) == (False, False)
     shiny = dull.replace(models=[rs.Model(dull.models[0].mesh, rs.Material(ks=0.5))],
                          lights=[rs.PointLight((0, 0, 5), attenuation="inverse_square")])

@@ -9,6 +9,7 @@ import pytest
 
 import raycast_shade as rs
 from raycast_shade.common.threads import WAIT_POLICY, apply_wait_policy
+from raycast_shade.study.twins import suspicious_numpy
 from raycast_shade.visibility import cast, holes
 from raycast_shade.visibility.accel import embree_accel
 from raycast_shade.visibility.rays import camera_frame
@@ -133,8 +134,7 @@ def test_the_gather_lists_the_mask_in_row_major_order(density):
         hit = rng.random(shape) < density
         prim = np.where(hit, 5, -1).astype(np.int32)
         t = np.where(hit, rng.choice([1.0, 1.0005, 2.0], size=shape), np.inf).astype(np.float32)
-        mask = np.empty(shape, np.bool_)
-        holes._suspicious_kernel(prim, t, 1e-3, mask)
+        mask = suspicious_numpy(prim, t, 1e-3)
         rows = holes._suspicious_rows_kernel(prim, t, 1e-3)
         assert rows.tolist() == mask.sum(axis=1).tolist()
         n = int(rows.sum())

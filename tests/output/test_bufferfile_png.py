@@ -1,4 +1,5 @@
-"""PNG and depth PNG written for speed (fast=True): the same pixels as the default, read by imageio."""
+"""The one PNG encoder (8/16-bit, grey/RGB) and the depth PNG made with it, checked by real readers
+(imageio's Pillow, OpenCV); fast=True gives the same pixels as the default."""
 
 from __future__ import annotations
 
@@ -80,3 +81,90 @@ def test_depth_png_names_the_first_negative_value(tmp_path):
     with pytest.raises(ValueError, match=r"negative value -0.25 at \(row, column\) \(2, 3\)"):
         write_depth_png(tmp_path / "d.png", depth)
     assert not (tmp_path / "d.png").exists()
+
+
+def _images():
+    """8- and 16-bit, grey and RGB, with every byte value and the wrap-around of the Sub filter."""
+    rng = np.random.default_rng(12)
+    return {
+        "grey8": rng.integers(0, 256, (19, 23), dtype=np.uint8),
+        "rgb8": rng.integers(0, 256, (19, 23, 3), dtype=np.uint8),
+        "grey16": rng.integers(0, 65536, (19, 23), dtype=np.uint16),
+        "rgb16": rng.integers(0, 65536, (19, 23, 3), dtype=np.uint16),
+        "grey16_edges": np.array([[0, 1, 255, 256, 65534, 65535]], np.uint16),
+        "rgb8_strided": rng.integers(0, 256, (10, 30, 3), dtype=np.uint8)[:, ::3],
+    }
+
+
+@pytest.mark.parametrize("name", list(_images()))
+@pytest.mark.parametrize("fast", [False, True])
+def test_png_bytes_decode_to_the_image_in_two_readers(tmp_path, name, fast):
+    """OpenCV (libpng) reads back every sample at the written bit depth, Pillow (through imageio) too
+    except for 16-bit RGB, which Pillow has no mode for: it gives each sample's high byte."""
+    cv2 = pytest.importorskip("cv2")
+    img = _images()[name]
+    data = png_bytes(img, fast=fast)
+    got = iio.imread(data)
+    if name == "rgb16":
+        assert got.dtype == np.uint8 and np.array_equal(got, (img >> 8).astype(np.uint8))
+    else:
+        assert got.dtype == img.dtype and np.array_equal(got, img)
+    (tmp_path / "a.png").write_bytes(data)
+    got = cv2.imread(str(tmp_path / "a.png"), cv2.IMREAD_UNCHANGED)
+    want = img if img.ndim == 2 else img[:, :, ::-1]  # OpenCV reads BGR
+    assert got.dtype == img.dtype and np.array_equal(got, want)
+
+
+def test_depth_png_is_png_bytes_of_its_samples():
+    """One encoder: the depth file is the generic 16-bit grey PNG of round(depth * scale)."""
+    from raycast_shade.output.bufferfile import depth_png_bytes
+
+    depth = np.random.default_rng(13).uniform(0, 70.0, (17, 21))
+    depth[0, :3] = [0.0, np.nan, 66.0]  # none, none, past 16 bits: 0
+    for fast in (False, True):
+        assert depth_png_bytes(depth, fast=fast) == png_bytes(_depth_reference(depth, 1000.0), fast=fast)
+
+
+def test_png_header_says_bits_and_colour():
+    """IHDR: width, height, bit depth, colour type (0 grey, 2 RGB), as the PNG specification lays it out."""
+    import struct
+
+    for img, bits, colour in [(np.zeros((2, 5), np.uint8), 8, 0), (np.zeros((2, 5, 3), np.uint8), 8, 2),
+                              (np.zeros((2, 5), np.uint16), 16, 0), (np.zeros((2, 5, 3), np.uint16), 16, 2)]:
+        data = png_bytes(img)
+        assert data[:8] == b"\x89PNG\r\n\x1a\n" and data[12:16] == b"IHDR"
+        assert struct.unpack(">IIBBBBB", data[16:29]) == (5, 2, bits, colour, 0, 0, 0)
+
+
+def test_png_bytes_refuse_what_they_cannot_store(tmp_path):
+    with pytest.raises(TypeError, match="image: expected uint8 or uint16 pixels, got dtype float32"):
+        png_bytes(np.zeros((2, 2, 3), np.float32))
+    with pytest.raises(ValueError, match=r"image: expected a non-empty \(H, W\) or \(H, W, 3\) array"):
+        png_bytes(np.zeros((2, 2, 4), np.uint8))
+    with pytest.raises(ValueError, match="image: expected a non-empty"):
+        png_bytes(np.zeros((0, 2), np.uint8))
+    with pytest.raises(TypeError, match="fast: expected True or False"):
+        png_bytes(np.zeros((2, 2), np.uint8), fast=1)
+    with pytest.raises(TypeError, match="image"):
+        write_png(tmp_path / "a.png", np.zeros((2, 2), np.int64))
+    assert not list(tmp_path.iterdir())  # encoded before the file is opened
+
+
+def test_write_png_atomic_replaces_the_file_whole(tmp_path, monkeypatch):
+    import os
+
+    path = tmp_path / "a.png"
+    old = png_bytes(np.zeros((3, 4), np.uint8))
+    path.write_bytes(old)
+    new = np.full((3, 4, 3), 200, np.uint8)
+
+    def fail(*args):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(os, "replace", fail)
+    with pytest.raises(OSError, match="disk full"):
+        write_png(path, new, atomic=True)
+    assert path.read_bytes() == old and sorted(p.name for p in tmp_path.iterdir()) == ["a.png"]
+    monkeypatch.undo()
+    assert write_png(path, new, atomic=True) == str(path)
+    assert path.read_bytes() == png_bytes(new) and sorted(p.name for p in tmp_path.iterdir()) == ["a.png"]

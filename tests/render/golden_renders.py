@@ -5,10 +5,16 @@ both interpolations, both casters, shadows, mirrors (0 and 5 bounces), Blinn,
 every attenuation law, bump maps and an orthographic camera; per render the
 image, the hit buffer, the shading normals and the depth are hashed.
 
-``tests/data/golden_hashes.json`` was written by this module on the code
-before the stage-package refactor; a change that moves code must leave every
-hash as it is. Regenerate it (``python -m tests.render.golden_renders --write``) only
-for a change that means to alter images, and say which and why in its commit.
+The last bits of a render follow the machine's vector instruction set: Embree
+runs its 16-wide AVX-512 or 8-wide AVX2 kernels, and LLVM vectorises the shading
+kernels for the host, so one set of hashes serves one instruction set
+(:func:`isa`). ``tests/data/golden_hashes.json`` (AVX-512) was written by this
+module on the code before the stage-package refactor (8314fb5),
+``golden_hashes.avx2.json`` by the same module on f316368 on an AVX2 machine,
+before the one-evaluator change; a change that moves code must leave every hash
+as it is. Regenerate them (``python -m tests.render.golden_renders --write``,
+on a machine of each set) only for a change that means to alter images, and say
+which and why in its commit.
 """
 
 from __future__ import annotations
@@ -24,7 +30,27 @@ import numpy as np
 import raycast_shade as rs
 from raycast_shade.apps.demo import demo_scene
 
-HASHES = pathlib.Path(__file__).parents[1] / "data" / "golden_hashes.json"
+
+
+def isa() -> str:
+    """The vector instruction set Embree and LLVM use here: ``"avx512"`` (Embree's AVX512 target
+    needs F, CD, BW, DQ and VL), ``"avx2"``, or ``"other"`` (read from /proc/cpuinfo)."""
+    try:
+        text = pathlib.Path("/proc/cpuinfo").read_text()
+    except OSError:
+        return "other"
+    flags = set()
+    for line in text.splitlines():
+        if line.startswith("flags"):
+            flags = set(line.split(":", 1)[1].split())
+            break
+    if {"avx512f", "avx512cd", "avx512bw", "avx512dq", "avx512vl"} <= flags:
+        return "avx512"
+    return "avx2" if "avx2" in flags else "other"
+
+
+_DATA = pathlib.Path(__file__).parents[1] / "data"
+HASHES = _DATA / {"avx512": "golden_hashes.json"}.get(isa(), f"golden_hashes.{isa()}.json")
 
 
 def digest(*arrays) -> str:

@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import json
 
-from tests.render.golden_renders import HASHES, render_hashes
+from tests.render.golden_renders import HASHES, isa, render_hashes
 
 
 def test_every_golden_render_is_bit_identical():
+    assert HASHES.exists(), f"no golden hashes for this machine's instruction set ({isa()}): write {HASHES.name} " \
+                            "with the code before a change (python -m tests.render.golden_renders --write)"
     expected = json.loads(HASHES.read_text())
     assert len(expected) == 84
     got = render_hashes()

@@ -66,21 +66,6 @@ def test_the_two_casters_agree():
     np.testing.assert_allclose(fa.image[~differ], fb.image[~differ], atol=1e-5)
 
 
-@pytest.mark.parametrize("density", [0.3, 0.7, 0.97])
-def test_isolated_miss_count_matches_the_numpy_mask(density):
-    """The parallel count that lets a frame skip the hole re-cast agrees with
-    the NumPy mask it stands in for, borders included."""
-    from raycast_shade.visibility import cast as cast_mod
-
-    rng = np.random.default_rng(int(density * 100))
-    for shape in [(1, 1), (1, 7), (7, 1), (3, 3), (37, 53)]:
-        prim = np.where(rng.random(shape) < density, 5, -1).astype(np.int32)
-        assert cast_mod._count_isolated_kernel(prim) == cast_mod._isolated_misses(prim).sum()
-    ring = np.full((3, 3), 2, np.int32)
-    ring[1, 1] = -1  # one miss, hits on all four sides: counted once
-    assert cast_mod._count_isolated_kernel(ring) == 1
-
-
 def test_hit_buffer_distance_is_the_ray_distance():
     """t is the distance along the unit camera ray: o + t d is the hit point."""
     frame = rs.render(BASE, "flat")

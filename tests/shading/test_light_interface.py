@@ -32,7 +32,7 @@ def _light_at_all(lights, p, dmin, att_on):
     s = np.empty((n, 3))
     rest = np.empty((n, 3))
     for i in range(n):
-        si, d, att, cone = _light_at(lights, i, (p[0], p[1], p[2]), dmin, att_on)
+        si, d, att, cone = _light_at(lights, i, 0, (p[0], p[1], p[2]), dmin, att_on)
         s[i, 0], s[i, 1], s[i, 2] = si
         rest[i, 0], rest[i, 1], rest[i, 2] = d, att, cone
     return s, rest

@@ -170,7 +170,7 @@ def _scalar_kernel(prim, geom, u, v, G, B, face_off, cam, unit, ys, xs, o, d):
 def _scalar_rays(hits, k, ys, xs):
     o = np.empty((len(ys), 3))
     d = np.empty((len(ys), 3))
-    _scalar_kernel(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["face_off"], k["cam"], k["L"][4],
+    _scalar_kernel(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["face_off"], k["cam"], k["L"].unit,
                    ys, xs, o, d)
     return o, d
 

@@ -42,7 +42,7 @@ def _soup(seed, n=24):
 
 def _fast(k):
     """The batched kernel for the frame inputs ``k``: with shadow rays when it has a scene handle."""
-    return (_PHONG_FAST_SHADOWS if k["L"][3] != 0 else _PHONG_FAST)[k["spec_on"], k["att_on"]]
+    return _PHONG_FAST_SHADOWS if k.lighting.handle != 0 else _PHONG_FAST
 
 
 def _both(scene, shading, hits):
@@ -149,11 +149,14 @@ def test_the_normals_it_writes_are_those_the_frame_reports():
 
 
 class _Spy:
-    """A registry whose kernels count their calls."""
+    """A registry (or one kernel) whose kernels count their calls."""
 
     def __init__(self, registry):
         self.calls = 0
-        self.kernels = {key: self._wrap(fn) for key, fn in registry.items()}
+        if isinstance(registry, dict):
+            self.kernels = {key: self._wrap(fn) for key, fn in registry.items()}
+        else:
+            self.kernels = self._wrap(registry)
 
     def _wrap(self, fn):
         def spy(*args):

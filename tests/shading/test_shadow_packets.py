@@ -108,7 +108,7 @@ def test_the_packet_kernel_is_the_one_that_runs():
         calls.append(True)
         return packets(*args)
 
-    assert k["L"][3] != 0
+    assert k["L"].handle != 0
     with mock.patch.dict(_PHONG_PACKETS, {key: spy if fn is packets else fn for key, fn in _PHONG_PACKETS.items()}):
         rs.render(scene)
         assert calls, "the packet kernel did not run for a shadowed frame"

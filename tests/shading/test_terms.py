@@ -234,12 +234,12 @@ def test_scene_without_lights_has_only_ambient():
 
 
 def test_term_variants_share_the_frames_inputs_and_repack_nothing():
-    """Each term shades a variant of the frame's kernel inputs: the packed arrays are the frame's
-    own objects (nothing repacked), only the varied rows differ, and the compile-time flags are
-    those a scene with those rows would have."""
+    """Each term's definition (study.variant_terms) shades a variant of the frame's kernel inputs:
+    the packed arrays are the frame's own objects (nothing repacked), only the varied rows differ,
+    and the compile-time flags are those a scene with those rows would have."""
     from raycast_shade.common.layout import LIGHT_SIZE, MAT_KS
     from raycast_shade.shading.inputs import prepare
-    from raycast_shade.shading.terms import variant_inputs
+    from raycast_shade.study.variant_terms import variant_inputs
 
     scene = lamp_scene(16, 12)
     k = prepare(scene, scene.camera)
@@ -248,11 +248,11 @@ def test_term_variants_share_the_frames_inputs_and_repack_nothing():
     v = variant_inputs(k, scene.geometry.origin, materials=rows, lights=())
     assert v.geometry is k.geometry and v.bumps is k.bumps and v.cam is k.cam and v.colours is k.colours
     assert v.materials is not k.materials and np.array_equal(v.materials, rows)
-    assert v.lighting[1].shape == (0, LIGHT_SIZE) and v.lighting[3] == 0 and not v.spec_on
+    assert v.lighting.lights.shape == (0, LIGHT_SIZE) and v.lighting.handle == 0 and not v.spec_on
     assert np.array_equal(v.background, [0.0, 0.0, 0.0])
     lit = variant_inputs(k, scene.geometry.origin, lights=scene.lights)
-    np.testing.assert_array_equal(lit.lighting[1], k.lighting[1])
-    assert lit.lighting[3] == k.lighting[3] != 0 and lit.spec_on == k.spec_on and lit.att_on == k.att_on
+    np.testing.assert_array_equal(lit.lighting.lights, k.lighting.lights)
+    assert lit.lighting.handle == k.lighting.handle != 0 and lit.spec_on == k.spec_on and lit.att_on == k.att_on
     # The terms from the frame's inputs are the terms packed afresh, bit for bit.
     from raycast_shade.shading.terms import shade_terms
 
@@ -306,23 +306,19 @@ def test_one_pass_terms_are_the_variant_passes(make, mode):
     shading pass per term, light and shadow probe: within 2 float32 ulp (measured: equal), the
     shadow masks equal, and the image the plain one, bit for bit. Gouraud's corners whose vertex
     normal points away from the face (flipped_normals) are shaded on the spot, terms too."""
-    from raycast_shade.shading import terms as T
     from raycast_shade.shading.inputs import prepare
+    from raycast_shade.shading.shade import SampleShading
     from raycast_shade.shading.termshade import TermShading
+    from raycast_shade.study.variant_terms import variant_terms
 
     scene = make()
     k = prepare(scene, scene.camera)
     hits = rs.cast_camera(scene.geometry, scene.camera)
-
-    def shaded(**variant):
-        return T.SampleShading(scene, scene.camera, mode, T.variant_inputs(k, scene.geometry.origin, **variant)
-                               ).shade(hits)
-
     shader = TermShading(scene, scene.camera, mode, k, per_light=True)
     image = shader.shade(hits)
-    np.testing.assert_array_equal(image, T.SampleShading(scene, scene.camera, mode, k).shade(hits))
+    np.testing.assert_array_equal(image, SampleShading(scene, scene.camera, mode, k).shade(hits))
     one = shader.terms(hits)
-    many = T._variant_terms(scene, shaded, k.materials, *hits.shape, True)
+    many = variant_terms(scene, scene.camera, mode, hits, k, per_light=True)
     assert set(many) < set(one)
     assert (one["specular"] > 0).any() and (one["diffuse_per_light"] > 0).any()
     # Blocked pixels in every scene (Phong's bumps shadow themselves; flat's faces and Gouraud's

@@ -121,8 +121,7 @@ def test_render_takes_the_batched_terms_kernel_where_it_applies(per_light, monke
 
     calls = []
     fast = termshade._PHONG_FAST_TERMS
-    monkeypatch.setattr(termshade, "_PHONG_FAST_TERMS",
-                        {key: (lambda f: lambda *a: (calls.append(1), f(*a)))(f) for key, f in fast.items()})
+    monkeypatch.setattr(termshade, "_PHONG_FAST_TERMS", lambda *a: (calls.append(1), fast(*a)))
     cam = rs.Camera(eye=(0.0, 0.0, 3.0), width=24, height=16)
     light = rs.PointLight((1.0, 2.0, 3.0), intensity=9.0)
     scene = rs.Scene([rs.Model(rs.shapes.icosphere(1), rs.Material(ks=0.4))], lights=[light], camera=cam)

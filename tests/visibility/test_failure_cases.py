@@ -16,6 +16,7 @@ import pytest
 import raycast_shade as rs
 from raycast_shade.study import failure_scenes as fs
 from raycast_shade.study.reference import hit_points
+from raycast_shade.study.twins import isolated_misses_numpy
 
 from tests.conftest import assert_sane, camera_rays, plane_hits, render_all
 
@@ -96,8 +97,6 @@ def test_9_hole_filling_moves_nothing_else():
     a pixel-wide gap between two squares stays open (its rays pass 0.5 pixel
     from either square), a real pinhole in a mesh (a missing face) stays a
     hole, and every other pixel is the plain packet cast's."""
-    from raycast_shade.visibility import cast as cast_mod
-
     w, h, pitch = 64, 48, 1.0 / 16.0
     left = rs.shapes.plane(size=1.0, center=(-0.5, 0.0, 0.0))  # up to x = 0
     right = rs.shapes.plane(size=1.0, center=(0.5 + pitch, 0.0, 0.0))  # from x = one pixel
@@ -107,7 +106,7 @@ def test_9_hole_filling_moves_nothing_else():
     hits = rs.cast_camera(scene.geometry, cam)
     gap = ~hits.mask[18:30, 32]  # the column between the squares: centres at x = pitch / 2
     assert gap.all() and hits.mask[18:30, 31].all() and hits.mask[18:30, 33].all()
-    assert cast_mod._isolated_misses(hits.prim)[18:30, 32].all()  # candidates, re-cast, still misses
+    assert isolated_misses_numpy(hits.prim)[18:30, 32].all()  # candidates, re-cast, still misses
     # A grid with one cell's two faces removed: a real hole of 4 x 4 pixels; it stays.
     xs = (np.arange(-2, w + 6, 4) - w / 2) * pitch
     ys = (np.arange(-2, h + 6, 4) - h / 2) * pitch

@@ -19,6 +19,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import raycast_shade as rs
+from raycast_shade.study.twins import isolated_misses_numpy, suspicious_numpy
 from raycast_shade.visibility import holes
 from raycast_shade.visibility.cast import cast_recentred
 from raycast_shade.visibility.hits import HitBuffer
@@ -205,8 +206,7 @@ def test_a_genuine_gap_keeps_showing_what_is_behind():
     cam = rs.Camera(eye=(0.0, 0.0, 3.0), width=w, height=h, projection="orthographic", ortho_height=h * pitch)
     scene = rs.Scene([rs.Model(left), rs.Model(right), rs.Model(back)], camera=cam)
     hits = rs.cast_camera(scene.geometry, cam)
-    flagged = np.empty(hits.prim.shape, np.bool_)
-    holes._suspicious_kernel(hits.prim, hits.t, holes._JUMP, flagged)
+    flagged = suspicious_numpy(hits.prim, hits.t, holes._JUMP)
     assert flagged[18:30, 32].all() and (hits.geom[18:30, 32] == 2).all()
     saved = holes._JITTER
     try:
@@ -220,23 +220,28 @@ def test_a_genuine_gap_keeps_showing_what_is_behind():
 
 @pytest.mark.parametrize("density", [0.3, 0.7, 0.97])
 def test_suspicious_count_matches_the_mask(density):
-    """The parallel count that lets a frame skip the re-test agrees with the
-    mask, borders included; a depth jump is flagged only past both neighbours."""
+    """The parallel row count that lets a frame skip the re-test agrees with the mask of the
+    per-pixel test, and the NumPy twin is that mask, borders included; a depth jump is flagged
+    only past both neighbours, and every miss between two hits is flagged."""
     rng = np.random.default_rng(int(density * 100))
     for shape in [(1, 1), (1, 7), (7, 1), (3, 3), (37, 53)]:
         hit = rng.random(shape) < density
         prim = np.where(hit, 5, -1).astype(np.int32)
         t = np.where(hit, rng.choice([1.0, 1.0005, 2.0], size=shape), np.inf).astype(np.float32)
-        mask = np.empty(shape, np.bool_)
-        holes._suspicious_kernel(prim, t, 1e-3, mask)
-        assert holes._count_suspicious_kernel(prim, t, 1e-3) == mask.sum()
-        assert (mask >= holes._isolated_misses(prim)).all()
+        mask = suspicious_numpy(prim, t, 1e-3)
+        per_pixel = [[holes._suspicious(prim, t, 1e-3, y, x) for x in range(shape[1])] for y in range(shape[0])]
+        assert mask.tolist() == per_pixel
+        assert holes._suspicious_rows_kernel(prim, t, 1e-3).tolist() == mask.sum(axis=1).tolist()
+        isolated = isolated_misses_numpy(prim)
+        assert (mask >= isolated).all() and (isolated == (mask & ~hit)).all()
     row = np.array([[5, 5, 5, 5, 5]], np.int32)
     for t, flagged in (([1, 2, 1, 3, 1], [0, 1, 0, 1, 0]), ([1, 1.0005, 1, 1, 1], [0, 0, 0, 0, 0]),
                        ([1, 2, 3, 4, 5], [0, 0, 0, 0, 0])):
-        mask = np.empty((1, 5), np.bool_)
-        holes._suspicious_kernel(row, np.array([t], np.float32), 1e-3, mask)
+        mask = suspicious_numpy(row, np.array([t], np.float32), 1e-3)
         assert mask[0].tolist() == [bool(f) for f in flagged]
+    ring = np.full((3, 3), 2, np.int32)
+    ring[1, 1] = -1  # one miss, hits on all four sides: flagged once
+    assert isolated_misses_numpy(ring).sum() == 1 and isolated_misses_numpy(ring)[1, 1]
 
 
 @pytest.mark.parametrize("density", [0.3, 0.7, 0.97])
@@ -249,8 +254,7 @@ def test_the_folded_row_count_is_the_mask_row_by_row(density):
         hit = rng.random(shape) < density
         prim = np.where(hit, 5, -1).astype(np.int32)
         t = np.where(hit, rng.choice([1.0, 1.0005, 1.002, 2.0], size=shape), np.inf).astype(np.float32)
-        mask = np.empty(shape, np.bool_)
-        holes._suspicious_kernel(prim, t, 1e-3, mask)
+        mask = suspicious_numpy(prim, t, 1e-3)
         counts = np.full(shape[0], -1, np.int64)
         holes.finish_counts(prim, t, 1.0 + 1e-3, counts, 0, shape[0])
         assert counts.tolist() == mask.sum(axis=1).tolist()

@@ -46,9 +46,9 @@ class SceneCache:
     """
 
     def __init__(self, size: int = 4):
-        if isinstance(size, bool) or not isinstance(size, (int, np.integer)) or size < 1:
-            raise ValueError(f"size: expected an integer > 0, got {size!r}")
-        self.size = int(size)
+        from ...common.validate import as_count
+
+        self.size = as_count(size, "size")
         self._scenes: collections.OrderedDict = collections.OrderedDict()
         self._counts = dict.fromkeys(COUNTERS, 0)
         self._lock = threading.Lock()

@@ -9,7 +9,8 @@ import os
 import warnings
 
 from .cache import SceneCache, cache_of
-from .options import check_positive, cores
+from ...common.validate import as_count
+from .options import cores
 
 __all__ = ["local_cluster", "connect", "is_local", "match_numba_threads", "worker_stats", "reset_worker_stats"]
 
@@ -36,10 +37,10 @@ def local_cluster(n_workers: int, *, numba_threads: int | None = None, **cluster
     ------
     distributed.Client
     """
-    n_workers = check_positive(n_workers, "workers")
+    n_workers = as_count(n_workers, "workers")
     if numba_threads is None:
         numba_threads = max(1, cores() // n_workers)
-    numba_threads = check_positive(numba_threads, "numba_threads")
+    numba_threads = as_count(numba_threads, "numba_threads")
     try:
         from distributed import Client, LocalCluster
     except ImportError as exc:

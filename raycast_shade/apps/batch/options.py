@@ -12,12 +12,11 @@ import dataclasses
 import os
 from dataclasses import dataclass
 
-import numpy as np
-
+from ...common.validate import as_bool
 from ...scene.scenefile import RENDER_KEYS, SIZE_KEYS, TONE_KEYS, check_render_options
 
-__all__ = ["cores", "check_positive", "BatchOptions", "RENDER_KWARGS", "TRANSFERS", "check_options",
-           "check_shading_fits", "WINDOW_BYTES"]
+__all__ = ["cores", "BatchOptions", "RENDER_KWARGS", "TRANSFERS", "check_options", "check_shading_fits",
+           "WINDOW_BYTES"]
 
 # render() keywords a batch passes on; the camera (hence the size) is per frame.
 RENDER_KWARGS = tuple(k for k in RENDER_KEYS if k not in ("shading",) + SIZE_KEYS + TONE_KEYS)
@@ -59,13 +58,6 @@ def cores() -> int:
         return os.cpu_count() or 1
 
 
-def check_positive(value, name: str) -> int:
-    """``value`` as an int ``> 0`` (NumPy integers too); ValueError naming ``name`` otherwise."""
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-        raise ValueError(f"{name}: expected an integer > 0, got {value!r}")
-    return int(value)
-
-
 def check_options(shading, render_kwargs: dict, tone, resume) -> BatchOptions:
     """The validated, normalised options of a batch.
 
@@ -87,10 +79,9 @@ def check_options(shading, render_kwargs: dict, tone, resume) -> BatchOptions:
             raise TypeError(f"tone: unexpected key {k!r} (expected some of {list(TONE_KEYS)})")
     checked = check_render_options({"shading": shading, **render_kwargs})
     tone = check_render_options(dict(tone))
-    if not isinstance(resume, (bool, np.bool_)):
-        raise TypeError(f"resume: expected True or False, got {type(resume).__name__}")
+    resume = as_bool(resume, "resume")
     shading = checked.pop("shading")
-    return BatchOptions(shading, checked, tone, bool(resume))
+    return BatchOptions(shading, checked, tone, resume)
 
 
 def check_shading_fits(options: BatchOptions, bases: dict) -> None:
@@ -101,4 +92,3 @@ def check_shading_fits(options: BatchOptions, bases: dict) -> None:
         if len(options.shading) != len(base.models):
             raise ValueError(f"shading: expected one method per model ({len(base.models)}), "
                              f"got {len(options.shading)}")
-

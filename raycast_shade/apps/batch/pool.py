@@ -46,7 +46,8 @@ from multiprocessing import connection, shared_memory
 import numpy as np
 
 from .cache import SceneCache, render_image, render_job, revalidated
-from .options import WINDOW_BYTES, BatchOptions, check_positive, cores
+from ...common.validate import as_count
+from .options import WINDOW_BYTES, BatchOptions, cores
 
 __all__ = ["ProcessPool", "FrameError", "ALLOWED_FAILURES", "cores", "worker_main"]
 
@@ -234,9 +235,9 @@ class ProcessPool:
     """
 
     def __init__(self, workers: int | None = None, *, numba_threads: int | None = None):
-        self.n_workers = cores() if workers is None else check_positive(workers, "workers")
+        self.n_workers = cores() if workers is None else as_count(workers, "workers")
         default = max(1, cores() // self.n_workers)
-        self.numba_threads = default if numba_threads is None else check_positive(numba_threads, "numba_threads")
+        self.numba_threads = default if numba_threads is None else as_count(numba_threads, "numba_threads")
         self._workers: list = []
         self._running = False  # a batch is under way (one at a time)
         self._batch = None  # (bases, todo, options) of the batch under way, for a replaced worker

@@ -15,7 +15,7 @@ import os
 import sys
 import warnings
 
-from ...common.validate import as_bool, as_choice, as_instance, as_int
+from ...common.validate import as_bool, as_choice, as_count, as_instance
 from .options import TRANSFERS
 from .pool import ProcessPool
 
@@ -137,14 +137,13 @@ class RunOptions:
     transfer: str = "auto"
 
     def __post_init__(self):
-        def optional_count(value, name):
-            return None if value is None else as_int(value, name, minimum=1)
-
-        checked = dict(workers=optional_count(self.workers, "workers"), scheduler=_check_scheduler(self.scheduler),
-                       retries=as_int(self.retries, "retries", minimum=0), resume=as_bool(self.resume, "resume"),
-                       numba_threads=optional_count(self.numba_threads, "numba_threads"),
-                       per_task=optional_count(self.per_task, "per_task"), progress=as_bool(self.progress, "progress"),
-                       window=optional_count(self.window, "window"),
+        checked = dict(workers=as_count(self.workers, "workers", optional=True),
+                       scheduler=_check_scheduler(self.scheduler),
+                       retries=as_count(self.retries, "retries", minimum=0), resume=as_bool(self.resume, "resume"),
+                       numba_threads=as_count(self.numba_threads, "numba_threads", optional=True),
+                       per_task=as_count(self.per_task, "per_task", optional=True),
+                       progress=as_bool(self.progress, "progress"),
+                       window=as_count(self.window, "window", optional=True),
                        transfer=as_choice(self.transfer, "transfer", TRANSFERS))
         if checked["workers"] is not None and checked["scheduler"] is not None:
             raise ValueError("workers: give workers (a local cluster) or scheduler (an existing one), not both")

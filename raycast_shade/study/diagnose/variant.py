@@ -20,7 +20,7 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 from numba import njit, prange
 
-from ...scene.lights import DirectionalLight, SpotLight
+from ...scene.lights import AreaLight, DirectionalLight, SpotLight
 from ...scene.normals import vertex_normals
 from ...visibility.interpolation import to_screen_space
 from ..reference import _dot, _facing, _unit, _warn_factor
@@ -171,6 +171,12 @@ def _lights(scene, camera, origin, mistake):
                 d = d @ axes  # camera coordinates -> world
             out.append((True, -d, radiance, "none", 1.0, None))
             continue
+        law = light.attenuation if mistake.law == "scene" else mistake.law
+        if isinstance(light, AreaLight):  # its samples, each 1/N of it (as the kernels)
+            for q in light.sample_points():
+                q = camera.eye + q @ axes if mistake.light_in_camera else q
+                out.append((False, q - origin, radiance / light.samples, law, light.k, None))
+            continue
         pos = np.asarray(light.position, np.float64)
         cone = None
         if isinstance(light, SpotLight):
@@ -180,7 +186,6 @@ def _lights(scene, camera, origin, mistake):
             cone = (axis, light.cos_inner, light.cos_outer, light.exponent)
         if mistake.light_in_camera:
             pos = camera.eye + pos @ axes
-        law = light.attenuation if mistake.law == "scene" else mistake.law
         out.append((False, pos - origin, radiance, law, light.k, cone))
     return out
 
