@@ -252,7 +252,8 @@ def as_int(value, name: str, *, minimum: int | None = None, maximum: int | None 
 
 
 def as_count(value, name: str, *, minimum: int = 1, optional: bool = False):
-    """A count: an integer (Python or NumPy; not a bool, not a float) ``>= minimum``, or None if ``optional``.
+    """A count: an integer (Python or NumPy, a 0-d array too; not a bool, not a float) ``>= minimum``, or None
+    if ``optional``.
 
     Unlike :func:`as_int`, every refusal is a ValueError (worker and retry
     counts have always been refused so), with the same message.
@@ -264,10 +265,11 @@ def as_count(value, name: str, *, minimum: int = 1, optional: bool = False):
     """
     if optional and value is None:
         return None
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Integral, np.integer)) \
-            or value < minimum:
+    number = _zero_d(value)  # a 0-d integer array is its scalar, as for as_int
+    if isinstance(number, (bool, np.bool_)) or not isinstance(number, (numbers.Integral, np.integer)) \
+            or number < minimum:
         raise ValueError(f"{name}: expected an integer >= {minimum}{' or None' if optional else ''}, got {value!r}")
-    return int(value)
+    return int(number)
 
 
 def as_name(value, name: str) -> str:

@@ -3,6 +3,8 @@ places which once carried their own copy of it now give the same answers through
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -24,16 +26,17 @@ def test_as_bool_refuses_everything_else_naming_the_field(value, kind):
 
 
 @pytest.mark.parametrize("value, minimum, want", [(1, 1, 1), (7, 1, 7), (np.int32(3), 1, 3), (0, 0, 0),
-                                                  (np.uint64(2**40), 1, 2**40)])
+                                                  (np.uint64(2**40), 1, 2**40), (np.array(2), 1, 2)])
 def test_as_count_accepts_integers_from_the_minimum(value, minimum, want):
     got = as_count(value, "workers", minimum=minimum)
     assert got == want and type(got) is int
 
 
 @pytest.mark.parametrize("value, minimum", [(0, 1), (-1, 0), (True, 0), (np.bool_(True), 1), (2.0, 1), ("2", 1),
-                                            (None, 1)])
+                                            (None, 1), (np.array(True), 1), (np.array(2.0), 1), (np.array([2]), 1),
+                                            (np.array(0), 1)])
 def test_as_count_refuses_with_a_value_error_naming_the_field(value, minimum):
-    with pytest.raises(ValueError, match=rf"^workers: expected an integer >= {minimum}, got {value!r}$"):
+    with pytest.raises(ValueError, match=rf"^workers: expected an integer >= {minimum}, got {re.escape(repr(value))}$"):
         as_count(value, "workers", minimum=minimum)
 
 
