@@ -16,10 +16,11 @@ from ..common.validate import (MAX_RADIANCE, as_array, as_bool, as_choice, as_in
                                pow2_scaled)
 
 __all__ = ["Light", "PointLight", "SpotLight", "DirectionalLight", "AreaLight", "ATTENUATIONS", "MAX_SPOT_EXPONENT",
-           "MAX_AREA_SAMPLES", "AREA_SHAPES"]
+           "MAX_AREA_SAMPLES", "MAX_AREA_EXTENT", "AREA_SHAPES"]
 
 MAX_SPOT_EXPONENT = 1e4  # cos^n: beyond this the beam is a few hundredths of a degree wide
 MAX_AREA_SAMPLES = 4096  # shadow rays per area light and shaded point: bounded work
+MAX_AREA_EXTENT = 1e18  # an emitter's radius or edge: beyond this a scene refuses it anyway (Embree's float32)
 AREA_SHAPES = {"rectangle": AREA_RECTANGLE, "disc": AREA_DISC}  # LIGHT_SHAPE codes
 _GOLDEN = 0.6180339887498949  # the sample lattice's second axis (shading.illumination.GOLDEN)
 
@@ -321,9 +322,13 @@ class AreaLight(PointLight):
         u = as_vec3(self.u, f"{self.name}.u", nonzero=True)
         v = as_vec3(self.v, f"{self.name}.v", nonzero=True)
         lu, lv = float(np.linalg.norm(u)), float(np.linalg.norm(v))
-        if not np.isfinite(lu * lv) or abs(float(u @ v)) > 1e-6 * lu * lv:
-            raise ValueError(f"{self.name}.u, {self.name}.v: the emitter's edges (or radii) must be finite and "
-                             f"perpendicular, got u.v = {float(u @ v):.6g} for |u| |v| = {lu * lv:.6g}")
+        for key, length in (("u", lu), ("v", lv)):
+            if not length <= MAX_AREA_EXTENT:
+                raise ValueError(f"{self.name}.{key}: the emitter's size must be <= {MAX_AREA_EXTENT:g}, "
+                                 f"got {length:.6g}")
+        if abs(float(u @ v)) > 1e-6 * lu * lv:
+            raise ValueError(f"{self.name}.u, {self.name}.v: the emitter's edges (or radii) must be perpendicular, "
+                             f"got u.v = {float(u @ v):.6g} for |u| |v| = {lu * lv:.6g}")
         for key, value in (("u", u), ("v", v)):
             value.setflags(write=False)
             set_(self, key, value)
@@ -339,7 +344,7 @@ class AreaLight(PointLight):
         name = kw.get("name", "area_light")
         n = as_vec3(normal, f"{name}.normal", nonzero=True)
         n = n / np.linalg.norm(n)
-        r = as_scalar(radius, f"{name}.radius", minimum=0.0, exclusive=True)
+        r = as_scalar(radius, f"{name}.radius", minimum=0.0, exclusive=True, maximum=MAX_AREA_EXTENT)
         a = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
         u = np.cross(n, a)
         u /= np.linalg.norm(u)

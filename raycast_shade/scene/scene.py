@@ -313,7 +313,7 @@ class Scene:
     ----------
     models : sequence of Model, Mesh, trimesh.Trimesh or (Mesh, Material)
         At least one.
-    lights : sequence of PointLight, SpotLight or DirectionalLight
+    lights : sequence of Light (PointLight, SpotLight, DirectionalLight, AreaLight)
     camera : Camera
     ambient : float or (3,) float
         The scene's ambient intensity ``Ia`` (multiplies each material's ``ka``).
@@ -418,15 +418,11 @@ class Scene:
 
         Returns
         -------
-        (L, LIGHT_SIZE) = (L, 16) float64
-            Per light (slots named in :mod:`raycast_shade.common.layout`):
-            kind (0 point, 1 directional, 2 spot); point and spot:
-            re-centred position, directional: unit vector towards the light
-            (3); radiance ``Ii * color`` (3); attenuation code (0 none,
-            1 inverse square, 2 heuristic); heuristic ``k`` (1 for
-            directional lights); casts shadows (0/1); spot only (else 0):
-            unit axis (3), ``cos(inner_angle)``, ``cos(outer_angle)``,
-            exponent ``n``.
+        (L, LIGHT_SIZE) = (L, 24) float64
+            Per light, the slots of :mod:`raycast_shade.common.layout` (its module docstring
+            lists them): kind, position or direction towards the light, radiance, attenuation
+            law and ``k``, shadows, a spot's axis, cones and exponent, an area light's axes and
+            shape, and every light's sample count.
         """
         origin = self.geometry.origin
         rows = np.zeros((len(self.lights), LIGHT_SIZE))

@@ -40,15 +40,11 @@ computed per lane by the scalar helpers. The scratch is indexed at constant offs
 constant trip counts, so LLVM sees that its fields never overlap and needs no run-time
 alias checks.
 
-:data:`HANDLES` declares what the passes implement: the light kinds (``_direction`` computes
-each one's direction, distance, attenuation and cone), the attenuation laws and the reflectance
-models (``_cosines``, ``_specular``). :func:`applies` is the dispatch:
-:class:`~raycast_shade.shading.shade.SampleShading` takes this kernel only for a frame all of whose
-lights, laws and Phong models are declared there and that has no textures, colours, bump or
-normal maps (facts known before the cast); everything else goes to the general kernel, the one
-evaluator (:func:`.illumination._reflected`). A new light kind or model is therefore never shaded
-here as another one: it takes the general kernel until these passes implement it and it is
-declared.
+:data:`HANDLES` declares the light kinds, attenuation laws and reflectance models the passes
+implement; :func:`applies`, the dispatch of :class:`~raycast_shade.shading.shade.SampleShading`,
+takes this kernel only for frames of declared codes without textures, colours, bump or normal
+maps (facts known before the cast). Every other frame, a new light kind or model included, goes
+to the general kernel, the one evaluator (:func:`.illumination._reflected`).
 """
 
 from __future__ import annotations
@@ -79,12 +75,10 @@ _TILE = 4  # a shadowed frame's pixels are queued by tiles of 4x4 (BLOCK_ROWS is
 _NO_NORMALS = np.empty((0, 0, 3), np.float32)  # the kernel's normal output when none is asked for
 
 
-HANDLES = {
-    "light_kinds": frozenset({LIGHT_POINT, LIGHT_DIRECTIONAL, LIGHT_SPOT}),  # _direction's branches
-    "attenuations": frozenset({ATT_NONE, ATT_INVERSE_SQUARE, ATT_HEURISTIC}),  # _direction's laws
-    "models": frozenset({MODEL_PHONG, MODEL_BLINN}),  # _cosines' and _specular's lobes
-}
-"""What the batched passes implement (layout codes): a frame with anything else takes the general kernel."""
+# What the passes implement (layout codes): _direction's kinds and laws, _cosines' and _specular's lobes.
+HANDLES = dict(light_kinds=frozenset({LIGHT_POINT, LIGHT_DIRECTIONAL, LIGHT_SPOT}),
+               attenuations=frozenset({ATT_NONE, ATT_INVERSE_SQUARE, ATT_HEURISTIC}),
+               models=frozenset({MODEL_PHONG, MODEL_BLINN}))
 
 
 def applies(modes, k) -> bool:
@@ -95,14 +89,12 @@ def applies(modes, k) -> bool:
     modes : (G,) int8
         Per-model method codes.
     k : FrameInputs
-        The frame's packed inputs.
 
     Returns
     -------
     bool
-        True for a frame without textures or mesh colours whose Phong models have neither a bump
-        map nor a normal map (shadow rays or not), all of whose lights are of the kinds, with the
-        attenuation laws, and whose Phong models use the reflectance models of :data:`HANDLES`.
+        True for a frame without textures or mesh colours, no bump or normal map on a Phong model,
+        whose lights, laws and Phong models' reflectance models are all in :data:`HANDLES`.
     """
     phong = np.asarray(modes) == METHOD_PHONG
     B, lights = k.bumps, k.lighting.lights
@@ -407,10 +399,8 @@ def _add_terms(S, k, c, ar, nd, spec, lit):
 
 @njit(**HELPER)
 def _accumulate(S, lights, i, terms):
-    """Add light ``i``'s ``att Ii (kd n.s + Ks spec)`` to the lanes it lights; ``terms`` (a
-    constant of the kernel): also its diffuse part ``att Ii (kd n.s)`` to ``_TD`` and its
-    specular part ``att Ii (Ks spec)`` to ``_TS``, formed as terms_kernel._illuminate_terms forms
-    them."""
+    """Add light ``i``'s ``att Ii (kd n.s + Ks spec)`` to the lanes it lights; ``terms`` (a constant of
+    the kernel): also ``att Ii (kd n.s)`` to ``_TD`` and ``att Ii (Ks spec)`` to ``_TS``, as the evaluator."""
     r0 = lights[i, LIGHT_RADIANCE + 0]
     r1 = lights[i, LIGHT_RADIANCE + 1]
     r2 = lights[i, LIGHT_RADIANCE + 2]

@@ -21,7 +21,8 @@ ROWS = {
              "CAM_HEIGHT": 1}, lay.CAM_SIZE),
     "LIGHT": ({"LIGHT_KIND": 1, "LIGHT_VEC": 3, "LIGHT_RADIANCE": 3, "LIGHT_ATT": 1, "LIGHT_K": 1,
                "LIGHT_SHADOWS": 1, "LIGHT_AXIS": 3, "LIGHT_COS_INNER": 1, "LIGHT_COS_OUTER": 1,
-               "LIGHT_EXPONENT": 1}, lay.LIGHT_SIZE),
+               "LIGHT_EXPONENT": 1, "LIGHT_EDGE_U": 3, "LIGHT_EDGE_V": 3, "LIGHT_SHAPE": 1, "LIGHT_SAMPLES": 1},
+              lay.LIGHT_SIZE),
     "MAT": ({"MAT_KA": 3, "MAT_KD": 3, "MAT_KS": 3, "MAT_SHININESS": 1, "MAT_MODEL": 1, "MAT_REFLECTIVITY": 1,
              "MAT_KA_COLORS": 1, "MAT_KE": 3, "MAT_AO_STRENGTH": 1},
             lay.MAT_SIZE),
@@ -43,7 +44,7 @@ def test_the_slots_of_a_row_tile_it(row):
     """Every slot constant of a row is listed, and the slots cover 0 .. SIZE-1 once each
     (the camera row's last slot is the documented unused padding)."""
     widths, size = ROWS[row]
-    values = {"LIGHT_POINT", "LIGHT_DIRECTIONAL", "LIGHT_SPOT"}  # LIGHT_KIND values, not slots
+    values = {"LIGHT_POINT", "LIGHT_DIRECTIONAL", "LIGHT_SPOT", "LIGHT_AREA", "LIGHT_KINDS"}  # LIGHT_KIND values
     aliases = {"MAT_BLINN": "MAT_MODEL"}  # the model slot under its first name
     for alias, name in aliases.items():
         assert getattr(lay, alias) == getattr(lay, name)
@@ -58,7 +59,7 @@ def test_layout_docstring_states_the_constants():
     doc = lay.__doc__
     stated = dict(re.findall(r"\(([A-Z_]+),\) = \((\d+),\)", doc))
     stated.update((name, n) for name, n in re.findall(r"\([A-Z], ([A-Z_]+)\) = \([A-Z], (\d+)\)", doc))
-    assert stated == {"CAM_SIZE": "16", "LIGHT_SIZE": "16", "MAT_SIZE": "17", "BUMP_SIZE": "7", "TEX_SIZE": "8"}
+    assert stated == {"CAM_SIZE": "16", "LIGHT_SIZE": "24", "MAT_SIZE": "17", "BUMP_SIZE": "7", "TEX_SIZE": "8"}
     for name, n in stated.items():
         assert getattr(lay, name) == int(n), name
 
@@ -175,7 +176,8 @@ def test_light_rows():
     assert rows[0, lay.LIGHT_K] == 0.5
     assert rows[0, lay.LIGHT_SHADOWS] == 1.0 and rows[1, lay.LIGHT_SHADOWS] == 0.0
     assert _scene([]).packed_lights().shape == (0, lay.LIGHT_SIZE)
-    assert not rows[:, lay.LIGHT_AXIS:].any()  # the spot slots stay zero for other lights
+    assert not rows[:, lay.LIGHT_AXIS:lay.LIGHT_SAMPLES].any()  # the spot and area slots stay zero for other lights
+    assert (rows[:, lay.LIGHT_SAMPLES] == 1.0).all()  # one sample each
 
 
 def test_spot_light_row():
