@@ -99,7 +99,7 @@ def bench_throughput(cases, frames: int, repeats: int):
     import numba
 
     from raycast_shade.apps.animate import orbit_cameras
-    from raycast_shade.apps.batch import local_cluster, render_batch
+    from raycast_shade.apps.batch import RunOptions, local_cluster, render_batch
     from raycast_shade.apps.batch.dask_driver import auto_frames_per_task
     from raycast_shade.apps.batch.plan import plan_batch
 
@@ -112,17 +112,19 @@ def bench_throughput(cases, frames: int, repeats: int):
         for w, h in cases:
             scene = _scene(w, h)
             cams = orbit_cameras(scene.camera, frames)
-            render_batch(scene, cams[:2], progress=False)  # JIT + BVH here
-            first = _timed(lambda: render_batch(scene, cams[:4], scheduler=client, progress=False))
+            render_batch(scene, cams[:2], run=RunOptions(progress=False))  # JIT + BVH here
+            first = _timed(lambda: render_batch(scene, cams[:4], run=RunOptions(scheduler=client,
+                                                                                    progress=False)))
             rows.append(dict(benchmark="startup", mode="dask", workers=2, numba_threads=1, width=w, height=h,
                              frames=4, seconds=round(first, 3), load=_load(),
                              note="first batch of 4 frames: Numba cache loaded, BVH built on each worker"))
             auto = auto_frames_per_task(plan_batch(scene, cams)[1], 2)
-            variants = {label: (lambda k=k, tr=tr: render_batch(scene, cams, scheduler=client, progress=False,
-                                                                 frames_per_task=k, transfer=tr))
+            variants = {label: (lambda k=k, tr=tr: render_batch(scene, cams, run=RunOptions(
+                                    scheduler=client, progress=False, per_task=k, transfer=tr)))
                         for label, k, tr in VARIANTS}
             load = _load()
-            times, ratios = _interleaved(lambda: render_batch(scene, cams, progress=False), variants, repeats)
+            times, ratios = _interleaved(lambda: render_batch(scene, cams, run=RunOptions(progress=False)), variants,
+                                         repeats)
             rows.append(_row("serial", 0, numba.get_num_threads(), w, h, frames, times["serial"], 1.0,
                              "this process", load=load))
             for label, k, tr in VARIANTS:
@@ -158,7 +160,7 @@ def bench_pool(cases, repeats: int):
     import numba
 
     from raycast_shade.apps.animate import orbit_cameras
-    from raycast_shade.apps.batch import ProcessPool, local_cluster, render_batch
+    from raycast_shade.apps.batch import ProcessPool, RunOptions, local_cluster, render_batch
 
     rows = []
     t0 = time.perf_counter()
@@ -174,17 +176,20 @@ def bench_pool(cases, repeats: int):
         for (w, h), frames in cases:
             scene = _scene(w, h)
             cams = orbit_cameras(scene.camera, frames)
-            render_batch(scene, cams[:2], progress=False)  # JIT + BVH here
-            for mode, kw in (("processes", dict(executor=pool)), ("dask", dict(scheduler=client))):
-                first = _timed(lambda: render_batch(scene, cams[:4], progress=False, **kw))
+            render_batch(scene, cams[:2], run=RunOptions(progress=False))  # JIT + BVH here
+            for mode, run in (("processes", RunOptions(executor=pool, progress=False)),
+                              ("dask", RunOptions(scheduler=client, progress=False))):
+                first = _timed(lambda: render_batch(scene, cams[:4], run=run))
                 rows.append(dict(benchmark="startup", mode=mode, workers=2, numba_threads=1, width=w, height=h,
                                  frames=4, seconds=round(first, 3), load=_load(),
                                  note="first batch of 4 frames: Numba cache loaded, BVH built on each worker"))
-            variants = {"processes": lambda: render_batch(scene, cams, executor=pool, progress=False),
-                        "dask": lambda: render_batch(scene, cams, scheduler=client, progress=False),
-                        "processes, new pool": lambda: render_batch(scene, cams, workers=2, progress=False)}
+            variants = {"processes": lambda: render_batch(scene, cams, run=RunOptions(executor=pool, progress=False)),
+                        "dask": lambda: render_batch(scene, cams, run=RunOptions(scheduler=client, progress=False)),
+                        "processes, new pool": lambda: render_batch(scene, cams,
+                                                                    run=RunOptions(workers=2, progress=False))}
             load = _load()
-            times, ratios = _interleaved(lambda: render_batch(scene, cams, progress=False), variants, repeats)
+            times, ratios = _interleaved(lambda: render_batch(scene, cams, run=RunOptions(progress=False)), variants,
+                                         repeats)
             load = f"{load}-{_load()}"
             rows.append(_row("serial", 0, numba.get_num_threads(), w, h, frames, times["serial"], 1.0,
                              "pool: this process", load=load))
@@ -193,12 +198,13 @@ def bench_pool(cases, repeats: int):
                 rows.append(_row(name, 2, 1, w, h, frames, times[name], ratios[name], note, load=load))
             # The frames written as PNG files (an animation's batch): the pool's workers encode and
             # write in parallel, the serial batch in turn with its rendering.
-            def written(**kw):
+            def written(run=RunOptions(progress=False)):
                 with tempfile.TemporaryDirectory() as out:
-                    render_batch(scene, cams, out_dir=out, progress=False, **kw)
+                    render_batch(scene, cams, out_dir=out, run=run)
 
             load = _load()
-            times, ratios = _interleaved(written, {"processes": lambda: written(executor=pool)}, repeats)
+            times, ratios = _interleaved(written, {"processes": lambda: written(RunOptions(executor=pool,
+                                                                                           progress=False))}, repeats)
             load = f"{load}-{_load()}"
             rows.append(_row("serial, PNG files", 0, numba.get_num_threads(), w, h, frames, times["serial"], 1.0,
                              "pool: this process, out_dir", load=load))
@@ -206,13 +212,13 @@ def bench_pool(cases, repeats: int):
                              "pool: steady state, out_dir (written by the workers)", load=load))
             cpu = {}
             c0 = _cpu()
-            render_batch(scene, cams, progress=False)
+            render_batch(scene, cams, run=RunOptions(progress=False))
             cpu["serial"] = _cpu() - c0
             c0, p0 = _cpu(), _pool_cpu(pool)
-            render_batch(scene, cams, executor=pool, progress=False)
+            render_batch(scene, cams, run=RunOptions(executor=pool, progress=False))
             cpu["processes"] = _cpu() - c0 + _pool_cpu(pool) - p0
             c0, d0 = _cpu(), _worker_cpu(client)
-            render_batch(scene, cams, scheduler=client, progress=False)
+            render_batch(scene, cams, run=RunOptions(scheduler=client, progress=False))
             cpu["dask"] = _cpu() - c0 + _worker_cpu(client) - d0
             for name, c in cpu.items():
                 rows.append(dict(benchmark="cpu", mode=name, workers=0 if name == "serial" else 2, width=w, height=h,
@@ -263,20 +269,21 @@ def bench_scaling(size, frames: int, repeats: int, counts):
     import numba
 
     from raycast_shade.apps.animate import orbit_cameras
-    from raycast_shade.apps.batch import local_cluster, render_batch
+    from raycast_shade.apps.batch import RunOptions, local_cluster, render_batch
 
     w, h = size
     scene = _scene(w, h)
     cams = orbit_cameras(scene.camera, frames)
-    render_batch(scene, cams[:2], progress=False)
+    render_batch(scene, cams[:2], run=RunOptions(progress=False))
     rows = []
     for n, threads in [(n, 1) for n in counts] + [(2, 2)]:
         with local_cluster(n, numba_threads=threads) as client:
-            render_batch(scene, cams[:2 * n], scheduler=client, progress=False)  # warm every worker
+            render_batch(scene, cams[:2 * n], run=RunOptions(scheduler=client, progress=False))  # warm every worker
             load = _load()
-            times, ratios = _interleaved(lambda: render_batch(scene, cams, progress=False),
-                                         {"dask": lambda: render_batch(scene, cams, scheduler=client,
-                                                                       progress=False)}, repeats)
+            times, ratios = _interleaved(lambda: render_batch(scene, cams, run=RunOptions(progress=False)),
+                                         {"dask": lambda: render_batch(scene, cams, run=RunOptions(scheduler=client,
+                                                                                                   progress=False))},
+                                         repeats)
         over = " (oversubscribed)" if n * threads > len(os.sched_getaffinity(0)) else ""
         rows.append(_row("serial", 0, numba.get_num_threads(), w, h, frames, times["serial"], 1.0,
                          f"this process, next to {n}x{threads}", load=load))
@@ -299,7 +306,7 @@ def bench_cost(frames: int, repeats: int, size):
     import numba
 
     from raycast_shade.apps.animate import orbit_cameras
-    from raycast_shade.apps.batch import local_cluster, render_batch
+    from raycast_shade.apps.batch import RunOptions, local_cluster, render_batch
     from raycast_shade.apps.batch.plan import plan_batch
 
     rows = []
@@ -311,15 +318,15 @@ def bench_cost(frames: int, repeats: int, size):
     saved = numba.get_num_threads()
     numba.set_num_threads(1)
     try:
-        render_batch(scene, cams[:2], progress=False)
+        render_batch(scene, cams[:2], run=RunOptions(progress=False))
         with local_cluster(1, numba_threads=1) as client:
-            render_batch(scene, cams, scheduler=client, progress=False)
+            render_batch(scene, cams, run=RunOptions(scheduler=client, progress=False))
             for per_task in (1, 8):
                 def dask_run(k=per_task):
-                    return render_batch(scene, cams, scheduler=client, progress=False, frames_per_task=k)
+                    return render_batch(scene, cams, run=RunOptions(scheduler=client, progress=False, per_task=k))
 
                 c_client, c_worker = _cpu(), _worker_cpu(client)
-                times, ratios = _interleaved(lambda: render_batch(scene, cams, progress=False),
+                times, ratios = _interleaved(lambda: render_batch(scene, cams, run=RunOptions(progress=False)),
                                              {"dask": dask_run}, repeats)
                 c_client, c_worker = _cpu() - c_client, _worker_cpu(client) - c_worker
                 t_s, t_d = statistics.median(times["serial"]), statistics.median(times["dask"])
@@ -351,12 +358,12 @@ def bench_cost(frames: int, repeats: int, size):
     n = len(cams)
     mb = w * h * 12 / 1e6
     with local_cluster(2, numba_threads=1) as client:
-        render_batch(scene, cams[:4], scheduler=client, progress=False)
+        render_batch(scene, cams[:4], run=RunOptions(scheduler=client, progress=False))
         cpu = {}
         for tr in ("dask", "disk"):
             c0, w0 = _cpu(), _worker_cpu(client)
             for _ in range(repeats):
-                render_batch(scene, cams, scheduler=client, progress=False, transfer=tr)
+                render_batch(scene, cams, run=RunOptions(scheduler=client, progress=False, transfer=tr))
             cpu[tr] = (_cpu() - c0, _worker_cpu(client) - w0)
         frames_done = repeats * n
         for side, i in (("client", 0), ("workers", 1)):

@@ -173,13 +173,14 @@ def _view_paths(scene, tmp, views: int = VIEWS):
     and ``view_floor``: the bytes of one view's files of the default set (PNG, zipped npz, record) in
     one plain write. Each view row's file is its first view's files (their size: one view's)."""
     from raycast_shade.apps.animate import orbit_cameras
-    from raycast_shade.apps.views import render_views
+    from raycast_shade.apps.views import RunOptions, ViewFiles, render_views
 
     cams = orbit_cameras(scene.camera, views)
 
     def view(name, **kw):
         folder = os.path.join(tmp, name)
-        run = lambda: render_views(scene, cams, folder, resume=False, overwrite=True, **kw)  # noqa: E731
+        files, again = ViewFiles(**kw), RunOptions(resume=False)
+        run = lambda: render_views(scene, cams, folder, files=files, run=again, overwrite=True)  # noqa: E731
         return run, os.path.join(folder, "view_00000*"), views
 
     blob = []

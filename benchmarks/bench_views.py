@@ -214,7 +214,8 @@ def bench_cost(tmp, width, height, repeats=5, level=6):
             real = views_mod._two_frames_fit
             views_mod._two_frames_fit = lambda jobs, memory: overlap
             try:
-                views_mod.render_views(scene, cams, f("set"), resume=False, overwrite=True, compression="zip")
+                views_mod.render_views(scene, cams, f("set"), files=views_mod.ViewFiles(compression="zip"),
+                                       run=views_mod.RunOptions(resume=False), overwrite=True)
             finally:
                 views_mod._two_frames_fit = real
         return run
@@ -258,22 +259,22 @@ def bench_cost(tmp, width, height, repeats=5, level=6):
 def bench_views(tmp, width, height, views):
     from raycast_shade.apps.animate import orbit_cameras
     from raycast_shade.apps.batch import local_cluster
-    from raycast_shade.apps.views import render_views
+    from raycast_shade.apps.views import RunOptions, ViewFiles, render_views
 
     scene = _scene(width, height)
     cams = orbit_cameras(scene.camera, views)
-    kw = dict(buffers=("zdepth", "normal", "id"), formats=("npz",))
-    render_views(scene, cams[:2], os.path.join(tmp, "warm"), **kw)
+    files = ViewFiles(buffers=("zdepth", "normal", "id"), formats=("npz",))
+    render_views(scene, cams[:2], os.path.join(tmp, "warm"), files=files)
     rows = []
     t0 = time.perf_counter()
-    render_views(scene, cams, os.path.join(tmp, "serial"), **kw)
+    render_views(scene, cams, os.path.join(tmp, "serial"), files=files)
     serial = time.perf_counter() - t0
     rows.append(dict(benchmark="views", case="serial", width=width, height=height,
                      value=f"{views / serial:.2f}", unit="views/s", note=f"{views} views, npz+png"))
     with local_cluster(2, numba_threads=1) as client:
-        render_views(scene, cams[:4], os.path.join(tmp, "warm2"), scheduler=client, **kw)
+        render_views(scene, cams[:4], os.path.join(tmp, "warm2"), files=files, run=RunOptions(scheduler=client))
         t0 = time.perf_counter()
-        render_views(scene, cams, os.path.join(tmp, "dask"), scheduler=client, **kw)
+        render_views(scene, cams, os.path.join(tmp, "dask"), files=files, run=RunOptions(scheduler=client))
         dask = time.perf_counter() - t0
     rows.append(dict(benchmark="views", case="2 workers", width=width, height=height,
                      value=f"{views / dask:.2f}", unit="views/s", note=f"{views} views, 1 Numba thread each"))

@@ -48,7 +48,7 @@ def build_gltf(path):
 def make_dataset(out_dir):
     import raycast_shade as rs
     from raycast_shade.apps.animate import orbit_cameras
-    from raycast_shade.apps.views import render_views
+    from raycast_shade.apps.views import ViewFiles, render_views
     from raycast_shade.output.buffers import BUFFER_NAMES
 
     os.makedirs(out_dir, exist_ok=True)
@@ -56,9 +56,9 @@ def make_dataset(out_dir):
     scene = rs.Scene(models, lights=[rs.PointLight((3.0, 5.0, 4.0), intensity=1.0)],
                      camera=rs.Camera(eye=(0.0, 2.6, 5.5), target=(0.0, 0.5, 0.0), fov=40, width=320, height=200))
     cameras = orbit_cameras(scene.camera, 8)
-    index = render_views(scene, cameras, os.path.join(out_dir, "views"), buffers=BUFFER_NAMES,
-                         formats=["npz", "exr", "depth_png"], exports=["coco", "nerfstudio", "colmap"],
-                         unoccluded=True)
+    files = ViewFiles(buffers=BUFFER_NAMES, formats=["npz", "exr", "depth_png"])  # what each view writes
+    index = render_views(scene, cameras, os.path.join(out_dir, "views"), files=files,
+                         exports=["coco", "nerfstudio", "colmap"], unoccluded=True)
     return scene, cameras, index
 
 

@@ -53,17 +53,19 @@ __all__ = [
     "ShadingWarning", "BumpIgnoredWarning", "ColourRangeWarning", "CreaseWarning", "DroppedOnLoadWarning",
     "LightInsideWarning", "NoLightsWarning", "ZeroNormalWarning", "EmptyViewWarning", "SingleSidedWarning",
     "figures", "overlays",
-    "explain", "explore", "render_views", "diagnose", "warmup", "animate_light", "animate_orbit",
+    "explain", "explore", "render_views", "ViewFiles", "RunOptions", "diagnose", "warmup", "animate_light",
+    "animate_orbit",
     "save_npz", "load_npz", "write_exr", "read_exr", "write_depth_png", "read_depth_png",
     "optical_flow", "move_model", "semantic_classes", "object_table", "view_objects", "coco_instances", "write_coco",
     "rle_encode", "rle_decode", "nerfstudio_transforms", "write_transforms", "write_colmap",
 ]
 
 # Imported on first access: figures needs matplotlib and explore ipywidgets (the
-# "notebook" extra), render_views the batch machinery, the vision files and labels are
+# "notebook" extra), render_views and its records (ViewFiles, RunOptions) the batch machinery, the vision files and labels are
 # not needed to render, and none belongs on the start-up path of ``raycast-shade demo``.
 _LAZY = {"figures": ".output.figures", "overlays": ".output.overlays"}
-_LAZY_FUNCTIONS = {"explore": ".apps.explore", "render_views": ".apps.views", "diagnose": ".apps.diagnose",
+_LAZY_FUNCTIONS = {"explore": ".apps.explore", "render_views": ".apps.views", "ViewFiles": ".apps.viewfiles",
+                   "RunOptions": ".apps.batch.run", "diagnose": ".apps.diagnose",
                    "warmup": ".apps.warmup", "animate_light": ".apps.movie", "animate_orbit": ".apps.movie",
                    **{n: ".output.bufferfile" for n in ("save_npz", "load_npz", "write_exr", "read_exr",
                                                          "write_depth_png", "read_depth_png")},

@@ -78,14 +78,14 @@ def make(output: str = OUTPUT, frames: int = 24, width: int = 160, height: int =
         ``output``, ``frames``, ``bytes``, ``seconds``.
     """
     from raycast_shade.apps.animate import write_animation
-    from raycast_shade.apps.batch import local_cluster, render_batch
+    from raycast_shade.apps.batch import RunOptions, local_cluster, render_batch
 
     t0 = time.perf_counter()
     scenes = orbit_scenes(frames, width, height)
     if workers:
         with local_cluster(workers) as client:
-            gouraud = render_batch(scenes, shading="gouraud", scheduler=client)
-            phong = render_batch(scenes, shading="phong", scheduler=client)
+            gouraud = render_batch(scenes, shading="gouraud", run=RunOptions(scheduler=client))
+            phong = render_batch(scenes, shading="phong", run=RunOptions(scheduler=client))
     else:
         gouraud = render_batch(scenes, shading="gouraud")
         phong = render_batch(scenes, shading="phong")

@@ -122,11 +122,11 @@ def pointcloud_figure(scene):
     import matplotlib.pyplot as plt
 
     from raycast_shade.apps.animate import orbit_cameras
-    from raycast_shade.apps.views import render_views
+    from raycast_shade.apps.views import ViewFiles, render_views
 
     cams = orbit_cameras(_camera(scene, 320, 200), 8)
     with tempfile.TemporaryDirectory() as tmp:
-        render_views(scene, cams, tmp, buffers=("zdepth", "mask", "id"), image=None)
+        render_views(scene, cams, tmp, files=ViewFiles(buffers=("zdepth", "mask", "id"), image=None))
         pts, ids = load_points(tmp)
     dist, inside = triangle_distance(scene, pts, ids)
     scale = scene.geometry.scale

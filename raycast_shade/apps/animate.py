@@ -37,9 +37,10 @@ from ..scene.camera import Camera
 from ..scene.lights import DirectionalLight, PointLight, SpotLight
 from ..scene.scene import Scene
 from .args import (add_render_options, add_tone_options, finite_float, nonnegative_int, overrides, positive_float,
-                   positive_int, shading_label)
+                   positive_int, run_options, shading_label)
 from .batch import iter_batch, render_batch
-from .batch.driver import EXECUTORS, check_executor
+from .batch.driver import FLAT_RUN_KEYWORDS
+from .batch.run import EXECUTORS, RunOptions, check_executor, merge_keywords
 
 __all__ = ["orbit_cameras", "orbit_light", "write_animation", "animate", "output_kind", "register_cli", "run_cli",
            "ORBITS", "VIDEO_EXTS"]
@@ -314,8 +315,7 @@ def write_animation(images, output, *, fps: float = 12.0, tone: dict | None = No
 
 def animate(scene: Scene, output, *, orbit: str = "camera", frames: int = 36, light_index: int = 0,
             degrees: float = 360.0, axis=None, shading="phong", fps: float = 12.0, tone: dict | None = None,
-            workers: int | None = None, scheduler=None, progress: bool = True, resume: bool = True,
-            frames_per_task: int | None = None, **render_kwargs) -> dict:
+            run: RunOptions | None = None, **render_kwargs) -> dict:
     """Render an orbit animation and write it.
 
     Parameters
@@ -343,7 +343,13 @@ def animate(scene: Scene, output, *, orbit: str = "camera", frames: int = 36, li
         Playback rate of GIF and video.
     tone : dict, optional
         :func:`raycast_shade.to_uint8` options.
-    workers, scheduler, progress, resume, frames_per_task, **render_kwargs
+    run : RunOptions, optional
+        Where and how the frames render (``workers``, ``scheduler``, ``executor``,
+        ``per_task``, ``progress``, ``resume`` of a folder output, ...), as in
+        :func:`raycast_shade.apps.batch.render_batch`. The flat keywords of earlier
+        releases (``workers=2``, ``frames_per_task=4``, ...) still work for this release,
+        with a ``DeprecationWarning``.
+    **render_kwargs
         As in :func:`raycast_shade.apps.batch.render_batch` (``backend``,
         ``interpolation``, ``caster``, ``max_depth``, ``tolerance``).
 
@@ -352,12 +358,17 @@ def animate(scene: Scene, output, *, orbit: str = "camera", frames: int = 36, li
     dict
         ``output``, ``kind`` (``"gif"``, ``"video"``, ``"frames"``),
         ``frames`` and ``seconds``.
+
+    Examples
+    --------
+    >>> animate(scene, "turntable.mp4", frames=120, run=RunOptions(workers=2))   # doctest: +SKIP
     """
     t0 = time.perf_counter()
     if not isinstance(scene, Scene):
         raise TypeError(f"scene: expected a Scene, got {type(scene).__name__}")
     if scene.camera is None:
         raise ValueError("scene.camera: an animation needs a camera")
+    run = merge_keywords(run, RunOptions, render_kwargs, FLAT_RUN_KEYWORDS, "run")
     orbit = as_choice(orbit, "orbit", ORBITS)
     kind = output_kind(output)
     as_scalar(fps, "fps", minimum=0.0, exclusive=True)
@@ -365,11 +376,10 @@ def animate(scene: Scene, output, *, orbit: str = "camera", frames: int = 36, li
         batch = dict(scene_or_scenes=scene, cameras=orbit_cameras(scene.camera, frames, degrees=degrees, axis=axis))
     else:
         batch = dict(scene_or_scenes=orbit_light(scene, frames, light_index=light_index, degrees=degrees, axis=axis))
-    common = dict(shading=shading, workers=workers, scheduler=scheduler, progress=progress, tone=tone,
-                  frames_per_task=frames_per_task, **render_kwargs)
+    common = dict(shading=shading, tone=tone, run=run, **render_kwargs)
     path = os.fspath(output)
     if kind == "frames":
-        written = render_batch(**batch, out_dir=path, pattern=FRAME_PATTERN, resume=resume, **common)
+        written = render_batch(**batch, out_dir=path, pattern=FRAME_PATTERN, **common)
         count = len(written)
     else:
         folder = os.path.dirname(os.path.abspath(path))
@@ -477,12 +487,10 @@ def run_cli(ns) -> int:
     output = ns.output
     if output is None:
         output = f"{os.path.splitext(os.path.basename(ns.scene))[0]}_{ns.orbit}.gif"
+    run = run_options(ns)  # the flags as the record Python callers pass
     result = animate(scene, output, orbit=ns.orbit, frames=ns.frames, light_index=ns.light_index,
-                     degrees=ns.degrees, shading=shading, fps=ns.fps, tone=tone, workers=ns.workers,
-                     scheduler=ns.scheduler, progress=not ns.no_progress,
-                     frames_per_task=getattr(ns, "frames_per_task", None),
-                     executor=getattr(ns, "executor", "auto"), **render_kwargs)
-    kind = check_executor(getattr(ns, "executor", "auto"), ns.workers, ns.scheduler)
+                     degrees=ns.degrees, shading=shading, fps=ns.fps, tone=tone, run=run, **render_kwargs)
+    kind = check_executor(run.executor, run.workers, run.scheduler)
     where = (f"cluster {ns.scheduler}" if ns.scheduler else
              "this process" if kind == "serial" else
              f"{ns.workers or 'per-core'} {'Dask workers' if kind == 'dask' else 'worker processes'}")

@@ -20,7 +20,8 @@ from ..common.samples import MAX_SAMPLES
 from ..scene.scenefile import RENDER_KEYS
 
 __all__ = ["positive_int", "nonnegative_int", "positive_float", "finite_float", "gamma", "shading",
-           "add_render_options", "add_mesh_options", "add_tone_options", "overrides", "shading_label", "buffer_list"]
+           "add_render_options", "add_mesh_options", "add_tone_options", "overrides", "run_options", "shading_label",
+           "buffer_list"]
 
 
 def _int_at_least(text: str, low: int) -> int:
@@ -151,6 +152,18 @@ def add_tone_options(p, title: str = "tone mapping (8-bit formats only)") -> Non
 def overrides(args) -> dict:
     """The ``[render]`` options given on the command line (those not None)."""
     return {k: getattr(args, k) for k in RENDER_KEYS if getattr(args, k, None) is not None}
+
+
+def run_options(ns):
+    """The execution flags a command has (``--workers``, ``--scheduler``, ``--executor``,
+    ``--frames-per-task``, ``--no-progress``) as one
+    :class:`~raycast_shade.apps.batch.run.RunOptions`: the record the Python front ends take, checked
+    by it. A flag the command lacks keeps the record's default."""
+    from .batch.run import RunOptions
+
+    return RunOptions(workers=getattr(ns, "workers", None), scheduler=getattr(ns, "scheduler", None),
+                      executor=getattr(ns, "executor", "auto"), per_task=getattr(ns, "frames_per_task", None),
+                      progress=not getattr(ns, "no_progress", False))
 
 
 def buffer_list(text: str) -> tuple:

@@ -1,7 +1,7 @@
 """The per-view file options of a view set (:class:`ViewFiles`), checked: what each view writes.
 
-:func:`raycast_shade.apps.views.render_views` takes them as keyword arguments or passed whole
-(``files=ViewFiles(...)``); see its docstring for the files themselves.
+:func:`raycast_shade.apps.views.render_views` takes them whole, ``files=ViewFiles(...)`` (its flat
+keywords ``buffers=``, ``formats=``, ... are deprecated); see its docstring for the files themselves.
 """
 
 from __future__ import annotations
@@ -66,8 +66,9 @@ class ViewFiles:
     def __post_init__(self):
         from ..common.validate import as_choice
 
-        check_buffers(self.buffers)
-        buffers = (self.buffers,) if isinstance(self.buffers, str) else tuple(self.buffers)
+        check_buffers(self.buffers)  # None: no buffers, as render(buffers=None)
+        buffers = () if self.buffers is None else (self.buffers,) if isinstance(self.buffers, str) \
+            else tuple(self.buffers)
         formats = as_names(self.formats, "formats", FORMATS)
         image = self.image
         if image is not None:

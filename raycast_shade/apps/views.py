@@ -1,9 +1,10 @@
 """Data sets of views: one file set per camera, plus an index of cameras and files.
 
-``render_views(scene, cameras, out_dir, buffers=[...])`` renders every view
-on the batch machinery (:mod:`raycast_shade.apps.batch`: planning, one base
-scene per mesh set, the scene cache; serially, on a local Dask cluster with
-``workers=N``, or on ``scheduler=address``) and writes, per view ``i``:
+``render_views(scene, cameras, out_dir, files=ViewFiles(buffers=[...]), run=RunOptions(...))``
+renders every view on the batch machinery (:mod:`raycast_shade.apps.batch`:
+planning, one base scene per mesh set, the scene cache; serially, on a local
+Dask cluster with ``RunOptions(workers=N)``, or on
+``RunOptions(scheduler=address)``) and writes, per view ``i``:
 
 * ``view_{i:05d}.png``: the tone-mapped image (``image=".png"``; or
   ``.pfm``/``.npy`` linear, or None for none);
@@ -62,7 +63,7 @@ import dataclasses
 import json
 import os
 
-from ..common.validate import as_bool, as_instance, as_int, as_names, as_scalar
+from ..common.validate import as_bool, as_instance, as_names
 from ..output.bufferfile import depth_png_bytes, exr_into, npz_into
 from ..output.buffers import check_buffers
 from ..output.labels import object_table, semantic_classes, unoccluded_masks, view_objects, write_coco
@@ -73,18 +74,24 @@ from ..visibility.accel import embree_accel
 from .batch.cache import PLUGIN_NAME, SceneCache, cache_of
 from .batch.options import check_options
 from .batch.plan import plan_batch
-from .viewfiles import _DEFAULT_BUFFERS, _DEFAULT_FORMATS, COMPRESSIONS, FORMATS, ViewFiles
+from .batch.pool import ProcessPool, cores
+from .batch.run import RunOptions, merge_keywords
+from .viewfiles import COMPRESSIONS, FORMATS, ViewFiles
 from .viewslots import ViewSlots
 from .viewplan import (PLAN_FORMAT, PLAN_NAME, digest, file_hasher, prepare_folder, view_hashes, view_is_done, view_key,
                        write_json, write_record)
 
-__all__ = ["render_views", "ViewFiles", "FORMATS", "EXPORTS", "INDEX_NAME", "PLAN_NAME", "view_files", "register_cli",
-           "run_cli"]
+__all__ = ["render_views", "ViewFiles", "RunOptions", "FORMATS", "EXPORTS", "INDEX_NAME", "PLAN_NAME", "view_files",
+           "register_cli", "run_cli"]
 
 EXPORTS = ("coco", "nerfstudio", "colmap")
 EXPORT_FILES = {"coco": ("coco_instances.json",), "nerfstudio": ("transforms.json",),
                 "colmap": tuple(os.path.join("colmap", n) for n in ("cameras.txt", "images.txt", "points3D.txt"))}
 INDEX_NAME = "index.json"
+# The keywords render_views took before its records: old name -> field of ViewFiles, of RunOptions.
+FLAT_FILE_KEYWORDS = {k: k for k in ("buffers", "formats", "image", "depth_scale", "float_image", "compression")}
+FLAT_RUN_KEYWORDS = {**{k: k for k in ("workers", "scheduler", "resume", "retries", "numba_threads")},
+                     "views_per_task": "per_task"}
 _STEM = "view_{:05d}"
 
 
@@ -96,19 +103,6 @@ def view_files(index: int, formats, image) -> dict:
     for f in formats:
         files[f] = stem + ("_depth.png" if f == "depth_png" else "." + f)
     files["record"] = stem + ".json"
-    return files
-
-
-def _view_files(files, given: dict) -> ViewFiles:
-    """``files`` (checked), or the :class:`ViewFiles` of the keyword arguments ``given``; a keyword
-    argument given besides ``files`` (not its default object) is refused, naming it."""
-    if files is None:
-        return ViewFiles(**given)
-    as_instance(files, "files", ViewFiles)
-    defaults = render_views.__kwdefaults__
-    clash = [k for k, v in given.items() if v is not defaults[k]]
-    if clash:
-        raise ValueError(f"files: {clash[0]} is given both in files and as a keyword argument; pass it in one place")
     return files
 
 
@@ -335,31 +329,35 @@ def _make_plan(spec: _ViewSpec, jobs) -> dict:
                        "files": view_files(j.index, spec.formats, spec.image)} for j in jobs]}
 
 
-def _check_set_options(exports, image, unoccluded, overwrite, depth_scale, float_image, compression) -> tuple:
-    """The checked exports and compression; TypeError/ValueError naming the argument otherwise."""
-    from ..common.validate import as_choice
-
+def _check_set_options(exports, files: ViewFiles, unoccluded, overwrite) -> tuple:
+    """The checked exports and compression (``"auto"`` resolved); TypeError/ValueError naming the argument
+    otherwise. The file options themselves were checked by :class:`ViewFiles`."""
     exports = as_names(exports, "exports", EXPORTS)
-    compression = as_choice(compression, "compression", COMPRESSIONS)
+    compression = files.compression
     if compression == "auto":
         from ..output.npzwrite import deflate_backend
 
         compression = "zip" if deflate_backend(1) == "isal" else "none"
     for e in ("nerfstudio", "colmap"):
-        if e in exports and image is None:
+        if e in exports and files.image is None:
             raise ValueError(f"exports: {e!r} names each view's image file, but image=None writes none")
-    for name, value in (("unoccluded", unoccluded), ("overwrite", overwrite), ("float_image", float_image)):
+    for name, value in (("unoccluded", unoccluded), ("overwrite", overwrite)):
         as_bool(value, name)
-    as_scalar(depth_scale, "depth_scale", minimum=0.0, exclusive=True)
     return exports, compression
 
 
-def render_views(scene, cameras, out_dir, *, files: ViewFiles | None = None, buffers=_DEFAULT_BUFFERS,
-                 formats=_DEFAULT_FORMATS, image: str | None = ".png", shading="phong", workers: int | None = None,
-                 scheduler=None, resume: bool = True, tone: dict | None = None, retries: int = 2,
-                 views_per_task: int = 1, numba_threads: int | None = None, depth_scale: float = 1000.0,
-                 overwrite: bool = False, exports=(), unoccluded: bool = False, float_image: bool = False,
-                 compression: str = "auto", **render_kwargs) -> str:
+def _on_dask(run: RunOptions) -> bool:
+    """Whether the views render on Dask (``workers`` or ``scheduler``, or ``executor="dask"``) rather than
+    in this process; a view set has no process-pool path (its workers write files and keep scene caches)."""
+    if isinstance(run.executor, ProcessPool) or run.executor == "processes":
+        raise ValueError("run.executor: render_views renders in this process or on Dask; expected 'auto', "
+                         "'serial' or 'dask'")
+    return run.executor == "dask" or run.workers is not None or run.scheduler is not None
+
+
+def render_views(scene, cameras, out_dir, *, files: ViewFiles | None = None, run: RunOptions | None = None,
+                 shading="phong", tone: dict | None = None, overwrite: bool = False, exports=(),
+                 unoccluded: bool = False, **render_kwargs) -> str:
     """Render a set of views with their buffers and cameras into ``out_dir``.
 
     Parameters
@@ -370,49 +368,46 @@ def render_views(scene, cameras, out_dir, *, files: ViewFiles | None = None, buf
     out_dir : str or path-like
         Created if need be.
     files : ViewFiles, optional
-        The file options ``buffers``, ``formats``, ``image``, ``depth_scale``, ``float_image``
-        and ``compression`` in one object, those keyword arguments left out (one given too: refused).
-    buffers : sequence of str
-        Buffer names (:mod:`raycast_shade.output.buffers`).
-    formats : sequence of {"npz", "exr", "depth_png"}
-        Buffer files per view (see the module docstring).
-    image : {".png", ".pfm", ".npy", ...} or None
-        Extension of the per-view image file, or None for none.
+        What each view writes: ``buffers``, ``formats``, ``image``, ``depth_scale``,
+        ``float_image`` and ``compression`` (see :class:`~raycast_shade.apps.viewfiles.ViewFiles`
+        and the module docstring; default: ``ViewFiles()``, a PNG and an npz of z-depth,
+        normal, id and mask per view). ``compression="auto"`` is ``"zip"`` where the ``isal``
+        package is installed, else ``"none"``.
+    run : RunOptions, optional
+        Where and how the views render: ``workers`` (a local Dask cluster), ``scheduler``
+        (an existing one), ``executor`` (``"auto"``, ``"serial"`` or ``"dask"``), ``retries``,
+        ``numba_threads``, ``per_task`` (consecutive views per Dask task; default 1) and
+        ``resume`` (skip views whose record matches the plan and whose files are intact, see
+        the module docstring; False renders every view again). Default: ``RunOptions()``,
+        in this process.
     shading, tone, **render_kwargs
         As :func:`raycast_shade.apps.batch.render_batch`.
-    workers, scheduler, retries, numba_threads
-        As :func:`raycast_shade.apps.batch.render_batch`.
-    resume : bool
-        Skip views whose record matches the plan and whose files are intact
-        (see the module docstring); False renders every view again.
     overwrite : bool
         Replace a view set of another plan in ``out_dir`` (default: refuse
         it, saying what differs).
     exports : sequence of {"coco", "nerfstudio", "colmap"}
         Set-level files written after the views (see the module docstring);
         ``nerfstudio`` and ``colmap`` name the image files, so they need
-        ``image``.
+        ``files.image``.
     unoccluded : bool
         Also cast each model alone per view: each object's unoccluded
         (amodal) pixel count and box and its visible fraction in the records
         and the index (:func:`raycast_shade.output.labels.view_objects`); one
         more cast per model and view.
-    float_image : bool
-        Also store the linear float32 image in the npz and EXR files (it
-        is the largest array there; default: the buffers only).
-    compression : {"auto", "none", "zip"}
-        npz and EXR files compressed (npz: deflate level 1; EXR: ZIP) or
-        stored; ``"auto"`` (the default): ``"zip"`` where the ``isal``
-        package is installed, else ``"none"`` (see the module docstring).
-    views_per_task : int
-        Consecutive views per Dask task.
-    depth_scale : float
-        Units per world unit of the depth PNG (1000: millimetres).
 
     Returns
     -------
     str
         Path of the index (``out_dir / index.json``).
+
+    Warns
+    -----
+    DeprecationWarning
+        For the flat keywords of earlier releases, which still work for this release:
+        ``buffers``, ``formats``, ``image``, ``depth_scale``, ``float_image``, ``compression``
+        (now fields of ``files``) and ``workers``, ``scheduler``, ``resume``, ``retries``,
+        ``numba_threads``, ``views_per_task`` (now of ``run``; ``views_per_task`` is
+        ``run.per_task``). One that disagrees with the record given too is refused.
 
     Raises
     ------
@@ -422,6 +417,13 @@ def render_views(scene, cameras, out_dir, *, files: ViewFiles | None = None, buf
         written.
     ImportError
         ``"exr"`` without the openexr package.
+
+    Examples
+    --------
+    >>> render_views(scene, orbit_cameras(scene.camera, 24), "views",
+    ...              files=ViewFiles(buffers=["zdepth", "normal", "id"], formats=["npz", "depth_png"]),
+    ...              run=RunOptions(workers=2))                                         # doctest: +SKIP
+    'views/index.json'
     """
     from ..scene.scene import Scene
 
@@ -431,14 +433,12 @@ def render_views(scene, cameras, out_dir, *, files: ViewFiles | None = None, buf
     out_dir = os.fspath(out_dir)
     if os.path.exists(out_dir) and not os.path.isdir(out_dir):
         raise ValueError(f"out_dir: {out_dir!r} is a file, not a folder")
-    as_int(retries, "retries", minimum=0)
-    files = _view_files(files, dict(buffers=buffers, formats=formats, image=image, depth_scale=depth_scale,
-                                    float_image=float_image, compression=compression))
+    files = merge_keywords(files, ViewFiles, render_kwargs, FLAT_FILE_KEYWORDS, "files")
+    run = merge_keywords(run, RunOptions, render_kwargs, FLAT_RUN_KEYWORDS, "run")
+    on_dask = _on_dask(run)
     names, formats, image, depth_scale = check_buffers(files.buffers), files.formats, files.image, files.depth_scale
-    views_per_task = as_int(views_per_task, "views_per_task", minimum=1)
-    exports, compression = _check_set_options(exports, image, unoccluded, overwrite, depth_scale, files.float_image,
-                                              files.compression)
-    options = check_options(shading, render_kwargs, tone, resume)
+    exports, compression = _check_set_options(exports, files, unoccluded, overwrite)
+    options = check_options(shading, render_kwargs, tone, run.resume)
     memory = dict(buffers=names + ("model_id",), samples=options.render_kwargs.get("samples", 1))
     bases, jobs = plan_batch(scene, cameras, memory=memory)
     spec = _ViewSpec(options, names, formats, None if image is None else str(image).lower(), out_dir,
@@ -452,15 +452,15 @@ def render_views(scene, cameras, out_dir, *, files: ViewFiles | None = None, buf
     all_files = {j.index: view_files(j.index, formats, spec.image) for j in jobs}
     set_level = [INDEX_NAME, PLAN_NAME, EXPORT_FILES["coco"][0], EXPORT_FILES["nerfstudio"][0]]
     remove_stale_temps(out_dir, [n for files in all_files.values() for n in files.values()] + set_level)
-    on_dask = workers is not None or scheduler is not None
     if not on_dask:
         cache = SceneCache()
         _run_views(jobs, lambda job: cache.base(job.key, bases[job.key]), spec, cache)
     else:
         from .batch.cluster import connect
 
-        with connect(workers, scheduler, numba_threads) as client:
-            for _ in _iter_dask(client, bases, jobs, spec, retries, views_per_task):
+        workers = cores() if run.workers is None and run.scheduler is None else run.workers  # executor="dask" alone
+        with connect(workers, run.scheduler, run.numba_threads) as client:
+            for _ in _iter_dask(client, bases, jobs, spec, run.retries, run.per_task or 1):
                 pass
     index = {"conventions": {"camera": "OpenCV: x right, y down, z forward; x_cam = R x_world + t",
                              "pixels": "centre of pixel (i, j) at (u, v) = (i, j)",
@@ -566,7 +566,7 @@ def run_cli(ns) -> int:
 
     from ..scene.scenefile import load_for_render
     from .animate import orbit_cameras
-    from .args import model_for_render, overrides
+    from .args import model_for_render, overrides, run_options
 
     if ns.scene.lower().endswith(".toml"):
         if ns.crease_angle is not None:
@@ -579,9 +579,10 @@ def run_cli(ns) -> int:
     t0 = time.perf_counter()
     files = ViewFiles(buffers=ns.buffers, formats=ns.formats, image=image, float_image=ns.float_image,
                       compression=ns.compression)
-    index = render_views(scene, orbit_cameras(scene.camera, ns.orbit), ns.output, files=files, shading=shading,
-                         workers=ns.workers, scheduler=ns.scheduler, tone=tone, overwrite=ns.overwrite,
-                         exports=ns.export, unoccluded=ns.unoccluded, **render_kwargs)
+    run = run_options(ns)  # --workers, --scheduler: the record Python callers pass
+    index = render_views(scene, orbit_cameras(scene.camera, ns.orbit), ns.output, files=files, run=run,
+                         shading=shading, tone=tone, overwrite=ns.overwrite, exports=ns.export,
+                         unoccluded=ns.unoccluded, **render_kwargs)
     secs = time.perf_counter() - t0
     cam = scene.camera
     print(f"wrote {index} ({ns.orbit} views, {cam.width}x{cam.height}, buffers {','.join(ns.buffers)}): "

@@ -7,6 +7,7 @@ and out-of-range indices, so nothing of that kind may reach it.
 
 from __future__ import annotations
 
+import collections.abc as abc
 import numbers
 import os
 
@@ -251,7 +252,8 @@ def as_int(value, name: str, *, minimum: int | None = None, maximum: int | None 
 
 
 def as_count(value, name: str, *, minimum: int = 1, optional: bool = False):
-    """A count: an integer (Python or NumPy; not a bool, not a float) ``>= minimum``, or None if ``optional``.
+    """A count: an integer (Python or NumPy, a 0-d array too; not a bool, not a float) ``>= minimum``, or None
+    if ``optional``.
 
     Unlike :func:`as_int`, every refusal is a ValueError (worker and retry
     counts have always been refused so), with the same message.
@@ -263,10 +265,11 @@ def as_count(value, name: str, *, minimum: int = 1, optional: bool = False):
     """
     if optional and value is None:
         return None
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Integral, np.integer)) \
-            or value < minimum:
+    number = _zero_d(value)  # a 0-d integer array is its scalar, as for as_int
+    if isinstance(number, (bool, np.bool_)) or not isinstance(number, (numbers.Integral, np.integer)) \
+            or number < minimum:
         raise ValueError(f"{name}: expected an integer >= {minimum}{' or None' if optional else ''}, got {value!r}")
-    return int(value)
+    return int(number)
 
 
 def as_name(value, name: str) -> str:
@@ -282,7 +285,8 @@ def as_names(value, name: str, choices, *, item: str | None = None) -> tuple:
     Parameters
     ----------
     value : str, sequence of str or None
-        ``None`` and ``""`` are none; repeats are dropped, the first order kept.
+        ``None`` and ``""`` are none; repeats are dropped, the first order kept. A NumPy
+        array or a mapping is refused (it iterates, but not as a list of names).
     name : str
         Field name used in error messages.
     choices : sequence of str
@@ -299,7 +303,7 @@ def as_names(value, name: str, choices, *, item: str | None = None) -> tuple:
     Raises
     ------
     TypeError
-        For a non-sequence or a name that is not a string.
+        For a non-sequence (an array and a mapping included) or a name that is not a string.
     ValueError
         For a name not in ``choices``.
     """
@@ -308,7 +312,8 @@ def as_names(value, name: str, choices, *, item: str | None = None) -> tuple:
         return ()
     if isinstance(value, str):
         value = [v for v in value.split(",") if v.strip()]
-    elif not hasattr(value, "__iter__"):
+    elif isinstance(value, (bytes, np.ndarray, abc.Mapping)) or not hasattr(value, "__iter__"):
+        # an array or a mapping iterates, but nobody means its items (or keys) as names
         raise TypeError(f"{name}: expected a sequence of {item} names, got {type(value).__name__}")
     out = []
     for v in value:

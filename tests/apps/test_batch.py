@@ -96,43 +96,33 @@ def test_scene_key_is_content_not_identity(scene):
     assert batch.scene_key(mat) != batch.scene_key(other)
 
 
-def test_bad_input_names_the_field(scene, client):
+def test_bad_input_names_the_field(scene):
     cams = animate.orbit_cameras(scene.camera, 3)
     with pytest.raises(ValueError, match="lights"):
-        batch.render_batch(scene, cams, lights=[[scene.lights[0]]] * 2, progress=False)
+        batch.render_batch(scene, cams, lights=[[scene.lights[0]]] * 2, run=rs.RunOptions(progress=False))
     with pytest.raises(TypeError, match=r"scenes\[1\]"):
-        batch.render_batch([scene, "x"], progress=False)
+        batch.render_batch([scene, "x"], run=rs.RunOptions(progress=False))
     with pytest.raises(TypeError, match=r"cameras\[0\]"):
-        batch.render_batch(scene, cameras=["x"], progress=False)
+        batch.render_batch(scene, cameras=["x"], run=rs.RunOptions(progress=False))
     with pytest.raises(TypeError, match=r"lights\[0\]\[0\]"):
-        batch.render_batch(scene, lights=[[1.0]], progress=False)
+        batch.render_batch(scene, lights=[[1.0]], run=rs.RunOptions(progress=False))
     with pytest.raises(ValueError, match="shading"):
-        batch.render_batch(scene, shading="toon", progress=False)
+        batch.render_batch(scene, shading="toon", run=rs.RunOptions(progress=False))
     with pytest.raises(TypeError, match="bogus"):
-        batch.render_batch(scene, bogus=1, progress=False)
+        batch.render_batch(scene, bogus=1, run=rs.RunOptions(progress=False))
     with pytest.raises(ValueError, match="backend"):
-        batch.render_batch(scene, backend="gpu", progress=False)
-    with pytest.raises(ValueError, match="workers"):
-        batch.render_batch(scene, workers=2, scheduler=client, progress=False)
-    with pytest.raises(ValueError, match="workers"):
-        batch.render_batch(scene, workers=0, progress=False)
-    with pytest.raises(TypeError, match="scheduler"):
-        batch.render_batch(scene, scheduler=8786, progress=False)
+        batch.render_batch(scene, backend="gpu", run=rs.RunOptions(progress=False))
     with pytest.raises(ValueError, match="pattern"):
-        batch.render_batch(scene, cams, out_dir="unused", pattern="frame.png", progress=False)
+        batch.render_batch(scene, cams, out_dir="unused", pattern="frame.png", run=rs.RunOptions(progress=False))
     with pytest.raises(ValueError, match="pattern"):
-        batch.render_batch(scene, out_dir="unused", pattern="sub/frame_{:03d}.png", progress=False)
+        batch.render_batch(scene, out_dir="unused", pattern="sub/frame_{:03d}.png", run=rs.RunOptions(progress=False))
     with pytest.raises(ValueError, match=r"pattern: 'frame_000.exr': .exr is not written"):
-        batch.render_batch(scene, out_dir="unused", pattern="frame_{:03d}.exr", progress=False)
+        batch.render_batch(scene, out_dir="unused", pattern="frame_{:03d}.exr", run=rs.RunOptions(progress=False))
     with pytest.raises(ValueError, match="exposure"):
-        batch.render_batch(scene, tone={"exposure": -1.0}, progress=False)
-    with pytest.raises(ValueError, match="frames_per_task"):
-        batch.render_batch(scene, frames_per_task=0, progress=False)
-    with pytest.raises(ValueError, match="retries"):
-        batch.render_batch(scene, retries=-1, progress=False)
+        batch.render_batch(scene, tone={"exposure": -1.0}, run=rs.RunOptions(progress=False))
     no_cam = rs.Scene(scene.models)
     with pytest.raises(ValueError, match="cameras"):
-        batch.render_batch(no_cam, progress=False)
+        batch.render_batch(no_cam, run=rs.RunOptions(progress=False))
 
 
 # -- serial -------------------------------------------------------------------------------------------------
@@ -142,7 +132,7 @@ def test_serial_batch_in_order_and_builds_once():
     s = _scene()  # fresh: nothing built yet
     cams = animate.orbit_cameras(s.camera, 6)
     cache = batch.SceneCache()  # the run's cache and counters, owned by the caller
-    images = batch.render_batch(s, cams, shading="gouraud", progress=False, cache=cache)
+    images = batch.render_batch(s, cams, shading="gouraud", run=rs.RunOptions(progress=False), cache=cache)
     assert cache.stats()["builds"] == 1 and cache.stats()["renders"] == 6
     ref = _serial([s] * 6, cams, "gouraud")
     assert all(np.array_equal(a, b) for a, b in zip(images, ref))
@@ -154,22 +144,22 @@ def test_serial_runs_own_their_cache():
     s = _scene()
     cams = animate.orbit_cameras(s.camera, 2)
     first, second = batch.SceneCache(), batch.SceneCache()
-    batch.render_batch(s, cams, progress=False, cache=first)
-    batch.render_batch(s, cams, progress=False)  # its own cache: touches neither
-    batch.render_batch(s, cams, progress=False, cache=second)
+    batch.render_batch(s, cams, run=rs.RunOptions(progress=False), cache=first)
+    batch.render_batch(s, cams, run=rs.RunOptions(progress=False))  # its own cache: touches neither
+    batch.render_batch(s, cams, run=rs.RunOptions(progress=False), cache=second)
     assert first.stats() == {"builds": 1, "renders": 2, "skipped": 0, "cached": 1}
     assert second.stats() == {"builds": 0, "renders": 2, "skipped": 0, "cached": 1}  # geometry kept on the scene
     with pytest.raises(TypeError, match="cache"):
-        batch.render_batch(s, progress=False, cache={})
+        batch.render_batch(s, run=rs.RunOptions(progress=False), cache={})
 
 
 def test_serial_broadcasts_and_zips(scene):
     cams = animate.orbit_cameras(scene.camera, 3)
     light_sets = [[rs.PointLight((x, 2.0, 3.0), intensity=15.0)] for x in (-2.0, 0.0, 2.0)]
-    images = batch.render_batch(scene, cams, light_sets, progress=False)
+    images = batch.render_batch(scene, cams, light_sets, run=rs.RunOptions(progress=False))
     ref = [rs.render(scene.replace(lights=ls), "phong", camera=c).image for c, ls in zip(cams, light_sets)]
     assert all(np.array_equal(a, b) for a, b in zip(images, ref))
-    one = batch.render_batch(scene, progress=False)
+    one = batch.render_batch(scene, run=rs.RunOptions(progress=False))
     assert len(one) == 1 and np.array_equal(one[0], rs.render(scene, "phong").image)
 
 
@@ -185,7 +175,7 @@ def test_cluster_workers_are_single_threaded(client):
 def test_cluster_matches_serial_bitwise(scene, client):
     batch.reset_worker_stats(client)
     cams = animate.orbit_cameras(scene.camera, 8)
-    got = batch.render_batch(scene, cams, shading="phong", scheduler=client, progress=False)
+    got = batch.render_batch(scene, cams, shading="phong", run=rs.RunOptions(scheduler=client, progress=False))
     ref = _serial([scene] * 8, cams, "phong")
     assert len(got) == 8
     for a, b in zip(got, ref):
@@ -197,7 +187,7 @@ def test_cluster_matches_serial_bitwise(scene, client):
     # A light orbit is a list of scenes sharing one mesh set: still one build per worker.
     scenes = animate.orbit_light(scene, 6)
     batch.reset_worker_stats(client)
-    got = batch.render_batch(scenes, shading="gouraud", scheduler=client, progress=False, window=3)
+    got = batch.render_batch(scenes, shading="gouraud", run=rs.RunOptions(scheduler=client, progress=False, window=3))
     ref = _serial(scenes, [scene.camera] * 6, "gouraud")
     assert all(np.array_equal(a, b) for a, b in zip(got, ref))
     totals, per_worker = _worker_totals(client)
@@ -207,26 +197,28 @@ def test_cluster_matches_serial_bitwise(scene, client):
 def test_cluster_takes_auto_and_one_method_per_model(scene, client):
     cams = animate.orbit_cameras(scene.camera, 3)
     for shading in ("Auto", ("flat", "Phong")):
-        got = batch.render_batch(scene, cams, shading=shading, scheduler=client, progress=False, tolerance=0.02)
+        got = batch.render_batch(scene, cams, shading=shading, run=rs.RunOptions(scheduler=client, progress=False),
+                                 tolerance=0.02)
         canonical = shading.lower() if isinstance(shading, str) else tuple(m.lower() for m in shading)
         ref = [rs.render(scene, canonical, camera=c, tolerance=0.02).image for c in cams]
         assert all(np.array_equal(a, b) for a, b in zip(got, ref))
     with pytest.raises(ValueError, match="cache"):
-        batch.render_batch(scene, scheduler=client, progress=False, cache=batch.SceneCache())
+        batch.render_batch(scene, run=rs.RunOptions(scheduler=client, progress=False), cache=batch.SceneCache())
 
 
 def test_cluster_streams_in_order(scene, client):
     cams = animate.orbit_cameras(scene.camera, 7)
     ref = _serial([scene] * 7, cams, "flat")
-    out = list(batch.iter_batch(scene, cams, shading="flat", scheduler=client, progress=False, window=2))
+    out = list(batch.iter_batch(scene, cams, shading="flat", run=rs.RunOptions(scheduler=client, progress=False,
+                                                                               window=2)))
     assert len(out) == 7 and all(np.array_equal(a, b) for a, b in zip(out, ref))
     # Several frames per task (a chunk never mixes mesh sets): same frames, same order.
     other = rs.Scene([rs.shapes.icosphere(1)], lights=scene.lights, camera=scene.camera)
     scenes = [scene] * 4 + [other] * 3
     ref = _serial(scenes, cams, "flat")
     for per_task, window in ((3, None), (3, 4), (2, 1)):
-        out = list(batch.iter_batch(scenes, cams, shading="flat", scheduler=client, progress=False,
-                                    frames_per_task=per_task, window=window))
+        out = list(batch.iter_batch(scenes, cams, shading="flat", run=rs.RunOptions(scheduler=client, progress=False,
+                                                                                    per_task=per_task, window=window)))
         assert len(out) == 7 and all(np.array_equal(a, b) for a, b in zip(out, ref))
 
 
@@ -239,28 +231,24 @@ def test_cluster_images_come_back_through_a_folder_or_dask(scene, client, tmp_pa
     ref = _serial([scene] * 5, cams)
     assert batch.cluster.is_local(client) and not batch.cluster.is_local(object())
     for transfer, spooled in (("auto", True), ("DISK", True), ("dask", False)):
-        frames = batch.iter_batch(scene, cams, scheduler=client, progress=False, transfer=transfer,
-                                  frames_per_task=2)
+        frames = batch.iter_batch(scene, cams, run=rs.RunOptions(scheduler=client, progress=False, transfer=transfer,
+                                                                 per_task=2))
         first = next(frames)
         assert len(os.listdir(root)) == int(spooled)  # the folder lives while the batch runs
         got = [first] + list(frames)
         assert os.listdir(root) == []  # and is removed with every image read from it
         assert all(a.dtype == np.float32 and a.flags.writeable and np.array_equal(a, b) for a, b in zip(got, ref))
     # Frames written by the workers need no folder.
-    paths = batch.render_batch(scene, cams, scheduler=client, progress=False, out_dir=tmp_path / "out",
-                               pattern="f_{:02d}.npy", transfer="disk")
+    paths = batch.render_batch(scene, cams, run=rs.RunOptions(scheduler=client, progress=False, transfer="disk"),
+                               out_dir=tmp_path / "out",
+                               pattern="f_{:02d}.npy")
     assert os.listdir(root) == [] and all(np.array_equal(np.load(p), b) for p, b in zip(paths, ref))
 
 
-def test_transfer_and_frames_per_task_are_checked(scene):
-    with pytest.raises(ValueError, match="transfer"):
-        batch.render_batch(scene, transfer="ftp", progress=False)
-    with pytest.raises(TypeError, match="transfer"):
-        batch.render_batch(scene, transfer=3, progress=False)
-    with pytest.raises(ValueError, match="frames_per_task"):
-        batch.render_batch(scene, frames_per_task=True, progress=False)
-    # None is the default (automatic) for frames_per_task and window; serial runs take (and ignore) them.
-    out = batch.render_batch(scene, frames_per_task=None, transfer="Dask", progress=False)
+def test_serial_runs_take_and_ignore_the_dask_options(scene):
+    # RunOptions checks transfer, per_task and window (tests/apps/test_run_options.py); None is the default
+    # (automatic) for per_task and window, and a run in this process ignores all three.
+    out = batch.render_batch(scene, run=rs.RunOptions(per_task=None, transfer="Dask", progress=False))
     assert np.array_equal(out[0], rs.render(scene, "phong").image)
 
 
@@ -312,7 +300,7 @@ def test_cluster_error_propagates(scene, client):
     ball = rs.shapes.icosphere(1)
     bad = rs.Scene([rs.Model(rs.Mesh(ball.vertices, ball.faces), bumpy)], camera=scene.camera)
     with pytest.raises(ValueError, match="UVs"):
-        batch.render_batch(bad, scheduler=client, progress=False, retries=1)
+        batch.render_batch(bad, run=rs.RunOptions(scheduler=client, progress=False, retries=1))
 
 
 def _names(folder):
@@ -322,7 +310,7 @@ def _names(folder):
 def test_resume_renders_only_missing_frames(scene, client, tmp_path):
     cams = animate.orbit_cameras(scene.camera, 6)
     out = tmp_path / "frames"
-    paths = batch.render_batch(scene, cams, out_dir=out, pattern="f_{:03d}.npy", progress=False)
+    paths = batch.render_batch(scene, cams, out_dir=out, pattern="f_{:03d}.npy", run=rs.RunOptions(progress=False))
     assert paths == [str(out / f"f_{i:03d}.npy") for i in range(6)]
     ref = _serial([scene] * 6, cams)
     assert all(np.array_equal(np.load(p), r) for p, r in zip(paths, ref))
@@ -333,7 +321,8 @@ def test_resume_renders_only_missing_frames(scene, client, tmp_path):
     stale = out / ".f_001.npy.0123456789ab.tmp.npy"  # what a writer killed mid-file leaves behind
     stale.write_bytes(b"half a fi")
     batch.reset_worker_stats(client)
-    again = batch.render_batch(scene, cams, out_dir=out, pattern="f_{:03d}.npy", scheduler=client, progress=False)
+    again = batch.render_batch(scene, cams, out_dir=out, pattern="f_{:03d}.npy", run=rs.RunOptions(scheduler=client,
+                                                                                                   progress=False))
     assert again == paths
     totals, _ = _worker_totals(client)
     assert totals["renders"] == 2
@@ -346,18 +335,19 @@ def test_resume_renders_only_missing_frames(scene, client, tmp_path):
     # Serial resume too; resume=False re-renders everything.
     os.remove(paths[0])
     cache = batch.SceneCache()
-    batch.render_batch(scene, cams, out_dir=out, pattern="f_{:03d}.npy", progress=False, cache=cache)
+    batch.render_batch(scene, cams, out_dir=out, pattern="f_{:03d}.npy", run=rs.RunOptions(progress=False), cache=cache)
     assert cache.stats()["renders"] == 1
     cache.reset_stats()
-    batch.render_batch(scene, cams, out_dir=out, pattern="f_{:03d}.npy", progress=False, resume=False, cache=cache)
+    batch.render_batch(scene, cams, out_dir=out, pattern="f_{:03d}.npy", run=rs.RunOptions(progress=False,
+                                                                                           resume=False), cache=cache)
     assert cache.stats()["renders"] == 6
 
 
 def test_png_frames_are_tone_mapped(scene, tmp_path):
     import imageio.v3 as iio
 
-    paths = batch.render_batch(scene, animate.orbit_cameras(scene.camera, 2), out_dir=tmp_path, progress=False,
-                               tone={"exposure": 2.0})
+    paths = batch.render_batch(scene, animate.orbit_cameras(scene.camera, 2), out_dir=tmp_path,
+                               run=rs.RunOptions(progress=False), tone={"exposure": 2.0})
     assert [os.path.basename(p) for p in paths] == ["frame_00000.png", "frame_00001.png"]
     first = iio.imread(paths[0])
     assert first.shape == (H, W, 3)
@@ -431,8 +421,8 @@ def test_killed_worker_frames_rerun_elsewhere(scene, client, tmp_path):
     out = tmp_path / "frames"
     client.register_plugin(_kill_once_plugin(str(marker), str(log), kill_at=3), name="kill-once")
     try:
-        paths = batch.render_batch(scene, cams, out_dir=out, pattern="f_{:02d}.npy", scheduler=client,
-                                   progress=False, retries=1)
+        paths = batch.render_batch(scene, cams, out_dir=out, pattern="f_{:02d}.npy",
+                                   run=rs.RunOptions(scheduler=client, progress=False, retries=1))
     finally:
         client.unregister_worker_plugin("kill-once")
         client.wait_for_workers(2, timeout=60)
@@ -447,7 +437,7 @@ def test_killed_worker_frames_rerun_elsewhere(scene, client, tmp_path):
 
 def test_workers_argument_starts_a_local_cluster(scene):
     cams = animate.orbit_cameras(scene.camera, 3)
-    got = batch.render_batch(scene, cams, workers=2, progress=False)
+    got = batch.render_batch(scene, cams, run=rs.RunOptions(workers=2, progress=False))
     assert all(np.array_equal(a, b) for a, b in zip(got, _serial([scene] * 3, cams)))
 
 
@@ -489,19 +479,20 @@ def test_animation_outputs(scene, tmp_path):
     import imageio.v2 as iio2
     import imageio.v3 as iio
 
-    gif = animate.animate(scene, tmp_path / "a.gif", orbit="light", frames=4, shading="gouraud", progress=False)
+    gif = animate.animate(scene, tmp_path / "a.gif", orbit="light", frames=4, shading="gouraud",
+                          run=rs.RunOptions(progress=False))
     assert gif["frames"] == 4 and iio.imread(tmp_path / "a.gif").shape == (4, H, W, 3)
-    mp4 = animate.animate(scene, tmp_path / "a.mp4", orbit="camera", frames=5, progress=False)
+    mp4 = animate.animate(scene, tmp_path / "a.mp4", orbit="camera", frames=5, run=rs.RunOptions(progress=False))
     reader = iio2.get_reader(tmp_path / "a.mp4")
     assert mp4["frames"] == 5 and reader.count_frames() == 5 and reader.get_meta_data()["size"] == (W, H)
     reader.close()
-    seq = animate.animate(scene, str(tmp_path / "seq") + os.sep, frames=3, progress=False)
+    seq = animate.animate(scene, str(tmp_path / "seq") + os.sep, frames=3, run=rs.RunOptions(progress=False))
     assert seq["kind"] == "frames" and _names(tmp_path / "seq") == [f"frame_{i:05d}.png" for i in range(3)]
     assert _names(tmp_path) == ["a.gif", "a.mp4", "seq"]  # no temporaries
     with pytest.raises(ValueError, match="output"):
-        animate.animate(scene, tmp_path / "a.bmpx", frames=2, progress=False)
+        animate.animate(scene, tmp_path / "a.bmpx", frames=2, run=rs.RunOptions(progress=False))
     with pytest.raises(ValueError, match="orbit"):
-        animate.animate(scene, tmp_path / "b.gif", orbit="sun", frames=2, progress=False)
+        animate.animate(scene, tmp_path / "b.gif", orbit="sun", frames=2, run=rs.RunOptions(progress=False))
     with pytest.raises(ValueError, match="fps"):
         animate.write_animation([np.zeros((2, 2, 3), np.uint8)], tmp_path / "c.gif", fps=0)
 

@@ -90,7 +90,7 @@ def test_pool_matches_serial_bitwise_in_order(scene, pool):
             scenes_, ref = [scene] * n, [rs.render(scene, shading, camera=c).image for c in cams]
         else:
             scenes_, ref = scenes, _serial(scenes, cams, shading_)
-        got = batch.render_batch(scenes_, cams, shading=shading, executor=pool, progress=False)
+        got = batch.render_batch(scenes_, cams, shading=shading, run=rs.RunOptions(executor=pool, progress=False))
         assert len(got) == n
         for a, b in zip(got, ref):
             assert a.dtype == np.float32 and a.shape == (H, W, 3)
@@ -100,7 +100,7 @@ def test_pool_matches_serial_bitwise_in_order(scene, pool):
 def test_pool_frames_of_different_sizes_and_a_small_window(scene, pool):
     cams = [rs.Camera(eye=(0.3, 0.5, 4.0), width=w, height=h) for w, h in [(40, 30), (64, 48), (16, 12), (48, 36)]]
     ref = _serial([scene] * 4, cams)
-    got = list(batch.iter_batch(scene, cams, executor=pool, progress=False, window=1))
+    got = list(batch.iter_batch(scene, cams, run=rs.RunOptions(executor=pool, progress=False, window=1)))
     assert [g.shape for g in got] == [r.shape for r in ref]
     assert all(np.array_equal(a, b) for a, b in zip(got, ref))
 
@@ -108,13 +108,15 @@ def test_pool_frames_of_different_sizes_and_a_small_window(scene, pool):
 def test_pool_workers_write_frames_and_resume(scene, pool, tmp_path):
     cams = animate.orbit_cameras(scene.camera, 5)
     out = tmp_path / "frames"
-    paths = batch.render_batch(scene, cams, out_dir=out, pattern="f_{:02d}.npy", executor=pool, progress=False)
+    paths = batch.render_batch(scene, cams, out_dir=out, pattern="f_{:02d}.npy", run=rs.RunOptions(executor=pool,
+                                                                                                   progress=False))
     assert paths == [str(out / f"f_{i:02d}.npy") for i in range(5)]
     ref = _serial([scene] * 5, cams)
     assert all(np.array_equal(np.load(p), r) for p, r in zip(paths, ref))
     os.remove(paths[2])
     before = {p: os.stat(p).st_mtime_ns for p in paths if os.path.exists(p)}
-    again = batch.render_batch(scene, cams, out_dir=out, pattern="f_{:02d}.npy", executor=pool, progress=False)
+    again = batch.render_batch(scene, cams, out_dir=out, pattern="f_{:02d}.npy", run=rs.RunOptions(executor=pool,
+                                                                                                   progress=False))
     assert again == paths and np.array_equal(np.load(paths[2]), ref[2])
     assert all(os.stat(p).st_mtime_ns == t for p, t in before.items())  # the others were skipped
 
@@ -123,16 +125,16 @@ def test_pool_error_names_the_frame_after_its_retries(scene, pool):
     cams = animate.orbit_cameras(scene.camera, 4)
     scenes = [scene, scene, _bad_scene(scene.camera), scene]
     with pytest.raises(batch.FrameError, match=r"frame 2: ValueError: .*UVs.*\(3 attempts\)") as info:
-        batch.render_batch(scenes, cams, executor=pool, progress=False, retries=2)
+        batch.render_batch(scenes, cams, run=rs.RunOptions(executor=pool, progress=False, retries=2))
     assert info.value.index == 2
     assert isinstance(info.value.__cause__, ValueError) and "UVs" in str(info.value.__cause__)
     assert "worker traceback" in str(info.value) and "Traceback" in str(info.value)
     with pytest.raises(batch.FrameError, match=r"frame 0: ValueError: .*UVs") as info:
-        batch.render_batch(_bad_scene(scene.camera), executor=pool, progress=False, retries=0)
+        batch.render_batch(_bad_scene(scene.camera), run=rs.RunOptions(executor=pool, progress=False, retries=0))
     assert "attempts" not in str(info.value)
     # The pool was restarted after the error and renders again.
     assert len(pool.pids) == 0 or all(psutil.pid_exists(p) for p in pool.pids)
-    got = batch.render_batch(scene, cams, executor=pool, progress=False)
+    got = batch.render_batch(scene, cams, run=rs.RunOptions(executor=pool, progress=False))
     assert all(np.array_equal(a, b) for a, b in zip(got, _serial([scene] * 4, cams)))
 
 
@@ -140,7 +142,7 @@ def test_pool_replaces_a_killed_worker(scene):
     cams = animate.orbit_cameras(scene.camera, 12)
     ref = _serial([scene] * 12, cams)
     with batch.ProcessPool(2) as p:
-        it = batch.iter_batch(scene, cams, executor=p, progress=False)
+        it = batch.iter_batch(scene, cams, run=rs.RunOptions(executor=p, progress=False))
         got = [next(it)]
         victim = p.pids[0]
         os.kill(victim, signal.SIGKILL)
@@ -148,12 +150,12 @@ def test_pool_replaces_a_killed_worker(scene):
         # The pool finds a dead worker when it next sends it work: in this batch if the victim
         # still had frames to do, else when the next batch starts (a tiny scene's frames may all
         # be done before the signal lands). Either way it is gone once the next batch is done.
-        again = batch.render_batch(scene, cams[:3], executor=p, progress=False)
+        again = batch.render_batch(scene, cams[:3], run=rs.RunOptions(executor=p, progress=False))
         assert victim not in p.pids and len(p.pids) == 2
         # Killed between batches.
         victim = p.pids[1]
         os.kill(victim, signal.SIGKILL)
-        again += batch.render_batch(scene, cams[:3], executor=p, progress=False)
+        again += batch.render_batch(scene, cams[:3], run=rs.RunOptions(executor=p, progress=False))
         assert victim not in p.pids and len(p.pids) == 2
     assert len(got) == 12 and all(np.array_equal(a, b) for a, b in zip(got, ref))
     assert len(again) == 6 and all(np.array_equal(a, b) for a, b in zip(again, ref[:3] * 2))
@@ -164,12 +166,12 @@ def test_a_worker_killed_after_the_liveness_check_is_replaced(scene, monkeypatch
     when the batch is sent (a broken pipe then), and is replaced with the batch resent."""
     cams = animate.orbit_cameras(scene.camera, 3)
     with batch.ProcessPool(2) as p:
-        first = batch.render_batch(scene, cams, executor=p, progress=False)
+        first = batch.render_batch(scene, cams, run=rs.RunOptions(executor=p, progress=False))
         w = p._workers[1]
         w.proc.kill()
         w.proc.wait()
         monkeypatch.setattr(w.proc, "poll", lambda: None)  # as if not yet reaped
-        again = batch.render_batch(scene, cams, executor=p, progress=False)
+        again = batch.render_batch(scene, cams, run=rs.RunOptions(executor=p, progress=False))
         assert w.pid not in p.pids and len(p.pids) == 2
     assert all(np.array_equal(a, b) for a, b in zip(first, again))
 
@@ -179,14 +181,15 @@ def test_pool_shutdown_leaves_no_process_and_no_segment(scene, tmp_path, monkeyp
     segments = _segments()
     others = _pool_children()  # another test's pool, if any
 
-    batch.render_batch(scene, cams, workers=2, progress=False)  # a pool of its own (executor="auto")
+    batch.render_batch(scene, cams, run=rs.RunOptions(workers=2, progress=False))  # a pool of its own (executor="auto")
     assert _pool_children() == others and _segments() == segments
 
     with pytest.raises(batch.FrameError):  # an error mid-batch
-        batch.render_batch([scene, _bad_scene(scene.camera)] * 3, workers=2, progress=False, retries=0)
+        batch.render_batch([scene, _bad_scene(scene.camera)] * 3, run=rs.RunOptions(workers=2, progress=False,
+                                                                                    retries=0))
     assert _pool_children() == others and _segments() == segments
 
-    it = batch.iter_batch(scene, cams, workers=2, progress=False)  # the consumer stops early
+    it = batch.iter_batch(scene, cams, run=rs.RunOptions(workers=2, progress=False))  # the consumer stops early
     next(it)
     it.close()
     assert _pool_children() == others and _segments() == segments
@@ -200,13 +203,13 @@ def test_pool_shutdown_leaves_no_process_and_no_segment(scene, tmp_path, monkeyp
 
     monkeypatch.setattr(driver, "_progress_bar", lambda *a: Interrupting())
     with pytest.raises(KeyboardInterrupt):
-        batch.render_batch(scene, cams, workers=2)
+        batch.render_batch(scene, cams, run=rs.RunOptions(workers=2))
     assert _pool_children() == others and _segments() == segments
     monkeypatch.undo()
 
     with batch.ProcessPool(2) as p:
         pids = p.pids
-        batch.render_batch(scene, cams, executor=p, out_dir=tmp_path, progress=False)
+        batch.render_batch(scene, cams, run=rs.RunOptions(executor=p, progress=False), out_dir=tmp_path)
     assert not any(psutil.pid_exists(pid) for pid in pids)
     assert _pool_children() == others and _segments() == segments
 
@@ -215,7 +218,7 @@ def test_executor_spellings(scene, pool):
     cams = animate.orbit_cameras(scene.camera, 3)
     ref = _serial([scene] * 3, cams)
     for kw in (dict(executor="Processes", workers=1), dict(executor="serial"), dict(executor="auto")):
-        got = batch.render_batch(scene, cams, progress=False, **kw)
+        got = batch.render_batch(scene, cams, run=rs.RunOptions(progress=False, **kw))
         assert all(np.array_equal(a, b) for a, b in zip(got, ref)), kw
     assert driver.check_executor("auto", None, None) == "serial"
     assert driver.check_executor("auto", 2, None) == driver.LOCAL_EXECUTOR
@@ -236,12 +239,13 @@ def test_pool_bad_input_names_the_field(scene, pool):
         (ValueError, "workers", dict(executor="serial", workers=2)),
         (ValueError, "scheduler", dict(executor="processes", scheduler="tcp://127.0.0.1:1")),
         (ValueError, "executor", dict(executor=pool, workers=2)),
-        (ValueError, "cache", dict(workers=2, cache=batch.SceneCache())),
         (ValueError, "retries", dict(workers=2, retries=-1)),
     ]
-    for exc, name, kw in cases:
+    for exc, name, kw in cases:  # the record refuses them, before any pool could start
         with pytest.raises(exc, match=name):
-            batch.render_batch(scene, cams, progress=False, **kw)
+            rs.RunOptions(progress=False, **kw)
+    with pytest.raises(ValueError, match="cache"):
+        batch.render_batch(scene, cams, run=rs.RunOptions(workers=2, progress=False), cache=batch.SceneCache())
     with pytest.raises(ValueError, match="workers"):
         batch.ProcessPool(0)
     with pytest.raises(ValueError, match="numba_threads"):

@@ -111,14 +111,15 @@ def via_cli_render(path, tmp, key, value):
 def via_render_batch(path, tmp, key, value):
     scene, _ = load_scene(path)
     kw = {key: value}
-    (image,) = batch.render_batch(scene, shading=kw.pop("shading", "phong"), progress=False, **kw)
+    (image,) = batch.render_batch(scene, shading=kw.pop("shading", "phong"), run=rs.RunOptions(progress=False), **kw)
     return image
 
 
 def via_animate(path, tmp, key, value):
     scene, _ = load_scene(path)
     kw = {key: value}
-    anim.animate(scene, str(tmp / "seq") + "/", frames=1, shading=kw.pop("shading", "phong"), progress=False, **kw)
+    anim.animate(scene, str(tmp / "seq") + "/", frames=1, shading=kw.pop("shading", "phong"),
+                 run=rs.RunOptions(progress=False), **kw)
     return iio.imread(tmp / "seq" / "frame_00000.png")
 
 
@@ -201,9 +202,10 @@ def test_python_frontends_name_the_bad_field(scene_path, tmp_path, key, bad):
     kw = {} if key in ("shading", "tonemap") else {key: bad}
     shading = bad if key == "shading" else "phong"
     with pytest.raises(ValueError, match=rf"^{key}"):
-        batch.render_batch(scene, shading=shading, tone=tone, progress=False, **kw)
+        batch.render_batch(scene, shading=shading, tone=tone, run=rs.RunOptions(progress=False), **kw)
     with pytest.raises(ValueError, match=rf"^{key}"):
-        anim.animate(scene, tmp_path / "a.gif", frames=1, shading=shading, tone=tone, progress=False, **kw)
+        anim.animate(scene, tmp_path / "a.gif", frames=1, shading=shading, tone=tone,
+                     run=rs.RunOptions(progress=False), **kw)
     path = tmp_path / "bad.toml"
     path.write_text(SCENE + f"\n[render]\n{key} = {_toml(bad)}\n")
     with pytest.raises(SceneFileError, match=rf"render\.{key}"):
@@ -216,9 +218,9 @@ def test_one_method_per_model_must_count_the_models(scene_path, tmp_path, capsys
     with pytest.raises(ValueError, match="shading: expected one method per"):
         rs.render_file(scene_path, shading=three)
     with pytest.raises(ValueError, match="shading: expected one method per model"):
-        batch.render_batch(scene, shading=three, progress=False)
+        batch.render_batch(scene, shading=three, run=rs.RunOptions(progress=False))
     with pytest.raises(ValueError, match="shading: expected one method per model"):
-        anim.animate(scene, tmp_path / "a.gif", frames=1, shading=three, progress=False)
+        anim.animate(scene, tmp_path / "a.gif", frames=1, shading=three, run=rs.RunOptions(progress=False))
     path = tmp_path / "three.toml"
     path.write_text(SCENE + '\n[render]\nshading = ["flat", "phong", "gouraud"]\n')
     with pytest.raises(SceneFileError, match=r"render\.shading: expected one method per \[\[object\]\] \(2\), got 3"):

@@ -66,39 +66,39 @@ def _same_set(a, b):
 @pytest.mark.parametrize("case", ["more views", "another buffer", "another size"])
 def test_a_folder_of_another_plan_is_refused_then_replaced(scene, tmp_path, case):
     cams = orbit_cameras(scene.camera, 4)
-    render_views(scene, cams, tmp_path / "set", buffers=["zdepth"])
+    render_views(scene, cams, tmp_path / "set", files=rs.ViewFiles(buffers=["zdepth"]))
     before = _stamps(tmp_path / "set")
-    kwargs = {"buffers": ["zdepth"]}
+    buffers = ["zdepth"]
     if case == "more views":
         cams, expect = orbit_cameras(scene.camera, 6), ["4 views -> 6", "camera of 3 of the 4 shared views"]
     elif case == "another buffer":
-        kwargs["buffers"], expect = ["zdepth", "position"], ['buffers ["zdepth"] -> ["zdepth", "position"]']
+        buffers, expect = ["zdepth", "position"], ['buffers ["zdepth"] -> ["zdepth", "position"]']
     else:
         cams = [c.replace(width=2 * W, height=2 * H) for c in cams]
         expect = [f"size {W}x{H} -> {2 * W}x{2 * H}", "camera of 4 of the 4 shared views"]
     with pytest.raises(ValueError, match="holds another view set") as info:
-        render_views(scene, cams, tmp_path / "set", **kwargs)
+        render_views(scene, cams, tmp_path / "set", files=rs.ViewFiles(buffers=buffers))
     for words in expect:
         assert words in str(info.value)
     assert "overwrite=True" in str(info.value)
     assert _stamps(tmp_path / "set") == before  # nothing written, nothing removed
-    render_views(scene, cams, tmp_path / "set", overwrite=True, **kwargs)
-    render_views(scene, cams, tmp_path / "fresh", **kwargs)
+    render_views(scene, cams, tmp_path / "set", overwrite=True, files=rs.ViewFiles(buffers=buffers))
+    render_views(scene, cams, tmp_path / "fresh", files=rs.ViewFiles(buffers=buffers))
     _same_set(tmp_path / "set", tmp_path / "fresh")
     index = json.load(open(tmp_path / "set" / INDEX_NAME))
     for view, cam in zip(index["views"], cams):
         npz = load_npz(tmp_path / "set" / view["files"]["npz"])
-        assert set(npz) == set(kwargs["buffers"]) | {"K", "R", "t"}  # no float image unless asked
+        assert set(npz) == set(buffers) | {"K", "R", "t"}  # no float image unless asked
         assert npz["zdepth"].shape == (cam.height, cam.width)
         assert np.array_equal(npz["K"], cam.K) and np.array_equal(view["K"], cam.K)
 
 
 def test_overwrite_keeps_only_the_views_that_match(scene, tmp_path, counted):
     cams = orbit_cameras(scene.camera, 4)
-    render_views(scene, cams, tmp_path, buffers=["zdepth"])
+    render_views(scene, cams, tmp_path, files=rs.ViewFiles(buffers=["zdepth"]))
     more = orbit_cameras(scene.camera, 8)  # every other camera is one of the 4
     counted.clear()
-    render_views(scene, more, tmp_path, buffers=["zdepth"], overwrite=True)
+    render_views(scene, more, tmp_path, files=rs.ViewFiles(buffers=["zdepth"]), overwrite=True)
     # View i of 8 matches view i of 4 only where the camera is the same: view 0 alone.
     assert len(counted) == 7
     assert all(c is not more[0] for c in counted)
@@ -117,17 +117,20 @@ def test_a_killed_run_resumes_where_it_stopped(scene, tmp_path, monkeypatch):
 
     monkeypatch.setattr(views, "render", killed_at_third)
     with pytest.raises(KeyboardInterrupt):
-        render_views(scene, cams, tmp_path / "set", buffers=["zdepth", "id"], formats=["npz", "depth_png"])
+        render_views(scene, cams, tmp_path / "set",
+                     files=rs.ViewFiles(buffers=["zdepth", "id"], formats=["npz", "depth_png"]))
     assert not (tmp_path / "set" / INDEX_NAME).exists() and (tmp_path / "set" / PLAN_NAME).exists()
     done = _stamps(tmp_path / "set")
     monkeypatch.undo()
     calls = []
     monkeypatch.setattr(views, "render", lambda s, *a, **k: (calls.append(k["camera"]), real(s, *a, **k))[1])
-    render_views(scene, cams, tmp_path / "set", buffers=["zdepth", "id"], formats=["npz", "depth_png"])
+    render_views(scene, cams, tmp_path / "set",
+                 files=rs.ViewFiles(buffers=["zdepth", "id"], formats=["npz", "depth_png"]))
     assert calls == cams[2:]
     after = _stamps(tmp_path / "set")
     assert all(after[n] == t for n, t in done.items() if n.startswith(("view_00000", "view_00001")))
-    render_views(scene, cams, tmp_path / "fresh", buffers=["zdepth", "id"], formats=["npz", "depth_png"])
+    render_views(scene, cams, tmp_path / "fresh",
+                 files=rs.ViewFiles(buffers=["zdepth", "id"], formats=["npz", "depth_png"]))
     _same_set(tmp_path / "set", tmp_path / "fresh")
 
 
@@ -142,18 +145,18 @@ def test_a_view_killed_between_its_files_is_rendered_again(scene, tmp_path, coun
 
     monkeypatch.setattr(views, "write_hashed", fail_on_view_1)
     with pytest.raises(OSError, match="disk full"):
-        render_views(scene, cams, tmp_path, buffers=["zdepth"], formats=["npz", "depth_png"])
+        render_views(scene, cams, tmp_path, files=rs.ViewFiles(buffers=["zdepth"], formats=["npz", "depth_png"]))
     assert (tmp_path / "view_00001.npz").exists() and not (tmp_path / "view_00001.json").exists()
     monkeypatch.setattr(views, "write_hashed", real)
     counted.clear()
-    render_views(scene, cams, tmp_path, buffers=["zdepth"], formats=["npz", "depth_png"])
+    render_views(scene, cams, tmp_path, files=rs.ViewFiles(buffers=["zdepth"], formats=["npz", "depth_png"]))
     assert counted == cams[1:]  # view 1 (npz but no record) and view 2 (never reached)
 
 
 @pytest.mark.parametrize("damage", ["empty", "same size", "record gone", "file gone"])
 def test_damaged_views_are_rendered_again(scene, tmp_path, counted, damage):
     cams = orbit_cameras(scene.camera, 3)
-    render_views(scene, cams, tmp_path, buffers=["zdepth", "normal"])
+    render_views(scene, cams, tmp_path, files=rs.ViewFiles(buffers=["zdepth", "normal"]))
     target = tmp_path / "view_00001.npz"
     if damage == "empty":
         target.write_bytes(b"")
@@ -166,22 +169,23 @@ def test_damaged_views_are_rendered_again(scene, tmp_path, counted, damage):
     else:
         os.remove(target)
     counted.clear()
-    render_views(scene, cams, tmp_path, buffers=["zdepth", "normal"])
+    render_views(scene, cams, tmp_path, files=rs.ViewFiles(buffers=["zdepth", "normal"]))
     assert counted == [cams[1]]
     fresh = rs.render(scene, camera=cams[1], buffers=("zdepth", "normal"))
     assert np.array_equal(load_npz(target)["normal"], fresh.buffers["normal"])
     counted.clear()
-    render_views(scene, cams, tmp_path, buffers=["zdepth", "normal"])
+    render_views(scene, cams, tmp_path, files=rs.ViewFiles(buffers=["zdepth", "normal"]))
     assert counted == []  # all intact now
 
 
 def test_view_files_without_a_plan_are_refused(scene, tmp_path):
     (tmp_path / "view_00000.npz").write_bytes(b"from elsewhere")
     with pytest.raises(ValueError, match="1 view set file \\(e.g. view_00000.npz\\) but no plan.json"):
-        render_views(scene, orbit_cameras(scene.camera, 2), tmp_path, buffers=["zdepth"])
+        render_views(scene, orbit_cameras(scene.camera, 2), tmp_path, files=rs.ViewFiles(buffers=["zdepth"]))
     assert sorted(os.listdir(tmp_path)) == ["view_00000.npz"]
     (tmp_path / "notes.txt").write_text("mine")
-    render_views(scene, orbit_cameras(scene.camera, 2), tmp_path, buffers=["zdepth"], overwrite=True)
+    render_views(scene, orbit_cameras(scene.camera, 2), tmp_path, files=rs.ViewFiles(buffers=["zdepth"]),
+                 overwrite=True)
     assert (tmp_path / "notes.txt").read_text() == "mine"  # not a view set file: left alone
     assert load_npz(tmp_path / "view_00000.npz")["zdepth"].shape == (H, W)
 
@@ -189,14 +193,14 @@ def test_view_files_without_a_plan_are_refused(scene, tmp_path):
 def test_an_unreadable_plan_is_refused(scene, tmp_path):
     (tmp_path / PLAN_NAME).write_text("{not json")
     with pytest.raises(ValueError, match="plan.json cannot be read"):
-        render_views(scene, orbit_cameras(scene.camera, 2), tmp_path, buffers=["zdepth"])
+        render_views(scene, orbit_cameras(scene.camera, 2), tmp_path, files=rs.ViewFiles(buffers=["zdepth"]))
 
 
 def test_a_huge_third_camera_is_refused_before_anything_is_written(scene, tmp_path, counted):
     cams = orbit_cameras(scene.camera, 3)
     cams[2] = cams[2].replace(width=10**6, height=10**6)
     with pytest.raises(ValueError, match="cameras\\[2\\]: camera.width x camera.height"):
-        render_views(scene, cams, tmp_path / "set", buffers=["zdepth"])
+        render_views(scene, cams, tmp_path / "set", files=rs.ViewFiles(buffers=["zdepth"]))
     assert counted == [] and not (tmp_path / "set").exists()
 
 
@@ -215,9 +219,9 @@ def test_cli_refuses_another_plan_in_one_line_and_overwrites_on_request(tmp_path
 
 def test_an_export_asked_later_renders_nothing_again(scene, tmp_path, counted):
     cams = orbit_cameras(scene.camera, 3)
-    render_views(scene, cams, tmp_path, buffers=["zdepth"])
+    render_views(scene, cams, tmp_path, files=rs.ViewFiles(buffers=["zdepth"]))
     counted.clear()
-    render_views(scene, cams, tmp_path, buffers=["zdepth"], exports=["coco", "nerfstudio"])
+    render_views(scene, cams, tmp_path, files=rs.ViewFiles(buffers=["zdepth"]), exports=["coco", "nerfstudio"])
     assert counted == []
     coco = json.load(open(tmp_path / "coco_instances.json"))
     assert len(coco["images"]) == 3 and len(coco["annotations"]) >= 3
@@ -225,9 +229,11 @@ def test_an_export_asked_later_renders_nothing_again(scene, tmp_path, counted):
 
 
 def test_overwrite_removes_only_the_other_plans_files(scene, tmp_path):
-    render_views(scene, orbit_cameras(scene.camera, 3), tmp_path, buffers=["zdepth"], exports=["nerfstudio"])
+    render_views(scene, orbit_cameras(scene.camera, 3), tmp_path, files=rs.ViewFiles(buffers=["zdepth"]),
+                 exports=["nerfstudio"])
     (tmp_path / "view_00001.txt").write_text("my notes")  # named like a view file, but not the plan's
-    render_views(scene, orbit_cameras(scene.camera, 2), tmp_path, buffers=["zdepth"], overwrite=True)
+    render_views(scene, orbit_cameras(scene.camera, 2), tmp_path, files=rs.ViewFiles(buffers=["zdepth"]),
+                 overwrite=True)
     names = set(os.listdir(tmp_path))
     assert "view_00001.txt" in names and "view_00002.npz" not in names and "view_00002.json" not in names
     assert "transforms.json" not in names  # a set-level file of the other plan
@@ -275,9 +281,9 @@ def test_a_process_killed_with_sigkill_resumes_to_the_same_set(scene, tmp_path, 
     done = len([n for n in os.listdir(folder) if n.startswith("view_") and n.endswith(".json")])
     assert 3 <= done < 10
     cams = orbit_cameras(scene.camera, 10)
-    render_views(scene, cams, folder, buffers=["zdepth", "id"], formats=["npz", "exr"])
+    render_views(scene, cams, folder, files=rs.ViewFiles(buffers=["zdepth", "id"], formats=["npz", "exr"]))
     assert len(counted) == 10 - done  # only the views without a record
-    render_views(scene, cams, tmp_path / "fresh", buffers=["zdepth", "id"], formats=["npz", "exr"])
+    render_views(scene, cams, tmp_path / "fresh", files=rs.ViewFiles(buffers=["zdepth", "id"], formats=["npz", "exr"]))
     _same_set(folder, tmp_path / "fresh")
 
 
@@ -285,7 +291,7 @@ def test_the_index_alone_re_renders_a_distorted_view_bit_for_bit(scene, tmp_path
     K, R, t = scene.camera.to_opencv()
     cams = [rs.Camera.from_opencv(K, R, t, W, H, dist=[-0.2, 0.05, 0.001, 0.0, 0.01]),
             rs.Camera.from_opencv(K, R, t + [0.3, 0, 0], W, H, dist=[0.05, -0.01, 0.0, 0.0], fisheye=True)]
-    render_views(scene, cams, tmp_path, buffers=["zdepth", "id"], float_image=True)
+    render_views(scene, cams, tmp_path, files=rs.ViewFiles(buffers=["zdepth", "id"], float_image=True))
     for view in json.load(open(tmp_path / INDEX_NAME))["views"]:
         cam = rs.Camera.from_opencv(view["K"], view["R"], view["t"], view["width"], view["height"],
                                     dist=view["distortion"], fisheye=view["distortion_model"] == "fisheye")

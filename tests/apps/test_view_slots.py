@@ -34,7 +34,7 @@ def test_views_reuse_their_slot_and_files_are_each_views_own(scene, tmp_path, mo
     monkeypatch.setattr(views_mod, "_two_frames_fit", lambda jobs, memory: overlap)  # else decided by memory
     cams = orbit_cameras(scene.camera, 5)
     names = ["zdepth", "normal", "id", "mask"]
-    render_views(scene, cams, tmp_path, buffers=names, image=None, compression="none")
+    render_views(scene, cams, tmp_path, files=rs.ViewFiles(buffers=names, image=None, compression="none"))
     assert len(calls) == 5
     slots = 2 if overlap else 1
     for i, (out, reused, frame) in enumerate(calls):

@@ -33,8 +33,8 @@ def _names(folder):
 
 def test_views_write_one_file_set_per_view_and_an_index(scene, tmp_path):
     cams = orbit_cameras(scene.camera, 4)
-    index = render_views(scene, cams, tmp_path, buffers=["zdepth", "normal", "id"],
-                         formats=["npz", "exr", "depth_png"])
+    index = render_views(scene, cams, tmp_path,
+                         files=rs.ViewFiles(buffers=["zdepth", "normal", "id"], formats=["npz", "exr", "depth_png"]))
     assert index == os.path.join(tmp_path, INDEX_NAME)
     stems = [f"view_{i:05d}" for i in range(4)]
     assert _names(tmp_path) == sorted([INDEX_NAME, PLAN_NAME] + [s + e for s in stems
@@ -57,12 +57,12 @@ def test_views_write_one_file_set_per_view_and_an_index(scene, tmp_path):
 
 def test_views_resume_and_leave_no_partial_file(scene, tmp_path):
     cams = orbit_cameras(scene.camera, 3)
-    render_views(scene, cams, tmp_path, buffers=["zdepth"])
+    render_views(scene, cams, tmp_path, files=rs.ViewFiles(buffers=["zdepth"]))
     stamps = {n: os.stat(tmp_path / n).st_mtime_ns for n in _names(tmp_path)}
     os.remove(tmp_path / "view_00001.npz")  # one file of one view gone
     stale = tmp_path / ".view_00002.npz.0123456789ab.tmp.npz"  # what a killed writer leaves
     stale.write_bytes(b"partial")
-    render_views(scene, cams, tmp_path, buffers=["zdepth"])
+    render_views(scene, cams, tmp_path, files=rs.ViewFiles(buffers=["zdepth"]))
     assert not stale.exists()
     after = {n: os.stat(tmp_path / n).st_mtime_ns for n in _names(tmp_path)}
     assert set(after) == set(stamps)
@@ -76,7 +76,7 @@ def test_records_of_blake2b_digests_still_resume_and_still_catch_a_changed_file(
     import hashlib
 
     cams = orbit_cameras(scene.camera, 2)
-    render_views(scene, cams, tmp_path, buffers=["zdepth"])
+    render_views(scene, cams, tmp_path, files=rs.ViewFiles(buffers=["zdepth"]))
     for i in range(2):
         path = tmp_path / f"view_{i:05d}.json"
         record = json.loads(path.read_text())
@@ -90,7 +90,7 @@ def test_records_of_blake2b_digests_still_resume_and_still_catch_a_changed_file(
     data[-30] ^= 1  # one bit of view 1's npz, its size kept
     npz.write_bytes(bytes(data))
     stamps = {n: os.stat(tmp_path / n).st_mtime_ns for n in _names(tmp_path)}
-    render_views(scene, cams, tmp_path, buffers=["zdepth"])
+    render_views(scene, cams, tmp_path, files=rs.ViewFiles(buffers=["zdepth"]))
     after = {n: os.stat(tmp_path / n).st_mtime_ns for n in _names(tmp_path)}
     redone = {n for n in after if after[n] != stamps[n]}
     assert redone == {"view_00001.npz", "view_00001.png", "view_00001.json", INDEX_NAME, PLAN_NAME}
@@ -100,9 +100,9 @@ def test_records_of_blake2b_digests_still_resume_and_still_catch_a_changed_file(
 
 def test_views_on_two_workers_match_serial(scene, tmp_path):
     cams = orbit_cameras(scene.camera, 5)
-    render_views(scene, cams, tmp_path / "serial", buffers=["zdepth", "position", "id"], image=None)
-    render_views(scene, cams, tmp_path / "dask", buffers=["zdepth", "position", "id"], image=None, workers=2,
-                 numba_threads=1, views_per_task=2)
+    render_views(scene, cams, tmp_path / "serial", files=rs.ViewFiles(buffers=["zdepth", "position", "id"], image=None))
+    render_views(scene, cams, tmp_path / "dask", files=rs.ViewFiles(buffers=["zdepth", "position", "id"], image=None),
+                 run=rs.RunOptions(workers=2, numba_threads=1, per_task=2))
     assert _names(tmp_path / "serial") == _names(tmp_path / "dask")
     for name in _names(tmp_path / "serial"):
         if name.endswith(".npz"):
@@ -114,11 +114,11 @@ def test_views_on_two_workers_match_serial(scene, tmp_path):
 def test_views_check_arguments_before_rendering(scene, tmp_path):
     cams = orbit_cameras(scene.camera, 2)
     with pytest.raises(ValueError, match="buffers: unknown buffer 'depht'"):
-        render_views(scene, cams, tmp_path / "a", buffers=["depht"])
+        render_views(scene, cams, tmp_path / "a", files=rs.ViewFiles(buffers=["depht"]))
     with pytest.raises(ValueError, match="formats: unknown format 'tiff'"):
-        render_views(scene, cams, tmp_path / "a", formats=["tiff"])
+        render_views(scene, cams, tmp_path / "a", files=rs.ViewFiles(formats=["tiff"]))
     with pytest.raises(ValueError, match="image:"):
-        render_views(scene, cams, tmp_path / "a", image=".exr")
+        render_views(scene, cams, tmp_path / "a", files=rs.ViewFiles(image=".exr"))
     with pytest.raises(TypeError, match="cameras\\[1\\]"):
         render_views(scene, [cams[0], "camera"], tmp_path / "a")
     assert not (tmp_path / "a").exists()
@@ -174,7 +174,7 @@ def test_memory_stays_flat_as_the_number_of_views_grows(scene, tmp_path):
     for n in (3, 24):
         cams = orbit_cameras(big.camera, n)
         tracemalloc.start()
-        render_views(big, cams, tmp_path / f"n{n}", buffers=["zdepth", "normal", "position", "id"])
+        render_views(big, cams, tmp_path / f"n{n}", files=rs.ViewFiles(buffers=["zdepth", "normal", "position", "id"]))
         peaks[n] = tracemalloc.get_traced_memory()[1]
         tracemalloc.stop()
     one_view = 160 * 120 * (12 + 4 + 12 + 12 + 8)  # image, zdepth, normal, position, ids

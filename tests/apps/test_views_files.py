@@ -27,10 +27,10 @@ def _members(path):
 
 def test_float_image_and_zip_compression_when_asked(scene, tmp_path):
     cam = orbit_cameras(scene.camera, 1)
-    render_views(scene, cam, tmp_path / "a", buffers=["zdepth", "id"], formats=["npz", "exr"], image=None,
-                 compression="none")
-    render_views(scene, cam, tmp_path / "b", buffers=["zdepth", "id"], formats=["npz", "exr"], image=None,
-                 float_image=True, compression="zip")
+    render_views(scene, cam, tmp_path / "a", files=rs.ViewFiles(buffers=["zdepth", "id"], formats=["npz", "exr"],
+                                                                image=None, compression="none"))
+    render_views(scene, cam, tmp_path / "b", files=rs.ViewFiles(buffers=["zdepth", "id"], formats=["npz", "exr"],
+                                                                image=None, float_image=True, compression="zip"))
     plain, zipped = _members(tmp_path / "a" / "view_00000.npz"), _members(tmp_path / "b" / "view_00000.npz")
     assert "image.npy" not in plain and set(plain.values()) == {zipfile.ZIP_STORED}
     assert "image.npy" in zipped and set(zipped.values()) == {zipfile.ZIP_DEFLATED}
@@ -51,7 +51,7 @@ def test_auto_compression_zips_where_isal_is_installed_and_the_plan_says_which(s
         pytest.importorskip("isal")
     else:
         monkeypatch.setitem(sys.modules, "isal", None)
-    render_views(scene, orbit_cameras(scene.camera, 1), tmp_path, buffers=["zdepth"], image=None)
+    render_views(scene, orbit_cameras(scene.camera, 1), tmp_path, files=rs.ViewFiles(buffers=["zdepth"], image=None))
     want = "zip" if isal else "none"
     assert set(_members(tmp_path / "view_00000.npz").values()) == {zipfile.ZIP_DEFLATED if isal else zipfile.ZIP_STORED}
     with open(tmp_path / "plan.json") as fh:
@@ -61,9 +61,9 @@ def test_auto_compression_zips_where_isal_is_installed_and_the_plan_says_which(s
 def test_bad_file_options_are_refused_before_anything_is_written(scene, tmp_path):
     cam = orbit_cameras(scene.camera, 1)
     with pytest.raises(ValueError, match="compression: expected one of.*'zstd'"):
-        render_views(scene, cam, tmp_path / "x", compression="zstd")
+        render_views(scene, cam, tmp_path / "x", files=rs.ViewFiles(compression="zstd"))
     with pytest.raises(TypeError, match="float_image: expected True or False"):
-        render_views(scene, cam, tmp_path / "x", float_image="yes")
+        render_views(scene, cam, tmp_path / "x", files=rs.ViewFiles(float_image="yes"))
     assert not (tmp_path / "x").exists()
 
 
@@ -73,7 +73,8 @@ def test_each_views_files_hold_that_views_frame_with_the_writer_thread(scene, tm
     from raycast_shade.output.tonemap import to_uint8
 
     cams = orbit_cameras(scene.camera, 3)
-    render_views(scene, cams, tmp_path, buffers=["zdepth", "normal", "id"], formats=["npz", "depth_png"])
+    render_views(scene, cams, tmp_path,
+                 files=rs.ViewFiles(buffers=["zdepth", "normal", "id"], formats=["npz", "depth_png"]))
     for i, cam in enumerate(cams):  # view i rendered while view i - 1 was written: nothing crossed over
         frame = rs.render(scene, camera=cam, buffers=("zdepth", "normal", "id"))
         back = load_npz(tmp_path / f"view_{i:05d}.npz")
@@ -99,7 +100,7 @@ def test_the_writer_threads_numba_threads_are_its_own(scene, tmp_path, monkeypat
     monkeypatch.setattr(views, "_write_files", lambda *a: (seen.append(numba.get_num_threads()), real(*a))[1])
     top = numba.config.NUMBA_NUM_THREADS
     numba.set_num_threads(top)
-    render_views(scene, orbit_cameras(scene.camera, 2), tmp_path, buffers=["zdepth"])
+    render_views(scene, orbit_cameras(scene.camera, 2), tmp_path, files=rs.ViewFiles(buffers=["zdepth"]))
     # on the writer thread its kernels run alone; the caller's keep every thread they had
     assert seen == ([1, 1] if overlap else [top, top])
     assert numba.get_num_threads() == top
@@ -121,13 +122,13 @@ def test_a_failed_write_stops_the_set_without_its_record_and_a_rerun_finishes_it
 
     monkeypatch.setattr(views, "npz_into", failing)
     with pytest.raises(OSError, match="disk full"):
-        render_views(scene, cams, tmp_path / "set", buffers=["zdepth"], image=None)
+        render_views(scene, cams, tmp_path / "set", files=rs.ViewFiles(buffers=["zdepth"], image=None))
     assert (tmp_path / "set" / "view_00000.json").exists()
     assert not (tmp_path / "set" / "view_00001.json").exists()
     assert not (tmp_path / "set" / "view_00001.npz").exists()  # the atomic write left no half file
     monkeypatch.setattr(views, "npz_into", real)
-    render_views(scene, cams, tmp_path / "set", buffers=["zdepth"], image=None)
-    render_views(scene, cams, tmp_path / "one", buffers=["zdepth"], image=None)
+    render_views(scene, cams, tmp_path / "set", files=rs.ViewFiles(buffers=["zdepth"], image=None))
+    render_views(scene, cams, tmp_path / "one", files=rs.ViewFiles(buffers=["zdepth"], image=None))
     for i in range(3):  # the finished set holds the bytes a single run writes
         name = f"view_{i:05d}.npz"
         assert (tmp_path / "set" / name).read_bytes() == (tmp_path / "one" / name).read_bytes(), name
@@ -146,7 +147,7 @@ def test_views_overlap_only_where_two_frames_fit_the_memory_limit(scene, monkeyp
     monkeypatch.setattr(validate, "memory_limit", lambda: 2 * one - 1)
     assert not views._two_frames_fit(jobs, memory)
     # without the overlap the set is written all the same, view after view
-    render_views(scene, orbit_cameras(scene.camera, 2), tmp_path, buffers=["zdepth"], image=None)
+    render_views(scene, orbit_cameras(scene.camera, 2), tmp_path, files=rs.ViewFiles(buffers=["zdepth"], image=None))
     assert sorted(p.name for p in tmp_path.glob("view_*.npz")) == ["view_00000.npz", "view_00001.npz"]
 
 
@@ -162,7 +163,7 @@ def test_a_view_set_packs_and_builds_its_bvh_once(scene, tmp_path, monkeypatch):
 
     monkeypatch.setattr(embree.EmbreeAccel, "__init__", counting)
     fresh = rs.Scene([rs.Model(rs.shapes.icosphere(1))], lights=scene.lights, camera=scene.camera)  # no BVH yet
-    render_views(fresh, orbit_cameras(scene.camera, 3), tmp_path, buffers=["zdepth"], image=None)
+    render_views(fresh, orbit_cameras(scene.camera, 3), tmp_path, files=rs.ViewFiles(buffers=["zdepth"], image=None))
     assert len(builds) == 1  # one mesh set: one BVH, shared by the three views
 
 
@@ -177,7 +178,7 @@ def test_views_of_several_sizes_each_render_into_arrays_of_their_size(scene, tmp
 
     small = scene.camera.replace(width=40, height=30)
     cams = [scene.camera, small, small, scene.camera]  # the image arrays are replaced, then reused in turn
-    render_views(scene, cams, tmp_path, buffers=["zdepth"], formats=["npz"])
+    render_views(scene, cams, tmp_path, files=rs.ViewFiles(buffers=["zdepth"], formats=["npz"]))
     for i, cam in enumerate(cams):
         want = to_uint8(rs.render(scene, camera=cam).image)
         assert np.array_equal(iio.imread(tmp_path / f"view_{i:05d}.png"), want), i
@@ -193,8 +194,9 @@ def test_the_records_sizes_and_digests_are_hashlibs_over_the_files(scene, tmp_pa
     from raycast_shade.output.imagefile import write_image
 
     cams = orbit_cameras(scene.camera, 2)
-    render_views(scene, cams, tmp_path / "v", buffers=["zdepth", "normal", "id", "mask"],
-                 formats=["npz", "exr", "depth_png"], image=image, compression="zip")
+    render_views(scene, cams, tmp_path / "v", files=rs.ViewFiles(buffers=["zdepth", "normal", "id", "mask"],
+                                                                 formats=["npz", "exr", "depth_png"], image=image,
+                                                                 compression="zip"))
     for i in range(2):
         record = json.loads((tmp_path / "v" / f"view_{i:05d}.json").read_text())
         assert len(record["files"]) == 4
@@ -213,13 +215,17 @@ def test_the_records_sizes_and_digests_are_hashlibs_over_the_files(scene, tmp_pa
         assert (tmp_path / "v" / name).read_bytes() == open(path, "rb").read(), name
 
 
-def test_view_files_passed_whole_write_what_the_keyword_arguments_write(scene, tmp_path):
+def test_view_files_passed_whole_write_what_the_deprecated_keyword_arguments_write(scene, tmp_path):
     from raycast_shade.apps.views import ViewFiles
 
     cams = orbit_cameras(scene.camera, 2)
     kw = dict(buffers=["zdepth", "id"], formats=["npz", "depth_png"], image=".PNG", depth_scale=500.0,
               float_image=True, compression="none")
-    render_views(scene, cams, tmp_path / "kw", **kw)
+    with pytest.warns(DeprecationWarning) as caught:
+        render_views(scene, cams, tmp_path / "kw", **kw)
+    # one warning per flat keyword, each naming the field of files that replaces it
+    assert sorted(str(w.message).split("=")[0] for w in caught) == sorted(kw)
+    assert all(f"files=ViewFiles({str(w.message).split('=')[0]}=...)" in str(w.message) for w in caught)
     files = ViewFiles(**kw)
     assert files.buffers == ("zdepth", "id") and files.formats == ("npz", "depth_png") and files.image == ".png"
     render_views(scene, cams, tmp_path / "whole", files=files)
@@ -227,7 +233,8 @@ def test_view_files_passed_whole_write_what_the_keyword_arguments_write(scene, t
         assert (tmp_path / "kw" / name).read_bytes() == (tmp_path / "whole" / name).read_bytes(), name
     # the same plan: the folder written with keyword arguments resumes with files= (nothing rendered again)
     render_views(scene, cams, tmp_path / "kw", files=files)
-    with pytest.raises(ValueError, match="files: depth_scale is given both in files and as a keyword argument"):
+    with pytest.raises(ValueError, match=r"files: depth_scale=1000.0 is given besides files.depth_scale=500.0"), \
+            pytest.warns(DeprecationWarning):
         render_views(scene, cams, tmp_path / "x", files=files, depth_scale=1000.0)
     with pytest.raises(TypeError, match="files: expected"):
         render_views(scene, cams, tmp_path / "x", files={"buffers": ["zdepth"]})

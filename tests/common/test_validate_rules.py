@@ -3,6 +3,8 @@ places which once carried their own copy of it now give the same answers through
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -24,16 +26,17 @@ def test_as_bool_refuses_everything_else_naming_the_field(value, kind):
 
 
 @pytest.mark.parametrize("value, minimum, want", [(1, 1, 1), (7, 1, 7), (np.int32(3), 1, 3), (0, 0, 0),
-                                                  (np.uint64(2**40), 1, 2**40)])
+                                                  (np.uint64(2**40), 1, 2**40), (np.array(2), 1, 2)])
 def test_as_count_accepts_integers_from_the_minimum(value, minimum, want):
     got = as_count(value, "workers", minimum=minimum)
     assert got == want and type(got) is int
 
 
 @pytest.mark.parametrize("value, minimum", [(0, 1), (-1, 0), (True, 0), (np.bool_(True), 1), (2.0, 1), ("2", 1),
-                                            (None, 1)])
+                                            (None, 1), (np.array(True), 1), (np.array(2.0), 1), (np.array([2]), 1),
+                                            (np.array(0), 1)])
 def test_as_count_refuses_with_a_value_error_naming_the_field(value, minimum):
-    with pytest.raises(ValueError, match=rf"^workers: expected an integer >= {minimum}, got {value!r}$"):
+    with pytest.raises(ValueError, match=rf"^workers: expected an integer >= {minimum}, got {re.escape(repr(value))}$"):
         as_count(value, "workers", minimum=minimum)
 
 
@@ -60,6 +63,9 @@ def test_as_names_gives_lower_case_names_in_order_without_repeats(value, want):
     ("npz,jpg", ValueError, r"^formats: unknown format 'jpg'"),
     (5, TypeError, r"^formats: expected a sequence of format names, got int$"),
     (["npz", 5], TypeError, r"^formats: expected format names \(str\), got int$"),
+    (np.array(["npz"]), TypeError, r"^formats: expected a sequence of format names, got ndarray$"),
+    (np.empty(0), TypeError, r"^formats: expected a sequence of format names, got ndarray$"),
+    ({"npz": 1}, TypeError, r"^formats: expected a sequence of format names, got dict$"),
 ])
 def test_as_names_refuses_naming_the_field_and_the_item(value, error, match):
     with pytest.raises(error, match=match):
@@ -74,10 +80,12 @@ def test_as_names_item_word_is_given_or_the_field_less_its_s():
 
 
 def test_the_former_copies_answer_through_the_shared_rules():
-    """Lights, materials, cameras, view files, batch options and the scene cache: same messages, one rule each."""
+    """Lights, materials, cameras, view files, batch and run options and the scene cache: same messages, one
+    rule each."""
     import raycast_shade as rs
     from raycast_shade.apps.batch.cache import SceneCache
-    from raycast_shade.apps.batch.options import check_counts, check_options
+    from raycast_shade.apps.batch.options import check_options
+    from raycast_shade.apps.batch.run import RunOptions
     from raycast_shade.apps.viewfiles import ViewFiles
     from raycast_shade.output.buffers import check_buffers
 
@@ -97,9 +105,11 @@ def test_the_former_copies_answer_through_the_shared_rules():
     with pytest.raises(TypeError, match="^resume: expected True or False, got NoneType$"):
         check_options("phong", {}, None, None)
     with pytest.raises(ValueError, match="^retries: expected an integer >= 0, got -1$"):
-        check_counts(-1, None, None)
-    with pytest.raises(ValueError, match="^frames_per_task: expected an integer >= 1 or None, got True$"):
-        check_counts(0, True, None)
+        RunOptions(retries=-1)
+    with pytest.raises(ValueError, match="^per_task: expected an integer >= 1 or None, got True$"):
+        RunOptions(per_task=True)
+    with pytest.raises(TypeError, match="^progress: expected True or False, got int$"):
+        RunOptions(progress=1)
     with pytest.raises(ValueError, match="^size: expected an integer >= 1, got 0$"):
         SceneCache(0)
     assert check_buffers("id,zdepth") == ("model_id", "triangle_id", "zdepth")

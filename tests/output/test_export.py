@@ -165,15 +165,16 @@ def test_views_write_the_exports(tmp_path):
     scene = rs.Scene([rs.Model(rs.shapes.icosphere(1))], lights=[rs.PointLight((2, 3, 4), intensity=20)],
                      camera=rs.Camera(eye=(0.3, 0.5, 4.0), width=W, height=H))
     cams = orbit_cameras(scene.camera, 3)
-    render_views(scene, cams, tmp_path, buffers=["zdepth"], exports="nerfstudio,colmap")
+    render_views(scene, cams, tmp_path, files=rs.ViewFiles(buffers=["zdepth"]), exports="nerfstudio,colmap")
     data = json.load(open(tmp_path / "transforms.json"))
     assert [f["file_path"] for f in data["frames"]] == [f"view_{i:05d}.png" for i in range(3)]
     rec = pycolmap.Reconstruction(str(tmp_path / "colmap"))
     assert sorted(im.name for im in rec.images.values()) == [f"view_{i:05d}.png" for i in range(3)]
     with pytest.raises(ValueError, match="exports: 'colmap' names each view's image file"):
-        render_views(scene, cams, tmp_path / "b", buffers=["zdepth"], exports=["colmap"], image=None)
+        render_views(scene, cams, tmp_path / "b", files=rs.ViewFiles(buffers=["zdepth"], image=None),
+                     exports=["colmap"])
     with pytest.raises(ValueError, match="exports: unknown export 'bop'"):
-        render_views(scene, cams, tmp_path / "b", buffers=["zdepth"], exports=["bop"])
+        render_views(scene, cams, tmp_path / "b", files=rs.ViewFiles(buffers=["zdepth"]), exports=["bop"])
 
 
 LENSES = {"OPENCV": ([-0.21, 0.05, 0.001, -0.002], False), "FULL_OPENCV": ([-0.21, 0.05, 0.001, -0.002, 0.01], False),

@@ -134,7 +134,7 @@ def test_rle_refuses_what_is_not_a_mask():
 
 def test_coco_file_reads_back_with_pycocotools(scene, tmp_path):
     cams = orbit_cameras(scene.camera, 3)
-    render_views(scene, cams, tmp_path, buffers=["model_id", "semantic_id"], exports=["coco"])
+    render_views(scene, cams, tmp_path, files=rs.ViewFiles(buffers=["model_id", "semantic_id"]), exports=["coco"])
     coco = COCO(str(tmp_path / "coco_instances.json"))
     index = json.load(open(tmp_path / INDEX_NAME))
     assert [c["name"] for c in coco.loadCats(coco.getCatIds())] == ["ball", "floor"]
@@ -190,7 +190,7 @@ def test_unoccluded_counts_boxes_and_visible_fractions(tmp_path):
     scene = rs.Scene([ball, wall, hidden], lights=[rs.PointLight((2, 3, 4))],
                      camera=rs.Camera(eye=(0.4, 0.3, 4.0), width=W, height=H))
     cams = [scene.camera, scene.camera.replace(eye=(1.5, 0.6, 3.8))]
-    render_views(scene, cams, tmp_path, buffers=["model_id"], unoccluded=True, exports=["coco"])
+    render_views(scene, cams, tmp_path, files=rs.ViewFiles(buffers=["model_id"]), unoccluded=True, exports=["coco"])
     index = json.load(open(tmp_path / INDEX_NAME))
     for view, cam in zip(index["views"], cams):
         mid = load_npz(tmp_path / view["files"]["npz"])["model_id"]

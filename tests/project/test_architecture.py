@@ -3,7 +3,8 @@
 The stages are packages in pipeline order; a module may import from its own
 package and from packages below it, never from one above. No import cycles,
 at module level or inside functions, and no ``_private`` name crosses a
-package boundary. No module over 600 lines, no function over 120.
+package boundary. No module over 600 lines, no function over 120, none taking more than 15
+parameters (options travel in records: ``RunOptions``, ``ViewFiles``, ``BatchOptions``).
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ PKG = pathlib.Path(raycast_shade.__file__).parent
 LAYERS = ("common", "scene", "visibility", "shading", "output", "study", "insight", "<root>", "apps", "<top>")
 MAX_MODULE_LINES = 600
 MAX_FUNCTION_LINES = 120
+MAX_PARAMETERS = 15  # positional and keyword-only; *args and **kwargs not counted
 
 
 def _modules():
@@ -179,6 +181,31 @@ def test_module_and_function_sizes(name):
             if n > MAX_FUNCTION_LINES:
                 long.append(f"{node.name}() at line {node.lineno}: {n} lines")
     assert not long, f"{path.relative_to(PKG)}: " + "; ".join(long)
+
+
+def parameter_counts(src: str) -> list:
+    """``(name, line, count)`` of every function and lambda in ``src``, nested ones included: its
+    positional-only, positional and keyword-only parameters (``*args`` and ``**kwargs`` not counted)."""
+    out = []
+    for node in ast.walk(ast.parse(src)):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)):
+            a = node.args
+            out.append((getattr(node, "name", "<lambda>"), node.lineno,
+                        len(a.posonlyargs) + len(a.args) + len(a.kwonlyargs)))
+    return out
+
+
+def test_no_function_takes_more_than_15_parameters():
+    """Long signatures grow one flag at a time; the front ends' options live in records instead
+    (issue 40: ``render_views`` had 21, ``iter_batch`` 19)."""
+    wide = [f"{path.relative_to(PKG)}:{line} {name}() takes {n}"
+            for path in sorted(PKG.rglob("*.py"))
+            for name, line, n in parameter_counts(path.read_text(encoding="utf-8")) if n > MAX_PARAMETERS]
+    assert not wide, f"over {MAX_PARAMETERS} parameters (pass a record instead): " + "; ".join(wide)
+    # the count itself: every kind of parameter but *args and **kwargs, in methods, nested functions and lambdas
+    assert parameter_counts("def f(a, /, b, *c, d, **e):\n    g = lambda x, y=1: x\n") == \
+        [("f", 1, 3), ("<lambda>", 2, 2)]
+    assert parameter_counts("class C:\n    def m(self, *, k):\n        pass\n") == [("m", 2, 2)]
 
 
 _ENDS = (ast.Return, ast.Raise, ast.Continue, ast.Break)

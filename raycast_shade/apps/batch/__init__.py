@@ -6,12 +6,13 @@ list of light sets. Frames come back (or are written) in order.
 * By default every frame renders in the current process, and all frames of
   one mesh set share one packed geometry and one Embree BVH
   (:mod:`.serial`).
-* ``workers=N`` renders in a :class:`ProcessPool` of ``N`` processes of this
-  machine, each with ``cores // N`` Numba threads, scenes sent once and
-  images back through shared memory (:mod:`.pool`); ``executor="dask"``
-  makes that a local Dask cluster instead.
-  ``scheduler="tcp://host:8786"`` (or a :class:`distributed.Client`) uses an
-  existing Dask cluster (:mod:`.cluster`, :mod:`.dask_driver`).
+* Where and how frames run is one record, ``run=RunOptions(...)``
+  (:mod:`.run`). ``RunOptions(workers=N)`` renders in a :class:`ProcessPool`
+  of ``N`` processes of this machine, each with ``cores // N`` Numba threads,
+  scenes sent once and images back through shared memory (:mod:`.pool`);
+  ``executor="dask"`` makes that a local Dask cluster instead.
+  ``RunOptions(scheduler="tcp://host:8786")`` (or a :class:`distributed.Client`)
+  uses an existing Dask cluster (:mod:`.cluster`, :mod:`.dask_driver`).
 * Meshes travel once: the base scene of each mesh set is scattered to every
   worker, and a frame's task carries only its camera and lights
   (:mod:`.plan`). A worker builds the geometry and BVH on its first frame
@@ -21,7 +22,7 @@ list of light sets. Frames come back (or are written) in order.
   (resume); every frame is written atomically
   (:func:`raycast_shade.output.imagefile.write_image` with ``atomic=True``);
   a frame whose worker dies is re-run on another worker, and a frame whose
-  render raised is retried ``retries`` times.
+  render raised is retried ``run.retries`` times.
 * Options are checked once, as a scene file's ``[render]`` table is
   (:mod:`.options`): a batch accepts what the other front-ends accept.
 
@@ -29,7 +30,7 @@ list of light sets. Frames come back (or are written) in order.
 >>> from raycast_shade.apps.animate import orbit_cameras
 >>> scene = rs.Scene([rs.shapes.icosphere(2)], lights=[rs.PointLight((2, 3, 4), intensity=20)],
 ...                  camera=rs.Camera(eye=(0, 0, 4), width=32, height=24))
->>> images = render_batch(scene, cameras=orbit_cameras(scene.camera, 4), progress=False)
+>>> images = render_batch(scene, cameras=orbit_cameras(scene.camera, 4), run=RunOptions(progress=False))
 >>> len(images), images[0].shape
 (4, (24, 32, 3))
 """
@@ -40,6 +41,8 @@ from .driver import iter_batch, render_batch
 from .options import RENDER_KWARGS, BatchOptions
 from .plan import FrameJob, plan_batch, scene_key
 from .pool import FrameError, ProcessPool
+from .run import RunOptions
 
-__all__ = ["FrameJob", "ProcessPool", "FrameError", "BatchOptions", "SceneCache", "render_batch", "iter_batch", "plan_batch", "local_cluster",
-           "scene_key", "worker_stats", "reset_worker_stats", "RENDER_KWARGS"]
+__all__ = ["FrameJob", "ProcessPool", "FrameError", "BatchOptions", "RunOptions", "SceneCache", "render_batch",
+           "iter_batch", "plan_batch", "local_cluster", "scene_key", "worker_stats", "reset_worker_stats",
+           "RENDER_KWARGS"]

@@ -10,17 +10,17 @@ import tempfile
 
 from ...output.imagefile import remove_stale_temps
 from .cache import SceneCache
-from .options import BatchOptions, check_counts, check_options, check_shading_fits, check_transfer
+from .options import BatchOptions, check_options, check_shading_fits
 from .plan import plan_batch
 from .pool import ProcessPool, cores
+from .run import EXECUTORS, LOCAL_EXECUTOR, RunOptions, check_executor, merge_keywords
 from .serial import iter_serial
 
-__all__ = ["iter_batch", "render_batch", "EXECUTORS", "LOCAL_EXECUTOR", "check_executor"]
+__all__ = ["iter_batch", "render_batch", "EXECUTORS", "LOCAL_EXECUTOR", "check_executor", "FLAT_RUN_KEYWORDS"]
 
-EXECUTORS = ("auto", "serial", "processes", "dask")
-# What executor="auto" runs for workers=N (the cores of this machine): the process pool, faster than
-# Dask's LocalCluster and than this process on 2 cores from 640x480 up (benchmarks/bench_batch.py).
-LOCAL_EXECUTOR = "processes"
+# The execution options these functions took as keywords before RunOptions: old name -> its field.
+FLAT_RUN_KEYWORDS = {**{k: k for k in ("workers", "scheduler", "progress", "retries", "resume", "numba_threads",
+                                        "window", "transfer", "executor")}, "frames_per_task": "per_task"}
 
 
 class _NoBar:
@@ -60,55 +60,33 @@ def _spool_folder(transfer: str, client, out_dir):
         shutil.rmtree(folder, ignore_errors=True)
 
 
-def check_executor(executor, workers, scheduler):
-    """``"serial"``, ``"processes"``, ``"dask"`` or the given :class:`ProcessPool`.
-
-    ``"auto"``: Dask with ``scheduler``, :data:`LOCAL_EXECUTOR` with
-    ``workers``, else this process.
-    """
-    if isinstance(executor, ProcessPool):
-        if workers is not None or scheduler is not None:
-            raise ValueError("executor: a ProcessPool has its own workers; give neither workers nor scheduler")
-        return executor
-    if not isinstance(executor, str):
-        raise TypeError(f"executor: expected one of {list(EXECUTORS)} or a ProcessPool, got {type(executor).__name__}")
-    kind = executor.lower()
-    if kind not in EXECUTORS:
-        raise ValueError(f"executor: expected one of {list(EXECUTORS)} or a ProcessPool, got {executor!r}")
-    if kind == "auto":
-        kind = "dask" if scheduler is not None else LOCAL_EXECUTOR if workers is not None else "serial"
-    if kind == "serial" and (workers is not None or scheduler is not None):
-        raise ValueError("workers: executor='serial' renders in this process; give neither workers nor scheduler")
-    if kind == "processes" and scheduler is not None:
-        raise ValueError("scheduler: executor='processes' runs on this machine; scheduler= is for Dask")
-    return kind
-
-
 def iter_batch(scene_or_scenes, cameras=None, lights=None, *, shading="phong", out_dir=None,
-               pattern: str = "frame_{:05d}.png", workers: int | None = None, scheduler=None, progress: bool = True,
-               retries: int = 2, resume: bool = True, tone: dict | None = None, numba_threads: int | None = None,
-               frames_per_task: int | None = None, window: int | None = None, cache: SceneCache | None = None,
-               transfer: str = "auto", executor="auto", options: BatchOptions | None = None, **render_kwargs):
+               pattern: str = "frame_{:05d}.png", tone: dict | None = None, cache: SceneCache | None = None,
+               options: BatchOptions | None = None, run: RunOptions | None = None, **render_kwargs):
     """Render a batch, yielding each frame's result in frame order.
 
-    Same parameters as :func:`render_batch`, plus ``window``: at most that
-    many frames are in flight or held for reordering at once when images
-    are returned from worker processes or Dask, which bounds memory for long
-    animations streamed to a writer (default: as many as fit in 256 MiB of
-    float32 images, and at least 4 tasks per Dask worker, 2 frames per
-    process of a pool).
+    Same parameters as :func:`render_batch`; ``run.window`` matters most
+    here: at most that many frames are in flight or held for reordering at
+    once when images are returned from worker processes or Dask, which
+    bounds memory for long animations streamed to a writer (default: as many
+    as fit in 256 MiB of float32 images, and at least 4 tasks per Dask
+    worker, 2 frames per process of a pool).
 
     Yields
     ------
     (H, W, 3) float32 ndarray or str
         The linear image, or the written path when ``out_dir`` is given.
+
+    Examples
+    --------
+    >>> frames = iter_batch(scene, cams, run=RunOptions(workers=2, window=8))   # doctest: +SKIP
     """
-    options = _frame_options(options, dict(shading=shading, tone=tone, resume=resume), render_kwargs)
-    check_counts(retries, frames_per_task, window)
-    transfer = check_transfer(transfer)
-    kind = check_executor(executor, workers, scheduler)
+    resume_given = run is not None or "resume" in render_kwargs
+    run = merge_keywords(run, RunOptions, render_kwargs, FLAT_RUN_KEYWORDS, "run")
+    options = _frame_options(options, dict(shading=shading, tone=tone), render_kwargs, run, resume_given)
+    kind = check_executor(run.executor, run.workers, run.scheduler)
     if kind == "processes":
-        kind = ProcessPool(workers, numba_threads=numba_threads)  # checks both; starts on the first frame
+        kind = ProcessPool(run.workers, numba_threads=run.numba_threads)  # starts on the first frame
     if cache is not None and kind != "serial":
         raise ValueError("cache: only for runs in this process; each worker process has its own")
     if cache is not None and not isinstance(cache, SceneCache):
@@ -121,33 +99,32 @@ def iter_batch(scene_or_scenes, cameras=None, lights=None, *, shading="phong", o
         remove_stale_temps(out_dir, [os.path.basename(j.path) for j in jobs])
         if options.resume:
             done = {j.index for j in jobs if os.path.exists(j.path)}
-    bar = _progress_bar(progress, len(jobs), len(done), f"{_label(options.shading)} frames")
+    bar = _progress_bar(run.progress, len(jobs), len(done), f"{_label(options.shading)} frames")
     try:
         if kind == "serial":
             yield from iter_serial(bases, jobs, done, options, SceneCache() if cache is None else cache, bar)
             return
         if isinstance(kind, ProcessPool):
-            with contextlib.nullcontext(kind) if kind is executor else kind:  # a pool made here closes here
-                yield from kind.run(bases, jobs, done, options, retries, window, bar)
+            with contextlib.nullcontext(kind) if kind is run.executor else kind:  # a pool made here closes here
+                yield from kind.run(bases, jobs, done, options, run.retries, run.window, bar)
             return
         from .cluster import connect
         from .dask_driver import iter_dask
 
-        if workers is None and scheduler is None:
+        workers = run.workers
+        if workers is None and run.scheduler is None:
             workers = cores()  # executor="dask" alone: a local cluster, one worker per core
-        with connect(workers, scheduler, numba_threads) as client, _spool_folder(transfer, client, out_dir) as spool:
-            per_task = None if frames_per_task is None else int(frames_per_task)
-            yield from iter_dask(client, bases, jobs, done, options, retries, window, per_task, bar, spool)
+        with connect(workers, run.scheduler, run.numba_threads) as client, \
+                _spool_folder(run.transfer, client, out_dir) as spool:
+            yield from iter_dask(client, bases, jobs, done, options, run.retries, run.window, run.per_task, bar,
+                                 spool)
     finally:
         bar.close()
 
 
 def render_batch(scene_or_scenes, cameras=None, lights=None, *, shading="phong", out_dir=None,
-                 pattern: str = "frame_{:05d}.png", workers: int | None = None, scheduler=None,
-                 progress: bool = True, retries: int = 2, resume: bool = True, tone: dict | None = None,
-                 numba_threads: int | None = None, frames_per_task: int | None = None,
-                 cache: SceneCache | None = None, transfer: str = "auto", executor="auto",
-                 options: BatchOptions | None = None, **render_kwargs) -> list:
+                 pattern: str = "frame_{:05d}.png", tone: dict | None = None, cache: SceneCache | None = None,
+                 options: BatchOptions | None = None, run: RunOptions | None = None, **render_kwargs) -> list:
     """Render many frames, in order.
 
     Each of ``scene_or_scenes``, ``cameras`` and ``lights`` is one value
@@ -174,59 +151,28 @@ def render_batch(scene_or_scenes, cameras=None, lights=None, *, shading="phong",
         Frame file name; the extension picks the format: ``.png``,
         ``.jpg``, ... (8-bit, tone-mapped with ``tone``), ``.pfm`` or
         ``.npy`` (linear float32).
-    workers : int, optional
-        Render in this many worker processes of this machine: a
-        :class:`ProcessPool` (``executor="auto"`` or ``"processes"``), or a
-        local Dask cluster (``executor="dask"``). Default with those: one
-        per core.
-    scheduler : str or distributed.Client, optional
-        Render on an existing Dask cluster: its scheduler address
-        (``"tcp://host:8786"``) or a connected client.
-    progress : bool
-        Show a tqdm progress bar (when tqdm is installed).
-    retries : int
-        Times a frame whose render raised is re-run (worker processes and
-        Dask; this process raises at once). A frame whose worker died is
-        re-run on another worker regardless (up to Dask's
-        ``distributed.scheduler.allowed-failures``; 3 deaths on a pool).
-    resume : bool
-        With ``out_dir``: skip frames whose file exists.
     tone : dict, optional
         :func:`raycast_shade.to_uint8` options for 8-bit files:
         ``exposure``, ``tonemap``, ``gamma``.
-    numba_threads : int, optional
-        Numba threads per worker process of this machine (default: cores
-        divided by workers).
-    frames_per_task : int, optional
-        Consecutive frames rendered by one Dask task. Each task costs about
-        5 ms of CPU for scheduling and messages (``benchmarks/bench_batch.py``
-        measures it); the default (None) groups frames into tasks of about
-        4 megapixels (13 frames of 640x480, 1 of 1920x1080), keeping at
-        least 4 tasks per worker.
     cache : SceneCache, optional
         The scene cache and counters of a run in this process (default: a
         new one per call); pass one to read its :meth:`~SceneCache.stats`
         or to share it between batches. On Dask each worker has its own:
         see :func:`worker_stats`.
-    transfer : {"auto", "dask", "disk"}
-        How images (not written frames) come back from Dask workers:
-        ``"dask"`` through Dask's comms; ``"disk"`` through a temporary
-        folder of this process (``tempfile``), which the workers must see;
-        ``"auto"`` (default) the folder on a ``workers=`` or
-        :func:`local_cluster` cluster, Dask's comms on any other.
-    executor : {"auto", "serial", "processes", "dask"} or ProcessPool
-        Where frames render. ``"serial"``: this process. ``"processes"``:
-        a :class:`ProcessPool` of ``workers`` single-threaded processes,
-        started for the batch (interpreter start and Numba cache load, about
-        1-2 s) and stopped after it; pass a started pool to reuse one.
-        ``"dask"``: a local Dask cluster of ``workers`` processes, or
-        ``scheduler``'s. ``"auto"`` (default): Dask with ``scheduler``, the
-        process pool with ``workers``, else this process.
     options : BatchOptions, optional
         How every frame renders (``shading``, the render keywords, ``tone``,
         ``resume``) in one object, checked as the keyword arguments are;
         those are then left out (one given too is refused; one at its
-        default counts as not given).
+        default counts as not given). Its ``resume`` is the run's unless
+        ``run`` is given too, when the two must agree.
+    run : RunOptions, optional
+        Where and how the frames render: ``workers``, ``scheduler``,
+        ``executor``, ``retries``, ``resume``, ``numba_threads``,
+        ``per_task`` (frames per Dask task), ``progress``, ``window``,
+        ``transfer`` (default: ``RunOptions()``, this process, with a
+        progress bar). The flat keywords of earlier releases (``workers=2``,
+        ``frames_per_task=4``, ...) still work for this release, with a
+        ``DeprecationWarning``; one that disagrees with ``run`` is refused.
     **render_kwargs
         ``backend``, ``interpolation``, ``caster``, ``max_depth``,
         ``tolerance`` of :func:`raycast_shade.render`.
@@ -246,18 +192,23 @@ def render_batch(scene_or_scenes, cameras=None, lights=None, *, shading="phong",
         times (its index, the exception's message and the worker's
         traceback; the exception itself as ``__cause__``), or its worker
         died 3 times. Dask raises the frame's exception itself.
+
+    Examples
+    --------
+    >>> images = render_batch(scene, cams, run=RunOptions(workers=2, retries=1))       # doctest: +SKIP
+    >>> paths = render_batch(scene, cams, out_dir="frames", run=RunOptions(scheduler="tcp://host:8786",
+    ...                                                                   per_task=8))  # doctest: +SKIP
     """
     return list(iter_batch(scene_or_scenes, cameras, lights, shading=shading, out_dir=out_dir, pattern=pattern,
-                           workers=workers, scheduler=scheduler, progress=progress, retries=retries, resume=resume,
-                           tone=tone, numba_threads=numba_threads, frames_per_task=frames_per_task, cache=cache,
-                           transfer=transfer, executor=executor, options=options, **render_kwargs))
+                           tone=tone, cache=cache, options=options, run=run, **render_kwargs))
 
 
-def _frame_options(options, given: dict, render_kwargs: dict) -> BatchOptions:
-    """The checked frame options: of the keyword arguments, or of ``options`` (checked again, as a
-    :class:`BatchOptions` made by hand is not), refusing a keyword argument given besides it."""
+def _frame_options(options, given: dict, render_kwargs: dict, run: RunOptions, resume_given: bool) -> BatchOptions:
+    """The checked frame options: of the keyword arguments and ``run.resume``, or of ``options`` (checked
+    again, as a :class:`BatchOptions` made by hand is not), refusing a keyword argument given besides it
+    and a ``resume`` that disagrees with a ``run`` given too."""
     if options is None:
-        return check_options(given["shading"], render_kwargs, given["tone"], given["resume"])
+        return check_options(given["shading"], render_kwargs, given["tone"], run.resume)
     if not isinstance(options, BatchOptions):
         raise TypeError(f"options: expected a BatchOptions, got {type(options).__name__}")
     defaults = iter_batch.__kwdefaults__
@@ -267,4 +218,8 @@ def _frame_options(options, given: dict, render_kwargs: dict) -> BatchOptions:
                          "pass it in one place")
     if not isinstance(options.render_kwargs, dict):
         raise TypeError(f"options.render_kwargs: expected a dict, got {type(options.render_kwargs).__name__}")
-    return check_options(options.shading, dict(options.render_kwargs), options.tone, options.resume)
+    checked = check_options(options.shading, dict(options.render_kwargs), options.tone, options.resume)
+    if resume_given and checked.resume != run.resume:
+        raise ValueError(f"options: resume={checked.resume} in options but {run.resume} in run; "
+                         "pass it in one place (run.resume)")
+    return checked

@@ -3,6 +3,7 @@
 The values go through :func:`raycast_shade.scene.scenefile.check_render_options`,
 the checks of a scene file's ``[render]`` table, so a batch accepts what a
 scene file, :func:`raycast_shade.render_file` and the command line accept.
+Where and how the frames run (workers, retries, ...) is :class:`~raycast_shade.apps.batch.run.RunOptions`.
 """
 
 from __future__ import annotations
@@ -11,11 +12,11 @@ import dataclasses
 import os
 from dataclasses import dataclass
 
-from ...common.validate import as_bool, as_count
+from ...common.validate import as_bool
 from ...scene.scenefile import RENDER_KEYS, SIZE_KEYS, TONE_KEYS, check_render_options
 
-__all__ = ["cores", "BatchOptions", "RENDER_KWARGS", "TRANSFERS", "check_options", "check_counts", "check_shading_fits",
-           "check_transfer", "WINDOW_BYTES"]
+__all__ = ["cores", "BatchOptions", "RENDER_KWARGS", "TRANSFERS", "check_options", "check_shading_fits",
+           "WINDOW_BYTES"]
 
 # render() keywords a batch passes on; the camera (hence the size) is per frame.
 RENDER_KWARGS = tuple(k for k in RENDER_KEYS if k not in ("shading",) + SIZE_KEYS + TONE_KEYS)
@@ -91,19 +92,3 @@ def check_shading_fits(options: BatchOptions, bases: dict) -> None:
         if len(options.shading) != len(base.models):
             raise ValueError(f"shading: expected one method per model ({len(base.models)}), "
                              f"got {len(options.shading)}")
-
-
-def check_counts(retries, frames_per_task, window) -> None:
-    """``retries >= 0``; ``frames_per_task`` and ``window`` None or ``> 0``."""
-    as_count(retries, "retries", minimum=0)
-    as_count(frames_per_task, "frames_per_task", optional=True)
-    as_count(window, "window", optional=True)
-
-
-def check_transfer(transfer) -> str:
-    """One of :data:`TRANSFERS`, lower-cased."""
-    if not isinstance(transfer, str):
-        raise TypeError(f"transfer: expected one of {list(TRANSFERS)}, got {type(transfer).__name__}")
-    if transfer.lower() not in TRANSFERS:
-        raise ValueError(f"transfer: expected one of {list(TRANSFERS)}, got {transfer!r}")
-    return transfer.lower()

@@ -214,9 +214,9 @@ def _stop(workers, graceful: bool) -> None:
 
 class ProcessPool:
     """Single-threaded renderer processes on this machine, for
-    :func:`~raycast_shade.apps.batch.render_batch` (``executor=pool``).
+    :func:`~raycast_shade.apps.batch.render_batch` (``run=RunOptions(executor=pool)``).
 
-    ``render_batch(..., executor="processes")`` starts one for the batch and
+    ``render_batch(..., run=RunOptions(executor="processes", workers=N))`` starts one for the batch and
     closes it afterwards; start one yourself (a context manager) to keep the
     workers, their JIT-loaded kernels and their scene caches across batches.
 
@@ -231,7 +231,7 @@ class ProcessPool:
     Examples
     --------
     >>> with ProcessPool(2) as pool:                          # doctest: +SKIP
-    ...     images = render_batch(scene, cams, executor=pool)
+    ...     images = render_batch(scene, cams, run=RunOptions(executor=pool))
     """
 
     def __init__(self, workers: int | None = None, *, numba_threads: int | None = None):
