@@ -195,7 +195,7 @@ class TermShading:
             V = _assemble(arrays[:-3], {TERM_EMISSIVE: _NONE64, TERM_BACKGROUND: _NONE64}, emit_on, False,
                           k.background)
             self.V = V + arrays[-3:] + (0,)
-            self.ahead = prefetch_distance(k.geometry[2], self.V[VERT_COL])
+            self.ahead = prefetch_distance(k.geometry.faces, self.V[VERT_COL])
             weakref.finalize(self, _give, spares, key, arrays)
 
     def _share(self, hits):
