@@ -297,10 +297,11 @@ def _request_shadows(P, k, hp, L):
     for i in range(lights.shape[0]):
         if lights[i, LIGHT_SHADOWS] == 0.0 or _samples(lights, i) != 1:
             continue
-        s, d, _, cone = _light_at(lights, i, 0, hp.p, dmin, np.bool_(False))
+        j = np.int64(0)  # typed as _reflected's loop index: one compile of each helper, not a literal's too
+        s, d, _, cone = _light_at(lights, i, j, hp.p, dmin, np.bool_(False))
         if d == 0.0 or cone == 0.0 or dot(hp.n, s) <= 0.0:
             continue
-        request_ray(P, i, k, hp.o, hp.g, s, _light_point(lights, i, 0), d < np.inf, unit)
+        request_ray(P, i, k, hp.o, hp.g, s, _light_point(lights, i, j), d < np.inf, unit)
 
 
 @njit(**CALLED)
