@@ -32,14 +32,14 @@ Sections (issue 16):
 ``load``
     The frame with 1 and 2 Numba threads, on the machine as it is and with
     a busy process spinning on CPU 0, at 320x240, 640x480 and 1920x1080, in
-    subprocesses under threading variants: the library's default
-    (``OMP_WAIT_POLICY=PASSIVE``, see :mod:`raycast_shade.common.threads`),
-    GNU OpenMP's own default (the library's undone before the first launch),
+    subprocesses under threading variants: the environment as it is
+    (the kernels run in parts on the package's own threads, :mod:`raycast_shade.common.parallel`,
+    so OpenMP's settings should change nothing), GNU OpenMP's default wait,
     a short spin (``GOMP_SPINCOUNT=10000``), ``OMP_WAIT_POLICY=active``, and
     ``NUMBA_THREADING_LAYER=workqueue``; two rounds in alternating order.
 ``recast``
-    The single-ray kernel compiled parallel (``cast_rays_kernel``) and
-    serial (``cast_rays_serial``) for 1 to 4096 rays through random image
+    The single-ray kernel in parts (``cast_rays_kernel``) and whole in the
+    calling thread (``cast_rays_serial``) for 1 to 4096 rays through random image
     points (the noisy sphere at 640x480), quiet and with a busy core: where
     the hole re-cast switches (``visibility.cast.SERIAL_BELOW``).
 ``openmp``
@@ -73,7 +73,9 @@ import time
 from unittest import mock
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
+
+from raycast_shade.common.parallel import KERNEL, in_parts, share
 
 from raycast_shade.visibility import embree
 from raycast_shade.visibility.rays import pixel_ray
@@ -92,8 +94,9 @@ PACKETS = {"packets": (4, 4), "packets8": (4, 2)}  # the renderer's 4x4 tiles of
 
 # -- kernels -------------------------------------------------------------------------------------------------
 
-@njit(cache=True, parallel=True)
-def _make_packets(cam, w, h, tw, th, rays, valid):
+@in_parts
+@njit(**KERNEL)
+def _make_packets(cam, w, h, tw, th, rays, valid, part):
     """Fill ``rays`` (P * 24 * n,) float32 and ``valid`` (P * n,) int32 with the camera's
     ``tw`` x ``th`` tiles of ``n = tw * th`` rays, row of tiles after row, as
     :mod:`raycast_shade.visibility.cast` does."""
@@ -101,7 +104,8 @@ def _make_packets(cam, w, h, tw, th, rays, valid):
     ntx = (w + tw - 1) // tw
     nty = (h + th - 1) // th
     ib = rays.view(np.uint32)
-    for ty in prange(nty):
+    start, stop = share(nty, part)  # this part's share (common.parallel)
+    for ty in range(start, stop):
         for tx in range(ntx):
             p = ty * ntx + tx
             o = p * _RAY * n
@@ -118,22 +122,26 @@ def _make_packets(cam, w, h, tw, th, rays, valid):
                 embree.reset_hit(ib, o + k, n)
 
 
-@njit(cache=True, parallel=True)
-def _trace_packets(scene, rays, valid, args, npackets, n):
+@in_parts
+@njit(**KERNEL)
+def _trace_packets(scene, rays, valid, args, npackets, n, part):
     """``rtcIntersect16`` (``n = 16``) or ``rtcIntersect8`` on every prepared packet, in
     parallel; nothing else."""
-    for p in prange(npackets):
+    start, stop = share(npackets, part)  # this part's share (common.parallel)
+    for p in range(start, stop):
         if n == 16:
             embree.intersect16_packet(valid[p * 16:], scene, rays[p * _RAY * 16:], args)
         else:
             embree.intersect8_packet(valid[p * 8:], scene, rays[p * _RAY * 8:], args)
 
 
-@njit(cache=True, parallel=True)
-def _store_frame(image, mask):
+@in_parts
+@njit(**KERNEL)
+def _store_frame(image, mask, part):
     """Write every byte a frame writes to memory (rows in parallel): the bandwidth floor."""
     h, w = mask.shape
-    for y in prange(h):
+    start, stop = share(h, part)  # this part's share (common.parallel)
+    for y in range(start, stop):
         for x in range(w):
             image[y, x, 0] = 0.1
             image[y, x, 1] = 0.2
@@ -389,8 +397,8 @@ finally:
 print(json.dumps(out))
 """
 
-# The library sets OMP_WAIT_POLICY=PASSIVE unless the user chose (raycast_shade/common/threads.py):
-# "library" is that default; "gomp_default" undoes it in the child, before the first launch.
+# "library": the environment as it is; "gomp_default": OMP_WAIT_POLICY unset in the child. The kernels
+# run in parts on Python threads (common/parallel.py): the OpenMP variants are kept to show they no longer matter.
 LOAD_VARIANTS = [("library", {}), ("gomp_default", {"BENCH_UNSET_WAIT": "1"}),
                  ("gomp_spin10k", {"GOMP_SPINCOUNT": "10000"}),
                  ("omp_active", {"NUMBA_THREADING_LAYER": "omp", "OMP_WAIT_POLICY": "active"}),

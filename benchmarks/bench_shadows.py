@@ -41,7 +41,9 @@ import statistics
 import time
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
+
+from raycast_shade.common.parallel import KERNEL, in_parts, share
 
 from benchmarks import outputs as where
 from benchmarks.outputs import ROOT, results_file
@@ -64,13 +66,15 @@ def outputs(quick: bool = False) -> list:
         [results_file("shadows.md", True)] if quick else [os.path.join(ROOT, "docs", "performance.md")])
 
 
-@njit(parallel=True, cache=True)
-def _collect(prim, geom, u, v, G, B, L, face_off, cam, rays, valid):
+@in_parts
+@njit(**KERNEL)
+def _collect(prim, geom, u, v, G, B, L, face_off, cam, rays, valid, part):
     """Light 0's shadow rays of every 4x4 tile, as the packet kernel asks for them:
     ``rays`` (tiles, RAY16_SLOTS) float32, ``valid`` (tiles, 16) int32."""
     h, w = prim.shape
     ntx = (w + 3) // 4
-    for ty in prange((h + 3) // 4):
+    start, stop = share((h + 3) // 4, part)  # this part's share (common.parallel)
+    for ty in range(start, stop):
         buf, ib, off, vd, voff, args, aoff, vis, points = shadows._packets(L.lights.shape[0])
         P = (buf, ib, off, vd, voff)
         for tx in range(ntx):
@@ -89,10 +93,12 @@ def _collect(prim, geom, u, v, G, B, L, face_off, cam, rays, valid):
                 valid[t, k] = vd[voff + k]
 
 
-@njit(parallel=True, cache=True)
-def _one_by_one(handle, rays, valid, out):
+@in_parts
+@njit(**KERNEL)
+def _one_by_one(handle, rays, valid, out, part):
     """Each active lane's ray alone: ``rtcOccluded1``."""
-    for t in prange(rays.shape[0]):
+    start, stop = share(rays.shape[0], part)  # this part's share (common.parallel)
+    for t in range(start, stop):
         b = np.empty(2 * embree.RAY_SLOTS, np.float32)
         o = ((16 - b.ctypes.data % 16) % 16) // 4
         for k in range(_LANES):
@@ -127,10 +133,12 @@ def _tile_packet(rays, valid, t, flags):
     return b, o, vb, vo, a, ao, on
 
 
-@njit(parallel=True, cache=True)
-def _packets(handle, rays, valid, out):
+@in_parts
+@njit(**KERNEL)
+def _packets(handle, rays, valid, out, part):
     """Each tile's rays as one coherent ``rtcOccluded16`` packet."""
-    for t in prange(rays.shape[0]):
+    start, stop = share(rays.shape[0], part)  # this part's share (common.parallel)
+    for t in range(start, stop):
         b, o, vb, vo, a, ao, on = _tile_packet(rays, valid, t, embree.RAY_QUERY_FLAG_COHERENT)
         if on:
             embree.occluded16_packet(vb[vo:], handle, b[o:], a[ao:])
@@ -139,15 +147,17 @@ def _packets(handle, rays, valid, out):
                     out[t, k] = b[o + embree.RAY_TFAR * _LANES + k] < 0.0
 
 
-@njit(parallel=True, cache=True)
-def _collect_bounces(hits, G, B, materials, face_off, cam, unit, image, rays, valid):
+@in_parts
+@njit(**KERNEL)
+def _collect_bounces(hits, G, B, materials, face_off, cam, unit, image, rays, valid, part):
     """The bounce rays of every 4x4 tile, packed as the mirror kernel packs them (its lanes, its
     ``RTCRayHit16``): ``rays`` (tiles, 16 RAYHIT_SLOTS) float32, ``valid`` (tiles, 16) int32;
     ``image`` (H, W, 3) float32 takes the kernel's ``1 - rho`` scaling (a scratch here)."""
     h, w = hits[0].shape
     ntx = (w + 3) // 4
     slots = _LANES * embree.RAYHIT_SLOTS
-    for ty in prange((h + 3) // 4):
+    start, stop = share((h + 3) // 4, part)  # this part's share (common.parallel)
+    for ty in range(start, stop):
         buf = np.empty(slots + 16, np.float32)
         off = ((64 - buf.ctypes.data % 64) % 64) // 4
         ib = buf.view(np.uint32)
@@ -173,11 +183,13 @@ def _collect_bounces(hits, G, B, materials, face_off, cam, unit, image, rays, va
                 valid[t, k] = vb[vo + k] if n > 0 else 0
 
 
-@njit(parallel=True, cache=True)
-def _bounce_packets(handle, rays, valid, out):
+@in_parts
+@njit(**KERNEL)
+def _bounce_packets(handle, rays, valid, out, part):
     """Each tile's bounce rays as one coherent ``rtcIntersect16`` packet; ``out`` (tiles, 16) int32:
     each active lane's hit model (-1: a miss)."""
-    for t in prange(rays.shape[0]):
+    start, stop = share(rays.shape[0], part)  # this part's share (common.parallel)
+    for t in range(start, stop):
         b, o, vb, vo, a, ao, on = _tile_packet(rays, valid, t, mirrors.MIRROR_FLAGS)
         ib = b.view(np.uint32)
         if on:

@@ -15,11 +15,6 @@ attenuation laws.
 (240, 320, 3)
 """
 
-from .common.threads import apply_wait_policy as _apply_wait_policy
-
-# Before any kernel of ours loads OpenMP, which reads it once; the user's setting wins (common/threads.py).
-_apply_wait_policy()
-
 from .scene import heightmap as bump
 from .scene import shapes
 from .scene.heightmap import HeightMap

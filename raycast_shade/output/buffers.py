@@ -34,7 +34,9 @@ samples, so masks and ids stay exact.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
+
+from ..common.parallel import in_parts, share
 
 from ..common.bufferspec import ALIASES, BUFFER_NAMES, BUFFERS, KERNEL_BUFFERS, registry_table
 from ..common.layout import CAM_ORTHO
@@ -76,8 +78,9 @@ def buffer_bytes(names) -> int:
 
 
 # error_model="numpy": the inlined ray-row helpers divide without a zero test (output.pixelrays)
-@njit(cache=True, parallel=True, error_model="numpy")
-def _buffers_kernel(view, hits, geometry, extra, outputs):
+@in_parts
+@njit(nogil=True, cache=True, error_model="numpy")
+def _buffers_kernel(view, hits, geometry, extra, outputs, part):
     """Every asked-for buffer of one pixel in one pass; an output of size 0 is not asked for.
 
     The arguments are five tuples, unpacked once here (never inside the pixel loop):
@@ -133,7 +136,8 @@ def _buffers_kernel(view, hits, geometry, extra, outputs):
     # One simple loop per asked output and row (the asked set is decided per row, not per
     # pixel): the ids, mask, depth, the row's rays and a z-depth asked alone vectorise; the
     # buffers that need a hit's triangle share its ray (one square root a pixel, vectorised).
-    for y in prange(h):
+    start, stop = share(h, part)  # this part's share (common.parallel)
+    for y in range(start, stop):
         if depth.shape[0] != 0:
             for x in range(w):
                 depth[y, x] = t[y, x] if prim[y, x] >= 0 else np.float32(0.0)

@@ -32,7 +32,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
+
+from ..common.parallel import KERNEL, in_parts, share
 
 from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH
 from ..common.validate import as_rgb, as_scalar
@@ -93,13 +95,23 @@ def _edge_distance(cam, vertices, i, j, sx, sy):
     return abs(c + sx * a + sy * b) / g
 
 
-@njit(cache=True, parallel=True)
 def _distances_kernel(prim, geom, face_offsets, faces, vertices, cam):
-    """(H, W) distances in pixels to the nearest edge line and corner of each pixel's triangle."""
+    """(H, W) distances in pixels to the nearest edge line and corner of each pixel's triangle
+    (``inf`` on the background)."""
     h, w = prim.shape
     edge = np.full((h, w), np.inf)
     corner = np.full((h, w), np.inf)
-    for y in prange(h):
+    _distances_parts(prim, geom, face_offsets, faces, vertices, cam, edge, corner)
+    return edge, corner
+
+
+@in_parts
+@njit(**KERNEL)
+def _distances_parts(prim, geom, face_offsets, faces, vertices, cam, edge, corner, part):
+    """:func:`_distances_kernel` for this part's rows."""
+    y0, y1 = share(prim.shape[0], part)
+    w = prim.shape[1]
+    for y in range(y0, y1):
         sy = 1.0 - 2.0 * (y + 0.5) / cam[CAM_HEIGHT]
         for x in range(w):
             if prim[y, x] < 0:

@@ -22,7 +22,9 @@ import math
 import os
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
+
+from ..common.parallel import in_parts, share
 
 __all__ = ["to_uint8", "write_pfm", "read_pfm", "TONEMAPS"]
 
@@ -31,8 +33,9 @@ from ..common.validate import as_array, as_scalar
 _CHUNK = 1 << 16  # values per parallel work item
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
-def _to_uint8_kernel(x, exposure, curve, inv_gamma, out):
+@in_parts
+@njit(nogil=True, cache=True, error_model="numpy")
+def _to_uint8_kernel(x, exposure, curve, inv_gamma, out, part):
     """Tone-map ``x`` (N,) float32/float64 into ``out`` (N,) uint8.
 
     ``curve``: 0 clamp, 1 reinhard, 2 exponential; ``inv_gamma`` 0 selects
@@ -40,7 +43,8 @@ def _to_uint8_kernel(x, exposure, curve, inv_gamma, out):
     to uint8 is undefined); ``+inf`` maps to 255 under every curve.
     """
     n = x.shape[0]
-    for c in prange((n + _CHUNK - 1) // _CHUNK):
+    start, stop = share((n + _CHUNK - 1) // _CHUNK, part)  # this part's share (common.parallel)
+    for c in range(start, stop):
         for i in range(c * _CHUNK, min(n, (c + 1) * _CHUNK)):
             v = np.float64(x[i]) * exposure
             if not v > 0.0:  # negatives, -0 and NaN, before the curve: x / (1 + x) is large below -1

@@ -18,7 +18,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
+
+from ..common.parallel import KERNEL, in_parts, share
 
 __all__ = ["face_normals", "vertex_normals", "winding_conflicts", "reversed_duplicates", "WindingWarning", "WEIGHTINGS"]
 
@@ -42,18 +44,27 @@ def _corner(vertices, p, q, r):
             a0 * a0 + a1 * a1 + a2 * a2, b0 * b0 + b1 * b1 + b2 * b2, a0 * b0 + a1 * b1 + a2 * b2)
 
 
-@njit(cache=True, parallel=True)
 def _faces_kernel(vertices, faces, weighting):
     """Face normals, areas and corner weights in one pass over the faces.
 
     ``weighting``: 0 uniform, 1 area, 2 angle (see the twin
     :func:`raycast_shade.study.twins.corner_weights_numpy`, whose arithmetic this follows).
+    A degenerate face keeps zero normal, area and weights.
     """
     nf = faces.shape[0]
     normals = np.zeros((nf, 3), np.float64)
     areas = np.zeros(nf, np.float64)
     weights = np.zeros((nf, 3), np.float64)
-    for f in prange(nf):
+    _faces_parts(vertices, faces, weighting, normals, areas, weights)
+    return normals, areas, weights
+
+
+@in_parts
+@njit(**KERNEL)
+def _faces_parts(vertices, faces, weighting, normals, areas, weights, part):
+    """:func:`_faces_kernel`'s pass over this part's faces, into the zeroed outputs."""
+    f0, f1 = share(faces.shape[0], part)
+    for f in range(f0, f1):
         c0, c1, c2, ea, eb, dot = _corner(vertices, faces[f, 0], faces[f, 1], faces[f, 2])
         length = math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
         # Relative threshold: degenerate when the cross product is tiny next
@@ -73,7 +84,6 @@ def _faces_kernel(vertices, faces, weighting):
             else:  # the angle at corner k, robust form atan2(|a x b|, a.b)
                 x0, x1, x2, _, _, dot = _corner(vertices, faces[f, k], faces[f, (k + 1) % 3], faces[f, (k + 2) % 3])
                 weights[f, k] = math.atan2(math.sqrt(x0 * x0 + x1 * x1 + x2 * x2), dot)
-    return normals, areas, weights
 
 
 def face_normals(vertices: np.ndarray, faces: np.ndarray):

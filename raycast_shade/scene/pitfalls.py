@@ -25,7 +25,9 @@ import math
 import warnings
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
+
+from ..common.parallel import KERNEL, in_parts, launch, parts, share
 
 from ..common.warnings import BumpIgnoredWarning, EmptyViewWarning, LightInsideWarning, NoLightsWarning
 from .normals import _corners_by_vertex
@@ -58,8 +60,17 @@ def _third(faces, f, a, b):
     return -1
 
 
-@njit(cache=True, parallel=True)
 def _sharp_edges_kernel(faces, order, starts, dest, fnormals, cos_limit):
+    """The number of :func:`_sharp_edges_parts`' edges (an int), counted in parts and added."""
+    n = parts()
+    counts = np.zeros(n, np.int64)
+    launch(_sharp_edges_parts.kernel, faces, order, starts, dest, fnormals, cos_limit, counts, parts=n)
+    return int(counts.sum())
+
+
+@in_parts
+@njit(**KERNEL)
+def _sharp_edges_parts(faces, order, starts, dest, fnormals, cos_limit, counts, part):
     """Count manifold edges (one face each way) whose face normals meet at cosine < ``cos_limit``.
 
     Each edge is counted once, from its half-edge ``a -> b`` with ``a < b``;
@@ -68,7 +79,8 @@ def _sharp_edges_kernel(faces, order, starts, dest, fnormals, cos_limit):
     sheet's rim: no crease that a crease angle would keep).
     """
     count = 0
-    for a in prange(starts.shape[0] - 1):
+    a0, a1 = share(starts.shape[0] - 1, part)
+    for a in range(a0, a1):
         for i in range(starts[a], starts[a + 1]):
             b = dest[i]
             if b < a:
@@ -84,7 +96,7 @@ def _sharp_edges_kernel(faces, order, starts, dest, fnormals, cos_limit):
             c = fnormals[fa, 0] * fnormals[fb, 0] + fnormals[fa, 1] * fnormals[fb, 1] + fnormals[fa, 2] * fnormals[fb, 2]
             if c < cos_limit:
                 count += 1
-    return count
+    counts[part[0]] = count  # this part's count, into its own slot
 
 
 @njit(cache=True)

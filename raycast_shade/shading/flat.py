@@ -13,7 +13,9 @@ branches before typing, so the plain kernels compile to what they were.
 
 from __future__ import annotations
 
-from numba import njit, prange
+from numba import njit
+
+from ..common.parallel import in_parts, share
 
 from ..common.layout import METHOD_FLAT
 from ..common.schedule import spread_step
@@ -33,8 +35,9 @@ def _make_flat(tex_on: bool = False, terms_on: bool = False):
     face's coefficients come from its colours and maps (:mod:`.texture`); ``terms_on``: the
     build that also stores each face's terms."""
 
-    @njit(parallel=True, **JIT)
-    def _shade_faces_kernel(face_flags, G, face_model, materials, cam, L, T, uvs, out):
+    @in_parts
+    @njit(nogil=True, **JIT)
+    def _shade_faces_kernel(face_flags, G, face_model, materials, cam, L, T, uvs, out, part):
         """Flat shading: one shade per visible face, at its centre.
 
         ``G``, ``L`` and ``T`` as in :class:`~raycast_shade.shading.inputs.FrameInputs`;
@@ -51,7 +54,8 @@ def _make_flat(tex_on: bool = False, terms_on: bool = False):
         n = faces.shape[0]
         nchunk = (n + CHUNK - 1) // CHUNK
         step = spread_step(nchunk)
-        for it in prange(nchunk):  # chunks in a balanced order (see common.schedule)
+        start, stop = share(nchunk, part)  # this part's share (common.parallel)
+        for it in range(start, stop):  # chunks in a balanced order (see common.schedule)
             c = (it * step) % nchunk
             S = _scratch()
             for f in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
@@ -87,8 +91,9 @@ _FLAT_TERMS = compile_variants(lambda tex_on: _make_flat(tex_on, True))
 def _make_lookup(terms_on: bool):
     """The flat pixel kernel; ``terms_on``: the build that also copies each pixel's face terms."""
 
-    @njit(parallel=True, **JIT)
-    def _lookup_flat_kernel(prim, geom, face_off, fcol, background, modes, image):
+    @in_parts
+    @njit(nogil=True, **JIT)
+    def _lookup_flat_kernel(prim, geom, face_off, fcol, background, modes, image, part):
         """Flat: each pixel of the models whose method is METHOD_FLAT takes its face's shade.
         The terms build's ``image`` is ``(image, y0, R, F)``: also the face's terms (the face
         record ``F``) into the frame's terms record ``R`` at row ``y0 + y``, and zero terms on
@@ -99,7 +104,8 @@ def _make_lookup(terms_on: bool):
         else:
             img = image
         h, w = prim.shape
-        for y in prange(h):
+        start, stop = share(h, part)  # this part's share (common.parallel)
+        for y in range(start, stop):
             for x in range(w):
                 p = prim[y, x]
                 if p < 0:

@@ -22,7 +22,9 @@ interpolated, and the pixel is ``Ia ka + D kd + S ks + ke`` with the pixel's own
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
+
+from ..common.parallel import in_parts, share
 
 from ..common.layout import COLOR_VERTEX, MAT_KA_COLORS, METHOD_GOURAUD
 from ..common.prefetch import beyond_caches, prefetch
@@ -156,8 +158,9 @@ def _make_vertices(tex_on: bool = False):
     """The per-vertex kernel for one variant (see :mod:`.jit`; ``tex_on``: vertex colours
     and the modulate path)."""
 
-    @njit(parallel=True, **JIT)
-    def _shade_vertices_kernel(vertex_flags, G, vertex_model, materials, cam, L, T, out, spec_out):
+    @in_parts
+    @njit(nogil=True, **JIT)
+    def _shade_vertices_kernel(vertex_flags, G, vertex_model, materials, cam, L, T, out, spec_out, part):
         """Gouraud: the shade of each visible vertex from each side its faces need
         (``vertex_flags`` (V, 2): front, lit with its normal, and back, with the negated
         one); ``out`` (V, 2, 3) float64. For a model on the modulate path (``T``'s split
@@ -168,7 +171,8 @@ def _make_vertices(tex_on: bool = False):
         n = verts.shape[0]
         nchunk = (n + CHUNK - 1) // CHUNK
         step = spread_step(nchunk)
-        for it in prange(nchunk):  # chunks in a balanced order (see common.schedule)
+        start, stop = share(nchunk, part)  # this part's share (common.parallel)
+        for it in range(start, stop):  # chunks in a balanced order (see common.schedule)
             c = (it * step) % nchunk
             S = _scratch()
             for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
@@ -223,9 +227,10 @@ def _make_interpolate(tex_on: bool = False):
     corner fallbacks and the modulate path): its rare corner fallbacks evaluate the
     reflectance equation."""
 
-    @njit(parallel=True, **JIT)
+    @in_parts
+    @njit(nogil=True, **JIT)
     def _interp_gouraud_kernel(prim, geom, u, v, G, B, face_off, materials, cam, L, T, background, modes, shades,
-                               image):
+                               image, part):
         """Gouraud: interpolate vertex shades over the models whose method is METHOD_GOURAUD;
         ``shades`` = ``(vcol, vspec, y0, state, ahead)``: the vertex kernel's, the image row of
         the buffer's first row (a band of the frame; textures need the image position), the
@@ -239,7 +244,8 @@ def _make_interpolate(tex_on: bool = False):
         h, w = prim.shape
         nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
         step = spread_step(nblk)
-        for it in prange(nblk):  # blocks of rows in a balanced order (see common.schedule)
+        start, stop = share(nblk, part)  # this part's share (common.parallel)
+        for it in range(start, stop):  # blocks of rows in a balanced order (see common.schedule)
             blk = (it * step) % nblk
             for y in range(blk * BLOCK_ROWS, min(h, (blk + 1) * BLOCK_ROWS)):
                 S = _scratch()

@@ -27,7 +27,9 @@ pixel's colour is the one the per-pixel tests give, bit for bit.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
+
+from ..common.parallel import in_parts, share
 
 from ..common.layout import CAM_EYE, CAM_ORTHO
 from .jit import CHUNK, HELPER, JIT
@@ -49,11 +51,13 @@ def _near_face(b1, b2):
     return b1 >= -_NEAR and b2 >= -_NEAR and b1 + b2 <= 1.0 + _NEAR
 
 
-@njit(parallel=True, **JIT)
-def _face_planes_kernel(G, planes):
+@in_parts
+@njit(nogil=True, **JIT)
+def _face_planes_kernel(G, planes, part):
     """:func:`face_planes` of the geometry ``G`` = ``(verts, normals, faces, fnormals)``."""
     verts, normals, faces, fnormals = G
-    for f in prange(faces.shape[0]):
+    start, stop = share(faces.shape[0], part)  # this part's share (common.parallel)
+    for f in range(start, stop):
         g = (fnormals[f, 0], fnormals[f, 1], fnormals[f, 2])
         lo, hi, scale, served = np.inf, -np.inf, 0.0, True
         for k in range(3):
@@ -123,8 +127,9 @@ def _face_side(fnormals, planes, cam, f):
     return -1  # NaN lands here too
 
 
-@njit(parallel=True, **JIT)
-def _face_sides_kernel(face_flags, G, cam, planes, state, vertex_flags):
+@in_parts
+@njit(nogil=True, **JIT)
+def _face_sides_kernel(face_flags, G, cam, planes, state, vertex_flags, part):
     """The flagged faces' sides: each face's pixels need its corners' shades from its side
     (:func:`_face_side`), or from either where that is not certain; ``vertex_flags`` (V, 2)
     uint8 gets 1 at ``[i, side]`` for each. ``state`` (F,) uint8: ``1 + side`` for a face of
@@ -133,7 +138,8 @@ def _face_sides_kernel(face_flags, G, cam, planes, state, vertex_flags):
     faces, fnormals = G.faces, G.face_normals
     n = faces.shape[0]
     nchunk = (n + CHUNK - 1) // CHUNK
-    for c in prange(nchunk):  # cheap, even work: plain chunks
+    start, stop = share(nchunk, part)  # this part's share (common.parallel)
+    for c in range(start, stop):  # cheap, even work: plain chunks
         for f in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
             if face_flags[f] == 0:
                 continue

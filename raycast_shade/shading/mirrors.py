@@ -23,7 +23,9 @@ from __future__ import annotations
 import functools
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
+
+from ..common.parallel import in_parts, share
 
 from ..common.layout import MAT_REFLECTIVITY
 from ..common.prefetch import beyond_caches, prefetch
@@ -279,8 +281,9 @@ def _make_packets(tex_on: bool = False, batched: bool = False):
     (:func:`_take_handed`) if it was given some, else by :func:`_start_lane` (one build for both:
     a frame of Phong and of flat or Gouraud mirrors, as the demo renders, compiles it once)."""
 
-    @njit(parallel=True, **JIT)
-    def _mirror_packets_kernel(hits, G, B, L, T, face_off, materials, cam, background, image, trace, rays):
+    @in_parts
+    @njit(nogil=True, **JIT)
+    def _mirror_packets_kernel(hits, G, B, L, T, face_off, materials, cam, background, image, trace, rays, part):
         """Blend every reflective pixel of ``hits`` into ``image``, all bounces, in packets.
 
         ``hits`` = ``(prim, geom, u, v)`` (R, W) and ``image`` (R, W, 3) float32: rows
@@ -308,7 +311,8 @@ def _make_packets(tex_on: bool = False, batched: bool = False):
         per = BLOCK_ROWS // _TILE
         nblk = (ntr + per - 1) // per
         step = spread_step(nblk)
-        for it in prange(nblk):  # blocks of tile rows in a balanced order (see common.schedule)
+        start, stop = share(nblk, part)  # this part's share (common.parallel)
+        for it in range(start, stop):  # blocks of tile rows in a balanced order (see common.schedule)
             blk = (it * step) % nblk
             S = _scratch()
             # Per-task RTCRayHit16 (64-byte aligned), its valid mask and RTCIntersectArguments:

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
+
+from ..common.parallel import in_parts, share
 
 from ..common.layout import METHOD_FLAT, METHOD_PHONG
 from ..common.schedule import BLOCK_ROWS, spread_step
@@ -17,13 +19,15 @@ from .shade import _check_inputs, resolve_methods
 __all__ = ["shading_normals", "normal_inputs", "normals_into"]
 
 
-@njit(parallel=True, **JIT)
-def _normals_kernel(prim, geom, u, v, G, B, face_off, cam, modes, nbuf):
+@in_parts
+@njit(nogil=True, **JIT)
+def _normals_kernel(prim, geom, u, v, G, B, face_off, cam, modes, nbuf, part):
     """The unit normal each pixel is shaded with, turned to the viewer."""
     h, w = prim.shape
     nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
     step = spread_step(nblk)
-    for it in prange(nblk):  # blocks of rows in a balanced order (see common.schedule)
+    start, stop = share(nblk, part)  # this part's share (common.parallel)
+    for it in range(start, stop):  # blocks of rows in a balanced order (see common.schedule)
         blk = (it * step) % nblk
         for y in range(blk * BLOCK_ROWS, min(h, (blk + 1) * BLOCK_ROWS)):
             for x in range(w):

@@ -24,7 +24,9 @@ loop, 19 ms without, repeated squaring included).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
+
+from ..common.parallel import in_parts, share
 
 from ..common.layout import MAT_REFLECTIVITY, METHOD_PHONG
 from ..common.schedule import BLOCK_ROWS, spread_step
@@ -95,8 +97,9 @@ def _shading_point(G, B, L, cam, at, use_dir, d):
 def _make_phong(tex_on: bool = False):
     """The Phong pixel kernel for one variant (see :mod:`.jit`; ``tex_on``: textured coefficients)."""
 
-    @njit(parallel=True, **JIT)
-    def _shade_phong_kernel(prim, geom, u, v, G, B, L, T, face_off, materials, cam, background, modes, outs, y0):
+    @in_parts
+    @njit(nogil=True, **JIT)
+    def _shade_phong_kernel(prim, geom, u, v, G, B, L, T, face_off, materials, cam, background, modes, outs, y0, part):
         """Phong: shade every pixel of the models whose method is METHOD_PHONG; array row ``r``
         is image row ``y0 + r`` (a band of the frame; textures need the image position).
         ``outs = (image, normal, rays)``: the (h, W, 3) float32 image, where to write each shaded
@@ -110,7 +113,8 @@ def _make_phong(tex_on: bool = False):
         h, w = prim.shape
         nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
         step = spread_step(nblk)
-        for it in prange(nblk):  # blocks of rows in a balanced order (see common.schedule)
+        start, stop = share(nblk, part)  # this part's share (common.parallel)
+        for it in range(start, stop):  # blocks of rows in a balanced order (see common.schedule)
             blk = (it * step) % nblk
             for y in range(blk * BLOCK_ROWS, min(h, (blk + 1) * BLOCK_ROWS)):
                 S = _scratch()
@@ -146,9 +150,10 @@ _TILE = 4  # a packet is a 4x4 tile of pixels (LANES); BLOCK_ROWS is a multiple 
 def _make_phong_packets(tex_on: bool = False):
     """The Phong pixel kernel with shadow packets, for one variant (see :mod:`.jit`)."""
 
-    @njit(parallel=True, **JIT)
+    @in_parts
+    @njit(nogil=True, **JIT)
     def _shade_phong_packets_kernel(prim, geom, u, v, G, B, L, T, face_off, materials, cam, background, modes, outs,
-                                    y0):
+                                    y0, part):
         """:func:`_make_phong`'s kernel, its shadow rays traced per 4x4 tile of pixels as one
         16-ray packet per light: the same image (and shading normals and mirror rays in ``outs``),
         bit for bit."""
@@ -160,7 +165,8 @@ def _make_phong_packets(tex_on: bool = False):
         h, w = prim.shape
         nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
         step = spread_step(nblk)
-        for it in prange(nblk):  # blocks of rows in a balanced order (see common.schedule)
+        start, stop = share(nblk, part)  # this part's share (common.parallel)
+        for it in range(start, stop):  # blocks of rows in a balanced order (see common.schedule)
             blk = (it * step) % nblk
             S = _scratch()  # a single ray, should a point ask for one its tile did not trace
             buf, ib, off, valid, voff, args, aoff, vis, points = _packets(L.lights.shape[0])

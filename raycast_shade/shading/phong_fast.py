@@ -50,7 +50,9 @@ to the general kernel, the one evaluator (:func:`.illumination._reflected`).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
+
+from ..common.parallel import in_parts, share
 
 from ..common.layout import (ATT_HEURISTIC, ATT_INVERSE_SQUARE, ATT_NONE, CAM_EYE, CAM_FORWARD, CAM_ORTHO,
                              LIGHT_ATT, LIGHT_DIRECTIONAL, LIGHT_K, LIGHT_KIND, LIGHT_POINT, LIGHT_RADIANCE,
@@ -512,8 +514,9 @@ def _make_phong_fast(terms_on: bool = False, shadows_on: bool = False):
     if terms_on and shadows_on:  # their scratch fields overlap (see _FIELDS)
         raise ValueError("terms_on and shadows_on: the batched kernel builds one or the other")
 
-    @njit(parallel=True, **JIT)
-    def _shade_phong_fast_kernel(prim, geom, u, v, G, L, face_off, materials, cam, background, modes, outs):
+    @in_parts
+    @njit(nogil=True, **JIT)
+    def _shade_phong_fast_kernel(prim, geom, u, v, G, L, face_off, materials, cam, background, modes, outs, part):
         """As :func:`.phong._make_phong`'s kernel for a frame :func:`applies` to, bit for bit.
         ``outs = (image, normal)``: the (h, W, 3) float32 image, and the (h, W, 3) float32 array
         the shading normals of the Phong pixels go to (zero on the background), or
@@ -535,7 +538,8 @@ def _make_phong_fast(terms_on: bool = False, shadows_on: bool = False):
         tw = _TILE if shadows_on else w
         nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
         step = spread_step(nblk)
-        for it in prange(nblk):  # blocks of rows in a balanced order (see common.schedule)
+        start, stop = share(nblk, part)  # this part's share (common.parallel)
+        for it in range(start, stop):  # blocks of rows in a balanced order (see common.schedule)
             blk = (it * step) % nblk
             S = np.zeros(_FIELDS * LANES)
             XY = np.zeros(7 * LANES, np.int64)  # per lane: row, column, model, face, its three vertices

@@ -22,7 +22,9 @@ accumulator.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
+
+from ..common.parallel import KERNEL, in_parts, share
 
 from ..common.choices import SHADINGS
 from ..common.layout import MAT_REFLECTIVITY, METHOD_FLAT, METHOD_GOURAUD, METHOD_PHONG
@@ -116,8 +118,9 @@ def _check_inputs(scene, camera, hits) -> None:
     check_hits(hits, scene.geometry)
 
 
-@njit(parallel=True, **JIT)
-def _visible_kernel(prim, geom, u, v, faces, face_off, modes, flags):
+@in_parts
+@njit(nogil=True, **JIT)
+def _visible_kernel(prim, geom, u, v, faces, face_off, modes, flags, part):
     """Mark what some pixel sees, into ``flags`` = ``(flat, gouraud, sides)``: the faces of
     flat-shaded models and those of Gouraud-shaded ones (F,) uint8; only those get shaded,
     Gouraud's vertices from the sides their faces need (:mod:`.gouraud_sides`).
@@ -125,7 +128,8 @@ def _visible_kernel(prim, geom, u, v, faces, face_off, modes, flags):
     it from either side: both sides of its corners ``sides[i, side]`` (V, 2) uint8."""
     flat, gouraud, sides = flags
     h, w = prim.shape
-    for y in prange(h):
+    start, stop = share(h, part)  # this part's share (common.parallel)
+    for y in range(start, stop):
         for x in range(w):
             p = prim[y, x]
             if p >= 0:
@@ -324,10 +328,12 @@ def _group_hits(prims, k, y, x):
     return hit
 
 
-@njit(parallel=True, cache=True)
-def _accumulate_kernel(imgs, prims, k, acc, counting, count, first):
+@in_parts
+@njit(**KERNEL)
+def _accumulate_kernel(imgs, prims, k, acc, counting, count, first, part):
     h, w = acc.shape[0], acc.shape[1]
-    for y in prange(h):
+    start, stop = share(h, part)  # this part's share (common.parallel)
+    for y in range(start, stop):
         for x in range(w):
             for c in range(3):
                 acc[y, x, c] = _group_sum(acc, imgs, k, first, y, x, c)  # first: no read of acc
@@ -361,11 +367,13 @@ def accumulate(acc, count, images, prims, first: bool = False) -> None:
     _accumulate_kernel(imgs, prs, k, acc, counting, count if counting else _NO_COUNT, first)
 
 
-@njit(parallel=True, cache=True)
-def _mean_kernel(acc, count, imgs, prims, k, first, n, out, counting, coverage):
+@in_parts
+@njit(**KERNEL)
+def _mean_kernel(acc, count, imgs, prims, k, first, n, out, counting, coverage, part):
     h, w = out.shape[0], out.shape[1]
     inv = 1.0 / n
-    for y in prange(h):
+    start, stop = share(h, part)  # this part's share (common.parallel)
+    for y in range(start, stop):
         for x in range(w):
             for c in range(3):
                 out[y, x, c] = _group_sum(acc, imgs, k, first, y, x, c) / n  # out may be images[0]: read first

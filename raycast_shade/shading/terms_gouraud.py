@@ -25,7 +25,9 @@ spot into its parallel task's rows of a scratch record, as the image's corner is
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
+
+from ..common.parallel import in_parts, share
 
 from ..common.layout import LIGHT_SHADOWS, METHOD_GOURAUD
 from ..common.prefetch import prefetch
@@ -94,8 +96,9 @@ def _vertex_side(V, hp, coef, materials, m, L, S, spec_on, att_on, splitting, i,
 def _make_vertex_terms(tex_on: bool = False):
     """The per-vertex colours-and-terms kernel for one variant (see :mod:`.jit`)."""
 
-    @njit(parallel=True, **JIT)
-    def _vertex_terms_kernel(vertex_flags, G, vertex_model, materials, cam, L, T, V):
+    @in_parts
+    @njit(nogil=True, **JIT)
+    def _vertex_terms_kernel(vertex_flags, G, vertex_model, materials, cam, L, T, V, part):
         """Each flagged vertex side's colours and terms (``vertex_flags`` (V, 2): front, back;
         ``V``: the vertex record, see the module docstring)."""
         spec_on, att_on = L.spec_on, L.att_on  # run-time flags of the frame (records.Lighting)
@@ -104,7 +107,8 @@ def _make_vertex_terms(tex_on: bool = False):
         n = verts.shape[0]
         nchunk = (n + CHUNK - 1) // CHUNK
         step = spread_step(nchunk)
-        for it in prange(nchunk):
+        start, stop = share(nchunk, part)  # this part's share (common.parallel)
+        for it in range(start, stop):
             c = (it * step) % nchunk
             S = _scratch()
             for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
@@ -293,8 +297,9 @@ def _prefetch_terms(prim, geom, face_off, faces, V, y, x, ahead):
 def _make_gouraud_terms(tex_on: bool = False):
     """The Gouraud image-and-terms pixel kernel for one variant (see :mod:`.jit`)."""
 
-    @njit(parallel=True, **JIT)
-    def _gouraud_terms_kernel(prim, geom, u, v, G, B, face_off, materials, cam, L, T, modes, image, R, V):
+    @in_parts
+    @njit(nogil=True, **JIT)
+    def _gouraud_terms_kernel(prim, geom, u, v, G, B, face_off, materials, cam, L, T, modes, image, R, V, part):
         """:mod:`.gouraud`'s pixel kernel (the image, the same arithmetic) that also writes each
         pixel's terms into ``R`` at row ``y0 + y`` (``y0`` and the vertex colours: ``V``)."""
         spec_on, att_on = L.spec_on, L.att_on  # run-time flags of the frame (records.Lighting)
@@ -306,7 +311,8 @@ def _make_gouraud_terms(tex_on: bool = False):
         h, w = prim.shape
         nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
         step = spread_step(nblk)
-        for it in prange(nblk):
+        start, stop = share(nblk, part)  # this part's share (common.parallel)
+        for it in range(start, stop):
             blk = (it * step) % nblk
             for y in range(blk * BLOCK_ROWS, min(h, (blk + 1) * BLOCK_ROWS)):
                 S = _scratch()

@@ -42,7 +42,9 @@ Phong kernel (:mod:`.phong_fast`) writes the same terms where it applies.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
+
+from ..common.parallel import in_parts, share
 
 from ..common.layout import METHOD_PHONG
 from ..common.schedule import BLOCK_ROWS, spread_step
@@ -102,8 +104,9 @@ def _hit_background(R, y, x):
 def _make_phong_terms(tex_on: bool = False):
     """The Phong image-and-terms kernel for one variant (see :mod:`.jit`)."""
 
-    @njit(parallel=True, **JIT)
-    def _phong_terms_kernel(prim, geom, u, v, G, B, L, T, face_off, materials, cam, modes, image, y0, R):
+    @in_parts
+    @njit(nogil=True, **JIT)
+    def _phong_terms_kernel(prim, geom, u, v, G, B, L, T, face_off, materials, cam, modes, image, y0, R, part):
         """Every Phong pixel's colour into ``image`` (the band's rows) and its terms into ``R``
         at row ``y0 + y`` (see the module docstring); misses get the background, zero terms
         and an unshadowed mask."""
@@ -112,7 +115,8 @@ def _make_phong_terms(tex_on: bool = False):
         h, w = prim.shape
         nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
         step = spread_step(nblk)
-        for it in prange(nblk):
+        start, stop = share(nblk, part)  # this part's share (common.parallel)
+        for it in range(start, stop):
             blk = (it * step) % nblk
             for y in range(blk * BLOCK_ROWS, min(h, (blk + 1) * BLOCK_ROWS)):
                 S = _scratch()

@@ -28,7 +28,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
+
+from ..common.parallel import in_parts, share
 
 from ..common.layout import (CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH, COLOR_FACE,
                              COLOR_NONE, COLOR_VERTEX, MAT_AO_STRENGTH, MAT_KA, MAT_KA_COLORS, MAT_KD, MAT_KE, MAT_KS, TEX_CLAMP, TEX_HEIGHT, TEX_LEVELS, TEX_MIPMAP,
@@ -341,14 +343,16 @@ def _point_coefficients(G, uvs, at, cam, x, y, footprint_on, materials, T):
     return _coefficients(materials, T, at, tri, uvs, footprint)
 
 
-@njit(parallel=True, **JIT)
-def _rho_kernel(prim, geom, u, v, verts, faces, fnormals, uvs, face_off, tindex, tinfo, cam, slot, out):
+@in_parts
+@njit(nogil=True, **JIT)
+def _rho_kernel(prim, geom, u, v, verts, faces, fnormals, uvs, face_off, tindex, tinfo, cam, slot, out, part):
     """``rho`` per pixel for :func:`texture_levels` (NaN where there is no map)."""
     h, w = prim.shape
     ex = cam[CAM_EYE + 0]
     ey = cam[CAM_EYE + 1]
     ez = cam[CAM_EYE + 2]
-    for y in prange(h):
+    start, stop = share(h, part)  # this part's share (common.parallel)
+    for y in range(start, stop):
         for x in range(w):
             out[y, x] = np.nan
             p = prim[y, x]

@@ -46,7 +46,9 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
+
+from ..common.parallel import in_parts, share
 
 from ..common.validate import as_rgb, as_scalar, as_vec3
 from ..scene.camera import Camera
@@ -368,12 +370,14 @@ def _normal_at(prims, i, px, py, pz):
     return (s if k == 0 else 0.0), (s if k == 1 else 0.0), (s if k == 2 else 0.0)
 
 
-@njit(parallel=True, cache=True, error_model="numpy")
-def _exact_kernel(prims, cam, tol, mask, normal, point, depth, model_id):
+@in_parts
+@njit(nogil=True, cache=True, error_model="numpy")
+def _exact_kernel(prims, cam, tol, mask, normal, point, depth, model_id, part):
     """Per pixel: nearest hit, its point and the surface's outward normal."""
     h = mask.shape[0]
     w = mask.shape[1]
-    for y in prange(h):
+    start, stop = share(h, part)  # this part's share (common.parallel)
+    for y in range(start, stop):
         for x in range(w):
             ox, oy, oz, dx, dy, dz = pixel_ray(cam, x, y)
             t, i = _intersect(prims, ox, oy, oz, dx, dy, dz, tol)

@@ -54,9 +54,10 @@ from __future__ import annotations
 import threading
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from ..common.choices import CASTERS
+from ..common.parallel import KERNEL, in_parts, share
 from . import embree
 from .accel import embree_accel, embreex_scene
 from ..common.schedule import BLOCK_ROWS, spread_step
@@ -65,7 +66,6 @@ from .hits import HitBuffer, image_buffer
 from ..common.layout import CAM_ORTHO
 from . import holes
 from .holes import empty_hits, fill_holes, rays_at, row_suspicious
-from .holes import serial_twin as _serial_twin  # where scan.py looks for it
 from .watertight import nudged_rays, refine
 from .rays import camera_frame, generate_rays, offset_pair, subpixel_camera
 from .tiles import LANES, RAY, TILE_H, TILE_W, edge_hits, fixed_slots, row_terms, tile_columns, tile_hits, tile_rays
@@ -78,8 +78,9 @@ _RAY = RAY  # float32 slots in one RTCRayHit (96 bytes, room for instPrimID)
 _TILE_W, _TILE_H, _LANES = TILE_W, TILE_H, LANES  # a 16-ray packet is a 4x4 tile (see .tiles)
 
 
-@njit(cache=True, parallel=True)
-def _cast_camera_kernel(scene, cam, prim, geom, u, v, t, y0, top, lo, hi, counts, jump):
+@in_parts
+@njit(**KERNEL)
+def _cast_camera_parts(scene, cam, prim, geom, u, v, t, y0, top, lo, hi, counts, jump, part):
     """Cast rows ``top ..`` of the (R, W) window into its hit arrays, and count the suspicious
     pixels (:func:`.holes.row_suspicious`, depth jumps past ``jump``) of its rows ``lo .. hi``.
 
@@ -90,10 +91,12 @@ def _cast_camera_kernel(scene, cam, prim, geom, u, v, t, y0, top, lo, hi, counts
     ``lo .. hi`` into ``counts`` (R,) int64 as soon as the row and both its neighbours are cast
     by the block (or are rows before ``top``, or outside the window), while the rows are in
     cache; the rows on either side of a block boundary keep ``-1``, for
-    :func:`.holes.finish_counts`. Rows outside ``lo .. hi`` keep what ``counts`` held."""
+    :func:`.holes.finish_counts`. Rows outside ``lo .. hi`` keep what ``counts`` held. The
+    caller sets rows ``lo .. hi`` to ``-1`` first (:func:`_cast_camera_kernel`): no part may undo
+    another's count."""
     n, w = prim.shape
     if not (0 <= top <= n and 0 <= lo <= hi <= n <= counts.shape[0]):  # no bounds checks below
-        raise ValueError("_cast_camera_kernel: rows top, lo .. hi beyond the window or its counts")
+        raise ValueError("_cast_camera_parts: rows top, lo .. hi beyond the window or its counts")
     ntx = (w + _TILE_W - 1) // _TILE_W
     nty = (n - top + _TILE_H - 1) // _TILE_H
     nblk = nty  # blocks of one tile row when there are too few for several a thread; else of about
@@ -103,10 +106,9 @@ def _cast_camera_kernel(scene, cam, prim, geom, u, v, t, y0, top, lo, hi, counts
     ortho = cam[CAM_ORTHO] != 0.0
     far = 1.0 + jump
     ct = tile_columns(cam, ntx, ortho)
-    for q in range(lo, hi):  # undecided until a block counts the row (rows at block boundaries stay so)
-        counts[q] = -1
     pf, gf, uf, vf, tf = prim.reshape(n * w), geom.reshape(n * w), u.reshape(n * w), v.reshape(n * w), t.reshape(n * w)
-    for it in prange(nblk):  # blocks of rows in a balanced order (see _schedule)
+    start, stop = share(nblk, part)  # this part's share (common.parallel)
+    for it in range(start, stop):  # blocks of rows in a balanced order (see _schedule)
         blk = (it * step) % nblk
         # Per-block scratch: a 16-wide RTCRayHit16 (64-byte aligned) and its valid mask.
         # Addresses are taken only to align; Embree gets the arrays (see embree.intersect16_packet).
@@ -151,14 +153,16 @@ def _cast_camera_kernel(scene, cam, prim, geom, u, v, t, y0, top, lo, hi, counts
                     counts[q] = row_suspicious(prim, t, far, q)
 
 
-@njit(cache=True, parallel=True)
-def cast_rays_kernel(scene, origins, directions, tnear, tfar, prim, geom, u, v, t):
+@in_parts
+@njit(**KERNEL)
+def cast_rays_kernel(scene, origins, directions, tnear, tfar, prim, geom, u, v, t, part):
     n = origins.shape[0]
     chunk = 256
     nchunks = (n + chunk - 1) // chunk
     nchunk = nchunks
     step = spread_step(nchunk)
-    for it in prange(nchunk):  # chunks in a balanced order (see _schedule)
+    start, stop = share(nchunk, part)  # this part's share (common.parallel)
+    for it in range(start, stop):  # chunks in a balanced order (see _schedule)
         c = (it * step) % nchunk
         buf = np.empty(_RAY + 4, np.float32)
         off = ((16 - buf.ctypes.data % 16) % 16) // 4  # RTCRayHit is 16-byte aligned
@@ -171,7 +175,17 @@ def cast_rays_kernel(scene, origins, directions, tnear, tfar, prim, geom, u, v, 
             geom[i], prim[i], u[i], v[i], t[i] = embree.read_hit(buf, ib, off, np.int64(1))
 
 
-cast_rays_serial = _serial_twin(cast_rays_kernel, "cast_rays_serial")  # a handful of rays: no parallel launch
+cast_rays_serial = cast_rays_kernel.serial  # a handful of rays: no threads to wake (the same build)
+
+
+def _cast_camera_kernel(scene, cam, prim, geom, u, v, t, y0, top, lo, hi, counts, jump) -> None:
+    """:func:`_cast_camera_parts` over every part, rows ``lo .. hi`` of ``counts`` undecided
+    (``-1``) until a block counts them."""
+    n = prim.shape[0]
+    if not (0 <= top <= n and 0 <= lo <= hi <= n <= counts.shape[0]):
+        raise ValueError("_cast_camera_kernel: rows top, lo .. hi beyond the window or its counts")
+    counts[lo:hi] = -1
+    _cast_camera_parts(scene, cam, prim, geom, u, v, t, y0, top, lo, hi, counts, jump)
 SERIAL_BELOW = 1024  # rays: fewer are cast serially by _cast_points (chosen by measurement, docs/performance.md)
 
 

@@ -30,7 +30,9 @@ directions distort onto the pixel), or a fisheye angle reaches 90 degrees.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
+
+from ..common.parallel import KERNEL, in_parts, share
 
 __all__ = ["distort", "undistort", "ray_directions", "MAX_ITERATIONS", "RESIDUAL"]
 
@@ -53,10 +55,12 @@ def _opencv_forward(x, y, k1, k2, p1, p2, k3):
     return xd, yd, a, off, off, d
 
 
-@njit(cache=True, parallel=True)
-def _undistort_opencv_kernel(xd, yd, k, out, ok):
+@in_parts
+@njit(**KERNEL)
+def _undistort_opencv_kernel(xd, yd, k, out, ok, part):
     k1, k2, p1, p2, k3 = k[0], k[1], k[2], k[3], k[4]
-    for i in prange(xd.shape[0]):
+    start, stop = share(xd.shape[0], part)  # this part's share (common.parallel)
+    for i in range(start, stop):
         tx, ty = xd[i], yd[i]
         x, y = tx, ty
         for _ in range(MAX_ITERATIONS):
@@ -89,11 +93,13 @@ def _fisheye_forward(theta, k1, k2, k3, k4):
     return td, dtd
 
 
-@njit(cache=True, parallel=True)
-def _undistort_fisheye_kernel(xd, yd, k, out, ok):
+@in_parts
+@njit(**KERNEL)
+def _undistort_fisheye_kernel(xd, yd, k, out, ok, part):
     k1, k2, k3, k4 = k[0], k[1], k[2], k[3]
     half_pi = 0.5 * np.pi
-    for i in prange(xd.shape[0]):
+    start, stop = share(xd.shape[0], part)  # this part's share (common.parallel)
+    for i in range(start, stop):
         rd = np.sqrt(xd[i] * xd[i] + yd[i] * yd[i])
         theta = min(rd, 1.0)
         good = rd == 0.0

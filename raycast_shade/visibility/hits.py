@@ -11,7 +11,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
+
+from ..common.parallel import KERNEL, in_parts, launch, parts, share
 
 from ..common.validate import as_int
 
@@ -117,17 +119,27 @@ def image_buffer(out, height: int, width: int) -> HitBuffer:
 BARYCENTRIC_SLACK = 8 * float(np.finfo(np.float32).eps)  # 9.5e-7
 
 
-@njit(cache=True, parallel=True)
 def _count_bad_kernel(prim, geom, u, v, nfaces, slack):
     """Hit pixels with a model index out of range, a triangle index beyond the
     model's face count, non-finite barycentrics, and barycentrics outside the
     triangle (``u < 0``, ``v < 0`` or ``u + v > 1`` by more than ``slack``): four counts."""
+    n = parts()
+    counts = np.zeros((n, 4), np.int64)
+    launch(_count_bad_parts.kernel, prim, geom, u, v, nfaces, slack, counts, parts=n)
+    return tuple(int(c) for c in counts.sum(axis=0))
+
+
+@in_parts
+@njit(**KERNEL)
+def _count_bad_parts(prim, geom, u, v, nfaces, slack, counts, part):
+    """:func:`_count_bad_kernel`'s four counts of this part's rows, into ``counts[part[0]]``."""
     h, w = prim.shape
     bad_geom = 0
     bad_prim = 0
     bad_uv = 0
     outside = 0
-    for y in prange(h):
+    y0, y1 = share(h, part)
+    for y in range(y0, y1):
         for x in range(w):
             p = prim[y, x]
             if p < 0:
@@ -143,7 +155,8 @@ def _count_bad_kernel(prim, geom, u, v, nfaces, slack):
                 bad_uv += 1
             elif a < -slack or b < -slack or a + b > 1.0 + slack:
                 outside += 1
-    return bad_geom, bad_prim, bad_uv, outside
+    k = part[0]
+    counts[k, 0], counts[k, 1], counts[k, 2], counts[k, 3] = bad_geom, bad_prim, bad_uv, outside
 
 
 def check_hits(hits, geometry, camera=None):

@@ -22,10 +22,10 @@ their jittered rays and one exact re-test over NumPy arrays. The same hits eithe
 
 from __future__ import annotations
 
-import types
-
 import numpy as np
-from numba import njit, prange
+from numba import njit
+
+from ..common.parallel import KERNEL, SERIAL, in_parts, share
 
 from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH
 from . import embree
@@ -33,25 +33,14 @@ from .alpha import masked_geometries
 from .hits import HitBuffer
 from .watertight import MARGIN, _refine_kernel, refine, vertex_fans
 
-__all__ = ["fill_holes", "rays_at", "row_suspicious", "finish_counts", "serial_twin"]
+__all__ = ["fill_holes", "rays_at", "row_suspicious", "finish_counts"]
 
 
 _JITTER = (1e-3, 1e-2)  # pixels: the re-cast rays' distance from the pixel centre, per round
 _JUMP = 1e-3  # a hit farther than both neighbours by this fraction of their depth is re-tested
 
 
-def serial_twin(kernel, name: str):
-    """``kernel`` compiled without ``parallel`` (``prange`` runs as ``range``), under
-    its own name: Numba's disk cache is keyed by the function's name and bytecode,
-    not by ``parallel``, so the same function compiled both ways would share one
-    cache entry."""
-    fn = kernel.py_func
-    twin = types.FunctionType(fn.__code__, fn.__globals__, name, fn.__defaults__, fn.__closure__)
-    twin.__qualname__ = name
-    return njit(cache=True)(twin)
-
-
-_refine_serial = serial_twin(_refine_kernel, "_refine_serial")  # a few rays: no parallel launch
+_refine_compiled = _refine_kernel.kernel  # called from compiled code, whole (SERIAL): a few rays
 
 
 @njit(cache=True, inline="always")  # called per pixel: a call costs more than the test
@@ -104,20 +93,27 @@ def finish_counts(prim, t, far, counts, lo, hi):
             counts[q] = row_suspicious(prim, t, far, q)
 
 
-@njit(cache=True, parallel=True)
 def _suspicious_rows_kernel(prim, t, jump):
     """(H,) int64: how many pixels of each row :func:`_suspicious` flags. Nearly
     every frame has none, so the caster asks this parallel count first (about
     2 ms at 1080p); the rows tell :func:`_gather_kernel` where to look."""
+    rows = np.zeros(prim.shape[0], np.int64)
+    _suspicious_rows_parts(prim, t, jump, rows)
+    return rows
+
+
+@in_parts
+@njit(**KERNEL)
+def _suspicious_rows_parts(prim, t, jump, rows, part):
+    """:func:`_suspicious_rows_kernel` for this part's rows, into ``rows``."""
     h, w = prim.shape
-    rows = np.zeros(h, np.int64)
-    for y in prange(h):
+    y0, y1 = share(h, part)
+    for y in range(y0, y1):
         row = 0
         for x in range(w):
             if _suspicious(prim, t, jump, y, x):
                 row += 1
         rows[y] = row
-    return rows
 
 
 @njit(cache=True)  # serial: it reads only the rows that have a flag, a parallel launch would cost more
@@ -223,7 +219,7 @@ def _repair_serial(scene, cam, fans, hits, rows, y0, jump, jitters, margin):
                     cg[j], cp[j], cu[j], cv[j], ct[j] = -1, -1, 0.0, 0.0, np.inf
         fp, fg = np.empty(m, np.int32), np.empty(m, np.int32)
         fu, fv, ft = np.empty(m, np.float32), np.empty(m, np.float32), np.empty(m, np.float32)
-        _refine_serial(fans, (o, d, np.zeros(m), limit), (cg, cp), (fp, fg, fu, fv, ft))
+        _refine_compiled(fans, (o, d, np.zeros(m), limit), (cg, cp), (fp, fg, fu, fv, ft), SERIAL)
         k = 0
         for i in range(n):
             eg, ep, eu, ev, et = -1, -1, np.float32(0.0), np.float32(0.0), np.float32(np.inf)

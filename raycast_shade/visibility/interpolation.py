@@ -32,17 +32,21 @@ Every function returns a new :class:`~raycast_shade.visibility.hits.HitBuffer` (
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
+
+from ..common.parallel import KERNEL, in_parts, share
 
 from .hits import HitBuffer, check_hits
 
 __all__ = ["to_screen_space", "provoking_vertex", "vertex_depths"]
 
 
-@njit(cache=True, parallel=True)
-def _screen_kernel(prim, geom, u, v, faces, face_off, w, uo, vo):
+@in_parts
+@njit(**KERNEL)
+def _screen_kernel(prim, geom, u, v, faces, face_off, w, uo, vo, part):
     h, wd = prim.shape
-    for y in prange(h):
+    start, stop = share(h, part)  # this part's share (common.parallel)
+    for y in range(start, stop):
         for x in range(wd):
             p = prim[y, x]
             b1 = np.float64(u[y, x])

@@ -13,7 +13,9 @@ without a kernel of their own.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
+
+from ..common.parallel import KERNEL, in_parts, share
 
 from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_SIZE, CAM_UP, CAM_WIDTH
 
@@ -80,11 +82,13 @@ def pixel_ray(cam, x, y):
     return cam[CAM_EYE + 0], cam[CAM_EYE + 1], cam[CAM_EYE + 2], dx * inv, dy * inv, dz * inv
 
 
-@njit(cache=True, parallel=True)
-def _rays_kernel(cam, origins, directions):
+@in_parts
+@njit(**KERNEL)
+def _rays_kernel(cam, origins, directions, part):
     w = int(cam[CAM_WIDTH])
     h = int(cam[CAM_HEIGHT])
-    for y in prange(h):
+    start, stop = share(h, part)  # this part's share (common.parallel)
+    for y in range(start, stop):
         for x in range(w):
             ox, oy, oz, dx, dy, dz = pixel_ray(cam, x, y)
             i = y * w + x

@@ -11,9 +11,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
-from .cast import _serial_twin
+from ..common.parallel import KERNEL, in_parts, share
+
 
 _CHUNK = 4096  # faces per set-up and binning task
 
@@ -250,12 +251,14 @@ def _scan_triangle(corners, rlo, rhi, W, f, plane, band, count_mode):
 # kernels
 
 
-@njit(cache=True, parallel=True)
-def _project_par(verts, view, near, ortho, W, H, hw, hh, cs, vx):
+@in_parts
+@njit(**KERNEL)
+def _project_par(verts, view, near, ortho, W, H, hw, hh, cs, vx, part):
     """Camera-space coordinates ``cs`` of every vertex, and ``vx`` = pixel
     coordinates, camera depth and depth key (NaN but the depth for a
     perspective vertex at or behind the near plane)."""
-    for i in prange(verts.shape[0]):
+    start, stop = share(verts.shape[0], part)  # this part's share (common.parallel)
+    for i in range(start, stop):
         dx = verts[i, 0] - view[0, 0]
         dy = verts[i, 1] - view[0, 1]
         dz = verts[i, 2] - view[0, 2]
@@ -277,13 +280,15 @@ def _project_par(verts, view, near, ortho, W, H, hw, hh, cs, vx):
             vx[i, 3] = np.nan
 
 
-@njit(cache=True, parallel=True)
-def _setup_par(faces, vx, cs, near, ortho, W, H, hw, hh, band_h, ylo, yhi, counts):
+@in_parts
+@njit(**KERNEL)
+def _setup_par(faces, vx, cs, near, ortho, W, H, hw, hh, band_h, ylo, yhi, counts, part):
     """Rows ``ylo[f]..yhi[f]`` of pixel centres in face ``f``'s (clipped)
     bounding box, or ``ylo[f] = -1`` when it holds no pixel centre; and
     ``counts[c, b]``, the faces of chunk ``c`` that touch band ``b``."""
     nf = faces.shape[0]
-    for c in prange(counts.shape[0]):
+    start, stop = share(counts.shape[0], part)  # this part's share (common.parallel)
+    for c in range(start, stop):
         px = np.empty(4)
         py = np.empty(4)
         pq = np.empty(4)
@@ -339,12 +344,14 @@ def _setup_par(faces, vx, cs, near, ortho, W, H, hw, hh, band_h, ylo, yhi, count
                 counts[c, b] += 1
 
 
-@njit(cache=True, parallel=True)
-def _bin_fill_par(ylo, yhi, band_h, pos, out):
+@in_parts
+@njit(**KERNEL)
+def _bin_fill_par(ylo, yhi, band_h, pos, out, part):
     """Write each face into its bands' lists, at the slots ``pos`` reserved
     for its chunk, keeping face order within a band."""
     nf = ylo.shape[0]
-    for c in prange(pos.shape[0]):
+    start, stop = share(pos.shape[0], part)  # this part's share (common.parallel)
+    for c in range(start, stop):
         for f in range(c * _CHUNK, min(nf, (c + 1) * _CHUNK)):
             if ylo[f] >= 0:
                 for b in range(ylo[f] // band_h, yhi[f] // band_h + 1):
@@ -352,9 +359,10 @@ def _bin_fill_par(ylo, yhi, band_h, pos, out):
                     pos[c, b] += 1
 
 
-@njit(cache=True, parallel=True)
+@in_parts
+@njit(**KERNEL)
 def _raster_kernel(faces, vx, cs, near, screen, shear, band_h, band_start, band_tris, count_mode, face_model,
-                   face_off, count, hits):
+                   face_off, count, hits, part):
     """Scan-convert every band's faces into the band's own z-buffer, then
     resolve the band's rows into the hit buffer (depth mode), or count the
     covering faces (count mode). ``screen`` = ``(ortho, W, H, hw, hh)``,
@@ -364,7 +372,8 @@ def _raster_kernel(faces, vx, cs, near, screen, shear, band_h, band_start, band_
     nbands = band_start.shape[0] - 1
     iw = int(W)
     ih = int(H)
-    for b in prange(nbands):
+    start, stop = share(nbands, part)  # this part's share (common.parallel)
+    for b in range(start, stop):
         px = np.empty(4)
         py = np.empty(4)
         pq = np.empty(4)
@@ -483,10 +492,8 @@ def _resolve_rows(fid, rlo, faces, cs, face_model, face_off, screen, shear, hits
             t[y, x] = s
 
 
-# The geometry stages of a small mesh run serially (raster.py). Each serial twin is a
-# function of its own name: Numba keys its disk cache on a function's name and bytecode,
-# not on ``parallel``, so one function compiled both ways would share one cache entry
-# and load whichever build was compiled first (tests/visibility/test_kernel_cache.py).
-_project_ser = _serial_twin(_project_par, "_project_ser")
-_setup_ser = _serial_twin(_setup_par, "_setup_ser")
-_bin_fill_ser = _serial_twin(_bin_fill_par, "_bin_fill_ser")
+# The geometry stages of a small mesh run serially (raster.py): the same builds, their
+# whole loops in the calling thread (no threads to wake).
+_project_ser = _project_par.serial  # a small mesh: the whole loop in the calling thread
+_setup_ser = _setup_par.serial
+_bin_fill_ser = _bin_fill_par.serial

@@ -27,7 +27,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
+
+from ..common.parallel import KERNEL, in_parts, share
 
 from .accel import embree_accel
 from .alpha import masked_geometries, masked_hits
@@ -122,8 +124,9 @@ def _exact_hit(verts, face, o, kx, ky, kz, sx, sy, sz):
     return (e0 * az + e1 * bz + e2 * cz) / det, e1 / det, e2 / det
 
 
-@njit(cache=True, parallel=True)
-def _refine_kernel(fans, rays, candidates, hits):
+@in_parts
+@njit(**KERNEL)
+def _refine_kernel(fans, rays, candidates, hits, part):
     """Each ray's exact nearest hit among the triangles around its candidate.
 
     ``fans`` = (verts, faces, points, face_model, face_offsets, start, around) of
@@ -134,7 +137,8 @@ def _refine_kernel(fans, rays, candidates, hits):
     cand_geom, cand_prim = candidates
     prim, geom, u, v, t = hits
     n = origins.shape[0]
-    for i in prange(n):
+    i0, i1 = share(n, part)  # this part's share (common.parallel)
+    for i in range(i0, i1):
         prim[i] = -1
         geom[i] = -1
         u[i] = 0.0
@@ -209,9 +213,11 @@ def refine(geometry, origins, directions, tnear, tlimit, candidates) -> HitBuffe
     return out
 
 
-@njit(cache=True, parallel=True)
-def _nudge_kernel(origins, directions, tnear, tfar, geom, t, reach, nudge, margin, out_origins, out_limit):
-    for i in prange(origins.shape[0]):
+@in_parts
+@njit(**KERNEL)
+def _nudge_kernel(origins, directions, tnear, tfar, geom, t, reach, nudge, margin, out_origins, out_limit, part):
+    i0, i1 = share(origins.shape[0], part)  # this part's share (common.parallel)
+    for i in range(i0, i1):
         o = origins[i]
         d = directions[i]
         # p = d x e_k, e_k the axis of d's smallest component: never parallel to d.

@@ -1,67 +1,15 @@
-"""The threading default (OpenMP's wait policy) and the serial re-cast of a few rays."""
-
-import os
-import subprocess
-import sys
+"""The serial re-cast of a few rays: the same build and the same hits as the cast in parts."""
 
 import numpy as np
 import pytest
 
 import raycast_shade as rs
-from raycast_shade.common.threads import WAIT_POLICY, apply_wait_policy
 from raycast_shade.study.twins import suspicious_numpy
 from raycast_shade.visibility import cast, holes
 from raycast_shade.visibility.accel import embree_accel
 from raycast_shade.visibility.rays import camera_frame
 
 from tests.visibility.test_watertight import _vertex_grid
-
-_CHILD = r"""
-import os, sys
-import numpy as np, numba
-import raycast_shade
-from raycast_shade.visibility.holes import _suspicious_rows_kernel
-_suspicious_rows_kernel(np.zeros((4, 4), np.int32), np.ones((4, 4), np.float32), 1e-3)  # a parallel launch
-print(repr(os.environ.get("OMP_WAIT_POLICY")), numba.threading_layer())
-"""
-
-
-def _child(env_extra):
-    env = {k: v for k, v in os.environ.items() if k not in ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT",
-                                                             "NUMBA_THREADING_LAYER", "OMP_DISPLAY_ENV")}
-    env.update(env_extra, OMP_DISPLAY_ENV="VERBOSE")  # GNU OpenMP prints its settings on load
-    proc = subprocess.run([sys.executable, "-c", _CHILD], env=env, capture_output=True, text=True, timeout=600)
-    assert proc.returncode == 0, proc.stderr[-2000:]
-    policy, layer = proc.stdout.split()
-    return eval(policy), layer, proc.stderr
-
-
-def test_the_wait_policy_is_set_only_when_the_user_chose_none():
-    env = {}
-    assert apply_wait_policy(env) is True and env == {"OMP_WAIT_POLICY": "PASSIVE"}
-    for chosen in ({"OMP_WAIT_POLICY": "active"}, {"GOMP_SPINCOUNT": "10000"}, {"OMP_WAIT_POLICY": ""}):
-        env = dict(chosen)
-        assert apply_wait_policy(env) is False and env == chosen
-
-
-def test_importing_the_package_sets_passive_before_openmp_loads():
-    """A fresh process with no wait chosen: the package sets PASSIVE, and GNU
-    OpenMP (loaded by the first parallel launch) took it: no spinning (its
-    own default, unset, shows as PASSIVE too but spins 300,000 times)."""
-    policy, layer, err = _child({})
-    assert policy == WAIT_POLICY == "PASSIVE"
-    if layer == "omp" and "OPENMP DISPLAY ENVIRONMENT" in err:
-        assert "OMP_WAIT_POLICY = 'PASSIVE'" in err and "GOMP_SPINCOUNT = '0'" in err
-
-
-@pytest.mark.parametrize("env, policy, shown", [
-    ({"OMP_WAIT_POLICY": "active"}, "active", "OMP_WAIT_POLICY = 'ACTIVE'"),
-    ({"GOMP_SPINCOUNT": "1000"}, None, "GOMP_SPINCOUNT = '1000'")])
-def test_the_users_wait_choice_is_kept(env, policy, shown):
-    got, layer, err = _child(env)
-    assert got == policy
-    if layer == "omp" and "OPENMP DISPLAY ENVIRONMENT" in err:
-        assert shown in err
 
 
 def _grid_scene(step=1):
@@ -70,13 +18,11 @@ def _grid_scene(step=1):
     return rs.Scene([rs.Model(_vertex_grid(cam, step)), rs.Model(floor)], camera=cam)
 
 
-def test_the_serial_cast_is_a_separate_compile_with_the_same_hits():
-    """``cast_rays_serial`` is compiled without ``parallel`` under its own name (so
-    its disk-cache entry is not the parallel kernel's) and gives the parallel
-    kernel's hits bit for bit, on rays through every vertex of a grid."""
-    assert cast.cast_rays_serial.py_func.__qualname__ != cast.cast_rays_kernel.py_func.__qualname__
-    assert not cast.cast_rays_serial.targetoptions.get("parallel")
-    assert cast.cast_rays_kernel.targetoptions.get("parallel")
+def test_the_serial_cast_is_the_same_build_with_the_same_hits():
+    """``cast_rays_serial`` runs the kernel in parts whole, in the calling thread: the same
+    compiled function (no second build, no second cache entry), and the parts' hits bit for
+    bit, on rays through every vertex of a grid."""
+    assert cast.cast_rays_serial.__self__ is cast.cast_rays_kernel
     scene = _grid_scene()
     geo = scene.geometry
     cf = camera_frame(scene.camera, geo.origin)

@@ -1,12 +1,15 @@
-"""No Python function is compiled by Numba twice.
+"""No Python function is compiled by Numba twice, and no kernel is a parfor.
 
 Numba keys its disk cache on a function's name, first line, signature and bytecode, not
 on the compile flags: ``njit(parallel=True)(f)`` and ``njit()(f)`` share one cache entry,
-and every later process runs whichever build was compiled first
-(``tests/visibility/test_kernel_cache.py`` shows it). A second variant needs a function of
-its own name (``visibility/cast.py``'s ``_serial_twin``). This test reads the source with
-``ast`` and counts, per module, the places each function is compiled: a ``jit`` decorator
-on its ``def``, and every ``njit(...)(f)`` or ``njit(...)(f.py_func)`` call.
+and every later process runs whichever build was compiled first. This test reads the
+source with ``ast`` and counts, per module, the places each function is compiled: a
+``jit`` decorator on its ``def``, and every ``njit(...)(f)`` or ``njit(...)(f.py_func)`` call.
+
+A parallel kernel is a kernel in parts (``common/parallel.py``): one build serves the
+threads and the serial call. ``parallel=True`` compiles a loop's body a second time as a
+gufunc, and re-optimises everything it calls (the demo's first picture: 84 s of CPU with
+the parfors, 61 s in parts, 2026-12-05), so the package has none.
 """
 
 from __future__ import annotations
@@ -66,12 +69,54 @@ def test_no_function_is_compiled_twice():
         twice = compiled_twice(path.read_text(encoding="utf-8"))
         found.update({f"{path.relative_to(ROOT)}: {name}": n for name, n in twice.items()})
     assert not found, ("one cache entry shared by two builds; give the second variant a function of its own "
-                       f"(visibility/cast.py's _serial_twin): {found}")
+                       f"(or run a kernel in parts whole: InParts.serial): {found}")
+
+
+def parfors(source: str) -> list[str]:
+    """The functions of ``source`` compiled with ``parallel=True`` or looping over ``prange``."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            flags = [k for d in node.decorator_list if isinstance(d, ast.Call) and _is_jit(d) for k in d.keywords]
+            par = any(k.arg == "parallel" and not (isinstance(k.value, ast.Constant) and not k.value.value)
+                      for k in flags)
+            loops = any(isinstance(n, ast.For) and isinstance(n.iter, ast.Call)
+                        and ast.unparse(n.iter.func).split(".")[-1] == "prange" for n in ast.walk(node))
+            if par or loops:
+                found.append(node.name)
+    return found
+
+
+def test_no_kernel_is_a_parfor():
+    found = {}
+    for path in _modules():
+        if path.parts[-2] != "__pycache__":
+            names = parfors(path.read_text(encoding="utf-8"))
+            if names:
+                found[str(path.relative_to(ROOT))] = names
+    assert not found, f"a parallel kernel is a kernel in parts (common/parallel.py), not a parfor: {found}"
+
+
+def test_the_parfor_check_finds_both_forms():
+    src = textwrap.dedent("""
+        @njit(cache=True, parallel=True)
+        def a(x):
+            pass
+        @numba.njit(nogil=True)
+        def b(x):
+            for i in numba.prange(3):
+                pass
+        @njit(nogil=True, parallel=False)
+        def c(x, part):
+            for i in range(*share(3, part)):
+                pass
+    """)
+    assert parfors(src) == ["a", "b"]
 
 
 def test_the_check_finds_every_form_of_a_pair():
     """Not vacuous: scan.py's old pairs, a decorated kernel compiled again through ``py_func``,
-    and ``numba.jit``; a renamed twin and one compile per function pass."""
+    and ``numba.jit``; a kernel in parts called whole and one compile per function pass."""
     old_scan = textwrap.dedent("""
         def _project(a):
             pass
@@ -87,10 +132,11 @@ def test_the_check_finds_every_form_of_a_pair():
     """)
     assert compiled_twice(decorated) == {"kernel": 2}
     fine = textwrap.dedent("""
-        @njit(cache=True, parallel=True)
-        def kernel(a):
+        @in_parts
+        @njit(cache=True, nogil=True)
+        def kernel(a, part):
             pass
-        kernel_serial = _serial_twin(kernel, "kernel_serial")
+        kernel_serial = kernel.serial
         helper = njit(**HELPER)(helper_py)
     """)
     assert compiled_twice(fine) == {}

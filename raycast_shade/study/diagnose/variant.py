@@ -18,7 +18,9 @@ from __future__ import annotations
 from dataclasses import dataclass, fields, replace
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
+
+from ...common.parallel import KERNEL, in_parts, share
 
 from ...scene.lights import AreaLight, DirectionalLight, SpotLight
 from ...scene.normals import vertex_normals
@@ -412,10 +414,12 @@ def shade_variant(scene, camera, hits, method: str, mistake: Mistake = Mistake()
     return image
 
 
-@njit(cache=True, parallel=True)
-def _srgb_kernel(x, out):
+@in_parts
+@njit(**KERNEL)
+def _srgb_kernel(x, out, part):
     """The sRGB curve of ``x`` (N,) in [0, 1] into ``out`` (N,): as to_uint8's, before rounding."""
-    for i in prange(x.shape[0]):
+    start, stop = share(x.shape[0], part)  # this part's share (common.parallel)
+    for i in range(start, stop):
         v = x[i]
         out[i] = 12.92 * v if v <= 0.0031308 else 1.055 * v ** (1.0 / 2.4) - 0.055
 

@@ -1,0 +1,95 @@
+"""Kernels in parts (common/parallel.py): the shares and the launch."""
+
+import threading
+
+import numba
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+from numba import njit
+
+from raycast_shade.common.parallel import SERIAL, in_parts, launch, parts, share
+
+
+@njit(nogil=True)
+def _mark(out, seen, part):
+    """Each iteration of this part's share: its part index; ``seen[k]``: the parts count."""
+    i0, i1 = share(out.shape[0], part)
+    for i in range(i0, i1):
+        out[i] = part[0]
+    seen[part[0]] = part[1]
+
+
+@njit(nogil=True)
+def _fail_in(k, part):
+    if part[0] == k:
+        raise ValueError("part failed")
+
+
+@given(n=st.integers(0, 10 ** 7), m=st.integers(1, 64))
+@settings(max_examples=300, deadline=None)
+def test_the_shares_cover_the_loop_once_in_order(n, m):
+    bounds = [share(n, (k, m)) for k in range(m)]
+    assert bounds[0][0] == 0 and bounds[-1][1] == n
+    assert all(a[1] == b[0] for a, b in zip(bounds, bounds[1:]))  # contiguous, in order
+    sizes = [hi - lo for lo, hi in bounds]
+    assert min(sizes) >= 0 and max(sizes) - min(sizes) <= 1
+
+
+@pytest.mark.parametrize("m", [1, 2, 3, 5])
+def test_launch_runs_every_part_once(m):
+    out = np.full(1000, -1, np.int64)
+    seen = np.zeros(m, np.int64)
+    launch(_mark, out, seen, parts=m)
+    want = np.concatenate([np.full(hi - lo, k) for k, (lo, hi) in enumerate(share(1000, (k, m)) for k in range(m))])
+    assert np.array_equal(out, want)
+    assert seen.tolist() == [m] * m
+
+
+def test_the_default_parts_follow_numba_set_num_threads():
+    seen = np.zeros(numba.config.NUMBA_NUM_THREADS, np.int64)
+    old = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        assert parts() == 1
+        launch(_mark, np.zeros(10, np.int64), seen)
+        assert seen[0] == 1 and not seen[1:].any()
+    finally:
+        numba.set_num_threads(old)
+    assert parts() == old
+
+
+@pytest.mark.parametrize("k", [0, 1])
+def test_an_error_in_any_part_is_raised_by_launch(k):
+    with pytest.raises(ValueError, match="part failed"):
+        launch(_fail_in, k, parts=2)
+
+
+def test_in_parts_calls_every_part_and_serial_runs_one():
+    kernel = in_parts(_mark)
+    out, seen = np.full(64, -1, np.int64), np.zeros(numba.config.NUMBA_NUM_THREADS, np.int64)
+    kernel.serial(out, seen)
+    assert not out.any() and seen[0] == 1
+    assert kernel.py_func is _mark.py_func and SERIAL == (0, 1)
+
+
+def test_callers_in_several_threads_share_the_pool():
+    """Four threads launching at once (a Dask worker's executor threads): every output whole."""
+    outs = [np.full(5000, -1, np.int64) for _ in range(4)]
+    errors = []
+
+    def work(out):
+        try:
+            for _ in range(20):
+                out[:] = -1
+                launch(_mark, out, np.zeros(2, np.int64), parts=2)
+                assert (out >= 0).all()
+        except Exception as e:  # reported below: an assert in a thread would be lost
+            errors.append(e)
+
+    threads = [threading.Thread(target=work, args=(o,)) for o in outs]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors
