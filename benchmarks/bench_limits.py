@@ -104,8 +104,7 @@ def _make_packets(cam, w, h, tw, th, rays, valid, part):
     ntx = (w + tw - 1) // tw
     nty = (h + th - 1) // th
     ib = rays.view(np.uint32)
-    start, stop = share(nty, part)  # this part's share (common.parallel)
-    for ty in range(start, stop):
+    for ty in range(*share(nty, part)):  # this part's share (common.parallel)
         for tx in range(ntx):
             p = ty * ntx + tx
             o = p * _RAY * n
@@ -127,8 +126,7 @@ def _make_packets(cam, w, h, tw, th, rays, valid, part):
 def _trace_packets(scene, rays, valid, args, npackets, n, part):
     """``rtcIntersect16`` (``n = 16``) or ``rtcIntersect8`` on every prepared packet, in
     parallel; nothing else."""
-    start, stop = share(npackets, part)  # this part's share (common.parallel)
-    for p in range(start, stop):
+    for p in range(*share(npackets, part)):  # this part's share (common.parallel)
         if n == 16:
             embree.intersect16_packet(valid[p * 16:], scene, rays[p * _RAY * 16:], args)
         else:
@@ -140,8 +138,7 @@ def _trace_packets(scene, rays, valid, args, npackets, n, part):
 def _store_frame(image, mask, part):
     """Write every byte a frame writes to memory (rows in parallel): the bandwidth floor."""
     h, w = mask.shape
-    start, stop = share(h, part)  # this part's share (common.parallel)
-    for y in range(start, stop):
+    for y in range(*share(h, part)):  # this part's share (common.parallel)
         for x in range(w):
             image[y, x, 0] = 0.1
             image[y, x, 1] = 0.2

@@ -73,8 +73,7 @@ def _collect(prim, geom, u, v, G, B, L, face_off, cam, rays, valid, part):
     ``rays`` (tiles, RAY16_SLOTS) float32, ``valid`` (tiles, 16) int32."""
     h, w = prim.shape
     ntx = (w + 3) // 4
-    start, stop = share((h + 3) // 4, part)  # this part's share (common.parallel)
-    for ty in range(start, stop):
+    for ty in range(*share((h + 3) // 4, part)):  # this part's share (common.parallel)
         buf, ib, off, vd, voff, args, aoff, vis, points = shadows._packets(L.lights.shape[0])
         P = (buf, ib, off, vd, voff)
         for tx in range(ntx):
@@ -97,8 +96,7 @@ def _collect(prim, geom, u, v, G, B, L, face_off, cam, rays, valid, part):
 @njit(**KERNEL)
 def _one_by_one(handle, rays, valid, out, part):
     """Each active lane's ray alone: ``rtcOccluded1``."""
-    start, stop = share(rays.shape[0], part)  # this part's share (common.parallel)
-    for t in range(start, stop):
+    for t in range(*share(rays.shape[0], part)):  # this part's share (common.parallel)
         b = np.empty(2 * embree.RAY_SLOTS, np.float32)
         o = ((16 - b.ctypes.data % 16) % 16) // 4
         for k in range(_LANES):
@@ -137,8 +135,7 @@ def _tile_packet(rays, valid, t, flags):
 @njit(**KERNEL)
 def _packets(handle, rays, valid, out, part):
     """Each tile's rays as one coherent ``rtcOccluded16`` packet."""
-    start, stop = share(rays.shape[0], part)  # this part's share (common.parallel)
-    for t in range(start, stop):
+    for t in range(*share(rays.shape[0], part)):  # this part's share (common.parallel)
         b, o, vb, vo, a, ao, on = _tile_packet(rays, valid, t, embree.RAY_QUERY_FLAG_COHERENT)
         if on:
             embree.occluded16_packet(vb[vo:], handle, b[o:], a[ao:])
@@ -156,8 +153,7 @@ def _collect_bounces(hits, G, B, materials, face_off, cam, unit, image, rays, va
     h, w = hits[0].shape
     ntx = (w + 3) // 4
     slots = _LANES * embree.RAYHIT_SLOTS
-    start, stop = share((h + 3) // 4, part)  # this part's share (common.parallel)
-    for ty in range(start, stop):
+    for ty in range(*share((h + 3) // 4, part)):  # this part's share (common.parallel)
         buf = np.empty(slots + 16, np.float32)
         off = ((64 - buf.ctypes.data % 64) % 64) // 4
         ib = buf.view(np.uint32)
@@ -188,8 +184,7 @@ def _collect_bounces(hits, G, B, materials, face_off, cam, unit, image, rays, va
 def _bounce_packets(handle, rays, valid, out, part):
     """Each tile's bounce rays as one coherent ``rtcIntersect16`` packet; ``out`` (tiles, 16) int32:
     each active lane's hit model (-1: a miss)."""
-    start, stop = share(rays.shape[0], part)  # this part's share (common.parallel)
-    for t in range(start, stop):
+    for t in range(*share(rays.shape[0], part)):  # this part's share (common.parallel)
         b, o, vb, vo, a, ao, on = _tile_packet(rays, valid, t, mirrors.MIRROR_FLAGS)
         ib = b.view(np.uint32)
         if on:

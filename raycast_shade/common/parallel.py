@@ -23,6 +23,7 @@ can share the pool.
 
 from __future__ import annotations
 
+import itertools
 import threading
 from concurrent.futures import ThreadPoolExecutor
 
@@ -65,7 +66,7 @@ def parts() -> int:
     return numba.get_num_threads()
 
 
-def launch(kernel, *args, parts: int | None = None) -> None:
+def launch(kernel, *args, parts: int | None = None, dynamic: bool = False) -> None:
     """Run ``kernel(*args, (k, parts))`` for every part ``k``, at once, and wait.
 
     Parameters
@@ -76,19 +77,36 @@ def launch(kernel, *args, parts: int | None = None) -> None:
         Its arguments but the part.
     parts : int, optional
         How many parts; :func:`numba.get_num_threads` of the calling thread by default.
+    dynamic : bool
+        Hand the parts out one at a time to :func:`numba.get_num_threads` runners (parts of
+        uneven cost, more parts than threads), instead of one part a thread.
 
     Notes
     -----
     An exception in any part is raised here, after every part has finished.
     """
-    n = numba.get_num_threads() if parts is None else int(parts)  # (the parameter hides parts())
-    if n <= 1:
-        kernel(*args, SERIAL)
+    threads = numba.get_num_threads()
+    n = threads if parts is None else int(parts)  # (the parameter hides parts())
+    runners = min(threads, n) if dynamic else n
+    if runners <= 1:
+        for k in range(n) if dynamic else (0,):
+            kernel(*args, (k, n) if dynamic else SERIAL)
         return
+    if dynamic:
+        nxt = itertools.count()  # next() of a count is atomic under the GIL: each part runs once
+
+        def run(_):
+            for k in iter(lambda: next(nxt), None):
+                if k >= n:
+                    return
+                kernel(*args, (k, n))
+    else:
+        def run(k):
+            kernel(*args, (k, n))
     pool = _pool(numba.config.NUMBA_NUM_THREADS)
-    futures = [pool.submit(kernel, *args, (k, n)) for k in range(1, n)]
+    futures = [pool.submit(run, k) for k in range(1, runners)]
     try:
-        kernel(*args, (0, n))
+        run(0)
     finally:
         errors = [f.exception() for f in futures]
     for e in errors:

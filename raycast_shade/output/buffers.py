@@ -37,7 +37,6 @@ import numpy as np
 from numba import njit
 
 from ..common.parallel import in_parts, share
-
 from ..common.bufferspec import ALIASES, BUFFER_NAMES, BUFFERS, KERNEL_BUFFERS, registry_table
 from ..common.layout import CAM_ORTHO
 from ..scene.framememory import BUFFER_BYTES
@@ -136,8 +135,7 @@ def _buffers_kernel(view, hits, geometry, extra, outputs, part):
     # One simple loop per asked output and row (the asked set is decided per row, not per
     # pixel): the ids, mask, depth, the row's rays and a z-depth asked alone vectorise; the
     # buffers that need a hit's triangle share its ray (one square root a pixel, vectorised).
-    start, stop = share(h, part)  # this part's share (common.parallel)
-    for y in range(start, stop):
+    for y in range(*share(h, part)):  # this part's share (common.parallel)
         if depth.shape[0] != 0:
             for x in range(w):
                 depth[y, x] = t[y, x] if prim[y, x] >= 0 else np.float32(0.0)

@@ -35,7 +35,6 @@ import numpy as np
 from numba import njit
 
 from ..common.parallel import KERNEL, in_parts, share
-
 from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH
 from ..common.validate import as_rgb, as_scalar
 from ..visibility.rays import camera_frame

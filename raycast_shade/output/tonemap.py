@@ -43,8 +43,7 @@ def _to_uint8_kernel(x, exposure, curve, inv_gamma, out, part):
     to uint8 is undefined); ``+inf`` maps to 255 under every curve.
     """
     n = x.shape[0]
-    start, stop = share((n + _CHUNK - 1) // _CHUNK, part)  # this part's share (common.parallel)
-    for c in range(start, stop):
+    for c in range(*share((n + _CHUNK - 1) // _CHUNK, part)):  # this part's share (common.parallel)
         for i in range(c * _CHUNK, min(n, (c + 1) * _CHUNK)):
             v = np.float64(x[i]) * exposure
             if not v > 0.0:  # negatives, -0 and NaN, before the curve: x / (1 + x) is large below -1

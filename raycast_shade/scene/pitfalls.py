@@ -28,7 +28,6 @@ import numpy as np
 from numba import njit
 
 from ..common.parallel import KERNEL, in_parts, launch, parts, share
-
 from ..common.warnings import BumpIgnoredWarning, EmptyViewWarning, LightInsideWarning, NoLightsWarning
 from .normals import _corners_by_vertex
 

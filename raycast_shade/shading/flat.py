@@ -16,7 +16,6 @@ from __future__ import annotations
 from numba import njit
 
 from ..common.parallel import in_parts, share
-
 from ..common.layout import METHOD_FLAT
 from ..common.schedule import spread_step
 from .illumination import _illuminate
@@ -54,8 +53,7 @@ def _make_flat(tex_on: bool = False, terms_on: bool = False):
         n = faces.shape[0]
         nchunk = (n + CHUNK - 1) // CHUNK
         step = spread_step(nchunk)
-        start, stop = share(nchunk, part)  # this part's share (common.parallel)
-        for it in range(start, stop):  # chunks in a balanced order (see common.schedule)
+        for it in range(*share(nchunk, part)):  # this part's chunks, in a balanced order
             c = (it * step) % nchunk
             S = _scratch()
             for f in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
@@ -104,8 +102,7 @@ def _make_lookup(terms_on: bool):
         else:
             img = image
         h, w = prim.shape
-        start, stop = share(h, part)  # this part's share (common.parallel)
-        for y in range(start, stop):
+        for y in range(*share(h, part)):  # this part's share (common.parallel)
             for x in range(w):
                 p = prim[y, x]
                 if p < 0:

@@ -25,7 +25,6 @@ import numpy as np
 from numba import njit
 
 from ..common.parallel import in_parts, share
-
 from ..common.layout import COLOR_VERTEX, MAT_KA_COLORS, METHOD_GOURAUD
 from ..common.prefetch import beyond_caches, prefetch
 from ..common.schedule import BLOCK_ROWS, spread_step
@@ -171,8 +170,7 @@ def _make_vertices(tex_on: bool = False):
         n = verts.shape[0]
         nchunk = (n + CHUNK - 1) // CHUNK
         step = spread_step(nchunk)
-        start, stop = share(nchunk, part)  # this part's share (common.parallel)
-        for it in range(start, stop):  # chunks in a balanced order (see common.schedule)
+        for it in range(*share(nchunk, part)):  # this part's chunks, in a balanced order
             c = (it * step) % nchunk
             S = _scratch()
             for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
@@ -229,13 +227,14 @@ def _make_interpolate(tex_on: bool = False):
 
     @in_parts
     @njit(nogil=True, **JIT)
-    def _interp_gouraud_kernel(prim, geom, u, v, G, B, face_off, materials, cam, L, T, background, modes, shades,
+    def _interp_gouraud_kernel(hits, G, B, face_off, materials, cam, L, T, background, modes, shades,
                                image, part):
         """Gouraud: interpolate vertex shades over the models whose method is METHOD_GOURAUD;
         ``shades`` = ``(vcol, vspec, y0, state, ahead)``: the vertex kernel's, the image row of
         the buffer's first row (a band of the frame; textures need the image position), the
         faces' states (:func:`~raycast_shade.shading.gouraud_sides._face_sides_kernel`) and
         how many pixels ahead to prefetch (0: not at all)."""
+        prim, geom, u, v = hits  # the hit buffer's (h, W) arrays (once: not per pixel)
         spec_on, att_on = L.spec_on, L.att_on  # run-time flags of the frame (records.Lighting)
         vcol, vspec, y0, state, ahead = shades
         verts, normals, faces, fnormals = G
@@ -244,8 +243,7 @@ def _make_interpolate(tex_on: bool = False):
         h, w = prim.shape
         nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
         step = spread_step(nblk)
-        start, stop = share(nblk, part)  # this part's share (common.parallel)
-        for it in range(start, stop):  # blocks of rows in a balanced order (see common.schedule)
+        for it in range(*share(nblk, part)):  # this part's blocks of rows, in a balanced order
             blk = (it * step) % nblk
             for y in range(blk * BLOCK_ROWS, min(h, (blk + 1) * BLOCK_ROWS)):
                 S = _scratch()

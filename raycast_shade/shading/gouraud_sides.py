@@ -30,7 +30,6 @@ import numpy as np
 from numba import njit
 
 from ..common.parallel import in_parts, share
-
 from ..common.layout import CAM_EYE, CAM_ORTHO
 from .jit import CHUNK, HELPER, JIT
 from .surface import _facing, _triangle, _view
@@ -56,8 +55,7 @@ def _near_face(b1, b2):
 def _face_planes_kernel(G, planes, part):
     """:func:`face_planes` of the geometry ``G`` = ``(verts, normals, faces, fnormals)``."""
     verts, normals, faces, fnormals = G
-    start, stop = share(faces.shape[0], part)  # this part's share (common.parallel)
-    for f in range(start, stop):
+    for f in range(*share(faces.shape[0], part)):  # this part's share (common.parallel)
         g = (fnormals[f, 0], fnormals[f, 1], fnormals[f, 2])
         lo, hi, scale, served = np.inf, -np.inf, 0.0, True
         for k in range(3):
@@ -138,8 +136,7 @@ def _face_sides_kernel(face_flags, G, cam, planes, state, vertex_flags, part):
     faces, fnormals = G.faces, G.face_normals
     n = faces.shape[0]
     nchunk = (n + CHUNK - 1) // CHUNK
-    start, stop = share(nchunk, part)  # this part's share (common.parallel)
-    for c in range(start, stop):  # cheap, even work: plain chunks
+    for c in range(*share(nchunk, part)):  # this part's share: cheap, even work: plain chunks
         for f in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
             if face_flags[f] == 0:
                 continue

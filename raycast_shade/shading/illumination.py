@@ -162,9 +162,6 @@ def _light_at(lights, i, j, p, dmin, att_on):
     return s, d, att, cone
 
 
-_NO_VIS = np.zeros((1, 1), np.int8)  # no packet visibility: every shadow ray is traced on its own
-
-
 def _illuminate_py(hp, coef, mats, mi, L, S, spec_on, att_on):
     """RGB reflected towards ``hp.v`` at the shading point ``hp``, each shadow ray traced on its own
     (:func:`~raycast_shade.shading.shadows._occluded`): :func:`_reflected` without packets or terms.
@@ -190,7 +187,7 @@ def _illuminate_py(hp, coef, mats, mi, L, S, spec_on, att_on):
         ``spec_on`` off): a scene with no specular material or no attenuating light skips
         that arithmetic.
     """
-    return _reflected(hp, coef, mats, mi, L, S, _NO_VIS, -1, spec_on, att_on, None, 0, 0)
+    return _reflected(hp, coef, mats, mi, L, S, L.no_vis, np.int64(-1), spec_on, att_on, None, 0, 0)
 
 
 @njit(**HELPER)

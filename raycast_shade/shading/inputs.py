@@ -27,7 +27,7 @@ def lighting(ambient, lights, materials, dmin, handle, unit) -> Lighting:
     spec_on = bool(np.any(materials[:, MAT_KS:MAT_KS + 3] > 0))
     att_on = bool(np.any((lights[:, LIGHT_KIND] != LIGHT_DIRECTIONAL) & (lights[:, LIGHT_ATT] != ATT_NONE)))
     return Lighting(np.asarray(ambient, np.float64), lights, float(dmin), np.uintp(handle), float(unit),
-                    spec_on, att_on)
+                    spec_on, att_on, np.zeros((1, 1), np.int8))
 
 
 def colours(vertex_colors, face_colors, color_mode, tex_index, tex_texels, tex_info) -> Colours:

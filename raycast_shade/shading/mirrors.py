@@ -26,7 +26,6 @@ import numpy as np
 from numba import njit
 
 from ..common.parallel import in_parts, share
-
 from ..common.layout import MAT_REFLECTIVITY
 from ..common.prefetch import beyond_caches, prefetch
 from ..common.schedule import BLOCK_ROWS, spread_step
@@ -274,12 +273,11 @@ def _prefetch_ahead(prim, geom, G, face_off, rows, w, tx, batched):
 
 
 def _make_packets(tex_on: bool = False, batched: bool = False):
-    """The mirror kernel for one variant (see :mod:`.jit`; ``tex_on``: textured coefficients at
-    the bounces, sampled at level 0: a bounced ray has no pixel footprint here). ``batched``, a
-    compile-time constant too, so that a frame compiles only the start it takes: the lanes start
-    by :func:`_start_group`; else from the first rays the Phong kernel handed over
-    (:func:`_take_handed`) if it was given some, else by :func:`_start_lane` (one build for both:
-    a frame of Phong and of flat or Gouraud mirrors, as the demo renders, compiles it once)."""
+    """The mirror kernel for one variant (see :mod:`.jit`; ``tex_on``: textured coefficients at the
+    bounces, sampled at level 0: a bounced ray has no pixel footprint). ``batched``, a compile-time
+    constant too (a frame compiles only the start it takes): the lanes start by :func:`_start_group`;
+    else from the rays the Phong kernel handed over (:func:`_take_handed`) if any, else by
+    :func:`_start_lane` (one build for both: the demo's Phong and flat or Gouraud mirrors)."""
 
     @in_parts
     @njit(nogil=True, **JIT)
@@ -311,8 +309,7 @@ def _make_packets(tex_on: bool = False, batched: bool = False):
         per = BLOCK_ROWS // _TILE
         nblk = (ntr + per - 1) // per
         step = spread_step(nblk)
-        start, stop = share(nblk, part)  # this part's share (common.parallel)
-        for it in range(start, stop):  # blocks of tile rows in a balanced order (see common.schedule)
+        for it in range(*share(nblk, part)):  # this part's blocks of tile rows, in a balanced order
             blk = (it * step) % nblk
             S = _scratch()
             # Per-task RTCRayHit16 (64-byte aligned), its valid mask and RTCIntersectArguments:

@@ -6,7 +6,6 @@ import numpy as np
 from numba import njit
 
 from ..common.parallel import in_parts, share
-
 from ..common.layout import METHOD_FLAT, METHOD_PHONG
 from ..common.schedule import BLOCK_ROWS, spread_step
 from ..visibility.rays import camera_frame
@@ -26,8 +25,7 @@ def _normals_kernel(prim, geom, u, v, G, B, face_off, cam, modes, nbuf, part):
     h, w = prim.shape
     nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
     step = spread_step(nblk)
-    start, stop = share(nblk, part)  # this part's share (common.parallel)
-    for it in range(start, stop):  # blocks of rows in a balanced order (see common.schedule)
+    for it in range(*share(nblk, part)):  # this part's blocks of rows, in a balanced order
         blk = (it * step) % nblk
         for y in range(blk * BLOCK_ROWS, min(h, (blk + 1) * BLOCK_ROWS)):
             for x in range(w):

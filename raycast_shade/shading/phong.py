@@ -27,7 +27,6 @@ import numpy as np
 from numba import njit
 
 from ..common.parallel import in_parts, share
-
 from ..common.layout import MAT_REFLECTIVITY, METHOD_PHONG
 from ..common.schedule import BLOCK_ROWS, spread_step
 from .bump import _bump
@@ -99,13 +98,14 @@ def _make_phong(tex_on: bool = False):
 
     @in_parts
     @njit(nogil=True, **JIT)
-    def _shade_phong_kernel(prim, geom, u, v, G, B, L, T, face_off, materials, cam, background, modes, outs, y0, part):
+    def _shade_phong_kernel(hits, G, B, L, T, face_off, materials, cam, background, modes, outs, y0, part):
         """Phong: shade every pixel of the models whose method is METHOD_PHONG; array row ``r``
         is image row ``y0 + r`` (a band of the frame; textures need the image position).
         ``outs = (image, normal, rays)``: the (h, W, 3) float32 image, where to write each shaded
         pixel's shading normal (zero on the background; ``frame.normal``'s values, for the
         ``normal`` buffer), or a (0, 0, 3) array for none, and where to hand over the reflective
         pixels' mirror rays (:mod:`.mirror_rays`; ``NO_RAYS`` for none)."""
+        prim, geom, u, v = hits  # the hit buffer's (h, W) arrays (once: not per pixel)
         spec_on, att_on = L.spec_on, L.att_on  # run-time flags of the frame (records.Lighting)
         uvs = B.uvs
         image, normal, rays = outs
@@ -113,8 +113,7 @@ def _make_phong(tex_on: bool = False):
         h, w = prim.shape
         nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
         step = spread_step(nblk)
-        start, stop = share(nblk, part)  # this part's share (common.parallel)
-        for it in range(start, stop):  # blocks of rows in a balanced order (see common.schedule)
+        for it in range(*share(nblk, part)):  # this part's blocks of rows, in a balanced order
             blk = (it * step) % nblk
             for y in range(blk * BLOCK_ROWS, min(h, (blk + 1) * BLOCK_ROWS)):
                 S = _scratch()
@@ -152,11 +151,12 @@ def _make_phong_packets(tex_on: bool = False):
 
     @in_parts
     @njit(nogil=True, **JIT)
-    def _shade_phong_packets_kernel(prim, geom, u, v, G, B, L, T, face_off, materials, cam, background, modes, outs,
+    def _shade_phong_packets_kernel(hits, G, B, L, T, face_off, materials, cam, background, modes, outs,
                                     y0, part):
         """:func:`_make_phong`'s kernel, its shadow rays traced per 4x4 tile of pixels as one
         16-ray packet per light: the same image (and shading normals and mirror rays in ``outs``),
         bit for bit."""
+        prim, geom, u, v = hits  # the hit buffer's (h, W) arrays (once: not per pixel)
         spec_on, att_on = L.spec_on, L.att_on  # run-time flags of the frame (records.Lighting)
         uvs = B.uvs
         image, normal, rays = outs
@@ -165,8 +165,7 @@ def _make_phong_packets(tex_on: bool = False):
         h, w = prim.shape
         nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
         step = spread_step(nblk)
-        start, stop = share(nblk, part)  # this part's share (common.parallel)
-        for it in range(start, stop):  # blocks of rows in a balanced order (see common.schedule)
+        for it in range(*share(nblk, part)):  # this part's blocks of rows, in a balanced order
             blk = (it * step) % nblk
             S = _scratch()  # a single ray, should a point ask for one its tile did not trace
             buf, ib, off, valid, voff, args, aoff, vis, points = _packets(L.lights.shape[0])

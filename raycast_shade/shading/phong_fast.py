@@ -41,10 +41,9 @@ constant trip counts, so LLVM sees that its fields never overlap and needs no ru
 alias checks.
 
 :data:`HANDLES` declares the light kinds, attenuation laws and reflectance models the passes
-implement; :func:`applies`, the dispatch of :class:`~raycast_shade.shading.shade.SampleShading`,
-takes this kernel only for frames of declared codes without textures, colours, bump or normal
-maps (facts known before the cast). Every other frame, a new light kind or model included, goes
-to the general kernel, the one evaluator (:func:`.illumination._reflected`).
+implement; :func:`applies` (the dispatch of :class:`~raycast_shade.shading.shade.SampleShading`)
+takes this kernel only for frames of declared codes without textures, colours, bump or normal maps.
+Every other frame, a new light kind or model included, goes to :func:`.illumination._reflected`.
 """
 
 from __future__ import annotations
@@ -53,7 +52,6 @@ import numpy as np
 from numba import njit
 
 from ..common.parallel import in_parts, share
-
 from ..common.layout import (ATT_HEURISTIC, ATT_INVERSE_SQUARE, ATT_NONE, CAM_EYE, CAM_FORWARD, CAM_ORTHO,
                              LIGHT_ATT, LIGHT_DIRECTIONAL, LIGHT_K, LIGHT_KIND, LIGHT_POINT, LIGHT_RADIANCE,
                              LIGHT_SHADOWS, LIGHT_SPOT, LIGHT_VEC, MAT_KA, MAT_KD, MAT_KE, MAT_KS, MAT_MODEL,
@@ -62,7 +60,7 @@ from ..common.prefetch import PREFETCH_BYTES, prefetch
 from ..common.schedule import BLOCK_ROWS, spread_step
 from ..visibility.embree import RAY16_SLOTS, RAY_DIR, RAY_ORG, RAY_TFAR
 from .illumination import _spot_factor
-from .jit import FLT32_MAX, HELPER, JIT
+from .jit import HELPER, JIT
 from .lanes import (_A, _ATT, _B1, _B2, _CB, _CC, _CP, _D, _FIELDS, _FN, _G, _HASSPEC, _KA, _KD, _KE, _KS, _LIT,
                     _MODEL, _N, _ND, _O, _P, _PW, _R, _S, _SG, _SHN, _SHT, _TD, _TS, _V, LANES)
 from .mirror_rays import hand_over_lanes
@@ -538,8 +536,7 @@ def _make_phong_fast(terms_on: bool = False, shadows_on: bool = False):
         tw = _TILE if shadows_on else w
         nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
         step = spread_step(nblk)
-        start, stop = share(nblk, part)  # this part's share (common.parallel)
-        for it in range(start, stop):  # blocks of rows in a balanced order (see common.schedule)
+        for it in range(*share(nblk, part)):  # this part's blocks of rows, in a balanced order
             blk = (it * step) % nblk
             S = np.zeros(_FIELDS * LANES)
             XY = np.zeros(7 * LANES, np.int64)  # per lane: row, column, model, face, its three vertices

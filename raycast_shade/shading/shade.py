@@ -25,7 +25,6 @@ import numpy as np
 from numba import njit
 
 from ..common.parallel import KERNEL, in_parts, share
-
 from ..common.choices import SHADINGS
 from ..common.layout import MAT_REFLECTIVITY, METHOD_FLAT, METHOD_GOURAUD, METHOD_PHONG
 from ..visibility.hits import check_hits
@@ -128,8 +127,7 @@ def _visible_kernel(prim, geom, u, v, faces, face_off, modes, flags, part):
     it from either side: both sides of its corners ``sides[i, side]`` (V, 2) uint8."""
     flat, gouraud, sides = flags
     h, w = prim.shape
-    start, stop = share(h, part)  # this part's share (common.parallel)
-    for y in range(start, stop):
+    for y in range(*share(h, part)):  # this part's share (common.parallel)
         for x in range(w):
             p = prim[y, x]
             if p >= 0:
@@ -281,7 +279,7 @@ class SampleShading:
         if self.flat:
             _lookup_flat_kernel(hits.prim, hits.geom, k["face_off"], self.fcol, k["background"], modes, image)
         if self.gouraud:
-            variant(_INTERPOLATE, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["face_off"],
+            variant(_INTERPOLATE, k)((hits.prim, hits.geom, hits.u, hits.v), k["G"], k["B"], k["face_off"],
                                      k["materials"], k["cam"], k["L"], k["T"], k["background"], modes,
                                      (self.vcol, self.vspec, int(y0), self.seen.state, self.ahead), image)
         normals = _NO_NORMALS if normal is None else normal
@@ -292,7 +290,7 @@ class SampleShading:
                                             k["materials"], k["cam"], k["background"], modes, outs)
         elif self.phong:  # textures or maps; shadow rays (a scene handle) go as packets of 4x4 pixels
             variant(_PHONG_PACKETS if k.lighting.handle != 0 else _PHONG, k)(
-                hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["T"], k["face_off"], k["materials"],
+                (hits.prim, hits.geom, hits.u, hits.v), k["G"], k["B"], k["L"], k["T"], k["face_off"], k["materials"],
                 k["cam"], k["background"], modes, outs, y0)
         return image
 
@@ -332,8 +330,7 @@ def _group_hits(prims, k, y, x):
 @njit(**KERNEL)
 def _accumulate_kernel(imgs, prims, k, acc, counting, count, first, part):
     h, w = acc.shape[0], acc.shape[1]
-    start, stop = share(h, part)  # this part's share (common.parallel)
-    for y in range(start, stop):
+    for y in range(*share(h, part)):  # this part's share (common.parallel)
         for x in range(w):
             for c in range(3):
                 acc[y, x, c] = _group_sum(acc, imgs, k, first, y, x, c)  # first: no read of acc
@@ -372,8 +369,7 @@ def accumulate(acc, count, images, prims, first: bool = False) -> None:
 def _mean_kernel(acc, count, imgs, prims, k, first, n, out, counting, coverage, part):
     h, w = out.shape[0], out.shape[1]
     inv = 1.0 / n
-    start, stop = share(h, part)  # this part's share (common.parallel)
-    for y in range(start, stop):
+    for y in range(*share(h, part)):  # this part's share (common.parallel)
         for x in range(w):
             for c in range(3):
                 out[y, x, c] = _group_sum(acc, imgs, k, first, y, x, c) / n  # out may be images[0]: read first

@@ -28,7 +28,6 @@ import numpy as np
 from numba import njit
 
 from ..common.parallel import in_parts, share
-
 from ..common.layout import LIGHT_SHADOWS, METHOD_GOURAUD
 from ..common.prefetch import prefetch
 from ..common.schedule import BLOCK_ROWS, spread_step
@@ -107,8 +106,7 @@ def _make_vertex_terms(tex_on: bool = False):
         n = verts.shape[0]
         nchunk = (n + CHUNK - 1) // CHUNK
         step = spread_step(nchunk)
-        start, stop = share(nchunk, part)  # this part's share (common.parallel)
-        for it in range(start, stop):
+        for it in range(*share(nchunk, part)):  # this part's share (common.parallel)
             c = (it * step) % nchunk
             S = _scratch()
             for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
@@ -299,9 +297,10 @@ def _make_gouraud_terms(tex_on: bool = False):
 
     @in_parts
     @njit(nogil=True, **JIT)
-    def _gouraud_terms_kernel(prim, geom, u, v, G, B, face_off, materials, cam, L, T, modes, image, R, V, part):
+    def _gouraud_terms_kernel(hits, G, B, face_off, materials, cam, L, T, modes, image, R, V, part):
         """:mod:`.gouraud`'s pixel kernel (the image, the same arithmetic) that also writes each
         pixel's terms into ``R`` at row ``y0 + y`` (``y0`` and the vertex colours: ``V``)."""
+        prim, geom, u, v = hits  # the hit buffer's (h, W) arrays (once: not per pixel)
         spec_on, att_on = L.spec_on, L.att_on  # run-time flags of the frame (records.Lighting)
         vcol, vspec, y0 = V[VERT_COL], V[VERT_SPEC], V[VERT_Y0]
         state, ahead = V[VERT_STATE], V[VERT_AHEAD]
@@ -311,8 +310,7 @@ def _make_gouraud_terms(tex_on: bool = False):
         h, w = prim.shape
         nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
         step = spread_step(nblk)
-        start, stop = share(nblk, part)  # this part's share (common.parallel)
-        for it in range(start, stop):
+        for it in range(*share(nblk, part)):  # this part's share (common.parallel)
             blk = (it * step) % nblk
             for y in range(blk * BLOCK_ROWS, min(h, (blk + 1) * BLOCK_ROWS)):
                 S = _scratch()

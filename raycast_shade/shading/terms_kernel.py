@@ -45,10 +45,9 @@ import numpy as np
 from numba import njit
 
 from ..common.parallel import in_parts, share
-
 from ..common.layout import METHOD_PHONG
 from ..common.schedule import BLOCK_ROWS, spread_step
-from .illumination import _NO_VIS, _reflected
+from .illumination import _reflected
 from .jit import FLT32_MAX, HELPER, JIT, compile_variants
 from .phong import _surface
 from .records import (TERM_AMBIENT, TERM_BACKGROUND, TERM_DIFFUSE, TERM_EMISSIVE, TERM_SLOTS, TERM_SPECULAR,
@@ -68,7 +67,7 @@ def _illuminate_terms(hp, coef, mats, mi, L, S, spec_on, att_on, R, y, x):
     """:func:`~raycast_shade.shading.illumination._reflected` at ``hp`` with the terms record ``R``:
     the same RGB (the same evaluator), its parts also stored at ``(y, x)`` of ``R`` (see the
     module docstring); shadow rays traced one at a time."""
-    return _reflected(hp, coef, mats, mi, L, S, _NO_VIS, -1, spec_on, att_on, R, y, x)
+    return _reflected(hp, coef, mats, mi, L, S, L.no_vis, np.int64(-1), spec_on, att_on, R, y, x)
 
 
 @njit(**HELPER)
@@ -106,17 +105,17 @@ def _make_phong_terms(tex_on: bool = False):
 
     @in_parts
     @njit(nogil=True, **JIT)
-    def _phong_terms_kernel(prim, geom, u, v, G, B, L, T, face_off, materials, cam, modes, image, y0, R, part):
+    def _phong_terms_kernel(hits, G, B, L, T, face_off, materials, cam, modes, image, y0, R, part):
         """Every Phong pixel's colour into ``image`` (the band's rows) and its terms into ``R``
         at row ``y0 + y`` (see the module docstring); misses get the background, zero terms
         and an unshadowed mask."""
+        prim, geom, u, v = hits  # the hit buffer's (h, W) arrays (once: not per pixel)
         spec_on, att_on = L.spec_on, L.att_on  # run-time flags of the frame (records.Lighting)
         uvs = B.uvs
         h, w = prim.shape
         nblk = (h + BLOCK_ROWS - 1) // BLOCK_ROWS
         step = spread_step(nblk)
-        start, stop = share(nblk, part)  # this part's share (common.parallel)
-        for it in range(start, stop):
+        for it in range(*share(nblk, part)):  # this part's share (common.parallel)
             blk = (it * step) % nblk
             for y in range(blk * BLOCK_ROWS, min(h, (blk + 1) * BLOCK_ROWS)):
                 S = _scratch()

@@ -236,14 +236,14 @@ class TermShading:
         if self.gouraud:
             tasks = (h + BLOCK_ROWS - 1) // BLOCK_ROWS  # the pixel kernel's parallel tasks
             V = self.V[:VERT_Y0] + (y0, self.seen.state, self.ahead) + scratch_slots(self.V, tasks)
-            variant(_GOURAUD_TERMS, k)(hits.prim, hits.geom, hits.u, hits.v, k.geometry, k.bumps, k.face_off,
+            variant(_GOURAUD_TERMS, k)((hits.prim, hits.geom, hits.u, hits.v), k.geometry, k.bumps, k.face_off,
                                        k.materials, k.cam, k.lighting, k.colours, modes, image, self.R, V)
         if self.fast_phong:
             _PHONG_FAST_TERMS(hits.prim, hits.geom, hits.u, hits.v, k.geometry, k.lighting,
                                                    k.face_off, k.materials, k.cam, k.background, modes,
                                                    (image, _NO_NORMALS, self.R, y0))
         elif self.phong:
-            variant(_PHONG_TERMS, k)(hits.prim, hits.geom, hits.u, hits.v, k.geometry, k.bumps, k.lighting,
+            variant(_PHONG_TERMS, k)((hits.prim, hits.geom, hits.u, hits.v), k.geometry, k.bumps, k.lighting,
                                      k.colours, k.face_off, k.materials, k.cam, modes, image, y0, self.R)
         return image
 

@@ -31,7 +31,6 @@ import numpy as np
 from numba import njit
 
 from ..common.parallel import in_parts, share
-
 from ..common.layout import (CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH, COLOR_FACE,
                              COLOR_NONE, COLOR_VERTEX, MAT_AO_STRENGTH, MAT_KA, MAT_KA_COLORS, MAT_KD, MAT_KE, MAT_KS, TEX_CLAMP, TEX_HEIGHT, TEX_LEVELS, TEX_MIPMAP,
                              TEX_OFFSET, TEX_TILE_U, TEX_TILE_V, TEX_WIDTH, TEXMAP_AO, TEXMAP_KA, TEXMAP_KD,
@@ -351,8 +350,7 @@ def _rho_kernel(prim, geom, u, v, verts, faces, fnormals, uvs, face_off, tindex,
     ex = cam[CAM_EYE + 0]
     ey = cam[CAM_EYE + 1]
     ez = cam[CAM_EYE + 2]
-    start, stop = share(h, part)  # this part's share (common.parallel)
-    for y in range(start, stop):
+    for y in range(*share(h, part)):  # this part's share (common.parallel)
         for x in range(w):
             out[y, x] = np.nan
             p = prim[y, x]

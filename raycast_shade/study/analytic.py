@@ -49,7 +49,6 @@ import numpy as np
 from numba import njit
 
 from ..common.parallel import in_parts, share
-
 from ..common.validate import as_rgb, as_scalar, as_vec3
 from ..scene.camera import Camera
 from ..scene.lights import AreaLight, DirectionalLight, PointLight
@@ -376,8 +375,7 @@ def _exact_kernel(prims, cam, tol, mask, normal, point, depth, model_id, part):
     """Per pixel: nearest hit, its point and the surface's outward normal."""
     h = mask.shape[0]
     w = mask.shape[1]
-    start, stop = share(h, part)  # this part's share (common.parallel)
-    for y in range(start, stop):
+    for y in range(*share(h, part)):  # this part's share (common.parallel)
         for x in range(w):
             ox, oy, oz, dx, dy, dz = pixel_ray(cam, x, y)
             t, i = _intersect(prims, ox, oy, oz, dx, dy, dz, tol)

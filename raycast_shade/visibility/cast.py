@@ -107,8 +107,7 @@ def _cast_camera_parts(scene, cam, prim, geom, u, v, t, y0, top, lo, hi, counts,
     far = 1.0 + jump
     ct = tile_columns(cam, ntx, ortho)
     pf, gf, uf, vf, tf = prim.reshape(n * w), geom.reshape(n * w), u.reshape(n * w), v.reshape(n * w), t.reshape(n * w)
-    start, stop = share(nblk, part)  # this part's share (common.parallel)
-    for it in range(start, stop):  # blocks of rows in a balanced order (see _schedule)
+    for it in range(*share(nblk, part)):  # this part's blocks of rows, in a balanced order
         blk = (it * step) % nblk
         # Per-block scratch: a 16-wide RTCRayHit16 (64-byte aligned) and its valid mask.
         # Addresses are taken only to align; Embree gets the arrays (see embree.intersect16_packet).
@@ -161,8 +160,7 @@ def cast_rays_kernel(scene, origins, directions, tnear, tfar, prim, geom, u, v, 
     nchunks = (n + chunk - 1) // chunk
     nchunk = nchunks
     step = spread_step(nchunk)
-    start, stop = share(nchunk, part)  # this part's share (common.parallel)
-    for it in range(start, stop):  # chunks in a balanced order (see _schedule)
+    for it in range(*share(nchunk, part)):  # this part's chunks, in a balanced order
         c = (it * step) % nchunk
         buf = np.empty(_RAY + 4, np.float32)
         off = ((16 - buf.ctypes.data % 16) % 16) // 4  # RTCRayHit is 16-byte aligned

@@ -59,8 +59,7 @@ def _opencv_forward(x, y, k1, k2, p1, p2, k3):
 @njit(**KERNEL)
 def _undistort_opencv_kernel(xd, yd, k, out, ok, part):
     k1, k2, p1, p2, k3 = k[0], k[1], k[2], k[3], k[4]
-    start, stop = share(xd.shape[0], part)  # this part's share (common.parallel)
-    for i in range(start, stop):
+    for i in range(*share(xd.shape[0], part)):  # this part's share (common.parallel)
         tx, ty = xd[i], yd[i]
         x, y = tx, ty
         for _ in range(MAX_ITERATIONS):
@@ -98,8 +97,7 @@ def _fisheye_forward(theta, k1, k2, k3, k4):
 def _undistort_fisheye_kernel(xd, yd, k, out, ok, part):
     k1, k2, k3, k4 = k[0], k[1], k[2], k[3]
     half_pi = 0.5 * np.pi
-    start, stop = share(xd.shape[0], part)  # this part's share (common.parallel)
-    for i in range(start, stop):
+    for i in range(*share(xd.shape[0], part)):  # this part's share (common.parallel)
         rd = np.sqrt(xd[i] * xd[i] + yd[i] * yd[i])
         theta = min(rd, 1.0)
         good = rd == 0.0

@@ -14,7 +14,6 @@ import numpy as np
 from numba import njit
 
 from ..common.parallel import KERNEL, in_parts, launch, parts, share
-
 from ..common.validate import as_int
 
 __all__ = ["HitBuffer", "check_hits", "image_buffer"]

@@ -26,7 +26,6 @@ import numpy as np
 from numba import njit
 
 from ..common.parallel import KERNEL, SERIAL, in_parts, share
-
 from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH
 from . import embree
 from .alpha import masked_geometries

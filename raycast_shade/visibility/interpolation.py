@@ -35,7 +35,6 @@ import numpy as np
 from numba import njit
 
 from ..common.parallel import KERNEL, in_parts, share
-
 from .hits import HitBuffer, check_hits
 
 __all__ = ["to_screen_space", "provoking_vertex", "vertex_depths"]
@@ -45,8 +44,7 @@ __all__ = ["to_screen_space", "provoking_vertex", "vertex_depths"]
 @njit(**KERNEL)
 def _screen_kernel(prim, geom, u, v, faces, face_off, w, uo, vo, part):
     h, wd = prim.shape
-    start, stop = share(h, part)  # this part's share (common.parallel)
-    for y in range(start, stop):
+    for y in range(*share(h, part)):  # this part's share (common.parallel)
         for x in range(wd):
             p = prim[y, x]
             b1 = np.float64(u[y, x])

@@ -16,8 +16,8 @@ Pipeline (Numba kernels in :mod:`.scan`, no write races)
    pixel centre and stop here; a face whose box holds exactly one is tested
    against it at once. The rest are binned into bands of ``BAND_HEIGHT``
    rows, keeping face order within a band.
-3. **Scan conversion and resolve**, one band per task (``prange``, handed
-   out one at a time): the band owns its rows and its own z-buffer, so no
+3. **Scan conversion and resolve**, a few bands per part (``launch``'s parts
+   handed out one at a time): the band owns its rows and its own z-buffer, so no
    two threads write the same pixel. Per face and row, the span of candidate
    pixels is solved from the three edge functions and widened by a pixel;
    each candidate is then tested exactly and depth-tested. Once the band's
@@ -67,9 +67,9 @@ and counts, per pixel, the faces that cover it (for watertightness checks).
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
+from ..common.parallel import launch
 from ..scene.camera import Camera
 from .alpha import masked_geometries
 from .hits import HitBuffer, image_buffer
@@ -81,6 +81,7 @@ __all__ = ["rasterize", "coverage_count", "NEAR_FRACTION", "BAND_HEIGHT"]
 
 NEAR_FRACTION = 1e-5  # default near plane, as a fraction of the scene's bounding-box diagonal
 BAND_HEIGHT = 8  # rows of the z-buffer owned by one parallel task
+_BANDS_A_PART = 4  # bands a part of the scan runs (one call each: a few keep the calls' cost small)
 _SERIAL_BELOW = 50_000  # faces: fewer run the geometry stages serially
 _MAX_SIDE = 1 << 24  # image sides beyond this are refused (float64 pixel arithmetic stays exact)
 
@@ -168,9 +169,10 @@ def _run(geometry, camera, near, count_mode, hits=None):
         out = list(image_buffer(hits, H, W))  # the resolve writes every pixel
     face_model = np.ascontiguousarray(geometry.face_model, dtype=np.int32)
     face_off = np.ascontiguousarray(geometry.face_offsets, dtype=np.int64)
-    with numba.parallel_chunksize(1):  # bands differ in cost: hand them out one at a time
-        _raster_kernel(faces, vx, cs, near, (ortho, Wf, Hf, hw, hh), (float(ox), float(oy)), band_h, band_start,
-                       band_tris, count_mode, face_model, face_off, count, tuple(out))
+    # Bands differ in cost: hand them out a few at a time (a part each), to the threads as they finish.
+    launch(_raster_kernel.kernel, faces, vx, cs, near, (ortho, Wf, Hf, hw, hh), (float(ox), float(oy)), band_h,
+           band_start, band_tris, count_mode, face_model, face_off, count, tuple(out),
+           parts=max(1, (len(band_start) - 1 + _BANDS_A_PART - 1) // _BANDS_A_PART), dynamic=True)
     if count_mode:
         return count
     return HitBuffer(prim=out[0], geom=out[1], u=out[2], v=out[3], t=out[4])

@@ -16,7 +16,6 @@ import numpy as np
 from numba import njit
 
 from ..common.parallel import KERNEL, in_parts, share
-
 from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_SIZE, CAM_UP, CAM_WIDTH
 
 __all__ = ["camera_frame", "generate_rays", "subpixel_camera", "offset_pair"]
@@ -87,8 +86,7 @@ def pixel_ray(cam, x, y):
 def _rays_kernel(cam, origins, directions, part):
     w = int(cam[CAM_WIDTH])
     h = int(cam[CAM_HEIGHT])
-    start, stop = share(h, part)  # this part's share (common.parallel)
-    for y in range(start, stop):
+    for y in range(*share(h, part)):  # this part's share (common.parallel)
         for x in range(w):
             ox, oy, oz, dx, dy, dz = pixel_ray(cam, x, y)
             i = y * w + x

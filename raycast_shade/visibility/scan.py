@@ -257,8 +257,7 @@ def _project_par(verts, view, near, ortho, W, H, hw, hh, cs, vx, part):
     """Camera-space coordinates ``cs`` of every vertex, and ``vx`` = pixel
     coordinates, camera depth and depth key (NaN but the depth for a
     perspective vertex at or behind the near plane)."""
-    start, stop = share(verts.shape[0], part)  # this part's share (common.parallel)
-    for i in range(start, stop):
+    for i in range(*share(verts.shape[0], part)):  # this part's share (common.parallel)
         dx = verts[i, 0] - view[0, 0]
         dy = verts[i, 1] - view[0, 1]
         dz = verts[i, 2] - view[0, 2]
@@ -287,8 +286,7 @@ def _setup_par(faces, vx, cs, near, ortho, W, H, hw, hh, band_h, ylo, yhi, count
     bounding box, or ``ylo[f] = -1`` when it holds no pixel centre; and
     ``counts[c, b]``, the faces of chunk ``c`` that touch band ``b``."""
     nf = faces.shape[0]
-    start, stop = share(counts.shape[0], part)  # this part's share (common.parallel)
-    for c in range(start, stop):
+    for c in range(*share(counts.shape[0], part)):  # this part's share (common.parallel)
         px = np.empty(4)
         py = np.empty(4)
         pq = np.empty(4)
@@ -350,8 +348,7 @@ def _bin_fill_par(ylo, yhi, band_h, pos, out, part):
     """Write each face into its bands' lists, at the slots ``pos`` reserved
     for its chunk, keeping face order within a band."""
     nf = ylo.shape[0]
-    start, stop = share(pos.shape[0], part)  # this part's share (common.parallel)
-    for c in range(start, stop):
+    for c in range(*share(pos.shape[0], part)):  # this part's share (common.parallel)
         for f in range(c * _CHUNK, min(nf, (c + 1) * _CHUNK)):
             if ylo[f] >= 0:
                 for b in range(ylo[f] // band_h, yhi[f] // band_h + 1):
@@ -372,8 +369,7 @@ def _raster_kernel(faces, vx, cs, near, screen, shear, band_h, band_start, band_
     nbands = band_start.shape[0] - 1
     iw = int(W)
     ih = int(H)
-    start, stop = share(nbands, part)  # this part's share (common.parallel)
-    for b in range(start, stop):
+    for b in range(*share(nbands, part)):  # this part's share (common.parallel)
         px = np.empty(4)
         py = np.empty(4)
         pq = np.empty(4)

@@ -30,7 +30,6 @@ import numpy as np
 from numba import njit
 
 from ..common.parallel import KERNEL, in_parts, share
-
 from .accel import embree_accel
 from .alpha import masked_geometries, masked_hits
 from .hits import HitBuffer
@@ -137,8 +136,7 @@ def _refine_kernel(fans, rays, candidates, hits, part):
     cand_geom, cand_prim = candidates
     prim, geom, u, v, t = hits
     n = origins.shape[0]
-    i0, i1 = share(n, part)  # this part's share (common.parallel)
-    for i in range(i0, i1):
+    for i in range(*share(n, part)):  # this part's share (common.parallel)
         prim[i] = -1
         geom[i] = -1
         u[i] = 0.0
@@ -216,8 +214,7 @@ def refine(geometry, origins, directions, tnear, tlimit, candidates) -> HitBuffe
 @in_parts
 @njit(**KERNEL)
 def _nudge_kernel(origins, directions, tnear, tfar, geom, t, reach, nudge, margin, out_origins, out_limit, part):
-    i0, i1 = share(origins.shape[0], part)  # this part's share (common.parallel)
-    for i in range(i0, i1):
+    for i in range(*share(origins.shape[0], part)):  # this part's share (common.parallel)
         o = origins[i]
         d = directions[i]
         # p = d x e_k, e_k the axis of d's smallest component: never parallel to d.

@@ -86,7 +86,7 @@ def test_the_batched_kernel_takes_only_what_it_declares_and_is_then_the_general_
     hits = rs.render(scene).hits
     general = np.full((H, W, 3), np.nan, np.float32)
     fast = general.copy()
-    variant(_PHONG, k)(hits.prim, hits.geom, hits.u, hits.v, k.geometry, k.bumps, k.lighting, k.colours, k.face_off,
+    variant(_PHONG, k)((hits.prim, hits.geom, hits.u, hits.v), k.geometry, k.bumps, k.lighting, k.colours, k.face_off,
                        k.materials, k.cam, k.background, modes, (general, np.empty((0, 0, 3), np.float32), NO_RAYS), 0)
     kernel = _PHONG_FAST_SHADOWS if k.lighting.handle != 0 else _PHONG_FAST
     kernel(hits.prim, hits.geom, hits.u, hits.v, k.geometry, k.lighting, k.face_off, k.materials, k.cam, k.background,

@@ -54,7 +54,7 @@ def _both(scene, shading, hits):
     general = np.full(hits.shape + (3,), np.nan, np.float32)
     fast = general.copy()
     normals = (general.copy(), general.copy())  # each kernel's shading normals (the "normal" buffer)
-    variant(_PHONG, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["T"], k["face_off"],
+    variant(_PHONG, k)((hits.prim, hits.geom, hits.u, hits.v), k["G"], k["B"], k["L"], k["T"], k["face_off"],
                        k["materials"], k["cam"], k["background"], modes, (general, normals[0], NO_RAYS), 0)
     _fast(k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["L"], k["face_off"], k["materials"], k["cam"],
              k["background"], modes, (fast, normals[1], NO_RAYS))
@@ -278,7 +278,7 @@ def test_the_shadowed_kernel_is_the_packet_kernel_on_a_banded_frame():
     k = prepare(scene, scene.camera)
     hits = frame.hits
     tiles = np.full(hits.shape + (3,), np.nan, np.float32)
-    variant(_PHONG_PACKETS, k)(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["B"], k["L"], k["T"], k["face_off"],
+    variant(_PHONG_PACKETS, k)((hits.prim, hits.geom, hits.u, hits.v), k["G"], k["B"], k["L"], k["T"], k["face_off"],
                                k["materials"], k["cam"], k["background"], resolve_methods(scene, "phong"),
                                (tiles, _NO_NORMALS, NO_RAYS), 0)
     assert _same_bits(frame.image, tiles)

@@ -75,15 +75,14 @@ _POISONED = textwrap.dedent("""
     cam = camera_frame(scene.camera, geo.origin)
     h, w = scene.camera.height, scene.camera.width
     out = {}
-    serial = numba.njit(parallel=False)
-    for name, kernel in (("par", cast._cast_camera_kernel), ("ser", serial(cast._cast_camera_kernel.py_func))):
+    for name, kernel in (("par", cast._cast_camera_parts), ("ser", cast._cast_camera_parts.serial)):
         hits = [np.empty((h, w), dt) for dt in (np.int32, np.int32, np.float32, np.float32, np.float32)]
-        kernel(handle, cam, *hits, 0, 0, 0, h, np.empty(h, np.int64), 1e-3)
+        kernel(handle, cam, *hits, 0, 0, 0, h, np.full(h, -1, np.int64), 1e-3)
         out.update({f"cam_{name}_{i}": a for i, a in enumerate(hits)})
     o, d = generate_rays(scene.camera, geo.origin)
     o, d = o.astype(np.float64), d.astype(np.float64)
     n = len(o)
-    for name, kernel in (("par", cast.cast_rays_kernel), ("ser", serial(cast.cast_rays_kernel.py_func))):
+    for name, kernel in (("par", cast.cast_rays_kernel), ("ser", cast.cast_rays_kernel.serial)):
         hits = [np.empty(n, dt) for dt in (np.int32, np.int32, np.float32, np.float32, np.float32)]
         kernel(handle, o, d, np.zeros(n), np.full(n, np.inf), *hits)
         out.update({f"rays_{name}_{i}": a for i, a in enumerate(hits)})
@@ -118,9 +117,9 @@ _POISONED = textwrap.dedent("""
 def test_kernels_keep_their_embree_buffers_alive_when_frees_are_poisoned(tmp_path):
     """Every array whose address reaches Embree (the ray packet, the valid mask, the
     RTCIntersectArguments, the single-ray buffers) is alive during the call: the camera
-    kernel, compiled parallel (as shipped) and serial (no parfor hoisting to hide an early
-    free), ``cast_rays_kernel`` both ways, and ``occluded1_ray``, all under poisoned frees,
-    give exactly the hits of an ordinary run in this process."""
+    kernel in parts on two threads and whole in one, ``cast_rays_kernel`` both ways, and
+    ``occluded1_ray``, all under poisoned frees, give exactly the hits of an ordinary run in
+    this process."""
     import os
 
     env = dict(os.environ, GLIBC_TUNABLES="glibc.malloc.tcache_count=0:glibc.malloc.perturb=165")

@@ -21,7 +21,6 @@ import numpy as np
 from numba import njit
 
 from ...common.parallel import KERNEL, in_parts, share
-
 from ...scene.lights import AreaLight, DirectionalLight, SpotLight
 from ...scene.normals import vertex_normals
 from ...visibility.interpolation import to_screen_space
@@ -418,8 +417,7 @@ def shade_variant(scene, camera, hits, method: str, mistake: Mistake = Mistake()
 @njit(**KERNEL)
 def _srgb_kernel(x, out, part):
     """The sRGB curve of ``x`` (N,) in [0, 1] into ``out`` (N,): as to_uint8's, before rounding."""
-    start, stop = share(x.shape[0], part)  # this part's share (common.parallel)
-    for i in range(start, stop):
+    for i in range(*share(x.shape[0], part)):  # this part's share (common.parallel)
         v = x[i]
         out[i] = 12.92 * v if v <= 0.0031308 else 1.055 * v ** (1.0 / 2.4) - 0.055
 
