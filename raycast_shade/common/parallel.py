@@ -83,7 +83,8 @@ def launch(kernel, *args, parts: int | None = None, dynamic: bool = False) -> No
 
     Notes
     -----
-    An exception in any part is raised here, after every part has finished.
+    An exception in any part is raised here, after every part has finished; so is a
+    ``KeyboardInterrupt``: no part outlives the call.
     """
     threads = numba.get_num_threads()
     n = threads if parts is None else int(parts)  # (the parameter hides parts())
@@ -108,10 +109,27 @@ def launch(kernel, *args, parts: int | None = None, dynamic: bool = False) -> No
     try:
         run(0)
     finally:
-        errors = [f.exception() for f in futures]
+        errors = _wait_all(futures)
     for e in errors:
         if e is not None:
             raise e
+
+
+def _wait_all(futures) -> list:
+    """Every part's exception (None: it finished), waiting for all of them even through Ctrl-C: a
+    part still running reads buffers (an Embree scene, by its address) that the caller may free
+    once :func:`launch` has returned or raised."""
+    interrupted, errors = None, []
+    for f in futures:
+        while True:
+            try:
+                errors.append(f.exception())
+                break
+            except KeyboardInterrupt as e:  # wait on, then raise it
+                interrupted = e
+    if interrupted is not None:
+        raise interrupted
+    return errors
 
 
 class InParts:

@@ -93,3 +93,25 @@ def test_callers_in_several_threads_share_the_pool():
     for t in threads:
         t.join()
     assert not errors
+
+
+def test_an_interrupt_waits_for_every_part(monkeypatch):
+    """Ctrl-C while the caller waits: ``launch`` waits for the running parts before it raises
+    (they may read an Embree scene the caller frees next), and raises the interrupt."""
+    from concurrent.futures import Future
+
+    from raycast_shade.common import parallel
+
+    done = Future()
+    calls = []
+
+    def exception(self=done):
+        calls.append(1)
+        if len(calls) == 1:
+            raise KeyboardInterrupt  # the first wait is interrupted
+        return None
+
+    monkeypatch.setattr(done, "exception", exception)
+    with pytest.raises(KeyboardInterrupt):
+        parallel._wait_all([done])
+    assert len(calls) == 2  # it waited again after the interrupt
