@@ -100,8 +100,9 @@ class FileContext:
     """What the file itself says beyond trimesh's reading: references, samplers, colours;
     plus the textures decoded so far (one per source image, however many meshes share it)."""
 
-    def __init__(self, path: str | None, base: str = "", base_dir: str = "."):
-        """``path=None``: no file to read (a trimesh visual on its own), references relative to ``base_dir``."""
+    def __init__(self, path: str | None, base: str = "", base_dir: str = ".", gltf: dict | None = None):
+        """``path=None``: no file to read (a trimesh visual on its own), references relative to ``base_dir``;
+        ``gltf``: the glTF JSON already read (and checked) by :func:`.filecheck.check_mesh_file`."""
         self.path, self.base = path or "", base
         self.base_dir = os.path.dirname(os.path.abspath(path)) if path else base_dir
         self.ext = os.path.splitext(path)[1].lower() if path else ""
@@ -109,7 +110,7 @@ class FileContext:
         self.missing = []  # "name (where)" of referenced files that are absent
         self.mtl = {}  # OBJ: name -> fileparse.MtlMaterial
         self.usemtl = []
-        self.gltf = None
+        self.gltf = gltf
         self.off = None
         self.cache = {}
         self._keep = []  # the objects whose id() keys the cache stay alive with it
@@ -143,8 +144,10 @@ class FileContext:
         self.undefined = [f"usemtl {n} ({me}:{line})" for n, line in undefined.items()]
 
     def _gltf(self):
-        self.gltf = fileparse.gltf_header(self.path)
         if self.gltf is None:
+            self.gltf = fileparse.gltf_header(self.path)
+        if not isinstance(self.gltf, dict):  # unreadable: trimesh's reading names why
+            self.gltf = None
             return
         me = os.path.basename(self.path)
         self._check_gltf_materials()

@@ -329,8 +329,12 @@ def _is_scene(tm) -> bool:
     return isinstance(tm, trimesh.Scene)
 
 
-def read_trimesh(path, merge: bool = False):
+def read_trimesh(path, merge: bool = False, *, checked: bool = False):
     """``trimesh.load`` a file, keeping its vertices as written.
+
+    The file is checked first (:mod:`.filecheck`: content against extension, an OBJ's lines, face
+    indices): trimesh never reads it as something it is not. ``merge`` welds coincident vertices;
+    ``checked``: the caller has run :func:`~raycast_shade.scene.filecheck.check_mesh_file`.
 
     Returns
     -------
@@ -341,13 +345,16 @@ def read_trimesh(path, merge: bool = False):
     Raises
     ------
     ValueError
-        Missing, unreadable, no triangles, or non-finite vertices.
+        Missing, unreadable, content its extension belies, a bad OBJ line, a
+        face index out of range, no triangles, or non-finite vertices.
     """
     import trimesh
 
+    from .filecheck import check_face_indices, check_mesh_file, locate_bad_index
+
     path = os.fspath(path)
-    if not os.path.exists(path):
-        raise ValueError(f"mesh file not found: {path}")
+    if not checked:
+        check_mesh_file(path)
     try:
         # Not force="mesh": trimesh 5 then concatenates through a scene and drops the file's normals.
         # Not processed: processing welds split vertices (rounding hard edges off) and drops faces
@@ -355,9 +362,15 @@ def read_trimesh(path, merge: bool = False):
         tm = _load_obj(path) if path.lower().endswith(".obj") else trimesh.load(path, process=False)
     except ImportError as exc:
         raise MissingReaderError(f"cannot read mesh file {path}: {_install_hint(exc)}") from None
-    except Exception as exc:
+    except ValueError as exc:
+        if str(exc).startswith(os.path.basename(path) + ":"):  # our own, naming the file and line
+            raise
         raise ValueError(f"cannot read mesh file {path}: {exc}") from None
+    except Exception as exc:
+        where = locate_bad_index(path) if isinstance(exc, IndexError) else None
+        raise ValueError(where or f"cannot read mesh file {path}: {exc}") from None
     meshes = tm.geometry.values() if isinstance(tm, trimesh.Scene) else [tm]
+    check_face_indices(path, meshes)  # before anything indexes vertices by them
     _refuse_non_finite(path, meshes)
     ext = os.path.splitext(path)[1].lower()
     stl_inside = _archive_holds_stl(path)
@@ -395,13 +408,19 @@ def _load_obj(path: str):
 
     import trimesh
 
+    from .filecheck import check_obj
     from .fileparse import obj_mtl_files
 
     with open(path, "rb") as fh:
         data = fh.read()
+    name = os.path.basename(path)
+    absolute = check_obj(data, name)
+    data = data if absolute is None else absolute
     files = obj_mtl_files(path)
-    if not files:
+    if not files and absolute is None:
         return trimesh.load(path, process=False)
+    if not files:
+        return trimesh.load(file_obj=io.BytesIO(data), file_type="obj", process=False, metadata={"file_name": name})
     parts = []
     for f in files:
         with open(f, "rb") as fh:
@@ -409,7 +428,6 @@ def _load_obj(path: str):
     mtl = b"\n".join(parts)
     lines = [ln for ln in data.split(b"\n") if not ln.lstrip().lower().startswith(b"mtllib")]
     text = b"mtllib " + _MTL_KEY.encode() + b"\n" + b"\n".join(lines)
-    name = os.path.basename(path)
     return trimesh.load(file_obj=io.BytesIO(text), file_type="obj", resolver=_MtlOnly(mtl), process=False,
                         metadata={"file_name": name})
 

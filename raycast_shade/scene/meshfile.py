@@ -38,6 +38,7 @@ import warnings
 import numpy as np
 
 from ..common.warnings import DroppedOnLoadWarning
+from .filecheck import check_mesh_file
 from .gltftangents import primitive_tangents
 from .filematerial import FileContext, Wrapped, from_mtl_cached, from_pbr, from_simple, is_placeholder
 from .material import Material
@@ -166,8 +167,9 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, *
     path = os.fspath(path)
     base = mesh_kwargs.pop("name", os.path.basename(path))
     # The file's own references and values first: a bad value is named before trimesh trips on it.
-    ctx = FileContext(path, base) if os.path.isfile(path) else None
-    tm, srgb = read_trimesh(path, merge)
+    gltf = check_mesh_file(path)
+    ctx = FileContext(path, base, gltf=gltf)
+    tm, srgb = read_trimesh(path, merge, checked=True)
     for used in dict.fromkeys(n for n, _ in ctx.usemtl):
         if used in ctx.mtl:  # every material the OBJ uses is checked, whatever trimesh made of it
             from_mtl_cached(ctx, used, [])

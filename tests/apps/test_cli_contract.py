@@ -223,3 +223,67 @@ def test_the_contract_holds_in_a_real_process(workdir, argv, fragment):
     res = subprocess.run([sys.executable, "-m", "raycast_shade", *argv], capture_output=True, text=True, timeout=600,
                          cwd=workdir)
     assert_contract(res.returncode, res.stdout, res.stderr, fragment)
+
+
+# Issue 45: mesh files given to ``render MODEL``, refused on one line before anything renders or is written.
+_QUAD = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n"
+_PLY = ("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+        "element face 3\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n"
+        "3 0 1 2\n3 2 1 0\n3 0 1 7\n")
+BAD_MESH_FILES = {
+    "truncated.obj": (_QUAD + "f 1 2 3\nf 2 4", "truncated.obj:6: 'f 2 4': a face needs at least 3 vertices"),
+    "zero.obj": (_QUAD + "f 0 1 2\n", "zero.obj:5: 'f 0 1 2': vertex index 0"),
+    "range.obj": (_QUAD + "f 1 2 9\n", "range.obj:5: 'f 1 2 9': vertex index 9, but the file has 4"),
+    "obj.glb": (_QUAD + "f 1 2 3\n", "obj.glb: not a binary glTF (.glb) file"),
+    "obj.stl": (_QUAD + "f 1 2 3\n", "obj.stl: not an STL file"),
+    "obj.txt": (_QUAD + "f 1 2 3\n", "obj.txt: the extension .txt names no mesh format"),
+    "objfile": (_QUAD + "f 1 2 3\n", "objfile: without an extension"),
+    "range.ply": (_PLY, "range.ply:15: face 2 indexes vertex 7"),
+    "list.gltf": ("[1, 2, 3]", "list.gltf: a glTF file is a JSON object"),
+}
+
+
+def _mesh_files(folder):
+    import zipfile
+
+    from tests.scene.test_mesh_file_checks import triangles_glb
+
+    cases = dict(BAD_MESH_FILES)
+    for name, text in ((n, t) for n, (t, _) in BAD_MESH_FILES.items()):
+        (folder / name).write_text(text)
+    (folder / "range.glb").write_bytes(triangles_glb([[0, 1, 2], [0, 1, 5]]))
+    cases["range.glb"] = (None, "range.glb: meshes[0].primitives[1].indices: entry 2 is vertex 5")
+    for ext in ("EXT_meshopt_compression", "KHR_draco_mesh_compression", "XYZ_unknown"):
+        (folder / f"{ext}.glb").write_bytes(triangles_glb([[0, 1, 2]], required=[ext]))
+        cases[f"{ext}.glb"] = (None, f"{ext}.glb: extensionsRequired[0]: the file requires {ext}")
+    with zipfile.ZipFile(folder / "inner.zip", "w") as z:
+        z.writestr("a.obj", _QUAD + "f 1 2 3\n")
+    with zipfile.ZipFile(folder / "nested.zip", "w") as z:
+        z.write(folder / "inner.zip", "inner.zip")
+    cases["nested.zip"] = (None, "nested.zip: holds the archive 'inner.zip'")
+    return cases
+
+
+_MESH_NAMES = [*BAD_MESH_FILES, "range.glb", "EXT_meshopt_compression.glb", "KHR_draco_mesh_compression.glb",
+               "XYZ_unknown.glb", "nested.zip"]
+
+
+@pytest.mark.parametrize("name", _MESH_NAMES)
+def test_a_bad_mesh_file_is_one_line_and_exit_2_before_anything_is_written(capsys, workdir, name):
+    fragment = _mesh_files(workdir)[name][1]
+    code, out, err = run(capsys, ["render", name, "-o", "x.png"])
+    assert_contract(code, out, err, fragment)
+    assert not (workdir / "x.png").exists()
+
+
+def test_a_bad_mesh_file_is_refused_in_a_real_process(workdir):
+    import os
+    import pathlib
+
+    _mesh_files(workdir)
+    here = str(pathlib.Path(rs.__file__).parents[1])  # this checkout's package, whatever is installed
+    res = subprocess.run([sys.executable, "-m", "raycast_shade", "render", "zero.obj", "-o", "x.png"],
+                         capture_output=True, text=True, timeout=600, cwd=workdir,
+                         env={**os.environ, "PYTHONPATH": here})
+    assert_contract(res.returncode, res.stdout, res.stderr, "zero.obj:5: 'f 0 1 2': vertex index 0")
+    assert not (workdir / "x.png").exists()
