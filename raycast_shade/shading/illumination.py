@@ -42,7 +42,7 @@ from ..common.layout import (AREA_DISC, ATT_HEURISTIC, ATT_INVERSE_SQUARE, LIGHT
 from .jit import CALLED, HELPER
 from .records import (TERM_AMBIENT, TERM_DIFFUSE, TERM_EMISSIVE, TERM_SPECULAR, TERMS_EACH, TERMS_EMIT_ON,
                       TERMS_SHADOW, dot, store3)
-from .reflectance import _specular_cosine
+from .reflectance import _diffuse, _specular_cosine
 from .shadows import _occluded, request_ray
 
 __all__ = ["GOLDEN"]
@@ -242,6 +242,7 @@ def _reflected(hp, coef, mats, mi, L, S, vis, lane, spec_on, att_on, R, y, x):
                     if np.float32(cone * ndots) > 0.0:  # blocked where a unit light would have reached it
                         blocked += 1
                     continue
+            fd = _diffuse(model, n, s, hp.v, ndots)
             spec = 0.0
             if spec_on and has_spec:
                 c = _specular_cosine(model, n, s, hp.v, ndots)
@@ -250,11 +251,11 @@ def _reflected(hp, coef, mats, mi, L, S, vis, lane, spec_on, att_on, R, y, x):
             ar = att * lights[i, LIGHT_RADIANCE + 0]
             ag = att * lights[i, LIGHT_RADIANCE + 1]
             ab = att * lights[i, LIGHT_RADIANCE + 2]
-            r += ar * (kdr * ndots + ksr * spec)
-            g += ag * (kdg * ndots + ksg * spec)
-            b += ab * (kdb * ndots + ksb * spec)
+            r += ar * (kdr * fd + ksr * spec)
+            g += ag * (kdg * fd + ksg * spec)
+            b += ab * (kdb * fd + ksb * spec)
             if R is not None:  # the parts, formed apart from the sum (it is not their sum, bit for bit)
-                pdr, pdg, pdb = ar * (kdr * ndots), ag * (kdg * ndots), ab * (kdb * ndots)
+                pdr, pdg, pdb = ar * (kdr * fd), ag * (kdg * fd), ab * (kdb * fd)
                 psr, psg, psb = ar * (ksr * spec), ag * (ksg * spec), ab * (ksb * spec)
                 dr += pdr
                 dg += pdg

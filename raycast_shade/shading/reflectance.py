@@ -1,21 +1,28 @@
-"""The reflectance models: one function each, and the registry the kernels dispatch on.
+"""The reflectance models: a diffuse and a specular function each, and the registry the
+kernels dispatch on.
 
-A model is the cosine its specular lobe raises to the shininess ``t``, from the unit shading
-normal ``n``, the unit direction ``s`` to the light, the unit direction ``v`` to the viewer and
-``n . s`` (already known to be positive)::
+A model is a pair of functions of the unit shading normal ``n``, the unit direction ``s`` to
+the light, the unit direction ``v`` to the viewer and ``n . s`` (already known to be in
+(0, 1]): the diffuse factor that ``kd`` scales, and the cosine the specular lobe raises to the
+shininess ``t``::
 
-    Phong          c = r . v,  r = 2 (n . s) n - s
-    Blinn-Phong    c = n . h / |h|,  h = s + v
+    model          diffuse    specular cosine
+    Phong          n . s      c = r . v,  r = 2 (n . s) n - s
+    Blinn-Phong    n . s      c = n . h / |h|,  h = s + v
 
-(:func:`~raycast_shade.shading.illumination._illuminate` then adds ``Ks max(c, 0)^t``.) The
-material row carries the model's code (``MAT_MODEL``, codes ``MODEL_*`` in
-:mod:`raycast_shade.common.layout`). Adding a model: a code in ``layout.py``, one function
-here, its entry in :data:`MODELS` and its branch in :func:`_specular_cosine` (a Numba kernel
-cannot call through a dict; ``tests/shading/test_light_interface.py`` checks the branches against the
-registry), and the name in ``Material``'s ``specular`` choices.
+(:func:`~raycast_shade.shading.illumination._reflected` then sums
+``Ii (kd f_d + ks max(c, 0)^t)`` over the lights.) The material row carries the model's code
+(``MAT_MODEL``, codes ``MODEL_*`` in :mod:`raycast_shade.common.layout`). Adding a model: a code
+in ``layout.py``, its function pair here, its entry in :data:`MODELS` and its branch in
+:func:`_diffuse` and :func:`_specular_cosine` (a Numba kernel cannot call through a dict;
+``tests/shading/test_light_interface.py`` checks the branches against the registry), and the name
+in ``Material``'s ``specular`` choices. The batched kernel (:mod:`.phong_fast`) implements the
+models its ``HANDLES`` lists; a frame with any other goes to the general kernel by itself.
 """
 
 from __future__ import annotations
+
+from collections import namedtuple
 
 import numpy as np
 from numba import njit
@@ -24,7 +31,17 @@ from ..common.layout import MODEL_BLINN, MODEL_PHONG
 from .jit import HELPER
 from .records import dot
 
-__all__ = ["MODELS"]
+__all__ = ["MODELS", "Reflectance"]
+
+Reflectance = namedtuple("Reflectance", ["diffuse", "specular"])
+"""A model's two functions: ``diffuse(n, s, v, ndots)``, the factor ``kd`` scales, and
+``specular(n, s, v, ndots)``, the cosine raised to the shininess."""
+
+
+@njit(**HELPER)
+def _lambert(n, s, v, ndots):
+    """Lambert: the diffuse factor ``n . s``, whatever the viewer."""
+    return ndots
 
 
 @njit(**HELPER)
@@ -42,7 +59,13 @@ def _blinn_cosine(n, s, v, ndots):
     return dot(n, h) / hl if hl > 0.0 else 0.0
 
 
-MODELS = {MODEL_PHONG: _phong_cosine, MODEL_BLINN: _blinn_cosine}
+MODELS = {MODEL_PHONG: Reflectance(_lambert, _phong_cosine), MODEL_BLINN: Reflectance(_lambert, _blinn_cosine)}
+
+
+@njit(**HELPER)
+def _diffuse(model, n, s, v, ndots):
+    """The diffuse factor of :data:`MODELS` ``[model]``: Lambert's for every model so far."""
+    return _lambert(n, s, v, ndots)
 
 
 @njit(**HELPER)

@@ -95,23 +95,31 @@ def _cosines(model, n, s, v, ndots):
             reflectance._blinn_cosine(n, s, v, ndots))
 
 
+@njit(cache=False)
+def _diffuse_factors(model, n, s, v, ndots):
+    return reflectance._diffuse(model, n, s, v, ndots), reflectance._lambert(n, s, v, ndots)
+
+
 def _unit(rng):
     a = rng.normal(size=3)
     return a / np.linalg.norm(a)
 
 
 def test_the_kernels_dispatch_every_registered_model_to_its_own_function():
-    """Each code of MODELS reaches its function in ``_specular_cosine``, and each function is the
-    lecture's formula: Phong ``r . v``, Blinn ``n . h / |h|``."""
+    """Each code of MODELS reaches its diffuse function in ``_diffuse`` and its specular one in
+    ``_specular_cosine``, and each function is the lecture's formula: Lambert ``n . s``, Phong
+    ``r . v``, Blinn ``n . h / |h|``."""
     assert set(reflectance.MODELS) == {lay.MODEL_PHONG, lay.MODEL_BLINN}
     rng = np.random.default_rng(7)
     for _ in range(20):
         n, s, v = (tuple(_unit(rng)) for _ in range(3))
         ndots = float(np.dot(n, s))
-        for code, fn in reflectance.MODELS.items():
+        for code, pair in reflectance.MODELS.items():
             dispatched, phong, blinn = _cosines(code, n, s, v, ndots)
-            own = {reflectance._phong_cosine: phong, reflectance._blinn_cosine: blinn}[fn]
+            own = {reflectance._phong_cosine: phong, reflectance._blinn_cosine: blinn}[pair.specular]
             assert dispatched == own
+            diffuse, lambert = _diffuse_factors(code, n, s, v, ndots)
+            assert diffuse == {reflectance._lambert: lambert}[pair.diffuse] == ndots  # Lambert: n . s
         r = 2 * ndots * np.array(n) - np.array(s)
         assert phong == pytest.approx(r @ v, abs=1e-14)
         h = np.array(s) + np.array(v)
