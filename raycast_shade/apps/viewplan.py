@@ -123,10 +123,27 @@ def _plural(n: int, word: str) -> str:
     return f"{n} {word}" + ("" if n == 1 else "s")
 
 
+def _plan_problem(old) -> str | None:
+    """Why ``old`` (a plan.json as read) is not a plan this version reads, in words; None if it is."""
+    if not isinstance(old, dict):
+        return f"{PLAN_NAME} holds a JSON {type(old).__name__}, not an object"
+    if old.get("format") != PLAN_FORMAT:
+        return f"{PLAN_NAME} has format {json.dumps(old.get('format'))}, not {json.dumps(PLAN_FORMAT)}"
+    for key, kind in (("settings", dict), ("views", list)):
+        if not isinstance(old.get(key), kind):
+            return f"{PLAN_NAME}'s {key!r} is not a JSON {'object' if kind is dict else 'list'}"
+    bad = next((i for i, v in enumerate(old["views"]) if not isinstance(v, dict)), None)
+    if bad is not None:
+        return f"{PLAN_NAME}'s views[{bad}] is not a JSON object"
+    return None
+
+
 def plan_differences(old: dict, new: dict) -> list:
-    """What differs between two plans, in words (empty: the same plan)."""
-    if old.get("format") != PLAN_FORMAT or not isinstance(old.get("views"), list):
-        return [f"{PLAN_NAME} is not a plan this version reads"]
+    """What differs between two plans, in words (empty: the same plan); a plan.json that is not one
+    (edited by hand, say) is one difference saying what is wrong with it."""
+    problem = _plan_problem(old)
+    if problem is not None:
+        return [problem + " (edited by hand?)"]
     out = []
     a, b = old.get("settings", {}), new["settings"]
     for k in sorted(set(a) | set(b)):
@@ -136,18 +153,15 @@ def plan_differences(old: dict, new: dict) -> list:
     if len(va) != len(vb):
         out.append(f"{_plural(len(va), 'view')} -> {len(vb)}")
     shared = list(zip(va, vb))
-    try:
-        for field, what in (("scene", "scene (meshes or materials)"), ("camera", "camera"),
-                            ("lights", "lights or colours")):
-            n = sum(x.get(field) != y[field] for x, y in shared)
-            if n:
-                out.append(f"the {what} of {n} of the {_plural(len(shared), 'shared view')} differs")
-        sizes = [(f"{x.get('width')}x{x.get('height')}", f"{y['width']}x{y['height']}") for x, y in shared]
-        changed = sorted({f"{p} -> {q}" for p, q in sizes if p != q})
-        if changed:
-            out.append("size " + ", ".join(changed))
-    except AttributeError:
-        out.append(f"{PLAN_NAME} is not a plan this version reads")
+    for field, what in (("scene", "scene (meshes or materials)"), ("camera", "camera"),
+                        ("lights", "lights or colours")):
+        n = sum(x.get(field) != y[field] for x, y in shared)
+        if n:
+            out.append(f"the {what} of {n} of the {_plural(len(shared), 'shared view')} differs")
+    sizes = [(f"{x.get('width')}x{x.get('height')}", f"{y['width']}x{y['height']}") for x, y in shared]
+    changed = sorted({f"{p} -> {q}" for p, q in sizes if p != q})
+    if changed:
+        out.append("size " + ", ".join(changed))
     return out
 
 
@@ -163,17 +177,18 @@ def prepare_folder(out_dir: str, plan: dict, overwrite: bool, set_files) -> None
     ours = sorted(n for n in os.listdir(out_dir) if _OURS.match(n))
     ours += sorted(n for n in set_files if os.path.exists(os.path.join(out_dir, n)))
     old = None
+    if os.path.isdir(plan_path):  # not replaceable by a file, overwrite or not
+        raise ValueError(f"out_dir: {plan_path!r} is a folder; the view set writes its plan there")
     if os.path.exists(plan_path):
         try:
-            with open(plan_path) as fh:
+            with open(plan_path, encoding="utf-8") as fh:
                 old = json.load(fh)
-            if not isinstance(old, dict):
-                raise ValueError("not a JSON object")
             differences = plan_differences(old, plan)
-        except (OSError, ValueError) as exc:
-            differences = [f"{PLAN_NAME} cannot be read ({exc})"]
+        except (OSError, ValueError) as exc:  # UnicodeDecodeError and JSONDecodeError are ValueErrors
+            differences = [f"{PLAN_NAME} cannot be read as JSON ({exc})"]
     elif ours:
-        differences = [f"{_plural(len(ours), 'view set file')} (e.g. {ours[0]}) but no {PLAN_NAME}"]
+        differences = [f"{_plural(len(ours), 'view set file')} (e.g. {ours[0]}) but no {PLAN_NAME} "
+                       "(deleted?); without it nothing tells which plan they were made for"]
     else:
         differences = []
     if not differences:
@@ -182,7 +197,7 @@ def prepare_folder(out_dir: str, plan: dict, overwrite: bool, set_files) -> None
         raise ValueError(f"out_dir: {out_dir} holds another view set: {'; '.join(differences)}. "
                          "Pass overwrite=True (CLI: --overwrite) to replace it, or choose another folder")
     keep = set()
-    if isinstance(old, dict) and not plan_differences({**old, "views": []}, {**plan, "views": []}):
+    if _plan_problem(old) is None and not plan_differences({**old, "views": []}, {**plan, "views": []}):
         # Same settings: views with the same inputs and files stay (their records are checked later).
         for x, y in zip(old.get("views", []), plan["views"]):
             if isinstance(x, dict) and all(x.get(k) == y[k] for k in ("scene", "camera", "lights", "files")):

@@ -66,8 +66,8 @@ import os
 from ..common.validate import as_bool, as_instance, as_names
 from ..output.bufferfile import depth_png_bytes, exr_into, npz_into
 from ..output.buffers import check_buffers
-from ..output.labels import object_table, semantic_classes, unoccluded_masks, view_objects, write_coco
-from ..output.imagefile import png_bytes, remove_stale_temps, write_hashed, write_image
+from ..output.labels import object_table, semantic_classes, unoccluded_masks, view_objects
+from ..output.imagefile import check_output_folder, png_bytes, remove_stale_temps, write_hashed, write_image
 from ..output.quantize import to_uint8_table
 from ..render import render
 from ..visibility.accel import embree_accel
@@ -76,6 +76,7 @@ from .batch.options import check_options
 from .batch.plan import plan_batch
 from .batch.pool import ProcessPool, cores
 from .batch.run import RunOptions, merge_keywords
+from .viewexports import EXPORT_FILES, EXPORTS, check_set_targets, write_exports
 from .viewfiles import COMPRESSIONS, FORMATS, ViewFiles
 from .viewslots import ViewSlots
 from .viewplan import (PLAN_FORMAT, PLAN_NAME, digest, file_hasher, prepare_folder, view_hashes, view_is_done, view_key,
@@ -84,9 +85,6 @@ from .viewplan import (PLAN_FORMAT, PLAN_NAME, digest, file_hasher, prepare_fold
 __all__ = ["render_views", "ViewFiles", "RunOptions", "FORMATS", "EXPORTS", "INDEX_NAME", "PLAN_NAME", "view_files",
            "register_cli", "run_cli"]
 
-EXPORTS = ("coco", "nerfstudio", "colmap")
-EXPORT_FILES = {"coco": ("coco_instances.json",), "nerfstudio": ("transforms.json",),
-                "colmap": tuple(os.path.join("colmap", n) for n in ("cameras.txt", "images.txt", "points3D.txt"))}
 INDEX_NAME = "index.json"
 # The keywords render_views took before its records: old name -> field of ViewFiles, of RunOptions.
 FLAT_FILE_KEYWORDS = {k: k for k in ("buffers", "formats", "image", "depth_scale", "float_image", "compression")}
@@ -430,9 +428,7 @@ def render_views(scene, cameras, out_dir, *, files: ViewFiles | None = None, run
     as_instance(scene, "scene", Scene)
     if not isinstance(out_dir, (str, os.PathLike)) or not os.fspath(out_dir):
         raise TypeError(f"out_dir: expected a folder path, got {out_dir!r:.40}")
-    out_dir = os.fspath(out_dir)
-    if os.path.exists(out_dir) and not os.path.isdir(out_dir):
-        raise ValueError(f"out_dir: {out_dir!r} is a file, not a folder")
+    out_dir = check_output_folder(out_dir, "out_dir")  # a file there, or no writing: refused before any work
     files = merge_keywords(files, ViewFiles, render_kwargs, FLAT_FILE_KEYWORDS, "files")
     run = merge_keywords(run, RunOptions, render_kwargs, FLAT_RUN_KEYWORDS, "run")
     on_dask = _on_dask(run)
@@ -446,10 +442,11 @@ def render_views(scene, cameras, out_dir, *, files: ViewFiles | None = None, run
                      compression=compression, overlap=_two_frames_fit(jobs, memory))
     spec = dataclasses.replace(spec, settings_hash=digest(json.dumps(_settings(spec), sort_keys=True)))
     plan = _make_plan(spec, jobs)
+    all_files = {j.index: view_files(j.index, formats, spec.image) for j in jobs}
+    check_set_targets(out_dir, exports, [j.camera for j in jobs], all_files, (INDEX_NAME, PLAN_NAME))
     os.makedirs(out_dir, exist_ok=True)
     set_files = [INDEX_NAME] + [n for names in EXPORT_FILES.values() for n in names]
     prepare_folder(out_dir, plan, bool(overwrite), set_files)
-    all_files = {j.index: view_files(j.index, formats, spec.image) for j in jobs}
     set_level = [INDEX_NAME, PLAN_NAME, EXPORT_FILES["coco"][0], EXPORT_FILES["nerfstudio"][0]]
     remove_stale_temps(out_dir, [n for files in all_files.values() for n in files.values()] + set_level)
     if not on_dask:
@@ -470,7 +467,7 @@ def render_views(scene, cameras, out_dir, *, files: ViewFiles | None = None, run
              "buffers": list(names), "formats": list(formats),
              "classes": list(semantic_classes(scene)[0]), "objects": object_table(scene),
              "views": [_index_entry(j, all_files[j.index], out_dir) for j in jobs]}
-    _write_exports(scene, jobs, index, spec)
+    write_exports(scene, [j.camera for j in jobs], index, out_dir, exports)
     path = os.path.join(out_dir, INDEX_NAME)
     write_json(path, index)
     return path
@@ -484,26 +481,6 @@ def _two_frames_fit(jobs, memory) -> bool:
 
     pixels = max((float(j.camera.width) * float(j.camera.height) for j in jobs), default=0.0)
     return 2.0 * pixels * frame_bytes_per_pixel(**memory) <= memory_limit()
-
-
-def _write_exports(scene, jobs, index, spec: _ViewSpec) -> None:
-    from ..output.export import write_colmap, write_transforms
-
-    views = index["views"]
-    cams = [j.camera for j in jobs]
-    if "coco" in spec.exports:
-        coco_views = []
-        for v in views:
-            with open(os.path.join(spec.out_dir, v["files"]["record"])) as fh:
-                objects = json.load(fh)["objects"]
-            main = v["files"].get("image") or next(iter(v["files"].values()))
-            coco_views.append({"file_name": main, "width": v["width"], "height": v["height"], "objects": objects})
-        write_coco(os.path.join(spec.out_dir, EXPORT_FILES["coco"][0]), scene, coco_views)
-    if "nerfstudio" in spec.exports:
-        write_transforms(os.path.join(spec.out_dir, EXPORT_FILES["nerfstudio"][0]), cams,
-                         [v["files"]["image"] for v in views])
-    if "colmap" in spec.exports:
-        write_colmap(os.path.join(spec.out_dir, "colmap"), cams, [v["files"]["image"] for v in views])
 
 
 # -- the command line ------------------------------------------------------------------------------

@@ -33,7 +33,7 @@ import os
 import numpy as np
 from numba import njit
 
-from ..common.validate import as_int, as_scalar
+from ..common.validate import as_bool, as_int, as_scalar
 
 from .imagefile import atomic_target, png_file, write_bytes
 
@@ -160,6 +160,7 @@ def save_npz(path, buffers: dict, *, image=None, camera=None, compressed: bool |
         Naming the buffer or argument at fault, before the file is opened.
     """
     path = _check_path(path, ".npz")
+    atomic = as_bool(atomic, "atomic")
     level = npz_level(compressed)
     threads = _threads(threads)
     arrays = _npz_arrays(buffers, image, camera)
@@ -302,6 +303,8 @@ def write_exr(path, buffers: dict, *, image=None, compression: str = "none", thr
         Worker threads deflating the blocks (OpenEXR's, for its
         compressions; its process-wide count is put back afterwards);
         default: one per CPU.
+    atomic : bool
+        Write a temporary beside ``path`` and move it there once whole.
 
     Raises
     ------
@@ -309,12 +312,13 @@ def write_exr(path, buffers: dict, *, image=None, compression: str = "none", thr
         ``"rle"``, ``"piz"`` or ``"zstd"`` without the ``openexr`` package
         (``pip install raycast_shade[vision]``).
     TypeError, ValueError
-        Naming the buffer, before the file is opened.
+        Naming the buffer or argument at fault, before the file is opened.
     """
     from ..common.validate import as_choice
     from .exrwrite import LINES_PER_BLOCK, write_exr_numpy
 
     path = _check_path(path, ".exr")
+    atomic = as_bool(atomic, "atomic")
     compression = as_choice(compression, "compression", EXR_COMPRESSIONS)
     threads = _threads(threads)
     if compression in LINES_PER_BLOCK:  # laid out with NumPy, blocks deflated on our threads
@@ -429,6 +433,7 @@ def write_depth_png(path, depth, *, scale: float = 1000.0, fast: bool = False, a
     clamped, so a reader never mistakes them for a surface.
     """
     path = _check_path(path, ".png")
+    atomic = as_bool(atomic, "atomic")
     return write_bytes(path, depth_png_bytes(depth, scale=scale, fast=fast), atomic=atomic)  # a bad value: no file
 
 

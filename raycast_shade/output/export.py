@@ -34,13 +34,17 @@ import numpy as np
 from ..common.validate import as_path, as_sequence
 
 __all__ = ["PIXEL_CENTRE_SHIFT", "camera_to_world_gl", "nerfstudio_transforms", "write_transforms", "rotation_to_quaternion",
-           "write_colmap"]
+           "write_colmap", "check_colmap", "check_transforms", "COLMAP_FILES"]
+
+COLMAP_FILES = ("cameras.txt", "images.txt", "points3D.txt")  # the text model, in a folder of its own
 
 # Their pixel coordinates minus OpenCV's: both tools put the first pixel's centre at (0.5, 0.5).
 PIXEL_CENTRE_SHIFT = 0.5
 
 
-def _check(cameras, names, field="names"):
+def _check(cameras, names, field: str, *, one_lens_model: bool):
+    """The cameras (perspective) and one file name per camera, checked; ``one_lens_model``: all fisheye
+    or none (nerfstudio's ``camera_model`` is one per file; COLMAP's is per camera)."""
     from ..scene.camera import Camera
 
     if isinstance(cameras, Camera):
@@ -55,14 +59,73 @@ def _check(cameras, names, field="names"):
         if cam.orthographic:
             raise ValueError(f"cameras[{i}]: orthographic; these formats take perspective cameras")
     fisheye = [c.distorted and c.distortion_model == "fisheye" for c in cameras]
-    if any(fisheye) and not all(fisheye):
-        raise ValueError("cameras: fisheye and pinhole/OpenCV lenses mixed; these formats take one camera model "
-                         "per file")
+    if one_lens_model and any(fisheye) and not all(fisheye):
+        raise ValueError(f"cameras: fisheye (cameras[{fisheye.index(True)}]) and pinhole/OpenCV lenses "
+                         f"(cameras[{fisheye.index(False)}]) mixed; transforms.json takes one camera_model per file")
     if len(names) != len(cameras):
         raise ValueError(f"{field}: expected one per camera ({len(cameras)}), got {len(names)}")
     for i, n in enumerate(names):
         if not isinstance(n, str) or not n or any(c in n for c in "\n\r"):
             raise ValueError(f"{field}[{i}]: expected a file name, got {n!r}")
+    return cameras, names
+
+
+def check_transforms(cameras, file_paths) -> tuple:
+    """The cameras and file paths of a ``transforms.json``, checked before anything is rendered or written.
+
+    Parameters
+    ----------
+    cameras : sequence of Camera
+        Perspective, and all fisheye or none: nerfstudio reads one ``camera_model``
+        for the file (its dataparser takes it from the top level only).
+    file_paths : sequence of str
+        One per camera, each a name on one line.
+
+    Returns
+    -------
+    tuple
+        ``(cameras, file_paths)`` as lists.
+
+    Raises
+    ------
+    TypeError, ValueError
+        Naming ``cameras[i]`` or ``file_paths[i]``.
+    """
+    return _check(cameras, file_paths, "file_paths", one_lens_model=True)
+
+
+def check_colmap(cameras, names) -> tuple:
+    """The cameras and image names of a COLMAP text model, checked before anything is rendered or written.
+
+    Parameters
+    ----------
+    cameras : sequence of Camera
+        Perspective (COLMAP has no orthographic model); each camera's lens is its own
+        (``cameras.txt`` gives a model per line).
+    names : sequence of str
+        One per camera: no whitespace (COLMAP's reader splits ``images.txt``'s lines on
+        spaces, keeping the first word of a name, and other readers on any whitespace)
+        and no repeats (an image is found by its name).
+
+    Returns
+    -------
+    tuple
+        ``(cameras, names)`` as lists.
+
+    Raises
+    ------
+    TypeError, ValueError
+        Naming ``cameras[i]`` or ``names[i]``.
+    """
+    cameras, names = _check(cameras, names, "names", one_lens_model=False)
+    seen = {}
+    for i, n in enumerate(names):
+        if any(c.isspace() for c in n):
+            raise ValueError(f"names[{i}]: {n!r} holds whitespace; COLMAP's images.txt splits its lines on it "
+                             "(a name is one word)")
+        if n in seen:
+            raise ValueError(f"names[{i}]: {n!r} repeats names[{seen[n]}]; COLMAP finds an image by its name")
+        seen[n] = i
     return cameras, names
 
 
@@ -106,7 +169,7 @@ def nerfstudio_transforms(cameras, file_paths) -> dict:
     file_paths : sequence of str
         Each view's image, relative to the ``transforms.json`` folder.
     """
-    cameras, file_paths = _check(cameras, file_paths, "file_paths")
+    cameras, file_paths = check_transforms(cameras, file_paths)
     intr = [_intrinsics(c) for c in cameras]
     shared = all(i == intr[0] for i in intr)
     model = "OPENCV_FISHEYE" if _lens(cameras[0])[0] == "fisheye" else "OPENCV"
@@ -117,12 +180,21 @@ def nerfstudio_transforms(cameras, file_paths) -> dict:
 
 
 def write_transforms(path, cameras, file_paths) -> str:
-    """Write :func:`nerfstudio_transforms` to ``path`` (``.json``), atomically; returns the path."""
-    from .imagefile import atomic_target
+    """Write :func:`nerfstudio_transforms` to ``path`` (``.json``), atomically; returns the path.
+
+    Raises
+    ------
+    TypeError, ValueError
+        Naming the argument, before the file is opened: ``path`` not a ``.json``
+        file that can be written (:func:`~raycast_shade.output.imagefile.check_output_file`),
+        or as :func:`check_transforms`.
+    """
+    from .imagefile import atomic_target, check_output_file
 
     path = as_path(path, "path")
     if not path.lower().endswith(".json"):
         raise ValueError(f"path: {path!r}: expected a .json file")
+    check_output_file(path, "path")
     data = nerfstudio_transforms(cameras, file_paths)
     with atomic_target(path) as tmp, open(tmp, "w") as fh:
         json.dump(data, fh, indent=1)
@@ -162,18 +234,30 @@ def write_colmap(folder, cameras, names) -> list:
     folder : str or path-like
         Created if need be.
     cameras : sequence of Camera
+        Perspective; lenses may differ (one COLMAP camera per distinct one).
     names : sequence of str
-        Each view's image file name (COLMAP's ``NAME``).
+        Each view's image file name (COLMAP's ``NAME``): one word, no repeats
+        (:func:`check_colmap`).
 
     Returns
     -------
     list of str
         The three paths.
-    """
-    from .imagefile import atomic_target
 
-    folder = as_path(folder, "folder")
-    cameras, names = _check(cameras, names)
+    Raises
+    ------
+    TypeError, ValueError
+        Naming the argument, before anything is written: ``folder`` a file or
+        not writable (:func:`~raycast_shade.output.imagefile.check_output_folder`),
+        or one of the three files a folder; or as :func:`check_colmap`.
+    """
+    from .imagefile import atomic_target, check_output_folder
+
+    folder = check_output_folder(folder, "folder")
+    cameras, names = check_colmap(cameras, names)
+    for fname in COLMAP_FILES:
+        if os.path.isdir(os.path.join(folder, fname)):
+            raise ValueError(f"folder: {os.path.join(folder, fname)!r} is a folder; COLMAP's {fname} goes there")
     os.makedirs(folder, exist_ok=True)
     ids, cam_lines, img_lines = {}, [], []
     for i, (cam, name) in enumerate(zip(cameras, names)):

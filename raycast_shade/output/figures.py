@@ -158,6 +158,31 @@ def difference(a, b, *, signed: bool = True, title: str | None = None, width: fl
     return fig
 
 
+def _columns(columns, width: int) -> slice:
+    """``profile``'s ``columns`` as a slice selecting at least one of ``width`` columns, or an error naming it."""
+    if columns is None:
+        return slice(None)
+    if isinstance(columns, slice):
+        bounds = (columns.start, columns.stop, columns.step)
+    elif isinstance(columns, tuple) and len(columns) == 2:
+        bounds = (columns[0], columns[1], None)
+    else:
+        raise TypeError(f"columns: expected a slice or (start, stop), got {columns!r}")
+    if any(b is not None and (isinstance(b, (bool, np.bool_)) or not isinstance(b, (int, np.integer)))
+           for b in bounds):
+        raise TypeError(f"columns: expected integer bounds, got {columns!r}")
+    start, stop, step = bounds
+    if step is not None and step < 1:
+        raise ValueError(f"columns: the step must be >= 1, got {step}")
+    if any(b is not None and not -width <= b <= width for b in (start, stop)):
+        raise ValueError(f"columns: {columns!r} reaches beyond the image, {width} pixels wide")
+    cols = slice(start, stop, step)
+    if not len(range(width)[cols]):
+        raise ValueError(f"columns: {columns!r} selects no column of the image, {width} pixels wide "
+                         "(expected start < stop)")
+    return cols
+
+
 def profile(frame, row: int, *, columns=None, edges: bool = True, title: str | None = None):
     """One image row as a plot of its R, G and B channels (linear).
 
@@ -171,7 +196,9 @@ def profile(frame, row: int, *, columns=None, edges: bool = True, title: str | N
     row : int
         Image row, 0 at the top.
     columns : slice or (start, stop), optional
-        The part of the row to plot; all of it by default.
+        The part of the row to plot; all of it by default. Integer bounds
+        within the image's width (negative ones count from its end), at
+        least one column, and a slice's step ``>= 1``.
     edges : bool
         With a Frame: faint vertical lines where the row crosses from one
         triangle to another.
@@ -187,7 +214,7 @@ def profile(frame, row: int, *, columns=None, edges: bool = True, title: str | N
         title = as_name(title, "title")
     h, w = img.shape[:2]
     row = as_int(row, "row", minimum=0, maximum=h - 1)
-    cols = slice(*columns) if isinstance(columns, tuple) else (columns or slice(None))
+    cols = _columns(columns, w)
     x = np.arange(w)[cols]
     line = img[row, cols]
     fig = _figure("profile", figsize=(7.0, 3.2), layout="constrained")

@@ -29,7 +29,8 @@ import numpy as np
 
 from ..common.choices import EIGHT_BIT_EXTS, LINEAR_EXTS
 
-__all__ = ["LINEAR_EXTS", "EIGHT_BIT_EXTS", "check_image_path", "write_image", "write_png", "write_bytes",
+__all__ = ["LINEAR_EXTS", "EIGHT_BIT_EXTS", "check_image_path", "check_output_file", "check_output_folder",
+           "write_image", "write_png", "write_bytes",
            "atomic_target", "remove_stale_temps", "png_bytes", "png_file", "png_deflate", "HashingWriter",
            "write_hashed"]
 
@@ -73,16 +74,93 @@ def check_image_path(path, field: str = "path", *, writable: bool = False) -> st
     if ext not in EIGHT_BIT_EXTS + LINEAR_EXTS:
         raise ValueError(f"{field}: {name!r}: unknown image format {ext!r}; expected one of {formats}")
     if writable:
-        folder = os.path.dirname(os.path.abspath(name))
-        if os.path.isdir(name):
-            raise ValueError(f"{field}: {name!r} is a folder, not a file")
-        if not os.path.exists(folder):
-            raise ValueError(f"{field}: {name!r}: folder {folder} does not exist")
-        if not os.path.isdir(folder):
-            raise ValueError(f"{field}: {name!r}: {folder} is not a folder")
-        if not os.access(folder, os.W_OK | os.X_OK) or (os.path.exists(name) and not os.access(name, os.W_OK)):
-            raise ValueError(f"{field}: {name!r} cannot be written (no write permission, or a read-only file system)")
+        check_output_file(name, field)
     return ext
+
+
+def _probe(folder: str, field: str, name: str) -> None:
+    """Create and delete an empty file in ``folder``: the one test of writing that holds for root
+    too (``os.access`` grants root everything, and ``/proc`` then refuses the file only when it is
+    opened, after the rendering)."""
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise ValueError(f"{field}: {name!r} cannot be written (no write permission in {folder})")
+    probe = os.path.join(folder, f".raycast_shade-probe-{uuid.uuid4().hex[:12]}")
+    try:
+        fd = os.open(probe, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600)
+    except OSError as exc:
+        raise ValueError(f"{field}: {name!r} cannot be written ({exc.strerror or exc} in {folder})") from None
+    os.close(fd)
+    os.unlink(probe)
+
+
+def check_output_file(path, field: str = "path") -> str:
+    """``path`` as ``str`` if a file can be written there, checked before any work.
+
+    The path is not a folder, its parent is an existing folder in which a file
+    can be created (tried with an empty file, deleted at once), and an existing
+    file at ``path`` allows writing. The extension is the writer's to check
+    (:func:`check_image_path` for images).
+
+    Parameters
+    ----------
+    path : str or path-like
+    field : str
+        Named in the messages.
+
+    Raises
+    ------
+    TypeError
+        Naming ``field``, for a path that is not a string or path-like.
+    ValueError
+        Naming ``field``, for a path that cannot be written.
+    """
+    from ..common.validate import as_path
+
+    name = as_path(path, field)
+    folder = os.path.dirname(os.path.abspath(name))
+    if os.path.isdir(name):
+        raise ValueError(f"{field}: {name!r} is a folder, not a file")
+    if not os.path.exists(folder):
+        raise ValueError(f"{field}: {name!r}: folder {folder} does not exist")
+    if not os.path.isdir(folder):
+        raise ValueError(f"{field}: {name!r}: {folder} is not a folder")
+    if os.path.exists(name) and not os.access(name, os.W_OK):
+        raise ValueError(f"{field}: {name!r} cannot be written (a read-only file)")
+    _probe(folder, field, name)
+    return name
+
+
+def check_output_folder(path, field: str = "folder") -> str:
+    """``path`` as ``str`` if it is, or can be made, a folder that files can be written in.
+
+    An existing ``path`` must be a folder; otherwise its nearest existing
+    ancestor must be one (:func:`os.makedirs` makes the rest). Writing is
+    tried in that folder with an empty file, deleted at once.
+
+    Parameters
+    ----------
+    path : str or path-like
+    field : str
+        Named in the messages.
+
+    Raises
+    ------
+    TypeError
+        Naming ``field``, for a path that is not a string or path-like.
+    ValueError
+        Naming ``field``, for a file in the way or a folder that cannot be written.
+    """
+    from ..common.validate import as_path
+
+    name = as_path(path, field)
+    folder = os.path.abspath(name)
+    while not os.path.isdir(folder):
+        if os.path.lexists(folder):
+            what = "is a file" if folder == os.path.abspath(name) else f"cannot be made: {folder} is a file"
+            raise ValueError(f"{field}: {name!r} {what}, not a folder")
+        folder = os.path.dirname(folder)
+    _probe(folder, field, name)
+    return name
 
 
 @contextlib.contextmanager
@@ -159,7 +237,9 @@ def write_hashed(path, fill, hasher, *, atomic: bool = True) -> tuple:
     tuple
         ``(size in bytes, hasher.hexdigest())``: what :mod:`hashlib` gives over the whole file.
     """
-    target = atomic_target(path) if atomic else contextlib.nullcontext(os.fspath(path))
+    from ..common.validate import as_bool
+
+    target = atomic_target(path) if as_bool(atomic, "atomic") else contextlib.nullcontext(os.fspath(path))
     with target as tmp, open(tmp, "wb") as fh:
         sink = HashingWriter(fh, hasher)
         fill(sink)
@@ -219,7 +299,7 @@ def write_image(path, image, *, atomic: bool = False, fast: bool = False, **tone
     path = os.fspath(path)
     check_image_path(path)
     fast = as_bool(fast, "fast")
-    if atomic:
+    if as_bool(atomic, "atomic"):
         with atomic_target(path) as tmp:
             _write(tmp, image, tone, fast)
     else:
@@ -272,8 +352,10 @@ def write_png(path, image, *, fast: bool = False, atomic: bool = False) -> str:
 
 def write_bytes(path, data, *, atomic: bool = False) -> str:
     """Write the bytes ``data`` to ``path``, through :func:`atomic_target` if ``atomic``; returns ``path``."""
+    from ..common.validate import as_bool
+
     path = os.fspath(path)
-    target = atomic_target(path) if atomic else contextlib.nullcontext(path)
+    target = atomic_target(path) if as_bool(atomic, "atomic") else contextlib.nullcontext(path)
     with target as tmp, open(tmp, "wb") as fh:
         fh.write(data)
     return path

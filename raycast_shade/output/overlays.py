@@ -36,7 +36,7 @@ from numba import njit
 
 from ..common.parallel import KERNEL, in_parts, share
 from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH
-from ..common.validate import as_rgb, as_scalar
+from ..common.validate import as_array, as_bool, as_rgb, as_scalar
 from ..visibility.rays import camera_frame
 from .display import ImageArray
 
@@ -253,8 +253,8 @@ def overlay(frame, wireframe: bool = True, vertices: bool = False, normals: bool
     length : float, optional
         Normal glyph length in world units.
     image : (H, W, 3) float, optional
-        The picture to draw on; ``frame.image`` by default (pass an earlier
-        overlay's result to layer colours).
+        The picture to draw on, linear: finite and ``>= 0``; ``frame.image``
+        by default (pass an earlier overlay's result to layer colours).
 
     Returns
     -------
@@ -262,16 +262,30 @@ def overlay(frame, wireframe: bool = True, vertices: bool = False, normals: bool
         A new linear image: an ndarray that a notebook shows as its picture
         (:class:`~raycast_shade.output.display.ImageArray`, tone-mapped with the
         frame's tone options, pixels upscaled as squares; ``.show(scale=...)``).
+
+    Raises
+    ------
+    TypeError, ValueError
+        Naming the argument: ``image`` (or ``frame.image``) not numbers, of
+        another shape, NaN, infinite or negative; a bad ``width``, ``radius``,
+        ``length`` or ``color``.
     """
     _geometry(frame)
+    wireframe, vertices, normals = (as_bool(v, n) for v, n in ((wireframe, "wireframe"), (vertices, "vertices"),
+                                                               (normals, "normals")))
     width = as_scalar(width, "width", minimum=0.0, exclusive=True)
     radius = width if radius is None else as_scalar(radius, "radius", minimum=0.0, exclusive=True)
     if length is not None:  # checked even when no normals are drawn: a bad value is never ignored
         as_scalar(length, "length", minimum=0.0, exclusive=True)
     rgb = as_rgb(color, "color").astype(np.float32)
-    out = np.array(frame.image if image is None else image, np.float32)
+    field = "frame.image" if image is None else "image"
+    # A linear image: NaN or a negative value would pass through to the tone map unseen.
+    out = as_array(frame.image if image is None else image, field, dtype=np.float32, copy=True)
     if out.shape != frame.image.shape:
-        raise ValueError(f"image: expected shape {frame.image.shape}, got {out.shape}")
+        raise ValueError(f"{field}: expected shape {frame.image.shape}, got {out.shape}")
+    if np.any(out < 0.0):
+        bad = tuple(int(i) for i in np.argwhere(out < 0.0)[0])
+        raise ValueError(f"{field}: a linear image, >= 0; got {float(out[bad]):g} at index {bad}")
     mask = np.zeros(frame.hits.shape, np.bool_)
     if wireframe or vertices:
         edge, corner = distances(frame)

@@ -10,7 +10,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..common.validate import as_array, as_choice, as_name, as_scalar, pow2_scaled
+from ..common.validate import as_array, as_bool, as_choice, as_name, as_scalar, pow2_scaled
 from ..common.warnings import CreaseWarning, DroppedOnLoadWarning, ZeroNormalWarning
 from .normals import WEIGHTINGS, WindingWarning, face_normals, reversed_duplicates, vertex_normals, winding_conflicts
 from .pitfalls import SHARP_DEGREES, sharp_edges
@@ -173,6 +173,8 @@ class Mesh:
         """
         import trimesh
 
+        use_normals = use_normals_flag(use_normals)
+        srgb_colors = as_bool(srgb_colors, "srgb_colors")
         dropped = []
         if isinstance(tm, trimesh.Trimesh):
             instances = [(tm, np.eye(4))]
@@ -235,6 +237,8 @@ class Mesh:
             When the file is missing, unreadable or holds no triangles, or
             when vertices are not finite (trimesh would drop their faces).
         """
+        if "use_normals" in kwargs:  # checked before the file is read
+            kwargs["use_normals"] = use_normals_flag(kwargs["use_normals"])
         tm, srgb = read_trimesh(path, merge)
         kwargs.setdefault("name", os.path.basename(os.fspath(path)))
         meshes = tm.geometry.values() if _is_scene(tm) else [tm]
@@ -329,6 +333,11 @@ def _is_scene(tm) -> bool:
     return isinstance(tm, trimesh.Scene)
 
 
+def use_normals_flag(value):
+    """``use_normals`` checked: None (the file decides), True or False; never 0, 1 or a string."""
+    return None if value is None else as_bool(value, "use_normals")
+
+
 def read_trimesh(path, merge: bool = False, *, checked: bool = False):
     """``trimesh.load`` a file, keeping its vertices as written.
 
@@ -352,6 +361,7 @@ def read_trimesh(path, merge: bool = False, *, checked: bool = False):
 
     from .filecheck import check_face_indices, check_mesh_file, locate_bad_index
 
+    merge = as_bool(merge, "merge")
     path = os.fspath(path)
     if not checked:
         check_mesh_file(path)

@@ -37,12 +37,13 @@ import warnings
 
 import numpy as np
 
+from ..common.validate import as_bool
 from ..common.warnings import DroppedOnLoadWarning
 from .filecheck import check_mesh_file
 from .gltftangents import primitive_tangents
 from .filematerial import FileContext, Wrapped, from_mtl_cached, from_pbr, from_simple, is_placeholder
 from .material import Material
-from .mesh import Mesh, _instance, _is_scene, read_trimesh, visual_colors
+from .mesh import Mesh, _instance, _is_scene, read_trimesh, use_normals_flag, visual_colors
 from .normals import reversed_duplicates
 from .scene import Model
 from .texture import srgb_to_linear
@@ -151,6 +152,9 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, *
 
     Raises
     ------
+    TypeError
+        ``merge`` or ``use_normals`` not a bool (``"no"`` and 0 are refused, not
+        read as flags), before the file is read.
     ValueError
         A missing or unreadable file, or a value the file gives that is not
         valid (naming the file and line, e.g. ``a.mtl:3: Kd abc``).
@@ -164,6 +168,7 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, *
     """
     import trimesh
 
+    merge, use_normals = as_bool(merge, "merge"), use_normals_flag(use_normals)
     path = os.fspath(path)
     base = mesh_kwargs.pop("name", os.path.basename(path))
     # The file's own references and values first: a bad value is named before trimesh trips on it.

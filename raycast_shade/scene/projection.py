@@ -200,6 +200,10 @@ def projection_matrix(camera, near, far) -> np.ndarray:
     return P
 
 
+# The OpenCV field each error of opencv_kwargs names, as the OpenGL argument it was read from.
+_GL_FIELDS = {"K": "projection", "R": "view", "t": "view"}
+
+
 def opengl_kwargs(view, projection, width, height) -> dict:
     """Camera keyword arguments from OpenGL view and projection matrices
     (the inverse of :func:`view_matrix` and :func:`projection_matrix`).
@@ -226,8 +230,20 @@ def opengl_kwargs(view, projection, width, height) -> dict:
     else:
         raise ValueError(f"projection: last row must be [0, 0, -1, 0] (perspective) or [0, 0, 0, 1] "
                          f"(orthographic), got {P[3].tolist()}")
-    K = [[P[0, 0] * w / 2.0, 0.0, cxg - 0.5], [0.0, P[1, 1] * h / 2.0, cyg - 0.5], [0.0, 0.0, 1.0]]
-    return opencv_kwargs(K, GL_FROM_CV @ V[:3, :3], GL_FROM_CV @ V[:3, 3], kind)
+    if not (P[0, 0] > 0.0 and P[1, 1] > 0.0):
+        raise ValueError(f"projection: P[0, 0] and P[1, 1] (the focal terms) must be > 0, got {P[0, 0]} and {P[1, 1]}")
+    rotation = V[:3, :3]  # R up to the axis flip GL_FROM_CV (det +1): the same tests, named as the caller knows it
+    if not np.allclose(rotation @ rotation.T, np.eye(3), rtol=0.0, atol=1e-6):
+        raise ValueError("view: the rotation view[:3, :3] is not orthonormal (to 1e-6)")
+    if not np.linalg.det(rotation) > 0.0:
+        raise ValueError("view: view[:3, :3] is a reflection (det < 0); expected a rotation")
+    with np.errstate(over="ignore"):  # an overflow to inf is refused below, naming projection
+        K = [[P[0, 0] * w / 2.0, 0.0, cxg - 0.5], [0.0, P[1, 1] * h / 2.0, cyg - 0.5], [0.0, 0.0, 1.0]]
+    try:
+        return opencv_kwargs(K, GL_FROM_CV @ rotation, GL_FROM_CV @ V[:3, 3], kind)
+    except ValueError as exc:  # what remains (K overflowing to inf, say): K is read from projection, R, t from view
+        field, _, rest = str(exc).partition(": ")
+        raise ValueError(f"{_GL_FIELDS.get(field, field)}: {rest}") from None
 
 
 def distort_normalised(camera, x, y):

@@ -263,6 +263,47 @@ def test_bad_arguments(capsys, scene_file, argv, fragment):
     assert_one_line_error(*run(capsys, *argv), fragment)
 
 
+@pytest.mark.parametrize("output, fragment", [
+    ("/proc/x.png", "output: '/proc/x.png' cannot be written"),   # a folder that refuses new files, even root's
+    ("FOLDER/shelf.png", "shelf.png' is a folder, not a file"),
+    ("FOLDER/x.tiff2", "unknown image format '.tiff2'"),
+    ("FILE/x.png", "is not a folder"),
+])
+def test_render_refuses_an_unwritable_output_before_rendering(capsys, tmp_path, scene_file, monkeypatch, output,
+                                                               fragment):
+    def no_render(*args, **kwargs):
+        raise AssertionError("rendered")
+
+    # The module, not the function raycast_shade.render that the package's attribute of that name is.
+    monkeypatch.setattr(sys.modules["raycast_shade.render"], "render_file", no_render)
+    (tmp_path / "file").write_text("mine")
+    (tmp_path / "shelf.png").mkdir()
+    scene = scene_file()
+    output = output.replace("FOLDER", str(tmp_path)).replace("FILE", str(tmp_path / "file"))
+    before = sorted(p.name for p in tmp_path.iterdir())
+    assert_one_line_error(*run(capsys, "render", scene, "-o", output), fragment)
+    assert sorted(p.name for p in tmp_path.iterdir()) == before
+
+
+@pytest.mark.parametrize("output, fragment", [
+    ("/proc/set", "out_dir: '/proc/set' cannot be written"),
+    ("FILE", "is a file, not a folder"),
+    ("FILE/set", "cannot be made: "),
+])
+def test_views_refuse_an_unwritable_output_folder_before_rendering(capsys, tmp_path, monkeypatch, output, fragment):
+    import raycast_shade.apps.views as views
+
+    def no_render(*args, **kwargs):
+        raise AssertionError("rendered")
+
+    monkeypatch.setattr(views, "render", no_render)
+    (tmp_path / "file").write_text("mine")
+    output = output.replace("FILE", str(tmp_path / "file"))
+    assert_one_line_error(*run(capsys, "views", EXAMPLES / "shapes.toml", "--orbit", "2", "--width", "16",
+                               "--height", "12", "-o", output), fragment)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["file"] and (tmp_path / "file").read_text() == "mine"
+
+
 # -- info, help -----------------------------------------------------------------------
 
 

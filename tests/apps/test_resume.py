@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 
 import numpy as np
 import pytest
@@ -19,6 +20,7 @@ import raycast_shade as rs
 import raycast_shade.apps.views as views
 from raycast_shade.apps.animate import orbit_cameras
 from raycast_shade.apps.cli import main
+from raycast_shade.apps.viewplan import PLAN_FORMAT
 from raycast_shade.apps.views import INDEX_NAME, PLAN_NAME, render_views
 from raycast_shade.output.bufferfile import load_npz
 
@@ -194,6 +196,54 @@ def test_an_unreadable_plan_is_refused(scene, tmp_path):
     (tmp_path / PLAN_NAME).write_text("{not json")
     with pytest.raises(ValueError, match="plan.json cannot be read"):
         render_views(scene, orbit_cameras(scene.camera, 2), tmp_path, files=rs.ViewFiles(buffers=["zdepth"]))
+
+
+@pytest.mark.parametrize("edit, fragment", [
+    (lambda plan: [plan], "plan.json holds a JSON list, not an object"),
+    (lambda plan: {**plan, "format": "mine"}, 'plan.json has format "mine"'),
+    (lambda plan: {**plan, "settings": [["buffers", "zdepth"]]}, "plan.json's 'settings' is not a JSON object"),
+    (lambda plan: {**plan, "views": {"0": plan["views"][0]}}, "plan.json's 'views' is not a JSON list"),
+    (lambda plan: {**plan, "views": [plan["views"][0], 7]}, "plan.json's views[1] is not a JSON object"),
+    (lambda plan: {**plan, "views": [{**v, "camera": "edited"} for v in plan["views"]]},
+     "the camera of 2 of the 2 shared views differs"),
+])
+def test_a_plan_edited_by_hand_is_refused_saying_what_is_wrong(scene, tmp_path, counted, edit, fragment):
+    cams, files = orbit_cameras(scene.camera, 2), rs.ViewFiles(buffers=["zdepth"])
+    render_views(scene, cams, tmp_path, files=files)
+    plan = json.load(open(tmp_path / PLAN_NAME))
+    (tmp_path / PLAN_NAME).write_text(json.dumps(edit(plan)))
+    before, counted[:] = _stamps(tmp_path), []
+    with pytest.raises(ValueError, match="out_dir: .* holds another view set: " + re.escape(fragment)):
+        render_views(scene, cams, tmp_path, files=files)
+    assert counted == [] and _stamps(tmp_path) == before  # nothing rendered, nothing written
+    render_views(scene, cams, tmp_path, files=files, overwrite=True)  # replaced on request
+    assert json.load(open(tmp_path / PLAN_NAME)) == plan
+
+
+def test_a_deleted_plan_or_a_folder_in_its_place_is_refused_before_any_view(scene, tmp_path, counted):
+    cams, files = orbit_cameras(scene.camera, 2), rs.ViewFiles(buffers=["zdepth"])
+    render_views(scene, cams, tmp_path, files=files)
+    (tmp_path / PLAN_NAME).unlink()
+    before, counted[:] = _stamps(tmp_path), []
+    with pytest.raises(ValueError, match="out_dir: .*but no plan.json \\(deleted\\?\\)"):
+        render_views(scene, cams, tmp_path, files=files)
+    (tmp_path / PLAN_NAME).mkdir()
+    before = _stamps(tmp_path)
+    with pytest.raises(ValueError, match="out_dir: .*plan.json' is a folder where the view set writes a file"):
+        render_views(scene, cams, tmp_path, files=files, overwrite=True)
+    assert counted == [] and _stamps(tmp_path) == before  # even with overwrite: no view file deleted
+
+
+def test_cli_names_an_edited_plan_in_one_line(tmp_path, capsys):
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    args = ["views", os.path.join(root, "examples", "shapes.toml"), "--buffers", "zdepth", "--width", "16",
+            "--height", "12", "--orbit", "2", "-o", str(tmp_path)]
+    assert main(args) == 0
+    (tmp_path / PLAN_NAME).write_text(json.dumps({"format": PLAN_FORMAT, "settings": [], "views": []}))
+    capsys.readouterr()
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "plan.json's 'settings' is not a JSON object" in err and "Traceback" not in err
 
 
 def test_a_huge_third_camera_is_refused_before_anything_is_written(scene, tmp_path, counted):

@@ -5,6 +5,7 @@ never numbers. Every refusal names the field and happens before a file is create
 
 from __future__ import annotations
 
+import hashlib
 import os
 
 import cv2
@@ -13,6 +14,7 @@ import pytest
 
 import raycast_shade as rs
 from raycast_shade.output.bufferfile import load_npz, read_exr, save_npz, write_depth_png, write_exr
+from raycast_shade.output.imagefile import write_hashed, write_image, write_png
 
 H, W = 4, 5
 Z = np.ones((H, W), np.float32)
@@ -132,3 +134,21 @@ def test_booleans_are_never_taken_as_t():
     with pytest.raises(TypeError, match="t: expected numbers, got booleans"):
         rs.Camera.from_opencv(np.array([[80.0, 0, 31.5], [0, 80.0, 23.5], [0, 0, 1]]), np.eye(3),
                               [True, False, True], 64, 48)
+
+
+@pytest.mark.parametrize("value", ["no", "False", None, 0, 1, np.int64(1), [True]])
+@pytest.mark.parametrize("writer, name", [
+    (lambda p, v: save_npz(p / "a.npz", {"zdepth": Z}, atomic=v), "a.npz"),
+    (lambda p, v: write_exr(p / "a.exr", {"zdepth": Z}, atomic=v), "a.exr"),
+    (lambda p, v: write_depth_png(p / "a.png", Z, atomic=v), "a.png"),
+    (lambda p, v: write_image(p / "a.png", np.zeros((H, W, 3)), atomic=v), "a.png"),
+    (lambda p, v: write_png(p / "a.png", np.zeros((H, W), np.uint8), atomic=v), "a.png"),
+    (lambda p, v: write_hashed(p / "a.bin", lambda fh: fh.write(b"x"), hashlib.sha256(),
+                                                  atomic=v), "a.bin"),
+])
+def test_atomic_must_be_a_bool_not_a_truthy_value(tmp_path, writer, name, value):
+    with pytest.raises(TypeError, match="atomic: expected True or False"):
+        writer(tmp_path, value)
+    _nothing_written(tmp_path)
+    writer(tmp_path, np.True_)  # NumPy's bool is a bool
+    assert os.listdir(tmp_path) == [name]

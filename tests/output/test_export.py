@@ -9,6 +9,7 @@ principal point as is) is off by half a pixel, which the same checks see.
 from __future__ import annotations
 
 import json
+import os
 
 import numpy as np
 import pycolmap
@@ -219,8 +220,100 @@ def test_distorted_cameras_export_with_their_lens(tmp_path, model):
         assert np.abs(uv.reshape(-1, 2) - 0.5 - _pixel_rays(cam)[1][ok]).max() < TOL_PX
 
 
-def test_fisheye_and_other_lenses_do_not_mix_in_one_file(tmp_path):
+def test_fisheye_and_other_lenses_mix_in_colmap_but_not_in_one_transforms_json(tmp_path):
+    # nerfstudio's dataparser reads camera_model from the top of the file only; COLMAP gives one per camera.
     a = rs.Camera.from_opencv(_cameras()[1].K, np.eye(3), [0, 0, 4], W, H, dist=[0.1, 0, 0, 0], fisheye=True)
     b = rs.Camera.from_opencv(_cameras()[1].K, np.eye(3), [0, 0, 4], W, H, dist=[0.1, 0, 0, 0])
-    with pytest.raises(ValueError, match="fisheye and pinhole/OpenCV lenses mixed"):
-        write_colmap(tmp_path, [a, b], ["a.png", "b.png"])
+    with pytest.raises(ValueError, match="fisheye \\(cameras\\[0\\]\\) and pinhole/OpenCV lenses \\(cameras\\[1\\]\\)"):
+        write_transforms(tmp_path / "t.json", [a, b, a], ["a.png", "b.png", "c.png"])
+    assert not (tmp_path / "t.json").exists()
+    write_colmap(tmp_path, [a, b], ["a.png", "b.png"])
+    rec = pycolmap.Reconstruction(str(tmp_path))
+    assert [rec.images[i].camera.model_name for i in (1, 2)] == ["OPENCV_FISHEYE", "OPENCV"]
+
+
+@pytest.mark.parametrize("names, match", [
+    (["a b.png", "c.png"], "names\\[0\\]: 'a b.png' holds whitespace"),
+    (["a.png", "c\td.png"], "names\\[1\\]: 'c\\\\td.png' holds whitespace"),
+    (["a.png", "c\u00a0d.png"], "names\\[1\\]: .* holds whitespace"),
+    (["a.png", "a.png"], "names\\[1\\]: 'a.png' repeats names\\[0\\]"),
+])
+def test_colmap_names_with_whitespace_or_repeats_are_refused_before_any_file(tmp_path, names, match):
+    cams = _cameras()[:2]
+    with pytest.raises(ValueError, match=match):
+        write_colmap(tmp_path / "model", cams, names)
+    assert not (tmp_path / "model").exists()
+
+
+def test_valid_colmap_names_round_trip_through_pycolmap(tmp_path):
+    names = ["view-1_a.png", "sub/dir/view.2.png", "ünïcode_名前.jpg", "UPPER.PNG"]
+    write_colmap(tmp_path, _cameras()[:4], names)
+    rec = pycolmap.Reconstruction(str(tmp_path))
+    assert [rec.images[i + 1].name for i in range(4)] == names
+
+
+def test_export_targets_in_the_way_are_refused_naming_them(tmp_path):
+    cams = _cameras()[:2]
+    (tmp_path / "file").write_text("mine")
+    with pytest.raises(ValueError, match="folder: .*file' is a file, not a folder"):
+        write_colmap(tmp_path / "file", cams, ["a.png", "b.png"])
+    with pytest.raises(ValueError, match="folder: .*file/model' cannot be made: .*file is a file"):
+        write_colmap(tmp_path / "file" / "model", cams, ["a.png", "b.png"])
+    (tmp_path / "m" / "images.txt").mkdir(parents=True)
+    with pytest.raises(ValueError, match="folder: .*images.txt' is a folder; COLMAP's images.txt goes there"):
+        write_colmap(tmp_path / "m", cams, ["a.png", "b.png"])
+    assert sorted(os.listdir(tmp_path / "m")) == ["images.txt"] and (tmp_path / "file").read_text() == "mine"
+    (tmp_path / "t.json").mkdir()
+    with pytest.raises(ValueError, match="path: .*t.json' is a folder, not a file"):
+        write_transforms(tmp_path / "t.json", cams, ["a.png", "b.png"])
+    with pytest.raises(ValueError, match="path: .*/proc/t.json' cannot be written"):
+        write_transforms("/proc/t.json", cams, ["a.png", "b.png"])
+
+
+@pytest.fixture
+def no_render(monkeypatch):
+    """render_views' render fails the test if called: what is refused is refused before any view."""
+    import raycast_shade.apps.views as views
+
+    def render(*args, **kwargs):
+        raise AssertionError("a view was rendered")
+
+    monkeypatch.setattr(views, "render", render)
+
+
+def _export_scene():
+    return rs.Scene([rs.Model(rs.shapes.icosphere(1))], lights=[rs.PointLight((2, 3, 4), intensity=20)],
+                    camera=rs.Camera(eye=(0.3, 0.5, 4.0), width=W, height=H))
+
+
+def test_views_refuse_cameras_an_export_cannot_say_before_any_view(tmp_path, no_render):
+    scene = _export_scene()
+    cams = orbit_cameras(scene.camera, 3)
+    fish = rs.Camera.from_opencv(cams[2].K, *cams[2].to_opencv()[1:], W, H, dist=[0.1, 0, 0, 0], fisheye=True)
+    files = rs.ViewFiles(buffers=["zdepth"])
+    with pytest.raises(ValueError, match="exports: 'nerfstudio' cannot be written: cameras: fisheye \\(cameras\\[2\\]\\)"):
+        render_views(scene, [cams[0], cams[1], fish], tmp_path / "a", files=files, exports="nerfstudio")
+    ortho = [c.replace(projection="orthographic") if i == 1 else c for i, c in enumerate(cams)]
+    with pytest.raises(ValueError, match="exports: 'colmap' cannot be written: cameras\\[1\\]: orthographic"):
+        render_views(scene, ortho, tmp_path / "a", files=files, exports=["coco", "colmap"])
+    assert not (tmp_path / "a").exists()
+
+
+def test_views_refuse_a_file_where_an_export_goes_before_any_view(tmp_path, no_render):
+    scene = _export_scene()
+    cams = orbit_cameras(scene.camera, 2)
+    files = rs.ViewFiles(buffers=["zdepth"])
+    (tmp_path / "colmap").write_text("mine")
+    with pytest.raises(ValueError, match="exports: 'colmap' writes the folder .*colmap', but a file is there"):
+        render_views(scene, cams, tmp_path, files=files, exports="colmap")
+    (tmp_path / "colmap").unlink()
+    (tmp_path / "transforms.json").mkdir()
+    with pytest.raises(ValueError, match="out_dir: .*transforms.json' is a folder where the view set writes a file"):
+        render_views(scene, cams, tmp_path, files=files, exports="nerfstudio")
+    (tmp_path / "transforms.json").rmdir()
+    (tmp_path / "view_00001.npz").mkdir()
+    with pytest.raises(ValueError, match="out_dir: .*view_00001.npz' is a folder"):
+        render_views(scene, cams, tmp_path, files=files)
+    assert sorted(os.listdir(tmp_path)) == ["view_00001.npz"]  # no plan.json, no view file
+    with pytest.raises(ValueError, match="out_dir: '/proc/set' cannot be written"):
+        render_views(scene, cams, "/proc/set", files=files)

@@ -104,6 +104,36 @@ def test_profile_plots_each_channel_of_the_row(frame):
         rs.figures.profile(frame, 48)
 
 
+@pytest.mark.parametrize("columns, error, match", [
+    ((40, 10), ValueError, "columns: \\(40, 10\\) selects no column of the image, 64 pixels wide"),
+    ((10, 10), ValueError, "selects no column of the image, 64 pixels wide"),
+    ((0, 100), ValueError, "columns: \\(0, 100\\) reaches beyond the image, 64 pixels wide"),
+    (slice(70, None), ValueError, "reaches beyond the image, 64 pixels wide"),
+    (slice(0, 10, -1), ValueError, "columns: the step must be >= 1"),
+    ((0.5, 10), TypeError, "columns: expected integer bounds"),
+    ((True, 10), TypeError, "columns: expected integer bounds"),
+    ([0, 10], TypeError, "columns: expected a slice or \\(start, stop\\)"),
+    ((1, 2, 3), TypeError, "columns: expected a slice or \\(start, stop\\)"),
+])
+def test_profile_refuses_columns_outside_the_row_naming_them_and_the_width(frame, columns, error, match):
+    pytest.importorskip("matplotlib")
+    with pytest.raises(error, match=match):
+        rs.figures.profile(frame, 24, columns=columns)
+
+
+@pytest.mark.parametrize("columns, expect", [((10, 20), np.arange(10, 20)), ((-4, None), np.arange(60, 64)),
+                                             (slice(0, 64, 8), np.arange(0, 64, 8)), (np.int64(5), None)])
+def test_profile_takes_columns_within_the_row(frame, columns, expect):
+    pytest.importorskip("matplotlib")
+    if expect is None:  # a lone number is not a range of columns
+        with pytest.raises(TypeError, match="columns"):
+            rs.figures.profile(frame, 24, columns=columns)
+        return
+    (ax,) = rs.figures.profile(frame, 24, columns=columns).axes
+    np.testing.assert_array_equal(ax.lines[0].get_xdata(), expect)
+    np.testing.assert_array_equal(ax.lines[0].get_ydata(), frame.image[24, expect, 0])
+
+
 def test_missing_matplotlib_names_the_notebook_extra(frame, monkeypatch):
     monkeypatch.setitem(sys.modules, "matplotlib.figure", None)  # makes the import fail
     from raycast_shade.common.extras import MissingExtraError
@@ -235,6 +265,23 @@ def test_overlay_rejects_bad_arguments(frame):
         frame.overlay(color=(1, 2))
     with pytest.raises(ValueError, match="image: expected shape"):
         frame.overlay(image=np.zeros((2, 2, 3)))
+
+
+@pytest.mark.parametrize("value, error, match", [
+    (np.nan, ValueError, "image: non-finite value at index \\(3, 4, 1\\)"),
+    (np.inf, ValueError, "image: non-finite value at index \\(3, 4, 1\\)"),
+    (-0.25, ValueError, "image: a linear image, >= 0; got -0.25 at index \\(3, 4, 1\\)"),
+])
+def test_overlay_refuses_nan_or_negative_images_naming_them(frame, value, error, match):
+    image = frame.image.copy()
+    image[3, 4, 1] = value
+    with pytest.raises(error, match=match):
+        frame.overlay(image=image)
+    with pytest.raises(TypeError, match="image: expected numbers"):
+        frame.overlay(image=np.full(frame.image.shape, "x"))
+    with pytest.raises(TypeError, match="wireframe: expected True or False"):
+        frame.overlay(wireframe="no")
+    assert np.all(frame.overlay(image=np.zeros_like(frame.image), wireframe=False) == 0.0)  # a dark picture
 
 
 # -- warnings for silent pitfalls ---------------------------------------------------------------------------

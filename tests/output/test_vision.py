@@ -6,6 +6,8 @@ z-depth against closed forms, the matrices by round trips.
 
 from __future__ import annotations
 
+import warnings
+
 import cv2
 import numpy as np
 import pytest
@@ -270,6 +272,30 @@ def test_bad_matrices_are_named():
         cam.projection_matrix(0.0, 10.0)
     with pytest.raises(ValueError, match="projection: last row"):
         rs.Camera.from_opengl(cam.view_matrix(), np.eye(4) * 2, W, H)
+
+
+def _edited(matrix, **cells):
+    out = matrix.copy()
+    for key, value in cells.items():
+        out[int(key[1]), int(key[2])] = value
+    return out
+
+
+@pytest.mark.parametrize("edit, match", [
+    (lambda V, P: (V * np.array([[2.0], [2.0], [2.0], [1.0]]), P), "view: the rotation view\\[:3, :3\\] is not orthonormal"),
+    (lambda V, P: (np.diag([1.0, 1.0, -1.0, 1.0]) @ V, P), "view: view\\[:3, :3\\] is a reflection"),
+    (lambda V, P: (V, _edited(P, m00=-P[0, 0])), "projection: P\\[0, 0\\] and P\\[1, 1\\] .* must be > 0"),
+    (lambda V, P: (V, _edited(P, m11=0.0)), "projection: P\\[0, 0\\] and P\\[1, 1\\] .* must be > 0"),
+    (lambda V, P: (V, _edited(P, m00=1e308)), "projection: must be finite"),  # K = P * width / 2 overflows
+])
+def test_from_opengl_names_view_and_projection_not_r_and_k(edit, match):
+    cam = rs.Camera.from_opencv(INTRINSICS[0], np.eye(3), [0.0, 0.0, 4.0], W, H)
+    view, projection = edit(cam.view_matrix(), cam.projection_matrix(0.1, 10.0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no overflow warning on the way
+        with pytest.raises(ValueError, match=match) as info:
+            rs.Camera.from_opengl(view, projection, W, H)
+    assert not str(info.value).startswith(("K:", "R:", "t:"))
 
 
 def test_buffer_files_round_trip(sphere, tmp_path):

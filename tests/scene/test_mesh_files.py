@@ -302,3 +302,26 @@ def test_a_duplicate_vertex_in_a_ply_is_kept_unless_merging_is_asked(tmp_path):
     trimesh.Trimesh(v, f, process=False).export(tmp_path / "d.ply")
     assert len(rs.Mesh.load(tmp_path / "d.ply").vertices) == 9
     assert len(rs.Mesh.load(tmp_path / "d.ply", merge=True).vertices) == 8
+
+
+@pytest.mark.parametrize("value", ["no", "false", 0, 1, [False]])
+@pytest.mark.parametrize("call, name", [
+    (lambda p, tm, v: rs.load_models(p, merge=v), "merge"),
+    (lambda p, tm, v: rs.load_models(p, use_normals=v), "use_normals"),
+    (lambda p, tm, v: rs.Mesh.load(p, merge=v), "merge"),
+    (lambda p, tm, v: rs.Mesh.load(p, use_normals=v), "use_normals"),
+    (lambda p, tm, v: rs.Mesh.from_trimesh(tm, use_normals=v), "use_normals"),
+    (lambda p, tm, v: rs.Mesh.from_trimesh(tm, srgb_colors=v), "srgb_colors"),
+])
+def test_flags_of_the_loaders_must_be_bools_not_truthy_values(tmp_path, monkeypatch, call, name, value):
+    path = tmp_path / "d.ply"
+    trimesh.creation.box().export(path)
+    tm = trimesh.load(path, process=False)
+    real, reads = trimesh.load, []
+    monkeypatch.setattr(trimesh, "load", lambda *a, **k: reads.append(a) or real(*a, **k))
+    with pytest.raises(TypeError, match=f"{name}: expected True or False, got {type(value).__name__}"):
+        call(path, tm, value)
+    assert reads == []  # refused before the file is read
+    flag = None if name == "use_normals" else np.False_  # None: the file decides; NumPy's bool is a bool
+    out = call(path, tm, flag)
+    assert len(out[0].mesh.faces if isinstance(out, list) else out.faces) == 12
