@@ -36,9 +36,10 @@ from .shading.normals import shading_normals
 from .shading.shade import SHADINGS, shade
 from .output.tonemap import read_pfm, to_uint8, write_pfm
 from .common.version import __version__
-from .common.warnings import (BumpIgnoredWarning, ColourRangeWarning, CreaseWarning, DroppedOnLoadWarning,
-                              EmptyViewWarning, LightInsideWarning, NoLightsWarning, ShadingWarning,
-                              SingleSidedWarning, ZeroNormalWarning)
+from .common.warnings import (AllMaskedWarning, BumpIgnoredWarning, ColourRangeWarning, CreaseWarning,
+                              DroppedOnLoadWarning, EmptyViewWarning, LensFoldWarning, LightInsideWarning,
+                              NoLightsWarning, NormalMapWarning, ShadingWarning, SingleSidedWarning,
+                              ZeroNormalWarning)
 
 
 __all__ = [
@@ -47,6 +48,7 @@ __all__ = [
     "WindingWarning", "winding_conflicts",
     "ShadingWarning", "BumpIgnoredWarning", "ColourRangeWarning", "CreaseWarning", "DroppedOnLoadWarning",
     "LightInsideWarning", "NoLightsWarning", "ZeroNormalWarning", "EmptyViewWarning", "SingleSidedWarning",
+    "AllMaskedWarning", "NormalMapWarning", "LensFoldWarning",
     "figures", "overlays",
     "explain", "explore", "render_views", "ViewFiles", "RunOptions", "diagnose", "warmup", "animate_light",
     "animate_orbit",

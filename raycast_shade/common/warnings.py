@@ -20,6 +20,7 @@ from __future__ import annotations
 __all__ = [
     "ShadingWarning", "BumpIgnoredWarning", "ColourRangeWarning", "CreaseWarning", "DroppedOnLoadWarning",
     "LightInsideWarning", "NoLightsWarning", "ZeroNormalWarning", "EmptyViewWarning", "SingleSidedWarning",
+    "AllMaskedWarning", "NormalMapWarning", "LensFoldWarning",
 ]
 
 
@@ -64,3 +65,18 @@ class SingleSidedWarning(ShadingWarning):
     """The camera sees back faces of a model whose material is single-sided (glTF's
     ``doubleSided: false``): drawn and lit from the side seen, where a culling renderer would
     show what lies behind."""
+
+
+class AllMaskedWarning(ShadingWarning):
+    """A material's ``alpha_cutoff`` exceeds every texel of its ``alpha_map``: rays pass through the
+    whole model, which is neither drawn nor casts a shadow."""
+
+
+class NormalMapWarning(ShadingWarning):
+    """A normal map no tangent-space normal map could be: grey everywhere (a one-channel image or a
+    height map), or without a texel whose normal points out of the surface."""
+
+
+class LensFoldWarning(ShadingWarning):
+    """A camera's lens distortion folds inside the frame: the radial map stops increasing, and the
+    pixels beyond the fold's image have no ray inside the fold (they stay empty, or see past it)."""

@@ -51,7 +51,11 @@ class Camera:
         (``cv2.fisheye``) takes ``(k1, k2, k3, k4)``. The rays pass through
         the distorted pixel centres exactly
         (:mod:`raycast_shade.visibility.distortion`): every buffer is that of
-        the distorted image, with no warp. None (or all zero): a pinhole.
+        the distorted image, with no warp. None (or all zero): a pinhole. A
+        radial model that folds inside the frame (OpenCV ``k1 = -50``)
+        leaves the pixels beyond the fold empty: a
+        :class:`~raycast_shade.common.warnings.LensFoldWarning` gives the
+        share of the frame with rays (:mod:`raycast_shade.scene.lens`).
     distortion_model : {"opencv", "fisheye"}
     """
 
@@ -122,6 +126,10 @@ class Camera:
         if self.orthographic and np.any(k != 0.0):
             raise ValueError("camera.distortion: lens distortion needs a perspective camera")
         object.__setattr__(self, "distortion", tuple(float(c) for c in k))
+        if self.distorted:  # a fold inside the frame: say how much of it has rays, before any is cast
+            from .lens import warn_fold
+
+            warn_fold(self)
 
     @property
     def distorted(self) -> bool:

@@ -195,7 +195,8 @@ class SpotLight(PointLight):
     exponent : float
         Warn's ``n``, ``0 <= n <= MAX_SPOT_EXPONENT`` (0: a uniform cone).
     inner_angle, outer_angle : float
-        Cone half-angles in degrees, ``0 <= inner_angle <= outer_angle <= 90``.
+        Cone half-angles in degrees, ``0 <= inner_angle <= outer_angle <= 90``
+        and ``outer_angle > 0`` (a cone of half-angle 0 lights no point).
     """
 
     direction: np.ndarray = (0.0, 0.0, -1.0)
@@ -229,6 +230,10 @@ class SpotLight(PointLight):
         outer = as_scalar(self.outer_angle, f"{self.name}.outer_angle", minimum=0.0, maximum=90.0)
         if inner > outer:
             raise ValueError(f"{self.name}.inner_angle: must be <= outer_angle ({outer}), got {inner}")
+        if outer == 0.0:  # the light reaches the points with cos a > cos(outer) = 1: none
+            raise ValueError(f"{self.name}.outer_angle: must be > 0, got inner_angle {inner:g} and outer_angle "
+                             f"{outer:g}: a cone of half-angle 0 lights no point (a point light lights every "
+                             "direction)")
         set_(self, "inner_angle", inner)
         set_(self, "outer_angle", outer)
 

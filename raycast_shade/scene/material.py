@@ -11,12 +11,14 @@ from ..common.choices import SPECULAR_MODELS
 from ..common.layout import (MAT_AO_STRENGTH, MAT_BLINN, MAT_KA, MAT_KA_COLORS, MAT_KD, MAT_KE, MAT_KS,
                              MAT_REFLECTIVITY, MAT_SHININESS, MAT_SIZE)
 from ..common.validate import as_bool, as_choice, as_name, as_rgb, as_scalar
-from ..common.warnings import ColourRangeWarning
+from ..common.warnings import AllMaskedWarning, ColourRangeWarning, NormalMapWarning
 
-__all__ = ["Material", "SPECULAR_MODELS", "MAP_FIELDS", "overridden"]
+__all__ = ["Material", "SPECULAR_MODELS", "MAP_FIELDS", "MAX_NORMAL_SCALE", "overridden"]
 
 MAP_FIELDS = ("ka_map", "kd_map", "ks_map", "ke_map", "ao_map")  # Material.maps' order: the TEXMAP_* columns
-
+# |normal_scale| beyond which the kernels' float64 sum T x s + B y s + N z overflows in its norm (x, y in [-1, 1]):
+# up to it the bent normal is its limit normalize(T x + B y) to rounding already.
+MAX_NORMAL_SCALE = 1e150
 
 
 def _warn_byte_range(rgb: np.ndarray, name: str, field: str) -> None:
@@ -72,6 +74,8 @@ class Material:
         ``None``: opaque. Else rays (camera, shadow and mirror rays alike)
         pass through the points where ``alpha_map < alpha_cutoff`` (glTF's
         ``MASK``; 0.5 is glTF's default): see :mod:`raycast_shade.visibility.alpha`.
+        A cutoff above every texel of ``alpha_map`` removes the whole model: an
+        :class:`~raycast_shade.common.warnings.AllMaskedWarning` says so.
     ka_colors : bool
         The ambient term follows the mesh's colours: on a mesh with colours the
         point's ka is ``ka`` times its colour (as its kd is the colour), so
@@ -96,7 +100,7 @@ class Material:
         ``occlusionTexture``). The other terms are unchanged.
     ao_strength : float
         In [0, 1]: 0 ignores the map, 1 (the default) applies it fully
-        (glTF's ``strength``).
+        (glTF's ``strength``). Other than 1 only with an ``ao_map``.
     normal_map : Texture, optional
         Tangent-space normal map (glTF ``normalTexture``), linear (load it with
         ``srgb=False``): a texel ``(r, g, b)`` bends the shading normal to
@@ -105,9 +109,15 @@ class Material:
         computed from the UVs), ``B = w (N x T)``; sampled bilinearly at level 0.
         Phong shading and mirror reflections only (flat and Gouraud warn, as for
         ``bump``). The mesh needs UVs.
+        The texels must lie in [0, 1] and must not have been decoded from sRGB
+        (ValueError); a map that is grey everywhere (one channel, or a height
+        map) or has no texel with ``b > 0.5`` (every normal into the surface)
+        gives a :class:`~raycast_shade.common.warnings.NormalMapWarning`.
     normal_scale : float
         ``s`` above (glTF's ``normalTexture.scale``), default 1; 0 leaves the
-        normal unbent.
+        normal unbent; ``|s| <= MAX_NORMAL_SCALE`` (1e150), where the bent
+        normal already is its limit ``normalize(T (2r - 1) + B (2g - 1))``
+        (ValueError beyond). Other than 1 only with a ``normal_map``.
     double_sided : bool
         Whether the surface is meant to be seen from both sides (the default).
         ``False`` (glTF's ``doubleSided: false``, its default) changes nothing
@@ -165,6 +175,11 @@ class Material:
         set_(self, "double_sided", as_bool(self.double_sided, f"{self.name}.double_sided"))
         set_(self, "ao_strength", as_scalar(self.ao_strength, f"{self.name}.ao_strength", minimum=0.0, maximum=1.0))
         set_(self, "normal_scale", as_scalar(self.normal_scale, f"{self.name}.normal_scale"))
+        if abs(self.normal_scale) > MAX_NORMAL_SCALE:
+            raise ValueError(f"{self.name}.normal_scale: |s| must be <= {MAX_NORMAL_SCALE:g}, got "
+                             f"{self.normal_scale:g}: beyond, the bent normal's float64 length overflows and the "
+                             "normal would stay unbent, where at 1e150 it already is its limit "
+                             "normalize(T (2r - 1) + B (2g - 1))")
         set_(self, "reflectivity", as_scalar(self.reflectivity, f"{self.name}.reflectivity", minimum=0.0, maximum=1.0))
         if self.bump is not None:
             from .heightmap import HeightMap
@@ -172,6 +187,9 @@ class Material:
             if not isinstance(self.bump, HeightMap):
                 raise TypeError(f"{self.name}.bump: expected a HeightMap, got {type(self.bump).__name__}")
         _check_alpha(self)
+        _check_without_map(self)
+        if self.normal_map is not None:
+            _check_normal_map(self.normal_map, f"{self.name}.normal_map")
 
     @property
     def maps(self) -> tuple:
@@ -215,6 +233,47 @@ def _check_alpha(mat: Material) -> None:
     if mat.alpha_map is None:
         raise ValueError(f"{mat.name}.alpha_cutoff: given without an alpha_map (a Texture whose first channel "
                          "is the coverage)")
+    # Rays pass where the sampled alpha < cutoff; bilinear samples of level 0 never exceed its largest texel
+    # (one float32 step above it covers the float64 weights' rounding): then every point passes.
+    top = np.float32(mat.alpha_map.texels[..., 0].max())
+    if mat.alpha_cutoff > float(np.nextafter(top, np.float32(np.inf))):
+        warnings.warn(f"{mat.name}.alpha_cutoff = {mat.alpha_cutoff:g} exceeds every texel of alpha_map "
+                      f"{mat.alpha_map.name!r} (largest {float(top):g}): rays pass through the whole model, which "
+                      "is not drawn and casts no shadow; coverage lies in [0, 1] (glTF's default cutoff is 0.5)",
+                      AllMaskedWarning, stacklevel=4)
+
+
+def _check_without_map(mat: Material) -> None:
+    """``normal_scale`` and ``ao_strength`` scale their map: set without it they would be ignored."""
+    for field, default, tex in (("normal_scale", 1.0, "normal_map"), ("ao_strength", 1.0, "ao_map")):
+        if getattr(mat, field) != default and getattr(mat, tex) is None:
+            article = "an" if tex[0] in "aeiou" else "a"
+            raise ValueError(f"{mat.name}.{field}: {getattr(mat, field):g} given without {article} {tex}, which it "
+                             f"scales (it would be ignored); give the {tex} too, or leave {field} at {default:g}")
+
+
+def _check_normal_map(tex, name: str) -> None:
+    """A tangent-space normal map stores ``(n + 1) / 2`` per texel, linear: refuse texels that cannot
+    encode a component, and say so when no texel can be a surface's normal (see ``Material.normal_map``)."""
+    if getattr(tex, "_decoded_srgb", False):
+        raise ValueError(f"{name}: texture {tex.name!r} was decoded from sRGB (Texture.from_image's and "
+                         "from_array's default); a normal map's texels are data, not colours: load it with "
+                         "srgb=False")
+    t = tex.texels
+    top = float(t.max())
+    if top > 1.0:
+        raise ValueError(f"{name}: texels must lie in [0, 1] (each channel encodes a component c as "
+                         f"(c + 1) / 2), got max {top:g} in texture {tex.name!r}")
+    if np.all(t[..., 0] == t[..., 1]) and np.all(t[..., 1] == t[..., 2]):
+        inward = " (all of them into the surface: blue < 0.5)" if t[..., 2].max() < 0.5 else ""
+        warnings.warn(f"{name}: every texel of texture {tex.name!r} is grey (r = g = b): a one-channel image "
+                      "or a height map, not a normal map; every normal is bent along +-(s T + s B + N) or "
+                      f"left unbent{inward} (a flat normal map is (0.5, 0.5, 1); heights go to bump=HeightMap)",
+                      NormalMapWarning, stacklevel=4)
+    elif not np.any(t[..., 2] > 0.5):
+        warnings.warn(f"{name}: no texel of texture {tex.name!r} has blue > 0.5: every normal points into the "
+                      "surface or along it (z = 2b - 1 <= 0; a flat normal map is (0.5, 0.5, 1)); a two-channel "
+                      "map whose z is to be reconstructed, or channels swapped?", NormalMapWarning, stacklevel=4)
 
 
 def overridden(base: Material, given: dict) -> dict:

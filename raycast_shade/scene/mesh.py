@@ -14,6 +14,7 @@ from ..common.validate import as_array, as_bool, as_choice, as_name, as_scalar, 
 from ..common.warnings import CreaseWarning, DroppedOnLoadWarning, ZeroNormalWarning
 from .normals import WEIGHTINGS, WindingWarning, face_normals, reversed_duplicates, vertex_normals, winding_conflicts
 from .pitfalls import SHARP_DEGREES, sharp_edges
+from .tangents import check_tangents
 
 __all__ = ["Mesh", "PreparedMesh", "ZeroNormalWarning", "COLOR_MODES"]
 
@@ -93,7 +94,9 @@ class Mesh:
         (+1 or -1: the bitangent is ``w (n x t)``), as glTF's ``TANGENT``; read
         by a material's ``normal_map``, kept as written. When absent, a normal
         map's tangents are computed from the UVs
-        (:func:`raycast_shade.scene.tangents.vertex_tangents`).
+        (:func:`raycast_shade.scene.tangents.vertex_tangents`). A zero
+        tangent, or one along its vertex's normal, is refused (here when
+        the normals are given, else when a frame is prepared).
     """
 
     vertices: np.ndarray
@@ -145,6 +148,7 @@ class Mesh:
             if len(bad):
                 raise ValueError(f"{self.name}.tangents: the handedness w (column 3) must be +1 or -1, got "
                                  f"{t[bad[0], 3]} at vertex {int(bad[0])}")
+            check_tangents(t, self.normals, f"{self.name}.tangents")
             set_(self, "tangents", _readonly(t))
         _set_colors(self, v.shape[0], f.shape[0])
         set_(self, "weighting", as_choice(self.weighting, f"{self.name}.weighting", WEIGHTINGS))

@@ -46,6 +46,7 @@ from .material import Material
 from .mesh import Mesh, _instance, _is_scene, read_trimesh, use_normals_flag, visual_colors
 from .normals import reversed_duplicates
 from .scene import Model
+from .tangents import degenerate_tangents
 from .texture import srgb_to_linear
 
 __all__ = ["load_models", "material_from_trimesh", "model_scene"]
@@ -201,6 +202,10 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, *
             colors = colors * kw["kd"]  # kd's factor times the colours (glTF: baseColorFactor * COLOR_0)
         _drop_maps_without_uvs(kw, uvs, name, lost)
         tangents = _file_tangents(ctx, tm, g, transform, name, lost) if "normal_map" in kw else None
+        if tangents is not None and any(len(bad) for bad in degenerate_tangents(tangents, normals)):
+            lost.append(f"{name}: TANGENT (zero or along the normal at some vertices; tangents computed from "
+                        "the UVs)")
+            tangents = None
         uvs = _resolve_maps(kw, uvs, name, lost)
         dup = reversed_duplicates(faces, vertices)
         if dup.any():
@@ -251,6 +256,7 @@ def _drop_maps_without_uvs(kw: dict, uvs, name: str, lost: list) -> None:
             kw.pop(k)
         kw.pop("alpha_cutoff", None)  # no mask without its map
         kw.pop("normal_scale", None)
+        kw.pop("ao_strength", None)  # likewise: no strength without its map
 
 
 def _file_tangents(ctx, tm, g, transform, name: str, lost: list):

@@ -14,7 +14,52 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["vertex_tangents", "face_edges"]
+__all__ = ["vertex_tangents", "face_edges", "degenerate_tangents", "check_tangents", "MIN_TANGENT"]
+
+# The normal-map kernel leaves the normal unbent where the tangent, made orthogonal to the normal, is
+# no longer than this (shading.normalmap): at a vertex whose own tangent is, the map cannot be oriented.
+MIN_TANGENT = 1e-12
+
+
+def degenerate_tangents(tangents, normals=None):
+    """Vertices whose tangent cannot orient a normal map.
+
+    Parameters
+    ----------
+    tangents : (V, 4) float64
+    normals : (V, 3) float64, optional
+        Vertex normals of any length; zero rows are skipped.
+
+    Returns
+    -------
+    zero, along : (K,) int64, (L,) int64
+        Vertices whose tangent ``xyz`` is no longer than :data:`MIN_TANGENT`, and the others
+        whose part across the (unit) normal is no longer than it: a tangent along the normal.
+    """
+    t = np.asarray(tangents, np.float64)[:, :3]
+    length = np.linalg.norm(t, axis=1)
+    zero = ~(length > MIN_TANGENT)
+    along = np.zeros_like(zero)
+    if normals is not None:
+        n = _unit(np.asarray(normals, np.float64))
+        across = np.linalg.norm(t - n * np.sum(n * t, axis=1, keepdims=True), axis=1)
+        along = ~zero & n.any(axis=1) & ~(across > MIN_TANGENT)
+    return np.flatnonzero(zero), np.flatnonzero(along)
+
+
+def check_tangents(tangents, normals, name: str) -> None:
+    """Refuse (ValueError naming ``name`` and the first vertex) tangents that cannot orient a normal
+    map: zero, or along their vertex's normal (see :func:`degenerate_tangents`)."""
+    zero, along = degenerate_tangents(tangents, normals)
+    if len(zero):
+        raise ValueError(f"{name}: {len(zero)} tangent(s) of length <= {MIN_TANGENT:g} (zero), first at vertex "
+                         f"{int(zero[0])}: a normal map cannot be oriented there (its normal would stay unbent)")
+    if len(along):
+        i = int(along[0])
+        raise ValueError(f"{name}: {len(along)} tangent(s) along the vertex normal, first at vertex {i} (tangent "
+                         f"{np.round(tangents[i, :3], 6).tolist()}, normal {np.round(normals[i], 6).tolist()}): a "
+                         "tangent lies across the normal (glTF TANGENT: along increasing u); a normal map cannot "
+                         "be oriented there")
 
 
 def face_edges(vertices, faces, uvs):
@@ -132,6 +177,8 @@ def pack_normal_maps(models, preps) -> tuple:
             offset += texels[-1].size
         index[g] = seen[id(tex)]
         scale[g] = m.material.normal_scale
+        if p.tangents is not None:  # against the normals as prepared (computed ones too), before any kernel
+            check_tangents(p.tangents, p.normals, f"scene.models[{g}] ({m.mesh.name}).tangents")
         frames.append(p.tangents if p.tangents is not None else
                       vertex_tangents(p.vertices, p.faces, p.uvs, p.normals))
     if not info:

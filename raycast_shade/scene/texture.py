@@ -26,13 +26,25 @@ import numpy as np
 from ..common.choices import WRAPS
 from ..common.layout import (TEX_CLAMP, TEX_HEIGHT, TEX_LEVELS, TEX_MIPMAP, TEX_OFFSET, TEX_SIZE, TEX_TILE_U,
                              TEX_TILE_V, TEX_WIDTH)
-from ..common.validate import as_array, as_bool, as_choice, as_int, as_name
+from ..common.validate import as_array, as_bool, as_choice, as_int, as_name, check_memory
 from ..common.warnings import DroppedOnLoadWarning
 
-__all__ = ["Texture", "TEXTURE_FILTERS", "srgb_to_linear"]
+__all__ = ["Texture", "TEXTURE_FILTERS", "srgb_to_linear", "TEXTURE_BYTES_PER_TEXEL", "DECODE_BYTES_PER_TEXEL"]
 
 # "mipmap": trilinear between the levels the pixel footprint falls between; "bilinear": level 0 only.
 TEXTURE_FILTERS = ("mipmap", "bilinear")
+# Peak bytes a texel needs while a texture is made, as the camera's FRAME_BYTES_PER_PIXEL bounds a frame
+# (tests/scene/test_meaning_checks.py measures them): a Texture or a checker (the parity grid, the
+# float64 colours, the float32 texels) and its mip pyramid (float64 levels: 72) ...
+TEXTURE_BYTES_PER_TEXEL = 80
+# ... and an image decoded (a 16-bit RGBA file's pixels 8, float64 copies, the sRGB decode's temporaries,
+# the flipped copy and the float32 texels: 127 beyond the pixels).
+DECODE_BYTES_PER_TEXEL = 136
+
+
+def _check_size(h: int, w: int, what: str, per_texel: int) -> None:
+    """Refuse (ValueError, with the figure) a texture larger than the memory limit, before allocating it."""
+    check_memory(float(h) * float(w) * per_texel, f"{what}: {w} x {h} texels", "a texture")
 
 
 def srgb_to_linear(c) -> np.ndarray:
@@ -135,7 +147,12 @@ class Texture:
     Parameters
     ----------
     texels : (h, w, 3) array_like of float
-        Linear values ``>= 0``; row 0 is ``v = 0``. (h, w) is grey.
+        Linear values ``>= 0``; row 0 is ``v = 0``. (h, w) is grey. A
+        texture needing more than
+        :func:`~raycast_shade.common.validate.memory_limit` at
+        ``TEXTURE_BYTES_PER_TEXEL`` (80) bytes a texel is refused with the
+        figure, before it is copied (:meth:`from_array` and
+        :meth:`from_image` at ``DECODE_BYTES_PER_TEXEL``, 136, before decoding).
     wrap : {"repeat", "clamp"}
         Outside [0, 1): tile, or hold the edge texel.
     filter : {"mipmap", "bilinear"}
@@ -157,6 +174,8 @@ class Texture:
         set_ = object.__setattr__
         set_(self, "name", as_name(self.name, f"{type(self).__name__}.name"))  # first: every message uses it
         t = np.asarray(self.texels)
+        if t.ndim in (2, 3):  # before the float32 copy and the pyramid
+            _check_size(t.shape[0], t.shape[1], f"{self.name}.texels", TEXTURE_BYTES_PER_TEXEL)
         if t.ndim == 2:
             t = np.repeat(t[..., None], 3, axis=2)
         t = as_array(t, f"{self.name}.texels", dtype=np.float32, shape=(None, None, 3), copy=True)
@@ -201,6 +220,9 @@ class Texture:
         name = kwargs.get("name", "texture")
         srgb = as_bool(srgb, f"{name}.srgb")
         alpha = as_choice(alpha, f"{name}.alpha", ("warn", "ignore"))
+        shape = image.size[::-1] if hasattr(image, "mode") and hasattr(image, "size") else np.shape(image)
+        if len(shape) >= 2:  # before the float64 decoding
+            _check_size(shape[0], shape[1], f"{name}.image", DECODE_BYTES_PER_TEXEL)
         x = _image_floats(image, f"{name}.image", alpha)  # the argument named, as every check does
         if srgb:
             lo, hi = (float(x.min()), float(x.max())) if x.size else (0.0, 0.0)
@@ -208,7 +230,9 @@ class Texture:
                 raise ValueError(f"{name}: sRGB-encoded pixels must lie in [0, 1], got {lo:g}..{hi:g} (pass "
                                  "srgb=False for linear values, which may exceed 1)")
             x = srgb_to_linear(x)
-        return cls(np.ascontiguousarray(x[::-1]), **kwargs)
+        tex = cls(np.ascontiguousarray(x[::-1]), **kwargs)
+        object.__setattr__(tex, "_decoded_srgb", srgb)  # colours, not data: Material refuses it as a normal map
+        return tex
 
     @classmethod
     def from_image(cls, path, srgb: bool = True, **kwargs) -> "Texture":
@@ -219,6 +243,12 @@ class Texture:
         kwargs.setdefault("name", os.path.basename(path))
         if not os.path.exists(path):
             raise ValueError(f"{kwargs['name']}: image not found: {path}")
+        try:  # the size from the header, before the pixels are read
+            shape = iio.improps(path).shape
+        except Exception:  # unreadable: imread below says why
+            shape = ()
+        if len(shape) >= 2:
+            _check_size(shape[0], shape[1], f"{kwargs['name']}.image", DECODE_BYTES_PER_TEXEL)
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", DeprecationWarning)  # imageio's legacy plugins on junk files
@@ -235,8 +265,11 @@ class Texture:
         squares = as_int(squares, "texture.squares", minimum=1)
         k = as_int(texels_per_square, "texture.texels_per_square", minimum=1)
         c = as_array(colors, "texture.colors", dtype=np.float64, shape=(2, 3))
-        i = np.arange(squares * k) // k
-        odd = (i[:, None] + i[None, :]) % 2
+        n = squares * k
+        _check_size(n, n, f"texture.squares x texture.texels_per_square: {squares} x {k} a side",
+                    TEXTURE_BYTES_PER_TEXEL)
+        parity = ((np.arange(n) // k) % 2).astype(np.uint8)
+        odd = parity[:, None] ^ parity[None, :]  # one byte a texel, not an int64 sum and its remainder
         return cls(c[odd], **kwargs)
 
     # -- derived --------------------------------------------------------------------

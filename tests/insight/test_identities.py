@@ -80,10 +80,15 @@ def materials(draw, bump_ok):
         bump = rs.HeightMap.dimples(4, 0.3, resolution=16, scale=draw(st.sampled_from([0.02, -0.05])),
                                     tiling=(2.0, 2.0))
     normal_map = draw(st.none() | textures())  # random texels: normals bent every way, some past the horizon
-    return rs.Material(kd=draw(rgb), ka=draw(rgb), ks=ks, shininess=draw(st.sampled_from([1.0, 8.0, 40.0, 15.5])),
-                       specular=draw(st.sampled_from(["phong", "blinn"])), bump=bump, ke=ke,
-                       ka_colors=draw(st.booleans()), ao_strength=draw(st.sampled_from([1.0, 0.6])),
-                       normal_map=normal_map, normal_scale=draw(st.sampled_from([1.0, 0.5, 2.0])), **maps)
+    # The strength and the scale only with their maps (Material refuses them alone).
+    ao_strength = draw(st.sampled_from([1.0, 0.6])) if maps["ao_map"] is not None else 1.0
+    normal_scale = draw(st.sampled_from([1.0, 0.5, 2.0])) if normal_map is not None else 1.0
+    with warnings.catch_warnings():  # a small random map may bend every normal past the horizon: on purpose
+        warnings.simplefilter("ignore", rs.NormalMapWarning)
+        return rs.Material(kd=draw(rgb), ka=draw(rgb), ks=ks, shininess=draw(st.sampled_from([1.0, 8.0, 40.0, 15.5])),
+                           specular=draw(st.sampled_from(["phong", "blinn"])), bump=bump, ke=ke,
+                           ka_colors=draw(st.booleans()), ao_strength=ao_strength, normal_map=normal_map,
+                           normal_scale=normal_scale, **maps)
 
 
 def _coloured(mesh, mode, seed):

@@ -183,7 +183,7 @@ CASES = {
     "texture, shadows": (_scene(rs.Material(kd_map=CHECKER), rs.PointLight((2.0, 3.0, 4.0), shadows=True)),
                          "phong", False),
     "bump": (_scene(rs.Material(bump=rs.HeightMap.dimples(4, 0.3, resolution=16, scale=0.02))), "phong", False),
-    "normal map": (_scene(rs.Material(normal_map=CHECKER)), "phong", False),
+    "normal map": (_scene(rs.Material(normal_map=rs.Texture(np.full((2, 2, 3), (0.6, 0.4, 0.9))))), "phong", False),
     "bump under Gouraud": (_scene(rs.Material(bump=rs.HeightMap.dimples(4, 0.3, resolution=16, scale=0.02))),
                            "gouraud", None),
 }
