@@ -10,6 +10,7 @@ refuse naming them.
 
 from __future__ import annotations
 
+import io
 import json
 import math
 import os
@@ -18,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["MtlMaterial", "parse_mtl", "obj_references", "gltf_header", "off_colors", "ply_texture_files",
+__all__ = ["load_obj", "MtlMaterial", "parse_mtl", "obj_references", "gltf_header", "off_colors", "ply_texture_files",
            "GL_WRAPS", "obj_mtl_files"]
 
 # glTF sampler wrap codes (the OpenGL enums the spec uses).
@@ -241,3 +242,49 @@ def ply_texture_files(path: str) -> list:
             if low.startswith("comment") and "texturefile" in low:
                 names.append(line[low.index("texturefile") + len("texturefile"):].strip())
     return names
+
+
+_MTL_KEY = "__raycast_shade_materials__.mtl"
+
+
+class _MtlOnly:
+    """A trimesh resolver that hands over the OBJ's MTL files, joined, and nothing else: trimesh
+    reads only the first ``mtllib`` (a missing first one loses every material, names and all),
+    and the textures are read by raycast_shade itself (once, with their options)."""
+
+    def __init__(self, mtl: bytes):
+        self.mtl = mtl
+
+    def get(self, name):
+        if name == _MTL_KEY:
+            return self.mtl
+        raise OSError(f"{name}: read by raycast_shade, not by trimesh")
+
+    __getitem__ = get
+
+
+def load_obj(path: str):
+    """``trimesh.load`` of an OBJ with every ``mtllib`` the file names (those that exist) as one."""
+    import trimesh
+
+    from .filecheck import check_obj
+
+    with open(path, "rb") as fh:
+        data = fh.read()
+    name = os.path.basename(path)
+    absolute = check_obj(data, name)
+    data = data if absolute is None else absolute
+    files = obj_mtl_files(path)
+    if not files and absolute is None:
+        return trimesh.load(path, process=False)
+    if not files:
+        return trimesh.load(file_obj=io.BytesIO(data), file_type="obj", process=False, metadata={"file_name": name})
+    parts = []
+    for f in files:
+        with open(f, "rb") as fh:
+            parts.append(fh.read())
+    mtl = b"\n".join(parts)
+    lines = [ln for ln in data.split(b"\n") if not ln.lstrip().lower().startswith(b"mtllib")]
+    text = b"mtllib " + _MTL_KEY.encode() + b"\n" + b"\n".join(lines)
+    return trimesh.load(file_obj=io.BytesIO(text), file_type="obj", resolver=_MtlOnly(mtl), process=False,
+                        metadata={"file_name": name})

@@ -364,6 +364,7 @@ def read_trimesh(path, merge: bool = False, *, checked: bool = False):
     import trimesh
 
     from .filecheck import check_face_indices, check_mesh_file, locate_bad_index
+    from .fileparse import load_obj
 
     merge = as_bool(merge, "merge")
     path = os.fspath(path)
@@ -373,7 +374,7 @@ def read_trimesh(path, merge: bool = False, *, checked: bool = False):
         # Not force="mesh": trimesh 5 then concatenates through a scene and drops the file's normals.
         # Not processed: processing welds split vertices (rounding hard edges off) and drops faces
         # on NaN/inf vertices without a word.
-        tm = _load_obj(path) if path.lower().endswith(".obj") else trimesh.load(path, process=False)
+        tm = load_obj(path) if path.lower().endswith(".obj") else trimesh.load(path, process=False)
     except ImportError as exc:
         raise MissingReaderError(f"cannot read mesh file {path}: {_install_hint(exc)}") from None
     except ValueError as exc:
@@ -395,55 +396,6 @@ def read_trimesh(path, merge: bool = False, *, checked: bool = False):
     if not any(isinstance(m, trimesh.Trimesh) and len(m.faces) for m in meshes):
         raise ValueError(f"mesh file {path} holds no triangles")
     return tm, ext not in (".glb", ".gltf")
-
-
-_MTL_KEY = "__raycast_shade_materials__.mtl"
-
-
-class _MtlOnly:
-    """A trimesh resolver that hands over the OBJ's MTL files, joined, and nothing else: trimesh
-    reads only the first ``mtllib`` (a missing first one loses every material, names and all),
-    and the textures are read by raycast_shade itself (once, with their options)."""
-
-    def __init__(self, mtl: bytes):
-        self.mtl = mtl
-
-    def get(self, name):
-        if name == _MTL_KEY:
-            return self.mtl
-        raise OSError(f"{name}: read by raycast_shade, not by trimesh")
-
-    __getitem__ = get
-
-
-def _load_obj(path: str):
-    """``trimesh.load`` of an OBJ with every ``mtllib`` the file names (those that exist) as one."""
-    import io
-
-    import trimesh
-
-    from .filecheck import check_obj
-    from .fileparse import obj_mtl_files
-
-    with open(path, "rb") as fh:
-        data = fh.read()
-    name = os.path.basename(path)
-    absolute = check_obj(data, name)
-    data = data if absolute is None else absolute
-    files = obj_mtl_files(path)
-    if not files and absolute is None:
-        return trimesh.load(path, process=False)
-    if not files:
-        return trimesh.load(file_obj=io.BytesIO(data), file_type="obj", process=False, metadata={"file_name": name})
-    parts = []
-    for f in files:
-        with open(f, "rb") as fh:
-            parts.append(fh.read())
-    mtl = b"\n".join(parts)
-    lines = [ln for ln in data.split(b"\n") if not ln.lstrip().lower().startswith(b"mtllib")]
-    text = b"mtllib " + _MTL_KEY.encode() + b"\n" + b"\n".join(lines)
-    return trimesh.load(file_obj=io.BytesIO(text), file_type="obj", resolver=_MtlOnly(mtl), process=False,
-                        metadata={"file_name": name})
 
 
 class MissingReaderError(ImportError, ValueError):

@@ -230,6 +230,13 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, *
         mesh = Mesh(vertices, faces, normals=normals, uvs=uvs, colors=colors,
                     color_mode=mode or "auto", name=name, tangents=tangents, **mesh_kwargs)
         models.append(Model(mesh, Material(**kw)))
+    _warn_dropped(ctx, base, lost, twins)
+    return models
+
+
+def _warn_dropped(ctx, base: str, lost: list, twins: int) -> None:
+    """:func:`load_models`' warnings: missing referenced files and undefined materials, then every
+    part of the file not mapped (``lost``) and the reversed duplicate faces dropped (``twins``)."""
     if ctx.missing or ctx.undefined:
         parts = []
         if ctx.missing:
@@ -237,14 +244,13 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, *
         if ctx.undefined:
             parts.append("material(s) no MTL defines: " + "; ".join(ctx.undefined))
         warnings.warn(f"{base}: " + "; ".join(parts) + " (rendered with the library's default material or "
-                      "without the texture)", DroppedOnLoadWarning, stacklevel=2)
+                      "without the texture)", DroppedOnLoadWarning, stacklevel=3)
     if twins:
         lost.append(f"{twins} face(s) repeating another with the opposite winding (dropped: two-sided "
                     "surfaces are lit from the side seen, and the pair cancels averaged normals)")
     if lost:
         warnings.warn(f"{base}: not mapped (no counterpart in the lecture's model): " + "; ".join(lost),
-                      DroppedOnLoadWarning, stacklevel=2)
-    return models
+                      DroppedOnLoadWarning, stacklevel=3)
 
 
 def _drop_maps_without_uvs(kw: dict, uvs, name: str, lost: list) -> None:
