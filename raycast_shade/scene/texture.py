@@ -227,7 +227,7 @@ class Texture:
         if srgb:
             lo, hi = (float(x.min()), float(x.max())) if x.size else (0.0, 0.0)
             if lo < 0.0 or hi > 1.0:
-                raise ValueError(f"{name}: sRGB-encoded pixels must lie in [0, 1], got {lo:g}..{hi:g} (pass "
+                raise ValueError(f"{name}.image: sRGB-encoded pixels must lie in [0, 1], got {lo:g}..{hi:g} (pass "
                                  "srgb=False for linear values, which may exceed 1)")
             x = srgb_to_linear(x)
         tex = cls(np.ascontiguousarray(x[::-1]), **kwargs)
