@@ -18,6 +18,7 @@ import numpy as np
 
 from ..common.validate import as_bool, as_choice, as_instance, as_scalar
 from ..render import render
+from ..scene.pitfalls import outside_view
 from ..study.diagnose.catalogue import catalogue
 from ..study.diagnose.score import interior_weights, read_student, sse, sse_filtered
 from ..study.diagnose.variant import check_scene, decode, encode, gather, shade_variant
@@ -29,6 +30,8 @@ TOLERANCE = 100.0  # levels^2, summed over interior pixels and channels: candida
 FIT = 6.0  # levels RMS: above this no candidate explains the image well
 REFIT = 6  # candidates re-scored with a fitted sub-pixel shift and blur (score.sse_filtered)
 BETWEEN = 0.4  # excess / distance below which an image is between two candidates (see Diagnoser._score)
+_NOTHING_IN_VIEW = ("scene: nothing of the scene is in view of the camera (no pixel sees a model: behind the camera, "
+                    "or outside its view?); diagnose cannot tell anything from the image")
 
 
 @dataclass(frozen=True, eq=False)
@@ -183,10 +186,16 @@ class Diagnoser:
         self.camera = camera
         check_scene(scene)
         self.candidates = cands = catalogue(method, scene, encoding)
+        # Nothing in view: every candidate is the background and any verdict a guess. The bounds
+        # test refuses before the render when it is sure (a pinhole camera); the cast decides the rest.
+        if not camera.distorted and all(outside_view(camera, m.mesh.bounds) for m in scene.models):
+            raise ValueError(_NOTHING_IN_VIEW)
         self.frame = frame = render(scene, method, camera=camera)
         hits = frame.hits
-        half = cast_camera(scene.geometry, camera, offset=(-0.5, -0.5))
         label = np.asarray(hits.geom)
+        if not np.any(label >= 0):
+            raise ValueError(_NOTHING_IN_VIEW)
+        half = cast_camera(scene.geometry, camera, offset=(-0.5, -0.5))
         self.weights = interior_weights([label, label[::-1], np.asarray(half.geom)])
         if not self.weights.any():
             raise ValueError("scene: no interior pixel to compare (the models cover too few pixels at this size)")
@@ -294,8 +303,9 @@ def diagnose(image, scene, method: str = "phong", *, camera=None, encoding: str 
     Raises
     ------
     ValueError
-        Unknown method or encoding, a scene feature not modelled, an image of
-        the wrong size, blank, or not an image.
+        Unknown method or encoding, a scene feature not modelled, nothing of
+        the scene in view, an image of the wrong size, blank, out of range (a
+        float image outside [0, 1]), or not an image.
     """
     scene, cam = _check_scene_camera(scene, camera)
     student = read_student(image, (cam.height, cam.width))  # refused before anything renders
@@ -326,19 +336,41 @@ def register_cli(subparsers):
                    help="write the per-pixel departure from the best explanation as an 8-bit PNG (x8 levels)")
 
 
+def _check_map_path(path) -> str:
+    """``--map``'s path if a PNG can be written there: a ``.png`` name, not a folder, in a writable folder.
+
+    Raises
+    ------
+    ValueError
+        Naming ``--map``: an empty path, another extension (the map is written
+        as PNG whatever the name), or a path that cannot be written
+        (:func:`~raycast_shade.output.imagefile.check_output_file`).
+    """
+    from ..output.imagefile import check_output_file
+
+    if not path:
+        raise ValueError("--map: expected a file name, got an empty path")
+    path = check_output_file(path, "--map")  # first: "is a folder" says more than "not .png"
+    if os.path.splitext(path)[1].lower() != ".png":
+        raise ValueError(f"--map: {path!r}: the departure map is written as PNG; give a path ending in .png")
+    return path
+
+
 def run_cli(ns) -> int:
     """Run ``raycast-shade diagnose``; errors are raised for the caller to print on one line."""
     from ..scene.scenefile import load_for_render
 
     if not os.path.isfile(ns.image):
         raise ValueError(f"image {ns.image!r}: no such file")
+    if ns.map is not None:  # before the scene loads or anything renders; '' included
+        _check_map_path(ns.map)
     scene, render_kwargs, _ = load_for_render(ns.scene)
     method = ns.method or render_kwargs.get("shading", "phong")
     if method not in ("flat", "gouraud", "phong"):
         raise ValueError(f"{ns.scene}: shading {method!r} is not one method; pass --method flat|gouraud|phong")
     result = diagnose(ns.image, scene, method, encoding=ns.encoding)
     print(result)
-    if ns.map:
+    if ns.map is not None:
         from ..output.imagefile import write_png
 
         m = np.nan_to_num(result.map, nan=0.0)

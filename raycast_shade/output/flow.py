@@ -175,7 +175,8 @@ def optical_flow(scene, camera, scene_b=None, camera_b=None, *, hits=None) -> di
         B's camera; default ``camera``. At least one of ``scene_b`` and
         ``camera_b`` is given.
     hits : HitBuffer, optional
-        A's hit buffer (``frame.hits``), cast if not given.
+        A's hit buffer (``frame.hits``), cast if not given; checked against
+        ``scene`` and ``camera`` (:func:`~raycast_shade.visibility.hits.check_hits`).
 
     Returns
     -------
@@ -194,6 +195,7 @@ def optical_flow(scene, camera, scene_b=None, camera_b=None, *, hits=None) -> di
     from ..scene.projection import project_points
     from ..scene.scene import Scene
     from ..visibility.cast import cast_camera
+    from ..visibility.hits import check_hits
 
     if not isinstance(scene, Scene):
         raise TypeError(f"scene: expected a Scene, got {type(scene).__name__}")
@@ -212,8 +214,8 @@ def optical_flow(scene, camera, scene_b=None, camera_b=None, *, hits=None) -> di
     h, w = camera.height, camera.width
     if hits is None:
         hits = cast_camera(scene.geometry, camera)
-    elif hits.prim.shape != (h, w):
-        raise ValueError(f"hits: expected ({h}, {w}) arrays for the camera, got {hits.prim.shape}")
+    else:  # A's own buffer: the camera's size, model and triangle indices of this scene (another's reads garbage)
+        check_hits(hits, scene, camera)
     pa, bary, sel = surface_points(scene, camera, hits)
     if scene_b is scene:
         pb = pa

@@ -32,7 +32,8 @@ def read_student(image, shape) -> np.ndarray:
     ----------
     image : str, os.PathLike or array
         An image file (PNG, JPEG, ... through imageio), or an array: uint8
-        (levels), uint16 (levels x 257) or float (display values in [0, 1]).
+        (levels), uint16 (levels x 257) or float (display values in [0, 1],
+        alpha included; values outside are refused, not clipped).
         (H, W, 3) or (H, W, 4) (alpha must be opaque and is dropped).
     shape : (H, W)
         The size the scene's camera renders.
@@ -41,7 +42,8 @@ def read_student(image, shape) -> np.ndarray:
     ------
     ValueError
         Unreadable or non-image file, wrong size, wrong channels, a blank
-        (single-valued) image, a translucent alpha channel, non-finite values.
+        (single-valued) image, a translucent alpha channel, non-finite values
+        (alpha too), float values outside [0, 1].
     """
     name = "image"
     if isinstance(image, (str, os.PathLike)):
@@ -69,15 +71,32 @@ def read_student(image, shape) -> np.ndarray:
     h, w = shape
     if x.shape[:2] != (h, w):
         raise ValueError(f"{name}: is {x.shape[1]}x{x.shape[0]} pixels but the scene's camera renders {w}x{h}")
+    # Alpha included, and before its test: NaN < 254.5 is False, so a NaN alpha passed as opaque.
+    if not np.all(np.isfinite(x)):
+        where = "alpha channel" if x.shape[2] == 4 and not np.all(np.isfinite(x[..., 3])) else "pixels"
+        raise ValueError(f"{name}: has non-finite {where} (NaN or inf)")
+    if arr.dtype.kind == "f":
+        _check_float_range(arr, name)
     if x.shape[2] == 4:
         if np.any(x[..., 3] < 254.5):
             raise ValueError(f"{name}: has transparent pixels; composite it on the scene's background first")
         x = x[..., :3]
-    if not np.all(np.isfinite(x)):
-        raise ValueError(f"{name}: has non-finite pixels")
     if np.ptp(x) == 0:
         raise ValueError(f"{name}: is blank (every pixel is {x.flat[0] / 255.0:.4g}); nothing to diagnose")
     return x
+
+
+def _check_float_range(arr, name: str) -> None:
+    """Refuse a float image outside [0, 1]: read as display values, 0-255 levels or an unclipped
+    linear image would be scored as if valid (every pixel clipped to white or black)."""
+    hi, lo = float(np.max(arr)), float(np.min(arr))
+    if hi > 1.0:
+        hint = ("pass the uint8 array or divide by 255" if hi > 2.0 else
+                "clip it to [0, 1] as writing an 8-bit file would")  # just above 1: an unclipped image
+        raise ValueError(f"{name}: float values up to {hi:.6g}: a float image is in [0, 1]; {hint}")
+    if lo < 0.0:
+        raise ValueError(f"{name}: float values down to {lo:.6g}: a float image is in [0, 1]; "
+                         "clip it to [0, 1] as writing an 8-bit file would")
 
 
 def _edges(label) -> np.ndarray:

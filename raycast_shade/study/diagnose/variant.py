@@ -8,9 +8,10 @@ reproduces ``rs.render(scene, method).image`` to float32 precision
 (``tests/study/test_diagnose.py``), which is what makes every candidate of the
 catalogue a variant of *our* renderer rather than a hand-made image.
 
-Scope: colour textures, mesh colours, bump maps, shadow rays and mirrors are
-not modelled; :func:`check_scene` refuses scenes that use them, naming the
-feature.
+The emission ``ke`` is added last, as the kernels add it, and no slip of the
+catalogue touches it. Scope: colour and emission textures, mesh colours,
+bump and normal maps, shadow rays and mirrors are not modelled;
+:func:`check_scene` refuses scenes that use them, naming the feature.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from numba import njit
 
 from ...common.parallel import KERNEL, in_parts, share
 from ...scene.lights import AreaLight, DirectionalLight, SpotLight
+from ...scene.material import MAP_FIELDS
 from ...scene.normals import vertex_normals
 from ...visibility.interpolation import to_screen_space
 from ..reference import _dot, _facing, _unit, _warn_factor
@@ -130,8 +132,9 @@ class Mistake:
 def check_scene(scene) -> None:
     """Raise ValueError naming the first feature the variant shader does not model.
 
-    Refused: colour maps and mesh colours, bump maps, mirrors, lights that
-    cast shadows.
+    Refused: colour maps and mesh colours, bump and normal maps, mirrors,
+    lights that cast shadows. (Each would otherwise be left out of every
+    candidate, and the library's own correct image named a mistake.)
     """
     for i, light in enumerate(scene.lights):
         if getattr(light, "shadows", False):
@@ -141,8 +144,13 @@ def check_scene(scene) -> None:
         mat = model.material
         if getattr(mat, "bump", None) is not None:
             raise ValueError(f"scene.models[{i}].material.bump: diagnose does not model bump maps")
-        if any(t is not None for t in mat.maps):
-            raise ValueError(f"scene.models[{i}].material: diagnose does not model colour maps (kd_map, ...)")
+        if getattr(mat, "normal_map", None) is not None:
+            raise ValueError(f"scene.models[{i}].material.normal_map: diagnose does not model normal maps "
+                             "(the bent normals of Phong shading); diagnose the scene without it")
+        used = [f for f, t in zip(MAP_FIELDS, mat.maps) if t is not None]
+        if used:
+            raise ValueError(f"scene.models[{i}].material.{used[0]}: diagnose does not model colour maps "
+                             "(kd_map, ka_map, ks_map, ke_map, ao_map)")
         if getattr(mat, "reflectivity", 0.0) and np.any(np.asarray(mat.reflectivity) > 0):
             raise ValueError(f"scene.models[{i}].material.reflectivity: diagnose does not model mirrors")
         if model.mesh.prepared.color_mode is not None:
@@ -203,6 +211,7 @@ class _Ctx:
         self.kd = np.array([x.kd for x in mats], np.float64)
         self.ks = np.array([x.ks for x in mats], np.float64)
         self.shin = np.array([x.shininess for x in mats], np.float64)
+        self.ke = np.array([x.ke for x in mats], np.float64)
         blinn = np.array([x.specular == "blinn" for x in mats], bool)
         self.blinn = ~blinn if mistake.specular == "swap" else blinn
         self.lights = _lights(scene, camera, geo.origin, mistake)
@@ -249,7 +258,7 @@ def _light_vectors(ctx, light, p):
 
 
 def illuminate(ctx, p, n, model, n_raw=None):
-    """The reflectance equation at points ``p`` (N, 3) with unit normals ``n`` (N, 3), under the mistake.
+    """The reflectance equation (plus ``ke``) at points ``p`` (N, 3) with unit normals ``n`` (N, 3), under the mistake.
 
     ``n_raw`` (N, 3): the normal before normalisation (Phong shading's
     interpolated ``a``), used by ``raw_n`` and ``raw_n_in_r``.
@@ -293,7 +302,7 @@ def illuminate(ctx, p, n, model, n_raw=None):
         kd_term = 0.0 if m.no_diffuse else kd * diffuse[:, None]
         ks_term = 0.0 if m.no_specular else ks * spec[:, None]
         out = out + att[:, None] * light[2][None, :] * (kd_term + ks_term)
-    return out
+    return out + ctx.ke[model]  # the emission, last as the kernels add it (a zero ke adds exactly nothing)
 
 
 def _vertex_normals(ctx):
