@@ -79,7 +79,7 @@ def check_transforms(cameras, file_paths) -> tuple:
         Perspective, and all fisheye or none: nerfstudio reads one ``camera_model``
         for the file (its dataparser takes it from the top level only).
     file_paths : sequence of str
-        One per camera, each a name on one line.
+        One per camera, each a name on one line, no two alike (one pose per picture).
 
     Returns
     -------
@@ -91,7 +91,13 @@ def check_transforms(cameras, file_paths) -> tuple:
     TypeError, ValueError
         Naming ``cameras[i]`` or ``file_paths[i]``.
     """
-    return _check(cameras, file_paths, "file_paths", one_lens_model=True)
+    cameras, file_paths = _check(cameras, file_paths, "file_paths", one_lens_model=True)
+    seen = {}
+    for i, p in enumerate(file_paths):
+        if p in seen:  # two poses for one picture: nerfstudio would train on a contradiction
+            raise ValueError(f"file_paths[{i}]: {p!r} repeats file_paths[{seen[p]}]; each frame is its own image")
+        seen[p] = i
+    return cameras, file_paths
 
 
 def check_colmap(cameras, names) -> tuple:

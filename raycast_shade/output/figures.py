@@ -26,7 +26,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from ..common.extras import require
-from ..common.validate import as_array, as_int, as_name, as_scalar
+from ..common.validate import as_array, as_bool, as_int, as_name, as_scalar
 from .tonemap import to_uint8
 
 __all__ = ["montage", "terms", "difference", "profile", "LUMINANCE", "FRACTION_MAP"]
@@ -43,8 +43,13 @@ def _figure(what: str, **kwargs):
 
 
 def _linear(x, name: str) -> np.ndarray:
-    """(H, W, 3) float64 linear image of a Frame or an array ((H, W) is grey)."""
+    """(H, W, 3) float64 linear image of a Frame or an array ((H, W) is grey): radiance, so no NaN,
+    infinite or negative pixel (each refused naming ``name`` and the pixel)."""
     a = as_array(getattr(x, "image", x), name, dtype=np.float64, finite=False)  # strings, None, booleans refused
+    bad = ~np.isfinite(a) | (a < 0.0)
+    if bad.any():
+        at = tuple(int(i) for i in np.argwhere(bad)[0])
+        raise ValueError(f"{name}: pixel {at} is {a[at]}; a linear image is finite and not negative")
     if a.ndim == 2:
         a = np.repeat(a[..., None], 3, axis=2)
     if a.ndim != 3 or a.shape[2] != 3:
@@ -134,6 +139,7 @@ def difference(a, b, *, signed: bool = True, title: str | None = None, width: fl
         Two axes: the heatmap, and its colour bar.
     """
     la, lb = _linear(a, "a"), _linear(b, "b")
+    signed = as_bool(signed, "signed")
     width = as_scalar(width, "width", minimum=0.0, exclusive=True, maximum=1000.0)  # inches
     if title is not None:
         title = as_name(title, "title")
@@ -210,6 +216,7 @@ def profile(frame, row: int, *, columns=None, edges: bool = True, title: str | N
         One axes whose ``lines`` are the three channels (red, green, blue).
     """
     img = _linear(frame, "frame")
+    edges = as_bool(edges, "edges")
     if title is not None:
         title = as_name(title, "title")
     h, w = img.shape[:2]

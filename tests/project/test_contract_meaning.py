@@ -17,7 +17,7 @@ and stay silent, so a refusal is not vacuous. Cases that breach the contract are
 only shrinks. The command line: a handful of the cases through ``raycast-shade render`` exit 2 with
 one stderr line, never a traceback, and write no image.
 
-Counted at the last change: 194 cases (187 calls + 7 command lines), 16 known breaches.
+Counted at the last change: 194 cases (187 calls + 7 command lines), 2 known breaches.
 """
 
 from __future__ import annotations
@@ -211,12 +211,6 @@ FLAG_EXPECT = {("render", "terms"): (TypeError, ValueError)}
 KNOWN_BREACHES = {
     **{f"{f}(path=ply cut inside a face line)": "a PLY whose last face line is cut to '3 1' loads without a word"
        for f in ("load_models", "Mesh.load")},
-    **{f"figures.{f}({a}={v})": "a NaN or negative pixel of a linear image is drawn without a word"
-       for f, a in (("difference", "a"), ("montage", "frames_or_images")) for v in ("NaN", "negative")},
-    **{f"figures.{f}({a}={v})": f"{a} is used for its truth value (no as_bool): 'no' and 'false' mean True"
-       for f, a in (("difference", "signed"), ("profile", "edges")) for v in ("'no'", "'false'", "0", "1")},
-    **{f"{f}(file_paths=a repeat)": "two frames name one image file (two poses for one picture) without a word"
-       for f in ("nerfstudio_transforms", "write_transforms")},
 }
 
 
