@@ -17,8 +17,9 @@ casting shadows), timed in turn, round after round, in one process after a warm-
 * ``mirror``: the plain frame's mesh as a mirror (reflectivity 0.5), one bounce (the ``mirror``
   row of :mod:`benchmarks.bench_paths`);
 * ``rays_bounce16``: that frame's very bounce rays (collected once as the mirror kernel packs
-  them, :func:`raycast_shade.shading.mirrors._start_lane` and ``_packet_rays``: the reflective
-  pixels of a 4x4 tile in one packet) traced bare, one coherent ``rtcIntersect16`` per packet:
+  them, :func:`raycast_shade.shading.mirrors._start_lane` and
+  :func:`raycast_shade.visibility.secondary.set_closest_rays`: the reflective pixels of a 4x4 tile
+  in one packet) traced bare, one coherent ``rtcIntersect16`` per packet:
   the floor of the mirror frame is ``frame`` plus this.
 
 ``rays`` is the number of shadow rays (pixels lit by the light), or for the mirror rows of bounce
@@ -51,7 +52,7 @@ from raycast_shade.shading import mirrors, shadows
 from raycast_shade.shading.illumination import _request_shadows
 from raycast_shade.shading.phong import _shading_point
 from raycast_shade.shading.records import At
-from raycast_shade.visibility import embree
+from raycast_shade.visibility import embree, secondary
 
 FIELDS = ["mesh", "triangles", "width", "height", "path", "median_ms", "ratio", "rays", "ns_per_ray", "repeats",
           "note"]
@@ -154,13 +155,8 @@ def _collect_bounces(hits, G, B, materials, face_off, cam, unit, image, rays, va
     ntx = (w + 3) // 4
     slots = _LANES * embree.RAYHIT_SLOTS
     for ty in range(*share((h + 3) // 4, part)):  # this part's share (common.parallel)
-        buf = np.empty(slots + 16, np.float32)
-        off = ((64 - buf.ctypes.data % 64) % 64) // 4
-        ib = buf.view(np.uint32)
-        vb = np.zeros(2 * _LANES, np.int32)
-        vo = ((64 - vb.ctypes.data % 64) % 64) // 4
-        for k in range(_LANES):  # the slots the kernel writes once per task
-            embree.write_ray(buf, ib, off + k, _LANES, (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 0.0, np.inf)
+        Q = secondary.closest_packet(mirrors.MIRROR_FLAGS)  # the kernel's packet (its slots written once)
+        buf, off, vb, vo = Q[0], Q[2], Q[3], Q[4]
         lanes = (np.empty(_LANES, np.int64), np.empty(_LANES, np.int64), np.empty(_LANES, np.float64),
                  np.zeros((3, _LANES), np.float64), np.zeros((3, _LANES), np.float64), np.zeros(_LANES, np.bool_))
         ys, xs, weight, org, dr, act = lanes
@@ -172,7 +168,7 @@ def _collect_bounces(hits, G, B, materials, face_off, cam, unit, image, rays, va
                                             (n, ys, xs, weight, org, dr, act))
             t = ty * ntx + tx
             if n > 0:
-                mirrors._packet_rays(buf, ib, off, vb, vo, org, dr, act, n)
+                secondary.set_closest_rays(Q, org, dr, act, n)
                 for j in range(slots):
                     rays[t, j] = buf[off + j]
             for k in range(_LANES):

@@ -46,9 +46,9 @@ from ..common.validate import as_int
 from ..scene.lights import AreaLight, DirectionalLight, SpotLight
 from ..shading.inputs import prepare
 from ..shading.shade import resolve_methods
-from ..visibility import embree
 from ..visibility.accel import embree_accel
 from ..visibility.cast import cast_rays_kernel
+from ..visibility.secondary import occluded_ray
 from .explain_coef import (_bumped, _coefficients, _convex_weights, _face_footprint, _footprint, _modulated, _short,
                            _spot_factor, _terminator)
 from .explain_records import Bounce, Explanation, LightTerm, PointShade
@@ -124,12 +124,7 @@ def _occluded(ctx, o, g, s, target, is_point) -> bool:
     side = 1.0 if float(g @ s) >= 0.0 else -1.0
     origin = np.array([_nudge(o[k], side * g[k], ctx.unit) for k in range(3)])
     direction, tfar = (target - origin, _SHADOW_TFAR) if is_point else (s, np.inf)
-    buf = np.zeros(24, np.float32)
-    off = ((16 - buf.ctypes.data % 16) % 16) // 4
-    ray = buf[off:off + embree.RAY_SLOTS]
-    embree.write_ray(ray, ray.view(np.uint32), 0, 1, tuple(origin), tuple(direction), 0.0, tfar)
-    embree.occluded1_ray(np.uintp(ctx.shadow_handle), ray)
-    return bool(ray[embree.RAY_TFAR] < 0.0)
+    return occluded_ray(ctx.shadow_handle, origin, direction, tfar)
 
 
 def _light_terms(ctx, i, p, n, v, row, o, g, kd, ks) -> tuple:

@@ -21,7 +21,7 @@ from ..common.schedule import spread_step
 from .illumination import _illuminate
 from .jit import CHUNK, FLT32_MAX, JIT, compile_variants
 from .records import At, Hit
-from .shadows import _scratch
+from ..visibility.secondary import ray_scratch
 from .surface import _facing, _hit_point, _triangle, _view
 from .terms_kernel import _face_terms, _illuminate_terms, _miss
 from .texture import _coefficients, _face_footprint, _row_coefficients
@@ -55,7 +55,7 @@ def _make_flat(tex_on: bool = False, terms_on: bool = False):
         step = spread_step(nchunk)
         for it in range(*share(nchunk, part)):  # this part's chunks, in a balanced order
             c = (it * step) % nchunk
-            S = _scratch()
+            S = ray_scratch()
             for f in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
                 if face_flags[f] == 0:
                     continue

@@ -32,7 +32,7 @@ from .gouraud_sides import _near_face
 from .illumination import _illuminate, _illuminate_call
 from .jit import CALLED, CHUNK, FLT32_MAX, HELPER, JIT, compile_variants
 from .records import At, Hit, dot, reflect_into
-from .shadows import _scratch
+from ..visibility.secondary import ray_scratch
 from .surface import _convex_weights, _facing, _hit_point, _triangle, _view
 from .texture import _point_coefficients, _row_coefficients
 
@@ -172,7 +172,7 @@ def _make_vertices(tex_on: bool = False):
         step = spread_step(nchunk)
         for it in range(*share(nchunk, part)):  # this part's chunks, in a balanced order
             c = (it * step) % nchunk
-            S = _scratch()
+            S = ray_scratch()
             for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
                 if vertex_flags[i, 0] == 0 and vertex_flags[i, 1] == 0:
                     continue
@@ -246,7 +246,7 @@ def _make_interpolate(tex_on: bool = False):
         for it in range(*share(nblk, part)):  # this part's blocks of rows, in a balanced order
             blk = (it * step) % nblk
             for y in range(blk * BLOCK_ROWS, min(h, (blk + 1) * BLOCK_ROWS)):
-                S = _scratch()
+                S = ray_scratch()
                 for x in range(w):
                     if ahead > 0:
                         _prefetch_pixel(prim, geom, face_off, faces, vcol, y, x, ahead)

@@ -181,7 +181,7 @@ def _illuminate_py(hp, coef, mats, mi, L, S, spec_on, att_on):
     L : Lighting
         The frame's lights (:class:`~raycast_shade.shading.records.Lighting`).
     S : tuple
-        The shadow-ray scratch (:func:`~raycast_shade.shading.shadows._scratch`).
+        The shadow-ray scratch (:func:`~raycast_shade.visibility.secondary.ray_scratch`).
     spec_on, att_on : bool
         The frame's flags (``L.spec_on``, ``L.att_on``; Gouraud's diffuse-only pass turns
         ``spec_on`` off): a scene with no specular material or no attenuating light skips
@@ -196,7 +196,7 @@ def _reflected(hp, coef, mats, mi, L, S, vis, lane, spec_on, att_on, R, y, x):
     ``hp.v`` plus the emission.
 
     ``vis[i, lane]`` is light ``i``'s answer from traced shadow packets (1 blocked, 0 lit, -1 not
-    traced: :func:`~raycast_shade.shading.shadows.trace_packets` after :func:`_request_shadows`);
+    traced: :func:`~raycast_shade.visibility.secondary.trace_occlusion` after :func:`_request_shadows`);
     a ray not traced there (``lane`` -1: no packets; an area light's samples) is traced on its own.
 
     ``R``: None, or a terms record (:mod:`.records`, ``TERM_*``) that also receives the point's

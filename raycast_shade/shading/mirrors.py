@@ -31,6 +31,7 @@ from ..common.prefetch import beyond_caches, prefetch
 from ..common.schedule import BLOCK_ROWS, spread_step
 from ..visibility import embree
 from ..visibility.accel import embree_accel
+from ..visibility.secondary import closest_hit, closest_packet, ray_scratch, set_closest_rays, trace_closest
 from .inputs import prepare
 from .jit import FLT32_MAX, HELPER, JIT, compile_variants, variant
 from .phong import _shade_surface, _surface
@@ -38,7 +39,6 @@ from .lanes import _A, _B1, _B2, _FIELDS, _FN, _KD, LANES as _BATCH
 from .mirror_rays import NO_RAYS, _mirror_ray, lane_rays
 from .phong_fast import _gather, _geometry
 from .records import At
-from .shadows import _scratch
 from .texture import _point_coefficients, _row_coefficients
 
 __all__ = ["trace_mirrors", "MAX_MIRROR_DEPTH"]
@@ -52,7 +52,6 @@ _MIN_WEIGHT = 2.0 ** -24
 _LANES = 16  # rays a packet (rtcIntersect16): the mirror pixels of a 4x4 tile
 _TILE = 4
 assert BLOCK_ROWS % _TILE == 0
-_RAY = embree.RAYHIT_SLOTS  # float32 slots in one RTCRayHit
 # RTCIntersectArguments flags of the mirror packets.
 MIRROR_FLAGS = embree.RAY_QUERY_FLAG_COHERENT
 # Tiles ahead of the one being started whose faces (then vertices) are prefetched: on a large
@@ -103,26 +102,6 @@ def _add_pixel(image, y, x, weight, c0, c1, c2):
     image[y, x, 0] = min(np.float64(image[y, x, 0]) + weight * c0, FLT32_MAX)
     image[y, x, 1] = min(np.float64(image[y, x, 1]) + weight * c1, FLT32_MAX)
     image[y, x, 2] = min(np.float64(image[y, x, 2]) + weight * c2, FLT32_MAX)
-
-
-@njit(**HELPER)
-def _packet_rays(buf, ib, off, vbuf, voff, org, dr, act, n):
-    """Write the active lanes' rays (``org``, ``dr`` (3, 16) float64, ``act`` (16,) bool; lanes
-    ``n ..`` unused) into the ``RTCRayHit16`` at ``off``: origin, direction, ``tfar = inf``, no
-    hit (the slots no bounce changes were written once, by :func:`embree.write_ray`). Inactive
-    lanes carry the first active lane's ray (a valid dummy, masked off by ``vbuf``)."""
-    first = 0
-    while not act[first]:
-        first += 1
-    for k in range(_LANES):
-        on = k < n and act[k]
-        j = k if on else first
-        for c in range(3):
-            buf[off + k + (embree.RAY_ORG + c) * _LANES] = org[c, j]
-            buf[off + k + (embree.RAY_DIR + c) * _LANES] = dr[c, j]
-        buf[off + k + embree.RAY_TFAR * _LANES] = np.inf
-        embree.reset_hit(ib, off + k, np.int64(_LANES))
-        vbuf[voff + k] = -1 if on else 0
 
 
 @njit(**HELPER)
@@ -311,21 +290,8 @@ def _make_packets(tex_on: bool = False, batched: bool = False):
         step = spread_step(nblk)
         for it in range(*share(nblk, part)):  # this part's blocks of tile rows, in a balanced order
             blk = (it * step) % nblk
-            S = _scratch()
-            # Per-task RTCRayHit16 (64-byte aligned), its valid mask and RTCIntersectArguments:
-            # addresses are taken only to align; Embree gets the arrays (embree.intersect16_packet).
-            buf = np.empty(_LANES * _RAY + 16, np.float32)
-            off = ((64 - buf.ctypes.data % 64) % 64) // 4
-            ib = buf.view(np.uint32)
-            vbuf = np.empty(2 * _LANES, np.int32)
-            voff = ((64 - vbuf.ctypes.data % 64) % 64) // 4
-            abuf = np.zeros(embree.ARGS_SLOTS + 2, np.uint32)
-            aoff = ((8 - abuf.ctypes.data % 8) % 8) // 4
-            abuf[aoff] = flags
-            abuf[aoff + 1] = embree.FEATURE_FLAG_ALL
-            for k in range(_LANES):  # tnear 0, time 0, every mask bit, id and flags 0: the same for every bounce
-                embree.write_ray(buf, ib, off + k, np.int64(_LANES), (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 0.0,
-                                 np.inf)
+            S = ray_scratch()
+            Q = closest_packet(flags)  # the task's closest-hit packet, reused by every tile and bounce
             ys = np.empty(_LANES, np.int64)
             xs = np.empty(_LANES, np.int64)
             weight = np.empty(_LANES, np.float64)
@@ -355,13 +321,13 @@ def _make_packets(tex_on: bool = False, batched: bool = False):
                     for depth in range(1, max_depth + 1):
                         if n == 0:
                             break
-                        _packet_rays(buf, ib, off, vbuf, voff, org, dr, act, n)
-                        embree.intersect16_packet(vbuf[voff:], handle, buf[off:], abuf[aoff:])
+                        set_closest_rays(Q, org, dr, act, n)
+                        trace_closest(handle, Q)
                         more = 0
                         for k in range(n):
                             if not act[k]:
                                 continue
-                            gb, pb, ub, vb, _ = embree.read_hit(buf, ib, off + k, np.int64(_LANES))
+                            gb, pb, ub, vb, _ = closest_hit(Q, k)
                             act[k] = False
                             if pb < 0:
                                 _add_pixel(image, ys[k], xs[k], weight[k], background[0], background[1],
@@ -447,7 +413,7 @@ def trace_mirrors(scene, camera, hits, image, max_depth: int = 3, inputs=None, y
         return image
     k = prepare(scene, camera) if inputs is None else inputs
     ahead = beyond_caches(*k["G"])
-    # The handle as the camera cast passes it (int64): one compile of embree.intersect16_packet.
+    # The handle as the camera cast passes it (int64): the packets compile once.
     trace = (int(embree_accel(geo).handle), float(geo.scale), int(max_depth), np.uint32(MIRROR_FLAGS),
              int(y0), ahead)
     family = _PACKETS_BATCHED if rays is None and _batched_start(k["B"]) else _PACKETS

@@ -36,8 +36,9 @@ from .pixelstore import store_pixel
 from .jit import HELPER, JIT, compile_variants
 from .mirror_rays import hand_over
 from .records import At, Hit
-from .shadows import (LANES, _packets, _scratch, clear_packets, store_coef, store_point, stored_coef,
-                      stored_material, stored_point, trace_packets)
+from ..visibility.secondary import ray_scratch, trace_occlusion
+from .shadows import (LANES, _packets, clear_packets, store_coef, store_point, stored_coef, stored_material,
+                      stored_point)
 from .surface import _facing, _hit_point, _shading_normal, _terminator_point, _triangle, _view
 from .texture import _point_coefficients, _row_coefficients
 
@@ -116,7 +117,7 @@ def _make_phong(tex_on: bool = False):
         for it in range(*share(nblk, part)):  # this part's blocks of rows, in a balanced order
             blk = (it * step) % nblk
             for y in range(blk * BLOCK_ROWS, min(h, (blk + 1) * BLOCK_ROWS)):
-                S = _scratch()
+                S = ray_scratch()
                 for x in range(w):
                     p = prim[y, x]
                     if p < 0:
@@ -167,7 +168,7 @@ def _make_phong_packets(tex_on: bool = False):
         step = spread_step(nblk)
         for it in range(*share(nblk, part)):  # this part's blocks of rows, in a balanced order
             blk = (it * step) % nblk
-            S = _scratch()  # a single ray, should a point ask for one its tile did not trace
+            S = ray_scratch()  # a single ray, should a point ask for one its tile did not trace
             buf, ib, off, valid, voff, args, aoff, vis, points = _packets(L.lights.shape[0])
             P = (buf, ib, off, valid, voff)
             ye = min(h, (blk + 1) * BLOCK_ROWS)
@@ -196,7 +197,7 @@ def _make_phong_packets(tex_on: bool = False):
                         store_point(points, k, hp, gm)
                         hand_over(rays, y, x, hp, materials[gm, MAT_REFLECTIVITY], L.unit)
                         _request_shadows(P, k, hp, L)
-                    trace_packets(handle, buf, off, valid, voff, args, aoff, vis)
+                    trace_occlusion(handle, buf, off, valid, voff, args, aoff, vis)
                     for k in range(LANES):  # the tile's colours
                         gm = stored_material(points, k)
                         if gm < 0:  # background, another method's model, or outside the image

@@ -58,14 +58,14 @@ from ..common.layout import (ATT_HEURISTIC, ATT_INVERSE_SQUARE, ATT_NONE, CAM_EY
                              MAT_SHININESS, METHOD_PHONG, MODEL_BLINN, MODEL_PHONG)
 from ..common.prefetch import PREFETCH_BYTES, prefetch
 from ..common.schedule import BLOCK_ROWS, spread_step
-from ..visibility.embree import RAY16_SLOTS, RAY_DIR, RAY_ORG, RAY_TFAR
+from ..visibility.secondary import set_occlusion_lane, trace_occlusion
 from .illumination import _spot_factor
 from .jit import HELPER, JIT
 from .lanes import (_A, _ATT, _B1, _B2, _CB, _CC, _CP, _D, _FIELDS, _FN, _G, _HASSPEC, _KA, _KD, _KE, _KS, _LIT,
                     _MODEL, _N, _ND, _O, _P, _PW, _R, _S, _SG, _SHN, _SHT, _TD, _TS, _V, LANES)
 from .mirror_rays import hand_over_lanes
 from .pixelstore import store_background, store_pixel
-from .shadows import LANES as PACKET_LANES, _packets, _shadow_ray, _strip_background, trace_packets
+from .shadows import LANES as PACKET_LANES, _packets, _shadow_ray, _strip_background
 from .terms_kernel import (TERM_AMBIENT, TERM_DIFFUSE, TERM_EMISSIVE, TERM_SPECULAR, TERMS_EMIT_ON, TERMS_SHADOW,
                            _hit_background, _miss, _store)
 
@@ -337,10 +337,10 @@ def _shadow_pass(S, n, lights, i, handle, unit, Q):
     lanes each; the occluded lanes' ``_LIT`` becomes 0. ``Q``: the task's packet scratch
     (:func:`.shadows._packets` of one packet per 16 lanes, its fixed slots set there).
 
-    Every lane's ray is :func:`~raycast_shade.shading.shadows._shadow_ray`'s, written straight into
-    its packet in a pass without branches (vectorised); a lane outside the mask is not traced, and
-    a stale answer in ``vis`` (an earlier light's or batch's) can only zero a lane that is 0 already
-    or is not written."""
+    Every lane's ray is :func:`~raycast_shade.shading.shadows._shadow_ray`'s, written into its
+    packet (:func:`~raycast_shade.visibility.secondary.set_occlusion_lane`) in a pass without
+    branches (vectorised); a lane outside the mask is not traced, and a stale answer in ``vis``
+    (an earlier light's or batch's) can only zero a lane that is 0 already or is not written."""
     buf, ib, off, valid, voff, args, aoff, vis, points = Q
     target = (lights[i, LIGHT_VEC + 0], lights[i, LIGHT_VEC + 1], lights[i, LIGHT_VEC + 2])
     ub = np.uint64(off)  # unsigned: no wrap-around test per write, so the stores vectorise
@@ -352,12 +352,9 @@ def _shadow_pass(S, n, lights, i, handle, unit, Q):
                 (S[(_G + 0) * LANES + k], S[(_G + 1) * LANES + k], S[(_G + 2) * LANES + k]),
                 (S[(_S + 0) * LANES + k], S[(_S + 1) * LANES + k], S[(_S + 2) * LANES + k]),
                 target, S[_D * LANES + k] < np.inf, unit)
-            for c in range(3):
-                buf[ub + np.uint64(j * RAY16_SLOTS + (RAY_ORG + c) * PACKET_LANES + q)] = org[c]
-                buf[ub + np.uint64(j * RAY16_SLOTS + (RAY_DIR + c) * PACKET_LANES + q)] = d[c]
-            buf[ub + np.uint64(j * RAY16_SLOTS + RAY_TFAR * PACKET_LANES + q)] = tfar
+            set_occlusion_lane(buf, ub, j, q, org, d, tfar)
             valid[voff + k] = -1 if (k < n) & (S[_LIT * LANES + k] == 1.0) else 0
-    trace_packets(handle, buf, off, valid, voff, args, aoff, vis)
+    trace_occlusion(handle, buf, off, valid, voff, args, aoff, vis)
     for j in range(LANES // PACKET_LANES):
         for q in range(PACKET_LANES):
             k = j * PACKET_LANES + q

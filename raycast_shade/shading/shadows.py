@@ -1,4 +1,4 @@
-"""Shadow rays: a per-task ray buffer, the offset origin, and the occlusion query.
+"""Shadow rays: the offset origin, the ray towards a light, and its packets of 16 lanes.
 
 Shadow rays start at the shading point pushed off the surface along the
 geometric normal by a few hundred float32 ulps of its coordinates (Wachter
@@ -7,10 +7,9 @@ scene's size (their absolute constants, in units of the scene), so the offset
 scales with the scene; point-light rays stop just short of the light. Mirror
 rays start from the same kind of offset point (:mod:`.mirrors`).
 
-Embree reads the ray through a raw address. That address is computed from
-the buffer in the very expression that calls Embree, and the buffer is read
-again after the call, so the array is live while Embree uses it whatever
-Numba's liveness analysis or parfor hoisting does with locals.
+The rays go to Embree through :mod:`raycast_shade.visibility.secondary`, the
+visibility stage's query for secondary rays: this module says which ray, that
+one lays it out and traces it.
 """
 
 from __future__ import annotations
@@ -22,23 +21,13 @@ from numba import njit, types
 from numba.extending import intrinsic
 
 from ..common.prefetch import prefetch
-from ..visibility import embree
+from ..visibility.secondary import LANES, clear_occlusion, occluded, occlusion_packets, set_occlusion_ray
 from .jit import CALLED, HELPER
 from .pixelstore import store_background
 
 __all__ = []
 
 _SHADOW_TFAR = 1.0 - 1e-5  # point-light shadow rays stop just short of the light
-_SCRATCH = 2 * embree.RAY_SLOTS  # float32 slots: one RTCRay plus alignment slack
-
-
-@njit(**CALLED)  # allocates: NRT on
-def _scratch():
-    """A per-task RTCRay buffer: (float view, uint view, 16-byte aligned offset in slots)."""
-    buf = np.empty(_SCRATCH, np.float32)
-    base = buf.ctypes.data
-    off = ((16 - base % 16) % 16) // 4
-    return buf, buf.view(np.uint32), off
 
 
 @intrinsic
@@ -108,76 +97,35 @@ def _shadow_ray(o, g, s, target, is_point, unit):
 
 @njit(**HELPER)
 def _occluded(handle, S, o, g, s, target, is_point, unit):
-    """True if the scene blocks the way from ``o`` towards the light (one ray, ``rtcOccluded1``).
+    """True if the scene blocks the way from ``o`` towards the light (one ray).
 
     ``o``, ``g``, ``s``, ``target``, ``is_point`` as in :func:`_shadow_ray`. ``S`` is the
-    scratch from :func:`_scratch`, unpacked only here: single shadow rays are the rare path
-    (Gouraud's and flat's, terms', mirrors'), and the unpacking costs reference counting."""
-    buf, ib, off = S
+    scratch from :func:`~raycast_shade.visibility.secondary.ray_scratch`. Single shadow rays
+    are the rare path (Gouraud's and flat's, terms', mirrors')."""
     org, d, tfar = _shadow_ray(o, g, s, target, is_point, unit)
-    embree.write_ray(buf, ib, off, np.int64(1), org, d, 0.0, tfar)
-    embree.occluded1(handle, buf.ctypes.data + off * 4, 0)  # the address taken from the live array, here
-    return buf[off + embree.RAY_TFAR] < 0.0  # Embree sets tfar to -inf on a hit
+    return occluded(handle, S, org, d, tfar)
 
 
 # -- packets: the shadow rays of 16 neighbouring points per light, one rtcOccluded16 each ----------------
 
-LANES = 16  # points per packet (a 4x4 tile of pixels)
-_RAY16 = embree.RAY16_SLOTS  # float32 slots of one RTCRay16: 768 bytes, so packet i + 1 stays 64-byte aligned
 LANE_SLOTS = 32  # float64 slots per lane of a packet task's stored points (:func:`store_point`, :func:`store_coef`)
-_UNTRACED = -1  # a packet visibility entry no ray was asked for
 
 
 @njit(**CALLED)  # allocates: NRT on
 def _packets(nlights):
-    """A per-task scratch for the shadow packets of ``nlights`` lights.
-
-    Returns
-    -------
-    buf, ib : (N,) float32, (N,) uint32
-        Two views of one buffer: ``nlights`` ``RTCRay16`` one after another from slot ``off``
-        (64-byte aligned), light ``i``'s at ``off + i * RAY16_SLOTS``.
-    off : int
-    valid : (M,) int32
-        The packets' valid masks, light ``i``'s 16 lanes from ``voff + 16 i`` (64-byte aligned).
-    voff : int
-    args : (K,) uint32
-        ``RTCOccludedArguments`` from ``aoff`` (8-byte aligned): every feature, coherent.
-    aoff : int
-    vis : (nlights, LANES) int8
-        Per light and lane: 1 blocked, 0 lit, -1 not traced (:func:`trace_packets` writes it).
-    points : (LANES, LANE_SLOTS) float64
-        The lanes' shading points, kept between the request and the shading (:func:`store_point`).
-    """
-    buf = np.empty(max(nlights, 1) * _RAY16 + 16, np.float32)
-    off = ((64 - buf.ctypes.data % 64) % 64) // 4
-    valid = np.zeros(max(nlights, 1) * LANES + 16, np.int32)
-    voff = ((64 - valid.ctypes.data % 64) % 64) // 4
-    args = np.zeros(embree.ARGS_SLOTS + 2, np.uint32)
-    aoff = ((8 - args.ctypes.data % 8) % 8) // 4
-    args[aoff] = embree.RAY_QUERY_FLAG_COHERENT  # neighbours' rays to one light: 1.9x faster than without
-    args[aoff + 1] = embree.FEATURE_FLAG_ALL
-    vis = np.full((max(nlights, 1), LANES), _UNTRACED, np.int8)
+    """A per-task scratch for the shadow packets of ``nlights`` lights: one occlusion packet per
+    light (:func:`~raycast_shade.visibility.secondary.occlusion_packets`: ``buf, ib, off, valid,
+    voff, args, aoff, vis``), then ``points``, (LANES, LANE_SLOTS) float64, the lanes' shading
+    points, kept between the request and the shading (:func:`store_point`)."""
+    buf, ib, off, valid, voff, args, aoff, vis = occlusion_packets(nlights)
     points = np.zeros((LANES, LANE_SLOTS), np.float64)
-    ib = buf.view(np.uint32)
-    for i in range(max(nlights, 1)):  # the slots no ray changes and Embree never writes, once
-        for k in range(LANES):
-            b = off + i * _RAY16 + k
-            buf[b + embree.RAY_TNEAR * LANES] = 0.0
-            buf[b + embree.RAY_TIME * LANES] = 0.0
-            ib[b + embree.RAY_MASK * LANES] = embree.INVALID_ID  # every mask bit, as write_ray
-            ib[b + embree.RAY_ID * LANES] = 0
-            ib[b + embree.RAY_FLAGS * LANES] = 0
     return buf, ib, off, valid, voff, args, aoff, vis, points
 
 
 @njit(**HELPER)
 def clear_packets(valid, voff, vis, points):
     """Start a packet task's tile: no ray asked for, no point stored."""
-    for i in range(vis.shape[0]):
-        for k in range(LANES):
-            valid[voff + i * LANES + k] = 0
-            vis[i, k] = _UNTRACED
+    clear_occlusion(valid, voff, vis)
     for k in range(LANES):
         points[k, 0] = -1.0
 
@@ -186,39 +134,8 @@ def clear_packets(valid, voff, vis, points):
 def request_ray(P, i, k, o, g, s, target, is_point, unit):
     """Ask for light ``i``'s shadow ray of lane ``k`` (:func:`_shadow_ray`'s ray) in the packets of
     ``P = (buf, ib, off, valid, voff)``."""
-    buf, ib, off, valid, voff = P
     org, d, tfar = _shadow_ray(o, g, s, target, is_point, unit)
-    b = off + i * _RAY16 + k  # tnear 0, time 0, every mask bit, id and flags 0: set by _packets
-    for c in range(3):
-        buf[b + (embree.RAY_ORG + c) * LANES] = org[c]
-        buf[b + (embree.RAY_DIR + c) * LANES] = d[c]
-    buf[b + embree.RAY_TFAR * LANES] = tfar
-    valid[voff + i * LANES + k] = -1
-
-
-@njit(**HELPER)
-def trace_packets(handle, buf, off, valid, voff, args, aoff, vis):
-    """Trace each light's packet that has an active lane (``rtcOccluded16``), and write ``vis``
-    (1 blocked, 0 lit) for its active lanes.
-
-    As in :func:`_occluded`, each address is computed from its live array in the very expression
-    that calls Embree, and the packet is read again after the call; compiled without reference
-    counting (:data:`~raycast_shade.shading.jit.HELPER`), this helper cannot release an array,
-    and its caller holds them all (slicing them for
-    :func:`~raycast_shade.visibility.embree.occluded16_packet` would cost two atomic reference
-    counts per slice per tile)."""
-    for i in range(vis.shape[0]):
-        v0 = voff + i * LANES
-        any_on = False
-        for k in range(LANES):
-            any_on = any_on or valid[v0 + k] != 0
-        if not any_on:
-            continue
-        b0 = off + i * _RAY16
-        embree.occluded16(valid.ctypes.data + v0 * 4, handle, buf.ctypes.data + b0 * 4, args.ctypes.data + aoff * 4)
-        for k in range(LANES):
-            if valid[v0 + k] != 0:
-                vis[i, k] = 1 if buf[b0 + embree.RAY_TFAR * LANES + k] < 0.0 else 0
+    set_occlusion_ray(P, i, k, org, d, tfar)
 
 
 @njit(**HELPER)

@@ -37,7 +37,7 @@ from .gouraud_sides import _near_face
 from .illumination import _light_at, _samples
 from .jit import CALLED, CHUNK, FLT32_MAX, HELPER, JIT, compile_variants
 from .records import At, Hit, dot
-from .shadows import _scratch
+from ..visibility.secondary import ray_scratch
 from .surface import _convex_weights, _facing, _hit_point, _triangle, _view
 from .terms_kernel import (TERM_AMBIENT, TERM_DIFFUSE, TERM_EMISSIVE, TERM_SPECULAR, TERMS_BACKGROUND_RGB,
                            TERMS_EACH, TERMS_EMIT_ON, TERMS_SHADOW, _hit_background, _illuminate_terms, _miss,
@@ -108,7 +108,7 @@ def _make_vertex_terms(tex_on: bool = False):
         step = spread_step(nchunk)
         for it in range(*share(nchunk, part)):  # this part's share (common.parallel)
             c = (it * step) % nchunk
-            S = _scratch()
+            S = ray_scratch()
             for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
                 if vertex_flags[i, 0] == 0 and vertex_flags[i, 1] == 0:
                     continue
@@ -313,7 +313,7 @@ def _make_gouraud_terms(tex_on: bool = False):
         for it in range(*share(nblk, part)):  # this part's share (common.parallel)
             blk = (it * step) % nblk
             for y in range(blk * BLOCK_ROWS, min(h, (blk + 1) * BLOCK_ROWS)):
-                S = _scratch()
+                S = ray_scratch()
                 ty = y0 + y
                 for x in range(w):
                     if ahead > 0:

@@ -52,7 +52,7 @@ from .jit import FLT32_MAX, HELPER, JIT, compile_variants
 from .phong import _surface
 from .records import (TERM_AMBIENT, TERM_BACKGROUND, TERM_DIFFUSE, TERM_EMISSIVE, TERM_SLOTS, TERM_SPECULAR,
                       TERMS_BACKGROUND_RGB, TERMS_BG_ON, TERMS_EACH, TERMS_EMIT_ON, TERMS_SHADOW, At, Hit, store3)
-from .shadows import _scratch
+from ..visibility.secondary import ray_scratch
 from .surface import _terminator_point, _triangle
 from .texture import _point_coefficients, _row_coefficients
 
@@ -118,7 +118,7 @@ def _make_phong_terms(tex_on: bool = False):
         for it in range(*share(nblk, part)):  # this part's share (common.parallel)
             blk = (it * step) % nblk
             for y in range(blk * BLOCK_ROWS, min(h, (blk + 1) * BLOCK_ROWS)):
-                S = _scratch()
+                S = ray_scratch()
                 ty = y0 + y
                 for x in range(w):
                     p = prim[y, x]

@@ -30,7 +30,7 @@ from raycast_shade.shading import shade as shade_mod
 from raycast_shade.shading import shadows
 from raycast_shade.shading.jit import HELPER, variant
 from raycast_shade.shading.phong import _PHONG, _PHONG_PACKETS
-from raycast_shade.visibility import embree
+from raycast_shade.visibility import embree, secondary
 from raycast_shade.visibility.accel import embree_accel
 
 
@@ -204,37 +204,30 @@ def test_the_packet_kernel_keeps_its_embree_buffers_alive_when_frees_are_poisone
 
 @njit(cache=False)
 def _trace_both(handle, origins, directions, tfar, active):
-    """Each group of 16 rays as one packet (:func:`.shadows.trace_packets`, inactive lanes off) and one
+    """Each group of 16 rays as one packet (:func:`.secondary.trace_occlusion`, inactive lanes off) and one
     by one (``rtcOccluded1``): (vis per lane, blocked per ray, the packet's tfar slots after the call)."""
     n = origins.shape[0] // shadows.LANES
     buf, ib, off, valid, voff, args, aoff, vis, points = shadows._packets(1)
     packet = np.empty((n, shadows.LANES), np.int8)
     after = np.empty((n, shadows.LANES), np.float32)
     single = np.zeros(origins.shape[0], np.bool_)
-    one = np.empty(32, np.float32)
-    o1 = ((16 - one.ctypes.data % 16) % 16) // 4
-    u1 = one.view(np.uint32)
+    S1 = secondary.ray_scratch()
     for t in range(n):
         shadows.clear_packets(valid, voff, vis, points)
         for k in range(shadows.LANES):
             r = t * shadows.LANES + k
             buf[off + embree.RAY_TFAR * shadows.LANES + k] = 7.0  # an inactive lane keeps it
             if active[r]:
-                b = off + k
-                for c in range(3):
-                    buf[b + (embree.RAY_ORG + c) * shadows.LANES] = origins[r, c]
-                    buf[b + (embree.RAY_DIR + c) * shadows.LANES] = directions[r, c]
-                buf[b + embree.RAY_TFAR * shadows.LANES] = tfar[r]
-                valid[voff + k] = -1
-        shadows.trace_packets(handle, buf, off, valid, voff, args, aoff, vis)
+                secondary.set_occlusion_ray((buf, ib, off, valid, voff), 0, k,
+                                            (origins[r, 0], origins[r, 1], origins[r, 2]),
+                                            (directions[r, 0], directions[r, 1], directions[r, 2]), tfar[r])
+        secondary.trace_occlusion(handle, buf, off, valid, voff, args, aoff, vis)
         for k in range(shadows.LANES):
             packet[t, k] = vis[0, k]
             after[t, k] = buf[off + embree.RAY_TFAR * shadows.LANES + k]
             r = t * shadows.LANES + k
-            embree.write_ray(one, u1, o1, 1, (origins[r, 0], origins[r, 1], origins[r, 2]),
-                             (directions[r, 0], directions[r, 1], directions[r, 2]), 0.0, tfar[r])
-            embree.occluded1_ray(handle, one[o1:])
-            single[r] = one[o1 + embree.RAY_TFAR] < 0.0
+            single[r] = secondary.occluded(handle, S1, (origins[r, 0], origins[r, 1], origins[r, 2]),
+                                           (directions[r, 0], directions[r, 1], directions[r, 2]), tfar[r])
     return packet, single, after
 
 

@@ -231,22 +231,31 @@ def _calls_to(tree, names):
 WRAPPERS = ("intersect1_ray", "intersect8_packet", "intersect16_packet", "occluded1_ray", "occluded16_packet")
 
 
-def test_no_raw_address_reaches_embree_outside_the_array_wrappers():
-    """Only embree.py's wrappers call the raw ``rtcIntersect1/8/16`` / ``rtcOccluded1/16``
-    symbols, and each pointer they pass is ``<parameter>.ctypes.data``: the kernels in
-    visibility/ hand over arrays, which the call itself keeps alive."""
-    raw = {"intersect1", "intersect8", "intersect16", "occluded1", "occluded16"}
+RAW = {"intersect1", "intersect8", "intersect16", "occluded1", "occluded16"}
+# What lays out or reads Embree's structs: only visibility/ may name these.
+STRUCT_NAMES = {"write_ray", "reset_hit", "read_hit", "RAY_ORG", "RAY_DIR", "RAY_TFAR", "RAY_TNEAR", "RAY_TIME",
+                "RAY_MASK", "RAY_ID", "RAY_FLAGS", "RAY16_SLOTS", "RAYHIT_SLOTS", "RAY_SLOTS", "HIT_GEOM_ID",
+                "HIT_PRIM_ID", "HIT_U", "HIT_V", "ARGS_SLOTS"} | RAW
+
+
+def test_no_raw_address_reaches_embree_outside_the_array_wrappers_and_the_query():
+    """Only embree.py's wrappers and secondary.py (the query for secondary rays) call the raw
+    ``rtcIntersect1/8/16`` / ``rtcOccluded1/16`` symbols; each pointer a wrapper passes is
+    ``<parameter>.ctypes.data``: the kernels in visibility/ hand over arrays, which the call
+    itself keeps alive (secondary.py's calls: the test below)."""
     bad = []
     for path in sorted(VISIBILITY.glob("*.py")):
         tree = ast.parse(path.read_text(encoding="utf-8"))
+        if path.name == "secondary.py":
+            continue
         if path.name != "embree.py":
-            bad += [f"{path.name}:{c.lineno}" for c in _calls_to(tree, raw)]
+            bad += [f"{path.name}:{c.lineno}" for c in _calls_to(tree, RAW)]
             continue
         wrappers = {f.name: f for f in tree.body if isinstance(f, ast.FunctionDef)}
         for name in WRAPPERS:
             fn = wrappers[name]
             params = {a.arg for a in fn.args.args}
-            (call,) = list(_calls_to(fn, raw))
+            (call,) = list(_calls_to(fn, RAW))
             for arg in call.args:
                 if isinstance(arg, ast.Attribute) and arg.attr == "data":
                     ok = (isinstance(arg.value, ast.Attribute) and arg.value.attr == "ctypes"
@@ -257,7 +266,7 @@ def test_no_raw_address_reaches_embree_outside_the_array_wrappers():
                         isinstance(arg, ast.Constant) and arg.value == 0):
                     bad.append(f"embree.py:{arg.lineno}: {ast.unparse(arg)}")
         others = [c for f in tree.body if isinstance(f, ast.FunctionDef) and f.name not in WRAPPERS
-                  for c in _calls_to(f, raw)]
+                  for c in _calls_to(f, RAW)]
         bad += [f"embree.py:{c.lineno}" for c in others]
     assert not bad, "raw Embree calls outside the array wrappers: " + ", ".join(bad)
 
@@ -271,35 +280,64 @@ def _address_of_live_array(arg) -> bool:
             and arg.value.attr == "ctypes" and isinstance(arg.value.value, ast.Name))
 
 
-def test_raw_embree_calls_in_the_shading_kernels_take_addresses_from_live_arrays():
-    """The shading kernels call ``rtcOccluded1/16`` directly (slicing an array per tile for a
-    wrapper costs atomic reference counts): every pointer they pass is computed from its array in
-    the call expression itself, from an array that is a parameter of the function (its caller
-    holds it across the call) or is read again after the call (so it is live while Embree uses
-    the pointer); the scene handle is a name, the context 0."""
-    raw = {"intersect1", "intersect8", "intersect16", "occluded1", "occluded16"}
-    package = VISIBILITY.parent
+def _held_by_caller(fn) -> set:
+    """The parameters of ``fn`` and the names unpacked from one (``buf, ib, off = S``): arrays
+    whose caller holds them across the call."""
+    params = {a.arg for a in fn.args.args}
+    held = set(params)
+    for node in ast.walk(fn):
+        if (isinstance(node, ast.Assign) and isinstance(node.value, ast.Name) and node.value.id in params
+                and isinstance(node.targets[0], ast.Tuple)):
+            held |= {e.id for e in node.targets[0].elts if isinstance(e, ast.Name)}
+    return held
+
+
+def test_the_query_for_secondary_rays_takes_addresses_from_live_arrays():
+    """secondary.py calls ``rtcOccluded1/16`` and ``rtcIntersect16`` directly (slicing an array
+    per tile for a wrapper costs atomic reference counts): every pointer is computed from its
+    array in the call expression itself, from an array the caller holds (a parameter, or unpacked
+    from one) or that is read again after the call (so it is live while Embree uses the
+    pointer); the scene handle is a name, the context 0."""
+    tree = ast.parse((VISIBILITY / "secondary.py").read_text(encoding="utf-8"))
     bad, seen = [], 0
+    for fn in [n for n in ast.walk(tree) if isinstance(n, ast.FunctionDef)]:
+        held = _held_by_caller(fn)
+        for call in _calls_to(fn, RAW):
+            seen += 1
+            where = f"secondary.py:{call.lineno}"
+            for arg in call.args:
+                if _address_of_live_array(arg):
+                    name = (arg.left if isinstance(arg, ast.BinOp) else arg).value.value.id
+                    later = [n for n in ast.walk(fn) if isinstance(n, ast.Name) and n.id == name
+                             and n.lineno > call.end_lineno]
+                    if not later and name not in held:
+                        bad.append(f"{where}: {name} is neither held by the caller nor read after the call")
+                elif not (isinstance(arg, ast.Name) and arg.id in ("handle", "scene")) and not (
+                        isinstance(arg, ast.Constant) and arg.value == 0):
+                    bad.append(f"{where}: {ast.unparse(arg)}")  # e.g. an address kept in a variable
+    assert seen == 3, f"expected the query's three raw calls (occluded1, occluded16, intersect16), found {seen}"
+    assert not bad, "raw Embree addresses not taken from a live array: " + ", ".join(bad)
+
+
+def test_no_stage_above_visibility_lays_out_an_embree_struct():
+    """The shading stage (and every other package but visibility/) asks
+    :mod:`raycast_shade.visibility.secondary` for its rays' answers: it never names a struct
+    slot, writes or reads a ray or hit, or calls Embree itself."""
+    package = VISIBILITY.parent
+    bad = []
     for path in sorted(package.rglob("*.py")):
         if path.parent == VISIBILITY:
-            continue  # visibility/: the wrappers only (the test above)
+            continue
         tree = ast.parse(path.read_text(encoding="utf-8"))
-        for fn in [n for n in ast.walk(tree) if isinstance(n, ast.FunctionDef)]:
-            for call in _calls_to(fn, raw):
-                seen += 1
-                where = f"{path.relative_to(package)}:{call.lineno}"
-                for arg in call.args:
-                    if _address_of_live_array(arg):
-                        name = (arg.left if isinstance(arg, ast.BinOp) else arg).value.value.id
-                        later = [n for n in ast.walk(fn) if isinstance(n, ast.Name) and n.id == name
-                                 and n.lineno > call.end_lineno]
-                        if not later and name not in {a.arg for a in fn.args.args}:
-                            bad.append(f"{where}: {name} is neither a parameter nor read after the call")
-                    elif not (isinstance(arg, ast.Name) and arg.id in ("handle", "scene")) and not (
-                            isinstance(arg, ast.Constant) and arg.value == 0):
-                        bad.append(f"{where}: {ast.unparse(arg)}")  # e.g. an address kept in a variable
-    assert seen >= 2, "the shadow kernels' raw calls were not found: the test no longer looks where they are"
-    assert not bad, "raw Embree addresses not taken from a live array: " + ", ".join(bad)
+        for node in ast.walk(tree):
+            name = node.attr if isinstance(node, ast.Attribute) else (
+                node.id if isinstance(node, ast.Name) else None)
+            if name in STRUCT_NAMES:
+                bad.append(f"{path.relative_to(package)}:{node.lineno}: {name}")
+            if isinstance(node, ast.ImportFrom) and node.module and node.module.endswith("embree"):
+                bad += [f"{path.relative_to(package)}:{node.lineno}: imports {a.name}" for a in node.names
+                        if a.name in STRUCT_NAMES]
+    assert not bad, "Embree structs laid out outside visibility/: " + ", ".join(bad)
 
 
 def test_the_accelerator_holds_the_buffers_embree_points_into():
