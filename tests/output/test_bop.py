@@ -176,7 +176,7 @@ def test_gt_info_is_the_toolkits_calc_gt_info(bop_set):
             assert entry["px_count_visib"] == ours.sum() and entry["visib_fract"] == ours.sum() / px_all
             assert entry["bbox_visib"] == (_bbox(*np.nonzero(ours)[::-1]) if ours.any() else [-1] * 4)
             truncated += entry["visib_fract"] < entry["px_count_visib"] / max(1, np.count_nonzero(entry["mask"]))
-    assert estimated <= 30
+    assert 0 < estimated <= 0.01 * len(cams) * 3 * W * H  # the estimate adds pixels where surfaces meet
     assert truncated >= 1  # the ball cut by the left border: BOP's fraction counts the part beyond it
     assert images[0]["gt"][0]["bbox_obj"][0] < 0  # and its box is not clipped
 
