@@ -10,7 +10,7 @@
     train/000000/rgb/000000.png    the view's image; depth/000000.png its uint16 depth
     train/000000/mask/000000_000000.png, mask_visib/...   {im_id:06d}_{gt_id:06d}.png, 0 or 255
 
-Conventions (``docs/bop_datasets_format.md`` and ``scripts/calc_gt_info.py`` of the toolkit):
+Conventions (the toolkit's format document, ``bop_datasets_format``, and its ``calc_gt_info`` script):
 
 * ``obj_id``: one per distinct mesh (the same vertices and faces in model coordinates), from 1
   in order of first appearance; two models of one mesh are two instances of one object.

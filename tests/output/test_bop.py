@@ -1,5 +1,5 @@
 """The BOP export: a view set read back by a small BOP reader written from the format's document
-(``docs/bop_datasets_format.md`` of ``bop_toolkit``), its poses checked with ``cv2.projectPoints``,
+(``bop_datasets_format`` of ``bop_toolkit``), its poses checked with ``cv2.projectPoints``,
 and its ``scene_gt_info`` against the toolkit's ``calc_gt_info`` logic, reproduced here from its source
 (the object rendered alone in a ``3W x 3H`` frame, distance images, the ``bop19`` visibility test).
 
