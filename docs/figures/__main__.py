@@ -32,6 +32,7 @@ FIGURES = [
     dict(name="aa", module="docs.figures.aa", page="antialiasing.md"),
     dict(name="raster", module="docs.figures.raster", page="raster.md"),
     dict(name="vision", module="docs.figures.vision", page="vision.md"),
+    dict(name="bop", module="docs.figures.bop", page="vision.md"),
     dict(name="teaching", module="docs.figures.teaching", page="teaching.md"),
     dict(name="gallery", module="docs.figures.gallery", page="gallery.md"),
     dict(name="animation", module="docs.figures.animation", page="animation.md"),

@@ -13,15 +13,19 @@ from __future__ import annotations
 import json
 import os
 
+from ..output.bop import BOP_SPLIT, check_bop, write_bop
 from ..output.export import COLMAP_FILES, check_colmap, check_transforms, write_colmap, write_transforms
 from ..output.imagefile import check_output_folder
 from ..output.labels import write_coco
 
 __all__ = ["EXPORTS", "EXPORT_FILES", "check_set_targets", "write_exports"]
 
-EXPORTS = ("coco", "nerfstudio", "colmap")
+EXPORTS = ("coco", "nerfstudio", "colmap", "bop")
 EXPORT_FILES = {"coco": ("coco_instances.json",), "nerfstudio": ("transforms.json",),
-                "colmap": tuple(os.path.join("colmap", n) for n in COLMAP_FILES)}
+                "colmap": tuple(os.path.join("colmap", n) for n in COLMAP_FILES),
+                "bop": (os.path.join("bop", "models", "models_info.json"),
+                        *(os.path.join("bop", BOP_SPLIT, n + ".json") for n in ("scene_camera", "scene_gt", "scene_gt_info")))}
+BOP_UNITS_MM = 1000.0  # millimetres per world unit of a view set's BOP export: the scene in metres
 
 
 def check_set_targets(out_dir: str, exports, cameras, view_names: dict, set_names) -> None:
@@ -54,11 +58,17 @@ def check_set_targets(out_dir: str, exports, cameras, view_names: dict, set_name
                 check(cameras, images)
             except ValueError as exc:  # the cameras are the views: name the export that cannot say them
                 raise ValueError(f"exports: {kind!r} cannot be written: {exc}") from None
-    if "colmap" in exports:
-        folder = os.path.join(out_dir, "colmap")
-        if os.path.lexists(folder) and not os.path.isdir(folder):
-            raise ValueError(f"exports: 'colmap' writes the folder {folder!r}, but a file is there")
-        check_output_folder(folder, "exports")
+    if "bop" in exports:
+        try:
+            check_bop(cameras)
+        except ValueError as exc:
+            raise ValueError(f"exports: 'bop' cannot be written: {exc}") from None
+    for kind in ("colmap", "bop"):
+        if kind in exports:
+            folder = os.path.join(out_dir, kind)
+            if os.path.lexists(folder) and not os.path.isdir(folder):
+                raise ValueError(f"exports: {kind!r} writes the folder {folder!r}, but a file is there")
+            check_output_folder(folder, "exports")
     if not os.path.isdir(out_dir):
         return  # made later, empty
     targets = set(set_names) | {n for e in exports for n in EXPORT_FILES[e]}
@@ -85,3 +95,12 @@ def write_exports(scene, cameras, index: dict, out_dir: str, exports) -> None:
                          [v["files"]["image"] for v in views])
     if "colmap" in exports:
         write_colmap(os.path.join(out_dir, "colmap"), cameras, [v["files"]["image"] for v in views])
+    if "bop" in exports:
+        bop_views = []
+        for v in views:
+            with open(os.path.join(out_dir, v["files"]["record"])) as fh:
+                objects = json.load(fh)["objects"]
+            bop_views.append({"rgb": os.path.join(out_dir, v["files"]["image"]),
+                              "depth": os.path.join(out_dir, v["files"]["depth_png"]),
+                              "depth_units": index["depth_scale"], "objects": objects})
+        write_bop(os.path.join(out_dir, "bop"), scene, cameras, bop_views, mm_per_unit=BOP_UNITS_MM)

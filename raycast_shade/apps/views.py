@@ -33,9 +33,10 @@ and ``index.json``: the objects (id, name, semantic id, material, 3D box,
 pose; :func:`raycast_shade.output.labels.object_table`), and per view its
 ``K``, ``R``, ``t`` (OpenCV's convention), size, projection, files and
 visible objects. ``exports`` adds set-level files: ``coco_instances.json``
-(COCO instances, RLE masks), ``transforms.json`` (nerfstudio / instant-ngp)
-and ``colmap/`` (COLMAP's text model); see :mod:`raycast_shade.output.labels`
-and :mod:`raycast_shade.output.export`. The exports are written from the
+(COCO instances, RLE masks), ``transforms.json`` (nerfstudio / instant-ngp),
+``colmap/`` (COLMAP's text model) and ``bop/`` (a BOP data set); see
+:mod:`raycast_shade.output.labels`, :mod:`raycast_shade.output.export` and
+:mod:`raycast_shade.output.bop`. The exports are written from the
 views' records and cameras, so they are not part of the plan: asking for
 another export later renders nothing again.
 
@@ -66,7 +67,7 @@ import os
 from ..common.validate import as_bool, as_instance, as_names
 from ..output.bufferfile import depth_png_bytes, exr_into, npz_into
 from ..output.buffers import check_buffers
-from ..output.labels import object_table, semantic_classes, unoccluded_masks, view_objects
+from ..output.labels import object_table, rle_encode, semantic_classes, silhouettes, view_objects
 from ..output.imagefile import check_output_folder, png_bytes, remove_stale_temps, write_hashed, write_image
 from ..output.quantize import to_uint8_table
 from ..render import render
@@ -148,9 +149,9 @@ def _render_view(job, base, spec: _ViewSpec, cache: SceneCache, slot=None):
                    **spec.options.render_kwargs)
     if slot is not None:
         slot.keep(frame.buffers)
-    alone = unoccluded_masks(scene, job.camera) if spec.unoccluded else None  # casts: on the rendering thread
-    boxes = scene.geometry.memo("views.boxes", lambda geo: [(m.mesh.vertices.min(axis=0), m.mesh.vertices.max(axis=0))
-                                                          for m in scene.models])  # once per mesh set
+    alone = silhouettes(scene, job.camera) if spec.unoccluded else None  # casts: on the rendering thread
+    boxes = scene.geometry.memo("views.boxes", lambda geo: ([m.bounds for m in scene.models],
+                                                          [m.model_to_world for m in scene.models]))  # once per mesh set
     cache.count("renders")
     return files, frame, key, alone, boxes
 
@@ -159,7 +160,11 @@ def _store_view(job, spec: _ViewSpec, files, frame, key, alone, boxes) -> None:
     """Write a rendered view's files, then its record with the visible objects (masks as RLE always:
     a later run may ask for the COCO export without rendering again)."""
     written = _write_files(files, frame, {k: v for k, v in frame.buffers.items() if k in spec.buffers}, job, spec)
-    objects = view_objects(frame.buffers["model_id"], job.camera, rle=True, alone=alone, boxes_3d=boxes)
+    objects = view_objects(frame.buffers["model_id"], job.camera, rle=True, alone=alone, boxes_3d=boxes[0],
+                           poses=boxes[1])
+    if alone is not None:  # the silhouettes too, for the BOP export's mask/ files (a later run may ask for it)
+        for o in objects:
+            o["rle_unoccluded"] = rle_encode(alone[o["id"]].mask)
     write_record(files, key, job, objects, written)
 
 
@@ -302,7 +307,7 @@ def _index_entry(job, files, out_dir) -> dict:
     K, R, t = job.camera.to_opencv()
     cam = job.camera
     with open(os.path.join(out_dir, files["record"])) as fh:
-        objects = [{k: v for k, v in o.items() if k != "rle"} for o in json.load(fh)["objects"]]
+        objects = [{k: v for k, v in o.items() if k not in ("rle", "rle_unoccluded")} for o in json.load(fh)["objects"]]
     lens = {"distortion": list(cam.distortion), "distortion_model": cam.distortion_model} if cam.distorted else {}
     return {"index": job.index, "width": cam.width, "height": cam.height, "projection": cam.projection,
             "K": K.tolist(), "R": R.tolist(), "t": t.tolist(), **lens, "files": files, "objects": objects}
@@ -328,20 +333,26 @@ def _make_plan(spec: _ViewSpec, jobs) -> dict:
 
 
 def _check_set_options(exports, files: ViewFiles, unoccluded, overwrite) -> tuple:
-    """The checked exports and compression (``"auto"`` resolved); TypeError/ValueError naming the argument
-    otherwise. The file options themselves were checked by :class:`ViewFiles`."""
+    """The checked exports, compression (``"auto"`` resolved), formats and ``unoccluded`` (``bop`` adds
+    ``depth_png`` and turns ``unoccluded`` on); TypeError/ValueError naming the argument otherwise. The file options themselves were checked by :class:`ViewFiles`."""
     exports = as_names(exports, "exports", EXPORTS)
     compression = files.compression
     if compression == "auto":
         from ..output.npzwrite import deflate_backend
 
         compression = "zip" if deflate_backend(1) == "isal" else "none"
-    for e in ("nerfstudio", "colmap"):
+    for e in ("nerfstudio", "colmap", "bop"):
         if e in exports and files.image is None:
             raise ValueError(f"exports: {e!r} names each view's image file, but image=None writes none")
+    if "bop" in exports and files.image != ".png":
+        raise ValueError(f"exports: 'bop' takes each view's image as its rgb/ PNG, but image={files.image!r}")
     for name, value in (("unoccluded", unoccluded), ("overwrite", overwrite)):
         as_bool(value, name)
-    return exports, compression
+    formats = files.formats
+    if "bop" in exports:  # BOP's depth/ and mask/ files and visib_fract: the depth PNG and the silhouettes
+        formats = formats if "depth_png" in formats else formats + ("depth_png",)
+        unoccluded = True
+    return exports, compression, formats, unoccluded
 
 
 def _on_dask(run: RunOptions) -> bool:
@@ -383,10 +394,12 @@ def render_views(scene, cameras, out_dir, *, files: ViewFiles | None = None, run
     overwrite : bool
         Replace a view set of another plan in ``out_dir`` (default: refuse
         it, saying what differs).
-    exports : sequence of {"coco", "nerfstudio", "colmap"}
+    exports : sequence of {"coco", "nerfstudio", "colmap", "bop"}
         Set-level files written after the views (see the module docstring);
         ``nerfstudio`` and ``colmap`` name the image files, so they need
-        ``files.image``.
+        ``files.image``; ``bop`` (:mod:`raycast_shade.output.bop`, the scene
+        in metres) needs ``.png`` images and turns on ``unoccluded`` and the
+        ``depth_png`` format (its ``depth/`` files).
     unoccluded : bool
         Also cast each model alone per view: each object's unoccluded
         (amodal) pixel count and box and its visible fraction in the records
@@ -433,7 +446,7 @@ def render_views(scene, cameras, out_dir, *, files: ViewFiles | None = None, run
     run = merge_keywords(run, RunOptions, render_kwargs, FLAT_RUN_KEYWORDS, "run")
     on_dask = _on_dask(run)
     names, formats, image, depth_scale = check_buffers(files.buffers), files.formats, files.image, files.depth_scale
-    exports, compression = _check_set_options(exports, files, unoccluded, overwrite)
+    exports, compression, formats, unoccluded = _check_set_options(exports, files, unoccluded, overwrite)
     options = check_options(shading, render_kwargs, tone, run.resume)
     memory = dict(buffers=names + ("model_id",), samples=options.render_kwargs.get("samples", 1))
     bases, jobs = plan_batch(scene, cameras, memory=memory)
@@ -464,7 +477,7 @@ def render_views(scene, cameras, out_dir, *, files: ViewFiles | None = None, run
                              "zdepth": "camera-space z", "depth": "distance along the ray",
                              "depth_png": f"uint16 zdepth * {spec.depth_scale:g}, 0 = none",
                              "ids": "-1 on the background (EXR: id + 1, 0 on the background)"},
-             "buffers": list(names), "formats": list(formats),
+             "buffers": list(names), "formats": list(formats), "depth_scale": spec.depth_scale,
              "classes": list(semantic_classes(scene)[0]), "objects": object_table(scene),
              "views": [_index_entry(j, all_files[j.index], out_dir) for j in jobs]}
     write_exports(scene, [j.camera for j in jobs], index, out_dir, exports)
@@ -511,13 +524,15 @@ def register_cli(subparsers):
     p.add_argument("--buffers", type=buffer_list, default=("zdepth", "normal", "model_id", "triangle_id", "mask"),
                    metavar="NAMES", help="comma-separated buffer names (default: zdepth,normal,id,mask)")
     p.add_argument("--formats", default="npz", metavar="LIST",
-                   help=f"buffer files per view, comma-separated: {', '.join(FORMATS)} (default: npz)")
+                   help=f"buffer files per view, comma-separated: {', '.join(FORMATS)} (default: npz); 'bop' "
+                        "here is taken as --export bop")
     p.add_argument("--image", default=".png", metavar="EXT",
                    help="per-view image file extension, or 'none' (default: .png)")
     p.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder (created)")
     p.add_argument("--export", default="", metavar="LIST",
                    help=f"set-level files, comma-separated: {', '.join(EXPORTS)} (COCO instances with RLE masks, "
-                        "nerfstudio/instant-ngp transforms.json, COLMAP text)")
+                        "nerfstudio/instant-ngp transforms.json, COLMAP text, a BOP data set in bop/: the scene in "
+                        "metres, written in mm)")
     p.add_argument("--unoccluded", action="store_true",
                    help="also cast each model alone: per object its unoccluded pixel count and box and its "
                         "visible fraction, in index.json")
@@ -554,11 +569,16 @@ def run_cli(ns) -> int:
     shading = render_kwargs.pop("shading", "phong")
     image = None if ns.image.lower() == "none" else (ns.image if ns.image.startswith(".") else "." + ns.image)
     t0 = time.perf_counter()
-    files = ViewFiles(buffers=ns.buffers, formats=ns.formats, image=image, float_image=ns.float_image,
+    formats = [f.strip().lower() for f in ns.formats.split(",") if f.strip()]
+    exports = [e.strip().lower() for e in ns.export.split(",") if e.strip()]
+    if "bop" in formats:  # a data set format, asked for where the buffer formats are: the BOP export
+        formats.remove("bop")
+        exports += [] if "bop" in exports else ["bop"]
+    files = ViewFiles(buffers=ns.buffers, formats=tuple(formats), image=image, float_image=ns.float_image,
                       compression=ns.compression)
     run = run_options(ns)  # --workers, --scheduler: the record Python callers pass
     index = render_views(scene, orbit_cameras(scene.camera, ns.orbit), ns.output, files=files, run=run,
-                         shading=shading, tone=tone, overwrite=ns.overwrite, exports=ns.export,
+                         shading=shading, tone=tone, overwrite=ns.overwrite, exports=exports,
                          unoccluded=ns.unoccluded, **render_kwargs)
     secs = time.perf_counter() - t0
     cam = scene.camera

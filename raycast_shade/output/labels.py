@@ -17,8 +17,12 @@ Boxes
 Poses
     ``(4, 4)`` model-to-camera, OpenCV camera axes (``x`` right, ``y`` down,
     ``z`` forward): ``[R t; 0 1]`` of the camera times the model's
-    model-to-world transform, the identity (meshes are given in world
-    coordinates), so points of the mesh map as ``x_cam = P[:3, :3] x + P[:3, 3]``.
+    model-to-world :attr:`~raycast_shade.scene.scene.Model.pose` (the identity
+    by default), so points of the mesh map as ``x_cam = P[:3, :3] x + P[:3, 3]``.
+Visible fraction
+    BOP's ``visib_fract``: visible pixels over the pixels of the model alone in
+    a frame enlarged to ``3W x 3H`` (:func:`silhouettes`), so an object cut by
+    the border counts the part beyond it; ``box_unoccluded`` is not clipped.
 COCO RLE
     Column-major runs starting with a run of 0s, compressed to a string as
     COCO's ``maskApi`` does (5-bit groups, runs after the second stored as
@@ -29,13 +33,15 @@ from __future__ import annotations
 
 import json
 import os
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
 from ..common.validate import as_bool, as_instance, as_int, as_name, as_path, as_sequence
 
-__all__ = ["semantic_classes", "object_table", "box_corners", "view_objects", "unoccluded_masks", "rle_encode", "rle_decode", "coco_instances",
+__all__ = ["semantic_classes", "object_table", "box_corners", "view_objects", "Silhouette", "silhouettes",
+           "unoccluded_masks", "rle_encode", "rle_decode", "coco_instances",
            "write_coco", "id_labels"]
 
 
@@ -74,18 +80,19 @@ def semantic_classes(scene) -> tuple:
 
 def object_table(scene) -> list:
     """One entry per model: ``id``, ``name``, ``semantic_id``, ``material`` (its name and
-    coefficients), ``box_3d`` (world axis-aligned ``[min, max]``), ``pose`` ((4, 4) model-to-world)."""
+    coefficients), ``box_3d`` (world axis-aligned ``[min, max]`` of the posed mesh), ``pose``
+    ((4, 4) model-to-world, :attr:`~raycast_shade.scene.scene.Model.pose`)."""
     _, sem = semantic_classes(scene)
     out = []
     for i, model in enumerate(scene.models):
         m = model.material
-        v = model.mesh.vertices
+        lo, hi = model.bounds
         out.append({"id": i, "name": model.name, "semantic_id": int(sem[i]),
                     "material": {"name": m.name, "ka": m.ka.tolist(), "kd": m.kd.tolist(), "ks": m.ks.tolist(),
                                  "shininess": float(m.shininess), "specular": m.specular,
                                  "reflectivity": float(m.reflectivity)},
-                    "box_3d": [v.min(axis=0).tolist(), v.max(axis=0).tolist()],
-                    "pose": np.eye(4).tolist()})
+                    "box_3d": [lo.tolist(), hi.tolist()],
+                    "pose": model.model_to_world.tolist()})
     return out
 
 
@@ -101,7 +108,7 @@ def box_corners(box_3d) -> np.ndarray:
     return np.stack([np.where(k & 4, hi[0], lo[0]), np.where(k & 2, hi[1], lo[1]), np.where(k & 1, hi[2], lo[2])], -1)
 
 
-def view_objects(model_id, camera, *, rle: bool = False, alone=None, boxes_3d=None) -> list:
+def view_objects(model_id, camera, *, rle: bool = False, alone=None, boxes_3d=None, poses=None) -> list:
     """The models visible in one view.
 
     Parameters
@@ -112,18 +119,26 @@ def view_objects(model_id, camera, *, rle: bool = False, alone=None, boxes_3d=No
         The view's camera.
     rle : bool
         Add each model's mask as COCO RLE (``"rle"``).
-    alone : dict of int to (H, W) bool, optional
-        Each model's mask with nothing in front of it (:func:`unoccluded_masks`).
-        Adds per object ``unoccluded`` (pixel count), ``box_unoccluded``
-        (``None`` when empty) and ``visible_fraction`` (visible over
-        unoccluded pixels, BOP's ``visib_fract``), and lists the models hidden
-        entirely (``pixels`` 0) too.
+    alone : dict of int to Silhouette or (H, W) bool, optional
+        Each model's silhouette with nothing in front of it (:func:`silhouettes`;
+        a plain mask is taken as the whole silhouette, none of it beyond the
+        border). Adds per object ``unoccluded`` (its pixel count in the image),
+        ``unoccluded_all`` (in the frame enlarged as BOP's toolkit does: BOP's
+        ``px_count_all``), ``box_unoccluded`` (the whole silhouette's box, not
+        clipped to the image: it may start below 0 or end past the size;
+        ``None`` when empty), ``visible_fraction`` (visible pixels over
+        ``unoccluded_all``: BOP's ``visib_fract``, below 1 for an object cut by
+        the border) and ``visible_fraction_in_image`` (visible over
+        ``unoccluded``), and lists the models hidden entirely (``pixels`` 0) too.
     boxes_3d : sequence of (2, 3) float, optional
         Each model's world box ``[min, max]`` (:func:`object_table`'s
         ``box_3d``). Adds ``corners``: its 8 corners (:func:`box_corners`'
         order) in OpenCV pixel coordinates, lens included (``None`` for a
         corner behind a perspective camera), the keypoints of box-based pose
         estimators.
+    poses : sequence of (4, 4) float, optional
+        Each model's model-to-world transform (:func:`object_table`'s ``pose``);
+        default: the identity for every model.
 
     Returns
     -------
@@ -142,15 +157,17 @@ def view_objects(model_id, camera, *, rle: bool = False, alone=None, boxes_3d=No
     as_instance(camera, "camera", Camera)
     rle = as_bool(rle, "rle")
     K, R, t = camera.to_opencv()
-    pose = np.eye(4)
-    pose[:3, :3], pose[:3, 3] = R, t
+    w2c = np.eye(4)
+    w2c[:3, :3], w2c[:3, 3] = R, t
     out = []
     labels = id_labels(ids, rle, None if boxes_3d is None else len(boxes_3d))
     seen = set(labels)
     if alone is not None:
-        seen |= {int(g) for g, m in alone.items() if np.any(m)}
+        alone = {int(g): _as_silhouette(m, ids.shape, f"alone[{g}]") for g, m in alone.items()}
+        seen |= {g for g, m in alone.items() if m.pixels_all}
     for i in sorted(seen):
         pixels, box, counts = labels.get(i, (0, None, None))
+        pose = w2c if poses is None else w2c @ np.asarray(poses[i], np.float64)
         entry = {"id": int(i), "pixels": pixels, "box": box, "pose": pose.tolist()}
         if rle:
             entry["rle"] = rle_encode(np.zeros(ids.shape, bool)) if counts is None else \
@@ -159,14 +176,54 @@ def view_objects(model_id, camera, *, rle: bool = False, alone=None, boxes_3d=No
             uv = project_points(camera, box_corners(boxes_3d[i]))[0]
             entry["corners"] = [None if not np.isfinite(c).all() else c.tolist() for c in uv]
         if alone is not None:
-            mask = ids == i
-            solo = np.asarray(alone.get(i, np.zeros_like(mask)), bool)
-            r2, c2 = np.nonzero(solo)
-            entry["unoccluded"] = int(r2.size)
-            entry["box_unoccluded"] = _box(r2, c2) if r2.size else None
-            entry["visible_fraction"] = float(np.count_nonzero(mask & solo) / r2.size) if r2.size else 0.0
+            entry.update(_alone_fields(ids == i, alone.get(i)))
         out.append(entry)
     return out
+
+
+def _alone_fields(mask, solo) -> dict:
+    """The ``alone`` fields of :func:`view_objects` for one model: ``mask`` its visible pixels, ``solo``
+    its :class:`Silhouette` (None: none)."""
+    if solo is None:
+        return {"unoccluded": 0, "unoccluded_all": 0, "box_unoccluded": None, "visible_fraction": 0.0,
+                "visible_fraction_in_image": 0.0}
+    n = int(np.count_nonzero(solo.mask))
+    visible = int(np.count_nonzero(mask & solo.mask))  # BOP's visible mask lies inside the silhouette
+    return {"unoccluded": n, "unoccluded_all": int(solo.pixels_all), "box_unoccluded": solo.box_all,
+            "visible_fraction": visible / solo.pixels_all if solo.pixels_all else 0.0,
+            "visible_fraction_in_image": visible / n if n else 0.0}
+
+
+class Silhouette(NamedTuple):
+    """A model's silhouette in one view with the other models taken away (:func:`silhouettes`).
+
+    Attributes
+    ----------
+    mask : (H, W) bool
+        Its pixels in the image (the amodal mask).
+    pixels_all : int
+        Its pixel count in the frame enlarged as BOP's toolkit enlarges it (``calc_gt_info``:
+        ``3W x 3H``, the image in its middle), the part beyond the border included.
+    box_all : list of int or None
+        ``[x0, y0, x1, y1]`` (image pixel indices, end exclusive) of all those pixels: not clipped
+        to the image. None when ``pixels_all`` is 0.
+    """
+
+    mask: np.ndarray
+    pixels_all: int
+    box_all: list | None
+
+
+def _as_silhouette(value, shape, name) -> Silhouette:
+    if isinstance(value, Silhouette):
+        if value.mask.shape != shape:
+            raise ValueError(f"{name}: its mask is {value.mask.shape}, the view {shape}")
+        return value
+    mask = np.asarray(value, bool)
+    if mask.shape != shape:
+        raise ValueError(f"{name}: expected an {shape} bool mask or a Silhouette, got shape {mask.shape}")
+    rows, cols = np.nonzero(mask)
+    return Silhouette(mask, int(rows.size), _box(rows, cols) if rows.size else None)
 
 
 def id_labels(ids, rle: bool = True, bound: int | None = None) -> dict:
@@ -356,11 +413,71 @@ def unoccluded_masks(scene, camera) -> dict:
     -------
     dict of int to (H, W) bool
     """
-    from ..scene.scene import Scene
     from ..visibility.cast import cast_camera
 
-    alone = scene.geometry.memo("labels.alone", lambda geo: [Scene([m]) for m in scene.models])
-    return {g: cast_camera(s.geometry, camera).prim >= 0 for g, s in enumerate(alone)}
+    return {g: cast_camera(s.geometry, camera).prim >= 0 for g, s in enumerate(_alone_scenes(scene))}
+
+
+def _alone_scenes(scene) -> list:
+    from ..scene.scene import Scene
+
+    return scene.geometry.memo("labels.alone", lambda geo: [Scene([m]) for m in scene.models])
+
+
+def silhouettes(scene, camera) -> dict:
+    """Each model's :class:`Silhouette` in ``camera``: its amodal mask, and its pixel count and box in
+    the frame enlarged as BOP's toolkit enlarges it (``3W x 3H``, the image in its middle).
+
+    One cast of the image per model (:func:`unoccluded_masks`), and of the eight image-sized tiles
+    around it that the model may reach: a tile is the camera with its principal point shifted by
+    the image's width or height, so its rays are those of the enlarged frame. A model whose 3D box
+    projects inside the image (all eight corners in front of the camera, a lens without distortion)
+    needs no tile; one cut by the border, the tiles its projected box overlaps; a distorted lens or
+    a corner behind the camera, all eight.
+
+    Returns
+    -------
+    dict of int to Silhouette
+    """
+    from ..scene.projection import project_points
+    from ..visibility.cast import cast_camera
+
+    _check_scene(scene)
+    K = camera.K
+    w, h = int(camera.width), int(camera.height)
+    out = {}
+    for g, alone in enumerate(_alone_scenes(scene)):
+        mask = cast_camera(alone.geometry, camera).prim >= 0
+        rows, cols = np.nonzero(mask)
+        lo = [int(cols.min()), int(rows.min())] if rows.size else [None, None]
+        hi = [int(cols.max()) + 1, int(rows.max()) + 1] if rows.size else [None, None]
+        count = int(rows.size)
+        for dx, dy in _tiles_reached(project_points(camera, box_corners(scene.models[g].bounds))[0], camera):
+            tile = camera.replace(fx=float(K[0, 0]), fy=float(K[1, 1]), cx=float(K[0, 2]) - dx * w,
+                                  cy=float(K[1, 2]) - dy * h)
+            r, c = np.nonzero(cast_camera(alone.geometry, tile).prim >= 0)
+            if not r.size:
+                continue
+            count += int(r.size)
+            edges = ((int(c.min()) + dx * w, int(r.min()) + dy * h), (int(c.max()) + 1 + dx * w, int(r.max()) + 1 + dy * h))
+            lo = [e if v is None else min(v, e) for v, e in zip(lo, edges[0])]
+            hi = [e if v is None else max(v, e) for v, e in zip(hi, edges[1])]
+        out[g] = Silhouette(mask, count, None if count == 0 else lo + hi)
+    return out
+
+
+def _tiles_reached(uv, camera) -> list:
+    """The tiles ``(dx, dy)`` (``-1 .. 1`` each, not ``(0, 0)``) around the image that a model whose
+    3D box corners project to ``uv`` (8, 2) may reach."""
+    ring = [(dx, dy) for dy in (-1, 0, 1) for dx in (-1, 0, 1) if (dx, dy) != (0, 0)]
+    if camera.distorted or not np.isfinite(uv).all():
+        return ring
+    w, h = int(camera.width), int(camera.height)
+    # The box's projection holds the silhouette's; tile (dx, dy) spans pixel centres
+    # dx * w .. dx * w + w - 1 (and likewise in y), each pixel reaching half a pixel either side.
+    (u0, v0), (u1, v1) = uv.min(axis=0), uv.max(axis=0)
+    return [(dx, dy) for dx, dy in ring
+            if u1 >= dx * w - 0.5 and u0 <= dx * w + w - 0.5 and v1 >= dy * h - 0.5 and v0 <= dy * h + h - 0.5]
 
 
 # -- COCO run-length encoding -----------------------------------------------------------------------

@@ -34,18 +34,28 @@ def _is_trimesh(value) -> bool:
 
 @dataclass(frozen=True, eq=False)
 class Model:
-    """A mesh with its material.
+    """A mesh with its material, placed in the world by a rigid pose.
 
     ``mesh`` may be a :class:`trimesh.Trimesh` (or ``trimesh.Scene``): it is
     converted with :meth:`Mesh.from_trimesh`. ``name`` (default: the mesh's
     name, which a loaded file sets from its node names) labels the model in
     data sets: models of one name share a semantic label
     (:mod:`raycast_shade.output.labels`).
+
+    ``pose`` is the (4, 4) model-to-world transform ``[R t; 0 1]`` (``R`` a
+    rotation: orthonormal to 1e-9, determinant +1), so the mesh stays in its
+    own frame and a point ``x`` of it lies at ``R x + t`` in the world: the
+    frame a pose data set (BOP, :mod:`raycast_shade.output.bop`) refers its
+    poses to. The default, None, is the identity (the mesh given in world
+    coordinates); the identity itself is stored as None, and such a model
+    renders with the mesh's own arrays, bit for bit. Read the world-space
+    arrays from :attr:`prepared`, the world box from :attr:`bounds`.
     """
 
     mesh: Mesh
     material: Material = dataclasses.field(default_factory=Material)
     name: str | None = None
+    pose: np.ndarray | None = None
 
     def __post_init__(self):
         if _is_trimesh(self.mesh):
@@ -58,6 +68,54 @@ class Model:
             object.__setattr__(self, "name", self.mesh.name)
         elif not isinstance(self.name, str) or not self.name.strip():
             raise TypeError(f"model.name: expected a non-empty str, got {self.name!r}")
+        if self.pose is not None:
+            object.__setattr__(self, "pose", _as_pose(self.pose))
+
+    @property
+    def model_to_world(self) -> np.ndarray:
+        """(4, 4) float64 model-to-world transform (the identity when ``pose`` is None); a fresh copy."""
+        return np.eye(4) if self.pose is None else self.pose.copy()
+
+    @cached_property
+    def prepared(self):
+        """The mesh's :attr:`~raycast_shade.scene.mesh.Mesh.prepared` arrays moved into the world by
+        ``pose`` (vertices, normals, face normals and tangents; the mesh's own tuple when ``pose``
+        is None)."""
+        prep = self.mesh.prepared
+        if self.pose is None:
+            return prep
+        R, t = self.pose[:3, :3], self.pose[:3, 3]
+        tangents = prep.tangents
+        if tangents is not None:  # a rotation keeps the handedness w
+            tangents = np.c_[tangents[:, :3] @ R.T, tangents[:, 3]]
+        return prep._replace(vertices=prep.vertices @ R.T + t, normals=prep.normals @ R.T,
+                             face_normals=prep.face_normals @ R.T, tangents=tangents)
+
+    @cached_property
+    def bounds(self) -> np.ndarray:
+        """(2, 3) float64 world axis-aligned box ``[min, max]`` of the posed mesh."""
+        if self.pose is None:
+            return self.mesh.bounds
+        v = self.prepared.vertices
+        return np.stack([v.min(axis=0), v.max(axis=0)])
+
+
+def _as_pose(value) -> np.ndarray | None:
+    """A checked read-only (4, 4) rigid pose, or None for the identity."""
+    from ..common.validate import as_array
+
+    M = as_array(value, "model.pose", dtype=np.float64, shape=(4, 4), copy=True)
+    if not np.array_equal(M[3], [0.0, 0.0, 0.0, 1.0]):
+        raise ValueError(f"model.pose: last row must be [0, 0, 0, 1], got {M[3].tolist()}")
+    R = M[:3, :3]
+    err = float(np.abs(R @ R.T - np.eye(3)).max())
+    if err > 1e-9 or np.linalg.det(R) < 0:
+        raise ValueError("model.pose: its 3x3 part must be a rotation (orthonormal to 1e-9, determinant +1); "
+                         f"got R R^T off the identity by {err:.3g}, determinant {np.linalg.det(R):.6g}")
+    if np.array_equal(M, np.eye(4)):
+        return None
+    M.setflags(write=False)
+    return M
 
 
 class SceneGeometry:
@@ -123,7 +181,7 @@ class SceneGeometry:
     """
 
     def __init__(self, models):
-        preps = [m.mesh.prepared for m in models]
+        preps = [m.prepared for m in models]  # world space: each mesh moved by its model's pose
         nv = [len(p.vertices) for p in preps]
         nf = [len(p.faces) for p in preps]
         self.vertex_offsets = np.concatenate([[0], np.cumsum(nv)]).astype(np.int64)

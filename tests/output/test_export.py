@@ -174,8 +174,8 @@ def test_views_write_the_exports(tmp_path):
     with pytest.raises(ValueError, match="exports: 'colmap' names each view's image file"):
         render_views(scene, cams, tmp_path / "b", files=rs.ViewFiles(buffers=["zdepth"], image=None),
                      exports=["colmap"])
-    with pytest.raises(ValueError, match="exports: unknown export 'bop'"):
-        render_views(scene, cams, tmp_path / "b", files=rs.ViewFiles(buffers=["zdepth"]), exports=["bop"])
+    with pytest.raises(ValueError, match="exports: unknown export 'yolo'"):  # 'bop' is one now: test_bop.py
+        render_views(scene, cams, tmp_path / "b", files=rs.ViewFiles(buffers=["zdepth"]), exports=["yolo"])
 
 
 LENSES = {"OPENCV": ([-0.21, 0.05, 0.001, -0.002], False), "FULL_OPENCV": ([-0.21, 0.05, 0.001, -0.002, 0.01], False),

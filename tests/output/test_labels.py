@@ -176,14 +176,20 @@ def test_cli_views_exports_coco_and_semantic_masks(tmp_path, capsys):
     assert (tmp_path / "colmap" / "images.txt").exists()
     assert set(load_npz(tmp_path / "view_00000.npz")) >= {"model_id", "triangle_id", "semantic_id"}
     capsys.readouterr()
-    assert main(args + ["--export", "bop"]) == 2
+    assert main(args + ["--export", "yolo"]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "exports: unknown export 'bop'" in err
+    assert err.count("\n") == 1 and "exports: unknown export 'yolo'" in err
+    # 'bop' among the buffer formats is the BOP export (the brief's spelling), written beside the npz files
+    assert main(args + ["--formats", "npz,bop", "--overwrite"]) == 0
+    info = json.load(open(tmp_path / "bop" / "train" / "000000" / "scene_gt_info.json"))
+    assert sorted(info) == ["0", "1"] and (tmp_path / "view_00001_depth.png").exists()
 
 
 def test_unoccluded_counts_boxes_and_visible_fractions(tmp_path):
     """A ball before a wall, and a small cube hidden behind the wall: each model rendered alone
-    (an independent render of a one-model scene) gives the unoccluded mask."""
+    (an independent render of a one-model scene) gives the unoccluded mask, and alone in a frame
+    three times as wide and high with the image in its middle (BOP's ``calc_gt_info``) the count and
+    box of the whole silhouette: the wall runs past every border."""
     ball = rs.Model(rs.shapes.icosphere(2), name="ball")
     wall = rs.Model(rs.shapes.plane(size=6.0, center=(0, 0, -1.5)), name="wall")
     hidden = rs.Model(rs.shapes.cube(size=0.5, center=(0.2, 0.1, -2.5)), name="cube")
@@ -198,13 +204,23 @@ def test_unoccluded_counts_boxes_and_visible_fractions(tmp_path):
         assert set(objects) == {0, 1, 2}
         for g, model in enumerate(scene.models):
             solo = rs.render(rs.Scene([model], lights=scene.lights), camera=cam, buffers=("mask",)).buffers["mask"]
+            K = cam.K
+            big = cam.replace(width=3 * W, height=3 * H, fx=K[0, 0], fy=K[1, 1], cx=K[0, 2] + W, cy=K[1, 2] + H)
+            large = rs.render(rs.Scene([model], lights=scene.lights), camera=big, buffers=("mask",)).buffers["mask"]
             o = objects[g]
             assert o["unoccluded"] == int(solo.sum()) > 0
-            rows, cols = np.nonzero(solo)
-            assert o["box_unoccluded"] == [cols.min(), rows.min(), cols.max() + 1, rows.max() + 1]
+            assert o["unoccluded_all"] == int(large.sum()) >= o["unoccluded"]
+            rows, cols = np.nonzero(large)
+            assert o["box_unoccluded"] == [cols.min() - W, rows.min() - H, cols.max() + 1 - W, rows.max() + 1 - H]
             assert o["pixels"] == int((mid == g).sum())
-            assert o["visible_fraction"] == pytest.approx(((mid == g) & solo).sum() / solo.sum(), abs=0)
-        assert objects[0]["visible_fraction"] == 1.0 and 0.2 < objects[1]["visible_fraction"] < 1.0
+            seen = ((mid == g) & solo).sum()
+            assert o["visible_fraction"] == pytest.approx(seen / large.sum(), abs=0)
+            assert o["visible_fraction_in_image"] == pytest.approx(seen / solo.sum(), abs=0)
+        assert objects[0]["visible_fraction"] == 1.0 and objects[0]["box_unoccluded"][0] >= 0
+        wall = objects[1]
+        assert wall["box_unoccluded"][1] < 0 and wall["box_unoccluded"][3] > H  # past both borders, not clipped
+        assert wall["unoccluded_all"] > wall["unoccluded"]
+        assert 0 < wall["visible_fraction"] < wall["visible_fraction_in_image"] < 1.0
         assert objects[2]["pixels"] == 0 and objects[2]["box"] is None and objects[2]["visible_fraction"] == 0.0
     coco = COCO(str(tmp_path / "coco_instances.json"))
     assert all(a["model_id"] != 2 for a in coco.loadAnns(coco.getAnnIds()))  # nothing to segment
