@@ -128,8 +128,8 @@ def orbit_cameras(camera: Camera, frames: int, *, degrees: float = 360.0, axis=N
 
 
 def _scene_center(scene: Scene) -> np.ndarray:
-    lo = np.min([m.mesh.vertices.min(axis=0) for m in scene.models], axis=0)
-    hi = np.max([m.mesh.vertices.max(axis=0) for m in scene.models], axis=0)
+    lo = np.min([m.bounds[0] for m in scene.models], axis=0)  # world boxes: each mesh moved by its pose
+    hi = np.max([m.bounds[1] for m in scene.models], axis=0)
     return 0.5 * (lo + hi)
 
 

@@ -185,7 +185,9 @@ def choose_methods(scene, camera, tolerance: float = 0.01, max_pixels: float = 2
     decisions = []
     for i, model in enumerate(scene.models):
         mat = model.material
-        centre, edge, normal_step = _geometry(model.mesh)
+        centre, edge, normal_step = _geometry(model.mesh)  # edge and normal step: the same in any pose
+        if model.pose is not None:
+            centre = model.pose[:3, :3] @ centre + model.pose[:3, 3]
         # Distance to the eye along the view axis, for the projected size.
         depth = max(float(np.dot(centre - camera.eye, fwd)), 1e-12)
         if camera.orthographic:

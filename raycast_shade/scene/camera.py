@@ -374,7 +374,8 @@ def _points_of(thing) -> np.ndarray:
     if isinstance(thing, Mesh):
         return thing.vertices
     if hasattr(thing, "mesh") and isinstance(getattr(thing, "mesh"), Mesh):
-        return thing.mesh.vertices
+        pose = getattr(thing, "pose", None)  # a Model: its mesh moved by its pose
+        return thing.mesh.vertices if pose is None else thing.mesh.vertices @ pose[:3, :3].T + pose[:3, 3]
     if isinstance(thing, (list, tuple)) and thing and all(isinstance(t, Mesh) or hasattr(t, "mesh") for t in thing):
         return np.concatenate([_points_of(t) for t in thing])
     a = np.asarray(thing, np.float64) if not isinstance(thing, (str, bytes)) else None

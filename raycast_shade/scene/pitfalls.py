@@ -180,7 +180,12 @@ def _lights_inside(scene):
     for g, model in enumerate(scene.models):
         mesh = model.mesh
         lo, hi = mesh.bounds
-        candidates = [(n, p) for n, p in points if np.all(p > lo) and np.all(p < hi)]
+        if model.pose is not None:  # the lights into the mesh's own frame: x = R^T (p - t)
+            R, t = model.pose[:3, :3], model.pose[:3, 3]
+            points_g = [(n, (np.asarray(p, np.float64) - t) @ R) for n, p in points]
+        else:
+            points_g = points
+        candidates = [(n, p) for n, p in points_g if np.all(p > lo) and np.all(p < hi)]
         if not candidates:
             continue
         is_closed = scene.geometry.memo(f"pitfalls.closed.{g}", lambda _, m=mesh: closed(m.faces, len(m.vertices)))
@@ -242,9 +247,9 @@ def warn_render(scene, methods, stacklevel: int = 3) -> None:
             "(and the mesh shadows everything else from it): move the light outside the mesh",
             LightInsideWarning, stacklevel=stacklevel)
     if scene.camera is not None and scene.models and all(
-            outside_view(scene.camera, m.mesh.bounds) for m in scene.models):
-        lo = np.min([m.mesh.bounds[0] for m in scene.models], axis=0)
-        hi = np.max([m.mesh.bounds[1] for m in scene.models], axis=0)
+            outside_view(scene.camera, m.bounds) for m in scene.models):
+        lo = np.min([m.bounds[0] for m in scene.models], axis=0)
+        hi = np.max([m.bounds[1] for m in scene.models], axis=0)
         warnings.warn(
             f"the camera (eye {np.round(scene.camera.eye, 4).tolist()}, target "
             f"{np.round(scene.camera.target, 4).tolist()}) sees none of the scene (bounds "
