@@ -175,7 +175,7 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, *
     # The file's own references and values first: a bad value is named before trimesh trips on it.
     gltf = check_mesh_file(path)
     ctx = FileContext(path, base, gltf=gltf)
-    tm, srgb = read_trimesh(path, merge, checked=True)
+    tm, srgb = read_trimesh(path, merge, checked=True, gltf=gltf)
     for used in dict.fromkeys(n for n, _ in ctx.usemtl):
         if used in ctx.mtl:  # every material the OBJ uses is checked, whatever trimesh made of it
             from_mtl_cached(ctx, used, [])
