@@ -42,7 +42,8 @@ import numpy as np
 from ..common.warnings import DroppedOnLoadWarning
 from .gltftangents import _buffers
 
-__all__ = ["GLTF_EXTENSIONS", "APPLIED_GLTF_EXTENSIONS", "MODE_NAMES", "plain_gltf", "load_gltf_trimesh",
+__all__ = ["GLTF_EXTENSIONS", "APPLIED_GLTF_EXTENSIONS", "MODE_NAMES", "PLAIN_KEY", "plain_gltf", "glb_bytes",
+           "load_gltf_trimesh", "warn_unapplied_extensions",
            "extension_policy_table", "strip_faces", "fan_faces", "dequantise"]
 
 MODE_NAMES = {0: "POINTS", 1: "LINES", 2: "LINE_LOOP", 3: "LINE_STRIP", 4: "TRIANGLES", 5: "TRIANGLE_STRIP",
@@ -83,6 +84,7 @@ APPLIED_GLTF_EXTENSIONS = frozenset(k for k, (fate, _) in GLTF_EXTENSIONS.items(
 _DTYPES = {5120: "i1", 5121: "u1", 5122: "<i2", 5123: "<u2", 5125: "<u4", 5126: "<f4"}
 _WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}
 _TRIANGLE_MODES = (4, 5, 6)
+PLAIN_KEY = "raycast_shade_plain_gltf"  # in trimesh's scene metadata: (JSON, buffer) it was read from
 _DRACO = "KHR_draco_mesh_compression"
 _FLOATED = ("POSITION", "NORMAL", "TANGENT")  # and every TEXCOORD_n: what trimesh and the shading read as floats
 
@@ -379,7 +381,7 @@ def _rewrite_primitive(reader, writer, prim: dict, weights, where: str) -> None:
 
 
 def plain_gltf(path: str, js: dict):
-    """The file as a GLB trimesh reads right, or None when trimesh reads it right as it is.
+    """The file made plain for trimesh, or None when trimesh reads it right as it is.
 
     Parameters
     ----------
@@ -389,8 +391,9 @@ def plain_gltf(path: str, js: dict):
 
     Returns
     -------
-    bytes or None
-        A GLB: the JSON rewritten (see the module's text) and every buffer of the file in its one binary chunk.
+    (dict, bytes) or None
+        The JSON rewritten (see the module's text) and its one buffer: every buffer of the file, then the
+        new accessors (:func:`glb_bytes` makes them a GLB).
 
     Raises
     ------
@@ -445,6 +448,11 @@ def plain_gltf(path: str, js: dict):
             js[key] = [e for e in js[key] if e not in (_DRACO, "KHR_mesh_quantization")]
     binary = b"".join(blobs + writer.parts)
     js["buffers"] = [{"byteLength": len(binary)}]
+    return js, binary
+
+
+def glb_bytes(js: dict, binary: bytes) -> bytes:
+    """A GLB of ``js`` whose one buffer is ``binary``."""
     text = json.dumps(js, separators=(",", ":")).encode("utf-8")
     text += b" " * (-len(text) % 4)
     total = 12 + 8 + len(text) + 8 + len(binary)
@@ -469,8 +477,10 @@ def load_gltf_trimesh(path: str, js: dict):
     import trimesh
 
     warn_unapplied_extensions(js, os.path.basename(path))
-    glb = plain_gltf(path, js)
-    if glb is None:
+    plain = plain_gltf(path, js)
+    if plain is None:
         return trimesh.load(path, process=False)
     resolver = trimesh.resolvers.FilePathResolver(os.path.abspath(path))
-    return trimesh.load(io.BytesIO(glb), file_type="glb", resolver=resolver, process=False)
+    tm = trimesh.load(io.BytesIO(glb_bytes(*plain)), file_type="glb", resolver=resolver, process=False)
+    tm.metadata[PLAIN_KEY] = plain  # what trimesh read: the loader's TANGENT reader reads the same
+    return tm

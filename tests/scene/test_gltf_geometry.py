@@ -181,6 +181,29 @@ def test_quantized_attributes_load_as_the_floats_they_stand_for(tmp_path):
     assert np.allclose(mesh.uvs, np.c_[uq[:, 0] / 65535, 1 - uq[:, 1] / 65535], atol=1e-6)
 
 
+def test_quantized_tangents_of_a_normal_map_are_the_files(tmp_path):
+    """TANGENT as normalised bytes (the spec allows them under KHR_mesh_quantization): read as the file's
+    tangents, not replaced by tangents computed from the UVs (which would point along +u: +x here)."""
+    import io
+
+    from PIL import Image
+
+    g = Gltf()
+    quad = [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]
+    attrs = {"POSITION": g.add(quad), "NORMAL": g.add(np.tile([0, 0, 1], (4, 1))),
+             "TEXCOORD_0": g.add([[0, 1], [1, 1], [1, 0], [0, 0]]),
+             "TANGENT": g.add(np.tile([0, 127, 0, 127], (4, 1)), "int8", True)}
+    png = io.BytesIO()
+    Image.fromarray(np.full((2, 2, 3), (128, 128, 255), np.uint8)).save(png, format="PNG")  # flat
+    prim = {"attributes": attrs, "indices": g.add([0, 1, 2, 0, 2, 3], "uint16"), "material": 0}
+    path = g.write(tmp_path / "t.gltf", [{"primitives": [prim]}], materials=[{"normalTexture": {"index": 0}}],
+                   textures=[{"source": 0}],
+                   images=[{"uri": "data:image/png;base64," + base64.b64encode(png.getvalue()).decode()}],
+                   extensionsUsed=["KHR_mesh_quantization"], extensionsRequired=["KHR_mesh_quantization"])
+    (model,) = rs.load_models(path)
+    assert model.mesh.tangents is not None and np.allclose(model.mesh.tangents, [0, 1, 0, 1])
+
+
 def test_a_sparse_accessor_overrides_its_rows(tmp_path):
     g = Gltf()
     base = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]], np.float32)
