@@ -5,7 +5,8 @@ does and reports, per mesh, its counts and attributes; per material, each
 field the file gives and its fate: **mapped** (exactly, onto the lecture's
 coefficients), **approximated** (mapped, with the approximation named) or
 **dropped** (no counterpart: the loader's warning names it too); the
-textures with their sizes and colour types (PIL modes), and glTF samplers.
+textures with their sizes and colour types (PIL modes), and glTF samplers
+and extensions (``extensionsUsed`` with each one's fate, ``extensionsRequired``).
 """
 
 from __future__ import annotations

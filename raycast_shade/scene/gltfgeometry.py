@@ -264,8 +264,10 @@ def _mesh_weights(js: dict, where_name: str) -> dict:
             continue
         w = node.get("weights", meshes[m].get("weights", [0.0] * count))
         field = f"nodes[{n}].weights" if "weights" in node else f"meshes[{m}].weights"
-        if not isinstance(w, list) or len(w) != count or not all(isinstance(x, (int, float)) for x in w):
-            raise ValueError(f"{where_name}: {field}: expected {count} numbers (one per morph target), got {w!r}")
+        numbers = isinstance(w, list) and all(isinstance(x, (int, float)) and not isinstance(x, bool)
+                                              and np.isfinite(x) for x in w)
+        if not numbers or len(w) != count:
+            raise ValueError(f"{where_name}: {field}: expected {count} finite numbers (one per morph target), got {w!r}")
         key = (m, tuple(float(x) for x in w))
         if key not in seen:
             if m in weights_of:  # this mesh is drawn at other weights already: a copy of its own
@@ -291,7 +293,7 @@ class _Writer:
 
     def add(self, array: np.ndarray, *, indices: bool = False) -> int:
         a = np.ascontiguousarray(array, np.uint32 if indices else np.float32)
-        a = a.reshape(-1, 1) if indices else a.reshape(len(a), -1)
+        a = a.reshape(-1, 1) if indices or a.ndim == 1 else a.reshape(len(a), a.shape[-1])
         data = a.tobytes()
         self.js["bufferViews"].append({"buffer": 0, "byteOffset": self.base + self.size, "byteLength": len(data)})
         self.parts.append(data + b"\0" * (-len(data) % 4))
@@ -347,7 +349,7 @@ def _triangles(reader, prim, count: int, where: str, faces=None) -> np.ndarray:
 def _rewrite_primitive(reader, writer, prim: dict, weights, where: str) -> None:
     """One triangle primitive made plain in place: float attributes, explicit TRIANGLES."""
     attrs = prim.get("attributes") or {}
-    if "POSITION" not in attrs and _DRACO not in (prim.get("extensions") or {}):
+    if "POSITION" not in attrs:
         raise ValueError(f"{reader.name}: {where}.attributes: no POSITION")
     faces, new = None, {}
     if _DRACO in (prim.get("extensions") or {}) and _draco_fallback(reader, prim):
@@ -359,12 +361,16 @@ def _rewrite_primitive(reader, writer, prim: dict, weights, where: str) -> None:
             if key in attrs:
                 new[key] = dequantise(data, bool(accessors[attrs[key]].get("normalized", False)))
         prim["extensions"] = {k: v for k, v in prim["extensions"].items() if k != _DRACO}
+        empty = [k for k, a in attrs.items() if k not in new and "bufferView" not in accessors[a]
+                 and "sparse" not in accessors[a]]
+        if empty:  # trimesh would read zeros there
+            raise ValueError(f"{reader.name}: {where}.attributes.{empty[0]}: no data (neither a bufferView nor "
+                             f"in the {_DRACO} buffer)")
     for key, a in attrs.items():
         floated = key in _FLOATED or key.startswith("TEXCOORD_")
         if key not in new and floated:
             acc = reader.js["accessors"][a]
-            if acc.get("componentType") != 5126 or "sparse" in acc or (key in ("POSITION", "NORMAL")
-                                                                       and prim.get("targets")):
+            if acc.get("componentType") != 5126 or "sparse" in acc:
                 new[key] = reader.floats(a, f"{where}.attributes.{key}")
     if prim.get("targets"):
         for key in ("POSITION", "NORMAL"):

@@ -309,9 +309,10 @@ def test_a_mesh_drawn_by_two_nodes_at_other_weights_stands_at_both(tmp_path):
     assert heights == [0.5, 1.5]
 
 
-def test_morph_weights_of_the_wrong_length_are_refused_by_field(tmp_path):
-    with pytest.raises(ValueError, match=r"morph\.gltf: nodes\[0\]\.weights: expected 2 numbers"):
-        rs.Mesh.load(_morph_file(tmp_path, None, [1.0]))
+@pytest.mark.parametrize("weights", [[1.0], [1.0, True], [1.0, float("nan")], "1 0"])
+def test_morph_weights_that_are_not_one_number_per_target_are_refused_by_field(tmp_path, weights):
+    with pytest.raises(ValueError, match=r"morph\.gltf: nodes\[0\]\.weights: expected 2 finite numbers"):
+        rs.Mesh.load(_morph_file(tmp_path, None, weights))
 
 
 # --- extension policy -------------------------------------------------------------------------------------------
@@ -357,3 +358,14 @@ def test_the_docs_table_is_the_codes_own():
     assert text.split(begin, 1)[1].split(end, 1)[0].strip() == extension_policy_table(), (
         "regenerate: python -c 'from raycast_shade.scene.gltfgeometry import extension_policy_table as t; print(t())'")
     assert all(f"`{name}`" in text for name in GLTF_EXTENSIONS)
+
+
+def test_a_draco_primitive_missing_an_attribute_is_refused_by_name(tmp_path):
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float64)
+    path = _draco_file(tmp_path, v, np.array([[0, 1, 2]], np.uint32))
+    js = json.loads(path.read_text())
+    js["accessors"].append({"componentType": 5126, "count": 3, "type": "VEC3"})  # in neither buffer
+    js["meshes"][0]["primitives"][0]["attributes"]["NORMAL"] = len(js["accessors"]) - 1
+    path.write_text(json.dumps(js))
+    with pytest.raises(ValueError, match=r"meshes\[0\]\.primitives\[0\]\.attributes\.NORMAL: no data"):
+        rs.Mesh.load(path)
