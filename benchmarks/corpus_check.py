@@ -4,7 +4,9 @@
 ``python -m benchmarks.corpus_check [--quick]`` (as ``python -m benchmarks`` runs it) checks a few small
 files it writes itself;
 ``python benchmarks/corpus_check.py summary NAME BEFORE.csv AFTER.csv [...]`` prints the tables of
-``docs/files.md``; ``python benchmarks/corpus_check.py sheet DIR`` redraws ``DIR/sheet.png``.
+``docs/files.md``; ``python benchmarks/corpus_check.py sheet DIR`` redraws ``DIR/sheet.png``;
+``python benchmarks/corpus_check.py geometry FOLDER`` checks the Khronos samples of glTF geometry
+(modes, morph targets, sparse, Draco, quantized; :mod:`benchmarks.corpus_geometry`).
 
 For each mesh file (OBJ, glTF/GLB, PLY, OFF, STL, archives, and whatever else
 trimesh reads) it loads the models with :func:`raycast_shade.load_models`
@@ -567,6 +569,12 @@ def main(argv=None) -> int:
             r["median_error"] = float(r["median_error"]) if r["median_error"] else ""
         contact_sheet(rows, os.path.join(argv[1], "sheet.png"))
         return 0
+    if argv[:1] == ["geometry"]:  # geometry FOLDER [--out CSV]: the samples of benchmarks/corpus_geometry.py
+        try:
+            from benchmarks.corpus_geometry import main as geometry
+        except ImportError:  # run as a script from another folder: this file's folder is on the path
+            from corpus_geometry import main as geometry
+        return geometry(argv[1:])
     if argv[:1] == ["summary"]:  # summary NAME BEFORE.csv AFTER.csv [NAME BEFORE AFTER ...]
         rest = argv[1:]
         print(summary([tuple(rest[i:i + 3]) for i in range(0, len(rest), 3)]))

@@ -5,7 +5,8 @@ does and reports, per mesh, its counts and attributes; per material, each
 field the file gives and its fate: **mapped** (exactly, onto the lecture's
 coefficients), **approximated** (mapped, with the approximation named) or
 **dropped** (no counterpart: the loader's warning names it too); the
-textures with their sizes and colour types (PIL modes), and glTF samplers.
+textures with their sizes and colour types (PIL modes), and glTF samplers
+and extensions (``extensionsUsed`` with each one's fate, ``extensionsRequired``).
 """
 
 from __future__ import annotations
@@ -60,6 +61,16 @@ def _gltf_fields(js: dict, notes: list) -> list:
     return rows
 
 
+def _extensions(header: dict) -> dict:
+    """A glTF's ``extensionsUsed`` (each with its fate, as ``docs/files.md``'s policy gives it) and
+    ``extensionsRequired``."""
+    from ..scene.gltfgeometry import GLTF_EXTENSIONS
+
+    used = [e for e in header.get("extensionsUsed") or [] if isinstance(e, str)]
+    return {"used": [(e, GLTF_EXTENSIONS.get(e, ("not applied", ""))[0]) for e in used],
+            "required": [e for e in header.get("extensionsRequired") or [] if isinstance(e, str)]}
+
+
 def inspect_file(path) -> dict:
     """What ``path`` holds and what :func:`raycast_shade.load_models` made of it.
 
@@ -70,7 +81,8 @@ def inspect_file(path) -> dict:
         ``vertices``, ``faces``, ``uvs``, ``normals``, ``colors``,
         ``material`` (its coefficients), ``maps`` (name, size, wrap, tiling),
         ``fields``: ``(field, value, fate, how)`` rows); ``textures``: the
-        images the file holds (size and PIL mode); ``samplers`` (glTF);
+        images the file holds (size and PIL mode); ``samplers`` (glTF); ``extensions`` (glTF: ``used``,
+        ``(name, fate)`` pairs, and ``required``, names);
         ``notes``: every warning the loader gave.
     """
     from ..scene import fileparse
@@ -85,7 +97,7 @@ def inspect_file(path) -> dict:
         warnings.simplefilter("always")
         models = load_models(path)
         tm, _ = read_trimesh(path)
-    notes = [str(w.message) for w in caught]
+    notes = list(dict.fromkeys(str(w.message) for w in caught))  # read twice: each warning once
     ext = os.path.splitext(path)[1].lower()
     report = {"file": path, "format": ext.lstrip(".") or "?", "models": [], "textures": [], "samplers": [],
               "notes": notes}
@@ -108,6 +120,7 @@ def inspect_file(path) -> dict:
                     info += " (trimesh's stand-in for no material: not used)"
                 report["textures"].append((f"{getattr(mat, 'name', None) or '?'}.{attr}", info))
     if header:
+        report["extensions"] = _extensions(header)
         names = {10497: "repeat", 33071: "clamp", 33648: "mirrored repeat"}
         for i, smp in enumerate(header.get("samplers", []) or []):
             report["samplers"].append((i, names.get(smp.get("wrapS", 10497), "?"),
@@ -160,6 +173,10 @@ def format_report(report: dict) -> str:
             out.append(f"    {field}: {name} {size}, wrap {wrap}, tiling {list(tiling)}")
         for field, value, fate, how in m["fields"]:
             out.append(f"    {fate:<12} {field} = {value}: {how}")
+    ext = report.get("extensions")
+    if ext:
+        out.append("  extensionsUsed: " + (", ".join(f"{e} ({fate})" for e, fate in ext["used"]) or "none"))
+        out.append("  extensionsRequired: " + (", ".join(ext["required"]) or "none"))
     for name, info in report["textures"]:
         out.append(f"  texture {name}: {info}")
     for i, s, t, fate in report["samplers"]:

@@ -28,14 +28,13 @@ import zipfile
 
 import numpy as np
 
+from .gltfgeometry import APPLIED_GLTF_EXTENSIONS
+
 __all__ = ["check_mesh_file", "check_obj", "check_face_indices", "SUPPORTED_GLTF_EXTENSIONS"]
 
-# Extensions whose data the loader reads (trimesh or raycast_shade itself): a file may require these.
-SUPPORTED_GLTF_EXTENSIONS = frozenset({
-    "KHR_materials_emissive_strength",  # filematerial: ke's strength
-    "KHR_materials_pbrSpecularGlossiness",  # trimesh converts it to metallic-roughness
-    "EXT_texture_webp",  # trimesh takes the WebP source, Pillow decodes it
-})
+# Extensions whose data the loader reads (trimesh or raycast_shade itself): a file may require these. The
+# policy for every other one (warned when used, refused when required) is gltfgeometry.GLTF_EXTENSIONS.
+SUPPORTED_GLTF_EXTENSIONS = APPLIED_GLTF_EXTENSIONS
 _ARCHIVES = (".zip", ".tar", ".tar.gz", ".tgz", ".tar.bz2", ".tbz2", ".tar.xz", ".txz", ".7z", ".rar", ".gz", ".bz2")
 _LABELS = {"obj": "an OBJ file", "ply": "a PLY file", "off": "an OFF file", "stl": "an STL file",
            "glb": "a binary glTF (.glb) file", "gltf": "a glTF JSON (.gltf) file", "zip": "a zip archive"}

@@ -62,10 +62,10 @@ def _accessor(js: dict, buffers: list, index: int, kind: str):
     return np.ascontiguousarray(rows).view("<f4").reshape(count, n).astype(np.float64)
 
 
-def primitive_tangents(path: str, js: dict) -> list:
+def primitive_tangents(path: str, js: dict, buffers: list | None = None) -> list:
     """Per triangle primitive of the file, in trimesh's order of meshes: ``(positions (V, 3), tangents
-    (V, 4))`` as float64, or ``None`` where the primitive has no (readable) ``TANGENT``."""
-    buffers = None
+    (V, 4))`` as float64, or ``None`` where the primitive has no (readable) ``TANGENT``. ``buffers``:
+    the file's buffers already read (a file made plain in memory), else read from ``path``."""
     out = []
     for mesh in js.get("meshes", []) or []:
         for prim in mesh.get("primitives", []) or []:

@@ -342,12 +342,13 @@ def use_normals_flag(value):
     return None if value is None else as_bool(value, "use_normals")
 
 
-def read_trimesh(path, merge: bool = False, *, checked: bool = False):
+def read_trimesh(path, merge: bool = False, *, checked: bool = False, gltf: dict | None = None):
     """``trimesh.load`` a file, keeping its vertices as written.
 
     The file is checked first (:mod:`.filecheck`: content against extension, an OBJ's lines, face
     indices): trimesh never reads it as something it is not. ``merge`` welds coincident vertices;
-    ``checked``: the caller has run :func:`~raycast_shade.scene.filecheck.check_mesh_file`.
+    ``checked``: the caller has run :func:`~raycast_shade.scene.filecheck.check_mesh_file` (``gltf``: the
+    JSON it returned). glTF geometry trimesh reads wrong is made plain first (:mod:`.gltfgeometry`).
 
     Returns
     -------
@@ -365,16 +366,22 @@ def read_trimesh(path, merge: bool = False, *, checked: bool = False):
 
     from .filecheck import check_face_indices, check_mesh_file, locate_bad_index
     from .fileparse import load_obj
+    from .gltfgeometry import load_gltf_trimesh
 
     merge = as_bool(merge, "merge")
     path = os.fspath(path)
     if not checked:
-        check_mesh_file(path)
+        gltf = check_mesh_file(path)
+    elif gltf is None and path.lower().endswith((".gltf", ".glb")):
+        gltf = check_mesh_file(path)
     try:
         # Not force="mesh": trimesh 5 then concatenates through a scene and drops the file's normals.
         # Not processed: processing welds split vertices (rounding hard edges off) and drops faces
         # on NaN/inf vertices without a word.
-        tm = load_obj(path) if path.lower().endswith(".obj") else trimesh.load(path, process=False)
+        if gltf is not None:
+            tm = load_gltf_trimesh(path, gltf)
+        else:
+            tm = load_obj(path) if path.lower().endswith(".obj") else trimesh.load(path, process=False)
     except ImportError as exc:
         raise MissingReaderError(f"cannot read mesh file {path}: {_install_hint(exc)}") from None
     except ValueError as exc:

@@ -40,6 +40,7 @@ import numpy as np
 from ..common.validate import as_bool
 from ..common.warnings import DroppedOnLoadWarning
 from .filecheck import check_mesh_file
+from .gltfgeometry import PLAIN_KEY
 from .gltftangents import primitive_tangents
 from .filematerial import FileContext, Wrapped, from_mtl_cached, from_pbr, from_simple, is_placeholder
 from .material import Material
@@ -175,7 +176,7 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, *
     # The file's own references and values first: a bad value is named before trimesh trips on it.
     gltf = check_mesh_file(path)
     ctx = FileContext(path, base, gltf=gltf)
-    tm, srgb = read_trimesh(path, merge, checked=True)
+    tm, srgb = read_trimesh(path, merge, checked=True, gltf=gltf)
     for used in dict.fromkeys(n for n, _ in ctx.usemtl):
         if used in ctx.mtl:  # every material the OBJ uses is checked, whatever trimesh made of it
             from_mtl_cached(ctx, used, [])
@@ -270,8 +271,10 @@ def _file_tangents(ctx, tm, g, transform, name: str, lost: list):
     transform so the bitangent follows the mesh), or None (computed from the UVs then)."""
     if ctx is None or ctx.gltf is None or not _is_scene(tm):
         return None
-    if "prims" not in ctx.cache:
-        ctx.cache["prims"] = primitive_tangents(ctx.path, ctx.gltf)
+    if "prims" not in ctx.cache:  # from what trimesh read: the file, or the file made plain (gltfgeometry)
+        plain = tm.metadata.get(PLAIN_KEY)
+        ctx.cache["prims"] = (primitive_tangents(ctx.path, plain[0], [plain[1]]) if plain is not None
+                              else primitive_tangents(ctx.path, ctx.gltf))
     prims, names = ctx.cache["prims"], list(tm.geometry)
     idx = next((i for i, n in enumerate(names) if tm.geometry[n] is g), None)
     if idx is None or len(prims) != len(names) or prims[idx] is None:

@@ -253,7 +253,7 @@ def _mesh_files(folder):
         (folder / name).write_text(text)
     (folder / "range.glb").write_bytes(triangles_glb([[0, 1, 2], [0, 1, 5]]))
     cases["range.glb"] = (None, "range.glb: meshes[0].primitives[1].indices: entry 2 is vertex 5")
-    for ext in ("EXT_meshopt_compression", "KHR_draco_mesh_compression", "XYZ_unknown"):
+    for ext in ("EXT_meshopt_compression", "KHR_texture_basisu", "XYZ_unknown"):
         (folder / f"{ext}.glb").write_bytes(triangles_glb([[0, 1, 2]], required=[ext]))
         cases[f"{ext}.glb"] = (None, f"{ext}.glb: extensionsRequired[0]: the file requires {ext}")
     with zipfile.ZipFile(folder / "inner.zip", "w") as z:
@@ -264,7 +264,7 @@ def _mesh_files(folder):
     return cases
 
 
-_MESH_NAMES = [*BAD_MESH_FILES, "range.glb", "EXT_meshopt_compression.glb", "KHR_draco_mesh_compression.glb",
+_MESH_NAMES = [*BAD_MESH_FILES, "range.glb", "EXT_meshopt_compression.glb", "KHR_texture_basisu.glb",
                "XYZ_unknown.glb", "nested.zip"]
 
 

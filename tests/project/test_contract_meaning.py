@@ -84,7 +84,7 @@ MUTANTS = {
     "gltf text named .obj": ("gltftext.obj", GLTF),
     "gltf a JSON list": ("list.gltf", "[" + GLTF + "]"),
     "gltf cut in half": ("half.gltf", GLTF[:len(GLTF) // 2]),
-    "gltf unsupported extensionsRequired": ("draco.gltf", json.dumps(gltf(required=["KHR_draco_mesh_compression"]))),
+    "gltf unsupported extensionsRequired": ("basisu.gltf", json.dumps(gltf(required=["KHR_texture_basisu"]))),
     "gltf index out of range": ("range.gltf", json.dumps(gltf(indices=(0, 1, 7)))),
 }
 
