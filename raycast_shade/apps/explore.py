@@ -21,10 +21,9 @@ Size: the picture is drawn ``width`` pixels wide (440 by default; side by
 side, each panel ``min(width, 320)`` pixels, never below the frame's own
 width), the pixels drawn as squares (``image-rendering: pixelated``), with
 the controls in two columns under it and the explanation beside it, at 14 px
-and without a scroll bar of its own (:mod:`.explore_view`): one frame, its
-controls and every number of the printout fit a 1366x768 screen in
-JupyterLab with the file browser closed (Ctrl+B); side by side, the
-printout moves under the three panels. The explained pixel is ringed in
+and without a scroll bar of its own (:mod:`.explore_view`), in JupyterLab
+on a 1366-px screen with the file browser closed (Ctrl+B); side by side,
+the printout moves under the three panels. The explained pixel is ringed in
 every panel and its panel's title names it; switching to or from side by
 side keeps explaining the same method's panel, and says so when that
 method is no longer on screen.
@@ -215,7 +214,7 @@ class Explorer:
         lo_i, hi_i = _exponents(intensity, -3, 4, f"light {self.light} intensity")
         lo_t, hi_t = _exponents(mat.shininess, 0, 3, "material shininess")
         lo_k, hi_k = _exponents(k, -2, 2, f"light {self.light} k")
-        ds = dict(style={"description_width": "90px"}, layout=widgets.Layout(width="250px"))
+        ds = dict(style={"description_width": "90px"}, layout=widgets.Layout(width="240px"))  # two columns: 480
         fs = dict(continuous_update=True, readout_format=".3g", **ds)
 
         def slider(cls, value, lo, hi, description, **kw):
@@ -271,7 +270,7 @@ class Explorer:
         self.explanation.add_class("rs-explorer-text")
         self.status = widgets.Label("click a pixel to explain it" + ("" if self._click_events() else
                                                                     " (pip install ipyevents; or set x, y)"),
-                                    layout=widgets.Layout(width="500px"))
+                                    layout=widgets.Layout(width="480px"))
         reset = widgets.Button(description="reset", layout=widgets.Layout(width="70px"))
         save = widgets.Button(description="save frame", layout=widgets.Layout(width="95px"))
         reset.on_click(lambda _: self.reset())

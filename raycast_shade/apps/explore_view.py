@@ -15,7 +15,7 @@ __all__ = ["CSS", "FONT_PX", "SIDE_PANEL_PX", "EXPLANATION_PX", "marks_html", "t
 
 FONT_PX = 14  # the printout's font size: legible from the back row on a projector
 SIDE_PANEL_PX = 320  # side by side, each panel at least this wide (three fit 1366 px with the file browser closed)
-EXPLANATION_PX = 780  # the printout's box: about 90 characters of 14-px monospace per line
+EXPLANATION_PX = 660  # the printout's box: 78 characters of 14-px monospace a line, beside 480 px of controls
 
 CSS = ("<style>img.rs-explorer-image {image-rendering: pixelated; image-rendering: crisp-edges; margin: 0;}"
        ".rs-explorer-stage {position: relative; overflow: visible;}"

@@ -250,7 +250,7 @@ def test_size_fits_and_panels_are_labelled():
     assert Explorer(_scene(40, 30), width=20).image.layout.width == "40px"  # never below the frame's size
     with pytest.raises(ValueError, match="width"):
         Explorer(_scene(40, 30), width=4)
-    assert all(c.layout.width in ("250px", "105px") for c in ex.controls.values())  # two columns of 250
+    assert all(c.layout.width in ("240px", "105px") for c in ex.controls.values())  # two columns of 240
 
 
 def test_reset_returns_to_the_scene_and_save_writes_the_picture(tmp_path):

@@ -25,6 +25,7 @@ import socket
 import subprocess
 import sys
 import time
+import urllib.error
 import urllib.request
 
 import pytest
@@ -221,7 +222,8 @@ def _saved_noise(browser, lab, name):
     ActionChains(browser).key_down(Keys.CONTROL).send_keys("s").key_up(Keys.CONTROL).perform()
     WebDriverWait(browser, 30, poll_frequency=0.25).until(
         lambda d: _api(lab, f"/api/contents/{name}?content=0")["last_modified"] != before)
-    nb = _api(lab, f"/api/contents/{name}?content=1")["content"]
+    nb = WebDriverWait(browser, 30, poll_frequency=0.5, ignored_exceptions=(urllib.error.HTTPError,)).until(
+        lambda d: _api(lab, f"/api/contents/{name}?content=1")["content"])  # 500 while the save is written
     code = [c for c in nb["cells"] if c["cell_type"] == "code"]
     assert code and all(c.get("execution_count") for c in code), "the saved notebook lacks some cells' outputs"
     return noise(nb)
@@ -334,15 +336,24 @@ def test_explorer_slider_and_click(browser, lab):
     img = browser.find_element(By.CSS_SELECTOR, "img.rs-explorer-image")
     w, h = img.size["width"], img.size["height"]
     panel = w / 3  # the notebook ends with the three panels side by side
-    px, py = int(panel * 2 + panel * 0.55), int(h * 0.30)  # on the Phong panel's sphere
-    ActionChains(browser).move_to_element_with_offset(img, px - w // 2, py - h // 2).click().perform()
     cols = browser.execute_script("return document.querySelector('img.rs-explorer-image').naturalWidth;") // 3
     rows = browser.execute_script("return document.querySelector('img.rs-explorer-image').naturalHeight;")
-    x, y = int((px - 2 * panel) / panel * cols), int(py / h * rows)
+    # A pixel of the Phong panel's sphere, clicked at its centre (a click on a pixel's edge may fall either side)
+    x, y = int(cols * 0.55), int(rows * 0.30)
+    px, py = int(2 * panel + (x + 0.5) * panel / cols), int((y + 0.5) * h / rows)
+    ActionChains(browser).move_to_element_with_offset(img, px - w // 2, py - h // 2).click().perform()
     expected = f"Phong panel, pixel ({x}, {y})"
     t0 = time.perf_counter()
-    WebDriverWait(browser, 30, poll_frequency=0.01).until(lambda d: expected in d.execute_script(
-        "return [...document.querySelectorAll('.widget-html pre')].map(e => e.textContent).join('\\n');"))
+    shown = "return [...document.querySelectorAll('.widget-html pre')].map(e => e.textContent).join('\\n');"
+    try:
+        WebDriverWait(browser, 30, poll_frequency=0.01).until(lambda d: expected in d.execute_script(shown))
+    except TimeoutException:
+        under = browser.execute_script(  # what the click fell on
+            "const i = arguments[0].getBoundingClientRect(); const e = document.elementFromPoint("
+            "i.left + arguments[1], i.top + arguments[2]); return e && (e.tagName + '.' + e.className);", img, px, py)
+        browser.save_screenshot(str(lab[2] / "explorer_click_failed.png"))
+        pytest.fail(f"no {expected!r} 30 s after the click, which fell on {under}; shown: "
+                    f"{browser.execute_script(shown)[:200]!r}; {lab[2] / 'explorer_click_failed.png'}")
     TIMINGS["explorer: click to explanation (s)"] = time.perf_counter() - t0
     text = browser.execute_script("return [...document.querySelectorAll('.widget-html pre')]"
                                   ".map(e => e.textContent).join('\\n');")
@@ -357,9 +368,30 @@ def test_explorer_slider_and_click(browser, lab):
     for p, (cx, cy, _) in enumerate(rings):
         assert abs(cx - (p * panel + (x + 0.5) * panel / cols)) <= 1.5 and abs(cy - (y + 0.5) * h / rows) <= 1.5, rings
     titles = browser.execute_script("return [...document.querySelectorAll('.widget-html div')]"
+                                    ".filter(e => e.children.length === 0)"
                                     ".map(e => e.textContent).filter(t => t.includes('explained'));")
     assert titles == [f"Phong: pixel ({x}, {y}) explained"], titles
     _shot(browser, "explorer_clicked")
+    # One method (the explorer's start): the printout stands beside the picture, the controls under it.
+    from selenium.webdriver.support.ui import Select
+
+    Select(browser.find_element(By.XPATH, "//label[text()='shading']/following-sibling::select")).select_by_value(
+        "phong")
+    WebDriverWait(browser, 30, poll_frequency=0.05).until(lambda d: d.execute_script(
+        "return document.querySelector('img.rs-explorer-image').getBoundingClientRect().width;") < 600)
+    img = browser.find_element(By.CSS_SELECTOR, "img.rs-explorer-image")
+    browser.execute_script("arguments[0].closest('.jp-OutputArea-output').scrollIntoView({block: 'start'});", img)
+    time.sleep(0.8)
+    single = browser.execute_script(
+        "const i = document.querySelector('img.rs-explorer-image').getBoundingClientRect();"
+        "const t = document.querySelector('.rs-explorer-text').getBoundingClientRect();"
+        "const s = [...document.querySelectorAll('.widget-slider')].map(e => e.getBoundingClientRect());"
+        "return [i.right, t.left, t.top - i.top, t.right, t.height, Math.max(...s.map(r => r.bottom)) - i.top,"
+        " window.innerWidth, window.innerHeight];")
+    TIMINGS["explorer, one method: picture right, printout left/top/right/height, sliders' bottom, viewport (px)"] = \
+        [float(v) for v in single]
+    assert single[1] >= single[0] and single[2] < 60 and single[3] <= single[6], single  # beside, at its top
+    _shot(browser, "explorer_single")
 
 
 def teardown_module(module):

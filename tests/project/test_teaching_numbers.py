@@ -89,3 +89,44 @@ def test_the_exercise_states_the_shapes_its_cell_asserts():
     text = _markdown("exercise.ipynb")
     assert "`Ii` are arrays of 3" not in text
     assert "`light.intensity` (a number) times `light.color` (an array of 3)" in text
+
+
+def _timings():
+    """docs/images/browser_timings.txt (test_browser.py with RS_SCREENSHOTS=1): name -> list of str."""
+    out = {}
+    for line in (ROOT / "docs" / "images" / "browser_timings.txt").read_text(encoding="utf-8").splitlines():
+        name, _, values = line.rpartition(": ")
+        out[name] = values.split(", ")
+    return out
+
+
+def test_the_browser_table_is_the_timings_file():
+    t, page = _timings(), _page("docs/teaching.md")
+    rows = [("lecture, Run All in a new kernel (kernel cache warm)", "lecture: Run All, new kernel"),
+            ("lecture, Run All again in the same kernel", "lecture: Run All again, same kernel"),
+            ("exercise, Run All in a new kernel", "exercise: Run All, new kernel"),
+            ("explorer, Run All in a new kernel", "explorer: Run All, new kernel"),
+            ("explorer, one slider step to the new picture on screen", "explorer: slider step to screen (s), 3 steps"),
+            ("explorer, click to explanation shown", "explorer: click to explanation (s)")]
+    for label, key in rows:
+        assert f"| {label} | {', '.join(t[key])} |" in page, (label, t[key])
+
+
+def test_the_explorer_layout_quoted_is_the_measured_one():
+    import raycast_shade as rs
+    from raycast_shade.apps.explore import Explorer
+    from raycast_shade.apps.explore_view import EXPLANATION_PX, FONT_PX, SIDE_PANEL_PX
+
+    key = next(k for k in _timings() if k.startswith("explorer, one method"))
+    right, left, top, _, height, sliders, _, view_h = (float(v) for v in _timings()[key])
+    page = _page("docs/teaching.md")
+    assert left >= right and abs(top) <= 40  # beside the picture, level with it (its titles' row)
+    assert f"the sliders end {sliders:.0f} px below the picture's top" in page
+    assert f"the printout is {height:.0f} px tall" in page and f"{view_h:.0f}-px-high view" in page
+    assert height + top > view_h - 90  # the last lines are below the fold, as the page says (90: the lab's bars)
+    scene = rs.Scene([rs.Model(rs.shapes.icosphere(1), rs.Material())], lights=[rs.DirectionalLight((0, -1, -1))],
+                     camera=rs.Camera(eye=(0.0, 0.0, 3.0), width=16, height=12))
+    ex = Explorer(scene)
+    assert f"two columns of {ex.controls['azimuth'].layout.width[:-2]} px" in page
+    assert f"printout ({EXPLANATION_PX} px wide)" in page and f"`min(width, {SIDE_PANEL_PX})` pixels" in page
+    assert FONT_PX == 14 and "at 14 px" in page
