@@ -18,10 +18,15 @@ of intensity 0 on the logarithmic slider) is refused with a ValueError.
 ``max_depth`` is bounded as in :func:`raycast_shade.render`.
 
 Size: the picture is drawn ``width`` pixels wide (440 by default; side by
-side, each panel a third of that, never below the frame's own width), the
-pixels drawn as squares (``image-rendering: pixelated``), with the controls
-in two columns beside it and the explanation under them: all of it fits a
-1366x768 screen in JupyterLab with the file browser closed (Ctrl+B).
+side, each panel ``min(width, 320)`` pixels, never below the frame's own
+width), the pixels drawn as squares (``image-rendering: pixelated``), with
+the controls in two columns under it and the explanation beside it, at 14 px
+and without a scroll bar of its own (:mod:`.explore_view`), in JupyterLab
+on a 1366-px screen with the file browser closed (Ctrl+B); side by side,
+the printout moves under the three panels. The explained pixel is ringed in
+every panel and its panel's title names it; switching to or from side by
+side keeps explaining the same method's panel, and says so when that
+method is no longer on screen.
 
 Each change re-renders at once. What makes that live: the camera never
 moves, so the hit buffer of each interpolation is cast once and kept, and a
@@ -63,6 +68,7 @@ from ..shading.terms import with_materials
 from ..insight.explain import explain
 from ..visibility.cast import cast_camera, resolve_caster, secondary_rays
 from ..visibility.interpolation import to_screen_space
+from .explore_view import CSS, EXPLANATION_PX, SIDE_PANEL_PX, explanation_html, marks_html, title_html
 
 __all__ = ["explore", "Explorer", "SIDE_BY_SIDE", "DEFAULT_WIDTH"]
 
@@ -70,7 +76,6 @@ SIDE_BY_SIDE = "flat | gouraud | phong"
 DEFAULT_WIDTH = 440  # display pixels of one frame: legible, and leaves room for the controls on 1366 px
 _LABELS = {"flat": "flat", "gouraud": "Gouraud", "phong": "Phong"}
 _LIGHT_CONTROLS = ("azimuth", "elevation", "distance", "intensity", "attenuation", "k")
-_CSS = "<style>img.rs-explorer-image {image-rendering: pixelated; image-rendering: crisp-edges;}</style>"
 
 
 def _spherical(offset):
@@ -127,8 +132,8 @@ class Explorer:
     max_depth : int
         Mirror bounces, as ``render``'s (0 to 64).
     width : int
-        Display width in pixels of one frame (side by side: a third of it per
-        panel); never below the frame's own width.
+        Display width in pixels of one frame (side by side: ``min(width, 320)``
+        per panel); never below the frame's own width.
     save_dir : str or path-like
         Where the save button writes ``explorer_001.png``, ...
 
@@ -177,6 +182,8 @@ class Explorer:
         self.controls = self._make_controls(widgets, scene, geo.scale)
         self.initial = self.values()
         self.frame, self.frames, self.saved = None, [], []
+        # the explained panel's method, why it changed (if it did), the methods on screen
+        self._explained, self._note, self._shown = None, "", []
         self._build_layout(widgets)
         for control in self.controls.values():
             control.observe(self._changed, "value")
@@ -207,7 +214,7 @@ class Explorer:
         lo_i, hi_i = _exponents(intensity, -3, 4, f"light {self.light} intensity")
         lo_t, hi_t = _exponents(mat.shininess, 0, 3, "material shininess")
         lo_k, hi_k = _exponents(k, -2, 2, f"light {self.light} k")
-        ds = dict(style={"description_width": "90px"}, layout=widgets.Layout(width="250px"))
+        ds = dict(style={"description_width": "90px"}, layout=widgets.Layout(width="240px"))  # two columns: 480
         fs = dict(continuous_update=True, readout_format=".3g", **ds)
 
         def slider(cls, value, lo, hi, description, **kw):
@@ -246,6 +253,10 @@ class Explorer:
         c = self.controls
         self.image = widgets.Image(format="png")
         self.image.add_class("rs-explorer-image")
+        self.marks = widgets.HTML()  # rings over the explained pixel, drawn over the picture, not into it
+        self.marks.add_class("rs-explorer-marks")
+        stage = widgets.Box([self.image, self.marks])
+        stage.add_class("rs-explorer-stage")
         self.titles = widgets.HBox([])
         h, w = self.camera.height, self.camera.width
         self.pixel = dict(
@@ -255,11 +266,11 @@ class Explorer:
                                      layout=widgets.Layout(width="85px"), style={"description_width": "15px"}),
             panel=widgets.BoundedIntText(value=0, min=0, max=2, description="panel",
                                          layout=widgets.Layout(width="100px"), style={"description_width": "40px"}))
-        self.explanation = widgets.HTML(layout=widgets.Layout(width="505px", height="190px", overflow="auto",
-                                                              border="1px solid #ccc"))
+        self.explanation = widgets.HTML(layout=widgets.Layout(width=f"{EXPLANATION_PX}px", border="1px solid #ccc"))
+        self.explanation.add_class("rs-explorer-text")
         self.status = widgets.Label("click a pixel to explain it" + ("" if self._click_events() else
                                                                     " (pip install ipyevents; or set x, y)"),
-                                    layout=widgets.Layout(width="500px"))
+                                    layout=widgets.Layout(width="480px"))
         reset = widgets.Button(description="reset", layout=widgets.Layout(width="70px"))
         save = widgets.Button(description="save frame", layout=widgets.Layout(width="95px"))
         reset.on_click(lambda _: self.reset())
@@ -270,10 +281,9 @@ class Explorer:
         c["wireframe"].layout.width = "105px"
         view = widgets.HBox([c["interpolation"], c["wireframe"], reset])
         pixel = widgets.HBox([save, self.pixel["x"], self.pixel["y"], self.pixel["panel"]])
-        right = widgets.VBox([widgets.HBox([light, material]), view, pixel, self.status, self.explanation])
-        left = widgets.VBox([self.titles, self.image])
-        self.widget = widgets.VBox([widgets.HTML(_CSS), widgets.HBox([left, right],
-                                                                    layout=widgets.Layout(flex_flow="row wrap"))])
+        left = widgets.VBox([self.titles, stage, widgets.HBox([light, material]), view, pixel, self.status])
+        self.widget = widgets.VBox([widgets.HTML(CSS), widgets.HBox([left, self.explanation],
+                                                                   layout=widgets.Layout(flex_flow="row wrap"))])
         self._widgets = widgets
 
     def _click_events(self) -> bool:
@@ -410,9 +420,9 @@ class Explorer:
         return np.concatenate(panels, axis=1) if len(panels) > 1 else panels[0]
 
     def panel_width(self) -> int:
-        """Display pixels of one panel: ``width`` (side by side, a third of it), never below the frame's
+        """Display pixels of one panel: ``width`` (side by side, at most 320), never below the frame's
         own width; the browser draws the pixels as squares (``image-rendering: pixelated``)."""
-        room = self.width if len(self.methods()) == 1 else self.width // 3
+        room = self.width if len(self.methods()) == 1 else min(self.width, SIDE_PANEL_PX)
         return max(self.camera.width, room)
 
     def update(self) -> bytes:
@@ -427,11 +437,23 @@ class Explorer:
     def _update(self) -> bytes:
         data = png_bytes(self.picture())
         self.image.value = data
-        pw = self.panel_width()
-        self.image.layout.width = f"{pw * len(self.frames)}px"
-        html = "<div style='text-align:center;font-weight:bold;width:{}px'>{}</div>"
-        self.titles.children = [self._widgets.HTML(html.format(pw, _LABELS[f.shading])) for f in self.frames]
-        self.pixel["panel"].max = len(self.frames) - 1
+        self.image.layout.width = f"{self.panel_width() * len(self.frames)}px"
+        self.titles.children = [self._widgets.HTML() for _ in self.frames]
+        methods = [f.shading for f in self.frames]
+        # The panel explained before stays explained: the same method's panel, wherever it now stands.
+        panel = methods.index(self._explained) if self._explained in methods else 0
+        if self._explained is not None and self._explained not in methods:
+            self._note = (f"{_LABELS[self._explained]} is no longer on screen: "
+                          f"now explaining the {_LABELS[methods[0]]} panel")
+        elif methods != self._shown:
+            self._note = ""  # the panel explained is on screen again: nothing to explain about it
+        self._shown = methods
+        self._quiet = True
+        try:
+            self.pixel["panel"].max = len(self.frames) - 1
+            self.pixel["panel"].value = panel
+        finally:
+            self._quiet = False
         self._explain()
         return data
 
@@ -452,6 +474,7 @@ class Explorer:
                 self.pixel["x"].value, self.pixel["y"].value = x, y
             finally:
                 self._quiet = False
+            self._note = ""  # chosen, not carried over
             return self._explain()
 
     def click(self, event: dict) -> None:
@@ -467,6 +490,7 @@ class Explorer:
 
     def _explain_changed(self, change):
         if not self._quiet:
+            self._note = ""
             self._explain()
 
     def _explain(self):
@@ -474,16 +498,18 @@ class Explorer:
             return self._explain_now()
 
     def _explain_now(self):
-        import html
-
         if not self.frames:
             return None
         panel = min(self.pixel["panel"].value, len(self.frames) - 1)
         x, y = self.pixel["x"].value, self.pixel["y"].value
         e = self.frames[panel].explain(x, y)
-        label = _LABELS[self.frames[panel].shading]
-        self.explanation.value = (f"<pre style='font-size:10px;line-height:1.2;margin:4px;white-space:pre-wrap'>"
-                                  f"{html.escape(label)} panel, pixel ({x}, {y})\n{html.escape(str(e))}</pre>")
+        self._explained = self.frames[panel].shading
+        label = _LABELS[self._explained]
+        self.explanation.value = explanation_html(label, x, y, str(e), self._note)
+        pw, n = self.panel_width(), len(self.frames)
+        for i, (title, f) in enumerate(zip(self.titles.children, self.frames)):
+            title.value = title_html(_LABELS[f.shading], pw, i == panel, x, y)
+        self.marks.value = marks_html(n, pw, self.camera.width, self.camera.height, x, y, panel)
         return e
 
     # -- saving ------------------------------------------------------------------------------------------

@@ -1,7 +1,10 @@
 """The lecture's formula with one pixel's numbers filled in: ``str(explain(frame, x, y))``.
 
-Lines stay under about 100 characters, for a projector; an RGB value whose
-channels agree prints as one number.
+Lines stay under about 100 characters, for a projector. An RGB value whose
+channels agree (a grey ``kd``, a white light's ``Ii``) prints as one number,
+as it was given; a geometric vector (``p``, ``n``, ``v``, ``s``, ``r``, ``h``, a
+light's position, the barycentrics) always prints its three components, so
+``s = (0.5774, 0.5774, 0.5774)`` never reads as a scalar.
 
 Every step prints its result to 4 significant digits, and its operands with
 as many digits as it takes (4 or more) for the printed operands to give the
@@ -20,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["format_explanation", "fmt"]
+__all__ = ["format_explanation", "fmt", "vec"]
 
 _FORMULA = {
     "phong": "I = Ia ka + sum_i att_i Ii (kd (n.s_i) + Ks (r_i.v)^t),  r_i = 2 (n.s_i) n - s_i",
@@ -36,6 +39,12 @@ def fmt(x, digits: int = 4) -> str:
     a = np.atleast_1d(np.asarray(x, np.float64))
     if a.size == 1 or np.all(a == a[0]):
         return f"{a[0]:.{digits}g}"
+    return "(" + ", ".join(f"{c:.{digits}g}" for c in a) + ")"
+
+
+def vec(x, digits: int = 4) -> str:
+    """A geometric vector (any length), every component printed to ``digits`` significant digits."""
+    a = np.atleast_1d(np.asarray(x, np.float64))
     return "(" + ", ".join(f"{c:.{digits}g}" for c in a) + ")"
 
 
@@ -91,16 +100,16 @@ def _step(operands, compute, result, sep) -> str:
 def _light_lines(t, kd, ks, indent: str) -> list:
     """One light's arithmetic at one point."""
     if t.directional:
-        head = f"light {t.index}, directional: s = {fmt(t.s)}, att = 1, Ii = {fmt(t.radiance)}"
+        head = f"light {t.index}, directional: s = {vec(t.s)}, att = 1, Ii = {fmt(t.radiance)}"
     elif t.s is None:
         return [f"{indent}light {t.index}, point: on the surface point itself (d = 0): no direction, no light"]
     else:
         law = _LAW[t.law] + (f", k = {t.k:.4g}" if t.law == "heuristic" else "")
         what = "point" if t.samples == 1 else f"area sample {t.sample + 1} of {t.samples} (1/{t.samples} in att)"
-        head = f"light {t.index}, {what} at {fmt(t.position)}, {law}: d = {t.d:.4g}, att = {t.att:.4g}"
+        head = f"light {t.index}, {what} at {vec(t.position)}, {law}: d = {t.d:.4g}, att = {t.att:.4g}"
     lines = [indent + head]
     if t.directional is False:
-        lines.append(f"{indent}  Ii = {fmt(t.radiance)}, s = {fmt(t.s)}")
+        lines.append(f"{indent}  Ii = {fmt(t.radiance)}, s = {vec(t.s)}")
     if t.spot is not None:
         if t.spot == 0.0:
             lines.append(f"{indent}  spot: outside the outer cone, no light (no shadow ray)")
@@ -121,10 +130,10 @@ def _light_lines(t, kd, ks, indent: str) -> list:
         power = _power(t.shininess)
         d = digits_for((t.cos,), power, t.spec)
         if t.specular_model == "blinn":
-            lines.append(f"{indent}  h = (s + v) / |s + v| = {fmt(t.rh)}, n.h = {fmt(t.cos, d)}, "
+            lines.append(f"{indent}  h = (s + v) / |s + v| = {vec(t.rh)}, n.h = {fmt(t.cos, d)}, "
                          f"(n.h)^t = {fmt(t.spec)}")
         else:
-            lines.append(f"{indent}  r = 2 (n.s) n - s = {fmt(t.rh)}, r.v = {fmt(t.cos, d)}, "
+            lines.append(f"{indent}  r = 2 (n.s) n - s = {vec(t.rh)}, r.v = {fmt(t.cos, d)}, "
                          f"(r.v)^t = {fmt(t.spec)}")
         lines.append(f"{indent}  specular att Ii Ks (.)^t = "
                      + _step((t.att, t.radiance, ks, t.spec), _product, t.specular, " x "))
@@ -140,9 +149,9 @@ def _shade_lines(s, indent: str = "  ") -> list:
     """One evaluation of the equation."""
     where = f"the {s.where}" if s.where in ("pixel", "face centre") else s.where
     towards = "towards the eye" if not s.where.startswith("bounce") else "back along the ray"
-    lines = [f"{indent}at {where}: p = {fmt(s.p)}",
-             f"{indent}  n = {fmt(s.n)}" + (f"\n{indent}    ({s.normal_note})" if s.normal_note else ""),
-             f"{indent}  v = {fmt(s.v)}  ({towards})",
+    lines = [f"{indent}at {where}: p = {vec(s.p)}",
+             f"{indent}  n = {vec(s.n)}" + (f"\n{indent}    ({s.normal_note})" if s.normal_note else ""),
+             f"{indent}  v = {vec(s.v)}  ({towards})",
              f"{indent}  ka = {fmt(s.ka)}, kd = {fmt(s.kd)}, ks = {fmt(s.ks)}, shininess t = {s.shininess:.6g}"
              + (f"\n{indent}    ({s.coef_note})" if s.coef_note else ""),
              f"{indent}  ambient  Ia ka = " + _step((s.ia, s.ka), _product, s.ambient, " x ")]
@@ -180,7 +189,7 @@ def format_explanation(e) -> str:
     model = e.shades[0].lights[0].specular_model if e.shades and e.shades[0].lights else "phong"
     lines = [f"pixel ({e.x}, {e.y}): {e.method.capitalize()} shading of model {e.model}{name}, "
              f"triangle {e.triangle}",
-             f"  vertices {', '.join(map(str, e.vertex_ids))}, barycentrics {fmt(e.barycentrics)}",
+             f"  vertices {', '.join(map(str, e.vertex_ids))}, barycentrics {vec(e.barycentrics)}",
              _FORMULA[model].replace("^t),", "^t) + ke,") if np.any(e.emissive != 0.0) else _FORMULA[model],
              _LEGEND + ("\n  (ke = material.ke: emission, added whatever the lights)" if np.any(e.emissive != 0.0)
                         else "")]
@@ -205,10 +214,10 @@ def format_explanation(e) -> str:
         lines.append(f"mirror: I = (1 - rho) I_local + sum_j w_j c_j, rho = {e.rho:.4g}")
         for b in e.bounces:
             if b.shade is None:
-                lines.append(f"  bounce {b.depth}: the ray {fmt(b.direction)} misses: c = background {fmt(b.colour)}, "
+                lines.append(f"  bounce {b.depth}: the ray {vec(b.direction)} misses: c = background {fmt(b.colour)}, "
                              f"w = {b.weight:.4g}")
                 continue
-            lines.append(f"  bounce {b.depth}: the ray {fmt(b.direction)} hits model {b.model}, triangle "
+            lines.append(f"  bounce {b.depth}: the ray {vec(b.direction)} hits model {b.model}, triangle "
                          f"{b.triangle}; w = {b.weight:.4g}, c = {b.keep:.4g} x I = {fmt(b.colour)}")
             lines += _shade_lines(b.shade, "    ")
         lines.append("  I = " + _step((1.0 - e.rho, e.local, e.reflected), lambda k, a, b: k * a + b, e.total,

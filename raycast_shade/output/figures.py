@@ -16,7 +16,11 @@ imported on first use: ``pip install 'raycast_shade[notebook]'``.
   Gouraud's kinks (the Mach bands) show at the triangle edges.
 
 Differences and profiles are of the *linear* images (the renderer's units),
-not of the 8-bit ones.
+not of the 8-bit ones. An 8-bit picture (``uint8``, such as ``to_uint8(img)``
+or a PNG read back; ``uint16`` likewise) is decoded from sRGB to linear first,
+and the figure says so in a note; any other integer array is refused, since
+its scale cannot be known. The term images of :func:`terms` are linear by
+definition: 8-bit ones are refused.
 """
 
 from __future__ import annotations
@@ -27,6 +31,7 @@ import numpy as np
 
 from ..common.extras import require
 from ..common.validate import as_array, as_bool, as_int, as_name, as_scalar
+from ..scene.texture import srgb_to_linear
 from .tonemap import to_uint8
 
 __all__ = ["montage", "terms", "difference", "profile", "LUMINANCE", "FRACTION_MAP"]
@@ -42,10 +47,24 @@ def _figure(what: str, **kwargs):
     return LectureFigure(**kwargs)
 
 
-def _linear(x, name: str) -> np.ndarray:
+# The note a figure carries when it decoded 8-bit input.
+DECODED_NOTE = "8-bit input decoded from sRGB to linear"
+
+
+def _linear(x, name: str, decoded: list | None = None) -> np.ndarray:
     """(H, W, 3) float64 linear image of a Frame or an array ((H, W) is grey): radiance, so no NaN,
-    infinite or negative pixel (each refused naming ``name`` and the pixel)."""
-    a = as_array(getattr(x, "image", x), name, dtype=np.float64, finite=False)  # strings, None, booleans refused
+    infinite or negative pixel (each refused naming ``name`` and the pixel). A ``uint8`` or ``uint16``
+    array is an sRGB-encoded picture: decoded, and ``name`` appended to ``decoded``; another integer
+    array (``int64`` 0-255?) is refused, its scale unknown."""
+    raw = getattr(x, "image", x)
+    if isinstance(raw, np.ndarray) and raw.dtype in (np.uint8, np.uint16):
+        if decoded is not None:
+            decoded.append(name)
+        raw = srgb_to_linear(raw / float(np.iinfo(raw.dtype).max))
+    elif isinstance(raw, np.ndarray) and np.issubdtype(raw.dtype, np.integer):
+        raise TypeError(f"{name}: {raw.dtype} pixels have no known scale; pass a linear float image, or an "
+                        "8-bit picture as uint8 (decoded from sRGB, as to_uint8 and PNG files encode it)")
+    a = as_array(raw, name, dtype=np.float64, finite=False)  # strings, None, booleans refused
     bad = ~np.isfinite(a) | (a < 0.0)
     if bad.any():
         at = tuple(int(i) for i in np.argwhere(bad)[0])
@@ -63,7 +82,8 @@ def montage(frames_or_images, labels=None, *, columns: int | None = None, panel_
     Parameters
     ----------
     frames_or_images : sequence of Frame or (H, W, 3) float, or dict of str to ndarray
-        Linear images; frames contribute ``frame.image``. A dict (such as
+        Linear images; frames contribute ``frame.image``; (H, W, 3) ``uint8``
+        pictures are decoded from sRGB (and shown as given, with a note). A dict (such as
         ``frame.terms``) is drawn by :func:`terms`: labelled by its keys, on
         a shared scale with colour bars.
     labels : sequence of str, optional
@@ -92,7 +112,8 @@ def montage(frames_or_images, labels=None, *, columns: int | None = None, panel_
     items = list(frames_or_images)
     if not items:
         raise ValueError("frames_or_images: expected at least one image")
-    images = [_linear(x, f"frames_or_images[{i}]") for i, x in enumerate(items)]
+    decoded: list = []
+    images = [_linear(x, f"frames_or_images[{i}]", decoded) for i, x in enumerate(items)]
     if labels is None:
         labels = [x.shading if isinstance(getattr(x, "shading", None), str) else "" for x in items]
     if isinstance(labels, (str, np.ndarray)) or not hasattr(labels, "__iter__"):
@@ -111,6 +132,8 @@ def montage(frames_or_images, labels=None, *, columns: int | None = None, panel_
         ax.imshow(to_uint8(img, **tone), interpolation="nearest")
         ax.set_title(label)
         ax.set_axis_off()
+    if decoded:  # shown as they were (decoding then encoding is exact); the note says why they are not linear
+        fig.supxlabel(f"{', '.join(decoded)}: {DECODED_NOTE}, shown as given", fontsize="small")
     return fig
 
 
@@ -123,8 +146,8 @@ def difference(a, b, *, signed: bool = True, title: str | None = None, width: fl
 
     Parameters
     ----------
-    a, b : Frame or (H, W, 3) float
-        Same shape.
+    a, b : Frame or (H, W, 3) float or (H, W, 3) uint8
+        Same shape; ``uint8`` is decoded from sRGB first (the colour bar says so).
     signed : bool
         ``True``: ``Y(a) - Y(b)`` on a diverging map symmetric about 0 (red:
         ``a`` brighter, blue: ``b`` brighter). ``False``: ``|Y(a) - Y(b)|``
@@ -138,7 +161,8 @@ def difference(a, b, *, signed: bool = True, title: str | None = None, width: fl
     matplotlib.figure.Figure
         Two axes: the heatmap, and its colour bar.
     """
-    la, lb = _linear(a, "a"), _linear(b, "b")
+    decoded: list = []
+    la, lb = _linear(a, "a", decoded), _linear(b, "b", decoded)
     signed = as_bool(signed, "signed")
     width = as_scalar(width, "width", minimum=0.0, exclusive=True, maximum=1000.0)  # inches
     if title is not None:
@@ -157,6 +181,8 @@ def difference(a, b, *, signed: bool = True, title: str | None = None, width: fl
         d = np.abs(d)
         im = ax.imshow(d, cmap="magma", vmin=0.0, vmax=float(d.max()) or 1.0, interpolation="nearest")
         label = "|luminance difference| (linear)"
+    if decoded:
+        label += f"\n{' and '.join(decoded)}: {DECODED_NOTE}"
     fig.colorbar(im, ax=ax, label=label, shrink=0.9)
     ax.set_axis_off()
     if title:
@@ -198,7 +224,8 @@ def profile(frame, row: int, *, columns=None, edges: bool = True, title: str | N
 
     Parameters
     ----------
-    frame : Frame or (H, W, 3) float
+    frame : Frame or (H, W, 3) float or (H, W, 3) uint8
+        ``uint8`` is decoded from sRGB first (the axis label says so).
     row : int
         Image row, 0 at the top.
     columns : slice or (start, stop), optional
@@ -215,7 +242,8 @@ def profile(frame, row: int, *, columns=None, edges: bool = True, title: str | N
     matplotlib.figure.Figure
         One axes whose ``lines`` are the three channels (red, green, blue).
     """
-    img = _linear(frame, "frame")
+    decoded: list = []
+    img = _linear(frame, "frame", decoded)
     edges = as_bool(edges, "edges")
     if title is not None:
         title = as_name(title, "title")
@@ -236,7 +264,7 @@ def profile(frame, row: int, *, columns=None, edges: bool = True, title: str | N
             ax.vlines(change, 0.0, 1.0, transform=ax.get_xaxis_transform(), colors="0.7", lw=0.6, zorder=0,
                       label="triangle edge")
     ax.set_xlabel("column (pixels)")
-    ax.set_ylabel("linear intensity")
+    ax.set_ylabel("linear intensity" + (f"\n({DECODED_NOTE})" if decoded else ""))
     ax.set_xlim(x[0] - 0.5, x[-1] + 0.5)
     ax.set_ylim(bottom=0.0)
     ax.legend(loc="upper right", fontsize="small")
@@ -257,6 +285,9 @@ def _term_panels(items) -> list:
         if not isinstance(name, str):
             raise TypeError(f"terms: keys are the terms' names (str), got {type(name).__name__}")
         a = np.asarray(value)
+        if a.dtype in (np.uint8, np.uint16):
+            raise TypeError(f"terms[{name!r}]: {a.dtype} is an 8-bit picture; a term is a linear float image "
+                            "(rs.render(..., terms=True) gives them); draw pictures with montage([...])")
         if a.dtype == np.bool_:
             a = a.astype(np.float64)
         if not np.issubdtype(a.dtype, np.number) or not np.all(np.isfinite(a)):

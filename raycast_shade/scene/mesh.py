@@ -11,6 +11,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..common.validate import as_array, as_bool, as_choice, as_name, as_scalar, pow2_scaled
+from ..common.stack import user_stacklevel
 from ..common.warnings import CreaseWarning, DroppedOnLoadWarning, ZeroNormalWarning
 from .normals import WEIGHTINGS, WindingWarning, face_normals, reversed_duplicates, vertex_normals, winding_conflicts
 from .pitfalls import SHARP_DEGREES, sharp_edges
@@ -292,7 +293,7 @@ class Mesh:
                     "computed vertex normals cancel there; make the winding consistent first (for "
                     "example trimesh.repair.fix_winding) or pass normals",
                     WindingWarning,
-                    stacklevel=2,
+                    stacklevel=user_stacklevel(),
                 )
             twins = int(np.count_nonzero(reversed_duplicates(self.faces, self.vertices)))
             if twins:
@@ -302,7 +303,7 @@ class Mesh:
                     "drop one of each pair (raycast_shade.scene.normals.reversed_duplicates finds them; "
                     "load_models and Mesh.load drop them) or pass normals",
                     WindingWarning,
-                    stacklevel=2,
+                    stacklevel=user_stacklevel(),
                 )
             if self.crease_angle is None:
                 sharp = sharp_edges(self.vertices, self.faces, fn)
@@ -313,7 +314,7 @@ class Mesh:
                         "crease_angle=30 (degrees; on the command line --crease-angle 30) to keep them hard, "
                         "or normals",
                         CreaseWarning,
-                        stacklevel=2,
+                        stacklevel=user_stacklevel(),
                     )
             verts, faces, normals, source = vertex_normals(
                 self.vertices, self.faces, self.weighting, self.crease_angle

@@ -237,17 +237,20 @@ def test_size_fits_and_panels_are_labelled():
     ex = Explorer(_scene(40, 30))
     assert ex.image.layout.width == "440px"
     assert [t.value for t in ex.titles.children] == [
-        "<div style='text-align:center;font-weight:bold;width:440px'>Phong</div>"]
+        "<div style='text-align:center;font-weight:bold;font-size:14px;background:#ffe000;width:440px'>"
+        "Phong: pixel (20, 15) explained</div>"]
     ex.controls["shading"].value = SIDE_BY_SIDE
-    assert ex.image.layout.width == "438px"  # three panels of 146
+    assert ex.image.layout.width == "960px"  # three panels of 320: legible side by side (issue 46)
     assert ["flat" in t.value for t in ex.titles.children] == [True, False, False]
     assert "Gouraud" in ex.titles.children[1].value and "Phong" in ex.titles.children[2].value
     small = Explorer(_scene(40, 30), width=200)
     assert small.image.layout.width == "200px"
+    small.controls["shading"].value = SIDE_BY_SIDE
+    assert small.image.layout.width == "600px"  # a width below 320 is each panel's
     assert Explorer(_scene(40, 30), width=20).image.layout.width == "40px"  # never below the frame's size
     with pytest.raises(ValueError, match="width"):
         Explorer(_scene(40, 30), width=4)
-    assert all(c.layout.width in ("250px", "105px") for c in ex.controls.values())  # two columns of 250
+    assert all(c.layout.width in ("240px", "105px") for c in ex.controls.values())  # two columns of 240
 
 
 def test_reset_returns_to_the_scene_and_save_writes_the_picture(tmp_path):
@@ -270,7 +273,7 @@ def test_a_click_explains_the_pixel_under_the_mouse_beside_the_image():
     ex = Explorer(_scene(40, 30))
     ex.controls["shading"].value = SIDE_BY_SIDE
     # a click at display (x, y) on the 660x165 picture: the middle panel (Gouraud), pixel (10, 20)
-    ex.width = 660
+    ex.width = 220
     ex.update()
     ex.click({"relativeX": 220 + 10 * 5.5 + 3, "relativeY": 20 * 5.5 + 2, "boundingRectWidth": 660,
               "boundingRectHeight": 165})
@@ -323,3 +326,55 @@ def test_a_value_the_browser_snaps_to_its_slider_grid_keeps_the_scene_s_field():
     np.testing.assert_array_equal(ex.scene().lights[0].position, ex.base.lights[0].position)
     ex.controls["t"].value = 10 ** (np.log10(ex.initial["t"]) + ex.controls["t"].step)  # one step: a change
     assert ex.scene().models[0].material.shininess != 20.0 and bytes(ex.image.value) != start
+
+
+# -- for the back row (issue 46, item 3) --------------------------------------------------------------------
+
+def _rings(ex):
+    import re
+
+    return [(float(a), float(b), float(w), "explained" in cls) for cls, a, b, w in re.findall(
+        r"class='(rs-mark[^']*)' style='position:absolute;left:([0-9.-]+)px;top:([0-9.-]+)px;width:([0-9.]+)px",
+        ex.marks.value)]
+
+
+def test_the_explained_pixel_is_ringed_in_every_panel_and_its_panel_named():
+    ex = Explorer(_scene(40, 30))
+    ex.controls["shading"].value = SIDE_BY_SIDE
+    ex.explain(10, 20, panel=1)
+    rings = _rings(ex)
+    s = 320 / 40  # display pixels per image pixel
+    assert len(rings) == 3 and [r[3] for r in rings] == [False, True, False]
+    for p, (left, top, w, _) in enumerate(rings):  # each ring centred on pixel (10, 20) of its panel
+        assert left + w / 2 == pytest.approx(p * 320 + 10.5 * s) and top + w / 2 == pytest.approx(20.5 * s)
+    assert [("explained" in t.value) for t in ex.titles.children] == [False, True, False]
+    assert "Gouraud: pixel (10, 20) explained" in ex.titles.children[1].value
+    start = bytes(ex.image.value)
+    ex.explain(3, 4, panel=2)  # the rings move; the picture is untouched (the rings are drawn over it)
+    assert bytes(ex.image.value) == start and [r[3] for r in _rings(ex)] == [False, False, True]
+
+
+def test_the_printout_is_legible_wrapped_at_spaces_and_has_no_scroll_bar_of_its_own():
+    from raycast_shade.apps.explore_view import CSS
+
+    ex = Explorer(_scene(40, 30))
+    assert "font-size: 14px" in CSS and "word-break: normal" in CSS and "overflow-wrap: normal" in CSS
+    assert "white-space: pre-wrap" in CSS  # breaks at spaces only, never inside s_i
+    assert ex.explanation.layout.height is None and ex.explanation.layout.overflow is None
+    assert "rs-explorer-text" in ex.explanation._dom_classes and "<pre>" in ex.explanation.value
+
+
+def test_switching_to_side_by_side_keeps_explaining_the_same_method():
+    ex = Explorer(_scene(40, 30))
+    ex.controls["shading"].value = "gouraud"
+    ex.explain(12, 14)
+    ex.controls["shading"].value = SIDE_BY_SIDE
+    assert ex.pixel["panel"].value == 1 and "Gouraud panel, pixel (12, 14)" in ex.explanation.value
+    assert "no longer on screen" not in ex.explanation.value
+    ex.explain(12, 14, panel=2)  # Phong, then back to one method that is not Phong: said, not silent
+    ex.controls["shading"].value = "flat"
+    assert ex.pixel["panel"].value == 0 and "Flat panel" not in ex.explanation.value
+    assert "Phong is no longer on screen: now explaining the flat panel" in ex.explanation.value
+    ex.controls["shading"].value = SIDE_BY_SIDE  # the flat panel was explained last: it stays
+    assert ex.pixel["panel"].value == 0 and "flat panel, pixel (12, 14)" in ex.explanation.value
+    assert "no longer on screen" not in ex.explanation.value  # the note went with the change it explained

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -167,3 +169,22 @@ def test_background_and_bad_pixels():
 
     with pytest.raises(ValueError, match="raycast_shade.explain"):
         dataclasses.replace(frame, explainer=None).explain(0, 0)
+
+
+def test_vectors_print_as_vectors_even_with_equal_components():
+    """Issue 46: s = (0.5774, 0.5774, 0.5774) printed as 's = 0.5774' read as a scalar. Geometric vectors
+    always print three components; an RGB value with equal channels (a grey kd, Ii) stays one number."""
+    from raycast_shade.insight.explain_text import fmt, vec
+
+    assert vec(np.full(3, 1 / np.sqrt(3))) == "(0.5774, 0.5774, 0.5774)"
+    assert fmt(np.full(3, 0.8)) == "0.8" and fmt((0.8, 0.3, 0.2)) == "(0.8, 0.3, 0.2)"
+    scene = rs.Scene([rs.Model(rs.shapes.icosphere(2), rs.Material(kd=0.7, ks=0.4, shininess=20))],
+                     lights=[rs.DirectionalLight((-1.0, -1.0, -1.0))],
+                     camera=rs.Camera(eye=(0.0, 0.0, 3.2), width=24, height=18))
+    frame = rs.render(scene, "phong")
+    ys, xs = np.nonzero(frame.mask)
+    text = str(frame.explain(int(xs[len(xs) // 2]), int(ys[len(ys) // 2])))
+    assert "light 0, directional: s = (0.5774, 0.5774, 0.5774), att = 1, Ii = 1" in text, text
+    for name in ("p", "n", "v"):
+        assert re.search(rf"\b{name} = \(-?[0-9.e-]+, -?[0-9.e-]+, -?[0-9.e-]+\)", text), name
+    assert "kd = 0.7" in text  # a grey coefficient stays one number
