@@ -264,16 +264,25 @@ class _MtlOnly:
 
 
 def load_obj(path: str):
-    """``trimesh.load`` of an OBJ with every ``mtllib`` the file names (those that exist) as one."""
+    """``trimesh.load`` of an OBJ with every ``mtllib`` the file names (those that exist) as one.
+
+    Its lines are checked first (:func:`~raycast_shade.scene.filecheck.check_obj`), and its non-convex
+    polygons ear-clipped in their planes (:func:`~raycast_shade.scene.polygons.ear_clip_obj`); trimesh
+    fans the rest from their first vertex, as it always did.
+    """
     import trimesh
 
     from .filecheck import check_obj
+    from .polygons import ear_clip_obj
 
     with open(path, "rb") as fh:
         data = fh.read()
     name = os.path.basename(path)
     absolute = check_obj(data, name)
     data = data if absolute is None else absolute
+    clipped = ear_clip_obj(data, name)  # only non-convex polygons: convex ones keep trimesh's fan
+    absolute = absolute if clipped is None else clipped
+    data = data if clipped is None else clipped
     files = obj_mtl_files(path)
     if not files and absolute is None:
         return trimesh.load(path, process=False)

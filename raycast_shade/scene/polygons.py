@@ -1,0 +1,164 @@
+"""OBJ polygons with more than three vertices triangulated in their own plane.
+
+trimesh splits every polygon into a fan from its first vertex: right for a
+convex polygon, but a concave one (an L, a keyhole ring around a hole) comes
+out as triangles that spill over its outline and cover area it does not
+have. :func:`ear_clip_obj` rewrites only the non-convex polygons of an OBJ's
+text as the triangles of ear clipping (mapbox-earcut) in the polygon's plane,
+before trimesh reads it; convex ones stay as written, so trimesh's fan gives
+them the triangles it always did. Degenerate polygons (no area, a vertex
+repeated next to itself, bent out of their plane, crossing themselves) are
+named in one warning with the file and line of each.
+"""
+
+from __future__ import annotations
+
+import re
+import warnings
+
+import numpy as np
+
+from ..common.warnings import DroppedOnLoadWarning
+
+__all__ = ["ear_clip_obj", "PLANAR_TOLERANCE"]
+
+# A polygon bent out of its (Newell) plane by more than this fraction of its size is warned of: its
+# triangles then depend on how it is split. Subdivision-surface quads bend by far less.
+PLANAR_TOLERANCE = 1e-2
+# Relative slack for "convex" (a turn this small against the size is straight) and for the area check.
+_TURN_EPS = 1e-9
+_AREA_RTOL = 1e-6
+# A face line with four vertex references or more (the quick test: most files have triangles only).
+_POLYGON = re.compile(rb"(?m)^[ \t]*f(?:[ \t]+[^ \t\r\n#]+){4}")
+
+
+def ear_clip_obj(data: bytes, name: str):
+    """The OBJ's text with every non-convex polygon written as its ear-clipped triangles.
+
+    Parameters
+    ----------
+    data : bytes
+        The file's content, checked by :func:`~raycast_shade.scene.filecheck.check_obj` (positive indices
+        within the file's counts).
+    name : str
+        The file's name, for the warning.
+
+    Returns
+    -------
+    bytes or None
+        The rewritten text, or None when no polygon needs it (every face a triangle or convex).
+
+    Warns
+    -----
+    DroppedOnLoadWarning
+        One for the file, naming the line of each degenerate polygon: no area (collinear or coincident
+        vertices), a vertex repeated next to itself, bent out of its plane by more than
+        :data:`PLANAR_TOLERANCE` of its size, or crossing itself (the triangles then cannot match its
+        outline's area). Such a polygon is still triangulated (ear clipping where it is not convex).
+    """
+    if _POLYGON.search(data) is None:
+        return None
+    lines, positions, polygons = _read(data)
+    if not polygons or positions is None:
+        return None
+    notes, rewrite = [], {}
+    for k in sorted({len(p[2]) for p in polygons}):
+        group = [p for p in polygons if len(p[2]) == k]
+        idx = np.array([[int(t.split(b"/", 1)[0]) - 1 for t in p[2]] for p in group], np.int64)
+        if idx.min() < 0 or idx.max() >= len(positions):
+            return None  # not checked as expected: trimesh's to refuse
+        pts = positions[idx]
+        normal, convex, degenerate = _classify(pts, idx)
+        for j in np.flatnonzero(~convex | (degenerate != "")):
+            first, last, tokens = group[j]
+            why = degenerate[j]
+            if not convex[j]:
+                tris, area_note = _ear_clip(pts[j], normal[j])
+                why = "; ".join(w for w in (why, area_note) if w)
+                if tris is not None:
+                    rewrite[first] = (last, b"\n".join(b"f " + b" ".join(tokens[c] for c in t) for t in tris))
+            if why:
+                notes.append(f"line {first + 1} ({why})")
+    if notes:
+        shown = "; ".join(notes[:8]) + (f"; and {len(notes) - 8} more" if len(notes) > 8 else "")
+        warnings.warn(f"{name}: {len(notes)} degenerate polygon(s), triangulated as written: {shown}",
+                      DroppedOnLoadWarning, stacklevel=5)
+    if not rewrite:
+        return None
+    for first in sorted(rewrite, reverse=True):
+        last, text = rewrite[first]
+        lines[first:last + 1] = [text]
+    return b"\n".join(lines)
+
+
+def _read(data: bytes):
+    """``(lines, positions (V, 3) float64 or None, polygons [(first line, last line, reference tokens)]``),
+    continued lines (a trailing backslash) joined as trimesh joins them."""
+    lines = data.split(b"\n")
+    rows, polygons = [], []
+    i = 0
+    while i < len(lines):
+        first, raw = i, lines[i]
+        while raw.rstrip(b"\r").endswith(b"\\") and i + 1 < len(lines):
+            i += 1
+            raw = raw.rstrip(b"\r")[:-1] + lines[i]
+        i += 1
+        head = raw.lstrip()[:2]
+        if head == b"v " or head == b"v\t":
+            rows.append(raw.split(b"#", 1)[0].split()[1:4])
+        elif head[:1] == b"f":
+            parts = raw.split(b"#", 1)[0].split()
+            if parts[0] == b"f" and len(parts) > 4:
+                polygons.append((first, i - 1, parts[1:]))
+    try:
+        positions = np.array(rows, np.float64).reshape(-1, 3)
+    except ValueError:
+        positions = None  # a coordinate that is not a number: trimesh's to refuse
+    return lines, positions, polygons
+
+
+def _classify(pts: np.ndarray, idx: np.ndarray):
+    """For (P, k, 3) polygons: (Newell normals (P, 3), convex (P,) bool, what is degenerate (P,) str)."""
+    centred = pts - pts.mean(axis=1, keepdims=True)  # Newell's sums on centred points: no cancellation
+    nxt = np.roll(centred, -1, axis=1)
+    normal = np.cross(centred, nxt).sum(axis=1)  # twice the vector area
+    edges = nxt - centred
+    size = np.sqrt((centred ** 2).sum(axis=2).max(axis=1)) * 2
+    length = np.linalg.norm(normal, axis=1)
+    flat = length <= 1e-12 * np.maximum(size, np.finfo(float).tiny) ** 2
+    unit = normal / np.where(flat, 1.0, length)[:, None]
+    turns = np.einsum("pkc,pc->pk", np.cross(np.roll(edges, 1, axis=1), edges), unit)
+    convex = flat | (turns >= -_TURN_EPS * size[:, None] ** 2).all(axis=1)
+    bent = np.abs(np.einsum("pkc,pc->pk", centred, unit)).max(axis=1) > PLANAR_TOLERANCE * size
+    repeated = (idx == np.roll(idx, -1, axis=1)).any(axis=1) | ((edges ** 2).sum(axis=2) == 0).any(axis=1)
+    why = np.full(len(pts), "", dtype=object)
+    for mask, text in ((bent & ~flat, "not planar"), (repeated, "a vertex repeated next to itself"),
+                       (flat, "no area")):
+        why[mask] = [f"{w}; {text}" if w else text for w in why[mask]]
+    return normal, convex, why
+
+
+def _ear_clip(pts: np.ndarray, normal: np.ndarray):
+    """Ear-clipped triangles of one (k, 3) polygon in its plane, wound as the polygon ((T, 3) corner
+    indices, or None), and a note if their area is not the outline's (the polygon crosses itself)."""
+    from mapbox_earcut import triangulate_float64
+
+    n = normal / np.linalg.norm(normal)
+    u = np.cross(n, np.eye(3)[int(np.argmin(np.abs(n)))])
+    u /= np.linalg.norm(u)
+    v = np.cross(n, u)
+    flat = np.c_[(pts - pts[0]) @ u, (pts - pts[0]) @ v]  # (u, v, n) right-handed: the outline winds positive
+    tris = np.asarray(triangulate_float64(flat, np.array([len(flat)], np.uint32)), np.int64).reshape(-1, 3)
+    if not len(tris):
+        return None, "ear clipping found no triangles: kept as a fan"
+    a, b, c = flat[tris[:, 0]], flat[tris[:, 1]], flat[tris[:, 2]]
+    signed = ((b - a)[:, 0] * (c - a)[:, 1] - (b - a)[:, 1] * (c - a)[:, 0]) / 2
+    if signed.sum() < 0:
+        tris, signed = tris[:, ::-1], -signed
+    x, y = flat[:, 0], flat[:, 1]
+    outline = abs(float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))) / 2  # the shoelace area
+    covered = float(np.abs(signed).sum())
+    note = ""
+    if abs(covered - outline) > _AREA_RTOL * max(outline, covered):
+        note = f"crosses itself: its triangles cover {covered:.6g}, its outline {outline:.6g}"
+    return tris, note
