@@ -251,6 +251,12 @@ class Mesh:
             warnings.warn(f"{kwargs['name']}: dropped the material(s) {', '.join(lost)} (Mesh.load keeps geometry, "
                           "UVs and colours): use raycast_shade.load_models to bring materials and textures in",
                           DroppedOnLoadWarning, stacklevel=2)
+        if os.fspath(path).lower().endswith(".off") and not _is_scene(tm):  # trimesh drops OFF colours
+            from .fileparse import off_colors, off_mesh_colors
+
+            colors, mode = off_mesh_colors(off_colors(os.fspath(path)), len(tm.vertices), len(tm.faces), kwargs["name"])
+            if colors is not None and "colors" not in kwargs:
+                kwargs["colors"], kwargs["color_mode"] = colors, mode
         mesh = cls.from_trimesh(tm, srgb_colors=srgb, **kwargs)
         dup = reversed_duplicates(mesh.faces, mesh.vertices)
         if dup.any():

@@ -42,12 +42,12 @@ from ..common.warnings import DroppedOnLoadWarning
 from .filecheck import check_mesh_file
 from .gltftangents import primitive_tangents
 from .filematerial import FileContext, Wrapped, from_mtl_cached, from_pbr, from_simple, is_placeholder
+from .fileparse import off_mesh_colors
 from .material import Material
 from .mesh import Mesh, _instance, _is_scene, read_trimesh, use_normals_flag, visual_colors
 from .normals import reversed_duplicates
 from .scene import Model
 from .tangents import degenerate_tangents
-from .texture import srgb_to_linear
 
 __all__ = ["load_models", "material_from_trimesh", "model_scene"]
 
@@ -197,7 +197,7 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, *
                                                                          "alphaMode", None) or "OPAQUE") == "OPAQUE"
         colors, mode = visual_colors(g, srgb, name, "ignore" if opaque else "warn")
         if colors is None and ctx.off is not None:
-            colors, mode = _off_colors(ctx.off, len(vertices), len(faces), name)
+            colors, mode = off_mesh_colors(ctx.off, len(vertices), len(faces), name)
         if colors is not None and "kd" in kw:
             colors = colors * kw["kd"]  # kd's factor times the colours (glTF: baseColorFactor * COLOR_0)
         _drop_maps_without_uvs(kw, uvs, name, lost)
@@ -282,41 +282,6 @@ def _file_tangents(ctx, tm, g, transform, name: str, lost: list):
         return None
     rot = transform[:3, :3]
     return np.c_[tan[:, :3] @ rot.T, tan[:, 3] * np.sign(np.linalg.det(rot))]
-
-
-def _off_colors(off, nv: int, nf: int, name: str):
-    """The OFF file's own colours (trimesh drops them): per vertex, or per polygon spread over
-    its triangles in trimesh's order (triangles first, then quads' first halves, then second halves,
-    then larger polygons' fans)."""
-    vc, fc, sizes = off
-    if vc is not None and len(vc) == nv:
-        c = vc
-        mode = "vertex"
-    elif fc is not None:
-        order = _off_triangle_sources(sizes)
-        if len(order) != nf:
-            return None, None
-        c, mode = fc[order], "face"
-    else:
-        return None, None
-    if c.shape[1] == 4:
-        if np.any(c[:, 3] < 1.0):
-            warnings.warn(f"{name}: dropped the colours' alpha (transparency is not modelled)",
-                          DroppedOnLoadWarning, stacklevel=4)
-        c = c[:, :3]
-    return srgb_to_linear(np.clip(c, 0.0, 1.0)), mode
-
-
-def _off_triangle_sources(sizes: np.ndarray) -> np.ndarray:
-    """For each triangle trimesh's ``triangulate_quads`` makes, the polygon it comes from."""
-    idx = np.arange(len(sizes))
-    if np.all(sizes == 3):
-        return idx
-    if np.all(sizes == 4):
-        return np.concatenate([idx, idx])
-    tri, quad, poly = idx[sizes == 3], idx[sizes == 4], idx[sizes > 4]
-    fans = np.concatenate([np.full(sizes[p] - 2, p) for p in poly]) if len(poly) else np.zeros(0, np.int64)
-    return np.concatenate([tri, quad, quad, fans]).astype(np.int64)
 
 
 def model_scene(path, *, width: int = 640, height: int = 480, direction=(-0.4, -0.35, -1.0), margin: float = 0.05,
