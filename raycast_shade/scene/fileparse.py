@@ -14,7 +14,6 @@ import io
 import json
 import math
 import os
-import re
 import struct
 import warnings
 from dataclasses import dataclass, field
@@ -276,17 +275,11 @@ class _MtlOnly:
     __getitem__ = get
 
 
-# A vertex line with a colour (x y z r g b), and any vertex line.
-_V_COLOURED = re.compile(rb"(?m)^[ \t]*v(?:[ \t]+[^ \t\r\n#]+){6}")
-_V_ANY = re.compile(rb"(?m)^[ \t]*v[ \t]")
-
-
-def _warn_partial_colors(data: bytes, name: str) -> None:
-    """Warn, with the counts, when only some ``v`` lines carry a colour: trimesh then drops them all."""
-    if _V_COLOURED.search(data) is None:
-        return
-    coloured, total = len(_V_COLOURED.findall(data)), len(_V_ANY.findall(data))
-    if coloured < total:
+def _warn_partial_colors(counts: np.ndarray, name: str) -> None:
+    """Warn, with the counts, when only some ``v`` lines carry a colour (x y z r g b: six values or more;
+    ``counts`` the values on each): trimesh then drops them all."""
+    coloured, total = int(np.count_nonzero(counts >= 6)), len(counts)
+    if 0 < coloured < total:
         warnings.warn(f"{name}: {coloured} of {total} vertices (v lines) have a colour (x y z r g b), the other "
                       f"{total - coloured} none: dropped every vertex colour (give every vertex one, or none)",
                       DroppedOnLoadWarning, stacklevel=5)
@@ -302,15 +295,16 @@ def load_obj(path: str):
     import trimesh
 
     from .filecheck import check_obj
-    from .polygons import ear_clip_obj
+    from .polygons import ear_clip_obj, vertex_lines
 
     with open(path, "rb") as fh:
         data = fh.read()
     name = os.path.basename(path)
     absolute = check_obj(data, name)
     data = data if absolute is None else absolute
-    _warn_partial_colors(data, name)
-    clipped = ear_clip_obj(data, name)  # only non-convex polygons: convex ones keep trimesh's fan
+    vertices = vertex_lines(data)
+    _warn_partial_colors(vertices[1], name)
+    clipped = ear_clip_obj(data, name, vertices)  # only non-convex polygons: convex ones keep trimesh's fan
     absolute = absolute if clipped is None else clipped
     data = data if clipped is None else clipped
     files = obj_mtl_files(path)

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..common.warnings import DroppedOnLoadWarning
 
-__all__ = ["ear_clip_obj", "PLANAR_TOLERANCE"]
+__all__ = ["ear_clip_obj", "vertex_lines", "PLANAR_TOLERANCE"]
 
 # A polygon bent out of its (Newell) plane by more than this fraction of its size is warned of: its
 # triangles then depend on how it is split. Subdivision-surface quads bend by far less.
@@ -32,7 +32,15 @@ _AREA_RTOL = 1e-6
 _POLYGON = re.compile(rb"(?m)^[ \t]*f(?:[ \t]+[^ \t\r\n#]+){4}")
 
 
-def ear_clip_obj(data: bytes, name: str):
+def vertex_lines(data: bytes) -> tuple:
+    """``(bodies, tokens)``: the text after ``v`` of every vertex line (list of bytes) and how many
+    values each has ((V,) int64), at C speed; the OBJ read once for :func:`ear_clip_obj` and the colour
+    check."""
+    bodies = _V_LINE.findall(data)
+    return bodies, _tokens_per_line(b"\n".join(bodies), len(bodies))
+
+
+def ear_clip_obj(data: bytes, name: str, vertices: tuple | None = None):
     """The OBJ's text with every non-convex polygon written as its ear-clipped triangles.
 
     Parameters
@@ -42,6 +50,8 @@ def ear_clip_obj(data: bytes, name: str):
         within the file's counts).
     name : str
         The file's name, for the warning.
+    vertices : tuple, optional
+        :func:`vertex_lines` of ``data``, when the caller has it.
 
     Returns
     -------
@@ -58,63 +68,134 @@ def ear_clip_obj(data: bytes, name: str):
     """
     if _POLYGON.search(data) is None:
         return None
-    lines, positions, polygons = _read(data)
-    if not polygons or positions is None:
+    read = _read_fast(data, vertices) if b"\\\n" not in data and b"\\\r\n" not in data else None
+    positions, spans, counts, flat = read if read is not None else _read(data)
+    if positions is None or not np.any(counts > 3):
         return None
+    offsets = np.concatenate([[0], np.cumsum(counts)[:-1]])
     notes, rewrite = [], {}
-    for k in sorted({len(p[2]) for p in polygons}):
-        group = [p for p in polygons if len(p[2]) == k]
-        idx = np.array([[int(t.split(b"/", 1)[0]) - 1 for t in p[2]] for p in group], np.int64)
+    for k in np.unique(counts[counts > 3]):
+        group = np.flatnonzero(counts == k)
+        idx = flat[offsets[group][:, None] + np.arange(k)] - 1
         if idx.min() < 0 or idx.max() >= len(positions):
             return None  # not checked as expected: trimesh's to refuse
         pts = positions[idx]
         normal, convex, degenerate = _classify(pts, idx)
         for j in np.flatnonzero(~convex | (degenerate != "")):
-            first, last, tokens = group[j]
+            start, end = spans[group[j]]
             why = degenerate[j]
             if not convex[j]:
                 tris, area_note = _ear_clip(pts[j], normal[j])
                 why = "; ".join(w for w in (why, area_note) if w)
                 if tris is not None:
-                    rewrite[first] = (last, b"\n".join(b"f " + b" ".join(tokens[c] for c in t) for t in tris))
+                    tokens = data[start:end].split(b"#", 1)[0].replace(b"\\", b" ").split()[1:]
+                    rewrite[start] = (end, b"\n".join(b"f " + b" ".join(tokens[c] for c in t) for t in tris))
             if why:
-                notes.append(f"line {first + 1} ({why})")
+                notes.append((start, why))
     if notes:
-        shown = "; ".join(notes[:8]) + (f"; and {len(notes) - 8} more" if len(notes) > 8 else "")
-        warnings.warn(f"{name}: {len(notes)} degenerate polygon(s), triangulated as written: {shown}",
+        notes.sort()
+        lines = [data.count(b"\n", 0, at) + 1 for at, _ in notes[:8]]
+        shown = "; ".join(f"line {n} ({why})" for n, (_, why) in zip(lines, notes))
+        more = f"; and {len(notes) - 8} more" if len(notes) > 8 else ""
+        warnings.warn(f"{name}: {len(notes)} degenerate polygon(s), triangulated as written: {shown}{more}",
                       DroppedOnLoadWarning, stacklevel=5)
     if not rewrite:
         return None
-    for first in sorted(rewrite, reverse=True):
-        last, text = rewrite[first]
-        lines[first:last + 1] = [text]
-    return b"\n".join(lines)
+    parts, at = [], 0
+    for start in sorted(rewrite):
+        end, text = rewrite[start]
+        parts += [data[at:start], text]
+        at = end
+    return b"".join(parts + [data[at:]])
+
+
+# Vertex and face lines (their bodies), where no line is continued with a backslash.
+_V_LINE = re.compile(rb"(?m)^[ \t]*v[ \t]+([^\r\n#]*)")
+_F_LINE = re.compile(rb"(?m)^[ \t]*f[ \t]+([^\r\n#]*)")
+
+
+def _tokens_per_line(joined: bytes, n: int) -> np.ndarray:
+    """How many whitespace-separated tokens each of the ``n`` newline-joined lines has, (n,) int64."""
+    a = np.frombuffer(joined, np.uint8)
+    space = (a <= 32)  # space, tab, CR, LF (the lines hold no other control bytes that matter here)
+    first = np.flatnonzero(~space[1:] & space[:-1]) + 1
+    if len(a) and not space[0]:
+        first = np.r_[0, first]
+    line = np.searchsorted(np.flatnonzero(a == 10), first)
+    return np.bincount(line, minlength=n)[:n].astype(np.int64)
+
+
+def _numbers(joined: bytes, dtype):
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # older numpy: a token that is not a number ends the parse short
+            return np.fromstring(joined, dtype=dtype, sep=" ")
+    except ValueError:  # numpy 2.4: that token is an error
+        return None
+
+
+def _read_fast(data: bytes, vertices: tuple | None):
+    """:func:`_read` at C speed (regular expressions and NumPy over the whole text); None where in doubt."""
+    bodies, counts = vertex_lines(data) if vertices is None else vertices
+    values = _numbers(b"\n".join(bodies), np.float64)
+    if values is None or len(values) != counts.sum() or (len(counts) and counts.min() < 3):
+        return None
+    positions = values[np.concatenate([[0], np.cumsum(counts)[:-1]])[:, None] + np.arange(3)] if len(counts) \
+        else np.zeros((0, 3))
+    bodies = _F_LINE.findall(data)
+    joined = b"\n".join(bodies)
+    counts = _tokens_per_line(joined, len(bodies))
+    flat = _numbers(re.sub(rb"/[^ \t\r\n]*", b"", joined), np.int64)
+    if flat is None or len(flat) != counts.sum():
+        return None
+    a = np.frombuffer(data, np.uint8)
+    starts = np.r_[0, np.flatnonzero(a[:-1] == 10) + 1]
+    starts = starts[starts < len(a) - 1]
+    starts = starts[(a[starts] == ord("f")) & ((a[starts + 1] == 32) | (a[starts + 1] == 9))]
+    if len(starts) != len(bodies):  # an indented face line: the match objects place them
+        starts = np.array([m.start() for m in _F_LINE.finditer(data)], np.int64)
+    return positions, _Spans(data, starts), counts, flat
+
+
+class _Spans:
+    """``(start, end)`` of the i-th face line, its end found when asked (only flagged polygons ask)."""
+
+    def __init__(self, data: bytes, starts: np.ndarray):
+        self.data, self.starts = data, starts
+
+    def __getitem__(self, i):
+        start = int(self.starts[i])
+        end = self.data.find(b"\n", start)
+        return start, len(self.data) if end < 0 else end
 
 
 def _read(data: bytes):
-    """``(lines, positions (V, 3) float64 or None, polygons [(first line, last line, reference tokens)]``),
-    continued lines (a trailing backslash) joined as trimesh joins them."""
+    """``(positions (V, 3) float64 or None, face line spans [(start, end)], references per face (F,),
+    vertex indices of every face one after another)``, continued lines (a trailing backslash) joined as
+    trimesh joins them."""
     lines = data.split(b"\n")
-    rows, polygons = [], []
-    i = 0
+    rows, spans, counts, flat = [], [], [], []
+    i, at = 0, 0
     while i < len(lines):
-        first, raw = i, lines[i]
+        start, raw = at, lines[i]
+        at += len(lines[i]) + 1
         while raw.rstrip(b"\r").endswith(b"\\") and i + 1 < len(lines):
             i += 1
+            at += len(lines[i]) + 1
             raw = raw.rstrip(b"\r")[:-1] + lines[i]
         i += 1
-        head = raw.lstrip()[:2]
-        if head == b"v " or head == b"v\t":
-            rows.append(raw.split(b"#", 1)[0].split()[1:4])
-        elif head[:1] == b"f":
-            parts = raw.split(b"#", 1)[0].split()
-            if parts[0] == b"f" and len(parts) > 4:
-                polygons.append((first, i - 1, parts[1:]))
+        parts = raw.split(b"#", 1)[0].split()
+        if parts[:1] == [b"v"]:
+            rows.append(parts[1:4])
+        elif parts[:1] == [b"f"]:
+            spans.append((start, min(at - 1, len(data))))
+            counts.append(len(parts) - 1)
+            flat += [int(t.split(b"/", 1)[0]) for t in parts[1:]]
     try:
         positions = np.array(rows, np.float64).reshape(-1, 3)
     except ValueError:
         positions = None  # a coordinate that is not a number: trimesh's to refuse
-    return lines, positions, polygons
+    return positions, spans, np.array(counts, np.int64), np.array(flat, np.int64)
 
 
 def _classify(pts: np.ndarray, idx: np.ndarray):
