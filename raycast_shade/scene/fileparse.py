@@ -303,7 +303,7 @@ def load_obj(path: str):
     absolute = check_obj(data, name)
     data = data if absolute is None else absolute
     vertices = vertex_lines(data)
-    _warn_partial_colors(vertices[1], name)
+    _warn_partial_colors(vertices[0], name)
     clipped = ear_clip_obj(data, name, vertices)  # only non-convex polygons: convex ones keep trimesh's fan
     absolute = absolute if clipped is None else clipped
     data = data if clipped is None else clipped

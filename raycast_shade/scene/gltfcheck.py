@@ -220,10 +220,6 @@ def _material_shapes(c: _Check, mat: dict, path: str) -> None:
     pbr = mat.get("pbrMetallicRoughness", {})
     c.numbers(pbr, "baseColorFactor", f"{path}.pbrMetallicRoughness", 4)
     c.numbers(mat, "emissiveFactor", path, 3)
-    for holder, key, where in ((pbr, "metallicFactor", f"{path}.pbrMetallicRoughness"),
-                               (pbr, "roughnessFactor", f"{path}.pbrMetallicRoughness"), (mat, "alphaCutoff", path)):
-        if key in holder:
-            c.kind(holder[key], _at(where, key), (int, float), "a number")
     if "alphaMode" in mat and mat["alphaMode"] not in ("OPAQUE", "MASK", "BLEND"):
         c.fail(_at(path, "alphaMode"), f"expected OPAQUE, MASK or BLEND, got {_show(mat['alphaMode'])}")
     if "doubleSided" in mat:

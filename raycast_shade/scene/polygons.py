@@ -33,11 +33,30 @@ _POLYGON = re.compile(rb"(?m)^[ \t]*f(?:[ \t]+[^ \t\r\n#]+){4}")
 
 
 def vertex_lines(data: bytes) -> tuple:
-    """``(bodies, tokens)``: the text after ``v`` of every vertex line (list of bytes) and how many
-    values each has ((V,) int64), at C speed; the OBJ read once for :func:`ear_clip_obj` and the colour
-    check."""
-    bodies = _V_LINE.findall(data)
-    return bodies, _tokens_per_line(b"\n".join(bodies), len(bodies))
+    """``(values per vertex line (V,) int64, whether some face line has four references or more)``.
+
+    One pass of NumPy over the bytes where every key starts its line and no vertex or face line has a
+    comment (the common case), else regular expressions; the OBJ read once for :func:`ear_clip_obj`
+    and the colour check.
+    """
+    if len(data) < 2:
+        return np.zeros(0, np.int64), False
+    a = np.frombuffer(data, np.uint8)
+    newline = np.flatnonzero(a == 10)
+    starts = np.r_[0, newline + 1]
+    starts = starts[starts < len(a) - 1]
+    space = a <= 32
+    first = np.flatnonzero(~space & np.r_[True, space[:-1]])  # where each token starts
+    tokens = np.bincount(np.searchsorted(newline, first), minlength=len(newline) + 1)
+    line = np.searchsorted(newline, starts)
+    after = (a[starts + 1] == 32) | (a[starts + 1] == 9)
+    vline, fline = (a[starts] == ord("v")) & after, (a[starts] == ord("f")) & after
+    hashes = np.searchsorted(newline, np.flatnonzero(a == ord("#")))
+    indented = np.any(space[starts] & ~((a[starts] == 10) | (a[starts] == 13)))
+    if indented or np.isin(hashes, line[vline | fline]).any():
+        bodies = _V_LINE.findall(data)
+        return _tokens_per_line(b"\n".join(bodies), len(bodies)), _POLYGON.search(data) is not None
+    return tokens[line[vline]] - 1, bool(np.any(tokens[line[fline]] > 4))
 
 
 def ear_clip_obj(data: bytes, name: str, vertices: tuple | None = None):
@@ -66,9 +85,9 @@ def ear_clip_obj(data: bytes, name: str, vertices: tuple | None = None):
         :data:`PLANAR_TOLERANCE` of its size, or crossing itself (the triangles then cannot match its
         outline's area). Such a polygon is still triangulated (ear clipping where it is not convex).
     """
-    if _POLYGON.search(data) is None:
+    if not (vertex_lines(data) if vertices is None else vertices)[1]:
         return None
-    read = _read_fast(data, vertices) if b"\\\n" not in data and b"\\\r\n" not in data else None
+    read = _read_fast(data) if b"\\\n" not in data and b"\\\r\n" not in data else None
     positions, spans, counts, flat = read if read is not None else _read(data)
     if positions is None or not np.any(counts > 3):
         return None
@@ -134,10 +153,12 @@ def _numbers(joined: bytes, dtype):
         return None
 
 
-def _read_fast(data: bytes, vertices: tuple | None):
+def _read_fast(data: bytes):
     """:func:`_read` at C speed (regular expressions and NumPy over the whole text); None where in doubt."""
-    bodies, counts = vertex_lines(data) if vertices is None else vertices
-    values = _numbers(b"\n".join(bodies), np.float64)
+    bodies = _V_LINE.findall(data)
+    joined = b"\n".join(bodies)
+    counts = _tokens_per_line(joined, len(bodies))
+    values = _numbers(joined, np.float64)
     if values is None or len(values) != counts.sum() or (len(counts) and counts.min() < 3):
         return None
     positions = values[np.concatenate([[0], np.cumsum(counts)[:-1]])[:, None] + np.arange(3)] if len(counts) \

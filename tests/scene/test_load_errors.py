@@ -165,8 +165,24 @@ def test_mutated_gltf_files_load_or_are_refused_naming_the_file(tmp_path, data):
     check(path)
 
 
+MTL = "newmtl red\nKd 1 0 0\nKa 0.1 0.1 0.1\nKs 0.5 0.5 0.5\nNs 32\nillum 2\nd 1\n\nnewmtl blue\nKd 0 0 1\n"
+OBJ_MTL = "mtllib m.mtl\n" + OBJ.replace("f 1/1/1 3/3/1", "usemtl red\nf 1/1/1 3/3/1").replace("f 5/", "usemtl blue\nf 5/")
+
+
+@FUZZ
+@given(data=st.data())
+def test_mutated_mtl_files_load_or_are_refused_naming_the_file(tmp_path, data):
+    (tmp_path / "m.mtl").write_text(mutate_text(MTL, data))
+    (tmp_path / "lib.obj").write_text(OBJ_MTL)
+    got = outcome(rs.load_models, tmp_path / "lib.obj")
+    if got[0] == "ValueError":
+        assert re.match(r"(m\.mtl:\d+|lib\.obj)", got[1]), got[1]
+    assert outcome(rs.Mesh.load, tmp_path / "lib.obj") == ("ok", None)  # Mesh.load drops materials
+
+
 def test_the_unmutated_files_load(tmp_path):
-    for name, text in (("ok.obj", OBJ), ("ok.ply", PLY), ("ok.gltf", json.dumps(gltf()))):
+    (tmp_path / "m.mtl").write_text(MTL)
+    for name, text in (("ok.obj", OBJ), ("ok.ply", PLY), ("ok.gltf", json.dumps(gltf())), ("lib.obj", OBJ_MTL)):
         (tmp_path / name).write_text(text)
         assert check(tmp_path / name) == ("ok", None)
 
