@@ -19,6 +19,7 @@ without a word. The checks here run where the file is read, before trimesh
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import re
@@ -30,7 +31,7 @@ import numpy as np
 
 from .gltfgeometry import APPLIED_GLTF_EXTENSIONS
 
-__all__ = ["check_mesh_file", "check_obj", "check_face_indices", "SUPPORTED_GLTF_EXTENSIONS"]
+__all__ = ["check_mesh_file", "check_obj", "check_face_indices", "naming_file", "SUPPORTED_GLTF_EXTENSIONS"]
 
 # Extensions whose data the loader reads (trimesh or raycast_shade itself): a file may require these. The
 # policy for every other one (warned when used, refused when required) is gltfgeometry.GLTF_EXTENSIONS.
@@ -128,9 +129,38 @@ def check_mesh_file(path: str):
         raise ValueError(f"{name}: a glTF file is a JSON object ({{...}}) at the top level; got {got}")
     if kind == "zip" or (ext == "zip" and zipfile.is_zipfile(path)):
         _check_zip(path, name)
+    if expected == "ply":
+        from .plycheck import check_ply
+
+        check_ply(path)
     if expected in ("glb", "gltf"):
-        return _gltf_json(path, name, expected)
+        from .gltfcheck import check_gltf_structure
+
+        js = _gltf_json(path, name, expected)
+        check_gltf_structure(js, name, path)  # types and references, by JSON path, before trimesh trusts them
+        return js
     return None
+
+
+@contextlib.contextmanager
+def naming_file(path):
+    """Every failure of reading the mesh file ``path`` in this block as a ValueError naming the file.
+
+    The backstop behind the checks: a reader's IndexError, KeyError, AttributeError, RecursionError (any
+    failure but a TypeError, which is the caller's arguments') becomes ``ValueError("cannot read mesh
+    file PATH: KeyError: 'x'")``, and a ValueError that does not name the file is prefixed with it.
+    """
+    name = os.path.basename(os.fspath(path))
+    try:
+        yield
+    except TypeError:
+        raise
+    except ValueError as exc:
+        if name in str(exc):
+            raise
+        raise ValueError(f"{name}: {exc}") from None
+    except (ArithmeticError, AttributeError, LookupError, OSError, RuntimeError, struct.error) as exc:
+        raise ValueError(f"cannot read mesh file {os.fspath(path)}: {type(exc).__name__}: {exc}") from None
 
 
 def _trimesh_formats() -> set:

@@ -15,12 +15,16 @@ import json
 import math
 import os
 import struct
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..common.warnings import DroppedOnLoadWarning
+
 __all__ = ["load_obj", "MtlMaterial", "parse_mtl", "obj_references", "gltf_header", "off_colors", "ply_texture_files",
-           "GL_WRAPS", "obj_mtl_files"]
+           "GL_WRAPS", "obj_mtl_files",
+           "off_mesh_colors"]
 
 # glTF sampler wrap codes (the OpenGL enums the spec uses).
 GL_WRAPS = {10497: "repeat", 33071: "clamp", 33648: "mirror"}
@@ -54,11 +58,14 @@ def _lines(path: str):
 def parse_mtl(path: str) -> dict:
     """The materials of an MTL file by name, each a :class:`MtlMaterial`.
 
-    Raises
-    ------
-    ValueError
-        A key before the first ``newmtl`` is ignored; a ``newmtl`` without a
-        name is refused naming the file and line.
+    A key before the first ``newmtl`` is ignored. A ``newmtl`` without a name
+    starts a material named ``""`` (warned, naming the file and line): its
+    keys are its own, not the material before it.
+
+    Warns
+    -----
+    DroppedOnLoadWarning
+        For a ``newmtl`` without a name.
     """
     out, cur = {}, None
     for i, line in _lines(path):
@@ -67,7 +74,8 @@ def parse_mtl(path: str) -> dict:
         tokens = rest.split()
         if key == "newmtl":
             if not tokens:
-                raise ValueError(f"{os.path.basename(path)}:{i}: newmtl without a name")
+                warnings.warn(f"{os.path.basename(path)}:{i}: newmtl without a name: read as the material named '' "
+                              "(no usemtl can name it)", DroppedOnLoadWarning, stacklevel=4)
             cur = MtlMaterial(" ".join(tokens), path, i)
             out[cur.name] = cur
         elif cur is not None:
@@ -113,7 +121,11 @@ def mtl_number(mat: MtlMaterial, key: str) -> float:
 
 
 def obj_references(path: str) -> tuple:
-    """``(mtllibs, usemtls)`` of an OBJ file: lists of ``(name, line)``."""
+    """``(mtllibs, usemtls)`` of an OBJ file: lists of ``(name, line)``.
+
+    Without a ``mtllib`` the ``usemtl`` names are none (many exporters write them as group names in files
+    that have no materials: nothing to look them up in, nothing to warn of).
+    """
     mtllibs, usemtls = [], []
     with open(path, "rb") as fh:
         for i, raw in enumerate(fh, 1):
@@ -128,7 +140,7 @@ def obj_references(path: str) -> tuple:
                 mtllibs.append((rest.strip(), i))  # one name with spaces, or several: resolved by the caller
             elif key.lower() == "usemtl" and rest.strip():
                 usemtls.append((rest.strip(), i))
-    return mtllibs, usemtls
+    return mtllibs, (usemtls if mtllibs else [])
 
 
 def obj_mtl_files(path: str) -> list:
@@ -263,17 +275,38 @@ class _MtlOnly:
     __getitem__ = get
 
 
+def _warn_partial_colors(counts: np.ndarray, name: str) -> None:
+    """Warn, with the counts, when only some ``v`` lines carry a colour (x y z r g b: six values or more;
+    ``counts`` the values on each): trimesh then drops them all."""
+    coloured, total = int(np.count_nonzero(counts >= 6)), len(counts)
+    if 0 < coloured < total:
+        warnings.warn(f"{name}: {coloured} of {total} vertices (v lines) have a colour (x y z r g b), the other "
+                      f"{total - coloured} none: dropped every vertex colour (give every vertex one, or none)",
+                      DroppedOnLoadWarning, stacklevel=5)
+
+
 def load_obj(path: str):
-    """``trimesh.load`` of an OBJ with every ``mtllib`` the file names (those that exist) as one."""
+    """``trimesh.load`` of an OBJ with every ``mtllib`` the file names (those that exist) as one.
+
+    Its lines are checked first (:func:`~raycast_shade.scene.filecheck.check_obj`), and its non-convex
+    polygons ear-clipped in their planes (:func:`~raycast_shade.scene.polygons.ear_clip_obj`); trimesh
+    fans the rest from their first vertex, as it always did.
+    """
     import trimesh
 
     from .filecheck import check_obj
+    from .polygons import ear_clip_obj, vertex_lines
 
     with open(path, "rb") as fh:
         data = fh.read()
     name = os.path.basename(path)
     absolute = check_obj(data, name)
     data = data if absolute is None else absolute
+    vertices = vertex_lines(data)
+    _warn_partial_colors(vertices[0], name)
+    clipped = ear_clip_obj(data, name, vertices)  # only non-convex polygons: convex ones keep trimesh's fan
+    absolute = absolute if clipped is None else clipped
+    data = data if clipped is None else clipped
     files = obj_mtl_files(path)
     if not files and absolute is None:
         return trimesh.load(path, process=False)
@@ -288,3 +321,59 @@ def load_obj(path: str):
     text = b"mtllib " + _MTL_KEY.encode() + b"\n" + b"\n".join(lines)
     return trimesh.load(file_obj=io.BytesIO(text), file_type="obj", resolver=_MtlOnly(mtl), process=False,
                         metadata={"file_name": name})
+
+
+def off_mesh_colors(off, nv: int, nf: int, name: str):
+    """An OFF file's own colours (trimesh drops them) for its mesh of ``nv`` vertices and ``nf`` triangles.
+
+    Parameters
+    ----------
+    off : tuple
+        :func:`off_colors` of the file.
+    nv, nf : int
+    name : str
+        For the warning.
+
+    Returns
+    -------
+    colors : (nv, 3) or (nf, 3) float64 or None
+        Linear (decoded from sRGB): per vertex, or per polygon spread over its triangles in trimesh's
+        order (triangles first, then quads' first halves, then second halves, then larger polygons' fans).
+    mode : "vertex", "face" or None
+
+    Warns
+    -----
+    DroppedOnLoadWarning
+        An alpha channel that is not opaque (transparency is not modelled).
+    """
+    from .texture import srgb_to_linear
+
+    vc, fc, sizes = off
+    if vc is not None and len(vc) == nv:
+        c = vc
+        mode = "vertex"
+    elif fc is not None:
+        order = _off_triangle_sources(sizes)
+        if len(order) != nf:
+            return None, None
+        c, mode = fc[order], "face"
+    else:
+        return None, None
+    if c.shape[1] == 4:
+        if np.any(c[:, 3] < 1.0):
+            warnings.warn(f"{name}: dropped the colours' alpha (transparency is not modelled)",
+                          DroppedOnLoadWarning, stacklevel=4)
+        c = c[:, :3]
+    return srgb_to_linear(np.clip(c, 0.0, 1.0)), mode
+
+
+def _off_triangle_sources(sizes: np.ndarray) -> np.ndarray:
+    """For each triangle trimesh's ``triangulate_quads`` makes, the polygon it comes from."""
+    idx = np.arange(len(sizes))
+    if np.all(sizes == 3):
+        return idx
+    if np.all(sizes == 4):
+        return np.concatenate([idx, idx])
+    tri, quad, poly = idx[sizes == 3], idx[sizes == 4], idx[sizes > 4]
+    fans = np.concatenate([np.full(sizes[p] - 2, p) for p in poly]) if len(poly) else np.zeros(0, np.int64)
+    return np.concatenate([tri, quad, quad, fans]).astype(np.int64)

@@ -244,27 +244,37 @@ class Mesh:
         """
         if "use_normals" in kwargs:  # checked before the file is read
             kwargs["use_normals"] = use_normals_flag(kwargs["use_normals"])
-        tm, srgb = read_trimesh(path, merge)
-        kwargs.setdefault("name", os.path.basename(os.fspath(path)))
-        meshes = tm.geometry.values() if _is_scene(tm) else [tm]
-        lost = sorted({d for m in meshes for d in _material_names(m)})
-        if lost:
-            warnings.warn(f"{kwargs['name']}: dropped the material(s) {', '.join(lost)} (Mesh.load keeps geometry, "
-                          "UVs and colours): use raycast_shade.load_models to bring materials and textures in",
-                          DroppedOnLoadWarning, stacklevel=2)
-        mesh = cls.from_trimesh(tm, srgb_colors=srgb, **kwargs)
-        dup = reversed_duplicates(mesh.faces, mesh.vertices)
-        if dup.any():
-            warnings.warn(f"{mesh.name}: dropped {int(dup.sum())} face(s) repeating another with the opposite "
-                          "winding (two-sided surfaces are lit from the side seen, and the pair cancels "
-                          "averaged normals)", DroppedOnLoadWarning, stacklevel=2)
-            colors = mesh.colors
-            if colors is not None and mesh.color_mode == "face":
-                colors = colors[~dup]
-            mesh = cls(mesh.vertices, mesh.faces[~dup], normals=mesh.normals, uvs=mesh.uvs, weighting=mesh.weighting,
-                       crease_angle=mesh.crease_angle, name=mesh.name, colors=colors,
-                       color_mode=mesh.color_mode or "auto", tangents=mesh.tangents)
-        return mesh
+        from .filecheck import naming_file
+
+        with naming_file(path):  # a reader's IndexError or KeyError too: a ValueError naming the file
+            tm, srgb = read_trimesh(path, merge)
+            kwargs.setdefault("name", os.path.basename(os.fspath(path)))
+            meshes = tm.geometry.values() if _is_scene(tm) else [tm]
+            lost = sorted({d for m in meshes for d in _material_names(m)})
+            if lost:
+                warnings.warn(f"{kwargs['name']}: dropped the material(s) {', '.join(lost)} (Mesh.load keeps "
+                              "geometry, UVs and colours): use raycast_shade.load_models to bring materials and textures in",
+                              DroppedOnLoadWarning, stacklevel=2)
+            if os.fspath(path).lower().endswith(".off") and not _is_scene(tm):  # trimesh drops OFF colours
+                from .fileparse import off_colors, off_mesh_colors
+
+                colors, mode = off_mesh_colors(off_colors(os.fspath(path)), len(tm.vertices), len(tm.faces),
+                                               kwargs["name"])
+                if colors is not None and "colors" not in kwargs:
+                    kwargs["colors"], kwargs["color_mode"] = colors, mode
+            mesh = cls.from_trimesh(tm, srgb_colors=srgb, **kwargs)
+            dup = reversed_duplicates(mesh.faces, mesh.vertices)
+            if dup.any():
+                warnings.warn(f"{mesh.name}: dropped {int(dup.sum())} face(s) repeating another with the opposite "
+                              "winding (two-sided surfaces are lit from the side seen, and the pair cancels "
+                              "averaged normals)", DroppedOnLoadWarning, stacklevel=2)
+                colors = mesh.colors
+                if colors is not None and mesh.color_mode == "face":
+                    colors = colors[~dup]
+                mesh = cls(mesh.vertices, mesh.faces[~dup], normals=mesh.normals, uvs=mesh.uvs,
+                           weighting=mesh.weighting, crease_angle=mesh.crease_angle, name=mesh.name, colors=colors,
+                           color_mode=mesh.color_mode or "auto", tangents=mesh.tangents)
+            return mesh
 
     # -- derived ------------------------------------------------------------------------
     @cached_property
@@ -403,6 +413,9 @@ def read_trimesh(path, merge: bool = False, *, checked: bool = False, gltf: dict
             m.process()  # what trimesh.load(path) would have done: merge duplicate vertices
     if not any(isinstance(m, trimesh.Trimesh) and len(m.faces) for m in meshes):
         raise ValueError(f"mesh file {path} holds no triangles")
+    if isinstance(tm, trimesh.Scene) and not any(len(getattr(tm.geometry.get(tm.graph[n][1]), "faces", ()))
+                                                 for n in tm.graph.nodes_geometry):
+        raise ValueError(f"mesh file {path}: no node of its scene places a mesh with triangles (nothing to draw)")
     return tm, ext not in (".glb", ".gltf")
 
 

@@ -39,16 +39,16 @@ import numpy as np
 
 from ..common.validate import as_bool
 from ..common.warnings import DroppedOnLoadWarning
-from .filecheck import check_mesh_file
+from .filecheck import check_mesh_file, naming_file
 from .gltfgeometry import PLAIN_KEY
 from .gltftangents import primitive_tangents
 from .filematerial import FileContext, Wrapped, from_mtl_cached, from_pbr, from_simple, is_placeholder
+from .fileparse import off_mesh_colors
 from .material import Material
 from .mesh import Mesh, _instance, _is_scene, read_trimesh, use_normals_flag, visual_colors
 from .normals import reversed_duplicates
 from .scene import Model
 from .tangents import degenerate_tangents
-from .texture import srgb_to_linear
 
 __all__ = ["load_models", "material_from_trimesh", "model_scene"]
 
@@ -173,66 +173,67 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, *
     merge, use_normals = as_bool(merge, "merge"), use_normals_flag(use_normals)
     path = os.fspath(path)
     base = mesh_kwargs.pop("name", os.path.basename(path))
-    # The file's own references and values first: a bad value is named before trimesh trips on it.
-    gltf = check_mesh_file(path)
-    ctx = FileContext(path, base, gltf=gltf)
-    tm, srgb = read_trimesh(path, merge, checked=True, gltf=gltf)
-    for used in dict.fromkeys(n for n, _ in ctx.usemtl):
-        if used in ctx.mtl:  # every material the OBJ uses is checked, whatever trimesh made of it
-            from_mtl_cached(ctx, used, [])
-    if _is_scene(tm):
-        items = []
-        for node in tm.graph.nodes_geometry:
-            transform, gname = tm.graph[node]
-            g = tm.geometry.get(gname)
-            if isinstance(g, trimesh.Trimesh) and len(g.faces):
-                items.append((f"{base}:{node}", g, np.asarray(transform, np.float64)))
-    else:
-        items = [(base, tm, np.eye(4))]
-    models, lost, twins = [], [], 0
-    for name, g, transform in items:
-        kw, why = material_from_trimesh(g.visual, ctx.base_dir, name, context=ctx)
-        lost += [f"{name}: {w}" for w in why]
-        vertices, faces, normals, uvs = _instance(g, transform, use_normals)
-        opaque = ctx is not None and ctx.gltf is not None and (getattr(getattr(g.visual, "material", None),
-                                                                         "alphaMode", None) or "OPAQUE") == "OPAQUE"
-        colors, mode = visual_colors(g, srgb, name, "ignore" if opaque else "warn")
-        if colors is None and ctx.off is not None:
-            colors, mode = _off_colors(ctx.off, len(vertices), len(faces), name)
-        if colors is not None and "kd" in kw:
-            colors = colors * kw["kd"]  # kd's factor times the colours (glTF: baseColorFactor * COLOR_0)
-        _drop_maps_without_uvs(kw, uvs, name, lost)
-        tangents = _file_tangents(ctx, tm, g, transform, name, lost) if "normal_map" in kw else None
-        if tangents is not None and any(len(bad) for bad in degenerate_tangents(tangents, normals)):
-            lost.append(f"{name}: TANGENT (zero or along the normal at some vertices; tangents computed from "
-                        "the UVs)")
-            tangents = None
-        uvs = _resolve_maps(kw, uvs, name, lost)
-        dup = reversed_duplicates(faces, vertices)
-        if dup.any():
-            twins += int(dup.sum())
-            faces = faces[~dup]
-            if colors is not None and mode == "face":
-                colors = colors[~dup]
-        no_ka = "ka" not in kw
-        gltf = getattr(ctx, "gltf", None) is not None  # glTF has no ambient colour: from_pbr's ka follows
-        if colors is not None and (no_ka or gltf):
-            # The colours carry kd's factor; ka = (its own colour) / that factor makes ka x colour the
-            # surface's ambient colour at every point (a factor 0 leaves no colour to follow).
-            factor = np.broadcast_to(np.asarray(kw.get("kd", 1.0), np.float64), (3,))
-            target = np.broadcast_to(np.asarray(kw.get("ka", factor), np.float64), (3,))
-            if np.all(factor > 0):
-                kw["ka"], kw["ka_colors"] = target / factor, True
-        if no_ka:  # the file gave no ambient colour: ka follows the diffuse colour and its texture
-            kw.setdefault("ka", kw["kd"] if "kd" in kw else (1.0 if "kd_map" in kw else Material().kd))
-            if "kd_map" in kw and "ka_map" not in kw:
-                kw["ka_map"] = kw["kd_map"]
-        kw.setdefault("name", name)
-        mesh = Mesh(vertices, faces, normals=normals, uvs=uvs, colors=colors,
-                    color_mode=mode or "auto", name=name, tangents=tangents, **mesh_kwargs)
-        models.append(Model(mesh, Material(**kw)))
-    _warn_dropped(ctx, base, lost, twins)
-    return models
+    with naming_file(path):  # a reader's IndexError or KeyError too: a ValueError naming the file
+        # The file's own references and values first: a bad value is named before trimesh trips on it.
+        gltf = check_mesh_file(path)
+        ctx = FileContext(path, base, gltf=gltf)
+        tm, srgb = read_trimesh(path, merge, checked=True, gltf=gltf)
+        for used in dict.fromkeys(n for n, _ in ctx.usemtl):
+            if used in ctx.mtl:  # every material the OBJ uses is checked, whatever trimesh made of it
+                from_mtl_cached(ctx, used, [])
+        if _is_scene(tm):
+            items = []
+            for node in tm.graph.nodes_geometry:
+                transform, gname = tm.graph[node]
+                g = tm.geometry.get(gname)
+                if isinstance(g, trimesh.Trimesh) and len(g.faces):
+                    items.append((f"{base}:{node}", g, np.asarray(transform, np.float64)))
+        else:
+            items = [(base, tm, np.eye(4))]
+        models, lost, twins = [], [], 0
+        for name, g, transform in items:
+            kw, why = material_from_trimesh(g.visual, ctx.base_dir, name, context=ctx)
+            lost += [f"{name}: {w}" for w in why]
+            vertices, faces, normals, uvs = _instance(g, transform, use_normals)
+            opaque = ctx is not None and ctx.gltf is not None and (getattr(getattr(g.visual, "material", None),
+                                                                             "alphaMode", None) or "OPAQUE") == "OPAQUE"
+            colors, mode = visual_colors(g, srgb, name, "ignore" if opaque else "warn")
+            if colors is None and ctx.off is not None:
+                colors, mode = off_mesh_colors(ctx.off, len(vertices), len(faces), name)
+            if colors is not None and "kd" in kw:
+                colors = colors * kw["kd"]  # kd's factor times the colours (glTF: baseColorFactor * COLOR_0)
+            _drop_maps_without_uvs(kw, uvs, name, lost)
+            tangents = _file_tangents(ctx, tm, g, transform, name, lost) if "normal_map" in kw else None
+            if tangents is not None and any(len(bad) for bad in degenerate_tangents(tangents, normals)):
+                lost.append(f"{name}: TANGENT (zero or along the normal at some vertices; tangents computed from "
+                            "the UVs)")
+                tangents = None
+            uvs = _resolve_maps(kw, uvs, name, lost)
+            dup = reversed_duplicates(faces, vertices)
+            if dup.any():
+                twins += int(dup.sum())
+                faces = faces[~dup]
+                if colors is not None and mode == "face":
+                    colors = colors[~dup]
+            no_ka = "ka" not in kw
+            gltf = getattr(ctx, "gltf", None) is not None  # glTF has no ambient colour: from_pbr's ka follows
+            if colors is not None and (no_ka or gltf):
+                # The colours carry kd's factor; ka = (its own colour) / that factor makes ka x colour the
+                # surface's ambient colour at every point (a factor 0 leaves no colour to follow).
+                factor = np.broadcast_to(np.asarray(kw.get("kd", 1.0), np.float64), (3,))
+                target = np.broadcast_to(np.asarray(kw.get("ka", factor), np.float64), (3,))
+                if np.all(factor > 0):
+                    kw["ka"], kw["ka_colors"] = target / factor, True
+            if no_ka:  # the file gave no ambient colour: ka follows the diffuse colour and its texture
+                kw.setdefault("ka", kw["kd"] if "kd" in kw else (1.0 if "kd_map" in kw else Material().kd))
+                if "kd_map" in kw and "ka_map" not in kw:
+                    kw["ka_map"] = kw["kd_map"]
+            kw.setdefault("name", name)
+            mesh = Mesh(vertices, faces, normals=normals, uvs=uvs, colors=colors,
+                        color_mode=mode or "auto", name=name, tangents=tangents, **mesh_kwargs)
+            models.append(Model(mesh, Material(**kw)))
+        _warn_dropped(ctx, base, lost, twins)
+        return models
 
 
 def _warn_dropped(ctx, base: str, lost: list, twins: int) -> None:
@@ -285,41 +286,6 @@ def _file_tangents(ctx, tm, g, transform, name: str, lost: list):
         return None
     rot = transform[:3, :3]
     return np.c_[tan[:, :3] @ rot.T, tan[:, 3] * np.sign(np.linalg.det(rot))]
-
-
-def _off_colors(off, nv: int, nf: int, name: str):
-    """The OFF file's own colours (trimesh drops them): per vertex, or per polygon spread over
-    its triangles in trimesh's order (triangles first, then quads' first halves, then second halves,
-    then larger polygons' fans)."""
-    vc, fc, sizes = off
-    if vc is not None and len(vc) == nv:
-        c = vc
-        mode = "vertex"
-    elif fc is not None:
-        order = _off_triangle_sources(sizes)
-        if len(order) != nf:
-            return None, None
-        c, mode = fc[order], "face"
-    else:
-        return None, None
-    if c.shape[1] == 4:
-        if np.any(c[:, 3] < 1.0):
-            warnings.warn(f"{name}: dropped the colours' alpha (transparency is not modelled)",
-                          DroppedOnLoadWarning, stacklevel=4)
-        c = c[:, :3]
-    return srgb_to_linear(np.clip(c, 0.0, 1.0)), mode
-
-
-def _off_triangle_sources(sizes: np.ndarray) -> np.ndarray:
-    """For each triangle trimesh's ``triangulate_quads`` makes, the polygon it comes from."""
-    idx = np.arange(len(sizes))
-    if np.all(sizes == 3):
-        return idx
-    if np.all(sizes == 4):
-        return np.concatenate([idx, idx])
-    tri, quad, poly = idx[sizes == 3], idx[sizes == 4], idx[sizes > 4]
-    fans = np.concatenate([np.full(sizes[p] - 2, p) for p in poly]) if len(poly) else np.zeros(0, np.int64)
-    return np.concatenate([tri, quad, quad, fans]).astype(np.int64)
 
 
 def model_scene(path, *, width: int = 640, height: int = 480, direction=(-0.4, -0.35, -1.0), margin: float = 0.05,
