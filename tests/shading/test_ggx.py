@@ -281,3 +281,34 @@ def test_reflectance_pbr_on_a_file_without_metallic_roughness_says_so(tmp_path):
     with pytest.warns(DroppedOnLoadWarning, match="reflectance='pbr'"):
         models = rs.load_models(obj, reflectance="pbr")
     assert models[0].material.specular == "phong"
+
+
+def test_the_cli_renders_a_gltf_with_reflectance_pbr(tmp_path, capsys):
+    """``raycast-shade render FILE --reflectance pbr``: glTF's own BRDF (the metal's highlight takes its base
+    colour, so the image differs from the Phong mapping's); a scene file refuses the flag on one line."""
+    import imageio.v3 as iio
+
+    from raycast_shade.apps.cli import main
+
+    path = _write_gltf(tmp_path / "quad.gltf")
+    outs = []
+    for extra in ([], ["--reflectance", "PBR"]):
+        out = tmp_path / f"q{len(outs)}.png"
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DroppedOnLoadWarning)  # the Phong mapping's approximation note
+            assert main(["render", str(path), "-o", str(out), "--width", "32", "--height", "24", *extra]) == 0
+        outs.append(iio.imread(out).astype(int))
+    assert np.abs(outs[0] - outs[1]).max() > 10
+    toml = tmp_path / "s.toml"
+    toml.write_text('[[object]]\nshape = "icosphere"\n')
+    assert main(["render", str(toml), "-o", str(tmp_path / "s.png"), "--reflectance", "pbr"]) != 0
+    err = capsys.readouterr().err
+    assert "--reflectance: for a mesh file; a scene file gives each [[object]] its material" in err
+
+
+def test_explain_refuses_a_ggx_pixel_by_name():
+    """rs.explain writes out the lecture's terms: on a GGX pixel it says so rather than mislabel it Blinn."""
+    scene, _ = _plane_scene(rs.Material(name="brass", kd=0.8, specular="ggx", metallic=1.0))
+    frame = rs.render(scene)
+    with pytest.raises(ValueError, match="brass.*specular='ggx'"):
+        rs.explain(frame, 8, 6)
