@@ -28,8 +28,8 @@ import raycast_shade as rs
 from benchmarks.outputs import images_dir
 
 TILE = 200
-FILES = {"DamagedHelmet": ("DamagedHelmet/glTF/DamagedHelmet.gltf", (0.0, 0.0, -1.0)),
-         "BoomBox": ("BoomBox/glTF-pbrSpecularGlossiness/BoomBox.gltf", (0.0, -0.15, -1.0))}
+FILES = {"DamagedHelmet": ("DamagedHelmet/glTF/DamagedHelmet.gltf", (-0.8, -0.25, -1.0)),  # as the screenshots
+         "BoomBox": ("BoomBox/glTF-pbrSpecularGlossiness/BoomBox.gltf", (-0.7, -0.45, -1.0))}
 SHOTS = {"DamagedHelmet": "DamagedHelmet/screenshot/screenshot.png", "BoomBox": "BoomBox/screenshot/screenshot.jpg",
          "MetalRoughSpheres": "MetalRoughSpheres/screenshot/screenshot.png"}
 GREY, GOLD = (204, 204, 204), (204, 177, 29)  # the spheres' base colours, sRGB (Spheres_BaseColor.png)
