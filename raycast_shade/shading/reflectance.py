@@ -43,7 +43,7 @@ import numpy as np
 from numba import njit
 
 from ..common.layout import MODEL_BLINN, MODEL_GGX, MODEL_PHONG
-from .jit import HELPER
+from .jit import CALLED, HELPER
 from .records import dot
 
 __all__ = ["MODELS", "Reflectance", "MIN_ROUGHNESS", "DIELECTRIC_F0"]
@@ -139,7 +139,7 @@ def _ggx_setup(n, s, v, c, p):
     return m, r * r, ndoth, ndotv, F
 
 
-@njit(**HELPER)
+@njit(**CALLED)  # a call, not inlined: every kernel that inlines _reflected would compile its own copy
 def _ggx_diffuse(n, s, v, ndots, c, p):
     """glTF's diffuse term times ``pi``: ``(1 - F) (1 - m) kd (n . s)``."""
     m, _, _, _, F = _ggx_setup(n, s, v, c, p)
@@ -147,7 +147,7 @@ def _ggx_diffuse(n, s, v, ndots, c, p):
     return (1.0 - F[0]) * c[3] * k, (1.0 - F[1]) * c[4] * k, (1.0 - F[2]) * c[5] * k
 
 
-@njit(**HELPER)
+@njit(**CALLED)
 def _ggx_specular(n, s, v, ndots, c, p):
     """glTF's specular term times ``pi``: ``pi F D V (n . s)`` (Trowbridge-Reitz ``D``,
     height-correlated Smith ``V``)."""
