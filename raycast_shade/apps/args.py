@@ -15,7 +15,8 @@ import argparse
 
 import numpy as np
 
-from ..common.choices import BACKENDS, CASTER_CHOICES, INTERPOLATIONS, SHADING_CHOICES, SHADINGS, TONEMAPS
+from ..common.choices import (BACKENDS, CASTER_CHOICES, INTERPOLATIONS, REFLECTANCES, SHADING_CHOICES, SHADINGS,
+                              TONEMAPS)
 from ..common.samples import MAX_SAMPLES
 from ..scene.scenefile import RENDER_KEYS
 
@@ -71,6 +72,17 @@ def add_mesh_options(p) -> None:
                    help="a mesh file whose normals are computed (none in the file): edges whose faces meet at "
                         "more than DEG degrees stay hard (default: every edge smoothed; a warning counts the "
                         "edges sharper than 60); a scene file sets crease_angle per [[object]]")
+    p.add_argument("--reflectance", type=str.lower, choices=REFLECTANCES,
+                   help="a glTF file's materials: phong (the default) maps metallic-roughness onto the lecture's "
+                        "ka, kd, ks, t; pbr shades them with glTF's own BRDF (GGX; docs/pbr.md)")
+
+
+def scene_file_refuses_mesh_options(ns) -> None:
+    """--crease-angle and --reflectance are a mesh file's: a scene file sets them per [[object]] (ValueError)."""
+    for flag, value, there in (("--crease-angle", ns.crease_angle, "sets crease_angle per [[object]]"),
+                               ("--reflectance", ns.reflectance, "gives each [[object]] its material")):
+        if value is not None:
+            raise ValueError(f"{flag}: for a mesh file; a scene file {there}")
 
 
 def finite_float(text: str) -> float:
@@ -176,7 +188,7 @@ def buffer_list(text: str) -> tuple:
         raise argparse.ArgumentTypeError(str(exc).removeprefix("--buffers: ")) from None
 
 
-def model_for_render(path: str, given: dict, crease_angle: float | None = None):
+def model_for_render(path: str, given: dict, crease_angle: float | None = None, reflectance: str | None = None):
     """A mesh file (not a TOML scene) as ``render`` and ``views`` take it: framed and lit by
     :func:`~raycast_shade.scene.meshfile.model_scene`, with the command line's options.
 
@@ -188,6 +200,8 @@ def model_for_render(path: str, given: dict, crease_angle: float | None = None):
         The command line's ``[render]`` options (:func:`overrides`); ``None`` for not given.
     crease_angle : float, optional
         ``--crease-angle``: passed to :func:`raycast_shade.load_models` (None: not given).
+    reflectance : {"phong", "pbr"}, optional
+        ``--reflectance``: likewise.
 
     Returns
     -------
@@ -208,5 +222,5 @@ def model_for_render(path: str, given: dict, crease_angle: float | None = None):
     kwargs.setdefault("shading", "phong")
     if isinstance(kwargs["shading"], tuple):
         raise ValueError("--shading: one method for a mesh file (per-model lists need a scene file)")
-    load = {} if crease_angle is None else {"crease_angle": crease_angle}
+    load = {k: v for k, v in (("crease_angle", crease_angle), ("reflectance", reflectance)) if v is not None}
     return model_scene(path, **size, **load), kwargs, tone

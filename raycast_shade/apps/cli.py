@@ -28,7 +28,8 @@ import warnings
 from typing import Callable
 
 from ..common.choices import EIGHT_BIT_EXTS, LINEAR_EXTS
-from .args import add_mesh_options, add_render_options, add_tone_options, overrides, positive_int, shading_label
+from .args import (add_mesh_options, add_render_options, add_tone_options, overrides, positive_int,
+                   scene_file_refuses_mesh_options, shading_label)
 
 __all__ = ["main", "build_parser", "Subcommand", "COMMANDS"]
 
@@ -238,10 +239,12 @@ def _cmd_render(args) -> int:
     _check_tone_for(out, args)
     t0 = time.perf_counter()
     if not args.scene.lower().endswith(".toml"):
-        frame = _render_model(args.scene, overrides(args), args.crease_angle)
-    elif args.crease_angle is not None:
-        raise _UsageError("--crease-angle: for a mesh file; a scene file sets crease_angle per [[object]]")
+        frame = _render_model(args.scene, overrides(args), args.crease_angle, args.reflectance)
     else:
+        try:
+            scene_file_refuses_mesh_options(args)
+        except ValueError as exc:
+            raise _UsageError(str(exc)) from None
         frame = None
     try:
         frame = frame or render_file(args.scene, **overrides(args))
@@ -261,12 +264,12 @@ def _cmd_render(args) -> int:
     return 0
 
 
-def _render_model(path: str, given: dict, crease_angle=None):
+def _render_model(path: str, given: dict, crease_angle=None, reflectance=None):
     """``render MODEL``: the mesh file framed and lit (:func:`~raycast_shade.scene.meshfile.model_scene`)."""
     from ..render import render
     from .args import model_for_render
 
-    scene, kwargs, tone = model_for_render(path, given, crease_angle)
+    scene, kwargs, tone = model_for_render(path, given, crease_angle, reflectance)
     return render(scene, **kwargs).with_tone(tone)
 
 

@@ -558,14 +558,13 @@ def run_cli(ns) -> int:
 
     from ..scene.scenefile import load_for_render
     from .animate import orbit_cameras
-    from .args import model_for_render, overrides, run_options
+    from .args import model_for_render, overrides, run_options, scene_file_refuses_mesh_options
 
     if ns.scene.lower().endswith(".toml"):
-        if ns.crease_angle is not None:
-            raise ValueError("--crease-angle: for a mesh file; a scene file sets crease_angle per [[object]]")
+        scene_file_refuses_mesh_options(ns)
         scene, render_kwargs, tone = load_for_render(ns.scene, **overrides(ns))
     else:  # a mesh file, framed and lit as ``raycast-shade render`` frames it
-        scene, render_kwargs, tone = model_for_render(ns.scene, overrides(ns), ns.crease_angle)
+        scene, render_kwargs, tone = model_for_render(ns.scene, overrides(ns), ns.crease_angle, ns.reflectance)
     shading = render_kwargs.pop("shading", "phong")
     image = None if ns.image.lower() == "none" else (ns.image if ns.image.startswith(".") else "." + ns.image)
     t0 = time.perf_counter()

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 __all__ = [
     "SHADINGS", "SHADING_CHOICES", "BACKENDS", "INTERPOLATIONS", "CASTERS", "CASTER_CHOICES", "TONEMAPS",
-    "ATTENUATIONS", "PROJECTIONS", "SPECULAR_MODELS", "WEIGHTINGS", "WRAPS", "LINEAR_EXTS", "EIGHT_BIT_EXTS",
+    "ATTENUATIONS", "PROJECTIONS", "SPECULAR_MODELS", "REFLECTANCES", "WEIGHTINGS", "WRAPS", "LINEAR_EXTS", "EIGHT_BIT_EXTS",
     "IMAGE_EXTS", "ORBITS", "VIDEO_EXTS",
 ]
 
@@ -27,7 +27,9 @@ TONEMAPS = ("clamp", "reinhard", "exponential")
 # Point-light attenuation laws: 1, 1/d^2, 1/(d + k).
 ATTENUATIONS = ("none", "inverse_square", "heuristic")
 PROJECTIONS = ("perspective", "orthographic")
-SPECULAR_MODELS = ("phong", "blinn")
+SPECULAR_MODELS = ("phong", "blinn", "ggx")
+# How load_models maps a glTF material: onto Phong coefficients, or glTF's own BRDF (Material specular="ggx").
+REFLECTANCES = ("phong", "pbr")
 # Vertex-normal weightings of the adjacent face normals.
 WEIGHTINGS = ("uniform", "area", "angle")
 # Height-map addressing outside [0, 1).

@@ -18,11 +18,11 @@ Light rows, ``(L, LIGHT_SIZE) = (L, 24)`` float64 (each light's ``pack``; :meth:
     emitter's two half-edge vectors (a rectangle) or radius-scaled axes (a disc) (3 + 3),
     its shape (:data:`AREA_RECTANGLE`, :data:`AREA_DISC`); every light: its sample count
     (1 but for an area light's N point samples).
-Material rows, ``(G, MAT_SIZE) = (G, 17)`` float64 (:meth:`raycast_shade.Material.packed`):
+Material rows, ``(G, MAT_SIZE) = (G, 19)`` float64 (:meth:`raycast_shade.Material.packed`):
     ka (3), kd (3), ks (3), shininess, reflectance model code (:data:`MODEL_PHONG`,
-    :data:`MODEL_BLINN`; the slot is also named ``MAT_BLINN``: 1 is Blinn), reflectivity,
-    ambient-follows-colours flag (1: the mesh's colours scale ka too), ke (3, emission),
-    occlusion strength.
+    :data:`MODEL_BLINN`, :data:`MODEL_GGX`; the slot is also named ``MAT_BLINN``: 1 is Blinn),
+    reflectivity, ambient-follows-colours flag (1: the mesh's colours scale ka too), ke (3,
+    emission), occlusion strength, metallic and roughness (the GGX model's; 0 otherwise).
 Height-map rows, ``(B, BUMP_SIZE) = (B, 7)`` float64 (:meth:`raycast_shade.HeightMap.packed_info`):
     texel offset, rows, cols, clamp flag, tiling u, tiling v, height scale.
 Texture rows, ``(K, TEX_SIZE) = (K, 8)`` float64 (:meth:`raycast_shade.Texture.packed_info`):
@@ -83,17 +83,20 @@ MAT_KA = 0  # 0:3
 MAT_KD = 3  # 3:6
 MAT_KS = 6  # 6:9
 MAT_SHININESS = 9
-MAT_MODEL = 10  # reflectance model code: MODEL_PHONG or MODEL_BLINN
+MAT_MODEL = 10  # reflectance model code: MODEL_PHONG, MODEL_BLINN or MODEL_GGX
 MAT_BLINN = MAT_MODEL  # the same slot under its first name: 1.0 for Blinn-Phong
 MAT_REFLECTIVITY = 11
 MAT_KA_COLORS = 12  # 1.0: the mesh's colours scale ka as they replace kd (Material.ka_colors)
 MAT_KE = 13  # 13:16, emission: added to the point's intensity, whatever the lights
 MAT_AO_STRENGTH = 16  # occlusion map strength s: ka scaled by 1 + s (ao - 1)
-MAT_SIZE = 17
+MAT_METALLIC = 17  # GGX: glTF's metallicFactor (the point's is this times its ks blue: the map's B)
+MAT_ROUGHNESS = 18  # GGX: glTF's roughnessFactor (the point's is this times its ks green: the map's G)
+MAT_SIZE = 19
 
 MODEL_PHONG = 0  # MAT_MODEL values: Phong's (r.v)^t
 MODEL_BLINN = 1  # Blinn-Phong's (n.h)^t
-MODEL_CODE = {"phong": MODEL_PHONG, "blinn": MODEL_BLINN}  # every MAT_MODEL value
+MODEL_GGX = 2  # glTF 2.0 metallic-roughness: Lambert + GGX, Smith height-correlated, Schlick
+MODEL_CODE = {"phong": MODEL_PHONG, "blinn": MODEL_BLINN, "ggx": MODEL_GGX}  # every MAT_MODEL value
 
 # shading methods, one per model
 METHOD_FLAT = 0
@@ -127,7 +130,7 @@ COLOR_FACE = 2
 # Per-model texture slots (SceneGeometry.tex_index columns): which coefficient a map scales
 TEXMAP_KA = 0
 TEXMAP_KD = 1
-TEXMAP_KS = 2
+TEXMAP_KS = 2  # GGX: the metallicRoughness map (its G scales roughness, its B metallic)
 TEXMAP_KE = 3
 TEXMAP_AO = 4  # occlusion: its red channel scales ka
 TEXMAP_COUNT = 5  # tex_index columns

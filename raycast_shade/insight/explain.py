@@ -350,7 +350,8 @@ def explain(frame, x, y) -> Explanation:
     Raises
     ------
     TypeError, ValueError
-        For a pixel outside the image or a frame without its scene.
+        For a pixel outside the image or a frame without its scene; ValueError for a pixel of a
+        ``specular="ggx"`` material (its terms are glTF's, not the lecture's).
     """
     if getattr(frame, "scene", None) is None or getattr(frame, "image", None) is None:  # not .hits: a recipe runs
         raise TypeError(f"frame: expected a Frame from raycast_shade.render, got {type(frame).__name__}")
@@ -370,6 +371,9 @@ def explain(frame, x, y) -> Explanation:
         return Explanation(x, y, None, -1, "", -1, (), zero, (), np.zeros(0), zero, zero, zero, zero, zero, 0.0, (),
                            zero,
                            bg, image)
+    if frame.scene.models[model].material.specular == "ggx":  # its terms are not the lecture's (kd n.s, ks c^t)
+        raise ValueError(f"explain: pixel ({x}, {y}) shows material {frame.scene.models[model].material.name!r}, "
+                         "specular='ggx' (glTF's BRDF): explain() writes out the lecture's Phong/Blinn terms only")
     method = _METHOD_NAMES[int(resolve_methods(frame.scene, frame.shading)[model])]
     f = int(geo.face_offsets[model] + prim)
     if method == "flat":

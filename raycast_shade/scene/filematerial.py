@@ -100,9 +100,10 @@ class FileContext:
     """What the file itself says beyond trimesh's reading: references, samplers, colours;
     plus the textures decoded so far (one per source image, however many meshes share it)."""
 
-    def __init__(self, path: str | None, base: str = "", base_dir: str = ".", gltf: dict | None = None):
+    def __init__(self, path: str | None, base: str = "", base_dir: str = ".", gltf: dict | None = None,
+                 reflectance: str = "phong"):
         """``path=None``: no file to read (a trimesh visual on its own), references relative to ``base_dir``;
-        ``gltf``: the glTF JSON already read (and checked) by :func:`.filecheck.check_mesh_file`."""
+        ``gltf``: the JSON checked by :func:`.filecheck.check_mesh_file`; ``reflectance``: see load_models."""
         self.path, self.base = path or "", base
         self.base_dir = os.path.dirname(os.path.abspath(path)) if path else base_dir
         self.ext = os.path.splitext(path)[1].lower() if path else ""
@@ -112,7 +113,7 @@ class FileContext:
         self.usemtl = []
         self.gltf = gltf
         self.off = None
-        self.cache = {}
+        self.reflectance, self.cache = reflectance, {}
         self._keep = []  # the objects whose id() keys the cache stay alive with it
         if self.ext == ".obj":
             self._obj()
@@ -410,7 +411,8 @@ def _factor(value, n: int, default) -> np.ndarray:
 
 
 def from_pbr(mat, name: str, lost: list, ctx: FileContext) -> dict:
-    """glTF metallic-roughness onto ka, kd, ks, t (see the module docstring)."""
+    """glTF metallic-roughness onto ka, kd, ks, t (see the module docstring), or with
+    ``ctx.reflectance == "pbr"`` as itself: a ``specular="ggx"`` material."""
     js = ctx.gltf_material(mat) or {}
     pbr = js.get("pbrMetallicRoughness") or {}
     base = _factor(mat.baseColorFactor, 4, [1.0, 1.0, 1.0, 1.0])
@@ -422,7 +424,9 @@ def from_pbr(mat, name: str, lost: list, ctx: FileContext) -> dict:
     lost += notes
     kw = {"name": name, "specular": "blinn", "double_sided": bool(js.get("doubleSided", False))}
     kw.update(_alpha_mask(mat, js, base, name, lost, ctx, (wrap_s, wrap_t)))
-    if mr is None:
+    if getattr(ctx, "reflectance", "phong") == "pbr":
+        kw.update(_ggx(mat, pbr, rgb, (m, r), name, lost, ctx, (wrap_s, wrap_t)))
+    elif mr is None:
         alpha = r * r
         kw["kd"] = rgb * ((1.0 - m) + m * alpha)
         kw["ks"] = _DIELECTRIC_F0 * (1.0 - m) + rgb * m * (1.0 - alpha)
@@ -464,6 +468,21 @@ def from_pbr(mat, name: str, lost: list, ctx: FileContext) -> dict:
     _normal(mat, js, name, kw, lost, ctx)
     _emission(mat, js, name, kw, lost, ctx)
     _occlusion(mat, js, name, kw, lost, ctx)
+    return kw
+
+
+def _ggx(mat, pbr: dict, rgb, mr_factors, name: str, lost: list, ctx: FileContext, wraps) -> dict:
+    """glTF metallic-roughness as itself: base colour (texture sRGB) as kd and ka, factors, and the
+    ``metallicRoughnessTexture`` (linear, its own sampler) that scales them per texel."""
+    kw = {"specular": "ggx", "kd": rgb, "ka": rgb, "metallic": mr_factors[0], "roughness": mr_factors[1]}
+    tex = getattr(mat, "baseColorTexture", None)
+    if tex is not None:
+        texels = ctx.linear(tex, f"{name}.baseColorTexture")
+        kw["kd_map"] = kw["ka_map"] = ctx.wrapped(("pbr", ctx.image_key(tex), *wraps), lambda: Wrapped(
+            texels, wraps[0], wraps[1], f"{name}.baseColorTexture"))
+    mr, _ = _linear_map(mat, pbr, name, "metallicRoughnessTexture", lost, ctx)  # its info is pbr's
+    if mr is not None:
+        kw["metallic_roughness_map"] = mr
     return kw
 
 

@@ -8,8 +8,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..common.choices import SPECULAR_MODELS
-from ..common.layout import (MAT_AO_STRENGTH, MAT_BLINN, MAT_KA, MAT_KA_COLORS, MAT_KD, MAT_KE, MAT_KS,
-                             MAT_REFLECTIVITY, MAT_SHININESS, MAT_SIZE)
+from ..common.layout import (MAT_AO_STRENGTH, MAT_KA, MAT_KA_COLORS, MAT_KD, MAT_KE, MAT_KS, MAT_METALLIC,
+                             MAT_MODEL, MAT_REFLECTIVITY, MAT_ROUGHNESS, MAT_SHININESS, MAT_SIZE, MODEL_CODE)
 from ..common.validate import as_bool, as_choice, as_name, as_rgb, as_scalar
 from ..common.warnings import AllMaskedWarning, ColourRangeWarning, NormalMapWarning
 
@@ -34,7 +34,8 @@ def _warn_byte_range(rgb: np.ndarray, name: str, field: str) -> None:
 
 @dataclass(frozen=True, eq=False)
 class Material:
-    """Coefficients of ``I = Ia ka + sum_i att(d) Ii (kd (n.s) + Ks (r.v)^t) + ke``.
+    """Coefficients of ``I = Ia ka + sum_i att(d) Ii (kd (n.s) + Ks (r.v)^t) + ke``
+    (or, with ``specular="ggx"``, glTF's metallic-roughness BRDF in place of the bracket).
 
     Every coefficient is a scalar or an RGB triple (the lecture's
     ``k(lambda)`` sampled at three wavelengths) and must be ``>= 0``.
@@ -51,8 +52,24 @@ class Material:
         Specular coefficient ``Ks``. Default 0, or 1 with a ``ks_map``.
     shininess : float
         Exponent ``t > 0``.
-    specular : {"phong", "blinn"}
-        ``(r.v)^t`` as in the lecture, or Blinn-Phong ``(n.h)^t``.
+    specular : {"phong", "blinn", "ggx"}
+        ``(r.v)^t`` as in the lecture, Blinn-Phong ``(n.h)^t``, or ``"ggx"``: the
+        glTF 2.0 metallic-roughness BRDF (Lambert + Trowbridge-Reitz/GGX, Smith
+        height-correlated, Schlick; see ``docs/pbr.md`` and
+        :mod:`raycast_shade.shading.reflectance`) with ``kd`` the base colour,
+        ``metallic`` and ``roughness``; a light ``Ii`` gives the irradiance
+        ``pi Ii``, so a white Lambertian surface shows ``Ii (n.s)`` as with
+        ``kd=1`` in the lecture's model. ``ggx`` has no ``ks`` (its specular
+        colour is Fresnel's ``F0 = mix(0.04, kd, metallic)``), no ``ks_map``
+        and no ``shininess``: ValueError if given.
+    metallic, roughness : float
+        ``ggx`` only, in [0, 1] (defaults 0 and 0.5): glTF's ``metallicFactor``
+        and ``roughnessFactor`` (alpha = roughness^2; below 0.045 shaded as
+        0.045). ValueError with another model (they would be ignored).
+    metallic_roughness_map : Texture, optional
+        ``ggx`` only: glTF's ``metallicRoughnessTexture``, linear (load it with
+        ``srgb=False``): its green channel scales ``roughness``, its blue
+        ``metallic`` per texel (it takes the ks map's column of the kernels).
     reflectivity : float
         Mirror fraction ``rho`` in [0, 1]: the pixel shows
         ``(1 - rho) * local + rho * reflected`` (see ``render(max_depth=...)``).
@@ -148,21 +165,25 @@ class Material:
     normal_map: object = None
     normal_scale: float = 1.0
     double_sided: bool = True
+    metallic: float = 0.0
+    roughness: float = 0.5
+    metallic_roughness_map: object = None
 
     def __post_init__(self):
         set_ = object.__setattr__
         set_(self, "name", as_name(self.name, f"{type(self).__name__}.name"))  # first: every message uses it
         from .texture import Texture
 
-        for field in MAP_FIELDS + ("alpha_map", "normal_map"):
+        for field in MAP_FIELDS + ("alpha_map", "normal_map", "metallic_roughness_map"):
             tex = getattr(self, field)
             if tex is not None and not isinstance(tex, Texture):
                 raise TypeError(f"{self.name}.{field}: expected a Texture, got {type(tex).__name__}")
         # A map's coefficient defaults to 1: the texture's own colours.
         if self.kd is None:
             set_(self, "kd", 1.0 if self.kd_map is not None else 0.8)
+        set_(self, "specular", as_choice(self.specular, f"{self.name}.specular", SPECULAR_MODELS))
         if self.ks is None:
-            set_(self, "ks", 1.0 if self.ks_map is not None else 0.0)
+            set_(self, "ks", 1.0 if self.ks_map is not None or self.specular == "ggx" else 0.0)
         if self.ke is None:
             set_(self, "ke", 1.0 if self.ke_map is not None else 0.0)
         for field in ("kd", "ka", "ks"):
@@ -170,7 +191,6 @@ class Material:
             _warn_byte_range(getattr(self, field), f"{self.name}.{field}", field)
         set_(self, "ke", as_rgb(self.ke, f"{self.name}.ke"))  # an emission may exceed 1: no 0-255 guess
         set_(self, "shininess", as_scalar(self.shininess, f"{self.name}.shininess", minimum=0.0, exclusive=True))
-        set_(self, "specular", as_choice(self.specular, f"{self.name}.specular", SPECULAR_MODELS))
         set_(self, "ka_colors", as_bool(self.ka_colors, f"{self.name}.ka_colors"))
         set_(self, "double_sided", as_bool(self.double_sided, f"{self.name}.double_sided"))
         set_(self, "ao_strength", as_scalar(self.ao_strength, f"{self.name}.ao_strength", minimum=0.0, maximum=1.0))
@@ -188,14 +208,17 @@ class Material:
                 raise TypeError(f"{self.name}.bump: expected a HeightMap, got {type(self.bump).__name__}")
         _check_alpha(self)
         _check_without_map(self)
+        _check_ggx(self)
         if self.normal_map is not None:
             _check_normal_map(self.normal_map, f"{self.name}.normal_map")
 
     @property
     def maps(self) -> tuple:
         """``(ka_map, kd_map, ks_map, ke_map, ao_map)``, ``None`` where absent (the order of
-        :data:`~raycast_shade.common.layout.TEXMAP_KA` and friends, :data:`MAP_FIELDS`)."""
-        return (self.ka_map, self.kd_map, self.ks_map, self.ke_map, self.ao_map)
+        :data:`~raycast_shade.common.layout.TEXMAP_KA` and friends, :data:`MAP_FIELDS`); a ``ggx``
+        material's ``metallic_roughness_map`` in the ks map's place."""
+        ks_map = self.metallic_roughness_map if self.specular == "ggx" else self.ks_map
+        return (self.ka_map, self.kd_map, ks_map, self.ke_map, self.ao_map)
 
     @property
     def has_emission(self) -> bool:
@@ -203,22 +226,25 @@ class Material:
 
     @property
     def has_specular(self) -> bool:
-        return bool(np.any(self.ks > 0))
+        return self.specular == "ggx" or bool(np.any(self.ks > 0))
 
     def packed(self) -> np.ndarray:
-        """(MAT_SIZE,) = (17,) float64: ka(3), kd(3), ks(3), t, blinn flag, reflectivity, ka_colors flag,
-        ke(3), occlusion strength; the kernels' row
+        """(MAT_SIZE,) = (19,) float64: ka(3), kd(3), ks(3), t, model code, reflectivity, ka_colors flag,
+        ke(3), occlusion strength, metallic, roughness (0 but for ``ggx``); the kernels' row
         (slots named in :mod:`raycast_shade.common.layout`)."""
         row = np.empty(MAT_SIZE)
         row[MAT_KA:MAT_KA + 3] = self.ka
         row[MAT_KD:MAT_KD + 3] = self.kd
         row[MAT_KS:MAT_KS + 3] = self.ks
         row[MAT_SHININESS] = self.shininess
-        row[MAT_BLINN] = 1.0 if self.specular == "blinn" else 0.0
+        row[MAT_MODEL] = MODEL_CODE[self.specular]
         row[MAT_REFLECTIVITY] = self.reflectivity
         row[MAT_KA_COLORS] = 1.0 if self.ka_colors else 0.0
         row[MAT_KE:MAT_KE + 3] = self.ke
         row[MAT_AO_STRENGTH] = self.ao_strength
+        ggx = self.specular == "ggx"
+        row[MAT_METALLIC] = self.metallic if ggx else 0.0
+        row[MAT_ROUGHNESS] = self.roughness if ggx else 0.0
         return row
 
 
@@ -250,6 +276,30 @@ def _check_without_map(mat: Material) -> None:
             article = "an" if tex[0] in "aeiou" else "a"
             raise ValueError(f"{mat.name}.{field}: {getattr(mat, field):g} given without {article} {tex}, which it "
                              f"scales (it would be ignored); give the {tex} too, or leave {field} at {default:g}")
+
+
+def _check_ggx(mat: Material) -> None:
+    """The GGX fields with ``specular="ggx"`` only, and the Phong ones it has no use for refused
+    (either would be silently ignored)."""
+    set_ = object.__setattr__
+    for field in ("metallic", "roughness"):
+        set_(mat, field, as_scalar(getattr(mat, field), f"{mat.name}.{field}", minimum=0.0, maximum=1.0))
+    if mat.specular != "ggx":
+        for field, default in (("metallic", 0.0), ("roughness", 0.5), ("metallic_roughness_map", None)):
+            if getattr(mat, field) is not default and getattr(mat, field) != default:
+                raise ValueError(f"{mat.name}.{field}: given with specular={mat.specular!r}, which has no use for "
+                                 "it (it would be ignored); it belongs to specular='ggx'")
+        return
+    if not np.all(mat.ks == 1.0) or mat.ks_map is not None:
+        raise ValueError(f"{mat.name}.ks: specular='ggx' has no ks nor ks_map (its specular colour is Fresnel's "
+                         "F0 = mix(0.04, kd, metallic)); leave ks out, and give metallic_roughness_map for a map")
+    if mat.shininess != 32.0:
+        raise ValueError(f"{mat.name}.shininess: specular='ggx' has no shininess (it would be ignored); its lobe's "
+                         "width is roughness")
+    tex = mat.metallic_roughness_map
+    if tex is not None and getattr(tex, "_decoded_srgb", False):
+        raise ValueError(f"{mat.name}.metallic_roughness_map: texture {tex.name!r} was decoded from sRGB; its "
+                         "channels are data (glTF: linear): load it with srgb=False")
 
 
 def _check_normal_map(tex, name: str) -> None:

@@ -37,7 +37,8 @@ import warnings
 
 import numpy as np
 
-from ..common.validate import as_bool
+from ..common.choices import REFLECTANCES
+from ..common.validate import as_bool, as_choice
 from ..common.warnings import DroppedOnLoadWarning
 from .filecheck import check_mesh_file, naming_file
 from .gltfgeometry import PLAIN_KEY
@@ -121,7 +122,8 @@ def _resolve_maps(kw: dict, uvs, name: str, lost: list):
     return uvs if out_uvs is None else out_uvs
 
 
-def load_models(path, *, merge: bool = False, use_normals: bool | None = None, **mesh_kwargs) -> list:
+def load_models(path, *, merge: bool = False, use_normals: bool | None = None, reflectance: str = "phong",
+                **mesh_kwargs) -> list:
     """Every mesh in a file with its own material, as :class:`Model` objects.
 
     An OBJ with several ``usemtl`` materials, or a glTF with several
@@ -144,6 +146,9 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, *
         Weld coincident vertices.
     use_normals : bool, optional
         As in :meth:`Mesh.from_trimesh`.
+    reflectance : {"phong", "pbr"}
+        glTF materials onto the lecture's ka, kd, ks, t (``docs/textures.md``), or
+        as themselves: ``Material(specular="ggx")`` (``docs/pbr.md``; other formats warn).
     **mesh_kwargs
         Further :class:`Mesh` keywords (``crease_angle``, ``weighting``);
         ``name`` prefixes the models' names.
@@ -171,12 +176,13 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, *
     import trimesh
 
     merge, use_normals = as_bool(merge, "merge"), use_normals_flag(use_normals)
+    reflectance = as_choice(reflectance, "reflectance", REFLECTANCES)
     path = os.fspath(path)
     base = mesh_kwargs.pop("name", os.path.basename(path))
     with naming_file(path):  # a reader's IndexError or KeyError too: a ValueError naming the file
         # The file's own references and values first: a bad value is named before trimesh trips on it.
         gltf = check_mesh_file(path)
-        ctx = FileContext(path, base, gltf=gltf)
+        ctx = FileContext(path, base, gltf=gltf, reflectance=reflectance)
         tm, srgb = read_trimesh(path, merge, checked=True, gltf=gltf)
         for used in dict.fromkeys(n for n, _ in ctx.usemtl):
             if used in ctx.mtl:  # every material the OBJ uses is checked, whatever trimesh made of it
@@ -190,7 +196,9 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, *
                     items.append((f"{base}:{node}", g, np.asarray(transform, np.float64)))
         else:
             items = [(base, tm, np.eye(4))]
-        models, lost, twins = [], [], 0
+        models, twins = [], 0
+        lost = [] if reflectance == "phong" or ctx.gltf is not None else [  # nothing for "pbr" to keep as itself
+            f"reflectance='pbr': a {ctx.ext} file has no metallic-roughness materials (glTF's); shaded as with 'phong'"]
         for name, g, transform in items:
             kw, why = material_from_trimesh(g.visual, ctx.base_dir, name, context=ctx)
             lost += [f"{name}: {w}" for w in why]
@@ -257,7 +265,8 @@ def _warn_dropped(ctx, base: str, lost: list, twins: int) -> None:
 
 def _drop_maps_without_uvs(kw: dict, uvs, name: str, lost: list) -> None:
     """Every map dropped (named in ``lost``) from the keywords of a mesh without UVs."""
-    maps = [k for k in ("kd_map", "ka_map", "ks_map", "ke_map", "ao_map", "alpha_map", "normal_map") if k in kw]
+    maps = [k for k in ("kd_map", "ka_map", "ks_map", "ke_map", "ao_map", "alpha_map", "normal_map",
+                        "metallic_roughness_map") if k in kw]
     if maps and uvs is None:
         lost.append(f"{name}: {', '.join(maps)} (the mesh has no UVs)")
         for k in maps:

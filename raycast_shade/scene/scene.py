@@ -145,7 +145,7 @@ class SceneGeometry:
     face_normals : (F, 3) float64
     vertex_offsets, face_offsets : (G + 1,) int64
         Range of each model.
-    materials : (G, MAT_SIZE) = (G, 17) float64
+    materials : (G, MAT_SIZE) = (G, 19) float64
         One packed material row per model (see :meth:`Material.packed`).
     face_model, vertex_model : (F,) int32, (V,) int32
         The model each face and vertex belongs to.

@@ -4,7 +4,8 @@ Per channel::
 
     I = Ia ka + sum_i sum_j vis_ij att_ij(d) Ii/N_i (kd max(n.s, 0) + Ks max(r.v, 0)^t) + ke
 
-with ``r = 2 (n.s) n - s`` (or Blinn-Phong ``(n.h)^t``), no specular term
+with ``r = 2 (n.s) n - s`` (or Blinn-Phong ``(n.h)^t``; or, in place of the bracket, the glTF
+metallic-roughness terms of :mod:`.reflectance`'s GGX model), no specular term
 where ``n.s <= 0``, ``att`` one of ``1``, ``1/d^2``, ``1/(d + k)``, and
 ``vis`` 0 or 1 from a shadow ray (:mod:`.shadows`) for lights that cast
 shadows. A light is evaluated at its ``N_i`` point samples ``j`` (one, but for an
@@ -38,33 +39,17 @@ from numba import njit
 from ..common.layout import (AREA_DISC, ATT_HEURISTIC, ATT_INVERSE_SQUARE, LIGHT_AREA, LIGHT_ATT, LIGHT_AXIS,
                              LIGHT_COS_INNER, LIGHT_COS_OUTER, LIGHT_DIRECTIONAL, LIGHT_EDGE_U, LIGHT_EDGE_V,
                              LIGHT_EXPONENT, LIGHT_K, LIGHT_KIND, LIGHT_RADIANCE, LIGHT_SAMPLES, LIGHT_SHADOWS,
-                             LIGHT_SHAPE, LIGHT_SPOT, LIGHT_VEC, MAT_KS, MAT_MODEL, MAT_SHININESS)
+                             LIGHT_SHAPE, LIGHT_SPOT, LIGHT_VEC, MAT_KS, MAT_METALLIC, MAT_MODEL, MAT_ROUGHNESS,
+                             MAT_SHININESS)
 from .jit import CALLED, HELPER
 from .records import (TERM_AMBIENT, TERM_DIFFUSE, TERM_EMISSIVE, TERM_SPECULAR, TERMS_EACH, TERMS_EMIT_ON,
                       TERMS_SHADOW, dot, store3)
-from .reflectance import _diffuse, _specular_cosine
+from .reflectance import _diffuse, _power, _specular  # noqa: F401 (_power: the spot factor's, and callers')
 from .shadows import _occluded, request_ray
 
 __all__ = ["GOLDEN"]
 
 GOLDEN = 0.6180339887498949  # the golden ratio's fractional part: the sample lattice's second axis
-
-
-@njit(**HELPER)
-def _power(c, t):
-    """``c ** t`` for ``0 <= c <= 1``: repeated squaring when ``t`` is a whole
-    number up to 4096 (a few multiplications, within a few ulps of ``pow``,
-    which costs several times more), ``pow`` otherwise."""
-    n = int(t)
-    if n != t or n > 4096:
-        return c ** t
-    r = 1.0
-    while n > 0:
-        if n & 1:
-            r *= c
-        c *= c
-        n >>= 1
-    return r
 
 
 @njit(**HELPER)
@@ -206,7 +191,7 @@ def _reflected(hp, coef, mats, mi, L, S, vis, lane, spec_on, att_on, R, y, x):
     returned sum is formed by the same operations in the same order either way: the image of a
     terms pass is the plain frame's, bit for bit."""
     ambient, lights, dmin, handle, unit = L.ambient, L.lights, L.dmin, L.handle, L.unit
-    kar, kag, kab, kdr, kdg, kdb, ksr, ksg, ksb, ker, keg, keb = coef
+    kar, kag, kab, ker, keg, keb = coef[0], coef[1], coef[2], coef[9], coef[10], coef[11]
     n = hp.n
     r = ambient[0] * kar
     g = ambient[1] * kag
@@ -216,7 +201,7 @@ def _reflected(hp, coef, mats, mi, L, S, vis, lane, spec_on, att_on, R, y, x):
         if R[TERMS_EMIT_ON]:
             store3(R[TERM_EMISSIVE], y, x, ker, keg, keb)
     dr = dg = db = sr = sg = sb = 0.0
-    shin = mats[mi, MAT_SHININESS]
+    prm = (mats[mi, MAT_SHININESS], mats[mi, MAT_METALLIC], mats[mi, MAT_ROUGHNESS])
     model = mats[mi, MAT_MODEL]
     has_spec = mats[mi, MAT_KS + 0] > 0.0 or mats[mi, MAT_KS + 1] > 0.0 or mats[mi, MAT_KS + 2] > 0.0
     for i in range(lights.shape[0]):
@@ -242,21 +227,19 @@ def _reflected(hp, coef, mats, mi, L, S, vis, lane, spec_on, att_on, R, y, x):
                     if np.float32(cone * ndots) > 0.0:  # blocked where a unit light would have reached it
                         blocked += 1
                     continue
-            fd = _diffuse(model, n, s, hp.v, ndots)
-            spec = 0.0
+            fr, fg, fb = _diffuse(model, n, s, hp.v, ndots, coef, prm)
+            tr = tg = tb = 0.0
             if spec_on and has_spec:
-                c = _specular_cosine(model, n, s, hp.v, ndots)
-                if c > 0.0:
-                    spec = _power(min(c, 1.0), shin)
+                tr, tg, tb = _specular(model, n, s, hp.v, ndots, coef, prm)
             ar = att * lights[i, LIGHT_RADIANCE + 0]
             ag = att * lights[i, LIGHT_RADIANCE + 1]
             ab = att * lights[i, LIGHT_RADIANCE + 2]
-            r += ar * (kdr * fd + ksr * spec)
-            g += ag * (kdg * fd + ksg * spec)
-            b += ab * (kdb * fd + ksb * spec)
+            r += ar * (fr + tr)
+            g += ag * (fg + tg)
+            b += ab * (fb + tb)
             if R is not None:  # the parts, formed apart from the sum (it is not their sum, bit for bit)
-                pdr, pdg, pdb = ar * (kdr * fd), ag * (kdg * fd), ab * (kdb * fd)
-                psr, psg, psb = ar * (ksr * spec), ag * (ksg * spec), ab * (ksb * spec)
+                pdr, pdg, pdb = ar * fr, ag * fg, ab * fb
+                psr, psg, psb = ar * tr, ag * tg, ab * tb
                 dr += pdr
                 dg += pdg
                 db += pdb

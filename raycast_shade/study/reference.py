@@ -34,6 +34,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..scene.lights import AreaLight, DirectionalLight, SpotLight
+from .ggx import ggx_terms_numpy
 from .reference_maps import _bilinear_level, _dot, normal_mapped
 
 __all__ = ["view_vectors", "facing", "interpolated_normal", "footprint_rho", "shade_reference", "shading_normals_reference", "hit_points", "illuminate_reference", "spot_cone",
@@ -77,7 +78,8 @@ def _camera(camera, origin):
 
 
 def _materials(scene):
-    """Per-model material arrays: ka, kd, ks (G, 3), shininess (G,), blinn (G,) bool, ke (G, 3)."""
+    """Per-model material arrays: ka, kd, ks (G, 3), shininess (G,), blinn (G,) bool, ke (G, 3),
+    then the GGX model's: metallic, roughness (G,), ggx (G,) bool."""
     mats = [m.material for m in scene.models]
     return (
         np.array([m.ka for m in mats], np.float64),
@@ -86,6 +88,9 @@ def _materials(scene):
         np.array([m.shininess for m in mats], np.float64),
         np.array([m.specular == "blinn" for m in mats], bool),
         np.array([m.ke for m in mats], np.float64),
+        np.array([m.metallic for m in mats], np.float64),
+        np.array([m.roughness for m in mats], np.float64),
+        np.array([m.specular == "ggx" for m in mats], bool),
     )
 
 
@@ -214,8 +219,10 @@ def illuminate_reference(p, n, v, model, materials, lights, ambient, dmin, coef=
     model : (N,) int
         Material (model) index of each point.
     materials : tuple
-        ``(ka, kd, ks, shininess, blinn[, ke])`` with shapes ``(G, 3) x 3, (G,), (G,)[, (G, 3)]``
-        (no ``ke``: no emission).
+        ``(ka, kd, ks, shininess, blinn[, ke[, metallic, roughness, ggx]])`` with shapes ``(G, 3) x 3,
+        (G,), (G,)[, (G, 3)[, (G,) x 3]]`` (no ``ke``: no emission; no ``ggx``: no GGX material, whose
+        terms are :func:`~raycast_shade.study.ggx.ggx_terms_numpy`'s, metallic and roughness times
+        the point's ks blue and green).
     lights : list of tuple
         ``(directional, vec, radiance (3,), attenuation, k)``, optionally
         followed by a spot light's cone (:func:`spot_cone`); see :func:`_lights`.
@@ -236,6 +243,8 @@ def illuminate_reference(p, n, v, model, materials, lights, ambient, dmin, coef=
     has_spec = np.any(ks[model] > 0, axis=1)  # the material's: a map cannot switch the term on
     ka, kd, ks, shin, blinn = ka[model], kd[model], ks[model], shin[model], blinn[model]
     ke = materials[5][model] if len(materials) > 5 else np.zeros_like(ka)
+    metal, rough, ggx = ((a[model] for a in materials[6:9]) if len(materials) > 8
+                         else (None, None, np.zeros(len(p), bool)))
     if coef is not None:
         ka, kd, ks = coef[:3]
         ke = coef[3] if len(coef) > 3 else ke
@@ -269,7 +278,11 @@ def illuminate_reference(p, n, v, model, materials, lights, ambient, dmin, coef=
         c_phong = _dot(r, v)
         c = np.clip(np.where(blinn, c_blinn, c_phong), 0.0, 1.0)
         spec = np.where((c > 0.0) & has_spec, c ** shin, 0.0)
-        term = att[:, None] * radiance[None, :] * (kd * ndots[:, None] + ks * spec[:, None])
+        fd, fs = kd * ndots[:, None], ks * spec[:, None]
+        if ggx.any():
+            gd, gs = ggx_terms_numpy(n, s, v, kd, metal * ks[:, 2], rough * ks[:, 1])
+            fd, fs = np.where(ggx[:, None], gd, fd), np.where((ggx & has_spec)[:, None], gs, fs)
+        term = att[:, None] * radiance[None, :] * (fd + fs)
         out = out + np.where(lit[:, None], term, 0.0)
     return out + ke  # emission, added last as the kernels do
 

@@ -24,7 +24,7 @@ ROWS = {
                "LIGHT_EXPONENT": 1, "LIGHT_EDGE_U": 3, "LIGHT_EDGE_V": 3, "LIGHT_SHAPE": 1, "LIGHT_SAMPLES": 1},
               lay.LIGHT_SIZE),
     "MAT": ({"MAT_KA": 3, "MAT_KD": 3, "MAT_KS": 3, "MAT_SHININESS": 1, "MAT_MODEL": 1, "MAT_REFLECTIVITY": 1,
-             "MAT_KA_COLORS": 1, "MAT_KE": 3, "MAT_AO_STRENGTH": 1},
+             "MAT_KA_COLORS": 1, "MAT_KE": 3, "MAT_AO_STRENGTH": 1, "MAT_METALLIC": 1, "MAT_ROUGHNESS": 1},
             lay.MAT_SIZE),
     "BUMP": ({"BUMP_OFFSET": 1, "BUMP_ROWS": 1, "BUMP_COLS": 1, "BUMP_CLAMP": 1, "BUMP_TILE_U": 1,
               "BUMP_TILE_V": 1, "BUMP_SCALE": 1}, lay.BUMP_SIZE),
@@ -59,7 +59,7 @@ def test_layout_docstring_states_the_constants():
     doc = lay.__doc__
     stated = dict(re.findall(r"\(([A-Z_]+),\) = \((\d+),\)", doc))
     stated.update((name, n) for name, n in re.findall(r"\([A-Z], ([A-Z_]+)\) = \([A-Z], (\d+)\)", doc))
-    assert stated == {"CAM_SIZE": "16", "LIGHT_SIZE": "24", "MAT_SIZE": "17", "BUMP_SIZE": "7", "TEX_SIZE": "8"}
+    assert stated == {"CAM_SIZE": "16", "LIGHT_SIZE": "24", "MAT_SIZE": "19", "BUMP_SIZE": "7", "TEX_SIZE": "8"}
     for name, n in stated.items():
         assert getattr(lay, name) == int(n), name
 

@@ -70,7 +70,8 @@ COMBOS = list(itertools.product(_light_classes(), lay.ATT_CODE, lay.MODEL_CODE, 
                          ids=[f"{c.__name__}-{a}-{m}-{'shadows' if s else 'lit'}" for c, a, m, s in COMBOS])
 def test_the_batched_kernel_takes_only_what_it_declares_and_is_then_the_general_one(cls, law, model, shadows):
     light = _make(cls, law, shadows)
-    ball = rs.Model(rs.shapes.icosphere(1), rs.Material(kd=0.7, ks=0.5, shininess=20, specular=model))
+    own = dict(metallic=0.5, roughness=0.4) if model == "ggx" else dict(ks=0.5, shininess=20)  # each model's fields
+    ball = rs.Model(rs.shapes.icosphere(1), rs.Material(kd=0.7, specular=model, **own))
     floor = rs.Model(rs.shapes.plane(size=3, center=(0, 0, -1.0)), rs.Material(kd=0.5))
     scene = rs.Scene([ball, floor], lights=[light], camera=CAM, ambient=0.05)
     k = prepare(scene, CAM)

@@ -90,14 +90,17 @@ def test_a_light_on_the_point_gives_no_light():
 
 
 @njit(cache=False)
-def _cosines(model, n, s, v, ndots):
-    return (reflectance._specular_cosine(model, n, s, v, ndots), reflectance._phong_cosine(n, s, v, ndots),
-            reflectance._blinn_cosine(n, s, v, ndots))
+def _terms(model, n, s, v, ndots, c, p):
+    return reflectance._diffuse(model, n, s, v, ndots, c, p), reflectance._specular(model, n, s, v, ndots, c, p)
 
 
 @njit(cache=False)
-def _diffuse_factors(model, n, s, v, ndots):
-    return reflectance._diffuse(model, n, s, v, ndots), reflectance._lambert(n, s, v, ndots)
+def _own_terms(n, s, v, ndots, c, p):
+    """Every registered function's terms, in :data:`MODELS`' order (the registry's functions are
+    dispatchers: a kernel cannot call through a dict, so each is called by name here)."""
+    return ((reflectance._lambert(n, s, v, ndots, c, p), reflectance._phong(n, s, v, ndots, c, p)),
+            (reflectance._lambert(n, s, v, ndots, c, p), reflectance._blinn(n, s, v, ndots, c, p)),
+            (reflectance._ggx_diffuse(n, s, v, ndots, c, p), reflectance._ggx_specular(n, s, v, ndots, c, p)))
 
 
 def _unit(rng):
@@ -107,28 +110,46 @@ def _unit(rng):
 
 def test_the_kernels_dispatch_every_registered_model_to_its_own_function():
     """Each code of MODELS reaches its diffuse function in ``_diffuse`` and its specular one in
-    ``_specular_cosine``, and each function is the lecture's formula: Lambert ``n . s``, Phong
-    ``r . v``, Blinn ``n . h / |h|``."""
-    assert set(reflectance.MODELS) == {lay.MODEL_PHONG, lay.MODEL_BLINN}
+    ``_specular``, and the lecture's models return the lecture's terms: Lambert ``kd n . s``, Phong
+    ``ks max(r . v, 0)^t``, Blinn ``ks max(n . h / |h|, 0)^t`` (GGX: tests/shading/test_ggx.py)."""
+    assert set(reflectance.MODELS) == {lay.MODEL_PHONG, lay.MODEL_BLINN, lay.MODEL_GGX}
+    order = [reflectance._phong, reflectance._blinn, reflectance._ggx_specular]
     rng = np.random.default_rng(7)
-    for _ in range(20):
+    c = tuple(float(x) for x in rng.uniform(0.1, 1.0, 12))
+    p = (7.0, 0.3, 0.6)
+    seen = 0
+    for _ in range(40):
         n, s, v = (tuple(_unit(rng)) for _ in range(3))
         ndots = float(np.dot(n, s))
+        if ndots <= 0:
+            continue
+        own = _own_terms(n, s, v, ndots, c, p)
         for code, pair in reflectance.MODELS.items():
-            dispatched, phong, blinn = _cosines(code, n, s, v, ndots)
-            own = {reflectance._phong_cosine: phong, reflectance._blinn_cosine: blinn}[pair.specular]
-            assert dispatched == own
-            diffuse, lambert = _diffuse_factors(code, n, s, v, ndots)
-            assert diffuse == {reflectance._lambert: lambert}[pair.diffuse] == ndots  # Lambert: n . s
+            k = order.index(pair.specular)
+            got = _terms(code, n, s, v, ndots, c, p)
+            if code == lay.MODEL_GGX:  # fast-math (reassoc, contract) may round the inlined copies apart
+                assert np.ravel(got) == pytest.approx(np.ravel(own[k]), rel=1e-13)
+                assert np.ravel(got) != pytest.approx(np.ravel(own[0]), rel=1e-6)
+            else:
+                assert got == own[k]
+        lam, phong = own[0]
+        blinn = own[1][1]
+        assert lam == pytest.approx(np.array(c[3:6]) * ndots, abs=1e-15)
         r = 2 * ndots * np.array(n) - np.array(s)
-        assert phong == pytest.approx(r @ v, abs=1e-14)
         h = np.array(s) + np.array(v)
-        assert blinn == pytest.approx(np.dot(n, h) / np.linalg.norm(h), abs=1e-14)
+        for term, cos in ((phong, r @ v), (blinn, np.dot(n, h) / np.linalg.norm(h))):
+            assert term == pytest.approx(np.array(c[6:9]) * max(min(cos, 1.0), 0.0) ** 7, abs=1e-14)
+        seen += 1
+    assert seen > 10
 
 
 def test_a_materials_specular_choice_packs_the_model_code():
     assert rs.Material(specular="phong").packed()[lay.MAT_MODEL] == lay.MODEL_PHONG
     assert rs.Material(specular="blinn").packed()[lay.MAT_MODEL] == lay.MODEL_BLINN
+    row = rs.Material(specular="ggx", metallic=0.25, roughness=0.75).packed()
+    assert row[lay.MAT_MODEL] == lay.MODEL_GGX
+    assert (row[lay.MAT_METALLIC], row[lay.MAT_ROUGHNESS]) == (0.25, 0.75)
+    assert np.all(row[lay.MAT_KS:lay.MAT_KS + 3] == 1.0)  # the map's scale: metallic, roughness as given
 
 
 @njit(cache=False)
