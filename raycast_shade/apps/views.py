@@ -452,13 +452,7 @@ def render_views(scene, cameras, out_dir, *, files: ViewFiles | None = None, run
         with connect(workers, run.scheduler, run.numba_threads) as client:
             for _ in _iter_dask(client, bases, jobs, spec, run.retries, run.per_task or 1):
                 pass
-    index = {"conventions": {"camera": "OpenCV: x right, y down, z forward; x_cam = R x_world + t",
-                             "pixels": "centre of pixel (i, j) at (u, v) = (i, j)",
-                             "zdepth": "camera-space z", "depth": "distance along the ray",
-                             "depth_png": f"uint16 zdepth * {spec.depth_scale:g}, 0 = none",
-                             "distance_png": f"uint16 depth * {spec.depth_scale:g}, 0 = none",
-                             "mask_png": "255 on a surface, 0 on the background", "labels": "labels.json",
-                             "ids": "-1 on the background (EXR: id + 1, 0 on the background)"},
+    index = {"conventions": _conventions(spec.depth_scale),
              "buffers": list(names), "formats": list(formats), "depth_scale": spec.depth_scale,
              "classes": list(semantic_classes(scene)[0]), "objects": object_table(scene),
              "views": [_index_entry(j, all_files[j.index], out_dir) for j in jobs]}
@@ -466,6 +460,18 @@ def render_views(scene, cameras, out_dir, *, files: ViewFiles | None = None, run
     path = os.path.join(out_dir, INDEX_NAME)
     write_json(path, index)
     return path
+
+
+
+def _conventions(depth_scale: float) -> dict:
+    """The index's ``conventions``: what the numbers in the files mean."""
+    return {"camera": "OpenCV: x right, y down, z forward; x_cam = R x_world + t",
+            "pixels": "centre of pixel (i, j) at (u, v) = (i, j)",
+            "zdepth": "camera-space z", "depth": "distance along the ray",
+            "depth_png": f"uint16 zdepth * {depth_scale:g}, 0 = none",
+            "distance_png": f"uint16 depth * {depth_scale:g}, 0 = none",
+            "mask_png": "255 on a surface, 0 on the background", "labels": "labels.json",
+            "ids": "-1 on the background (EXR: id + 1, 0 on the background)"}
 
 
 def _two_frames_fit(jobs, memory) -> bool:
