@@ -12,7 +12,9 @@ Dask cluster with ``RunOptions(workers=N)``, or on
   ``"npz"``), and the linear image with ``float_image=True``;
 * ``view_{i:05d}.exr``: the buffers (``"exr"``), and the linear image with
   ``float_image=True``;
-* ``view_{i:05d}_depth.png``: 16-bit z-depth in millimetres (``"depth_png"``);
+* ``view_{i:05d}_depth.png``: 16-bit z-depth in millimetres (``"depth_png"``); ``_distance.png``,
+  ``_mask.png``, ``_semantic.png``, ``_instance.png``: the distance along the ray, the foreground
+  mask and the label PNGs (:class:`~raycast_shade.apps.viewfiles.ViewFiles`);
 
 npz and EXR files are compressed (``compression="zip"``: npz deflate level
 1, EXR ZIP, deflated on threads) or stored (``"none"``). The default,
@@ -34,7 +36,8 @@ pose; :func:`raycast_shade.output.labels.object_table`), and per view its
 ``K``, ``R``, ``t`` (OpenCV's convention), size, projection, files and
 visible objects. ``exports`` adds set-level files: ``coco_instances.json``
 (COCO instances, RLE masks), ``transforms.json`` (nerfstudio / instant-ngp),
-``colmap/`` (COLMAP's text model) and ``bop/`` (a BOP data set); see
+``colmap/`` (COLMAP's text model, surface points with tracks), ``bop/`` (a BOP data set) and
+``amodal/`` (the silhouettes); see
 :mod:`raycast_shade.output.labels`, :mod:`raycast_shade.output.export` and
 :mod:`raycast_shade.output.bop`. The exports are written from the
 views' records and cameras, so they are not part of the plan: asking for
@@ -373,8 +376,9 @@ def render_views(scene, cameras, out_dir, *, files: ViewFiles | None = None, run
     overwrite : bool
         Replace a view set of another plan in ``out_dir`` (default: refuse
         it, saying what differs).
-    exports : sequence of {"coco", "nerfstudio", "colmap", "bop"}
-        Set-level files written after the views (see the module docstring);
+    exports : sequence of {"coco", "nerfstudio", "colmap", "bop", "amodal"}
+        Set-level files written after the views (see the module docstring and
+        :mod:`~raycast_shade.apps.viewexports`; ``amodal`` turns ``unoccluded`` on);
         ``nerfstudio`` and ``colmap`` name the image files, so they need
         ``files.image``; ``bop`` (:mod:`raycast_shade.output.bop`, the scene
         in metres) needs ``.png`` images and turns on ``unoccluded`` and the
@@ -384,6 +388,8 @@ def render_views(scene, cameras, out_dir, *, files: ViewFiles | None = None, run
         (amodal) pixel count and box and its visible fraction in the records
         and the index (:func:`raycast_shade.output.labels.view_objects`); one
         more cast per model and view.
+    export_options : ExportOptions, optional
+        How the exports are written (COCO polygons, COLMAP layout and points).
 
     Returns
     -------
