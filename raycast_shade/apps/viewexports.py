@@ -43,7 +43,8 @@ EXPORT_FILES = {"coco": ("coco_instances.json",), "nerfstudio": ("transforms.jso
                         *(os.path.join("bop", BOP_SPLIT, n + ".json") for n in ("scene_camera", "scene_gt", "scene_gt_info"))),
                 "amodal": ()}
 BOP_UNITS_MM = 1000.0  # millimetres per world unit of a view set's BOP export: the scene in metres
-_FOLDERS = ("colmap", "bop", "amodal")  # exports that write a folder of their own
+_FOLDERS = ("colmap", "bop", "amodal")
+MAX_POLYGON_TOLERANCE = 100.0  # pixels: beyond, a mask's polygon is a triangle or its unsimplified outline  # exports that write a folder of their own
 
 
 @dataclasses.dataclass(frozen=True)
@@ -57,7 +58,8 @@ class ExportOptions:
         (:func:`~raycast_shade.output.labelfiles.mask_polygons`; needs OpenCV; a mask with a hole
         keeps its RLE, with a warning).
     polygon_tolerance : float
-        Douglas-Peucker tolerance of the polygons, in pixels (``>= 0``; 0: exact).
+        Douglas-Peucker tolerance of the polygons, in pixels (0 to 100; 0: exact; past a few pixels
+        every mask collapses to a few corners).
     colmap_layout : {"flat", "sparse"}
         ``colmap/{cameras,images,points3D}.txt`` (as before), or ``colmap/sparse/0/*.txt`` beside
         ``colmap/images/`` (links to the views' images): the folder 3D Gaussian splatting reads.
@@ -82,7 +84,8 @@ class ExportOptions:
 
             require_opencv()
         values = {"coco_segmentation": seg,
-                  "polygon_tolerance": float(as_scalar(self.polygon_tolerance, "polygon_tolerance", minimum=0.0)),
+                  "polygon_tolerance": float(as_scalar(self.polygon_tolerance, "polygon_tolerance", minimum=0.0,
+                                                       maximum=MAX_POLYGON_TOLERANCE)),
                   "colmap_layout": as_choice(self.colmap_layout, "colmap_layout", ("flat", "sparse")),
                   "colmap_points": int(as_int(self.colmap_points, "colmap_points", minimum=0))}
         for name, value in values.items():

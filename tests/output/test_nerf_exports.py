@@ -226,6 +226,8 @@ def test_export_options_are_checked_naming_the_field():
         ExportOptions(colmap_points=-1)
     with pytest.raises(ValueError, match="polygon_tolerance"):
         ExportOptions(polygon_tolerance=-0.5)
+    with pytest.raises(ValueError, match="polygon_tolerance"):
+        ExportOptions(polygon_tolerance=1e308)
     with pytest.raises(ValueError, match="coco_segmentation"):
         ExportOptions(coco_segmentation="bitmap")
     with pytest.raises(TypeError, match="colmap_points"):
