@@ -12,6 +12,8 @@ import warnings
 import imageio.v3 as iio
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from pycocotools import mask as cocomask
 from pycocotools.coco import COCO
 
@@ -153,3 +155,27 @@ def test_a_mask_with_a_hole_keeps_its_rle_with_a_warning():
     assert isinstance(data["annotations"][1]["segmentation"], list)
     with pytest.raises(ValueError, match="tolerance"):
         mask_polygons(ring, -1.0)
+
+
+def _has_hole(m):
+    from scipy import ndimage
+
+    return bool((ndimage.binary_fill_holes(m) & ~m).any())
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.integers(1, 12), st.integers(1, 12), st.integers(0, 2**32 - 1), st.floats(0.1, 0.9))
+def test_polygons_of_random_masks_are_exact_or_the_mask_has_a_hole(h, w, seed, density):
+    m = np.random.default_rng(seed).random((h, w)) < density
+    polys = mask_polygons(m, 0.0)
+    # refused exactly for a hole: background the mask encloses (4-connected background, as OpenCV
+    # traces the 8-connected foreground)
+    assert (polys is None) == _has_hole(m)
+    if polys is None:
+        return
+    if not m.any():
+        assert polys == []
+        return
+    back = cocomask.decode(cocomask.merge(cocomask.frPyObjects(polys, h, w))).astype(bool)
+    assert (back == m).all()
+
