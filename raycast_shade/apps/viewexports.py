@@ -213,8 +213,10 @@ def _rgb8(path):
     import numpy as np
 
     from ..output.quantize import to_uint8_table
+    from ..output.tonemap import read_pfm
 
-    img = np.load(path) if path.lower().endswith(".npy") else iio.imread(path)
+    ext = os.path.splitext(path)[1].lower()
+    img = np.load(path) if ext == ".npy" else read_pfm(path) if ext == ".pfm" else iio.imread(path)
     if img.ndim == 2:
         img = np.repeat(img[..., None], 3, axis=2)
     img = img[..., :3]

@@ -255,3 +255,18 @@ def test_the_cli_prints_one_line_for_a_bad_export_option(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and "colmap_points" in err[0]
     assert not (tmp_path / "set").exists()
+
+
+@pytest.mark.parametrize("ext", [".pfm", ".npy"])
+def test_points_of_a_float_image_set_take_the_colours_its_png_would_have(tmp_path, ext):
+    scene = nerf_scene()
+    cams = orbit_cameras(scene.camera, 2)
+    colours = {}
+    for image in (".png", ext):
+        out = tmp_path / image[1:]
+        render_views(scene, cams, out, files=rs.ViewFiles(buffers=["zdepth"], image=image), exports=["colmap"],
+                     export_options=ExportOptions(colmap_points=30))
+        rec = pycolmap.Reconstruction(str(out / "colmap"))
+        colours[image] = np.array([rec.points3D[k].color for k in sorted(rec.points3D)])
+    assert len(colours[ext]) > 40 and colours[ext].max() > 0
+    assert (colours[ext] == colours[".png"]).all()  # tone-mapped as the PNG is by default
