@@ -12,7 +12,9 @@ Dask cluster with ``RunOptions(workers=N)``, or on
   ``"npz"``), and the linear image with ``float_image=True``;
 * ``view_{i:05d}.exr``: the buffers (``"exr"``), and the linear image with
   ``float_image=True``;
-* ``view_{i:05d}_depth.png``: 16-bit z-depth in millimetres (``"depth_png"``);
+* ``view_{i:05d}_depth.png``: 16-bit z-depth in millimetres (``"depth_png"``); ``_distance.png``,
+  ``_mask.png``, ``_semantic.png``, ``_instance.png``: the distance along the ray, the foreground
+  mask and the label PNGs (:class:`~raycast_shade.apps.viewfiles.ViewFiles`);
 
 npz and EXR files are compressed (``compression="zip"``: npz deflate level
 1, EXR ZIP, deflated on threads) or stored (``"none"``). The default,
@@ -34,7 +36,8 @@ pose; :func:`raycast_shade.output.labels.object_table`), and per view its
 ``K``, ``R``, ``t`` (OpenCV's convention), size, projection, files and
 visible objects. ``exports`` adds set-level files: ``coco_instances.json``
 (COCO instances, RLE masks), ``transforms.json`` (nerfstudio / instant-ngp),
-``colmap/`` (COLMAP's text model) and ``bop/`` (a BOP data set); see
+``colmap/`` (COLMAP's text model, surface points with tracks), ``bop/`` (a BOP data set) and
+``amodal/`` (the silhouettes); see
 :mod:`raycast_shade.output.labels`, :mod:`raycast_shade.output.export` and
 :mod:`raycast_shade.output.bop`. The exports are written from the
 views' records and cameras, so they are not part of the plan: asking for
@@ -64,9 +67,10 @@ import dataclasses
 import json
 import os
 
-from ..common.validate import as_bool, as_instance, as_names
-from ..output.bufferfile import depth_png_bytes, exr_into, npz_into
+from ..common.validate import as_instance
+from ..output.bufferfile import exr_into, npz_into
 from ..output.buffers import check_buffers
+from ..output.labelfiles import label_bits, label_lookup
 from ..output.labels import object_table, rle_encode, semantic_classes, silhouettes, view_objects
 from ..output.imagefile import check_output_folder, png_bytes, remove_stale_temps, write_hashed, write_image
 from ..output.quantize import to_uint8_table
@@ -77,8 +81,9 @@ from .batch.options import check_options
 from .batch.plan import plan_batch
 from .batch.pool import ProcessPool, cores
 from .batch.run import RunOptions, merge_keywords
-from .viewexports import EXPORT_FILES, EXPORTS, check_set_targets, write_exports
-from .viewfiles import COMPRESSIONS, FORMATS, ViewFiles
+from .viewexports import (EXPORT_FILES, EXPORTS, ExportOptions, add_export_arguments, check_set_options, check_set_targets,
+                          export_options_of, set_level_files, write_exports)
+from .viewfiles import COMPRESSIONS, FORMATS, PNG_FORMATS, ViewFiles, format_buffers, png_format_bytes, view_files
 from .viewslots import ViewSlots
 from .viewplan import (PLAN_FORMAT, PLAN_NAME, digest, file_hasher, prepare_folder, view_hashes, view_is_done, view_key,
                        write_json, write_record)
@@ -92,17 +97,6 @@ FLAT_FILE_KEYWORDS = {k: k for k in ("buffers", "formats", "image", "depth_scale
 FLAT_RUN_KEYWORDS = {**{k: k for k in ("workers", "scheduler", "resume", "retries", "numba_threads")},
                      "views_per_task": "per_task"}
 _STEM = "view_{:05d}"
-
-
-def view_files(index: int, formats, image) -> dict:
-    """File names (no folder) of view ``index``, by kind (``image``, ``npz``, ``exr``, ``depth_png``,
-    and ``record``, the view's record, written last)."""
-    stem = _STEM.format(index)
-    files = {} if image is None else {"image": stem + image}
-    for f in formats:
-        files[f] = stem + ("_depth.png" if f == "depth_png" else "." + f)
-    files["record"] = stem + ".json"
-    return files
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -140,7 +134,7 @@ def _render_view(job, base, spec: _ViewSpec, cache: SceneCache, slot=None):
     if kwargs.get("caster", "auto") != "embreex" and kwargs.get("backend") != "raster":
         embree_accel(base.geometry)  # packed and built once per mesh set; Scene.replace shares both
     scene = base.replace(lights=job.lights, camera=job.camera, ambient=job.ambient, background=job.background)
-    extra = [b for b in ("model_id",) + (("zdepth",) if "depth_png" in spec.formats else ()) if b not in spec.buffers]
+    extra = [b for b in dict.fromkeys(("model_id",) + format_buffers(spec.formats)) if b not in spec.buffers]
     # The image and buffers go into the arrays of the view that last used this slot (about 75 MB at
     # 1080p for the default set): no fresh pages per view; two slots alternate (see _run_views).
     names = spec.buffers + tuple(extra)
@@ -150,16 +144,27 @@ def _render_view(job, base, spec: _ViewSpec, cache: SceneCache, slot=None):
     if slot is not None:
         slot.keep(frame.buffers)
     alone = silhouettes(scene, job.camera) if spec.unoccluded else None  # casts: on the rendering thread
-    boxes = scene.geometry.memo("views.boxes", lambda geo: ([m.bounds for m in scene.models],
-                                                          [m.model_to_world for m in scene.models]))  # once per mesh set
+    boxes = scene.geometry.memo("views.boxes", lambda geo: ([m.bounds for m in scene.models],  # once per mesh set
+                                                          [m.model_to_world for m in scene.models], _labels(scene)))
     cache.count("renders")
     return files, frame, key, alone, boxes
+
+
+def _labels(scene) -> dict:
+    """``{kind: (lookup, bits)}`` of the label PNGs (:mod:`raycast_shade.output.labelfiles`; more labels
+    than a 16-bit PNG holds were refused before rendering, when a label PNG was asked for)."""
+    out = {}
+    for kind in ("semantic", "instance"):
+        lookup = label_lookup(scene, kind)
+        out[kind] = (lookup, label_bits(min(int(lookup.max(initial=0)), 65535), kind))
+    return out
 
 
 def _store_view(job, spec: _ViewSpec, files, frame, key, alone, boxes) -> None:
     """Write a rendered view's files, then its record with the visible objects (masks as RLE always:
     a later run may ask for the COCO export without rendering again)."""
-    written = _write_files(files, frame, {k: v for k, v in frame.buffers.items() if k in spec.buffers}, job, spec)
+    kept = {k: v for k, v in frame.buffers.items() if k in spec.buffers}
+    written = _write_files(files, frame, kept, job, spec, boxes[2])
     objects = view_objects(frame.buffers["model_id"], job.camera, rle=True, alone=alone, boxes_3d=boxes[0],
                            poses=boxes[1])
     if alone is not None:  # the silhouettes too, for the BOP export's mask/ files (a later run may ask for it)
@@ -206,7 +211,7 @@ def _run_views(jobs, base_of, spec: _ViewSpec, cache: SceneCache) -> list:
     return stems
 
 
-def _write_files(files, frame, kept, job, spec: _ViewSpec) -> dict:
+def _write_files(files, frame, kept, job, spec: _ViewSpec, labels) -> dict:
     """The view's image and buffer files, written side by side on threads (compression, writing and
     fsync release the GIL, so one file's disk wait overlaps another's compression). Returns
     ``{path: (bytes, digest)}`` of the files hashed as they were written (all but a non-PNG image)."""
@@ -229,8 +234,8 @@ def _write_files(files, frame, kept, job, spec: _ViewSpec) -> dict:
         "npz": hashed(lambda fh: npz_into(fh, kept, image=linear, camera=job.camera,
                                           compressed=1 if zipped else False)),
         "exr": hashed(lambda fh: exr_into(fh, kept, image=linear, compression="zip" if zipped else "none")),
-        "depth_png": hashed(lambda fh: fh.write(depth_png_bytes(frame.buffers["zdepth"], scale=spec.depth_scale,
-                                                                fast=True))),
+        **{f: (lambda f: hashed(lambda fh: fh.write(png_format_bytes(f, frame.buffers, spec.depth_scale, labels))))(f)
+           for f in PNG_FORMATS},
     }
     todo = [(writers[k], p) for k, p in files.items() if k in writers]
     if len(todo) == 1:
@@ -332,29 +337,6 @@ def _make_plan(spec: _ViewSpec, jobs) -> dict:
                        "files": view_files(j.index, spec.formats, spec.image)} for j in jobs]}
 
 
-def _check_set_options(exports, files: ViewFiles, unoccluded, overwrite) -> tuple:
-    """The checked exports, compression (``"auto"`` resolved), formats and ``unoccluded`` (``bop`` adds
-    ``depth_png`` and turns ``unoccluded`` on); TypeError/ValueError naming the argument otherwise. The file options themselves were checked by :class:`ViewFiles`."""
-    exports = as_names(exports, "exports", EXPORTS)
-    compression = files.compression
-    if compression == "auto":
-        from ..output.npzwrite import deflate_backend
-
-        compression = "zip" if deflate_backend(1) == "isal" else "none"
-    for e in ("nerfstudio", "colmap", "bop"):
-        if e in exports and files.image is None:
-            raise ValueError(f"exports: {e!r} names each view's image file, but image=None writes none")
-    if "bop" in exports and files.image != ".png":
-        raise ValueError(f"exports: 'bop' takes each view's image as its rgb/ PNG, but image={files.image!r}")
-    for name, value in (("unoccluded", unoccluded), ("overwrite", overwrite)):
-        as_bool(value, name)
-    formats = files.formats
-    if "bop" in exports:  # BOP's depth/ and mask/ files and visib_fract: the depth PNG and the silhouettes
-        formats = formats if "depth_png" in formats else formats + ("depth_png",)
-        unoccluded = True
-    return exports, compression, formats, unoccluded
-
-
 def _on_dask(run: RunOptions) -> bool:
     """Whether the views render on Dask (``workers`` or ``scheduler``, or ``executor="dask"``) rather than
     in this process; a view set has no process-pool path (its workers write files and keep scene caches)."""
@@ -366,7 +348,7 @@ def _on_dask(run: RunOptions) -> bool:
 
 def render_views(scene, cameras, out_dir, *, files: ViewFiles | None = None, run: RunOptions | None = None,
                  shading="phong", tone: dict | None = None, overwrite: bool = False, exports=(),
-                 unoccluded: bool = False, **render_kwargs) -> str:
+                 unoccluded: bool = False, export_options: ExportOptions | None = None, **render_kwargs) -> str:
     """Render a set of views with their buffers and cameras into ``out_dir``.
 
     Parameters
@@ -394,8 +376,9 @@ def render_views(scene, cameras, out_dir, *, files: ViewFiles | None = None, run
     overwrite : bool
         Replace a view set of another plan in ``out_dir`` (default: refuse
         it, saying what differs).
-    exports : sequence of {"coco", "nerfstudio", "colmap", "bop"}
-        Set-level files written after the views (see the module docstring);
+    exports : sequence of {"coco", "nerfstudio", "colmap", "bop", "amodal"}
+        Set-level files written after the views (see the module docstring and
+        :mod:`~raycast_shade.apps.viewexports`; ``amodal`` turns ``unoccluded`` on);
         ``nerfstudio`` and ``colmap`` name the image files, so they need
         ``files.image``; ``bop`` (:mod:`raycast_shade.output.bop`, the scene
         in metres) needs ``.png`` images and turns on ``unoccluded`` and the
@@ -405,6 +388,8 @@ def render_views(scene, cameras, out_dir, *, files: ViewFiles | None = None, run
         (amodal) pixel count and box and its visible fraction in the records
         and the index (:func:`raycast_shade.output.labels.view_objects`); one
         more cast per model and view.
+    export_options : ExportOptions, optional
+        How the exports are written (COCO polygons, COLMAP layout and points).
 
     Returns
     -------
@@ -446,7 +431,8 @@ def render_views(scene, cameras, out_dir, *, files: ViewFiles | None = None, run
     run = merge_keywords(run, RunOptions, render_kwargs, FLAT_RUN_KEYWORDS, "run")
     on_dask = _on_dask(run)
     names, formats, image, depth_scale = check_buffers(files.buffers), files.formats, files.image, files.depth_scale
-    exports, compression, formats, unoccluded = _check_set_options(exports, files, unoccluded, overwrite)
+    exports, compression, formats, unoccluded, export_options = check_set_options(
+        exports, files, unoccluded, overwrite, scene, cameras, export_options)
     options = check_options(shading, render_kwargs, tone, run.resume)
     memory = dict(buffers=names + ("model_id",), samples=options.render_kwargs.get("samples", 1))
     bases, jobs = plan_batch(scene, cameras, memory=memory)
@@ -458,9 +444,9 @@ def render_views(scene, cameras, out_dir, *, files: ViewFiles | None = None, run
     all_files = {j.index: view_files(j.index, formats, spec.image) for j in jobs}
     check_set_targets(out_dir, exports, [j.camera for j in jobs], all_files, (INDEX_NAME, PLAN_NAME))
     os.makedirs(out_dir, exist_ok=True)
-    set_files = [INDEX_NAME] + [n for names in EXPORT_FILES.values() for n in names]
+    set_files = [INDEX_NAME] + set_level_files()
     prepare_folder(out_dir, plan, bool(overwrite), set_files)
-    set_level = [INDEX_NAME, PLAN_NAME, EXPORT_FILES["coco"][0], EXPORT_FILES["nerfstudio"][0]]
+    set_level = [INDEX_NAME, PLAN_NAME] + [n for n in set_level_files() if os.sep not in n]
     remove_stale_temps(out_dir, [n for files in all_files.values() for n in files.values()] + set_level)
     if not on_dask:
         cache = SceneCache()
@@ -472,18 +458,26 @@ def render_views(scene, cameras, out_dir, *, files: ViewFiles | None = None, run
         with connect(workers, run.scheduler, run.numba_threads) as client:
             for _ in _iter_dask(client, bases, jobs, spec, run.retries, run.per_task or 1):
                 pass
-    index = {"conventions": {"camera": "OpenCV: x right, y down, z forward; x_cam = R x_world + t",
-                             "pixels": "centre of pixel (i, j) at (u, v) = (i, j)",
-                             "zdepth": "camera-space z", "depth": "distance along the ray",
-                             "depth_png": f"uint16 zdepth * {spec.depth_scale:g}, 0 = none",
-                             "ids": "-1 on the background (EXR: id + 1, 0 on the background)"},
+    index = {"conventions": _conventions(spec.depth_scale),
              "buffers": list(names), "formats": list(formats), "depth_scale": spec.depth_scale,
              "classes": list(semantic_classes(scene)[0]), "objects": object_table(scene),
              "views": [_index_entry(j, all_files[j.index], out_dir) for j in jobs]}
-    write_exports(scene, [j.camera for j in jobs], index, out_dir, exports)
+    write_exports(scene, [j.camera for j in jobs], index, out_dir, exports, export_options)
     path = os.path.join(out_dir, INDEX_NAME)
     write_json(path, index)
     return path
+
+
+
+def _conventions(depth_scale: float) -> dict:
+    """The index's ``conventions``: what the numbers in the files mean."""
+    return {"camera": "OpenCV: x right, y down, z forward; x_cam = R x_world + t",
+            "pixels": "centre of pixel (i, j) at (u, v) = (i, j)",
+            "zdepth": "camera-space z", "depth": "distance along the ray",
+            "depth_png": f"uint16 zdepth * {depth_scale:g}, 0 = none",
+            "distance_png": f"uint16 depth * {depth_scale:g}, 0 = none",
+            "mask_png": "255 on a surface, 0 on the background", "labels": "labels.json",
+            "ids": "-1 on the background (EXR: id + 1, 0 on the background)"}
 
 
 def _two_frames_fit(jobs, memory) -> bool:
@@ -543,6 +537,7 @@ def register_cli(subparsers):
                         "default: zip where the isal package is installed (as fast as storing), else none")
     p.add_argument("--overwrite", action="store_true",
                    help="replace a view set of another plan in the output folder (default: refuse it)")
+    add_export_arguments(p)
     add_render_options(p)
     add_mesh_options(p)
     where = p.add_mutually_exclusive_group()
@@ -578,7 +573,7 @@ def run_cli(ns) -> int:
     run = run_options(ns)  # --workers, --scheduler: the record Python callers pass
     index = render_views(scene, orbit_cameras(scene.camera, ns.orbit), ns.output, files=files, run=run,
                          shading=shading, tone=tone, overwrite=ns.overwrite, exports=exports,
-                         unoccluded=ns.unoccluded, **render_kwargs)
+                         unoccluded=ns.unoccluded, export_options=export_options_of(ns), **render_kwargs)
     secs = time.perf_counter() - t0
     cam = scene.camera
     print(f"wrote {index} ({ns.orbit} views, {cam.width}x{cam.height}, buffers {','.join(ns.buffers)}): "

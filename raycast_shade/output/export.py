@@ -11,7 +11,15 @@ same pixel in every convention (``docs/vision.md``).
     camera) or ``"OPENCV_FISHEYE"`` (``k1 .. k4``), at the top when every
     view shares them, else in each frame; per frame
     ``file_path`` and ``transform_matrix``, the (4, 4) camera-to-world matrix
-    in OpenGL's camera axes (``x`` right, ``y`` up, ``z`` backward).
+    in OpenGL's camera axes (``x`` right, ``y`` up, ``z`` backward); and, when
+    given, ``depth_file_path`` (a 16-bit PNG that nerfstudio's dataparser reads
+    as ``value * depth_unit_scale_factor``, its option, default 0.001: the
+    top-level ``depth_unit_scale_factor`` written here says the value to pass,
+    ``1 / depth_scale``) and ``mask_path`` (an 8-bit grey PNG; nerfstudio
+    trains only on its non-zero pixels). nerfstudio's depth loss reads a
+    depth image as z-depth for ``OPENCV`` (its rays' direction norms scale
+    it to the ray) and as the distance along the ray for ``OPENCV_FISHEYE``
+    (unit directions): the caller links the matching kind.
 COLMAP text (``cameras.txt``, ``images.txt``, ``points3D.txt``)
     One camera per distinct intrinsics, lens and size: ``PINHOLE``
     (``fx fy cx cy``), ``OPENCV`` (``... k1 k2 p1 p2``), ``FULL_OPENCV``
@@ -20,8 +28,12 @@ COLMAP text (``cameras.txt``, ``images.txt``, ``points3D.txt``)
     unchanged by the pixel shift (they act on normalised coordinates); per image the world-to-camera rotation as a unit quaternion
     (Hamilton, ``QW QX QY QZ``, ``QW >= 0``), the translation ``TX TY TZ``
     (OpenCV's ``R``, ``t``: COLMAP uses OpenCV's camera axes), the camera
-    id and the file name, then an empty line of 2D points; ``points3D.txt``
-    is empty. Numbers are written with 17 significant digits.
+    id and the file name, then its 2D points ``X Y POINT3D_ID`` (the
+    observations of :class:`~raycast_shade.output.surfacepoints.SurfacePoints`,
+    +0.5 as the principal point), empty without points; ``points3D.txt``: per
+    point ``X Y Z R G B ERROR`` (ERROR 0: the observations are its exact
+    projections) and its track ``IMAGE_ID POINT2D_IDX`` pairs, empty without
+    points. Numbers are written with 17 significant digits.
 """
 
 from __future__ import annotations
@@ -31,10 +43,10 @@ import os
 
 import numpy as np
 
-from ..common.validate import as_path, as_sequence
+from ..common.validate import as_path, as_scalar, as_sequence
 
 __all__ = ["PIXEL_CENTRE_SHIFT", "camera_to_world_gl", "nerfstudio_transforms", "write_transforms", "rotation_to_quaternion",
-           "write_colmap", "check_colmap", "check_transforms", "COLMAP_FILES"]
+           "write_colmap", "check_colmap", "check_transforms", "COLMAP_FILES", "place_file"]
 
 COLMAP_FILES = ("cameras.txt", "images.txt", "points3D.txt")  # the text model, in a folder of its own
 
@@ -165,7 +177,7 @@ def camera_to_world_gl(cam) -> np.ndarray:
     return c2w
 
 
-def nerfstudio_transforms(cameras, file_paths) -> dict:
+def nerfstudio_transforms(cameras, file_paths, *, depth_paths=None, mask_paths=None, depth_scale: float = 1000.0) -> dict:
     """The ``transforms.json`` dictionary of perspective cameras (see the module docstring).
 
     Parameters
@@ -174,19 +186,32 @@ def nerfstudio_transforms(cameras, file_paths) -> dict:
         Perspective; lenses all fisheye or none.
     file_paths : sequence of str
         Each view's image, relative to the ``transforms.json`` folder.
+    depth_paths, mask_paths : sequence of str, optional
+        Each view's depth PNG (z-depth for pinhole/OpenCV lenses, distance along the ray for
+        fisheye ones: what nerfstudio reads) and mask PNG; one per camera.
+    depth_scale : float
+        The depth PNGs' units per world unit: ``depth_unit_scale_factor`` is its inverse.
     """
     cameras, file_paths = check_transforms(cameras, file_paths)
+    extra = {}
+    for key, paths in (("depth_file_path", depth_paths), ("mask_path", mask_paths)):
+        if paths is not None:
+            extra[key] = _check(cameras, paths, key, one_lens_model=True)[1]
     intr = [_intrinsics(c) for c in cameras]
     shared = all(i == intr[0] for i in intr)
     model = "OPENCV_FISHEYE" if _lens(cameras[0])[0] == "fisheye" else "OPENCV"
     out = {"camera_model": model, **(intr[0] if shared else {})}
-    out["frames"] = [{"file_path": p, **({} if shared else i), "transform_matrix": camera_to_world_gl(c).tolist()}
-                     for c, p, i in zip(cameras, file_paths, intr)]
+    if depth_paths is not None:
+        out["depth_unit_scale_factor"] = 1.0 / float(as_scalar(depth_scale, "depth_scale", minimum=0.0, exclusive=True))
+    out["frames"] = [{"file_path": p, **({} if shared else i), "transform_matrix": camera_to_world_gl(c).tolist(),
+                      **{key: paths[k] for key, paths in extra.items()}}
+                     for k, (c, p, i) in enumerate(zip(cameras, file_paths, intr))]
     return out
 
 
-def write_transforms(path, cameras, file_paths) -> str:
+def write_transforms(path, cameras, file_paths, **links) -> str:
     """Write :func:`nerfstudio_transforms` to ``path`` (``.json``), atomically; returns the path.
+    ``links``: its ``depth_paths``, ``mask_paths`` and ``depth_scale``.
 
     Raises
     ------
@@ -201,7 +226,7 @@ def write_transforms(path, cameras, file_paths) -> str:
     if not path.lower().endswith(".json"):
         raise ValueError(f"path: {path!r}: expected a .json file")
     check_output_file(path, "path")
-    data = nerfstudio_transforms(cameras, file_paths)
+    data = nerfstudio_transforms(cameras, file_paths, **links)
     with atomic_target(path) as tmp, open(tmp, "w") as fh:
         json.dump(data, fh, indent=1)
     return path
@@ -232,8 +257,8 @@ def _num(x) -> str:
     return format(float(x), ".17g")
 
 
-def write_colmap(folder, cameras, names) -> list:
-    """Write COLMAP's text model (``cameras.txt``, ``images.txt``, empty ``points3D.txt``) of perspective cameras.
+def write_colmap(folder, cameras, names, points=None) -> list:
+    """Write COLMAP's text model (``cameras.txt``, ``images.txt``, ``points3D.txt``) of perspective cameras.
 
     Parameters
     ----------
@@ -244,6 +269,9 @@ def write_colmap(folder, cameras, names) -> list:
     names : sequence of str
         Each view's image file name (COLMAP's ``NAME``): one word, no repeats
         (:func:`check_colmap`).
+    points : SurfacePoints, optional
+        Points with their observations per camera
+        (:func:`~raycast_shade.output.surfacepoints.surface_points`); default: none.
 
     Returns
     -------
@@ -261,6 +289,8 @@ def write_colmap(folder, cameras, names) -> list:
 
     folder = check_output_folder(folder, "folder")
     cameras, names = check_colmap(cameras, names)
+    if points is not None and len(points.observations) != len(cameras):
+        raise ValueError(f"points: observations for {len(points.observations)} views, {len(cameras)} cameras")
     for fname in COLMAP_FILES:
         if os.path.isdir(os.path.join(folder, fname)):
             raise ValueError(f"folder: {os.path.join(folder, fname)!r} is a folder; COLMAP's {fname} goes there")
@@ -284,17 +314,19 @@ def write_colmap(folder, cameras, names) -> list:
         _, R, t = cam.to_opencv()
         q = rotation_to_quaternion(R)
         img_lines.append(f"{i + 1} " + " ".join(_num(v) for v in (*q, *t)) + f" {ids[params]} {name}")
-        img_lines.append("")
+        img_lines.append("" if points is None else _points2d_line(*points.observations[i]))
+    point_lines, n_obs = _points3d_lines(points)
     texts = {
         "cameras.txt": "# Camera list with one line of data per camera:\n#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n"
                        f"# Number of cameras: {len(cam_lines)}\n" + "\n".join(cam_lines) + "\n",
         "images.txt": "# Image list with two lines of data per image:\n"
                       "#   IMAGE_ID, QW, QX, QY, QZ, TX, TY, TZ, CAMERA_ID, NAME\n#   POINTS2D[] as (X, Y, POINT3D_ID)\n"
-                      f"# Number of images: {len(cameras)}, mean observations per image: 0\n"
+                      f"# Number of images: {len(cameras)}, mean observations per image: {n_obs / len(cameras):g}\n"
                       + "\n".join(img_lines) + "\n",
         "points3D.txt": "# 3D point list with one line of data per point:\n"
                         "#   POINT3D_ID, X, Y, Z, R, G, B, ERROR, TRACK[] as (IMAGE_ID, POINT2D_IDX)\n"
-                        "# Number of points: 0, mean track length: 0\n",
+                        f"# Number of points: {len(point_lines)}, mean track length: "
+                        f"{n_obs / max(1, len(point_lines)):g}\n" + "".join(line + "\n" for line in point_lines),
     }
     paths = []
     for fname, text in texts.items():
@@ -303,3 +335,30 @@ def write_colmap(folder, cameras, names) -> list:
             fh.write(text)
         paths.append(p)
     return paths
+
+
+def _points2d_line(ids, uv) -> str:
+    """One image's ``X Y POINT3D_ID`` triples (COLMAP's pixel coordinates; point ids from 1)."""
+    xy = np.asarray(uv, np.float64) + PIXEL_CENTRE_SHIFT
+    return " ".join(f"{_num(x)} {_num(y)} {int(p) + 1}" for (x, y), p in zip(xy, ids))
+
+
+def _points3d_lines(points) -> tuple:
+    """``(lines, observations)``: ``points3D.txt``'s lines and the total track length."""
+    if points is None or not len(points.xyz):
+        return [], 0
+    tracks = [[] for _ in range(len(points.xyz))]
+    for i, (ids, _) in enumerate(points.observations):
+        for idx, p in enumerate(ids.tolist()):
+            tracks[p].append(f"{i + 1} {idx}")
+    lines = [f"{p + 1} " + " ".join(_num(v) for v in xyz) + " " + " ".join(str(int(c)) for c in rgb) + " 0 "
+             + " ".join(track) for p, (xyz, rgb, track) in enumerate(zip(points.xyz, points.rgb, tracks))]
+    return lines, sum(len(t) for t in tracks)
+
+
+def place_file(src, dst) -> None:
+    """``dst`` a hard link to ``src`` where the file system allows, else a copy (atomically either way;
+    BOP's ``rgb/`` files are placed so)."""
+    from .bop import _place
+
+    _place(src, dst)

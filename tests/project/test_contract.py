@@ -584,6 +584,8 @@ CLI_LEGAL = {
     ("animate", "--degrees", "1e308"): "reduced modulo 360 x frames: every frame a finite turn",
     ("animate", "--fps", "1e308"): "the frame rate of a video; PNG frames (the walk's output) have none",
     ("views", "--export", "''"): "an empty list of exports: the view set alone, as without --export",
+    ("views", "--colmap-points", "0"): "no surface points: an empty points3D.txt, as before",
+    ("views", "--coco-polygons", "0"): "polygons along every pixel corner: exact",
 }
 
 
