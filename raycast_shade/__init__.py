@@ -50,7 +50,7 @@ __all__ = [
     "LightInsideWarning", "NoLightsWarning", "ZeroNormalWarning", "EmptyViewWarning", "SingleSidedWarning",
     "AllMaskedWarning", "NormalMapWarning", "LensFoldWarning",
     "figures", "overlays",
-    "explain", "explore", "render_views", "ViewFiles", "RunOptions", "diagnose", "warmup", "animate_light",
+    "explain", "explore", "render_views", "ViewFiles", "RunOptions", "ExportOptions", "diagnose", "warmup", "animate_light",
     "animate_orbit",
     "save_npz", "load_npz", "write_exr", "read_exr", "write_depth_png", "read_depth_png",
     "optical_flow", "move_model", "semantic_classes", "object_table", "view_objects", "coco_instances", "write_coco",
@@ -58,11 +58,11 @@ __all__ = [
 ]
 
 # Imported on first access: figures needs matplotlib and explore ipywidgets (the
-# "notebook" extra), render_views and its records (ViewFiles, RunOptions) the batch machinery, the vision files and labels are
+# "notebook" extra), render_views and its records (ViewFiles, RunOptions, ExportOptions) the batch machinery, the vision files and labels are
 # not needed to render, and none belongs on the start-up path of ``raycast-shade demo``.
 _LAZY = {"figures": ".output.figures", "overlays": ".output.overlays"}
 _LAZY_FUNCTIONS = {"explore": ".apps.explore", "render_views": ".apps.views", "ViewFiles": ".apps.viewfiles",
-                   "RunOptions": ".apps.batch.run", "diagnose": ".apps.diagnose",
+                   "RunOptions": ".apps.batch.run", "ExportOptions": ".apps.viewexports", "diagnose": ".apps.diagnose",
                    "warmup": ".apps.warmup", "animate_light": ".apps.movie", "animate_orbit": ".apps.movie",
                    **{n: ".output.bufferfile" for n in ("save_npz", "load_npz", "write_exr", "read_exr",
                                                          "write_depth_png", "read_depth_png")},

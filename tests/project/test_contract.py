@@ -233,6 +233,8 @@ def baselines(tmp):
                                          float_image=False, compression="none")),
         "RunOptions": (rs.RunOptions, dict(workers=2, scheduler=None, executor="auto", retries=2, resume=True,
                                            numba_threads=1, per_task=1, progress=False, window=4, transfer="auto")),
+        "ExportOptions": (rs.ExportOptions, dict(coco_segmentation="rle", polygon_tolerance=0.5, colmap_layout="flat",
+                                                 colmap_points=1000)),
     }
     return table
 
@@ -350,6 +352,8 @@ LEGAL = {
     **{("RunOptions", a, "None"): "None is the documented default (this process; automatic)"
        for a in ("workers", "scheduler", "numba_threads", "per_task", "window")},
     **{("RunOptions", a, "True"): "a flag" for a in ("resume", "progress")},
+    ("ExportOptions", "colmap_points", "0"): "documented: no points, an empty points3D.txt",
+    ("ExportOptions", "polygon_tolerance", "0"): "documented: exact polygons along the pixel edges",
     ("ViewFiles", "image", "None"): "no image file per view (the buffers are written)",
     ("ViewFiles", "formats", "None"): "no buffer files: each view writes its image and its record",
     ("ViewFiles", "float_image", "True"): "a flag",
