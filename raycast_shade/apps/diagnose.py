@@ -4,9 +4,14 @@
 buffer with every candidate of the catalogue
 (:mod:`raycast_shade.study.diagnose.catalogue`, each a switch of the variant
 shader :mod:`raycast_shade.study.diagnose.variant`), scores each against the
-student's 8-bit image on the interior pixels, and names the best, with a
-per-pixel departure map and a verdict that points to one pixel and prints
-our ``explain()`` beside the student's number. See ``docs/diagnose.md``.
+student's 8-bit image on the interior pixels the scene covers (the
+background is not scored, and the verdict says so), and names the best only
+when it holds everywhere under a stated noise model, region by region, and
+beats the correct image by a margin the noise justifies
+(:mod:`raycast_shade.study.diagnose.holds`); otherwise it says "cannot tell"
+and why, or "not a render of this scene". With a per-pixel departure map and
+a verdict that points to one pixel and prints our ``explain()`` beside the
+student's number. See ``docs/diagnose.md``.
 """
 
 from __future__ import annotations
@@ -148,8 +153,9 @@ _MODEL = ("noise model: 8-bit rounding (+-0.5 level) after the encoding, plus {s
 
 def _head(status, best, rms, facts, method):
     """The verdict's first sentences for ``status``."""
-    within = (f"within the {_MODEL.format(s=SIGMA)} everywhere (99th percentile of the per-pixel departure "
-              f"{facts['q99']:.1f} levels <= {PIXEL_TOL:g}; every region's median <= {REGION_MEDIAN:g})")
+    within = (f"within the noise model everywhere: 99th percentile of the per-pixel departure "
+              f"{facts['q99']:.1f} levels <= {PIXEL_TOL:g}, every region's median <= {REGION_MEDIAN:g}; the "
+              f"{_MODEL.format(s=SIGMA)}")
     if status == "matches":
         return f"Matches our {method} shading (RMS {rms:.2f} levels on the scored pixels, {within})." + (
             f" The image leans to a slip that changes fewer than {REGION_MIN} pixels by {VOTE:g} levels: too "
@@ -454,6 +460,8 @@ def diagnose(image, scene, method: str = "phong", *, camera=None, encoding: str 
     Returns
     -------
     Diagnosis
+        ``status`` says whether it is a verdict (``"matches"``, ``"explained"``) or not
+        (``"cannot-tell"``, ``"not-a-render"``).
 
     Raises
     ------

@@ -176,7 +176,7 @@ def holds(dep, region, plain=None) -> tuple:
             continue
         med, over = float(np.median((dep if plain is None else plain)[here])), float(np.mean(d > PIXEL_TOL))
         if med > REGION_MEDIAN or over > REGION_SHARE:
-            score = med + PIXEL_TOL * over
+            score = (d.size * over, med)  # the region with the most pixels off: the one to show
             if worst is None or score > worst[0]:
                 worst = (score, int(r), int(d.size), med, over)
     if worst is not None:
