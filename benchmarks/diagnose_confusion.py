@@ -329,7 +329,7 @@ def example(path, width=160, height=120):
     for ax, (img, title) in zip(axes, panels):
         if img.ndim == 2:
             cmap = matplotlib.colormaps["magma"].copy()
-            cmap.set_bad("0.55")  # grey: silhouette pixels, not scored
+            cmap.set_bad("0.55")  # grey: silhouette and background pixels, not scored
             im = ax.imshow(img, cmap=cmap, vmin=0, vmax=max(8.0, float(np.nanmax(img))))
             fig.colorbar(im, ax=ax, fraction=0.035)
         else:
