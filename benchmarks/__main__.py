@@ -78,6 +78,9 @@ REGISTRY = [
     dict(name="diagnose", module="benchmarks.diagnose_confusion",
          title="Diagnose: the confusion matrix of the student-image classifier, and its time at 640x480",
          csv=["diagnose_*.csv"], images=["diagnose_confusion.png"], page="diagnose.md"),
+    dict(name="diagnose_outside", module="benchmarks.diagnose_outside",
+         title="Diagnose on an independent shader's images: slips outside the catalogue, post-processing, photographs",
+         csv=["outside_slips.csv"], images=[], page="diagnose.md"),
 ]
 
 

@@ -14,9 +14,11 @@ diagnosed, under two conditions:
   then the same quantisation and noise;
 * ``jpeg90``: the ``noise`` image saved as a JPEG of quality 90.
 
-A diagnosis is *right* when the true candidate is in the diagnosed class
-(the candidates indistinguishable from the best on that scene) -- for a
-correct image, when it is diagnosed as matching -- and *exact* when the
+A diagnosis is *right* when it gives a verdict ("matches" or "best
+explained by") and the true candidate is in the diagnosed class (the
+candidates indistinguishable from the best on that scene) -- for a correct
+image, when it is diagnosed as matching --, *honest* when it says "cannot
+tell" (or "not a render"), *wrong* otherwise; and *exact* when the
 named best is the true candidate itself. A right diagnosis of a mistake
 whose class holds the correct image is counted as *invisible*: on that
 scene the slip does not change the image beyond the tolerance (the verdict
@@ -120,11 +122,14 @@ def classify(sizes, trials: int, seed: int = 25):
                         for trial in range(trials):
                             image = _quantise(clean, rng, 1.0)
                             d = diag(_jpeg(image) if condition == "jpeg90" else image)
-                            right = d.matches if cand.correct else cand.name in d.group
+                            # right: a verdict whose class holds the truth; honest: "cannot tell" / "not a render"
+                            right = d.matches if cand.correct else (d.explained and cand.name in d.group)
+                            honest = not d.explained
                             classes.add((sname, method, width, d.group)) if len(d.group) > 1 else None
                             rows.append(dict(width=width, height=height, condition=condition, scene=sname,
                                              method=method, truth=cand.name, trial=trial, best=d.best.name,
                                              group="|".join(d.group), right=int(right),
+                                             honest=int(honest), wrong=int(not right and not honest),
                                              exact=int(d.best.name == cand.name), matches=int(d.matches),
                                              invisible=int(d.matches and not cand.correct and right),
                                              rms_best=round(d.scores[d.best.name], 4),
@@ -142,7 +147,8 @@ def aggregate(rows) -> list:
     for (w, h, cond, scene, method, truth), rs_ in cells.items():
         named = collections.Counter(r["best"] for r in rs_)
         out.append(dict(width=w, height=h, condition=cond, scene=scene, method=method, truth=truth, trials=len(rs_),
-                        right=sum(r["right"] for r in rs_), exact=sum(r["exact"] for r in rs_),
+                        right=sum(r["right"] for r in rs_), honest=sum(r["honest"] for r in rs_),
+                        wrong=sum(r["wrong"] for r in rs_), exact=sum(r["exact"] for r in rs_),
                         matches=sum(r["matches"] for r in rs_), invisible=sum(r["invisible"] for r in rs_),
                         diagnosed=";".join(f"{k}:{v}" for k, v in named.most_common()),
                         class_size=round(float(np.mean([len(r["group"].split("|")) for r in rs_])), 3),
@@ -251,8 +257,8 @@ def figure(rows, path):
 
 def doc_table(cells) -> str:
     """The results table of docs/diagnose.md, from the aggregated trials."""
-    out = ["| size | condition | images | right | exact | invisible | mean class size | correct images matched |",
-           "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+    out = ["| size | condition | images | right | cannot tell | wrong | exact | invisible | mean class size | "
+           "correct images matched |", "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for size in dict.fromkeys((c["width"], c["height"]) for c in cells):
         for cond in CONDITIONS:
             sub = [c for c in cells if (c["width"], c["height"]) == size and c["condition"] == cond]
@@ -260,6 +266,7 @@ def doc_table(cells) -> str:
             cor = [c for c in sub if c["truth"] == "correct"]
             size_mean = sum(c["class_size"] * c["trials"] for c in sub) / n
             out.append(f"| {size[0]}x{size[1]} | {cond} | {n} | {100 * sum(c['right'] for c in sub) / n:.2f}% "
+                       f"| {sum(c['honest'] for c in sub)} | {sum(c['wrong'] for c in sub)} "
                        f"| {100 * sum(c['exact'] for c in sub) / n:.2f}% | {sum(c['invisible'] for c in sub)} "
                        f"| {size_mean:.2f} | {sum(c['matches'] for c in cor)}/{sum(c['trials'] for c in cor)} |")
     return "\n".join(out)
@@ -269,7 +276,7 @@ def _read(path):
     with open(path, newline="") as fh:
         rows = list(csv.DictReader(fh))
     for r in rows:
-        for k in ("trials", "right", "exact", "matches", "invisible"):
+        for k in ("trials", "right", "honest", "wrong", "exact", "matches", "invisible"):
             r[k] = int(r[k])
         r["class_size"] = float(r["class_size"])
     return rows
@@ -322,7 +329,7 @@ def example(path, width=160, height=120):
     for ax, (img, title) in zip(axes, panels):
         if img.ndim == 2:
             cmap = matplotlib.colormaps["magma"].copy()
-            cmap.set_bad("0.55")  # grey: silhouette pixels, not scored
+            cmap.set_bad("0.55")  # grey: silhouette and background pixels, not scored
             im = ax.imshow(img, cmap=cmap, vmin=0, vmax=max(8.0, float(np.nanmax(img))))
             fig.colorbar(im, ax=ax, fraction=0.035)
         else:

@@ -448,8 +448,8 @@ def test_a_mistake_outside_the_catalogue_is_not_explained(scenes):
     green = scene.replace(models=[rs.Model(scene.models[0].mesh, rs.Material(kd=(0.1, 0.8, 0.2), ks=0.5,
                                                                             shininess=40))])
     d = rs.diagnose(rs.to_uint8(rs.render(green, "phong").image), scene, "phong")
-    assert not d.explained and not d.matches
-    assert d.verdict.startswith("No candidate explains the image well")
+    assert not d.explained and not d.matches and d.status in ("cannot-tell", "not-a-render")
+    assert d.verdict.startswith(("Cannot tell", "Not a render of this scene"))
 
 
 def test_inputs_camera_float_and_alpha(scenes):

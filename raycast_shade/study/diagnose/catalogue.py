@@ -11,7 +11,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ...scene.lights import DirectionalLight
+import numpy as np
+
+from ...scene.lights import DirectionalLight, SpotLight
 from .variant import Mistake
 
 __all__ = ["Candidate", "catalogue", "ENCODING_CHOICES"]
@@ -73,6 +75,8 @@ def _single(method, scene, encoding):
         ("no-diffuse", "the diffuse term Ii kd n.s left out", "Lambert's Cosine Law", dict(no_diffuse=True)),
         ("no-specular", "the specular term Ii Ks (r.v)^t left out", "Modelling specular reflection",
          dict(no_specular=True)),
+        ("specular-times-kd", "the specular term multiplied by kd too (a highlight the surface's colour)",
+         "Modelling specular reflection", dict(kd_specular=True)),
         ("specular-ungated", "the specular term added where n.s <= 0 too (lit from behind)",
          "Simplifications and Complications", dict(ungated=True)),
         ("n.s-unclamped", "n.s not clamped at 0: negative diffuse light behind the terminator", "Lambert's Cosine Law",
@@ -104,6 +108,12 @@ def _single(method, scene, encoding):
     if scene.lights:
         out.append(("light-in-camera-space", "light positions read as camera coordinates, not world ones",
                     "Vector Notation", dict(light_in_camera=True)))
+    if any(isinstance(light, (DirectionalLight, SpotLight)) for light in scene.lights):
+        out.append(("light-reversed", "the light's direction d used as s where s = -d (lit from the opposite side)",
+                    "Vector formulation", dict(light_reversed=True)))
+    if points and any(np.any(np.mean(m.mesh.bounds, axis=0) != 0.0) for m in scene.models):
+        out.append(("light-object-space", "light positions read in the object's frame (its centre), not the world's",
+                    "Vector Notation", dict(light_object=True)))
     if encoding != "linear":
         out.append(("no-srgb", "linear values written without the sRGB encoding", _OUTPUT, dict(encoding="linear")))
     else:

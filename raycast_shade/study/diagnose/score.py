@@ -20,7 +20,7 @@ import os
 
 import numpy as np
 
-__all__ = ["read_student", "interior_weights", "sse", "sse_filtered", "CAP", "MAX_SHIFT", "MAX_BLUR"]
+__all__ = ["read_student", "interior_weights", "sse", "sse_filtered", "fitted_image", "CAP", "MAX_SHIFT", "MAX_BLUR"]
 
 CAP = 64.0  # levels: a channel's difference counts at most CAP^2
 
@@ -135,7 +135,7 @@ def sse(a, b, weights) -> float:
     weights : (H, W) float64
     """
     d = np.minimum(np.square(a - b), CAP * CAP)
-    return float(np.einsum("hwc,hw->", d, weights))
+    return float(np.einsum("hwc,hw->", d, np.asarray(weights, np.float64)))
 
 
 MAX_SHIFT = 0.25  # pixels: the sub-pixel shift a student's sample pattern may add (half-pixel is a candidate)
@@ -177,5 +177,11 @@ def sse_filtered(student, cand, weights):
         return sse(student, cand, weights), np.zeros(3)
     params = np.linalg.solve(gram, basis.T @ resid)
     params = np.clip(params, [-MAX_SHIFT, -MAX_SHIFT, 0.0], [MAX_SHIFT, MAX_SHIFT, MAX_BLUR])
-    fitted = cand + params[0] * gx + params[1] * gy + params[2] * lap
-    return sse(student, fitted, weights), params
+    return sse(student, fitted_image(cand, params), weights), params
+
+
+def fitted_image(cand, params) -> np.ndarray:
+    """(H, W, 3) float64: ``cand`` shifted by ``params[:2]`` and blurred by ``params[2]`` (to first and second
+    order, as :func:`sse_filtered` fits them)."""
+    gx, gy, lap = _derivatives(np.asarray(cand, np.float64))
+    return cand + params[0] * gx + params[1] * gy + params[2] * lap

@@ -78,6 +78,18 @@ class Mistake:
     light_in_camera : bool
         Light positions and directions read as camera coordinates (x right,
         y up, looking down -z) rather than world ones.
+    light_reversed : bool
+        The direction of directional and spot lights used the wrong way
+        round: ``s = d`` instead of ``-d`` (the spot's cone turned away).
+    light_object : bool
+        Point and spot light positions read in each model's object frame
+        (origin at its bounding-box centre) instead of world coordinates.
+    kd_specular : bool
+        The specular term multiplied by ``kd`` too (a highlight the colour
+        of the surface).
+    light : int
+        ``-1``: every light; ``i``: only ``scene.lights[i]`` (not a slip:
+        the footprint of one light, for :mod:`.holds`).
     encoding : {"srgb", "linear", "double"}
         How the linear image became 8-bit values: the sRGB curve once (ours),
         not at all, or twice.
@@ -108,6 +120,10 @@ class Mistake:
     law: str = "scene"
     eye_distance: bool = False
     light_in_camera: bool = False
+    light_reversed: bool = False
+    light_object: bool = False
+    kd_specular: bool = False
+    light: int = -1
     encoding: str = "srgb"
     flip: bool = False
     half_pixel: bool = False
@@ -118,6 +134,8 @@ class Mistake:
                               ("specular", ("", "swap")), ("law", LAWS), ("encoding", ENCODINGS)):
             if getattr(self, name) not in allowed:
                 raise ValueError(f"Mistake.{name}: expected one of {list(allowed)}, got {getattr(self, name)!r}")
+        if isinstance(self.light, bool) or not isinstance(self.light, (int, np.integer)) or self.light < -1:
+            raise ValueError(f"Mistake.light: expected -1 (every light) or a light's index, got {self.light!r}")
 
     def changes(self) -> dict:
         """The fields that differ from ``Mistake()``, by name."""
@@ -172,12 +190,16 @@ def _lights(scene, camera, origin, mistake):
     """The lights as ``(directional, vec, radiance, law, k, cone)`` with the mistake's law and space."""
     axes = _camera_axes(camera)
     out = []
-    for light in scene.lights:
+    for index, light in enumerate(scene.lights):
+        if mistake.light not in (-1, index):
+            continue
         radiance = light.intensity * np.asarray(light.color, np.float64)
         if isinstance(light, DirectionalLight):
             d = np.asarray(light.direction, np.float64)
             if mistake.light_in_camera:
                 d = d @ axes  # camera coordinates -> world
+            if mistake.light_reversed:
+                d = -d
             out.append((True, -d, radiance, "none", 1.0, None))
             continue
         law = light.attenuation if mistake.law == "scene" else mistake.law
@@ -192,6 +214,8 @@ def _lights(scene, camera, origin, mistake):
             axis = np.asarray(light.direction, np.float64)
             if mistake.light_in_camera:
                 axis = axis @ axes
+            if mistake.light_reversed:
+                axis = -axis
             cone = (axis, light.cos_inner, light.cos_outer, light.exponent)
         if mistake.light_in_camera:
             pos = camera.eye + pos @ axes
@@ -215,6 +239,8 @@ class _Ctx:
         blinn = np.array([x.specular == "blinn" for x in mats], bool)
         self.blinn = ~blinn if mistake.specular == "swap" else blinn
         self.lights = _lights(scene, camera, geo.origin, mistake)
+        # light_object: each model's frame is its box centre (world = object + centre)
+        self.centre = np.array([np.mean(mod.mesh.bounds, axis=0) for mod in scene.models], np.float64)
         self.ambient = np.asarray(scene.ambient, np.float64) * np.ones(3)
         self.dmin = 1e-6 * geo.scale
         self.eye = camera.eye - geo.origin
@@ -233,14 +259,14 @@ class _Ctx:
         return v, raw
 
 
-def _light_vectors(ctx, light, p):
+def _light_vectors(ctx, light, p, model):
     """Direction ``s`` (unit, or raw with ``raw_s``), the unit one, attenuation and presence."""
     directional, vec, _, law, k, cone = light
     n = len(p)
     if directional:
         s = np.broadcast_to(vec, p.shape)
         return s, s, np.ones(n), np.ones(n, bool)
-    raw = vec[None, :] - p
+    raw = (vec + ctx.centre[model] if ctx.m.light_object else vec[None, :]) - p
     s, d = _unit(raw)
     dist = np.linalg.norm(ctx.eye - p, axis=1) if ctx.m.eye_distance else d
     with np.errstate(divide="ignore"):
@@ -279,7 +305,7 @@ def illuminate(ctx, p, n, model, n_raw=None):
     has_spec = np.any(ks > 0, axis=1)
     out = np.zeros((len(p), 3)) if m.no_ambient else ctx.ambient[None, :] * ka
     for light in ctx.lights:
-        s, s_unit, att, present = _light_vectors(ctx, light, p)
+        s, s_unit, att, present = _light_vectors(ctx, light, p, model)
         ndots_raw = _dot(n_used, s)
         lit = present & (ndots_raw > 0.0)
         exact = not (m.raw_n or m.raw_s)
@@ -300,7 +326,7 @@ def illuminate(ctx, p, n, model, n_raw=None):
             spec = np.where(lit, spec, 0.0)
         spec = np.where(present, spec, 0.0)
         kd_term = 0.0 if m.no_diffuse else kd * diffuse[:, None]
-        ks_term = 0.0 if m.no_specular else ks * spec[:, None]
+        ks_term = 0.0 if m.no_specular else ks * spec[:, None] * (kd if m.kd_specular else 1.0)
         out = out + att[:, None] * light[2][None, :] * (kd_term + ks_term)
     return out + ctx.ke[model]  # the emission, last as the kernels add it (a zero ke adds exactly nothing)
 
