@@ -148,8 +148,10 @@ class FileContext:
             return named[0]
         has_tex = getattr(mat, "baseColorTexture", None) is not None
         candidates = named or [m for m in mats if isinstance(m, dict)]
+        sg = "KHR_materials_pbrSpecularGlossiness"  # trimesh's base colour then comes from its diffuse texture
         candidates = [m for m in candidates
-                      if ("baseColorTexture" in (m.get("pbrMetallicRoughness") or {})) == has_tex]
+                      if ("baseColorTexture" in (m.get("pbrMetallicRoughness") or {})
+                          or "diffuseTexture" in ((m.get("extensions") or {}).get(sg) or {})) == has_tex]
         return candidates[0] if candidates else None
 
     def sampler(self, texinfo):

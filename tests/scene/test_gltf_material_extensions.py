@@ -285,3 +285,67 @@ def test_the_conversion_inverts_the_metallic_model_for_grey_bases(b, metal, g):
     assert float(got_m) == pytest.approx(metal, abs=1e-6)
     np.testing.assert_allclose(got_base, base, atol=1e-5)
     assert float(got_r) == pytest.approx(1 - g)
+
+
+def test_spec_gloss_images_in_a_glb_buffer_view_are_read(tmp_path):
+    """The extension's images are decoded from the file itself: here from a GLB's buffer view."""
+    from raycast_shade.scene.gltfgeometry import glb_bytes
+
+    _quad_file(tmp_path / "src.gltf", _spec_gloss({"diffuseTexture": {"index": 0}}), [_image(7)])
+    js = json.loads((tmp_path / "src.gltf").read_text())
+    blob = base64.b64decode(js["buffers"][0]["uri"].split(",", 1)[1])
+    png = base64.b64decode(js["images"][0]["uri"].split(",", 1)[1])
+    pad = b"\0" * (-len(blob) % 4)
+    js["bufferViews"].append({"buffer": 0, "byteOffset": len(blob) + len(pad), "byteLength": len(png)})
+    js["images"] = [{"bufferView": len(js["bufferViews"]) - 1, "mimeType": "image/png"}]
+    binary = blob + pad + png
+    binary += b"\0" * (-len(binary) % 4)
+    js["buffers"] = [{"byteLength": len(binary)}]
+    (tmp_path / "q.glb").write_bytes(glb_bytes(js, binary))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", rs.DroppedOnLoadWarning)
+        (model,) = rs.load_models(tmp_path / "q.glb")
+    np.testing.assert_allclose(model.material.kd_map.texels, srgb_to_linear(_image(7)[::-1] / 255), rtol=1e-6)
+
+
+def test_a_missing_or_broken_spec_gloss_image_is_named_and_the_rest_drawn(tmp_path):
+    ext = {"diffuseTexture": {"index": 0}, "specularGlossinessTexture": {"index": 1}, "specularFactor": [0.2] * 3}
+    _quad_file(tmp_path / "m.gltf", _spec_gloss(ext), [_image(), _image()])
+    js = json.loads((tmp_path / "m.gltf").read_text())
+    js["images"] = [{"uri": "gone.png"}, {"uri": "broken.png"}]
+    (tmp_path / "broken.png").write_bytes(b"not a png")
+    (tmp_path / "m.gltf").write_text(json.dumps(js))
+    with pytest.warns(rs.DroppedOnLoadWarning) as rec:
+        (model,) = rs.load_models(tmp_path / "m.gltf")
+    text = " ".join(str(w.message) for w in rec)
+    assert "gone.png (images[0] of m.gltf)" in text
+    assert "specularGlossinessTexture: images[1] of m.gltf: not a readable image" in text
+    m = model.material
+    assert m.kd_map is None and m.ks_map is None
+    np.testing.assert_allclose(m.ks, [0.2, 0.2, 0.2])
+
+
+def test_a_transformed_map_clamped_on_one_axis_pads_over_the_transformed_uvs(tmp_path):
+    """Clamp on u, repeat on v, offset (0.5, 0): the padded image is sampled at the moved UVs, so the
+    render equals the one of the image whose u runs from its middle to its clamped right edge."""
+    img = _image(9, 8)
+    samplers = [{"wrapS": 33071, "wrapT": 10497}]
+    got, _ = _render(_quad_file(tmp_path / "c.gltf", _base_colour({"offset": [0.5, 0.0]}), [img], samplers))
+    plain, _ = _render(_quad_file(tmp_path / "p.gltf", _base_colour(), [img], samplers))
+    # Left half of the transformed quad (u' in [0.5, 1]) shows the right half of the plain one.
+    np.testing.assert_allclose(got[:, : W // 2 - 4], plain[:, W // 2: W - 4], atol=1e-5)
+    # Right half (u' beyond 1): clamped, each row the image's last column (the plain quad's right edge).
+    np.testing.assert_allclose(got[:, W // 2 + 4:], np.repeat(plain[:, W - 1:], W // 2 - 4, axis=1), atol=0.02)
+
+
+def test_an_unnamed_spec_gloss_material_without_a_core_texture_is_still_found(tmp_path):
+    """trimesh gives the converted material a base colour texture the core JSON lacks: the material is
+    matched by its diffuse texture, so the extension is read (kd_map the diffuse image, ks the factor)."""
+    mat = _spec_gloss({"diffuseTexture": {"index": 0}, "specularFactor": [0.3, 0.3, 0.3]})
+    del mat["name"]
+    _quad_file(tmp_path / "u.gltf", mat, [_image(11)])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", rs.DroppedOnLoadWarning)
+        (model,) = rs.load_models(tmp_path / "u.gltf")
+    np.testing.assert_allclose(model.material.ks, [0.3, 0.3, 0.3])
+    np.testing.assert_allclose(model.material.kd_map.texels, srgb_to_linear(_image(11)[::-1] / 255), rtol=1e-6)
