@@ -12,16 +12,17 @@ import numpy as np
 
 from . import fileparse
 from .material import Material
+from .specgloss import from_spec_gloss
 from .texture import Texture
+from .wrapped import DIELECTRIC_F0 as _DIELECTRIC_F0, MAX_SHININESS as _MAX_SHININESS, Wrapped, transform_maps
+from .wrapped import shininess_of_roughness as _shininess
+from .wrapped import alpha_mask as _alpha_mask, resample as _resample
 
 __all__ = ["FileContext", "Wrapped", "from_mtl_cached", "from_simple", "from_pbr", "is_placeholder"]
 
 # MTL keys with no effect in the file's own model when they hold these values.
 _MTL_HARMLESS = {"d": 1.0, "tr": 0.0}
 _MTL_READ = ("kd", "ka", "ks", "ke", "ns", "illum", "ni", "map_kd", "map_ka", "map_ks", "map_ke", "newmtl")
-_MAX_SHININESS = 4096.0  # repeated squaring's limit (shading.illumination._power)
-_DIELECTRIC_F0 = 0.04  # a dielectric's Fresnel reflectance at normal incidence
-_PAD_LIMIT = 16  # a clamped axis is padded to at most this many times its texels (else approximated)
 
 
 def _rgb(value) -> np.ndarray:
@@ -34,66 +35,6 @@ def _numbers(tokens):
         return [float(t) for t in tokens]
     except (TypeError, ValueError):
         return None
-
-
-def _shininess(r) -> float:
-    """Blinn-Phong exponent of a GGX lobe of roughness ``r`` (alpha = r^2; Walter et al. 2007)."""
-    alpha = max(float(r) ** 2, 1e-6)
-    return float(np.clip(2.0 / alpha ** 2 - 2.0, 1.0, _MAX_SHININESS))
-
-
-class Wrapped:
-    """Linear texels (row 0 at v = 0) with a glTF sampler's wrap per axis, made a :class:`Texture`
-    once the mesh's UVs are known when a clamped axis meets a repeating one."""
-
-    def __init__(self, texels, wrap_s: str, wrap_t: str, name: str):
-        self.texels, self.wrap_s, self.wrap_t, self.name = texels, wrap_s, wrap_t, name
-
-    @property
-    def needs_uvs(self) -> bool:
-        return "clamp" in (self.wrap_s, self.wrap_t) and self.wrap_s != self.wrap_t
-
-    def texture(self, uvs=None):
-        """``(Texture, uvs or None, note or None)``: mirrored repeat is the repeat of the image
-        and its mirror image side by side, at half the tiling (exact, bilinear and all); clamp
-        on one axis only pads that axis with copies of its edge texels over the UVs' range and
-        moves the UVs onto the padded image (exact away from the mip levels' edges)."""
-        if not self.needs_uvs:  # one Texture for every mesh that shares the picture
-            if getattr(self, "_shared", None) is None:
-                self._shared = self._texture(None)
-            return self._shared
-        return self._texture(uvs)
-
-    def _texture(self, uvs):
-        if self.wrap_s == self.wrap_t == "clamp":
-            return Texture(self.texels, wrap="clamp", name=self.name), None, None
-        t, tiling, new_uvs, note = self.texels, [1.0, 1.0], None, None
-        if self.wrap_s == "mirror":
-            t = np.concatenate([t, t[:, ::-1]], axis=1)
-            tiling[0] = 0.5
-        if self.wrap_t == "mirror":
-            t = np.concatenate([t, t[::-1]], axis=0)
-            tiling[1] = 0.5
-        for axis, mode in ((0, self.wrap_s), (1, self.wrap_t)):
-            if mode != "clamp":
-                continue
-            tax = 1 - axis  # u runs along the texel columns, v along the rows
-            n = t.shape[tax]
-            c = uvs[:, axis] if uvs is not None and len(uvs) else np.zeros(1)
-            lo, hi = min(0.0, float(c.min())), max(1.0, float(c.max()))
-            n_lo, n_hi = int(math.ceil(-lo * n)) + 1, int(math.ceil((hi - 1.0) * n)) + 1
-            total = n + n_lo + n_hi
-            if uvs is None or total > _PAD_LIMIT * n:
-                note = (f"{self.name}: clamp on {'uv'[axis]} only, with repeat on the other axis, shaded as "
-                        "repeat (the UVs span too far to pad)")
-                continue
-            first = np.take(t, [0], axis=tax)
-            last = np.take(t, [n - 1], axis=tax)
-            t = np.concatenate([np.repeat(first, n_lo, axis=tax), t, np.repeat(last, n_hi, axis=tax)], axis=tax)
-            if new_uvs is None:
-                new_uvs = np.array(uvs, np.float64)
-            new_uvs[:, axis] = (c * n + n_lo) / total
-        return Texture(np.ascontiguousarray(t), tiling=tuple(tiling), name=self.name), new_uvs, note
 
 
 class FileContext:
@@ -207,8 +148,10 @@ class FileContext:
             return named[0]
         has_tex = getattr(mat, "baseColorTexture", None) is not None
         candidates = named or [m for m in mats if isinstance(m, dict)]
+        sg = "KHR_materials_pbrSpecularGlossiness"  # trimesh's base colour then comes from its diffuse texture
         candidates = [m for m in candidates
-                      if ("baseColorTexture" in (m.get("pbrMetallicRoughness") or {})) == has_tex]
+                      if ("baseColorTexture" in (m.get("pbrMetallicRoughness") or {})
+                          or "diffuseTexture" in ((m.get("extensions") or {}).get(sg) or {})) == has_tex]
         return candidates[0] if candidates else None
 
     def sampler(self, texinfo):
@@ -216,10 +159,6 @@ class FileContext:
         notes = []
         if not isinstance(texinfo, dict) or self.gltf is None:
             return "repeat", "repeat", notes
-        if texinfo.get("texCoord", 0) not in (0, None):
-            notes.append(f"texCoord {texinfo['texCoord']} (the first UV set is used)")
-        if "KHR_texture_transform" in (texinfo.get("extensions") or {}):
-            notes.append("KHR_texture_transform (the UVs are used untransformed)")
         try:
             tex = self.gltf["textures"][texinfo["index"]]
             smp = self.gltf["samplers"][tex["sampler"]] if "sampler" in tex else {}
@@ -414,6 +353,27 @@ def from_pbr(mat, name: str, lost: list, ctx: FileContext) -> dict:
     """glTF metallic-roughness onto ka, kd, ks, t (see the module docstring), or with
     ``ctx.reflectance == "pbr"`` as itself: a ``specular="ggx"`` material."""
     js = ctx.gltf_material(mat) or {}
+    kw = {"name": name, "specular": "blinn", "double_sided": bool(js.get("doubleSided", False))}
+    sg = (js.get("extensions") or {}).get("KHR_materials_pbrSpecularGlossiness")
+    if isinstance(sg, dict):  # read from the file itself: trimesh's conversion bypasses the texture path
+        kw.update(from_spec_gloss(mat, js, sg, name, lost, ctx))
+        slots = {k: sg.get(k) for k in ("diffuseTexture", "specularGlossinessTexture")}
+    else:
+        kw.update(_metal_rough(mat, js, name, lost, ctx))
+        slots = {k: (js.get("pbrMetallicRoughness") or {}).get(k)
+                 for k in ("baseColorTexture", "metallicRoughnessTexture")}
+    _normal(mat, js, name, kw, lost, ctx)
+    _emission(mat, js, name, kw, lost, ctx)
+    _occlusion(mat, js, name, kw, lost, ctx)
+    slots.update({k: js.get(k) for k in ("normalTexture", "occlusionTexture", "emissiveTexture")})
+    mats = (ctx.gltf or {}).get("materials", []) or []
+    index = next((i for i, m in enumerate(mats) if m is js), None)
+    transform_maps(kw, slots, f"{os.path.basename(ctx.path) or 'file'}: materials[{index}]", lost, ctx.cache)
+    return kw
+
+
+def _metal_rough(mat, js: dict, name: str, lost: list, ctx: FileContext) -> dict:
+    """The core metallic-roughness part of :func:`from_pbr`: colours, specular, alpha mask."""
     pbr = js.get("pbrMetallicRoughness") or {}
     base = _factor(mat.baseColorFactor, 4, [1.0, 1.0, 1.0, 1.0])
     rgb = base[:3]
@@ -422,7 +382,7 @@ def from_pbr(mat, name: str, lost: list, ctx: FileContext) -> dict:
     tex, mr = getattr(mat, "baseColorTexture", None), getattr(mat, "metallicRoughnessTexture", None)
     wrap_s, wrap_t, notes = ctx.sampler(pbr.get("baseColorTexture"))
     lost += notes
-    kw = {"name": name, "specular": "blinn", "double_sided": bool(js.get("doubleSided", False))}
+    kw = {}
     kw.update(_alpha_mask(mat, js, base, name, lost, ctx, (wrap_s, wrap_t)))
     if getattr(ctx, "reflectance", "phong") == "pbr":
         kw.update(_ggx(mat, pbr, rgb, (m, r), name, lost, ctx, (wrap_s, wrap_t)))
@@ -465,9 +425,6 @@ def from_pbr(mat, name: str, lost: list, ctx: FileContext) -> dict:
             kw["ka_map"] = col_w
         lost.append(f"metallicRoughnessTexture: per-texel kd and ks, one exponent from the median "
                     f"roughness {r_med:.3g} (approximated)")
-    _normal(mat, js, name, kw, lost, ctx)
-    _emission(mat, js, name, kw, lost, ctx)
-    _occlusion(mat, js, name, kw, lost, ctx)
     return kw
 
 
@@ -484,53 +441,6 @@ def _ggx(mat, pbr: dict, rgb, mr_factors, name: str, lost: list, ctx: FileContex
     if mr is not None:
         kw["metallic_roughness_map"] = mr
     return kw
-
-
-_BLEND_CUTOFF = 0.5  # BLEND drawn as MASK at half coverage: each point is whichever of opaque / clear is nearer
-
-
-def _alpha_mask(mat, js: dict, base, name: str, lost: list, ctx: FileContext, wraps) -> dict:
-    """glTF's alphaMode as :class:`Material` keywords: ``MASK`` keeps the base colour's alpha
-    (factor times texture alpha) as ``alpha_map`` with ``alphaCutoff`` (default 0.5); ``BLEND``
-    is approximated as ``MASK`` at 0.5 (noted in ``lost``); ``OPAQUE`` ignores alpha, as the spec says."""
-    mode = getattr(mat, "alphaMode", None) or js.get("alphaMode") or "OPAQUE"
-    if mode == "OPAQUE":
-        return {}
-    if mode == "BLEND":
-        cutoff = _BLEND_CUTOFF
-        mname = js.get("name", getattr(mat, "name", None))
-        lost.append(f"material {mname!r}: alphaMode BLEND: approximated as MASK with cutoff 0.5 (points at "
-                    "least half opaque drawn opaque, the others see-through; no partial transparency)")
-    else:
-        cutoff = js.get("alphaCutoff", getattr(mat, "alphaCutoff", None))
-        cutoff = 0.5 if cutoff is None else float(cutoff)
-    factor = float(base[3]) if len(base) > 3 else 1.0
-    tex = getattr(mat, "baseColorTexture", None)
-    if tex is None and factor >= cutoff:
-        return {}  # opaque everywhere: no mask to test
-    key = ("alpha", ctx.image_key(tex), factor, wraps)
-    if key not in ctx.cache:
-        if tex is None:
-            texels = np.full((1, 1, 3), factor, np.float32)
-        else:
-            a = _alpha_channel(tex)
-            texels = Texture.from_array(a, srgb=False, name=f"{name}.baseColorTexture.alpha").texels * factor
-        ctx.cache[key] = Wrapped(np.ascontiguousarray(texels, np.float32), wraps[0], wraps[1],
-                                 f"{name}.alpha")
-    return {"alpha_map": ctx.cache[key], "alpha_cutoff": cutoff}
-
-
-def _alpha_channel(image) -> np.ndarray:
-    """(h, w) uint8 or float alpha of an image (PIL or array), as stored (top row first); 255 where it has none."""
-    if hasattr(image, "convert"):
-        if image.mode in ("RGBA", "LA", "PA", "P", "RGBa", "La") or "transparency" in getattr(image, "info", {}):
-            return np.asarray(image.convert("RGBA"))[..., 3]
-        return np.full((image.size[1], image.size[0]), 255, np.uint8)
-    a = np.asarray(image)
-    if a.ndim == 3 and a.shape[2] in (2, 4):
-        return a[..., -1]
-    one = np.iinfo(a.dtype).max if a.dtype.kind in "ui" else 1.0
-    return np.full(a.shape[:2], one, a.dtype)
 
 
 def _linear_map(mat, js: dict, name: str, slot: str, lost: list, ctx: FileContext):
@@ -590,11 +500,3 @@ def _emission(mat, js: dict, name: str, kw: dict, lost: list, ctx: FileContext) 
     texels = ctx.linear(tex, f"{name}.emissiveTexture")
     kw["ke_map"] = ctx.wrapped(("pbr", ctx.image_key(tex), wrap_s, wrap_t),
                                lambda: Wrapped(texels, wrap_s, wrap_t, f"{name}.emissiveTexture"))
-
-
-def _resample(a: np.ndarray, shape) -> np.ndarray:
-    """``a`` (h, w, c) on an (H, W) grid, nearest texel centre (both cover the unit square)."""
-    h, w = a.shape[:2]
-    rows = np.minimum(((np.arange(shape[0]) + 0.5) * h / shape[0]).astype(np.int64), h - 1)
-    cols = np.minimum(((np.arange(shape[1]) + 0.5) * w / shape[1]).astype(np.int64), w - 1)
-    return a[rows][:, cols]

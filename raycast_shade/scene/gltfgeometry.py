@@ -57,9 +57,15 @@ GLTF_EXTENSIONS = {
     "KHR_draco_mesh_compression": ("applied", "decoded with DracoPy (`pip install raycast_shade[draco]`); "
                                               "refused with that hint without it"),
     "KHR_materials_emissive_strength": ("applied", "ke's strength"),
-    "KHR_materials_pbrSpecularGlossiness": ("applied", "trimesh converts it to metallic-roughness"),
+    "KHR_materials_pbrSpecularGlossiness": ("applied", "read by the library (its images through the usual "
+                                                       "texture path): diffuse -> kd, specular -> ks, glossiness -> "
+                                                       "the exponent (one per material: the median of a texture's, "
+                                                       "warned); `reflectance=\"pbr\"`: converted to "
+                                                       "metallic-roughness per texel (approximated, warned)"),
     "EXT_texture_webp": ("applied", "trimesh takes the WebP source, Pillow decodes it"),
-    "KHR_texture_transform": ("approximated", "the UVs are used untransformed (named per texture)"),
+    "KHR_texture_transform": ("applied", "offset, rotation, scale: the mesh's UVs transformed at load (maps of "
+                                         "one material with different transforms: the first map's for all, warned; "
+                                         "a `texCoord` other than 0 warned: TEXCOORD_0 is read)"),
     "KHR_materials_unlit": ("not applied", "lit as any material"),
     "KHR_materials_clearcoat": ("not applied", "no clear coat layer"),
     "KHR_materials_transmission": ("not applied", "opaque"),
