@@ -63,6 +63,13 @@ class _Check:
         for j, index in enumerate(items):
             self.ref({j: index}, j, _at(path, key), array)
 
+    def number(self, obj, key: str, path: str):
+        """``obj[key]``, when present, a JSON number (trimesh converts it with ``float``)."""
+        if isinstance(obj, dict) and key in obj:
+            v = obj[key]
+            if not isinstance(v, (int, float)) or isinstance(v, bool):
+                self.fail(f"{path}.{key}", f"expected a number, got {_show(v)}")
+
     def numbers(self, obj: dict, key: str, path: str, size: int | None = None):
         if key in obj:
             value = self.kind(obj[key], f"{path}.{key}", list, "a list of numbers")
@@ -217,9 +224,21 @@ def _node_forest(c: _Check) -> None:
 
 def _material_shapes(c: _Check, mat: dict, path: str) -> None:
     """The shapes trimesh reads a material's factors in (their ranges are the material loader's to judge)."""
-    pbr = mat.get("pbrMetallicRoughness", {})
+    pbr = c.kind(mat.get("pbrMetallicRoughness", {}), f"{path}.pbrMetallicRoughness", dict, "an object")
     c.numbers(pbr, "baseColorFactor", f"{path}.pbrMetallicRoughness", 4)
+    for key in ("metallicFactor", "roughnessFactor"):
+        c.number(pbr, key, f"{path}.pbrMetallicRoughness")
     c.numbers(mat, "emissiveFactor", path, 3)
+    c.number(mat, "alphaCutoff", path)
+    c.number(mat.get("normalTexture"), "scale", f"{path}.normalTexture")
+    c.number(mat.get("occlusionTexture"), "strength", f"{path}.occlusionTexture")
+    ext = mat.get("extensions")
+    sg = ext.get("KHR_materials_pbrSpecularGlossiness") if isinstance(ext, dict) else None
+    if isinstance(sg, dict):  # trimesh converts it too
+        at = f"{path}.extensions.KHR_materials_pbrSpecularGlossiness"
+        c.numbers(sg, "diffuseFactor", at, 4)
+        c.numbers(sg, "specularFactor", at, 3)
+        c.number(sg, "glossinessFactor", at)
     if "alphaMode" in mat and mat["alphaMode"] not in ("OPAQUE", "MASK", "BLEND"):
         c.fail(_at(path, "alphaMode"), f"expected OPAQUE, MASK or BLEND, got {_show(mat['alphaMode'])}")
     if "doubleSided" in mat:
