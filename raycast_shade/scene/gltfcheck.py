@@ -68,7 +68,7 @@ class _Check:
         if isinstance(obj, dict) and key in obj:
             v = obj[key]
             if not isinstance(v, (int, float)) or isinstance(v, bool):
-                self.fail(f"{path}.{key}", f"expected a number, got {_show(v)}")
+                self.fail(f"{path}.{key}", f"expected 1 number, got {_show(v)}")
 
     def numbers(self, obj: dict, key: str, path: str, size: int | None = None):
         if key in obj:

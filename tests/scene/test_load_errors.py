@@ -237,10 +237,10 @@ def write_gltf(tmp_path, edit, name="g.gltf"):
     (lambda js: js.update(asset=[{"version": "2.0"}]), r"asset: expected an object"),
     # trimesh converts these with float(): a string failed inside it through Mesh.load, unnamed
     (lambda js: js["materials"][0]["pbrMetallicRoughness"].update(metallicFactor="x"),
-     r"materials\[0\]\.pbrMetallicRoughness\.metallicFactor: expected a number, got 'x'"),
-    (lambda js: js["materials"][0].update(alphaCutoff=[0]), r"materials\[0\]\.alphaCutoff: expected a number"),
+     r"materials\[0\]\.pbrMetallicRoughness\.metallicFactor: expected 1 number, got 'x'"),
+    (lambda js: js["materials"][0].update(alphaCutoff=[0]), r"materials\[0\]\.alphaCutoff: expected 1 number"),
     (lambda js: js["materials"][0].update(extensions={"KHR_materials_pbrSpecularGlossiness": {"glossinessFactor": "x"}}),
-     r"materials\[0\]\.extensions\.KHR_materials_pbrSpecularGlossiness\.glossinessFactor: expected a number"),
+     r"materials\[0\]\.extensions\.KHR_materials_pbrSpecularGlossiness\.glossinessFactor: expected 1 number"),
 ])
 def test_gltf_structure_refused_by_json_path_through_both_loaders(tmp_path, edit, says):
     path = write_gltf(tmp_path, edit)

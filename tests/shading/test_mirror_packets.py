@@ -155,31 +155,30 @@ def test_the_mirror_origin_offset_is_the_shadow_nudge_bit_for_bit(p, n, unit):
         assert a == b or (np.isnan(a) and np.isnan(b)), (q, n, unit, a, b)
 
 
-def test_the_mirror_kernel_hands_embree_arrays_not_addresses():
-    """The packets reach Embree only through ``embree.intersect16_packet`` with slices of arrays
-    the kernel task allocated itself (held by the call until Embree returns: see
-    visibility/embree.py), never through a raw Embree symbol and an address."""
+def test_the_mirror_kernel_asks_the_query_for_its_packets():
+    """The packets reach Embree only through the visibility stage's query for secondary rays
+    (:mod:`raycast_shade.visibility.secondary`: its raw calls are checked in
+    tests/visibility/test_embree_binding.py), with a packet the kernel task allocated itself
+    (``closest_packet``), never through a raw Embree symbol or an address taken here."""
     import ast
     import pathlib
 
     import raycast_shade.shading as pkg
 
-    raw = {"intersect1", "intersect8", "intersect16", "occluded1"}
-    folder = pathlib.Path(pkg.__file__).parent
+    raw = {"intersect1", "intersect8", "intersect16", "occluded1", "occluded16", "intersect16_packet"}
+    source = (pathlib.Path(pkg.__file__).parent / "mirrors.py").read_text(encoding="utf-8")
     calls = {}
-    source = (folder / "mirrors.py").read_text(encoding="utf-8")
     for node in ast.walk(ast.parse(source)):
-        if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute):
-            calls.setdefault(node.func.attr, []).append(node)
+        if isinstance(node, ast.Call):
+            name = node.func.attr if isinstance(node.func, ast.Attribute) else getattr(node.func, "id", None)
+            calls.setdefault(name, []).append(node)
     assert not [name for name in raw if name in calls], "raw Embree calls in mirrors.py"
-    assert "ctypes.data" not in source.replace(".ctypes.data % ", "")  # addresses taken only to align
-    (call,) = calls["intersect16_packet"]
-    for arg, name in zip(call.args, ("vbuf", None, "buf", "abuf")):
-        if name is None:
-            assert isinstance(arg, ast.Name) and arg.id == "handle"
-            continue
-        assert isinstance(arg, ast.Subscript) and arg.value.id == name, ast.unparse(arg)
-        assert f"            {name} = np.empty(" in source or f"            {name} = np.zeros(" in source
+    assert "ctypes" not in source
+    (trace,) = calls["trace_closest"]
+    assert [ast.unparse(a) for a in trace.args] == ["handle", "Q"]
+    (make,) = calls["closest_packet"]
+    assert "            Q = closest_packet(flags)" in source  # per kernel task, reused by its tiles and bounces
+    assert {"set_closest_rays", "closest_hit"} <= set(calls)
 
 
 def test_the_prefetch_hint_compiles_to_a_prefetch_and_changes_nothing():

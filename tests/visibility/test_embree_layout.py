@@ -158,9 +158,9 @@ def test_an_occlusion_ray_written_by_the_helpers_reports_in_the_tfar_slot():
 
 
 def test_no_caller_writes_embree_slots_by_number():
-    """The camera kernels, cast_rays, the shadow query, explain and the benchmark write rays
-    only through write_ray (no ``0xFFFFFFFF`` mask or id literal, no ``# tfar`` slot comment)."""
-    callers = [ROOT / "raycast_shade" / "visibility" / "cast.py", ROOT / "raycast_shade" / "shading" / "shadows.py",
+    """The camera kernels, cast_rays, the query for secondary rays, explain and the benchmark write
+    rays only through write_ray (no ``0xFFFFFFFF`` mask or id literal, no ``# tfar`` slot comment)."""
+    callers = [ROOT / "raycast_shade" / "visibility" / "cast.py", ROOT / "raycast_shade" / "visibility" / "secondary.py",
                ROOT / "raycast_shade" / "study" / "explain.py", ROOT / "benchmarks" / "bench_limits.py"]
     for path in callers:
         if not path.exists():
