@@ -434,12 +434,13 @@ def _ply_bad_index(path: str):
 
 
 def _gltf_bad_index(path: str):
+    from .gltfgeometry import COMPONENT_DTYPES
     from .gltftangents import _buffers
 
     name = os.path.basename(path)
     js = _gltf_json(path, name, "glb" if path.lower().endswith(".glb") else "gltf")
     buffers = None
-    dtypes = {5121: "<u1", 5123: "<u2", 5125: "<u4"}
+    dtypes = {k: COMPONENT_DTYPES[k] for k in (5121, 5123, 5125)}  # the unsigned index types
     for i, mesh in enumerate(js.get("meshes", [])):
         for j, prim in enumerate(mesh.get("primitives", [])):
             if "indices" not in prim or "POSITION" not in prim.get("attributes", {}):

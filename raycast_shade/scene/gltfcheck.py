@@ -17,12 +17,16 @@ import os
 import struct
 from urllib.parse import unquote
 
+import numpy as np
+
+from .gltfgeometry import COMPONENT_DTYPES, TYPE_WIDTHS
+
 __all__ = ["check_gltf_structure"]
 
 _ARRAYS = ("accessors", "animations", "buffers", "bufferViews", "cameras", "images", "materials", "meshes",
            "nodes", "samplers", "scenes", "skins", "textures")
-_COMPONENTS = {5120: 1, 5121: 1, 5122: 2, 5123: 2, 5125: 4, 5126: 4}
-_TYPES = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
+_COMPONENTS = {k: np.dtype(v).itemsize for k, v in COMPONENT_DTYPES.items()}  # bytes per component
+_TYPES = TYPE_WIDTHS
 _TEXTURE_SLOTS = (("pbrMetallicRoughness", "baseColorTexture"), ("pbrMetallicRoughness", "metallicRoughnessTexture"),
                   ("normalTexture",), ("occlusionTexture",), ("emissiveTexture",))
 

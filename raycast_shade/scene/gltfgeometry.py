@@ -42,7 +42,7 @@ import numpy as np
 from ..common.warnings import DroppedOnLoadWarning
 from .gltftangents import _buffers
 
-__all__ = ["GLTF_EXTENSIONS", "APPLIED_GLTF_EXTENSIONS", "MODE_NAMES", "PLAIN_KEY", "plain_gltf", "glb_bytes",
+__all__ = ["GLTF_EXTENSIONS", "APPLIED_GLTF_EXTENSIONS", "COMPONENT_DTYPES", "TYPE_WIDTHS", "MODE_NAMES", "PLAIN_KEY", "plain_gltf", "glb_bytes",
            "load_gltf_trimesh", "warn_unapplied_extensions",
            "extension_policy_table", "strip_faces", "fan_faces", "dequantise"]
 
@@ -87,8 +87,10 @@ GLTF_EXTENSIONS = {
 }
 APPLIED_GLTF_EXTENSIONS = frozenset(k for k, (fate, _) in GLTF_EXTENSIONS.items() if fate == "applied")
 
-_DTYPES = {5120: "i1", 5121: "u1", 5122: "<i2", 5123: "<u2", 5125: "<u4", 5126: "<f4"}
-_WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}
+# The spec's accessor tables, the one definition the loader, the checks and the index search share.
+COMPONENT_DTYPES = {5120: "i1", 5121: "u1", 5122: "<i2", 5123: "<u2", 5125: "<u4", 5126: "<f4"}
+TYPE_WIDTHS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
+_VECTORS = {k: TYPE_WIDTHS[k] for k in ("SCALAR", "VEC2", "VEC3", "VEC4")}  # what geometry reads (no padded matrices)
 _TRIANGLE_MODES = (4, 5, 6)
 PLAIN_KEY = "raycast_shade_plain_gltf"  # in trimesh's scene metadata: (JSON, buffer) it was read from
 _DRACO = "KHR_draco_mesh_compression"
@@ -160,8 +162,8 @@ class _Reader:
         """Accessor ``index`` as stored ((count, k) array) and its ``normalized`` flag."""
         try:
             acc = self.js["accessors"][index]
-            dtype = np.dtype(_DTYPES[acc["componentType"]])
-            k, count = _WIDTH[acc["type"]], int(acc["count"])
+            dtype = np.dtype(COMPONENT_DTYPES[acc["componentType"]])
+            k, count = _VECTORS[acc["type"]], int(acc["count"])
             out = (self._view(acc["bufferView"], acc.get("byteOffset", 0), count, k, dtype)
                    if "bufferView" in acc else np.zeros((count, k), dtype))
             sparse = acc.get("sparse")
@@ -170,7 +172,7 @@ class _Reader:
                 n = int(sparse["count"])
                 ind, val = sparse["indices"], sparse["values"]
                 rows = self._view(ind["bufferView"], ind.get("byteOffset", 0), n, 1,
-                                  np.dtype(_DTYPES[ind["componentType"]]), packed=True).reshape(-1)
+                                  np.dtype(COMPONENT_DTYPES[ind["componentType"]]), packed=True).reshape(-1)
                 out[rows.astype(np.int64)] = self._view(val["bufferView"], val.get("byteOffset", 0), n, k, dtype,
                                                         packed=True)
             return out, bool(acc.get("normalized", False))
