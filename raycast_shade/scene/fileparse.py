@@ -14,6 +14,7 @@ import io
 import json
 import math
 import os
+import re
 import struct
 import warnings
 from dataclasses import dataclass, field
@@ -257,6 +258,9 @@ def ply_texture_files(path: str) -> list:
 
 
 _MTL_KEY = "__raycast_shade_materials__.mtl"
+# A comment after the values of a vertex, UV, normal, face or line statement (``f 1 2 3  # x``): group 1
+# is the statement. Other keys keep theirs (a file name may hold a '#').
+_DATA_COMMENT = re.compile(rb"(?m)^([ \t]*(?:v|vt|vn|vp|f|l|p)[ \t][^#\r\n]*?)[ \t]*#[^\r\n]*")
 
 
 class _MtlOnly:
@@ -302,6 +306,10 @@ def load_obj(path: str):
     name = os.path.basename(path)
     absolute = check_obj(data, name)
     data = data if absolute is None else absolute
+    if b"#" in data:  # the spec allows a comment after a statement; trimesh reads it as an index
+        stripped = _DATA_COMMENT.sub(rb"\1", data)
+        absolute = absolute if stripped == data else stripped
+        data = stripped
     vertices = vertex_lines(data)
     _warn_partial_colors(vertices[0], name)
     clipped = ear_clip_obj(data, name, vertices)  # only non-convex polygons: convex ones keep trimesh's fan
