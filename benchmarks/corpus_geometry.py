@@ -172,10 +172,20 @@ def check(folder: str, rel: str, kind: str) -> dict:
             "warnings": " | ".join(n.replace(folder + os.sep, "") for n in notes)}
 
 
+def _class(rel: str) -> str:
+    """The file class a sample exercises, from its name and variant."""
+    for key, name in (("pbrSpecularGlossiness", "spec-gloss"), ("Draco", "Draco"), ("Quantized", "quantized"),
+                      ("Meshopt", "meshopt"), ("Morph", "morph"), ("Sparse", "sparse accessor")):
+        if key in rel:
+            return name
+    return "primitive modes"
+
+
 def main(argv) -> int:
-    """``geometry FOLDER [--out CSV]``: print one line per file and the counts; 1 unless all are right."""
+    """``geometry FOLDER [--out CSV] [--markdown]``: print one line per file and the counts (and with
+    ``--markdown`` the table of docs/files.md); 1 unless all are right."""
     if not argv or argv[0].startswith("-"):
-        print("usage: corpus_check.py geometry FOLDER [--out CSV]", file=sys.stderr)
+        print("usage: corpus_check.py geometry FOLDER [--out CSV] [--markdown]", file=sys.stderr)
         return 2
     folder = os.path.abspath(argv[0])
     out = argv[argv.index("--out") + 1] if "--out" in argv else None
@@ -186,6 +196,12 @@ def main(argv) -> int:
               f"{r['file']}  {r['why'] or r['refused'][:100]}")
     print(f"{len(rows)} files: loaded {sum(r['loaded'] for r in rows)}, right {sum(r['right'] for r in rows)}, "
           f"warned {sum(r['warned'] for r in rows)}, refused {sum(not r['loaded'] for r in rows)}")
+    if "--markdown" in argv:  # the table of docs/files.md
+        print("\n| file | class | loaded | right (automatic check) | warned | refused |\n|---|---|---|---|---|---|")
+        for r in rows:
+            yes = {True: "yes", False: "no"}
+            print(f"| {r['file']} | {_class(r['file'])} | {yes[r['loaded']]} | {yes[r['right']]}"
+                  f"{' (' + r['why'] + ')' if r['why'] else ''} | {yes[r['warned']]} | {r['refused'] or '-'} |")
     if out:
         with open(out, "w", newline="") as fh:
             w = csv.DictWriter(fh, fieldnames=list(rows[0]) if rows else ["file"])

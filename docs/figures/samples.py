@@ -1,11 +1,12 @@
 """Contact sheet of docs/files.md: the Khronos samples of each file class beside their reference screenshots.
 
-``python -m docs.figures.samples SAMPLES [--quick]`` writes ``files_classes.png`` into ``docs/images/``:
+``python -m docs.figures.samples SAMPLES [--verdicts CSV] [--quick]`` writes ``files_classes.png`` into ``docs/images/``:
 for each sample of :data:`SAMPLES` that ``SAMPLES`` (a copy of glTF-Sample-Models' ``2.0`` folder, not
 shipped) holds, our render (``load_models``' framing and lights, Phong, as ``raycast-shade render FILE``)
 and the sample's ``screenshot/screenshot.*`` (a PBR viewer with an environment light; a GIF's first
 frame), labelled with the class and the verdict of ``benchmarks/corpus_geometry.py`` (``ok``: loaded and
-its automatic check holds; ``W``: warned; ``X``: the check fails; ``fail``: refused). Samples the copy
+its automatic check holds; ``W``: warned; ``X``: the check fails; ``fail``: refused; read from that
+script's ``--out CSV`` with ``--verdicts``, else checked here). Samples the copy
 lacks are listed on stderr and left out. Whether the colours look right is for the eye: the screenshots
 are lit by an environment map, which no point light reproduces.
 """
@@ -31,15 +32,15 @@ SAMPLES = [
     ("morph", "AnimatedMorphCube/glTF/AnimatedMorphCube.gltf", (-0.6, -0.5, -1.0)),
     ("morph", "AnimatedMorphSphere/glTF/AnimatedMorphSphere.gltf", (-0.4, -0.35, -1.0)),
     ("spec-gloss", "Box/glTF-pbrSpecularGlossiness/Box.gltf", (-0.6, -0.5, -1.0)),
-    ("spec-gloss", "Duck/glTF-pbrSpecularGlossiness/Duck.gltf", (0.7, -0.3, -1.0)),
+    ("spec-gloss", "Duck/glTF-pbrSpecularGlossiness/Duck.gltf", (-0.3, -0.3, 1.0)),  # as the screenshot
     ("spec-gloss", "Avocado/glTF-pbrSpecularGlossiness/Avocado.gltf", (0.3, 0.2, -1.0)),
     ("spec-gloss", "BoomBox/glTF-pbrSpecularGlossiness/BoomBox.gltf", (-0.7, -0.45, -1.0)),
-    ("spec-gloss", "2CylinderEngine/glTF-pbrSpecularGlossiness/2CylinderEngine.gltf", (-0.6, -0.4, -1.0)),
+    ("spec-gloss", "2CylinderEngine/glTF-pbrSpecularGlossiness/2CylinderEngine.gltf", (0.6, -0.4, 1.0)),
     ("texture transform", "TextureTransformTest/glTF/TextureTransformTest.gltf", FRONT),
     ("texture transform", "TextureTransformMultiTest/glTF/TextureTransformMultiTest.gltf", FRONT),
     ("Draco", "Box/glTF-Draco/Box.gltf", (-0.6, -0.5, -1.0)),
-    ("Draco", "Duck/glTF-Draco/Duck.gltf", (0.7, -0.3, -1.0)),
-    ("quantized", "Duck/glTF-Quantized/Duck.gltf", (0.7, -0.3, -1.0)),
+    ("Draco", "Duck/glTF-Draco/Duck.gltf", (-0.3, -0.3, 1.0)),
+    ("quantized", "Duck/glTF-Quantized/Duck.gltf", (-0.3, -0.3, 1.0)),
 ]
 
 
@@ -68,16 +69,22 @@ def _shot(samples, rel):
     return np.asarray(pad)
 
 
-def _verdict(samples, rel) -> str:
+def _verdict(samples, rel, table) -> str:
+    """The label of ``rel``'s row of ``benchmarks/corpus_geometry.py`` (from ``table``, its CSV by file, when
+    given; else checked here); ``-`` for a file that check does not cover."""
     from benchmarks.corpus_geometry import CLOSED_FORM, check
 
-    kind = "vs plain" if rel.split("/")[1] != "glTF" and "Embedded" not in rel else "closed form"
-    if kind == "closed form" and rel not in CLOSED_FORM:
+    if table is not None:
+        row = table.get(rel)
+    else:
+        kind = "vs plain" if rel.split("/")[1] != "glTF" and "Embedded" not in rel else "closed form"
+        row = None if kind == "closed form" and rel not in CLOSED_FORM else check(samples, rel, kind)
+    if row is None:
         return "-"
-    row = check(samples, rel.replace("/", os.sep), kind)
-    if not row["loaded"]:
+    yes = lambda v: v in (True, "True")  # noqa: E731 (the CSV's text, or the row's bool)
+    if not yes(row["loaded"]):
         return "fail"
-    return ("ok" if row["right"] else "X") + (" W" if row["warned"] else "")
+    return ("ok" if yes(row["right"]) else "X") + (" W" if yes(row["warned"]) else "")
 
 
 def main(argv=None):
@@ -85,12 +92,18 @@ def main(argv=None):
     from PIL import Image, ImageDraw
 
     argv = sys.argv[1:] if argv is None else list(argv)
-    paths = [a for a in argv if not a.startswith("-")] or [os.environ.get("KHRONOS_SAMPLES", "")]
+    paths = [a for k, a in enumerate(argv) if not a.startswith("-") and argv[k - 1:k] != ["--verdicts"]] or [os.environ.get("KHRONOS_SAMPLES", "")]
     if not os.path.isdir(paths[0]):  # the runner (python -m docs.figures) passes none: say why nothing is drawn
         print("docs.figures.samples: skipped, it needs the Khronos samples: python -m docs.figures.samples SAMPLES "
               "[--quick] or KHRONOS_SAMPLES=SAMPLES (SAMPLES: glTF-Sample-Models' 2.0 folder)", file=sys.stderr)
         return 2
     samples = paths[0]
+    table = None
+    if "--verdicts" in argv:  # the CSV of `corpus_check.py geometry SAMPLES --out CSV`: not checked again
+        import csv
+
+        with open(argv[argv.index("--verdicts") + 1], newline="") as fh:
+            table = {r["file"].replace(os.sep, "/"): r for r in csv.DictReader(fh)}
     present = [s for s in SAMPLES if os.path.exists(os.path.join(samples, s[1]))]
     for cls, rel, _ in SAMPLES:
         if (cls, rel, _) not in present:
@@ -106,7 +119,7 @@ def main(argv=None):
               fill=(0, 0, 0))
     for k, (cls, rel, direction) in enumerate(present):
         x, y = (k % per_row) * (2 * TILE + gap), head + (k // per_row) * (TILE + head)
-        label = f"{cls}: {rel.split('/')[0]} {rel.split('/')[1].replace('glTF-', '')} [{_verdict(samples, rel)}]"
+        label = f"{cls}: {rel.split('/')[0]} {rel.split('/')[1].replace('glTF-', '')} [{_verdict(samples, rel, table)}]"
         draw.text((x + 2, y + 1), label, fill=(0, 0, 0))
         sheet.paste(Image.fromarray(_render(os.path.join(samples, rel), direction)), (x, y + head - 2))
         shot = _shot(samples, rel)
