@@ -566,8 +566,8 @@ def _glb_with_json(path: str, js: dict) -> bytes:
 
 
 def load_gltf_trimesh(path: str, js: dict):
-    """trimesh's scene of a glTF file, with what it reads wrong made plain first (:func:`plain_gltf`) and
-    the spec-gloss materials it would convert in vain left out (:func:`_for_trimesh`)."""
+    """trimesh's scene of a glTF file, with what it reads wrong made plain first (:func:`plain_gltf`) and the
+    ``KHR_materials_pbrSpecularGlossiness`` it would convert in vain left out of the JSON it reads."""
     import trimesh
 
     warn_unapplied_extensions(js, os.path.basename(path))
