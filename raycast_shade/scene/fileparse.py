@@ -357,7 +357,8 @@ def load_off(path: str):
     head = next((k for k, (_, line) in enumerate(rows) if "OFF" in line.split()[0]), None) if rows else None
     if head is None:
         raise ValueError(f"{name}: no OFF header line (OFF, COFF, NOFF, ...)")
-    rest, at = rows[head][1].split()[1:], head + 1
+    line = rows[head][1]
+    rest, at = line[line.index("OFF") + 3:].split(), head + 1  # counts after the keyword (even "OFF8 6 12")
     if not rest and at < len(rows):
         rest, at = rows[at][1].split(), at + 1
     try:

@@ -179,3 +179,12 @@ def test_mutated_binary_ply_files_load_or_are_refused_naming_the_file(tmp_path, 
         raw = raw[:data.draw(st.integers(body, len(raw) - 1), "cut at")]
     path.write_bytes(bytes(raw))
     check(path)
+
+
+@pytest.mark.parametrize("head", ["OFF\n4 2 0", "OFF 4 2 0", "\t  OFF4 2 0 # counts glued to the keyword", "COFF\n4 2 0"])
+def test_off_counts_after_the_keyword_in_every_spelling(tmp_path, head):
+    """trimesh's models/whitespace.off writes ``OFF8 6 12``: the counts follow the keyword, wherever they are."""
+    path = tmp_path / "h.off"
+    path.write_text(head + "\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n3 0 2 3\n")
+    (model,) = rs.load_models(path)
+    np.testing.assert_array_equal(model.mesh.faces, [[0, 1, 2], [0, 2, 3]])
