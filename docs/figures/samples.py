@@ -32,15 +32,15 @@ SAMPLES = [
     ("morph", "AnimatedMorphCube/glTF/AnimatedMorphCube.gltf", (-0.6, -0.5, -1.0)),
     ("morph", "AnimatedMorphSphere/glTF/AnimatedMorphSphere.gltf", (-0.4, -0.35, -1.0)),
     ("spec-gloss", "Box/glTF-pbrSpecularGlossiness/Box.gltf", (-0.6, -0.5, -1.0)),
-    ("spec-gloss", "Duck/glTF-pbrSpecularGlossiness/Duck.gltf", (0.3, -0.3, 1.0)),  # as the screenshot
+    ("spec-gloss", "Duck/glTF-pbrSpecularGlossiness/Duck.gltf", (-1.0, -0.3, -0.4)),  # as the screenshot
     ("spec-gloss", "Avocado/glTF-pbrSpecularGlossiness/Avocado.gltf", (0.3, 0.2, -1.0)),
     ("spec-gloss", "BoomBox/glTF-pbrSpecularGlossiness/BoomBox.gltf", (-0.7, -0.45, -1.0)),
     ("spec-gloss", "2CylinderEngine/glTF-pbrSpecularGlossiness/2CylinderEngine.gltf", (0.6, -0.4, 1.0)),
     ("texture transform", "TextureTransformTest/glTF/TextureTransformTest.gltf", FRONT),
     ("texture transform", "TextureTransformMultiTest/glTF/TextureTransformMultiTest.gltf", FRONT),
     ("Draco", "Box/glTF-Draco/Box.gltf", (-0.6, -0.5, -1.0)),
-    ("Draco", "Duck/glTF-Draco/Duck.gltf", (0.3, -0.3, 1.0)),
-    ("quantized", "Duck/glTF-Quantized/Duck.gltf", (0.3, -0.3, 1.0)),
+    ("Draco", "Duck/glTF-Draco/Duck.gltf", (-1.0, -0.3, -0.4)),
+    ("quantized", "Duck/glTF-Quantized/Duck.gltf", (-1.0, -0.3, -0.4)),
 ]
 
 
