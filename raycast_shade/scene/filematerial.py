@@ -357,7 +357,9 @@ def _factor(value, n: int, default) -> np.ndarray:
 
 def from_pbr(mat, name: str, lost: list, ctx: FileContext) -> dict:
     """glTF metallic-roughness onto ka, kd, ks, t (see the module docstring), or with
-    ``ctx.reflectance == "pbr"`` as itself: a ``specular="ggx"`` material."""
+    ``ctx.reflectance == "pbr"`` as itself: a ``specular="ggx"`` material. Where the maps read a UV set
+    after the first, the keywords also hold ``wrapped.UV_SET`` (``(n, slot)``), which
+    :func:`~raycast_shade.load_models` takes out to read that set (not a :class:`Material` keyword)."""
     js = ctx.gltf_material(mat) or {}
     kw = {"name": name, "specular": "blinn", "double_sided": bool(js.get("doubleSided", False))}
     sg = (js.get("extensions") or {}).get("KHR_materials_pbrSpecularGlossiness")
