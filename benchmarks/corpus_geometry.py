@@ -8,9 +8,13 @@ folder (KhronosGroup/glTF-Sample-Models). Two kinds of check, neither using the 
   SimpleMorph (at its weights 0.5, 0.5 the apex stands at y = 1.5), AnimatedMorphCube and
   AnimatedMorphSphere (weights 0: the base shape, 2 units across), SimpleSparseAccessor (the sparse rows
   lift the peaks to y = 4), TriangleWithoutIndices (one triangle);
-* **against the plain variant** for every ``glTF-Draco``, ``glTF-Quantized`` and ``glTF-Meshopt``
-  variant present: the same bounding box (to 1% of its diagonal) and surface area (to 1%) as the
-  sample's ``glTF`` variant. ``EXT_meshopt_compression`` is not applied: those are expected refused.
+* **against the plain variant** for every ``glTF-Draco``, ``glTF-Quantized``, ``glTF-Meshopt`` and
+  ``glTF-pbrSpecularGlossiness`` variant present: the same bounding box (to 1% of its diagonal) and
+  surface area (to 1%) as the sample's ``glTF`` variant; a spec-gloss variant whose materials give a
+  ``diffuseTexture`` also has a model with a ``kd_map`` (the diffuse image was read, not a factor alone). ``EXT_meshopt_compression`` is not applied: those are expected refused.
+
+Whether the colours look right is not judged here: the contact sheet (``docs/figures/samples.py``) shows
+each file beside its reference screenshot for the eye.
 
 A file is **right** when it loads and its check holds, or when it is refused where a refusal is expected.
 """
@@ -85,7 +89,7 @@ CLOSED_FORM = {
     "TriangleWithoutIndices/glTF/TriangleWithoutIndices.gltf": _faces(1),
     "TriangleWithoutIndices/glTF-Embedded/TriangleWithoutIndices.gltf": _faces(1),
 }
-VARIANTS = ("glTF-Draco", "glTF-Quantized", "glTF-Meshopt")
+VARIANTS = ("glTF-Draco", "glTF-Quantized", "glTF-Meshopt", "glTF-pbrSpecularGlossiness")
 REFUSED = ("glTF-Meshopt",)  # EXT_meshopt_compression is required there and not applied
 
 
@@ -107,6 +111,21 @@ def _plain(folder: str, rel: str):
     plain = os.path.join(folder, sample, "glTF")
     names = sorted(n for n in os.listdir(plain) if n.endswith((".gltf", ".glb"))) if os.path.isdir(plain) else []
     return os.path.join(plain, names[0]) if names else None
+
+
+def _diffuse_maps(path, models) -> str:
+    """Why the diffuse images look unread: the file's spec-gloss materials give a ``diffuseTexture`` and no
+    model has a ``kd_map`` (a coarse check: the images were read, not which model took which)."""
+    import json
+
+    if not path.endswith(".gltf"):
+        return ""
+    with open(path, encoding="utf-8") as fh:
+        js = json.load(fh)
+    textured = sum("diffuseTexture" in ((m.get("extensions") or {}).get("KHR_materials_pbrSpecularGlossiness") or {})
+                   for m in js.get("materials") or [])
+    mapped = sum(m.material.kd_map is not None for m in models)
+    return f"{textured} material(s) with a diffuseTexture, no model with a kd_map" if textured and not mapped else ""
 
 
 def _against_plain(models, reference) -> str:
@@ -146,16 +165,27 @@ def check(folder: str, rel: str, kind: str) -> dict:
     else:
         reference = _plain(folder, rel)
         why = _against_plain(models, reference) if reference else "no plain glTF variant to compare with"
+        why = why or (_diffuse_maps(path, models) if "pbrSpecularGlossiness" in rel else "")
         why = why or ("loaded, but a refusal was expected" if expect_refusal else "")
     return {"file": rel, "loaded": models is not None, "right": not why, "warned": bool(notes),
             "refused": error.replace(folder + os.sep, ""), "why": why,
             "warnings": " | ".join(n.replace(folder + os.sep, "") for n in notes)}
 
 
+def _class(rel: str) -> str:
+    """The file class a sample exercises, from its name and variant."""
+    for key, name in (("pbrSpecularGlossiness", "spec-gloss"), ("Draco", "Draco"), ("Quantized", "quantized"),
+                      ("Meshopt", "meshopt"), ("Morph", "morph"), ("Sparse", "sparse accessor")):
+        if key in rel:
+            return name
+    return "primitive modes"
+
+
 def main(argv) -> int:
-    """``geometry FOLDER [--out CSV]``: print one line per file and the counts; 1 unless all are right."""
+    """``geometry FOLDER [--out CSV] [--markdown]``: print one line per file and the counts (and with
+    ``--markdown`` the table of docs/files.md); 1 unless all are right."""
     if not argv or argv[0].startswith("-"):
-        print("usage: corpus_check.py geometry FOLDER [--out CSV]", file=sys.stderr)
+        print("usage: corpus_check.py geometry FOLDER [--out CSV] [--markdown]", file=sys.stderr)
         return 2
     folder = os.path.abspath(argv[0])
     out = argv[argv.index("--out") + 1] if "--out" in argv else None
@@ -166,6 +196,12 @@ def main(argv) -> int:
               f"{r['file']}  {r['why'] or r['refused'][:100]}")
     print(f"{len(rows)} files: loaded {sum(r['loaded'] for r in rows)}, right {sum(r['right'] for r in rows)}, "
           f"warned {sum(r['warned'] for r in rows)}, refused {sum(not r['loaded'] for r in rows)}")
+    if "--markdown" in argv:  # the table of docs/files.md
+        print("\n| file | class | loaded | right (automatic check) | warned | refused |\n|---|---|---|---|---|---|")
+        for r in rows:
+            yes = {True: "yes", False: "no"}
+            print(f"| {r['file']} | {_class(r['file'])} | {yes[r['loaded']]} | {yes[r['right']]}"
+                  f"{' (' + r['why'] + ')' if r['why'] else ''} | {yes[r['warned']]} | {r['refused'] or '-'} |")
     if out:
         with open(out, "w", newline="") as fh:
             w = csv.DictWriter(fh, fieldnames=list(rows[0]) if rows else ["file"])

@@ -434,31 +434,24 @@ def _ply_bad_index(path: str):
 
 
 def _gltf_bad_index(path: str):
-    from .gltfgeometry import COMPONENT_DTYPES
-    from .gltftangents import _buffers
+    from .gltfgeometry import _Reader
 
     name = os.path.basename(path)
     js = _gltf_json(path, name, "glb" if path.lower().endswith(".glb") else "gltf")
-    buffers = None
-    dtypes = {k: COMPONENT_DTYPES[k] for k in (5121, 5123, 5125)}  # the unsigned index types
+    reader = None
     for i, mesh in enumerate(js.get("meshes", [])):
         for j, prim in enumerate(mesh.get("primitives", [])):
             if "indices" not in prim or "POSITION" not in prim.get("attributes", {}):
                 continue
             nv = int(js["accessors"][prim["attributes"]["POSITION"]]["count"])
             acc = js["accessors"][prim["indices"]]
-            if acc.get("componentType") not in dtypes or "bufferView" not in acc:
-                continue
-            buffers = _buffers(path, js) if buffers is None else buffers
-            view = js["bufferViews"][acc["bufferView"]]
-            dt = np.dtype(dtypes[acc["componentType"]])
-            stride = int(view.get("byteStride", dt.itemsize) or dt.itemsize)
-            start = int(view.get("byteOffset", 0)) + int(acc.get("byteOffset", 0))
-            raw = np.frombuffer(buffers[view["buffer"]], np.uint8)[start:]
-            count = int(acc["count"])
-            idx = np.ndarray((count,), dt, raw.data, 0, (stride,)) if count else np.zeros(0, dt)
+            if acc.get("componentType") not in (5121, 5123, 5125) or "bufferView" not in acc:
+                continue  # the unsigned index types the spec allows, as stored
+            reader = _Reader(path, js) if reader is None else reader
+            where = f"meshes[{i}].primitives[{j}].indices"
+            idx = reader.raw(prim["indices"], where)[0].reshape(-1)
             bad = np.flatnonzero(idx >= nv)
             if bad.size:
-                return (f"{name}: meshes[{i}].primitives[{j}].indices: entry {int(bad[0])} is vertex "
-                        f"{int(idx[bad[0]])}, but the primitive's POSITION has {nv} vertices")
+                return (f"{name}: {where}: entry {int(bad[0])} is vertex {int(idx[bad[0]])}, but the primitive's "
+                        f"POSITION has {nv} vertices")
     return None

@@ -53,7 +53,7 @@ class FileContext:
         self.mtl = {}  # OBJ: name -> fileparse.MtlMaterial
         self.usemtl = []
         self.gltf = gltf
-        self.off = None
+        self._off = None
         self.reflectance, self.cache = reflectance, {}
         self._keep = []  # the objects whose id() keys the cache stay alive with it
         if self.ext == ".obj":
@@ -64,8 +64,14 @@ class FileContext:
             for name in fileparse.ply_texture_files(path):
                 if not os.path.exists(os.path.join(self.base_dir, name)):
                     self.missing.append(f"{name} (TextureFile in {os.path.basename(path)}'s header)")
-        elif self.ext == ".off":
-            self.off = fileparse.off_colors(path)
+
+    @property
+    def off(self):
+        """An OFF file's colours (:func:`.fileparse.off_colors`; None for other files), read when first asked
+        for: after the geometry, so a broken file is named by its reader as ``Mesh.load`` names it."""
+        if self.ext == ".off" and self._off is None:
+            self._off = fileparse.off_colors(self.path)
+        return self._off
 
     def _obj(self):
         mtllibs, self.usemtl = fileparse.obj_references(self.path)
@@ -351,7 +357,9 @@ def _factor(value, n: int, default) -> np.ndarray:
 
 def from_pbr(mat, name: str, lost: list, ctx: FileContext) -> dict:
     """glTF metallic-roughness onto ka, kd, ks, t (see the module docstring), or with
-    ``ctx.reflectance == "pbr"`` as itself: a ``specular="ggx"`` material."""
+    ``ctx.reflectance == "pbr"`` as itself: a ``specular="ggx"`` material. Where the maps read a UV set
+    after the first, the keywords also hold ``wrapped.UV_SET`` (``(n, slot)``), which
+    :func:`~raycast_shade.load_models` takes out to read that set (not a :class:`Material` keyword)."""
     js = ctx.gltf_material(mat) or {}
     kw = {"name": name, "specular": "blinn", "double_sided": bool(js.get("doubleSided", False))}
     sg = (js.get("extensions") or {}).get("KHR_materials_pbrSpecularGlossiness")

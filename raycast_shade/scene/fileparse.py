@@ -14,6 +14,7 @@ import io
 import json
 import math
 import os
+import re
 import struct
 import warnings
 from dataclasses import dataclass, field
@@ -22,7 +23,7 @@ import numpy as np
 
 from ..common.warnings import DroppedOnLoadWarning
 
-__all__ = ["load_obj", "MtlMaterial", "parse_mtl", "obj_references", "gltf_header", "off_colors", "ply_texture_files",
+__all__ = ["load_obj", "load_off", "MtlMaterial", "parse_mtl", "obj_references", "gltf_header", "off_colors", "ply_texture_files",
            "GL_WRAPS", "obj_mtl_files",
            "off_mesh_colors"]
 
@@ -196,6 +197,8 @@ def off_colors(path: str):
             rest = lines[i][1].split()
             i += 1
         nv, nf = int(rest[0]), int(rest[1])
+        if len(lines) < i + nv + nf:
+            return none  # fewer rows than declared: load_off names that before any colour is read
         vrows = [(n, line.split()[3:]) for n, line in lines[i:i + nv]]
         frows = []
         for n, line in lines[i + nv:i + nv + nf]:
@@ -257,6 +260,9 @@ def ply_texture_files(path: str) -> list:
 
 
 _MTL_KEY = "__raycast_shade_materials__.mtl"
+# A comment after the values of a vertex, UV, normal, face or line statement (``f 1 2 3  # x``): group 1
+# is the statement. Other keys keep theirs (a file name may hold a '#').
+_DATA_COMMENT = re.compile(rb"(?m)^([ \t]*(?:v|vt|vn|vp|f|l|p)[ \t][^#\r\n]*?)[ \t]*#[^\r\n]*")
 
 
 class _MtlOnly:
@@ -302,6 +308,10 @@ def load_obj(path: str):
     name = os.path.basename(path)
     absolute = check_obj(data, name)
     data = data if absolute is None else absolute
+    if b"#" in data:  # the spec allows a comment after a statement; trimesh reads it as an index
+        stripped = _DATA_COMMENT.sub(rb"\1", data)
+        absolute = absolute if stripped == data else stripped
+        data = stripped
     vertices = vertex_lines(data)
     _warn_partial_colors(vertices[0], name)
     clipped = ear_clip_obj(data, name, vertices)  # only non-convex polygons: convex ones keep trimesh's fan
@@ -321,6 +331,75 @@ def load_obj(path: str):
     text = b"mtllib " + _MTL_KEY.encode() + b"\n" + b"\n".join(lines)
     return trimesh.load(file_obj=io.BytesIO(text), file_type="obj", resolver=_MtlOnly(mtl), process=False,
                         metadata={"file_name": name})
+
+
+def load_off(path: str):
+    """An OFF file as a ``trimesh.Trimesh`` (not processed), its faces read and triangulated here.
+
+    trimesh's reader fails on polygons of five vertices or more (``The 'out' kwarg is necessary``) and
+    fans concave ones over area they do not have; here every polygon is checked (the file and line of
+    what is wrong) and triangulated by :func:`~raycast_shade.scene.polygons.triangulate_polygons` (convex
+    ones as trimesh split them, in its order, so the file's face colours land as before).
+
+    Raises
+    ------
+    ValueError
+        Naming the file and line: no ``OFF`` header or counts, a vertex line without three numbers, a face
+        line whose count is not an integer >= 3 or that has fewer indices than its count, an index that is
+        not an integer or outside ``[0, vertices)`` (naming the face's number), fewer lines than declared.
+    """
+    import trimesh
+
+    from .polygons import triangulate_polygons
+
+    name = os.path.basename(path)
+    rows = list(_lines(path))
+    head = next((k for k, (_, line) in enumerate(rows) if "OFF" in line.split()[0]), None) if rows else None
+    if head is None:
+        raise ValueError(f"{name}: no OFF header line (OFF, COFF, NOFF, ...)")
+    line = rows[head][1]
+    rest, at = line[line.index("OFF") + 3:].split(), head + 1  # counts after the keyword (even "OFF8 6 12")
+    if not rest and at < len(rows):
+        rest, at = rows[at][1].split(), at + 1
+    try:
+        nv, nf = int(rest[0]), int(rest[1])
+        if nv < 0 or nf < 0:
+            raise ValueError
+    except (IndexError, ValueError):
+        where = rows[at - 1][0]
+        raise ValueError(f"{name}:{where}: expected the counts 'VERTICES FACES [EDGES]' (integers >= 0)") from None
+    vrows, frows = rows[at:at + nv], rows[at + nv:at + nv + nf]
+    if len(vrows) < nv or len(frows) < nf:
+        kind, got, want = ("vertex", len(vrows), nv) if len(vrows) < nv else ("face", len(frows), nf)
+        raise ValueError(f"{name}: the header declares {want} {kind} line(s), the file has {got} (is it cut short?)")
+    try:
+        vertices = np.array([line.split()[:3] for _, line in vrows], np.float64).reshape(nv, 3)
+    except ValueError:
+        bad = next(n for n, line in vrows if len(line.split()) < 3 or not all(_is_number(x) for x in line.split()[:3]))
+        raise ValueError(f"{name}:{bad}: a vertex needs 3 coordinates (x y z), numbers") from None
+    counts, flat, lines = np.zeros(nf, np.int64), [], np.array([n for n, _ in frows], np.int64)
+    for j, (n, line) in enumerate(frows):
+        t = line.split()
+        k = int(t[0]) if t[0].isdigit() else -1
+        if k < 3 or len(t) < 1 + k:
+            raise ValueError(f"{name}:{n}: face {j}: {line.strip()!r}: expected a vertex count of 3 or more and that "
+                             "many indices (is the line cut short?)")
+        counts[j] = k
+        flat += t[1:1 + k]
+    try:
+        flat = np.array(flat, np.int64)
+    except ValueError:
+        j = next(j for j, (_, line) in enumerate(frows) if not all(x.lstrip("-").isdigit()
+                                                                   for x in line.split()[1:1 + counts[j]]))
+        raise ValueError(f"{name}:{lines[j]}: face {j}: a vertex index is not an integer") from None
+    if len(flat) and (flat.min() < 0 or flat.max() >= nv):
+        at = int(np.argmax((flat < 0) | (flat >= nv)))
+        j = int(np.searchsorted(np.cumsum(counts), at, side="right"))
+        raise ValueError(f"{name}:{lines[j]}: face {j} indexes vertex {int(flat[at])}, but the file has {nv} vertices "
+                         "(OFF indices start at 0)")
+    faces = triangulate_polygons(vertices, flat, counts, name, lines) if nf else np.zeros((0, 3), np.int64)
+    return trimesh.Trimesh(vertices=vertices, faces=faces, process=False,
+                           metadata={"file_name": name, "file_path": os.path.abspath(path), "file_type": "off"})
 
 
 def off_mesh_colors(off, nv: int, nf: int, name: str):

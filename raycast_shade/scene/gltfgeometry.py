@@ -30,17 +30,18 @@ A file that needs none of this is left to trimesh as it is.
 
 from __future__ import annotations
 
+import base64
 import copy
 import io
 import json
 import os
 import struct
 import warnings
+from urllib.parse import unquote
 
 import numpy as np
 
 from ..common.warnings import DroppedOnLoadWarning
-from .gltftangents import _buffers
 
 __all__ = ["GLTF_EXTENSIONS", "APPLIED_GLTF_EXTENSIONS", "COMPONENT_DTYPES", "TYPE_WIDTHS", "MODE_NAMES", "PLAIN_KEY", "plain_gltf", "glb_bytes",
            "load_gltf_trimesh", "warn_unapplied_extensions",
@@ -63,9 +64,9 @@ GLTF_EXTENSIONS = {
                                                        "warned); `reflectance=\"pbr\"`: converted to "
                                                        "metallic-roughness per texel (approximated, warned)"),
     "EXT_texture_webp": ("applied", "trimesh takes the WebP source, Pillow decodes it"),
-    "KHR_texture_transform": ("applied", "offset, rotation, scale: the mesh's UVs transformed at load (maps of "
-                                         "one material with different transforms: the first map's for all, warned; "
-                                         "a `texCoord` other than 0 warned: TEXCOORD_0 is read)"),
+    "KHR_texture_transform": ("applied", "offset, rotation, scale and `texCoord`: the mesh's UVs transformed "
+                                         "at load, from the UV set the maps read (maps of one material with "
+                                         "different transforms or sets: the first map's for all, warned)"),
     "KHR_materials_unlit": ("not applied", "lit as any material"),
     "KHR_materials_clearcoat": ("not applied", "no clear coat layer"),
     "KHR_materials_transmission": ("not applied", "opaque"),
@@ -94,6 +95,7 @@ _VECTORS = {k: TYPE_WIDTHS[k] for k in ("SCALAR", "VEC2", "VEC3", "VEC4")}  # wh
 _TRIANGLE_MODES = (4, 5, 6)
 PLAIN_KEY = "raycast_shade_plain_gltf"  # in trimesh's scene metadata: (JSON, buffer) it was read from
 _DRACO = "KHR_draco_mesh_compression"
+_SPEC_GLOSS = "KHR_materials_pbrSpecularGlossiness"
 _FLOATED = ("POSITION", "NORMAL", "TANGENT")  # and every TEXCOORD_n: what trimesh and the shading read as floats
 
 
@@ -151,12 +153,39 @@ def fan_faces(indices: np.ndarray) -> np.ndarray:
         if len(i) else np.zeros((0, 3), np.int64)
 
 
-class _Reader:
-    """The file's accessors as arrays, every error naming the file and the JSON path."""
+def _buffers(path: str, js: dict) -> list:
+    """The file's buffers as bytes, in order: a ``.glb``'s binary chunk, a data URI, or a file beside the
+    ``.gltf`` (None for a GLB buffer the file lacks)."""
+    out = []
+    glb = None
+    if path.lower().endswith(".glb"):
+        with open(path, "rb") as fh:
+            data = fh.read()
+        pos = 12
+        while pos + 8 <= len(data):
+            length, kind = struct.unpack("<II", data[pos:pos + 8])
+            if kind == 0x004E4942:  # "BIN"
+                glb = data[pos + 8:pos + 8 + length]
+            pos += 8 + length
+    for buf in js.get("buffers", []) or []:
+        uri = buf.get("uri") if isinstance(buf, dict) else None
+        if uri is None:
+            out.append(glb)
+        elif uri.startswith("data:"):
+            out.append(base64.b64decode(uri.split(",", 1)[1]))
+        else:
+            with open(os.path.join(os.path.dirname(os.path.abspath(path)), unquote(uri)), "rb") as fh:
+                out.append(fh.read())
+    return out
 
-    def __init__(self, path: str, js: dict):
+
+class _Reader:
+    """The file's accessors as arrays, every error naming the file and the JSON path: the one accessor reader
+    of the loader (geometry, tangents, UV sets, the index search)."""
+
+    def __init__(self, path: str, js: dict, buffers: list | None = None):
         self.name, self.js = os.path.basename(path), js
-        self.buffers = _buffers(path, js)
+        self.buffers = _buffers(path, js) if buffers is None else buffers
 
     def raw(self, index: int, where: str) -> tuple:
         """Accessor ``index`` as stored ((count, k) array) and its ``normalized`` flag."""
@@ -486,15 +515,74 @@ def warn_unapplied_extensions(js: dict, name: str) -> None:
                       stacklevel=4)
 
 
+def _for_trimesh(js: dict):
+    """A copy of ``js`` without ``KHR_materials_pbrSpecularGlossiness``, or None when no material has it.
+
+    trimesh converts that extension to metallic-roughness texel by texel (seconds for 2048 x 2048
+    maps), and :mod:`.specgloss` then reads the extension from the file itself and discards the
+    result. Each such material keeps its name and, where its ``pbrMetallicRoughness`` has no
+    ``baseColorTexture``, gets its diffuse texture there (an image trimesh merely opens, as its
+    conversion's result had one), so the loader matches trimesh's material to the file's as before
+    (by name, then by whether it is textured).
+    """
+    mats = js.get("materials")
+    if not isinstance(mats, list) or not any(isinstance(m, dict) and _SPEC_GLOSS in (m.get("extensions") or {})
+                                             for m in mats):
+        return None
+    out = dict(js)
+    out["materials"] = []
+    for m in mats:
+        ext = (m.get("extensions") or {}) if isinstance(m, dict) else {}
+        if not isinstance(ext, dict) or _SPEC_GLOSS not in ext:
+            out["materials"].append(m)
+            continue
+        m = dict(m, extensions={k: v for k, v in ext.items() if k != _SPEC_GLOSS})
+        diffuse = ext[_SPEC_GLOSS].get("diffuseTexture") if isinstance(ext[_SPEC_GLOSS], dict) else None
+        core = m.get("pbrMetallicRoughness") if isinstance(m.get("pbrMetallicRoughness"), dict) else {}
+        if "baseColorTexture" not in core and isinstance(diffuse, dict):  # as trimesh's conversion gave it
+            m["pbrMetallicRoughness"] = dict(core, baseColorTexture=diffuse)
+        out["materials"].append(m)
+    for key in ("extensionsUsed", "extensionsRequired"):
+        if isinstance(out.get(key), list):
+            out[key] = [e for e in out[key] if e != _SPEC_GLOSS]
+    return out
+
+
+def _glb_with_json(path: str, js: dict) -> bytes:
+    """The GLB file at ``path`` with its JSON chunk replaced by ``js`` (its binary chunk kept)."""
+    with open(path, "rb") as fh:
+        data = fh.read()
+    chunks, pos = [], 12
+    while pos + 8 <= len(data):
+        length, kind = struct.unpack("<II", data[pos:pos + 8])
+        if kind != 0x4E4F534A:  # every chunk but the JSON, as it is
+            chunks.append(data[pos:pos + 8 + length])
+        pos += 8 + length
+    text = json.dumps(js, separators=(",", ":")).encode("utf-8")
+    text += b" " * (-len(text) % 4)
+    rest = b"".join(chunks)
+    return (struct.pack("<4sII", b"glTF", 2, 12 + 8 + len(text) + len(rest))
+            + struct.pack("<II", len(text), 0x4E4F534A) + text + rest)
+
+
 def load_gltf_trimesh(path: str, js: dict):
-    """trimesh's scene of a glTF file, with what it reads wrong made plain first (:func:`plain_gltf`)."""
+    """trimesh's scene of a glTF file, with what it reads wrong made plain first (:func:`plain_gltf`) and the
+    ``KHR_materials_pbrSpecularGlossiness`` it would convert in vain left out of the JSON it reads."""
     import trimesh
 
     warn_unapplied_extensions(js, os.path.basename(path))
     plain = plain_gltf(path, js)
-    if plain is None:
-        return trimesh.load(path, process=False)
+    light = _for_trimesh(plain[0] if plain is not None else js)
     resolver = trimesh.resolvers.FilePathResolver(os.path.abspath(path))
-    tm = trimesh.load(io.BytesIO(glb_bytes(*plain)), file_type="glb", resolver=resolver, process=False)
-    tm.metadata[PLAIN_KEY] = plain  # what trimesh read: the loader's TANGENT reader reads the same
+    if plain is not None:
+        tm = trimesh.load(io.BytesIO(glb_bytes(light or plain[0], plain[1])), file_type="glb", resolver=resolver,
+                          process=False)
+        tm.metadata[PLAIN_KEY] = plain  # what trimesh read: the loader's TANGENT reader reads the same
+    elif light is None:
+        tm = trimesh.load(path, process=False)
+    elif path.lower().endswith(".glb"):
+        tm = trimesh.load(io.BytesIO(_glb_with_json(path, light)), file_type="glb", resolver=resolver, process=False)
+    else:
+        tm = trimesh.load(io.BytesIO(json.dumps(light).encode("utf-8")), file_type="gltf", resolver=resolver,
+                          process=False)
     return tm

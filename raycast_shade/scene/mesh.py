@@ -376,7 +376,7 @@ def read_trimesh(path, merge: bool = False, *, checked: bool = False, gltf: dict
     import trimesh
 
     from .filecheck import check_face_indices, check_mesh_file, locate_bad_index
-    from .fileparse import load_obj
+    from .fileparse import load_obj, load_off
     from .gltfgeometry import load_gltf_trimesh
 
     merge = as_bool(merge, "merge")
@@ -392,7 +392,8 @@ def read_trimesh(path, merge: bool = False, *, checked: bool = False, gltf: dict
         if gltf is not None:
             tm = load_gltf_trimesh(path, gltf)
         else:
-            tm = load_obj(path) if path.lower().endswith(".obj") else trimesh.load(path, process=False)
+            readers = {".obj": load_obj, ".off": load_off}  # the formats whose polygons the library triangulates
+            tm = readers.get(os.path.splitext(path)[1].lower(), lambda p: trimesh.load(p, process=False))(path)
     except ImportError as exc:
         raise MissingReaderError(f"cannot read mesh file {path}: {_install_hint(exc)}") from None
     except ValueError as exc:

@@ -42,8 +42,9 @@ from ..common.validate import as_bool, as_choice
 from ..common.warnings import DroppedOnLoadWarning
 from .filecheck import check_mesh_file, naming_file
 from .gltfgeometry import PLAIN_KEY
-from .gltftangents import primitive_tangents
+from .gltftangents import primitive_tangents, primitive_uvs
 from .filematerial import FileContext, Wrapped, from_mtl_cached, from_pbr, from_simple, is_placeholder
+from .wrapped import UV_SET
 from .fileparse import off_mesh_colors
 from .material import Material
 from .mesh import Mesh, _instance, _is_scene, read_trimesh, use_normals_flag, visual_colors
@@ -94,6 +95,9 @@ def material_from_trimesh(visual, base_dir: str = ".", name: str = "material", c
     else:
         lost.append(f"a {type(mat).__name__}")
     if context is None:  # a caller of its own: every map a Texture now (a one-axis clamp shaded as repeat)
+        if UV_SET in kw:
+            n, slot = kw.pop(UV_SET)
+            lost.append(f"{slot}: texCoord {n} (no file to read TEXCOORD_{n} from: the mesh's UVs are used)")
         _resolve_maps(kw, None, mname, lost)
     return kw, lost
 
@@ -203,6 +207,7 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, r
             kw, why = material_from_trimesh(g.visual, ctx.base_dir, name, context=ctx)
             lost += [f"{name}: {w}" for w in why]
             vertices, faces, normals, uvs = _instance(g, transform, use_normals)
+            uvs = _file_uvs(ctx, tm, g, kw, name, lost, uvs)  # the UV set the material's maps read
             opaque = ctx is not None and ctx.gltf is not None and (getattr(getattr(g.visual, "material", None),
                                                                              "alphaMode", None) or "OPAQUE") == "OPAQUE"
             colors, mode = visual_colors(g, srgb, name, "ignore" if opaque else "warn")
@@ -224,8 +229,7 @@ def load_models(path, *, merge: bool = False, use_normals: bool | None = None, r
                 if colors is not None and mode == "face":
                     colors = colors[~dup]
             no_ka = "ka" not in kw
-            gltf = getattr(ctx, "gltf", None) is not None  # glTF has no ambient colour: from_pbr's ka follows
-            if colors is not None and (no_ka or gltf):
+            if colors is not None and (no_ka or ctx.gltf is not None):  # glTF has no ambient colour: kd's follows
                 # The colours carry kd's factor; ka = (its own colour) / that factor makes ka x colour the
                 # surface's ambient colour at every point (a factor 0 leaves no colour to follow).
                 factor = np.broadcast_to(np.asarray(kw.get("kd", 1.0), np.float64), (3,))
@@ -295,6 +299,30 @@ def _file_tangents(ctx, tm, g, transform, name: str, lost: list):
         return None
     rot = transform[:3, :3]
     return np.c_[tan[:, :3] @ rot.T, tan[:, 3] * np.sign(np.linalg.det(rot))]
+
+
+def _file_uvs(ctx, tm, g, kw: dict, name: str, lost: list, uvs):
+    """Mesh ``g``'s UVs: ``uvs`` (its ``TEXCOORD_0``), or where the material's maps read ``TEXCOORD_n``
+    (``kw[UV_SET]``: ``(n, the slot asking)``, taken out of ``kw``) that set from the file, (V, 2) with v up
+    as trimesh's UVs; where the primitive lacks it, ``uvs``, named in ``lost``."""
+    if UV_SET not in kw:
+        return uvs
+    n, slot = kw.pop(UV_SET)
+    prims, names = [], list(tm.geometry) if _is_scene(tm) else []
+    if ctx.gltf is not None and names:
+        key = ("uvs", n)
+        if key not in ctx.cache:  # from what trimesh read: the file, or the file made plain (gltfgeometry)
+            plain = tm.metadata.get(PLAIN_KEY)
+            ctx.cache[key] = (primitive_uvs(ctx.path, plain[0], n, [plain[1]]) if plain is not None
+                              else primitive_uvs(ctx.path, ctx.gltf, n))
+        prims = ctx.cache[key]
+    idx = next((i for i, k in enumerate(names) if tm.geometry[k] is g), None)
+    found = prims[idx] if idx is not None and len(prims) == len(names) else None
+    if found is not None and found[0].shape == g.vertices.shape and np.array_equal(found[0], g.vertices):
+        return found[1]
+    lost.append(f"{name}: {slot}: texCoord {n} (the primitive has no readable TEXCOORD_{n}, or it is not matched "
+                "to trimesh's vertices: TEXCOORD_0 used)")
+    return uvs
 
 
 def model_scene(path, *, width: int = 640, height: int = 480, direction=(-0.4, -0.35, -1.0), margin: float = 0.05,

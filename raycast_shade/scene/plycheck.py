@@ -1,9 +1,12 @@
-"""A PLY file's header, and an ASCII PLY's rows, checked against each other before trimesh reads it.
+"""A PLY file's header, and its rows (ASCII or binary), checked against each other before trimesh reads it.
 
 trimesh reads an ASCII PLY's values as one stream: a face line cut short (``3 1``) borrows the next
 row's values or comes out as a face the file does not have, rows beyond the header's counts are
 passed over, and a malformed header stops it with an IndexError. Each of these is named here with the
-file and line, before any reader runs.
+file and line, before any reader runs. A binary body is walked element by element: a face whose list
+count is wrong (under 3, or running past the end of the file) or that indexes a vertex the file does
+not have is named by its number, checked at NumPy speed where every row of an element has the same
+list lengths (the common case: all triangles), else row by row.
 """
 
 from __future__ import annotations
@@ -31,10 +34,13 @@ def check_ply(path: str) -> None:
     row per line, each with the values its element's properties give (a list: its count, then that
     many), numbers throughout, face indices in ``[0, vertices)``, as many rows as the header declares.
 
+    A binary body: each face's list count at least 3, its indices in ``[0, vertices)``, every row within
+    the file.
+
     Raises
     ------
     ValueError
-        Naming the file and line.
+        Naming the file and line (binary: the face's number).
 
     Warns
     -----
@@ -47,6 +53,7 @@ def check_ply(path: str) -> None:
     lines = data.split(b"\n")
     elements, fmt, end = _header(lines, name)
     if fmt != "ascii":
+        _check_binary(data, len(b"\n".join(lines[:end + 1])) + 1, lines[:end], "<" if "little" in fmt else ">", name)
         return
     body = [(i + 1, ln.split()) for i, ln in enumerate(lines[end + 1:], end + 1)]
     body = [(n, t) for n, t in body if t and t[0] != b"comment"]
@@ -160,3 +167,97 @@ def _row(name: str, line: int, ename: str, k: int, tokens: list, props: list, nv
                              "(PLY indices start at 0)")
     if at != len(tokens):
         raise ValueError(f"{name}:{line}: {ename} {k}: {len(tokens)} values where its properties take {at}")
+
+
+_BINARY = {"char": "i1", "uchar": "u1", "short": "i2", "ushort": "u2", "int": "i4", "uint": "u4", "float": "f4",
+           "double": "f8", "int8": "i1", "uint8": "u1", "int16": "i2", "uint16": "u2", "int32": "i4", "uint32": "u4",
+           "float32": "f4", "float64": "f8"}
+
+
+def _check_binary(data: bytes, at: int, header: list, endian: str, name: str) -> None:
+    """Every element's rows of a binary body walked from byte ``at``; faces checked (see :func:`check_ply`).
+    ``header``: the header's lines (checked by :func:`_header`), read again for the lists' count types."""
+    elements = []  # [name, count, [(kind, value dtype, count dtype or None, property)]]
+    for raw in header:
+        t = raw.decode("latin-1").split()
+        if t[:1] == ["element"]:
+            elements.append((t[1], int(t[2]), []))
+        elif t[:1] == ["property"]:
+            value = np.dtype(endian + _BINARY[t[-2]])
+            counter = np.dtype(endian + _BINARY[t[2]]) if t[1] == "list" else None
+            elements[-1][2].append(("list" if counter is not None else "scalar", value, counter, t[-1]))
+    nv = next((count for ename, count, _ in elements if ename == "vertex"), 0)
+    for ename, count, layout in elements:
+        at = _rows(data, at, ename, count, layout, nv, name)
+
+
+def _rows(data: bytes, at: int, ename: str, count: int, layout: list, nv: int, name: str) -> int:
+    """The end of an element's ``count`` rows starting at byte ``at``; its faces checked."""
+    if not count:
+        return at
+    first, sizes = at, []  # row 0's list lengths: the guess every row shares
+    for kind, dt, ct, _ in layout:
+        if kind == "list":
+            if first + ct.itemsize > len(data):
+                break
+            sizes.append(int(np.frombuffer(data, ct, 1, first)[0]))
+            first += ct.itemsize + sizes[-1] * dt.itemsize
+        else:
+            first += dt.itemsize
+    stride = first - at
+    if len(sizes) == sum(kind == "list" for kind, *_ in layout) and stride > 0 and at + count * stride <= len(data):
+        rows = np.lib.stride_tricks.as_strided(np.frombuffer(data, np.uint8, count * stride, at), (count, stride),
+                                               (stride, 1))
+        off, same, columns = 0, True, {}
+        for (kind, dt, ct, prop), n in zip(layout, _list_sizes(layout, sizes)):
+            if kind == "list":
+                same &= bool(np.all(rows[:, off:off + ct.itemsize].copy().view(ct).reshape(-1) == n))
+                off += ct.itemsize
+                columns[prop] = (off, n, dt)
+                off += n * dt.itemsize
+            else:
+                off += dt.itemsize
+        if same:
+            if ename == "face":
+                for prop in _INDICES:
+                    if prop in columns:
+                        o, n, dt = columns[prop]
+                        _face_indices(rows[:, o:o + n * dt.itemsize].copy().view(dt).reshape(count, n), 0, nv, name)
+            return at + count * stride
+    for k in range(count):  # lists of different lengths (or a count that runs off the file): row by row
+        for kind, dt, ct, prop in layout:
+            n = 1
+            if kind == "list":
+                if at + ct.itemsize > len(data):
+                    raise ValueError(f"{name}: {ename} {k}: the file ends inside it (cut short, or a wrong list count "
+                                     "before it)")
+                n = int(np.frombuffer(data, ct, 1, at)[0])
+                at += ct.itemsize
+            if at + n * dt.itemsize > len(data):
+                raise ValueError(f"{name}: {ename} {k}: {prop}: the list says {n} value(s), and the file ends before "
+                                 "them (cut short, or a wrong count)")
+            if ename == "face" and prop in _INDICES:
+                if n < 3:
+                    raise ValueError(f"{name}: face {k}: {prop}: a list of {n} index(es) (a face needs 3 or more; a "
+                                     "wrong count?)")
+                _face_indices(np.frombuffer(data, dt, n, at).reshape(1, n), k, nv, name)
+            at += n * dt.itemsize
+    return at
+
+
+def _list_sizes(layout: list, sizes: list) -> list:
+    """Per property, its list length (row 0's) or 1 for a scalar."""
+    it = iter(sizes)
+    return [next(it) if kind == "list" else 1 for kind, *_ in layout]
+
+
+def _face_indices(idx: np.ndarray, first: int, nv: int, name: str) -> None:
+    """Refuse a face (row ``first + r`` of ``idx``, (F, n)) with fewer than 3 indices or one outside ``[0, nv)``."""
+    if idx.shape[1] < 3:
+        raise ValueError(f"{name}: face {first}: a list of {idx.shape[1]} index(es) (a face needs 3 or more; a wrong "
+                         "count?)")
+    bad = (idx < 0) | (idx >= nv)
+    if bad.any():
+        r = int(np.argmax(bad.any(axis=1)))
+        raise ValueError(f"{name}: face {first + r} indexes vertex {int(idx[r][bad[r]][0])}, but the file has {nv} "
+                         "vertices (PLY indices start at 0)")

@@ -1,4 +1,4 @@
-"""OBJ polygons with more than three vertices triangulated in their own plane.
+"""OBJ and OFF polygons with more than three vertices triangulated in their own plane.
 
 trimesh splits every polygon into a fan from its first vertex: right for a
 convex polygon, but a concave one (an L, a keyhole ring around a hole) comes
@@ -8,7 +8,9 @@ text as the triangles of ear clipping (mapbox-earcut) in the polygon's plane,
 before trimesh reads it; convex ones stay as written, so trimesh's fan gives
 them the triangles it always did. Degenerate polygons (no area, a vertex
 repeated next to itself, bent out of their plane, crossing themselves) are
-named in one warning with the file and line of each.
+named in one warning with the file and line of each. OFF faces are read by the library
+(:func:`~raycast_shade.scene.fileparse.load_off`) and made triangles by :func:`triangulate_polygons`
+the same way: convex ones as trimesh would split them, non-convex ones ear-clipped.
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ import numpy as np
 
 from ..common.warnings import DroppedOnLoadWarning
 
-__all__ = ["ear_clip_obj", "vertex_lines", "PLANAR_TOLERANCE"]
+__all__ = ["ear_clip_obj", "triangulate_polygons", "vertex_lines", "PLANAR_TOLERANCE"]
 
 # A polygon bent out of its (Newell) plane by more than this fraction of its size is warned of: its
 # triangles then depend on how it is split. Subdivision-surface quads bend by far less.
@@ -264,3 +266,72 @@ def _ear_clip(pts: np.ndarray, normal: np.ndarray):
     if abs(covered - outline) > _AREA_RTOL * max(outline, covered):
         note = f"crosses itself: its triangles cover {covered:.6g}, its outline {outline:.6g}"
     return tris, note
+
+
+def triangulate_polygons(positions: np.ndarray, flat: np.ndarray, counts: np.ndarray, name: str,
+                         lines: np.ndarray) -> np.ndarray:
+    """Polygons as triangles in trimesh's order for OFF files, non-convex ones ear-clipped in their plane.
+
+    Parameters
+    ----------
+    positions : (V, 3) float64
+    flat : (sum(counts),) int64
+        Every polygon's vertex indices (0-based, checked) one polygon after another.
+    counts : (P,) int64
+        Vertices per polygon, each at least 3.
+    name : str
+        The file's name, for the warning.
+    lines : (P,) int64
+        Each polygon's line in the file, for the warning.
+
+    Returns
+    -------
+    (sum(counts - 2), 3) int64
+        The order trimesh's ``triangulate_quads`` gives (the OFF colours' mapping relies on it):
+        the triangles, then every quad's first triangle, then every quad's second, then each larger
+        polygon's ``k - 2`` triangles in the file's order. A convex polygon keeps trimesh's split
+        (a quad ``(0, 1, 2), (2, 3, 0)``, a larger one the fan ``(0, i, i + 1)``); a non-convex one
+        is ear-clipped (as many triangles, in the same places).
+
+    Warns
+    -----
+    DroppedOnLoadWarning
+        One for the file, naming the line of each degenerate polygon (as :func:`ear_clip_obj`).
+    """
+    offsets = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
+    parts, larger, notes = {}, [], []
+    for k in (int(c) for c in np.unique(counts)):
+        group = np.flatnonzero(counts == k)
+        idx = flat[offsets[group][:, None] + np.arange(k)]
+        if k == 3:
+            parts[3] = idx
+            continue
+        local = (np.array([[0, 1, 2], [2, 3, 0]]) if k == 4 else
+                 np.stack([np.zeros(k - 2, np.int64), np.arange(1, k - 1), np.arange(2, k)], axis=1))
+        local = np.repeat(local[None], len(group), axis=0)
+        normal, convex, why = _classify(positions[idx], idx)
+        for j in np.flatnonzero(~convex | (why != "")):
+            note = why[j]
+            if not convex[j]:
+                tris, crossing = _ear_clip(positions[idx[j]], normal[j])
+                if tris is not None and len(tris) == k - 2:
+                    local[j] = tris
+                note = "; ".join(w for w in (note, crossing) if w)
+            if note:
+                notes.append((int(lines[group[j]]), note))
+        tris = idx[np.arange(len(group))[:, None, None], local]  # (P, k - 2, 3) vertex indices
+        if k == 4:
+            parts[4] = tris
+        else:
+            larger += list(zip(group.tolist(), tris))
+    if notes:
+        notes.sort()
+        shown = "; ".join(f"line {n} ({why})" for n, why in notes[:8])
+        more = f"; and {len(notes) - 8} more" if len(notes) > 8 else ""
+        warnings.warn(f"{name}: {len(notes)} degenerate polygon(s), triangulated as written: {shown}{more}",
+                      DroppedOnLoadWarning, stacklevel=5)
+    out = [parts.get(3, np.zeros((0, 3), np.int64))]
+    if 4 in parts:
+        out += [parts[4][:, 0], parts[4][:, 1]]
+    out += [t for _, t in sorted(larger, key=lambda gt: gt[0])]
+    return np.concatenate(out).astype(np.int64) if out else np.zeros((0, 3), np.int64)

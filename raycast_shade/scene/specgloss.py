@@ -30,7 +30,7 @@ from urllib.parse import unquote
 
 import numpy as np
 
-from .gltftangents import _buffers
+from .gltfgeometry import _buffers
 from .wrapped import DIELECTRIC_F0, Wrapped, alpha_channel, alpha_mask, resample, shininess_of_roughness
 
 __all__ = ["from_spec_gloss", "gltf_image", "metal_rough_of_spec_gloss"]

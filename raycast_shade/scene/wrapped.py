@@ -6,7 +6,9 @@ glossiness / roughness to Blinn-Phong exponent map the glTF mappers share.
 material has the same transform (the common case: an atlas region, a tiling), moving the
 UVs is exact and costs the renderer nothing. Maps with different transforms would need a
 UV set each, which the renderer does not have: :func:`transform_maps` then draws every map
-with the first map's transform and names the others in the load warning.
+with the first map's transform and names the others in the load warning. The same holds for
+the UV set a map reads (``texCoord``): a material whose maps all read ``TEXCOORD_1`` is drawn
+with that set as the mesh's UVs; maps reading different sets are named in the warning.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ import numpy as np
 
 from .texture import Texture
 
-__all__ = ["Wrapped", "uv_transform", "apply_uv", "transform_maps", "MAP_SLOTS", "alpha_mask", "alpha_channel", "resample", "shininess_of_roughness"]
+__all__ = ["Wrapped", "uv_transform", "apply_uv", "transform_maps", "UV_SET", "MAP_SLOTS", "alpha_mask", "alpha_channel", "resample", "shininess_of_roughness"]
 
 MAX_SHININESS = 4096.0  # repeated squaring's limit (shading.illumination._power)
 DIELECTRIC_F0 = 0.04  # a dielectric's Fresnel reflectance at normal incidence
@@ -104,31 +106,40 @@ def apply_uv(uvs: np.ndarray, matrix: np.ndarray) -> np.ndarray:
     return uvs @ matrix[:, :2].T + matrix[:, 2]
 
 
+UV_SET = "uv_set"  # transform_maps' note to load_models: the TEXCOORD_n every map of the material reads
+
+
 def transform_maps(kw: dict, slots: dict, where: str, lost: list, cache: dict) -> None:
     """Attach the materials' ``KHR_texture_transform`` to its maps in ``kw`` (in place).
 
     ``slots`` maps a slot name (:data:`MAP_SLOTS`) to its textureInfo; a slot counts where
     one of its keywords holds a :class:`Wrapped`. One transform for every such slot: each
     map reads the mesh's UVs through it. Several: the first slot's is used for every map
-    and the rest are named in ``lost``; a ``texCoord`` other than 0 is named too (the
-    loader reads ``TEXCOORD_0`` only).
+    and the rest are named in ``lost``. The UV set (``texCoord``, the extension's overriding
+    the textureInfo's) likewise: when every map reads set ``n > 0``, ``kw[UV_SET] = n`` asks
+    the loader for ``TEXCOORD_n`` as the mesh's UVs; maps reading different sets are named
+    in ``lost`` (every map then reads the first map's set).
     """
     found = []
     for slot, info in slots.items():
         if not isinstance(info, dict) or not any(isinstance(kw.get(k), Wrapped) for k in MAP_SLOTS[slot]):
             continue
         matrix, tex_coord = uv_transform(info, f"{where}.{slot}")
-        if tex_coord != 0:
-            lost.append(f"{slot}: texCoord {tex_coord} (TEXCOORD_{tex_coord} is not read: TEXCOORD_0 is used)")
-        found.append((slot, matrix))
+        found.append((slot, matrix, tex_coord))
     if not found:
         return
-    first_slot, matrix = found[0]
-    differ = [s for s, m in found[1:] if not (m is None and matrix is None
-                                              or m is not None and matrix is not None and np.allclose(m, matrix))]
+    first_slot, matrix, first_set = found[0]
+    differ = [s for s, m, _ in found[1:] if not (m is None and matrix is None
+                                                 or m is not None and matrix is not None and np.allclose(m, matrix))]
     if differ:
         lost.append(f"KHR_texture_transform: {', '.join(differ)} transformed otherwise than {first_slot} "
                     f"(one UV set per mesh: every map drawn with {first_slot}'s transform)")
+    other_sets = [f"{s} (TEXCOORD_{n})" for s, _, n in found[1:] if n != first_set]
+    if other_sets:
+        lost.append(f"{where}: {', '.join(other_sets)} read another UV set than {first_slot} (TEXCOORD_{first_set}); "
+                    f"one UV set per mesh: every map drawn with TEXCOORD_{first_set}")
+    if first_set:
+        kw[UV_SET] = (first_set, first_slot)
     if matrix is None:
         return
     for key, value in list(kw.items()):

@@ -179,9 +179,10 @@ def test_maps_with_different_transforms_warn_naming_them(tmp_path):
     np.testing.assert_allclose(model.mesh.uvs, np.column_stack([xy[:, 0] + 0.5, xy[:, 1]]), atol=1e-6)
 
 
-def test_a_texcoord_override_naming_a_second_uv_set_is_warned(tmp_path):
+def test_a_texcoord_override_naming_a_second_uv_set_the_file_lacks_is_warned(tmp_path):
     _quad_file(tmp_path / "c.gltf", _base_colour({"texCoord": 1}), [_image()])
-    with pytest.warns(rs.DroppedOnLoadWarning, match=r"baseColorTexture: texCoord 1 \(TEXCOORD_1 is not read"):
+    with pytest.warns(rs.DroppedOnLoadWarning, match=r"baseColorTexture: texCoord 1 \(the primitive has no "
+                                                     r"readable TEXCOORD_1"):
         rs.load_models(tmp_path / "c.gltf")
 
 
