@@ -36,8 +36,8 @@ pose; :func:`raycast_shade.output.labels.object_table`), and per view its
 ``K``, ``R``, ``t`` (OpenCV's convention), size, projection, files and
 visible objects. ``exports`` adds set-level files: ``coco_instances.json``
 (COCO instances, RLE masks), ``transforms.json`` (nerfstudio / instant-ngp),
-``colmap/`` (COLMAP's text model, surface points with tracks), ``bop/`` (a BOP data set) and
-``amodal/`` (the silhouettes); see
+``colmap/`` (COLMAP's text model, surface points with tracks), ``bop/`` (a BOP data set),
+``amodal/`` (the silhouettes) and ``flow/`` (optical flow between consecutive views); see
 :mod:`raycast_shade.output.labels`, :mod:`raycast_shade.output.export` and
 :mod:`raycast_shade.output.bop`. The exports are written from the
 views' records and cameras, so they are not part of the plan: asking for
@@ -535,7 +535,8 @@ def register_cli(subparsers):
     p.add_argument("--export", default="", metavar="LIST",
                    help=f"set-level files, comma-separated: {', '.join(EXPORTS)} (COCO instances with RLE masks, "
                         "nerfstudio/instant-ngp transforms.json, COLMAP text, a BOP data set in bop/: the scene in "
-                        "metres, written in mm)")
+                        "metres, written in mm; flow/: .flo and KITTI PNG flow between consecutive views); a scene "
+                        "file's [[motion]] tables move its objects")
     p.add_argument("--unoccluded", action="store_true",
                    help="also cast each model alone: per object its unoccluded pixel count and box and its "
                         "visible fraction, in index.json")

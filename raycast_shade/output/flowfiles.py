@@ -214,6 +214,7 @@ def flow_colors(flow, valid=None, *, max_flow=None, background=(0, 0, 0)) -> np.
     """
     f = _flow(flow)
     ok = _valid(valid, f.shape[:2]) & np.isfinite(f).all(axis=2)
+    background = as_array(background, "background", dtype=np.uint8, shape=(3,))
     u, v = np.where(ok, f[..., 0], 0.0), np.where(ok, f[..., 1], 0.0)
     rad = np.hypot(u, v)
     if max_flow is None:
@@ -232,5 +233,5 @@ def flow_colors(flow, valid=None, *, max_flow=None, background=(0, 0, 0)) -> np.
     inside = (r <= 1.0)[..., None]
     col = np.where(inside, 1.0 - r[..., None] * (1.0 - col), col * 0.75)
     out = np.floor(255.0 * col).astype(np.uint8)
-    out[~ok] = np.asarray(background, np.uint8)
+    out[~ok] = background
     return out
