@@ -161,7 +161,7 @@ def orbit_poses(n_views, axis=(0.0, 1.0, 0.0), degrees=360.0, *, center=(0.0, 0.
         The axis direction (normalised; right-handed turn).
     degrees : float
         The turn across the views (360: one turn, the last view one step short of the first,
-        as :func:`~raycast_shade.orbit_cameras` places cameras); negative turns the other way.
+        as :func:`~raycast_shade.apps.animate.orbit_cameras` places cameras); negative turns the other way.
     center : (3,) float
         A world point on the axis.
     start : (4, 4) float, optional
