@@ -120,8 +120,8 @@ def keyframes(views, poses, n_views) -> np.ndarray:
     """
     n_views = as_count(n_views, "n_views")
     keys = as_array(views, "views", dtype=np.int64, ndim=1)
-    if len(keys) == 0:
-        raise ValueError("views: expected at least one key view, got none")
+    if np.ndim(views) != 1 or len(keys) == 0:
+        raise ValueError(f"views: expected a sequence of at least one key view, got {views!r:.40}")
     if keys[0] < 0 or np.any(np.diff(keys) <= 0):
         raise ValueError(f"views: expected strictly increasing view indices >= 0, got {keys.tolist()}")
     P = check_pose_track(poses, "poses", len(keys))

@@ -168,3 +168,15 @@ def test_the_cli_reads_motion_tables(tmp_path):
     track = rs.orbit_poses(2, (0, 1, 0), 30)
     assert all(np.allclose(v["model_to_world"][0], track[i], atol=1e-15) for i, v in enumerate(index["views"]))
     assert os.path.exists(tmp_path / "v" / "flow" / "forward_00000.flo")
+
+
+def test_bop_refuses_per_view_poses_of_another_shape_before_writing(tmp_path):
+    from raycast_shade.output.bop import write_bop
+
+    scene = _scene()
+    views = [{"rgb": "a.png", "depth": "a_depth.png", "depth_units": 1000.0, "objects": []}]
+    for poses, message in [(np.tile(np.eye(4), (1, 2, 1, 1)), r"poses: expected \(1, 3, 4, 4\)"),
+                           (np.tile(np.diag([1.0, 2.0, 1.0, 1.0]), (1, 3, 1, 1)), "poses .*must be a rotation")]:
+        with pytest.raises(ValueError, match=message):
+            write_bop(tmp_path / "bop", scene, [scene.camera], views, poses=poses)
+    assert not (tmp_path / "bop").exists()

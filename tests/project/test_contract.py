@@ -236,7 +236,7 @@ def baselines(tmp):
         "SpotLight.falloff": (rs.SpotLight((0.0, 3.0, 0.0), direction=(0.0, -1.0, 0.0)).falloff,
                               dict(cos_angle=0.9)),
         "render_views": (rs.render_views, dict(scene=scene, cameras=[cam], out_dir=str(tmp / "views"), files=None,
-                                               run=None)),
+                                               run=None, poses={0: np.eye(4)[None]})),
         "ViewFiles": (rs.ViewFiles, dict(buffers=("zdepth",), formats=("npz",), image=".png", depth_scale=1000.0,
                                          float_image=False, compression="none")),
         "RunOptions": (rs.RunOptions, dict(workers=2, scheduler=None, executor="auto", retries=2, resume=True,
@@ -362,6 +362,7 @@ LEGAL = {
     ("render_views", "out_dir", "'abc'"): "a folder name",
     ("render_views", "files", "None"): "the default: ViewFiles()",
     ("render_views", "run", "None"): "the default: RunOptions(), in this process",
+    ("render_views", "poses", "None"): "the default: every model as the scene places it",
     **{("RunOptions", a, "None"): "None is the documented default (this process; automatic)"
        for a in ("workers", "scheduler", "numba_threads", "per_task", "window")},
     **{("RunOptions", a, "True"): "a flag" for a in ("resume", "progress")},
