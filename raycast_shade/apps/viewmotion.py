@@ -74,7 +74,13 @@ def plan_motion(poses, scene, cameras, exports) -> tuple:
     """``(scenes, poses)``: ``poses`` checked (:func:`check_poses`; one per camera) with the exports
     (:func:`check_static_exports`), and the scene of each view (:func:`posed_scenes`; ``scene``
     itself without poses)."""
+    from ..scene.camera import Camera
+
     n_views = len(cameras) if isinstance(cameras, (list, tuple)) else 1
+    if poses is not None and isinstance(cameras, (list, tuple)):  # the cameras first: they count the views
+        bad = next((i for i, c in enumerate(cameras) if not isinstance(c, Camera)), None)
+        if bad is not None:
+            raise TypeError(f"cameras[{bad}]: expected a Camera, got {type(cameras[bad]).__name__}")
     poses = check_poses(poses, scene, n_views)
     check_static_exports(exports, poses, scene)
     return posed_scenes(scene, poses, n_views), poses
