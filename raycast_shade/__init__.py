@@ -55,6 +55,7 @@ __all__ = [
     "save_npz", "load_npz", "write_exr", "read_exr", "write_depth_png", "read_depth_png",
     "optical_flow", "move_model", "semantic_classes", "object_table", "view_objects", "coco_instances", "write_coco",
     "rle_encode", "rle_decode", "nerfstudio_transforms", "write_transforms", "write_colmap",
+    "keyframes", "orbit_poses", "write_flo", "read_flo", "write_flow_png", "read_flow_png", "flow_colors",
 ]
 
 # Imported on first access: figures needs matplotlib and explore ipywidgets (the
@@ -67,6 +68,9 @@ _LAZY_FUNCTIONS = {"explore": ".apps.explore", "render_views": ".apps.views", "V
                    **{n: ".output.bufferfile" for n in ("save_npz", "load_npz", "write_exr", "read_exr",
                                                          "write_depth_png", "read_depth_png")},
                    **{n: ".output.flow" for n in ("optical_flow", "move_model")},
+                   **{n: ".scene.posetrack" for n in ("keyframes", "orbit_poses")},
+                   **{n: ".output.flowfiles" for n in ("write_flo", "read_flo", "write_flow_png", "read_flow_png",
+                                                        "flow_colors")},
                    **{n: ".output.labels" for n in ("semantic_classes", "object_table", "view_objects",
                                                      "coco_instances", "write_coco", "rle_encode", "rle_decode")},
                    **{n: ".output.export" for n in ("nerfstudio_transforms", "write_transforms", "write_colmap")}}

@@ -33,6 +33,7 @@ FIGURES = [
     dict(name="raster", module="docs.figures.raster", page="raster.md"),
     dict(name="vision", module="docs.figures.vision", page="vision.md"),
     dict(name="bop", module="docs.figures.bop", page="vision.md"),
+    dict(name="motion", module="docs.figures.motion", page="vision.md"),
     dict(name="labels", module="docs.figures.labels", page="vision.md"),
     dict(name="teaching", module="docs.figures.teaching", page="teaching.md"),
     dict(name="gallery", module="docs.figures.gallery", page="gallery.md"),

@@ -30,20 +30,21 @@ from ..output.export import COLMAP_FILES, check_colmap, check_transforms, place_
 from ..output.imagefile import atomic_target, check_output_folder
 from ..output.labelfiles import coco_polygons, label_bits, label_map, write_amodal
 from ..output.labels import coco_instances, write_coco
+from .viewmotion import FLOW_INDEX, write_flow
 
 __all__ = ["EXPORTS", "EXPORT_FILES", "LABELS_NAME", "ExportOptions", "check_set_options", "check_set_targets",
            "set_level_files", "write_exports", "add_export_arguments", "export_options_of"]
 
-EXPORTS = ("coco", "nerfstudio", "colmap", "bop", "amodal")
+EXPORTS = ("coco", "nerfstudio", "colmap", "bop", "amodal", "flow")
 LABELS_NAME = "labels.json"
 COLMAP_SPARSE = os.path.join("sparse", "0")
 EXPORT_FILES = {"coco": ("coco_instances.json",), "nerfstudio": ("transforms.json",),
                 "colmap": tuple(os.path.join("colmap", d, n) for d in ("", COLMAP_SPARSE) for n in COLMAP_FILES),
                 "bop": (os.path.join("bop", "models", "models_info.json"),
                         *(os.path.join("bop", BOP_SPLIT, n + ".json") for n in ("scene_camera", "scene_gt", "scene_gt_info"))),
-                "amodal": ()}
+                "amodal": (), "flow": (FLOW_INDEX,)}
 BOP_UNITS_MM = 1000.0  # millimetres per world unit of a view set's BOP export: the scene in metres
-_FOLDERS = ("colmap", "bop", "amodal")
+_FOLDERS = ("colmap", "bop", "amodal", "flow")
 MAX_POLYGON_TOLERANCE = 100.0  # pixels: beyond, a mask's polygon is a triangle or its unsimplified outline  # exports that write a folder of their own
 
 
@@ -134,6 +135,8 @@ def check_set_options(exports, files, unoccluded, overwrite, scene, cameras, opt
         kind = "distance_png" if _fisheye(cameras) else "depth_png"  # what nerfstudio's depth loss reads
         formats = formats if kind in formats else formats + (kind,)
     unoccluded = bool(unoccluded) or "bop" in exports or "amodal" in exports
+    if "flow" in exports and (not isinstance(cameras, (list, tuple)) or len(cameras) < 2):
+        raise ValueError("exports: 'flow' is the flow between consecutive views: it needs at least two cameras")
     if "semantic_png" in formats:
         from ..output.labels import semantic_classes
 
@@ -241,8 +244,11 @@ def _write_colmap(out_dir, scene, cameras, images, options: ExportOptions) -> No
         place_file(os.path.join(out_dir, n), os.path.join(root, "images", n))
 
 
-def write_exports(scene, cameras, index: dict, out_dir: str, exports, options: ExportOptions | None = None) -> None:
-    """Write the set-level files ``exports`` (and ``labels.json``) from the views' records and the index."""
+def write_exports(scene, cameras, index: dict, out_dir: str, exports, options: ExportOptions | None = None, *,
+                  scenes=None) -> None:
+    """Write the set-level files ``exports`` (and ``labels.json``) from the views' records and the index;
+    ``scenes``: each view's scene when models move (default: ``scene`` in every view). ``flow`` adds the
+    index's ``flow`` entry."""
     options = ExportOptions() if options is None else options
     views = index["views"]
     images = [v["files"].get("image") for v in views]
@@ -268,7 +274,10 @@ def write_exports(scene, cameras, index: dict, out_dir: str, exports, options: E
         bop_views = [{"rgb": os.path.join(out_dir, v["files"]["image"]),
                       "depth": os.path.join(out_dir, v["files"]["depth_png"]),
                       "depth_units": index["depth_scale"], "objects": objects} for v, objects in zip(views, records)]
-        write_bop(os.path.join(out_dir, "bop"), scene, cameras, bop_views, mm_per_unit=BOP_UNITS_MM)
+        write_bop(os.path.join(out_dir, "bop"), scene, cameras, bop_views, mm_per_unit=BOP_UNITS_MM,
+                  poses=None if scenes is None else [[m.model_to_world for m in s.models] for s in scenes])
+    if "flow" in exports:
+        index["flow"] = write_flow(out_dir, [scene] * len(cameras) if scenes is None else scenes, cameras)
     kinds = [k for k in ("semantic", "instance") if k + "_png" in index["formats"]]
     if kinds or "amodal" in exports:
         labels = label_map(scene, kinds)

@@ -36,8 +36,8 @@ pose; :func:`raycast_shade.output.labels.object_table`), and per view its
 ``K``, ``R``, ``t`` (OpenCV's convention), size, projection, files and
 visible objects. ``exports`` adds set-level files: ``coco_instances.json``
 (COCO instances, RLE masks), ``transforms.json`` (nerfstudio / instant-ngp),
-``colmap/`` (COLMAP's text model, surface points with tracks), ``bop/`` (a BOP data set) and
-``amodal/`` (the silhouettes); see
+``colmap/`` (COLMAP's text model, surface points with tracks), ``bop/`` (a BOP data set),
+``amodal/`` (the silhouettes) and ``flow/`` (optical flow between consecutive views); see
 :mod:`raycast_shade.output.labels`, :mod:`raycast_shade.output.export` and
 :mod:`raycast_shade.output.bop`. The exports are written from the
 views' records and cameras, so they are not part of the plan: asking for
@@ -84,7 +84,9 @@ from .batch.run import RunOptions, merge_keywords
 from .viewexports import (EXPORT_FILES, EXPORTS, ExportOptions, add_export_arguments, check_set_options, check_set_targets,
                           export_options_of, set_level_files, write_exports)
 from .viewfiles import COMPRESSIONS, FORMATS, PNG_FORMATS, ViewFiles, format_buffers, png_format_bytes, view_files
-from .viewslots import ViewSlots
+from .viewmotion import fresh_scene, model_poses, moving_models, plan_motion
+from .viewslots import ViewSlots, view_conventions
+from .viewslots import two_frames_fit as _two_frames_fit  # a name tests and benchmarks replace
 from .viewplan import (PLAN_FORMAT, PLAN_NAME, digest, file_hasher, prepare_folder, view_hashes, view_is_done, view_key,
                        write_json, write_record)
 
@@ -348,7 +350,8 @@ def _on_dask(run: RunOptions) -> bool:
 
 def render_views(scene, cameras, out_dir, *, files: ViewFiles | None = None, run: RunOptions | None = None,
                  shading="phong", tone: dict | None = None, overwrite: bool = False, exports=(),
-                 unoccluded: bool = False, export_options: ExportOptions | None = None, **render_kwargs) -> str:
+                 unoccluded: bool = False, export_options: ExportOptions | None = None, poses=None,
+                 **render_kwargs) -> str:
     """Render a set of views with their buffers and cameras into ``out_dir``.
 
     Parameters
@@ -376,13 +379,15 @@ def render_views(scene, cameras, out_dir, *, files: ViewFiles | None = None, run
     overwrite : bool
         Replace a view set of another plan in ``out_dir`` (default: refuse
         it, saying what differs).
-    exports : sequence of {"coco", "nerfstudio", "colmap", "bop", "amodal"}
+    exports : sequence of {"coco", "nerfstudio", "colmap", "bop", "amodal", "flow"}
         Set-level files written after the views (see the module docstring and
         :mod:`~raycast_shade.apps.viewexports`; ``amodal`` turns ``unoccluded`` on);
         ``nerfstudio`` and ``colmap`` name the image files, so they need
         ``files.image``; ``bop`` (:mod:`raycast_shade.output.bop`, the scene
         in metres) needs ``.png`` images and turns on ``unoccluded`` and the
-        ``depth_png`` format (its ``depth/`` files).
+        ``depth_png`` format (its ``depth/`` files); ``flow`` the forward and backward optical flow
+        between consecutive views in ``flow/`` (``.flo`` and KITTI PNG, see
+        :mod:`~raycast_shade.apps.viewmotion`).
     unoccluded : bool
         Also cast each model alone per view: each object's unoccluded
         (amodal) pixel count and box and its visible fraction in the records
@@ -390,6 +395,12 @@ def render_views(scene, cameras, out_dir, *, files: ViewFiles | None = None, run
         more cast per model and view.
     export_options : ExportOptions, optional
         How the exports are written (COCO polygons, COLMAP layout and points).
+    poses : dict of (int or str) to (V, 4, 4) float, optional
+        Objects that move: per model (index, or name: every model of that name) its rigid
+        model-to-world pose in each view (:func:`~raycast_shade.keyframes`,
+        :func:`~raycast_shade.orbit_poses`); the records, index, COCO and BOP say each view's
+        poses; ``nerfstudio`` and ``colmap`` are refused when a model moves
+        (:mod:`~raycast_shade.apps.viewmotion`). Default: every model as the scene places it.
 
     Returns
     -------
@@ -435,7 +446,8 @@ def render_views(scene, cameras, out_dir, *, files: ViewFiles | None = None, run
         exports, files, unoccluded, overwrite, scene, cameras, export_options)
     options = check_options(shading, render_kwargs, tone, run.resume)
     memory = dict(buffers=names + ("model_id",), samples=options.render_kwargs.get("samples", 1))
-    bases, jobs = plan_batch(scene, cameras, memory=memory)
+    scenes, poses = plan_motion(poses, scene, cameras, exports)  # one scene per view when models move
+    bases, jobs = plan_batch(scenes, cameras, memory=memory)
     spec = _ViewSpec(options, names, formats, None if image is None else str(image).lower(), out_dir,
                      float(depth_scale), exports=exports, unoccluded=bool(unoccluded), float_image=files.float_image,
                      compression=compression, overlap=_two_frames_fit(jobs, memory))
@@ -448,46 +460,43 @@ def render_views(scene, cameras, out_dir, *, files: ViewFiles | None = None, run
     prepare_folder(out_dir, plan, bool(overwrite), set_files)
     set_level = [INDEX_NAME, PLAN_NAME] + [n for n in set_level_files() if os.sep not in n]
     remove_stale_temps(out_dir, [n for files in all_files.values() for n in files.values()] + set_level)
+    _run_set(run, on_dask, bases, jobs, spec, set(moving_models(poses)))
+    return _write_index(scene, spec, jobs, [bases[j.key] for j in jobs] if poses else None, all_files,
+                        export_options)
+
+
+def _run_set(run: RunOptions, on_dask: bool, bases, jobs, spec: _ViewSpec, moved: set) -> None:
+    """Render and store every view, here or on Dask; the geometries of the ``moved`` models' scenes live
+    in the scene cache alone (:func:`~raycast_shade.apps.viewmotion.fresh_scene`), not in the plan."""
     if not on_dask:
         cache = SceneCache()
-        _run_views(jobs, lambda job: cache.base(job.key, bases[job.key]), spec, cache)
-    else:
-        from .batch.cluster import connect
+        _run_views(jobs, lambda job: cache.base(job.key, fresh_scene(bases[job.key], moved) if moved
+                                                else bases[job.key]), spec, cache)
+        return
+    from .batch.cluster import connect
 
-        workers = cores() if run.workers is None and run.scheduler is None else run.workers  # executor="dask" alone
-        with connect(workers, run.scheduler, run.numba_threads) as client:
-            for _ in _iter_dask(client, bases, jobs, spec, run.retries, run.per_task or 1):
-                pass
-    index = {"conventions": _conventions(spec.depth_scale),
-             "buffers": list(names), "formats": list(formats), "depth_scale": spec.depth_scale,
+    workers = cores() if run.workers is None and run.scheduler is None else run.workers  # executor="dask" alone
+    with connect(workers, run.scheduler, run.numba_threads) as client:
+        for _ in _iter_dask(client, bases, jobs, spec, run.retries, run.per_task or 1):
+            pass
+
+
+def _write_index(scene, spec: _ViewSpec, jobs, scenes, all_files, export_options) -> str:
+    """The exports, then ``index.json`` (with each view's ``model_to_world`` when models move: ``scenes``)."""
+    out_dir = spec.out_dir
+    index = {"conventions": view_conventions(spec.depth_scale),
+             "buffers": list(spec.buffers), "formats": list(spec.formats), "depth_scale": spec.depth_scale,
              "classes": list(semantic_classes(scene)[0]), "objects": object_table(scene),
              "views": [_index_entry(j, all_files[j.index], out_dir) for j in jobs]}
-    write_exports(scene, [j.camera for j in jobs], index, out_dir, exports, export_options)
+    if scenes is not None:  # objects that move: every model's pose per view (hidden ones too)
+        index["conventions"]["model_to_world"] = "per view, each model's 4x4 pose: x_world = R x_model + t"
+        for view, poses in zip(index["views"], model_poses(scenes)):
+            view["model_to_world"] = poses
+    write_exports(scene, [j.camera for j in jobs], index, out_dir, spec.exports, export_options, scenes=scenes)
     path = os.path.join(out_dir, INDEX_NAME)
     write_json(path, index)
     return path
 
-
-
-def _conventions(depth_scale: float) -> dict:
-    """The index's ``conventions``: what the numbers in the files mean."""
-    return {"camera": "OpenCV: x right, y down, z forward; x_cam = R x_world + t",
-            "pixels": "centre of pixel (i, j) at (u, v) = (i, j)",
-            "zdepth": "camera-space z", "depth": "distance along the ray",
-            "depth_png": f"uint16 zdepth * {depth_scale:g}, 0 = none",
-            "distance_png": f"uint16 depth * {depth_scale:g}, 0 = none",
-            "mask_png": "255 on a surface, 0 on the background", "labels": "labels.json",
-            "ids": "-1 on the background (EXR: id + 1, 0 on the background)"}
-
-
-def _two_frames_fit(jobs, memory) -> bool:
-    """Whether two of the largest frame (the one writing, the next rendering) fit in the memory limit
-    that :meth:`~raycast_shade.scene.camera.Camera.check_frame_memory` holds one frame to."""
-    from ..common.validate import memory_limit
-    from ..scene.framememory import frame_bytes_per_pixel
-
-    pixels = max((float(j.camera.width) * float(j.camera.height) for j in jobs), default=0.0)
-    return 2.0 * pixels * frame_bytes_per_pixel(**memory) <= memory_limit()
 
 
 # -- the command line ------------------------------------------------------------------------------
@@ -526,7 +535,8 @@ def register_cli(subparsers):
     p.add_argument("--export", default="", metavar="LIST",
                    help=f"set-level files, comma-separated: {', '.join(EXPORTS)} (COCO instances with RLE masks, "
                         "nerfstudio/instant-ngp transforms.json, COLMAP text, a BOP data set in bop/: the scene in "
-                        "metres, written in mm)")
+                        "metres, written in mm; flow/: .flo and KITTI PNG flow between consecutive views); a scene "
+                        "file's [[motion]] tables move its objects")
     p.add_argument("--unoccluded", action="store_true",
                    help="also cast each model alone: per object its unoccluded pixel count and box and its "
                         "visible fraction, in index.json")
@@ -551,13 +561,16 @@ def run_cli(ns) -> int:
     """Run ``raycast-shade views``; errors are raised for the caller to print on one line."""
     import time
 
+    from ..scene.motionfile import load_motion
     from ..scene.scenefile import load_for_render
     from .animate import orbit_cameras
     from .args import model_for_render, overrides, run_options, scene_file_refuses_mesh_options
 
+    poses = None
     if ns.scene.lower().endswith(".toml"):
         scene_file_refuses_mesh_options(ns)
         scene, render_kwargs, tone = load_for_render(ns.scene, **overrides(ns))
+        poses = load_motion(ns.scene, scene, ns.orbit) or None  # [[motion]] tables: objects that move
     else:  # a mesh file, framed and lit as ``raycast-shade render`` frames it
         scene, render_kwargs, tone = model_for_render(ns.scene, overrides(ns), ns.crease_angle, ns.reflectance)
     shading = render_kwargs.pop("shading", "phong")
@@ -573,7 +586,8 @@ def run_cli(ns) -> int:
     run = run_options(ns)  # --workers, --scheduler: the record Python callers pass
     index = render_views(scene, orbit_cameras(scene.camera, ns.orbit), ns.output, files=files, run=run,
                          shading=shading, tone=tone, overwrite=ns.overwrite, exports=exports,
-                         unoccluded=ns.unoccluded, export_options=export_options_of(ns), **render_kwargs)
+                         unoccluded=ns.unoccluded, export_options=export_options_of(ns), poses=poses,
+                         **render_kwargs)
     secs = time.perf_counter() - t0
     cam = scene.camera
     print(f"wrote {index} ({ns.orbit} views, {cam.width}x{cam.height}, buffers {','.join(ns.buffers)}): "

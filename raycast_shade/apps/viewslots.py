@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["ViewSlots"]
+__all__ = ["ViewSlots", "view_conventions", "two_frames_fit"]
 
 
 class ViewSlots:
@@ -42,3 +42,24 @@ class ViewSlots:
     def keep(self, buffers) -> None:
         """The present slot's view was rendered into these buffers: the next view of the slot reuses them."""
         self.buffers[self.turn] = dict(buffers)
+
+
+def view_conventions(depth_scale: float) -> dict:
+    """The index's ``conventions``: what the numbers in the files mean."""
+    return {"camera": "OpenCV: x right, y down, z forward; x_cam = R x_world + t",
+            "pixels": "centre of pixel (i, j) at (u, v) = (i, j)",
+            "zdepth": "camera-space z", "depth": "distance along the ray",
+            "depth_png": f"uint16 zdepth * {depth_scale:g}, 0 = none",
+            "distance_png": f"uint16 depth * {depth_scale:g}, 0 = none",
+            "mask_png": "255 on a surface, 0 on the background", "labels": "labels.json",
+            "ids": "-1 on the background (EXR: id + 1, 0 on the background)"}
+
+
+def two_frames_fit(jobs, memory) -> bool:
+    """Whether two of the largest frame (the one writing, the next rendering) fit in the memory limit
+    that :meth:`~raycast_shade.scene.camera.Camera.check_frame_memory` holds one frame to."""
+    from ..common.validate import memory_limit
+    from ..scene.framememory import frame_bytes_per_pixel
+
+    pixels = max((float(j.camera.width) * float(j.camera.height) for j in jobs), default=0.0)
+    return 2.0 * pixels * frame_bytes_per_pixel(**memory) <= memory_limit()

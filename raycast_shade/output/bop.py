@@ -175,7 +175,7 @@ def _gt_info(visib, solo, box_all, pixels_all: int, depth) -> dict:
             "visib_fract": seen / pixels_all if pixels_all else 0.0}
 
 
-def write_bop(folder, scene, cameras, views, *, mm_per_unit: float = 1000.0) -> str:
+def write_bop(folder, scene, cameras, views, *, mm_per_unit: float = 1000.0, poses=None) -> str:
     """Write a BOP data set of one scene (see the module docstring) from rendered views.
 
     Parameters
@@ -193,6 +193,9 @@ def write_bop(folder, scene, cameras, views, *, mm_per_unit: float = 1000.0) -> 
         with ``rle_unoccluded``, its silhouette's RLE).
     mm_per_unit : float
         Millimetres per world unit (1000: the scene is in metres).
+    poses : sequence of sequence of (4, 4) float, optional
+        Objects that move: per view, each model's model-to-world pose in that view (default: the
+        scene's :attr:`~raycast_shade.scene.scene.Model.pose` in every view).
 
     Returns
     -------
@@ -219,15 +222,16 @@ def write_bop(folder, scene, cameras, views, *, mm_per_unit: float = 1000.0) -> 
             raise ValueError(f"views[{k}].objects: each object needs its silhouette (rle_unoccluded): "
                              "render the views with unoccluded=True")
     mm_per_unit = as_scalar(mm_per_unit, "mm_per_unit", minimum=0.0, exclusive=True)
+    static = [m.model_to_world for m in scene.models]
+    per_view = [static] * len(views) if poses is None else _view_poses(poses, len(views), len(static))
     folder = as_path(folder, "folder")
     write_bop_models(folder, scene, mm_per_unit)
     root = os.path.join(folder, BOP_SPLIT)
     for sub in ("rgb", "depth", "mask", "mask_visib"):
         os.makedirs(os.path.join(root, sub), exist_ok=True)
     oids = object_ids(scene)
-    poses = [m.model_to_world for m in scene.models]
     cam_json, gt_json, info_json = {}, {}, {}
-    for im, (cam, view) in enumerate(zip(cameras, views)):
+    for im, (cam, view, view_poses) in enumerate(zip(cameras, views, per_view)):
         K, R, t = cam.to_opencv()
         depth_scale = mm_per_unit / float(view["depth_units"])  # the PNG's value times this: mm
         cam_json[str(im)] = {"cam_K": K.ravel().tolist(), "depth_scale": depth_scale,
@@ -238,7 +242,7 @@ def write_bop(folder, scene, cameras, views, *, mm_per_unit: float = 1000.0) -> 
         by_id = {o["id"]: o for o in view["objects"]}
         empty = np.zeros((cam.height, cam.width), bool)
         gts, infos = [], []
-        for g, (oid, pose) in enumerate(zip(oids, poses)):
+        for g, (oid, pose) in enumerate(zip(oids, view_poses)):
             m2c = np.vstack([np.c_[R, t], [0, 0, 0, 1]]) @ pose
             gts.append({"cam_R_m2c": m2c[:3, :3].ravel().tolist(), "cam_t_m2c": (m2c[:3, 3] * mm_per_unit).tolist(),
                         "obj_id": int(oid)})
@@ -254,6 +258,18 @@ def write_bop(folder, scene, cameras, views, *, mm_per_unit: float = 1000.0) -> 
         _write_json(os.path.join(root, name + ".json"), data)
     _remove_stale(folder, root, len(views), len(scene.models), set(oids))
     return root
+
+
+def _view_poses(poses, n_views: int, n_models: int) -> np.ndarray:
+    """``poses`` as (n_views, n_models, 4, 4) float64 rigid poses, or raise naming it."""
+    from ..common.validate import as_array
+    from ..scene.posetrack import check_pose_track
+
+    P = as_array(poses, "poses", dtype=np.float64)
+    if P.shape != (n_views, n_models, 4, 4):
+        raise ValueError(f"poses: expected ({n_views}, {n_models}, 4, 4): per view each model's pose, got {P.shape}")
+    check_pose_track(P.reshape(-1, 4, 4), "poses (flattened view by model)", n_views * n_models)
+    return P
 
 
 def _remove_stale(folder, root, n_views: int, n_models: int, oids: set) -> None:

@@ -84,7 +84,7 @@ from .scene import Model, Scene
 __all__ = ["load_scene", "load_for_render", "scene_from_dict", "SceneFileError", "check_render_options",
            "split_options", "RENDER_KEYS", "SIZE_KEYS", "TONE_KEYS"]
 
-_TOP_KEYS = ("ambient", "background", "camera", "object", "light", "render")
+_TOP_KEYS = ("ambient", "background", "camera", "object", "light", "render", "motion")  # motion: views (motionfile)
 _CAMERA_KEYS = ("eye", "target", "up", "fov", "width", "height", "projection", "ortho_height", "fit", "direction", "margin")
 _FIT_KEYS = ("fit", "direction", "margin", "up", "fov", "width", "height", "projection")
 _OBJECT_KEYS = ("shape", "mesh", "name", "normals", "weighting", "crease_angle", "scale", "rotate", "translate",
