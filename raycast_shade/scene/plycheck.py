@@ -66,8 +66,12 @@ def check_ply(path: str) -> None:
             raise ValueError(f"{where}: the header declares {count} {ename} row(s), the file has {len(rows)} "
                              "(is it cut short?)")
         if not _table_ok(rows, ename, props, nv):
-            for k, (line, tokens) in enumerate(rows):  # line by line, to name the first bad one
-                _row(name, line, ename, k, tokens, props, nv)
+            trailing = [(line, extra) for k, (line, tokens) in enumerate(rows)  # line by line: the first bad one
+                        if (extra := _row(name, line, ename, k, tokens, props, nv))]
+            if trailing:  # values after the declared ones: readers take the leading columns (trimesh's corpus has such files)
+                warnings.warn(f"{name}:{trailing[0][0]}: {len(trailing)} {ename} row(s) carry values after the ones its "
+                              f"header declares ({trailing[0][1]} on this line); ignored", DroppedOnLoadWarning,
+                              stacklevel=4)
         at += count
     if at < len(body):
         warnings.warn(f"{name}:{body[at][0]}: {len(body) - at} line(s) after the rows the header declares "
@@ -132,8 +136,9 @@ def _table_ok(rows: list, ename: str, props: list, nv: int) -> bool:
     return True
 
 
-def _row(name: str, line: int, ename: str, k: int, tokens: list, props: list, nv: int) -> None:
-    """One ASCII row checked against its element's properties."""
+def _row(name: str, line: int, ename: str, k: int, tokens: list, props: list, nv: int) -> int:
+    """One ASCII row checked against its element's properties; returns how many values follow the
+    declared ones (0 for an exact row)."""
     at = 0
     for kind, typ, prop in props:
         want = f"{ename} {k}: {prop}"
@@ -165,8 +170,7 @@ def _row(name: str, line: int, ename: str, k: int, tokens: list, props: list, nv
             bad = int(nums[(nums < 0) | (nums >= nv)][0])
             raise ValueError(f"{name}:{line}: face {k} indexes vertex {bad}, but the file has {nv} vertices "
                              "(PLY indices start at 0)")
-    if at != len(tokens):
-        raise ValueError(f"{name}:{line}: {ename} {k}: {len(tokens)} values where its properties take {at}")
+    return len(tokens) - at  # values after the declared ones (the caller warns)
 
 
 _BINARY = {"char": "i1", "uchar": "u1", "short": "i2", "ushort": "u2", "int": "i4", "uint": "u4", "float": "f4",

@@ -272,13 +272,30 @@ def test_the_sample_shapes_of_gltf_pass_the_structure_check(tmp_path):
     (PLY.replace("1 1 0 9 9 9", "1 1 0 9 9 x"), r"bad.ply:17: vertex 3: blue: 'x' is not a number"),
     (PLY.replace("1 1 0 9 9 9", "1 1 0 9 9 9.5"), r"bad.ply:17: vertex 3: blue: uchar values must be integers"),
     (PLY.replace("3 1 3 2", "3 1 3 4"), r"bad.ply:19: face 1 indexes vertex 4, but the file has 4 vertices"),
-    (PLY.replace("3 1 3 2", "3 1 3 2 7"), r"bad.ply:19: face 1: 5 values where its properties take 4"),
 ])
 def test_ascii_ply_rows_against_the_header_named_by_line(tmp_path, text, says):
     (tmp_path / "bad.ply").write_text(text)
     for load in (rs.load_models, rs.Mesh.load):
         with pytest.raises(ValueError, match=says):
             load(tmp_path / "bad.ply")
+
+
+def test_values_after_a_rows_declared_ones_are_warned_of_and_the_leading_ones_read(tmp_path):
+    # trimesh's corpus has such a file (fuze_ascii.ply: 10 values after each face's colour); trimesh reads
+    # the leading columns, and so do we, saying so.
+    (tmp_path / "tail.ply").write_text(PLY.replace("3 1 3 2", "3 1 3 2 7"))
+    for load in (rs.load_models, rs.Mesh.load):
+        with pytest.warns(rs.DroppedOnLoadWarning, match=r"tail.ply:19: 1 face row\(s\) carry values after the ones "
+                                                            r"its header declares \(1 on this line\); ignored"):
+            loaded = load(tmp_path / "tail.ply")
+    assert loaded.faces.tolist() == [[0, 1, 2], [1, 3, 2]]
+    two_lists = PLY.replace("property list uchar int vertex_indices\n",
+                            "property list uchar int vertex_indices\nproperty list uchar float texcoord\n")
+    two_lists = two_lists.replace("3 0 1 2\n3 1 3 2\n", "3 0 1 2 6 0 0 1 0 0 1 9 1 1\n3 1 3 2 6 1 0 1 1 0 1\n")
+    (tmp_path / "two.ply").write_text(two_lists)
+    with pytest.warns(rs.DroppedOnLoadWarning, match=r"two.ply:19: 1 face row\(s\) carry values .*\(3 on this line\)"):
+        mesh = rs.Mesh.load(tmp_path / "two.ply")
+    assert mesh.faces.tolist() == [[0, 1, 2], [1, 3, 2]]
 
 
 def test_lines_after_the_declared_rows_are_warned_of(tmp_path):
