@@ -565,7 +565,9 @@ def render_file(path, **overrides) -> Frame:
     TypeError, ValueError
         For an unknown or invalid override, naming it, before rendering.
     """
+    from .scene.motionfile import warn_motion_ignored
     from .scene.scenefile import load_for_render
 
     scene, kwargs, tone = load_for_render(path, **overrides)
+    warn_motion_ignored(path, "a single render")
     return render(scene, **kwargs).with_tone(tone)

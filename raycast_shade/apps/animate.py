@@ -473,9 +473,11 @@ def run_cli(ns) -> int:
     ValueError, TypeError, OSError
         For anything the user can fix (the caller prints it on one line).
     """
+    from ..scene.motionfile import warn_motion_ignored
     from ..scene.scenefile import load_for_render
 
     scene, render_kwargs, tone = load_for_render(ns.scene, **overrides(ns))
+    warn_motion_ignored(ns.scene, "an orbit clip (raycast-shade animate)")
     camera = scene.camera
     if ns.orbit == "light":
         n = len(scene.lights)

@@ -23,14 +23,16 @@ object as its ``[[object]]`` table placed it (after ``scale``, ``rotate``, ``tra
 from __future__ import annotations
 
 import os
+import warnings
 
 import numpy as np
 
+from ..common.warnings import DroppedOnLoadWarning
 from ..common.validate import as_int, as_scalar, as_vec3
 from .posetrack import keyframes, orbit_poses
 from .scenefile import SceneFileError, _rotation
 
-__all__ = ["load_motion", "motion_from_dict"]
+__all__ = ["load_motion", "motion_from_dict", "warn_motion_ignored"]
 
 _MOTION_KEYS = ("model", "pivot", "orbit", "keyframes")
 _ORBIT_KEYS = ("axis", "degrees")
@@ -142,3 +144,23 @@ def load_motion(path, scene, n_views: int) -> dict:
     with open(path, "rb") as fh:
         data = tomllib.load(fh)
     return motion_from_dict(data, scene, n_views, source=path)
+
+
+def warn_motion_ignored(path, what: str) -> None:
+    """Warn when scene file ``path`` has ``[[motion]]`` tables that ``what`` (a single render, an orbit
+    clip) does not apply: they move objects between the views of a set (``raycast-shade views``)."""
+    try:
+        import tomllib
+    except ModuleNotFoundError:  # pragma: no cover - Python 3.10
+        import tomli as tomllib
+
+    try:
+        with open(os.fspath(path), "rb") as fh:
+            tables = tomllib.load(fh).get("motion")
+    except (OSError, ValueError):  # the scene loader has already read it and said what is wrong
+        return
+    if tables:
+        n = len(tables) if isinstance(tables, list) else 1
+        warnings.warn(f"{os.fspath(path)}: {n} [[motion]] table(s) not applied by {what}: they move objects "
+                      "between the views of a view set (raycast-shade views); the objects are drawn as placed",
+                      DroppedOnLoadWarning, stacklevel=3)

@@ -180,3 +180,19 @@ def test_bop_refuses_per_view_poses_of_another_shape_before_writing(tmp_path):
         with pytest.raises(ValueError, match=message):
             write_bop(tmp_path / "bop", scene, [scene.camera], views, poses=poses)
     assert not (tmp_path / "bop").exists()
+
+
+def test_a_single_render_says_it_does_not_apply_motion_tables(tmp_path):
+    toml = tmp_path / "scene.toml"
+    toml.write_text('[camera]\neye = [0.0, 1.0, 5.0]\nwidth = 32\nheight = 24\n\n'
+                    '[[object]]\nshape = "cube"\nname = "box"\n\n'
+                    '[[light]]\ntype = "point"\nposition = [2.0, 3.0, 4.0]\n\n'
+                    '[[motion]]\nmodel = "box"\norbit = { axis = [0.0, 1.0, 0.0], degrees = 30.0 }\n')
+    with pytest.warns(rs.DroppedOnLoadWarning, match=r"1 \[\[motion\]\] table\(s\) not applied by a single render"):
+        frame = rs.render_file(toml)
+    still = toml.read_text().split("[[motion]]")[0]
+    (tmp_path / "still.toml").write_text(still)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", rs.DroppedOnLoadWarning)
+        plain = rs.render_file(tmp_path / "still.toml")
+    assert np.array_equal(frame.image, plain.image)  # drawn as placed, as the warning says
