@@ -277,6 +277,7 @@ LEGAL = {
     ("animate_light", "light_index", "0"): "the first light",
     **{(f, "scale", "None"): "the default display size" for f in ("animate_light", "animate_orbit")},
     ("warmup", "progress", "True"): "a flag",
+    ("fit", "keep_images", "True"): "a flag",
     ("diagnose", "camera", "None"): "the scene's own camera",
     ("Camera.fit", "margin", "0"): "no margin: the extreme point touches the frame",
     **{(f, a, "None"): "None is the documented default" for f, a in [
