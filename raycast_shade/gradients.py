@@ -151,7 +151,7 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
     ValueError
         An unknown name in ``wrt`` (the valid ones listed), a ``dL_dimage`` of the wrong shape
         or not finite, a scene with parts not differentiated yet (named), or a ``frame`` of
-        another scene or rendered with ``samples > 1``.
+        another scene, another shading or ``samples > 1``.
     """
     if not isinstance(scene, Scene):
         raise TypeError(f"scene: expected a Scene, got {type(scene).__name__}")
@@ -165,6 +165,8 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
             raise ValueError("frame: rendered from another scene (pass the scene it was rendered of)")
         if "average" in frame.timings:
             raise ValueError("frame: rendered with samples > 1; gradients are of one ray per pixel")
+        if not np.array_equal(resolve_methods(scene, frame.shading), modes):
+            raise ValueError(f"frame: shaded with {frame.shading!r}, not shading={shading!r}")
         if frame.image.shape != gimg.shape:
             raise ValueError(f"frame: its image is {frame.image.shape}, dL_dimage {gimg.shape}")
     inputs = frame.inputs if frame is not None and frame.inputs is not None else prepare(scene, scene.camera)

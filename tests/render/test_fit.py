@@ -193,6 +193,8 @@ def test_grad_refuses_area_lights_and_foreign_or_antialiased_frames(scene):
     other = _sphere()
     with pytest.raises(ValueError, match="frame"):
         rs.grad(scene, np.ones((H, W, 3)), frame=rs.render(other))
+    with pytest.raises(ValueError, match="frame: shaded with 'flat'"):
+        rs.grad(scene, np.ones((H, W, 3)), shading="phong", frame=rs.render(scene, "flat"))
     with pytest.raises(ValueError, match="samples"):
         rs.grad(scene, np.ones((H, W, 3)), frame=rs.render(scene, samples=4))
 
