@@ -88,15 +88,15 @@ def test_photometric_stereo_recovers_the_sphere_normals_by_least_squares():
     assert np.median(np.linalg.norm(g, axis=1)) == pytest.approx(0.7, rel=1e-4)
 
 
-def test_photometric_stereo_recovers_vertex_normals_by_gradient_descent():
-    """Gouraud's vertex normals from three lights by L-BFGS-B on rs.grad's normal gradients (each vertex
-    is shaded with its normal as given: the loss is quadratic in the normals while every light reaches
-    them). The normals fitted are those all three lights reach at a grazing angle of at least 14 degrees
-    (n.s > 0.25), so that the start (about 5 degrees off) crosses no terminator: past one a shade is
-    clamped at 0 and its gradient vanishes with it (with n.s > 0.1, one such vertex stayed 1.2 degrees
-    off). The others, held at their values, border them."""
+@pytest.mark.parametrize("shading", ["gouraud", "phong"])
+def test_photometric_stereo_recovers_vertex_normals_by_gradient_descent(shading):
+    """Vertex normals from three lights by L-BFGS-B on rs.grad's normal gradients, each normal kept unit
+    (``n = x / |x|``: Phong renormalises its interpolated normal, so a vertex normal's length would be
+    nearly free). The normals fitted are those all three lights reach at a grazing angle of at least
+    14 degrees (n.s > 0.25), so that the start (about 5 degrees off) crosses no terminator: past one a
+    shade is clamped at 0 and its gradient vanishes with it (with n.s > 0.1, one Gouraud vertex stayed
+    1.2 degrees off). The others, held at their values, border them."""
     scenes, dirs = _stereo_scenes(2, 96, 72)
-    shading = "gouraud"
     geo = scenes[0].geometry  # shared by the three scenes (only their lights differ)
     truth = geo.normals.copy()
     targets = [rs.render(s, shading).image.astype(np.float64) for s in scenes]
@@ -110,13 +110,17 @@ def test_photometric_stereo_recovers_vertex_normals_by_gradient_descent():
     start /= np.linalg.norm(start, axis=1, keepdims=True)
 
     def loss(x):
-        geo.normals[free] = x.reshape(-1, 3)
-        value, g = 0.0, np.zeros((len(free), 3))
+        x = x.reshape(-1, 3)
+        length = np.linalg.norm(x, axis=1, keepdims=True)
+        n = x / length
+        geo.normals[free] = n
+        value, g = 0.0, np.zeros_like(n)
         for scene, target in zip(scenes, targets):
             frame = rs.render(scene, shading)
             r = frame.image - target
             value += float(np.sum(r * r))
             g += rs.grad(scene, 2.0 * r, "normals", shading=shading, frame=frame)["normals"][free]
+        g = (g - np.sum(g * n, axis=1, keepdims=True) * n) / length  # back through x / |x|
         return value, g.ravel()
 
     try:
@@ -129,12 +133,7 @@ def test_photometric_stereo_recovers_vertex_normals_by_gradient_descent():
     angle = np.degrees(np.arccos(np.clip(np.sum(unit * truth[free], axis=1), -1, 1)))
     start_angle = np.degrees(np.arccos(np.clip(np.sum(start * truth[free], axis=1), -1, 1)))
     assert start_angle.max() > 5.0, start_angle
-    # Judged where the image sees the normal: every face around the vertex covers 6 pixels or more (a
-    # vertex at the silhouette, seen through a pixel or two, is barely constrained).
-    covered = np.bincount(prim[prim >= 0], minlength=len(geo.faces))
-    seen = np.array([covered[np.any(geo.faces == v, axis=1)].min() >= 6 for v in free])
-    assert seen.sum() >= 20
-    assert angle[seen].max() <= 0.5, (np.sort(angle[seen]), res.message)
+    assert angle.max() <= 0.5, (np.sort(angle), res.message)
     assert np.median(angle) <= 0.01
 
 
