@@ -29,6 +29,8 @@ from .scene.meshfile import load_models
 from .scene.mesh import Mesh
 from .scene.normals import WindingWarning, winding_conflicts
 from .render import render, render_file
+from .gradients import grad
+from .fitting import FitResult, fit
 from .scene.scene import Model, Scene
 from .insight.auto import choose_methods
 from .insight.explain import explain
@@ -44,7 +46,7 @@ from .common.warnings import (AllMaskedWarning, BumpIgnoredWarning, ColourRangeW
 
 __all__ = [
     "AreaLight", "Camera", "DirectionalLight", "HeightMap", "Texture", "load_models", "bump", "Frame", "HitBuffer", "Material", "Mesh", "Model", "PointLight", "Scene", "SpotLight",
-    "SHADINGS", "cast_camera", "cast_rays", "read_pfm", "render", "render_file", "choose_methods", "shade", "shading_normals", "shapes", "to_uint8", "write_pfm",
+    "SHADINGS", "cast_camera", "cast_rays", "grad", "fit", "FitResult", "read_pfm", "render", "render_file", "choose_methods", "shade", "shading_normals", "shapes", "to_uint8", "write_pfm",
     "WindingWarning", "winding_conflicts",
     "ShadingWarning", "BumpIgnoredWarning", "ColourRangeWarning", "CreaseWarning", "DroppedOnLoadWarning",
     "LightInsideWarning", "NoLightsWarning", "ZeroNormalWarning", "EmptyViewWarning", "SingleSidedWarning",

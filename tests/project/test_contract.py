@@ -147,6 +147,10 @@ def baselines(tmp):
         "render": (rs.render, dict(scene=scene, shading="phong", camera=cam, backend="raycast",
                                    interpolation="perspective", max_depth=3, tolerance=0.01, samples=1)),
         "render_file": (rs.render_file, dict(path=str(toml))),
+        "grad": (rs.grad, dict(scene=scene, dL_dimage=np.ones((cam.height, cam.width, 3)), wrt=("kd",),
+                               shading="phong", frame=frame)),
+        "fit": (rs.fit, dict(scene=scene, target=np.full((cam.height, cam.width, 3), 0.2), params=("kd",), loss="l2",
+                             shading="phong", max_iter=1, progress=None, keep_images=False)),
         "choose_methods": (rs.choose_methods, dict(scene=scene, camera=cam, tolerance=0.01, max_pixels=2.0)),
         "shade": (rs.shade, dict(scene=scene, camera=cam, hits=hits, shading="phong")),
         "shading_normals": (rs.shading_normals, dict(scene=scene, camera=cam, hits=hits, shading="phong")),
@@ -253,6 +257,7 @@ NOT_CALLED = {
     "HitBuffer": "a plain record the casters fill (H x W or N arrays); its consumers check it (check_hits: "
                  "shade, shading_normals, explain), and they are walked",
     "Frame": "the record render() returns; its consumers (explain, overlays) are walked",
+    "FitResult": "the record fit() returns",
 }
 NOT_CALLED_IN_MODULES = {"shapes.SHAPES": "a table", "bump.WRAPS": "a tuple", "bump.HeightMap": "as HeightMap",
                          "figures.LUMINANCE": "a constant"}
@@ -285,12 +290,13 @@ LEGAL = {
     ("animate_light", "light_index", "0"): "the first light",
     **{(f, "scale", "None"): "the default display size" for f in ("animate_light", "animate_orbit")},
     ("warmup", "progress", "True"): "a flag",
+    ("fit", "keep_images", "True"): "a flag",
     ("diagnose", "camera", "None"): "the scene's own camera",
     ("Camera.fit", "margin", "0"): "no margin: the extreme point touches the frame",
     **{(f, a, "None"): "None is the documented default" for f, a in [
         ("Material", "kd"),
         ("Material", "ks"), ("Mesh", "normals"), ("Mesh", "uvs"), ("Mesh", "crease_angle"), ("Scene", "camera"),
-        ("render", "camera"), ("shapes.cube", "crease_angle"), ("shapes.cylinder", "crease_angle"),
+        ("render", "camera"), ("grad", "wrt"), ("grad", "frame"), ("fit", "progress"), ("shapes.cube", "crease_angle"), ("shapes.cylinder", "crease_angle"),
         ("bump.cylindrical_uvs", "height"), ("overlays.overlay", "radius"), ("overlays.overlay", "length"),
         ("overlays.normal_glyphs", "length"), ("figures.montage", "labels"), ("figures.montage", "columns"),
         ("figures.difference", "title"), ("figures.profile", "title"), ("explore", "camera")]},

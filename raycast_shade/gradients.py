@@ -1,0 +1,177 @@
+"""Gradients of a rendered image with respect to the lecture's parameters: :func:`grad`.
+
+``rs.grad(scene, dL_dimage, wrt=...)`` is the vector-Jacobian product of the **linear** image
+``frame.image`` (what :func:`raycast_shade.render` returns, before any tone map): given
+``dL/dI`` (H, W, 3) it returns ``dL/dparameter`` for each name asked for, as NumPy arrays:
+
+=====================  ===========  ==========================================================
+name                   shape        the parameter
+=====================  ===========  ==========================================================
+``"ka"``, ``"kd"``,    (G, 3)       each model's material coefficients, RGB
+``"ks"``
+``"shininess"``        (G,)         each model's exponent ``t``
+``"ambient"``          (3,)         the scene's ambient intensity ``Ia``, RGB
+``"light_position"``   (L, 3)       each point or spot light's position (0 for other kinds)
+``"light_direction"``  (L, 3)       each directional light's ``direction`` (0 for other kinds),
+                                    tangent to the unit sphere: the direction is normalised
+``"light_radiance"``   (L, 3)       each light's ``intensity * color``
+``"light_intensity"``  (L,)         each light's ``intensity`` (its colour held)
+``"light_k"``          (L,)         the heuristic law's ``k`` (0 for the other laws)
+``"normals"``          (V, 3)       the packed vertex normals ``scene.geometry.normals`` (rows
+                                    model by model, ``scene.geometry.vertex_offsets``)
+=====================  ===========  ==========================================================
+
+The hit buffer is held fixed (the frame's own, or one cast for the call): the gradients are those
+of the shading, exact wherever the image is differentiable in the parameters; the silhouettes'
+dependence on geometry is not modelled. Shadows count with the frame's visibility (a blocked
+light stays blocked). Flat shading lights a face with its true normal: the flat gradient of a
+vertex normal is exactly 0. Not differentiated yet (refused with a ValueError naming what):
+GGX materials, mirrors, textures and mesh colours, bump and normal maps, area lights, and frames
+with ``samples > 1``. The kernels are :mod:`raycast_shade.shading.grad_terms` and
+:mod:`raycast_shade.shading.grad_frame`; :func:`raycast_shade.fit` fits parameters with them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .common.layout import ATT_HEURISTIC, LIGHT_ATT, LIGHT_DIRECTIONAL, LIGHT_KIND, LIGHT_VEC
+from .common.validate import as_array, as_names
+from .output.frame import Frame
+from .render import render
+from .scene.scene import Scene
+from .shading.grad_frame import frame_vjp, unsupported
+from .shading.grad_terms import GL_K, GL_RAD, GL_SIZE, GL_VEC, GM_KA, GM_KD, GM_KS, GM_SIZE, GM_T, layout
+from .shading.inputs import prepare
+from .shading.shade import resolve_methods
+
+__all__ = ["grad", "WRT", "DEFAULT_WRT"]
+
+WRT = ("ka", "kd", "ks", "shininess", "ambient", "light_position", "light_direction", "light_radiance",
+       "light_intensity", "light_k", "normals")
+"""Every name :func:`grad` differentiates with respect to."""
+DEFAULT_WRT = tuple(n for n in WRT if n != "normals")
+"""What ``wrt=None`` asks for: every parameter but the vertex normals (a (V, 3) array)."""
+
+_MATERIAL_SLOTS = {"ka": GM_KA, "kd": GM_KD, "ks": GM_KS}
+
+
+def _wrt(wrt) -> tuple:
+    """The names asked for, checked against :data:`WRT`."""
+    if wrt is None:
+        return DEFAULT_WRT
+    if isinstance(wrt, str):
+        wrt = (wrt,)
+    return as_names(wrt, "wrt", WRT, item="parameter")
+
+
+def check_scene(scene, inputs) -> None:
+    """Raise a ValueError naming every part of ``scene`` the gradient kernels do not differentiate."""
+    problems = unsupported(inputs, [m.material.name for m in scene.models], [light.name for light in scene.lights])
+    if problems:
+        raise ValueError("scene: no gradients for this scene yet: " + "; ".join(problems))
+
+
+def check_gradient(dL_dimage, camera) -> np.ndarray:
+    """``dL_dimage`` as a float64 (H, W, 3) array of the camera's size, finite, or a clear error."""
+    shape = (camera.height, camera.width, 3)
+    if not isinstance(dL_dimage, np.ndarray):
+        raise TypeError(f"dL_dimage: expected a NumPy array of shape {shape}, got {type(dL_dimage).__name__}")
+    if dL_dimage.dtype.kind != "f":
+        raise TypeError(f"dL_dimage: expected a float array, got dtype {dL_dimage.dtype}")
+    return as_array(dL_dimage, "dL_dimage", dtype=np.float64, shape=shape)
+
+
+def named(params, gnormals, scene, inputs, names) -> dict:
+    """The flat gradient vector of :func:`~raycast_shade.shading.grad_frame.frame_vjp` as
+    :func:`grad`'s named arrays (``names`` a subset of :data:`WRT`)."""
+    n_models, lights = len(scene.models), inputs.lighting.lights
+    amb, lb, _ = layout(n_models, lights.shape[0])
+    per_model = params[:amb].reshape(n_models, GM_SIZE)
+    per_light = params[lb:].reshape(lights.shape[0], GL_SIZE)
+    directional = lights[:, LIGHT_KIND] == LIGHT_DIRECTIONAL
+    out = {}
+    for name in names:
+        if name in _MATERIAL_SLOTS:
+            k = _MATERIAL_SLOTS[name]
+            out[name] = per_model[:, k:k + 3].copy()
+        elif name == "shininess":
+            out[name] = per_model[:, GM_T].copy()
+        elif name == "ambient":
+            out[name] = params[amb:amb + 3].copy()
+        elif name == "light_position":
+            out[name] = np.where(directional[:, None], 0.0, per_light[:, GL_VEC:GL_VEC + 3])
+        elif name == "light_direction":
+            out[name] = _direction_gradient(per_light[:, GL_VEC:GL_VEC + 3], lights, directional)
+        elif name == "light_radiance":
+            out[name] = per_light[:, GL_RAD:GL_RAD + 3].copy()
+        elif name == "light_intensity":
+            colors = np.array([np.broadcast_to(light.color, 3) for light in scene.lights]).reshape(-1, 3)
+            out[name] = np.einsum("ij,ij->i", per_light[:, GL_RAD:GL_RAD + 3], colors)
+        elif name == "light_k":
+            out[name] = np.where(lights[:, LIGHT_ATT] == ATT_HEURISTIC, per_light[:, GL_K], 0.0)
+        elif name == "normals":
+            out[name] = gnormals
+    return out
+
+
+def _direction_gradient(gvec, lights, directional) -> np.ndarray:
+    """``dL/d direction`` of the directional lights: the row holds ``-direction`` (unit), and a
+    direction is normalised on construction, so the gradient is the tangent part of ``-dL/d row``."""
+    d = -lights[:, LIGHT_VEC:LIGHT_VEC + 3]
+    g = -gvec
+    g = g - np.einsum("ij,ij->i", g, d)[:, None] * d
+    return np.where(directional[:, None], g, 0.0)
+
+
+def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | None = None) -> dict:
+    """``dL/dparameter`` for ``dL/dI`` given on the linear image of ``render(scene, shading)``.
+
+    Parameters
+    ----------
+    scene : Scene
+    dL_dimage : (H, W, 3) float ndarray
+        The loss's gradient with respect to ``frame.image`` (the linear float image, not a
+        tone-mapped one), of the camera's size; finite.
+    wrt : str or sequence of str, optional
+        Names of :data:`WRT`; every one but ``"normals"`` by default (:data:`DEFAULT_WRT`).
+    shading : {"flat", "gouraud", "phong"} or sequence
+        As for :func:`raycast_shade.render` (one per model allowed; not ``"auto"``).
+    frame : Frame, optional
+        ``render(scene, shading)``'s frame, whose hit buffer is reused (no cast); cast afresh
+        by default.
+
+    Returns
+    -------
+    dict of str to ndarray
+        One float64 array per name asked for (shapes in the module's table).
+
+    Raises
+    ------
+    ValueError
+        An unknown name in ``wrt`` (the valid ones listed), a ``dL_dimage`` of the wrong shape
+        or not finite, a scene with parts not differentiated yet (named), or a ``frame`` of
+        another scene, another shading or ``samples > 1``.
+    """
+    if not isinstance(scene, Scene):
+        raise TypeError(f"scene: expected a Scene, got {type(scene).__name__}")
+    names = _wrt(wrt)
+    gimg = check_gradient(dL_dimage, scene.camera)
+    modes = resolve_methods(scene, shading)
+    if frame is not None:
+        if not isinstance(frame, Frame):
+            raise TypeError(f"frame: expected a Frame, got {type(frame).__name__}")
+        if frame.scene is not scene:
+            raise ValueError("frame: rendered from another scene (pass the scene it was rendered of)")
+        if "average" in frame.timings:
+            raise ValueError("frame: rendered with samples > 1; gradients are of one ray per pixel")
+        if not np.array_equal(resolve_methods(scene, frame.shading), modes):
+            raise ValueError(f"frame: shaded with {frame.shading!r}, not shading={shading!r}")
+        if frame.image.shape != gimg.shape:
+            raise ValueError(f"frame: its image is {frame.image.shape}, dL_dimage {gimg.shape}")
+    inputs = frame.inputs if frame is not None and frame.inputs is not None else prepare(scene, scene.camera)
+    check_scene(scene, inputs)
+    if frame is None:
+        frame = render(scene, shading)
+    params, gnormals = frame_vjp(frame.hits, inputs, modes, gimg, scene.geometry, "normals" in names)
+    return named(params, gnormals, scene, inputs, names)

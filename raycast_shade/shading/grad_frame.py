@@ -1,0 +1,312 @@
+"""Reverse-mode gradients of a shaded frame over its fixed hit buffer: the kernels and their driver.
+
+Given ``gimg = dL/dI`` for the linear image ``I`` (``frame.image``, float32 of the float64 the
+kernels compute) and the hit buffer it was shaded from, :func:`frame_vjp` returns ``dL/d`` every
+material, ambient and light parameter (one vector, the slots of
+:func:`~raycast_shade.shading.grad_terms.layout`) and, on request, ``dL/d`` the packed vertex
+normals. The hits are held fixed: the gradient is exact wherever the image is differentiable in
+the parameters, and says nothing of silhouettes (visibility does not move with them).
+
+Each method is differentiated where it evaluates the equation:
+
+- Phong, per pixel: :func:`~raycast_shade.shading.grad_terms._reflected_vjp` at the pixel's
+  shading point (the forward pass's :func:`~raycast_shade.shading.phong._shading_point`), then
+  back through the renormalised interpolation of the vertex normals;
+- Gouraud: each pixel's ``dL/dI`` spread onto its corners' shades with the forward pass's
+  weights, then one VJP per vertex side (its normal enters the vertex shade directly);
+- flat: each face's pixels summed onto the face, one VJP per face at its centre with its true
+  normal, so a vertex normal's flat gradient is exactly 0.
+
+Determinism: the per-pixel, per-vertex and per-face passes run in :data:`PARTS` fixed parts (not
+one per thread), each summing into its own accumulator row, and the rows are added in part
+order; the scatters onto vertices and faces run serially in row-major order. The result is
+bit for bit the same run to run and on any number of threads.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ..common.layout import (LIGHT_AREA, LIGHT_KIND, LIGHT_SAMPLES, MAT_MODEL, MAT_REFLECTIVITY, METHOD_FLAT,
+                             METHOD_GOURAUD, METHOD_PHONG, MODEL_GGX)
+from ..common.parallel import launch, share
+from ..visibility.secondary import ray_scratch
+from .grad_terms import _reflected_vjp, layout
+from .jit import CHUNK, HELPER, JIT
+from .phong import _shading_point
+from .records import At, Hit, dot
+from .surface import _CANCEL, _convex_weights, _facing, _hit_point, _triangle, _view
+from .texture import _row_coefficients
+
+__all__ = ["PARTS", "frame_vjp", "unsupported"]
+
+PARTS = 16  # fixed parts of every parallel pass: the sums' order does not depend on the thread count
+
+
+def unsupported(inputs, material_names, light_names) -> list:
+    """What the gradient kernels do not differentiate in a frame's packed inputs, as messages
+    naming the material or light (empty: everything is supported)."""
+    out = []
+    mats = inputs.materials
+    for m, name in enumerate(material_names):
+        if mats[m, MAT_MODEL] == MODEL_GGX:
+            out.append(f"material {name!r}: specular='ggx' has no gradients yet (Phong and Blinn-Phong have)")
+        if mats[m, MAT_REFLECTIVITY] > 0:
+            out.append(f"material {name!r}: reflectivity > 0 (mirror bounces) has no gradients yet")
+    if inputs.tex_on:
+        out.append("colour maps, mesh colours or emission/occlusion maps have no gradients yet")
+    B = inputs.bumps
+    if np.any(B.bump_index >= 0) or np.any(B.nmap_index >= 0):
+        out.append("bump and normal maps have no gradients yet")
+    lights = inputs.lighting.lights
+    for i, name in enumerate(light_names):
+        if lights[i, LIGHT_KIND] == LIGHT_AREA or lights[i, LIGHT_SAMPLES] > 1:
+            out.append(f"light {name!r}: area lights have no gradients yet")
+    return out
+
+
+@njit(**HELPER)
+def _normal_vjp(normals, tri, b1, b2, g, sgn, gn):
+    """Back through :func:`~raycast_shade.shading.surface._shading_normal`: ``dL/da`` for the
+    interpolated (unnormalised) normal ``a``, given ``dL/dn``; zero where ``a`` cancelled."""
+    i0, i1, i2 = tri
+    b0 = 1.0 - b1 - b2
+    ax = b0 * normals[i0, 0] + b1 * normals[i1, 0] + b2 * normals[i2, 0]
+    ay = b0 * normals[i0, 1] + b1 * normals[i1, 1] + b2 * normals[i2, 1]
+    az = b0 * normals[i0, 2] + b1 * normals[i1, 2] + b2 * normals[i2, 2]
+    al = np.sqrt(ax * ax + ay * ay + az * az)
+    if not al >= _CANCEL:
+        return 0.0, 0.0, 0.0
+    u = (ax / al, ay / al, az / al)
+    m = (sgn * u[0], sgn * u[1], sgn * u[2])
+    gx, gy, gz = gn
+    c = dot(m, g)
+    if c < 0.0:  # reflected into the viewer's hemisphere: n = m - 2 (m.g) g
+        k = 2.0 * (gx * g[0] + gy * g[1] + gz * g[2])
+        gx, gy, gz = gx - k * g[0], gy - k * g[1], gz - k * g[2]
+    q = gx * u[0] + gy * u[1] + gz * u[2]
+    w = sgn / al
+    return w * (gx - q * u[0]), w * (gy - q * u[1]), w * (gz - q * u[2])
+
+
+@njit(nogil=True, **JIT)
+def _phong_vjp_kernel(hits, G, B, L, face_off, materials, cam, modes, gimg, lay, acc, gpx, part):
+    """Phong pixels: ``acc[k]`` (part ``k``) += ``dL/dparameters``; ``gpx`` (H, W, 3) the pixel's
+    ``dL/da`` of its interpolated normal, or a (0, 0, 3) array for none."""
+    prim, geom, u, v = hits
+    want_n = gpx.shape[0] != 0
+    k = part[0]
+    h, w = prim.shape
+    for y in range(*share(h, part)):
+        S = ray_scratch()
+        for x in range(w):
+            p = prim[y, x]
+            if p < 0:
+                continue
+            gm = geom[y, x]
+            if modes[gm] != METHOD_PHONG:
+                continue
+            gI = (np.float64(gimg[y, x, 0]), np.float64(gimg[y, x, 1]), np.float64(gimg[y, x, 2]))
+            if gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0:
+                continue
+            at = At(face_off[gm] + p, gm, np.float64(u[y, x]), np.float64(v[y, x]))
+            hp = _shading_point(G, B, L, cam, at, np.bool_(False), (0.0, 0.0, 0.0))
+            gn = _reflected_vjp(hp, _row_coefficients(materials, gm), materials, gm, L, S, gI, acc, k, lay)
+            if want_n:
+                ga = _normal_vjp(G.normals, _triangle(G.faces, at.f), at.b1, at.b2, hp.g, hp.sgn, gn)
+                for c in range(3):
+                    gpx[y, x, c] = ga[c]
+
+
+@njit(**JIT)
+def _phong_normals_scatter(prim, geom, u, v, faces, face_off, modes, gpx, gnormals):
+    """Serially, in row-major order: each Phong pixel's ``dL/da`` onto its corners' normals."""
+    h, w = prim.shape
+    for y in range(h):
+        for x in range(w):
+            p = prim[y, x]
+            if p < 0 or modes[geom[y, x]] != METHOD_PHONG:
+                continue
+            f = face_off[geom[y, x]] + p
+            b1 = np.float64(u[y, x])
+            b2 = np.float64(v[y, x])
+            b = (1.0 - b1 - b2, b1, b2)
+            for corner in range(3):
+                i = faces[f, corner]
+                for c in range(3):
+                    gnormals[i, c] += b[corner] * gpx[y, x, c]
+
+
+@njit(**JIT)
+def _flat_gather(prim, geom, face_off, modes, gimg, gface):
+    """Serially, in row-major order: each flat pixel's ``dL/dI`` summed onto its face."""
+    h, w = prim.shape
+    for y in range(h):
+        for x in range(w):
+            p = prim[y, x]
+            if p < 0 or modes[geom[y, x]] != METHOD_FLAT:
+                continue
+            f = face_off[geom[y, x]] + p
+            for c in range(3):
+                gface[f, c] += gimg[y, x, c]
+
+
+@njit(nogil=True, **JIT)
+def _flat_vjp_kernel(gface, G, face_model, materials, cam, L, lay, acc, part):
+    """Flat faces (the forward pass's point: the centre, its true normal): ``acc[k]`` += the
+    parameters' gradients; the normal's is dropped (the face normal is not a parameter)."""
+    verts, _, faces, fnormals = G
+    k = part[0]
+    nchunk = (faces.shape[0] + CHUNK - 1) // CHUNK
+    for ch in range(*share(nchunk, part)):
+        S = ray_scratch()
+        for f in range(ch * CHUNK, min(faces.shape[0], (ch + 1) * CHUNK)):
+            gI = (gface[f, 0], gface[f, 1], gface[f, 2])
+            if gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0:
+                continue
+            third = 1.0 / 3.0
+            p = _hit_point(verts, _triangle(faces, f), third, third)
+            vv = _view(cam, p)
+            gn, sgn = _facing(fnormals, f, vv)
+            m = face_model[f]
+            _reflected_vjp(Hit(p, vv, gn, sgn, gn, p), _row_coefficients(materials, m), materials, m, L, S, gI,
+                           acc, k, lay)
+
+
+@njit(**JIT)
+def _gouraud_gather(hits, G, L, face_off, materials, cam, modes, gimg, lay, acc, gvert, gnormals):
+    """Serially, in row-major order: each Gouraud pixel's ``dL/dI`` onto its corners' stored shades
+    ``gvert`` (V, 2, 3) with the forward pass's weights and sides; a corner the forward pass shades on
+    the spot (a zero normal, or one reflected into the face's hemisphere) is differentiated here,
+    into ``acc[0]`` and ``gnormals``."""
+    prim, geom, u, v = hits
+    verts, normals, faces, fnormals = G
+    S = ray_scratch()
+    h, w = prim.shape
+    for y in range(h):
+        for x in range(w):
+            p = prim[y, x]
+            if p < 0:
+                continue
+            gm = geom[y, x]
+            if modes[gm] != METHOD_GOURAUD:
+                continue
+            f = face_off[gm] + p
+            b1 = np.float64(u[y, x])
+            b2 = np.float64(v[y, x])
+            tri = _triangle(faces, f)
+            view = _view(cam, _hit_point(verts, tri, b1, b2))
+            gn, sgn = _facing(fnormals, f, view)
+            side = 0 if sgn > 0.0 else 1
+            sg = 1.0 - 2.0 * side
+            wts = _convex_weights(b1, b2)
+            for corner in range(3):
+                i = tri[corner]
+                wk = wts[corner]
+                gI = (wk * gimg[y, x, 0], wk * gimg[y, x, 1], wk * gimg[y, x, 2])
+                n = (sg * normals[i, 0], sg * normals[i, 1], sg * normals[i, 2])
+                if n[0] == 0.0 and n[1] == 0.0 and n[2] == 0.0:  # lit with the face's normal: no normal gradient
+                    pv = (verts[i, 0], verts[i, 1], verts[i, 2])
+                    _reflected_vjp(Hit(pv, _view(cam, pv), gn, 1.0, gn, pv), _row_coefficients(materials, gm),
+                                   materials, gm, L, S, gI, acc, 0, lay)
+                elif dot(n, gn) < 0.0:  # reflected across the face's plane
+                    c = dot(n, gn)
+                    nr = (n[0] - 2.0 * c * gn[0], n[1] - 2.0 * c * gn[1], n[2] - 2.0 * c * gn[2])
+                    pv = (verts[i, 0], verts[i, 1], verts[i, 2])
+                    gr = _reflected_vjp(Hit(pv, _view(cam, pv), gn, 1.0, nr, pv), _row_coefficients(materials, gm),
+                                        materials, gm, L, S, gI, acc, 0, lay)
+                    q = 2.0 * dot(gr, gn)
+                    for cc in range(3):
+                        gnormals[i, cc] += sg * (gr[cc] - q * gn[cc])
+                else:
+                    for cc in range(3):
+                        gvert[i, side, cc] += gI[cc]
+
+
+@njit(nogil=True, **JIT)
+def _gouraud_vjp_kernel(gvert, G, vertex_model, materials, cam, L, lay, acc, gnormals, part):
+    """Gouraud vertices (the forward pass's point: the vertex, lit with its own normal from the side
+    a face needs): ``acc[k]`` += the parameters' gradients, ``gnormals[i]`` += the normal's (each
+    vertex in one part only)."""
+    verts, normals, _, _ = G
+    k = part[0]
+    n = verts.shape[0]
+    nchunk = (n + CHUNK - 1) // CHUNK
+    for ch in range(*share(nchunk, part)):
+        S = ray_scratch()
+        for i in range(ch * CHUNK, min(n, (ch + 1) * CHUNK)):
+            for side in range(2):
+                gI = (gvert[i, side, 0], gvert[i, side, 1], gvert[i, side, 2])
+                if gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0:
+                    continue
+                sg = 1.0 - 2.0 * side
+                p = (verts[i, 0], verts[i, 1], verts[i, 2])
+                nv = (sg * normals[i, 0], sg * normals[i, 1], sg * normals[i, 2])
+                m = vertex_model[i]
+                gr = _reflected_vjp(Hit(p, _view(cam, p), nv, 1.0, nv, p), _row_coefficients(materials, m),
+                                    materials, m, L, S, gI, acc, k, lay)
+                for c in range(3):
+                    gnormals[i, c] += sg * gr[c]
+
+
+def _reduce(acc) -> np.ndarray:
+    """The accumulator's rows added in row order (fixed: NumPy's pairwise sum would be too, but
+    this states it)."""
+    total = acc[0].copy()
+    for r in range(1, acc.shape[0]):
+        total += acc[r]
+    return total
+
+
+def frame_vjp(hits, inputs, modes, gimg, geo, want_normals: bool = False):
+    """``dL/dparameters`` (and ``dL/dnormals``) of a frame shaded from ``hits``.
+
+    Parameters
+    ----------
+    hits : HitBuffer
+        The frame's hit buffer (H, W); held fixed.
+    inputs : FrameInputs
+        The packed inputs the image was (or would be) shaded with; :func:`unsupported` must
+        be empty for them.
+    modes : (G,) int8
+        Each model's method code.
+    gimg : (H, W, 3) float64
+        ``dL/dI`` for the linear image.
+    geo : SceneGeometry
+        The scene's packed geometry (its ``face_model`` and ``vertex_model``).
+    want_normals : bool
+        Also the gradient with respect to the packed vertex normals.
+
+    Returns
+    -------
+    params : (R,) float64
+        The slots of :func:`~raycast_shade.shading.grad_terms.layout`.
+    gnormals : (V, 3) float64 or None
+    """
+    G, B, L = inputs.geometry, inputs.bumps, inputs.lighting
+    mats, cam, face_off = inputs.materials, inputs.cam, inputs.face_off
+    amb, lb, size = layout(mats.shape[0], L.lights.shape[0])
+    lay = (np.int64(amb), np.int64(lb))
+    acc = np.zeros((PARTS, size))
+    serial = np.zeros((1, size))
+    nv = G.verts.shape[0]
+    gnormals = np.zeros((nv, 3))
+    hit = (hits.prim, hits.geom, hits.u, hits.v)
+    if np.any(modes == METHOD_PHONG):
+        gpx = np.zeros(gimg.shape if want_normals else (0, 0, 3))
+        launch(_phong_vjp_kernel, hit, G, B, L, face_off, mats, cam, modes, gimg, lay, acc, gpx, parts=PARTS,
+               dynamic=True)
+        if want_normals:
+            _phong_normals_scatter(*hit, G.faces, face_off, modes, gpx, gnormals)
+    if np.any(modes == METHOD_FLAT):
+        gface = np.zeros((G.faces.shape[0], 3))
+        _flat_gather(hits.prim, hits.geom, face_off, modes, gimg, gface)
+        launch(_flat_vjp_kernel, gface, G, geo.face_model, mats, cam, L, lay, acc, parts=PARTS, dynamic=True)
+    if np.any(modes == METHOD_GOURAUD):
+        gvert = np.zeros((nv, 2, 3))
+        _gouraud_gather(hit, G, L, face_off, mats, cam, modes, gimg, lay, serial, gvert, gnormals)
+        launch(_gouraud_vjp_kernel, gvert, G, geo.vertex_model, mats, cam, L, lay, acc, gnormals, parts=PARTS,
+               dynamic=True)
+    params = serial[0] + _reduce(acc)
+    return params, (gnormals if want_normals else None)
