@@ -251,24 +251,34 @@ def convex_uv(u, v):
     return fa, fb
 
 
-@in_parts
-@njit(**KERNEL)
-def _convex_parts(u, v, part):
-    for i in range(*share(u.shape[0], part)):  # this part's share (common.parallel)
-        a, b = u[i], v[i]
-        if not (a >= 0.0 and b >= 0.0 and np.float64(a) + np.float64(b) <= 1.0):
-            u[i], v[i] = convex_uv(a, b)
-
-
 def convex_hits(u, v) -> None:
-    """Every ``(u[i], v[i])`` onto its triangle (:func:`convex_uv`), in place; misses' zeros stay.
+    """Every ``(u[i], v[i])`` onto its triangle, in place: :func:`convex_uv`'s answer, bit for bit,
+    in NumPy (the few pixels of a repair, or the embreex caster's frame: no kernel to compile).
+    Pairs already inside, and the misses' zeros, are not touched.
 
     Parameters
     ----------
-    u, v : (N,) or (H, W) float32, C-contiguous, writeable
+    u, v : (N,) or (H, W) float32, writeable
     """
-    if u.size:
-        _convex_parts(u.reshape(-1), v.reshape(-1))
+    a, b = u.astype(np.float64), v.astype(np.float64)
+    out = ~((a >= 0.0) & (b >= 0.0) & (a + b <= 1.0))
+    if not out.any():
+        return
+    a, b = a[out], b[out]
+    with np.errstate(invalid="ignore"):
+        a = np.where(a > 0.0, np.minimum(a, 1.0), 0.0)  # NaN and negatives to 0, inf to 1
+        b = np.where(b > 0.0, np.minimum(b, 1.0), 0.0)
+    s = a + b
+    over = s > 1.0
+    a[over] /= s[over]
+    b[over] /= s[over]
+    fa, fb = np.minimum(a, 1.0).astype(np.float32), b.astype(np.float32)
+    rest = 1.0 - fa.astype(np.float64)  # exact
+    up = fb.astype(np.float64) > rest
+    fb[up] = rest[up].astype(np.float32)
+    up = fb.astype(np.float64) > rest
+    fb[up] = np.nextafter(fb[up], np.float32(0.0))
+    u[out], v[out] = fa, fb
 
 
 def convex_rows(hits: HitBuffer, rows) -> None:

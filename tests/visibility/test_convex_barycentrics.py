@@ -53,6 +53,19 @@ def test_a_few_ulps_outside_moves_a_few_ulps(u, v, du, dv):
     assert abs(float(cu) - float(a)) <= 1e-6 and abs(float(cv) - float(b)) <= 1e-6
 
 
+@settings(max_examples=60, deadline=None)
+@given(pairs=st.lists(st.tuples(F32, F32), min_size=1, max_size=40))
+def test_the_numpy_pass_is_the_kernels_helper_bit_for_bit(pairs):
+    """convex_hits (NumPy, for repaired pixels and the embreex frame) and convex_uv (inlined in the
+    camera kernel and cast_rays) give the same float32 bits."""
+    u = np.array([p[0] for p in pairs], np.float32)
+    v = np.array([p[1] for p in pairs], np.float32)
+    want = [convex_uv(a, b) for a, b in zip(u, v)]
+    convex_hits(u, v)
+    assert u.tobytes() == np.array([a for a, _ in want], np.float32).tobytes()
+    assert v.tobytes() == np.array([b for _, b in want], np.float32).tobytes()
+
+
 def test_convex_hits_works_in_place_on_a_buffer():
     u = np.array([[0.5, -1e-8], [0.7, np.nan]], np.float32)
     v = np.array([[0.5, 0.25], [0.30000004, 0.1]], np.float32)
