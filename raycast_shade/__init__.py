@@ -15,7 +15,11 @@ attenuation laws.
 (240, 320, 3)
 """
 
-from .scene import heightmap as bump
+from .visibility.platforms import require_embreex
+
+require_embreex()  # first: a platform without Embree 4 hears so here, naming the remedy, not at the first render
+
+from .scene import heightmap as bump  # noqa: E402 - after the check
 from .scene import shapes
 from .scene.heightmap import HeightMap
 from .scene.camera import Camera

@@ -32,7 +32,7 @@ import numpy as np
 
 from ..common.choices import ORBITS, VIDEO_EXTS
 from ..common.validate import as_choice, as_int, as_scalar
-from ..output.imagefile import atomic_target
+from ..output.imagefile import atomic_target, check_output_file, check_output_folder
 from ..scene.camera import Camera
 from ..scene.lights import DirectionalLight, PointLight, SpotLight
 from ..scene.scene import Scene
@@ -42,7 +42,8 @@ from .batch import iter_batch, render_batch
 from .batch.driver import FLAT_RUN_KEYWORDS
 from .batch.run import EXECUTORS, RunOptions, check_executor, merge_keywords
 
-__all__ = ["orbit_cameras", "orbit_light", "write_animation", "animate", "output_kind", "register_cli", "run_cli",
+__all__ = ["orbit_cameras", "orbit_light", "write_animation", "animate", "output_kind", "check_output", "register_cli",
+           "run_cli",
            "ORBITS", "VIDEO_EXTS"]
 
 FRAME_PATTERN = "frame_{:05d}.png"
@@ -223,6 +224,24 @@ def output_kind(output) -> str:
     raise ValueError(f"output: {path!r}: expected .gif, one of {list(VIDEO_EXTS)}, or a folder for PNG frames")
 
 
+def check_output(output) -> str:
+    """What :func:`output_kind` says, after checking the place can be written, before any frame:
+    a folder of frames must be (or can be made) a writable folder, a GIF or video file must not be
+    a folder and must go into an existing, writable one.
+
+    Raises
+    ------
+    TypeError, ValueError
+        Naming ``output``.
+    """
+    kind = output_kind(output)
+    if kind == "frames":
+        check_output_folder(output, "output")
+    else:
+        check_output_file(output, "output")
+    return kind
+
+
 def _to_uint8(image, tone: dict) -> np.ndarray:
     a = np.asarray(image)
     if a.ndim != 3 or a.shape[2] != 3:
@@ -263,10 +282,7 @@ def write_animation(images, output, *, fps: float = 12.0, tone: dict | None = No
         raise ValueError(f"output: {os.fspath(output)!r} is a folder; write_animation writes .gif or video files")
     as_scalar(fps, "fps", minimum=0.0, exclusive=True)
     tone = dict(tone or {})
-    path = os.fspath(output)
-    folder = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(folder):
-        raise ValueError(f"output: folder {folder} does not exist")
+    path = check_output_file(output, "output")  # before the first frame is drawn from ``images``
     count = 0
     with atomic_target(path) as tmp:
         if kind == "gif":
@@ -370,7 +386,7 @@ def animate(scene: Scene, output, *, orbit: str = "camera", frames: int = 36, li
         raise ValueError("scene.camera: an animation needs a camera")
     run = merge_keywords(run, RunOptions, render_kwargs, FLAT_RUN_KEYWORDS, "run")
     orbit = as_choice(orbit, "orbit", ORBITS)
-    kind = output_kind(output)
+    kind = check_output(output)
     as_scalar(fps, "fps", minimum=0.0, exclusive=True)
     if orbit == "camera":
         batch = dict(scene_or_scenes=scene, cameras=orbit_cameras(scene.camera, frames, degrees=degrees, axis=axis))
@@ -382,9 +398,6 @@ def animate(scene: Scene, output, *, orbit: str = "camera", frames: int = 36, li
         written = render_batch(**batch, out_dir=path, pattern=FRAME_PATTERN, **common)
         count = len(written)
     else:
-        folder = os.path.dirname(os.path.abspath(path))
-        if not os.path.isdir(folder):
-            raise ValueError(f"output: folder {folder} does not exist")
         count = write_animation(iter_batch(**batch, **common), path, fps=fps, tone=tone)
     return {"output": path, "kind": kind, "frames": count, "seconds": time.perf_counter() - t0}
 
@@ -476,6 +489,10 @@ def run_cli(ns) -> int:
     from ..scene.motionfile import warn_motion_ignored
     from ..scene.scenefile import load_for_render
 
+    output = ns.output
+    if output is None:
+        output = f"{os.path.splitext(os.path.basename(ns.scene))[0]}_{ns.orbit}.gif"
+    check_output(output)  # before the scene (and its meshes) load
     scene, render_kwargs, tone = load_for_render(ns.scene, **overrides(ns))
     warn_motion_ignored(ns.scene, "an orbit clip (raycast-shade animate)")
     camera = scene.camera
@@ -486,9 +503,6 @@ def run_cli(ns) -> int:
         if ns.light_index >= n:
             raise ValueError(f"--light-index: {ns.scene} has {n} light(s), so 0..{n - 1}; got {ns.light_index}")
     shading = render_kwargs.pop("shading", "phong")
-    output = ns.output
-    if output is None:
-        output = f"{os.path.splitext(os.path.basename(ns.scene))[0]}_{ns.orbit}.gif"
     run = run_options(ns)  # the flags as the record Python callers pass
     result = animate(scene, output, orbit=ns.orbit, frames=ns.frames, light_index=ns.light_index,
                      degrees=ns.degrees, shading=shading, fps=ns.fps, tone=tone, run=run, **render_kwargs)

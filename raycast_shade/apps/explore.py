@@ -55,9 +55,9 @@ import numpy as np
 
 from ..common.choices import ATTENUATIONS, INTERPOLATIONS, SHADINGS, SPECULAR_MODELS
 from ..common.extras import require
-from ..common.validate import as_int
+from ..common.validate import as_int, as_path
 from ..output.frame import Frame
-from ..output.imagefile import png_bytes
+from ..output.imagefile import check_output_file, check_output_folder, png_bytes
 from ..output.tonemap import to_uint8
 from ..scene.camera import Camera
 from ..scene.lights import DirectionalLight, PointLight, SpotLight
@@ -169,7 +169,9 @@ class Explorer:
         self.light = as_int(light, "light", minimum=0, maximum=max(len(scene.lights) - 1, 0))
         self.max_depth = as_int(max_depth, "max_depth", minimum=0, maximum=MAX_MIRROR_DEPTH)
         self.width = as_int(width, "width", minimum=16, maximum=4096)
-        self.save_dir = os.fspath(save_dir)
+        self.save_dir = as_path(save_dir, "save_dir")
+        if os.path.lexists(self.save_dir) and not os.path.isdir(self.save_dir):  # the save button would fail
+            raise ValueError(f"save_dir: {self.save_dir!r} is a file, not a folder")
         if not scene.lights:
             warnings.warn("explore: the scene has no lights; the explorer adds a white point light "
                           "(Explorer.scene() includes it)", stacklevel=3)
@@ -527,9 +529,12 @@ class Explorer:
             while os.path.exists(os.path.join(self.save_dir, f"explorer_{i:03d}.png")):
                 i += 1
             path = os.path.join(self.save_dir, f"explorer_{i:03d}.png")
-        path = os.fspath(path)
+            check_output_folder(self.save_dir, "save_dir")
+            os.makedirs(self.save_dir, exist_ok=True)
+        path = as_path(path, "path")
         if not path.lower().endswith(".png"):
             raise ValueError(f"path: the explorer saves .png files, got {path!r}")
+        check_output_file(path, "path")  # a folder, a missing or unwritable place: named, nothing written
         with open(path, "wb") as f:
             f.write(bytes(self.image.value))
         self.saved.append(path)
@@ -538,7 +543,7 @@ class Explorer:
     def _save_clicked(self):
         try:
             self.status.value = f"saved {self.save(None)}"
-        except OSError as exc:
+        except (OSError, ValueError) as exc:
             self.status.value = f"could not save: {exc}"
 
     def _ipython_display_(self):

@@ -162,6 +162,11 @@ class Texture:
     tiling : (2,) float
         Repeats across the UV square in u and v.
     name : str
+    decoded_from_srgb : bool
+        The texels are colours decoded from sRGB (set by :meth:`from_array` and
+        :meth:`from_image` with ``srgb=True``): a :class:`~raycast_shade.Material`
+        refuses such a texture where data is meant (a normal map, glTF's
+        metallic-roughness map). A field, so that ``dataclasses.replace`` keeps it.
     """
 
     texels: np.ndarray
@@ -169,6 +174,7 @@ class Texture:
     filter: str = "mipmap"
     tiling: tuple = (1.0, 1.0)
     name: str = "texture"
+    decoded_from_srgb: bool = False
 
     def __post_init__(self):
         set_ = object.__setattr__
@@ -191,6 +197,11 @@ class Texture:
         if np.any(tiling <= 0):
             raise ValueError(f"{self.name}.tiling: must be > 0, got {tiling.tolist()}")
         set_(self, "tiling", (float(tiling[0]), float(tiling[1])))
+        set_(self, "decoded_from_srgb", as_bool(self.decoded_from_srgb, f"{self.name}.decoded_from_srgb"))
+
+    @property
+    def _decoded_srgb(self) -> bool:  # the name Material's checks read
+        return self.decoded_from_srgb
 
     # -- constructors ---------------------------------------------------------------
     @classmethod
@@ -230,9 +241,9 @@ class Texture:
                 raise ValueError(f"{name}.image: sRGB-encoded pixels must lie in [0, 1], got {lo:g}..{hi:g} (pass "
                                  "srgb=False for linear values, which may exceed 1)")
             x = srgb_to_linear(x)
-        tex = cls(np.ascontiguousarray(x[::-1]), **kwargs)
-        object.__setattr__(tex, "_decoded_srgb", srgb)  # colours, not data: Material refuses it as a normal map
-        return tex
+        if "decoded_from_srgb" in kwargs:
+            raise TypeError(f"{name}.decoded_from_srgb: from_array sets it from srgb=; leave it out")
+        return cls(np.ascontiguousarray(x[::-1]), decoded_from_srgb=srgb, **kwargs)
 
     @classmethod
     def from_image(cls, path, srgb: bool = True, **kwargs) -> "Texture":

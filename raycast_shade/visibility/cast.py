@@ -62,7 +62,7 @@ from . import embree
 from .accel import embree_accel, embreex_scene
 from ..common.schedule import BLOCK_ROWS, spread_step
 from ..common.validate import as_array
-from .hits import HitBuffer, image_buffer
+from .hits import HitBuffer, convex_hits, convex_rows, convex_uv, image_buffer
 from ..common.layout import CAM_ORTHO
 from . import holes
 from .holes import empty_hits, fill_holes, rays_at, row_suspicious
@@ -76,6 +76,18 @@ __all__ = ["cast_camera", "cast_rays", "cast_recentred", "resolve_caster", "seco
 
 _RAY = RAY  # float32 slots in one RTCRayHit (96 bytes, room for instPrimID)
 _TILE_W, _TILE_H, _LANES = TILE_W, TILE_H, LANES  # a 16-ray packet is a 4x4 tile (see .tiles)
+
+
+@njit(cache=True, forceinline=True, _nrt=False)
+def _convex_tile(uf, vf, o, w, nx, ny):
+    """A tile's barycentrics onto their triangles (:func:`.hits.convex_uv`), while in cache: the
+    ``nx`` x ``ny`` pixels from flat index ``o`` of the (R W,) arrays, rows ``w`` apart."""
+    for j in range(ny):
+        for i in range(nx):
+            q = o + j * w + i
+            a, b = uf[q], vf[q]
+            if not (a >= 0.0 and b >= 0.0 and np.float64(a) + np.float64(b) <= 1.0):  # a few a frame
+                uf[q], vf[q] = convex_uv(a, b)
 
 
 @in_parts
@@ -145,6 +157,7 @@ def _cast_camera_parts(scene, cam, prim, geom, u, v, t, y0, top, lo, hi, counts,
                     tile_hits(pk, pu, r * w + x0, w, pf, gf, uf, vf, tf)
                 else:
                     edge_hits(pk, pu, x0, r, nx, ny, prim, geom, u, v, t)
+                _convex_tile(uf, vf, r * w + x0, w, nx, ny)
             # The vertex-slip test of the rows whose neighbours are now cast (rows r0 .. c are).
             c = r + ny
             for q in range(max(lo, r - 1), min(hi, c)):
@@ -170,7 +183,8 @@ def cast_rays_kernel(scene, origins, directions, tnear, tfar, prim, geom, u, v, 
                              (directions[i, 0], directions[i, 1], directions[i, 2]), tnear[i], tfar[i])
             embree.reset_hit(ib, off, np.int64(1))
             embree.intersect1_ray(scene, buf[off:])
-            geom[i], prim[i], u[i], v[i], t[i] = embree.read_hit(buf, ib, off, np.int64(1))
+            geom[i], prim[i], hu, hv, t[i] = embree.read_hit(buf, ib, off, np.int64(1))
+            u[i], v[i] = convex_uv(hu, hv)  # onto the triangle (Embree's may stray an ulp)
 
 
 cast_rays_serial = cast_rays_kernel.serial  # a handful of rays: no threads to wake (the same build)
@@ -362,6 +376,13 @@ def _fill_holes(geometry, cam, hits, caster, rows=None, y0=0, counts=None):
     scene = embree_accel(geometry).handle if caster == "embree" else None  # the serial repair: few rays
     fill_holes(geometry, cam, hits, lambda xs, ys: _cast_points(geometry, cam, xs, ys, caster), rows, y0, counts,
                scene, SERIAL_BELOW)
+    # The repaired pixels' barycentrics (float64 rounded to float32, or a jittered ray's) onto their
+    # triangles: the rows the repair counted (the camera kernel's own hits are already), else every row.
+    lo, hi = (0, hits.prim.shape[0]) if rows is None else rows
+    if counts is None:
+        convex_rows(hits, (lo, hi))
+    else:
+        convex_rows(hits, lo + np.flatnonzero(counts[lo:hi] > 0))
 
 
 def run_embreex(embreex_scene, origins, directions, threads: int = 2):
@@ -522,5 +543,6 @@ def _retest_rays(geometry, accel, o, d, tn, tf, hits) -> None:
         return
     exact = refine(geometry, o[sel], d[sel], tn[sel], limit[sel], HitBuffer(*(a[sel] for a in nudged)))
     ok = exact.geom >= 0
+    convex_hits(exact.u, exact.v)  # the exact test's float64 weights, rounded to float32: onto the triangle
     for arr, new in zip(hits, exact):
         arr[sel[ok]] = new[ok]

@@ -16,7 +16,9 @@ from numba import njit
 from ..common.parallel import KERNEL, in_parts, launch, parts, share
 from ..common.validate import as_int
 
-__all__ = ["HitBuffer", "check_hits", "image_buffer"]
+__all__ = ["HitBuffer", "check_hits", "image_buffer", "convex_uv", "convex_hits", "convex_rows"]
+
+_INLINE = dict(cache=True, forceinline=True, _nrt=False)  # LLVM-inlined into the kernels, compiled once
 
 
 @dataclass(frozen=True, eq=False)
@@ -213,3 +215,81 @@ def check_hits(hits, geometry, camera=None):
         raise ValueError(f"hits.u, hits.v: {outside} hit pixel(s) lie outside their triangle (u < 0, v < 0 or "
                          f"u + v > 1 by more than {BARYCENTRIC_SLACK:.2g})")
     return geometry
+
+
+# -- barycentrics onto the triangle ----------------------------------------------------------------
+
+
+@njit(**_INLINE)
+def convex_uv(u, v):
+    """``(u, v)`` as float32 with ``u >= 0``, ``v >= 0`` and ``1 - u - v >= 0`` in float64.
+
+    Embree's ``u, v`` (float32, its reciprocal one ulp off) and the watertight re-test's
+    (float64 rounded to float32) can leave the triangle by a float32 ulp at its edges and
+    vertices: a weight of -6e-8 on a vertex colour of 0 and 1 elsewhere made Phong pixels with
+    ``ka_colors`` -6e-8. Shading forms ``w = 1 - u - v`` in float64: ``1 - u`` is exact, so
+    ``u + v <= 1`` exactly gives ``w >= 0`` after rounding, and every interpolated value lies
+    between its vertex values. A pair already inside is returned as it is, bit for bit; a NaN
+    becomes 0 (a vertex: the caller's hit is not made up, only its weights)."""
+    a = np.float64(u)
+    b = np.float64(v)
+    if a >= 0.0 and b >= 0.0 and a + b <= 1.0:
+        return np.float32(u), np.float32(v)
+    a = min(a, 1.0) if a > 0.0 else 0.0  # NaN and negatives to 0, inf to 1
+    b = min(b, 1.0) if b > 0.0 else 0.0
+    s = a + b
+    if s > 1.0:
+        a /= s
+        b /= s
+    fa = np.float32(min(a, 1.0))
+    fb = np.float32(b)
+    rest = 1.0 - np.float64(fa)  # exact
+    if np.float64(fb) > rest:  # rounded up past the edge: the float32 at or below it
+        fb = np.float32(rest)
+        if np.float64(fb) > rest:
+            fb = np.nextafter(fb, np.float32(0.0))
+    return fa, fb
+
+
+def convex_hits(u, v) -> None:
+    """Every ``(u[i], v[i])`` onto its triangle, in place: :func:`convex_uv`'s answer, bit for bit,
+    in NumPy (the few pixels of a repair, or the embreex caster's frame: no kernel to compile).
+    Pairs already inside, and the misses' zeros, are not touched.
+
+    Parameters
+    ----------
+    u, v : (N,) or (H, W) float32, writeable
+    """
+    a, b = u.astype(np.float64), v.astype(np.float64)
+    out = ~((a >= 0.0) & (b >= 0.0) & (a + b <= 1.0))
+    if not out.any():
+        return
+    a, b = a[out], b[out]
+    with np.errstate(invalid="ignore"):
+        a = np.where(a > 0.0, np.minimum(a, 1.0), 0.0)  # NaN and negatives to 0, inf to 1
+        b = np.where(b > 0.0, np.minimum(b, 1.0), 0.0)
+    s = a + b
+    over = s > 1.0
+    a[over] /= s[over]
+    b[over] /= s[over]
+    fa, fb = np.minimum(a, 1.0).astype(np.float32), b.astype(np.float32)
+    rest = 1.0 - fa.astype(np.float64)  # exact
+    up = fb.astype(np.float64) > rest
+    fb[up] = rest[up].astype(np.float32)
+    up = fb.astype(np.float64) > rest
+    fb[up] = np.nextafter(fb[up], np.float32(0.0))
+    u[out], v[out] = fa, fb
+
+
+def convex_rows(hits: HitBuffer, rows) -> None:
+    """:func:`convex_hits` on the given rows of an (H, W) buffer: ``(lo, hi)`` or an index array."""
+    if isinstance(rows, tuple):
+        lo, hi = rows
+        if hi > lo:
+            convex_hits(hits.u[lo:hi], hits.v[lo:hi])
+        return
+    rows = np.asarray(rows, np.int64)
+    if len(rows):
+        u, v = hits.u[rows], hits.v[rows]
+        convex_hits(u, v)
+        hits.u[rows], hits.v[rows] = u, v

@@ -8,7 +8,7 @@ import os
 import shutil
 import tempfile
 
-from ...output.imagefile import remove_stale_temps
+from ...output.imagefile import check_output_folder, remove_stale_temps
 from .cache import SceneCache
 from .options import BatchOptions, check_options, check_shading_fits
 from .plan import plan_batch
@@ -81,6 +81,8 @@ def iter_batch(scene_or_scenes, cameras=None, lights=None, *, shading="phong", o
     --------
     >>> frames = iter_batch(scene, cams, run=RunOptions(workers=2, window=8))   # doctest: +SKIP
     """
+    if out_dir is not None:  # a file in the way, an unwritable place: said before any frame renders
+        out_dir = check_output_folder(out_dir, "out_dir")
     resume_given = run is not None or "resume" in render_kwargs
     run = merge_keywords(run, RunOptions, render_kwargs, FLAT_RUN_KEYWORDS, "run")
     options = _frame_options(options, dict(shading=shading, tone=tone), render_kwargs, run, resume_given)
