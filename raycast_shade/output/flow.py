@@ -99,6 +99,24 @@ def _corners(geo, model, prim):
     return [geo.vertices[face[:, k]] + geo.origin for k in range(3)]
 
 
+def _check_own_hits(hits, bary, sel, tol=1e-3, share=0.01):
+    """A given buffer's pixels must hit the triangles it names, where it says: each pixel's ray,
+    intersected again with its triangle in float64, lands within ``tol`` of the buffer's ``(u, v)``
+    (float32 rounding and grazing triangles stay far below it). A buffer of another scene or camera
+    with the same sizes passes :func:`check_hits` but fails here on most pixels; more than ``share``
+    of them is refused."""
+    if not len(sel):
+        return
+    uv = np.stack([hits.u.ravel()[sel], hits.v.ravel()[sel]], axis=-1).astype(np.float64)
+    off = ~(np.abs(bary - uv).max(axis=-1) <= tol)  # NaN (a ray parallel to its triangle) counts as off
+    if off.mean() > share:
+        k = int(sel[np.argmax(off)])
+        raise ValueError(f"hits: not this scene's and camera's hit buffer: at {int(off.sum())} of {len(sel)} hit "
+                         f"pixels (the first at x={k % hits.prim.shape[1]}, y={k // hits.prim.shape[1]}) the pixel's "
+                         "ray does not meet its triangle where the buffer says (pass the frame of this scene and "
+                         "camera, or hits=None)")
+
+
 def surface_points(scene, camera, hits):
     """Each pixel's exact surface point: its ray against its hit triangle, in float64.
 
@@ -212,11 +230,14 @@ def optical_flow(scene, camera, scene_b=None, camera_b=None, *, hits=None) -> di
     if scene_b is not scene:
         _check_same_triangles(scene, scene_b)
     h, w = camera.height, camera.width
+    given = hits
     if hits is None:
         hits = cast_camera(scene.geometry, camera)
     else:  # A's own buffer: the camera's size, model and triangle indices of this scene (another's reads garbage)
         check_hits(hits, scene, camera)
     pa, bary, sel = surface_points(scene, camera, hits)
+    if given is not None:
+        _check_own_hits(hits, bary, sel)
     if scene_b is scene:
         pb = pa
     else:

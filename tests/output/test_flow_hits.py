@@ -69,3 +69,17 @@ def test_own_hits_give_the_cast_flow(views):
     cast = optical_flow(two, two.camera, camera_b=cam_b)
     for key in ("flow", "scene_flow", "mask", "occluded", "outside"):
         np.testing.assert_array_equal(ours[key], cast[key])
+
+
+def test_hits_of_a_smaller_scene_or_another_camera_are_refused(views, no_cast):
+    # A buffer whose indices fit this scene passes check_hits: its rays must meet the triangles it names.
+    two, one, cam_b = views
+    plane = two.models[0]
+    small = two.replace(models=[rs.Model(rs.shapes.plane(size=3.0, subdivisions=2))])  # fewer faces than `plane`
+    hits = rs.render(small, "flat").hits
+    assert hits.prim.max() < len(plane.mesh.faces) and (hits.prim >= 0).sum() > 100
+    with pytest.raises(ValueError, match=r"^hits: not this scene's and camera's hit buffer: at \d+ of \d+ hit pixels"):
+        optical_flow(two.replace(models=[plane]), two.camera, camera_b=cam_b, hits=hits)
+    moved = rs.Camera(eye=(0.7, 0.2, 4.5), width=W, height=H)
+    with pytest.raises(ValueError, match=r"^hits: not this scene's and camera's hit buffer"):
+        optical_flow(two, two.camera, camera_b=cam_b, hits=rs.render(two, "flat", camera=moved).hits)
