@@ -29,6 +29,7 @@ import numpy as np
 from numba import njit
 
 from . import embree
+from .hits import convex_uv
 
 __all__ = ["LANES", "UNTRACED", "ray_scratch", "occluded", "occluded_ray", "occlusion_packets", "clear_occlusion",
            "set_occlusion_ray", "set_occlusion_lane", "trace_occlusion", "closest_packet",
@@ -272,6 +273,9 @@ def trace_closest(handle, Q):
 @njit(**_INLINE)
 def closest_hit(Q, k):
     """Lane ``k``'s closest hit after :func:`trace_closest`: ``(geom, prim, u, v, t)``
-    (:func:`~raycast_shade.visibility.embree.read_hit`; ``prim`` -1 for a miss)."""
+    (:func:`~raycast_shade.visibility.embree.read_hit`; ``prim`` -1 for a miss), its ``(u, v)`` inside
+    the triangle (:func:`~raycast_shade.visibility.hits.convex_uv`, as the camera's hits)."""
     buf, ib, off, vbuf, voff, abuf, aoff = Q
-    return embree.read_hit(buf, ib, off + k, np.int64(LANES))
+    g, p, u, v, t = embree.read_hit(buf, ib, off + k, np.int64(LANES))
+    u, v = convex_uv(u, v)
+    return g, p, u, v, t

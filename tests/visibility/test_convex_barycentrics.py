@@ -137,3 +137,23 @@ def test_cast_rays_through_vertices_stay_on_their_triangles():
     assert hit.mean() > 0.9
     u, v = hits.u[hit].astype(np.float64), hits.v[hit].astype(np.float64)
     assert (u >= 0).all() and (v >= 0).all() and (1.0 - u - v >= 0).all()
+
+
+def test_mirror_bounces_read_weights_on_their_triangles():
+    """A mirror facing the coloured grid, seen along the grid's axes: the bounce rays run along the
+    grid's shared edges (closest_hit clamps as the camera's store does); no reflected pixel below 0."""
+    grid = _coloured_plane(8)
+    mirror = rs.shapes.plane(size=2.0, subdivisions=1, normal="-z")
+    mirror = rs.Mesh(mirror.vertices + np.array([0.0, 0.0, 2.0]), mirror.faces)
+    cam = rs.Camera(eye=(0, 0, 1.0), target=(0, 0, 2.0), up=(0, 1, 0), width=65, height=48,
+                    projection="orthographic", ortho_height=2.0 * 48 / 65)
+    scene = rs.Scene([rs.Model(grid, rs.Material(ka=1.0, kd=0.5, ka_colors=True)),
+                      rs.Model(mirror, rs.Material(ka=0.0, kd=0.0, ks=0.0, reflectivity=1.0))],
+                     lights=[], camera=cam, ambient=1.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", rs.NoLightsWarning)
+        frame = rs.render(scene, "phong", max_depth=1)
+    img = frame.image
+    assert (frame.hits.geom == 1).all()  # every pixel is the mirror ...
+    assert img.max() > 0.5 and (img > 0.5).mean() > 0.2  # ... showing the grid's bright squares
+    assert np.isfinite(img).all() and img.min() >= 0.0, float(img.min())
