@@ -415,6 +415,11 @@ def _resolve_rows(fid, rlo, faces, cs, face_model, face_off, screen, shear, hits
     ortho, W, H, hw, hh = screen
     ox, oy = shear
     prim, geom, u, v, t = hits
+    i0 = i1 = i2 = 0
+    last = -1  # the face whose set-up below is current: neighbouring pixels mostly share their face
+    p0x = p0y = p0z = nx = ny = nz = 0.0
+    e1x = e1y = e1z = e2x = e2y = e2z = 0.0
+    c1x = c1y = c1z = c2x = c2y = c2z = qn = 0.0
     for r in range(fid.shape[0]):
         y = rlo + r
         sy = 1.0 - 2.0 * (y + 0.5) / H
@@ -428,44 +433,58 @@ def _resolve_rows(fid, rlo, faces, cs, face_model, face_off, screen, shear, hits
                 t[y, x] = np.inf
                 continue
             sx = 2.0 * (x + 0.5) / W - 1.0
-            i0 = faces[f, 0]
-            i1 = faces[f, 1]
-            i2 = faces[f, 2]
-            e1x = cs[i1, 0] - cs[i0, 0]
-            e1y = cs[i1, 1] - cs[i0, 1]
-            e1z = cs[i1, 2] - cs[i0, 2]
-            e2x = cs[i2, 0] - cs[i0, 0]
-            e2y = cs[i2, 1] - cs[i0, 1]
-            e2z = cs[i2, 2] - cs[i0, 2]
+            if f != last:
+                # The face's terms, the same operations in the same order whether set up here or
+                # reused: the results do not depend on the order the pixels come in.
+                last = f
+                i0 = faces[f, 0]
+                i1 = faces[f, 1]
+                i2 = faces[f, 2]
+                p0x = cs[i0, 0]
+                p0y = cs[i0, 1]
+                p0z = cs[i0, 2]
+                e1x = cs[i1, 0] - p0x
+                e1y = cs[i1, 1] - p0y
+                e1z = cs[i1, 2] - p0z
+                e2x = cs[i2, 0] - p0x
+                e2y = cs[i2, 1] - p0y
+                e2z = cs[i2, 2] - p0z
+                nx = e1y * e2z - e1z * e2y
+                ny = e1z * e2x - e1x * e2z
+                nz = e1x * e2y - e1y * e2x
+                if not ortho:  # q = P0 - o = P0: the crosses with q are the face's too
+                    c1x = e2y * p0z - e2z * p0y
+                    c1y = e2z * p0x - e2x * p0z
+                    c1z = e2x * p0y - e2y * p0x
+                    c2x = p0y * e1z - p0z * e1y
+                    c2y = p0z * e1x - p0x * e1z
+                    c2z = p0x * e1y - p0y * e1x
+                    qn = p0x * nx + p0y * ny + p0z * nz
             # Ray o + s d against P0 + b1 e1 + b2 e2, with q = P0 - o.
             if ortho:
                 dx = 0.0
                 dy = 0.0
-                qx = cs[i0, 0] - sx * hw
-                qy = cs[i0, 1] - sy * hh
+                qx = p0x - sx * hw
+                qy = p0y - sy * hh
+                qz = p0z
+                c1x = e2y * qz - e2z * qy
+                c1y = e2z * qx - e2x * qz
+                c1z = e2x * qy - e2y * qx
+                c2x = qy * e1z - qz * e1y
+                c2y = qz * e1x - qx * e1z
+                c2z = qx * e1y - qy * e1x
+                qn = qx * nx + qy * ny + qz * nz
             else:
                 dx = sx * hw
                 dy = sy * hh
-                qx = cs[i0, 0]
-                qy = cs[i0, 1]
             dz = 1.0
-            qz = cs[i0, 2]
-            nx = e1y * e2z - e1z * e2y
-            ny = e1z * e2x - e1x * e2z
-            nz = e1x * e2y - e1y * e2x
             dn = dx * nx + dy * ny + dz * nz
             if dn != 0.0:
                 # b1 = d.(e2 x q) / d.n, b2 = d.(q x e1) / d.n, s = q.n / d.n
                 inv = 1.0 / dn
-                cx = e2y * qz - e2z * qy
-                cy = e2z * qx - e2x * qz
-                cz = e2x * qy - e2y * qx
-                b1 = (dx * cx + dy * cy + dz * cz) * inv
-                cx = qy * e1z - qz * e1y
-                cy = qz * e1x - qx * e1z
-                cz = qx * e1y - qy * e1x
-                b2 = (dx * cx + dy * cy + dz * cz) * inv
-                s = (qx * nx + qy * ny + qz * nz) * inv
+                b1 = (dx * c1x + dy * c1y + dz * c1z) * inv
+                b2 = (dx * c2x + dy * c2y + dz * c2z) * inv
+                s = qn * inv
             else:  # edge-on: cannot win a pixel in exact arithmetic
                 b1 = 1.0 / 3.0
                 b2 = 1.0 / 3.0
