@@ -94,7 +94,7 @@ def _inside(ax, ay, bx, by, tl, X, Y):
 _EPS = 2.0 ** -52  # float64 unit roundoff, twice over: the bounds below are generous by design
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _edge_setup(ax, ay, bx, by, Ya, Yb, px, qx):
     """One edge's row spans over the rows ``Ya..Yb`` (pixel-centre ``Y``), once per triangle.
 
