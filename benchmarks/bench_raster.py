@@ -18,10 +18,22 @@ empty, temporary Numba cache (the project's cache is not touched), and the
 first calls of this process (cache loads) before any timing. Results go to a
 CSV and a two-panel log-log chart (visibility alone; the whole frame).
 
+``--crossover`` measures instead where ``backend="auto"`` should switch: for
+each resolution and two camera distances (the sphere filling much or little of
+the frame), the triangle count where the rasterizer's hit buffer stops being
+faster than Embree's (interleaved medians, the BVH built beforehand), divided
+by the pixels the scene's bounding box covers
+(:func:`raycast_shade.visibility.raster.covered_pixels`). A least-squares fit
+(non-negative, relative error) of the crossovers to ``alpha * image pixels +
+beta * covered pixels`` gives ``AUTO_FACES_PER_PIXEL = (alpha, beta)``; the cases go to
+``raster_crossover.csv`` and to the table of ``docs/raster.md`` between its
+``crossover`` markers (quick: under ``out/quick/``, no tracked file touched).
+
 Usage::
 
-    python benchmarks/bench_raster.py            # the full run (minutes)
-    python benchmarks/bench_raster.py --quick    # small sizes, a smoke test
+    python benchmarks/bench_raster.py              # the full run (minutes)
+    python benchmarks/bench_raster.py --quick      # small sizes, a smoke test
+    python benchmarks/bench_raster.py --crossover  # backend="auto"'s threshold
 """
 
 from __future__ import annotations
@@ -254,6 +266,127 @@ def outputs(quick: bool) -> list[str]:
     return [results_file("raster_vs_raycast.csv", quick), image_file("raster_vs_raycast.png", quick)]
 
 
+CROSS_SUBDIVISIONS = (3, 4, 5, 6, 7, 8)
+CROSS_RESOLUTIONS = ((640, 480), (1920, 1080))
+CROSS_DISTANCES = (3.0, 9.0)  # eye distance from the unit sphere's centre: it fills much, or little
+QUICK_CROSS_SUBDIVISIONS = (2, 3, 4, 5)
+QUICK_CROSS_RESOLUTIONS = ((160, 120), (320, 240))
+CROSS_FIELDS = ["width", "height", "distance", "covered_pixels", "triangles", "raycast_s", "raster_s", "repeats",
+                "crossover_triangles", "load1"]
+CROSS_BEGIN, CROSS_END = "<!-- crossover table: begin (bench_raster.py --crossover) -->", "<!-- crossover table: end -->"
+
+
+def crossover_rows(subdivisions, resolutions, repeats, log=print):
+    """One row per (resolution, distance, mesh): both hit buffers' medians, timed interleaved,
+    and per (resolution, distance) the crossover (on every row of the case)."""
+    from raycast_shade.visibility.raster import covered_pixels
+
+    scenes = [make_scene(sub) for sub in subdivisions]
+    for sc in scenes:
+        embree_accel(sc.geometry)  # built beforehand: an animation's frames reuse it
+    rows = []
+    for width, height in resolutions:
+        for dist in CROSS_DISTANCES:
+            eye = np.array([0.3, 0.5, 3.0]) * dist / np.linalg.norm([0.3, 0.5, 3.0])
+            camera = rs.Camera(eye=eye, target=(0.0, 0.0, 0.0), width=width, height=height, fov=45.0)
+            case = []
+            for sc in scenes:
+                geo = sc.geometry
+                fns = {"raycast": lambda: rs.cast_camera(geo, camera), "raster": lambda: rasterize(geo, camera)}
+                times = {k: [] for k in fns}
+                for fn in fns.values():
+                    fn()
+                for r in range(repeats):
+                    for k in (("raycast", "raster") if r % 2 == 0 else ("raster", "raycast")):
+                        t0 = time.perf_counter()
+                        fns[k]()
+                        times[k].append(time.perf_counter() - t0)
+                row = dict(width=width, height=height, distance=dist, covered_pixels=covered_pixels(geo, camera),
+                           triangles=len(geo.faces), raycast_s=float(np.median(times["raycast"])),
+                           raster_s=float(np.median(times["raster"])), repeats=repeats,
+                           load1=round(os.getloadavg()[0], 2))
+                log(f"  {width}x{height} d={dist:g} {row['triangles']:>9,d} tris: raycast {row['raycast_s'] * 1e3:8.2f}"
+                    f" ms, raster {row['raster_s'] * 1e3:8.2f} ms (covered {row['covered_pixels']:,d} px)")
+                case.append(row)
+            cross = _crossing([r["triangles"] for r in case], [np.log(r["raster_s"] / r["raycast_s"]) for r in case])
+            for r in case:
+                r["crossover_triangles"] = cross
+            rows += case
+    return rows
+
+
+def _crossing(tris, log_ratio):
+    """The triangle count where ``log_ratio`` (raster over raycast) first turns >= 0, by log-log
+    interpolation; None when the rasterizer wins (or loses) everywhere measured."""
+    for i in range(len(tris) - 1):
+        if log_ratio[i] < 0 <= log_ratio[i + 1]:
+            a, b = np.log(tris[i]), np.log(tris[i + 1])
+            return float(np.exp(a + (b - a) * (-log_ratio[i]) / (log_ratio[i + 1] - log_ratio[i])))
+    return None
+
+
+def fitted_faces_per_pixel(rows):
+    """``(alpha, beta)``, 2 significant digits each: the non-negative least-squares fit (relative
+    error) of the cases' crossovers to ``alpha * width * height + beta * covered_pixels``; None
+    when no case crosses within its meshes."""
+    from scipy.optimize import nnls
+
+    cases = {(r["width"], r["height"], r["distance"]): r for r in rows if r["crossover_triangles"]}
+    if not cases:
+        return None
+    a = np.array([[r["width"] * r["height"], r["covered_pixels"]] for r in cases.values()], float)
+    f = np.array([r["crossover_triangles"] for r in cases.values()])
+    coef, _ = nnls(a / f[:, None], np.ones(len(f)))
+    return tuple(float(f"{c:.2g}") for c in coef)
+
+
+def crossover_table(rows):
+    """The markdown table of the cases (written between docs/raster.md's crossover markers)."""
+    fit = fitted_faces_per_pixel(rows)
+    lines = ["| image | eye distance | covered pixels | crossover (faces) | the fit's threshold | load |",
+             "|---|---|---|---|---|---|"]
+    seen = set()
+    for r in rows:
+        key = (r["width"], r["height"], r["distance"])
+        if key in seen:
+            continue
+        seen.add(key)
+        cross = f"{r['crossover_triangles']:,.0f}" if r["crossover_triangles"] else "not in the measured range"
+        fpp = f"{fit[0] * r['width'] * r['height'] + fit[1] * r['covered_pixels']:,.0f}" if fit else "-"
+        loads = [x["load1"] for x in rows if (x["width"], x["height"], x["distance"]) == key]
+        lines.append(f"| {r['width']}x{r['height']} | {r['distance']:g} | {r['covered_pixels']:,d} | {cross} | {fpp} "
+                     f"| {min(loads):.1f}-{max(loads):.1f} |")
+    lines.append("")
+    lines.append(f"Fit: rasterize while faces <= **{fit[0] if fit else '-'}** x image pixels + **{fit[1] if fit else '-'}"
+                 f"** x covered pixels (`AUTO_FACES_PER_PIXEL`); meshes of "
+                 f"{min(r['triangles'] for r in rows):,d} to {max(r['triangles'] for r in rows):,d} triangles, "
+                 f"{rows[0]['repeats']} interleaved repeats, load average as in the last column (2 cores).")
+    return "\n".join(lines) + "\n"
+
+
+def write_crossover(rows, quick):
+    """CSV and the docs table; quick mode writes both under out/quick/ only."""
+    from benchmarks.outputs import page_file
+
+    csv_path = Path(results_file("raster_crossover.csv", quick))
+    csv_path.parent.mkdir(parents=True, exist_ok=True)
+    with open(csv_path, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=CROSS_FIELDS)
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: (f"{v:.6g}" if isinstance(v, float) else ("" if v is None else v)) for k, v in r.items()})
+    page = Path(page_file("raster.md", quick))
+    table = crossover_table(rows)
+    if quick:
+        page.parent.mkdir(parents=True, exist_ok=True)
+        page.write_text(table, encoding="utf-8")
+    else:
+        text = page.read_text(encoding="utf-8")
+        start, stop = text.index(CROSS_BEGIN) + len(CROSS_BEGIN), text.index(CROSS_END)
+        page.write_text(text[:start] + "\n" + table + text[stop:], encoding="utf-8")
+    return csv_path, page
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--quick", action="store_true", help="small meshes and images only (a smoke test)")
@@ -262,7 +395,17 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=None, help="timed runs per point (default 7, quick 3)")
     ap.add_argument("--csv", default=None, help="output CSV (default benchmarks/results/[quick/]raster_vs_raycast.csv)")
     ap.add_argument("--png", default=None, help="output chart (default docs/images/[quick/]raster_vs_raycast.png)")
+    ap.add_argument("--crossover", action="store_true", help="measure backend='auto''s threshold instead")
     args = ap.parse_args(argv)
+    if args.crossover:
+        warm_up()
+        rows = crossover_rows(QUICK_CROSS_SUBDIVISIONS if args.quick else CROSS_SUBDIVISIONS,
+                              QUICK_CROSS_RESOLUTIONS if args.quick else CROSS_RESOLUTIONS,
+                              args.repeats or (3 if args.quick else 7))
+        paths = write_crossover(rows, args.quick)
+        print(f"AUTO_FACES_PER_PIXEL (image, covered) fitted: {fitted_faces_per_pixel(rows)}; wrote "
+              + " and ".join(os.path.relpath(p) for p in paths))
+        return
     default_csv, default_png = outputs(args.quick)
     csv_path = Path(args.csv or default_csv)
     png_path = Path(args.png or default_png)

@@ -21,7 +21,7 @@ from .visibility.facing import warn_single_sided
 from .visibility.hits import image_buffer
 from .visibility.interpolation import to_screen_space
 from .visibility.pixel import CameraCast
-from .visibility.raster import check_raster_camera, rasterize
+from .visibility.raster import check_raster_camera, choose_backend, rasterize
 from .visibility.rays import subpixel_camera
 from .common.bufferspec import BUFFERS
 from .output.buffers import FrameBuffers, check_buffers, check_buffers_out
@@ -30,7 +30,7 @@ from .scene.pitfalls import warn_render
 from .scene.scene import Scene
 from .insight.auto import choose_methods
 from .insight.explain import explain
-from .common.choices import BACKENDS, CASTER_CHOICES, INTERPOLATIONS, SHADING_CHOICES
+from .common.choices import BACKEND_CHOICES, CASTER_CHOICES, INTERPOLATIONS, SHADING_CHOICES
 from .common.samples import check_samples, sample_offsets
 from .common.validate import as_int, as_scalar
 from .shading.inputs import prepare
@@ -59,10 +59,10 @@ def render(scene: Scene, shading="phong", *, camera: Camera | None = None, backe
         ``frame.decisions``).
     camera : Camera, optional
         Overrides ``scene.camera``.
-    backend : {"raycast", "raster"}
-        Visibility by Embree ray casting, or by the reference z-buffer
-        rasterizer (:mod:`raycast_shade.visibility.raster`). Both fill the same hit
-        buffer and share every shading kernel.
+    backend : {"raycast", "raster", "auto"}
+        Embree ray casting, the z-buffer rasterizer (:mod:`raycast_shade.visibility.raster`), or
+        ``"auto"``: the one measured faster for the frame, if it can draw it (``choose_backend``
+        there). All fill one hit buffer and share every shading kernel.
     interpolation : {"perspective", "screen"}
         The lecture's "3D or 2D": barycentrics of the 3D hit point
         (perspective-correct), or weights affine in screen space (classic
@@ -199,7 +199,7 @@ def _plan(scene, shading, camera, backend, interpolation, caster, max_depth, tol
     else:
         resolve_methods(scene, shading)  # validates one name per model
         shading = tuple(m.lower() for m in shading)
-    backend = _choice(backend, "backend", BACKENDS)
+    backend = _choice(backend, "backend", BACKEND_CHOICES)
     interpolation = _choice(interpolation, "interpolation", INTERPOLATIONS)
     caster = _choice(caster, "caster", CASTER_CHOICES)
     max_depth = as_int(max_depth, "max_depth", minimum=0)  # NumPy integers too
@@ -219,6 +219,8 @@ def _plan(scene, shading, camera, backend, interpolation, caster, max_depth, tol
     if not isinstance(camera, Camera):
         raise TypeError(f"camera: expected a Camera, got {type(camera).__name__}")
     camera.check_frame_memory()
+    if backend == "auto":
+        backend = choose_backend(scene.geometry, camera)[0]
     if backend == "raster":
         check_raster_camera(camera)  # the rasterizer's own check, before the geometry is packed
     # Shadow and mirror rays need the direct binding whatever the caster: refuse now, before any kernel.

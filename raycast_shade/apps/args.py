@@ -15,7 +15,7 @@ import argparse
 
 import numpy as np
 
-from ..common.choices import (BACKENDS, CASTER_CHOICES, INTERPOLATIONS, REFLECTANCES, SHADING_CHOICES, SHADINGS,
+from ..common.choices import (BACKEND_CHOICES, CASTER_CHOICES, INTERPOLATIONS, REFLECTANCES, SHADING_CHOICES, SHADINGS,
                               TONEMAPS)
 from ..common.samples import MAX_SAMPLES
 from ..scene.scenefile import RENDER_KEYS
@@ -141,8 +141,9 @@ def add_render_options(p) -> None:
     adv = p.add_argument_group("pipeline")
     _choice(adv, "--caster", CASTER_CHOICES, "ray caster: direct Embree packets, or embreex's API",
             "the file's, else auto")
-    _choice(adv, "--backend", BACKENDS,
-            "visibility by ray casting or by the reference z-buffer rasterizer", "the file's, else raycast")
+    _choice(adv, "--backend", BACKEND_CHOICES,
+            "visibility by ray casting, by the reference z-buffer rasterizer, or auto (the faster)",
+            "the file's, else raycast")
     _choice(adv, "--interpolation", INTERPOLATIONS,
             "barycentrics of the 3D hit point, or affine in screen space", "the file's, else perspective")
     adv.add_argument("--max-depth", type=nonnegative_int, metavar="N",

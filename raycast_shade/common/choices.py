@@ -7,7 +7,8 @@ these names (case-insensitively, through :func:`raycast_shade.common.validate.as
 from __future__ import annotations
 
 __all__ = [
-    "SHADINGS", "SHADING_CHOICES", "BACKENDS", "INTERPOLATIONS", "CASTERS", "CASTER_CHOICES", "TONEMAPS",
+    "SHADINGS", "SHADING_CHOICES", "BACKENDS", "BACKEND_CHOICES", "INTERPOLATIONS", "CASTERS", "CASTER_CHOICES",
+    "TONEMAPS",
     "ATTENUATIONS", "PROJECTIONS", "SPECULAR_MODELS", "REFLECTANCES", "WEIGHTINGS", "WRAPS", "LINEAR_EXTS", "EIGHT_BIT_EXTS",
     "IMAGE_EXTS", "ORBITS", "VIDEO_EXTS",
 ]
@@ -17,6 +18,8 @@ SHADINGS = ("flat", "gouraud", "phong")
 SHADING_CHOICES = SHADINGS + ("auto",)
 # Visibility: Embree ray casting, or the reference z-buffer rasterizer.
 BACKENDS = ("raycast", "raster")
+# ... and "auto": the rasterizer where it is measured faster (visibility/raster.py's choose_backend).
+BACKEND_CHOICES = BACKENDS + ("auto",)
 # Barycentrics of the 3D hit (perspective-correct) or weights affine in screen space.
 INTERPOLATIONS = ("perspective", "screen")
 # Ray casters: Embree driven from Numba, or embreex's own API (the benchmark baseline).

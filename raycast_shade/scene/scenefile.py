@@ -71,7 +71,7 @@ except ModuleNotFoundError:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
 from . import shapes as _shapes
-from ..common.choices import (BACKENDS, CASTER_CHOICES, INTERPOLATIONS, SHADING_CHOICES, SHADINGS, TONEMAPS,
+from ..common.choices import (BACKEND_CHOICES, CASTER_CHOICES, INTERPOLATIONS, SHADING_CHOICES, SHADINGS, TONEMAPS,
                               WEIGHTINGS)
 from ..common.samples import check_samples
 from ..common.validate import as_choice, as_int, as_rgb, as_scalar, as_vec3
@@ -375,7 +375,7 @@ _RENDER_CHECKS = {
     "height": lambda v, name: as_int(v, name, minimum=1),
     "max_depth": lambda v, name: as_int(v, name, minimum=0),
     "samples": check_samples,
-    "backend": lambda v, name: as_choice(v, name, BACKENDS),
+    "backend": lambda v, name: as_choice(v, name, BACKEND_CHOICES),
     "interpolation": lambda v, name: as_choice(v, name, INTERPOLATIONS),
     "caster": lambda v, name: as_choice(v, name, CASTER_CHOICES),
     "tolerance": lambda v, name: as_scalar(v, name, minimum=0.0, exclusive=True),

@@ -77,13 +77,19 @@ from .rays import offset_pair, subpixel_camera
 from .scan import (_CHUNK, _bin_fill_par, _bin_fill_ser, _project_par, _project_ser, _raster_kernel, _setup_par,
                    _setup_ser)
 
-__all__ = ["rasterize", "coverage_count", "NEAR_FRACTION", "BAND_HEIGHT"]
+__all__ = ["rasterize", "coverage_count", "choose_backend", "covered_pixels", "NEAR_FRACTION", "BAND_HEIGHT",
+           "AUTO_FACES_PER_PIXEL"]
 
 NEAR_FRACTION = 1e-5  # default near plane, as a fraction of the scene's bounding-box diagonal
 BAND_HEIGHT = 8  # rows of the z-buffer owned by one parallel task
 _BANDS_A_PART = 4  # bands a part of the scan runs (one call each: a few keep the calls' cost small)
 _SERIAL_BELOW = 50_000  # faces: fewer run the geometry stages serially
 _MAX_SIDE = 1 << 24  # image sides beyond this are refused (float64 pixel arithmetic stays exact)
+# backend="auto" rasterizes while faces <= alpha * image pixels + beta * covered pixels, with
+# (alpha, beta) = AUTO_FACES_PER_PIXEL: the fit of the crossovers `benchmarks/bench_raster.py
+# --crossover` measures (benchmarks/results/raster_crossover.csv; tests/visibility/test_raster_auto.py
+# holds the two equal).
+AUTO_FACES_PER_PIXEL = (1.2, 0.0)
 
 
 def check_raster_camera(camera) -> None:
@@ -249,3 +255,84 @@ def coverage_count(geometry, camera, *, near=None) -> np.ndarray:
     """
     geometry, near = _check(geometry, camera, near)
     return _run(geometry, camera, near, True)
+
+
+def _bounds(geometry):
+    v = geometry.vertices
+    if len(v) == 0:
+        return np.zeros(3), np.zeros(3)
+    return v.min(axis=0), v.max(axis=0)
+
+
+def covered_pixels(geometry, camera) -> int:
+    """The pixels the scene's bounding box covers on screen: ``backend="auto"``'s estimate of the
+    pixels a frame shades, from the 8 corners of the re-centred vertices' box (kept with the
+    geometry); none when the whole box lies at or behind the eye plane, the whole image when part
+    of it does (a bound: its screen box is unbounded).
+
+    Parameters
+    ----------
+    geometry : SceneGeometry
+    camera : Camera
+
+    Returns
+    -------
+    int
+        In ``0 .. width * height``.
+    """
+    lo, hi = geometry.memo("raster_bounds", _bounds)
+    W, H = camera.width, camera.height
+    right, up, fwd = camera.basis
+    hw, hh = camera.half_extents()
+    ox, oy = camera.principal_offset()
+    corners = np.array([[(lo, hi)[i >> k & 1][k] for k in range(3)] for i in range(8)]) - (camera.eye - geometry.origin)
+    x, y, z = corners @ right, corners @ up, corners @ fwd
+    if camera.orthographic:
+        sx, sy = (x - ox) / hw, (y - oy) / hh
+    else:
+        if not np.any(z > 0.0):
+            return 0
+        if not np.all(z > 0.0):
+            return W * H
+        sx, sy = (x / z - ox) / hw, (y / z - oy) / hh
+    # Pixel coordinates of the corners (y down), their box clipped to the image.
+    px0, px1 = np.clip(0.5 * W * (1.0 + np.array([sx.min(), sx.max()])), 0.0, W)
+    py0, py1 = np.clip(0.5 * H * (1.0 - np.array([sy.max(), sy.min()])), 0.0, H)
+    return int(round((px1 - px0) * (py1 - py0)))
+
+
+def choose_backend(geometry, camera) -> tuple[str, str]:
+    """``render(backend="auto")``'s choice: the rasterizer where it is measured to be faster.
+
+    The rasterizer's cost grows with the faces (each is projected, set up and binned), the ray
+    caster's with the pixels (a descent each, dearer on a hit); the rasterizer is chosen when
+    ``faces <= alpha * width * height + beta * covered_pixels(geometry, camera)``, ``(alpha, beta)
+    = AUTO_FACES_PER_PIXEL`` (the measured crossover), and it can draw the frame
+    (a pinhole camera, sides up to 2**24, no alpha-masked model); Embree otherwise. Deterministic:
+    a function of the scene and the camera only (not of what has been built or cached).
+
+    Parameters
+    ----------
+    geometry : SceneGeometry
+    camera : Camera
+
+    Returns
+    -------
+    backend : {"raster", "raycast"}
+    reason : str
+        Why, for ``frame.decisions``-style reports.
+    """
+    if camera.distorted:
+        return "raycast", "a distorted lens: the rasterizer draws pinhole cameras only"
+    if camera.width > _MAX_SIDE or camera.height > _MAX_SIDE:
+        return "raycast", f"a side over {_MAX_SIDE} pixels"
+    if masked_geometries(geometry):
+        return "raycast", "alpha-masked models: the rasterizer does not honour them"
+    faces = len(geometry.faces)
+    covered = covered_pixels(geometry, camera)
+    alpha, beta = AUTO_FACES_PER_PIXEL
+    limit = alpha * camera.width * camera.height + beta * covered
+    why = f"{alpha} x {camera.width * camera.height} image pixels + {beta} x {covered} covered pixels"
+    if faces <= limit:
+        return "raster", f"{faces} faces <= {why}"
+    return "raycast", f"{faces} faces > {why}"

@@ -91,6 +91,56 @@ def _inside(ax, ay, bx, by, tl, X, Y):
     return e > 0.0 or (e == 0.0 and tl)
 
 
+_EPS = 2.0 ** -52  # float64 unit roundoff, twice over: the bounds below are generous by design
+
+
+@njit(cache=True)
+def _edge_setup(ax, ay, bx, by, Ya, Yb, px, qx):
+    """One edge's row spans over the rows ``Ya..Yb`` (pixel-centre ``Y``), once per triangle.
+
+    The edge function ``(ax - X)(by - Y) - (ay - Y)(bx - X)`` is linear in ``X`` with slope
+    ``ay - by``, and its root is linear in ``Y``: ``root(Y) = root(Ya) + (Y - Ya) dr``,
+    ``dr = (ax - bx) / (ay - by)``. :func:`_inside`'s float64 value errs by at most
+    ``d = 16 eps (px max|by - Y| + max|ay - Y| qx)`` over the box (``px, qx`` bound
+    ``|ax - X|, |bx - X|``; the true bound is about 4 eps), the root by ``rerr`` (the formula's
+    rounding, and the steps' over up to 2**10 rows); so at least ``m = 2 d / |slope| + 2 rerr``
+    past the root the exact test's sign is certain (see :func:`_edge_row`).
+
+    Returns ``(kind, root, dr, m)``: kind 1 bounds X below, -1 above; 0 is a horizontal edge
+    whose value ``c = (ay - Y)(ax - bx)`` is the same at every X of a row (``m`` is then ``d``)."""
+    r = max(abs(by - Ya), abs(by - Yb))
+    s = max(abs(ay - Ya), abs(ay - Yb))
+    d = 16.0 * _EPS * (px * r + s * qx)
+    slope = ay - by
+    if slope == 0.0:
+        return 0, 0.0, 0.0, d
+    root = ((ay - Ya) * bx - ax * (by - Ya)) / slope
+    dr = (ax - bx) / slope
+    rerr = 16.0 * _EPS * ((s * abs(bx) + abs(ax) * r) / abs(slope) + abs(root) + 1024.0 * abs(dr) * (Yb - Ya + 1.0))
+    return (1 if slope > 0.0 else -1), root, dr, 2.0 * d / abs(slope) + 2.0 * rerr + 1e-9
+
+
+@njit(cache=True, inline="always")
+def _edge_row(edge, ax, ay, bx, k, Y, span):
+    """Narrow a row's span by one edge set up by :func:`_edge_setup` (``k`` rows below ``Ya``):
+    ``span`` = ``(lo, hi, ilo, ihi)``, the X where the edge function may be positive
+    (``lo..hi``) and where its float64 value surely is (``ilo..ihi``); ``lo > hi`` for a row
+    the edge excludes."""
+    kind, root, dr, m = edge
+    lo, hi, ilo, ihi = span
+    if kind == 0:
+        c = (ay - Y) * (ax - bx)
+        if c < -2.0 * m - 4.0 * _EPS * abs(c):
+            return 1.0, 0.0, 1.0, 0.0
+        if not c > 2.0 * m + 4.0 * _EPS * abs(c):
+            ilo = np.inf  # undecided: every candidate of the row is tested exactly
+        return lo, hi, ilo, ihi
+    x = root + k * dr
+    if kind > 0:
+        return max(lo, x - m), hi, max(ilo, x + m), ihi
+    return lo, min(hi, x + m), ilo, min(ihi, x - m)
+
+
 @njit(cache=True)
 def _clip(faces, vx, cs, f, near, ortho, W, H, hw, hh, px, py, pq):
     """Face ``f`` clipped to ``z > near``, in pixel coordinates.
@@ -191,40 +241,51 @@ def _scan_triangle(corners, rlo, rhi, W, f, plane, band, count_mode):
     kmin = min(q0, q1, q2)
     kmax = max(q0, q1, q2)
     ready = given or count_mode  # the depth plane is set up at the first covered pixel
-    wide = xb - xa >= 4
+    wide = xb - xa >= 1
+    if wide:
+        # Each edge's row roots and margins (_edge_setup), bounded over the triangle's box.
+        Xa = xa + 0.5
+        Xb = xb + 0.5
+        Ya = ya + 0.5
+        Yb = yb + 0.5
+        ed0 = _edge_setup(ax0, ay0, bx0, by0, Ya, Yb, max(abs(ax0 - Xa), abs(ax0 - Xb)),
+                          max(abs(bx0 - Xa), abs(bx0 - Xb)))
+        ed1 = _edge_setup(ax1, ay1, bx1, by1, Ya, Yb, max(abs(ax1 - Xa), abs(ax1 - Xb)),
+                          max(abs(bx1 - Xa), abs(bx1 - Xb)))
+        ed2 = _edge_setup(ax2, ay2, bx2, by2, Ya, Yb, max(abs(ax2 - Xa), abs(ax2 - Xb)),
+                          max(abs(bx2 - Xa), abs(bx2 - Xb)))
+    else:
+        ed0 = ed1 = ed2 = (0, 0.0, 0.0, 0.0)
     for y in range(ya, yb + 1):
         Y = y + 0.5
         xs = xa
         xe = xb
+        xi = xb + 1  # pixels xi .. xj are inside for certain; the others are tested exactly
+        xj = xb
         if wide:
-            # The row's span solved from the three edge functions, each
-            # linear in X with slope ay - by, widened by a pixel on each side;
-            # the exact test below has the last word.
-            lo = -np.inf
-            hi = np.inf
-            for e in range(3):
-                if e == 0:
-                    ax, ay, bx, by = ax0, ay0, bx0, by0
-                elif e == 1:
-                    ax, ay, bx, by = ax1, ay1, bx1, by1
-                else:
-                    ax, ay, bx, by = ax2, ay2, bx2, by2
-                slope = ay - by
-                if slope != 0.0:
-                    root = ((ay - Y) * bx - ax * (by - Y)) / slope
-                    if slope > 0.0:
-                        lo = max(lo, root)
-                    else:
-                        hi = min(hi, root)
+            # The row's span from the three edges' roots, with margins past which the exact
+            # test's answer is certain: the candidates outside it would fail the exact test,
+            # those in its interior pass it, so only the pixels near an edge are tested. The
+            # pixels drawn are the exact test's, bit for bit.
+            k = float(y - ya)
+            span = _edge_row(ed0, ax0, ay0, bx0, k, Y, (-np.inf, np.inf, -np.inf, np.inf))
+            span = _edge_row(ed1, ax1, ay1, bx1, k, Y, span)
+            lo, hi, ilo, ihi = _edge_row(ed2, ax2, ay2, bx2, k, Y, span)
+            if lo > hi:
+                continue
             lo = min(max(lo, -2.0), W + 2.0)
             hi = min(max(hi, -2.0), W + 2.0)
-            xs = max(int(math.ceil(lo - 0.5)) - 1, xa)
-            xe = min(int(math.floor(hi - 0.5)) + 1, xb)
+            xs = max(int(math.ceil(lo - 0.5)), xa)
+            xe = min(int(math.floor(hi - 0.5)), xb)
+            ilo = min(max(ilo, -2.0), W + 2.0)
+            ihi = min(max(ihi, -2.0), W + 2.0)
+            xi = max(int(math.ceil(ilo - 0.5)), xs)
+            xj = min(int(math.floor(ihi - 0.5)), xe)
         rowz = zB * Y + zC
         for x in range(xs, xe + 1):
             X = x + 0.5
-            if (_inside(ax0, ay0, bx0, by0, tl0, X, Y) and _inside(ax1, ay1, bx1, by1, tl1, X, Y)
-                    and _inside(ax2, ay2, bx2, by2, tl2, X, Y)):
+            if (xi <= x <= xj) or (_inside(ax0, ay0, bx0, by0, tl0, X, Y) and _inside(ax1, ay1, bx1, by1, tl1, X, Y)
+                                   and _inside(ax2, ay2, bx2, by2, tl2, X, Y)):
                 if count_mode:
                     count[y, x] += 1
                 else:
@@ -415,6 +476,11 @@ def _resolve_rows(fid, rlo, faces, cs, face_model, face_off, screen, shear, hits
     ortho, W, H, hw, hh = screen
     ox, oy = shear
     prim, geom, u, v, t = hits
+    i0 = i1 = i2 = 0
+    last = -1  # the face whose set-up below is current: neighbouring pixels mostly share their face
+    p0x = p0y = p0z = nx = ny = nz = 0.0
+    e1x = e1y = e1z = e2x = e2y = e2z = 0.0
+    c1x = c1y = c1z = c2x = c2y = c2z = qn = 0.0
     for r in range(fid.shape[0]):
         y = rlo + r
         sy = 1.0 - 2.0 * (y + 0.5) / H
@@ -428,44 +494,58 @@ def _resolve_rows(fid, rlo, faces, cs, face_model, face_off, screen, shear, hits
                 t[y, x] = np.inf
                 continue
             sx = 2.0 * (x + 0.5) / W - 1.0
-            i0 = faces[f, 0]
-            i1 = faces[f, 1]
-            i2 = faces[f, 2]
-            e1x = cs[i1, 0] - cs[i0, 0]
-            e1y = cs[i1, 1] - cs[i0, 1]
-            e1z = cs[i1, 2] - cs[i0, 2]
-            e2x = cs[i2, 0] - cs[i0, 0]
-            e2y = cs[i2, 1] - cs[i0, 1]
-            e2z = cs[i2, 2] - cs[i0, 2]
+            if f != last:
+                # The face's terms, the same operations in the same order whether set up here or
+                # reused: the results do not depend on the order the pixels come in.
+                last = f
+                i0 = faces[f, 0]
+                i1 = faces[f, 1]
+                i2 = faces[f, 2]
+                p0x = cs[i0, 0]
+                p0y = cs[i0, 1]
+                p0z = cs[i0, 2]
+                e1x = cs[i1, 0] - p0x
+                e1y = cs[i1, 1] - p0y
+                e1z = cs[i1, 2] - p0z
+                e2x = cs[i2, 0] - p0x
+                e2y = cs[i2, 1] - p0y
+                e2z = cs[i2, 2] - p0z
+                nx = e1y * e2z - e1z * e2y
+                ny = e1z * e2x - e1x * e2z
+                nz = e1x * e2y - e1y * e2x
+                if not ortho:  # q = P0 - o = P0: the crosses with q are the face's too
+                    c1x = e2y * p0z - e2z * p0y
+                    c1y = e2z * p0x - e2x * p0z
+                    c1z = e2x * p0y - e2y * p0x
+                    c2x = p0y * e1z - p0z * e1y
+                    c2y = p0z * e1x - p0x * e1z
+                    c2z = p0x * e1y - p0y * e1x
+                    qn = p0x * nx + p0y * ny + p0z * nz
             # Ray o + s d against P0 + b1 e1 + b2 e2, with q = P0 - o.
             if ortho:
                 dx = 0.0
                 dy = 0.0
-                qx = cs[i0, 0] - sx * hw
-                qy = cs[i0, 1] - sy * hh
+                qx = p0x - sx * hw
+                qy = p0y - sy * hh
+                qz = p0z
+                c1x = e2y * qz - e2z * qy
+                c1y = e2z * qx - e2x * qz
+                c1z = e2x * qy - e2y * qx
+                c2x = qy * e1z - qz * e1y
+                c2y = qz * e1x - qx * e1z
+                c2z = qx * e1y - qy * e1x
+                qn = qx * nx + qy * ny + qz * nz
             else:
                 dx = sx * hw
                 dy = sy * hh
-                qx = cs[i0, 0]
-                qy = cs[i0, 1]
             dz = 1.0
-            qz = cs[i0, 2]
-            nx = e1y * e2z - e1z * e2y
-            ny = e1z * e2x - e1x * e2z
-            nz = e1x * e2y - e1y * e2x
             dn = dx * nx + dy * ny + dz * nz
             if dn != 0.0:
                 # b1 = d.(e2 x q) / d.n, b2 = d.(q x e1) / d.n, s = q.n / d.n
                 inv = 1.0 / dn
-                cx = e2y * qz - e2z * qy
-                cy = e2z * qx - e2x * qz
-                cz = e2x * qy - e2y * qx
-                b1 = (dx * cx + dy * cy + dz * cz) * inv
-                cx = qy * e1z - qz * e1y
-                cy = qz * e1x - qx * e1z
-                cz = qx * e1y - qy * e1x
-                b2 = (dx * cx + dy * cy + dz * cz) * inv
-                s = (qx * nx + qy * ny + qz * nz) * inv
+                b1 = (dx * c1x + dy * c1y + dz * c1z) * inv
+                b2 = (dx * c2x + dy * c2y + dz * c2z) * inv
+                s = qn * inv
             else:  # edge-on: cannot win a pixel in exact arithmetic
                 b1 = 1.0 / 3.0
                 b2 = 1.0 / 3.0
