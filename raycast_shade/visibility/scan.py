@@ -14,6 +14,7 @@ import numpy as np
 from numba import njit
 
 from ..common.parallel import KERNEL, in_parts, share
+from .hits import convex_uv
 
 
 _CHUNK = 4096  # faces per set-up and binning task
@@ -563,8 +564,10 @@ def _resolve_rows(fid, rlo, faces, cs, face_model, face_off, screen, shear, hits
             g = face_model[f]
             geom[y, x] = g
             prim[y, x] = f - face_off[g]
-            u[y, x] = b1
-            v[y, x] = b2
+            # float32 rounding can take b1 + b2 past 1 again: onto the triangle as the casters store theirs
+            fu, fv = convex_uv(np.float32(b1), np.float32(b2))
+            u[y, x] = fu
+            v[y, x] = fv
             t[y, x] = s
 
 

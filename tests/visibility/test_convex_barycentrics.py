@@ -115,9 +115,7 @@ def test_rays_along_the_edges_of_a_grid_leave_no_negative_pixel():
        caster=st.sampled_from(["embree", "embreex"]), interpolation=st.sampled_from(["perspective", "screen"]))
 def test_no_pixel_is_negative_and_every_weight_is_convex(n, width, ortho, dx, tilt, shading, caster, interpolation):
     """Random views over a plane of 0/1 vertex colours, lit and with ka_colors: grid-aligned
-    orthographic views put rays along shared edges and through vertices. (The rasterizer's
-    weights, stored by visibility/scan.py, are not clamped yet: n=4, width=56, orthographic
-    from (0, 0, 3) gives two Phong pixels of -5.4e-8 with backend="raster".)"""
+    orthographic views put rays along shared edges and through vertices."""
     height = 48
     eye = (dx, -3.0 * np.sin(tilt), 3.0 * np.cos(tilt))
     kw = dict(projection="orthographic", ortho_height=2.0 * height / width) if ortho else dict(fov=45)
@@ -157,3 +155,14 @@ def test_mirror_bounces_read_weights_on_their_triangles():
     assert (frame.hits.geom == 1).all()  # every pixel is the mirror ...
     assert img.max() > 0.5 and (img > 0.5).mean() > 0.2  # ... showing the grid's bright squares
     assert np.isfinite(img).all() and img.min() >= 0.0, float(img.min())
+
+
+def test_the_rasterizers_weights_stay_on_their_triangles():
+    """Its float64 weights, clamped, could still round past the edge in float32: n=4, width=56,
+    orthographic from (0, 0, 3) gave two Phong pixels of -5.4e-8 before scan.py stored them through
+    convex_uv."""
+    cam = rs.Camera(eye=(0, 0, 3), target=(0, 0, 0), up=(0, 1, 0), width=56, height=48,
+                    projection="orthographic", ortho_height=2.0 * 48 / 56)
+    scene = _ambient_scene(_coloured_plane(4), cam, [rs.PointLight((1, 2, 3))])
+    for shading in ("phong", "gouraud"):
+        _assert_clean(rs.render(scene, shading, backend="raster"))
