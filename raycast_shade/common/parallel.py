@@ -78,13 +78,17 @@ def launch(kernel, *args, parts: int | None = None, dynamic: bool = False) -> No
     parts : int, optional
         How many parts; :func:`numba.get_num_threads` of the calling thread by default.
     dynamic : bool
-        Hand the parts out one at a time to :func:`numba.get_num_threads` runners (parts of
-        uneven cost, more parts than threads), instead of one part a thread.
+        Wake at most :func:`numba.get_num_threads` runners for more parts than threads (parts
+        of uneven cost), instead of one runner a part.
 
     Notes
     -----
-    An exception in any part is raised here, after every part has finished; so is a
-    ``KeyboardInterrupt``: no part outlives the call.
+    The parts are handed out one at a time, in order, to whichever runner asks first, the
+    calling thread included (:class:`_Parts`): when a core is busy with another process and
+    a woken thread has not started yet, the caller runs its part too instead of waiting for
+    it, so two threads are never much slower than one. Which thread runs a part changes no
+    result: a part never waits on another. An exception in any part is raised here, after
+    every part has finished; so is a ``KeyboardInterrupt``: no part outlives the call.
     """
     threads = numba.get_num_threads()
     n = threads if parts is None else int(parts)  # (the parameter hides parts())
@@ -93,43 +97,62 @@ def launch(kernel, *args, parts: int | None = None, dynamic: bool = False) -> No
         for k in range(n) if dynamic else (0,):
             kernel(*args, (k, n) if dynamic else SERIAL)
         return
-    if dynamic:
-        nxt = itertools.count()  # next() of a count is atomic under the GIL: each part runs once
-
-        def run(_):
-            for k in iter(lambda: next(nxt), None):
-                if k >= n:
-                    return
-                kernel(*args, (k, n))
-    else:
-        def run(k):
-            kernel(*args, (k, n))
+    job = _Parts(kernel, args, n)
     pool = _pool(numba.config.NUMBA_NUM_THREADS)
-    futures = [pool.submit(run, k) for k in range(1, runners)]
-    try:
-        run(0)
-    finally:
-        errors = _wait_all(futures)
-    for e in errors:
-        if e is not None:
-            raise e
+    for _ in range(1, runners):
+        pool.submit(job.run)
+    job.run()
+    job.wait()
 
 
-def _wait_all(futures) -> list:
-    """Every part's exception (None: it finished), waiting for all of them even through Ctrl-C: a
-    part still running reads buffers (an Embree scene, by its address) that the caller may free
-    once :func:`launch` has returned or raised."""
-    interrupted, errors = None, []
-    for f in futures:
+class _Parts:
+    """The parts of one :func:`launch`, handed out one at a time to its runners.
+
+    A runner takes the next part until none is left; one that starts after the last part
+    was taken returns at once, touching nothing. :meth:`wait` returns once every part has
+    finished (not every runner has started: the caller does not wait for a thread that a
+    busy core has not scheduled yet) and raises the first part's error."""
+
+    __slots__ = ("kernel", "args", "n", "next", "left", "lock", "done", "errors")
+
+    def __init__(self, kernel, args, n):
+        self.kernel, self.args, self.n = kernel, args, n
+        self.next = itertools.count()  # next() of a count is atomic under the GIL: each part runs once
+        self.left = n
+        self.lock = threading.Lock()
+        self.done = threading.Event()
+        self.errors: list = []
+
+    def run(self) -> None:
+        n = self.n
+        for k in iter(lambda: next(self.next), None):
+            if k >= n:
+                return
+            try:
+                self.kernel(*self.args, (k, n))
+            except BaseException as e:  # raised by wait(), after every part
+                self.errors.append(e)
+            finally:
+                with self.lock:
+                    self.left -= 1
+                    if self.left == 0:
+                        self.done.set()
+                        self.args = None  # a late runner holds no buffers
+
+    def wait(self) -> None:
+        """Wait for every part, even through Ctrl-C: a part still running reads buffers (an Embree
+        scene, by its address) that the caller may free once :func:`launch` has returned or raised."""
+        interrupted = None
         while True:
             try:
-                errors.append(f.exception())
+                self.done.wait()
                 break
             except KeyboardInterrupt as e:  # wait on, then raise it
                 interrupted = e
-    if interrupted is not None:
-        raise interrupted
-    return errors
+        if interrupted is not None:
+            raise interrupted
+        if self.errors:
+            raise self.errors[0]
 
 
 class InParts:
