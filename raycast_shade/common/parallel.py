@@ -2,8 +2,10 @@
 
 A kernel that works in parallel is an ordinary ``@njit(nogil=True)`` function whose
 last argument is ``part = (k, parts)``: it runs its share :func:`share` of its outer
-loop and nothing else. :func:`launch` calls it once per part, each call on its own
-thread; the compiled code releases the GIL, so the parts run at once.
+loop and nothing else. :func:`launch` calls it once per part, the parts handed out in
+order to the calling thread and the pool's threads, whichever asks first; the compiled
+code releases the GIL, so the parts run at once. A woken thread that a busy core has not
+started yet does not hold the call: the caller runs the part itself.
 
 Why not ``parallel=True``. Numba compiles a ``prange`` loop's body a second time as
 a gufunc, links the body's callees into it and optimises them again: measured on the
@@ -101,7 +103,11 @@ def launch(kernel, *args, parts: int | None = None, dynamic: bool = False) -> No
     pool = _pool(numba.config.NUMBA_NUM_THREADS)
     for _ in range(1, runners):
         pool.submit(job.run)
-    job.run()
+    try:
+        job.run()
+    except BaseException:  # Ctrl-C between two of the caller's parts: the others' running parts first
+        job.abandon()
+        raise
     job.wait()
 
 
@@ -113,31 +119,48 @@ class _Parts:
     finished (not every runner has started: the caller does not wait for a thread that a
     busy core has not scheduled yet) and raises the first part's error."""
 
-    __slots__ = ("kernel", "args", "n", "next", "left", "lock", "done", "errors")
+    __slots__ = ("kernel", "args", "n", "next", "left", "running", "stop", "lock", "idle", "done", "errors")
 
     def __init__(self, kernel, args, n):
         self.kernel, self.args, self.n = kernel, args, n
-        self.next = itertools.count()  # next() of a count is atomic under the GIL: each part runs once
-        self.left = n
+        self.next = itertools.count()
+        self.left = n  # parts not finished
+        self.running: list = []  # the threads running a part, one entry a part
+        self.stop = False  # abandoned: no part starts any more
         self.lock = threading.Lock()
+        self.idle = threading.Condition(self.lock)  # notified when a part finishes
         self.done = threading.Event()
         self.errors: list = []
 
     def run(self) -> None:
         n = self.n
-        for k in iter(lambda: next(self.next), None):
-            if k >= n:
-                return
+        while True:
+            with self.lock:  # the part taken and counted as running at once
+                k = n if self.stop else next(self.next)
+                if k >= n:
+                    return
+                self.running.append(threading.get_ident())
             try:
                 self.kernel(*self.args, (k, n))
             except BaseException as e:  # raised by wait(), after every part
                 self.errors.append(e)
             finally:
                 with self.lock:
+                    self.running.remove(threading.get_ident())
                     self.left -= 1
+                    self.idle.notify_all()
                     if self.left == 0:
                         self.done.set()
                         self.args = None  # a late runner holds no buffers
+
+    def abandon(self) -> None:
+        """No part starts any more; wait for the other threads' running parts (the caller was
+        interrupted, perhaps inside its own part's bookkeeping: its own entries are not waited for)."""
+        me = threading.get_ident()
+        with self.lock:
+            self.stop = True
+            while any(t != me for t in self.running):
+                self.idle.wait()
 
     def wait(self) -> None:
         """Wait for every part, even through Ctrl-C: a part still running reads buffers (an Embree

@@ -149,3 +149,25 @@ def test_the_caller_runs_the_parts_a_sleeping_runner_has_not_started(monkeypatch
         assert late == [None] * 3 and seen.tolist() == [4, 4, 4, 4]
     finally:
         numba.set_num_threads(old)
+
+
+def test_an_abandoned_launch_starts_no_part_and_waits_for_the_running_one():
+    """What ``launch`` does when Ctrl-C reaches the caller between its parts: ``abandon`` returns
+    only once another thread's running part has finished, and no part starts after it."""
+    from raycast_shade.common import parallel
+
+    started, finished = threading.Event(), []
+
+    def kernel(part):
+        started.set()
+        threading.Event().wait(0.2)  # still running when the caller abandons
+        finished.append(part[0])
+
+    job = parallel._Parts(kernel, (), 4)
+    runner = threading.Thread(target=job.run)
+    runner.start()
+    assert started.wait(5)
+    job.abandon()
+    assert finished == [0]  # waited for the running part
+    runner.join(5)
+    assert finished == [0] and not runner.is_alive()  # and no part started after it
