@@ -10,7 +10,7 @@ from __future__ import annotations
 from numba import types
 from numba.extending import intrinsic
 
-__all__ = ["LANES", "pick"]
+__all__ = ["LANES"]
 
 LANES = 64  # pixels shaded together: 64 lanes of 54 float64 fields (27 KiB) stay in the L1 cache
 # Fields of the scratch array, each LANES wide: field F of lane k is S[F * LANES + k].
@@ -26,7 +26,7 @@ _FIELDS = 54
 
 
 @intrinsic
-def pick(typingctx, cond, a, b):
+def _pick(typingctx, cond, a, b):
     """``a if cond else b`` as one LLVM ``select``, for the batched kernel's passes over the lanes.
 
     Numba compiles a conditional expression to branches; LLVM then sinks the work of the side
