@@ -20,7 +20,9 @@ Sections (issue 16):
     (rays, packets, unpacking, the slip test; no re-cast); and ``rs.render`` itself, fresh
     and with ``out=`` (one image reused), and fresh with the general Phong kernel
     (``frame_general``: the dispatch to the batched kernel of
-    :mod:`raycast_shade.shading.phong_fast` turned off). Reported: the frame over the sum of
+    :mod:`raycast_shade.shading.phong_fast` turned off); and the two Phong kernels
+    alone over the frame's hits on one thread in CPU time (``shade_batched``,
+    ``shade_general``: the measure that a loaded machine disturbs least). Reported: the frame over the sum of
     packets + preallocated store (issue 16 aims at <= 1.3), the cast kernel and
     the frame's cast stage over the packets (issue 27 aims at <= 1.15), the stages
     of the frame and how many isolated misses it re-casts.
@@ -169,6 +171,34 @@ def _load():
     return round(os.getloadavg()[0], 2)
 
 
+def shade_cpu(scene, repeats):
+    """The shade stage's Phong kernels over a whole frame's hits on one thread, in CPU time
+    (``time.thread_time``: what a loaded machine's other processes add least to), the batched
+    kernel and the general one alternating; median seconds each."""
+    import numba
+    from raycast_shade.shading import shade as shading
+    from raycast_shade.visibility.cast import cast_camera
+
+    hits = cast_camera(scene.geometry, scene.camera, "embree")
+    out = np.empty(hits.shape + (3,), np.float32)
+    shaders = {"batched": shading.SampleShading(scene, scene.camera, "phong")}
+    with mock.patch.object(shading, "_fast_applies", lambda *a: False):  # decided as the shader is made
+        shaders["general"] = shading.SampleShading(scene, scene.camera, "phong")
+    old = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        times = {k: [] for k in shaders}
+        for r in range(repeats + 1):  # the first round warms up
+            for k, shader in shaders.items():
+                t0 = time.thread_time()
+                shader.shade(hits, out=out)
+                if r:
+                    times[k].append(time.thread_time() - t0)
+    finally:
+        numba.set_num_threads(old)
+    return {k: float(np.median(v)) for k, v in times.items()}
+
+
 # -- sections -----------------------------------------------------------------------------------------------
 
 def limit_case(kind, level, w, h, repeats):
@@ -268,6 +298,9 @@ def limit_case(kind, level, w, h, repeats):
                   unit="ms") for var, k, key in (("frame", "cast", "cast"), ("frame", "shade", "shade"),
                                                  ("frame_general", "cast", "cast_general"),
                                                  ("frame_general", "shade", "shade_general"))]
+    cpu = shade_cpu(scene, repeats)
+    rows += [dict(base, variant=f"shade_{k}", metric="cpu_ms_1thread", value=round(1e3 * v, 3), unit="ms")
+             for k, v in cpu.items()]
     rows += [
         dict(base, variant="frame", metric="isolated_misses", value=int(isolated_misses_numpy(frame.hits.prim).sum()),
              unit="pixels"),
@@ -296,7 +329,8 @@ def limit_case(kind, level, w, h, repeats):
           f"{1e3 * med['cast_kernel']:.1f}, cast stage {1e3 * np.median(stages['cast']):.1f}, store "
           f"{1e3 * med['store_prealloc']:.1f} (fresh {1e3 * med['store_fresh']:.1f}), ratio "
           f"{med['frame'] / floor:.2f} (general Phong kernel {med['frame_general'] / floor:.2f}: shade "
-          f"{1e3 * np.median(stages['shade_general']):.1f} -> {1e3 * np.median(stages['shade']):.1f} ms), "
+          f"{1e3 * np.median(stages['shade_general']):.1f} -> {1e3 * np.median(stages['shade']):.1f} ms; one thread's "
+          f"CPU {1e3 * cpu['general']:.1f} -> {1e3 * cpu['batched']:.1f} ms), "
           f"load {load0}-{load1}", file=sys.stderr)
     return rows
 

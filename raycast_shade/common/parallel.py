@@ -2,8 +2,10 @@
 
 A kernel that works in parallel is an ordinary ``@njit(nogil=True)`` function whose
 last argument is ``part = (k, parts)``: it runs its share :func:`share` of its outer
-loop and nothing else. :func:`launch` calls it once per part, each call on its own
-thread; the compiled code releases the GIL, so the parts run at once.
+loop and nothing else. :func:`launch` calls it once per part, the parts handed out in
+order to the calling thread and the pool's threads, whichever asks first; the compiled
+code releases the GIL, so the parts run at once. A woken thread that a busy core has not
+started yet does not hold the call: the caller runs the part itself.
 
 Why not ``parallel=True``. Numba compiles a ``prange`` loop's body a second time as
 a gufunc, links the body's callees into it and optimises them again: measured on the
@@ -78,13 +80,17 @@ def launch(kernel, *args, parts: int | None = None, dynamic: bool = False) -> No
     parts : int, optional
         How many parts; :func:`numba.get_num_threads` of the calling thread by default.
     dynamic : bool
-        Hand the parts out one at a time to :func:`numba.get_num_threads` runners (parts of
-        uneven cost, more parts than threads), instead of one part a thread.
+        Wake at most :func:`numba.get_num_threads` runners for more parts than threads (parts
+        of uneven cost), instead of one runner a part.
 
     Notes
     -----
-    An exception in any part is raised here, after every part has finished; so is a
-    ``KeyboardInterrupt``: no part outlives the call.
+    The parts are handed out one at a time, in order, to whichever runner asks first, the
+    calling thread included (:class:`_Parts`): when a core is busy with another process and
+    a woken thread has not started yet, the caller runs its part too instead of waiting for
+    it, so two threads are never much slower than one. Which thread runs a part changes no
+    result: a part never waits on another. An exception in any part is raised here, after
+    every part has finished; so is a ``KeyboardInterrupt``: no part outlives the call.
     """
     threads = numba.get_num_threads()
     n = threads if parts is None else int(parts)  # (the parameter hides parts())
@@ -93,43 +99,83 @@ def launch(kernel, *args, parts: int | None = None, dynamic: bool = False) -> No
         for k in range(n) if dynamic else (0,):
             kernel(*args, (k, n) if dynamic else SERIAL)
         return
-    if dynamic:
-        nxt = itertools.count()  # next() of a count is atomic under the GIL: each part runs once
+    job = _Parts(kernel, args, n)
+    pool = _pool(numba.config.NUMBA_NUM_THREADS)
+    for _ in range(1, runners):
+        pool.submit(job.run)
+    try:
+        job.run()
+    except BaseException:  # Ctrl-C between two of the caller's parts: the others' running parts first
+        job.abandon()
+        raise
+    job.wait()
 
-        def run(_):
-            for k in iter(lambda: next(nxt), None):
+
+class _Parts:
+    """The parts of one :func:`launch`, handed out one at a time to its runners.
+
+    A runner takes the next part until none is left; one that starts after the last part
+    was taken returns at once, touching nothing. :meth:`wait` returns once every part has
+    finished (not every runner has started: the caller does not wait for a thread that a
+    busy core has not scheduled yet) and raises the first part's error."""
+
+    __slots__ = ("kernel", "args", "n", "next", "left", "running", "stop", "lock", "idle", "done", "errors")
+
+    def __init__(self, kernel, args, n):
+        self.kernel, self.args, self.n = kernel, args, n
+        self.next = itertools.count()
+        self.left = n  # parts not finished
+        self.running: list = []  # the threads running a part, one entry a part
+        self.stop = False  # abandoned: no part starts any more
+        self.lock = threading.Lock()
+        self.idle = threading.Condition(self.lock)  # notified when a part finishes
+        self.done = threading.Event()
+        self.errors: list = []
+
+    def run(self) -> None:
+        n = self.n
+        while True:
+            with self.lock:  # the part taken and counted as running at once
+                k = n if self.stop else next(self.next)
                 if k >= n:
                     return
-                kernel(*args, (k, n))
-    else:
-        def run(k):
-            kernel(*args, (k, n))
-    pool = _pool(numba.config.NUMBA_NUM_THREADS)
-    futures = [pool.submit(run, k) for k in range(1, runners)]
-    try:
-        run(0)
-    finally:
-        errors = _wait_all(futures)
-    for e in errors:
-        if e is not None:
-            raise e
+                self.running.append(threading.get_ident())
+            try:
+                self.kernel(*self.args, (k, n))
+            except BaseException as e:  # raised by wait(), after every part
+                self.errors.append(e)
+            finally:
+                with self.lock:
+                    self.running.remove(threading.get_ident())
+                    self.left -= 1
+                    self.idle.notify_all()
+                    if self.left == 0:
+                        self.done.set()
+                        self.args = None  # a late runner holds no buffers
 
+    def abandon(self) -> None:
+        """No part starts any more; wait for the other threads' running parts (the caller was
+        interrupted, perhaps inside its own part's bookkeeping: its own entries are not waited for)."""
+        me = threading.get_ident()
+        with self.lock:
+            self.stop = True
+            while any(t != me for t in self.running):
+                self.idle.wait()
 
-def _wait_all(futures) -> list:
-    """Every part's exception (None: it finished), waiting for all of them even through Ctrl-C: a
-    part still running reads buffers (an Embree scene, by its address) that the caller may free
-    once :func:`launch` has returned or raised."""
-    interrupted, errors = None, []
-    for f in futures:
+    def wait(self) -> None:
+        """Wait for every part, even through Ctrl-C: a part still running reads buffers (an Embree
+        scene, by its address) that the caller may free once :func:`launch` has returned or raised."""
+        interrupted = None
         while True:
             try:
-                errors.append(f.exception())
+                self.done.wait()
                 break
             except KeyboardInterrupt as e:  # wait on, then raise it
                 interrupted = e
-    if interrupted is not None:
-        raise interrupted
-    return errors
+        if interrupted is not None:
+            raise interrupted
+        if self.errors:
+            raise self.errors[0]
 
 
 class InParts:

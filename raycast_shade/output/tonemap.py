@@ -10,55 +10,26 @@ The 8-bit mapping, in order:
    ``g`` for ``x ** (1/g)``, or ``1`` for linear;
 4. round to nearest of 0..255.
 
-:func:`to_uint8` runs the mapping in one parallel Numba pass, in float64 as
-its plain-NumPy twin :func:`raycast_shade.study.twins.to_uint8_numpy` does
-(tested equal): NumPy's ``power`` over a 960 x 844 image took 100-180 ms, a
-tenth of ``raycast-shade demo``.
+:func:`to_uint8` gives the bytes of the mapping in float64, as its plain-NumPy
+twin :func:`raycast_shade.study.twins.to_uint8_numpy` does (tested equal):
+through the curve in one parallel Numba pass
+(``quantize._curve_uint8``; NumPy's ``power`` over a
+960 x 844 image took 100-180 ms, a tenth of ``raycast-shade demo``), or, for a
+large float32 image, by the setting's exact threshold table
+(:func:`~raycast_shade.output.quantize.to_uint8_table`, several times faster).
 """
 
 from __future__ import annotations
 
-import math
 import os
 
 import numpy as np
-from numba import njit
-
-from ..common.parallel import in_parts, share
-
-__all__ = ["to_uint8", "write_pfm", "read_pfm", "TONEMAPS"]
 
 from ..common.choices import TONEMAPS
-from ..common.validate import as_array, as_scalar
-_CHUNK = 1 << 16  # values per parallel work item
+from ..common.validate import as_array
+from .quantize import _TABLE_VALUES, _curve_uint8, to_uint8_table
 
-
-@in_parts
-@njit(nogil=True, cache=True, error_model="numpy")
-def _to_uint8_kernel(x, exposure, curve, inv_gamma, out, part):
-    """Tone-map ``x`` (N,) float32/float64 into ``out`` (N,) uint8.
-
-    ``curve``: 0 clamp, 1 reinhard, 2 exponential; ``inv_gamma`` 0 selects
-    sRGB. Negatives and NaN map to 0 under every curve (NumPy's cast of NaN
-    to uint8 is undefined); ``+inf`` maps to 255 under every curve.
-    """
-    n = x.shape[0]
-    for c in range(*share((n + _CHUNK - 1) // _CHUNK, part)):  # this part's share (common.parallel)
-        for i in range(c * _CHUNK, min(n, (c + 1) * _CHUNK)):
-            v = np.float64(x[i]) * exposure
-            if not v > 0.0:  # negatives, -0 and NaN, before the curve: x / (1 + x) is large below -1
-                v = 0.0
-            elif curve == 1:
-                v = v / (1.0 + v) if v < math.inf else 1.0  # the limit, not inf / inf
-            elif curve == 2:
-                v = -math.expm1(-v)
-            if v > 1.0:
-                v = 1.0
-            if inv_gamma == 0.0:
-                v = 12.92 * v if v <= 0.0031308 else 1.055 * v ** (1.0 / 2.4) - 0.055
-            elif inv_gamma != 1.0:
-                v = v ** inv_gamma
-            out[i] = np.uint8(np.rint(v * 255.0))
+__all__ = ["to_uint8", "write_pfm", "read_pfm", "TONEMAPS"]
 
 
 def to_uint8(image, exposure: float = 1.0, tonemap: str = "clamp", gamma="srgb") -> np.ndarray:
@@ -75,33 +46,17 @@ def to_uint8(image, exposure: float = 1.0, tonemap: str = "clamp", gamma="srgb")
     Returns
     -------
     (H, W, 3) uint8
+
+    Notes
+    -----
+    A float32 image of at least 2^18 values (``quantize._TABLE_VALUES``)
+    goes by the setting's threshold table (:func:`~raycast_shade.output.quantize.to_uint8_table`),
+    every other input through the curve itself (``quantize._curve_uint8``):
+    the same bytes either way.
     """
-    if not isinstance(tonemap, str) or tonemap not in TONEMAPS:
-        raise ValueError(f"tonemap: expected one of {list(TONEMAPS)}, got {tonemap!r}")
-    try:  # TypeError for strings, booleans, None; one message for every bad number
-        exposure = as_scalar(exposure, "exposure", minimum=0.0, exclusive=True)
-    except ValueError:
-        raise ValueError(f"exposure: must be a finite number > 0, got {exposure}") from None
-    inv_gamma = _check_gamma(gamma)
-    img = np.asarray(image) if not isinstance(image, (bool, np.bool_, str)) else None
-    if img is None or img.dtype.kind not in "iuf":  # None, strings, booleans: not an image
-        raise TypeError(f"image: expected an array of numbers, got {type(image).__name__}"
-                        + (f" of dtype {img.dtype}" if img is not None else ""))
-    if img.dtype != np.float32:
-        img = img.astype(np.float64, copy=False)
-    flat = np.ascontiguousarray(img).reshape(-1)
-    out = np.empty(flat.shape[0], np.uint8)
-    _to_uint8_kernel(flat, float(exposure), TONEMAPS.index(tonemap), inv_gamma, out)
-    return out.reshape(img.shape)
-
-
-def _check_gamma(gamma) -> float:
-    """``1 / gamma``, or 0.0 for sRGB."""
-    if isinstance(gamma, str):
-        if gamma != "srgb":
-            raise ValueError(f"gamma: expected 'srgb' or a number, got {gamma!r}")
-        return 0.0
-    return 1.0 / as_scalar(gamma, "gamma", minimum=0.0, exclusive=True)
+    if isinstance(image, np.ndarray) and image.dtype == np.float32 and image.size >= _TABLE_VALUES:
+        return to_uint8_table(image, exposure, tonemap, gamma)
+    return _curve_uint8(image, exposure, tonemap, gamma)
 
 
 def write_pfm(path, image) -> None:

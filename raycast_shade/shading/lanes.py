@@ -7,6 +7,9 @@ importing each other.
 
 from __future__ import annotations
 
+from numba import types
+from numba.extending import intrinsic
+
 __all__ = ["LANES"]
 
 LANES = 64  # pixels shaded together: 64 lanes of 54 float64 fields (27 KiB) stay in the L1 cache
@@ -20,3 +23,20 @@ LANES = 64  # pixels shaded together: 64 lanes of 54 float64 fields (27 KiB) sta
 _B1, _B2, _SG, _O = 48, 49, 50, 51
 _TD, _TS = 48, 51
 _FIELDS = 54
+
+
+@intrinsic
+def _pick(typingctx, cond, a, b):
+    """``a if cond else b`` as one LLVM ``select``, for the batched kernel's passes over the lanes.
+
+    Numba compiles a conditional expression to branches; LLVM then sinks the work of the side
+    not always taken (its scratch loads) into its branch, and the vectoriser turns those loads into
+    masked loads (``vmaskmovpd``), slow on this machine. Both sides here are computed anyway, in
+    the same block: the same values, so the same bits, with plain loads and a blend."""
+    if not (isinstance(cond, types.Boolean) and isinstance(a, types.Float) and a == b):
+        return None
+
+    def codegen(context, builder, signature, args):
+        return builder.select(args[0], args[1], args[2])
+
+    return a(cond, a, b), codegen

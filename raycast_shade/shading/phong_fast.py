@@ -62,7 +62,7 @@ from ..visibility.secondary import set_occlusion_lane, trace_occlusion
 from .illumination import _spot_factor
 from .jit import HELPER, JIT
 from .lanes import (_A, _ATT, _B1, _B2, _CB, _CC, _CP, _D, _FIELDS, _FN, _G, _HASSPEC, _KA, _KD, _KE, _KS, _LIT,
-                    _MODEL, _N, _ND, _O, _P, _PW, _R, _S, _SG, _SHN, _SHT, _TD, _TS, _V, LANES)
+                    _MODEL, _N, _ND, _O, _P, _PW, _R, _S, _SG, _SHN, _SHT, _TD, _TS, _V, LANES, _pick)
 from .mirror_rays import hand_over_lanes
 from .pixelstore import store_background, store_pixel
 from .shadows import LANES as PACKET_LANES, _packets, _shadow_ray, _strip_background
@@ -180,18 +180,18 @@ def _geometry(S, cam, ambient):
         dz = ez - pz
         length = np.sqrt(dx * dx + dy * dy + dz * dz)
         back = ortho | (length == 0.0)
-        vx = bx if back else dx / length
-        vy = by if back else dy / length
-        vz = bz if back else dz / length
+        vx = _pick(back, bx, dx / length)
+        vy = _pick(back, by, dy / length)
+        vz = _pick(back, bz, dz / length)
         gx = S[(_FN + 0) * LANES + k]
         gy = S[(_FN + 1) * LANES + k]
         gz = S[(_FN + 2) * LANES + k]
         degenerate = (gx == 0.0) & (gy == 0.0) & (gz == 0.0)
-        flip = (gx * vx + gy * vy + gz * vz < 0.0) and not degenerate
-        sgn = -1.0 if flip else 1.0
-        gx = vx if degenerate else (-gx if flip else gx)
-        gy = vy if degenerate else (-gy if flip else gy)
-        gz = vz if degenerate else (-gz if flip else gz)
+        flip = (gx * vx + gy * vy + gz * vz < 0.0) & (not degenerate)
+        sgn = _pick(flip, -1.0, 1.0)
+        gx = _pick(degenerate, vx, _pick(flip, -gx, gx))
+        gy = _pick(degenerate, vy, _pick(flip, -gy, gy))
+        gz = _pick(degenerate, vz, _pick(flip, -gz, gz))
         ax = S[(_A + 0) * LANES + k]
         ay = S[(_A + 1) * LANES + k]
         az = S[(_A + 2) * LANES + k]
@@ -199,9 +199,9 @@ def _geometry(S, cam, ambient):
         keep = al >= 1e-6
         s = sgn / al
         S[_SG * LANES + k] = sgn
-        S[(_A + 0) * LANES + k] = ax * s if keep else gx
-        S[(_A + 1) * LANES + k] = ay * s if keep else gy
-        S[(_A + 2) * LANES + k] = az * s if keep else gz
+        S[(_A + 0) * LANES + k] = _pick(keep, ax * s, gx)
+        S[(_A + 1) * LANES + k] = _pick(keep, ay * s, gy)
+        S[(_A + 2) * LANES + k] = _pick(keep, az * s, gz)
         S[(_V + 0) * LANES + k] = vx
         S[(_V + 1) * LANES + k] = vy
         S[(_V + 2) * LANES + k] = vz
@@ -219,9 +219,9 @@ def _geometry(S, cam, ambient):
         gz = S[(_G + 2) * LANES + k]
         c = ax * gx + ay * gy + az * gz
         below = c < 0.0
-        S[(_N + 0) * LANES + k] = ax - 2.0 * c * gx if below else ax
-        S[(_N + 1) * LANES + k] = ay - 2.0 * c * gy if below else ay
-        S[(_N + 2) * LANES + k] = az - 2.0 * c * gz if below else az
+        S[(_N + 0) * LANES + k] = _pick(below, ax - 2.0 * c * gx, ax)
+        S[(_N + 1) * LANES + k] = _pick(below, ay - 2.0 * c * gy, ay)
+        S[(_N + 2) * LANES + k] = _pick(below, az - 2.0 * c * gz, az)
 
 
 @njit(**HELPER)
@@ -276,9 +276,9 @@ def _cosines(S, spec_on, phong, blinn):
     for k in range(LANES):
         ndots = (S[(_N + 0) * LANES + k] * S[(_S + 0) * LANES + k] + S[(_N + 1) * LANES + k] * S[(_S + 1) * LANES + k]
                  + S[(_N + 2) * LANES + k] * S[(_S + 2) * LANES + k])
-        lit = S[_D * LANES + k] != 0.0 and not ndots <= 0.0
-        S[_LIT * LANES + k] = 1.0 if lit else 0.0
-        S[_ND * LANES + k] = 1.0 if ndots > 1.0 else ndots
+        lit = (S[_D * LANES + k] != 0.0) & (not ndots <= 0.0)
+        S[_LIT * LANES + k] = _pick(lit, 1.0, 0.0)
+        S[_ND * LANES + k] = _pick(ndots > 1.0, 1.0, ndots)
     if spec_on and phong:
         for k in range(LANES):
             nd = S[_ND * LANES + k]
@@ -293,7 +293,7 @@ def _cosines(S, spec_on, phong, blinn):
             hz = S[(_S + 2) * LANES + k] + S[(_V + 2) * LANES + k]
             hl = np.sqrt(hx * hx + hy * hy + hz * hz)
             c = (S[(_N + 0) * LANES + k] * hx + S[(_N + 1) * LANES + k] * hy + S[(_N + 2) * LANES + k] * hz) / hl
-            S[_CB * LANES + k] = c if hl > 0.0 else 0.0
+            S[_CB * LANES + k] = _pick(hl > 0.0, c, 0.0)
 
 
 @njit(**HELPER)
@@ -322,9 +322,9 @@ def _origins(S, XY, G):
             nz = sgn * normals[i, 2]
             d = (px - verts[i, 0]) * nx + (py - verts[i, 1]) * ny + (pz - verts[i, 2]) * nz
             below = d < 0.0
-            qx = qx - w * d * nx if below else qx
-            qy = qy - w * d * ny if below else qy
-            qz = qz - w * d * nz if below else qz
+            qx = _pick(below, qx - w * d * nx, qx)
+            qy = _pick(below, qy - w * d * ny, qy)
+            qz = _pick(below, qz - w * d * nz, qz)
         S[(_O + 0) * LANES + k] = qx
         S[(_O + 1) * LANES + k] = qy
         S[(_O + 2) * LANES + k] = qz
@@ -358,7 +358,7 @@ def _shadow_pass(S, n, lights, i, handle, unit, Q):
     for j in range(LANES // PACKET_LANES):
         for q in range(PACKET_LANES):
             k = j * PACKET_LANES + q
-            S[_LIT * LANES + k] = 0.0 if vis[j, q] == 1 else S[_LIT * LANES + k]
+            S[_LIT * LANES + k] = _pick(vis[j, q] == 1, 0.0, S[_LIT * LANES + k])
 
 
 @njit(**HELPER)
@@ -366,15 +366,15 @@ def _specular(S, nbits, any_pow):
     """Per lane the specular factor ``max(c, 0)^t`` into ``_PW`` (0 without a specular term):
     repeated squaring, one pass per bit of the largest whole shininess (illumination._power)."""
     for k in range(LANES):
-        c = S[_CB * LANES + k] if S[_MODEL * LANES + k] == MODEL_BLINN else S[_CP * LANES + k]
+        c = _pick(S[_MODEL * LANES + k] == MODEL_BLINN, S[_CB * LANES + k], S[_CP * LANES + k])
         S[_CC * LANES + k] = min(c, 1.0)
         S[_PW * LANES + k] = 1.0
-        S[_LIT * LANES + k] = S[_LIT * LANES + k] + (2.0 if (S[_HASSPEC * LANES + k] != 0.0) & (c > 0.0) else 0.0)
+        S[_LIT * LANES + k] = S[_LIT * LANES + k] + _pick((S[_HASSPEC * LANES + k] != 0.0) & (c > 0.0), 2.0, 0.0)
     for j in range(nbits):
         for k in range(LANES):
             c = S[_CC * LANES + k]
             on = ((int(S[_SHN * LANES + k]) >> j) & 1) != 0
-            S[_PW * LANES + k] = S[_PW * LANES + k] * c if on else S[_PW * LANES + k]
+            S[_PW * LANES + k] = _pick(on, S[_PW * LANES + k] * c, S[_PW * LANES + k])
             S[_CC * LANES + k] = c * c
     if any_pow:
         for k in range(LANES):
@@ -404,7 +404,7 @@ def _accumulate(S, lights, i, terms):
     for k in range(LANES):
         flags = S[_LIT * LANES + k]
         lit = (flags == 1.0) | (flags == 3.0)
-        spec = S[_PW * LANES + k] if flags >= 2.0 else 0.0  # 2 is set only by _specular (spec_on)
+        spec = _pick(flags >= 2.0, S[_PW * LANES + k], 0.0)  # 2 is set only by _specular (spec_on)
         att = S[_ATT * LANES + k]
         nd = S[_ND * LANES + k]
         r = S[(_R + 0) * LANES + k]
@@ -413,9 +413,9 @@ def _accumulate(S, lights, i, terms):
         nr = r + att * r0 * (S[(_KD + 0) * LANES + k] * nd + S[(_KS + 0) * LANES + k] * spec)
         ng = g + att * r1 * (S[(_KD + 1) * LANES + k] * nd + S[(_KS + 1) * LANES + k] * spec)
         nb = b + att * r2 * (S[(_KD + 2) * LANES + k] * nd + S[(_KS + 2) * LANES + k] * spec)
-        S[(_R + 0) * LANES + k] = nr if lit else r
-        S[(_R + 1) * LANES + k] = ng if lit else g
-        S[(_R + 2) * LANES + k] = nb if lit else b
+        S[(_R + 0) * LANES + k] = _pick(lit, nr, r)
+        S[(_R + 1) * LANES + k] = _pick(lit, ng, g)
+        S[(_R + 2) * LANES + k] = _pick(lit, nb, b)
         if terms:
             _add_terms(S, k, 0, att * r0, nd, spec, lit)
             _add_terms(S, k, 1, att * r1, nd, spec, lit)
@@ -527,6 +527,8 @@ def _make_phong_fast(terms_on: bool = False, shadows_on: bool = False):
         h, w = prim.shape
         faces, fnormals = G.faces, G.face_normals
         ahead = G.verts.nbytes + G.normals.nbytes + faces.nbytes + fnormals.nbytes > PREFETCH_BYTES
+        many = modes.shape[0] > 1  # one model: every hit is model 0's (no model read per pixel)
+        mixed_modes = (modes != METHOD_PHONG).any()  # other methods' pixels are other kernels'
         # The pixels are queued row by row; with shadows, by 4x4 tiles (each row-major: a packet's 16
         # lanes neighbours both ways, coherent rays), after their strip's background (_strip_background).
         th = _TILE if shadows_on else 1
@@ -555,8 +557,8 @@ def _make_phong_fast(terms_on: bool = False, shadows_on: bool = False):
                                     if terms_on:
                                         _miss(image, R, y, y0 + y, x)
                                 continue
-                            gm = geom[y, x]
-                            if modes[gm] != METHOD_PHONG:
+                            gm = geom[y, x] if many else 0
+                            if mixed_modes and modes[gm] != METHOD_PHONG:
                                 continue
                             f = face_off[gm] + p
                             if ahead:  # the face's row a batch before it is read (_gather)

@@ -98,20 +98,76 @@ def test_callers_in_several_threads_share_the_pool():
 def test_an_interrupt_waits_for_every_part(monkeypatch):
     """Ctrl-C while the caller waits: ``launch`` waits for the running parts before it raises
     (they may read an Embree scene the caller frees next), and raises the interrupt."""
-    from concurrent.futures import Future
-
     from raycast_shade.common import parallel
 
-    done = Future()
+    job = parallel._Parts(_mark, (np.zeros(4, np.int64), np.zeros(2, np.int64)), 2)
     calls = []
 
-    def exception(self=done):
+    def wait(timeout=None):
         calls.append(1)
         if len(calls) == 1:
             raise KeyboardInterrupt  # the first wait is interrupted
-        return None
+        return True
 
-    monkeypatch.setattr(done, "exception", exception)
+    monkeypatch.setattr(job.done, "wait", wait)
     with pytest.raises(KeyboardInterrupt):
-        parallel._wait_all([done])
+        job.wait()
     assert len(calls) == 2  # it waited again after the interrupt
+
+
+def test_the_caller_runs_the_parts_a_sleeping_runner_has_not_started(monkeypatch):
+    """A busy core: the pool's thread does not start until the caller has returned. The caller
+    runs every part itself and returns (the old launch waited for that thread); the runner,
+    started late, finds no part left and touches nothing."""
+    from raycast_shade.common import parallel
+
+    gate = threading.Event()
+    late = []
+
+    class Stalled:  # a pool whose thread waits for the gate before running what it was handed
+        def submit(self, fn):
+            def go():
+                gate.wait()
+                late.append(fn())
+            threading.Thread(target=go).start()
+
+    monkeypatch.setattr(parallel, "_pool", lambda workers: Stalled())
+    old = numba.get_num_threads()
+    try:
+        numba.set_num_threads(2)
+        out, seen = np.full(1000, -1, np.int64), np.zeros(4, np.int64)
+        launch(_mark, out, seen, parts=4)  # returns without the stalled thread: no deadlock
+        assert seen.tolist() == [4, 4, 4, 4]  # every part ran, once, in the caller
+        want = np.concatenate([np.full(hi - lo, k) for k, (lo, hi) in enumerate(share(1000, (k, 4)) for k in range(4))])
+        assert np.array_equal(out, want)
+        assert late == []
+        gate.set()
+        for _ in range(500):
+            if len(late) == 3:  # one runner a part but the caller's
+                break
+            threading.Event().wait(0.01)
+        assert late == [None] * 3 and seen.tolist() == [4, 4, 4, 4]
+    finally:
+        numba.set_num_threads(old)
+
+
+def test_an_abandoned_launch_starts_no_part_and_waits_for_the_running_one():
+    """What ``launch`` does when Ctrl-C reaches the caller between its parts: ``abandon`` returns
+    only once another thread's running part has finished, and no part starts after it."""
+    from raycast_shade.common import parallel
+
+    started, finished = threading.Event(), []
+
+    def kernel(part):
+        started.set()
+        threading.Event().wait(0.2)  # still running when the caller abandons
+        finished.append(part[0])
+
+    job = parallel._Parts(kernel, (), 4)
+    runner = threading.Thread(target=job.run)
+    runner.start()
+    assert started.wait(5)
+    job.abandon()
+    assert finished == [0]  # waited for the running part
+    runner.join(5)
+    assert finished == [0] and not runner.is_alive()  # and no part started after it

@@ -9,8 +9,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from raycast_shade.output.imagefile import write_image
-from raycast_shade.output.quantize import _tables, thresholds, to_uint8_table
-from raycast_shade.output.tonemap import to_uint8
+from raycast_shade.output.quantize import _curve_uint8 as to_uint8  # the curve itself: the table's oracle
+from raycast_shade.output.quantize import _quantize_kernel, _tables, thresholds, to_uint8_table
+from raycast_shade.output import tonemap
 
 TONES = [{}, {"exposure": 2.5}, {"exposure": 1e-3, "gamma": 0.5}, {"tonemap": "reinhard"},
          {"tonemap": "exponential", "gamma": 2.2}, {"gamma": 1}, {"exposure": 300.0, "tonemap": "reinhard", "gamma": 3}]
@@ -92,3 +93,35 @@ def test_png_file_holds_the_curves_pixels(tmp_path):
     for fast in (False, True):
         write_image(tmp_path / "a.png", img, fast=fast, exposure=1.5)
         assert np.array_equal(iio.imread(tmp_path / "a.png"), to_uint8(img, exposure=1.5))
+
+
+def test_the_default_table_equals_the_curve_on_every_float32_between_its_thresholds():
+    """Exhaustive for the default setting (clamp, sRGB): every float32 from one pattern below the
+    first threshold to the pattern of 1.0 (about 110 million values: each code's whole interval),
+    by the curve and by the table; below, the codes are 0 and above 1 they are 255 (clamp)."""
+    t, _ = thresholds()
+    walk, bucket, inf_code = _tables(1.0, "clamp", "srgb")
+    top = int(np.float32(1.0).view(np.int32))
+    step = 1 << 23
+    for lo in range(int(t[1]) - 1, top + 1, step):
+        bits = np.arange(lo, min(lo + step, top + 1), dtype=np.int32)
+        got = np.empty(bits.shape[0], np.uint8)
+        assert _quantize_kernel(bits, walk, bucket, 13, np.uint8(inf_code), got) == 0
+        assert np.array_equal(got, to_uint8(bits.view(np.float32)))
+    assert to_uint8(np.float32(1.0)) == 255 and to_uint8(t[1:2].view(np.float32) * np.float32(0.999)) == 0
+
+
+@pytest.mark.parametrize("tone", TONES[:3], ids=str)
+def test_to_uint8_takes_the_table_for_large_float32_images(tone, monkeypatch):
+    """``tonemap.to_uint8`` goes by the table at 2^18 values and more, by the curve below and for
+    other dtypes: the same bytes (the twin of the curve, study.twins, checks it independently)."""
+    from raycast_shade.output import quantize
+
+    calls = []
+    real = quantize._quantize_kernel
+    monkeypatch.setattr(quantize, "_quantize_kernel", lambda *a: calls.append(1) or real(*a))
+    big = _values(np.random.default_rng(11), n=quantize._TABLE_VALUES)
+    assert np.array_equal(tonemap.to_uint8(big, **tone), to_uint8(big, **tone)) and calls == [1]
+    small = big[: quantize._TABLE_VALUES - 1]
+    assert np.array_equal(tonemap.to_uint8(small, **tone), to_uint8(small, **tone)) and calls == [1]
+    assert np.array_equal(tonemap.to_uint8(big.astype(np.float64), **tone), to_uint8(big, **tone)) and calls == [1]
