@@ -202,7 +202,9 @@ def _repair_serial(scene, cam, fans, hits, rows, y0, jump, jitters, margin):
             for k in range(4):  # the jitters' order of fill_holes: (+,+), (-,+), (+,-), (-,-)
                 j = k * n + i
                 if k:
-                    o[j], d[j] = o[i], d[i]
+                    for c in range(3):  # by element: a row assignment compiles Numba's shape-error path
+                        o[j, c] = o[i, c]
+                        d[j, c] = d[i, c]
                 limit[j] = lim
                 jx = jitter if k % 2 == 0 else -jitter
                 jy = jitter if k < 2 else -jitter
