@@ -232,7 +232,7 @@ def test_one_method_per_model_must_count_the_models(scene_path, tmp_path, capsys
 def test_cli_choices_come_from_choices_py():
     parser = build_parser()
     sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
-    want = {"--backend": choices.BACKENDS, "--interpolation": choices.INTERPOLATIONS,
+    want = {"--backend": choices.BACKEND_CHOICES, "--interpolation": choices.INTERPOLATIONS,
             "--caster": choices.CASTER_CHOICES, "--tonemap": choices.TONEMAPS}
     for command in ("render", "animate"):
         actions = {s: a for a in sub.choices[command]._actions for s in a.option_strings}
