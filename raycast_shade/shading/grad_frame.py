@@ -36,7 +36,7 @@ from .grad_terms import _reflected_vjp, layout
 from .jit import CHUNK, HELPER, JIT
 from .phong import _shading_point
 from .records import At, Hit, dot
-from .surface import _CANCEL, _convex_weights, _facing, _hit_point, _triangle, _view
+from .surface import _CANCEL, _convex_weights, _facing, _hit_point, _triangle, _view, interpolated_normal
 from .texture import _row_coefficients
 
 __all__ = ["PARTS", "frame_vjp", "unsupported"]
@@ -70,12 +70,7 @@ def unsupported(inputs, material_names, light_names) -> list:
 def _normal_vjp(normals, tri, b1, b2, g, sgn, gn):
     """Back through :func:`~raycast_shade.shading.surface._shading_normal`: ``dL/da`` for the
     interpolated (unnormalised) normal ``a``, given ``dL/dn``; zero where ``a`` cancelled."""
-    i0, i1, i2 = tri
-    b0 = 1.0 - b1 - b2
-    ax = b0 * normals[i0, 0] + b1 * normals[i1, 0] + b2 * normals[i2, 0]
-    ay = b0 * normals[i0, 1] + b1 * normals[i1, 1] + b2 * normals[i2, 1]
-    az = b0 * normals[i0, 2] + b1 * normals[i1, 2] + b2 * normals[i2, 2]
-    al = np.sqrt(ax * ax + ay * ay + az * az)
+    ax, ay, az, al = interpolated_normal(normals, tri, b1, b2)
     if not al >= _CANCEL:
         return 0.0, 0.0, 0.0
     u = (ax / al, ay / al, az / al)

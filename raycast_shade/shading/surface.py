@@ -48,15 +48,22 @@ def _facing(fnormals, f, v):
 
 
 @njit(**HELPER)
-def _shading_normal(normals, tri, b1, b2, g, sgn):
-    """Interpolated, renormalised normal of triangle ``tri = (i0, i1, i2)``, oriented into the
-    viewer's hemisphere of ``g``."""
+def interpolated_normal(normals, tri, b1, b2):
+    """The vertex normals of triangle ``tri = (i0, i1, i2)`` blended by the weights
+    ``(1 - b1 - b2, b1, b2)``, not renormalised: ``(ax, ay, az)`` and its length ``al``."""
     i0, i1, i2 = tri
     b0 = 1.0 - b1 - b2
     ax = b0 * normals[i0, 0] + b1 * normals[i1, 0] + b2 * normals[i2, 0]
     ay = b0 * normals[i0, 1] + b1 * normals[i1, 1] + b2 * normals[i2, 1]
     az = b0 * normals[i0, 2] + b1 * normals[i1, 2] + b2 * normals[i2, 2]
-    al = np.sqrt(ax * ax + ay * ay + az * az)
+    return ax, ay, az, np.sqrt(ax * ax + ay * ay + az * az)
+
+
+@njit(**HELPER)
+def _shading_normal(normals, tri, b1, b2, g, sgn):
+    """Interpolated, renormalised normal of triangle ``tri = (i0, i1, i2)``, oriented into the
+    viewer's hemisphere of ``g``."""
+    ax, ay, az, al = interpolated_normal(normals, tri, b1, b2)
     if not al >= _CANCEL:
         return g
     s = sgn / al
