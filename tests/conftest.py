@@ -85,3 +85,12 @@ def small_scene(**kw):
     """The triangle under a point light, seen by an 8 x 6 camera (``kw`` go to :class:`Scene`)."""
     kw.setdefault("camera", rs.Camera(eye=(0.0, 0.0, 3.0), width=8, height=6))
     return rs.Scene([rs.Mesh(TRI_V, TRI_F)], lights=[rs.PointLight((0, 0, 2))], **kw)
+
+
+def pytest_xdist_auto_num_workers(config):
+    """``-n auto`` (pyproject's addopts): one worker per usable core, at most 4 — each worker compiles
+    the kernels it needs (about 1.5 GB at peak), so more workers would cost memory, not time."""
+    import os
+
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    return max(1, min(cores, 4))
