@@ -333,7 +333,7 @@ def from_simple(mat, name: str, lost: list, ctx: FileContext) -> dict:
     image = getattr(mat, "image", None)
     if image is not None:
         kw["kd_map"] = ctx.wrapped(("simple", ctx.image_key(image)), lambda: Texture(
-            ctx.linear(image, f"{name}.map_Kd"), name=f"{name}.map_Kd"))
+            ctx.linear(image, f"{name}.map_Kd"), name=f"{name}.map_Kd", decoded_from_srgb=True))
         raw.pop("map_kd", None)
     for key in ("map_ka", "map_ks", "map_ke"):
         if key in raw:
@@ -403,7 +403,7 @@ def _metal_rough(mat, js: dict, name: str, lost: list, ctx: FileContext) -> dict
         if tex is not None:
             texels = ctx.linear(tex, f"{name}.baseColorTexture")
             t = ctx.wrapped(("pbr", ctx.image_key(tex), wrap_s, wrap_t),
-                            lambda: Wrapped(texels, wrap_s, wrap_t, f"{name}.baseColorTexture"))
+                            lambda: Wrapped(texels, wrap_s, wrap_t, f"{name}.baseColorTexture", srgb=True))
             kw["kd_map"] = kw["ka_map"] = t
             if m > 0:
                 kw["ks_map"] = t  # the metallic part is the base colour's (the dielectric 0.04 scaled too)
@@ -423,9 +423,9 @@ def _metal_rough(mat, js: dict, name: str, lost: list, ctx: FileContext) -> dict
             aa = rr * rr
             kd_t = col * ((1.0 - mm) + mm * aa)
             ks_t = _DIELECTRIC_F0 * (1.0 - mm) + col * rgb * mm * (1.0 - aa)
-            ctx.cache[key] = (Wrapped(kd_t, wrap_s, wrap_t, f"{name}.baseColor*(1-m+m*alpha)"),
-                              Wrapped(ks_t, wrap_s, wrap_t, f"{name}.specular(metallicRoughness)"),
-                              Wrapped(col, wrap_s, wrap_t, f"{name}.baseColorTexture") if tex is not None else None,
+            ctx.cache[key] = (Wrapped(kd_t, wrap_s, wrap_t, f"{name}.baseColor*(1-m+m*alpha)", srgb=True),
+                              Wrapped(ks_t, wrap_s, wrap_t, f"{name}.specular(metallicRoughness)", srgb=True),
+                              Wrapped(col, wrap_s, wrap_t, f"{name}.baseColorTexture", srgb=True) if tex is not None else None,
                               float(np.median(rr)))
         kd_w, ks_w, col_w, r_med = ctx.cache[key]
         kw.update(kd=rgb, ks=1.0, kd_map=kd_w, ks_map=ks_w, ka=rgb, shininess=_shininess(r_med))
@@ -444,7 +444,7 @@ def _ggx(mat, pbr: dict, rgb, mr_factors, name: str, lost: list, ctx: FileContex
     if tex is not None:
         texels = ctx.linear(tex, f"{name}.baseColorTexture")
         kw["kd_map"] = kw["ka_map"] = ctx.wrapped(("pbr", ctx.image_key(tex), *wraps), lambda: Wrapped(
-            texels, wraps[0], wraps[1], f"{name}.baseColorTexture"))
+            texels, wraps[0], wraps[1], f"{name}.baseColorTexture", srgb=True))
     mr, _ = _linear_map(mat, pbr, name, "metallicRoughnessTexture", lost, ctx)  # its info is pbr's
     if mr is not None:
         kw["metallic_roughness_map"] = mr
@@ -507,4 +507,4 @@ def _emission(mat, js: dict, name: str, kw: dict, lost: list, ctx: FileContext) 
     lost += notes
     texels = ctx.linear(tex, f"{name}.emissiveTexture")
     kw["ke_map"] = ctx.wrapped(("pbr", ctx.image_key(tex), wrap_s, wrap_t),
-                               lambda: Wrapped(texels, wrap_s, wrap_t, f"{name}.emissiveTexture"))
+                               lambda: Wrapped(texels, wrap_s, wrap_t, f"{name}.emissiveTexture", srgb=True))

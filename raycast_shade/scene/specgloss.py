@@ -153,10 +153,10 @@ def from_spec_gloss(mat, js: dict, ext: dict, name: str, lost: list, ctx) -> dic
     kw.update(kd=rgb, ka=rgb, ks=spec, shininess=shininess_of_roughness(1.0 - gloss))
     if d_texels is not None:
         kw["kd_map"] = kw["ka_map"] = ctx.wrapped(("sg-diffuse", ctx.image_key(dtex), *d_wraps), lambda: Wrapped(
-            d_texels, d_wraps[0], d_wraps[1], f"{name}.diffuseTexture"))
+            d_texels, d_wraps[0], d_wraps[1], f"{name}.diffuseTexture", srgb=True))
     if s_texels is not None:
         kw["ks_map"] = ctx.wrapped(("sg-specular", ctx.image_key(sgtex), *sg_wraps), lambda: Wrapped(
-            s_texels, sg_wraps[0], sg_wraps[1], f"{name}.specularGlossinessTexture"))
+            s_texels, sg_wraps[0], sg_wraps[1], f"{name}.specularGlossinessTexture", srgb=True))
         g_med = gloss * float(np.median(g_texels))
         kw["shininess"] = shininess_of_roughness(1.0 - g_med)
         if np.ptp(g_texels) > 0:
@@ -182,7 +182,7 @@ def _as_ggx(diffuse, spec, gloss: float, texels, name: str, ctx, wraps) -> dict:
         base, m, r = metal_rough_of_spec_gloss(np.broadcast_to(dd, shape + (3,)), np.broadcast_to(ss, shape + (3,)),
                                                np.broadcast_to(gg, shape))
         mr = np.stack([np.zeros(shape), r, m], axis=-1).astype(np.float32)
-        ctx.cache[key] = (Wrapped(base.astype(np.float32), wraps[0], wraps[1], f"{name}.diffuse(converted)"),
+        ctx.cache[key] = (Wrapped(base.astype(np.float32), wraps[0], wraps[1], f"{name}.diffuse(converted)", srgb=True),
                           Wrapped(mr, wraps[0], wraps[1], f"{name}.specularGlossiness(converted)"), d_t, s_t)
     base_w, mr_w = ctx.cache[key][:2]
     return {"specular": "ggx", "kd": 1.0, "ka": 1.0, "kd_map": base_w, "ka_map": base_w, "metallic": 1.0,

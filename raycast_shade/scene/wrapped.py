@@ -155,13 +155,14 @@ class Wrapped:
     (2, 3) UV transform, made a :class:`Texture` (and the mesh's UVs moved) once the mesh's
     UVs are known."""
 
-    def __init__(self, texels, wrap_s: str, wrap_t: str, name: str, uv=None):
+    def __init__(self, texels, wrap_s: str, wrap_t: str, name: str, uv=None, srgb: bool = False):
         self.texels, self.wrap_s, self.wrap_t, self.name, self.uv = texels, wrap_s, wrap_t, name, uv
+        self.srgb = srgb  # colours decoded from sRGB: the Texture keeps the marker (Texture.decoded_from_srgb)
         self._base = None
 
     def transformed(self, uv) -> "Wrapped":
         """The same texels (and the same decoded Texture) read through the UV transform ``uv``."""
-        w = Wrapped(self.texels, self.wrap_s, self.wrap_t, self.name, uv)
+        w = Wrapped(self.texels, self.wrap_s, self.wrap_t, self.name, uv, self.srgb)
         w._base = self._base or self
         return w
 
@@ -196,7 +197,7 @@ class Wrapped:
 
     def _texture(self, uvs):
         if self.wrap_s == self.wrap_t == "clamp":
-            return Texture(self.texels, wrap="clamp", name=self.name), None, None
+            return Texture(self.texels, wrap="clamp", name=self.name, decoded_from_srgb=self.srgb), None, None
         t, tiling, new_uvs, note = self.texels, [1.0, 1.0], None, None
         if self.wrap_s == "mirror":
             t = np.concatenate([t, t[:, ::-1]], axis=1)
@@ -223,7 +224,8 @@ class Wrapped:
             if new_uvs is None:
                 new_uvs = np.array(uvs, np.float64)
             new_uvs[:, axis] = (c * n + n_lo) / total
-        return Texture(np.ascontiguousarray(t), tiling=tuple(tiling), name=self.name), new_uvs, note
+        return (Texture(np.ascontiguousarray(t), tiling=tuple(tiling), name=self.name, decoded_from_srgb=self.srgb),
+                new_uvs, note)
 
 
 _BLEND_CUTOFF = 0.5  # BLEND drawn as MASK at half coverage: each point is whichever of opaque / clear is nearer

@@ -207,6 +207,7 @@ def test_obj_mtl_materials_and_textures(tmp_path):
     assert wood.material.kd_map is not None and wood.mesh.uvs is not None
     np.testing.assert_allclose(wood.material.kd_map.texels, srgb_to_linear(img[::-1] / 255),
                                rtol=1e-6)
+    assert wood.material.kd_map.decoded_from_srgb  # colours: refused where data is meant
     assert len(by_name["red"].mesh.vertices) == 4
     # Mesh.load keeps the geometry and names what it drops.
     with pytest.warns(rs.DroppedOnLoadWarning, match=r"material\(s\) .*red.*load_models"):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import warnings
 
 import numpy as np
 import pytest
@@ -38,3 +39,26 @@ def test_the_marker_is_a_checked_bool():
     assert not rs.Texture(_FLAT).decoded_from_srgb  # made from texels: linear unless said
     with pytest.raises(TypeError, match=r"decoded_from_srgb: from_array sets it"):
         rs.Texture.from_array(_FLAT, decoded_from_srgb=False)
+
+
+@pytest.mark.parametrize("wraps", [None, (33071, 33071), (33648, 10497), (33071, 10497)])
+def test_loaded_gltf_colour_maps_say_srgb_and_data_maps_do_not(tmp_path, wraps):
+    """Every loader path that builds a Texture (shared, clamped, mirrored, padded on one axis) keeps
+    the marker: the base colour and emission are colours; metallic-roughness and occlusion are data."""
+    from tests.scene.test_gltf_material_extensions import _image, _quad_file
+
+    mat = {"name": "quad", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0},
+                                                    "metallicRoughnessTexture": {"index": 1}},
+           "emissiveTexture": {"index": 0}, "emissiveFactor": [1, 1, 1], "occlusionTexture": {"index": 1}}
+    samplers = [{"wrapS": wraps[0], "wrapT": wraps[1]}] if wraps else None
+    path = _quad_file(tmp_path / "q.gltf", mat, [_image(0), _image(1)], samplers=samplers)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", rs.DroppedOnLoadWarning)
+        (pbr,) = rs.load_models(path, reflectance="pbr")
+        (phong,) = rs.load_models(path)
+    m = pbr.material
+    assert m.kd_map.decoded_from_srgb and m.ka_map.decoded_from_srgb and m.ke_map.decoded_from_srgb
+    assert not m.metallic_roughness_map.decoded_from_srgb and not m.ao_map.decoded_from_srgb
+    assert phong.material.kd_map.decoded_from_srgb and phong.material.ks_map.decoded_from_srgb
+    with pytest.raises(ValueError, match=r"normal_map: texture .* was decoded from sRGB"):
+        rs.Material(normal_map=m.kd_map)
