@@ -22,8 +22,10 @@ side, each panel ``min(width, 320)`` pixels, never below the frame's own
 width), the pixels drawn as squares (``image-rendering: pixelated``), with
 the controls in two columns under it and the explanation beside it, at 14 px
 and without a scroll bar of its own (:mod:`.explore_view`), in JupyterLab
-on a 1366-px screen with the file browser closed (Ctrl+B); side by side,
-the printout moves under the three panels. The explained pixel is ringed in
+on a 1366-px screen with the file browser closed (Ctrl+B): its result first,
+in bold, and a flat or Phong printout of one light whole in a 1366x625 view.
+Side by side, the printout stands right under the three panels, above the
+controls, its head and result on screen with them. The explained pixel is ringed in
 every panel and its panel's title names it; switching to or from side by
 side keeps explaining the same method's panel, and says so when that
 method is no longer on screen.
@@ -68,7 +70,7 @@ from ..shading.terms import with_materials
 from ..insight.explain import explain
 from ..visibility.cast import cast_camera, resolve_caster, secondary_rays
 from ..visibility.interpolation import to_screen_space
-from .explore_view import CSS, EXPLANATION_PX, SIDE_PANEL_PX, explanation_html, marks_html, title_html
+from .explore_view import CONTROL_PX, CSS, EXPLANATION_PX, SIDE_PANEL_PX, explanation_html, marks_html, title_html
 
 __all__ = ["explore", "Explorer", "SIDE_BY_SIDE", "DEFAULT_WIDTH"]
 
@@ -216,7 +218,9 @@ class Explorer:
         lo_i, hi_i = _exponents(intensity, -3, 4, f"light {self.light} intensity")
         lo_t, hi_t = _exponents(mat.shininess, 0, 3, "material shininess")
         lo_k, hi_k = _exponents(k, -2, 2, f"light {self.light} k")
-        ds = dict(style={"description_width": "90px"}, layout=widgets.Layout(width="240px"))  # two columns: 480
+        # Two columns of 216 px (their readouts narrowed by CSS) stay within the 440-px picture's width,
+        # leaving the printout beside it 84 characters a line on a 1366-px screen.
+        ds = dict(style={"description_width": "90px"}, layout=widgets.Layout(width=f"{CONTROL_PX}px"))
         fs = dict(continuous_update=True, readout_format=".3g", **ds)
 
         def slider(cls, value, lo, hi, description, **kw):
@@ -268,11 +272,12 @@ class Explorer:
                                      layout=widgets.Layout(width="85px"), style={"description_width": "15px"}),
             panel=widgets.BoundedIntText(value=0, min=0, max=2, description="panel",
                                          layout=widgets.Layout(width="100px"), style={"description_width": "40px"}))
-        self.explanation = widgets.HTML(layout=widgets.Layout(width=f"{EXPLANATION_PX}px", border="1px solid #ccc"))
+        # as tall as its text (not stretched to the controls' column), so its frame ends where the text does
+        self.explanation = widgets.HTML(layout=widgets.Layout(border="1px solid #ccc", align_self="flex-start"))
         self.explanation.add_class("rs-explorer-text")
         self.status = widgets.Label("click a pixel to explain it" + ("" if self._click_events() else
                                                                     " (pip install ipyevents; or set x, y)"),
-                                    layout=widgets.Layout(width="480px"))
+                                    layout=widgets.Layout(width=f"{2 * CONTROL_PX}px"))
         reset = widgets.Button(description="reset", layout=widgets.Layout(width="70px"))
         save = widgets.Button(description="save frame", layout=widgets.Layout(width="95px"))
         reset.on_click(lambda _: self.reset())
@@ -283,10 +288,28 @@ class Explorer:
         c["wireframe"].layout.width = "105px"
         view = widgets.HBox([c["interpolation"], c["wireframe"], reset])
         pixel = widgets.HBox([save, self.pixel["x"], self.pixel["y"], self.pixel["panel"]])
-        left = widgets.VBox([self.titles, stage, widgets.HBox([light, material]), view, pixel, self.status])
-        self.widget = widgets.VBox([widgets.HTML(CSS), widgets.HBox([left, self.explanation],
-                                                                   layout=widgets.Layout(flex_flow="row wrap"))])
+        self._picture = (self.titles, stage)
+        self._under = (widgets.HBox([light, material]), view, pixel, self.status)
+        self._left = widgets.VBox()
+        self._body = widgets.HBox(layout=widgets.Layout(flex_flow="row wrap"))
+        self.widget = widgets.VBox([widgets.HTML(CSS), self._body])
+        self.widget.add_class("rs-explorer")
         self._widgets = widgets
+        self._arrange(1)
+
+    def _arrange(self, n: int) -> None:
+        """One picture: the printout beside it, filling the row (at least EXPLANATION_PX; under it on a
+        narrower screen). Side by side: the printout right under the panels, as wide as they are, and
+        the controls under it, so that its head and result are on screen with the panels."""
+        box = self.explanation.layout
+        if n == 1:
+            self._left.children = self._picture + self._under
+            self._body.children = (self._left, self.explanation)
+            box.width, box.flex = None, f"1 1 {EXPLANATION_PX}px"
+        else:
+            self._left.children = self._picture + (self.explanation,) + self._under
+            self._body.children = (self._left,)
+            box.width, box.flex = f"{self.panel_width() * n}px", "0 0 auto"
 
     def _click_events(self) -> bool:
         """Clicks on the image through ipyevents, when it is installed."""
@@ -440,6 +463,7 @@ class Explorer:
         data = png_bytes(self.picture())
         self.image.value = data
         self.image.layout.width = f"{self.panel_width() * len(self.frames)}px"
+        self._arrange(len(self.frames))
         self.titles.children = [self._widgets.HTML() for _ in self.frames]
         methods = [f.shading for f in self.frames]
         # The panel explained before stays explained: the same method's panel, wherever it now stands.

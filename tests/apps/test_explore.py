@@ -250,7 +250,7 @@ def test_size_fits_and_panels_are_labelled():
     assert Explorer(_scene(40, 30), width=20).image.layout.width == "40px"  # never below the frame's size
     with pytest.raises(ValueError, match="width"):
         Explorer(_scene(40, 30), width=4)
-    assert all(c.layout.width in ("240px", "105px") for c in ex.controls.values())  # two columns of 240
+    assert all(c.layout.width in ("216px", "105px") for c in ex.controls.values())  # two columns within 440 px
 
 
 def test_reset_returns_to_the_scene_and_save_writes_the_picture(tmp_path):
@@ -280,17 +280,63 @@ def test_a_click_explains_the_pixel_under_the_mouse_beside_the_image():
     assert (ex.pixel["panel"].value, ex.pixel["x"].value, ex.pixel["y"].value) == (1, 10, 20)
     text = ex.explanation.value
     assert "Gouraud panel, pixel (10, 20)" in text
-    assert html_unescape(text).count(str(ex.frames[1].explain(10, 20))) == 1
+    assert _printout(text) == _expected("Gouraud panel, pixel (10, 20)", str(ex.frames[1].explain(10, 20)))
     ex.controls["azimuth"].value = -60.0  # the explanation follows the controls
-    assert html_unescape(ex.explanation.value).count(str(ex.frames[1].explain(10, 20))) == 1
+    assert _printout(ex.explanation.value) == _expected("Gouraud panel, pixel (10, 20)",
+                                                        str(ex.frames[1].explain(10, 20)))
     ex.pixel["x"].value = 5
     assert "pixel (5, 20)" in ex.explanation.value
 
 
-def html_unescape(text):
+def _printout(value):
+    """(lines, bold lines) of the printout's HTML, as the browser shows them."""
     import html
+    import re
 
-    return html.unescape(text)
+    bold = re.findall(r"<span class='rs-explorer-total'>(.*?)</span>", value, flags=re.S)
+    assert len(bold) == 1, value
+    return (html.unescape(re.sub(r"<[^>]+>", "", value)).split("\n"), html.unescape(bold[0]).split("\n"))
+
+
+def _expected(head, text):
+    """The head, then explain()'s result (its "total I" line and the clipping lines after it), then the rest."""
+    lines = text.split("\n")
+    k = [i for i, line in enumerate(lines) if line.startswith("total I = ")]
+    k = k[0] if k else 0
+    return [head] + lines[k:] + lines[:k], lines[k:]
+
+
+def test_the_printout_keeps_every_line_with_the_result_first_in_bold():
+    ex = Explorer(_scene(40, 30))
+    frame = ex.frame
+    lit = np.argwhere(frame.model_id >= 0)[0]
+    ex.explain(int(lit[1]), int(lit[0]))
+    text = str(frame.explain(int(lit[1]), int(lit[0])))
+    lines, bold = _printout(ex.explanation.value)
+    assert sorted(lines[1:]) == sorted(text.split("\n"))  # nothing dropped, nothing added
+    assert bold == [line for line in text.split("\n") if line.startswith("total I = ")] and lines[1] == bold[0]
+    empty = np.argwhere(frame.model_id < 0)[0]  # background: its two lines are all result
+    ex.explain(int(empty[1]), int(empty[0]))
+    lines, bold = _printout(ex.explanation.value)
+    assert bold == lines[1:] == str(frame.explain(int(empty[1]), int(empty[0]))).split("\n") and len(bold) == 2
+    ex.controls["intensity"].value = 1000.0  # clipped: the lines saying so stay with the result
+    lit_now = np.argwhere(ex.frame.image.max(-1) > 1.0)[0]
+    ex.explain(int(lit_now[1]), int(lit_now[0]))
+    lines, bold = _printout(ex.explanation.value)
+    assert len(bold) == 3 and "above 1: shown clipped" in bold[1] and lines[1:4] == bold
+
+
+def test_side_by_side_the_printout_stands_under_the_panels_above_the_controls():
+    ex = Explorer(_scene(40, 30))
+    body = ex.widget.children[1]
+    left = body.children[0]
+    assert list(body.children) == [left, ex.explanation] and ex.image in left.children[1].children
+    assert ex.explanation.layout.flex == "1 1 660px" and ex.explanation.layout.width is None  # fills the row
+    ex.controls["shading"].value = SIDE_BY_SIDE
+    assert list(body.children) == [left] and list(left.children[:3]) == [ex.titles, left.children[1], ex.explanation]
+    assert ex.explanation.layout.width == f"{3 * ex.panel_width()}px" == ex.image.layout.width
+    ex.controls["shading"].value = "flat"  # back beside the picture
+    assert list(body.children) == [left, ex.explanation] and ex.explanation not in left.children
 
 
 def test_changes_from_two_threads_leave_one_consistent_state():

@@ -296,7 +296,39 @@ def _image_src(browser):
     return browser.execute_script("const i = document.querySelector('img.rs-explorer-image'); return i && i.src;")
 
 
+# Where the printout stands against the part of the notebook on screen (between the lab's tool bar and
+# status bar): [printout top, bottom, result top, bottom, view top, bottom, window's inner width, height].
+FIT_JS = (P_JS + "const p = document.querySelector('.rs-explorer-text pre').getBoundingClientRect();"
+          "const t = document.querySelector('.rs-explorer-total').getBoundingClientRect();"
+          "const v = document.querySelector(P + ' .jp-WindowedPanel-outer').getBoundingClientRect();"
+          "return [p.top, p.bottom, t.top, t.bottom, v.top, v.bottom, innerWidth, innerHeight];")
+
+
+def _picture_at_top(browser):
+    """Scroll the notebook so that the explorer's panel titles stand at the top of the view, the picture under
+    them: where a lecturer has it while clicking on it."""
+    for _ in range(2):  # the notebook renders cells as they come into view, which may move this one
+        browser.execute_script("document.querySelector('img.rs-explorer-image').closest('.rs-explorer-stage')"
+                               ".parentElement.scrollIntoView({block: 'start'});")
+        time.sleep(0.5)
+
+
+def _on_screen(fit, top, bottom) -> bool:
+    return fit[4] <= top and bottom <= fit[5] and fit[5] <= fit[7]
+
+
+def _projector_view(browser):
+    """The view of a 1366x768 screen less the browser's bars: 1366x625 inside the window."""
+    inner = browser.execute_script("return [innerWidth, innerHeight];")
+    if inner != [1366, 625]:
+        size = browser.get_window_size()
+        browser.set_window_size(size["width"] + 1366 - inner[0], size["height"] + 625 - inner[1])
+        time.sleep(0.5)
+    assert browser.execute_script("return [innerWidth, innerHeight];") == [1366, 625]
+
+
 def test_explorer_slider_and_click(browser, lab):
+    _projector_view(browser)
     _open(browser, lab, "explorer.ipynb")
     TIMINGS["explorer: Run All, new kernel"] = _run_all(browser, lab, "explorer.ipynb")
     WebDriverWait(browser, 60).until(lambda d: _image_src(d))
@@ -371,6 +403,12 @@ def test_explorer_slider_and_click(browser, lab):
                                     ".filter(e => e.children.length === 0)"
                                     ".map(e => e.textContent).filter(t => t.includes('explained'));")
     assert titles == [f"Phong: pixel ({x}, {y}) explained"], titles
+    # Side by side the printout stands right under the panels, its result first: on screen with them.
+    _picture_at_top(browser)
+    fit = browser.execute_script(FIT_JS)
+    TIMINGS["explorer printout fit, side by side: printout top/bottom, result top/bottom, view top/bottom, "
+            "window (px)"] = [float(v) for v in fit]
+    assert _on_screen(fit, fit[2], fit[3]) and fit[0] < fit[2] < fit[0] + 40, fit  # under the head, in the view
     _shot(browser, "explorer_clicked")
     # One method (the explorer's start): the printout stands beside the picture, the controls under it.
     from selenium.webdriver.support.ui import Select
@@ -391,6 +429,14 @@ def test_explorer_slider_and_click(browser, lab):
     TIMINGS["explorer, one method: picture right, printout left/top/right/height, sliders' bottom, viewport (px)"] = \
         [float(v) for v in single]
     assert single[1] >= single[0] and single[2] < 60 and single[3] <= single[6], single  # beside, at its top
+    # ... and all of it, result included, in the 1366x625 view: no scrolling of the page or of the box.
+    _picture_at_top(browser)
+    fit = browser.execute_script(FIT_JS)
+    TIMINGS["explorer printout fit, one method: printout top/bottom, result top/bottom, view top/bottom, "
+            "window (px)"] = [float(v) for v in fit]
+    assert _on_screen(fit, fit[0], fit[1]) and _on_screen(fit, fit[2], fit[3]), fit
+    assert browser.execute_script("const t = document.querySelector('.rs-explorer-text');"
+                                  "return t.scrollHeight - t.clientHeight;") <= 1
     _shot(browser, "explorer_single")
 
 
