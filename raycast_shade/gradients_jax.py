@@ -113,13 +113,17 @@ def params_of(scene: Scene, wrt=None) -> dict:
     return out
 
 
-def _checked(scene, values) -> dict:
-    """``values`` as finite float64 arrays of the shapes :func:`params_of` gives, names checked."""
+def _checked(scene, values, field) -> dict:
+    """``values`` as finite float64 arrays of the shapes :func:`params_of` gives, names checked
+    (messages name ``field``)."""
     if not isinstance(values, dict):
-        raise TypeError(f"params: expected a dict of parameter arrays, got {type(values).__name__}")
+        raise TypeError(f"{field}: expected a dict of parameter arrays, got {type(values).__name__}")
     shapes = _shapes(scene)
-    names = _names(tuple(values))
-    return {n: as_array(np.asarray(values[n], np.float64), f"params[{n!r}]", dtype=np.float64, shape=shapes[n])
+    try:
+        names = _names(tuple(values))
+    except (TypeError, ValueError) as exc:
+        raise type(exc)(str(exc).replace("wrt", field, 1)) from None
+    return {n: as_array(values[n], f"{field}[{n!r}]", dtype=np.float64, shape=shapes[n])
             for n in names}
 
 
@@ -160,7 +164,7 @@ def with_params(scene: Scene, values: dict) -> Scene:
     """
     if not isinstance(scene, Scene):
         raise TypeError(f"scene: expected a Scene, got {type(scene).__name__}")
-    values = _checked(scene, values)
+    values = _checked(scene, values, "values")
     changes = {}
     if any(n in values for n in (*_MATERIAL, "shininess")):
         models = []

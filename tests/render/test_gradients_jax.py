@@ -150,8 +150,9 @@ def test_params_round_trip_and_defaults():
     (lambda s: render_fn(s, "kd", shading="toon"), "shading"),
     (lambda s: render_fn(s, "kd")({"ks": np.zeros((1, 3))}), "params"),
     (lambda s: render_fn(s, "kd")({"kd": np.zeros(3)}), "params['kd']"),
-    (lambda s: with_params(s, {"kd": np.full((1, 3), np.nan)}), "params['kd']"),
-    (lambda s: with_params(s, [1, 2]), "params"),
+    (lambda s: with_params(s, {"kd": np.full((1, 3), np.nan)}), "values['kd']"),
+    (lambda s: with_params(s, {"albedo": np.zeros((1, 3))}), "values"),
+    (lambda s: with_params(s, [1, 2]), "values"),
     (lambda s: params_of(s, "albedo"), "wrt"),
 ])
 def test_bad_input_names_the_field(call, field):
@@ -171,3 +172,29 @@ def test_importing_the_package_does_not_import_jax():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300,
                          cwd=pathlib.Path(rs.__file__).resolve().parents[1])  # this checkout first on the path
     assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr[-2000:]
+
+
+def test_the_generic_bad_values_are_refused_naming_the_argument():
+    """tests/project/test_contract.py's walk over these three functions: every generic bad value of
+    every argument is a ValueError or TypeError naming it (only ``wrt=None``, the default, is legal)."""
+    from tests.project.test_contract import BAD
+
+    tiny = rs.Scene([rs.Model(rs.shapes.icosphere(1), rs.Material(kd=0.6, ks=0.3))],
+                    lights=[rs.PointLight((2.0, 3.0, 4.0))], camera=rs.Camera(eye=(0.0, 0.0, 4.0), width=16, height=12))
+    table = {render_fn: dict(scene=tiny, wrt=("kd",), shading="phong"), params_of: dict(scene=tiny, wrt=("kd",)),
+             with_params: dict(scene=tiny, values={"kd": np.array([[0.1, 0.2, 0.3]])})}
+    accepted, unnamed = [], []
+    for fn, base in table.items():
+        for arg in base:
+            for bad, make in BAD.items():
+                try:
+                    fn(**dict(base, **{arg: make()}))
+                    accepted.append((fn.__name__, arg, bad))
+                except (ValueError, TypeError) as exc:
+                    if arg not in str(exc):
+                        unnamed.append((fn.__name__, arg, bad, str(exc)))
+    assert accepted == [("render_fn", "wrt", "None"), ("params_of", "wrt", "None")], accepted
+    assert not unnamed, unnamed
+    for bad in ("'abc'", "nan", "shape"):  # and inside the dict: the entry named
+        with pytest.raises((ValueError, TypeError), match=r"values\['kd'\]"):
+            with_params(tiny, {"kd": BAD[bad]()})
