@@ -198,3 +198,17 @@ def test_the_generic_bad_values_are_refused_naming_the_argument():
     for bad in ("'abc'", "nan", "shape"):  # and inside the dict: the entry named
         with pytest.raises((ValueError, TypeError), match=r"values\['kd'\]"):
             with_params(tiny, {"kd": BAD[bad]()})
+
+
+def test_vmap_runs_the_frames_one_after_another():
+    scene = _scene()
+    f = render_fn(scene, "kd")
+    kd = jnp.asarray(params_of(scene, "kd")["kd"])
+    batch = jnp.stack([kd, 0.5 * kd])
+    images = jax.vmap(lambda k: f({"kd": k}))(batch)
+    assert images.shape == (2, H, W, 3)
+    np.testing.assert_array_equal(np.asarray(images[1]), np.asarray(f({"kd": 0.5 * kd})))
+    grads = jax.vmap(jax.grad(lambda k: jnp.sum(f({"kd": k}))))(batch)
+    np.testing.assert_array_equal(np.asarray(grads[0]), np.asarray(jax.grad(lambda k: jnp.sum(f({"kd": k})))(kd)))
+    with pytest.raises(TypeError, match="forward-mode"):  # a custom_vjp: reverse mode only, as documented
+        jax.jvp(lambda k: f({"kd": k}), (kd,), (kd,))
