@@ -17,13 +17,14 @@ no shadows to cast. Interleaved in one process, after a warm-up call of each:
 Each ``ratio`` is over its own renderer's forward median: the issue's budget is the gradient in
 at most 3x the forward frame. Rows carry the 1-minute load average. Mitsuba's first calls compile
 its kernels (LLVM), ours load Numba's cache or compile: those are the ``first ...`` rows. Mitsuba
-not installed, or its LLVM backend not found, is a row saying so; drjit 1.5 needs libLLVM 16 or newer
-(Debian 12: ``apt-get install libllvm19``), which the benchmark points ``DRJIT_LIBLLVM_PATH`` at
-unless it is set. The ``agreement`` row compares the two images (ours divided by pi: Mitsuba's
-diffuse BSDF is ``rho/pi``, the lecture's Lambert term ``kd``) over the pixels both cover: the
-median relative difference, Mitsuba's one jittered sample per pixel against our pixel centres.
-PyTorch3D is not measured: it needs PyTorch, and its PyPI package is a source build (see
-docs/gradients.md). Results: ``benchmarks/results/grad_peers.csv``; ``--quick`` runs 160x120 with
+not installed (it is in the ``[peers]`` extra), or its LLVM back end not found, is a row saying so;
+drjit 1.5 needs libLLVM 16 or newer (Debian 12: ``apt-get install libllvm19``), which the benchmark
+points ``DRJIT_LIBLLVM_PATH`` at unless it is set. The ``agreement`` row compares the two images
+(ours divided by pi: Mitsuba's diffuse BSDF is ``rho/pi``, the lecture's Lambert term ``kd``) over
+the pixels both light: the median relative difference, Mitsuba's one jittered sample per pixel
+against our pixel centres. PyTorch3D is not measured: it needs PyTorch, and PyPI has no PyTorch3D
+distribution for Linux and Python 3.11 (see docs/gradients.md). Results:
+``benchmarks/results/grad_peers.csv``; ``--quick`` runs 160x120 with
 3 repeats into the git-ignored ``out/quick/results/``.
 """
 
@@ -87,7 +88,7 @@ def _mitsuba_cases(mesh, width, height, weights, folder):
         import drjit as dr
         import mitsuba as mi
     except ImportError as exc:
-        return f"mitsuba is not installed ({exc}): pip install mitsuba"
+        return f"mitsuba is not installed ({exc}): pip install 'raycast_shade[peers]' (or pip install mitsuba)"
     try:
         mi.set_variant("llvm_ad_rgb")
     except Exception as exc:  # noqa: BLE001 - drjit says why LLVM is missing; the row quotes it
