@@ -40,6 +40,8 @@ FIGURES = [
     dict(name="animation", module="docs.figures.animation", page="animation.md"),
     dict(name="contract", module="docs.figures.contract", page="contract.md"),
     dict(name="gradients", module="docs.figures.gradients", page="gradients.md"),
+    dict(name="normal_gradients", module="docs.figures.normal_gradients", page="gradients.md"),
+    dict(name="photometric", module="docs.figures.photometric", page="gradients.md"),  # skipped without a mesh
     dict(name="pbr", module="docs.figures.pbr", page="pbr.md"),  # skipped without the Khronos samples
     dict(name="samples", module="docs.figures.samples", page="files.md"),  # skipped without the Khronos samples
 ]
