@@ -4,9 +4,9 @@ Packing a large mesh (its normals, winding and crease checks, trimesh's subdivis
 allocates and frees hundreds of megabytes of arrays of a few to a few tens of MB. glibc
 serves those from its heap once its mmap threshold has risen past them (it rises to the
 size of each large block freed, up to 32 MB), and keeps the freed pages resident: 0.15 GB
-after making the 1.31M-triangle sphere of the benchmarks, 0.2 GB more after packing it,
-resident beside the 8K frame that comes next (its image is mapped afresh: it cannot reuse
-them). :func:`release_free_heap` asks glibc to return them (``malloc_trim``); elsewhere
+after making the 1.31M-triangle sphere of the benchmarks (``benchmarks/bench_limits.py``),
+and packing it grew the resident size by 0.19 GB for 0.1 GB of arrays, beside the 8K frame
+that comes next (its image is mapped afresh: it cannot reuse them). :func:`release_free_heap` asks glibc to return them (``malloc_trim``); elsewhere
 (musl, macOS, Windows) it does nothing. It frees only memory nothing holds: no value changes.
 """
 

@@ -3,8 +3,8 @@
 :meth:`~raycast_shade.output.frame.Frame.save` writes its PNGs here. The
 whole-image route (:func:`~raycast_shade.output.imagefile.write_image`) holds
 the 8-bit image and its filtered rows at once beside the linear one: 2 x 100 MB
-at 7680 x 4320, the peak of an 8K frame's life (0.89 GB resident with the
-82k-triangle icosphere, against 0.71 GB for the render). Here a band of
+at 7680 x 4320, the peak of an 8K frame's life (0.92 GB resident with the
+82k-triangle icosphere, against 0.71 GB for the render; 0.70 GB saved here). Here a band of
 :data:`BAND_ROWS` rows is tone-mapped
 (:func:`~raycast_shade.output.quantize.to_uint8_table`, a per-value map: a band's
 bytes are the whole image's), filtered "Sub" into one reused row buffer and fed
