@@ -27,10 +27,12 @@ Sections (issue 16):
     the frame's cast stage over the packets (issue 27 aims at <= 1.15), the stages
     of the frame and how many isolated misses it re-casts.
 ``memory``
-    Peak resident memory of a 7680x4320 Phong frame, one subprocess per mesh
-    (the high-water mark ``VmHWM`` after a small warm-up frame, after the 8K
-    frame, after its 8-bit image, and the resident size before the frame;
-    ``tracemalloc`` peak of the NumPy allocations).
+    Resident memory of a 7680x4320 Phong frame, one subprocess per mesh, stage
+    by stage: import, the mesh, the packed geometry, a small warm-up frame (the
+    JIT, the BVH), the 8K frame, its 8-bit image, its PNG (``frame.save``): the
+    resident size before and after each, and each stage's own peak (the
+    high-water mark ``VmHWM``, reset before the stage); ``tracemalloc`` peaks of
+    the NumPy allocations of the last three.
 ``load``
     The frame with 1 and 2 Numba threads, on the machine as it is and with
     a busy process spinning on CPU 0, at 320x240, 640x480 and 1920x1080, in
@@ -336,33 +338,59 @@ def limit_case(kind, level, w, h, repeats):
 
 
 _MEMORY_CHILD = r"""
-import json, sys, tracemalloc
-import raycast_shade as rs
-from benchmarks.bench_peers import make_mesh, make_scene
-kind, level, w, h = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4])
+import gc, json, os, sys, tempfile, tracemalloc
 def status(key):
     # VmHWM, not ru_maxrss: Linux carries ru_maxrss over from the parent across fork and exec.
     with open("/proc/self/status") as fh:
         return next(int(line.split()[1]) * 1024 for line in fh if line.startswith(key + ":"))
-rss = lambda: status("VmHWM")
-current = lambda: status("VmRSS")
-scene = make_scene(make_mesh(kind, level), 64, 48)
-rs.render(scene, "phong")  # JIT, BVH
-out = dict(baseline=rss(), resident=current())
+def reset_peak():  # "5" resets VmHWM to the resident size (Linux 4.0+): each stage's own peak
+    try:
+        with open("/proc/self/clear_refs", "w") as fh:
+            fh.write("5")
+        return True
+    except OSError:
+        return False
+out = {}
+def stage(name, fn):
+    gc.collect()
+    out["reset"] = reset_peak()
+    before = status("VmRSS")
+    value = fn()
+    out[name] = dict(before=before, peak=status("VmHWM"), after=status("VmRSS"))
+    return value
+stage("import", lambda: __import__("raycast_shade"))
+import raycast_shade as rs
+from benchmarks.bench_peers import make_mesh, make_scene
+kind, level, w, h = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4])
+mesh = stage("mesh", lambda: make_mesh(kind, level))
+scene = make_scene(mesh, 64, 48)
+stage("geometry", lambda: scene.geometry)
+stage("warmup", lambda: rs.render(scene, "phong"))  # JIT, BVH
 tracemalloc.start()
-frame = rs.render(scene, "phong", camera=scene.camera.replace(width=w, height=h))
-out["render"] = rss()
+frame = stage("render", lambda: rs.render(scene, "phong", camera=scene.camera.replace(width=w, height=h)))
 out["tracemalloc_render"] = tracemalloc.get_traced_memory()[1]
-img = frame.to_uint8()
-out["render_uint8"] = rss()
+tracemalloc.reset_peak()
+img = stage("uint8", frame.to_uint8)
 out["tracemalloc_uint8"] = tracemalloc.get_traced_memory()[1]
+del img
+with tempfile.TemporaryDirectory() as tmp:
+    tracemalloc.reset_peak()
+    stage("save_png", lambda: frame.save(os.path.join(tmp, "frame.png")))
+    out["tracemalloc_save_png"] = tracemalloc.get_traced_memory()[1]
+out["hwm"] = status("VmHWM")
 out["seconds"] = frame.timings["total"]
 print(json.dumps(out))
 """
 
+MEMORY_STAGES = ("import", "mesh", "geometry", "warmup", "render", "uint8", "save_png")
+
 
 def memory(cases, w, h):
-    """Rows of the ``memory`` section: one subprocess per mesh."""
+    """Rows of the ``memory`` section: one subprocess per mesh, stage by stage.
+
+    Each stage's resident size before and after it, and its own peak (``VmHWM``, reset before
+    the stage through ``/proc/self/clear_refs``; where that is refused, the process's peak so
+    far); ``tracemalloc`` peaks of the frame's own stages (NumPy's allocations)."""
     rows = []
     env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
     for kind, level in cases:
@@ -376,20 +404,22 @@ def memory(cases, w, h):
         base = dict(section="memory", mesh=f"{kind}{level}", triangles=tri, width=w, height=h,
                     load1=f"{load}-{_load()}")
         gb = lambda b: round(b / 1e9, 3)  # noqa: E731
-        rows += [
-            dict(base, variant="vmhwm", metric="after_warmup_gb", value=gb(out["baseline"]), unit="GB"),
-            dict(base, variant="vmhwm", metric="after_render_gb", value=gb(out["render"]), unit="GB"),
-            dict(base, variant="vmhwm", metric="after_uint8_gb", value=gb(out["render_uint8"]), unit="GB"),
-            dict(base, variant="rss", metric="resident_before_render_gb", value=gb(out["resident"]), unit="GB"),
-            # The frame's own peak, when it sets the high-water mark (an 8K frame does).
-            dict(base, variant="vmhwm", metric="render_minus_resident_gb", value=gb(out["render"] - out["resident"]),
-                 unit="GB"),
-            dict(base, variant="tracemalloc", metric="render_peak_gb", value=gb(out["tracemalloc_render"]), unit="GB"),
-            dict(base, variant="tracemalloc", metric="uint8_peak_gb", value=gb(out["tracemalloc_uint8"]), unit="GB"),
-            dict(base, variant="frame", metric="render_s", value=round(out["seconds"], 3), unit="s"),
-        ]
-        print(f"limits: memory {kind}{level} {w}x{h}: VmHWM {gb(out['baseline'])} -> {gb(out['render'])} -> "
-              f"{gb(out['render_uint8'])} GB", file=sys.stderr)
+        peak = "stage_peak" if out["reset"] else "process_peak"
+        for name in MEMORY_STAGES:
+            got = out[name]
+            rows += [dict(base, variant=name, metric="resident_before_gb", value=gb(got["before"]), unit="GB"),
+                     dict(base, variant=name, metric=f"{peak}_gb", value=gb(got["peak"]), unit="GB"),
+                     dict(base, variant=name, metric="resident_after_gb", value=gb(got["after"]), unit="GB"),
+                     dict(base, variant=name, metric="peak_over_before_gb", value=gb(got["peak"] - got["before"]),
+                          unit="GB")]
+        rows += [dict(base, variant="tracemalloc", metric=f"{k}_peak_gb", value=gb(out[f"tracemalloc_{k}"]), unit="GB")
+                 for k in ("render", "uint8", "save_png")]
+        rows += [dict(base, variant="process", metric="vmhwm_gb", value=gb(out["hwm"]), unit="GB"),
+                 dict(base, variant="frame", metric="render_s", value=round(out["seconds"], 3), unit="s")]
+        print(f"limits: memory {kind}{level} {w}x{h}: " + ", ".join(
+            f"{name} {gb(out[name]['before'])}->{gb(out[name]['peak'])}->{gb(out[name]['after'])}"
+            for name in MEMORY_STAGES) + f" GB (before->peak->after); process peak {gb(out['hwm'])} GB",
+            file=sys.stderr)
     return rows
 
 

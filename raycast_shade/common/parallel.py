@@ -14,11 +14,13 @@ with the same loops compiled serially (2026-12-05, 2-core AVX2 machine). A kerne
 parts compiles once, and its serial call (``part = (0, 1)``) is the same build: no
 second "serial twin" for small inputs.
 
-The parts are contiguous shares of the iterations, in order, as Numba's static
-schedule hands out a ``prange``'s (the kernels walk blocks in the balanced order of
-:mod:`.schedule`, so each share covers the whole image evenly). The number of parts
-is :func:`numba.get_num_threads` of the calling thread, so ``numba.set_num_threads``
-(and the ``numba_threads`` run option) governs these kernels as it governs parfors.
+The parts are contiguous shares of the iterations, in order (the kernels walk blocks
+in the balanced order of :mod:`.schedule`, so each share covers the whole image
+evenly). The number of threads is :func:`numba.get_num_threads` of the calling
+thread, so ``numba.set_num_threads`` (and the ``numba_threads`` run option) governs
+these kernels as it governs parfors; with more than one, a call runs
+:data:`PARTS_PER_THREAD` parts a thread, handed out as the threads ask: a thread that
+a busy core slows down takes fewer, so two threads are not slower than one.
 A part never waits on another, so any number of callers (a Dask worker's threads)
 can share the pool.
 """
@@ -37,6 +39,11 @@ __all__ = ["share", "launch", "parts", "in_parts", "InParts", "SERIAL", "KERNEL"
 SERIAL = (0, 1)  # the whole loop in the calling thread
 # The flags of a kernel in parts: its compiled code releases the GIL so that parts run at once.
 KERNEL = dict(cache=True, nogil=True)
+# Parts a thread of a default launch (more than one thread): with one part a thread, a thread
+# that shares its core with another process finished its half at half speed while the caller
+# waited (2 threads as slow as 1, or slower); with 4, the caller takes the parts that thread
+# has not reached. Each extra part is one more kernel call (measured in benchmarks/bench_threads.py).
+PARTS_PER_THREAD = 4
 
 _lock = threading.Lock()
 _pools: dict[int, ThreadPoolExecutor] = {}  # one pool per process, made on first use
@@ -63,8 +70,8 @@ def _pool(workers: int) -> ThreadPoolExecutor:
 
 
 def parts() -> int:
-    """How many parts :func:`launch` runs by default: :func:`numba.get_num_threads` of the
-    calling thread (for a caller that gives each part a slot of its own)."""
+    """:func:`numba.get_num_threads` of the calling thread: the parts of a caller that gives
+    each part a slot of its own and passes ``parts=`` to :func:`launch`."""
     return numba.get_num_threads()
 
 
@@ -78,7 +85,9 @@ def launch(kernel, *args, parts: int | None = None, dynamic: bool = False) -> No
     *args
         Its arguments but the part.
     parts : int, optional
-        How many parts; :func:`numba.get_num_threads` of the calling thread by default.
+        How many parts. By default :data:`PARTS_PER_THREAD` times :func:`numba.get_num_threads`
+        of the calling thread, run by that many runners (as ``dynamic``), or one part, whole,
+        in the calling thread when that is one thread.
     dynamic : bool
         Wake at most :func:`numba.get_num_threads` runners for more parts than threads (parts
         of uneven cost), instead of one runner a part.
@@ -93,7 +102,10 @@ def launch(kernel, *args, parts: int | None = None, dynamic: bool = False) -> No
     every part has finished; so is a ``KeyboardInterrupt``: no part outlives the call.
     """
     threads = numba.get_num_threads()
-    n = threads if parts is None else int(parts)  # (the parameter hides parts())
+    if parts is None:  # (the parameter hides parts())
+        n, dynamic = (threads * PARTS_PER_THREAD, True) if threads > 1 else (1, False)
+    else:
+        n = int(parts)
     runners = min(threads, n) if dynamic else n
     if runners <= 1:
         for k in range(n) if dynamic else (0,):

@@ -12,6 +12,7 @@ import numpy as np
 from ..common.validate import as_scalar
 from ..visibility.hits import HitBuffer
 from .imagefile import LINEAR_EXTS, check_image_path, write_image
+from .pngbands import write_png_bands
 from .tonemap import to_uint8
 
 __all__ = ["Frame", "NoTerms", "TermsMissingError"]
@@ -313,8 +314,12 @@ class Frame:
         """
         _check_tone(path, kwargs)
         # The frame's own tone options (a scene file's [render]) apply where tone applies: 8-bit files.
-        linear = check_image_path(path) in LINEAR_EXTS
-        write_image(path, self.image, **(kwargs if linear else {**self.tone, **kwargs}))
+        ext = check_image_path(path)
+        if ext == ".png" and isinstance(self.image, np.ndarray) and self.image.ndim == 3:
+            # Band by band: no 8-bit copy of the whole image beside it (200 MB at 8K); the same bytes.
+            write_png_bands(path, self.image, **{**self.tone, **kwargs})
+        else:
+            write_image(path, self.image, **(kwargs if ext in LINEAR_EXTS else {**self.tone, **kwargs}))
 
 
 _TONE_OPTIONS = ("exposure", "tonemap", "gamma")

@@ -14,6 +14,7 @@ from functools import cached_property
 
 import numpy as np
 
+from ..common.heap import release_free_heap
 from ..common.validate import as_rgb
 from .camera import Camera
 from .tangents import pack_normal_maps
@@ -118,6 +119,20 @@ def _as_pose(value) -> np.ndarray | None:
     return M
 
 
+# Vertices + faces from which a packed geometry gives the C heap's free pages back: below it the
+# packing's temporaries are a few MB, and malloc_trim's walk of the heap would cost more than it frees.
+_TRIM_ELEMENTS = 1 << 18
+
+
+def _joined(arrays: list) -> np.ndarray:
+    """``np.concatenate(arrays)``, or one array itself when it is already what that returns to the
+    kernels (writeable, C-contiguous: the same Numba type, so no new compilation)."""
+    a = arrays[0]
+    if len(arrays) == 1 and a.flags.writeable and a.flags.c_contiguous and a.flags.aligned:
+        return a
+    return np.concatenate(arrays)
+
+
 class SceneGeometry:
     """All models packed into flat arrays, re-centred on the scene's box.
 
@@ -192,13 +207,16 @@ class SceneGeometry:
         self.scale = float(max(np.linalg.norm(hi - lo), 1e-30))
         self.reach = float(np.max(np.maximum(hi - self.origin, self.origin - lo)))  # max |re-centred coordinate|
         self.vertices = world - self.origin
-        self.normals = np.concatenate([p.normals for p in preps])
-        self.local_faces = np.concatenate([p.faces for p in preps])
-        self.faces = self.local_faces + np.repeat(self.vertex_offsets[:-1], nf)[:, None]
-        self.face_normals = np.concatenate([p.face_normals for p in preps])
+        del world
+        # One model keeps its prepared arrays where they can be shared as they are (issue 41: the
+        # 1.31M-triangle sphere's geometry held 0.14 GB of copies); nothing writes them after packing.
+        self.normals = _joined([p.normals for p in preps])
+        self.local_faces = preps[0].faces if len(preps) == 1 else np.concatenate([p.faces for p in preps])  # Python reads it
+        self.faces = self.local_faces + np.repeat(self.vertex_offsets[:-1], nf)[:, None]  # a writeable copy: kernels read it
+        self.face_normals = _joined([p.face_normals for p in preps])
         # Zero UVs stand in where a model has none; only bump-mapped models
-        # read them, and those are checked to have real ones.
-        self.uvs = np.concatenate([p.uvs if p.uvs is not None else np.zeros((len(p.vertices), 2)) for p in preps])
+        # read them, and those are checked to have real ones (one model: fresh zero pages, never made resident).
+        self.uvs = _joined([p.uvs if p.uvs is not None else np.zeros((len(p.vertices), 2)) for p in preps])
         self.materials = np.stack([m.material.packed() for m in models])
         self.reflective = bool(np.any(self.materials[:, MAT_REFLECTIVITY] > 0))
         # Bump maps: all texels in one flat array, one info row per map.
@@ -236,6 +254,8 @@ class SceneGeometry:
         self.n_models = len(models)
         self._memo = {}
         self._memo_lock = threading.Lock()
+        if self.vertex_offsets[-1] + self.face_offsets[-1] >= _TRIM_ELEMENTS:
+            release_free_heap()  # the packing's freed temporaries, kept resident by the C heap (common/heap.py)
 
     def _pack_colors(self, models, preps, nv, nf) -> None:
         modes = [p.color_mode for p in preps]
@@ -286,6 +306,8 @@ class SceneGeometry:
         with self._memo_lock:
             if key not in memo:
                 memo[key] = build(self)
+                if self.vertex_offsets[-1] + self.face_offsets[-1] >= _TRIM_ELEMENTS:
+                    release_free_heap()  # a BVH build's freed temporaries (common/heap.py)
             return memo[key]
 
     def memoized(self, key: str) -> bool:

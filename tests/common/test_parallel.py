@@ -171,3 +171,63 @@ def test_an_abandoned_launch_starts_no_part_and_waits_for_the_running_one():
     assert finished == [0]  # waited for the running part
     runner.join(5)
     assert finished == [0] and not runner.is_alive()  # and no part started after it
+
+
+def test_a_thread_held_in_its_part_holds_back_only_that_part(monkeypatch):
+    """A busy core: the pool's thread starts a part, then is descheduled (held here until the
+    caller has run every other part). A default launch on 2 threads cuts the loop into
+    ``PARTS_PER_THREAD`` parts a thread, so the caller runs all but the held one: the held
+    thread delays 1/8 of the loop, not half of it (the launch before issue 41's item 4)."""
+    from raycast_shade.common import parallel
+
+    release = threading.Event()
+    me = threading.get_ident()
+    ran = {"caller": [], "pool": []}
+    total = 2 * parallel.PARTS_PER_THREAD
+
+    def kernel(out, part):
+        if threading.get_ident() == me:
+            ran["caller"].append(part)
+            if len(ran["caller"]) == total - 1:  # every part but the held one: let the pool's go on
+                release.set()
+        else:
+            ran["pool"].append(part)
+            assert release.wait(10), "the caller did not run the other parts"
+        out[slice(*share(out.shape[0], part))] = part[0]
+
+    monkeypatch.setattr(parallel, "PARTS_PER_THREAD", 4)
+    old = numba.get_num_threads()
+    try:
+        numba.set_num_threads(2)
+        out = np.full(1000, -1, np.int64)
+        # The caller waits for the pool's thread to take a part first (a thread that got its part,
+        # then lost its core): hold the caller's first part until the pool has one.
+        taken = threading.Event()
+
+        def first(out, part):
+            if threading.get_ident() != me:
+                taken.set()
+            elif not taken.is_set():
+                taken.wait(10)
+            kernel(out, part)
+
+        launch(first, out)
+    finally:
+        numba.set_num_threads(old)
+    assert len(ran["pool"]) == 1 and len(ran["caller"]) == total - 1
+    assert sorted(k for k, _ in ran["caller"] + ran["pool"]) == list(range(8))
+    assert {m for _, m in ran["caller"] + ran["pool"]} == {8}
+    want = np.concatenate([np.full(hi - lo, k) for k, (lo, hi) in enumerate(share(1000, (k, 8)) for k in range(8))])
+    assert np.array_equal(out, want)
+
+
+def test_one_thread_runs_a_default_launch_whole_in_the_caller():
+    """One thread: one call over the whole loop (no parts to hand out, no per-part calls)."""
+    calls = []
+    old = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        launch(lambda part: calls.append((threading.get_ident(), part)))
+    finally:
+        numba.set_num_threads(old)
+    assert calls == [(threading.get_ident(), SERIAL)]
