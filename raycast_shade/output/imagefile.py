@@ -31,7 +31,7 @@ from ..common.choices import EIGHT_BIT_EXTS, LINEAR_EXTS
 
 __all__ = ["LINEAR_EXTS", "EIGHT_BIT_EXTS", "check_image_path", "check_output_file", "check_output_folder",
            "write_image", "write_png", "write_bytes",
-           "atomic_target", "remove_stale_temps", "png_bytes", "png_file", "png_deflate", "HashingWriter",
+           "atomic_target", "remove_stale_temps", "png_bytes", "png_file", "png_deflate", "sub_filtered", "HashingWriter",
            "write_hashed"]
 
 _FLOAT_FORMATS = (".exr", ".hdr", ".rgbe", ".fits", ".fit")
@@ -385,13 +385,16 @@ def png_deflate(raw, fast: bool = False) -> bytes:
 def png_file(raw, width: int, height: int, *, bits: int, channels: int, fast: bool = False) -> bytes:
     """The PNG file of already filtered rows: signature, IHDR, one IDAT (:func:`png_deflate`), IEND.
 
-    The one place the PNG container is written; :func:`png_bytes` and
-    :func:`~raycast_shade.output.bufferfile.depth_png_bytes` make the rows.
+    The one place the PNG container is written; :func:`png_bytes`,
+    :func:`~raycast_shade.output.bufferfile.depth_png_bytes` and
+    :func:`~raycast_shade.output.pngbands.png_bands` make the rows.
 
     Parameters
     ----------
-    raw : (height, 1 + width * channels * bits // 8) uint8, C-contiguous
-        Each row's filter type byte, then its filtered samples (16-bit ones big-endian).
+    raw : (height, 1 + width * channels * bits // 8) uint8, C-contiguous, or an iterator of such bands
+        Each row's filter type byte, then its filtered samples (16-bit ones big-endian). Bands
+        (consecutive rows, each consumed before the next is asked for) are deflated as one stream:
+        with ``fast=False`` the file is byte for byte that of the rows at once.
     width, height : int
     bits : {8, 16}
         Bits per sample.
@@ -408,8 +411,53 @@ def png_file(raw, width: int, height: int, *, bits: int, channels: int, fast: bo
 
     colour = {1: 0, 3: 2}[channels]
     header = struct.pack(">IIBBBBB", width, height, bits, colour, 0, 0, 0)  # no interlace
-    idat = png_deflate(memoryview(raw).cast("B"), fast)  # the rows in place: no bytes copy
+    if isinstance(raw, np.ndarray):
+        idat = png_deflate(memoryview(raw).cast("B"), fast)  # the rows in place: no bytes copy
+    else:
+        idat = _deflate_bands(raw, fast)
     return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", idat) + chunk(b"IEND", b"")
+
+
+def _deflate_bands(bands, fast: bool) -> bytes:
+    """:func:`png_deflate` of bands of rows fed one by one to one stream (zlib's deflate emits the
+    same stream for its input at once or in pieces without a flush)."""
+    import zlib
+
+    stream = None
+    if fast:
+        try:
+            from isal import isal_zlib
+
+            stream = isal_zlib.compressobj(2)
+        except ImportError:
+            stream = zlib.compressobj(1)
+    stream = stream or zlib.compressobj(6)
+    pieces = [stream.compress(memoryview(band).cast("B")) for band in bands]
+    pieces.append(stream.flush())
+    return b"".join(pieces)
+
+
+def sub_filtered(rows, channels: int, out=None):
+    """8-bit rows filtered "Sub" (each byte minus the one a pixel to its left), each after its
+    filter-type byte: PNG's raw rows.
+
+    Parameters
+    ----------
+    rows : (R, W * channels) uint8
+    channels : int
+    out : (>= R, W * channels + 1) uint8, optional
+        Filled in its first R rows (a reused band buffer); a new array by default.
+
+    Returns
+    -------
+    (R, W * channels + 1) uint8
+    """
+    r, n = rows.shape
+    raw = np.empty((r, n + 1), np.uint8) if out is None else out[:r]
+    raw[:, 0] = 1  # filter type Sub
+    raw[:, 1:channels + 1] = rows[:, :channels]
+    np.subtract(rows[:, channels:], rows[:, :-channels], out=raw[:, channels + 1:])  # uint8 wraps, as PNG wants
+    return raw
 
 
 def png_bytes(image, *, fast: bool = False) -> bytes:
@@ -442,11 +490,7 @@ def png_bytes(image, *, fast: bool = False) -> bytes:
     h, w = a.shape[:2]
     c = 1 if a.ndim == 2 else 3
     if a.dtype == np.uint8:
-        rows = np.ascontiguousarray(a).reshape(h, c * w)
-        raw = np.empty((h, c * w + 1), np.uint8)
-        raw[:, 0] = 1  # filter type Sub
-        raw[:, 1:c + 1] = rows[:, :c]
-        np.subtract(rows[:, c:], rows[:, :-c], out=raw[:, c + 1:])  # uint8 arithmetic wraps, as PNG wants
+        raw = sub_filtered(np.ascontiguousarray(a).reshape(h, c * w), c)
     else:
         raw = np.empty((h, 2 * c * w + 1), np.uint8)
         raw[:, 0] = 0  # filter type None

@@ -9,31 +9,25 @@ at 7680 x 4320, the peak of an 8K frame's life (0.92 GB resident with the
 (:func:`~raycast_shade.output.quantize.to_uint8_table`, a per-value map: a band's
 bytes are the whole image's), filtered "Sub" into one reused row buffer and fed
 to one zlib stream, so the extra memory is two bands (about 12 MB at 8K) and the
-compressed file. The file is byte for byte the whole-image encoder's
-(:func:`~raycast_shade.output.imagefile.png_bytes`): zlib's deflate emits the
-same stream whether its input comes at once or in pieces without a flush
+compressed file. The filter and the container are :mod:`.imagefile`'s (its
+:func:`~raycast_shade.output.imagefile.sub_filtered` and
+:func:`~raycast_shade.output.imagefile.png_file`, which takes bands): the file is
+byte for byte :func:`~raycast_shade.output.imagefile.png_bytes`' of the 8-bit image
 (``tests/output/test_pngbands.py``).
 """
 
 from __future__ import annotations
 
 import os
-import struct
-import zlib
 
 import numpy as np
 
-from .imagefile import write_bytes
+from .imagefile import png_file, sub_filtered, write_bytes
 from .quantize import to_uint8_table
 
 __all__ = ["png_bands", "write_png_bands", "BAND_ROWS"]
 
 BAND_ROWS = 256  # 5.9 MB of 8-bit rows at 7680 pixels a row: two such buffers live at once
-_LEVEL = 6  # png_deflate's level (fast=False)
-
-
-def _chunk(tag: bytes, data: bytes) -> bytes:
-    return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data))
 
 
 def png_bands(image, *, rows: int = BAND_ROWS, **tone) -> bytes:
@@ -67,20 +61,13 @@ def png_bands(image, *, rows: int = BAND_ROWS, **tone) -> bytes:
     if image.ndim != 3 or image.shape[2] != 3 or 0 in image.shape:
         raise ValueError(f"image: expected a non-empty (H, W, 3) array, got shape {image.shape}")
     h, w = image.shape[:2]
-    stream = zlib.compressobj(_LEVEL)  # zlib.compress(raw, 6)'s settings: the same stream
-    pieces = []
-    raw = np.empty((min(rows, h), 3 * w + 1), np.uint8)
-    raw[:, 0] = 1  # filter type Sub
-    for y in range(0, h, rows):
-        band = to_uint8_table(image[y:y + rows], **tone).reshape(-1, 3 * w)
-        r = band.shape[0]
-        raw[:r, 1:4] = band[:, :3]
-        np.subtract(band[:, 3:], band[:, :-3], out=raw[:r, 4:])  # uint8 arithmetic wraps, as PNG wants
-        del band  # before the next band's
-        pieces.append(stream.compress(memoryview(raw[:r]).cast("B")))
-    pieces.append(stream.flush())
-    header = struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)  # 8-bit RGB, no interlace
-    return b"\x89PNG\r\n\x1a\n" + _chunk(b"IHDR", header) + _chunk(b"IDAT", b"".join(pieces)) + _chunk(b"IEND", b"")
+    buffer = np.empty((min(rows, h), 3 * w + 1), np.uint8)  # one band's raw rows, reused
+
+    def bands():
+        for y in range(0, h, rows):
+            yield sub_filtered(to_uint8_table(image[y:y + rows], **tone).reshape(-1, 3 * w), 3, out=buffer)
+
+    return png_file(bands(), w, h, bits=8, channels=3)
 
 
 def write_png_bands(path, image, *, atomic: bool = False, **tone) -> str:

@@ -97,3 +97,22 @@ def test_a_path_not_ending_in_png_is_refused(tmp_path):
     with pytest.raises(ValueError, match="path"):
         write_png_bands(tmp_path / "x.jpg", np.zeros((2, 2, 3), np.float32))
     assert not (tmp_path / "x.jpg").exists()
+
+
+@pytest.mark.parametrize("fast", [False, True])
+def test_the_container_takes_bands_as_it_takes_the_rows_at_once(fast):
+    """imagefile.png_file over bands of filtered rows: the pixels Pillow reads are the image's, and
+    without ``fast`` the bytes are those of the rows given at once."""
+    import io
+
+    from PIL import Image
+
+    from raycast_shade.output.imagefile import png_file, sub_filtered
+
+    img = np.random.default_rng(3).integers(0, 256, (37, 23, 3), dtype=np.uint8)
+    raw = sub_filtered(img.reshape(37, 69), 3)
+    whole = png_file(raw, 23, 37, bits=8, channels=3, fast=fast)
+    banded = png_file(iter([raw[:10], raw[10:11], raw[11:]]), 23, 37, bits=8, channels=3, fast=fast)
+    np.testing.assert_array_equal(np.asarray(Image.open(io.BytesIO(banded))), img)
+    if not fast:
+        assert banded == whole
