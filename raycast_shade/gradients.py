@@ -19,7 +19,18 @@ name                   shape        the parameter
 ``"light_k"``          (L,)         the heuristic law's ``k`` (0 for the other laws)
 ``"normals"``          (V, 3)       the packed vertex normals ``scene.geometry.normals`` (rows
                                     model by model, ``scene.geometry.vertex_offsets``)
+``"vertices"``         (V, 3)       the packed vertex positions (rows as for ``normals``)
+``"camera_eye"``       (3,)         the camera's eye
+``"camera_rotation"``  (3,)         a small rotation ``w`` of the camera about its eye, applied
+                                    on the left (every camera axis ``b`` becomes ``b + w x b``;
+                                    :func:`rotate_camera` applies a finite one)
 =====================  ===========  ==========================================================
+
+The geometry (``vertices``, ``camera_*``) is differentiated through the interior of each
+triangle: the pixel's triangle is held, its hit point and barycentrics move with the vertices
+and the ray (:mod:`raycast_shade.shading.grad_geometry`); ``edges=True`` adds the silhouettes'
+term for the box-filtered (anti-aliased) image by edge sampling
+(:mod:`raycast_shade.shading.grad_edges`).
 
 The hit buffer is held fixed (the frame's own, or one cast for the call): the gradients are those
 of the shading, exact wherever the image is differentiable in the parameters; the silhouettes'
@@ -36,22 +47,26 @@ from __future__ import annotations
 import numpy as np
 
 from .common.layout import ATT_HEURISTIC, LIGHT_ATT, LIGHT_DIRECTIONAL, LIGHT_KIND, LIGHT_VEC
-from .common.validate import as_array, as_names
+from .common.validate import as_array, as_names, as_vec3
 from .output.frame import Frame
 from .render import render
+from .scene.camera import Camera
 from .scene.scene import Scene
+from .shading.grad_geometry import rotate_vectors
 from .shading.grad_frame import frame_vjp, unsupported
 from .shading.grad_terms import GL_K, GL_RAD, GL_SIZE, GL_VEC, GM_KA, GM_KD, GM_KS, GM_SIZE, GM_T, layout
 from .shading.inputs import prepare
 from .shading.shade import resolve_methods
 
-__all__ = ["grad", "WRT", "DEFAULT_WRT"]
+__all__ = ["grad", "rotate_camera", "WRT", "DEFAULT_WRT", "GEOMETRY"]
 
 WRT = ("ka", "kd", "ks", "shininess", "ambient", "light_position", "light_direction", "light_radiance",
-       "light_intensity", "light_k", "normals")
+       "light_intensity", "light_k", "normals", "vertices", "camera_eye", "camera_rotation")
 """Every name :func:`grad` differentiates with respect to."""
-DEFAULT_WRT = tuple(n for n in WRT if n != "normals")
-"""What ``wrt=None`` asks for: every parameter but the vertex normals (a (V, 3) array)."""
+GEOMETRY = ("vertices", "camera_eye", "camera_rotation")
+"""The names that move what each pixel sees (the interior and, with ``edges=True``, the edges)."""
+DEFAULT_WRT = tuple(n for n in WRT if n != "normals" and n not in GEOMETRY)
+"""What ``wrt=None`` asks for: every parameter but the vertex normals and the geometry."""
 
 _MATERIAL_SLOTS = {"ka": GM_KA, "kd": GM_KD, "ks": GM_KS}
 
@@ -82,9 +97,10 @@ def check_gradient(dL_dimage, camera) -> np.ndarray:
     return as_array(dL_dimage, "dL_dimage", dtype=np.float64, shape=shape)
 
 
-def named(params, gnormals, scene, inputs, names) -> dict:
+def named(params, extra, scene, inputs, names) -> dict:
     """The flat gradient vector of :func:`~raycast_shade.shading.grad_frame.frame_vjp` as
-    :func:`grad`'s named arrays (``names`` a subset of :data:`WRT`)."""
+    :func:`grad`'s named arrays (``names`` a subset of :data:`WRT`); ``extra`` maps ``normals``,
+    ``vertices`` and ``camera`` to their arrays (``camera``: eye, then rotation)."""
     n_models, lights = len(scene.models), inputs.lighting.lights
     amb, lb, _ = layout(n_models, lights.shape[0])
     per_model = params[:amb].reshape(n_models, GM_SIZE)
@@ -110,8 +126,12 @@ def named(params, gnormals, scene, inputs, names) -> dict:
             out[name] = np.einsum("ij,ij->i", per_light[:, GL_RAD:GL_RAD + 3], colors)
         elif name == "light_k":
             out[name] = np.where(lights[:, LIGHT_ATT] == ATT_HEURISTIC, per_light[:, GL_K], 0.0)
-        elif name == "normals":
-            out[name] = gnormals
+        elif name in ("normals", "vertices"):
+            out[name] = extra[name]
+        elif name == "camera_eye":
+            out[name] = extra["camera"][:3].copy()
+        elif name == "camera_rotation":
+            out[name] = extra["camera"][3:].copy()
     return out
 
 
@@ -173,5 +193,34 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
     check_scene(scene, inputs)
     if frame is None:
         frame = render(scene, shading)
-    params, gnormals = frame_vjp(frame.hits, inputs, modes, gimg, scene.geometry, "normals" in names)
-    return named(params, gnormals, scene, inputs, names)
+    geometry = any(n in GEOMETRY for n in names)
+    if geometry and scene.camera.distorted:
+        raise ValueError("scene.camera: no geometry gradients through lens distortion yet (a pinhole camera has)")
+    params, gnormals, gverts, gcam = frame_vjp(frame.hits, inputs, modes, gimg, scene.geometry, "normals" in names,
+                                               geometry)
+    return named(params, {"normals": gnormals, "vertices": gverts, "camera": gcam}, scene, inputs, names)
+
+
+def rotate_camera(camera, rotation):
+    """``camera`` turned about its eye by the rotation vector ``rotation`` (axis times angle in
+    radians), applied on the left: the finite step of :func:`grad`'s ``camera_rotation``.
+
+    Parameters
+    ----------
+    camera : Camera
+    rotation : (3,) float
+        World coordinates; ``|rotation|`` the angle in radians.
+
+    Returns
+    -------
+    Camera
+        The same eye and intrinsics; its target and up turned (so its right, up and forward
+        axes are ``exp([rotation]x)`` times the old ones).
+    """
+    if not isinstance(camera, Camera):
+        raise TypeError(f"camera: expected a Camera, got {type(camera).__name__}")
+    w = as_vec3(rotation, "rotation")
+    eye = np.asarray(camera.eye, np.float64)
+    turned = rotate_vectors(w, np.stack([np.asarray(camera.target, np.float64) - eye,
+                                         np.asarray(camera.up, np.float64)]))
+    return camera.replace(target=tuple(eye + turned[0]), up=tuple(turned[1]))
