@@ -47,11 +47,12 @@ from __future__ import annotations
 import numpy as np
 
 from .common.layout import ATT_HEURISTIC, LIGHT_ATT, LIGHT_DIRECTIONAL, LIGHT_KIND, LIGHT_VEC
-from .common.validate import as_array, as_names, as_vec3
+from .common.validate import as_array, as_bool, as_int, as_names, as_scalar, as_vec3
 from .output.frame import Frame
 from .render import render
 from .scene.camera import Camera
 from .scene.scene import Scene
+from .shading.grad_edges import edge_vjp
 from .shading.grad_geometry import rotate_vectors
 from .shading.grad_frame import frame_vjp, unsupported
 from .shading.grad_terms import GL_K, GL_RAD, GL_SIZE, GL_VEC, GM_KA, GM_KD, GM_KS, GM_SIZE, GM_T, layout
@@ -144,7 +145,8 @@ def _direction_gradient(gvec, lights, directional) -> np.ndarray:
     return np.where(directional[:, None], g, 0.0)
 
 
-def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | None = None) -> dict:
+def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | None = None, edges: bool = False,
+         edge_density: float = 4.0, seed: int = 0) -> dict:
     """``dL/dparameter`` for ``dL/dI`` given on the linear image of ``render(scene, shading)``.
 
     Parameters
@@ -159,7 +161,17 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
         As for :func:`raycast_shade.render` (one per model allowed; not ``"auto"``).
     frame : Frame, optional
         ``render(scene, shading)``'s frame, whose hit buffer is reused (no cast); cast afresh
-        by default.
+        by default. With ``edges=True`` it may have ``samples > 1`` (its hit buffer is the
+        pixel centres').
+    edges : bool
+        Add the silhouettes' (and other visibility edges') term by edge sampling to the geometry
+        gradients: the gradient of the box-filtered (anti-aliased) image, whose interior part is
+        taken at the pixel centres. Off by default: the gradient of the one-ray image over its
+        hit buffer.
+    edge_density : float
+        Edge samples per pixel of projected edge length (``> 0``).
+    seed : int
+        The edge samples' jitter (the same samples for the same seed).
 
     Returns
     -------
@@ -176,6 +188,9 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
     if not isinstance(scene, Scene):
         raise TypeError(f"scene: expected a Scene, got {type(scene).__name__}")
     names = _wrt(wrt)
+    edges = as_bool(edges, "edges")
+    edge_density = as_scalar(edge_density, "edge_density", minimum=0.0, exclusive=True)
+    seed = as_int(seed, "seed", minimum=0)
     gimg = check_gradient(dL_dimage, scene.camera)
     modes = resolve_methods(scene, shading)
     if frame is not None:
@@ -183,8 +198,9 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
             raise TypeError(f"frame: expected a Frame, got {type(frame).__name__}")
         if frame.scene is not scene:
             raise ValueError("frame: rendered from another scene (pass the scene it was rendered of)")
-        if "average" in frame.timings:
-            raise ValueError("frame: rendered with samples > 1; gradients are of one ray per pixel")
+        if "average" in frame.timings and not edges:
+            raise ValueError("frame: rendered with samples > 1; gradients are of one ray per pixel "
+                             "(edges=True gives the anti-aliased image's)")
         if not np.array_equal(resolve_methods(scene, frame.shading), modes):
             raise ValueError(f"frame: shaded with {frame.shading!r}, not shading={shading!r}")
         if frame.image.shape != gimg.shape:
@@ -198,6 +214,10 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
         raise ValueError("scene.camera: no geometry gradients through lens distortion yet (a pinhole camera has)")
     params, gnormals, gverts, gcam = frame_vjp(frame.hits, inputs, modes, gimg, scene.geometry, "normals" in names,
                                                geometry)
+    if edges and geometry:
+        ev, ec, _ = edge_vjp(scene, scene.camera, inputs, modes, gimg, shading, edge_density, seed)
+        gverts += ev
+        gcam += ec
     return named(params, {"normals": gnormals, "vertices": gverts, "camera": gcam}, scene, inputs, names)
 
 
