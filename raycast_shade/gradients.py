@@ -46,13 +46,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from .common.layout import ATT_HEURISTIC, LIGHT_ATT, LIGHT_DIRECTIONAL, LIGHT_KIND, LIGHT_VEC
+from .common.samples import check_samples, sample_offsets
+from .common.layout import CAM_EYE, ATT_HEURISTIC, LIGHT_ATT, LIGHT_DIRECTIONAL, LIGHT_KIND, LIGHT_VEC
 from .common.validate import as_array, as_bool, as_int, as_names, as_scalar, as_vec3
 from .output.frame import Frame
 from .render import render
 from .scene.camera import Camera
 from .scene.scene import Scene
 from .shading.grad_edges import edge_vjp
+from .visibility.cast import cast_camera
+from .visibility.rays import subpixel_camera
 from .shading.grad_geometry import rotate_vectors
 from .shading.grad_frame import frame_vjp, unsupported
 from .shading.grad_terms import GL_K, GL_RAD, GL_SIZE, GL_VEC, GM_KA, GM_KD, GM_KS, GM_SIZE, GM_T, layout
@@ -146,7 +149,7 @@ def _direction_gradient(gvec, lights, directional) -> np.ndarray:
 
 
 def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | None = None, edges: bool = False,
-         edge_density: float = 4.0, seed: int = 0) -> dict:
+         edge_density: float = 4.0, seed: int = 0, samples: int = 1) -> dict:
     """``dL/dparameter`` for ``dL/dI`` given on the linear image of ``render(scene, shading)``.
 
     Parameters
@@ -172,6 +175,10 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
         Edge samples per pixel of projected edge length (``> 0``).
     seed : int
         The edge samples' jitter (the same samples for the same seed).
+    samples : int
+        As for :func:`raycast_shade.render`: the gradient of the mean of ``samples`` rays per
+        pixel (the same sub-pixel offsets), each sample's hit buffer cast and differentiated, its
+        terms added in sample order. ``frame`` (optional) must have been rendered with them.
 
     Returns
     -------
@@ -191,6 +198,7 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
     edges = as_bool(edges, "edges")
     edge_density = as_scalar(edge_density, "edge_density", minimum=0.0, exclusive=True)
     seed = as_int(seed, "seed", minimum=0)
+    samples = check_samples(samples)
     gimg = check_gradient(dL_dimage, scene.camera)
     modes = resolve_methods(scene, shading)
     if frame is not None:
@@ -198,27 +206,58 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
             raise TypeError(f"frame: expected a Frame, got {type(frame).__name__}")
         if frame.scene is not scene:
             raise ValueError("frame: rendered from another scene (pass the scene it was rendered of)")
-        if "average" in frame.timings and not edges:
-            raise ValueError("frame: rendered with samples > 1; gradients are of one ray per pixel "
-                             "(edges=True gives the anti-aliased image's)")
+        if ("average" in frame.timings) != (samples > 1):
+            raise ValueError("frame: rendered with samples > 1 (pass the same samples=)" if samples == 1 else
+                             f"frame: rendered with one ray per pixel, not samples={samples}")
         if not np.array_equal(resolve_methods(scene, frame.shading), modes):
             raise ValueError(f"frame: shaded with {frame.shading!r}, not shading={shading!r}")
         if frame.image.shape != gimg.shape:
             raise ValueError(f"frame: its image is {frame.image.shape}, dL_dimage {gimg.shape}")
     inputs = frame.inputs if frame is not None and frame.inputs is not None else prepare(scene, scene.camera)
     check_scene(scene, inputs)
-    if frame is None:
+    if frame is None and samples == 1:
         frame = render(scene, shading)
     geometry = any(n in GEOMETRY for n in names)
     if geometry and scene.camera.distorted:
         raise ValueError("scene.camera: no geometry gradients through lens distortion yet (a pinhole camera has)")
-    params, gnormals, gverts, gcam = frame_vjp(frame.hits, inputs, modes, gimg, scene.geometry, "normals" in names,
-                                               geometry)
+    if samples == 1:
+        params, gnormals, gverts, gcam = frame_vjp(frame.hits, inputs, modes, gimg, scene.geometry,
+                                                   "normals" in names, geometry)
+        if geometry:
+            _about_eye(gcam, inputs.cam, scene)
+    else:
+        params, gnormals, gverts, gcam = _sampled_vjp(scene, modes, gimg, samples, "normals" in names, geometry)
     if edges and geometry:
         ev, ec, _ = edge_vjp(scene, scene.camera, inputs, modes, gimg, shading, edge_density, seed)
+        _about_eye(ec, inputs.cam, scene)
         gverts += ev
         gcam += ec
     return named(params, {"normals": gnormals, "vertices": gverts, "camera": gcam}, scene, inputs, names)
+
+
+def _about_eye(gcam, cam, scene) -> None:
+    """Turn ``gcam``'s rotation part (taken about the camera row's eye) to the rotation about the
+    camera's eye: an orthographic row's eye carries the principal point's shift ``e``, and a turn
+    ``w`` about the true eye moves it by ``w x e``, so ``dL/dw += e x dL/deye``. Perspective: 0."""
+    shift = cam[CAM_EYE:CAM_EYE + 3] - (np.asarray(scene.camera.eye, np.float64) - scene.geometry.origin)
+    gcam[3:] += np.cross(shift, gcam[:3])
+
+
+def _sampled_vjp(scene, modes, gimg, samples, want_normals, want_geometry):
+    """:func:`frame_vjp` of the mean of ``samples`` sub-pixel images: one cast and one VJP per
+    sample with ``dL/dI / samples``, added in sample order. An orthographic sub-pixel camera's
+    eye carries the sample's shift: its rotation gradient is turned back to the true eye's."""
+    total = None
+    part = gimg / samples
+    for dx, dy in sample_offsets(samples):
+        sub = subpixel_camera(scene.camera, dx, dy)
+        inputs = prepare(scene, sub)
+        out = list(frame_vjp(cast_camera(scene.geometry, sub), inputs, modes, part, scene.geometry, want_normals,
+                             want_geometry))
+        if want_geometry:
+            _about_eye(out[3], inputs.cam, scene)
+        total = out if total is None else [t if t is None else t + o for t, o in zip(total, out)]
+    return tuple(total)
 
 
 def rotate_camera(camera, rotation):

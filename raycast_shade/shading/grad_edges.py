@@ -62,11 +62,13 @@ def edge_candidates(verts, faces, fnormals, face_model, modes, cam) -> np.ndarra
 
     Returns
     -------
-    (E, 2) int64
+    edges : (E, 2) int64
         Each edge once, as the vertex indices of the first face listing it.
+    sides : (E, 2) int64
+        The faces listing it (the first two; ``-1`` for a boundary edge's second).
     """
     if faces.shape[0] == 0:
-        return np.zeros((0, 2), np.int64)
+        return np.zeros((0, 2), np.int64), np.zeros((0, 2), np.int64)
     _, canon = np.unique(verts, axis=0, return_inverse=True)
     canon = canon.ravel()
     half = np.stack([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]], axis=1).reshape(-1, 2).astype(np.int64)
@@ -90,7 +92,8 @@ def edge_candidates(verts, faces, fnormals, face_model, modes, cam) -> np.ndarra
     keep |= face_model[fa] != face_model[fb]
     hb = half[np.where(two, second, first)]
     keep |= np.any(np.sort(half[first], axis=1) != np.sort(hb, axis=1), axis=1)  # split: other vertices
-    return half[first[keep]]
+    sides = np.stack([fa, np.where(two, fb, -1)], axis=1)
+    return half[first[keep]], sides[keep]
 
 
 def screen_points(cam, points) -> tuple:
@@ -109,13 +112,13 @@ def screen_points(cam, points) -> tuple:
     return (sx + 1.0) * 0.5 * cam[CAM_WIDTH], (1.0 - sy) * 0.5 * cam[CAM_HEIGHT], c
 
 
-def edge_samples(verts, edges, cam, density: float, seed: int) -> dict:
+def edge_samples(verts, edges, sides, cam, density: float, seed: int) -> dict:
     """Stratified, jittered samples along the edges' projections, inside the image.
 
     Returns
     -------
     dict
-        ``edge`` (N, 2) int64 vertex pairs, ``s`` (N,) the screen parameter, ``normal`` (N, 2) the
+        ``edge`` (N, 2) int64 vertex pairs, ``faces`` (N, 2) their faces (:func:`edge_candidates`), ``s`` (N,) the screen parameter, ``normal`` (N, 2) the
         unit screen normal, ``weight`` (N,) its share of the edge's length in pixels, ``pixel`` (N, 2)
         int64 ``(x, y)``, ``point`` (N, 2) the image coordinates.
     """
@@ -144,7 +147,7 @@ def edge_samples(verts, edges, cam, density: float, seed: int) -> dict:
     weight = length[e] / np.repeat(n, n)
     pix = np.stack([np.floor(px), np.floor(py)], axis=1)
     seen = (pix[:, 0] >= 0) & (pix[:, 0] < w) & (pix[:, 1] >= 0) & (pix[:, 1] < h)
-    return {"edge": edges[e[seen]], "s": s[seen], "normal": normal[seen], "weight": weight[seen],
+    return {"edge": edges[e[seen]], "faces": sides[e[seen]], "s": s[seen], "normal": normal[seen], "weight": weight[seen],
             "pixel": pix[seen].astype(np.int64), "point": np.stack([px, py], axis=1)[seen]}
 
 
@@ -219,8 +222,8 @@ def edge_vjp(scene, camera, inputs, modes, gimg, shading, density: float = 4.0, 
     G, cam, geo = inputs.geometry, inputs.cam, scene.geometry
     gverts = np.zeros(G.verts.shape)
     gcam = np.zeros(6)
-    edges = edge_candidates(G.verts, G.faces, G.face_normals, geo.face_model, modes, cam)
-    smp = edge_samples(G.verts, edges, cam, density, seed)
+    edges, sides = edge_candidates(G.verts, G.faces, G.face_normals, geo.face_model, modes, cam)
+    smp = edge_samples(G.verts, edges, sides, cam, density, seed)
     n = smp["s"].shape[0]
     if n == 0:
         return gverts, gcam, 0
@@ -231,7 +234,11 @@ def edge_vjp(scene, camera, inputs, modes, gimg, shading, density: float = 4.0, 
     hits2 = HitBuffer(*(a.reshape(1, -1) for a in hits))
     f = SampleShading(scene, camera, shading, inputs=inputs).shade(hits2)[0].astype(np.float64)
     m = int(live.sum())
+    # the edge is what the sample sees only if one side shows one of its faces (else it is hidden)
+    face = np.where(hits.prim >= 0, geo.face_offsets[np.maximum(hits.geom, 0)] + hits.prim, -2)
+    own = smp["faces"][live]
+    visible = np.any(face[:m, None] == own, axis=1) | np.any(face[m:, None] == own, axis=1)
     coef = np.zeros(n)
-    coef[live] = smp["weight"][live] * np.einsum("ij,ij->i", gI[live], f[:m] - f[m:])
+    coef[live] = np.where(visible, smp["weight"][live] * np.einsum("ij,ij->i", gI[live], f[:m] - f[m:]), 0.0)
     edges_scatter(cam, G.verts, smp["edge"], smp["s"], smp["normal"], coef, gverts, gcam)
     return gverts, gcam, n
