@@ -229,6 +229,8 @@ def edge_vjp(scene, camera, inputs, modes, gimg, shading, density: float = 4.0, 
         return gverts, gcam, 0
     gI = gimg[smp["pixel"][:, 1], smp["pixel"][:, 0]]
     live = np.any(gI != 0.0, axis=1)
+    if not np.any(live):  # dL/dI is 0 wherever an edge is
+        return gverts, gcam, n
     o, d = side_rays(cam, geo.origin, smp["point"][live], smp["normal"][live])
     hits = cast_rays(geo, o, d)
     hits2 = HitBuffer(*(a.reshape(1, -1) for a in hits))
