@@ -40,6 +40,7 @@ FIGURES = [
     dict(name="animation", module="docs.figures.animation", page="animation.md"),
     dict(name="contract", module="docs.figures.contract", page="contract.md"),
     dict(name="gradients", module="docs.figures.gradients", page="gradients.md"),
+    dict(name="gradients_edges", module="docs.figures.gradients_edges", page="gradients.md"),
     dict(name="pbr", module="docs.figures.pbr", page="pbr.md"),  # skipped without the Khronos samples
     dict(name="samples", module="docs.figures.samples", page="files.md"),  # skipped without the Khronos samples
 ]
