@@ -62,7 +62,7 @@ from .shading.grad_terms import GL_K, GL_RAD, GL_SIZE, GL_VEC, GM_KA, GM_KD, GM_
 from .shading.inputs import prepare
 from .shading.shade import resolve_methods
 
-__all__ = ["grad", "rotate_camera", "WRT", "DEFAULT_WRT", "GEOMETRY"]
+__all__ = ["grad", "rotate_camera", "WRT", "DEFAULT_WRT", "GEOMETRY", "MAX_DENSITY"]
 
 WRT = ("ka", "kd", "ks", "shininess", "ambient", "light_position", "light_direction", "light_radiance",
        "light_intensity", "light_k", "normals", "vertices", "camera_eye", "camera_rotation")
@@ -71,6 +71,9 @@ GEOMETRY = ("vertices", "camera_eye", "camera_rotation")
 """The names that move what each pixel sees (the interior and, with ``edges=True``, the edges)."""
 DEFAULT_WRT = tuple(n for n in WRT if n != "normals" and n not in GEOMETRY)
 """What ``wrt=None`` asks for: every parameter but the vertex normals and the geometry."""
+
+MAX_DENSITY = 1024.0
+"""The most edge samples per pixel of edge length ``grad(edges=True)`` takes (a bound on the work)."""
 
 _MATERIAL_SLOTS = {"ka": GM_KA, "kd": GM_KD, "ks": GM_KS}
 
@@ -172,7 +175,7 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
         taken at the pixel centres. Off by default: the gradient of the one-ray image over its
         hit buffer.
     edge_density : float
-        Edge samples per pixel of projected edge length (``> 0``).
+        Edge samples per pixel of projected edge length (``> 0``, at most :data:`MAX_DENSITY`).
     seed : int
         The edge samples' jitter (the same samples for the same seed).
     samples : int
@@ -196,7 +199,7 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
         raise TypeError(f"scene: expected a Scene, got {type(scene).__name__}")
     names = _wrt(wrt)
     edges = as_bool(edges, "edges")
-    edge_density = as_scalar(edge_density, "edge_density", minimum=0.0, exclusive=True)
+    edge_density = as_scalar(edge_density, "edge_density", minimum=0.0, exclusive=True, maximum=MAX_DENSITY)
     seed = as_int(seed, "seed", minimum=0)
     samples = check_samples(samples)
     gimg = check_gradient(dL_dimage, scene.camera)
