@@ -146,3 +146,24 @@ def test_bad_edge_options_are_named(weights):
     frame = rs.render(scene, "phong", samples=4)
     with pytest.raises(ValueError, match="samples"):
         rs.grad(scene, weights, ("vertices",), frame=frame)
+
+
+def test_samples_average_the_sub_pixel_gradients(weights):
+    """``samples=4``: the gradient of the 4-ray image ``render(samples=4)`` gives; the image is linear
+    in kd and ks, so central differences (step 0.05) are exact up to float32 storage."""
+    scene = _sphere()
+    frame = rs.render(scene, "phong", samples=4)
+    g = rs.grad(scene, weights, ("kd", "ks"), frame=frame, samples=4)
+
+    def loss(kd0):
+        mat = scene.models[0].material
+        kd = np.array(mat.kd, float)
+        kd[0] = kd0
+        moved = scene.replace(models=(rs.Model(scene.models[0].mesh, rs.Material(ka=mat.ka, kd=tuple(kd), ks=mat.ks,
+                                                                               shininess=mat.shininess)),))
+        return float(np.sum(weights * rs.render(moved, "phong", samples=4).image))
+
+    fd = (loss(0.75) - loss(0.65)) / 0.1
+    assert g["kd"][0, 0] == pytest.approx(fd, rel=1e-3)
+    one = rs.grad(scene, weights, ("kd",))["kd"][0, 0]  # the pixel centres' differs: the samples count
+    assert abs(one - fd) > 1e-3 * abs(fd)
