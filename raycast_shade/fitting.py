@@ -2,11 +2,13 @@
 
 The inverse problem of the reflectance equation: given a target linear image (a photograph's
 linear radiance, or a frame rendered with parameters to recover), find the material, ambient
-and light parameters whose render matches it. The hit buffer is cast once and held fixed (the
-parameters fitted here do not move the geometry); each evaluation re-shades it with the
+and light parameters whose render matches it. The hit buffer is cast once and held fixed (those
+parameters do not move the geometry); each evaluation re-shades it with the
 library's own kernels (:class:`~raycast_shade.shading.shade.SampleShading`, the image
 :func:`raycast_shade.render` gives) and differentiates it with :func:`raycast_shade.grad`'s
-kernels; SciPy's L-BFGS-B takes the steps, within each parameter's bounds.
+kernels; SciPy's L-BFGS-B takes the steps, within each parameter's bounds. The geometry (each
+model's translation, the camera's eye) is fitted apart: each evaluation renders the moved scene
+and differentiates it with the edge term.
 
 Each parameter block is optimised in units of its starting size (a diagonal preconditioning:
 a light 5 units away and a kd of 0.5 both start at 1), and the loss in units of its

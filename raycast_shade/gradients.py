@@ -32,13 +32,14 @@ and the ray (:mod:`raycast_shade.shading.grad_geometry`); ``edges=True`` adds th
 term for the box-filtered (anti-aliased) image by edge sampling
 (:mod:`raycast_shade.shading.grad_edges`).
 
-The hit buffer is held fixed (the frame's own, or one cast for the call): the gradients are those
-of the shading, exact wherever the image is differentiable in the parameters; the silhouettes'
-dependence on geometry is not modelled. Shadows count with the frame's visibility (a blocked
+The hit buffer's triangles are held (the frame's own, or one cast for the call): the gradients are
+those of the shading and of each hit moving on its triangle, exact wherever the image is
+differentiable in the parameters; where a pixel's triangle changes, ``edges=True`` adds the
+box-filtered image's edge term. Shadows count with the frame's visibility (a blocked
 light stays blocked). Flat shading lights a face with its true normal: the flat gradient of a
 vertex normal is exactly 0. Not differentiated yet (refused with a ValueError naming what):
-GGX materials, mirrors, textures and mesh colours, bump and normal maps, area lights, and frames
-with ``samples > 1``. The kernels are :mod:`raycast_shade.shading.grad_terms` and
+GGX materials, mirrors, textures and mesh colours, bump and normal maps, area lights; geometry
+through lens distortion. The kernels are :mod:`raycast_shade.shading.grad_terms` and
 :mod:`raycast_shade.shading.grad_frame`; :func:`raycast_shade.fit` fits parameters with them.
 """
 
@@ -167,8 +168,7 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
         As for :func:`raycast_shade.render` (one per model allowed; not ``"auto"``).
     frame : Frame, optional
         ``render(scene, shading)``'s frame, whose hit buffer is reused (no cast); cast afresh
-        by default. With ``edges=True`` it may have ``samples > 1`` (its hit buffer is the
-        pixel centres').
+        by default (with ``samples > 1``, the frame is checked, and its samples cast again).
     edges : bool
         Add the silhouettes' (and other visibility edges') term by edge sampling to the geometry
         gradients: the gradient of the box-filtered (anti-aliased) image, whose interior part is
@@ -193,7 +193,7 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
     ValueError
         An unknown name in ``wrt`` (the valid ones listed), a ``dL_dimage`` of the wrong shape
         or not finite, a scene with parts not differentiated yet (named), or a ``frame`` of
-        another scene, another shading or ``samples > 1``.
+        another scene, another shading or another number of samples.
     """
     if not isinstance(scene, Scene):
         raise TypeError(f"scene: expected a Scene, got {type(scene).__name__}")

@@ -4,8 +4,9 @@ Given ``gimg = dL/dI`` for the linear image ``I`` (``frame.image``, float32 of t
 kernels compute) and the hit buffer it was shaded from, :func:`frame_vjp` returns ``dL/d`` every
 material, ambient and light parameter (one vector, the slots of
 :func:`~raycast_shade.shading.grad_terms.layout`) and, on request, ``dL/d`` the packed vertex
-normals. The hits are held fixed: the gradient is exact wherever the image is differentiable in
-the parameters, and says nothing of silhouettes (visibility does not move with them).
+normals, and (:mod:`.grad_geometry`) the vertex positions and camera pose. Each pixel's triangle is
+held: the gradient is exact wherever the image is differentiable in the parameters; the edges,
+where a pixel's triangle changes, are :mod:`.grad_edges`'.
 
 Each method is differentiated where it evaluates the equation:
 
