@@ -33,7 +33,7 @@ from numba import njit
 from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH, METHOD_FLAT
 from .jit import HELPER, JIT
 
-__all__ = ["edge_candidates", "edge_samples", "edges_scatter", "screen_points"]
+__all__ = ["edge_candidates", "edge_topology", "edge_samples", "edges_scatter", "screen_points"]
 
 EPS = 1e-3  # pixels either side of an edge where its two shades are taken
 
@@ -47,7 +47,26 @@ def _facing_signs(geo_verts, faces, fnormals, cam) -> np.ndarray:
     return np.sign(np.einsum("ij,ij->i", fnormals, towards))
 
 
-def edge_candidates(verts, faces, fnormals, face_model, modes, cam) -> np.ndarray:
+def edge_topology(verts, faces) -> tuple:
+    """The mesh's edges on its positions (vertices welded where coordinates are equal): every
+    half-edge ``half`` (3F, 2) as packed vertex pairs, and per edge the first and second half-edge
+    listing it (``-1``: a boundary edge's second) and how many list it. Depends on the geometry
+    only (memoised on it by :func:`edge_vjp`)."""
+    _, canon = np.unique(verts, axis=0, return_inverse=True)
+    canon = canon.ravel()
+    half = np.stack([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]], axis=1).reshape(-1, 2).astype(np.int64)
+    key = np.sort(canon[half], axis=1)
+    _, group, count = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    order = np.argsort(group.ravel(), kind="stable")
+    starts = np.concatenate([[0], np.cumsum(count)[:-1]])
+    first = order[starts]
+    second = np.full(count.shape[0], -1, np.int64)
+    two = count >= 2
+    second[two] = order[starts[two] + 1]
+    return half, first, second, count
+
+
+def edge_candidates(verts, faces, fnormals, face_model, modes, cam, topology=None) -> tuple:
     """The edges that may carry a jump of the shade (the module's list), as packed vertex pairs.
 
     Parameters
@@ -59,6 +78,8 @@ def edge_candidates(verts, faces, fnormals, face_model, modes, cam) -> np.ndarra
     modes : (G,) int8
         Each model's method code.
     cam : (CAM_SIZE,) float64
+    topology : tuple, optional
+        :func:`edge_topology` of ``verts, faces`` when at hand.
 
     Returns
     -------
@@ -69,29 +90,16 @@ def edge_candidates(verts, faces, fnormals, face_model, modes, cam) -> np.ndarra
     """
     if faces.shape[0] == 0:
         return np.zeros((0, 2), np.int64), np.zeros((0, 2), np.int64)
-    _, canon = np.unique(verts, axis=0, return_inverse=True)
-    canon = canon.ravel()
-    half = np.stack([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]], axis=1).reshape(-1, 2).astype(np.int64)
-    face_of = np.repeat(np.arange(faces.shape[0]), 3)
-    key = np.sort(canon[half], axis=1)
-    _, group, count = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-    group = group.ravel()
-    order = np.argsort(group, kind="stable")
-    first = np.full(count.shape[0], -1, np.int64)
-    second = np.full(count.shape[0], -1, np.int64)
-    starts = np.concatenate([[0], np.cumsum(count)[:-1]])
-    first[:] = order[starts]
-    two = count >= 2
-    second[two] = order[starts[two] + 1]
+    half, first, second, count = edge_topology(verts, faces) if topology is None else topology
+    two = second >= 0
+    other = np.where(two, second, first)
+    fa, fb = first // 3, other // 3
     sign = _facing_signs(verts, faces, fnormals, cam)
-    fa = face_of[first]
     keep = count != 2
-    fb = face_of[np.where(two, second, first)]
     keep |= sign[fa] != sign[fb]
     keep |= modes[face_model[fa]] == METHOD_FLAT
     keep |= face_model[fa] != face_model[fb]
-    hb = half[np.where(two, second, first)]
-    keep |= np.any(np.sort(half[first], axis=1) != np.sort(hb, axis=1), axis=1)  # split: other vertices
+    keep |= np.any(np.sort(half[first], axis=1) != np.sort(half[other], axis=1), axis=1)  # split: other vertices
     sides = np.stack([fa, np.where(two, fb, -1)], axis=1)
     return half[first[keep]], sides[keep]
 
@@ -222,7 +230,8 @@ def edge_vjp(scene, camera, inputs, modes, gimg, shading, density: float = 4.0, 
     G, cam, geo = inputs.geometry, inputs.cam, scene.geometry
     gverts = np.zeros(G.verts.shape)
     gcam = np.zeros(6)
-    edges, sides = edge_candidates(G.verts, G.faces, G.face_normals, geo.face_model, modes, cam)
+    topology = geo.memo("grad_edges.topology", lambda g: edge_topology(g.vertices, g.faces))
+    edges, sides = edge_candidates(G.verts, G.faces, G.face_normals, geo.face_model, modes, cam, topology)
     smp = edge_samples(G.verts, edges, sides, cam, density, seed)
     n = smp["s"].shape[0]
     if n == 0:
