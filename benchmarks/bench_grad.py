@@ -8,7 +8,12 @@ directional light, no shadows) is rendered, and in each repeat, interleaved in o
 * ``shade``: re-shading the kept hit buffer (what one evaluation of ``rs.fit`` renders);
 * ``grad``: ``rs.grad`` with respect to every material, ambient and light parameter, reusing the
   frame's hit buffer (``frame=``);
-* ``grad+normals``: the same and the vertex normals.
+* ``grad+normals``: the same and the vertex normals;
+* ``grad+vertices``: the vertex positions and the camera pose, through the triangles' interiors
+  (the hit buffer's triangles held);
+* ``grad+vertices+edges``: the same with the edge term (``edges=True``: silhouettes and boundary
+  edges sampled at 4 per pixel of length, two rays cast and shaded per sample), the issue's
+  "vertex gradients (interior + edges)", whose budget is 6x the frame.
 
 Medians over the repeats after one warm-up call of each (the first calls, compile or cache load
 included, are their own rows, ``first ...``). ``ratio`` is each median over the ``forward``
@@ -52,7 +57,7 @@ def _timed(fn):
 
 def run(quick: bool = False):
     import raycast_shade as rs
-    from raycast_shade.gradients import DEFAULT_WRT, WRT
+    from raycast_shade.gradients import DEFAULT_WRT, GEOMETRY
     from raycast_shade.shading.shade import SampleShading
 
     w, h = (160, 120) if quick else (640, 480)
@@ -64,7 +69,9 @@ def run(quick: bool = False):
         "forward": lambda: rs.render(scene, "phong"),
         "shade": lambda: SampleShading(scene, scene.camera, "phong", inputs=frame.inputs).shade(frame.hits),
         "grad": lambda: rs.grad(scene, weights, DEFAULT_WRT, frame=frame),
-        "grad+normals": lambda: rs.grad(scene, weights, WRT, frame=frame),
+        "grad+normals": lambda: rs.grad(scene, weights, DEFAULT_WRT + ("normals",), frame=frame),
+        "grad+vertices": lambda: rs.grad(scene, weights, GEOMETRY, frame=frame),
+        "grad+vertices+edges": lambda: rs.grad(scene, weights, GEOMETRY, frame=frame, edges=True),
     }
     load = lambda: round(os.getloadavg()[0], 2)  # noqa: E731
     rows = [dict(benchmark="grad", case=f"first {name}", width=w, height=h, repeats=1, ms_median=round(_timed(fn), 1),
@@ -75,12 +82,14 @@ def run(quick: bool = False):
             times[name].append(_timed(fn))
     forward = statistics.median(times["forward"])
     notes = {"forward": "render(): cast and shade", "shade": "the kept hit buffer re-shaded",
-             "grad": "material, ambient and light parameters", "grad+normals": "and the vertex normals"}
+             "grad": "material, ambient and light parameters", "grad+normals": "and the vertex normals",
+             "grad+vertices": "vertex positions and camera pose, interior",
+             "grad+vertices+edges": "vertex positions and camera pose, interior and edges"}
     for name, ms in times.items():
         med = statistics.median(ms)
         rows.append(dict(benchmark="grad", case=name, width=w, height=h, repeats=repeats, ms_median=round(med, 2),
                          ratio=round(med / forward, 2), load=load(), note=notes[name]))
-        print(f"{name:14s} {w}x{h}: median {med:8.2f} ms  ({med / forward:.2f} x forward)")
+        print(f"{name:20s} {w}x{h}: median {med:8.2f} ms  ({med / forward:.2f} x forward)")
     return rows
 
 

@@ -2,11 +2,13 @@
 
 The inverse problem of the reflectance equation: given a target linear image (a photograph's
 linear radiance, or a frame rendered with parameters to recover), find the material, ambient
-and light parameters whose render matches it. The hit buffer is cast once and held fixed (the
-parameters fitted here do not move the geometry); each evaluation re-shades it with the
+and light parameters whose render matches it. The hit buffer is cast once and held fixed (those
+parameters do not move the geometry); each evaluation re-shades it with the
 library's own kernels (:class:`~raycast_shade.shading.shade.SampleShading`, the image
 :func:`raycast_shade.render` gives) and differentiates it with :func:`raycast_shade.grad`'s
-kernels; SciPy's L-BFGS-B takes the steps, within each parameter's bounds.
+kernels; SciPy's L-BFGS-B takes the steps, within each parameter's bounds. The geometry (each
+model's translation, the camera's eye) is fitted apart: each evaluation renders the moved scene
+and differentiates it with the edge term.
 
 Each parameter block is optimised in units of its starting size (a diagonal preconditioning:
 a light 5 units away and a kd of 0.5 both start at 1), and the loss in units of its
@@ -27,14 +29,17 @@ from .gradients import check_scene, named
 from .render import render
 from .scene.scene import Scene
 from .shading.grad_frame import frame_vjp
-from .shading.inputs import lighting
+from .common.samples import check_samples
+from .shading.inputs import lighting, prepare
 from .shading.shade import SampleShading, resolve_methods
 
 __all__ = ["fit", "FitResult", "FIT_PARAMS", "LOSSES"]
 
 FIT_PARAMS = ("ka", "kd", "ks", "shininess", "ambient", "light_position", "light_direction", "light_radiance",
-              "light_intensity", "light_k")
+              "light_intensity", "light_k", "translation", "camera_eye")
 """The names :func:`fit` fits (each for every model or every light of the kind it applies to)."""
+GEOMETRY_PARAMS = ("translation", "camera_eye")
+"""The names that move the geometry (fitted together, apart from the shading's parameters)."""
 LOSSES = ("l2",)
 """Built-in losses: ``"l2"``, the mean of ``(I - target)^2`` over pixels and channels."""
 
@@ -183,6 +188,69 @@ def _loss_fn(loss):
     return l2
 
 
+class _GeometryProblem:
+    """Each model's translation and the camera's eye: x -> (loss, dL/dx), each evaluation
+    rendered afresh (what each pixel sees moves) with ``samples`` rays per pixel and
+    differentiated with the edge term (:func:`raycast_shade.grad`'s ``edges=True``)."""
+
+    def __init__(self, scene, shading, names, lossf, target, samples):
+        self.scene, self.shading, self.lossf, self.target, self.samples = scene, shading, lossf, target, samples
+        self.names = names
+        self.counts = np.diff(scene.geometry.vertex_offsets)
+        self.evaluations = 0
+        self.sizes = [3 * len(scene.models) if n == "translation" else 3 for n in names]
+        self.scale = max(float(scene.geometry.reach), 1e-12)  # x in units of the scene's size
+        self.blocks = ()
+
+    def x0(self) -> np.ndarray:
+        return np.zeros(sum(self.sizes))
+
+    def values(self, x) -> dict:
+        out, i = {}, 0
+        for n, k in zip(self.names, self.sizes):
+            v = x[i:i + k] * self.scale
+            out[n] = v.reshape(-1, 3) if n == "translation" else v + np.asarray(self.scene.camera.eye, float)
+            i += k
+        return out
+
+    def moved(self, x) -> Scene:
+        from .scene.mesh import Mesh
+
+        values = self.values(x)
+        scene = self.scene
+        if "translation" in values:
+            models = []
+            for model, t in zip(scene.models, values["translation"]):
+                m = model.mesh
+                mesh = Mesh(np.asarray(m.vertices) + t, m.faces, normals=m.normals, uvs=m.uvs)
+                models.append(dataclasses.replace(model, mesh=mesh))
+            scene = scene.replace(models=tuple(models))
+        if "camera_eye" in values:
+            cam = scene.camera
+            step = values["camera_eye"] - np.asarray(cam.eye, float)
+            scene = scene.replace(camera=cam.replace(eye=tuple(values["camera_eye"]),
+                                                     target=tuple(np.asarray(cam.target, float) + step)))
+        return scene
+
+    def evaluate(self, x):
+        from .gradients import grad
+
+        scene = self.moved(x)
+        frame = render(scene, self.shading, samples=self.samples)
+        value, g_img = self.lossf(frame.image.astype(np.float64), self.target)
+        wrt = ("vertices", "camera_eye")
+        g = grad(scene, np.ascontiguousarray(g_img, np.float64), wrt, shading=self.shading, frame=frame,
+                 edges=True, samples=self.samples)
+        parts = []
+        for n in self.names:
+            if n == "translation":  # a model's translation moves each of its vertices
+                parts.append(np.add.reduceat(g["vertices"], self.scene.geometry.vertex_offsets[:-1], axis=0).ravel())
+            else:
+                parts.append(g["camera_eye"])
+        self.evaluations += 1
+        return value, np.concatenate(parts) * self.scale, frame.image
+
+
 class _Problem:
     """The fixed hit buffer, the packed inputs and the blocks: x -> (loss, dL/dx)."""
 
@@ -219,9 +287,9 @@ class _Problem:
         """``(loss, dL/dx, image)`` at the scaled parameters ``x``."""
         inputs, image = self.image(x)
         value, g_img = self.lossf(image.astype(np.float64), self.target)
-        params, _ = frame_vjp(self.hits, inputs, self.modes, np.ascontiguousarray(g_img, np.float64),
-                              self.scene.geometry)
-        g = named(params, None, self.scene, inputs, [b.name for b in self.blocks])
+        params = frame_vjp(self.hits, inputs, self.modes, np.ascontiguousarray(g_img, np.float64),
+                           self.scene.geometry)[0]
+        g = named(params, {}, self.scene, inputs, [b.name for b in self.blocks])
         parts, i = [], 0
         for b in self.blocks:
             parts.append(b.gradient(g, x[i:i + b.size] * b.scale) * b.scale)
@@ -273,7 +341,7 @@ def _fitted_scene(scene, values, blocks) -> Scene:
 
 
 def fit(scene: Scene, target, params=("kd",), *, loss="l2", shading="phong", max_iter: int = 200,
-        progress=None, keep_images: bool = False) -> FitResult:
+        progress=None, keep_images: bool = False, samples: int = 1) -> FitResult:
     """Fit parameters of ``scene`` so that its linear image matches ``target``.
 
     Parameters
@@ -286,7 +354,10 @@ def fit(scene: Scene, target, params=("kd",), *, loss="l2", shading="phong", max
         Names of :data:`FIT_PARAMS`, fitted together: ``"ka"``, ``"kd"``, ``"ks"`` (every
         model's RGB), ``"shininess"``, ``"ambient"``, ``"light_position"`` (point and spot
         lights), ``"light_direction"`` (directional lights), ``"light_radiance"`` or
-        ``"light_intensity"`` (not both), ``"light_k"`` (heuristic attenuation).
+        ``"light_intensity"`` (not both), ``"light_k"`` (heuristic attenuation); or the geometry,
+        fitted apart from those: ``"translation"`` (each model's, (G, 3), from where it is) and
+        ``"camera_eye"`` (the eye, its axes held), each evaluation rendered afresh and
+        differentiated with the silhouettes' edge term.
     loss : "l2" or callable
         ``"l2"``: the mean of ``(I - target)^2``; or ``loss(image, target) -> (value, dL/dimage)``
         with ``image`` (H, W, 3) float64.
@@ -298,6 +369,10 @@ def fit(scene: Scene, target, params=("kd",), *, loss="l2", shading="phong", max
         ``progress(iteration, loss)`` after every iteration (0: the start).
     keep_images : bool
         Keep the image of every iteration on the result (for pictures of the convergence).
+    samples : int
+        Rays per pixel of the fitted image (as for :func:`raycast_shade.render`). A geometry fit
+        wants more than 1: the anti-aliased image moves smoothly with the geometry, the one-ray
+        image in steps of a pixel.
 
     Returns
     -------
@@ -317,7 +392,15 @@ def fit(scene: Scene, target, params=("kd",), *, loss="l2", shading="phong", max
     if progress is not None and not callable(progress):
         raise TypeError(f"progress: expected a callable or None, got {type(progress).__name__}")
     target = _check_target(target, scene.camera)
-    problem = _Problem(scene, shading, names, _loss_fn(loss), target)
+    samples = check_samples(samples)
+    geometric = [n for n in names if n in GEOMETRY_PARAMS]
+    if geometric and len(geometric) != len(names):
+        raise ValueError(f"params: {geometric} move the geometry; fit them apart from {sorted(set(names) - set(geometric))}")
+    if geometric:
+        check_scene(scene, prepare(scene, scene.camera))
+        problem = _GeometryProblem(scene, shading, names, _loss_fn(loss), target, samples)
+    else:
+        problem = _Problem(scene, shading, names, _loss_fn(loss), target)
     x0 = problem.x0()
     f0, _, img0 = problem.evaluate(x0)
     norm = f0 if f0 > 0 else 1.0
@@ -341,10 +424,11 @@ def fit(scene: Scene, target, params=("kd",), *, loss="l2", shading="phong", max
         if progress is not None:
             progress(len(losses) - 1, value)
 
-    bounds = [bd for b in problem.blocks for bd in b.bounds]
+    bounds = [bd for b in problem.blocks for bd in b.bounds] or None  # the geometry: unbounded
     res = minimize(objective, x0, jac=True, method="L-BFGS-B", bounds=bounds, callback=step,
                    options=dict(maxiter=max_iter, ftol=1e-15, gtol=1e-12, maxls=40))
     values = problem.values(res.x)
-    return FitResult(scene=_fitted_scene(scene, values, problem.blocks), values=values, losses=tuple(losses),
+    fitted = problem.moved(res.x) if geometric else _fitted_scene(scene, values, problem.blocks)
+    return FitResult(scene=fitted, values=values, losses=tuple(losses),
                      images=tuple(images), success=bool(res.success), message=str(res.message),
                      evaluations=problem.evaluations)

@@ -19,15 +19,27 @@ name                   shape        the parameter
 ``"light_k"``          (L,)         the heuristic law's ``k`` (0 for the other laws)
 ``"normals"``          (V, 3)       the packed vertex normals ``scene.geometry.normals`` (rows
                                     model by model, ``scene.geometry.vertex_offsets``)
+``"vertices"``         (V, 3)       the packed vertex positions (rows as for ``normals``)
+``"camera_eye"``       (3,)         the camera's eye
+``"camera_rotation"``  (3,)         a small rotation ``w`` of the camera about its eye, applied
+                                    on the left (every camera axis ``b`` becomes ``b + w x b``;
+                                    :func:`rotate_camera` applies a finite one)
 =====================  ===========  ==========================================================
 
-The hit buffer is held fixed (the frame's own, or one cast for the call): the gradients are those
-of the shading, exact wherever the image is differentiable in the parameters; the silhouettes'
-dependence on geometry is not modelled. Shadows count with the frame's visibility (a blocked
+The geometry (``vertices``, ``camera_*``) is differentiated through the interior of each
+triangle: the pixel's triangle is held, its hit point and barycentrics move with the vertices
+and the ray (:mod:`raycast_shade.shading.grad_geometry`); ``edges=True`` adds the silhouettes'
+term for the box-filtered (anti-aliased) image by edge sampling
+(:mod:`raycast_shade.shading.grad_edges`).
+
+The hit buffer's triangles are held (the frame's own, or one cast for the call): the gradients are
+those of the shading and of each hit moving on its triangle, exact wherever the image is
+differentiable in the parameters; where a pixel's triangle changes, ``edges=True`` adds the
+box-filtered image's edge term. Shadows count with the frame's visibility (a blocked
 light stays blocked). Flat shading lights a face with its true normal: the flat gradient of a
 vertex normal is exactly 0. Not differentiated yet (refused with a ValueError naming what):
-GGX materials, mirrors, textures and mesh colours, bump and normal maps, area lights, and frames
-with ``samples > 1``. The kernels are :mod:`raycast_shade.shading.grad_terms` and
+GGX materials, mirrors, textures and mesh colours, bump and normal maps, area lights; geometry
+through lens distortion. The kernels are :mod:`raycast_shade.shading.grad_terms` and
 :mod:`raycast_shade.shading.grad_frame`; :func:`raycast_shade.fit` fits parameters with them.
 """
 
@@ -35,23 +47,34 @@ from __future__ import annotations
 
 import numpy as np
 
-from .common.layout import ATT_HEURISTIC, LIGHT_ATT, LIGHT_DIRECTIONAL, LIGHT_KIND, LIGHT_VEC
-from .common.validate import as_array, as_names
+from .common.samples import check_samples, sample_offsets
+from .common.layout import CAM_EYE, ATT_HEURISTIC, LIGHT_ATT, LIGHT_DIRECTIONAL, LIGHT_KIND, LIGHT_VEC
+from .common.validate import as_array, as_bool, as_int, as_names, as_scalar, as_vec3
 from .output.frame import Frame
 from .render import render
+from .scene.camera import Camera
 from .scene.scene import Scene
+from .shading.grad_edges import edge_vjp
+from .visibility.cast import cast_camera
+from .visibility.rays import subpixel_camera
+from .shading.grad_geometry import rotate_vectors
 from .shading.grad_frame import frame_vjp, unsupported
 from .shading.grad_terms import GL_K, GL_RAD, GL_SIZE, GL_VEC, GM_KA, GM_KD, GM_KS, GM_SIZE, GM_T, layout
 from .shading.inputs import prepare
 from .shading.shade import resolve_methods
 
-__all__ = ["grad", "WRT", "DEFAULT_WRT"]
+__all__ = ["grad", "rotate_camera", "WRT", "DEFAULT_WRT", "GEOMETRY", "MAX_DENSITY"]
 
 WRT = ("ka", "kd", "ks", "shininess", "ambient", "light_position", "light_direction", "light_radiance",
-       "light_intensity", "light_k", "normals")
+       "light_intensity", "light_k", "normals", "vertices", "camera_eye", "camera_rotation")
 """Every name :func:`grad` differentiates with respect to."""
-DEFAULT_WRT = tuple(n for n in WRT if n != "normals")
-"""What ``wrt=None`` asks for: every parameter but the vertex normals (a (V, 3) array)."""
+GEOMETRY = ("vertices", "camera_eye", "camera_rotation")
+"""The names that move what each pixel sees (the interior and, with ``edges=True``, the edges)."""
+DEFAULT_WRT = tuple(n for n in WRT if n != "normals" and n not in GEOMETRY)
+"""What ``wrt=None`` asks for: every parameter but the vertex normals and the geometry."""
+
+MAX_DENSITY = 1024.0
+"""The most edge samples per pixel of edge length ``grad(edges=True)`` takes (a bound on the work)."""
 
 _MATERIAL_SLOTS = {"ka": GM_KA, "kd": GM_KD, "ks": GM_KS}
 
@@ -82,9 +105,10 @@ def check_gradient(dL_dimage, camera) -> np.ndarray:
     return as_array(dL_dimage, "dL_dimage", dtype=np.float64, shape=shape)
 
 
-def named(params, gnormals, scene, inputs, names) -> dict:
+def named(params, extra, scene, inputs, names) -> dict:
     """The flat gradient vector of :func:`~raycast_shade.shading.grad_frame.frame_vjp` as
-    :func:`grad`'s named arrays (``names`` a subset of :data:`WRT`)."""
+    :func:`grad`'s named arrays (``names`` a subset of :data:`WRT`); ``extra`` maps ``normals``,
+    ``vertices`` and ``camera`` to their arrays (``camera``: eye, then rotation)."""
     n_models, lights = len(scene.models), inputs.lighting.lights
     amb, lb, _ = layout(n_models, lights.shape[0])
     per_model = params[:amb].reshape(n_models, GM_SIZE)
@@ -110,8 +134,12 @@ def named(params, gnormals, scene, inputs, names) -> dict:
             out[name] = np.einsum("ij,ij->i", per_light[:, GL_RAD:GL_RAD + 3], colors)
         elif name == "light_k":
             out[name] = np.where(lights[:, LIGHT_ATT] == ATT_HEURISTIC, per_light[:, GL_K], 0.0)
-        elif name == "normals":
-            out[name] = gnormals
+        elif name in ("normals", "vertices"):
+            out[name] = extra[name]
+        elif name == "camera_eye":
+            out[name] = extra["camera"][:3].copy()
+        elif name == "camera_rotation":
+            out[name] = extra["camera"][3:].copy()
     return out
 
 
@@ -124,7 +152,8 @@ def _direction_gradient(gvec, lights, directional) -> np.ndarray:
     return np.where(directional[:, None], g, 0.0)
 
 
-def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | None = None) -> dict:
+def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | None = None, edges: bool = False,
+         edge_density: float = 4.0, seed: int = 0, samples: int = 1) -> dict:
     """``dL/dparameter`` for ``dL/dI`` given on the linear image of ``render(scene, shading)``.
 
     Parameters
@@ -139,7 +168,20 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
         As for :func:`raycast_shade.render` (one per model allowed; not ``"auto"``).
     frame : Frame, optional
         ``render(scene, shading)``'s frame, whose hit buffer is reused (no cast); cast afresh
-        by default.
+        by default (with ``samples > 1``, the frame is checked, and its samples cast again).
+    edges : bool
+        Add the silhouettes' (and other visibility edges') term by edge sampling to the geometry
+        gradients: the gradient of the box-filtered (anti-aliased) image, whose interior part is
+        taken at the pixel centres. Off by default: the gradient of the one-ray image over its
+        hit buffer.
+    edge_density : float
+        Edge samples per pixel of projected edge length (``> 0``, at most :data:`MAX_DENSITY`).
+    seed : int
+        The edge samples' jitter (the same samples for the same seed).
+    samples : int
+        As for :func:`raycast_shade.render`: the gradient of the mean of ``samples`` rays per
+        pixel (the same sub-pixel offsets), each sample's hit buffer cast and differentiated, its
+        terms added in sample order. ``frame`` (optional) must have been rendered with them.
 
     Returns
     -------
@@ -151,11 +193,15 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
     ValueError
         An unknown name in ``wrt`` (the valid ones listed), a ``dL_dimage`` of the wrong shape
         or not finite, a scene with parts not differentiated yet (named), or a ``frame`` of
-        another scene, another shading or ``samples > 1``.
+        another scene, another shading or another number of samples.
     """
     if not isinstance(scene, Scene):
         raise TypeError(f"scene: expected a Scene, got {type(scene).__name__}")
     names = _wrt(wrt)
+    edges = as_bool(edges, "edges")
+    edge_density = as_scalar(edge_density, "edge_density", minimum=0.0, exclusive=True, maximum=MAX_DENSITY)
+    seed = as_int(seed, "seed", minimum=0)
+    samples = check_samples(samples)
     gimg = check_gradient(dL_dimage, scene.camera)
     modes = resolve_methods(scene, shading)
     if frame is not None:
@@ -163,15 +209,80 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
             raise TypeError(f"frame: expected a Frame, got {type(frame).__name__}")
         if frame.scene is not scene:
             raise ValueError("frame: rendered from another scene (pass the scene it was rendered of)")
-        if "average" in frame.timings:
-            raise ValueError("frame: rendered with samples > 1; gradients are of one ray per pixel")
+        if ("average" in frame.timings) != (samples > 1):
+            raise ValueError("frame: rendered with samples > 1 (pass the same samples=)" if samples == 1 else
+                             f"frame: rendered with one ray per pixel, not samples={samples}")
         if not np.array_equal(resolve_methods(scene, frame.shading), modes):
             raise ValueError(f"frame: shaded with {frame.shading!r}, not shading={shading!r}")
         if frame.image.shape != gimg.shape:
             raise ValueError(f"frame: its image is {frame.image.shape}, dL_dimage {gimg.shape}")
     inputs = frame.inputs if frame is not None and frame.inputs is not None else prepare(scene, scene.camera)
     check_scene(scene, inputs)
-    if frame is None:
+    if frame is None and samples == 1:
         frame = render(scene, shading)
-    params, gnormals = frame_vjp(frame.hits, inputs, modes, gimg, scene.geometry, "normals" in names)
-    return named(params, gnormals, scene, inputs, names)
+    geometry = any(n in GEOMETRY for n in names)
+    if geometry and scene.camera.distorted:
+        raise ValueError("scene.camera: no geometry gradients through lens distortion yet (a pinhole camera has)")
+    if samples == 1:
+        params, gnormals, gverts, gcam = frame_vjp(frame.hits, inputs, modes, gimg, scene.geometry,
+                                                   "normals" in names, geometry)
+        if geometry:
+            _about_eye(gcam, inputs.cam, scene)
+    else:
+        params, gnormals, gverts, gcam = _sampled_vjp(scene, modes, gimg, samples, "normals" in names, geometry)
+    if edges and geometry:
+        ev, ec, _ = edge_vjp(scene, scene.camera, inputs, modes, gimg, shading, edge_density, seed)
+        _about_eye(ec, inputs.cam, scene)
+        gverts += ev
+        gcam += ec
+    return named(params, {"normals": gnormals, "vertices": gverts, "camera": gcam}, scene, inputs, names)
+
+
+def _about_eye(gcam, cam, scene) -> None:
+    """Turn ``gcam``'s rotation part (taken about the camera row's eye) to the rotation about the
+    camera's eye: an orthographic row's eye carries the principal point's shift ``e``, and a turn
+    ``w`` about the true eye moves it by ``w x e``, so ``dL/dw += e x dL/deye``. Perspective: 0."""
+    shift = cam[CAM_EYE:CAM_EYE + 3] - (np.asarray(scene.camera.eye, np.float64) - scene.geometry.origin)
+    gcam[3:] += np.cross(shift, gcam[:3])
+
+
+def _sampled_vjp(scene, modes, gimg, samples, want_normals, want_geometry):
+    """:func:`frame_vjp` of the mean of ``samples`` sub-pixel images: one cast and one VJP per
+    sample with ``dL/dI / samples``, added in sample order. An orthographic sub-pixel camera's
+    eye carries the sample's shift: its rotation gradient is turned back to the true eye's."""
+    total = None
+    part = gimg / samples
+    for dx, dy in sample_offsets(samples):
+        sub = subpixel_camera(scene.camera, dx, dy)
+        inputs = prepare(scene, sub)
+        out = list(frame_vjp(cast_camera(scene.geometry, sub), inputs, modes, part, scene.geometry, want_normals,
+                             want_geometry))
+        if want_geometry:
+            _about_eye(out[3], inputs.cam, scene)
+        total = out if total is None else [t if t is None else t + o for t, o in zip(total, out)]
+    return tuple(total)
+
+
+def rotate_camera(camera, rotation):
+    """``camera`` turned about its eye by the rotation vector ``rotation`` (axis times angle in
+    radians), applied on the left: the finite step of :func:`grad`'s ``camera_rotation``.
+
+    Parameters
+    ----------
+    camera : Camera
+    rotation : (3,) float
+        World coordinates; ``|rotation|`` the angle in radians.
+
+    Returns
+    -------
+    Camera
+        The same eye and intrinsics; its target and up turned (so its right, up and forward
+        axes are ``exp([rotation]x)`` times the old ones).
+    """
+    if not isinstance(camera, Camera):
+        raise TypeError(f"camera: expected a Camera, got {type(camera).__name__}")
+    w = as_vec3(rotation, "rotation")
+    eye = np.asarray(camera.eye, np.float64)
+    turned = rotate_vectors(w, np.stack([np.asarray(camera.target, np.float64) - eye,
+                                         np.asarray(camera.up, np.float64)]))
+    return camera.replace(target=tuple(eye + turned[0]), up=tuple(turned[1]))

@@ -4,8 +4,9 @@ Given ``gimg = dL/dI`` for the linear image ``I`` (``frame.image``, float32 of t
 kernels compute) and the hit buffer it was shaded from, :func:`frame_vjp` returns ``dL/d`` every
 material, ambient and light parameter (one vector, the slots of
 :func:`~raycast_shade.shading.grad_terms.layout`) and, on request, ``dL/d`` the packed vertex
-normals. The hits are held fixed: the gradient is exact wherever the image is differentiable in
-the parameters, and says nothing of silhouettes (visibility does not move with them).
+normals, and (:mod:`.grad_geometry`) the vertex positions and camera pose. Each pixel's triangle is
+held: the gradient is exact wherever the image is differentiable in the parameters; the edges,
+where a pixel's triangle changes, are :mod:`.grad_edges`'.
 
 Each method is differentiated where it evaluates the equation:
 
@@ -32,6 +33,7 @@ from ..common.layout import (LIGHT_AREA, LIGHT_KIND, LIGHT_SAMPLES, MAT_MODEL, M
                              METHOD_GOURAUD, METHOD_PHONG, MODEL_GGX)
 from ..common.parallel import launch, share
 from ..visibility.secondary import ray_scratch
+from .grad_geometry import faces_scatter, pixels_scatter, points_scatter, vertex_shades_kernel
 from .grad_terms import _reflected_vjp, layout
 from .jit import CHUNK, HELPER, JIT
 from .phong import _shading_point
@@ -85,10 +87,21 @@ def _normal_vjp(normals, tri, b1, b2, g, sgn, gn):
     return w * (gx - q * u[0]), w * (gy - q * u[1]), w * (gz - q * u[2])
 
 
+@njit(**HELPER)
+def _point_grads(gvg, i, gr):
+    """``gvg[i] += (dL/dp, dL/dv)`` of :func:`_reflected_vjp`'s answer ``gr`` (none if ``gvg`` is
+    empty)."""
+    if gvg.shape[0] != 0:
+        for c in range(3):
+            gvg[i, c] += gr[1][c]
+            gvg[i, 3 + c] += gr[2][c]
+
+
 @njit(nogil=True, **JIT)
 def _phong_vjp_kernel(hits, G, B, L, face_off, materials, cam, modes, gimg, lay, acc, gpx, part):
-    """Phong pixels: ``acc[k]`` (part ``k``) += ``dL/dparameters``; ``gpx`` (H, W, 3) the pixel's
-    ``dL/da`` of its interpolated normal, or a (0, 0, 3) array for none."""
+    """Phong pixels: ``acc[k]`` (part ``k``) += ``dL/dparameters``; ``gpx`` (H, W, 9) the pixel's
+    ``dL/da`` of its interpolated normal, ``dL/dp`` of its point and ``dL/dv`` of its view vector
+    (for the normals and the geometry), or a (0, 0, 9) array for none."""
     prim, geom, u, v = hits
     want_n = gpx.shape[0] != 0
     k = part[0]
@@ -107,11 +120,13 @@ def _phong_vjp_kernel(hits, G, B, L, face_off, materials, cam, modes, gimg, lay,
                 continue
             at = At(face_off[gm] + p, gm, np.float64(u[y, x]), np.float64(v[y, x]))
             hp = _shading_point(G, B, L, cam, at, np.bool_(False), (0.0, 0.0, 0.0))
-            gn = _reflected_vjp(hp, _row_coefficients(materials, gm), materials, gm, L, S, gI, acc, k, lay)
+            gn, gp, gv = _reflected_vjp(hp, _row_coefficients(materials, gm), materials, gm, L, S, gI, acc, k, lay)
             if want_n:
                 ga = _normal_vjp(G.normals, _triangle(G.faces, at.f), at.b1, at.b2, hp.g, hp.sgn, gn)
                 for c in range(3):
                     gpx[y, x, c] = ga[c]
+                    gpx[y, x, 3 + c] = gp[c]
+                    gpx[y, x, 6 + c] = gv[c]
 
 
 @njit(**JIT)
@@ -148,9 +163,10 @@ def _flat_gather(prim, geom, face_off, modes, gimg, gface):
 
 
 @njit(nogil=True, **JIT)
-def _flat_vjp_kernel(gface, G, face_model, materials, cam, L, lay, acc, part):
+def _flat_vjp_kernel(gface, G, face_model, materials, cam, L, lay, acc, gfg, part):
     """Flat faces (the forward pass's point: the centre, its true normal): ``acc[k]`` += the
-    parameters' gradients; the normal's is dropped (the face normal is not a parameter)."""
+    parameters' gradients; ``gfg`` (F, 9) the face's ``dL/dn``, ``dL/dp``, ``dL/dv`` for the
+    geometry (each face in one part), or a (0, 9) array for none."""
     verts, _, faces, fnormals = G
     k = part[0]
     nchunk = (faces.shape[0] + CHUNK - 1) // CHUNK
@@ -165,16 +181,21 @@ def _flat_vjp_kernel(gface, G, face_model, materials, cam, L, lay, acc, part):
             vv = _view(cam, p)
             gn, sgn = _facing(fnormals, f, vv)
             m = face_model[f]
-            _reflected_vjp(Hit(p, vv, gn, sgn, gn, p), _row_coefficients(materials, m), materials, m, L, S, gI,
-                           acc, k, lay)
+            gr = _reflected_vjp(Hit(p, vv, gn, sgn, gn, p), _row_coefficients(materials, m), materials, m, L, S,
+                                gI, acc, k, lay)
+            if gfg.shape[0] != 0:
+                for j in range(3):
+                    for c in range(3):
+                        gfg[f, 3 * j + c] = gr[j][c]
 
 
 @njit(**JIT)
-def _gouraud_gather(hits, G, L, face_off, materials, cam, modes, gimg, lay, acc, gvert, gnormals):
+def _gouraud_gather(hits, G, L, face_off, materials, cam, modes, gimg, lay, acc, gvert, gnormals, gvg):
     """Serially, in row-major order: each Gouraud pixel's ``dL/dI`` onto its corners' stored shades
     ``gvert`` (V, 2, 3) with the forward pass's weights and sides; a corner the forward pass shades on
     the spot (a zero normal, or one reflected into the face's hemisphere) is differentiated here,
-    into ``acc[0]`` and ``gnormals``."""
+    into ``acc[0]``, ``gnormals`` and ``gvg`` (V, 6: ``dL/dp``, ``dL/dv`` at the vertex; (0, 6) for
+    none)."""
     prim, geom, u, v = hits
     verts, normals, faces, fnormals = G
     S = ray_scratch()
@@ -203,24 +224,26 @@ def _gouraud_gather(hits, G, L, face_off, materials, cam, modes, gimg, lay, acc,
                 n = (sg * normals[i, 0], sg * normals[i, 1], sg * normals[i, 2])
                 if n[0] == 0.0 and n[1] == 0.0 and n[2] == 0.0:  # lit with the face's normal: no normal gradient
                     pv = (verts[i, 0], verts[i, 1], verts[i, 2])
-                    _reflected_vjp(Hit(pv, _view(cam, pv), gn, 1.0, gn, pv), _row_coefficients(materials, gm),
-                                   materials, gm, L, S, gI, acc, 0, lay)
+                    gr = _reflected_vjp(Hit(pv, _view(cam, pv), gn, 1.0, gn, pv), _row_coefficients(materials, gm),
+                                        materials, gm, L, S, gI, acc, 0, lay)
+                    _point_grads(gvg, i, gr)
                 elif dot(n, gn) < 0.0:  # reflected across the face's plane
                     c = dot(n, gn)
                     nr = (n[0] - 2.0 * c * gn[0], n[1] - 2.0 * c * gn[1], n[2] - 2.0 * c * gn[2])
                     pv = (verts[i, 0], verts[i, 1], verts[i, 2])
                     gr = _reflected_vjp(Hit(pv, _view(cam, pv), gn, 1.0, nr, pv), _row_coefficients(materials, gm),
                                         materials, gm, L, S, gI, acc, 0, lay)
-                    q = 2.0 * dot(gr, gn)
+                    _point_grads(gvg, i, gr)
+                    q = 2.0 * dot(gr[0], gn)
                     for cc in range(3):
-                        gnormals[i, cc] += sg * (gr[cc] - q * gn[cc])
+                        gnormals[i, cc] += sg * (gr[0][cc] - q * gn[cc])
                 else:
                     for cc in range(3):
                         gvert[i, side, cc] += gI[cc]
 
 
 @njit(nogil=True, **JIT)
-def _gouraud_vjp_kernel(gvert, G, vertex_model, materials, cam, L, lay, acc, gnormals, part):
+def _gouraud_vjp_kernel(gvert, G, vertex_model, materials, cam, L, lay, acc, gnormals, gvg, part):
     """Gouraud vertices (the forward pass's point: the vertex, lit with its own normal from the side
     a face needs): ``acc[k]`` += the parameters' gradients, ``gnormals[i]`` += the normal's (each
     vertex in one part only)."""
@@ -241,8 +264,9 @@ def _gouraud_vjp_kernel(gvert, G, vertex_model, materials, cam, L, lay, acc, gno
                 m = vertex_model[i]
                 gr = _reflected_vjp(Hit(p, _view(cam, p), nv, 1.0, nv, p), _row_coefficients(materials, m),
                                     materials, m, L, S, gI, acc, k, lay)
+                _point_grads(gvg, i, gr)
                 for c in range(3):
-                    gnormals[i, c] += sg * gr[c]
+                    gnormals[i, c] += sg * gr[0][c]
 
 
 def _reduce(acc) -> np.ndarray:
@@ -254,13 +278,14 @@ def _reduce(acc) -> np.ndarray:
     return total
 
 
-def frame_vjp(hits, inputs, modes, gimg, geo, want_normals: bool = False):
-    """``dL/dparameters`` (and ``dL/dnormals``) of a frame shaded from ``hits``.
+def frame_vjp(hits, inputs, modes, gimg, geo, want_normals: bool = False, want_geometry: bool = False):
+    """``dL/dparameters`` (and ``dL/dnormals``, ``dL/dvertices``, ``dL/dcamera``) of a frame shaded
+    from ``hits``.
 
     Parameters
     ----------
     hits : HitBuffer
-        The frame's hit buffer (H, W); held fixed.
+        The frame's hit buffer (H, W); each pixel's triangle held fixed.
     inputs : FrameInputs
         The packed inputs the image was (or would be) shaded with; :func:`unsupported` must
         be empty for them.
@@ -272,12 +297,18 @@ def frame_vjp(hits, inputs, modes, gimg, geo, want_normals: bool = False):
         The scene's packed geometry (its ``face_model`` and ``vertex_model``).
     want_normals : bool
         Also the gradient with respect to the packed vertex normals.
+    want_geometry : bool
+        Also the gradients with respect to the packed vertex positions and the camera pose
+        (:mod:`.grad_geometry`, the interior: each pixel's triangle fixed).
 
     Returns
     -------
     params : (R,) float64
         The slots of :func:`~raycast_shade.shading.grad_terms.layout`.
     gnormals : (V, 3) float64 or None
+    gverts : (V, 3) float64 or None
+    gcam : (6,) float64 or None
+        ``dL/deye`` and ``dL/dw`` of the camera's left-multiplied rotation ``w``.
     """
     G, B, L = inputs.geometry, inputs.bumps, inputs.lighting
     mats, cam, face_off = inputs.materials, inputs.cam, inputs.face_off
@@ -285,23 +316,37 @@ def frame_vjp(hits, inputs, modes, gimg, geo, want_normals: bool = False):
     lay = (np.int64(amb), np.int64(lb))
     acc = np.zeros((PARTS, size))
     serial = np.zeros((1, size))
-    nv = G.verts.shape[0]
+    nv, nf = G.verts.shape[0], G.faces.shape[0]
     gnormals = np.zeros((nv, 3))
+    gverts = np.zeros((nv, 3))
+    gcam = np.zeros(6)
     hit = (hits.prim, hits.geom, hits.u, hits.v)
+    gpx = np.zeros(gimg.shape[:2] + (9,) if want_normals or want_geometry else (0, 0, 9))
     if np.any(modes == METHOD_PHONG):
-        gpx = np.zeros(gimg.shape if want_normals else (0, 0, 3))
         launch(_phong_vjp_kernel, hit, G, B, L, face_off, mats, cam, modes, gimg, lay, acc, gpx, parts=PARTS,
                dynamic=True)
         if want_normals:
             _phong_normals_scatter(*hit, G.faces, face_off, modes, gpx, gnormals)
     if np.any(modes == METHOD_FLAT):
-        gface = np.zeros((G.faces.shape[0], 3))
+        gface = np.zeros((nf, 3))
+        gfg = np.zeros((nf if want_geometry else 0, 9))
         _flat_gather(hits.prim, hits.geom, face_off, modes, gimg, gface)
-        launch(_flat_vjp_kernel, gface, G, geo.face_model, mats, cam, L, lay, acc, parts=PARTS, dynamic=True)
+        launch(_flat_vjp_kernel, gface, G, geo.face_model, mats, cam, L, lay, acc, gfg, parts=PARTS, dynamic=True)
+        if want_geometry:
+            faces_scatter(gfg, G, cam, gverts, gcam)
+    vcol = np.zeros((0, 2, 3))
     if np.any(modes == METHOD_GOURAUD):
         gvert = np.zeros((nv, 2, 3))
-        _gouraud_gather(hit, G, L, face_off, mats, cam, modes, gimg, lay, serial, gvert, gnormals)
-        launch(_gouraud_vjp_kernel, gvert, G, geo.vertex_model, mats, cam, L, lay, acc, gnormals, parts=PARTS,
+        gvg = np.zeros((nv if want_geometry else 0, 6))
+        _gouraud_gather(hit, G, L, face_off, mats, cam, modes, gimg, lay, serial, gvert, gnormals, gvg)
+        launch(_gouraud_vjp_kernel, gvert, G, geo.vertex_model, mats, cam, L, lay, acc, gnormals, gvg, parts=PARTS,
                dynamic=True)
+        if want_geometry:
+            points_scatter(gvg, G.verts, cam, gverts, gcam)
+            vcol = np.zeros((nv, 2, 3))
+            launch(vertex_shades_kernel, G, geo.vertex_model, mats, cam, L, vcol, parts=PARTS, dynamic=True)
+    if want_geometry and (np.any(modes == METHOD_PHONG) or np.any(modes == METHOD_GOURAUD)):
+        pixels_scatter(hit, G, L, face_off, mats, cam, modes, gimg, gpx, vcol, gverts, gcam)
     params = serial[0] + _reduce(acc)
-    return params, (gnormals if want_normals else None)
+    return (params, gnormals if want_normals else None, gverts if want_geometry else None,
+            gcam if want_geometry else None)

@@ -59,20 +59,24 @@ def layout(n_models: int, n_lights: int) -> tuple:
 
 @njit(**HELPER)
 def _cosine_vjp(model, n, s, v, ndots):
-    """The lobe's cosine ``c`` (:func:`_phong_cosine` or :func:`_blinn_cosine`) with ``dc/dn``
-    and ``dc/ds`` (3-tuples; zero where Blinn's half vector vanishes)."""
+    """The lobe's cosine ``c`` (:func:`_phong_cosine` or :func:`_blinn_cosine`) with ``dc/dn``,
+    ``dc/ds`` and ``dc/dv`` (3-tuples; zero where Blinn's half vector vanishes). Phong's
+    ``c = 2 (n.s)(n.v) - s.v`` is symmetric in ``s`` and ``v``; Blinn's depends on ``h = s + v``,
+    so ``dc/dv = dc/ds``."""
     if model == MODEL_BLINN:
         c = _blinn_cosine(n, s, v, ndots)
         h = (s[0] + v[0], s[1] + v[1], s[2] + v[2])
         hl = np.sqrt(dot(h, h))
         if not hl > 0.0:
-            return c, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+            return c, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
         u = (h[0] / hl, h[1] / hl, h[2] / hl)
-        return c, u, ((n[0] - c * u[0]) / hl, (n[1] - c * u[1]) / hl, (n[2] - c * u[2]) / hl)
+        dh = ((n[0] - c * u[0]) / hl, (n[1] - c * u[1]) / hl, (n[2] - c * u[2]) / hl)
+        return c, u, dh, dh
     c = _phong_cosine(n, s, v, ndots)
     nv = dot(n, v)
     return (c, (2.0 * (nv * s[0] + ndots * v[0]), 2.0 * (nv * s[1] + ndots * v[1]), 2.0 * (nv * s[2] + ndots * v[2])),
-            (2.0 * nv * n[0] - v[0], 2.0 * nv * n[1] - v[1], 2.0 * nv * n[2] - v[2]))
+            (2.0 * nv * n[0] - v[0], 2.0 * nv * n[1] - v[1], 2.0 * nv * n[2] - v[2]),
+            (2.0 * ndots * n[0] - s[0], 2.0 * ndots * n[1] - s[1], 2.0 * ndots * n[2] - s[2]))
 
 
 @njit(**HELPER)
@@ -140,7 +144,8 @@ def _light_vjp(lights, i, s, d, law, cone, dmin, att_on, g_att, gs):
 @njit(**HELPER)
 def _reflected_vjp(hp, coef, mats, mi, L, S, gI, acc, row, lay):
     """Add ``dL/dparameter`` of the reflectance equation at ``hp`` into ``acc[row]`` and return
-    ``dL/dn`` (3-tuple), for ``gI = dL/dI`` (3-tuple).
+    ``(dL/dn, dL/dp, dL/dv)`` (three 3-tuples: the unit shading normal, the shading point through
+    the lights' directions and distances, the unit view vector), for ``gI = dL/dI`` (3-tuple).
 
     ``hp``, ``coef``, ``mats``, ``mi``, ``L``, ``S`` as for
     :func:`~raycast_shade.shading.illumination._reflected`; ``acc`` (P, R) float64 with the
@@ -156,6 +161,8 @@ def _reflected_vjp(hp, coef, mats, mi, L, S, gI, acc, row, lay):
     t = mats[mi, MAT_SHININESS]
     model = mats[mi, MAT_MODEL]
     gnx = gny = gnz = 0.0
+    gpx = gpy = gpz = 0.0
+    gvx = gvy = gvz = 0.0
     j = np.int64(0)
     for i in range(lights.shape[0]):
         s, d, law, cone = _light_at(lights, i, j, hp.p, dmin, np.bool_(att_on))
@@ -170,7 +177,7 @@ def _reflected_vjp(hp, coef, mats, mi, L, S, gI, acc, row, lay):
         if lights[i, LIGHT_SHADOWS] != 0.0 and handle != 0:  # visibility held fixed: the forward ray
             if _occluded(handle, S, hp.o, hp.g, s, _light_point(lights, i, j), d < np.inf, unit):
                 continue
-        cs, dcdn, dcds = _cosine_vjp(model, n, s, hp.v, ndots)
+        cs, dcdn, dcds, dcdv = _cosine_vjp(model, n, s, hp.v, ndots)
         spec, dspec, dspec_t = _lobe_vjp(cs, t)
         ob = lb + i * GL_SIZE
         w_att = w_nd = w_sp = 0.0
@@ -194,4 +201,11 @@ def _reflected_vjp(hp, coef, mats, mi, L, S, gI, acc, row, lay):
         for c in range(3):
             acc[row, ob + GL_VEC + c] += gq[c]
         acc[row, ob + GL_K] += g_k
-    return gnx, gny, gnz
+        gvx += g_c * dcdv[0]
+        gvy += g_c * dcdv[1]
+        gvz += g_c * dcdv[2]
+        if lights[i, LIGHT_KIND] != LIGHT_DIRECTIONAL:  # s and d depend on q - p only
+            gpx -= gq[0]
+            gpy -= gq[1]
+            gpz -= gq[2]
+    return (gnx, gny, gnz), (gpx, gpy, gpz), (gvx, gvy, gvz)
