@@ -45,10 +45,13 @@ through lens distortion. The kernels are :mod:`raycast_shade.shading.grad_terms`
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from .common.samples import check_samples, sample_offsets
 from .common.layout import CAM_EYE, ATT_HEURISTIC, LIGHT_ATT, LIGHT_DIRECTIONAL, LIGHT_KIND, LIGHT_VEC
+from .common.stack import user_stacklevel
 from .common.validate import as_array, as_bool, as_int, as_names, as_scalar, as_vec3
 from .output.frame import Frame
 from .render import render
@@ -221,6 +224,10 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
     if frame is None and samples == 1:
         frame = render(scene, shading)
     geometry = any(n in GEOMETRY for n in names)
+    if edges and not geometry:
+        warnings.warn(f"edges=True: the edge term moves only the geometry ({', '.join(GEOMETRY)}), and wrt asks "
+                      "for none of it; the gradients are those of edges=False", UserWarning,
+                      stacklevel=user_stacklevel())
     if geometry and scene.camera.distorted:
         raise ValueError("scene.camera: no geometry gradients through lens distortion yet (a pinhole camera has)")
     if samples == 1:

@@ -291,7 +291,7 @@ LEGAL = {
     **{(f, "scale", "None"): "the default display size" for f in ("animate_light", "animate_orbit")},
     ("warmup", "progress", "True"): "a flag",
     ("fit", "keep_images", "True"): "a flag",
-    ("grad", "edges", "True"): "a flag (the edge term of the geometry's gradients; none asked for here)",
+    ("grad", "edges", "True"): "a flag (the edge term of the geometry's gradients; none asked for here: warned)",
     ("grad", "seed", "0"): "a seed",
     ("diagnose", "camera", "None"): "the scene's own camera",
     ("Camera.fit", "margin", "0"): "no margin: the extreme point touches the frame",

@@ -167,3 +167,14 @@ def test_samples_average_the_sub_pixel_gradients(weights):
     assert g["kd"][0, 0] == pytest.approx(fd, rel=1e-3)
     one = rs.grad(scene, weights, ("kd",))["kd"][0, 0]  # the pixel centres' differs: the samples count
     assert abs(one - fd) > 1e-3 * abs(fd)
+
+
+def test_edges_without_geometry_say_they_change_nothing():
+    """edges=True only moves vertices and the camera: asked with shading parameters alone, a warning
+    names that, and the gradients are edges=False's."""
+    scene = _sphere()
+    weights = np.ones((scene.camera.height, scene.camera.width, 3))
+    plain = rs.grad(scene, weights, ("kd",))
+    with pytest.warns(UserWarning, match=r"edges=True: the edge term moves only the geometry"):
+        with_edges = rs.grad(scene, weights, ("kd",), edges=True)
+    np.testing.assert_array_equal(with_edges["kd"], plain["kd"])
