@@ -23,7 +23,9 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
+import warnings
 
+from ..common.stack import user_stacklevel
 from ..common.validate import as_bool, as_choice, as_int, as_names, as_scalar
 from ..output.bop import BOP_SPLIT, check_bop, write_bop
 from ..output.export import COLMAP_FILES, check_colmap, check_transforms, place_file, write_colmap, write_transforms
@@ -33,7 +35,7 @@ from ..output.labels import coco_instances, write_coco
 from .viewmotion import FLOW_INDEX, write_flow
 
 __all__ = ["EXPORTS", "EXPORT_FILES", "LABELS_NAME", "ExportOptions", "check_set_options", "check_set_targets",
-           "set_level_files", "write_exports", "add_export_arguments", "export_options_of"]
+           "set_level_files", "warn_stale_folders", "write_exports", "add_export_arguments", "export_options_of"]
 
 EXPORTS = ("coco", "nerfstudio", "colmap", "bop", "amodal", "flow")
 LABELS_NAME = "labels.json"
@@ -144,6 +146,19 @@ def check_set_options(exports, files, unoccluded, overwrite, scene, cameras, opt
     if "instance_png" in formats:
         label_bits(len(scene.models), "formats: 'instance_png'")
     return exports, compression, formats, unoccluded, options
+
+
+def warn_stale_folders(out_dir: str, exports) -> None:
+    """Warn about export folders (``colmap/``, ``bop/``, ``amodal/``, ``flow/``) in ``out_dir`` that this set
+    does not write: an earlier run's files, which the index no longer lists (``overwrite`` replaces the
+    set's own files, never a folder's contents)."""
+    stale = [k for k in _FOLDERS if k not in exports and os.path.isdir(os.path.join(out_dir, k))
+             and os.listdir(os.path.join(out_dir, k))]
+    if stale:
+        warnings.warn(f"out_dir: {', '.join(k + '/' for k in stale)} in {out_dir} hold an earlier run's "
+                      f"{', '.join(stale)} export, which this set does not write (its index does not list "
+                      "them); delete the folder(s) if they are not wanted", UserWarning,
+                      stacklevel=user_stacklevel())
 
 
 def check_set_targets(out_dir: str, exports, cameras, view_names: dict, set_names) -> None:

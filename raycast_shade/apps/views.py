@@ -53,7 +53,9 @@ every file it lists is there with its size and digest (a 0-byte or
 truncated file is rendered again). A folder that holds another plan (other
 cameras, another size, other buffers, ...) or view files without a plan is
 refused with a message saying what differs, before anything is written;
-``overwrite=True`` replaces it, keeping only the views that match. Each
+``overwrite=True`` replaces it, keeping only the views that match (an export
+folder this set does not write, such as an earlier run's ``flow/``, stays, with a
+warning naming it). Each
 file is written atomically, so a killed run, run again, finishes the set
 with the bytes a single run writes. At most two views' buffers are in
 memory per worker (one written while the next renders, where two frames fit
@@ -82,7 +84,7 @@ from .batch.plan import plan_batch
 from .batch.pool import ProcessPool, cores
 from .batch.run import RunOptions, merge_keywords
 from .viewexports import (EXPORT_FILES, EXPORTS, ExportOptions, add_export_arguments, check_set_options, check_set_targets,
-                          export_options_of, set_level_files, write_exports)
+                          export_options_of, set_level_files, warn_stale_folders, write_exports)
 from .viewfiles import COMPRESSIONS, FORMATS, PNG_FORMATS, ViewFiles, format_buffers, png_format_bytes, view_files
 from .viewmotion import fresh_scene, model_poses, moving_models, plan_motion
 from .viewslots import ViewSlots, view_conventions
@@ -458,6 +460,7 @@ def render_views(scene, cameras, out_dir, *, files: ViewFiles | None = None, run
     os.makedirs(out_dir, exist_ok=True)
     set_files = [INDEX_NAME] + set_level_files()
     prepare_folder(out_dir, plan, bool(overwrite), set_files)
+    warn_stale_folders(out_dir, exports)
     set_level = [INDEX_NAME, PLAN_NAME] + [n for n in set_level_files() if os.sep not in n]
     remove_stale_temps(out_dir, [n for files in all_files.values() for n in files.values()] + set_level)
     _run_set(run, on_dask, bases, jobs, spec, set(moving_models(poses)))

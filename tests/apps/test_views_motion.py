@@ -196,3 +196,22 @@ def test_a_single_render_says_it_does_not_apply_motion_tables(tmp_path):
         warnings.simplefilter("error", rs.DroppedOnLoadWarning)
         plain = rs.render_file(tmp_path / "still.toml")
     assert np.array_equal(frame.image, plain.image)  # drawn as placed, as the warning says
+
+
+def test_an_overwrite_without_the_flow_export_names_the_earlier_flow_folder(tmp_path):
+    """The flow files of an earlier run stay (overwrite replaces the set's own files); the run that no
+    longer exports flow says so, naming the folder, and a run that exports it again does not."""
+    scene = _scene()
+    cams = _cameras(scene)[:2]
+    files = rs.ViewFiles(buffers=("zdepth",), formats=("npz",), compression="none")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        rs.render_views(scene, cams, tmp_path, files=files, exports=("flow",))
+    assert any(n.endswith(".flo") for n in os.listdir(tmp_path / "flow"))
+    with pytest.warns(UserWarning, match=r"flow/ in .* hold an earlier run's flow export, which this set does not "
+                                         r"write"):
+        rs.render_views(scene, cams[::-1], tmp_path, files=files, overwrite=True)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        rs.render_views(scene, cams, tmp_path, files=files, overwrite=True, exports=("flow",))
+    assert not [w for w in caught if "earlier run" in str(w.message)]
