@@ -31,6 +31,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numba
 from numba import njit
+from .inline import inline_jit
 
 __all__ = ["share", "launch", "parts", "in_parts", "InParts", "SERIAL", "KERNEL"]
 
@@ -42,7 +43,7 @@ _lock = threading.Lock()
 _pools: dict[int, ThreadPoolExecutor] = {}  # one pool per process, made on first use
 
 
-@njit(cache=True, forceinline=True, _nrt=False)
+@inline_jit(cache=True, forceinline=True, _nrt=False)
 def share(n, part):
     """Iterations ``lo .. hi`` of ``0 .. n`` that ``part = (k, parts)`` runs.
 
