@@ -5,10 +5,10 @@ Python object: for a helper given tuples of arrays and records, more code than t
 own) and a C-callable wrapper, lowers both, optimises them and emits their machine code. A
 helper that the kernels inline (``forceinline``) is never entered through either: on the
 demo's first picture from an empty kernel cache the two wrappers of the inline helpers cost
-about a fifth of the compile CPU (55.0 s -> 43.9 s, 2026-12-05, 2-core AVX2 machine; see the
-CHANGELOG). :func:`inline_jit` compiles a helper without them.
+a fifth of the compile CPU (51.4 -> 41.0 s and 55.7 -> 44.5 s, side by side, 2026-12-05, 2-core
+AVX2 machine; see the CHANGELOG). :func:`inline_jit` compiles a helper without them.
 
-A Python call of such a helper (the tests, an explanation re-deriving a pixel) still works:
+A Python call of such a helper (the tests and benchmarks make some) still works:
 it runs a twin of the same function compiled with its wrappers (:meth:`InlineDispatcher.python`),
 cached on disk under a name of its own, so the wrapperless build is never entered from Python.
 """
