@@ -36,8 +36,9 @@ from .inline import inline_jit
 __all__ = ["share", "launch", "parts", "in_parts", "InParts", "SERIAL", "KERNEL"]
 
 SERIAL = (0, 1)  # the whole loop in the calling thread
-# The flags of a kernel in parts: its compiled code releases the GIL so that parts run at once.
-KERNEL = dict(cache=True, nogil=True)
+# The flags of a kernel in parts: its compiled code releases the GIL so that parts run at once; no
+# C wrapper (nothing takes a kernel's address: Python calls it through its CPython wrapper).
+KERNEL = dict(cache=True, nogil=True, no_cfunc_wrapper=True)
 
 _lock = threading.Lock()
 _pools: dict[int, ThreadPoolExecutor] = {}  # one pool per process, made on first use
