@@ -33,12 +33,14 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numba
 from numba import njit
+from .inline import inline_jit
 
 __all__ = ["share", "launch", "parts", "in_parts", "InParts", "SERIAL", "KERNEL"]
 
 SERIAL = (0, 1)  # the whole loop in the calling thread
-# The flags of a kernel in parts: its compiled code releases the GIL so that parts run at once.
-KERNEL = dict(cache=True, nogil=True)
+# The flags of a kernel in parts: its compiled code releases the GIL so that parts run at once; no
+# C wrapper (nothing takes a kernel's address: Python calls it through its CPython wrapper).
+KERNEL = dict(cache=True, nogil=True, no_cfunc_wrapper=True)
 # Parts a thread of a default launch (more than one thread): with one part a thread, a thread
 # that shares its core with another process finished its half at half speed while the caller
 # waited (2 threads as slow as 1, or slower); with 4, the caller takes the parts that thread
@@ -49,7 +51,7 @@ _lock = threading.Lock()
 _pools: dict[int, ThreadPoolExecutor] = {}  # one pool per process, made on first use
 
 
-@njit(cache=True, forceinline=True, _nrt=False)
+@inline_jit(cache=True, forceinline=True, _nrt=False)
 def share(n, part):
     """Iterations ``lo .. hi`` of ``0 .. n`` that ``part = (k, parts)`` runs.
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from ..common.inline import inline_jit
 
 from ..common.layout import BUMP_CLAMP, BUMP_COLS, BUMP_OFFSET, BUMP_ROWS, BUMP_SCALE, BUMP_TILE_U, BUMP_TILE_V
 from .jit import HELPER
@@ -18,7 +18,7 @@ from .jit import HELPER
 __all__ = []
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _texel_corners(rows, cols, clamp, x, y):
     """The four texels around texel coordinates (x, y) (centres at integers) of a
     ``rows`` x ``cols`` grid, clamped to its border or wrapped, and the weights'
@@ -52,7 +52,7 @@ def _texel_corners(rows, cols, clamp, x, y):
     return i0, i1, j0, j1, tx, ty
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _bilinear(tex, base, rows, cols, clamp, x, y):
     """Bilinear sample at texel coordinates (x, y) (texel centres at integers)."""
     i0, i1, j0, j1, tx, ty = _texel_corners(rows, cols, clamp, x, y)
@@ -61,7 +61,7 @@ def _bilinear(tex, base, rows, cols, clamp, x, y):
     return a * (1.0 - ty) + b * ty
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _bump(n, B, at, tri, front):
     """Blinn's perturbed normal N' = N + (Bu (N x Pv) - Bv (N x Pu)) / |N|,
     with N = n |Pu x Pv| along the (oriented) unit shading normal ``n`` (3-tuple).

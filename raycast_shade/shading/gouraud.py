@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+from ..common.inline import inline_jit
 
 from ..common.parallel import in_parts, share
 from ..common.layout import COLOR_VERTEX, MAT_KA_COLORS, METHOD_GOURAUD
@@ -43,7 +44,7 @@ _DIFFUSE_ONLY = (0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)  # 
 _SPECULAR_ONLY = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0)  # path's two passes
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _corner_normal(normals, i, side, g):
     """Vertex ``i``'s normal as lit from ``side`` (0 front, 1 back: negated) of a face whose
     viewer-facing geometric normal is ``g``, and whether the stored vertex shade serves.
@@ -62,14 +63,14 @@ def _corner_normal(normals, i, side, g):
     return n, True
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _vertex_point(verts, cam, i):
     """Vertex ``i`` and the unit vector from it to the eye."""
     p = (verts[i, 0], verts[i, 1], verts[i, 2])
     return p, _view(cam, p)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _corner_shade(vcol, G, i, side, g, materials, m, cam, L, S, coef, spec_on, att_on):
     """A vertex's Gouraud shade for a face seen from ``side`` with geometric normal ``g``:
     the stored one, or shaded on the spot (:func:`_corner_normal`). ``G``, ``L`` as in
@@ -82,7 +83,7 @@ def _corner_shade(vcol, G, i, side, g, materials, m, cam, L, S, coef, spec_on, a
     return _illuminate_call(Hit(p, v, g, 1.0, n, p), coef, materials, m, L, S, spec_on, att_on)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _vertex_kd(materials, m, cmode, vcolors, i, tex_on):
     """The coefficients a vertex is shaded with: the row's, kd its colour if it has one (and ka
     scaled by it with the row's ka-colours flag)."""
@@ -95,7 +96,7 @@ def _vertex_kd(materials, m, cmode, vcolors, i, tex_on):
     return kar, kag, kab, kdr, kdg, kdb, ksr, ksg, ksb, ker, keg, keb
 
 
-@njit(**CALLED)
+@inline_jit(**CALLED)
 def _split_shade(hp, materials, m, L, S, spec_on, att_on):
     """A vertex's diffuse and specular light apart (kd = 1, ks = 1, no ambient), for the
     "modulate" path: ``(diffuse rgb, specular rgb)``. Two evaluations, so shadow rays are
@@ -107,7 +108,7 @@ def _split_shade(hp, materials, m, L, S, spec_on, att_on):
     return diffuse, specular
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _corner_split(vcol, vspec, G, i, side, g, materials, m, cam, L, S, spec_on, att_on):
     """:func:`_corner_shade` for the modulate path: diffuse and specular light."""
     verts, normals, _, _ = G
@@ -119,7 +120,7 @@ def _corner_split(vcol, vspec, G, i, side, g, materials, m, cam, L, S, spec_on, 
     return _split_shade(Hit(p, v, g, 1.0, n, p), materials, m, L, S, spec_on, att_on)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _stored_pixel(vcol, tri, side, b1, b2, image, y, x):
     """A pixel of a face whose corners' stored shades serve: their shades from ``side``
     interpolated into ``image[y, x]`` (as the general pixel does); returns the weights."""
@@ -137,7 +138,7 @@ def prefetch_distance(faces, vcol) -> int:
     return _AHEAD if beyond_caches(faces, vcol) else 0
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _prefetch_pixel(prim, geom, face_off, faces, vcol, y, x, ahead):
     """On a mesh beyond the caches, the rows the pixel ``ahead`` columns on will read: its
     face's vertex indices now, and the vertex shades of the pixel half as far on (whose face
@@ -198,7 +199,7 @@ def _make_vertices(tex_on: bool = False):
     return _shade_vertices_kernel
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _modulate(vcol, vspec, G, at, side, g, materials, cam, L, S, coef, spec_on, att_on):
     """A modulate-path pixel at hit ``at``: ``Ia ka + D kd + S ks + ke``, with the corners'
     diffuse light ``D`` and specular light ``S`` interpolated and the pixel's own

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+from ..common.inline import inline_jit
 
 from ..common.parallel import in_parts, share
 from ..common.layout import CAM_EYE, CAM_ORTHO
@@ -43,7 +44,7 @@ _PLANES = "shading.gouraud_planes"  # the geometry's memo key
 _LO, _HI, _SCALE, _SERVED = 0, 1, 2, 3  # face_planes' columns
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _near_face(b1, b2):
     """Whether the weights ``(1 - b1 - b2, b1, b2)`` lie within :data:`_NEAR` of the triangle:
     then the pixel sees its face from the face's side, when that is certain."""
@@ -102,7 +103,7 @@ def face_planes(geo) -> np.ndarray:
     return build()  # a twin geometry (copy.copy) with arrays of its own: not kept
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _face_side(fnormals, planes, cam, f):
     """The side (0 front, 1 back) from which every near-face pixel of face ``f`` sees it, or -1
     where that is not certain (see the module docstring). An orthographic view's side is the

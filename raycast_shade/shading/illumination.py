@@ -34,7 +34,7 @@ laws and models it declares (``phong_fast.HANDLES``); every other frame comes he
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from ..common.inline import inline_jit
 
 from ..common.layout import (AREA_DISC, ATT_HEURISTIC, ATT_INVERSE_SQUARE, LIGHT_AREA, LIGHT_ATT, LIGHT_AXIS,
                              LIGHT_COS_INNER, LIGHT_COS_OUTER, LIGHT_DIRECTIONAL, LIGHT_EDGE_U, LIGHT_EDGE_V,
@@ -52,7 +52,7 @@ __all__ = ["GOLDEN"]
 GOLDEN = 0.6180339887498949  # the golden ratio's fractional part: the sample lattice's second axis
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _spot_factor(lights, i, s):
     """Warn's factor of spot light ``i`` for the unit direction ``s`` from the
     point towards the light: ``cos^n a`` times the smooth step from the outer
@@ -71,13 +71,13 @@ def _spot_factor(lights, i, s):
     return f
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _samples(lights, i):
     """How many point samples light ``i`` is evaluated at (1 but for an area light's N)."""
     return max(1, int(lights[i, LIGHT_SAMPLES]))
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _light_point(lights, i, j):
     """Where sample ``j`` of light ``i`` is: its position, or for an area light the ``j``-th point
     of a rank-1 lattice over the emitter (``((j + 1/2) / N, frac(j phi + 1/2))`` in the unit
@@ -104,7 +104,7 @@ def _light_point(lights, i, j):
             cz + a * lights[i, LIGHT_EDGE_U + 2] + b * lights[i, LIGHT_EDGE_V + 2])
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _light_at(lights, i, j, p, dmin, att_on):
     """Sample ``j`` of light ``i`` (a row of ``lights``, any kind) seen from point ``p``.
 
@@ -175,7 +175,7 @@ def _illuminate_py(hp, coef, mats, mi, L, S, spec_on, att_on):
     return _reflected(hp, coef, mats, mi, L, S, L.no_vis, np.int64(-1), spec_on, att_on, None, 0, 0)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _reflected(hp, coef, mats, mi, L, S, vis, lane, spec_on, att_on, R, y, x):
     """The reflectance equation at ``hp`` (see the module docstring): the RGB reflected towards
     ``hp.v`` plus the emission.
@@ -263,10 +263,10 @@ def _reflected(hp, coef, mats, mi, L, S, vis, lane, spec_on, att_on, R, y, x):
     return r + ker, g + keg, b + keb
 
 
-_illuminate = njit(**HELPER)(_illuminate_py)
+_illuminate = inline_jit(**HELPER)(_illuminate_py)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _request_shadows(P, k, hp, L):
     """Ask for lane ``k``'s shadow rays in the packets ``P = (buf, ib, off, valid, voff)``
     (:mod:`.shadows`): one per light that :func:`_reflected` would trace a ray for at ``hp``
@@ -285,7 +285,7 @@ def _request_shadows(P, k, hp, L):
         request_ray(P, i, k, hp.o, hp.g, s, _light_point(lights, i, j), d < np.inf, unit)
 
 
-@njit(**CALLED)
+@inline_jit(**CALLED)
 def _illuminate_call(hp, coef, mats, mi, L, S, spec_on, att_on):
     """:func:`_illuminate` as a call, for rare fallback branches: inlining it there would
     multiply the hot loop's code. (A function of its own: two dispatchers of one Python

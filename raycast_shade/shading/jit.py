@@ -26,7 +26,11 @@ import numpy as np
 
 __all__ = ["JIT", "HELPER", "CALLED", "FLT32_MAX", "CHUNK", "VARIANT_FLAGS", "compile_variants", "variant"]
 
-JIT = dict(cache=True, error_model="numpy", fastmath={"nsz", "arcp", "contract", "afn", "reassoc"})
+# No C wrapper (``no_cfunc_wrapper``): Numba builds one per function for callers that take its
+# address (``cfunc``-style, first-class function values); the kernels are called from Python or
+# inlined, never so. Building, optimising and emitting it cost 5% of the demo's cold first picture.
+JIT = dict(cache=True, error_model="numpy", fastmath={"nsz", "arcp", "contract", "afn", "reassoc"},
+           no_cfunc_wrapper=True)
 # The helpers the kernels call per pixel. Numba's own inlining (inline="always") re-ran each
 # helper's front end at every call site, and the parfor passes then worked on the whole
 # inlined body twice: most of the cold start. Instead each helper compiles once, and LLVM

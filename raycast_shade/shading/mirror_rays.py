@@ -13,9 +13,10 @@ from __future__ import annotations
 
 import numpy as np
 from llvmlite import ir
-from numba import njit, types
+from numba import types
 from numba.extending import intrinsic
 
+from ..common.inline import inline_jit
 from ..common.layout import MAT_REFLECTIVITY
 from .jit import HELPER
 from .lanes import _A, _FN, _G, _N, _P, _V, LANES
@@ -46,7 +47,7 @@ def _from_bits(typingctx, b):
     return types.float64(types.int64), codegen
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _odd(p):
     """Whether :func:`_offset` leaves coordinate ``p`` to ``_nudge`` (exponent bits of a subnormal
     step, inf or NaN), given that ``p`` is not near zero (shared by :func:`lane_rays`' redo)."""
@@ -54,7 +55,7 @@ def _odd(p):
     return e < 16 or e == 0x7FF
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _offset(p, n, unit):
     """:func:`~raycast_shade.shading.shadows._nudge`, bit for bit, with its step read off
     ``p``'s exponent bits instead of ``frexp`` and ``ldexp`` (two library calls a coordinate,
@@ -71,7 +72,7 @@ def _offset(p, n, unit):
     return p + n * step  # one expression for both steps, contracted as _nudge's (an exact product or not)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _mirror_ray(hp, unit):
     """The mirror ray of shading point ``hp`` (:class:`~raycast_shade.shading.records.Hit`):
     the incoming direction ``d = -v`` reflected about ``n``, ``r = d - 2 (d.n) n``, kept above
@@ -85,7 +86,7 @@ def _mirror_ray(hp, unit):
     return (_offset(p[0], g[0], unit), _offset(p[1], g[1], unit), _offset(p[2], g[2], unit)), r
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def store_ray(rays, y, x, ray):
     """Hand over pixel ``(y, x)``'s mirror ray ``ray = (origin, direction)`` in ``rays = (org, dr)``
     ((R, W, 3) float32 and float64). The origin goes to Embree as float32 anyway (rounded once, here
@@ -98,7 +99,7 @@ def store_ray(rays, y, x, ray):
         dr[y, x, c] = r[c]
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def hand_over(rays, y, x, hp, rho, unit):
     """In a general Phong kernel: pixel ``(y, x)``'s mirror ray from its shading point ``hp`` into
     ``rays`` when its surface reflects (``rho > 0``) and the frame hands rays over (``rays`` is not
@@ -107,7 +108,7 @@ def hand_over(rays, y, x, hp, rho, unit):
         store_ray(rays, y, x, _mirror_ray(hp, unit))
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def lane_rays(S, n, unit):
     """The first ``n`` lanes' :func:`_mirror_ray` from the batched Phong kernel's scratch ``S``
     (:mod:`.lanes`, once :func:`.phong_fast._geometry` has run): each origin into field ``_A``, each
@@ -141,7 +142,7 @@ def lane_rays(S, n, unit):
                 S[(_A + j) * LANES + k] = _offset(p, S[(_G + j) * LANES + k], unit)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def hand_over_lanes(S, XY, n, materials, unit, rays):
     """In the batched Phong kernel, once a batch is shaded: the mirror rays (:func:`lane_rays`) of
     its first ``n`` lanes whose surface reflects (lane ``k``: pixel ``(XY[k], XY[LANES + k])``,

@@ -24,6 +24,7 @@ import functools
 
 import numpy as np
 from numba import njit
+from ..common.inline import inline_jit
 
 from ..common.parallel import in_parts, share
 from ..common.layout import MAT_REFLECTIVITY
@@ -61,7 +62,7 @@ _AHEAD_FACES = 4
 _AHEAD_VERTS = 2
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _prefetch_tile(prim, geom, G, face_off, ya, yb, x0, x1, deep):
     """Prefetch what :func:`_start_lane` gathers for the hit pixels of rows ``ya .. yb`` and
     columns ``x0 .. x1``: their faces' rows, or (``deep``, once the faces have arrived) their
@@ -88,7 +89,7 @@ def _prefetch_tile(prim, geom, G, face_off, ya, yb, x0, x1, deep):
 _PLAIN = dict(cache=True, forceinline=True, _nrt=False)
 
 
-@njit(**_PLAIN)
+@inline_jit(**_PLAIN)
 def _keep_pixel(image, y, x, rho):
     """``image[y, x] *= float32(1 - rho)``: a mirror pixel keeps ``1 - rho`` of its local shade."""
     keep = np.float32(1.0 - rho)
@@ -96,7 +97,7 @@ def _keep_pixel(image, y, x, rho):
         image[y, x, c] = image[y, x, c] * keep
 
 
-@njit(**_PLAIN)
+@inline_jit(**_PLAIN)
 def _add_pixel(image, y, x, weight, c0, c1, c2):
     """``image[y, x] = float32(min(image[y, x] + weight colour, FLT32_MAX))``, in float64."""
     image[y, x, 0] = min(np.float64(image[y, x, 0]) + weight * c0, FLT32_MAX)
@@ -104,7 +105,7 @@ def _add_pixel(image, y, x, weight, c0, c1, c2):
     image[y, x, 2] = min(np.float64(image[y, x, 2]) + weight * c2, FLT32_MAX)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _start_lane(hits, G, B, materials, face_off, cam, unit, image, y, x, lanes):
     """Pixel ``(y, x)`` of ``hits`` as the next lane of ``lanes`` = ``(n, ys, xs, weight, org,
     dr, act)`` when its surface reflects (its mirror ray, weight ``rho``, its local shade
@@ -120,7 +121,7 @@ def _start_lane(hits, G, B, materials, face_off, cam, unit, image, y, x, lanes):
     return _add_lane(image, y, x, materials[gm, MAT_REFLECTIVITY], ray, lanes)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _add_lane(image, y, x, rho, ray, lanes):
     """Pixel ``(y, x)`` as lane ``n`` of ``lanes = (n, ys, xs, weight, org, dr, act)``: its mirror
     ``ray = (origin, direction)``, weight ``rho``, its local shade scaled by ``1 - rho``. Returns
@@ -141,7 +142,7 @@ def _add_lane(image, y, x, rho, ray, lanes):
 _GROUP = _BATCH // _LANES  # tiles whose lanes _start_group starts together: one batch of the Phong passes
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _start_group(hits, G, materials, face_off, cam, unit, image, box, F):
     """The reflective pixels of the :data:`_GROUP` tiles of rows ``box[0] .. box[1] - 1`` from column
     ``box[2]`` (to ``box[3]``), tile after tile, as :func:`_start_lane` starts them, bit for bit, for
@@ -179,7 +180,7 @@ def _start_group(hits, G, materials, face_off, cam, unit, image, box, F):
     lane_rays(S, n, unit)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _take_tile(F, j, lanes):
     """Tile ``j`` of the group :func:`_start_group` started, as the lanes of ``lanes = (n, ys, xs,
     weight, org, dr, act)`` from 0 (as :func:`_start_lane` fills them). Returns the lanes filled."""
@@ -200,7 +201,7 @@ def _take_tile(F, j, lanes):
     return n
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _take_handed(hits, materials, image, rays, box, lanes):
     """The reflective pixels of rows ``box[0] .. box[1] - 1`` and columns ``box[2] .. box[3] - 1`` (a
     tile) as the lanes of ``lanes = (n, ys, xs, weight, org, dr, act)`` from 0, as :func:`_start_lane`
@@ -223,7 +224,7 @@ def _take_handed(hits, materials, image, rays, box, lanes):
     return n
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _prefetch_ahead(prim, geom, G, face_off, rows, w, tx, batched):
     """Prefetch the gathers of the tiles ahead of tile ``tx`` (rows ``rows = (ya, yb)``) so that their
     cache misses overlap: faces :data:`_AHEAD_FACES` tiles ahead, then (``deep``) their vertices

@@ -16,7 +16,7 @@ hemisphere of the geometric normal). Sampled bilinearly at level 0 of the map.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from ..common.inline import inline_jit
 
 from .jit import HELPER
 from .records import reflect_into
@@ -25,7 +25,7 @@ from .texture import _sample_level
 __all__ = []
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _normal_map(n, B, normals, at, tri, g, sgn):
     """``n`` (the oriented unit shading normal, 3-tuple) bent by the model's normal map,
     or ``n`` itself when the model has none. ``B`` is the height-map tuple of

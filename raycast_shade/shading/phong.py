@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+from ..common.inline import inline_jit
 
 from ..common.parallel import in_parts, share
 from ..common.layout import MAT_REFLECTIVITY, METHOD_PHONG
@@ -45,7 +46,7 @@ from .texture import _point_coefficients, _row_coefficients
 __all__ = []
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _surface(G, B, cam, at, use_dir, d):
     """The shading point of hit ``at`` (:class:`~raycast_shade.shading.records.At`).
 
@@ -70,7 +71,7 @@ def _surface(G, B, cam, at, use_dir, d):
     return Hit(p, v, g, sgn, n, p)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _shade_surface(G, B, L, S, materials, cam, at, use_dir, d, coef, spec_on, att_on):
     """Phong shading of hit ``at``: ``(rgb, hp)``, the colour and the shading point
     (:class:`~raycast_shade.shading.records.Hit`, for mirrors).
@@ -82,7 +83,7 @@ def _shade_surface(G, B, L, S, materials, cam, at, use_dir, d, coef, spec_on, at
     return _illuminate(hp, coef, materials, at.gm, L, S, spec_on, att_on), hp
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _shading_point(G, B, L, cam, at, use_dir, d):
     """:func:`_surface`'s point with its shadow origin past the terminator when shadow rays will
     be traced (``L`` has a scene handle)."""

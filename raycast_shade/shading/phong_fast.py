@@ -50,6 +50,7 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+from ..common.inline import inline_jit
 
 from ..common.parallel import in_parts, share
 from ..common.layout import (ATT_HEURISTIC, ATT_INVERSE_SQUARE, ATT_NONE, CAM_EYE, CAM_FORWARD, CAM_ORTHO,
@@ -107,7 +108,7 @@ def applies(modes, k) -> bool:
             and all(float(c) in HANDLES["models"] for c in k.materials[phong, MAT_MODEL]))
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _gather(S, XY, n, G, ahead):
     """The queued lanes' points, interpolated (not yet renormalised) normals and face normals:
     lane ``k``'s hit on face ``XY[3 * LANES + k]`` at ``(_B1, _B2)`` (surface._hit_point,
@@ -139,7 +140,7 @@ def _gather(S, XY, n, G, ahead):
             S[(_FN + c) * LANES + k] = fnormals[fu, c]
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _material(S, lo, hi, materials, gm):
     """Fill lanes ``lo`` to ``hi - 1`` with model ``gm``'s material row: its coefficients, its whole
     shininess (0 where ``pow`` serves, as illumination._power decides), the shininess itself,
@@ -160,7 +161,7 @@ def _material(S, lo, hi, materials, gm):
             S[(_SHN + j) * LANES + k] = value
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _geometry(S, cam, ambient):
     """Per lane: the point, the view vector, the geometric normal turned to it, the rescaled
     interpolated normal (``_A``; the geometric normal where it cancels) and the ambient term."""
@@ -224,7 +225,7 @@ def _geometry(S, cam, ambient):
         S[(_N + 2) * LANES + k] = _pick(below, az - 2.0 * c * gz, az)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _direction(S, lights, i, dmin, att_on):
     """Light ``i``'s unit direction, distance and attenuation (times a spot's cone) per lane
     (illumination._light_at)."""
@@ -269,7 +270,7 @@ def _direction(S, lights, i, dmin, att_on):
                 S[_D * LANES + k] = 0.0  # outside the cone: unlit, as a light on the point
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _cosines(S, spec_on, phong, blinn):
     """Per lane: ``n . s`` (clamped to 1), whether the light counts (``_LIT``), and the specular
     cosines of the models the batch uses (reflectance: Phong's ``_CP``, Blinn-Phong's ``_CB``)."""
@@ -296,7 +297,7 @@ def _cosines(S, spec_on, phong, blinn):
             S[_CB * LANES + k] = _pick(hl > 0.0, c, 0.0)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _origins(S, XY, G):
     """Per lane the shadow rays' origin ``_O``: the point lifted past the terminator as
     surface._terminator_point lifts it (phong._shading_point with shadow rays), the same operations
@@ -330,7 +331,7 @@ def _origins(S, XY, G):
         S[(_O + 2) * LANES + k] = qz
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _shadow_pass(S, n, lights, i, handle, unit, Q):
     """Light ``i``'s shadow rays from the queued lanes it lights (``_LIT`` 1: in its cone, not on
     the point, ``n . s > 0``: the rays the general kernel traces) as ``rtcOccluded16`` packets, 16
@@ -361,7 +362,7 @@ def _shadow_pass(S, n, lights, i, handle, unit, Q):
             S[_LIT * LANES + k] = _pick(vis[j, q] == 1, 0.0, S[_LIT * LANES + k])
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _specular(S, nbits, any_pow):
     """Per lane the specular factor ``max(c, 0)^t`` into ``_PW`` (0 without a specular term):
     repeated squaring, one pass per bit of the largest whole shininess (illumination._power)."""
@@ -385,7 +386,7 @@ def _specular(S, nbits, any_pow):
                 S[_PW * LANES + k] = min(c, 1.0) ** t
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _add_terms(S, k, c, ar, nd, spec, lit):
     """Lane ``k``'s channel ``c``: ``_TD += ar (kd n.s)``, ``_TS += ar (Ks spec)`` where ``lit``."""
     td = S[(_TD + c) * LANES + k]
@@ -394,7 +395,7 @@ def _add_terms(S, k, c, ar, nd, spec, lit):
     S[(_TS + c) * LANES + k] = ts + ar * (S[(_KS + c) * LANES + k] * spec) if lit else ts
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _accumulate(S, lights, i, terms):
     """Add light ``i``'s ``att Ii (kd n.s + Ks spec)`` to the lanes it lights; ``terms`` (a constant of
     the kernel): also ``att Ii (kd n.s)`` to ``_TD`` and ``att Ii (Ks spec)`` to ``_TS``, as the evaluator."""
@@ -422,7 +423,7 @@ def _accumulate(S, lights, i, terms):
             _add_terms(S, k, 2, att * r2, nd, spec, lit)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _shade_batch(S, XY, n, G, L, cam, Q, spec_on, att_on, shadows_on, terms):
     """Shade the lanes (``n`` of them queued, the rest an earlier batch's or zeros); with
     ``shadows_on`` (a scene handle), the lights that cast shadows trace them (:func:`_shadow_pass`);
@@ -454,7 +455,7 @@ def _shade_batch(S, XY, n, G, L, cam, Q, spec_on, att_on, shadows_on, terms):
         _accumulate(S, lights, i, terms)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _flush(S, XY, n, mixed, filled, materials, G, L, cam, outs, Q, spec_on, att_on, shadows_on, terms):
     """Fill the material fields (once for a batch of one model that the lanes already hold),
     shade the batch and write it (``outs = (image, normal)``; with ``terms``, the kernel writes the
@@ -471,7 +472,7 @@ def _flush(S, XY, n, mixed, filled, materials, G, L, cam, outs, Q, spec_on, att_
     return filled
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _scatter(S, XY, n, outs):
     """Write the first ``n`` lanes' colours (plus emission) and shading normals (:func:`store_pixel`)."""
     for k in range(n):
@@ -481,7 +482,7 @@ def _scatter(S, XY, n, outs):
                     (S[(_N + 0) * LANES + k], S[(_N + 1) * LANES + k], S[(_N + 2) * LANES + k]))
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _scatter_terms(S, XY, n, R, y0, ambient):
     """Write the first ``n`` lanes' terms to the terms record ``R`` at rows ``y0 + y``: ambient
     ``Ia ka``, the summed diffuse and specular parts, the emission (with ``emit_on``), a zero

@@ -31,7 +31,7 @@ from __future__ import annotations
 from collections import namedtuple
 
 import numpy as np
-from numba import njit
+from ..common.inline import inline_jit
 
 from .jit import FLT32_MAX, HELPER
 
@@ -70,7 +70,7 @@ TERM_SLOTS = ("ambient", "diffuse", "specular", "emissive", "background")
 TERMS_EACH, TERMS_SHADOW, TERMS_EMIT_ON, TERMS_BG_ON, TERMS_BACKGROUND_RGB = 5, 6, 7, 8, 9
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def store3(arr, y, x, r, g, b):
     """``arr[y, x] = (r, g, b)``, each saturated at float32's largest (a term image is float32)."""
     arr[y, x, 0] = min(r, FLT32_MAX)
@@ -78,19 +78,19 @@ def store3(arr, y, x, r, g, b):
     arr[y, x, 2] = min(b, FLT32_MAX)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def dot(a, b):
     """``a . b``, summed x, y, z in that order."""
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def neg(a):
     """``-a``."""
     return -a[0], -a[1], -a[2]
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def normalize(a):
     """``(a / |a|, |a|)``; ``a`` unchanged with length 0 when it is zero."""
     length = np.sqrt(dot(a, a))
@@ -99,7 +99,7 @@ def normalize(a):
     return (a[0] / length, a[1] / length, a[2] / length), length
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def face_forward(g, v):
     """``(g, 1.0)`` when ``g`` faces ``v`` (``g . v >= 0``), else ``(-g, -1.0)``."""
     if dot(g, v) < 0.0:
@@ -107,7 +107,7 @@ def face_forward(g, v):
     return g, 1.0
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def reflect_into(a, g):
     """``a`` reflected across the plane of unit ``g`` when it points below it (``a . g < 0``),
     else ``a``: how the shading helpers keep a bent vector in the viewer's hemisphere."""

@@ -40,7 +40,7 @@ from __future__ import annotations
 from collections import namedtuple
 
 import numpy as np
-from numba import njit
+from ..common.inline import inline_jit
 
 from ..common.layout import MODEL_BLINN, MODEL_GGX, MODEL_PHONG
 from .jit import CALLED, HELPER
@@ -56,7 +56,7 @@ MIN_ROUGHNESS = 0.045  # GGX roughness floor: alpha >= 0.002, a highlight a poin
 DIELECTRIC_F0 = 0.04  # glTF's Fresnel reflectance at normal incidence of a dielectric (ior 1.5)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _power(c, t):
     """``c ** t`` for ``0 <= c <= 1``: repeated squaring when ``t`` is a whole
     number up to 4096 (a few multiplications, within a few ulps of ``pow``,
@@ -73,14 +73,14 @@ def _power(c, t):
     return r
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _phong_cosine(n, s, v, ndots):
     """Phong: ``r . v`` with ``r`` the mirror direction of ``s`` about ``n``."""
     r = (2.0 * ndots * n[0] - s[0], 2.0 * ndots * n[1] - s[1], 2.0 * ndots * n[2] - s[2])
     return dot(r, v)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _blinn_cosine(n, s, v, ndots):
     """Blinn-Phong: ``n . h / |h|`` with the half vector ``h = s + v`` (0 where ``h`` vanishes)."""
     h = (s[0] + v[0], s[1] + v[1], s[2] + v[2])
@@ -88,13 +88,13 @@ def _blinn_cosine(n, s, v, ndots):
     return dot(n, h) / hl if hl > 0.0 else 0.0
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _lambert(n, s, v, ndots, c, p):
     """Lambert: ``kd (n . s)``, whatever the viewer."""
     return c[3] * ndots, c[4] * ndots, c[5] * ndots
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _lobe(cos, c, p):
     """``ks max(cos, 0)^t``: the lecture's lobe of a cosine (the product last, as the kernels
     always formed it: the images stay those of the code before models returned terms)."""
@@ -104,19 +104,19 @@ def _lobe(cos, c, p):
     return c[6] * spec, c[7] * spec, c[8] * spec
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _phong(n, s, v, ndots, c, p):
     """Phong's specular term ``ks max(r . v, 0)^t``."""
     return _lobe(_phong_cosine(n, s, v, ndots), c, p)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _blinn(n, s, v, ndots, c, p):
     """Blinn-Phong's specular term ``ks max(n . h, 0)^t``."""
     return _lobe(_blinn_cosine(n, s, v, ndots), c, p)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _ggx_setup(n, s, v, c, p):
     """The GGX quantities both terms use: metallic ``m``, ``alpha``, ``n . h``, ``n . v`` and
     Schlick's ``F`` per channel (``v . h`` and ``n . v`` clamped to [0, 1]; ``h`` where it
@@ -139,7 +139,7 @@ def _ggx_setup(n, s, v, c, p):
     return m, r * r, ndoth, ndotv, F
 
 
-@njit(**CALLED)  # a call, not inlined: every kernel that inlines _reflected would compile its own copy
+@inline_jit(**CALLED)  # a call, not inlined: every kernel that inlines _reflected would compile its own copy
 def _ggx_diffuse(n, s, v, ndots, c, p):
     """glTF's diffuse term times ``pi``: ``(1 - F) (1 - m) kd (n . s)``."""
     m, _, _, _, F = _ggx_setup(n, s, v, c, p)
@@ -147,7 +147,7 @@ def _ggx_diffuse(n, s, v, ndots, c, p):
     return (1.0 - F[0]) * c[3] * k, (1.0 - F[1]) * c[4] * k, (1.0 - F[2]) * c[5] * k
 
 
-@njit(**CALLED)
+@inline_jit(**CALLED)
 def _ggx_specular(n, s, v, ndots, c, p):
     """glTF's specular term times ``pi``: ``pi F D V (n . s)`` (Trowbridge-Reitz ``D``,
     height-correlated Smith ``V``)."""
@@ -164,7 +164,7 @@ MODELS = {MODEL_PHONG: Reflectance(_lambert, _phong), MODEL_BLINN: Reflectance(_
           MODEL_GGX: Reflectance(_ggx_diffuse, _ggx_specular)}
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _diffuse(model, n, s, v, ndots, c, p):
     """The diffuse term of :data:`MODELS` ``[model]``; unknown codes are Lambert's."""
     if model == MODEL_GGX:
@@ -172,7 +172,7 @@ def _diffuse(model, n, s, v, ndots, c, p):
     return _lambert(n, s, v, ndots, c, p)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _specular(model, n, s, v, ndots, c, p):
     """The specular term of :data:`MODELS` ``[model]``; unknown codes are Phong's."""
     if model == MODEL_GGX:

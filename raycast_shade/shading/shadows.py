@@ -17,9 +17,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, types
+from numba import types
 from numba.extending import intrinsic
 
+from ..common.inline import inline_jit
 from ..common.prefetch import prefetch
 from ..visibility.secondary import LANES, clear_occlusion, occluded, occlusion_packets, set_occlusion_ray
 from .jit import CALLED, HELPER
@@ -54,7 +55,7 @@ def _from_bits(typingctx, b):
     return types.float64(b), codegen
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _nudge(p, n, unit):
     """Move coordinate ``p`` by 256 float32 ulps along normal component ``n``.
 
@@ -75,7 +76,7 @@ def _nudge(p, n, unit):
     return p + n * step  # one expression for both cases, without a branch: loops of rays vectorise
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _shadow_ray(o, g, s, target, is_point, unit):
     """The shadow ray from shading point ``o`` towards the light: ``(origin, direction, tfar)``.
 
@@ -95,7 +96,7 @@ def _shadow_ray(o, g, s, target, is_point, unit):
     return (ox, oy, oz), (sx, sy, sz), np.inf
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _occluded(handle, S, o, g, s, target, is_point, unit):
     """True if the scene blocks the way from ``o`` towards the light (one ray).
 
@@ -111,7 +112,7 @@ def _occluded(handle, S, o, g, s, target, is_point, unit):
 LANE_SLOTS = 32  # float64 slots per lane of a packet task's stored points (:func:`store_point`, :func:`store_coef`)
 
 
-@njit(**CALLED)  # allocates: NRT on
+@inline_jit(**CALLED)  # allocates: NRT on
 def _packets(nlights):
     """A per-task scratch for the shadow packets of ``nlights`` lights: one occlusion packet per
     light (:func:`~raycast_shade.visibility.secondary.occlusion_packets`: ``buf, ib, off, valid,
@@ -122,7 +123,7 @@ def _packets(nlights):
     return buf, ib, off, valid, voff, args, aoff, vis, points
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def clear_packets(valid, voff, vis, points):
     """Start a packet task's tile: no ray asked for, no point stored."""
     clear_occlusion(valid, voff, vis)
@@ -130,7 +131,7 @@ def clear_packets(valid, voff, vis, points):
         points[k, 0] = -1.0
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def request_ray(P, i, k, o, g, s, target, is_point, unit):
     """Ask for light ``i``'s shadow ray of lane ``k`` (:func:`_shadow_ray`'s ray) in the packets of
     ``P = (buf, ib, off, valid, voff)``."""
@@ -138,19 +139,19 @@ def request_ray(P, i, k, o, g, s, target, is_point, unit):
     set_occlusion_ray(P, i, k, org, d, tfar)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _put3(points, k, j, a):
     points[k, j] = a[0]
     points[k, j + 1] = a[1]
     points[k, j + 2] = a[2]
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _get3(points, k, j):
     return points[k, j], points[k, j + 1], points[k, j + 2]
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def store_point(points, k, hp, mi):
     """Keep lane ``k``'s shading point ``hp`` (:class:`~raycast_shade.shading.records.Hit`) and its
     material row ``mi`` until its packets are traced (float64: exact)."""
@@ -164,27 +165,27 @@ def store_point(points, k, hp, mi):
     points[k, 0] = mi
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def stored_material(points, k):
     """Lane ``k``'s material row as :func:`store_point` kept it; -1: no point in this lane."""
     return np.int32(points[k, 0])  # int32, as a hit's geometry id: the shading helpers compile once
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def stored_point(points, k):
     """Lane ``k``'s ``(p, v, g, sgn, n, o)`` as :func:`store_point` kept them."""
     return (_get3(points, k, np.int64(1)), _get3(points, k, np.int64(4)), _get3(points, k, np.int64(7)),
             points[k, 16], _get3(points, k, np.int64(10)), _get3(points, k, np.int64(13)))  # see store_point
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def store_coef(points, k, coef):
     """Keep lane ``k``'s 12 coefficients (a textured point's: costly to look up twice)."""
     for j in range(12):
         points[k, 17 + j] = coef[j]
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def stored_coef(points, k):
     """Lane ``k``'s 12 coefficients as :func:`store_coef` kept them."""
     return (points[k, 17], points[k, 18], points[k, 19], points[k, 20], points[k, 21], points[k, 22],
@@ -196,7 +197,7 @@ def stored_coef(points, k):
 _GROUP = 16  # strip_background's columns per group: one 64-byte line of the int32 and float32 hit arrays
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _strip_background(H, outs, bg, y0, y1):
     """Rows ``y0`` to ``y1 - 1`` (a strip of tiles) in row order: the background's pixels written
     (colour ``bg``; a zero normal when ``outs``' normal array is not the empty stand-in), and for

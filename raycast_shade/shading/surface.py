@@ -15,7 +15,7 @@ with smooth normals do not shadow themselves at the terminator.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from ..common.inline import inline_jit
 
 from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_ORTHO
 from .jit import HELPER
@@ -26,7 +26,7 @@ __all__ = []
 _CANCEL = 1e-6  # |interpolated normal| below this counts as cancelled
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _view(cam, p):
     """Unit vector from point ``p`` to the eye (orthographic: against the view)."""
     back = (-cam[CAM_FORWARD + 0], -cam[CAM_FORWARD + 1], -cam[CAM_FORWARD + 2])
@@ -38,7 +38,7 @@ def _view(cam, p):
     return v
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _facing(fnormals, f, v):
     """Face ``f``'s geometric normal turned to ``v``, and the sign that turned it."""
     g = (fnormals[f, 0], fnormals[f, 1], fnormals[f, 2])
@@ -47,7 +47,7 @@ def _facing(fnormals, f, v):
     return face_forward(g, v)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def interpolated_normal(normals, tri, b1, b2):
     """The vertex normals of triangle ``tri = (i0, i1, i2)`` blended by the weights
     ``(1 - b1 - b2, b1, b2)``, not renormalised: ``(ax, ay, az)`` and its length ``al``."""
@@ -59,7 +59,7 @@ def interpolated_normal(normals, tri, b1, b2):
     return ax, ay, az, np.sqrt(ax * ax + ay * ay + az * az)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _shading_normal(normals, tri, b1, b2, g, sgn):
     """Interpolated, renormalised normal of triangle ``tri = (i0, i1, i2)``, oriented into the
     viewer's hemisphere of ``g``."""
@@ -70,7 +70,7 @@ def _shading_normal(normals, tri, b1, b2, g, sgn):
     return reflect_into((ax * s, ay * s, az * s), g)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _convex_weights(b1, b2):
     """Interpolation weights ``(b0, b1, b2)`` clamped onto the triangle.
 
@@ -92,13 +92,13 @@ def _convex_weights(b1, b2):
     return b0, b1, b2
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _triangle(faces, f):
     """The vertex indices ``(i0, i1, i2)`` of face ``f``."""
     return faces[f, 0], faces[f, 1], faces[f, 2]
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _hit_point(verts, tri, b1, b2):
     """The point with barycentrics (1 - b1 - b2, b1, b2) on triangle ``tri = (i0, i1, i2)``."""
     i0, i1, i2 = tri
@@ -109,7 +109,7 @@ def _hit_point(verts, tri, b1, b2):
     return px, py, pz
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _terminator_point(verts, normals, tri, b1, b2, p, sgn):
     """Hanika's shadow-ray origin: ``p`` lifted onto the vertices' tangent planes
     (only upwards), so a flat facet under a smooth normal does not shadow itself

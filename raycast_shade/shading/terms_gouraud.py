@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+from ..common.inline import inline_jit
 
 from ..common.parallel import in_parts, share
 from ..common.layout import LIGHT_SHADOWS, METHOD_GOURAUD
@@ -52,7 +53,7 @@ VERT_REACH, VERT_COL, VERT_SPEC, VERT_Y0, VERT_STATE, VERT_AHEAD, VERT_SCRATCH =
 _SPLIT = (0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0)  # the modulate path's kd = ks = 1
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _reach(lights, p, n, dmin, att_on, reach, row):
     """Each light's ``cone (n.s)`` at ``p`` with normal ``n``, summed over its samples, into
     ``reach[:, row, 0]`` (0 where it does not reach): what the shadow probe's unit light gives
@@ -72,7 +73,7 @@ def _reach(lights, p, n, dmin, att_on, reach, row):
         reach[i, row, 0] = total
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _vertex_side(V, hp, coef, materials, m, L, S, spec_on, att_on, splitting, i, side):
     """Vertex ``i`` lit from ``side``: its colours (as :mod:`.gouraud`'s vertex kernel stores
     them) and its terms (row ``2 i + side`` of ``V``)."""
@@ -126,7 +127,7 @@ def _make_vertex_terms(tex_on: bool = False):
     return _vertex_terms_kernel
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _copy_row(V, row, C, k):
     """Row ``row`` of the vertex record into row ``k`` of the corner scratch ``C``."""
     for c in range(3):
@@ -145,7 +146,7 @@ def _copy_row(V, row, C, k):
                 C[TERMS_EACH][1, i, k, 0, c] = each[1, i, row, 0, c]
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _corner_terms(V, C, G, i, side, g, materials, m, cam, L, S, coef, spec_on, att_on, k):
     """Corner ``k``'s terms into the scratch ``C``: vertex ``i``'s stored ones, or, where they
     do not serve, shaded on the spot as :func:`~raycast_shade.shading.gouraud._corner_shade`
@@ -161,19 +162,19 @@ def _corner_terms(V, C, G, i, side, g, materials, m, cam, L, S, coef, spec_on, a
         _reach(L.lights, p, n, L.dmin, att_on, C[VERT_REACH], k)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _lerp(a, rows, w, c):
     """``w0 a[r0] + w1 a[r1] + w2 a[r2]`` of channel ``c`` of an (N, 1, 3) array of corner
     rows, as the pixel kernel interpolates the corners' colours."""
     return w[0] * a[rows[0], 0, c] + w[1] * a[rows[1], 0, c] + w[2] * a[rows[2], 0, c]
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _lerp3(a, rows, w):
     return _lerp(a, rows, w, 0), _lerp(a, rows, w, 1), _lerp(a, rows, w, 2)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _pixel_terms(R, C, rows, L, w, ty, x, coef, splitting):
     """The pixel's terms from its corners' (rows ``rows`` of the record ``C``: the vertex
     record, or the corner scratch) with weights ``w``: interpolated, or on the modulate path
@@ -203,7 +204,7 @@ def _pixel_terms(R, C, rows, L, w, ty, x, coef, splitting):
     _pixel_lights(R, C, rows, L, w, ty, x, coef, splitting)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _pixel_lights(R, C, rows, L, w, ty, x, coef, splitting):
     """The pixel's per-light terms and shadow mask from its corners' (see :func:`_pixel_terms`);
     a light that casts no shadow rays (or a frame without a scene handle) lets all of its
@@ -230,7 +231,7 @@ def _pixel_lights(R, C, rows, L, w, ty, x, coef, splitting):
                 _store(each[1, i], ty, x, sr, sg, sb)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _mask(shadow, vis, reach, i, rows, w, ty, x):
     """Light ``i``'s mask at the pixel: the corners' light let through over the light reaching them."""
     w0, w1, w2 = w
@@ -243,14 +244,14 @@ def _mask(shadow, vis, reach, i, rows, w, ty, x):
     shadow[i, ty, x] = min(np.float64(t32) / np.float64(r32), 1.0) if r32 > 0.0 else 1.0
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _corners_stored(normals, tri, side, g):
     """Whether every corner's stored vertex shade serves the face (:func:`_corner_normal`)."""
     return (_corner_normal(normals, tri[0], side, g)[1] and _corner_normal(normals, tri[1], side, g)[1]
             and _corner_normal(normals, tri[2], side, g)[1])
 
 
-@njit(**CALLED)
+@inline_jit(**CALLED)
 def _fallback_terms(R, V, G, tri, side, gn, materials, m, cam, L, S, coefs, spec_on, att_on, where):
     """A pixel with a corner whose stored shade does not serve: its three corners' terms
     gathered into its task's rows of the scratch slots of ``V`` (:data:`VERT_SCRATCH`), the one
@@ -277,7 +278,7 @@ def scratch_slots(V, tasks: int) -> tuple:
         np.empty((2, each, rows, 1, 3)), np.empty((nl, rows, 1)), np.empty((nl, rows, 1)))
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _prefetch_terms(prim, geom, face_off, faces, V, y, x, ahead):
     """:func:`~raycast_shade.shading.gouraud._prefetch_pixel` for the terms kernel: also the local
     terms' rows (both sides: rows ``2 i`` and ``2 i + 1`` share a cache line or two)."""

@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+from ..common.inline import inline_jit
 
 from ..common.parallel import in_parts, share
 from ..common.layout import METHOD_PHONG
@@ -62,7 +63,7 @@ __all__ = ["TERM_AMBIENT", "TERM_DIFFUSE", "TERM_SPECULAR", "TERM_EMISSIVE", "TE
 _store = store3  # the name the terms kernels have used
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _illuminate_terms(hp, coef, mats, mi, L, S, spec_on, att_on, R, y, x):
     """:func:`~raycast_shade.shading.illumination._reflected` at ``hp`` with the terms record ``R``:
     the same RGB (the same evaluator), its parts also stored at ``(y, x)`` of ``R`` (see the
@@ -70,7 +71,7 @@ def _illuminate_terms(hp, coef, mats, mi, L, S, spec_on, att_on, R, y, x):
     return _reflected(hp, coef, mats, mi, L, S, L.no_vis, np.int64(-1), spec_on, att_on, R, y, x)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _miss(image, R, y, ty, x):
     """A pixel that sees nothing: the background into ``image`` row ``y``; zero terms, the
     background term and an unshadowed mask into ``R`` at row ``ty``."""
@@ -92,7 +93,7 @@ def _miss(image, R, y, ty, x):
                 per_light[1, i, ty, x, c] = 0.0
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _hit_background(R, y, x):
     """A seen pixel's zero background term (when the background term is written at all)."""
     if R[TERMS_BG_ON]:
@@ -147,7 +148,7 @@ def _make_phong_terms(tex_on: bool = False):
     return _phong_terms_kernel
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _face_terms(R, F, f, ty, x):
     """Face ``f``'s terms (row ``f`` of the face record ``F``) into ``R`` at ``(ty, x)``."""
     per_light, shadow = R[TERMS_EACH], R[TERMS_SHADOW]

@@ -29,6 +29,7 @@ import math
 
 import numpy as np
 from numba import njit
+from ..common.inline import inline_jit
 
 from ..common.parallel import in_parts, share
 from ..common.layout import (CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH, COLOR_FACE,
@@ -41,7 +42,7 @@ from .jit import HELPER, JIT
 __all__ = ["texture_levels"]
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _bilinear3(tex, base, w, h, clamp, x, y):
     """Bilinear RGB at texel coordinates (x, y) (centres at integers) of a
     (h, w, 3) level stored from ``base``."""
@@ -60,7 +61,7 @@ def _bilinear3(tex, base, w, h, clamp, x, y):
     return r, g, b
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _level_rho(info, k, dudx, dvdx, dudy, dvdy):
     """The footprint ``rho`` in level-0 texels of texture ``k`` (see the module docstring)."""
     su = info[k, TEX_WIDTH] * info[k, TEX_TILE_U]
@@ -72,7 +73,7 @@ def _level_rho(info, k, dudx, dvdx, dudy, dvdy):
     return max(np.sqrt(ax * ax + ay * ay), np.sqrt(bx * bx + by * by))
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _sample_level(tex, info, k, u, v, lvl):
     """Bilinear RGB of level ``lvl`` of texture ``k`` at (u, v)."""
     w = int(info[k, TEX_WIDTH])
@@ -95,7 +96,7 @@ def _sample_level(tex, info, k, u, v, lvl):
     return _bilinear3(tex, base, w, h, clamp, x, y)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _sample(tex, info, k, u, v, dudx, dvdx, dudy, dvdy):
     """Texture ``k`` at (u, v): bilinear at level 0 when magnified (or not
     mip-mapped), else trilinear at level ``log2(rho)``."""
@@ -113,7 +114,7 @@ def _sample(tex, info, k, u, v, dudx, dvdx, dudy, dvdy):
     return r0 + frac * (r1 - r0), g0 + frac * (g1 - g0), b0 + frac * (b1 - b0)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _uv_derivatives(verts, uvs, fnormals, tri, f, cam, p, eye, x, y):
     """``du/dx, dv/dx, du/dy, dv/dy`` per pixel at hit ``p`` of face ``f`` (triangle
     ``tri = (i0, i1, i2)``) seen from ``eye`` through pixel (x, y) (see the module
@@ -193,7 +194,7 @@ def _uv_derivatives(verts, uvs, fnormals, tri, f, cam, p, eye, x, y):
     return d1u * b1x + d2u * b2x, d1v * b1x + d2v * b2x, d1u * b1y + d2u * b2y, d1v * b1y + d2v * b2y
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _face_footprint(uvs, tri):
     """A flat face's footprint: the side ``s`` of the UV square as large as the
     face's UV triangle ``tri = (i0, i1, i2)``, as ``(s, 0, 0, s)`` derivatives."""
@@ -206,7 +207,7 @@ def _face_footprint(uvs, tri):
     return s, 0.0, 0.0, s
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _row_coefficients(mats, mi):
     """The material row's ``ka, kd, ks, ke``: the twelve scalars
     :func:`~raycast_shade.shading.illumination._illuminate` takes for a point
@@ -217,7 +218,7 @@ def _row_coefficients(mats, mi):
             mats[mi, MAT_KE + 0], mats[mi, MAT_KE + 1], mats[mi, MAT_KE + 2])
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _coefficients(mats, T, at, tri, uvs, footprint):
     """``ka, kd, ks, ke`` (twelve floats) at hit ``at`` (:class:`~raycast_shade.shading.records.At`:
     barycentrics (1 - b1 - b2, b1, b2) on face f, triangle ``tri``, of model gm): the material
@@ -322,7 +323,7 @@ def texture_levels(scene, camera, hits, slot: str = "kd") -> np.ndarray:
         return np.log2(out)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def _point_coefficients(G, uvs, at, cam, x, y, footprint_on, materials, T):
     """:func:`_coefficients` at hit ``at`` (:class:`~raycast_shade.shading.records.At`):
     filtered by pixel (x, y)'s footprint when ``footprint_on`` (a camera ray), at level 0

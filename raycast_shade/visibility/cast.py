@@ -55,6 +55,7 @@ import threading
 
 import numpy as np
 from numba import njit
+from ..common.inline import inline_jit
 
 from ..common.choices import CASTERS
 from ..common.parallel import KERNEL, in_parts, share
@@ -78,7 +79,7 @@ _RAY = RAY  # float32 slots in one RTCRayHit (96 bytes, room for instPrimID)
 _TILE_W, _TILE_H, _LANES = TILE_W, TILE_H, LANES  # a 16-ray packet is a 4x4 tile (see .tiles)
 
 
-@njit(cache=True, forceinline=True, _nrt=False)
+@inline_jit(cache=True, forceinline=True, _nrt=False)
 def _convex_tile(uf, vf, o, w, nx, ny):
     """A tile's barycentrics onto their triangles (:func:`.hits.convex_uv`), while in cache: the
     ``nx`` x ``ny`` pixels from flat index ``o`` of the (R W,) arrays, rows ``w`` apart."""

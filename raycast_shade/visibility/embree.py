@@ -63,6 +63,8 @@ import os
 import numpy as np
 from numba import njit, types
 
+from ..common.inline import inline_jit
+
 __all__ = ["available", "unavailable_reason", "library_path", "embree_version", "EmbreeAccel", "intersect1",
            "intersect8", "intersect16", "occluded1", "occluded16", "intersect1_ray", "intersect8_packet",
            "intersect16_packet", "occluded1_ray", "occluded16_packet", "write_ray", "reset_hit", "read_hit",
@@ -468,7 +470,7 @@ def occluded16_packet(valid, scene, ray, args):
 _INLINE = dict(cache=True, forceinline=True, _nrt=False)
 
 
-@njit(**_INLINE)
+@inline_jit(**_INLINE)
 def write_ray(f32, u32, base, lanes, org, direction, tnear, tfar):
     """Write one ray: origin, direction, segment ``[tnear, tfar]``, time 0, every mask bit, id and flags 0.
 
@@ -497,7 +499,7 @@ def write_ray(f32, u32, base, lanes, org, direction, tnear, tfar):
     u32[base + RAY_FLAGS * lanes] = 0
 
 
-@njit(**_INLINE)
+@inline_jit(**_INLINE)
 def reset_hit(u32, base, lanes):
     """Mark the hit of an ``RTCRayHit`` (or one lane of a packet) as none before a query
     (Embree writes the hit fields only when it finds one)."""
@@ -505,7 +507,7 @@ def reset_hit(u32, base, lanes):
     u32[base + HIT_GEOM_ID * lanes] = INVALID_ID
 
 
-@njit(**_INLINE)
+@inline_jit(**_INLINE)
 def read_hit(f32, u32, base, lanes):
     """The hit of an ``RTCRayHit`` (or one lane of a packet) as a hit buffer stores it.
 

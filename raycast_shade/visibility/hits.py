@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
+from ..common.inline import inline_jit
 
 from ..common.parallel import KERNEL, in_parts, launch, parts, share
 from ..common.validate import as_int
@@ -220,7 +221,7 @@ def check_hits(hits, geometry, camera=None):
 # -- barycentrics onto the triangle ----------------------------------------------------------------
 
 
-@njit(**_INLINE)
+@inline_jit(**_INLINE)
 def convex_uv(u, v):
     """``(u, v)`` as float32 with ``u >= 0``, ``v >= 0`` and ``1 - u - v >= 0`` in float64.
 

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+from ..common.inline import inline_jit
 
 from ..common.parallel import KERNEL, SERIAL, in_parts, share
 from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_ORTHO, CAM_RIGHT, CAM_UP, CAM_WIDTH
@@ -57,7 +58,7 @@ def _suspicious(prim, t, jump, y, x):
     return False
 
 
-@njit(cache=True, forceinline=True, _nrt=False)  # LLVM-inlined into the camera kernel
+@inline_jit(cache=True, forceinline=True, _nrt=False)  # LLVM-inlined into the camera kernel
 def row_suspicious(prim, t, far, y):
     """How many pixels of row ``y`` :func:`_suspicious` flags (``far = 1 + jump``): the same
     test, written without branches over the row's interior so that it vectorises. The camera

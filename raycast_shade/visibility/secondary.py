@@ -26,7 +26,7 @@ kernels (``forceinline``, no reference counting), so a query costs what the stru
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from ..common.inline import inline_jit
 
 from . import embree
 from .hits import convex_uv
@@ -46,7 +46,7 @@ _ALLOC = dict(cache=True, forceinline=False, _nrt=True)  # allocates: NRT on, a 
 # -- one occlusion ray ----------------------------------------------------------------------------
 
 
-@njit(**_ALLOC)
+@inline_jit(**_ALLOC)
 def ray_scratch():
     """A per-task ``RTCRay`` for :func:`occluded`.
 
@@ -63,7 +63,7 @@ def ray_scratch():
     return buf, buf.view(np.uint32), off
 
 
-@njit(**_INLINE)
+@inline_jit(**_INLINE)
 def occluded(handle, S, org, d, tfar):
     """True if the scene blocks the ray ``org + t d``, ``0 <= t <= tfar`` (``rtcOccluded1``).
 
@@ -104,7 +104,7 @@ def occluded_ray(handle, org, d, tfar) -> bool:
 # -- occlusion packets: groups of 16 lanes, one rtcOccluded16 per group ---------------------------
 
 
-@njit(**_ALLOC)
+@inline_jit(**_ALLOC)
 def occlusion_packets(ngroups):
     """A per-task scratch for ``ngroups`` occlusion packets of :data:`LANES` rays each.
 
@@ -145,7 +145,7 @@ def occlusion_packets(ngroups):
     return buf, ib, off, valid, voff, args, aoff, vis
 
 
-@njit(**_INLINE)
+@inline_jit(**_INLINE)
 def clear_occlusion(valid, voff, vis):
     """No ray asked for in any group: every lane off, every answer :data:`UNTRACED`."""
     for i in range(vis.shape[0]):
@@ -154,7 +154,7 @@ def clear_occlusion(valid, voff, vis):
             vis[i, k] = UNTRACED
 
 
-@njit(**_INLINE)
+@inline_jit(**_INLINE)
 def set_occlusion_ray(P, i, k, org, d, tfar):
     """Ask for the ray ``org + t d``, ``0 <= t <= tfar``, in lane ``k`` of group ``i`` of the
     packets ``P = (buf, ib, off, valid, voff)`` (:func:`occlusion_packets`)."""
@@ -167,7 +167,7 @@ def set_occlusion_ray(P, i, k, org, d, tfar):
     valid[voff + i * LANES + k] = -1
 
 
-@njit(**_INLINE)
+@inline_jit(**_INLINE)
 def set_occlusion_lane(buf, ub, j, q, org, d, tfar):
     """Write the ray of lane ``q`` of packet ``j`` from slot ``ub`` (uint64) without touching its
     valid mask: for a loop over every lane that sets the masks itself and vectorises (unsigned
@@ -178,7 +178,7 @@ def set_occlusion_lane(buf, ub, j, q, org, d, tfar):
     buf[ub + np.uint64(j * _RAY16 + embree.RAY_TFAR * LANES + q)] = tfar
 
 
-@njit(**_INLINE)
+@inline_jit(**_INLINE)
 def trace_occlusion(handle, buf, off, valid, voff, args, aoff, vis):
     """Trace each group's packet that has an active lane (``rtcOccluded16``) and write ``vis``
     (1 blocked, 0 not) for its active lanes.
@@ -203,7 +203,7 @@ def trace_occlusion(handle, buf, off, valid, voff, args, aoff, vis):
 # -- closest-hit packets ----------------------------------------------------------------------------
 
 
-@njit(**_ALLOC)
+@inline_jit(**_ALLOC)
 def closest_packet(flags):
     """A per-task ``RTCRayHit16`` for closest-hit queries of up to :data:`LANES` rays.
 
@@ -232,7 +232,7 @@ def closest_packet(flags):
     return buf, ib, off, vbuf, voff, abuf, aoff
 
 
-@njit(**_INLINE)
+@inline_jit(**_INLINE)
 def set_closest_rays(Q, org, dr, act, n):
     """Ask for the closest hits of the active lanes' rays ``org + t dr``, ``t >= 0``.
 
@@ -262,7 +262,7 @@ def set_closest_rays(Q, org, dr, act, n):
         vbuf[voff + k] = -1 if on else 0
 
 
-@njit(**_INLINE)
+@inline_jit(**_INLINE)
 def trace_closest(handle, Q):
     """Trace the packet :func:`set_closest_rays` filled (``rtcIntersect16``); the caller reads
     the answers with :func:`closest_hit` and holds ``Q`` meanwhile."""
@@ -270,7 +270,7 @@ def trace_closest(handle, Q):
     embree.intersect16(vbuf.ctypes.data + voff * 4, handle, buf.ctypes.data + off * 4, abuf.ctypes.data + aoff * 4)
 
 
-@njit(**_INLINE)
+@inline_jit(**_INLINE)
 def closest_hit(Q, k):
     """Lane ``k``'s closest hit after :func:`trace_closest`: ``(geom, prim, u, v, t)``
     (:func:`~raycast_shade.visibility.embree.read_hit`; ``prim`` -1 for a miss), its ``(u, v)`` inside

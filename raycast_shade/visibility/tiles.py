@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+from ..common.inline import inline_jit
 
 from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_HEIGHT, CAM_RIGHT, CAM_UP, CAM_WIDTH
 from . import embree
@@ -52,7 +53,7 @@ def tile_columns(cam, ntx, ortho):
     return out
 
 
-@njit(**_INLINE)
+@inline_jit(**_INLINE)
 def row_terms(rt, cam, y):
     """``rt`` (3 16,) float64: lane ``k``'s ``sy up`` for the tile whose first row is image row
     ``y`` (its row ``k // 4``), component ``c`` at ``16 c + k``, as :func:`.rays.pixel_ray`."""
@@ -64,7 +65,7 @@ def row_terms(rt, cam, y):
                 rt[c * LANES + j * TILE_W + i] = s
 
 
-@njit(**_INLINE)
+@inline_jit(**_INLINE)
 def fixed_slots(pk, pu, cam, ortho):
     """The slots of a packet's 16 rays that Embree never writes and no pixel changes (tnear, time,
     mask, id, flags; the eye as every origin, or orthographic, the forward axis as every direction),
@@ -82,7 +83,7 @@ def fixed_slots(pk, pu, cam, ortho):
         pu[embree.RAY_FLAGS * LANES + k] = 0
 
 
-@njit(**_INLINE)
+@inline_jit(**_INLINE)
 def tile_valid(valid, nx, ny):
     """The valid mask of a tile of ``nx`` columns and ``ny`` rows: -1 for its pixels' lanes, 0 for the
     dummy rays beyond the image."""
@@ -90,7 +91,7 @@ def tile_valid(valid, nx, ny):
         valid[k] = -1 if k % TILE_W < nx and k // TILE_W < ny else 0
 
 
-@njit(**_VECTOR)
+@inline_jit(**_VECTOR)
 def tile_rays(pk, pu, valid, ct, tx, rt, ortho):
     """One tile's rays into the packet ``pk`` (float32, its uint32 view ``pu``): lane ``k`` is
     ``ct[tx, 16 c + k] + rt[16 c + k]`` in component ``c``, the origin (orthographic) or the
@@ -120,7 +121,7 @@ def tile_rays(pk, pu, valid, ct, tx, rt, ortho):
         pk[embree.HIT_V * LANES + k] = 0.0
 
 
-@njit(**_INLINE)
+@inline_jit(**_INLINE)
 def _hits4(pk, pu, s, q, prim, geom, u, v, t):
     """Lanes ``s .. s + 4`` of the packet (a tile's row) into ``q .. q + 4`` of the flat hit arrays:
     copies, as :func:`tile_rays` left a miss's fields as :func:`.embree.read_hit` returns them."""
@@ -137,7 +138,7 @@ def _hits4(pk, pu, s, q, prim, geom, u, v, t):
     t[q], t[q1], t[q2], t[q3] = pk[a], pk[a + 1], pk[a + 2], pk[a + 3]
 
 
-@njit(**_INLINE)
+@inline_jit(**_INLINE)
 def tile_hits(pk, pu, o, w, prim, geom, u, v, t):
     """Unpack a whole tile's hits into the flat (R W,) hit arrays: its pixel ``(j, i)`` at ``o + j w + i``."""
     # np.int64: a constant argument would be typed Literal[int] and compile _hits4 once per value.
@@ -147,7 +148,7 @@ def tile_hits(pk, pu, o, w, prim, geom, u, v, t):
     _hits4(pk, pu, 3 * TILE_W, np.uint64(o + 3 * w), prim, geom, u, v, t)
 
 
-@njit(**_INLINE)
+@inline_jit(**_INLINE)
 def edge_hits(pk, pu, x0, r, nx, ny, prim, geom, u, v, t):
     """Unpack a partial tile's hits: ``nx`` columns and ``ny`` rows of it, into rows ``r ..`` and
     columns ``x0 ..`` of the (R, W) hit arrays."""
