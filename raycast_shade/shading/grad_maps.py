@@ -1,0 +1,345 @@
+"""Reverse-mode gradients of a frame with respect to mesh colours and colour-map texels.
+
+The reflectance equation is linear in a point's own coefficients::
+
+    I = Ia ka + sum_i vis_i att_i Ii (kd (n.s) + ks c^t) + ke
+
+so ``dL/dkd`` at a point is ``gI * sum_i vis_i att_i Ii (n.s)`` (per channel), ``dL/dka`` is
+``gI * Ia`` and ``dL/dks`` is ``gI * sum_i vis_i att_i Ii c^t``: exactly what
+:func:`~raycast_shade.shading.grad_terms._reflected_vjp` adds to a model's ``kd``, ``ka`` and ``ks``
+slots. :func:`_point_partials` reads them from a scratch row, evaluated where the forward method
+evaluates the equation (Phong: each pixel; flat: each face's centre, its pixels' ``dL/dI`` summed;
+Gouraud: each vertex side, its pixels' ``dL/dI`` spread with the forward weights, and the corners
+the forward pass shades on the spot where it does). :func:`map_partials` returns them per pixel
+(Phong), per face (flat) and per vertex (Gouraud); the driver (:func:`raycast_shade.grad`) chains
+them to the parameters:
+
+- a vertex colour replaces kd (``ka`` times it with the material's ``ka_colors``): Phong
+  ``kd = b0 c0 + b1 c1 + b2 c2`` (the hit's barycentrics), flat the mean of the three (the face's
+  centre), Gouraud each vertex's own;
+- a face colour replaces kd on its face (Phong and flat);
+- a kd or ks map multiplies the row's kd or ks by its bilinear sample at the point's UV: the four
+  texels around it get the bilinear weights (wrapped or clamped as the forward sampler does).
+
+The passes over pixels, faces and vertices run in :data:`~raycast_shade.shading.grad_frame.PARTS`
+fixed parts, each point written to its own output row; the scatters onto vertices, faces and
+texels run in NumPy (``np.add.at``, in index order): bit-identical on any number of threads.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ..common.layout import (COLOR_FACE, COLOR_VERTEX, MAT_KA, MAT_KA_COLORS, MAT_KD, MAT_KS, METHOD_FLAT,
+                             METHOD_GOURAUD, METHOD_PHONG, TEX_CLAMP, TEX_HEIGHT, TEX_OFFSET, TEX_TILE_U, TEX_TILE_V,
+                             TEX_WIDTH, TEXMAP_KD, TEXMAP_KS)
+from ..common.parallel import launch, share
+from ..visibility.secondary import ray_scratch
+from .grad_frame import _flat_gather
+from .grad_terms import GM_KA, GM_KD, GM_KS, GM_SIZE, _reflected_vjp, layout
+from .jit import CHUNK, HELPER, JIT
+from .phong import _shading_point
+from .records import At, Hit, dot
+from .surface import _convex_weights, _facing, _hit_point, _triangle, _view
+from .texture import _row_coefficients
+
+__all__ = ["MAPS", "map_partials", "maps_gradients"]
+
+PARTS = 16  # as grad_frame.PARTS: the parts do not depend on the thread count
+MAPS = ("vertex_colors", "face_colors", "kd_map", "ks_map")
+"""The names :func:`maps_gradients` answers."""
+_MAP_SLOT = {"kd_map": (TEXMAP_KD, MAT_KD, 3), "ks_map": (TEXMAP_KS, MAT_KS, 6)}
+
+
+@njit(**HELPER)
+def _point_partials(hp, mats, mi, L, S, gI, scratch, lay, out, r):
+    """``out[r] += dL/d(ka, kd, ks)`` (9) of the point's own coefficients at ``hp`` for
+    ``gI = dL/dI``, via a zeroed scratch row ``scratch`` (1, R)."""
+    mb = mi * GM_SIZE
+    for j in range(scratch.shape[1]):
+        scratch[0, j] = 0.0
+    _reflected_vjp(hp, _row_coefficients(mats, mi), mats, mi, L, S, gI, scratch, 0, lay)
+    for c in range(3):
+        out[r, c] += scratch[0, mb + GM_KA + c]
+        out[r, 3 + c] += scratch[0, mb + GM_KD + c]
+        out[r, 6 + c] += scratch[0, mb + GM_KS + c]
+
+
+@njit(nogil=True, **JIT)
+def _phong_partials_kernel(hits, G, B, L, face_off, materials, cam, modes, gimg, lay, size, out, part):
+    """Phong pixels: ``out[y * W + x]`` = the pixel's ``dL/d(ka, kd, ks)`` (rows of other pixels 0)."""
+    prim, geom, u, v = hits
+    h, w = prim.shape
+    scratch = np.zeros((1, size))
+    for y in range(*share(h, part)):
+        S = ray_scratch()
+        for x in range(w):
+            p = prim[y, x]
+            if p < 0 or modes[geom[y, x]] != METHOD_PHONG:
+                continue
+            gI = (np.float64(gimg[y, x, 0]), np.float64(gimg[y, x, 1]), np.float64(gimg[y, x, 2]))
+            if gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0:
+                continue
+            gm = geom[y, x]
+            at = At(face_off[gm] + p, gm, np.float64(u[y, x]), np.float64(v[y, x]))
+            hp = _shading_point(G, B, L, cam, at, np.bool_(False), (0.0, 0.0, 0.0))
+            _point_partials(hp, materials, gm, L, S, gI, scratch, lay, out, y * w + x)
+
+
+@njit(nogil=True, **JIT)
+def _flat_partials_kernel(gface, G, face_model, materials, cam, L, lay, size, out, part):
+    """Flat faces (the centre, the true normal, as the forward pass): ``out[f]`` = ``dL/d(ka, kd, ks)``
+    of the face's coefficients, ``gface`` (F, 3) its pixels' summed ``dL/dI``."""
+    verts, _, faces, fnormals = G
+    nchunk = (faces.shape[0] + CHUNK - 1) // CHUNK
+    scratch = np.zeros((1, size))
+    for ch in range(*share(nchunk, part)):
+        S = ray_scratch()
+        for f in range(ch * CHUNK, min(faces.shape[0], (ch + 1) * CHUNK)):
+            gI = (gface[f, 0], gface[f, 1], gface[f, 2])
+            if gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0:
+                continue
+            third = 1.0 / 3.0
+            p = _hit_point(verts, _triangle(faces, f), third, third)
+            vv = _view(cam, p)
+            gn, sgn = _facing(fnormals, f, vv)
+            _point_partials(Hit(p, vv, gn, sgn, gn, p), materials, face_model[f], L, S, gI, scratch, lay, out, f)
+
+
+@njit(**JIT)
+def _gouraud_gather_partials(hits, G, L, face_off, materials, cam, modes, gimg, lay, size, gvert, out):
+    """Serially, in row-major order: each Gouraud pixel's ``dL/dI`` onto its corners' stored shades
+    ``gvert`` (V, 2, 3) with the forward weights and sides; a corner the forward pass shades on the
+    spot (a zero normal: the face's; one reflected into the face's hemisphere) adds its
+    ``dL/d(ka, kd, ks)`` into ``out[i]`` here."""
+    prim, geom, u, v = hits
+    verts, normals, faces, fnormals = G
+    S = ray_scratch()
+    scratch = np.zeros((1, size))
+    h, w = prim.shape
+    for y in range(h):
+        for x in range(w):
+            p = prim[y, x]
+            if p < 0:
+                continue
+            gm = geom[y, x]
+            if modes[gm] != METHOD_GOURAUD:
+                continue
+            f = face_off[gm] + p
+            b1 = np.float64(u[y, x])
+            b2 = np.float64(v[y, x])
+            tri = _triangle(faces, f)
+            view = _view(cam, _hit_point(verts, tri, b1, b2))
+            gn, sgn = _facing(fnormals, f, view)
+            side = 0 if sgn > 0.0 else 1
+            sg = 1.0 - 2.0 * side
+            wts = _convex_weights(b1, b2)
+            for corner in range(3):
+                i = tri[corner]
+                wk = wts[corner]
+                gI = (wk * gimg[y, x, 0], wk * gimg[y, x, 1], wk * gimg[y, x, 2])
+                n = (sg * normals[i, 0], sg * normals[i, 1], sg * normals[i, 2])
+                pv = (verts[i, 0], verts[i, 1], verts[i, 2])
+                if n[0] == 0.0 and n[1] == 0.0 and n[2] == 0.0:
+                    _point_partials(Hit(pv, _view(cam, pv), gn, 1.0, gn, pv), materials, gm, L, S, gI, scratch, lay,
+                                    out, i)
+                elif dot(n, gn) < 0.0:
+                    c = dot(n, gn)
+                    nr = (n[0] - 2.0 * c * gn[0], n[1] - 2.0 * c * gn[1], n[2] - 2.0 * c * gn[2])
+                    _point_partials(Hit(pv, _view(cam, pv), gn, 1.0, nr, pv), materials, gm, L, S, gI, scratch, lay,
+                                    out, i)
+                else:
+                    for cc in range(3):
+                        gvert[i, side, cc] += gI[cc]
+
+
+@njit(nogil=True, **JIT)
+def _gouraud_partials_kernel(gvert, G, vertex_model, materials, cam, L, lay, size, out, part):
+    """Gouraud vertices (lit with their own normal from each side a face needs): ``out[i]`` +=
+    ``dL/d(ka, kd, ks)`` of the vertex's coefficients (each vertex in one part)."""
+    verts, normals, _, _ = G
+    n = verts.shape[0]
+    nchunk = (n + CHUNK - 1) // CHUNK
+    scratch = np.zeros((1, size))
+    for ch in range(*share(nchunk, part)):
+        S = ray_scratch()
+        for i in range(ch * CHUNK, min(n, (ch + 1) * CHUNK)):
+            for side in range(2):
+                gI = (gvert[i, side, 0], gvert[i, side, 1], gvert[i, side, 2])
+                if gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0:
+                    continue
+                sg = 1.0 - 2.0 * side
+                p = (verts[i, 0], verts[i, 1], verts[i, 2])
+                nv = (sg * normals[i, 0], sg * normals[i, 1], sg * normals[i, 2])
+                _point_partials(Hit(p, _view(cam, p), nv, 1.0, nv, p), materials, vertex_model[i], L, S, gI, scratch,
+                                lay, out, i)
+
+
+def map_partials(hits, inputs, modes, gimg, geo) -> dict:
+    """``dL/d(ka, kd, ks)`` of the points where each method evaluates the equation.
+
+    Parameters
+    ----------
+    hits : HitBuffer
+        The frame's hit buffer (H, W); each pixel's triangle held.
+    inputs : FrameInputs
+        The frame's packed inputs.
+    modes : (G,) int8
+        Each model's method code.
+    gimg : (H, W, 3) float64
+        ``dL/dI`` for the linear image.
+    geo : SceneGeometry
+        The scene's packed geometry (its ``face_model`` and ``vertex_model``).
+
+    Returns
+    -------
+    dict
+        ``"phong"``: (H * W, 9) per pixel (row-major; zero off Phong pixels), ``"flat"``: (F, 9) per
+        face, ``"gouraud"``: (V, 9) per vertex; the columns ``dL/dka``, ``dL/dkd``, ``dL/dks`` (RGB).
+        A method no model uses is absent.
+    """
+    G, B, L = inputs.geometry, inputs.bumps, inputs.lighting
+    mats, cam, face_off = inputs.materials, inputs.cam, inputs.face_off
+    amb, lb, size = layout(mats.shape[0], L.lights.shape[0])
+    lay = (np.int64(amb), np.int64(lb))
+    size = np.int64(size)
+    hit = (hits.prim, hits.geom, hits.u, hits.v)
+    nv, nf = G.verts.shape[0], G.faces.shape[0]
+    out = {}
+    if np.any(modes == METHOD_PHONG):
+        out["phong"] = np.zeros((hits.prim.size, 9))
+        launch(_phong_partials_kernel, hit, G, B, L, face_off, mats, cam, modes, gimg, lay, size, out["phong"],
+               parts=PARTS, dynamic=True)
+    if np.any(modes == METHOD_FLAT):
+        gface = np.zeros((nf, 3))
+        _flat_gather(hits.prim, hits.geom, face_off, modes, gimg, gface)
+        out["flat"] = np.zeros((nf, 9))
+        launch(_flat_partials_kernel, gface, G, geo.face_model, mats, cam, L, lay, size, out["flat"], parts=PARTS,
+               dynamic=True)
+    if np.any(modes == METHOD_GOURAUD):
+        gvert = np.zeros((nv, 2, 3))
+        out["gouraud"] = np.zeros((nv, 9))
+        _gouraud_gather_partials(hit, G, L, face_off, mats, cam, modes, gimg, lay, size, gvert, out["gouraud"])
+        launch(_gouraud_partials_kernel, gvert, G, geo.vertex_model, mats, cam, L, lay, size, out["gouraud"],
+               parts=PARTS, dynamic=True)
+    return out
+
+
+def _points(hits, inputs, modes, geo, partials):
+    """Every point the methods evaluated, as flat arrays: ``(model, face, barycentrics (N, 3), vertex
+    or -1, dL/d(ka, kd, ks) (N, 9))``: Phong's pixels (row-major), flat's faces (their centres),
+    Gouraud's vertices, in that order (the scatters' fixed order)."""
+    faces = inputs.geometry.faces
+    model, face, bary, vert, part = [], [], [], [], []
+    if "phong" in partials:
+        prim, geom = hits.prim.ravel(), hits.geom.ravel()
+        sel = np.flatnonzero(prim >= 0)
+        sel = sel[modes[geom[sel]] == METHOD_PHONG]
+        b1 = hits.u.ravel()[sel].astype(np.float64)
+        b2 = hits.v.ravel()[sel].astype(np.float64)
+        model.append(geom[sel].astype(np.int64))
+        face.append(inputs.face_off[geom[sel]] + prim[sel])
+        bary.append(np.stack([1.0 - b1 - b2, b1, b2], axis=1))  # as texture._coefficients
+        vert.append(np.full(sel.size, -1))
+        part.append(partials["phong"][sel])
+    if "flat" in partials:
+        sel = np.flatnonzero(modes[geo.face_model] == METHOD_FLAT)
+        third = 1.0 / 3.0
+        model.append(geo.face_model[sel].astype(np.int64))
+        face.append(sel)
+        bary.append(np.tile([1.0 - third - third, third, third], (sel.size, 1)))
+        vert.append(np.full(sel.size, -1))
+        part.append(partials["flat"][sel])
+    if "gouraud" in partials:
+        sel = np.flatnonzero(modes[geo.vertex_model] == METHOD_GOURAUD)
+        model.append(geo.vertex_model[sel].astype(np.int64))
+        face.append(np.full(sel.size, -1))
+        bary.append(np.zeros((sel.size, 3)))
+        vert.append(sel)
+        part.append(partials["gouraud"][sel])
+    cat = (lambda a, shape: np.concatenate(a) if a else np.zeros(shape))
+    return (cat(model, 0).astype(np.int64), cat(face, 0).astype(np.int64), cat(bary, (0, 3)),
+            cat(vert, 0).astype(np.int64), cat(part, (0, 9)), faces)
+
+
+def _colour_gradient(mats, model, part):
+    """``dL/d colour`` at each point: kd is the colour, ka times it with the row's ``ka_colors``."""
+    kac = (mats[model, MAT_KA_COLORS] != 0.0)[:, None]
+    return part[:, 3:6] + np.where(kac, mats[model, MAT_KA:MAT_KA + 3] * part[:, 0:3], 0.0)
+
+
+def _texel_scatter(info, k, uv, g):
+    """``g`` (N, 3) at UVs ``uv`` (N, 2) onto texture ``k``'s level 0 with the bilinear weights
+    (:func:`~raycast_shade.shading.texture._sample_level`, wrapped or clamped as there):
+    (h, w, 3), rows as the texture's ``texels``."""
+    w, h = int(info[k, TEX_WIDTH]), int(info[k, TEX_HEIGHT])
+    clamp = info[k, TEX_CLAMP] != 0.0
+    x = uv[:, 0] * info[k, TEX_TILE_U] * w - 0.5
+    y = uv[:, 1] * info[k, TEX_TILE_V] * h - 0.5
+    j0, i0 = np.floor(x), np.floor(y)
+    tx, ty = x - j0, y - i0
+    j0, i0 = j0.astype(np.int64), i0.astype(np.int64)
+    j1, i1 = j0 + 1, i0 + 1
+    if clamp:
+        j0, j1, i0, i1 = (np.clip(a, 0, n - 1) for a, n in ((j0, w), (j1, w), (i0, h), (i1, h)))
+    else:
+        j0, j1, i0, i1 = j0 % w, j1 % w, i0 % h, i1 % h
+    out = np.zeros((h, w, 3))
+    for ii, jj, wt in ((i0, j0, (1.0 - tx) * (1.0 - ty)), (i0, j1, tx * (1.0 - ty)), (i1, j0, (1.0 - tx) * ty),
+                       (i1, j1, tx * ty)):
+        np.add.at(out, (ii, jj), wt[:, None] * g)
+    return out
+
+
+def maps_gradients(hits, inputs, modes, gimg, geo, names) -> dict:
+    """``dL/d`` the mesh colours and colour-map texels named in ``names`` (a subset of :data:`MAPS`).
+
+    The scene's refusals (:func:`raycast_shade.gradients.grad`) come first: colours with maps on one
+    model, Gouraud with face colours or maps, mip-mapped maps.
+
+    Returns
+    -------
+    dict
+        ``"vertex_colors"`` (V, 3) and ``"face_colors"`` (F, 3), rows of the packed
+        ``geo.vertex_colors``/``geo.face_colors`` (zero rows for models without);
+        ``"kd_map"``, ``"ks_map"``: a tuple, per model, of its map's (h, w, 3) texel gradient
+        (rows as its ``Texture.texels``: row 0 is ``v = 0``), None for a model without one.
+    """
+    partials = map_partials(hits, inputs, modes, gimg, geo)
+    model, face, bary, vert, part, faces = _points(hits, inputs, modes, geo, partials)
+    mats, T = inputs.materials, inputs.colours
+    cmode = T.color_mode
+    out = {}
+    if "vertex_colors" in names:
+        g = np.zeros((inputs.geometry.verts.shape[0], 3))
+        sel = cmode[model] == COLOR_VERTEX
+        gc = _colour_gradient(mats, model[sel], part[sel])
+        at_vertex = vert[sel] >= 0
+        np.add.at(g, vert[sel][at_vertex], gc[at_vertex])
+        tri = faces[face[sel][~at_vertex]]
+        for corner in range(3):
+            np.add.at(g, tri[:, corner], bary[sel][~at_vertex][:, corner, None] * gc[~at_vertex])
+        out["vertex_colors"] = g
+    if "face_colors" in names:
+        g = np.zeros((faces.shape[0], 3))
+        sel = (cmode[model] == COLOR_FACE) & (face >= 0)
+        np.add.at(g, face[sel], _colour_gradient(mats, model[sel], part[sel]))
+        out["face_colors"] = g
+    for name in ("kd_map", "ks_map"):
+        if name not in names:
+            continue
+        slot, row, col = _MAP_SLOT[name]
+        maps = []
+        for m in range(mats.shape[0]):
+            k = T.tex_index[m, slot]
+            if k < 0:
+                maps.append(None)
+                continue
+            sel = (model == m) & (face >= 0)
+            tri = faces[face[sel]]
+            uvs = inputs.bumps.uvs
+            uv = np.einsum("nk,nkc->nc", bary[sel], uvs[tri])
+            maps.append(_texel_scatter(T.tex_info, k, uv, mats[m, row:row + 3] * part[sel, col:col + 3]))
+        out[name] = tuple(maps)
+    return out
