@@ -23,7 +23,7 @@ them to the parameters:
 
 The passes over pixels, faces and vertices run in :data:`~raycast_shade.shading.grad_frame.PARTS`
 fixed parts, each point written to its own output row; the scatters onto vertices, faces and
-texels run in NumPy (``np.add.at``, in index order): bit-identical on any number of threads.
+texels run in NumPy (``np.bincount``, in index order): bit-identical on any number of threads.
 """
 
 from __future__ import annotations
@@ -263,6 +263,14 @@ def _points(hits, inputs, modes, geo, partials):
             cat(vert, 0).astype(np.int64), cat(part, (0, 9)), faces)
 
 
+def _add_rows(out, idx, vals) -> None:
+    """``out[idx[k]] += vals[k]`` for each ``k`` in order (``np.bincount`` per column: sequential, so
+    deterministic, and several times faster than ``np.add.at``)."""
+    flat = out.reshape(out.shape[0] if out.ndim == 2 else -1, out.shape[-1])
+    for c in range(flat.shape[1]):
+        flat[:, c] += np.bincount(idx, weights=vals[:, c], minlength=flat.shape[0])
+
+
 def _colour_gradient(mats, model, part):
     """``dL/d colour`` at each point: kd is the colour, ka times it with the row's ``ka_colors``."""
     kac = (mats[model, MAT_KA_COLORS] != 0.0)[:, None]
@@ -288,7 +296,7 @@ def _texel_scatter(info, k, uv, g):
     out = np.zeros((h, w, 3))
     for ii, jj, wt in ((i0, j0, (1.0 - tx) * (1.0 - ty)), (i0, j1, tx * (1.0 - ty)), (i1, j0, (1.0 - tx) * ty),
                        (i1, j1, tx * ty)):
-        np.add.at(out, (ii, jj), wt[:, None] * g)
+        _add_rows(out, ii * w + jj, wt[:, None] * g)
     return out
 
 
@@ -313,18 +321,19 @@ def maps_gradients(hits, inputs, modes, gimg, geo, names) -> dict:
     out = {}
     if "vertex_colors" in names:
         g = np.zeros((inputs.geometry.verts.shape[0], 3))
-        sel = cmode[model] == COLOR_VERTEX
+        sel = np.flatnonzero(cmode[model] == COLOR_VERTEX)
         gc = _colour_gradient(mats, model[sel], part[sel])
-        at_vertex = vert[sel] >= 0
-        np.add.at(g, vert[sel][at_vertex], gc[at_vertex])
-        tri = faces[face[sel][~at_vertex]]
+        at_vertex = vert[sel] >= 0  # Gouraud's vertices: their own colour
+        _add_rows(g, vert[sel[at_vertex]], gc[at_vertex])
+        on_face = sel[~at_vertex]  # Phong's pixels, flat's faces: by the barycentrics
+        tri, bary_f, gc = faces[face[on_face]], bary[on_face], gc[~at_vertex]
         for corner in range(3):
-            np.add.at(g, tri[:, corner], bary[sel][~at_vertex][:, corner, None] * gc[~at_vertex])
+            _add_rows(g, tri[:, corner], bary_f[:, corner, None] * gc)
         out["vertex_colors"] = g
     if "face_colors" in names:
         g = np.zeros((faces.shape[0], 3))
         sel = (cmode[model] == COLOR_FACE) & (face >= 0)
-        np.add.at(g, face[sel], _colour_gradient(mats, model[sel], part[sel]))
+        _add_rows(g, face[sel], _colour_gradient(mats, model[sel], part[sel]))
         out["face_colors"] = g
     for name in ("kd_map", "ks_map"):
         if name not in names:
