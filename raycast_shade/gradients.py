@@ -51,7 +51,7 @@ vertex normal is exactly 0. Mesh colours and kd/ks map texels (:data:`MAPS`, not
 are :mod:`raycast_shade.shading.grad_maps`'. Not differentiated yet (refused with a ValueError
 naming what): GGX materials, mirrors, bump and normal maps, area lights; geometry through lens
 distortion; on a scene with colours or maps any parameter but :data:`MAPS`, and of those colours with
-maps on one model, face colours and maps under Gouraud, mip-mapped maps. The kernels are :mod:`raycast_shade.shading.grad_terms` and
+maps on one model, face colours and maps under Gouraud. The kernels are :mod:`raycast_shade.shading.grad_terms` and
 :mod:`raycast_shade.shading.grad_frame`; :func:`raycast_shade.fit` fits parameters with them.
 """
 
@@ -133,9 +133,6 @@ def _maps_problems(scene, modes, names) -> list:
         for name in set(maps) & set(names):
             if gouraud:
                 out.append(f"{what}: a {name} under Gouraud (its modulate path) has no texel gradients yet")
-            elif maps[name].filter == "mipmap":
-                out.append(f"{what}: {name} {maps[name].name!r} has filter='mipmap', whose texel gradients are not "
-                           "done yet (filter='bilinear' has them)")
     return out
 
 

@@ -18,8 +18,10 @@ them to the parameters:
   ``kd = b0 c0 + b1 c1 + b2 c2`` (the hit's barycentrics), flat the mean of the three (the face's
   centre), Gouraud each vertex's own;
 - a face colour replaces kd on its face (Phong and flat);
-- a kd or ks map multiplies the row's kd or ks by its bilinear sample at the point's UV: the four
-  texels around it get the bilinear weights (wrapped or clamped as the forward sampler does).
+- a kd or ks map multiplies the row's kd or ks by its sample at the point's UV: the four texels
+  around it get the bilinear weights (wrapped or clamped as the forward sampler does); a mip-mapped
+  map's two levels their trilinear weights, each level's gradient then taken down the pyramid by the
+  transpose of its box filter (the level of detail, a function of the geometry, held).
 
 The passes over pixels, faces and vertices run in :data:`~raycast_shade.shading.grad_frame.PARTS`
 fixed parts, each point written to its own output row; the scatters onto vertices, faces and
@@ -32,8 +34,8 @@ import numpy as np
 from numba import njit
 
 from ..common.layout import (COLOR_FACE, COLOR_VERTEX, MAT_KA, MAT_KA_COLORS, MAT_KD, MAT_KS, METHOD_FLAT,
-                             METHOD_GOURAUD, METHOD_PHONG, TEX_CLAMP, TEX_HEIGHT, TEX_OFFSET, TEX_TILE_U, TEX_TILE_V,
-                             TEX_WIDTH, TEXMAP_KD, TEXMAP_KS)
+                             METHOD_GOURAUD, METHOD_PHONG, TEX_CLAMP, TEX_HEIGHT, TEX_OFFSET, TEX_LEVELS, TEX_MIPMAP,
+                             TEX_TILE_U, TEX_TILE_V, TEX_WIDTH, TEXMAP_KD, TEXMAP_KS)
 from ..common.parallel import launch, share
 from ..visibility.secondary import ray_scratch
 from .grad_frame import _flat_gather
@@ -42,7 +44,7 @@ from .jit import CHUNK, HELPER, JIT
 from .phong import _shading_point
 from .records import At, Hit, dot
 from .surface import _convex_weights, _facing, _hit_point, _triangle, _view
-from .texture import _row_coefficients
+from .texture import _rho_kernel, _row_coefficients
 
 __all__ = ["MAPS", "map_partials", "maps_gradients"]
 
@@ -228,10 +230,11 @@ def map_partials(hits, inputs, modes, gimg, geo) -> dict:
 
 def _points(hits, inputs, modes, geo, partials):
     """Every point the methods evaluated, as flat arrays: ``(model, face, barycentrics (N, 3), vertex
-    or -1, dL/d(ka, kd, ks) (N, 9))``: Phong's pixels (row-major), flat's faces (their centres),
-    Gouraud's vertices, in that order (the scatters' fixed order)."""
+    or -1, dL/d(ka, kd, ks) (N, 9), the faces (F, 3), the pixel (row-major index) or -1)``: Phong's
+    pixels (row-major), flat's faces (their centres), Gouraud's vertices, in that order (the scatters'
+    fixed order)."""
     faces = inputs.geometry.faces
-    model, face, bary, vert, part = [], [], [], [], []
+    model, face, bary, vert, part, pix = [], [], [], [], [], []
     if "phong" in partials:
         prim, geom = hits.prim.ravel(), hits.geom.ravel()
         sel = np.flatnonzero(prim >= 0)
@@ -243,6 +246,7 @@ def _points(hits, inputs, modes, geo, partials):
         bary.append(np.stack([1.0 - b1 - b2, b1, b2], axis=1))  # as texture._coefficients
         vert.append(np.full(sel.size, -1))
         part.append(partials["phong"][sel])
+        pix.append(sel)
     if "flat" in partials:
         sel = np.flatnonzero(modes[geo.face_model] == METHOD_FLAT)
         third = 1.0 / 3.0
@@ -251,6 +255,7 @@ def _points(hits, inputs, modes, geo, partials):
         bary.append(np.tile([1.0 - third - third, third, third], (sel.size, 1)))
         vert.append(np.full(sel.size, -1))
         part.append(partials["flat"][sel])
+        pix.append(np.full(sel.size, -1))
     if "gouraud" in partials:
         sel = np.flatnonzero(modes[geo.vertex_model] == METHOD_GOURAUD)
         model.append(geo.vertex_model[sel].astype(np.int64))
@@ -258,9 +263,10 @@ def _points(hits, inputs, modes, geo, partials):
         bary.append(np.zeros((sel.size, 3)))
         vert.append(sel)
         part.append(partials["gouraud"][sel])
+        pix.append(np.full(sel.size, -1))
     cat = (lambda a, shape: np.concatenate(a) if a else np.zeros(shape))
     return (cat(model, 0).astype(np.int64), cat(face, 0).astype(np.int64), cat(bary, (0, 3)),
-            cat(vert, 0).astype(np.int64), cat(part, (0, 9)), faces)
+            cat(vert, 0).astype(np.int64), cat(part, (0, 9)), faces, cat(pix, 0).astype(np.int64))
 
 
 def _add_rows(out, idx, vals) -> None:
@@ -277,11 +283,12 @@ def _colour_gradient(mats, model, part):
     return part[:, 3:6] + np.where(kac, mats[model, MAT_KA:MAT_KA + 3] * part[:, 0:3], 0.0)
 
 
-def _texel_scatter(info, k, uv, g):
-    """``g`` (N, 3) at UVs ``uv`` (N, 2) onto texture ``k``'s level 0 with the bilinear weights
-    (:func:`~raycast_shade.shading.texture._sample_level`, wrapped or clamped as there):
-    (h, w, 3), rows as the texture's ``texels``."""
-    w, h = int(info[k, TEX_WIDTH]), int(info[k, TEX_HEIGHT])
+def _texel_scatter(info, k, uv, g, level=0):
+    """``g`` (N, 3) at UVs ``uv`` (N, 2) onto level ``level`` of texture ``k`` with the bilinear
+    weights (:func:`~raycast_shade.shading.texture._sample_level`, wrapped or clamped as there):
+    (h_l, w_l, 3), rows as the texture's ``texels``."""
+    w = max(1, int(info[k, TEX_WIDTH]) >> level)
+    h = max(1, int(info[k, TEX_HEIGHT]) >> level)
     clamp = info[k, TEX_CLAMP] != 0.0
     x = uv[:, 0] * info[k, TEX_TILE_U] * w - 0.5
     y = uv[:, 1] * info[k, TEX_TILE_V] * h - 0.5
@@ -300,11 +307,84 @@ def _texel_scatter(info, k, uv, g):
     return out
 
 
+def _halve_adjoint(g, n, axis):
+    """The transpose of :class:`~raycast_shade.Texture`'s pyramid step along ``axis`` (pairs
+    averaged; an odd length's last three samples averaged into the last output): ``g`` on the
+    ``max(1, n // 2)`` halved samples back onto the ``n`` of the level below."""
+    if n == 1:
+        return g
+    m = n // 2
+    g = np.moveaxis(g, axis, 0)
+    out = np.zeros((n,) + g.shape[1:])
+    out[0:2 * m:2] += 0.5 * g
+    out[1:2 * m:2] += 0.5 * g
+    if n % 2:  # the last output is (a[n-3] + a[n-2] + a[n-1]) / 3, not a pair's mean
+        out[n - 3:n - 1] -= 0.5 * g[m - 1]
+        out[n - 3:n] += g[m - 1] / 3.0
+    return np.moveaxis(out, 0, axis)
+
+
+def _levels(info, k, rho):
+    """Each point's mip levels and weights as :func:`~raycast_shade.shading.texture._sample` picks
+    them from its footprint ``rho`` (N,): ``(l0, w0, w1)``, level ``l0`` weighted ``w0`` and
+    ``l0 + 1`` weighted ``w1`` (0 where one level is sampled)."""
+    top = int(info[k, TEX_LEVELS]) - 1
+    mip = info[k, TEX_MIPMAP] != 0.0
+    trilinear = mip & (rho > 1.0)  # NaN: not > 1, level 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lod = np.where(trilinear, np.minimum(np.log2(np.where(trilinear, rho, 1.0)), float(top)), 0.0)
+    l0 = np.floor(lod)
+    frac = lod - l0
+    l0 = l0.astype(np.int64)
+    single = (frac == 0.0) | (l0 >= top)
+    return l0, np.where(single, 1.0, 1.0 - frac), np.where(single, 0.0, frac)
+
+
+def _texel_gradient(info, k, uv, g, rho):
+    """``g`` (N, 3) at UVs ``uv`` with footprints ``rho`` (N,) onto texture ``k``'s level 0 through
+    the trilinear filter and the pyramid's box filters (bilinear textures: level 0 alone)."""
+    l0, w0, w1 = _levels(info, k, rho)
+    w, h = int(info[k, TEX_WIDTH]), int(info[k, TEX_HEIGHT])
+    top = int(info[k, TEX_LEVELS]) - 1
+    acc = None
+    for lvl in range(top, -1, -1):  # from the top down: each level's gradient onto the one below
+        here = np.zeros((max(1, h >> lvl), max(1, w >> lvl), 3))
+        for sel, wt in ((l0 == lvl, w0), (l0 + 1 == lvl, w1)):
+            sel = sel & (wt != 0.0)
+            if np.any(sel):
+                here += _texel_scatter(info, k, uv[sel], wt[sel, None] * g[sel], lvl)
+        if acc is not None:
+            here += _halve_adjoint(_halve_adjoint(acc, max(1, w >> lvl), 1), max(1, h >> lvl), 0)
+        acc = here
+    return acc
+
+
+def _face_rho(info, k, uvs, tri):
+    """A flat face's footprint in level-0 texels (:func:`~raycast_shade.shading.texture._face_footprint`
+    through :func:`~raycast_shade.shading.texture._level_rho`)."""
+    d1 = uvs[tri[:, 1]] - uvs[tri[:, 0]]
+    d2 = uvs[tri[:, 2]] - uvs[tri[:, 0]]
+    side = np.sqrt(0.5 * np.abs(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]))
+    su = info[k, TEX_WIDTH] * info[k, TEX_TILE_U]
+    sv = info[k, TEX_HEIGHT] * info[k, TEX_TILE_V]
+    return np.maximum(np.abs(side * su), np.abs(side * sv))
+
+
+def _pixel_rho(hits, inputs, slot):
+    """Each pixel's footprint ``rho`` in its model's ``slot`` map (row-major; NaN without one): the
+    forward pass's (:func:`~raycast_shade.shading.texture.texture_levels`' kernel)."""
+    G, T = inputs.geometry, inputs.colours
+    out = np.empty(hits.shape, np.float64)
+    _rho_kernel(hits.prim, hits.geom, hits.u, hits.v, G.verts, G.faces, G.face_normals, inputs.bumps.uvs,
+                inputs.face_off, T.tex_index, T.tex_info, inputs.cam, slot, out)
+    return out.ravel()
+
+
 def maps_gradients(hits, inputs, modes, gimg, geo, names) -> dict:
     """``dL/d`` the mesh colours and colour-map texels named in ``names`` (a subset of :data:`MAPS`).
 
     The scene's refusals (:func:`raycast_shade.gradients.grad`) come first: colours with maps on one
-    model, Gouraud with face colours or maps, mip-mapped maps.
+    model, Gouraud with face colours or maps.
 
     Returns
     -------
@@ -315,7 +395,7 @@ def maps_gradients(hits, inputs, modes, gimg, geo, names) -> dict:
         (rows as its ``Texture.texels``: row 0 is ``v = 0``), None for a model without one.
     """
     partials = map_partials(hits, inputs, modes, gimg, geo)
-    model, face, bary, vert, part, faces = _points(hits, inputs, modes, geo, partials)
+    model, face, bary, vert, part, faces, pix = _points(hits, inputs, modes, geo, partials)
     mats, T = inputs.materials, inputs.colours
     cmode = T.color_mode
     out = {}
@@ -349,6 +429,11 @@ def maps_gradients(hits, inputs, modes, gimg, geo, names) -> dict:
             tri = faces[face[sel]]
             uvs = inputs.bumps.uvs
             uv = np.einsum("nk,nkc->nc", bary[sel], uvs[tri])
-            maps.append(_texel_scatter(T.tex_info, k, uv, mats[m, row:row + 3] * part[sel, col:col + 3]))
+            rho = np.zeros(uv.shape[0])
+            if T.tex_info[k, TEX_MIPMAP] != 0.0:
+                rho = _pixel_rho(hits, inputs, slot)[np.maximum(pix[sel], 0)]
+                at_face = pix[sel] < 0
+                rho[at_face] = _face_rho(T.tex_info, k, uvs, tri[at_face])
+            maps.append(_texel_gradient(T.tex_info, k, uv, mats[m, row:row + 3] * part[sel, col:col + 3], rho))
         out[name] = tuple(maps)
     return out
