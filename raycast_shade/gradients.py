@@ -51,7 +51,7 @@ vertex normal is exactly 0. Mesh colours and kd/ks map texels (:data:`MAPS`, not
 are :mod:`raycast_shade.shading.grad_maps`'. Not differentiated yet (refused with a ValueError
 naming what): GGX materials, mirrors, bump and normal maps, area lights; geometry through lens
 distortion; on a scene with colours or maps any parameter but :data:`MAPS`, and of those colours with
-maps on one model, face colours and maps under Gouraud. The kernels are :mod:`raycast_shade.shading.grad_terms` and
+maps on one model. The kernels are :mod:`raycast_shade.shading.grad_terms` and
 :mod:`raycast_shade.shading.grad_frame`; :func:`raycast_shade.fit` fits parameters with them.
 """
 
@@ -62,7 +62,7 @@ import warnings
 import numpy as np
 
 from .common.samples import check_samples, sample_offsets
-from .common.layout import (METHOD_GOURAUD, CAM_EYE, ATT_HEURISTIC, LIGHT_ATT, LIGHT_COS_INNER, LIGHT_COS_OUTER, LIGHT_DIRECTIONAL,
+from .common.layout import (CAM_EYE, ATT_HEURISTIC, LIGHT_ATT, LIGHT_COS_INNER, LIGHT_COS_OUTER, LIGHT_DIRECTIONAL,
                             LIGHT_KIND, LIGHT_SPOT, LIGHT_VEC)
 from .common.stack import user_stacklevel
 from .common.validate import as_array, as_bool, as_int, as_names, as_scalar, as_vec3
@@ -106,33 +106,27 @@ def _wrt(wrt) -> tuple:
     return as_names(wrt, "wrt", WRT, item="parameter")
 
 
-def check_scene(scene, inputs, names=(), modes=None) -> None:
+def check_scene(scene, inputs, names=()) -> None:
     """Raise a ValueError naming every part of ``scene`` the gradient kernels do not differentiate
     for the parameters ``names``."""
     maps = [n for n in names if n in MAPS]
     problems = unsupported(inputs, [m.material.name for m in scene.models], [light.name for light in scene.lights],
                            colours_ok=len(maps) == len(names) > 0)
     if maps:
-        problems += _maps_problems(scene, modes, maps)
+        problems += _maps_problems(scene, maps)
     if problems:
         raise ValueError("scene: no gradients for this scene yet: " + "; ".join(problems))
 
 
-def _maps_problems(scene, modes, names) -> list:
+def _maps_problems(scene, names) -> list:
     """What :mod:`~raycast_shade.shading.grad_maps` does not differentiate for ``names``, per model."""
     out = []
     for g, model in enumerate(scene.models):
         mat, what = model.material, f"scene.models[{g}] ({model.mesh.name}, material {model.material.name!r})"
         maps = {f: t for f, t in zip(("ka_map", "kd_map", "ks_map", "ke_map", "ao_map"), mat.maps) if t is not None}
         coloured = model.mesh.colors is not None
-        gouraud = modes[g] == METHOD_GOURAUD
         if coloured and maps and ({"vertex_colors", "face_colors"} & set(names) or set(maps) & set(names)):
             out.append(f"{what}: mesh colours with {', '.join(maps)} have no colour or texel gradients yet")
-        elif coloured and gouraud and model.mesh.color_mode == "face" and "face_colors" in names:
-            out.append(f"{what}: face colours under Gouraud (its modulate path) have no gradients yet")
-        for name in set(maps) & set(names):
-            if gouraud:
-                out.append(f"{what}: a {name} under Gouraud (its modulate path) has no texel gradients yet")
     return out
 
 
@@ -271,7 +265,7 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
         if frame.image.shape != gimg.shape:
             raise ValueError(f"frame: its image is {frame.image.shape}, dL_dimage {gimg.shape}")
     inputs = frame.inputs if frame is not None and frame.inputs is not None else prepare(scene, scene.camera)
-    check_scene(scene, inputs, names, modes)
+    check_scene(scene, inputs, names)
     if samples > 1 and any(n in MAPS for n in names):
         raise ValueError(f"samples: {', '.join(n for n in names if n in MAPS)} are differentiated over one ray per "
                          "pixel only yet (samples=1)")

@@ -17,7 +17,9 @@ them to the parameters:
 - a vertex colour replaces kd (``ka`` times it with the material's ``ka_colors``): Phong
   ``kd = b0 c0 + b1 c1 + b2 c2`` (the hit's barycentrics), flat the mean of the three (the face's
   centre), Gouraud each vertex's own;
-- a face colour replaces kd on its face (Phong and flat);
+- a face colour replaces kd on its face; Gouraud's modulate path (a model with a map or face
+  colours) is differentiated per pixel: ``dL/dkd = gI D`` with the corners' diffuse light ``D``
+  interpolated (each corner's from its own point, shares ``w_k gI``), likewise ks;
 - a kd or ks map multiplies the row's kd or ks by its sample at the point's UV: the four texels
   around it get the bilinear weights (wrapped or clamped as the forward sampler does); a mip-mapped
   map's two levels their trilinear weights, each level's gradient then taken down the pyramid by the
@@ -68,9 +70,30 @@ def _point_partials(hp, mats, mi, L, S, gI, scratch, lay, out, r):
         out[r, 6 + c] += scratch[0, mb + GM_KS + c]
 
 
+@njit(**HELPER)
+def _corner_hit(G, cam, i, side, gn):
+    """The point a Gouraud corner is lit at (:func:`~raycast_shade.shading.gouraud._corner_normal`):
+    vertex ``i`` with its normal from ``side``, the stored shade's (``True``), or shaded on the spot
+    with the face's normal ``gn`` (a zero normal) or its normal reflected across the face's plane."""
+    verts, normals, _, _ = G
+    sg = 1.0 - 2.0 * side
+    n = (sg * normals[i, 0], sg * normals[i, 1], sg * normals[i, 2])
+    p = (verts[i, 0], verts[i, 1], verts[i, 2])
+    view = _view(cam, p)
+    if n[0] == 0.0 and n[1] == 0.0 and n[2] == 0.0:
+        return Hit(p, view, gn, 1.0, gn, p), False
+    c = dot(n, gn)
+    if c < 0.0:
+        return Hit(p, view, gn, 1.0, (n[0] - 2.0 * c * gn[0], n[1] - 2.0 * c * gn[1], n[2] - 2.0 * c * gn[2]), p), False
+    return Hit(p, view, n, 1.0, n, p), True
+
+
 @njit(nogil=True, **JIT)
-def _phong_partials_kernel(hits, G, B, L, face_off, materials, cam, modes, gimg, lay, size, out, part):
-    """Phong pixels: ``out[y * W + x]`` = the pixel's ``dL/d(ka, kd, ks)`` (rows of other pixels 0)."""
+def _pixel_partials_kernel(hits, G, B, L, face_off, materials, cam, modes, modulate, gimg, lay, size, out, part):
+    """The points that are pixels: ``out[y * W + x]`` = the pixel's ``dL/d(ka, kd, ks)`` (rows of
+    other pixels 0). Phong: at the pixel's shading point. Gouraud's modulate path (a model with a
+    map or face colours: ``Ia ka + D kd + S ks`` with the corners' diffuse and specular light ``D``,
+    ``S`` interpolated): each corner's, its ``dL/dI`` share ``w_k gI`` (the weights sum to 1)."""
     prim, geom, u, v = hits
     h, w = prim.shape
     scratch = np.zeros((1, size))
@@ -78,15 +101,31 @@ def _phong_partials_kernel(hits, G, B, L, face_off, materials, cam, modes, gimg,
         S = ray_scratch()
         for x in range(w):
             p = prim[y, x]
-            if p < 0 or modes[geom[y, x]] != METHOD_PHONG:
+            if p < 0:
+                continue
+            gm = geom[y, x]
+            phong = modes[gm] == METHOD_PHONG
+            if not phong and not (modes[gm] == METHOD_GOURAUD and modulate[gm] != 0):
                 continue
             gI = (np.float64(gimg[y, x, 0]), np.float64(gimg[y, x, 1]), np.float64(gimg[y, x, 2]))
             if gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0:
                 continue
-            gm = geom[y, x]
-            at = At(face_off[gm] + p, gm, np.float64(u[y, x]), np.float64(v[y, x]))
-            hp = _shading_point(G, B, L, cam, at, np.bool_(False), (0.0, 0.0, 0.0))
-            _point_partials(hp, materials, gm, L, S, gI, scratch, lay, out, y * w + x)
+            f = face_off[gm] + p
+            b1 = np.float64(u[y, x])
+            b2 = np.float64(v[y, x])
+            if phong:
+                hp = _shading_point(G, B, L, cam, At(f, gm, b1, b2), np.bool_(False), (0.0, 0.0, 0.0))
+                _point_partials(hp, materials, gm, L, S, gI, scratch, lay, out, y * w + x)
+                continue
+            tri = _triangle(G.faces, f)
+            gn, sgn = _facing(G.face_normals, f, _view(cam, _hit_point(G.verts, tri, b1, b2)))
+            side = 0 if sgn > 0.0 else 1
+            wts = _convex_weights(b1, b2)
+            for corner in range(3):
+                hp, _ = _corner_hit(G, cam, tri[corner], side, gn)
+                wk = wts[corner]
+                _point_partials(hp, materials, gm, L, S, (wk * gI[0], wk * gI[1], wk * gI[2]), scratch, lay, out,
+                                y * w + x)
 
 
 @njit(nogil=True, **JIT)
@@ -110,13 +149,11 @@ def _flat_partials_kernel(gface, G, face_model, materials, cam, L, lay, size, ou
 
 
 @njit(**JIT)
-def _gouraud_gather_partials(hits, G, L, face_off, materials, cam, modes, gimg, lay, size, gvert, out):
-    """Serially, in row-major order: each Gouraud pixel's ``dL/dI`` onto its corners' stored shades
-    ``gvert`` (V, 2, 3) with the forward weights and sides; a corner the forward pass shades on the
-    spot (a zero normal: the face's; one reflected into the face's hemisphere) adds its
-    ``dL/d(ka, kd, ks)`` into ``out[i]`` here."""
+def _gouraud_gather_partials(hits, G, L, face_off, materials, cam, modes, modulate, gimg, lay, size, gvert, out):
+    """Serially, in row-major order: each Gouraud pixel's (not on the modulate path) ``dL/dI`` onto its
+    corners' stored shades ``gvert`` (V, 2, 3) with the forward weights and sides; a corner the forward
+    pass shades on the spot adds its ``dL/d(ka, kd, ks)`` into ``out[i]`` here."""
     prim, geom, u, v = hits
-    verts, normals, faces, fnormals = G
     S = ray_scratch()
     scratch = np.zeros((1, size))
     h, w = prim.shape
@@ -126,34 +163,25 @@ def _gouraud_gather_partials(hits, G, L, face_off, materials, cam, modes, gimg, 
             if p < 0:
                 continue
             gm = geom[y, x]
-            if modes[gm] != METHOD_GOURAUD:
+            if modes[gm] != METHOD_GOURAUD or modulate[gm] != 0:
                 continue
             f = face_off[gm] + p
             b1 = np.float64(u[y, x])
             b2 = np.float64(v[y, x])
-            tri = _triangle(faces, f)
-            view = _view(cam, _hit_point(verts, tri, b1, b2))
-            gn, sgn = _facing(fnormals, f, view)
+            tri = _triangle(G.faces, f)
+            gn, sgn = _facing(G.face_normals, f, _view(cam, _hit_point(G.verts, tri, b1, b2)))
             side = 0 if sgn > 0.0 else 1
-            sg = 1.0 - 2.0 * side
             wts = _convex_weights(b1, b2)
             for corner in range(3):
                 i = tri[corner]
                 wk = wts[corner]
                 gI = (wk * gimg[y, x, 0], wk * gimg[y, x, 1], wk * gimg[y, x, 2])
-                n = (sg * normals[i, 0], sg * normals[i, 1], sg * normals[i, 2])
-                pv = (verts[i, 0], verts[i, 1], verts[i, 2])
-                if n[0] == 0.0 and n[1] == 0.0 and n[2] == 0.0:
-                    _point_partials(Hit(pv, _view(cam, pv), gn, 1.0, gn, pv), materials, gm, L, S, gI, scratch, lay,
-                                    out, i)
-                elif dot(n, gn) < 0.0:
-                    c = dot(n, gn)
-                    nr = (n[0] - 2.0 * c * gn[0], n[1] - 2.0 * c * gn[1], n[2] - 2.0 * c * gn[2])
-                    _point_partials(Hit(pv, _view(cam, pv), gn, 1.0, nr, pv), materials, gm, L, S, gI, scratch, lay,
-                                    out, i)
-                else:
+                hp, stored = _corner_hit(G, cam, i, side, gn)
+                if stored:
                     for cc in range(3):
                         gvert[i, side, cc] += gI[cc]
+                else:
+                    _point_partials(hp, materials, gm, L, S, gI, scratch, lay, out, i)
 
 
 @njit(nogil=True, **JIT)
@@ -197,8 +225,9 @@ def map_partials(hits, inputs, modes, gimg, geo) -> dict:
     Returns
     -------
     dict
-        ``"phong"``: (H * W, 9) per pixel (row-major; zero off Phong pixels), ``"flat"``: (F, 9) per
-        face, ``"gouraud"``: (V, 9) per vertex; the columns ``dL/dka``, ``dL/dkd``, ``dL/dks`` (RGB).
+        ``"pixels"``: (H * W, 9) per pixel (row-major; Phong's and Gouraud's modulate path's, zero
+        elsewhere), ``"flat"``: (F, 9) per
+        face, ``"gouraud"``: (V, 9) per vertex (models off the modulate path); the columns ``dL/dka``, ``dL/dkd``, ``dL/dks`` (RGB).
         A method no model uses is absent.
     """
     G, B, L = inputs.geometry, inputs.bumps, inputs.lighting
@@ -209,10 +238,11 @@ def map_partials(hits, inputs, modes, gimg, geo) -> dict:
     hit = (hits.prim, hits.geom, hits.u, hits.v)
     nv, nf = G.verts.shape[0], G.faces.shape[0]
     out = {}
-    if np.any(modes == METHOD_PHONG):
-        out["phong"] = np.zeros((hits.prim.size, 9))
-        launch(_phong_partials_kernel, hit, G, B, L, face_off, mats, cam, modes, gimg, lay, size, out["phong"],
-               parts=PARTS, dynamic=True)
+    modulate = inputs.colours.modulate
+    if np.any(modes == METHOD_PHONG) or np.any((modes == METHOD_GOURAUD) & (modulate != 0)):
+        out["pixels"] = np.zeros((hits.prim.size, 9))
+        launch(_pixel_partials_kernel, hit, G, B, L, face_off, mats, cam, modes, modulate, gimg, lay, size,
+               out["pixels"], parts=PARTS, dynamic=True)
     if np.any(modes == METHOD_FLAT):
         gface = np.zeros((nf, 3))
         _flat_gather(hits.prim, hits.geom, face_off, modes, gimg, gface)
@@ -222,7 +252,8 @@ def map_partials(hits, inputs, modes, gimg, geo) -> dict:
     if np.any(modes == METHOD_GOURAUD):
         gvert = np.zeros((nv, 2, 3))
         out["gouraud"] = np.zeros((nv, 9))
-        _gouraud_gather_partials(hit, G, L, face_off, mats, cam, modes, gimg, lay, size, gvert, out["gouraud"])
+        _gouraud_gather_partials(hit, G, L, face_off, mats, cam, modes, modulate, gimg, lay, size, gvert,
+                                 out["gouraud"])
         launch(_gouraud_partials_kernel, gvert, G, geo.vertex_model, mats, cam, L, lay, size, out["gouraud"],
                parts=PARTS, dynamic=True)
     return out
@@ -235,17 +266,19 @@ def _points(hits, inputs, modes, geo, partials):
     fixed order)."""
     faces = inputs.geometry.faces
     model, face, bary, vert, part, pix = [], [], [], [], [], []
-    if "phong" in partials:
+    modulate = inputs.colours.modulate
+    if "pixels" in partials:
         prim, geom = hits.prim.ravel(), hits.geom.ravel()
         sel = np.flatnonzero(prim >= 0)
-        sel = sel[modes[geom[sel]] == METHOD_PHONG]
+        mode = modes[geom[sel]]
+        sel = sel[(mode == METHOD_PHONG) | ((mode == METHOD_GOURAUD) & (modulate[geom[sel]] != 0))]
         b1 = hits.u.ravel()[sel].astype(np.float64)
         b2 = hits.v.ravel()[sel].astype(np.float64)
         model.append(geom[sel].astype(np.int64))
         face.append(inputs.face_off[geom[sel]] + prim[sel])
         bary.append(np.stack([1.0 - b1 - b2, b1, b2], axis=1))  # as texture._coefficients
         vert.append(np.full(sel.size, -1))
-        part.append(partials["phong"][sel])
+        part.append(partials["pixels"][sel])
         pix.append(sel)
     if "flat" in partials:
         sel = np.flatnonzero(modes[geo.face_model] == METHOD_FLAT)
@@ -257,7 +290,7 @@ def _points(hits, inputs, modes, geo, partials):
         part.append(partials["flat"][sel])
         pix.append(np.full(sel.size, -1))
     if "gouraud" in partials:
-        sel = np.flatnonzero(modes[geo.vertex_model] == METHOD_GOURAUD)
+        sel = np.flatnonzero((modes[geo.vertex_model] == METHOD_GOURAUD) & (modulate[geo.vertex_model] == 0))
         model.append(geo.vertex_model[sel].astype(np.int64))
         face.append(np.full(sel.size, -1))
         bary.append(np.zeros((sel.size, 3)))
@@ -384,7 +417,7 @@ def maps_gradients(hits, inputs, modes, gimg, geo, names) -> dict:
     """``dL/d`` the mesh colours and colour-map texels named in ``names`` (a subset of :data:`MAPS`).
 
     The scene's refusals (:func:`raycast_shade.gradients.grad`) come first: colours with maps on one
-    model, Gouraud with face colours or maps.
+    model.
 
     Returns
     -------
