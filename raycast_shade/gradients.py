@@ -50,8 +50,8 @@ light stays blocked). Flat shading lights a face with its true normal: the flat 
 vertex normal is exactly 0. Mesh colours and kd/ks map texels (:data:`MAPS`, not among the defaults)
 are :mod:`raycast_shade.shading.grad_maps`'. Not differentiated yet (refused with a ValueError
 naming what): GGX materials, mirrors, bump and normal maps, area lights; geometry through lens
-distortion; on a scene with colours or maps any parameter but :data:`MAPS`, and of those colours with
-maps on one model. The kernels are :mod:`raycast_shade.shading.grad_terms` and
+distortion; on a scene with colours or maps any parameter but :data:`MAPS`. The kernels are
+:mod:`raycast_shade.shading.grad_terms` and
 :mod:`raycast_shade.shading.grad_frame`; :func:`raycast_shade.fit` fits parameters with them.
 """
 
@@ -112,22 +112,8 @@ def check_scene(scene, inputs, names=()) -> None:
     maps = [n for n in names if n in MAPS]
     problems = unsupported(inputs, [m.material.name for m in scene.models], [light.name for light in scene.lights],
                            colours_ok=len(maps) == len(names) > 0)
-    if maps:
-        problems += _maps_problems(scene, maps)
     if problems:
         raise ValueError("scene: no gradients for this scene yet: " + "; ".join(problems))
-
-
-def _maps_problems(scene, names) -> list:
-    """What :mod:`~raycast_shade.shading.grad_maps` does not differentiate for ``names``, per model."""
-    out = []
-    for g, model in enumerate(scene.models):
-        mat, what = model.material, f"scene.models[{g}] ({model.mesh.name}, material {model.material.name!r})"
-        maps = {f: t for f, t in zip(("ka_map", "kd_map", "ks_map", "ke_map", "ao_map"), mat.maps) if t is not None}
-        coloured = model.mesh.colors is not None
-        if coloured and maps and ({"vertex_colors", "face_colors"} & set(names) or set(maps) & set(names)):
-            out.append(f"{what}: mesh colours with {', '.join(maps)} have no colour or texel gradients yet")
-    return out
 
 
 def check_gradient(dL_dimage, camera) -> np.ndarray:

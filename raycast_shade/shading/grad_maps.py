@@ -14,7 +14,8 @@ the forward pass shades on the spot where it does). :func:`map_partials` returns
 (Phong), per face (flat) and per vertex (Gouraud); the driver (:func:`raycast_shade.grad`) chains
 them to the parameters:
 
-- a vertex colour replaces kd (``ka`` times it with the material's ``ka_colors``): Phong
+- a vertex colour replaces kd (times the kd map's sample; ``ka`` times it with the material's
+  ``ka_colors``, and the ka map's sample and the occlusion: :func:`_factors`): Phong
   ``kd = b0 c0 + b1 c1 + b2 c2`` (the hit's barycentrics), flat the mean of the three (the face's
   centre), Gouraud each vertex's own;
 - a face colour replaces kd on its face; Gouraud's modulate path (a model with a map or face
@@ -35,7 +36,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..common.layout import (COLOR_FACE, COLOR_VERTEX, MAT_KA, MAT_KA_COLORS, MAT_KD, MAT_KS, METHOD_FLAT,
+from ..common.layout import (COLOR_FACE, COLOR_NONE, COLOR_VERTEX, MAT_KA, MAT_KA_COLORS, MAT_KD, MAT_KS, METHOD_FLAT,
                              METHOD_GOURAUD, METHOD_PHONG, TEX_CLAMP, TEX_HEIGHT, TEX_OFFSET, TEX_LEVELS, TEX_MIPMAP,
                              TEX_TILE_U, TEX_TILE_V, TEX_WIDTH, TEXMAP_KD, TEXMAP_KS)
 from ..common.parallel import launch, share
@@ -46,7 +47,7 @@ from .jit import CHUNK, HELPER, JIT
 from .phong import _shading_point
 from .records import At, Hit, dot
 from .surface import _convex_weights, _facing, _hit_point, _triangle, _view
-from .texture import _rho_kernel, _row_coefficients
+from .texture import _coefficients, _face_footprint, _point_coefficients, _rho_kernel, _row_coefficients
 
 __all__ = ["MAPS", "map_partials", "maps_gradients"]
 
@@ -206,6 +207,63 @@ def _gouraud_partials_kernel(gvert, G, vertex_model, materials, cam, L, lay, siz
                                 lay, out, i)
 
 
+@njit(nogil=True, **JIT)
+def _factors_kernel(hits, G, uvs, cam, face_off, unit_mats, Tn, need, fac, part):
+    """Pixels of the models ``need`` flags: ``fac[y * W + x]`` = (the kd map's filtered sample, the ka
+    map's times the occlusion), :func:`~raycast_shade.shading.texture._point_coefficients` with unit
+    ka and kd rows and no colours (``unit_mats``, ``Tn``): what multiplies the mesh colour there."""
+    prim, geom, u, v = hits
+    h, w = prim.shape
+    for y in range(*share(h, part)):
+        for x in range(w):
+            p = prim[y, x]
+            if p < 0 or need[geom[y, x]] == 0:
+                continue
+            gm = geom[y, x]
+            at = At(face_off[gm] + p, gm, np.float64(u[y, x]), np.float64(v[y, x]))
+            coef = _point_coefficients(G, uvs, at, cam, x, y, True, unit_mats, Tn)
+            for c in range(3):
+                fac[y * w + x, c] = coef[3 + c]
+                fac[y * w + x, 3 + c] = coef[c]
+
+
+@njit(**JIT)
+def _face_factors(faces, uvs, face_model, unit_mats, Tn, need, fac):
+    """:func:`_factors_kernel` for flat faces (their centres and footprints, as the forward pass)."""
+    third = 1.0 / 3.0
+    for f in range(faces.shape[0]):
+        m = face_model[f]
+        if need[m] == 0:
+            continue
+        tri = _triangle(faces, f)
+        coef = _coefficients(unit_mats, Tn, At(f, m, third, third), tri, uvs, _face_footprint(uvs, tri))
+        for c in range(3):
+            fac[f, c] = coef[3 + c]
+            fac[f, 3 + c] = coef[c]
+
+
+def _factors(hits, inputs, geo, partials):
+    """What multiplies each point's mesh colour (:func:`_factors_kernel`): ``{"pixels": (H * W, 6),
+    "flat": (F, 6)}``, ones where a model has no maps or no colours."""
+    T = inputs.colours
+    need = ((T.color_mode != COLOR_NONE) & (T.tex_index >= 0).any(axis=1)).astype(np.uint8)
+    out = {"pixels": np.ones((hits.prim.size, 6)), "flat": np.ones((inputs.geometry.faces.shape[0], 6))}
+    if not need.any():
+        return out
+    unit = inputs.materials.copy()
+    unit[:, MAT_KA:MAT_KA + 3] = 1.0
+    unit[:, MAT_KD:MAT_KD + 3] = 1.0
+    unit[:, MAT_KA_COLORS] = 0.0
+    Tn = T._replace(color_mode=np.zeros_like(T.color_mode))
+    G = inputs.geometry
+    if "pixels" in partials:
+        launch(_factors_kernel, (hits.prim, hits.geom, hits.u, hits.v), G, inputs.bumps.uvs, inputs.cam,
+               inputs.face_off, unit, Tn, need, out["pixels"], parts=PARTS, dynamic=True)
+    if "flat" in partials:
+        _face_factors(G.faces, inputs.bumps.uvs, geo.face_model, unit, Tn, need, out["flat"])
+    return out
+
+
 def map_partials(hits, inputs, modes, gimg, geo) -> dict:
     """``dL/d(ka, kd, ks)`` of the points where each method evaluates the equation.
 
@@ -259,13 +317,13 @@ def map_partials(hits, inputs, modes, gimg, geo) -> dict:
     return out
 
 
-def _points(hits, inputs, modes, geo, partials):
+def _points(hits, inputs, modes, geo, partials, factors):
     """Every point the methods evaluated, as flat arrays: ``(model, face, barycentrics (N, 3), vertex
     or -1, dL/d(ka, kd, ks) (N, 9), the faces (F, 3), the pixel (row-major index) or -1)``: Phong's
     pixels (row-major), flat's faces (their centres), Gouraud's vertices, in that order (the scatters'
     fixed order)."""
     faces = inputs.geometry.faces
-    model, face, bary, vert, part, pix = [], [], [], [], [], []
+    model, face, bary, vert, part, pix, fac = [], [], [], [], [], [], []
     modulate = inputs.colours.modulate
     if "pixels" in partials:
         prim, geom = hits.prim.ravel(), hits.geom.ravel()
@@ -280,6 +338,7 @@ def _points(hits, inputs, modes, geo, partials):
         vert.append(np.full(sel.size, -1))
         part.append(partials["pixels"][sel])
         pix.append(sel)
+        fac.append(factors["pixels"][sel])
     if "flat" in partials:
         sel = np.flatnonzero(modes[geo.face_model] == METHOD_FLAT)
         third = 1.0 / 3.0
@@ -289,6 +348,7 @@ def _points(hits, inputs, modes, geo, partials):
         vert.append(np.full(sel.size, -1))
         part.append(partials["flat"][sel])
         pix.append(np.full(sel.size, -1))
+        fac.append(factors["flat"][sel])
     if "gouraud" in partials:
         sel = np.flatnonzero((modes[geo.vertex_model] == METHOD_GOURAUD) & (modulate[geo.vertex_model] == 0))
         model.append(geo.vertex_model[sel].astype(np.int64))
@@ -297,9 +357,10 @@ def _points(hits, inputs, modes, geo, partials):
         vert.append(sel)
         part.append(partials["gouraud"][sel])
         pix.append(np.full(sel.size, -1))
+        fac.append(np.ones((sel.size, 6)))  # off the modulate path: no maps
     cat = (lambda a, shape: np.concatenate(a) if a else np.zeros(shape))
     return (cat(model, 0).astype(np.int64), cat(face, 0).astype(np.int64), cat(bary, (0, 3)),
-            cat(vert, 0).astype(np.int64), cat(part, (0, 9)), faces, cat(pix, 0).astype(np.int64))
+            cat(vert, 0).astype(np.int64), cat(part, (0, 9)), faces, cat(pix, 0).astype(np.int64), cat(fac, (0, 6)))
 
 
 def _add_rows(out, idx, vals) -> None:
@@ -310,10 +371,22 @@ def _add_rows(out, idx, vals) -> None:
         flat[:, c] += np.bincount(idx, weights=vals[:, c], minlength=flat.shape[0])
 
 
-def _colour_gradient(mats, model, part):
-    """``dL/d colour`` at each point: kd is the colour, ka times it with the row's ``ka_colors``."""
+def _colour_gradient(mats, model, part, fac):
+    """``dL/d colour`` at each point: kd is the colour times the kd map's sample ``fac[:, :3]``, ka the
+    row's ka times it with the row's ``ka_colors`` (times the ka map's sample and the occlusion,
+    ``fac[:, 3:]``)."""
     kac = (mats[model, MAT_KA_COLORS] != 0.0)[:, None]
-    return part[:, 3:6] + np.where(kac, mats[model, MAT_KA:MAT_KA + 3] * part[:, 0:3], 0.0)
+    return part[:, 3:6] * fac[:, 0:3] + np.where(kac, mats[model, MAT_KA:MAT_KA + 3] * fac[:, 3:6] * part[:, 0:3], 0.0)
+
+
+def _point_colour(T, model, face, bary, faces):
+    """The mesh colour at each point on a face (Phong's pixels, flat's centres), or NaN."""
+    out = np.full((model.size, 3), np.nan)
+    vx = T.color_mode[model] == COLOR_VERTEX
+    out[vx] = np.einsum("nk,nkc->nc", bary[vx], T.vertex_colors[faces[face[vx]]])
+    fx = T.color_mode[model] == COLOR_FACE
+    out[fx] = T.face_colors[face[fx]]
+    return out
 
 
 def _texel_scatter(info, k, uv, g, level=0):
@@ -416,8 +489,7 @@ def _pixel_rho(hits, inputs, slot):
 def maps_gradients(hits, inputs, modes, gimg, geo, names) -> dict:
     """``dL/d`` the mesh colours and colour-map texels named in ``names`` (a subset of :data:`MAPS`).
 
-    The scene's refusals (:func:`raycast_shade.gradients.grad`) come first: colours with maps on one
-    model.
+    The scene's refusals (:func:`raycast_shade.gradients.grad`) come first.
 
     Returns
     -------
@@ -428,14 +500,15 @@ def maps_gradients(hits, inputs, modes, gimg, geo, names) -> dict:
         (rows as its ``Texture.texels``: row 0 is ``v = 0``), None for a model without one.
     """
     partials = map_partials(hits, inputs, modes, gimg, geo)
-    model, face, bary, vert, part, faces, pix = _points(hits, inputs, modes, geo, partials)
+    model, face, bary, vert, part, faces, pix, fac = _points(hits, inputs, modes, geo, partials,
+                                                            _factors(hits, inputs, geo, partials))
     mats, T = inputs.materials, inputs.colours
     cmode = T.color_mode
     out = {}
     if "vertex_colors" in names:
         g = np.zeros((inputs.geometry.verts.shape[0], 3))
         sel = np.flatnonzero(cmode[model] == COLOR_VERTEX)
-        gc = _colour_gradient(mats, model[sel], part[sel])
+        gc = _colour_gradient(mats, model[sel], part[sel], fac[sel])
         at_vertex = vert[sel] >= 0  # Gouraud's vertices: their own colour
         _add_rows(g, vert[sel[at_vertex]], gc[at_vertex])
         on_face = sel[~at_vertex]  # Phong's pixels, flat's faces: by the barycentrics
@@ -446,7 +519,7 @@ def maps_gradients(hits, inputs, modes, gimg, geo, names) -> dict:
     if "face_colors" in names:
         g = np.zeros((faces.shape[0], 3))
         sel = (cmode[model] == COLOR_FACE) & (face >= 0)
-        _add_rows(g, face[sel], _colour_gradient(mats, model[sel], part[sel]))
+        _add_rows(g, face[sel], _colour_gradient(mats, model[sel], part[sel], fac[sel]))
         out["face_colors"] = g
     for name in ("kd_map", "ks_map"):
         if name not in names:
@@ -467,6 +540,9 @@ def maps_gradients(hits, inputs, modes, gimg, geo, names) -> dict:
                 rho = _pixel_rho(hits, inputs, slot)[np.maximum(pix[sel], 0)]
                 at_face = pix[sel] < 0
                 rho[at_face] = _face_rho(T.tex_info, k, uvs, tri[at_face])
-            maps.append(_texel_gradient(T.tex_info, k, uv, mats[m, row:row + 3] * part[sel, col:col + 3], rho))
+            base = np.broadcast_to(mats[m, row:row + 3], (uv.shape[0], 3))  # what the sample multiplies
+            if slot == TEXMAP_KD and T.color_mode[m] != COLOR_NONE:  # the colour, in place of the row's kd
+                base = _point_colour(T, model[sel], face[sel], bary[sel], faces)
+            maps.append(_texel_gradient(T.tex_info, k, uv, base * part[sel, col:col + 3], rho))
         out[name] = tuple(maps)
     return out
