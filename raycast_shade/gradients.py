@@ -252,9 +252,6 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
             raise ValueError(f"frame: its image is {frame.image.shape}, dL_dimage {gimg.shape}")
     inputs = frame.inputs if frame is not None and frame.inputs is not None else prepare(scene, scene.camera)
     check_scene(scene, inputs, names)
-    if samples > 1 and any(n in MAPS for n in names):
-        raise ValueError(f"samples: {', '.join(n for n in names if n in MAPS)} are differentiated over one ray per "
-                         "pixel only yet (samples=1)")
     if frame is None and samples == 1:
         frame = render(scene, shading)
     geometry = any(n in GEOMETRY for n in names)
@@ -265,7 +262,9 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
     if geometry and scene.camera.distorted:
         raise ValueError("scene.camera: no geometry gradients through lens distortion yet (a pinhole camera has)")
     if all(n in MAPS for n in names):  # the colours and texels alone: the other passes are not needed
-        return maps_gradients(frame.hits, inputs, modes, gimg, scene.geometry, names)
+        if samples == 1:
+            return maps_gradients(frame.hits, inputs, modes, gimg, scene.geometry, names)
+        return _sampled_maps(scene, modes, gimg, samples, names)
     if samples == 1:
         params, gnormals, gverts, gcam = frame_vjp(frame.hits, inputs, modes, gimg, scene.geometry,
                                                    "normals" in names, geometry)
@@ -304,6 +303,23 @@ def _sampled_vjp(scene, modes, gimg, samples, want_normals, want_geometry):
             _about_eye(out[3], inputs.cam, scene)
         total = out if total is None else [t if t is None else t + o for t, o in zip(total, out)]
     return tuple(total)
+
+
+def _sampled_maps(scene, modes, gimg, samples, names) -> dict:
+    """:func:`maps_gradients` of the mean of ``samples`` sub-pixel images (as :func:`_sampled_vjp`):
+    one cast per sample with ``dL/dI / samples``, added in sample order (per model for the maps)."""
+    total = None
+    for dx, dy in sample_offsets(samples):
+        sub = subpixel_camera(scene.camera, dx, dy)
+        out = maps_gradients(cast_camera(scene.geometry, sub), prepare(scene, sub), modes, gimg / samples,
+                             scene.geometry, names)
+        if total is None:
+            total = out
+            continue
+        for name, value in out.items():
+            total[name] = (tuple(None if t is None else t + v for t, v in zip(total[name], value))
+                           if isinstance(value, tuple) else total[name] + value)
+    return total
 
 
 def rotate_camera(camera, rotation):
