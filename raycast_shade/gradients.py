@@ -261,10 +261,18 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
                       stacklevel=user_stacklevel())
     if geometry and scene.camera.distorted:
         raise ValueError("scene.camera: no geometry gradients through lens distortion yet (a pinhole camera has)")
-    if all(n in MAPS for n in names):  # the colours and texels alone: the other passes are not needed
+    maps = tuple(n for n in names if n in MAPS)
+    if maps and not inputs.tex_on:  # no colours, no maps: nothing to differentiate (and no kernel to run)
+        g = scene.geometry
+        zero = {"vertex_colors": np.zeros((g.vertices.shape[0], 3)), "face_colors": np.zeros((g.faces.shape[0], 3)),
+                "kd_map": (None,) * len(scene.models), "ks_map": (None,) * len(scene.models)}
+        maps = {n: zero[n] for n in maps}
+    elif maps:  # the colours and texels alone (check_scene refuses more on such a scene)
         if samples == 1:
             return maps_gradients(frame.hits, inputs, modes, gimg, scene.geometry, names)
         return _sampled_maps(scene, modes, gimg, samples, names)
+    if len(maps) == len(names):
+        return maps
     if samples == 1:
         params, gnormals, gverts, gcam = frame_vjp(frame.hits, inputs, modes, gimg, scene.geometry,
                                                    "normals" in names, geometry)
@@ -277,7 +285,8 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
         _about_eye(ec, inputs.cam, scene)
         gverts += ev
         gcam += ec
-    return named(params, {"normals": gnormals, "vertices": gverts, "camera": gcam}, scene, inputs, names)
+    out = named(params, {"normals": gnormals, "vertices": gverts, "camera": gcam}, scene, inputs, names)
+    return {n: maps[n] if n in MAPS else out[n] for n in names}
 
 
 def _about_eye(gcam, cam, scene) -> None:

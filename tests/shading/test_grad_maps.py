@@ -193,3 +193,7 @@ def test_what_is_not_differentiated_is_refused_by_name(weights):
         rs.grad(coloured, weights, ("vertex_colors", "kd"))
     textured = _scene(kd_map=_texture(3))
     assert rs.grad(textured, weights, "ks_map")["ks_map"] == (None,)  # no ks map: nothing to differentiate
+    plain = _scene()  # no colours, no maps: zeros beside the other families, in the order asked
+    g = rs.grad(plain, weights, ("kd_map", "kd", "vertex_colors", "face_colors"))
+    assert list(g) == ["kd_map", "kd", "vertex_colors", "face_colors"] and g["kd_map"] == (None,)
+    assert np.all(g["vertex_colors"] == 0) and np.all(g["face_colors"] == 0) and np.any(g["kd"] != 0)
