@@ -54,6 +54,7 @@ __all__ = ["MAPS", "map_partials", "maps_gradients"]
 PARTS = 16  # as grad_frame.PARTS: the parts do not depend on the thread count
 MAPS = ("vertex_colors", "face_colors", "kd_map", "ks_map")
 """The names :func:`maps_gradients` answers."""
+_WHOLE = 4503599627370496.0  # 2**52: from here on a float64 is a whole number (the samplers' reduction)
 _MAP_SLOT = {"kd_map": (TEXMAP_KD, MAT_KD, 3), "ks_map": (TEXMAP_KS, MAT_KS, 6)}
 
 
@@ -396,8 +397,20 @@ def _texel_scatter(info, k, uv, g, level=0):
     w = max(1, int(info[k, TEX_WIDTH]) >> level)
     h = max(1, int(info[k, TEX_HEIGHT]) >> level)
     clamp = info[k, TEX_CLAMP] != 0.0
-    x = uv[:, 0] * info[k, TEX_TILE_U] * w - 0.5
-    y = uv[:, 1] * info[k, TEX_TILE_V] * h - 0.5
+    su = uv[:, 0] * info[k, TEX_TILE_U]
+    sv = uv[:, 1] * info[k, TEX_TILE_V]
+    with np.errstate(invalid="ignore"):
+        if not clamp:  # as _sample_level: past 2**52 a whole number of periods
+            su = np.where(np.abs(su) < _WHOLE, su, 0.0)
+            sv = np.where(np.abs(sv) < _WHOLE, sv, 0.0)
+        x = su * w - 0.5
+        y = sv * h - 0.5
+        if clamp:  # as bump._texel_corners: to the border, or exactly modulo the grid
+            x = np.where(np.abs(x) < _WHOLE, x, np.where(x < 0.0, -1.0, float(w)))
+            y = np.where(np.abs(y) < _WHOLE, y, np.where(y < 0.0, -1.0, float(h)))
+        else:
+            x = np.where(np.abs(x) < _WHOLE, x, np.where(np.isfinite(x), np.fmod(x, float(w)), 0.0))
+            y = np.where(np.abs(y) < _WHOLE, y, np.where(np.isfinite(y), np.fmod(y, float(h)), 0.0))
     j0, i0 = np.floor(x), np.floor(y)
     tx, ty = x - j0, y - i0
     j0, i0 = j0.astype(np.int64), i0.astype(np.int64)
@@ -504,7 +517,7 @@ def maps_gradients(hits, inputs, modes, gimg, geo, names) -> dict:
                                                             _factors(hits, inputs, geo, partials))
     mats, T = inputs.materials, inputs.colours
     cmode = T.color_mode
-    out = {}
+    out, rhos = {}, {}
     if "vertex_colors" in names:
         g = np.zeros((inputs.geometry.verts.shape[0], 3))
         sel = np.flatnonzero(cmode[model] == COLOR_VERTEX)
@@ -537,7 +550,9 @@ def maps_gradients(hits, inputs, modes, gimg, geo, names) -> dict:
             uv = np.einsum("nk,nkc->nc", bary[sel], uvs[tri])
             rho = np.zeros(uv.shape[0])
             if T.tex_info[k, TEX_MIPMAP] != 0.0:
-                rho = _pixel_rho(hits, inputs, slot)[np.maximum(pix[sel], 0)]
+                if slot not in rhos:
+                    rhos[slot] = _pixel_rho(hits, inputs, slot)
+                rho = rhos[slot][np.maximum(pix[sel], 0)]
                 at_face = pix[sel] < 0
                 rho[at_face] = _face_rho(T.tex_info, k, uvs, tri[at_face])
             base = np.broadcast_to(mats[m, row:row + 3], (uv.shape[0], 3))  # what the sample multiplies

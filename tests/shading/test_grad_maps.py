@@ -197,3 +197,20 @@ def test_what_is_not_differentiated_is_refused_by_name(weights):
     g = rs.grad(plain, weights, ("kd_map", "kd", "vertex_colors", "face_colors"))
     assert list(g) == ["kd_map", "kd", "vertex_colors", "face_colors"] and g["kd_map"] == (None,)
     assert np.all(g["vertex_colors"] == 0) and np.all(g["face_colors"] == 0) and np.any(g["kd"] != 0)
+
+
+@pytest.mark.parametrize("wrap", ["repeat", "clamp"])
+def test_the_texel_scatter_is_the_samplers_transpose_even_at_huge_uvs(wrap):
+    """The scatter's weights applied to the texels give the forward sampler's value
+    (``texture._sample_level``), huge, infinite and NaN UVs included (reduced as the sampler reduces them)."""
+    from raycast_shade.shading.grad_maps import _texel_scatter
+    from raycast_shade.shading.texture import _sample_level
+
+    tex = rs.Texture(np.random.default_rng(0).uniform(0.0, 1.0, (5, 7, 3)), wrap=wrap, filter="bilinear")
+    info = tex.packed_info(0)[None]
+    for u, v in [(0.3, 0.7), (-0.05, 1.02), (1e17, 3.0), (-1e300, 0.2), (np.inf, 0.5), (np.nan, 0.1),
+                 (2.0 ** 53 + 3, -7.25)]:
+        want = np.array(_sample_level(tex.packed_texels(), info, 0, u, v, 0))
+        weights = _texel_scatter(info, 0, np.array([[u, v]]), np.ones((1, 3)))
+        got = np.einsum("ijc,ijc->c", weights, tex.texels.astype(np.float64))
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-15, err_msg=f"uv {(u, v)}")
