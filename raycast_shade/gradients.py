@@ -17,6 +17,13 @@ name                   shape        the parameter
 ``"light_radiance"``   (L, 3)       each light's ``intensity * color``
 ``"light_intensity"``  (L,)         each light's ``intensity`` (its colour held)
 ``"light_k"``          (L,)         the heuristic law's ``k`` (0 for the other laws)
+``"light_spot"``       (L, 2)       each spot light's ``(inner_angle, outer_angle)``, per degree
+                                    (0 for other kinds; see below for the cone's edges)
+``"vertex_colors"``    (V, 3)       the packed mesh vertex colours ``scene.geometry.vertex_colors``
+                                    (kd's, and ka's factor with ``ka_colors``; 0 rows without)
+``"face_colors"``      (F, 3)       the packed face colours ``scene.geometry.face_colors``
+``"kd_map"``,          tuple        per model, its map's (h, w, 3) texels (rows as its
+``"ks_map"``                        ``Texture.texels``: row 0 is ``v = 0``), or None
 ``"normals"``          (V, 3)       the packed vertex normals ``scene.geometry.normals`` (rows
                                     model by model, ``scene.geometry.vertex_offsets``)
 ``"vertices"``         (V, 3)       the packed vertex positions (rows as for ``normals``)
@@ -25,6 +32,9 @@ name                   shape        the parameter
                                     on the left (every camera axis ``b`` becomes ``b + w x b``;
                                     :func:`rotate_camera` applies a finite one)
 =====================  ===========  ==========================================================
+
+``light_spot``: Warn's factor is C1 in the cone angles (its smooth step's slope is 0 at both
+edges); a hard-edged spot (``inner_angle == outer_angle``) gets 0, the derivative almost everywhere.
 
 The geometry (``vertices``, ``camera_*``) is differentiated through the interior of each
 triangle: the pixel's triangle is held, its hit point and barycentrics move with the vertices
@@ -37,9 +47,11 @@ those of the shading and of each hit moving on its triangle, exact wherever the 
 differentiable in the parameters; where a pixel's triangle changes, ``edges=True`` adds the
 box-filtered image's edge term. Shadows count with the frame's visibility (a blocked
 light stays blocked). Flat shading lights a face with its true normal: the flat gradient of a
-vertex normal is exactly 0. Not differentiated yet (refused with a ValueError naming what):
-GGX materials, mirrors, textures and mesh colours, bump and normal maps, area lights; geometry
-through lens distortion. The kernels are :mod:`raycast_shade.shading.grad_terms` and
+vertex normal is exactly 0. Mesh colours and kd/ks map texels (:data:`MAPS`, not among the defaults)
+are :mod:`raycast_shade.shading.grad_maps`'. Not differentiated yet (refused with a ValueError
+naming what): GGX materials, mirrors, bump and normal maps, area lights; geometry through lens
+distortion; on a scene with colours or maps any parameter but :data:`MAPS`. The kernels are
+:mod:`raycast_shade.shading.grad_terms` and
 :mod:`raycast_shade.shading.grad_frame`; :func:`raycast_shade.fit` fits parameters with them.
 """
 
@@ -50,7 +62,8 @@ import warnings
 import numpy as np
 
 from .common.samples import check_samples, sample_offsets
-from .common.layout import CAM_EYE, ATT_HEURISTIC, LIGHT_ATT, LIGHT_DIRECTIONAL, LIGHT_KIND, LIGHT_VEC
+from .common.layout import (CAM_EYE, ATT_HEURISTIC, LIGHT_ATT, LIGHT_COS_INNER, LIGHT_COS_OUTER, LIGHT_DIRECTIONAL,
+                            LIGHT_KIND, LIGHT_SPOT, LIGHT_VEC)
 from .common.stack import user_stacklevel
 from .common.validate import as_array, as_bool, as_int, as_names, as_scalar, as_vec3
 from .output.frame import Frame
@@ -62,19 +75,21 @@ from .visibility.cast import cast_camera
 from .visibility.rays import subpixel_camera
 from .shading.grad_geometry import rotate_vectors
 from .shading.grad_frame import frame_vjp, unsupported
-from .shading.grad_terms import GL_K, GL_RAD, GL_SIZE, GL_VEC, GM_KA, GM_KD, GM_KS, GM_SIZE, GM_T, layout
+from .shading.grad_maps import MAPS, maps_gradients
+from .shading.grad_terms import GL_COS_INNER, GL_COS_OUTER, GL_K, GL_RAD, GL_SIZE, GL_VEC, GM_KA, GM_KD, GM_KS, GM_SIZE, GM_T, layout
 from .shading.inputs import prepare
 from .shading.shade import resolve_methods
 
-__all__ = ["grad", "rotate_camera", "WRT", "DEFAULT_WRT", "GEOMETRY", "MAX_DENSITY"]
+__all__ = ["grad", "rotate_camera", "WRT", "DEFAULT_WRT", "GEOMETRY", "MAPS", "MAX_DENSITY"]
 
 WRT = ("ka", "kd", "ks", "shininess", "ambient", "light_position", "light_direction", "light_radiance",
-       "light_intensity", "light_k", "normals", "vertices", "camera_eye", "camera_rotation")
+       "light_intensity", "light_k", "light_spot", "vertex_colors", "face_colors", "kd_map", "ks_map", "normals", "vertices", "camera_eye", "camera_rotation")
 """Every name :func:`grad` differentiates with respect to."""
 GEOMETRY = ("vertices", "camera_eye", "camera_rotation")
 """The names that move what each pixel sees (the interior and, with ``edges=True``, the edges)."""
-DEFAULT_WRT = tuple(n for n in WRT if n != "normals" and n not in GEOMETRY)
-"""What ``wrt=None`` asks for: every parameter but the vertex normals and the geometry."""
+DEFAULT_WRT = tuple(n for n in WRT if n != "normals" and n not in GEOMETRY and n not in MAPS)
+"""What ``wrt=None`` asks for: every parameter but the vertex normals, the geometry and the mesh
+colours and texels (:data:`~raycast_shade.shading.grad_maps.MAPS`)."""
 
 MAX_DENSITY = 1024.0
 """The most edge samples per pixel of edge length ``grad(edges=True)`` takes (a bound on the work)."""
@@ -91,9 +106,12 @@ def _wrt(wrt) -> tuple:
     return as_names(wrt, "wrt", WRT, item="parameter")
 
 
-def check_scene(scene, inputs) -> None:
-    """Raise a ValueError naming every part of ``scene`` the gradient kernels do not differentiate."""
-    problems = unsupported(inputs, [m.material.name for m in scene.models], [light.name for light in scene.lights])
+def check_scene(scene, inputs, names=()) -> None:
+    """Raise a ValueError naming every part of ``scene`` the gradient kernels do not differentiate
+    for the parameters ``names``."""
+    maps = [n for n in names if n in MAPS]
+    problems = unsupported(inputs, [m.material.name for m in scene.models], [light.name for light in scene.lights],
+                           colours_ok=len(maps) == len(names) > 0)
     if problems:
         raise ValueError("scene: no gradients for this scene yet: " + "; ".join(problems))
 
@@ -137,12 +155,25 @@ def named(params, extra, scene, inputs, names) -> dict:
             out[name] = np.einsum("ij,ij->i", per_light[:, GL_RAD:GL_RAD + 3], colors)
         elif name == "light_k":
             out[name] = np.where(lights[:, LIGHT_ATT] == ATT_HEURISTIC, per_light[:, GL_K], 0.0)
+        elif name == "light_spot":
+            out[name] = _spot_gradient(per_light, lights)
         elif name in ("normals", "vertices"):
             out[name] = extra[name]
         elif name == "camera_eye":
             out[name] = extra["camera"][:3].copy()
         elif name == "camera_rotation":
             out[name] = extra["camera"][3:].copy()
+    return out
+
+
+def _spot_gradient(per_light, lights) -> np.ndarray:
+    """``dL/d(inner_angle, outer_angle)`` per degree from the rows' cone cosines' gradients:
+    ``d cos(a)/d a = -sin(a) pi/180``, the angle recovered from the row's cosine (0 for other kinds)."""
+    spot = lights[:, LIGHT_KIND] == LIGHT_SPOT
+    out = np.zeros((lights.shape[0], 2))
+    for col, (slot, row) in enumerate(((GL_COS_INNER, LIGHT_COS_INNER), (GL_COS_OUTER, LIGHT_COS_OUTER))):
+        sin = np.sqrt(np.maximum(0.0, 1.0 - np.clip(lights[:, row], -1.0, 1.0) ** 2))
+        out[:, col] = np.where(spot, -per_light[:, slot] * sin * (np.pi / 180.0), 0.0)
     return out
 
 
@@ -220,7 +251,7 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
         if frame.image.shape != gimg.shape:
             raise ValueError(f"frame: its image is {frame.image.shape}, dL_dimage {gimg.shape}")
     inputs = frame.inputs if frame is not None and frame.inputs is not None else prepare(scene, scene.camera)
-    check_scene(scene, inputs)
+    check_scene(scene, inputs, names)
     if frame is None and samples == 1:
         frame = render(scene, shading)
     geometry = any(n in GEOMETRY for n in names)
@@ -230,6 +261,18 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
                       stacklevel=user_stacklevel())
     if geometry and scene.camera.distorted:
         raise ValueError("scene.camera: no geometry gradients through lens distortion yet (a pinhole camera has)")
+    maps = tuple(n for n in names if n in MAPS)
+    if maps and not inputs.tex_on:  # no colours, no maps: nothing to differentiate (and no kernel to run)
+        g = scene.geometry
+        zero = {"vertex_colors": np.zeros((g.vertices.shape[0], 3)), "face_colors": np.zeros((g.faces.shape[0], 3)),
+                "kd_map": (None,) * len(scene.models), "ks_map": (None,) * len(scene.models)}
+        maps = {n: zero[n] for n in maps}
+    elif maps:  # the colours and texels alone (check_scene refuses more on such a scene)
+        if samples == 1:
+            return maps_gradients(frame.hits, inputs, modes, gimg, scene.geometry, names)
+        return _sampled_maps(scene, modes, gimg, samples, names)
+    if len(maps) == len(names):
+        return maps
     if samples == 1:
         params, gnormals, gverts, gcam = frame_vjp(frame.hits, inputs, modes, gimg, scene.geometry,
                                                    "normals" in names, geometry)
@@ -242,7 +285,8 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
         _about_eye(ec, inputs.cam, scene)
         gverts += ev
         gcam += ec
-    return named(params, {"normals": gnormals, "vertices": gverts, "camera": gcam}, scene, inputs, names)
+    out = named(params, {"normals": gnormals, "vertices": gverts, "camera": gcam}, scene, inputs, names)
+    return {n: maps[n] if n in MAPS else out[n] for n in names}
 
 
 def _about_eye(gcam, cam, scene) -> None:
@@ -268,6 +312,23 @@ def _sampled_vjp(scene, modes, gimg, samples, want_normals, want_geometry):
             _about_eye(out[3], inputs.cam, scene)
         total = out if total is None else [t if t is None else t + o for t, o in zip(total, out)]
     return tuple(total)
+
+
+def _sampled_maps(scene, modes, gimg, samples, names) -> dict:
+    """:func:`maps_gradients` of the mean of ``samples`` sub-pixel images (as :func:`_sampled_vjp`):
+    one cast per sample with ``dL/dI / samples``, added in sample order (per model for the maps)."""
+    total = None
+    for dx, dy in sample_offsets(samples):
+        sub = subpixel_camera(scene.camera, dx, dy)
+        out = maps_gradients(cast_camera(scene.geometry, sub), prepare(scene, sub), modes, gimg / samples,
+                             scene.geometry, names)
+        if total is None:
+            total = out
+            continue
+        for name, value in out.items():
+            total[name] = (tuple(None if t is None else t + v for t, v in zip(total[name], value))
+                           if isinstance(value, tuple) else total[name] + value)
+    return total
 
 
 def rotate_camera(camera, rotation):

@@ -50,10 +50,10 @@ class InlineDispatcher(CPUDispatcher):
 
     def python(self):
         """The twin compiled with wrappers, for calls from Python (made on first use)."""
-        twin = self.__dict__.get("_twin")
+        twin = getattr(self, "_twin", None)
         if twin is None:
             with self._twin_lock:
-                twin = self.__dict__.get("_twin")
+                twin = getattr(self, "_twin", None)
                 if twin is None:
                     f = self.py_func
                     g = types.FunctionType(f.__code__, f.__globals__, f.__name__, f.__defaults__, f.__closure__)

@@ -46,9 +46,10 @@ __all__ = ["PARTS", "frame_vjp", "unsupported"]
 PARTS = 16  # fixed parts of every parallel pass: the sums' order does not depend on the thread count
 
 
-def unsupported(inputs, material_names, light_names) -> list:
+def unsupported(inputs, material_names, light_names, colours_ok: bool = False) -> list:
     """What the gradient kernels do not differentiate in a frame's packed inputs, as messages
-    naming the material or light (empty: everything is supported)."""
+    naming the material or light (empty: everything is supported). ``colours_ok``: the colour and
+    texel families only are asked for (:mod:`.grad_maps`, whose own refusals are the caller's)."""
     out = []
     mats = inputs.materials
     for m, name in enumerate(material_names):
@@ -56,8 +57,9 @@ def unsupported(inputs, material_names, light_names) -> list:
             out.append(f"material {name!r}: specular='ggx' has no gradients yet (Phong and Blinn-Phong have)")
         if mats[m, MAT_REFLECTIVITY] > 0:
             out.append(f"material {name!r}: reflectivity > 0 (mirror bounces) has no gradients yet")
-    if inputs.tex_on:
-        out.append("colour maps, mesh colours or emission/occlusion maps have no gradients yet")
+    if inputs.tex_on and not colours_ok:
+        out.append("mesh colours and colour maps: only wrt vertex_colors, face_colors, kd_map, ks_map are differentiated "
+                   "on such a scene yet (the materials', lights' and geometry's gradients are not)")
     B = inputs.bumps
     if np.any(B.bump_index >= 0) or np.any(B.nmap_index >= 0):
         out.append("bump and normal maps have no gradients yet")

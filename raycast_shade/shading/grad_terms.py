@@ -41,13 +41,15 @@ from .records import dot
 from .reflectance import _blinn_cosine, _phong_cosine, _power
 from .shadows import _occluded
 
-__all__ = ["GM_KA", "GM_KD", "GM_KS", "GM_T", "GM_SIZE", "GL_VEC", "GL_RAD", "GL_K", "GL_SIZE", "layout"]
+__all__ = ["GM_KA", "GM_KD", "GM_KS", "GM_T", "GM_SIZE", "GL_VEC", "GL_RAD", "GL_K", "GL_COS_INNER", "GL_COS_OUTER",
+           "GL_SIZE", "layout"]
 
 # A model's block of the accumulator row: d/dka (3), d/dkd (3), d/dks (3), d/dshininess.
 GM_KA, GM_KD, GM_KS, GM_T, GM_SIZE = 0, 3, 6, 9, 10
 # A light's block: d/d(its row's vector: position re-centred, or the unit vector towards it) (3),
-# d/d(radiance Ii * colour) (3), d/dk (the heuristic law's constant).
-GL_VEC, GL_RAD, GL_K, GL_SIZE = 0, 3, 6, 7
+# d/d(radiance Ii * colour) (3), d/dk (the heuristic law's constant), d/d(cos inner), d/d(cos outer)
+# (a spot light's cone cosines).
+GL_VEC, GL_RAD, GL_K, GL_COS_INNER, GL_COS_OUTER, GL_SIZE = 0, 3, 6, 7, 8, 9
 
 
 def layout(n_models: int, n_lights: int) -> tuple:
@@ -94,35 +96,43 @@ def _lobe_vjp(c, t):
 
 @njit(**HELPER)
 def _spot_slope(lights, i, s):
-    """``d cone / d cos a`` of Warn's factor (:func:`~raycast_shade.shading.illumination._spot_factor`)
-    at the unit direction ``s`` towards the light: 0 outside the outer cone and where ``cos a`` is
-    clamped at 1."""
+    """Warn's factor (:func:`~raycast_shade.shading.illumination._spot_factor`) at the unit direction
+    ``s`` towards the light, differentiated: ``(d cone/d cos a, d cone/d cos inner, d cone/d cos outer)``.
+    All 0 outside the outer cone and where ``cos a`` is clamped at 1; the cone cosines' only between
+    the cones, where the smooth step ``t^2 (3 - 2t)``, ``t = (cos a - cos outer)/(cos inner - cos outer)``
+    depends on them (its slope ``6 t (1 - t)`` is 0 at both edges: the factor is C1 in the angles there)."""
     c = -(s[0] * lights[i, LIGHT_AXIS + 0] + s[1] * lights[i, LIGHT_AXIS + 1] + s[2] * lights[i, LIGHT_AXIS + 2])
     co = lights[i, LIGHT_COS_OUTER]
     if not c > co or not c < 1.0 or not c > 0.0:
-        return 0.0
+        return 0.0, 0.0, 0.0
     e = lights[i, LIGHT_EXPONENT]
     f = _power(c, e)
     df = e * f / c
     ci = lights[i, LIGHT_COS_INNER]
     if c < ci:
-        t = (c - co) / (ci - co)
+        span = ci - co
+        t = (c - co) / span
         sm = t * t * (3.0 - 2.0 * t)
-        return df * sm + f * 6.0 * t * (1.0 - t) / (ci - co)
-    return df
+        dsm = f * 6.0 * t * (1.0 - t) / span  # f d(smooth step)/dt / span
+        return df * sm + dsm, -t * dsm, (t - 1.0) * dsm
+    return df, 0.0, 0.0
 
 
 @njit(**HELPER)
 def _light_vjp(lights, i, s, d, law, cone, dmin, att_on, g_att, gs):
     """Back through :func:`~raycast_shade.shading.illumination._light_at`: given ``dL/d att``
     (``att = law cone``) and ``dL/ds``, returns ``dL/d`` the light row's vector (position, or for a
-    light at infinity its unit vector towards the light) and ``dL/dk``."""
+    light at infinity its unit vector towards the light), ``dL/dk`` and ``dL/d`` a spot light's
+    cone cosines (inner, outer)."""
     kind = lights[i, LIGHT_KIND]
     if kind == LIGHT_DIRECTIONAL:
-        return gs, 0.0
+        return gs, 0.0, (0.0, 0.0)
     gx, gy, gz = gs
+    g_cones = (0.0, 0.0)
     if kind == LIGHT_SPOT:  # cos a = -s . axis
-        w = g_att * law * _spot_slope(lights, i, s)
+        dc, dci, dco = _spot_slope(lights, i, s)
+        w = g_att * law * dc
+        g_cones = (g_att * law * dci, g_att * law * dco)
         gx -= w * lights[i, LIGHT_AXIS + 0]
         gy -= w * lights[i, LIGHT_AXIS + 1]
         gz -= w * lights[i, LIGHT_AXIS + 2]
@@ -138,7 +148,7 @@ def _light_vjp(lights, i, s, d, law, cone, dmin, att_on, g_att, gs):
             g_k = g_d
     sg = gx * s[0] + gy * s[1] + gz * s[2]
     return (((gx - sg * s[0]) / d + g_d * s[0], (gy - sg * s[1]) / d + g_d * s[1],
-             (gz - sg * s[2]) / d + g_d * s[2]), g_k)
+             (gz - sg * s[2]) / d + g_d * s[2]), g_k, g_cones)
 
 
 @njit(**HELPER)
@@ -197,10 +207,12 @@ def _reflected_vjp(hp, coef, mats, mi, L, S, gI, acc, row, lay):
         gny += w_nd * s[1] + g_c * dcdn[1]
         gnz += w_nd * s[2] + g_c * dcdn[2]
         gs = (w_nd * n[0] + g_c * dcds[0], w_nd * n[1] + g_c * dcds[1], w_nd * n[2] + g_c * dcds[2])
-        gq, g_k = _light_vjp(lights, i, s, d, law, cone, dmin, att_on, w_att, gs)
+        gq, g_k, g_cones = _light_vjp(lights, i, s, d, law, cone, dmin, att_on, w_att, gs)
         for c in range(3):
             acc[row, ob + GL_VEC + c] += gq[c]
         acc[row, ob + GL_K] += g_k
+        acc[row, ob + GL_COS_INNER] += g_cones[0]
+        acc[row, ob + GL_COS_OUTER] += g_cones[1]
         gvx += g_c * dcdv[0]
         gvy += g_c * dcdv[1]
         gvz += g_c * dcdv[2]

@@ -1,0 +1,563 @@
+"""Reverse-mode gradients of a frame with respect to mesh colours and colour-map texels.
+
+The reflectance equation is linear in a point's own coefficients::
+
+    I = Ia ka + sum_i vis_i att_i Ii (kd (n.s) + ks c^t) + ke
+
+so ``dL/dkd`` at a point is ``gI * sum_i vis_i att_i Ii (n.s)`` (per channel), ``dL/dka`` is
+``gI * Ia`` and ``dL/dks`` is ``gI * sum_i vis_i att_i Ii c^t``: exactly what
+:func:`~raycast_shade.shading.grad_terms._reflected_vjp` adds to a model's ``kd``, ``ka`` and ``ks``
+slots. :func:`_point_partials` reads them from a scratch row, evaluated where the forward method
+evaluates the equation (Phong: each pixel; flat: each face's centre, its pixels' ``dL/dI`` summed;
+Gouraud: each vertex side, its pixels' ``dL/dI`` spread with the forward weights, and the corners
+the forward pass shades on the spot where it does). :func:`map_partials` returns them per pixel
+(Phong), per face (flat) and per vertex (Gouraud); the driver (:func:`raycast_shade.grad`) chains
+them to the parameters:
+
+- a vertex colour replaces kd (times the kd map's sample; ``ka`` times it with the material's
+  ``ka_colors``, and the ka map's sample and the occlusion: :func:`_factors`): Phong
+  ``kd = b0 c0 + b1 c1 + b2 c2`` (the hit's barycentrics), flat the mean of the three (the face's
+  centre), Gouraud each vertex's own;
+- a face colour replaces kd on its face; Gouraud's modulate path (a model with a map or face
+  colours) is differentiated per pixel: ``dL/dkd = gI D`` with the corners' diffuse light ``D``
+  interpolated (each corner's from its own point, shares ``w_k gI``), likewise ks;
+- a kd or ks map multiplies the row's kd or ks by its sample at the point's UV: the four texels
+  around it get the bilinear weights (wrapped or clamped as the forward sampler does); a mip-mapped
+  map's two levels their trilinear weights, each level's gradient then taken down the pyramid by the
+  transpose of its box filter (the level of detail, a function of the geometry, held).
+
+The passes over pixels, faces and vertices run in :data:`~raycast_shade.shading.grad_frame.PARTS`
+fixed parts, each point written to its own output row; the scatters onto vertices, faces and
+texels run in NumPy (``np.bincount``, in index order): bit-identical on any number of threads.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ..common.layout import (COLOR_FACE, COLOR_NONE, COLOR_VERTEX, MAT_KA, MAT_KA_COLORS, MAT_KD, MAT_KS, METHOD_FLAT,
+                             METHOD_GOURAUD, METHOD_PHONG, TEX_CLAMP, TEX_HEIGHT, TEX_OFFSET, TEX_LEVELS, TEX_MIPMAP,
+                             TEX_TILE_U, TEX_TILE_V, TEX_WIDTH, TEXMAP_KD, TEXMAP_KS)
+from ..common.parallel import launch, share
+from ..visibility.secondary import ray_scratch
+from .grad_frame import _flat_gather
+from .grad_terms import GM_KA, GM_KD, GM_KS, GM_SIZE, _reflected_vjp, layout
+from .jit import CHUNK, HELPER, JIT
+from .phong import _shading_point
+from .records import At, Hit, dot
+from .surface import _convex_weights, _facing, _hit_point, _triangle, _view
+from .texture import _coefficients, _face_footprint, _point_coefficients, _rho_kernel, _row_coefficients
+
+__all__ = ["MAPS", "map_partials", "maps_gradients"]
+
+PARTS = 16  # as grad_frame.PARTS: the parts do not depend on the thread count
+MAPS = ("vertex_colors", "face_colors", "kd_map", "ks_map")
+"""The names :func:`maps_gradients` answers."""
+_WHOLE = 4503599627370496.0  # 2**52: from here on a float64 is a whole number (the samplers' reduction)
+_MAP_SLOT = {"kd_map": (TEXMAP_KD, MAT_KD, 3), "ks_map": (TEXMAP_KS, MAT_KS, 6)}
+
+
+@njit(**HELPER)
+def _point_partials(hp, mats, mi, L, S, gI, scratch, lay, out, r):
+    """``out[r] += dL/d(ka, kd, ks)`` (9) of the point's own coefficients at ``hp`` for
+    ``gI = dL/dI``, via a zeroed scratch row ``scratch`` (1, R)."""
+    mb = mi * GM_SIZE
+    for j in range(scratch.shape[1]):
+        scratch[0, j] = 0.0
+    _reflected_vjp(hp, _row_coefficients(mats, mi), mats, mi, L, S, gI, scratch, 0, lay)
+    for c in range(3):
+        out[r, c] += scratch[0, mb + GM_KA + c]
+        out[r, 3 + c] += scratch[0, mb + GM_KD + c]
+        out[r, 6 + c] += scratch[0, mb + GM_KS + c]
+
+
+@njit(**HELPER)
+def _corner_hit(G, cam, i, side, gn):
+    """The point a Gouraud corner is lit at (:func:`~raycast_shade.shading.gouraud._corner_normal`):
+    vertex ``i`` with its normal from ``side``, the stored shade's (``True``), or shaded on the spot
+    with the face's normal ``gn`` (a zero normal) or its normal reflected across the face's plane."""
+    verts, normals, _, _ = G
+    sg = 1.0 - 2.0 * side
+    n = (sg * normals[i, 0], sg * normals[i, 1], sg * normals[i, 2])
+    p = (verts[i, 0], verts[i, 1], verts[i, 2])
+    view = _view(cam, p)
+    if n[0] == 0.0 and n[1] == 0.0 and n[2] == 0.0:
+        return Hit(p, view, gn, 1.0, gn, p), False
+    c = dot(n, gn)
+    if c < 0.0:
+        return Hit(p, view, gn, 1.0, (n[0] - 2.0 * c * gn[0], n[1] - 2.0 * c * gn[1], n[2] - 2.0 * c * gn[2]), p), False
+    return Hit(p, view, n, 1.0, n, p), True
+
+
+@njit(nogil=True, **JIT)
+def _pixel_partials_kernel(hits, G, B, L, face_off, materials, cam, modes, modulate, gimg, lay, size, out, part):
+    """The points that are pixels: ``out[y * W + x]`` = the pixel's ``dL/d(ka, kd, ks)`` (rows of
+    other pixels 0). Phong: at the pixel's shading point. Gouraud's modulate path (a model with a
+    map or face colours: ``Ia ka + D kd + S ks`` with the corners' diffuse and specular light ``D``,
+    ``S`` interpolated): each corner's, its ``dL/dI`` share ``w_k gI`` (the weights sum to 1)."""
+    prim, geom, u, v = hits
+    h, w = prim.shape
+    scratch = np.zeros((1, size))
+    for y in range(*share(h, part)):
+        S = ray_scratch()
+        for x in range(w):
+            p = prim[y, x]
+            if p < 0:
+                continue
+            gm = geom[y, x]
+            phong = modes[gm] == METHOD_PHONG
+            if not phong and not (modes[gm] == METHOD_GOURAUD and modulate[gm] != 0):
+                continue
+            gI = (np.float64(gimg[y, x, 0]), np.float64(gimg[y, x, 1]), np.float64(gimg[y, x, 2]))
+            if gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0:
+                continue
+            f = face_off[gm] + p
+            b1 = np.float64(u[y, x])
+            b2 = np.float64(v[y, x])
+            if phong:
+                hp = _shading_point(G, B, L, cam, At(f, gm, b1, b2), np.bool_(False), (0.0, 0.0, 0.0))
+                _point_partials(hp, materials, gm, L, S, gI, scratch, lay, out, y * w + x)
+                continue
+            tri = _triangle(G.faces, f)
+            gn, sgn = _facing(G.face_normals, f, _view(cam, _hit_point(G.verts, tri, b1, b2)))
+            side = 0 if sgn > 0.0 else 1
+            wts = _convex_weights(b1, b2)
+            for corner in range(3):
+                hp, _ = _corner_hit(G, cam, tri[corner], side, gn)
+                wk = wts[corner]
+                _point_partials(hp, materials, gm, L, S, (wk * gI[0], wk * gI[1], wk * gI[2]), scratch, lay, out,
+                                y * w + x)
+
+
+@njit(nogil=True, **JIT)
+def _flat_partials_kernel(gface, G, face_model, materials, cam, L, lay, size, out, part):
+    """Flat faces (the centre, the true normal, as the forward pass): ``out[f]`` = ``dL/d(ka, kd, ks)``
+    of the face's coefficients, ``gface`` (F, 3) its pixels' summed ``dL/dI``."""
+    verts, _, faces, fnormals = G
+    nchunk = (faces.shape[0] + CHUNK - 1) // CHUNK
+    scratch = np.zeros((1, size))
+    for ch in range(*share(nchunk, part)):
+        S = ray_scratch()
+        for f in range(ch * CHUNK, min(faces.shape[0], (ch + 1) * CHUNK)):
+            gI = (gface[f, 0], gface[f, 1], gface[f, 2])
+            if gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0:
+                continue
+            third = 1.0 / 3.0
+            p = _hit_point(verts, _triangle(faces, f), third, third)
+            vv = _view(cam, p)
+            gn, sgn = _facing(fnormals, f, vv)
+            _point_partials(Hit(p, vv, gn, sgn, gn, p), materials, face_model[f], L, S, gI, scratch, lay, out, f)
+
+
+@njit(**JIT)
+def _gouraud_gather_partials(hits, G, L, face_off, materials, cam, modes, modulate, gimg, lay, size, gvert, out):
+    """Serially, in row-major order: each Gouraud pixel's (not on the modulate path) ``dL/dI`` onto its
+    corners' stored shades ``gvert`` (V, 2, 3) with the forward weights and sides; a corner the forward
+    pass shades on the spot adds its ``dL/d(ka, kd, ks)`` into ``out[i]`` here."""
+    prim, geom, u, v = hits
+    S = ray_scratch()
+    scratch = np.zeros((1, size))
+    h, w = prim.shape
+    for y in range(h):
+        for x in range(w):
+            p = prim[y, x]
+            if p < 0:
+                continue
+            gm = geom[y, x]
+            if modes[gm] != METHOD_GOURAUD or modulate[gm] != 0:
+                continue
+            f = face_off[gm] + p
+            b1 = np.float64(u[y, x])
+            b2 = np.float64(v[y, x])
+            tri = _triangle(G.faces, f)
+            gn, sgn = _facing(G.face_normals, f, _view(cam, _hit_point(G.verts, tri, b1, b2)))
+            side = 0 if sgn > 0.0 else 1
+            wts = _convex_weights(b1, b2)
+            for corner in range(3):
+                i = tri[corner]
+                wk = wts[corner]
+                gI = (wk * gimg[y, x, 0], wk * gimg[y, x, 1], wk * gimg[y, x, 2])
+                hp, stored = _corner_hit(G, cam, i, side, gn)
+                if stored:
+                    for cc in range(3):
+                        gvert[i, side, cc] += gI[cc]
+                else:
+                    _point_partials(hp, materials, gm, L, S, gI, scratch, lay, out, i)
+
+
+@njit(nogil=True, **JIT)
+def _gouraud_partials_kernel(gvert, G, vertex_model, materials, cam, L, lay, size, out, part):
+    """Gouraud vertices (lit with their own normal from each side a face needs): ``out[i]`` +=
+    ``dL/d(ka, kd, ks)`` of the vertex's coefficients (each vertex in one part)."""
+    verts, normals, _, _ = G
+    n = verts.shape[0]
+    nchunk = (n + CHUNK - 1) // CHUNK
+    scratch = np.zeros((1, size))
+    for ch in range(*share(nchunk, part)):
+        S = ray_scratch()
+        for i in range(ch * CHUNK, min(n, (ch + 1) * CHUNK)):
+            for side in range(2):
+                gI = (gvert[i, side, 0], gvert[i, side, 1], gvert[i, side, 2])
+                if gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0:
+                    continue
+                sg = 1.0 - 2.0 * side
+                p = (verts[i, 0], verts[i, 1], verts[i, 2])
+                nv = (sg * normals[i, 0], sg * normals[i, 1], sg * normals[i, 2])
+                _point_partials(Hit(p, _view(cam, p), nv, 1.0, nv, p), materials, vertex_model[i], L, S, gI, scratch,
+                                lay, out, i)
+
+
+@njit(nogil=True, **JIT)
+def _factors_kernel(hits, G, uvs, cam, face_off, unit_mats, Tn, need, fac, part):
+    """Pixels of the models ``need`` flags: ``fac[y * W + x]`` = (the kd map's filtered sample, the ka
+    map's times the occlusion), :func:`~raycast_shade.shading.texture._point_coefficients` with unit
+    ka and kd rows and no colours (``unit_mats``, ``Tn``): what multiplies the mesh colour there."""
+    prim, geom, u, v = hits
+    h, w = prim.shape
+    for y in range(*share(h, part)):
+        for x in range(w):
+            p = prim[y, x]
+            if p < 0 or need[geom[y, x]] == 0:
+                continue
+            gm = geom[y, x]
+            at = At(face_off[gm] + p, gm, np.float64(u[y, x]), np.float64(v[y, x]))
+            coef = _point_coefficients(G, uvs, at, cam, x, y, True, unit_mats, Tn)
+            for c in range(3):
+                fac[y * w + x, c] = coef[3 + c]
+                fac[y * w + x, 3 + c] = coef[c]
+
+
+@njit(**JIT)
+def _face_factors(faces, uvs, face_model, unit_mats, Tn, need, fac):
+    """:func:`_factors_kernel` for flat faces (their centres and footprints, as the forward pass)."""
+    third = 1.0 / 3.0
+    for f in range(faces.shape[0]):
+        m = face_model[f]
+        if need[m] == 0:
+            continue
+        tri = _triangle(faces, f)
+        coef = _coefficients(unit_mats, Tn, At(f, m, third, third), tri, uvs, _face_footprint(uvs, tri))
+        for c in range(3):
+            fac[f, c] = coef[3 + c]
+            fac[f, 3 + c] = coef[c]
+
+
+def _factors(hits, inputs, geo, partials):
+    """What multiplies each point's mesh colour (:func:`_factors_kernel`): ``{"pixels": (H * W, 6),
+    "flat": (F, 6)}``, ones where a model has no maps or no colours."""
+    T = inputs.colours
+    need = ((T.color_mode != COLOR_NONE) & (T.tex_index >= 0).any(axis=1)).astype(np.uint8)
+    out = {"pixels": np.ones((hits.prim.size, 6)), "flat": np.ones((inputs.geometry.faces.shape[0], 6))}
+    if not need.any():
+        return out
+    unit = inputs.materials.copy()
+    unit[:, MAT_KA:MAT_KA + 3] = 1.0
+    unit[:, MAT_KD:MAT_KD + 3] = 1.0
+    unit[:, MAT_KA_COLORS] = 0.0
+    Tn = T._replace(color_mode=np.zeros_like(T.color_mode))
+    G = inputs.geometry
+    if "pixels" in partials:
+        launch(_factors_kernel, (hits.prim, hits.geom, hits.u, hits.v), G, inputs.bumps.uvs, inputs.cam,
+               inputs.face_off, unit, Tn, need, out["pixels"], parts=PARTS, dynamic=True)
+    if "flat" in partials:
+        _face_factors(G.faces, inputs.bumps.uvs, geo.face_model, unit, Tn, need, out["flat"])
+    return out
+
+
+def map_partials(hits, inputs, modes, gimg, geo) -> dict:
+    """``dL/d(ka, kd, ks)`` of the points where each method evaluates the equation.
+
+    Parameters
+    ----------
+    hits : HitBuffer
+        The frame's hit buffer (H, W); each pixel's triangle held.
+    inputs : FrameInputs
+        The frame's packed inputs.
+    modes : (G,) int8
+        Each model's method code.
+    gimg : (H, W, 3) float64
+        ``dL/dI`` for the linear image.
+    geo : SceneGeometry
+        The scene's packed geometry (its ``face_model`` and ``vertex_model``).
+
+    Returns
+    -------
+    dict
+        ``"pixels"``: (H * W, 9) per pixel (row-major; Phong's and Gouraud's modulate path's, zero
+        elsewhere), ``"flat"``: (F, 9) per
+        face, ``"gouraud"``: (V, 9) per vertex (models off the modulate path); the columns ``dL/dka``, ``dL/dkd``, ``dL/dks`` (RGB).
+        A method no model uses is absent.
+    """
+    G, B, L = inputs.geometry, inputs.bumps, inputs.lighting
+    mats, cam, face_off = inputs.materials, inputs.cam, inputs.face_off
+    amb, lb, size = layout(mats.shape[0], L.lights.shape[0])
+    lay = (np.int64(amb), np.int64(lb))
+    size = np.int64(size)
+    hit = (hits.prim, hits.geom, hits.u, hits.v)
+    nv, nf = G.verts.shape[0], G.faces.shape[0]
+    out = {}
+    modulate = inputs.colours.modulate
+    if np.any(modes == METHOD_PHONG) or np.any((modes == METHOD_GOURAUD) & (modulate != 0)):
+        out["pixels"] = np.zeros((hits.prim.size, 9))
+        launch(_pixel_partials_kernel, hit, G, B, L, face_off, mats, cam, modes, modulate, gimg, lay, size,
+               out["pixels"], parts=PARTS, dynamic=True)
+    if np.any(modes == METHOD_FLAT):
+        gface = np.zeros((nf, 3))
+        _flat_gather(hits.prim, hits.geom, face_off, modes, gimg, gface)
+        out["flat"] = np.zeros((nf, 9))
+        launch(_flat_partials_kernel, gface, G, geo.face_model, mats, cam, L, lay, size, out["flat"], parts=PARTS,
+               dynamic=True)
+    if np.any(modes == METHOD_GOURAUD):
+        gvert = np.zeros((nv, 2, 3))
+        out["gouraud"] = np.zeros((nv, 9))
+        _gouraud_gather_partials(hit, G, L, face_off, mats, cam, modes, modulate, gimg, lay, size, gvert,
+                                 out["gouraud"])
+        launch(_gouraud_partials_kernel, gvert, G, geo.vertex_model, mats, cam, L, lay, size, out["gouraud"],
+               parts=PARTS, dynamic=True)
+    return out
+
+
+def _points(hits, inputs, modes, geo, partials, factors):
+    """Every point the methods evaluated, as flat arrays: ``(model, face, barycentrics (N, 3), vertex
+    or -1, dL/d(ka, kd, ks) (N, 9), the faces (F, 3), the pixel (row-major index) or -1)``: Phong's
+    pixels (row-major), flat's faces (their centres), Gouraud's vertices, in that order (the scatters'
+    fixed order)."""
+    faces = inputs.geometry.faces
+    model, face, bary, vert, part, pix, fac = [], [], [], [], [], [], []
+    modulate = inputs.colours.modulate
+    if "pixels" in partials:
+        prim, geom = hits.prim.ravel(), hits.geom.ravel()
+        sel = np.flatnonzero(prim >= 0)
+        mode = modes[geom[sel]]
+        sel = sel[(mode == METHOD_PHONG) | ((mode == METHOD_GOURAUD) & (modulate[geom[sel]] != 0))]
+        b1 = hits.u.ravel()[sel].astype(np.float64)
+        b2 = hits.v.ravel()[sel].astype(np.float64)
+        model.append(geom[sel].astype(np.int64))
+        face.append(inputs.face_off[geom[sel]] + prim[sel])
+        bary.append(np.stack([1.0 - b1 - b2, b1, b2], axis=1))  # as texture._coefficients
+        vert.append(np.full(sel.size, -1))
+        part.append(partials["pixels"][sel])
+        pix.append(sel)
+        fac.append(factors["pixels"][sel])
+    if "flat" in partials:
+        sel = np.flatnonzero(modes[geo.face_model] == METHOD_FLAT)
+        third = 1.0 / 3.0
+        model.append(geo.face_model[sel].astype(np.int64))
+        face.append(sel)
+        bary.append(np.tile([1.0 - third - third, third, third], (sel.size, 1)))
+        vert.append(np.full(sel.size, -1))
+        part.append(partials["flat"][sel])
+        pix.append(np.full(sel.size, -1))
+        fac.append(factors["flat"][sel])
+    if "gouraud" in partials:
+        sel = np.flatnonzero((modes[geo.vertex_model] == METHOD_GOURAUD) & (modulate[geo.vertex_model] == 0))
+        model.append(geo.vertex_model[sel].astype(np.int64))
+        face.append(np.full(sel.size, -1))
+        bary.append(np.zeros((sel.size, 3)))
+        vert.append(sel)
+        part.append(partials["gouraud"][sel])
+        pix.append(np.full(sel.size, -1))
+        fac.append(np.ones((sel.size, 6)))  # off the modulate path: no maps
+    cat = (lambda a, shape: np.concatenate(a) if a else np.zeros(shape))
+    return (cat(model, 0).astype(np.int64), cat(face, 0).astype(np.int64), cat(bary, (0, 3)),
+            cat(vert, 0).astype(np.int64), cat(part, (0, 9)), faces, cat(pix, 0).astype(np.int64), cat(fac, (0, 6)))
+
+
+def _add_rows(out, idx, vals) -> None:
+    """``out[idx[k]] += vals[k]`` for each ``k`` in order (``np.bincount`` per column: sequential, so
+    deterministic, and several times faster than ``np.add.at``)."""
+    flat = out.reshape(out.shape[0] if out.ndim == 2 else -1, out.shape[-1])
+    for c in range(flat.shape[1]):
+        flat[:, c] += np.bincount(idx, weights=vals[:, c], minlength=flat.shape[0])
+
+
+def _colour_gradient(mats, model, part, fac):
+    """``dL/d colour`` at each point: kd is the colour times the kd map's sample ``fac[:, :3]``, ka the
+    row's ka times it with the row's ``ka_colors`` (times the ka map's sample and the occlusion,
+    ``fac[:, 3:]``)."""
+    kac = (mats[model, MAT_KA_COLORS] != 0.0)[:, None]
+    return part[:, 3:6] * fac[:, 0:3] + np.where(kac, mats[model, MAT_KA:MAT_KA + 3] * fac[:, 3:6] * part[:, 0:3], 0.0)
+
+
+def _point_colour(T, model, face, bary, faces):
+    """The mesh colour at each point on a face (Phong's pixels, flat's centres), or NaN."""
+    out = np.full((model.size, 3), np.nan)
+    vx = T.color_mode[model] == COLOR_VERTEX
+    out[vx] = np.einsum("nk,nkc->nc", bary[vx], T.vertex_colors[faces[face[vx]]])
+    fx = T.color_mode[model] == COLOR_FACE
+    out[fx] = T.face_colors[face[fx]]
+    return out
+
+
+def _texel_scatter(info, k, uv, g, level=0):
+    """``g`` (N, 3) at UVs ``uv`` (N, 2) onto level ``level`` of texture ``k`` with the bilinear
+    weights (:func:`~raycast_shade.shading.texture._sample_level`, wrapped or clamped as there):
+    (h_l, w_l, 3), rows as the texture's ``texels``."""
+    w = max(1, int(info[k, TEX_WIDTH]) >> level)
+    h = max(1, int(info[k, TEX_HEIGHT]) >> level)
+    clamp = info[k, TEX_CLAMP] != 0.0
+    su = uv[:, 0] * info[k, TEX_TILE_U]
+    sv = uv[:, 1] * info[k, TEX_TILE_V]
+    with np.errstate(invalid="ignore"):
+        if not clamp:  # as _sample_level: past 2**52 a whole number of periods
+            su = np.where(np.abs(su) < _WHOLE, su, 0.0)
+            sv = np.where(np.abs(sv) < _WHOLE, sv, 0.0)
+        x = su * w - 0.5
+        y = sv * h - 0.5
+        if clamp:  # as bump._texel_corners: to the border, or exactly modulo the grid
+            x = np.where(np.abs(x) < _WHOLE, x, np.where(x < 0.0, -1.0, float(w)))
+            y = np.where(np.abs(y) < _WHOLE, y, np.where(y < 0.0, -1.0, float(h)))
+        else:
+            x = np.where(np.abs(x) < _WHOLE, x, np.where(np.isfinite(x), np.fmod(x, float(w)), 0.0))
+            y = np.where(np.abs(y) < _WHOLE, y, np.where(np.isfinite(y), np.fmod(y, float(h)), 0.0))
+    j0, i0 = np.floor(x), np.floor(y)
+    tx, ty = x - j0, y - i0
+    j0, i0 = j0.astype(np.int64), i0.astype(np.int64)
+    j1, i1 = j0 + 1, i0 + 1
+    if clamp:
+        j0, j1, i0, i1 = (np.clip(a, 0, n - 1) for a, n in ((j0, w), (j1, w), (i0, h), (i1, h)))
+    else:
+        j0, j1, i0, i1 = j0 % w, j1 % w, i0 % h, i1 % h
+    out = np.zeros((h, w, 3))
+    for ii, jj, wt in ((i0, j0, (1.0 - tx) * (1.0 - ty)), (i0, j1, tx * (1.0 - ty)), (i1, j0, (1.0 - tx) * ty),
+                       (i1, j1, tx * ty)):
+        _add_rows(out, ii * w + jj, wt[:, None] * g)
+    return out
+
+
+def _halve_adjoint(g, n, axis):
+    """The transpose of :class:`~raycast_shade.Texture`'s pyramid step along ``axis`` (pairs
+    averaged; an odd length's last three samples averaged into the last output): ``g`` on the
+    ``max(1, n // 2)`` halved samples back onto the ``n`` of the level below."""
+    if n == 1:
+        return g
+    m = n // 2
+    g = np.moveaxis(g, axis, 0)
+    out = np.zeros((n,) + g.shape[1:])
+    out[0:2 * m:2] += 0.5 * g
+    out[1:2 * m:2] += 0.5 * g
+    if n % 2:  # the last output is (a[n-3] + a[n-2] + a[n-1]) / 3, not a pair's mean
+        out[n - 3:n - 1] -= 0.5 * g[m - 1]
+        out[n - 3:n] += g[m - 1] / 3.0
+    return np.moveaxis(out, 0, axis)
+
+
+def _levels(info, k, rho):
+    """Each point's mip levels and weights as :func:`~raycast_shade.shading.texture._sample` picks
+    them from its footprint ``rho`` (N,): ``(l0, w0, w1)``, level ``l0`` weighted ``w0`` and
+    ``l0 + 1`` weighted ``w1`` (0 where one level is sampled)."""
+    top = int(info[k, TEX_LEVELS]) - 1
+    mip = info[k, TEX_MIPMAP] != 0.0
+    trilinear = mip & (rho > 1.0)  # NaN: not > 1, level 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lod = np.where(trilinear, np.minimum(np.log2(np.where(trilinear, rho, 1.0)), float(top)), 0.0)
+    l0 = np.floor(lod)
+    frac = lod - l0
+    l0 = l0.astype(np.int64)
+    single = (frac == 0.0) | (l0 >= top)
+    return l0, np.where(single, 1.0, 1.0 - frac), np.where(single, 0.0, frac)
+
+
+def _texel_gradient(info, k, uv, g, rho):
+    """``g`` (N, 3) at UVs ``uv`` with footprints ``rho`` (N,) onto texture ``k``'s level 0 through
+    the trilinear filter and the pyramid's box filters (bilinear textures: level 0 alone)."""
+    l0, w0, w1 = _levels(info, k, rho)
+    w, h = int(info[k, TEX_WIDTH]), int(info[k, TEX_HEIGHT])
+    top = int(info[k, TEX_LEVELS]) - 1
+    acc = None
+    for lvl in range(top, -1, -1):  # from the top down: each level's gradient onto the one below
+        here = np.zeros((max(1, h >> lvl), max(1, w >> lvl), 3))
+        for sel, wt in ((l0 == lvl, w0), (l0 + 1 == lvl, w1)):
+            sel = sel & (wt != 0.0)
+            if np.any(sel):
+                here += _texel_scatter(info, k, uv[sel], wt[sel, None] * g[sel], lvl)
+        if acc is not None:
+            here += _halve_adjoint(_halve_adjoint(acc, max(1, w >> lvl), 1), max(1, h >> lvl), 0)
+        acc = here
+    return acc
+
+
+def _face_rho(info, k, uvs, tri):
+    """A flat face's footprint in level-0 texels (:func:`~raycast_shade.shading.texture._face_footprint`
+    through :func:`~raycast_shade.shading.texture._level_rho`)."""
+    d1 = uvs[tri[:, 1]] - uvs[tri[:, 0]]
+    d2 = uvs[tri[:, 2]] - uvs[tri[:, 0]]
+    side = np.sqrt(0.5 * np.abs(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]))
+    su = info[k, TEX_WIDTH] * info[k, TEX_TILE_U]
+    sv = info[k, TEX_HEIGHT] * info[k, TEX_TILE_V]
+    return np.maximum(np.abs(side * su), np.abs(side * sv))
+
+
+def _pixel_rho(hits, inputs, slot):
+    """Each pixel's footprint ``rho`` in its model's ``slot`` map (row-major; NaN without one): the
+    forward pass's (:func:`~raycast_shade.shading.texture.texture_levels`' kernel)."""
+    G, T = inputs.geometry, inputs.colours
+    out = np.empty(hits.shape, np.float64)
+    _rho_kernel(hits.prim, hits.geom, hits.u, hits.v, G.verts, G.faces, G.face_normals, inputs.bumps.uvs,
+                inputs.face_off, T.tex_index, T.tex_info, inputs.cam, slot, out)
+    return out.ravel()
+
+
+def maps_gradients(hits, inputs, modes, gimg, geo, names) -> dict:
+    """``dL/d`` the mesh colours and colour-map texels named in ``names`` (a subset of :data:`MAPS`).
+
+    The scene's refusals (:func:`raycast_shade.gradients.grad`) come first.
+
+    Returns
+    -------
+    dict
+        ``"vertex_colors"`` (V, 3) and ``"face_colors"`` (F, 3), rows of the packed
+        ``geo.vertex_colors``/``geo.face_colors`` (zero rows for models without);
+        ``"kd_map"``, ``"ks_map"``: a tuple, per model, of its map's (h, w, 3) texel gradient
+        (rows as its ``Texture.texels``: row 0 is ``v = 0``), None for a model without one.
+    """
+    partials = map_partials(hits, inputs, modes, gimg, geo)
+    model, face, bary, vert, part, faces, pix, fac = _points(hits, inputs, modes, geo, partials,
+                                                            _factors(hits, inputs, geo, partials))
+    mats, T = inputs.materials, inputs.colours
+    cmode = T.color_mode
+    out, rhos = {}, {}
+    if "vertex_colors" in names:
+        g = np.zeros((inputs.geometry.verts.shape[0], 3))
+        sel = np.flatnonzero(cmode[model] == COLOR_VERTEX)
+        gc = _colour_gradient(mats, model[sel], part[sel], fac[sel])
+        at_vertex = vert[sel] >= 0  # Gouraud's vertices: their own colour
+        _add_rows(g, vert[sel[at_vertex]], gc[at_vertex])
+        on_face = sel[~at_vertex]  # Phong's pixels, flat's faces: by the barycentrics
+        tri, bary_f, gc = faces[face[on_face]], bary[on_face], gc[~at_vertex]
+        for corner in range(3):
+            _add_rows(g, tri[:, corner], bary_f[:, corner, None] * gc)
+        out["vertex_colors"] = g
+    if "face_colors" in names:
+        g = np.zeros((faces.shape[0], 3))
+        sel = (cmode[model] == COLOR_FACE) & (face >= 0)
+        _add_rows(g, face[sel], _colour_gradient(mats, model[sel], part[sel], fac[sel]))
+        out["face_colors"] = g
+    for name in ("kd_map", "ks_map"):
+        if name not in names:
+            continue
+        slot, row, col = _MAP_SLOT[name]
+        maps = []
+        for m in range(mats.shape[0]):
+            k = T.tex_index[m, slot]
+            if k < 0:
+                maps.append(None)
+                continue
+            sel = (model == m) & (face >= 0)
+            tri = faces[face[sel]]
+            uvs = inputs.bumps.uvs
+            uv = np.einsum("nk,nkc->nc", bary[sel], uvs[tri])
+            rho = np.zeros(uv.shape[0])
+            if T.tex_info[k, TEX_MIPMAP] != 0.0:
+                if slot not in rhos:
+                    rhos[slot] = _pixel_rho(hits, inputs, slot)
+                rho = rhos[slot][np.maximum(pix[sel], 0)]
+                at_face = pix[sel] < 0
+                rho[at_face] = _face_rho(T.tex_info, k, uvs, tri[at_face])
+            base = np.broadcast_to(mats[m, row:row + 3], (uv.shape[0], 3))  # what the sample multiplies
+            if slot == TEXMAP_KD and T.color_mode[m] != COLOR_NONE:  # the colour, in place of the row's kd
+                base = _point_colour(T, model[sel], face[sel], bary[sel], faces)
+            maps.append(_texel_gradient(T.tex_info, k, uv, base * part[sel, col:col + 3], rho))
+        out[name] = tuple(maps)
+    return out
