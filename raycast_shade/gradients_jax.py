@@ -41,8 +41,9 @@ __all__ = ["render_fn", "params_of", "with_params", "JAX_WRT", "JAX_DEFAULT"]
 
 JAX_WRT = ("ka", "kd", "ks", "shininess", "ambient", "light_position", "light_direction", "light_radiance",
            "light_intensity", "light_k")
-"""The names :func:`render_fn` takes: :data:`raycast_shade.gradients.WRT` but the vertex normals and the
-geometry (``vertices``, ``camera_eye``, ``camera_rotation``)."""
+"""The names :func:`render_fn` takes: the material rows, the ambient and the lights' values of
+:data:`raycast_shade.gradients.WRT` (not the spot angles, the vertex normals, the geometry, nor the
+mesh colours and texels)."""
 JAX_DEFAULT = tuple(n for n in JAX_WRT if n != "light_intensity")
 """What ``wrt=None`` means: every name of :data:`JAX_WRT` but ``light_intensity``, which sets the
 radiance ``light_radiance`` sets."""
