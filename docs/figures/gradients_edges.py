@@ -63,8 +63,8 @@ def draw(image, inner, total, fd, path):
     fig, axes = plt.subplots(1, 4, figsize=(11.0, 2.9), dpi=100)
     axes[0].imshow(rs.to_uint8(image))
     axes[0].set_title("the image (one ray a pixel)", fontsize=9)
-    for ax, (label, g) in zip(axes[1:], [("rs.grad: interior only", inner), ("rs.grad: interior + edges", total),
-                                          ("finite differences, 16x16 rays", fd)]):
+    for ax, (label, g) in zip(axes[1:], [("rs.grad:\ninterior only", inner), ("rs.grad:\ninterior + edges", total),
+                                          ("finite differences\n(16x16 rays a pixel)", fd)]):
         im = ax.imshow(g, cmap="RdBu_r", vmin=-top, vmax=top)
         ax.set_title(label, fontsize=9)
     for ax in axes:
@@ -73,7 +73,7 @@ def draw(image, inner, total, fd, path):
     err = np.abs(total.sum() - fd.sum()) / np.abs(fd).sum()
     fig.suptitle(f"d image / d (x-translation): sum over pixels {total.sum():.2f} (rs.grad) against "
                  f"{fd.sum():.2f} (differences); |difference| / sum|FD| = {err:.3f}", fontsize=9)
-    fig.savefig(path)
+    fig.savefig(path, bbox_inches="tight")
     plt.close(fig)
 
 

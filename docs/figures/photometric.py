@@ -77,7 +77,7 @@ def main(argv=None):
     truth = fs[0].buffers["normal"].astype(np.float64)
     hit = fs[0].hits.prim >= 0
     noisy = images + NOISE * np.random.default_rng(0).standard_normal(images.shape) * hit[..., None]
-    fig, axes = plt.subplots(1, 4, figsize=(17, 3.8), gridspec_kw=dict(width_ratios=[2, 1.2, 1.2, 1]))
+    fig, axes = plt.subplots(1, 4, figsize=(18, 4.0), gridspec_kw=dict(width_ratios=[2, 1.3, 1.3, 1]))
     axes[0].imshow(np.concatenate([rs.to_uint8(f.image) for f in fs[:2]], axis=1)); axes[0].axis("off")
     axes[0].set_title("two of the four renders")
     for ax, (label, imgs) in zip(axes[1:3], (("exact images", images), (f"noise sd {NOISE}", noisy))):
