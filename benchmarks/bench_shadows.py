@@ -114,7 +114,9 @@ def _tile_packet(rays, valid, t, flags):
     buffer, its valid mask and its query arguments (``flags``, every feature): ``(b, o, vb, vo, a, ao,
     on)``, each array with the slot its struct starts at, and whether any lane is active."""
     slots = rays.shape[1]
-    b = np.empty(slots + 16, np.float32)
+    # Room for a whole RTCRayHit16 whatever the tile holds: rtcOccluded16 rewrites the hit fields past an
+    # RTCRay16 on CPUs without 16-wide kernels (see visibility/secondary.py, _STRIDE).
+    b = np.empty(max(slots, _LANES * embree.RAYHIT_SLOTS) + 16, np.float32)
     o = ((64 - b.ctypes.data % 64) % 64) // 4
     vb = np.empty(2 * _LANES, np.int32)
     vo = ((64 - vb.ctypes.data % 64) % 64) // 4

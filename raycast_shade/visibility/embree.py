@@ -454,8 +454,10 @@ def occluded16_packet(valid, scene, ray, args):
         Starts at a 64-byte boundary: -1 for an active ray, 0 for an inactive one
         (an inactive lane's ray is neither read nor written).
     scene : uintp
-    ray : (>= 192,) float32 or uint32
-        Starts at a 64-byte aligned ``RTCRay16`` (:data:`RAY16_SLOTS`).
+    ray : (>= 16 RAYHIT_SLOTS,) float32 or uint32
+        Starts at a 64-byte aligned ``RTCRay16`` (:data:`RAY16_SLOTS`), followed by room for the rest
+        of an ``RTCRayHit16``: on a CPU without 16-wide kernels Embree traces the lanes one by one
+        and writes each back as an ``RTCRayHit``, rewriting the hit fields past the ``RTCRay16``.
     args : (>= ARGS_SLOTS,) uint32
         Starts at an 8-byte aligned ``RTCOccludedArguments``.
 

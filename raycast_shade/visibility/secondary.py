@@ -37,8 +37,13 @@ __all__ = ["LANES", "UNTRACED", "ray_scratch", "occluded", "occluded_ray", "occl
 
 LANES = 16  # rays a packet: the pixels of a 4x4 tile
 UNTRACED = -1  # an occlusion answer no ray was asked for
-_RAY16 = embree.RAY16_SLOTS  # float32 slots of one RTCRay16: 768 bytes, so packet i + 1 stays 64-byte aligned
-_RAYHIT16 = LANES * embree.RAYHIT_SLOTS  # float32 slots of one RTCRayHit16
+_RAYHIT16 = LANES * embree.RAYHIT_SLOTS  # float32 slots of one RTCRayHit16 (1536 bytes: 64-byte aligned)
+# Slots from one occlusion packet to the next: a whole RTCRayHit16, not an RTCRay16. Without 16-wide
+# kernels (an AVX2 CPU), rtcOccluded16 traces the lanes one by one, copying each lane to an RTCRayHit
+# and back into the packet as an RTCRayHit16: it reads and rewrites the hit fields past the
+# RTCRay16 (Embree 4.4, measured: a second thread's increments there are lost). Past a packet's end
+# those bytes must be its own, or the rewrite undoes another thread's writes to the heap.
+_STRIDE = _RAYHIT16
 _INLINE = dict(cache=True, forceinline=True, _nrt=False)  # LLVM-inlined: no references, no allocation
 _ALLOC = dict(cache=True, forceinline=False, _nrt=True)  # allocates: NRT on, a call
 
@@ -112,7 +117,7 @@ def occlusion_packets(ngroups):
     -------
     buf, ib : (N,) float32, (N,) uint32
         Two views of one buffer: ``ngroups`` ``RTCRay16`` one after another from slot ``off``
-        (64-byte aligned), group ``i``'s at ``off + i * RAY16_SLOTS``.
+        (64-byte aligned), group ``i``'s at ``off + i * _STRIDE`` (a whole ``RTCRayHit16`` each: see ``_STRIDE``).
     off : int
     valid : (M,) int32
         The packets' valid masks, group ``i``'s lanes from ``voff + 16 i`` (64-byte aligned).
@@ -124,7 +129,7 @@ def occlusion_packets(ngroups):
         Per group and lane: 1 blocked, 0 not, :data:`UNTRACED` not asked (:func:`trace_occlusion`).
     """
     n = max(ngroups, 1)
-    buf = np.empty(n * _RAY16 + 16, np.float32)
+    buf = np.empty(n * _STRIDE + 16, np.float32)
     off = ((64 - buf.ctypes.data % 64) % 64) // 4
     valid = np.zeros(n * LANES + 16, np.int32)
     voff = ((64 - valid.ctypes.data % 64) % 64) // 4
@@ -136,7 +141,7 @@ def occlusion_packets(ngroups):
     ib = buf.view(np.uint32)
     for i in range(n):  # the slots no ray changes and Embree never writes, once
         for k in range(LANES):
-            b = off + i * _RAY16 + k
+            b = off + i * _STRIDE + k
             buf[b + embree.RAY_TNEAR * LANES] = 0.0
             buf[b + embree.RAY_TIME * LANES] = 0.0
             ib[b + embree.RAY_MASK * LANES] = embree.INVALID_ID  # every mask bit, as write_ray
@@ -159,7 +164,7 @@ def set_occlusion_ray(P, i, k, org, d, tfar):
     """Ask for the ray ``org + t d``, ``0 <= t <= tfar``, in lane ``k`` of group ``i`` of the
     packets ``P = (buf, ib, off, valid, voff)`` (:func:`occlusion_packets`)."""
     buf, ib, off, valid, voff = P
-    b = off + i * _RAY16 + k  # tnear 0, time 0, every mask bit, id and flags 0: set once
+    b = off + i * _STRIDE + k  # tnear 0, time 0, every mask bit, id and flags 0: set once
     for c in range(3):
         buf[b + (embree.RAY_ORG + c) * LANES] = org[c]
         buf[b + (embree.RAY_DIR + c) * LANES] = d[c]
@@ -173,9 +178,9 @@ def set_occlusion_lane(buf, ub, j, q, org, d, tfar):
     valid mask: for a loop over every lane that sets the masks itself and vectorises (unsigned
     offsets: no wrap-around test per store)."""
     for c in range(3):
-        buf[ub + np.uint64(j * _RAY16 + (embree.RAY_ORG + c) * LANES + q)] = org[c]
-        buf[ub + np.uint64(j * _RAY16 + (embree.RAY_DIR + c) * LANES + q)] = d[c]
-    buf[ub + np.uint64(j * _RAY16 + embree.RAY_TFAR * LANES + q)] = tfar
+        buf[ub + np.uint64(j * _STRIDE + (embree.RAY_ORG + c) * LANES + q)] = org[c]
+        buf[ub + np.uint64(j * _STRIDE + (embree.RAY_DIR + c) * LANES + q)] = d[c]
+    buf[ub + np.uint64(j * _STRIDE + embree.RAY_TFAR * LANES + q)] = tfar
 
 
 @inline_jit(**_INLINE)
@@ -193,7 +198,7 @@ def trace_occlusion(handle, buf, off, valid, voff, args, aoff, vis):
             any_on = any_on or valid[v0 + k] != 0
         if not any_on:
             continue
-        b0 = off + i * _RAY16
+        b0 = off + i * _STRIDE
         embree.occluded16(valid.ctypes.data + v0 * 4, handle, buf.ctypes.data + b0 * 4, args.ctypes.data + aoff * 4)
         for k in range(LANES):
             if valid[v0 + k] != 0:

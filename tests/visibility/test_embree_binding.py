@@ -184,7 +184,7 @@ _IR_ORDER = textwrap.dedent("""
 
     @njit
     def shadow16(scene):
-        buf = np.zeros(256, np.float32)
+        buf = np.zeros(16 + 16 * embree.RAYHIT_SLOTS, np.float32)
         valid = np.zeros(32, np.int32)
         args = np.zeros(embree.ARGS_SLOTS + 2, np.uint32)
         embree.occluded16_packet(valid[16:], scene, buf[16:], args[2:])
