@@ -71,6 +71,7 @@ from .render import render
 from .scene.camera import Camera
 from .scene.scene import Scene
 from .shading.grad_edges import edge_vjp
+from .shading.grad_shadow_edges import shadow_edge_vjp
 from .visibility.cast import cast_camera
 from .visibility.rays import subpixel_camera
 from .shading.grad_geometry import rotate_vectors
@@ -87,6 +88,8 @@ WRT = ("ka", "kd", "ks", "shininess", "ambient", "light_position", "light_direct
 """Every name :func:`grad` differentiates with respect to."""
 GEOMETRY = ("vertices", "camera_eye", "camera_rotation")
 """The names that move what each pixel sees (the interior and, with ``edges=True``, the edges)."""
+SHADOW_MOVERS = GEOMETRY + ("light_position", "light_direction")
+"""The names that move hard shadows' outlines (their edge term with ``edges=True``)."""
 DEFAULT_WRT = tuple(n for n in WRT if n != "normals" and n not in GEOMETRY and n not in MAPS)
 """What ``wrt=None`` asks for: every parameter but the vertex normals, the geometry and the mesh
 colours and texels (:data:`~raycast_shade.shading.grad_maps.MAPS`)."""
@@ -255,9 +258,10 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
     if frame is None and samples == 1:
         frame = render(scene, shading)
     geometry = any(n in GEOMETRY for n in names)
-    if edges and not geometry:
-        warnings.warn(f"edges=True: the edge term moves only the geometry ({', '.join(GEOMETRY)}), and wrt asks "
-                      "for none of it; the gradients are those of edges=False", UserWarning,
+    shadow_moved = any(n in SHADOW_MOVERS for n in names)
+    if edges and not shadow_moved:
+        warnings.warn(f"edges=True: the edge term moves only the geometry and the lights ({', '.join(SHADOW_MOVERS)}), "
+                      "and wrt asks for none of it; the gradients are those of edges=False", UserWarning,
                       stacklevel=user_stacklevel())
     if geometry and scene.camera.distorted:
         raise ValueError("scene.camera: no geometry gradients through lens distortion yet (a pinhole camera has)")
@@ -280,13 +284,29 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
             _about_eye(gcam, inputs.cam, scene)
     else:
         params, gnormals, gverts, gcam = _sampled_vjp(scene, modes, gimg, samples, "normals" in names, geometry)
-    if edges and geometry:
-        ev, ec, _ = edge_vjp(scene, scene.camera, inputs, modes, gimg, shading, edge_density, seed)
-        _about_eye(ec, inputs.cam, scene)
-        gverts += ev
-        gcam += ec
+    glight = None
+    if edges and shadow_moved:
+        # hard shadows' outlines, then the silhouettes: a run-time branch (NumPy and the frame's kernels)
+        sv, sc, glight, _ = shadow_edge_vjp(scene, scene.camera, inputs, gimg, shading, edge_density, seed)
+        if geometry:
+            ev, ec, _ = edge_vjp(scene, scene.camera, inputs, modes, gimg, shading, edge_density, seed)
+            ec += sc
+            _about_eye(ec, inputs.cam, scene)
+            gverts += sv + ev
+            gcam += ec
     out = named(params, {"normals": gnormals, "vertices": gverts, "camera": gcam}, scene, inputs, names)
+    if glight is not None:
+        _add_light_edges(out, glight, inputs.lighting.lights)
     return {n: maps[n] if n in MAPS else out[n] for n in names}
+
+
+def _add_light_edges(out, glight, lights) -> None:
+    """Add the shadow outlines' ``dL/d(light row vector)`` (L, 3) into ``out``'s light names."""
+    directional = lights[:, LIGHT_KIND] == LIGHT_DIRECTIONAL
+    if "light_position" in out:
+        out["light_position"] += np.where(directional[:, None], 0.0, glight)
+    if "light_direction" in out:
+        out["light_direction"] += _direction_gradient(glight, lights, directional)
 
 
 def _about_eye(gcam, cam, scene) -> None:
