@@ -46,7 +46,9 @@ The hit buffer's triangles are held (the frame's own, or one cast for the call):
 those of the shading and of each hit moving on its triangle, exact wherever the image is
 differentiable in the parameters; where a pixel's triangle changes, ``edges=True`` adds the
 box-filtered image's edge term. Shadows count with the frame's visibility (a blocked
-light stays blocked). Flat shading lights a face with its true normal: the flat gradient of a
+light stays blocked) in the interior; ``edges=True`` adds the hard shadows' outlines (point, spot
+and directional lights) for the geometry, ``light_position`` and ``light_direction``
+(:mod:`raycast_shade.shading.grad_shadow_edges`). Flat shading lights a face with its true normal: the flat gradient of a
 vertex normal is exactly 0. Mesh colours and kd/ks map texels (:data:`MAPS`, not among the defaults)
 are :mod:`raycast_shade.shading.grad_maps`'. Not differentiated yet (refused with a ValueError
 naming what): GGX materials, mirrors, bump and normal maps, area lights; geometry through lens
@@ -208,8 +210,9 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
         by default (with ``samples > 1``, the frame is checked, and its samples cast again).
     edges : bool
         Add the silhouettes' (and other visibility edges') term by edge sampling to the geometry
-        gradients: the gradient of the box-filtered (anti-aliased) image, whose interior part is
-        taken at the pixel centres. Off by default: the gradient of the one-ray image over its
+        gradients, and the hard shadows' outlines' to the geometry's, ``light_position``'s and
+        ``light_direction``'s: the gradient of the box-filtered (anti-aliased) image, whose
+        interior part is taken at the pixel centres. Off by default: the gradient of the one-ray image over its
         hit buffer.
     edge_density : float
         Edge samples per pixel of projected edge length (``> 0``, at most :data:`MAX_DENSITY`).
