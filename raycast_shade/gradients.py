@@ -289,18 +289,25 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
         params, gnormals, gverts, gcam = _sampled_vjp(scene, modes, gimg, samples, "normals" in names, geometry)
     glight = None
     if edges and shadow_moved:
-        # hard shadows' outlines, then the silhouettes: a run-time branch (NumPy and the frame's kernels)
-        sv, sc, glight, _ = shadow_edge_vjp(scene, scene.camera, inputs, gimg, shading, edge_density, seed)
-        if geometry:
-            ev, ec, _ = edge_vjp(scene, scene.camera, inputs, modes, gimg, shading, edge_density, seed)
-            ec += sc
-            _about_eye(ec, inputs.cam, scene)
-            gverts += sv + ev
-            gcam += ec
+        glight = _edge_terms(scene, inputs, modes, gimg, shading, (edge_density, seed), geometry, gverts, gcam)
     out = named(params, {"normals": gnormals, "vertices": gverts, "camera": gcam}, scene, inputs, names)
     if glight is not None:
         _add_light_edges(out, glight, inputs.lighting.lights)
     return {n: maps[n] if n in MAPS else out[n] for n in names}
+
+
+def _edge_terms(scene, inputs, modes, gimg, shading, sampling, geometry, gverts, gcam) -> np.ndarray:
+    """The edge terms, a run-time branch (NumPy and the frame's kernels): the hard shadows'
+    outlines and, for the geometry, the silhouettes, added into ``gverts`` and ``gcam``; returns
+    the outlines' ``dL/d(light row vector)`` (L, 3). ``sampling``: ``(edge_density, seed)``."""
+    sv, sc, glight, _ = shadow_edge_vjp(scene, scene.camera, inputs, gimg, shading, *sampling)
+    if geometry:
+        ev, ec, _ = edge_vjp(scene, scene.camera, inputs, modes, gimg, shading, *sampling)
+        ec += sc
+        _about_eye(ec, inputs.cam, scene)
+        gverts += sv + ev
+        gcam += ec
+    return glight
 
 
 def _add_light_edges(out, glight, lights) -> None:
