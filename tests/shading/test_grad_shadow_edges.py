@@ -21,6 +21,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 import raycast_shade as rs
+from raycast_shade.gradients import rotate_camera
 from raycast_shade.common.layout import CAM_EYE, LIGHT_SIZE, LIGHT_VEC
 from raycast_shade.shading.grad_edges import edge_topology, screen_points
 from raycast_shade.shading.grad_shadow_edges import light_silhouettes, plane_hit_vjp, screen_jacobians, shadow_edge_vjp
@@ -35,7 +36,7 @@ LIGHT = (1.2, 0.9, 3.0)
 TRI = np.array([[-0.6, -0.4, 0.8], [0.3, -0.5, 0.9], [-0.2, 0.45, 0.7]])
 
 
-def _scene(move=None, light=LIGHT, kind="point", eye=(0.1, -0.2, 3.4), plane_z=0.0, shadows=True):
+def _scene(move=None, light=LIGHT, kind="point", eye=(0.1, -0.2, 3.4), plane_z=0.0, shadows=True, camera=None):
     tri = TRI.copy()
     if move is not None:
         tri[move[0], move[1]] += move[2]
@@ -49,7 +50,8 @@ def _scene(move=None, light=LIGHT, kind="point", eye=(0.1, -0.2, 3.4), plane_z=0
     else:
         lamp = rs.DirectionalLight(light, shadows=shadows)
     eye = np.asarray(eye, np.float64)
-    camera = rs.Camera(eye=tuple(eye), target=tuple(eye - (0.1, -0.2, 3.4)), up=(0.0, 1.0, 0.0), width=W_, height=H_)
+    camera = camera or rs.Camera(eye=tuple(eye), target=tuple(eye - (0.1, -0.2, 3.4)), up=(0.0, 1.0, 0.0), width=W_,
+                                 height=H_)
     return rs.Scene([rs.Model(plane, rs.Material(ka=0.2, kd=(0.8, 0.7, 0.6), ks=0.0)),
                      rs.Model(rs.Mesh(tri, [[0, 1, 2]]), rs.Material(ka=0.2, kd=(0.3, 0.5, 0.8), ks=0.0))],
                     camera=camera, lights=[lamp], ambient=0.2, background=(0.1, 0.1, 0.1))
@@ -124,6 +126,17 @@ def test_spot_and_directional_lights(weights):
     _agree(float(g["light_direction"][0] @ tangent), want, abs(want), "light_direction along a tangent")
     want = _fd(lambda h: _scene(move=(1, 1, h), kind="dir", light=tuple(d)), weights)
     _agree(g["vertices"][5, 1], want, abs(want), "directional: occluder vertex 1[1]")
+
+
+def test_orthographic_camera(weights):
+    """An orthographic camera: its own projection Jacobian, and the rotation about its eye."""
+    cam = rs.Camera(eye=(0.1, -0.2, 3.4), target=(0.1, -0.2, 0.0), width=W_, height=H_, projection="orthographic",
+                    ortho_height=2.5)
+    g = _grad(_scene(camera=cam), weights, ("light_position", "camera_rotation"))
+    want = _fd(lambda h: _scene(light=tuple(np.add(LIGHT, (h, 0.0, 0.0))), camera=cam), weights)
+    _agree(g["light_position"][0, 0], want, abs(want), "orthographic light_position[0]")
+    want = _fd(lambda h: _scene(camera=rotate_camera(cam, (0.0, 0.0, h))), weights, 3e-3)
+    _agree(g["camera_rotation"][2], want, abs(want), "orthographic camera_rotation[2]")
 
 
 def test_no_jump_without_a_hard_outline(weights):
