@@ -13,7 +13,12 @@ directional light, no shadows) is rendered, and in each repeat, interleaved in o
   (the hit buffer's triangles held);
 * ``grad+vertices+edges``: the same with the edge term (``edges=True``: silhouettes and boundary
   edges sampled at 4 per pixel of length, two rays cast and shaded per sample), the issue's
-  "vertex gradients (interior + edges)", whose budget is 6x the frame.
+  "vertex gradients (interior + edges)", whose budget is 6x the frame;
+* ``forward+shadows``: the frame with the point light casting shadows (the same scene otherwise);
+* ``grad+shadow edges``: on that frame, the vertex positions, camera pose and light positions,
+  interior and edges: the silhouettes' term and the shadow outlines' (the point light's silhouette
+  edges cast onto the floor and the sphere, sampled at 4 per pixel of outline; its ``ratio`` is
+  over ``forward+shadows``).
 
 Medians over the repeats after one warm-up call of each (the first calls, compile or cache load
 included, are their own rows, ``first ...``). ``ratio`` is each median over the ``forward``
@@ -38,12 +43,12 @@ from benchmarks.outputs import results_file
 FIELDS = ["benchmark", "case", "width", "height", "repeats", "ms_median", "ratio", "load", "note"]
 
 
-def _scene(width, height):
+def _scene(width, height, shadows=False):
     import raycast_shade as rs
 
     return rs.Scene([rs.Model(rs.shapes.icosphere(4), rs.Material(kd=(0.8, 0.3, 0.2), ks=0.5, shininess=40)),
                      rs.Model(rs.shapes.plane(6.0, center=(0.0, -1.0, 0.0), normal="+y"), rs.Material(kd=0.6))],
-                    lights=[rs.PointLight((2.0, 3.0, 2.0), intensity=25.0, attenuation="inverse_square"),
+                    lights=[rs.PointLight((2.0, 3.0, 2.0), intensity=25.0, attenuation="inverse_square", shadows=shadows),
                             rs.DirectionalLight((-1.0, -1.0, -0.5), intensity=0.4)],
                     camera=rs.Camera(eye=(0.0, 1.2, 4.0), target=(0.0, -0.3, 0.0), width=width, height=height),
                     ambient=0.1)
@@ -65,6 +70,9 @@ def run(quick: bool = False):
     scene = _scene(w, h)
     weights = np.random.default_rng(0).standard_normal((h, w, 3))
     frame = rs.render(scene, "phong")
+    shadowed = _scene(w, h, shadows=True)
+    frame_s = rs.render(shadowed, "phong")
+    movers = GEOMETRY + ("light_position",)
     cases = {
         "forward": lambda: rs.render(scene, "phong"),
         "shade": lambda: SampleShading(scene, scene.camera, "phong", inputs=frame.inputs).shade(frame.hits),
@@ -72,7 +80,10 @@ def run(quick: bool = False):
         "grad+normals": lambda: rs.grad(scene, weights, DEFAULT_WRT + ("normals",), frame=frame),
         "grad+vertices": lambda: rs.grad(scene, weights, GEOMETRY, frame=frame),
         "grad+vertices+edges": lambda: rs.grad(scene, weights, GEOMETRY, frame=frame, edges=True),
+        "forward+shadows": lambda: rs.render(shadowed, "phong"),
+        "grad+shadow edges": lambda: rs.grad(shadowed, weights, movers, frame=frame_s, edges=True),
     }
+    over = {"grad+shadow edges": "forward+shadows"}  # each row's ratio is over this case's median
     load = lambda: round(os.getloadavg()[0], 2)  # noqa: E731
     rows = [dict(benchmark="grad", case=f"first {name}", width=w, height=h, repeats=1, ms_median=round(_timed(fn), 1),
                  ratio="", load=load(), note="compile or cache load included") for name, fn in cases.items()]
@@ -84,12 +95,16 @@ def run(quick: bool = False):
     notes = {"forward": "render(): cast and shade", "shade": "the kept hit buffer re-shaded",
              "grad": "material, ambient and light parameters", "grad+normals": "and the vertex normals",
              "grad+vertices": "vertex positions and camera pose, interior",
-             "grad+vertices+edges": "vertex positions and camera pose, interior and edges"}
+             "grad+vertices+edges": "vertex positions and camera pose, interior and edges",
+             "forward+shadows": "render() with the point light's shadow rays",
+             "grad+shadow edges": "vertices, camera, light positions; interior, silhouettes and shadow outlines "
+                                  "(ratio over forward+shadows)"}
     for name, ms in times.items():
         med = statistics.median(ms)
+        base = statistics.median(times[over[name]]) if name in over else forward
         rows.append(dict(benchmark="grad", case=name, width=w, height=h, repeats=repeats, ms_median=round(med, 2),
-                         ratio=round(med / forward, 2), load=load(), note=notes[name]))
-        print(f"{name:20s} {w}x{h}: median {med:8.2f} ms  ({med / forward:.2f} x forward)")
+                         ratio=round(med / base, 2), load=load(), note=notes[name]))
+        print(f"{name:20s} {w}x{h}: median {med:8.2f} ms  ({med / base:.2f} x {over.get(name, 'forward')})")
     return rows
 
 

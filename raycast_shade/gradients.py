@@ -46,7 +46,9 @@ The hit buffer's triangles are held (the frame's own, or one cast for the call):
 those of the shading and of each hit moving on its triangle, exact wherever the image is
 differentiable in the parameters; where a pixel's triangle changes, ``edges=True`` adds the
 box-filtered image's edge term. Shadows count with the frame's visibility (a blocked
-light stays blocked). Flat shading lights a face with its true normal: the flat gradient of a
+light stays blocked) in the interior; ``edges=True`` adds the hard shadows' outlines (point, spot
+and directional lights) for the geometry, ``light_position`` and ``light_direction``
+(:mod:`raycast_shade.shading.grad_shadow_edges`). Flat shading lights a face with its true normal: the flat gradient of a
 vertex normal is exactly 0. Mesh colours and kd/ks map texels (:data:`MAPS`, not among the defaults)
 are :mod:`raycast_shade.shading.grad_maps`'. Not differentiated yet (refused with a ValueError
 naming what): GGX materials, mirrors, bump and normal maps, area lights; geometry through lens
@@ -71,6 +73,7 @@ from .render import render
 from .scene.camera import Camera
 from .scene.scene import Scene
 from .shading.grad_edges import edge_vjp
+from .shading.grad_shadow_edges import shadow_edge_vjp
 from .visibility.cast import cast_camera
 from .visibility.rays import subpixel_camera
 from .shading.grad_geometry import rotate_vectors
@@ -87,6 +90,8 @@ WRT = ("ka", "kd", "ks", "shininess", "ambient", "light_position", "light_direct
 """Every name :func:`grad` differentiates with respect to."""
 GEOMETRY = ("vertices", "camera_eye", "camera_rotation")
 """The names that move what each pixel sees (the interior and, with ``edges=True``, the edges)."""
+SHADOW_MOVERS = GEOMETRY + ("light_position", "light_direction")
+"""The names that move hard shadows' outlines (their edge term with ``edges=True``)."""
 DEFAULT_WRT = tuple(n for n in WRT if n != "normals" and n not in GEOMETRY and n not in MAPS)
 """What ``wrt=None`` asks for: every parameter but the vertex normals, the geometry and the mesh
 colours and texels (:data:`~raycast_shade.shading.grad_maps.MAPS`)."""
@@ -205,8 +210,9 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
         by default (with ``samples > 1``, the frame is checked, and its samples cast again).
     edges : bool
         Add the silhouettes' (and other visibility edges') term by edge sampling to the geometry
-        gradients: the gradient of the box-filtered (anti-aliased) image, whose interior part is
-        taken at the pixel centres. Off by default: the gradient of the one-ray image over its
+        gradients, and the hard shadows' outlines' to the geometry's, ``light_position``'s and
+        ``light_direction``'s: the gradient of the box-filtered (anti-aliased) image, whose
+        interior part is taken at the pixel centres. Off by default: the gradient of the one-ray image over its
         hit buffer.
     edge_density : float
         Edge samples per pixel of projected edge length (``> 0``, at most :data:`MAX_DENSITY`).
@@ -255,9 +261,10 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
     if frame is None and samples == 1:
         frame = render(scene, shading)
     geometry = any(n in GEOMETRY for n in names)
-    if edges and not geometry:
-        warnings.warn(f"edges=True: the edge term moves only the geometry ({', '.join(GEOMETRY)}), and wrt asks "
-                      "for none of it; the gradients are those of edges=False", UserWarning,
+    shadow_moved = any(n in SHADOW_MOVERS for n in names)
+    if edges and not shadow_moved:
+        warnings.warn(f"edges=True: the edge term moves only the geometry and the lights ({', '.join(SHADOW_MOVERS)}), "
+                      "and wrt asks for none of it; the gradients are those of edges=False", UserWarning,
                       stacklevel=user_stacklevel())
     if geometry and scene.camera.distorted:
         raise ValueError("scene.camera: no geometry gradients through lens distortion yet (a pinhole camera has)")
@@ -280,13 +287,36 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
             _about_eye(gcam, inputs.cam, scene)
     else:
         params, gnormals, gverts, gcam = _sampled_vjp(scene, modes, gimg, samples, "normals" in names, geometry)
-    if edges and geometry:
-        ev, ec, _ = edge_vjp(scene, scene.camera, inputs, modes, gimg, shading, edge_density, seed)
-        _about_eye(ec, inputs.cam, scene)
-        gverts += ev
-        gcam += ec
+    glight = None
+    if edges and shadow_moved:
+        glight = _edge_terms(scene, inputs, modes, gimg, shading, (edge_density, seed), geometry, gverts, gcam)
     out = named(params, {"normals": gnormals, "vertices": gverts, "camera": gcam}, scene, inputs, names)
+    if glight is not None:
+        _add_light_edges(out, glight, inputs.lighting.lights)
     return {n: maps[n] if n in MAPS else out[n] for n in names}
+
+
+def _edge_terms(scene, inputs, modes, gimg, shading, sampling, geometry, gverts, gcam) -> np.ndarray:
+    """The edge terms, a run-time branch (NumPy and the frame's kernels): the hard shadows'
+    outlines and, for the geometry, the silhouettes, added into ``gverts`` and ``gcam``; returns
+    the outlines' ``dL/d(light row vector)`` (L, 3). ``sampling``: ``(edge_density, seed)``."""
+    sv, sc, glight, _ = shadow_edge_vjp(scene, scene.camera, inputs, gimg, shading, *sampling)
+    if geometry:
+        ev, ec, _ = edge_vjp(scene, scene.camera, inputs, modes, gimg, shading, *sampling)
+        ec += sc
+        _about_eye(ec, inputs.cam, scene)
+        gverts += sv + ev
+        gcam += ec
+    return glight
+
+
+def _add_light_edges(out, glight, lights) -> None:
+    """Add the shadow outlines' ``dL/d(light row vector)`` (L, 3) into ``out``'s light names."""
+    directional = lights[:, LIGHT_KIND] == LIGHT_DIRECTIONAL
+    if "light_position" in out:
+        out["light_position"] += np.where(directional[:, None], 0.0, glight)
+    if "light_direction" in out:
+        out["light_direction"] += _direction_gradient(glight, lights, directional)
 
 
 def _about_eye(gcam, cam, scene) -> None:

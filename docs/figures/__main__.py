@@ -43,6 +43,7 @@ FIGURES = [
     dict(name="normal_gradients", module="docs.figures.normal_gradients", page="gradients.md"),
     dict(name="photometric", module="docs.figures.photometric", page="gradients.md"),  # skipped without a mesh
     dict(name="gradients_edges", module="docs.figures.gradients_edges", page="gradients.md"),
+    dict(name="gradients_shadow_edges", module="docs.figures.gradients_shadow_edges", page="gradients.md"),
     dict(name="pbr", module="docs.figures.pbr", page="pbr.md"),  # skipped without the Khronos samples
     dict(name="samples", module="docs.figures.samples", page="files.md"),  # skipped without the Khronos samples
 ]

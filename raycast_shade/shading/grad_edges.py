@@ -20,7 +20,7 @@ at ``(1 - s) n.dA + s n.dB``: :func:`edges_scatter` turns that into ``dL/dvertex
 vertices of the first face listing it) and ``dL/dcamera``, serially in sample order.
 
 Not modelled: edges with an endpoint behind the eye (skipped), lens distortion, shadow edges
-(visibility of lights is held), mirror images, and the folds where the face beside the silhouette
+(:mod:`.grad_shadow_edges`' term, added beside this one), mirror images, and the folds where the face beside the silhouette
 on screen is not the edge's own (self-intersections, grazing folds): the difference is still taken
 across the sample, but the motion is the edge's.
 """
