@@ -10,6 +10,9 @@ name                   shape        the parameter
 ``"ka"``, ``"kd"``,    (G, 3)       each model's material coefficients, RGB
 ``"ks"``
 ``"shininess"``        (G,)         each model's exponent ``t``
+``"metallic"``,        (G,)         each ``specular="ggx"`` model's ``metallic`` and ``roughness``
+``"roughness"``                     (0 for other models; see below for their clamps)
+``"reflectivity"``     (G,)         each model's ``reflectivity`` (mirrors: one bounce, below)
 ``"ambient"``          (3,)         the scene's ambient intensity ``Ia``, RGB
 ``"light_position"``   (L, 3)       each point or spot light's position (0 for other kinds)
 ``"light_direction"``  (L, 3)       each directional light's ``direction`` (0 for other kinds),
@@ -19,6 +22,8 @@ name                   shape        the parameter
 ``"light_k"``          (L,)         the heuristic law's ``k`` (0 for the other laws)
 ``"light_spot"``       (L, 2)       each spot light's ``(inner_angle, outer_angle)``, per degree
                                     (0 for other kinds; see below for the cone's edges)
+``"light_u"``,         (L, 3)       each area light's edges (rectangle) or radii (disc) ``u``,
+``"light_v"``                       ``v``, per component (0 for other kinds)
 ``"vertex_colors"``    (V, 3)       the packed mesh vertex colours ``scene.geometry.vertex_colors``
                                     (kd's, and ka's factor with ``ka_colors``; 0 rows without)
 ``"face_colors"``      (F, 3)       the packed face colours ``scene.geometry.face_colors``
@@ -36,6 +41,17 @@ name                   shape        the parameter
 ``light_spot``: Warn's factor is C1 in the cone angles (its smooth step's slope is 0 at both
 edges); a hard-edged spot (``inner_angle == outer_angle``) gets 0, the derivative almost everywhere.
 
+GGX (:mod:`raycast_shade.shading.grad_ggx`): ``kd`` is the base colour; ``metallic`` and
+``roughness`` pass their clamps only inside them (one-sided into [0, 1] at the bounds; 0 below the
+roughness floor). Area lights: each sample is a point light at a fixed offset ``a u/2 + b v/2``
+(disc: ``a u + b v``) from ``light_position``, its shadow ray held; ``light_u`` and ``light_v``
+are the unconstrained per-component gradients (an ``AreaLight`` keeps ``u`` and ``v`` perpendicular:
+project a step). Mirrors (:mod:`raycast_shade.shading.grad_mirror`): a reflective pixel is
+``(1 - rho) local + rho R``; ``R``, the colour one mirror ray meets, is differentiated with respect to
+the materials and lights it shows, with the ray and where it lands held: on a scene with mirrors
+``normals`` and the geometry are refused, and a mirror ray meeting another mirror is refused unless
+the frame was rendered with ``max_depth=1``.
+
 The geometry (``vertices``, ``camera_*``) is differentiated through the interior of each
 triangle: the pixel's triangle is held, its hit point and barycentrics move with the vertices
 and the ray (:mod:`raycast_shade.shading.grad_geometry`); ``edges=True`` adds the silhouettes'
@@ -49,8 +65,9 @@ box-filtered image's edge term. Shadows count with the frame's visibility (a blo
 light stays blocked). Flat shading lights a face with its true normal: the flat gradient of a
 vertex normal is exactly 0. Mesh colours and kd/ks map texels (:data:`MAPS`, not among the defaults)
 are :mod:`raycast_shade.shading.grad_maps`'. Not differentiated yet (refused with a ValueError
-naming what): GGX materials, mirrors, bump and normal maps, area lights; geometry through lens
-distortion; on a scene with colours or maps any parameter but :data:`MAPS`. The kernels are
+naming what): bump and normal maps; geometry through lens distortion; on a scene with colours or maps
+any parameter but :data:`MAPS`, and those with GGX materials or mirrors; on a scene with mirrors the
+vertex normals and the geometry, and more than one bounce. The kernels are
 :mod:`raycast_shade.shading.grad_terms` and
 :mod:`raycast_shade.shading.grad_frame`; :func:`raycast_shade.fit` fits parameters with them.
 """
