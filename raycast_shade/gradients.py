@@ -10,6 +10,9 @@ name                   shape        the parameter
 ``"ka"``, ``"kd"``,    (G, 3)       each model's material coefficients, RGB
 ``"ks"``
 ``"shininess"``        (G,)         each model's exponent ``t``
+``"metallic"``,        (G,)         each ``specular="ggx"`` model's ``metallic`` and ``roughness``
+``"roughness"``                     (0 for other models; see below for their clamps)
+``"reflectivity"``     (G,)         each model's ``reflectivity`` (mirrors: one bounce, below)
 ``"ambient"``          (3,)         the scene's ambient intensity ``Ia``, RGB
 ``"light_position"``   (L, 3)       each point or spot light's position (0 for other kinds)
 ``"light_direction"``  (L, 3)       each directional light's ``direction`` (0 for other kinds),
@@ -19,6 +22,8 @@ name                   shape        the parameter
 ``"light_k"``          (L,)         the heuristic law's ``k`` (0 for the other laws)
 ``"light_spot"``       (L, 2)       each spot light's ``(inner_angle, outer_angle)``, per degree
                                     (0 for other kinds; see below for the cone's edges)
+``"light_u"``,         (L, 3)       each area light's edges (rectangle) or radii (disc) ``u``,
+``"light_v"``                       ``v``, per component (0 for other kinds)
 ``"vertex_colors"``    (V, 3)       the packed mesh vertex colours ``scene.geometry.vertex_colors``
                                     (kd's, and ka's factor with ``ka_colors``; 0 rows without)
 ``"face_colors"``      (F, 3)       the packed face colours ``scene.geometry.face_colors``
@@ -36,6 +41,17 @@ name                   shape        the parameter
 ``light_spot``: Warn's factor is C1 in the cone angles (its smooth step's slope is 0 at both
 edges); a hard-edged spot (``inner_angle == outer_angle``) gets 0, the derivative almost everywhere.
 
+GGX (:mod:`raycast_shade.shading.grad_ggx`): ``kd`` is the base colour; ``metallic`` and
+``roughness`` pass their clamps only inside them (one-sided into [0, 1] at the bounds; 0 below the
+roughness floor). Area lights: each sample is a point light at a fixed offset ``a u/2 + b v/2``
+(disc: ``a u + b v``) from ``light_position``, its shadow ray held; ``light_u`` and ``light_v``
+are the unconstrained per-component gradients (an ``AreaLight`` keeps ``u`` and ``v`` perpendicular:
+project a step). Mirrors (:mod:`raycast_shade.shading.grad_mirror`): a reflective pixel is
+``(1 - rho) local + rho R``; ``R``, the colour one mirror ray meets, is differentiated with respect to
+the materials and lights it shows, with the ray and where it lands held: on a scene with mirrors
+``normals`` and the geometry are refused, and a mirror ray meeting another mirror is refused unless
+the frame was rendered with ``max_depth=1``.
+
 The geometry (``vertices``, ``camera_*``) is differentiated through the interior of each
 triangle: the pixel's triangle is held, its hit point and barycentrics move with the vertices
 and the ray (:mod:`raycast_shade.shading.grad_geometry`); ``edges=True`` adds the silhouettes'
@@ -51,8 +67,9 @@ and directional lights) for the geometry, ``light_position`` and ``light_directi
 (:mod:`raycast_shade.shading.grad_shadow_edges`). Flat shading lights a face with its true normal: the flat gradient of a
 vertex normal is exactly 0. Mesh colours and kd/ks map texels (:data:`MAPS`, not among the defaults)
 are :mod:`raycast_shade.shading.grad_maps`'. Not differentiated yet (refused with a ValueError
-naming what): GGX materials, mirrors, bump and normal maps, area lights; geometry through lens
-distortion; on a scene with colours or maps any parameter but :data:`MAPS`. The kernels are
+naming what): bump and normal maps; geometry through lens distortion; on a scene with colours or maps
+any parameter but :data:`MAPS`, and those with GGX materials or mirrors; on a scene with mirrors the
+vertex normals and the geometry, and more than one bounce. The kernels are
 :mod:`raycast_shade.shading.grad_terms` and
 :mod:`raycast_shade.shading.grad_frame`; :func:`raycast_shade.fit` fits parameters with them.
 """
@@ -66,6 +83,7 @@ import numpy as np
 from .common.samples import check_samples, sample_offsets
 from .common.layout import (CAM_EYE, ATT_HEURISTIC, LIGHT_ATT, LIGHT_COS_INNER, LIGHT_COS_OUTER, LIGHT_DIRECTIONAL,
                             LIGHT_KIND, LIGHT_SPOT, LIGHT_VEC)
+from .common.layout import AREA_RECTANGLE, LIGHT_AREA, LIGHT_SHAPE
 from .common.stack import user_stacklevel
 from .common.validate import as_array, as_bool, as_int, as_names, as_scalar, as_vec3
 from .output.frame import Frame
@@ -80,13 +98,18 @@ from .shading.grad_geometry import rotate_vectors
 from .shading.grad_frame import frame_vjp, unsupported
 from .shading.grad_maps import MAPS, maps_gradients
 from .shading.grad_terms import GL_COS_INNER, GL_COS_OUTER, GL_K, GL_RAD, GL_SIZE, GL_VEC, GM_KA, GM_KD, GM_KS, GM_SIZE, GM_T, layout
+from .shading.grad_terms import GL_EDGE_U, GL_EDGE_V, GM_METALLIC, GM_REFLECTIVITY, GM_ROUGHNESS
+from .shading.grad_frame import PARTS
+from .shading.grad_mirror import mirror_vjp
+from .shading.shade import shade
+from .visibility.accel import embree_accel
 from .shading.inputs import prepare
 from .shading.shade import resolve_methods
 
 __all__ = ["grad", "rotate_camera", "WRT", "DEFAULT_WRT", "GEOMETRY", "MAPS", "MAX_DENSITY"]
 
-WRT = ("ka", "kd", "ks", "shininess", "ambient", "light_position", "light_direction", "light_radiance",
-       "light_intensity", "light_k", "light_spot", "vertex_colors", "face_colors", "kd_map", "ks_map", "normals", "vertices", "camera_eye", "camera_rotation")
+WRT = ("ka", "kd", "ks", "shininess", "metallic", "roughness", "reflectivity", "ambient", "light_position", "light_direction", "light_radiance",
+       "light_intensity", "light_k", "light_spot", "light_u", "light_v", "vertex_colors", "face_colors", "kd_map", "ks_map", "normals", "vertices", "camera_eye", "camera_rotation")
 """Every name :func:`grad` differentiates with respect to."""
 GEOMETRY = ("vertices", "camera_eye", "camera_rotation")
 """The names that move what each pixel sees (the interior and, with ``edges=True``, the edges)."""
@@ -111,12 +134,16 @@ def _wrt(wrt) -> tuple:
     return as_names(wrt, "wrt", WRT, item="parameter")
 
 
-def check_scene(scene, inputs, names=()) -> None:
+def check_scene(scene, inputs, names=(), mirrors_ok: bool = False) -> None:
     """Raise a ValueError naming every part of ``scene`` the gradient kernels do not differentiate
-    for the parameters ``names``."""
+    for the parameters ``names`` (``mirrors_ok``: the caller adds the mirror bounce, :func:`_vjp`)."""
     maps = [n for n in names if n in MAPS]
     problems = unsupported(inputs, [m.material.name for m in scene.models], [light.name for light in scene.lights],
-                           colours_ok=len(maps) == len(names) > 0)
+                           colours_ok=len(maps) == len(names) > 0, mirrors_ok=mirrors_ok)
+    held = [n for n in names if n == "normals" or n in GEOMETRY]
+    if mirrors_ok and scene.geometry.reflective and held:
+        problems.append(f"{', '.join(held)}: not differentiated on a scene with mirrors yet (the mirror rays' "
+                        "directions are held; the materials', lights' and reflectivities' gradients are done)")
     if problems:
         raise ValueError("scene: no gradients for this scene yet: " + "; ".join(problems))
 
@@ -147,6 +174,9 @@ def named(params, extra, scene, inputs, names) -> dict:
             out[name] = per_model[:, k:k + 3].copy()
         elif name == "shininess":
             out[name] = per_model[:, GM_T].copy()
+        elif name in ("metallic", "roughness", "reflectivity"):
+            out[name] = per_model[:, {"metallic": GM_METALLIC, "roughness": GM_ROUGHNESS,
+                                      "reflectivity": GM_REFLECTIVITY}[name]].copy()
         elif name == "ambient":
             out[name] = params[amb:amb + 3].copy()
         elif name == "light_position":
@@ -162,6 +192,8 @@ def named(params, extra, scene, inputs, names) -> dict:
             out[name] = np.where(lights[:, LIGHT_ATT] == ATT_HEURISTIC, per_light[:, GL_K], 0.0)
         elif name == "light_spot":
             out[name] = _spot_gradient(per_light, lights)
+        elif name in ("light_u", "light_v"):
+            out[name] = _axis_gradient(per_light, lights, GL_EDGE_U if name == "light_u" else GL_EDGE_V)
         elif name in ("normals", "vertices"):
             out[name] = extra[name]
         elif name == "camera_eye":
@@ -180,6 +212,14 @@ def _spot_gradient(per_light, lights) -> np.ndarray:
         sin = np.sqrt(np.maximum(0.0, 1.0 - np.clip(lights[:, row], -1.0, 1.0) ** 2))
         out[:, col] = np.where(spot, -per_light[:, slot] * sin * (np.pi / 180.0), 0.0)
     return out
+
+
+def _axis_gradient(per_light, lights, slot) -> np.ndarray:
+    """``dL/du`` (or ``dL/dv``) of the area lights from the packed half-axes' gradients: a rectangle
+    packs ``u/2`` (its samples at ``centre + a u/2 + b v/2``), a disc ``u`` itself (0 for other kinds)."""
+    area = lights[:, LIGHT_KIND] == LIGHT_AREA
+    half = np.where(lights[:, LIGHT_SHAPE] == AREA_RECTANGLE, 0.5, 1.0)
+    return np.where(area[:, None], per_light[:, slot:slot + 3] * half[:, None], 0.0)
 
 
 def _direction_gradient(gvec, lights, directional) -> np.ndarray:
@@ -257,7 +297,8 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
         if frame.image.shape != gimg.shape:
             raise ValueError(f"frame: its image is {frame.image.shape}, dL_dimage {gimg.shape}")
     inputs = frame.inputs if frame is not None and frame.inputs is not None else prepare(scene, scene.camera)
-    check_scene(scene, inputs, names)
+    check_scene(scene, inputs, names, mirrors_ok=True)
+    depth = 3 if frame is None or frame.max_depth is None else frame.max_depth  # render()'s default bounces
     if frame is None and samples == 1:
         frame = render(scene, shading)
     geometry = any(n in GEOMETRY for n in names)
@@ -281,12 +322,13 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
     if len(maps) == len(names):
         return maps
     if samples == 1:
-        params, gnormals, gverts, gcam = frame_vjp(frame.hits, inputs, modes, gimg, scene.geometry,
-                                                   "normals" in names, geometry)
+        params, gnormals, gverts, gcam = _vjp(scene, scene.camera, frame.hits, inputs, modes, gimg, (shading, depth),
+                                              "normals" in names, geometry)
         if geometry:
             _about_eye(gcam, inputs.cam, scene)
     else:
-        params, gnormals, gverts, gcam = _sampled_vjp(scene, modes, gimg, samples, "normals" in names, geometry)
+        params, gnormals, gverts, gcam = _sampled_vjp(scene, modes, gimg, samples, "normals" in names, geometry,
+                                                      (shading, depth))
     glight = None
     if edges and shadow_moved:
         glight = _edge_terms(scene, inputs, modes, gimg, shading, (edge_density, seed), geometry, gverts, gcam)
@@ -327,7 +369,26 @@ def _about_eye(gcam, cam, scene) -> None:
     gcam[3:] += np.cross(shift, gcam[:3])
 
 
-def _sampled_vjp(scene, modes, gimg, samples, want_normals, want_geometry):
+def _vjp(scene, camera, hits, inputs, modes, gimg, mirrors, want_normals, want_geometry):
+    """:func:`frame_vjp`, plus the mirror bounce on a scene with mirrors (:func:`mirror_vjp`; ``mirrors``
+    = ``(shading, max_depth)`` of the frame): the local shade's VJP takes ``(1 - rho) dL/dI``, the
+    bounces' gradients are added. A mirror ray meeting another mirror is refused with more than one
+    bounce (the last bounce shows its local shade: with one, it is the same evaluator)."""
+    shading, depth = mirrors
+    if depth == 0 or not scene.geometry.reflective:
+        return frame_vjp(hits, inputs, modes, gimg, scene.geometry, want_normals, want_geometry)
+    amb, lb, size = layout(len(scene.models), inputs.lighting.lights.shape[0])
+    local = shade(scene, camera, hits, shading)
+    g_local, bounce, nested, _ = mirror_vjp(hits, inputs, gimg, local, (np.int64(amb), np.int64(lb)), size,
+                                         int(embree_accel(scene.geometry).handle), float(scene.geometry.scale), PARTS)
+    if depth > 1 and np.any(nested):
+        raise ValueError(f"scene: a mirror ray meets another reflective surface at {int(np.count_nonzero(nested))} "
+                         "pixels: one mirror bounce is differentiated, not more (render with max_depth=1)")
+    out = frame_vjp(hits, inputs, modes, g_local, scene.geometry, want_normals, want_geometry)
+    return (out[0] + bounce,) + tuple(out[1:])
+
+
+def _sampled_vjp(scene, modes, gimg, samples, want_normals, want_geometry, mirrors):
     """:func:`frame_vjp` of the mean of ``samples`` sub-pixel images: one cast and one VJP per
     sample with ``dL/dI / samples``, added in sample order. An orthographic sub-pixel camera's
     eye carries the sample's shift: its rotation gradient is turned back to the true eye's."""
@@ -336,8 +397,8 @@ def _sampled_vjp(scene, modes, gimg, samples, want_normals, want_geometry):
     for dx, dy in sample_offsets(samples):
         sub = subpixel_camera(scene.camera, dx, dy)
         inputs = prepare(scene, sub)
-        out = list(frame_vjp(cast_camera(scene.geometry, sub), inputs, modes, part, scene.geometry, want_normals,
-                             want_geometry))
+        out = list(_vjp(scene, sub, cast_camera(scene.geometry, sub), inputs, modes, part, mirrors, want_normals,
+                        want_geometry))
         if want_geometry:
             _about_eye(out[3], inputs.cam, scene)
         total = out if total is None else [t if t is None else t + o for t, o in zip(total, out)]

@@ -29,8 +29,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..common.layout import (LIGHT_AREA, LIGHT_KIND, LIGHT_SAMPLES, MAT_MODEL, MAT_REFLECTIVITY, METHOD_FLAT,
-                             METHOD_GOURAUD, METHOD_PHONG, MODEL_GGX)
+from ..common.layout import MAT_MODEL, MAT_REFLECTIVITY, METHOD_FLAT, METHOD_GOURAUD, METHOD_PHONG, MODEL_GGX
 from ..common.parallel import launch, share
 from ..visibility.secondary import ray_scratch
 from .grad_geometry import faces_scatter, pixels_scatter, points_scatter, vertex_shades_kernel
@@ -46,27 +45,28 @@ __all__ = ["PARTS", "frame_vjp", "unsupported"]
 PARTS = 16  # fixed parts of every parallel pass: the sums' order does not depend on the thread count
 
 
-def unsupported(inputs, material_names, light_names, colours_ok: bool = False) -> list:
+def unsupported(inputs, material_names, light_names, colours_ok: bool = False, mirrors_ok: bool = False) -> list:
     """What the gradient kernels do not differentiate in a frame's packed inputs, as messages
     naming the material or light (empty: everything is supported). ``colours_ok``: the colour and
-    texel families only are asked for (:mod:`.grad_maps`, whose own refusals are the caller's)."""
+    texel families only are asked for (:mod:`.grad_maps`, whose own refusals are the caller's);
+    ``mirrors_ok``: the caller adds the mirror bounce (:mod:`.grad_mirror`) and refuses the families
+    it holds."""
     out = []
     mats = inputs.materials
     for m, name in enumerate(material_names):
-        if mats[m, MAT_MODEL] == MODEL_GGX:
-            out.append(f"material {name!r}: specular='ggx' has no gradients yet (Phong and Blinn-Phong have)")
-        if mats[m, MAT_REFLECTIVITY] > 0:
-            out.append(f"material {name!r}: reflectivity > 0 (mirror bounces) has no gradients yet")
+        if mats[m, MAT_MODEL] == MODEL_GGX and colours_ok:
+            out.append(f"material {name!r}: specular='ggx' has no colour or texel gradients yet (its material's, "
+                       "lights' and geometry's gradients are done)")
+        if mats[m, MAT_REFLECTIVITY] > 0 and (colours_ok or not mirrors_ok):
+            out.append(f"material {name!r}: reflectivity > 0 (mirror bounces): " + (
+                "no colour or texel gradients yet" if colours_ok else
+                "not differentiated here (rs.grad differentiates one bounce; rs.fit not yet)"))
     if inputs.tex_on and not colours_ok:
         out.append("mesh colours and colour maps: only wrt vertex_colors, face_colors, kd_map, ks_map are differentiated "
                    "on such a scene yet (the materials', lights' and geometry's gradients are not)")
     B = inputs.bumps
     if np.any(B.bump_index >= 0) or np.any(B.nmap_index >= 0):
         out.append("bump and normal maps have no gradients yet")
-    lights = inputs.lighting.lights
-    for i, name in enumerate(light_names):
-        if lights[i, LIGHT_KIND] == LIGHT_AREA or lights[i, LIGHT_SAMPLES] > 1:
-            out.append(f"light {name!r}: area lights have no gradients yet")
     return out
 
 

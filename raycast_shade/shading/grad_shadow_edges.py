@@ -23,8 +23,8 @@ intersection (the receiver's three vertices), the light ray (the light's positio
 and ``Q`` (the edge's endpoints), in NumPy, summed in sample order (``np.add.at``: the same sums
 on every run and any number of threads).
 
-Not modelled: area lights (soft shadows; ignored with a warning), shadows seen in mirrors (mirrors
-are refused), the endpoints where an outline changes edges (a set of measure zero, but where an
+Not modelled: area lights (soft shadows; ignored with a warning), shadows seen in mirrors (a
+mirror's reflected image gets no edge term), the endpoints where an outline changes edges (a set of measure zero, but where an
 occluder touches its receiver the outline's samples fall on the contact and the term is
 unreliable), receivers lit at grazing angles (self-shadowing at the terminator, where ``t`` and
 ``|dX/ds|`` blow up), and outlines whose receiver changes within one light ray (the plane is the
