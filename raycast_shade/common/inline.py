@@ -10,14 +10,13 @@ AVX2 machine; see the CHANGELOG). :func:`inline_jit` compiles a helper without t
 
 A helper's build is only ever linked into its callers' modules, as LLVM IR: nothing runs
 its own machine code. So its code library (:class:`_LinkOnlyLibrary`) is never handed to the
-JIT engine (no machine code emitted for it), its module is not optimised on its own (each
-caller optimises the linked whole; a helper's module holds every helper it calls, so
-optimising each level re-optimised the same code once per level) and it has no disk cache:
-a kernel's cache entry holds the kernel's machine code with its helpers in it, so a warm
-process loads kernels and never builds a helper. On the demo's first picture from an empty
+JIT engine (no machine code emitted for it), and its module is not optimised on its own: each
+caller optimises the linked whole (a helper's module holds every helper it calls, so optimising
+each level re-optimised the same code once per level). Its disk-cache entry keeps that IR
+(:class:`_LinkOnlyCache`), so a process compiling a new kernel reads the helpers it links
+instead of building them; a kernel's entry holds its machine code with its helpers in it, so a
+warm process loads kernels and never reads a helper. On the demo's first picture from an empty
 cache the helpers' machine code and module passes were about 3.6 s of CPU (see the CHANGELOG).
-The cost: a process compiling a new kernel builds the helpers it calls again (their front
-end) rather than reading them from the disk.
 
 A Python call of such a helper (the tests and benchmarks make some) still works:
 it runs a twin of the same function compiled with its wrappers (:meth:`InlineDispatcher.python`),
@@ -30,8 +29,10 @@ import threading
 import types
 
 import numba
+from llvmlite import binding as ll
 from numba.core import codegen as _codegen
-from numba.core.compiler import Compiler
+from numba.core.caching import CompileResultCacheImpl, FunctionCache
+from numba.core.compiler import CompileResult, Compiler
 from numba.core.registry import CPUDispatcher
 
 __all__ = ["inline_jit", "InlineDispatcher", "TWIN_SUFFIX"]
@@ -76,6 +77,35 @@ class _LinkOnlyLibrary(_codegen.JITCodeLibrary):
         self._ensure_finalized()
         return 0
 
+    def serialize_using_object_code(self):
+        # What the disk cache keeps (Numba keeps machine code and IR): the IR callers link.
+        return self.name, "bitcode", self._get_module_for_linking().as_bitcode()
+
+
+class _LinkOnlyCacheImpl(CompileResultCacheImpl):
+    """Numba's disk cache of compile results, rebuilding a helper's into a :class:`_LinkOnlyLibrary`."""
+
+    def rebuild(self, target_context, payload):
+        libdata, fndesc, env, signature, objectmode, lifted, typeann, reload_init, _envs = payload
+        for fn in reload_init or ():
+            fn()
+        name, kind, data = libdata
+        if kind != "bitcode":
+            raise ValueError(f"not a helper's cache entry: {kind!r}")
+        library = _LinkOnlyLibrary(target_context.codegen(), name)
+        library._final_module = ll.parse_bitcode(data)
+        library._finalize_final_module()
+        return CompileResult(target_context=target_context, typing_context=target_context.typing_context,
+                             library=library, environment=env,
+                             entry_point=target_context.get_executable(library, fndesc, env), fndesc=fndesc,
+                             type_annotation=typeann, signature=signature, objectmode=objectmode, lifted=lifted,
+                             typing_error=None, call_helper=None, metadata=None, reload_init=reload_init,
+                             referenced_envs=_envs)
+
+
+class _LinkOnlyCache(FunctionCache):
+    _impl_class = _LinkOnlyCacheImpl
+
 
 class _LinkOnlyCompiler(Compiler):
     """Numba's pipeline, lowering into a :class:`_LinkOnlyLibrary`."""
@@ -95,6 +125,9 @@ class InlineDispatcher(CPUDispatcher):
     """
 
     _twin_lock = threading.Lock()
+
+    def enable_caching(self):
+        self._cache = _LinkOnlyCache(self.py_func)
 
     def add_overload(self, cres):
         # Kept for compiled callers (and their inlining); no Python entry point: it has no wrapper.
@@ -135,7 +168,9 @@ def inline_jit(*, cache: bool = True, **options):
     def decorate(func):
         target = dict(options, **_NO_WRAPPERS)
         disp = InlineDispatcher(py_func=func, targetoptions=target, pipeline_class=_LinkOnlyCompiler)
-        disp._twin_cache = cache  # the helper itself has no disk cache (see the module's notes)
+        disp._twin_cache = cache
+        if cache:
+            disp.enable_caching()
         return disp
 
     return decorate
