@@ -155,9 +155,9 @@ class InlineDispatcher(CPUDispatcher):
 
 def inline_jit(*, cache: bool = True, **options):
     """``njit(**options)`` for a helper that only compiled code calls: no CPython or C
-    wrapper (:class:`InlineDispatcher`), no machine code, no disk cache of its own (see the
-    module's notes). Takes the flags of ``njit`` (``forceinline``, ``_nrt``, ``fastmath``,
-    ...); ``cache`` applies to the twin that Python calls run.
+    wrapper (:class:`InlineDispatcher`), no machine code; its disk cache keeps LLVM IR (see
+    the module's notes). Takes the flags of ``njit`` (``forceinline``, ``_nrt``, ``fastmath``,
+    ``cache``, ...).
 
     Returns
     -------
