@@ -10,14 +10,14 @@ AVX2 machine; see the CHANGELOG). :func:`inline_jit` compiles a helper without t
 
 A helper's build is only ever linked into its callers' modules, as LLVM IR: nothing runs
 its own machine code. So its code library (:class:`_LinkOnlyLibrary`) is never handed to the
-JIT engine: no machine code is emitted for it. Its module is still optimised as before, so
-every kernel links the same IR and its machine code is byte for byte what it was (not
-optimising the helpers' modules saved another 1.6 s but changed the kernels' code: see the
-CHANGELOG). Its disk-cache entry keeps that IR
+JIT engine (no machine code emitted for it), and its module is not optimised on its own: each
+caller optimises the linked whole (a helper's module holds every helper it calls, so optimising
+each level re-optimised the same code once per level). Its disk-cache entry keeps that IR
 (:class:`_LinkOnlyCache`), so a process compiling a new kernel reads the helpers it links
 instead of building them; a kernel's entry holds its machine code with its helpers in it, so a
 warm process loads kernels and never reads a helper. On the demo's first picture from an empty
-cache the helpers' machine code was about 1.75 s of CPU (see the CHANGELOG).
+cache the helpers' machine code and module passes were about 3.6 s of CPU, the first picture
+about 3 s less (see the CHANGELOG).
 
 A Python call of such a helper (the tests and benchmarks make some) still works:
 it runs a twin of the same function compiled with its wrappers (:meth:`InlineDispatcher.python`),
@@ -59,11 +59,14 @@ class _NoEnv:
 
 
 class _LinkOnlyLibrary(_codegen.JITCodeLibrary):
-    """A helper's code library: optimised LLVM IR for its callers to link, never machine code."""
+    """A helper's code library: LLVM IR for its callers to link and optimise, never machine code."""
 
     @property
     def codegen(self):
         return _NoEnv(self._codegen)
+
+    def _optimize_final_module(self):
+        pass  # its callers optimise it, linked into their modules
 
     def _finalize_final_module(self):
         # Numba's, less handing the module to the engine (which emits its machine code).
