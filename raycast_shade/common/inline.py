@@ -91,8 +91,8 @@ class _LinkOnlyCacheImpl(CompileResultCacheImpl):
         for fn in reload_init or ():
             fn()
         name, kind, data = libdata
-        if kind != "bitcode":
-            raise ValueError(f"not a helper's cache entry: {kind!r}")
+        if kind == "object":  # written before helpers were link-only: its IR for linking is kept beside
+            data = data[1]
         library = _LinkOnlyLibrary(target_context.codegen(), name)
         library._final_module = ll.parse_bitcode(data)
         library._finalize_final_module()
