@@ -23,7 +23,12 @@ name                   shape        the parameter
                                     (kd's, and ka's factor with ``ka_colors``; 0 rows without)
 ``"face_colors"``      (F, 3)       the packed face colours ``scene.geometry.face_colors``
 ``"kd_map"``,          tuple        per model, its map's (h, w, 3) texels (rows as its
-``"ks_map"``                        ``Texture.texels``: row 0 is ``v = 0``), or None
+``"ks_map"``,                       ``Texture.texels``: row 0 is ``v = 0``), or None;
+``"ka_map"``,                       ``ao_map``: the red channel's (the one the occlusion
+``"ke_map"``,                       reads), green and blue 0
+``"ao_map"``
+``"bump_map"``         tuple        per model, its height map's (rows, cols) ``heights``, or None
+``"normal_map"``       tuple        per model, its normal map's (h, w, 3) texels (level 0), or None
 ``"normals"``          (V, 3)       the packed vertex normals ``scene.geometry.normals`` (rows
                                     model by model, ``scene.geometry.vertex_offsets``)
 ``"vertices"``         (V, 3)       the packed vertex positions (rows as for ``normals``)
@@ -47,10 +52,16 @@ those of the shading and of each hit moving on its triangle, exact wherever the 
 differentiable in the parameters; where a pixel's triangle changes, ``edges=True`` adds the
 box-filtered image's edge term. Shadows count with the frame's visibility (a blocked
 light stays blocked). Flat shading lights a face with its true normal: the flat gradient of a
-vertex normal is exactly 0. Mesh colours and kd/ks map texels (:data:`MAPS`, not among the defaults)
-are :mod:`raycast_shade.shading.grad_maps`'. Not differentiated yet (refused with a ValueError
-naming what): GGX materials, mirrors, bump and normal maps, area lights; geometry through lens
-distortion; on a scene with colours or maps any parameter but :data:`MAPS`. The kernels are
+vertex normal is exactly 0. Mesh colours and the colour maps' texels (:data:`MAPS`, not among the
+defaults) are :mod:`raycast_shade.shading.grad_maps`'; the height and normal maps' texels (Phong's
+bent normal; flat and Gouraud ignore both maps) and the vertex normals through them
+:mod:`raycast_shade.shading.grad_bump`'s. On a scene with colours or maps the other
+families use each point's own coefficients (:mod:`raycast_shade.shading.grad_textured`), and
+``ka``, ``kd``, ``ks`` are the material's scalar factors: the point's kd is ``kd * kd_map(uv)`` (a
+mesh colour replaces ``kd``, whose gradient is then 0), ka ``ka * [colour] * ka_map(uv) * occlusion``,
+ks ``ks * ks_map(uv)``. Not differentiated yet (refused with a ValueError naming what): GGX
+materials, mirrors, area lights; geometry through lens distortion; the geometry on a scene with
+colours, colour maps, bump or normal maps. The kernels are
 :mod:`raycast_shade.shading.grad_terms` and
 :mod:`raycast_shade.shading.grad_frame`; :func:`raycast_shade.fit` fits parameters with them.
 """
@@ -70,26 +81,30 @@ from .output.frame import Frame
 from .render import render
 from .scene.camera import Camera
 from .scene.scene import Scene
+from .shading.grad_bump import BUMPS, bump_gradients
 from .shading.grad_edges import edge_vjp
 from .visibility.cast import cast_camera
 from .visibility.rays import subpixel_camera
 from .shading.grad_geometry import rotate_vectors
 from .shading.grad_frame import frame_vjp, unsupported
 from .shading.grad_maps import MAPS, maps_gradients
+from .shading.grad_textured import textured_vjp
 from .shading.grad_terms import GL_COS_INNER, GL_COS_OUTER, GL_K, GL_RAD, GL_SIZE, GL_VEC, GM_KA, GM_KD, GM_KS, GM_SIZE, GM_T, layout
 from .shading.inputs import prepare
 from .shading.shade import resolve_methods
 
-__all__ = ["grad", "rotate_camera", "WRT", "DEFAULT_WRT", "GEOMETRY", "MAPS", "MAX_DENSITY"]
+__all__ = ["grad", "rotate_camera", "WRT", "DEFAULT_WRT", "GEOMETRY", "MAPS", "BUMPS", "MAX_DENSITY"]
 
 WRT = ("ka", "kd", "ks", "shininess", "ambient", "light_position", "light_direction", "light_radiance",
-       "light_intensity", "light_k", "light_spot", "vertex_colors", "face_colors", "kd_map", "ks_map", "normals", "vertices", "camera_eye", "camera_rotation")
+       "light_intensity", "light_k", "light_spot", "vertex_colors", "face_colors", "kd_map", "ks_map", "ka_map", "ke_map",
+       "ao_map", "bump_map", "normal_map", "normals", "vertices", "camera_eye", "camera_rotation")
 """Every name :func:`grad` differentiates with respect to."""
 GEOMETRY = ("vertices", "camera_eye", "camera_rotation")
 """The names that move what each pixel sees (the interior and, with ``edges=True``, the edges)."""
-DEFAULT_WRT = tuple(n for n in WRT if n != "normals" and n not in GEOMETRY and n not in MAPS)
-"""What ``wrt=None`` asks for: every parameter but the vertex normals, the geometry and the mesh
-colours and texels (:data:`~raycast_shade.shading.grad_maps.MAPS`)."""
+DEFAULT_WRT = tuple(n for n in WRT if n != "normals" and n not in GEOMETRY and n not in MAPS and n not in BUMPS)
+"""What ``wrt=None`` asks for: every parameter but the vertex normals, the geometry, the mesh
+colours and texels (:data:`~raycast_shade.shading.grad_maps.MAPS`) and the height and normal maps'
+texels (:data:`~raycast_shade.shading.grad_bump.BUMPS`)."""
 
 MAX_DENSITY = 1024.0
 """The most edge samples per pixel of edge length ``grad(edges=True)`` takes (a bound on the work)."""
@@ -109,9 +124,8 @@ def _wrt(wrt) -> tuple:
 def check_scene(scene, inputs, names=()) -> None:
     """Raise a ValueError naming every part of ``scene`` the gradient kernels do not differentiate
     for the parameters ``names``."""
-    maps = [n for n in names if n in MAPS]
     problems = unsupported(inputs, [m.material.name for m in scene.models], [light.name for light in scene.lights],
-                           colours_ok=len(maps) == len(names) > 0)
+                           colours_ok=not any(n in GEOMETRY for n in names))
     if problems:
         raise ValueError("scene: no gradients for this scene yet: " + "; ".join(problems))
 
@@ -263,19 +277,21 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
         raise ValueError("scene.camera: no geometry gradients through lens distortion yet (a pinhole camera has)")
     maps = tuple(n for n in names if n in MAPS)
     if maps and not inputs.tex_on:  # no colours, no maps: nothing to differentiate (and no kernel to run)
-        g = scene.geometry
-        zero = {"vertex_colors": np.zeros((g.vertices.shape[0], 3)), "face_colors": np.zeros((g.faces.shape[0], 3)),
-                "kd_map": (None,) * len(scene.models), "ks_map": (None,) * len(scene.models)}
-        maps = {n: zero[n] for n in maps}
-    elif maps:  # the colours and texels alone (check_scene refuses more on such a scene)
+        maps = _zero_maps(scene, maps)
+    elif maps:  # the colours and texels (check_scene refuses the geometry on such a scene)
         if samples == 1:
-            return maps_gradients(frame.hits, inputs, modes, gimg, scene.geometry, names)
-        return _sampled_maps(scene, modes, gimg, samples, names)
+            maps = maps_gradients(frame.hits, inputs, modes, gimg, scene.geometry, names)
+        else:
+            maps = _sampled_maps(scene, modes, gimg, samples, names)
+    maps = maps if maps else {}
+    bumps = tuple(n for n in names if n in BUMPS)
+    if bumps:
+        maps = {**maps, **_bump_gradients(scene, inputs, modes, gimg, samples, frame, bumps)}
     if len(maps) == len(names):
-        return maps
+        return {n: maps[n] for n in names}
     if samples == 1:
-        params, gnormals, gverts, gcam = frame_vjp(frame.hits, inputs, modes, gimg, scene.geometry,
-                                                   "normals" in names, geometry)
+        params, gnormals, gverts, gcam = _frame_vjp(frame.hits, inputs, modes, gimg, scene.geometry,
+                                                    "normals" in names, geometry)
         if geometry:
             _about_eye(gcam, inputs.cam, scene)
     else:
@@ -286,7 +302,46 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
         gverts += ev
         gcam += ec
     out = named(params, {"normals": gnormals, "vertices": gverts, "camera": gcam}, scene, inputs, names)
-    return {n: maps[n] if n in MAPS else out[n] for n in names}
+    return {n: maps[n] if n in maps else out[n] for n in names}
+
+
+def _bump_gradients(scene, inputs, modes, gimg, samples, frame, names) -> dict:
+    """:func:`~raycast_shade.shading.grad_bump.bump_gradients` of the frame, or of the mean of
+    ``samples`` sub-pixel images (one cast each, ``dL/dI / samples``, added in sample order)."""
+    B = inputs.bumps
+    if not (np.any(B.bump_index >= 0) or np.any(B.nmap_index >= 0)):
+        return {n: (None,) * len(scene.models) for n in names}
+    if samples == 1:
+        return bump_gradients(frame.hits, inputs, modes, gimg, names)
+    total = None
+    for dx, dy in sample_offsets(samples):
+        sub = subpixel_camera(scene.camera, dx, dy)
+        out = bump_gradients(cast_camera(scene.geometry, sub), prepare(scene, sub), modes, gimg / samples, names)
+        total = out if total is None else {
+            n: tuple(None if t is None else t + v for t, v in zip(total[n], out[n])) for n in out}
+    return total
+
+
+def _zero_maps(scene, maps) -> dict:
+    """The colour and texel gradients of a scene without colours or maps: zeros (None per model)."""
+    g = scene.geometry
+    out = {}
+    for name in maps:
+        if name == "vertex_colors":
+            out[name] = np.zeros((g.vertices.shape[0], 3))
+        elif name == "face_colors":
+            out[name] = np.zeros((g.faces.shape[0], 3))
+        else:
+            out[name] = (None,) * len(scene.models)
+    return out
+
+
+def _frame_vjp(hits, inputs, modes, gimg, geo, want_normals, want_geometry):
+    """:func:`~raycast_shade.shading.grad_frame.frame_vjp`, or on a frame with colours or maps
+    :func:`~raycast_shade.shading.grad_textured.textured_vjp` (no geometry: refused before)."""
+    if inputs.tex_on:
+        return textured_vjp(hits, inputs, modes, gimg, geo, want_normals) + (None, None)
+    return frame_vjp(hits, inputs, modes, gimg, geo, want_normals, want_geometry)
 
 
 def _about_eye(gcam, cam, scene) -> None:
@@ -306,8 +361,8 @@ def _sampled_vjp(scene, modes, gimg, samples, want_normals, want_geometry):
     for dx, dy in sample_offsets(samples):
         sub = subpixel_camera(scene.camera, dx, dy)
         inputs = prepare(scene, sub)
-        out = list(frame_vjp(cast_camera(scene.geometry, sub), inputs, modes, part, scene.geometry, want_normals,
-                             want_geometry))
+        out = list(_frame_vjp(cast_camera(scene.geometry, sub), inputs, modes, part, scene.geometry, want_normals,
+                              want_geometry))
         if want_geometry:
             _about_eye(out[3], inputs.cam, scene)
         total = out if total is None else [t if t is None else t + o for t, o in zip(total, out)]

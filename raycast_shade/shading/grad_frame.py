@@ -33,6 +33,7 @@ from ..common.layout import (LIGHT_AREA, LIGHT_KIND, LIGHT_SAMPLES, MAT_MODEL, M
                              METHOD_GOURAUD, METHOD_PHONG, MODEL_GGX)
 from ..common.parallel import launch, share
 from ..visibility.secondary import ray_scratch
+from .grad_bump import _perturbed_vjp
 from .grad_geometry import faces_scatter, pixels_scatter, points_scatter, vertex_shades_kernel
 from .grad_terms import _reflected_vjp, layout
 from .jit import CHUNK, HELPER, JIT
@@ -48,8 +49,9 @@ PARTS = 16  # fixed parts of every parallel pass: the sums' order does not depen
 
 def unsupported(inputs, material_names, light_names, colours_ok: bool = False) -> list:
     """What the gradient kernels do not differentiate in a frame's packed inputs, as messages
-    naming the material or light (empty: everything is supported). ``colours_ok``: the colour and
-    texel families only are asked for (:mod:`.grad_maps`, whose own refusals are the caller's)."""
+    naming the material or light (empty: everything is supported). ``colours_ok``: no geometry
+    is asked for, so colours, colour maps, bump and normal maps are differentiated
+    (:mod:`.grad_textured`, :mod:`.grad_maps`, :mod:`.grad_bump`)."""
     out = []
     mats = inputs.materials
     for m, name in enumerate(material_names):
@@ -58,11 +60,12 @@ def unsupported(inputs, material_names, light_names, colours_ok: bool = False) -
         if mats[m, MAT_REFLECTIVITY] > 0:
             out.append(f"material {name!r}: reflectivity > 0 (mirror bounces) has no gradients yet")
     if inputs.tex_on and not colours_ok:
-        out.append("mesh colours and colour maps: only wrt vertex_colors, face_colors, kd_map, ks_map are differentiated "
-                   "on such a scene yet (the materials', lights' and geometry's gradients are not)")
+        out.append("mesh colours and colour maps: the geometry (vertices, camera_eye, camera_rotation) has no "
+                   "gradients on such a scene yet (every other parameter has)")
     B = inputs.bumps
-    if np.any(B.bump_index >= 0) or np.any(B.nmap_index >= 0):
-        out.append("bump and normal maps have no gradients yet")
+    if (np.any(B.bump_index >= 0) or np.any(B.nmap_index >= 0)) and not colours_ok:
+        out.append("bump and normal maps: the geometry (vertices, camera_eye, camera_rotation) has no "
+                   "gradients on such a scene yet (every other parameter has)")
     lights = inputs.lighting.lights
     for i, name in enumerate(light_names):
         if lights[i, LIGHT_KIND] == LIGHT_AREA or lights[i, LIGHT_SAMPLES] > 1:
@@ -124,6 +127,8 @@ def _phong_vjp_kernel(hits, G, B, L, face_off, materials, cam, modes, gimg, lay,
             hp = _shading_point(G, B, L, cam, at, np.bool_(False), (0.0, 0.0, 0.0))
             gn, gp, gv = _reflected_vjp(hp, _row_coefficients(materials, gm), materials, gm, L, S, gI, acc, k, lay)
             if want_n:
+                if B.bump_index[gm] >= 0 or B.nmap_index[gm] >= 0:  # back through the perturbed normal
+                    gn = _perturbed_vjp(G, B, at, hp, gn)[0]
                 ga = _normal_vjp(G.normals, _triangle(G.faces, at.f), at.b1, at.b2, hp.g, hp.sgn, gn)
                 for c in range(3):
                     gpx[y, x, c] = ga[c]
