@@ -184,7 +184,7 @@ def _nmap_vjp(n, B, normals, at, tri, g, sgn, gout):
 
 @njit(**HELPER)
 def _perturbed_vjp(G, B, at, hp, gout):
-    """``dL/dn0`` of :func:`~raycast_shade.surface._shading_normal`'s answer from ``gout = dL/dn`` of
+    """``dL/dn0`` of :func:`~raycast_shade.shading.surface._shading_normal`'s answer from ``gout = dL/dn`` of
     the Phong point ``hp``'s (bumped, normal-mapped) normal, with the maps' partials
     ``((x, y, cu, cv), (u, v, dr, dg, db))`` (see :func:`_bump_vjp`, :func:`_nmap_vjp`)."""
     tri = _triangle(G.faces, at.f)
