@@ -10,7 +10,9 @@ normal is :func:`~raycast_shade.shading.phong._surface`'s chain
 
 and :func:`_perturbed_vjp` goes back along it from ``dL/dn`` to ``dL/dn0`` (then
 :func:`~raycast_shade.shading.grad_frame._normal_vjp` to the vertex normals), recording on the way
-the height map's and the normal map's partials:
+the height map's and the normal map's partials. It runs in a pass of its own
+(:func:`perturb_partials`), over the bumped models' Phong pixels only, called by the drivers when
+such a model is there: the per-pixel gradient kernels of every other scene do not compile it.
 
 - **bump**: ``bu = (h(x + 1/2, y) - h(x - 1/2, y)) cols su scale`` (a one-texel central difference
   of the bilinear height, as :func:`~raycast_shade.shading.bump._bump` computes it; ``bv`` likewise
@@ -39,6 +41,7 @@ from ..common.layout import (BUMP_CLAMP, BUMP_COLS, BUMP_OFFSET, BUMP_ROWS, BUMP
 from ..common.parallel import launch, share
 from ..visibility.secondary import ray_scratch
 from .bump import _bilinear, _bump
+from .grad_frame import _normal_vjp
 from .grad_terms import _reflected_vjp, layout
 from .grad_texels import grid_scatter, texel_scatter
 from .jit import HELPER, JIT
@@ -197,9 +200,11 @@ def _perturbed_vjp(G, B, at, hp, gout):
 
 
 @njit(nogil=True, **JIT)
-def _perturb_kernel(hits, G, B, L, T, face_off, materials, cam, modes, gimg, lay, out, part):
+def _perturb_kernel(hits, G, B, L, T, face_off, materials, cam, modes, gimg, lay, out, gpx, part):
     """Phong pixels of models with a bump or normal map: ``out[y * W + x]`` = the maps' partials
-    (:data:`BUMP_COLUMNS`) at the pixel's shading point, its coefficients the forward pass's."""
+    (:data:`BUMP_COLUMNS`) at the pixel's shading point, its coefficients the forward pass's; and
+    ``gpx[y, x, :3]`` = ``dL/da`` of its interpolated normal through the bent one (``gpx`` (H, W, 9),
+    or (0, 0, 9) for none)."""
     prim, geom, u, v = hits
     h, w = prim.shape
     _, _, size = lay
@@ -220,7 +225,11 @@ def _perturb_kernel(hits, G, B, L, T, face_off, materials, cam, modes, gimg, lay
             coef = _point_coefficients(G, B.uvs, at, cam, x, y, True, materials, T)
             hp = _shading_point(G, B, L, cam, at, np.bool_(False), (0.0, 0.0, 0.0))
             gn, _, _ = _reflected_vjp(hp, coef, materials, gm, L, S, gI, scratch, 0, (lay[0], lay[1]))
-            _, bp, nm = _perturbed_vjp(G, B, at, hp, gn)
+            g0, bp, nm = _perturbed_vjp(G, B, at, hp, gn)
+            if gpx.shape[0] != 0:
+                ga = _normal_vjp(G.normals, _triangle(G.faces, at.f), at.b1, at.b2, hp.g, hp.sgn, g0)
+                for c in range(3):
+                    gpx[y, x, c] = ga[c]
             r = y * w + x
             for c in range(4):
                 out[r, c] = bp[c]
@@ -229,15 +238,19 @@ def _perturb_kernel(hits, G, B, L, T, face_off, materials, cam, modes, gimg, lay
             out[r, 9] = 1.0
 
 
-def perturb_partials(hits, inputs, modes, gimg) -> np.ndarray:
+def perturb_partials(hits, inputs, modes, gimg, gpx=None) -> np.ndarray:
     """(H * W, :data:`BUMP_COLUMNS`) per pixel (row-major) of the bump- and normal-mapped Phong
-    models: the maps' partials at its shading point (zero rows elsewhere)."""
+    models: the maps' partials at its shading point (zero rows elsewhere). ``gpx`` (H, W, 9), if
+    given: those pixels' ``dL/da`` (its first three columns) written through the bent normal, in
+    place of the unbent chain's (the caller's Phong pass wrote the others): a pass of its own, so
+    the per-pixel kernels of every other scene compile without it."""
     L = inputs.lighting
     amb, lb, size = layout(inputs.materials.shape[0], L.lights.shape[0])
     out = np.zeros((hits.prim.size, BUMP_COLUMNS))
     launch(_perturb_kernel, (hits.prim, hits.geom, hits.u, hits.v), inputs.geometry, inputs.bumps, L,
            inputs.colours, inputs.face_off, inputs.materials, inputs.cam, modes, gimg,
-           (np.int64(amb), np.int64(lb), np.int64(size)), out, parts=PARTS, dynamic=True)
+           (np.int64(amb), np.int64(lb), np.int64(size)), out,
+           np.zeros((0, 0, 9)) if gpx is None else gpx, parts=PARTS, dynamic=True)
     return out
 
 

@@ -33,7 +33,6 @@ from ..common.layout import (LIGHT_AREA, LIGHT_KIND, LIGHT_SAMPLES, MAT_MODEL, M
                              METHOD_GOURAUD, METHOD_PHONG, MODEL_GGX)
 from ..common.parallel import launch, share
 from ..visibility.secondary import ray_scratch
-from .grad_bump import _perturbed_vjp
 from .grad_geometry import faces_scatter, pixels_scatter, points_scatter, vertex_shades_kernel
 from .grad_terms import _reflected_vjp, layout
 from .jit import CHUNK, HELPER, JIT
@@ -127,8 +126,6 @@ def _phong_vjp_kernel(hits, G, B, L, face_off, materials, cam, modes, gimg, lay,
             hp = _shading_point(G, B, L, cam, at, np.bool_(False), (0.0, 0.0, 0.0))
             gn, gp, gv = _reflected_vjp(hp, _row_coefficients(materials, gm), materials, gm, L, S, gI, acc, k, lay)
             if want_n:
-                if B.bump_index[gm] >= 0 or B.nmap_index[gm] >= 0:  # back through the perturbed normal
-                    gn = _perturbed_vjp(G, B, at, hp, gn)[0]
                 ga = _normal_vjp(G.normals, _triangle(G.faces, at.f), at.b1, at.b2, hp.g, hp.sgn, gn)
                 for c in range(3):
                     gpx[y, x, c] = ga[c]
@@ -332,6 +329,10 @@ def frame_vjp(hits, inputs, modes, gimg, geo, want_normals: bool = False, want_g
     if np.any(modes == METHOD_PHONG):
         launch(_phong_vjp_kernel, hit, G, B, L, face_off, mats, cam, modes, gimg, lay, acc, gpx, parts=PARTS,
                dynamic=True)
+        if want_normals and (np.any(B.bump_index >= 0) or np.any(B.nmap_index >= 0)):
+            from .grad_bump import perturb_partials  # here: grad_bump imports this module
+
+            perturb_partials(hits, inputs, modes, gimg, gpx)  # bumped pixels' dL/da through the bent normal
         if want_normals:
             _phong_normals_scatter(*hit, G.faces, face_off, modes, gpx, gnormals)
     if np.any(modes == METHOD_FLAT):

@@ -43,7 +43,7 @@ from ..common.layout import COLOR_NONE, MAT_KA, MAT_KD, MAT_KE, MAT_KS, METHOD_F
 from ..common.parallel import launch, share
 from ..visibility.secondary import ray_scratch
 from .gouraud import _vertex_kd
-from .grad_bump import _perturbed_vjp
+from .grad_bump import perturb_partials
 from .grad_frame import PARTS, _flat_gather, _normal_vjp, _phong_normals_scatter, _reduce
 from .grad_maps import _corner_hit
 from .grad_terms import GM_KA, GM_KD, GM_KS, GM_SIZE, GM_T, _reflected_vjp, layout
@@ -108,8 +108,6 @@ def _phong_tex_kernel(hits, G, B, L, T, face_off, materials, unit, cam, modes, g
             gn, _, _ = _reflected_vjp(hp, coef, materials, gm, L, S, gI, scratch, 0, lay)
             _fold(scratch, acc, k, gm, lay[0], fac, cmode[gm] == COLOR_NONE)
             if want_n:
-                if B.bump_index[gm] >= 0 or B.nmap_index[gm] >= 0:  # back through the perturbed normal
-                    gn = _perturbed_vjp(G, B, at, hp, gn)[0]
                 ga = _normal_vjp(G.normals, _triangle(G.faces, at.f), at.b1, at.b2, hp.g, hp.sgn, gn)
                 for c in range(3):
                     gpx[y, x, c] = ga[c]
@@ -266,6 +264,8 @@ def textured_vjp(hits, inputs, modes, gimg, geo, want_normals: bool = False):
         gpx = np.zeros(gimg.shape[:2] + (9,) if want_normals else (0, 0, 9))
         launch(_phong_tex_kernel, hit, G, B, L, T, face_off, mats, unit, cam, modes, gimg, lay, acc, gpx,
                parts=PARTS, dynamic=True)
+        if want_normals and (np.any(B.bump_index >= 0) or np.any(B.nmap_index >= 0)):
+            perturb_partials(hits, inputs, modes, gimg, gpx)  # bumped pixels' dL/da through the bent normal
         if want_normals:
             _phong_normals_scatter(*hit, G.faces, face_off, modes, gpx, gnormals)
     if np.any(modes == METHOD_FLAT):
