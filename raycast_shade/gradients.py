@@ -282,7 +282,7 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
         if samples == 1:
             maps = maps_gradients(frame.hits, inputs, modes, gimg, scene.geometry, names)
         else:
-            maps = _sampled_maps(scene, modes, gimg, samples, names)
+            maps = _sampled_maps(scene, inputs, modes, gimg, samples, names)
     maps = maps if maps else {}
     bumps = tuple(n for n in names if n in BUMPS)
     if bumps:
@@ -295,7 +295,8 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
         if geometry:
             _about_eye(gcam, inputs.cam, scene)
     else:
-        params, gnormals, gverts, gcam = _sampled_vjp(scene, modes, gimg, samples, "normals" in names, geometry)
+        params, gnormals, gverts, gcam = _sampled_vjp(scene, inputs, modes, gimg, samples, "normals" in names,
+                                                      geometry)
     if edges and geometry:
         ev, ec, _ = edge_vjp(scene, scene.camera, inputs, modes, gimg, shading, edge_density, seed)
         _about_eye(ec, inputs.cam, scene)
@@ -316,7 +317,7 @@ def _bump_gradients(scene, inputs, modes, gimg, samples, frame, names) -> dict:
     total = None
     for dx, dy in sample_offsets(samples):
         sub = subpixel_camera(scene.camera, dx, dy)
-        out = bump_gradients(cast_camera(scene.geometry, sub), prepare(scene, sub), modes, gimg / samples, names)
+        out = bump_gradients(cast_camera(scene.geometry, sub), inputs, modes, gimg / samples, names)
         total = out if total is None else {
             n: tuple(None if t is None else t + v for t, v in zip(total[n], out[n])) for n in out}
     return total
@@ -352,15 +353,17 @@ def _about_eye(gcam, cam, scene) -> None:
     gcam[3:] += np.cross(shift, gcam[:3])
 
 
-def _sampled_vjp(scene, modes, gimg, samples, want_normals, want_geometry):
+def _sampled_vjp(scene, centre, modes, gimg, samples, want_normals, want_geometry):
     """:func:`frame_vjp` of the mean of ``samples`` sub-pixel images: one cast and one VJP per
     sample with ``dL/dI / samples``, added in sample order. An orthographic sub-pixel camera's
-    eye carries the sample's shift: its rotation gradient is turned back to the true eye's."""
+    eye carries the sample's shift: its rotation gradient is turned back to the true eye's.
+    Without the geometry each sample is shaded with the frame's own inputs ``centre`` (the centre
+    camera's row), as ``render`` shades every sample: the texture footprints are the pixel's."""
     total = None
     part = gimg / samples
     for dx, dy in sample_offsets(samples):
         sub = subpixel_camera(scene.camera, dx, dy)
-        inputs = prepare(scene, sub)
+        inputs = prepare(scene, sub) if want_geometry else centre
         out = list(_frame_vjp(cast_camera(scene.geometry, sub), inputs, modes, part, scene.geometry, want_normals,
                               want_geometry))
         if want_geometry:
@@ -369,13 +372,14 @@ def _sampled_vjp(scene, modes, gimg, samples, want_normals, want_geometry):
     return tuple(total)
 
 
-def _sampled_maps(scene, modes, gimg, samples, names) -> dict:
+def _sampled_maps(scene, centre, modes, gimg, samples, names) -> dict:
     """:func:`maps_gradients` of the mean of ``samples`` sub-pixel images (as :func:`_sampled_vjp`):
-    one cast per sample with ``dL/dI / samples``, added in sample order (per model for the maps)."""
+    one cast per sample with ``dL/dI / samples``, added in sample order (per model for the maps),
+    each shaded with the frame's inputs ``centre`` as ``render`` shades it."""
     total = None
     for dx, dy in sample_offsets(samples):
         sub = subpixel_camera(scene.camera, dx, dy)
-        out = maps_gradients(cast_camera(scene.geometry, sub), prepare(scene, sub), modes, gimg / samples,
+        out = maps_gradients(cast_camera(scene.geometry, sub), centre, modes, gimg / samples,
                              scene.geometry, names)
         if total is None:
             total = out

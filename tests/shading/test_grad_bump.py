@@ -155,3 +155,19 @@ def test_geometry_on_a_bumped_scene_is_refused_and_other_methods_get_zero_texel_
     assert np.all(g["bump_map"][0] == 0.0) and np.all(g["normal_map"][0] == 0.0)
     plain = rs.grad(_scene(False, False), gimg, ("bump_map", "normal_map"))
     assert plain == {"bump_map": (None,), "normal_map": (None,)}
+
+
+def test_samples_on_a_textured_bumped_scene_match_differences_of_the_antialiased_image():
+    """``samples=4``: each sample's hits differentiated (the textured and bumped passes included),
+    against central differences of ``render(samples=4)``'s float32 image in kd (step 0.01; the image
+    is linear in kd, so only float32's rounding is left: seen 2e-6 relative)."""
+    scene = _scene(True, False, kd_map=True)
+    gimg = np.random.default_rng(1).standard_normal((H, W, 3))
+    frame = rs.render(scene, "phong", samples=4)
+    g = rs.grad(scene, gimg, ("kd", "bump_map"), frame=frame, samples=4)
+    assert g["bump_map"][0].shape == scene.models[0].material.bump.heights.shape and np.any(g["bump_map"][0] != 0)
+    for c in range(3):
+        vals = [float(np.sum(gimg * rs.render(perturbed(scene, "kd", (0, c), d), "phong", samples=4).image))
+                for d in (0.01, -0.01)]
+        fd = (vals[0] - vals[1]) / 0.02
+        assert abs(g["kd"][0, c] - fd) <= RTOL * abs(fd), f"kd[{c}]: {g['kd'][0, c]} vs {fd}"
