@@ -9,7 +9,7 @@ normal is :func:`~raycast_shade.shading.phong._surface`'s chain
     n  = _normal_map(n1, ...)          reflect_into(sgn normalize(T' x + B' y + N z), g)
 
 and :func:`_perturbed_vjp` goes back along it from ``dL/dn`` to ``dL/dn0`` (then
-:func:`~raycast_shade.shading.grad_frame._normal_vjp` to the vertex normals), recording on the way
+:func:`~raycast_shade.shading.grad_normal._normal_vjp` to the vertex normals), recording on the way
 the height map's and the normal map's partials. It runs in a pass of its own
 (:func:`perturb_partials`), over the bumped models' Phong pixels only, called by the drivers when
 such a model is there: the per-pixel gradient kernels of every other scene do not compile it.
@@ -41,7 +41,7 @@ from ..common.layout import (BUMP_CLAMP, BUMP_COLS, BUMP_OFFSET, BUMP_ROWS, BUMP
 from ..common.parallel import launch, share
 from ..visibility.secondary import ray_scratch
 from .bump import _bilinear, _bump
-from .grad_frame import _normal_vjp
+from .grad_normal import _normal_vjp
 from .grad_terms import _reflected_vjp, layout
 from .grad_texels import grid_scatter, texel_scatter
 from .jit import HELPER, JIT

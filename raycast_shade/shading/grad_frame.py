@@ -33,12 +33,14 @@ from ..common.layout import (LIGHT_AREA, LIGHT_KIND, LIGHT_SAMPLES, MAT_MODEL, M
                              METHOD_GOURAUD, METHOD_PHONG, MODEL_GGX)
 from ..common.parallel import launch, share
 from ..visibility.secondary import ray_scratch
+from .grad_bump import perturb_partials
 from .grad_geometry import faces_scatter, pixels_scatter, points_scatter, vertex_shades_kernel
+from .grad_normal import _normal_vjp
 from .grad_terms import _reflected_vjp, layout
 from .jit import CHUNK, HELPER, JIT
 from .phong import _shading_point
 from .records import At, Hit, dot
-from .surface import _CANCEL, _convex_weights, _facing, _hit_point, _triangle, _view, interpolated_normal
+from .surface import _convex_weights, _facing, _hit_point, _triangle, _view
 from .texture import _row_coefficients
 
 __all__ = ["PARTS", "frame_vjp", "unsupported"]
@@ -70,25 +72,6 @@ def unsupported(inputs, material_names, light_names, colours_ok: bool = False) -
         if lights[i, LIGHT_KIND] == LIGHT_AREA or lights[i, LIGHT_SAMPLES] > 1:
             out.append(f"light {name!r}: area lights have no gradients yet")
     return out
-
-
-@njit(**HELPER)
-def _normal_vjp(normals, tri, b1, b2, g, sgn, gn):
-    """Back through :func:`~raycast_shade.shading.surface._shading_normal`: ``dL/da`` for the
-    interpolated (unnormalised) normal ``a``, given ``dL/dn``; zero where ``a`` cancelled."""
-    ax, ay, az, al = interpolated_normal(normals, tri, b1, b2)
-    if not al >= _CANCEL:
-        return 0.0, 0.0, 0.0
-    u = (ax / al, ay / al, az / al)
-    m = (sgn * u[0], sgn * u[1], sgn * u[2])
-    gx, gy, gz = gn
-    c = dot(m, g)
-    if c < 0.0:  # reflected into the viewer's hemisphere: n = m - 2 (m.g) g
-        k = 2.0 * (gx * g[0] + gy * g[1] + gz * g[2])
-        gx, gy, gz = gx - k * g[0], gy - k * g[1], gz - k * g[2]
-    q = gx * u[0] + gy * u[1] + gz * u[2]
-    w = sgn / al
-    return w * (gx - q * u[0]), w * (gy - q * u[1]), w * (gz - q * u[2])
 
 
 @njit(**HELPER)
@@ -330,8 +313,6 @@ def frame_vjp(hits, inputs, modes, gimg, geo, want_normals: bool = False, want_g
         launch(_phong_vjp_kernel, hit, G, B, L, face_off, mats, cam, modes, gimg, lay, acc, gpx, parts=PARTS,
                dynamic=True)
         if want_normals and (np.any(B.bump_index >= 0) or np.any(B.nmap_index >= 0)):
-            from .grad_bump import perturb_partials  # here: grad_bump imports this module
-
             perturb_partials(hits, inputs, modes, gimg, gpx)  # bumped pixels' dL/da through the bent normal
         if want_normals:
             _phong_normals_scatter(*hit, G.faces, face_off, modes, gpx, gnormals)

@@ -44,7 +44,8 @@ from ..common.parallel import launch, share
 from ..visibility.secondary import ray_scratch
 from .gouraud import _vertex_kd
 from .grad_bump import perturb_partials
-from .grad_frame import PARTS, _flat_gather, _normal_vjp, _phong_normals_scatter, _reduce
+from .grad_frame import PARTS, _flat_gather, _phong_normals_scatter, _reduce
+from .grad_normal import _normal_vjp
 from .grad_maps import _corner_hit
 from .grad_terms import GM_KA, GM_KD, GM_KS, GM_SIZE, GM_T, _reflected_vjp, layout
 from .jit import CHUNK, HELPER, JIT
