@@ -28,7 +28,12 @@ name                   shape        the parameter
                                     (kd's, and ka's factor with ``ka_colors``; 0 rows without)
 ``"face_colors"``      (F, 3)       the packed face colours ``scene.geometry.face_colors``
 ``"kd_map"``,          tuple        per model, its map's (h, w, 3) texels (rows as its
-``"ks_map"``                        ``Texture.texels``: row 0 is ``v = 0``), or None
+``"ks_map"``,                       ``Texture.texels``: row 0 is ``v = 0``), or None;
+``"ka_map"``,                       ``ao_map``: the red channel's (the one the occlusion
+``"ke_map"``,                       reads), green and blue 0
+``"ao_map"``
+``"bump_map"``         tuple        per model, its height map's (rows, cols) ``heights``, or None
+``"normal_map"``       tuple        per model, its normal map's (h, w, 3) texels (level 0), or None
 ``"normals"``          (V, 3)       the packed vertex normals ``scene.geometry.normals`` (rows
                                     model by model, ``scene.geometry.vertex_offsets``)
 ``"vertices"``         (V, 3)       the packed vertex positions (rows as for ``normals``)
@@ -64,12 +69,20 @@ differentiable in the parameters; where a pixel's triangle changes, ``edges=True
 box-filtered image's edge term. Shadows count with the frame's visibility (a blocked
 light stays blocked) in the interior; ``edges=True`` adds the hard shadows' outlines (point, spot
 and directional lights) for the geometry, ``light_position`` and ``light_direction``
-(:mod:`raycast_shade.shading.grad_shadow_edges`). Flat shading lights a face with its true normal: the flat gradient of a
-vertex normal is exactly 0. Mesh colours and kd/ks map texels (:data:`MAPS`, not among the defaults)
-are :mod:`raycast_shade.shading.grad_maps`'. Not differentiated yet (refused with a ValueError
-naming what): bump and normal maps; geometry through lens distortion; on a scene with colours or maps
-any parameter but :data:`MAPS`, and those with GGX materials or mirrors; on a scene with mirrors the
-vertex normals and the geometry, and more than one bounce. The kernels are
+(:mod:`raycast_shade.shading.grad_shadow_edges`). Flat shading lights a face with its true normal: the
+flat gradient of a vertex normal is exactly 0. Mesh colours and the colour maps' texels (:data:`MAPS`,
+not among the defaults) are :mod:`raycast_shade.shading.grad_maps`'; the height and normal maps' texels
+(Phong's bent normal; flat and Gouraud ignore both maps) and the vertex normals through them
+:mod:`raycast_shade.shading.grad_bump`'s. On a scene with colours or maps the other families use each
+point's own coefficients (:mod:`raycast_shade.shading.grad_textured`), and ``ka``, ``kd``, ``ks`` are the
+material's scalar factors: the point's kd is ``kd * kd_map(uv)`` (a mesh colour replaces ``kd``, whose
+gradient is then 0), ka ``ka * [colour] * ka_map(uv) * occlusion``, ks ``ks * ks_map(uv)``. GGX
+materials, area lights and one mirror bounce are :mod:`raycast_shade.shading.grad_ggx`',
+:mod:`raycast_shade.shading.grad_terms`' and :mod:`raycast_shade.shading.grad_mirror`'s. Not
+differentiated yet (refused with a ValueError naming what): geometry through lens distortion; the
+geometry on a scene with colours, colour maps, bump or normal maps; GGX materials, mirrors and area
+lights on a scene with colours or maps, and with the colour or texel families; on a scene with mirrors
+the vertex normals and the geometry, and more than one bounce. The kernels are
 :mod:`raycast_shade.shading.grad_terms` and
 :mod:`raycast_shade.shading.grad_frame`; :func:`raycast_shade.fit` fits parameters with them.
 """
@@ -90,6 +103,7 @@ from .output.frame import Frame
 from .render import render
 from .scene.camera import Camera
 from .scene.scene import Scene
+from .shading.grad_bump import BUMPS, bump_gradients
 from .shading.grad_edges import edge_vjp
 from .shading.grad_shadow_edges import shadow_edge_vjp
 from .visibility.cast import cast_camera
@@ -97,6 +111,7 @@ from .visibility.rays import subpixel_camera
 from .shading.grad_geometry import rotate_vectors
 from .shading.grad_frame import frame_vjp, unsupported
 from .shading.grad_maps import MAPS, maps_gradients
+from .shading.grad_textured import textured_vjp
 from .shading.grad_terms import GL_COS_INNER, GL_COS_OUTER, GL_K, GL_RAD, GL_SIZE, GL_VEC, GM_KA, GM_KD, GM_KS, GM_SIZE, GM_T, layout
 from .shading.grad_terms import GL_EDGE_U, GL_EDGE_V, GM_METALLIC, GM_REFLECTIVITY, GM_ROUGHNESS
 from .shading.grad_frame import PARTS
@@ -106,18 +121,21 @@ from .visibility.accel import embree_accel
 from .shading.inputs import prepare
 from .shading.shade import resolve_methods
 
-__all__ = ["grad", "rotate_camera", "WRT", "DEFAULT_WRT", "GEOMETRY", "MAPS", "MAX_DENSITY"]
+__all__ = ["grad", "rotate_camera", "WRT", "DEFAULT_WRT", "GEOMETRY", "MAPS", "BUMPS", "MAX_DENSITY"]
 
-WRT = ("ka", "kd", "ks", "shininess", "metallic", "roughness", "reflectivity", "ambient", "light_position", "light_direction", "light_radiance",
-       "light_intensity", "light_k", "light_spot", "light_u", "light_v", "vertex_colors", "face_colors", "kd_map", "ks_map", "normals", "vertices", "camera_eye", "camera_rotation")
+WRT = ("ka", "kd", "ks", "shininess", "metallic", "roughness", "reflectivity", "ambient", "light_position",
+       "light_direction", "light_radiance", "light_intensity", "light_k", "light_spot", "light_u", "light_v",
+       "vertex_colors", "face_colors", "kd_map", "ks_map", "ka_map", "ke_map", "ao_map", "bump_map", "normal_map",
+       "normals", "vertices", "camera_eye", "camera_rotation")
 """Every name :func:`grad` differentiates with respect to."""
 GEOMETRY = ("vertices", "camera_eye", "camera_rotation")
 """The names that move what each pixel sees (the interior and, with ``edges=True``, the edges)."""
 SHADOW_MOVERS = GEOMETRY + ("light_position", "light_direction")
 """The names that move hard shadows' outlines (their edge term with ``edges=True``)."""
-DEFAULT_WRT = tuple(n for n in WRT if n != "normals" and n not in GEOMETRY and n not in MAPS)
-"""What ``wrt=None`` asks for: every parameter but the vertex normals, the geometry and the mesh
-colours and texels (:data:`~raycast_shade.shading.grad_maps.MAPS`)."""
+DEFAULT_WRT = tuple(n for n in WRT if n != "normals" and n not in GEOMETRY and n not in MAPS and n not in BUMPS)
+"""What ``wrt=None`` asks for: every parameter but the vertex normals, the geometry, the mesh
+colours and texels (:data:`~raycast_shade.shading.grad_maps.MAPS`) and the height and normal maps'
+texels (:data:`~raycast_shade.shading.grad_bump.BUMPS`)."""
 
 MAX_DENSITY = 1024.0
 """The most edge samples per pixel of edge length ``grad(edges=True)`` takes (a bound on the work)."""
@@ -137,9 +155,9 @@ def _wrt(wrt) -> tuple:
 def check_scene(scene, inputs, names=(), mirrors_ok: bool = False) -> None:
     """Raise a ValueError naming every part of ``scene`` the gradient kernels do not differentiate
     for the parameters ``names`` (``mirrors_ok``: the caller adds the mirror bounce, :func:`_vjp`)."""
-    maps = [n for n in names if n in MAPS]
     problems = unsupported(inputs, [m.material.name for m in scene.models], [light.name for light in scene.lights],
-                           colours_ok=len(maps) == len(names) > 0, mirrors_ok=mirrors_ok)
+                           maps_asked=any(n in MAPS or n in BUMPS for n in names),
+                           geometry_asked=any(n in GEOMETRY for n in names), mirrors_ok=mirrors_ok)
     held = [n for n in names if n == "normals" or n in GEOMETRY]
     if mirrors_ok and scene.geometry.reflective and held:
         problems.append(f"{', '.join(held)}: not differentiated on a scene with mirrors yet (the mirror rays' "
@@ -311,23 +329,25 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
         raise ValueError("scene.camera: no geometry gradients through lens distortion yet (a pinhole camera has)")
     maps = tuple(n for n in names if n in MAPS)
     if maps and not inputs.tex_on:  # no colours, no maps: nothing to differentiate (and no kernel to run)
-        g = scene.geometry
-        zero = {"vertex_colors": np.zeros((g.vertices.shape[0], 3)), "face_colors": np.zeros((g.faces.shape[0], 3)),
-                "kd_map": (None,) * len(scene.models), "ks_map": (None,) * len(scene.models)}
-        maps = {n: zero[n] for n in maps}
-    elif maps:  # the colours and texels alone (check_scene refuses more on such a scene)
+        maps = _zero_maps(scene, maps)
+    elif maps:  # the colours and texels (check_scene refuses the geometry on such a scene)
         if samples == 1:
-            return maps_gradients(frame.hits, inputs, modes, gimg, scene.geometry, names)
-        return _sampled_maps(scene, modes, gimg, samples, names)
+            maps = maps_gradients(frame.hits, inputs, modes, gimg, scene.geometry, names)
+        else:
+            maps = _sampled_maps(scene, inputs, modes, gimg, samples, names)
+    maps = maps if maps else {}
+    bumps = tuple(n for n in names if n in BUMPS)
+    if bumps:
+        maps = {**maps, **_bump_gradients(scene, inputs, modes, gimg, samples, frame, bumps)}
     if len(maps) == len(names):
-        return maps
+        return {n: maps[n] for n in names}
     if samples == 1:
         params, gnormals, gverts, gcam = _vjp(scene, scene.camera, frame.hits, inputs, modes, gimg, (shading, depth),
                                               "normals" in names, geometry)
         if geometry:
             _about_eye(gcam, inputs.cam, scene)
     else:
-        params, gnormals, gverts, gcam = _sampled_vjp(scene, modes, gimg, samples, "normals" in names, geometry,
+        params, gnormals, gverts, gcam = _sampled_vjp(scene, inputs, modes, gimg, samples, "normals" in names, geometry,
                                                       (shading, depth))
     glight = None
     if edges and shadow_moved:
@@ -335,7 +355,46 @@ def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | N
     out = named(params, {"normals": gnormals, "vertices": gverts, "camera": gcam}, scene, inputs, names)
     if glight is not None:
         _add_light_edges(out, glight, inputs.lighting.lights)
-    return {n: maps[n] if n in MAPS else out[n] for n in names}
+    return {n: maps[n] if n in maps else out[n] for n in names}
+
+
+def _bump_gradients(scene, inputs, modes, gimg, samples, frame, names) -> dict:
+    """:func:`~raycast_shade.shading.grad_bump.bump_gradients` of the frame, or of the mean of
+    ``samples`` sub-pixel images (one cast each, ``dL/dI / samples``, added in sample order)."""
+    B = inputs.bumps
+    if not (np.any(B.bump_index >= 0) or np.any(B.nmap_index >= 0)):
+        return {n: (None,) * len(scene.models) for n in names}
+    if samples == 1:
+        return bump_gradients(frame.hits, inputs, modes, gimg, names)
+    total = None
+    for dx, dy in sample_offsets(samples):
+        sub = subpixel_camera(scene.camera, dx, dy)
+        out = bump_gradients(cast_camera(scene.geometry, sub), inputs, modes, gimg / samples, names)
+        total = out if total is None else {
+            n: tuple(None if t is None else t + v for t, v in zip(total[n], out[n])) for n in out}
+    return total
+
+
+def _zero_maps(scene, maps) -> dict:
+    """The colour and texel gradients of a scene without colours or maps: zeros (None per model)."""
+    g = scene.geometry
+    out = {}
+    for name in maps:
+        if name == "vertex_colors":
+            out[name] = np.zeros((g.vertices.shape[0], 3))
+        elif name == "face_colors":
+            out[name] = np.zeros((g.faces.shape[0], 3))
+        else:
+            out[name] = (None,) * len(scene.models)
+    return out
+
+
+def _frame_vjp(hits, inputs, modes, gimg, geo, want_normals, want_geometry):
+    """:func:`~raycast_shade.shading.grad_frame.frame_vjp`, or on a frame with colours or maps
+    :func:`~raycast_shade.shading.grad_textured.textured_vjp` (no geometry: refused before)."""
+    if inputs.tex_on:
+        return textured_vjp(hits, inputs, modes, gimg, geo, want_normals) + (None, None)
+    return frame_vjp(hits, inputs, modes, gimg, geo, want_normals, want_geometry)
 
 
 def _edge_terms(scene, inputs, modes, gimg, shading, sampling, geometry, gverts, gcam) -> np.ndarray:
@@ -376,7 +435,7 @@ def _vjp(scene, camera, hits, inputs, modes, gimg, mirrors, want_normals, want_g
     bounce (the last bounce shows its local shade: with one, it is the same evaluator)."""
     shading, depth = mirrors
     if depth == 0 or not scene.geometry.reflective:
-        return frame_vjp(hits, inputs, modes, gimg, scene.geometry, want_normals, want_geometry)
+        return _frame_vjp(hits, inputs, modes, gimg, scene.geometry, want_normals, want_geometry)
     amb, lb, size = layout(len(scene.models), inputs.lighting.lights.shape[0])
     local = shade(scene, camera, hits, shading)
     g_local, bounce, nested, _ = mirror_vjp(hits, inputs, gimg, local, (np.int64(amb), np.int64(lb)), size,
@@ -384,19 +443,21 @@ def _vjp(scene, camera, hits, inputs, modes, gimg, mirrors, want_normals, want_g
     if depth > 1 and np.any(nested):
         raise ValueError(f"scene: a mirror ray meets another reflective surface at {int(np.count_nonzero(nested))} "
                          "pixels: one mirror bounce is differentiated, not more (render with max_depth=1)")
-    out = frame_vjp(hits, inputs, modes, g_local, scene.geometry, want_normals, want_geometry)
+    out = _frame_vjp(hits, inputs, modes, g_local, scene.geometry, want_normals, want_geometry)
     return (out[0] + bounce,) + tuple(out[1:])
 
 
-def _sampled_vjp(scene, modes, gimg, samples, want_normals, want_geometry, mirrors):
+def _sampled_vjp(scene, centre, modes, gimg, samples, want_normals, want_geometry, mirrors):
     """:func:`frame_vjp` of the mean of ``samples`` sub-pixel images: one cast and one VJP per
     sample with ``dL/dI / samples``, added in sample order. An orthographic sub-pixel camera's
-    eye carries the sample's shift: its rotation gradient is turned back to the true eye's."""
+    eye carries the sample's shift: its rotation gradient is turned back to the true eye's.
+    Without the geometry each sample is shaded with the frame's own inputs ``centre`` (the centre
+    camera's row), as ``render`` shades every sample: the texture footprints are the pixel's."""
     total = None
     part = gimg / samples
     for dx, dy in sample_offsets(samples):
         sub = subpixel_camera(scene.camera, dx, dy)
-        inputs = prepare(scene, sub)
+        inputs = prepare(scene, sub) if want_geometry else centre
         out = list(_vjp(scene, sub, cast_camera(scene.geometry, sub), inputs, modes, part, mirrors, want_normals,
                         want_geometry))
         if want_geometry:
@@ -405,13 +466,14 @@ def _sampled_vjp(scene, modes, gimg, samples, want_normals, want_geometry, mirro
     return tuple(total)
 
 
-def _sampled_maps(scene, modes, gimg, samples, names) -> dict:
+def _sampled_maps(scene, centre, modes, gimg, samples, names) -> dict:
     """:func:`maps_gradients` of the mean of ``samples`` sub-pixel images (as :func:`_sampled_vjp`):
-    one cast per sample with ``dL/dI / samples``, added in sample order (per model for the maps)."""
+    one cast per sample with ``dL/dI / samples``, added in sample order (per model for the maps),
+    each shaded with the frame's inputs ``centre`` as ``render`` shades it."""
     total = None
     for dx, dy in sample_offsets(samples):
         sub = subpixel_camera(scene.camera, dx, dy)
-        out = maps_gradients(cast_camera(scene.geometry, sub), prepare(scene, sub), modes, gimg / samples,
+        out = maps_gradients(cast_camera(scene.geometry, sub), centre, modes, gimg / samples,
                              scene.geometry, names)
         if total is None:
             total = out

@@ -29,15 +29,18 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..common.layout import MAT_MODEL, MAT_REFLECTIVITY, METHOD_FLAT, METHOD_GOURAUD, METHOD_PHONG, MODEL_GGX
+from ..common.layout import (LIGHT_AREA, LIGHT_KIND, LIGHT_SAMPLES, MAT_MODEL, MAT_REFLECTIVITY, METHOD_FLAT,
+                             METHOD_GOURAUD, METHOD_PHONG, MODEL_GGX)
 from ..common.parallel import launch, share
 from ..visibility.secondary import ray_scratch
+from .grad_bump import perturb_partials
 from .grad_geometry import faces_scatter, pixels_scatter, points_scatter, vertex_shades_kernel
+from .grad_normal import _normal_vjp
 from .grad_terms import _reflected_vjp, layout
 from .jit import CHUNK, HELPER, JIT
 from .phong import _shading_point
 from .records import At, Hit, dot
-from .surface import _CANCEL, _convex_weights, _facing, _hit_point, _triangle, _view, interpolated_normal
+from .surface import _convex_weights, _facing, _hit_point, _triangle, _view
 from .texture import _row_coefficients
 
 __all__ = ["PARTS", "frame_vjp", "unsupported"]
@@ -45,48 +48,42 @@ __all__ = ["PARTS", "frame_vjp", "unsupported"]
 PARTS = 16  # fixed parts of every parallel pass: the sums' order does not depend on the thread count
 
 
-def unsupported(inputs, material_names, light_names, colours_ok: bool = False, mirrors_ok: bool = False) -> list:
+def unsupported(inputs, material_names, light_names, maps_asked: bool = False, geometry_asked: bool = False,
+                mirrors_ok: bool = False) -> list:
     """What the gradient kernels do not differentiate in a frame's packed inputs, as messages
-    naming the material or light (empty: everything is supported). ``colours_ok``: the colour and
-    texel families only are asked for (:mod:`.grad_maps`, whose own refusals are the caller's);
-    ``mirrors_ok``: the caller adds the mirror bounce (:mod:`.grad_mirror`) and refuses the families
-    it holds."""
+    naming the material or light (empty: everything is supported). ``maps_asked``: a colour, texel,
+    height or normal-map family is asked for (:mod:`.grad_maps`, :mod:`.grad_bump`);
+    ``geometry_asked``: the vertices or the camera pose are; ``mirrors_ok``: the caller adds the
+    mirror bounce (:mod:`.grad_mirror`) and refuses the families it holds. On a scene with colours,
+    maps, bump or normal maps the other families are :mod:`.grad_textured`'s and :mod:`.grad_bump`'s,
+    which take neither GGX materials, mirrors nor area lights yet."""
     out = []
     mats = inputs.materials
-    for m, name in enumerate(material_names):
-        if mats[m, MAT_MODEL] == MODEL_GGX and colours_ok:
-            out.append(f"material {name!r}: specular='ggx' has no colour or texel gradients yet (its material's, "
-                       "lights' and geometry's gradients are done)")
-        if mats[m, MAT_REFLECTIVITY] > 0 and (colours_ok or not mirrors_ok):
-            out.append(f"material {name!r}: reflectivity > 0 (mirror bounces): " + (
-                "no colour or texel gradients yet" if colours_ok else
-                "not differentiated here (rs.grad differentiates one bounce; rs.fit not yet)"))
-    if inputs.tex_on and not colours_ok:
-        out.append("mesh colours and colour maps: only wrt vertex_colors, face_colors, kd_map, ks_map are differentiated "
-                   "on such a scene yet (the materials', lights' and geometry's gradients are not)")
     B = inputs.bumps
-    if np.any(B.bump_index >= 0) or np.any(B.nmap_index >= 0):
-        out.append("bump and normal maps have no gradients yet")
+    bumped = bool(np.any(B.bump_index >= 0) or np.any(B.nmap_index >= 0))
+    mapped = maps_asked or inputs.tex_on or bumped
+    for m, name in enumerate(material_names):
+        if mats[m, MAT_MODEL] == MODEL_GGX and mapped:
+            out.append(f"material {name!r}: specular='ggx' has no gradients on a scene with colours, maps, bump or "
+                       "normal maps, nor colour or texel gradients, yet (on other scenes its material's, lights' and "
+                       "geometry's gradients are done)")
+        if mats[m, MAT_REFLECTIVITY] > 0 and (mapped or not mirrors_ok):
+            out.append(f"material {name!r}: reflectivity > 0 (mirror bounces): " + (
+                "no gradients on a scene with colours, maps, bump or normal maps, nor colour or texel gradients, yet"
+                if mapped else "not differentiated here (rs.grad differentiates one bounce; rs.fit not yet)"))
+    if inputs.tex_on and geometry_asked:
+        out.append("mesh colours and colour maps: the geometry (vertices, camera_eye, camera_rotation) has no "
+                   "gradients on such a scene yet (every other parameter has)")
+    if bumped and geometry_asked:
+        out.append("bump and normal maps: the geometry (vertices, camera_eye, camera_rotation) has no "
+                   "gradients on such a scene yet (every other parameter has)")
+    if inputs.tex_on or bumped or maps_asked:
+        lights = inputs.lighting.lights
+        for i, name in enumerate(light_names):
+            if lights[i, LIGHT_KIND] == LIGHT_AREA or lights[i, LIGHT_SAMPLES] > 1:
+                out.append(f"light {name!r}: area lights have no gradients on a scene with colours, maps, bump or "
+                           "normal maps, nor with colour or texel gradients, yet (on other scenes they have)")
     return out
-
-
-@njit(**HELPER)
-def _normal_vjp(normals, tri, b1, b2, g, sgn, gn):
-    """Back through :func:`~raycast_shade.shading.surface._shading_normal`: ``dL/da`` for the
-    interpolated (unnormalised) normal ``a``, given ``dL/dn``; zero where ``a`` cancelled."""
-    ax, ay, az, al = interpolated_normal(normals, tri, b1, b2)
-    if not al >= _CANCEL:
-        return 0.0, 0.0, 0.0
-    u = (ax / al, ay / al, az / al)
-    m = (sgn * u[0], sgn * u[1], sgn * u[2])
-    gx, gy, gz = gn
-    c = dot(m, g)
-    if c < 0.0:  # reflected into the viewer's hemisphere: n = m - 2 (m.g) g
-        k = 2.0 * (gx * g[0] + gy * g[1] + gz * g[2])
-        gx, gy, gz = gx - k * g[0], gy - k * g[1], gz - k * g[2]
-    q = gx * u[0] + gy * u[1] + gz * u[2]
-    w = sgn / al
-    return w * (gx - q * u[0]), w * (gy - q * u[1]), w * (gz - q * u[2])
 
 
 @njit(**HELPER)
@@ -327,6 +324,8 @@ def frame_vjp(hits, inputs, modes, gimg, geo, want_normals: bool = False, want_g
     if np.any(modes == METHOD_PHONG):
         launch(_phong_vjp_kernel, hit, G, B, L, face_off, mats, cam, modes, gimg, lay, acc, gpx, parts=PARTS,
                dynamic=True)
+        if want_normals and (np.any(B.bump_index >= 0) or np.any(B.nmap_index >= 0)):
+            perturb_partials(hits, inputs, modes, gimg, gpx)  # bumped pixels' dL/da through the bent normal
         if want_normals:
             _phong_normals_scatter(*hit, G.faces, face_off, modes, gpx, gnormals)
     if np.any(modes == METHOD_FLAT):

@@ -24,7 +24,11 @@ them to the parameters:
 - a kd or ks map multiplies the row's kd or ks by its sample at the point's UV: the four texels
   around it get the bilinear weights (wrapped or clamped as the forward sampler does); a mip-mapped
   map's two levels their trilinear weights, each level's gradient then taken down the pyramid by the
-  transpose of its box filter (the level of detail, a function of the geometry, held).
+  transpose of its box filter (the level of detail, a function of the geometry, held)
+  (:mod:`.grad_texels`);
+- a ka map's sample multiplies the row's ka, the colour (``ka_colors``) and the occlusion; an emission
+  map's the row's ke (``dL/dke = dL/dI``); an occlusion map's red channel ``ao`` enters ka as
+  ``1 + s (ao - 1)`` (:func:`_sample_gradient`).
 
 The passes over pixels, faces and vertices run in :data:`~raycast_shade.shading.grad_frame.PARTS`
 fixed parts, each point written to its own output row; the scatters onto vertices, faces and
@@ -36,26 +40,27 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..common.layout import (COLOR_FACE, COLOR_NONE, COLOR_VERTEX, MAT_KA, MAT_KA_COLORS, MAT_KD, MAT_KS, METHOD_FLAT,
-                             METHOD_GOURAUD, METHOD_PHONG, TEX_CLAMP, TEX_HEIGHT, TEX_OFFSET, TEX_LEVELS, TEX_MIPMAP,
-                             TEX_TILE_U, TEX_TILE_V, TEX_WIDTH, TEXMAP_KD, TEXMAP_KS)
+from ..common.layout import (COLOR_FACE, COLOR_NONE, COLOR_VERTEX, MAT_AO_STRENGTH, MAT_KA, MAT_KA_COLORS, MAT_KD,
+                             MAT_KE, MAT_KS, METHOD_FLAT, METHOD_GOURAUD, METHOD_PHONG, TEX_MIPMAP, TEXMAP_AO, TEXMAP_KA,
+                             TEXMAP_KD, TEXMAP_KE, TEXMAP_KS)
 from ..common.parallel import launch, share
 from ..visibility.secondary import ray_scratch
 from .grad_frame import _flat_gather
+from .grad_texels import add_rows, face_rho, pixel_rho, texel_gradient
 from .grad_terms import GM_KA, GM_KD, GM_KS, GM_SIZE, _reflected_vjp, layout
 from .jit import CHUNK, HELPER, JIT
 from .phong import _shading_point
 from .records import At, Hit, dot
 from .surface import _convex_weights, _facing, _hit_point, _triangle, _view
-from .texture import _coefficients, _face_footprint, _point_coefficients, _rho_kernel, _row_coefficients
+from .texture import _coefficients, _face_footprint, _point_coefficients, _row_coefficients
 
 __all__ = ["MAPS", "map_partials", "maps_gradients"]
 
 PARTS = 16  # as grad_frame.PARTS: the parts do not depend on the thread count
-MAPS = ("vertex_colors", "face_colors", "kd_map", "ks_map")
+MAPS = ("vertex_colors", "face_colors", "kd_map", "ks_map", "ka_map", "ke_map", "ao_map")
 """The names :func:`maps_gradients` answers."""
-_WHOLE = 4503599627370496.0  # 2**52: from here on a float64 is a whole number (the samplers' reduction)
-_MAP_SLOT = {"kd_map": (TEXMAP_KD, MAT_KD, 3), "ks_map": (TEXMAP_KS, MAT_KS, 6)}
+_MAP_SLOT = {"kd_map": (TEXMAP_KD, MAT_KD, 3), "ks_map": (TEXMAP_KS, MAT_KS, 6), "ka_map": (TEXMAP_KA, MAT_KA, 0),
+             "ke_map": (TEXMAP_KE, MAT_KE, -1), "ao_map": (TEXMAP_AO, MAT_KA, 0)}
 
 
 @njit(**HELPER)
@@ -243,11 +248,11 @@ def _face_factors(faces, uvs, face_model, unit_mats, Tn, need, fac):
             fac[f, 3 + c] = coef[c]
 
 
-def _factors(hits, inputs, geo, partials):
-    """What multiplies each point's mesh colour (:func:`_factors_kernel`): ``{"pixels": (H * W, 6),
-    "flat": (F, 6)}``, ones where a model has no maps or no colours."""
+def _unit_samples(hits, inputs, geo, partials, need, keep):
+    """:func:`_factors_kernel` with unit ``ka``, ``kd`` rows, no colours, and only the map slots
+    ``keep`` (the others dropped) for the models ``need`` flags: ``{"pixels": (H * W, 6), "flat": (F, 6)}``
+    (the kd and ka coefficients; ones elsewhere)."""
     T = inputs.colours
-    need = ((T.color_mode != COLOR_NONE) & (T.tex_index >= 0).any(axis=1)).astype(np.uint8)
     out = {"pixels": np.ones((hits.prim.size, 6)), "flat": np.ones((inputs.geometry.faces.shape[0], 6))}
     if not need.any():
         return out
@@ -255,14 +260,32 @@ def _factors(hits, inputs, geo, partials):
     unit[:, MAT_KA:MAT_KA + 3] = 1.0
     unit[:, MAT_KD:MAT_KD + 3] = 1.0
     unit[:, MAT_KA_COLORS] = 0.0
-    Tn = T._replace(color_mode=np.zeros_like(T.color_mode))
+    tindex = np.full_like(T.tex_index, -1)
+    tindex[:, list(keep)] = T.tex_index[:, list(keep)]
+    Tn = T._replace(color_mode=np.zeros_like(T.color_mode), tex_index=tindex)
     G = inputs.geometry
+    need = need.astype(np.uint8)
     if "pixels" in partials:
         launch(_factors_kernel, (hits.prim, hits.geom, hits.u, hits.v), G, inputs.bumps.uvs, inputs.cam,
                inputs.face_off, unit, Tn, need, out["pixels"], parts=PARTS, dynamic=True)
     if "flat" in partials:
         _face_factors(G.faces, inputs.bumps.uvs, geo.face_model, unit, Tn, need, out["flat"])
     return out
+
+
+def _factors(hits, inputs, geo, partials, names=()):
+    """What multiplies each point's mesh colour and the ka, ke and occlusion maps' samples
+    (:func:`_factors_kernel`): ``{"pixels": (H * W, 12), "flat": (F, 12)}``, columns the kd map's
+    sample, the ka map's times the occlusion, the ka map's alone, the occlusion alone (ones where a
+    model has no such map; the last six only when ``names`` asks for ka or occlusion texels)."""
+    T = inputs.colours
+    slots = [TEXMAP_KA, TEXMAP_KD, TEXMAP_KS, TEXMAP_KE, TEXMAP_AO]
+    out = _unit_samples(hits, inputs, geo, partials, (T.color_mode != COLOR_NONE) & (T.tex_index >= 0).any(axis=1),
+                        slots)
+    alone = [_unit_samples(hits, inputs, geo, partials,
+                           (T.tex_index[:, slot] >= 0) & any(n in names for n in ("ka_map", "ao_map")), (slot,))
+             for slot in (TEXMAP_KA, TEXMAP_AO)]
+    return {key: np.hstack([out[key], alone[0][key][:, 3:6], alone[1][key][:, 3:6]]) for key in out}
 
 
 def map_partials(hits, inputs, modes, gimg, geo) -> dict:
@@ -358,18 +381,10 @@ def _points(hits, inputs, modes, geo, partials, factors):
         vert.append(sel)
         part.append(partials["gouraud"][sel])
         pix.append(np.full(sel.size, -1))
-        fac.append(np.ones((sel.size, 6)))  # off the modulate path: no maps
+        fac.append(np.ones((sel.size, 12)))  # off the modulate path: no maps
     cat = (lambda a, shape: np.concatenate(a) if a else np.zeros(shape))
     return (cat(model, 0).astype(np.int64), cat(face, 0).astype(np.int64), cat(bary, (0, 3)),
-            cat(vert, 0).astype(np.int64), cat(part, (0, 9)), faces, cat(pix, 0).astype(np.int64), cat(fac, (0, 6)))
-
-
-def _add_rows(out, idx, vals) -> None:
-    """``out[idx[k]] += vals[k]`` for each ``k`` in order (``np.bincount`` per column: sequential, so
-    deterministic, and several times faster than ``np.add.at``)."""
-    flat = out.reshape(out.shape[0] if out.ndim == 2 else -1, out.shape[-1])
-    for c in range(flat.shape[1]):
-        flat[:, c] += np.bincount(idx, weights=vals[:, c], minlength=flat.shape[0])
+            cat(vert, 0).astype(np.int64), cat(part, (0, 9)), faces, cat(pix, 0).astype(np.int64), cat(fac, (0, 12)))
 
 
 def _colour_gradient(mats, model, part, fac):
@@ -390,115 +405,6 @@ def _point_colour(T, model, face, bary, faces):
     return out
 
 
-def _texel_scatter(info, k, uv, g, level=0):
-    """``g`` (N, 3) at UVs ``uv`` (N, 2) onto level ``level`` of texture ``k`` with the bilinear
-    weights (:func:`~raycast_shade.shading.texture._sample_level`, wrapped or clamped as there):
-    (h_l, w_l, 3), rows as the texture's ``texels``."""
-    w = max(1, int(info[k, TEX_WIDTH]) >> level)
-    h = max(1, int(info[k, TEX_HEIGHT]) >> level)
-    clamp = info[k, TEX_CLAMP] != 0.0
-    su = uv[:, 0] * info[k, TEX_TILE_U]
-    sv = uv[:, 1] * info[k, TEX_TILE_V]
-    with np.errstate(invalid="ignore"):
-        if not clamp:  # as _sample_level: past 2**52 a whole number of periods
-            su = np.where(np.abs(su) < _WHOLE, su, 0.0)
-            sv = np.where(np.abs(sv) < _WHOLE, sv, 0.0)
-        x = su * w - 0.5
-        y = sv * h - 0.5
-        if clamp:  # as bump._texel_corners: to the border, or exactly modulo the grid
-            x = np.where(np.abs(x) < _WHOLE, x, np.where(x < 0.0, -1.0, float(w)))
-            y = np.where(np.abs(y) < _WHOLE, y, np.where(y < 0.0, -1.0, float(h)))
-        else:
-            x = np.where(np.abs(x) < _WHOLE, x, np.where(np.isfinite(x), np.fmod(x, float(w)), 0.0))
-            y = np.where(np.abs(y) < _WHOLE, y, np.where(np.isfinite(y), np.fmod(y, float(h)), 0.0))
-    j0, i0 = np.floor(x), np.floor(y)
-    tx, ty = x - j0, y - i0
-    j0, i0 = j0.astype(np.int64), i0.astype(np.int64)
-    j1, i1 = j0 + 1, i0 + 1
-    if clamp:
-        j0, j1, i0, i1 = (np.clip(a, 0, n - 1) for a, n in ((j0, w), (j1, w), (i0, h), (i1, h)))
-    else:
-        j0, j1, i0, i1 = j0 % w, j1 % w, i0 % h, i1 % h
-    out = np.zeros((h, w, 3))
-    for ii, jj, wt in ((i0, j0, (1.0 - tx) * (1.0 - ty)), (i0, j1, tx * (1.0 - ty)), (i1, j0, (1.0 - tx) * ty),
-                       (i1, j1, tx * ty)):
-        _add_rows(out, ii * w + jj, wt[:, None] * g)
-    return out
-
-
-def _halve_adjoint(g, n, axis):
-    """The transpose of :class:`~raycast_shade.Texture`'s pyramid step along ``axis`` (pairs
-    averaged; an odd length's last three samples averaged into the last output): ``g`` on the
-    ``max(1, n // 2)`` halved samples back onto the ``n`` of the level below."""
-    if n == 1:
-        return g
-    m = n // 2
-    g = np.moveaxis(g, axis, 0)
-    out = np.zeros((n,) + g.shape[1:])
-    out[0:2 * m:2] += 0.5 * g
-    out[1:2 * m:2] += 0.5 * g
-    if n % 2:  # the last output is (a[n-3] + a[n-2] + a[n-1]) / 3, not a pair's mean
-        out[n - 3:n - 1] -= 0.5 * g[m - 1]
-        out[n - 3:n] += g[m - 1] / 3.0
-    return np.moveaxis(out, 0, axis)
-
-
-def _levels(info, k, rho):
-    """Each point's mip levels and weights as :func:`~raycast_shade.shading.texture._sample` picks
-    them from its footprint ``rho`` (N,): ``(l0, w0, w1)``, level ``l0`` weighted ``w0`` and
-    ``l0 + 1`` weighted ``w1`` (0 where one level is sampled)."""
-    top = int(info[k, TEX_LEVELS]) - 1
-    mip = info[k, TEX_MIPMAP] != 0.0
-    trilinear = mip & (rho > 1.0)  # NaN: not > 1, level 0
-    with np.errstate(divide="ignore", invalid="ignore"):
-        lod = np.where(trilinear, np.minimum(np.log2(np.where(trilinear, rho, 1.0)), float(top)), 0.0)
-    l0 = np.floor(lod)
-    frac = lod - l0
-    l0 = l0.astype(np.int64)
-    single = (frac == 0.0) | (l0 >= top)
-    return l0, np.where(single, 1.0, 1.0 - frac), np.where(single, 0.0, frac)
-
-
-def _texel_gradient(info, k, uv, g, rho):
-    """``g`` (N, 3) at UVs ``uv`` with footprints ``rho`` (N,) onto texture ``k``'s level 0 through
-    the trilinear filter and the pyramid's box filters (bilinear textures: level 0 alone)."""
-    l0, w0, w1 = _levels(info, k, rho)
-    w, h = int(info[k, TEX_WIDTH]), int(info[k, TEX_HEIGHT])
-    top = int(info[k, TEX_LEVELS]) - 1
-    acc = None
-    for lvl in range(top, -1, -1):  # from the top down: each level's gradient onto the one below
-        here = np.zeros((max(1, h >> lvl), max(1, w >> lvl), 3))
-        for sel, wt in ((l0 == lvl, w0), (l0 + 1 == lvl, w1)):
-            sel = sel & (wt != 0.0)
-            if np.any(sel):
-                here += _texel_scatter(info, k, uv[sel], wt[sel, None] * g[sel], lvl)
-        if acc is not None:
-            here += _halve_adjoint(_halve_adjoint(acc, max(1, w >> lvl), 1), max(1, h >> lvl), 0)
-        acc = here
-    return acc
-
-
-def _face_rho(info, k, uvs, tri):
-    """A flat face's footprint in level-0 texels (:func:`~raycast_shade.shading.texture._face_footprint`
-    through :func:`~raycast_shade.shading.texture._level_rho`)."""
-    d1 = uvs[tri[:, 1]] - uvs[tri[:, 0]]
-    d2 = uvs[tri[:, 2]] - uvs[tri[:, 0]]
-    side = np.sqrt(0.5 * np.abs(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]))
-    su = info[k, TEX_WIDTH] * info[k, TEX_TILE_U]
-    sv = info[k, TEX_HEIGHT] * info[k, TEX_TILE_V]
-    return np.maximum(np.abs(side * su), np.abs(side * sv))
-
-
-def _pixel_rho(hits, inputs, slot):
-    """Each pixel's footprint ``rho`` in its model's ``slot`` map (row-major; NaN without one): the
-    forward pass's (:func:`~raycast_shade.shading.texture.texture_levels`' kernel)."""
-    G, T = inputs.geometry, inputs.colours
-    out = np.empty(hits.shape, np.float64)
-    _rho_kernel(hits.prim, hits.geom, hits.u, hits.v, G.verts, G.faces, G.face_normals, inputs.bumps.uvs,
-                inputs.face_off, T.tex_index, T.tex_info, inputs.cam, slot, out)
-    return out.ravel()
-
-
 def maps_gradients(hits, inputs, modes, gimg, geo, names) -> dict:
     """``dL/d`` the mesh colours and colour-map texels named in ``names`` (a subset of :data:`MAPS`).
 
@@ -509,13 +415,16 @@ def maps_gradients(hits, inputs, modes, gimg, geo, names) -> dict:
     dict
         ``"vertex_colors"`` (V, 3) and ``"face_colors"`` (F, 3), rows of the packed
         ``geo.vertex_colors``/``geo.face_colors`` (zero rows for models without);
-        ``"kd_map"``, ``"ks_map"``: a tuple, per model, of its map's (h, w, 3) texel gradient
-        (rows as its ``Texture.texels``: row 0 is ``v = 0``), None for a model without one.
+        ``"kd_map"``, ``"ks_map"``, ``"ka_map"``, ``"ke_map"``, ``"ao_map"``: a tuple, per model, of
+        its map's (h, w, 3) texel gradient (rows as its ``Texture.texels``: row 0 is ``v = 0``; the
+        occlusion map's red channel only: the forward pass reads no other), None for a model without
+        one.
     """
     partials = map_partials(hits, inputs, modes, gimg, geo)
     model, face, bary, vert, part, faces, pix, fac = _points(hits, inputs, modes, geo, partials,
-                                                            _factors(hits, inputs, geo, partials))
+                                                            _factors(hits, inputs, geo, partials, names))
     mats, T = inputs.materials, inputs.colours
+    gpt = _point_gradients(hits, inputs, modes, gimg, face, pix) if "ke_map" in names else None
     cmode = T.color_mode
     out, rhos = {}, {}
     if "vertex_colors" in names:
@@ -523,21 +432,21 @@ def maps_gradients(hits, inputs, modes, gimg, geo, names) -> dict:
         sel = np.flatnonzero(cmode[model] == COLOR_VERTEX)
         gc = _colour_gradient(mats, model[sel], part[sel], fac[sel])
         at_vertex = vert[sel] >= 0  # Gouraud's vertices: their own colour
-        _add_rows(g, vert[sel[at_vertex]], gc[at_vertex])
+        add_rows(g, vert[sel[at_vertex]], gc[at_vertex])
         on_face = sel[~at_vertex]  # Phong's pixels, flat's faces: by the barycentrics
         tri, bary_f, gc = faces[face[on_face]], bary[on_face], gc[~at_vertex]
         for corner in range(3):
-            _add_rows(g, tri[:, corner], bary_f[:, corner, None] * gc)
+            add_rows(g, tri[:, corner], bary_f[:, corner, None] * gc)
         out["vertex_colors"] = g
     if "face_colors" in names:
         g = np.zeros((faces.shape[0], 3))
         sel = (cmode[model] == COLOR_FACE) & (face >= 0)
-        _add_rows(g, face[sel], _colour_gradient(mats, model[sel], part[sel], fac[sel]))
+        add_rows(g, face[sel], _colour_gradient(mats, model[sel], part[sel], fac[sel]))
         out["face_colors"] = g
-    for name in ("kd_map", "ks_map"):
+    for name in ("kd_map", "ks_map", "ka_map", "ke_map", "ao_map"):
         if name not in names:
             continue
-        slot, row, col = _MAP_SLOT[name]
+        slot = _MAP_SLOT[name][0]
         maps = []
         for m in range(mats.shape[0]):
             k = T.tex_index[m, slot]
@@ -551,13 +460,53 @@ def maps_gradients(hits, inputs, modes, gimg, geo, names) -> dict:
             rho = np.zeros(uv.shape[0])
             if T.tex_info[k, TEX_MIPMAP] != 0.0:
                 if slot not in rhos:
-                    rhos[slot] = _pixel_rho(hits, inputs, slot)
+                    rhos[slot] = pixel_rho(hits, inputs, slot)
                 rho = rhos[slot][np.maximum(pix[sel], 0)]
                 at_face = pix[sel] < 0
-                rho[at_face] = _face_rho(T.tex_info, k, uvs, tri[at_face])
-            base = np.broadcast_to(mats[m, row:row + 3], (uv.shape[0], 3))  # what the sample multiplies
-            if slot == TEXMAP_KD and T.color_mode[m] != COLOR_NONE:  # the colour, in place of the row's kd
-                base = _point_colour(T, model[sel], face[sel], bary[sel], faces)
-            maps.append(_texel_gradient(T.tex_info, k, uv, base * part[sel, col:col + 3], rho))
+                rho[at_face] = face_rho(T.tex_info, k, uvs, tri[at_face])
+            g = _sample_gradient(name, mats, T, m, sel, model, face, bary, faces, part, fac,
+                                 None if gpt is None else gpt[sel])
+            maps.append(texel_gradient(T.tex_info, k, uv, g, rho))
         out[name] = tuple(maps)
     return out
+
+
+def _point_gradients(hits, inputs, modes, gimg, face, pix):
+    """``dL/dI`` at each point of :func:`_points` on a face (a pixel's own; a flat face's, its pixels'
+    summed), zero at Gouraud's vertices: what an emitted ``ke`` at the point is multiplied by."""
+    out = np.zeros((face.size, 3))
+    at_pixel = pix >= 0
+    out[at_pixel] = gimg.reshape(-1, 3)[pix[at_pixel]]
+    at_face = (pix < 0) & (face >= 0)
+    if np.any(at_face):
+        gface = np.zeros((inputs.geometry.faces.shape[0], 3))
+        _flat_gather(hits.prim, hits.geom, inputs.face_off, modes, gimg, gface)
+        out[at_face] = gface[face[at_face]]
+    return out
+
+
+def _sample_gradient(name, mats, T, m, sel, model, face, bary, faces, part, fac, gpt):
+    """``dL/d`` the map ``name``'s filtered sample (N, 3) at model ``m``'s points ``sel``: the point's
+    coefficient's gradient times what the sample multiplies there (:mod:`~raycast_shade.shading.texture`'s
+    ``_coefficients``): kd the row's kd (or the mesh colour, which replaces it), ks the row's ks, ke the
+    row's ke (``dL/dke = dL/dI``), ka the row's ka times the colour (``ka_colors``) and the occlusion
+    ``1 + s (ao - 1)``; the occlusion map's red channel ``s`` times the sum over RGB of ``dL/dka`` times
+    ka over the occlusion (its green and blue channels get 0)."""
+    n = int(np.count_nonzero(sel))
+    if name == "ke_map":
+        return mats[m, MAT_KE:MAT_KE + 3] * gpt
+    if name in ("kd_map", "ks_map"):
+        _, row, col = _MAP_SLOT[name]
+        base = np.broadcast_to(mats[m, row:row + 3], (n, 3))  # what the sample multiplies
+        if name == "kd_map" and T.color_mode[m] != COLOR_NONE:  # the colour, in place of the row's kd
+            base = _point_colour(T, model[sel], face[sel], bary[sel], faces)
+        return base * part[sel, col:col + 3]
+    ka = np.broadcast_to(mats[m, MAT_KA:MAT_KA + 3], (n, 3))
+    if T.color_mode[m] != COLOR_NONE and mats[m, MAT_KA_COLORS] != 0.0:
+        ka = ka * _point_colour(T, model[sel], face[sel], bary[sel], faces)
+    ka_sample, occ = fac[sel, 6:9], fac[sel, 9:12]
+    if name == "ka_map":
+        return ka * occ * part[sel, 0:3]
+    g = np.zeros((n, 3))
+    g[:, 0] = mats[m, MAT_AO_STRENGTH] * np.sum(ka * ka_sample * part[sel, 0:3], axis=1)
+    return g

@@ -189,8 +189,8 @@ def test_the_sampled_image_gradient_is_the_mean_of_its_samples(weights):
 def test_what_is_not_differentiated_is_refused_by_name(weights):
     n = rs.shapes.icosphere(2).vertices.shape[0]
     coloured = _scene(np.full((n, 3), 0.5))
-    with pytest.raises(ValueError, match="only wrt vertex_colors"):
-        rs.grad(coloured, weights, ("vertex_colors", "kd"))
+    with pytest.raises(ValueError, match="colour maps: the geometry"):  # the rest: tests/shading/test_grad_textured.py
+        rs.grad(coloured, weights, ("vertex_colors", "vertices"))
     textured = _scene(kd_map=_texture(3))
     assert rs.grad(textured, weights, "ks_map")["ks_map"] == (None,)  # no ks map: nothing to differentiate
     plain = _scene()  # no colours, no maps: zeros beside the other families, in the order asked
@@ -203,7 +203,7 @@ def test_what_is_not_differentiated_is_refused_by_name(weights):
 def test_the_texel_scatter_is_the_samplers_transpose_even_at_huge_uvs(wrap):
     """The scatter's weights applied to the texels give the forward sampler's value
     (``texture._sample_level``), huge, infinite and NaN UVs included (reduced as the sampler reduces them)."""
-    from raycast_shade.shading.grad_maps import _texel_scatter
+    from raycast_shade.shading.grad_texels import texel_scatter as _texel_scatter
     from raycast_shade.shading.texture import _sample_level
 
     tex = rs.Texture(np.random.default_rng(0).uniform(0.0, 1.0, (5, 7, 3)), wrap=wrap, filter="bilinear")

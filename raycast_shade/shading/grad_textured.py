@@ -1,0 +1,282 @@
+"""Reverse-mode gradients of a frame whose models have mesh colours or colour maps.
+
+The material, ambient, light and vertex-normal gradients of :mod:`.grad_frame`, with each point's
+coefficients the ones the forward pass shades it with: Phong's pixels and Gouraud's modulate path
+(a model with a map or face colours) :func:`~raycast_shade.shading.texture._point_coefficients`
+(the pixel's footprint), flat faces :func:`~raycast_shade.shading.texture._coefficients` at the
+centre (the face's UV footprint), Gouraud's vertices
+:func:`~raycast_shade.shading.gouraud._vertex_kd` (the vertex colour in place of kd). These are the
+forward pass's own functions, called here, not copies.
+
+What the material gradients mean on such a scene: the gradient with respect to the material's
+scalar factors, the row's ``ka``, ``kd``, ``ks`` (RGB). The forward pass's point coefficients are
+
+    kd = kd_row * kd_map(uv)                  (no mesh colours)
+    kd = colour * kd_map(uv)                  (vertex or face colours: kd_row is not used)
+    ka = ka_row * [colour if ka_colors] * ka_map(uv) * (1 + s (ao(uv) - 1))
+    ks = ks_row * ks_map(uv)
+
+so ``dL/dkd_row = F_kd dL/dkd_point`` with ``F_kd`` the point's coefficient computed with unit rows
+(0 where the colour replaces kd), likewise ``ka`` and ``ks``: the factors are
+``_point_coefficients`` evaluated once more with unit ``ka, kd, ks, ke`` rows (``unit``). The light,
+ambient and normal gradients go through :func:`~raycast_shade.shading.grad_terms._reflected_vjp`
+with the point's true coefficients. Each point's slots are written into a scratch row first and
+folded into the part's accumulator row scaled (:func:`_fold`): the sums keep a fixed order (Phong
+pixels and flat faces in :data:`~raycast_shade.shading.grad_frame.PARTS` fixed parts, Gouraud's
+pixels serially in row-major order), bit-identical on any number of threads.
+
+Gouraud's modulate pixel is ``Ia ka + D kd + S ks + ke`` with ``D``, ``S`` the corners' diffuse and
+specular light interpolated: each corner's share ``w_k gI`` goes through ``_reflected_vjp`` at the
+point the forward pass lights the corner, with the pixel's coefficients (their ambient parts sum to
+the pixel's ``Ia ka``, the weights summing to 1).
+
+Not here: the geometry (vertex positions, camera) on such a scene (the coefficients move with the
+hit's UV: refused by :func:`~raycast_shade.shading.grad_frame.unsupported`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ..common.layout import COLOR_NONE, MAT_KA, MAT_KD, MAT_KE, MAT_KS, METHOD_FLAT, METHOD_GOURAUD, METHOD_PHONG
+from ..common.parallel import launch, share
+from ..visibility.secondary import ray_scratch
+from .gouraud import _vertex_kd
+from .grad_bump import perturb_partials
+from .grad_frame import PARTS, _flat_gather, _phong_normals_scatter, _reduce
+from .grad_normal import _normal_vjp
+from .grad_maps import _corner_hit
+from .grad_terms import GM_KA, GM_KD, GM_KS, GM_SIZE, GM_T, _reflected_vjp, layout
+from .jit import CHUNK, HELPER, JIT
+from .phong import _shading_point
+from .records import At, Hit, dot
+from .surface import _convex_weights, _facing, _hit_point, _triangle, _view
+from .texture import _coefficients, _face_footprint, _point_coefficients
+
+__all__ = ["textured_vjp", "unit_rows"]
+
+
+@njit(**HELPER)
+def _fold(scratch, acc, k, mi, amb, fac, kd_free):
+    """``acc[k] += scratch[0]`` for one point's slots, model ``mi``'s ``ka, kd, ks`` scaled by the
+    point's factors ``fac`` (its unit-row coefficients; kd's 0 unless ``kd_free``: a colour replaces
+    kd), and those slots of ``scratch`` zeroed. The ambient and the lights' slots (from ``amb`` to
+    the end) are copied as they are."""
+    mb = mi * GM_SIZE
+    for c in range(3):
+        acc[k, mb + GM_KA + c] += fac[c] * scratch[0, mb + GM_KA + c]
+        if kd_free:
+            acc[k, mb + GM_KD + c] += fac[3 + c] * scratch[0, mb + GM_KD + c]
+        acc[k, mb + GM_KS + c] += fac[6 + c] * scratch[0, mb + GM_KS + c]
+        scratch[0, mb + GM_KA + c] = 0.0
+        scratch[0, mb + GM_KD + c] = 0.0
+        scratch[0, mb + GM_KS + c] = 0.0
+    acc[k, mb + GM_T] += scratch[0, mb + GM_T]
+    scratch[0, mb + GM_T] = 0.0
+    for j in range(amb, scratch.shape[1]):
+        acc[k, j] += scratch[0, j]
+        scratch[0, j] = 0.0
+
+
+@njit(nogil=True, **JIT)
+def _phong_tex_kernel(hits, G, B, L, T, face_off, materials, unit, cam, modes, gimg, lay, acc, gpx, part):
+    """Phong pixels with their textured coefficients: ``acc[k]`` (part ``k``) += ``dL/dparameters``;
+    ``gpx`` (H, W, 9) as :func:`~raycast_shade.shading.grad_frame._phong_vjp_kernel`'s (the first
+    three columns, ``dL/da``, used), or (0, 0, 9) for none."""
+    prim, geom, u, v = hits
+    cmode = T[2]
+    want_n = gpx.shape[0] != 0
+    k = part[0]
+    scratch = np.zeros((1, acc.shape[1]))
+    h, w = prim.shape
+    for y in range(*share(h, part)):
+        S = ray_scratch()
+        for x in range(w):
+            p = prim[y, x]
+            if p < 0:
+                continue
+            gm = geom[y, x]
+            if modes[gm] != METHOD_PHONG:
+                continue
+            gI = (np.float64(gimg[y, x, 0]), np.float64(gimg[y, x, 1]), np.float64(gimg[y, x, 2]))
+            if gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0:
+                continue
+            at = At(face_off[gm] + p, gm, np.float64(u[y, x]), np.float64(v[y, x]))
+            coef = _point_coefficients(G, B.uvs, at, cam, x, y, True, materials, T)
+            fac = _point_coefficients(G, B.uvs, at, cam, x, y, True, unit, T)
+            hp = _shading_point(G, B, L, cam, at, np.bool_(False), (0.0, 0.0, 0.0))
+            gn, _, _ = _reflected_vjp(hp, coef, materials, gm, L, S, gI, scratch, 0, lay)
+            _fold(scratch, acc, k, gm, lay[0], fac, cmode[gm] == COLOR_NONE)
+            if want_n:
+                ga = _normal_vjp(G.normals, _triangle(G.faces, at.f), at.b1, at.b2, hp.g, hp.sgn, gn)
+                for c in range(3):
+                    gpx[y, x, c] = ga[c]
+
+
+@njit(nogil=True, **JIT)
+def _flat_tex_kernel(gface, G, T, uvs, face_model, materials, unit, cam, L, lay, acc, part):
+    """Flat faces at their centres with the coefficients the forward pass gives them (the centre's,
+    filtered over the face's UV footprint): ``acc[k]`` += the parameters' gradients."""
+    verts, _, faces, fnormals = G
+    cmode = T[2]
+    k = part[0]
+    scratch = np.zeros((1, acc.shape[1]))
+    nchunk = (faces.shape[0] + CHUNK - 1) // CHUNK
+    third = 1.0 / 3.0
+    for ch in range(*share(nchunk, part)):
+        S = ray_scratch()
+        for f in range(ch * CHUNK, min(faces.shape[0], (ch + 1) * CHUNK)):
+            gI = (gface[f, 0], gface[f, 1], gface[f, 2])
+            if gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0:
+                continue
+            tri = _triangle(faces, f)
+            p = _hit_point(verts, tri, third, third)
+            vv = _view(cam, p)
+            gn, sgn = _facing(fnormals, f, vv)
+            m = face_model[f]
+            at = At(f, m, third, third)
+            coef = _coefficients(materials, T, at, tri, uvs, _face_footprint(uvs, tri))
+            fac = _coefficients(unit, T, at, tri, uvs, _face_footprint(uvs, tri))
+            _reflected_vjp(Hit(p, vv, gn, sgn, gn, p), coef, materials, m, L, S, gI, scratch, 0, lay)
+            _fold(scratch, acc, k, m, lay[0], fac, cmode[m] == COLOR_NONE)
+
+
+@njit(**HELPER)
+def _corner_normal_grad(G, i, side, gn, gr0, gnormals):
+    """``gnormals[i] +=`` the vertex normal's share of ``dL/dn`` ``gr0`` at a corner lit from ``side``
+    (as :func:`~raycast_shade.shading.grad_frame._gouraud_gather`: none for a zero normal, which
+    borrows the face's; through the reflection across the face's plane for one turned away)."""
+    normals = G.normals
+    sg = 1.0 - 2.0 * side
+    n = (sg * normals[i, 0], sg * normals[i, 1], sg * normals[i, 2])
+    if n[0] == 0.0 and n[1] == 0.0 and n[2] == 0.0:
+        return
+    q = 0.0
+    if dot(n, gn) < 0.0:
+        q = 2.0 * dot(gr0, gn)
+    for c in range(3):
+        gnormals[i, c] += sg * (gr0[c] - q * gn[c])
+
+
+@njit(**JIT)
+def _gouraud_tex_gather(hits, G, B, L, T, face_off, materials, unit, cam, modes, gimg, lay, serial, gvert, gnormals):
+    """Serially, in row-major order, the Gouraud pixels: a modulate-path pixel (``T``'s flag) is
+    differentiated here, each corner at its point with the pixel's coefficients and its share
+    ``w_k gI``, into ``serial[0]`` and ``gnormals``; another pixel's ``dL/dI`` goes onto its corners'
+    stored shades ``gvert`` (V, 2, 3), and a corner shaded on the spot is differentiated here."""
+    prim, geom, u, v = hits
+    vcolors, _, cmode, _, _, _, modulate = T
+    scratch = np.zeros((1, serial.shape[1]))
+    S = ray_scratch()
+    h, w = prim.shape
+    for y in range(h):
+        for x in range(w):
+            p = prim[y, x]
+            if p < 0:
+                continue
+            gm = geom[y, x]
+            if modes[gm] != METHOD_GOURAUD:
+                continue
+            f = face_off[gm] + p
+            b1 = np.float64(u[y, x])
+            b2 = np.float64(v[y, x])
+            tri = _triangle(G.faces, f)
+            gn, sgn = _facing(G.face_normals, f, _view(cam, _hit_point(G.verts, tri, b1, b2)))
+            side = 0 if sgn > 0.0 else 1
+            wts = _convex_weights(b1, b2)
+            split = modulate[gm] != 0
+            if split:
+                at = At(f, gm, b1, b2)
+                coef = _point_coefficients(G, B.uvs, at, cam, x, y, True, materials, T)
+                fac = _point_coefficients(G, B.uvs, at, cam, x, y, True, unit, T)
+            for corner in range(3):
+                i = tri[corner]
+                wk = wts[corner]
+                gI = (wk * gimg[y, x, 0], wk * gimg[y, x, 1], wk * gimg[y, x, 2])
+                hp, stored = _corner_hit(G, cam, i, side, gn)
+                if not split:
+                    if stored:
+                        for cc in range(3):
+                            gvert[i, side, cc] += gI[cc]
+                        continue
+                    coef = _vertex_kd(materials, gm, cmode, vcolors, i, True)
+                    fac = _vertex_kd(unit, gm, cmode, vcolors, i, True)
+                gr = _reflected_vjp(hp, coef, materials, gm, L, S, gI, scratch, 0, lay)
+                _fold(scratch, serial, 0, gm, lay[0], fac, cmode[gm] == COLOR_NONE)
+                _corner_normal_grad(G, i, side, gn, gr[0], gnormals)
+
+
+@njit(nogil=True, **JIT)
+def _gouraud_tex_vertices(gvert, G, T, vertex_model, materials, unit, cam, L, lay, acc, gnormals, part):
+    """Gouraud vertices off the modulate path (lit with their own normal, their colour as kd):
+    ``acc[k]`` += the parameters' gradients, ``gnormals[i]`` += the normal's (each vertex in one
+    part)."""
+    verts, normals, _, _ = G
+    vcolors, _, cmode, _, _, _, _ = T
+    k = part[0]
+    scratch = np.zeros((1, acc.shape[1]))
+    n = verts.shape[0]
+    nchunk = (n + CHUNK - 1) // CHUNK
+    for ch in range(*share(nchunk, part)):
+        S = ray_scratch()
+        for i in range(ch * CHUNK, min(n, (ch + 1) * CHUNK)):
+            for side in range(2):
+                gI = (gvert[i, side, 0], gvert[i, side, 1], gvert[i, side, 2])
+                if gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0:
+                    continue
+                sg = 1.0 - 2.0 * side
+                p = (verts[i, 0], verts[i, 1], verts[i, 2])
+                nv = (sg * normals[i, 0], sg * normals[i, 1], sg * normals[i, 2])
+                m = vertex_model[i]
+                coef = _vertex_kd(materials, m, cmode, vcolors, i, True)
+                fac = _vertex_kd(unit, m, cmode, vcolors, i, True)
+                gr = _reflected_vjp(Hit(p, _view(cam, p), nv, 1.0, nv, p), coef, materials, m, L, S, gI, scratch, 0,
+                                    lay)
+                _fold(scratch, acc, k, m, lay[0], fac, cmode[m] == COLOR_NONE)
+                for c in range(3):
+                    gnormals[i, c] += sg * gr[0][c]
+
+
+def unit_rows(materials) -> np.ndarray:
+    """The material rows with ``ka``, ``kd``, ``ks`` and ``ke`` set to 1: the forward pass's
+    coefficient functions then return what multiplies each row at a point (its colour and maps)."""
+    unit = materials.copy()
+    for slot in (MAT_KA, MAT_KD, MAT_KS, MAT_KE):
+        unit[:, slot:slot + 3] = 1.0
+    return unit
+
+
+def textured_vjp(hits, inputs, modes, gimg, geo, want_normals: bool = False):
+    """:func:`~raycast_shade.shading.grad_frame.frame_vjp` (without the geometry) for a frame whose
+    models have colours or maps (``inputs.tex_on``): ``(params (R,), gnormals (V, 3) or None)``,
+    the material slots with respect to the rows' scalar factors (see the module docstring)."""
+    G, B, L, T = inputs.geometry, inputs.bumps, inputs.lighting, inputs.colours
+    mats, cam, face_off = inputs.materials, inputs.cam, inputs.face_off
+    unit = unit_rows(mats)
+    amb, lb, size = layout(mats.shape[0], L.lights.shape[0])
+    lay = (np.int64(amb), np.int64(lb))
+    acc = np.zeros((PARTS, size))
+    serial = np.zeros((1, size))
+    nv, nf = G.verts.shape[0], G.faces.shape[0]
+    gnormals = np.zeros((nv, 3))
+    hit = (hits.prim, hits.geom, hits.u, hits.v)
+    if np.any(modes == METHOD_PHONG):
+        gpx = np.zeros(gimg.shape[:2] + (9,) if want_normals else (0, 0, 9))
+        launch(_phong_tex_kernel, hit, G, B, L, T, face_off, mats, unit, cam, modes, gimg, lay, acc, gpx,
+               parts=PARTS, dynamic=True)
+        if want_normals and (np.any(B.bump_index >= 0) or np.any(B.nmap_index >= 0)):
+            perturb_partials(hits, inputs, modes, gimg, gpx)  # bumped pixels' dL/da through the bent normal
+        if want_normals:
+            _phong_normals_scatter(*hit, G.faces, face_off, modes, gpx, gnormals)
+    if np.any(modes == METHOD_FLAT):
+        gface = np.zeros((nf, 3))
+        _flat_gather(hits.prim, hits.geom, face_off, modes, gimg, gface)
+        launch(_flat_tex_kernel, gface, G, T, B.uvs, geo.face_model, mats, unit, cam, L, lay, acc, parts=PARTS,
+               dynamic=True)
+    if np.any(modes == METHOD_GOURAUD):
+        gvert = np.zeros((nv, 2, 3))
+        _gouraud_tex_gather(hit, G, B, L, T, face_off, mats, unit, cam, modes, gimg, lay, serial, gvert, gnormals)
+        launch(_gouraud_tex_vertices, gvert, G, T, geo.vertex_model, mats, unit, cam, L, lay, acc, gnormals,
+               parts=PARTS, dynamic=True)
+    return serial[0] + _reduce(acc), (gnormals if want_normals else None)
