@@ -101,5 +101,5 @@ def test_ggx_clamps_one_sided_at_metallic_zero_and_zero_below_the_roughness_floo
 
 def test_ggx_colours_and_texels_are_still_refused_by_name(weights):
     scene = _ggx_scene()
-    with pytest.raises(ValueError, match="specular='ggx' has no colour or texel gradients"):
+    with pytest.raises(ValueError, match="specular='ggx' has no gradients on a scene with colours, maps"):
         rs.grad(scene, weights, "kd_map")
