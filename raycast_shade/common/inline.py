@@ -44,12 +44,6 @@ TWIN_SUFFIX = "__from_python"
 _NO_WRAPPERS = {"no_cpython_wrapper": True, "no_cfunc_wrapper": True, "nopython": True}
 
 
-# The link-only build reaches into Numba's code library and cache internals as they are in the
-# releases it was written and tested against; any other release builds helpers as Numba does (the
-# same results, the old compile cost) rather than break on a changed internal.
-_LINK_ONLY = tuple(int(x) for x in numba.__version__.split(".")[:2]) in {(0, 68)}
-
-
 class _NoEnv:
     """The codegen a helper's library shows Numba's ``get_executable``: setting the
     environment's address is a no-op (the helper's module never reaches the engine)."""
@@ -134,10 +128,7 @@ class InlineDispatcher(CPUDispatcher):
     _twin_lock = threading.Lock()
 
     def enable_caching(self):
-        if _LINK_ONLY:
-            self._cache = _LinkOnlyCache(self.py_func)
-        else:
-            super().enable_caching()
+        self._cache = _LinkOnlyCache(self.py_func)
 
     def add_overload(self, cres):
         # Kept for compiled callers (and their inlining); no Python entry point: it has no wrapper.
@@ -177,8 +168,7 @@ def inline_jit(*, cache: bool = True, **options):
 
     def decorate(func):
         target = dict(options, **_NO_WRAPPERS)
-        disp = InlineDispatcher(py_func=func, targetoptions=target,
-                                pipeline_class=_LinkOnlyCompiler if _LINK_ONLY else Compiler)
+        disp = InlineDispatcher(py_func=func, targetoptions=target, pipeline_class=_LinkOnlyCompiler)
         disp._twin_cache = cache
         if cache:
             disp.enable_caching()
