@@ -20,6 +20,8 @@ import raycast_shade as rs
 
 from benchmarks.outputs import images_dir
 
+from .gradient_panels import anti_aliased, four_panels, per_pixel
+
 W, H, K, STEP = 48, 36, 16, 0.01
 
 
@@ -32,49 +34,24 @@ def scene(shift=0.0):
                     ambient=0.2, background=(0.15, 0.2, 0.3))
 
 
-def anti_aliased(s):
-    big = s.replace(camera=s.camera.replace(width=W * K, height=H * K))
-    return rs.render(big, "phong").image.astype(np.float64).reshape(H, K, W, K, 3).mean(axis=(1, 3))
-
-
 def gradient_images():
     """``dI/dx`` (H, W), summed over RGB: the interior alone, interior + edges, finite differences."""
     s = scene()
     frame = rs.render(s, "phong")
-    inner, total = np.zeros((H, W)), np.zeros((H, W))
-    for y in range(H):
-        for x in range(W):
-            g_img = np.zeros((H, W, 3))
-            g_img[y, x] = 1.0
-            inner[y, x] = rs.grad(s, g_img, "vertices", frame=frame)["vertices"][:, 0].sum()
-            total[y, x] = rs.grad(s, g_img, "vertices", frame=frame, edges=True,
-                                  edge_density=16.0)["vertices"][:, 0].sum()
-    fd = (anti_aliased(scene(STEP)) - anti_aliased(scene(-STEP))).sum(axis=2) / (2.0 * STEP)
+    inner = per_pixel(lambda g: rs.grad(s, g, "vertices", frame=frame)["vertices"][:, 0].sum(), H, W)
+    total = per_pixel(lambda g: rs.grad(s, g, "vertices", frame=frame, edges=True,
+                                        edge_density=16.0)["vertices"][:, 0].sum(), H, W)
+    fd = (anti_aliased(scene(STEP), "phong", K) - anti_aliased(scene(-STEP), "phong", K)).sum(axis=2) / (2.0 * STEP)
     return frame.image, inner, total, fd
 
 
 def draw(image, inner, total, fd, path):
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    top = float(np.percentile(np.abs(fd), 99.5))
-    fig, axes = plt.subplots(1, 4, figsize=(11.0, 2.9), dpi=100)
-    axes[0].imshow(rs.to_uint8(image))
-    axes[0].set_title("the image (one ray a pixel)", fontsize=9)
-    for ax, (label, g) in zip(axes[1:], [("rs.grad:\ninterior only", inner), ("rs.grad:\ninterior + edges", total),
-                                          ("finite differences\n(16x16 rays a pixel)", fd)]):
-        im = ax.imshow(g, cmap="RdBu_r", vmin=-top, vmax=top)
-        ax.set_title(label, fontsize=9)
-    for ax in axes:
-        ax.axis("off")
-    fig.colorbar(im, ax=axes[1:].tolist(), shrink=0.8, label="dI/dx (RGB summed)")
     err = np.abs(total.sum() - fd.sum()) / np.abs(fd).sum()
-    fig.suptitle(f"d image / d (x-translation): sum over pixels {total.sum():.2f} (rs.grad) against "
-                 f"{fd.sum():.2f} (differences); |difference| / sum|FD| = {err:.3f}", fontsize=9)
-    fig.savefig(path, bbox_inches="tight")
-    plt.close(fig)
+    four_panels(image, "the image (one ray a pixel)",
+                [("rs.grad:\ninterior only", inner), ("rs.grad:\ninterior + edges", total),
+                 ("finite differences\n(16x16 rays a pixel)", fd)], "dI/dx (RGB summed)",
+                f"d image / d (x-translation): sum over pixels {total.sum():.2f} (rs.grad) against "
+                f"{fd.sum():.2f} (differences); |difference| / sum|FD| = {err:.3f}", path)
 
 
 def main(argv=None):

@@ -20,6 +20,8 @@ import raycast_shade as rs
 
 from benchmarks.outputs import images_dir
 
+from .gradient_panels import anti_aliased, four_panels, per_pixel
+
 W, H, K, STEP = 48, 36, 16, 0.01
 SHADING = ("phong", "flat")
 LIGHT = np.array([1.2, 0.9, 3.0])
@@ -36,51 +38,26 @@ def scene(dx=0.0):
                     camera=rs.Camera(eye=(0.1, -0.2, 3.0), target=(0.0, 0.0, 0.0), width=W, height=H))
 
 
-def anti_aliased(s):
-    big = s.replace(camera=s.camera.replace(width=W * K, height=H * K))
-    return rs.render(big, SHADING).image.astype(np.float64).reshape(H, K, W, K, 3).mean(axis=(1, 3))
-
-
 def gradient_images():
     """``dI/d(light x)`` (H, W), summed over RGB: the interior alone, interior + edges, differences."""
     s = scene()
     frame = rs.render(s, SHADING)
-    inner, total = np.zeros((H, W)), np.zeros((H, W))
-    for y in range(H):
-        for x in range(W):
-            g_img = np.zeros((H, W, 3))
-            g_img[y, x] = 1.0
-            inner[y, x] = rs.grad(s, g_img, "light_position", shading=SHADING, frame=frame)["light_position"][0, 0]
-            total[y, x] = rs.grad(s, g_img, "light_position", shading=SHADING, frame=frame, edges=True,
-                                  edge_density=16.0)["light_position"][0, 0]
-    fd = (anti_aliased(scene(STEP)) - anti_aliased(scene(-STEP))).sum(axis=2) / (2.0 * STEP)
-    return anti_aliased(s), inner, total, fd
+    inner = per_pixel(lambda g: rs.grad(s, g, "light_position", shading=SHADING,
+                                        frame=frame)["light_position"][0, 0], H, W)
+    total = per_pixel(lambda g: rs.grad(s, g, "light_position", shading=SHADING, frame=frame, edges=True,
+                                        edge_density=16.0)["light_position"][0, 0], H, W)
+    fd = (anti_aliased(scene(STEP), SHADING, K) - anti_aliased(scene(-STEP), SHADING, K)).sum(axis=2) / (2.0 * STEP)
+    return anti_aliased(s, SHADING, K), inner, total, fd
 
 
 def draw(image, inner, total, fd, path):
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    top = float(np.percentile(np.abs(fd), 99.5))
-    fig, axes = plt.subplots(1, 4, figsize=(11.0, 2.9), dpi=100)
-    axes[0].imshow(rs.to_uint8(image.astype(np.float32)))
-    axes[0].set_title("the image (16x16 rays a pixel)", fontsize=9)
-    for ax, (label, g) in zip(axes[1:], [("rs.grad:\ninterior only", inner),
-                                          ("rs.grad: interior\n+ edges (the outline)", total),
-                                          ("finite differences\n(16x16 rays a pixel)", fd)]):
-        im = ax.imshow(g, cmap="RdBu_r", vmin=-top, vmax=top)
-        ax.set_title(label, fontsize=9)
-    for ax in axes:
-        ax.axis("off")
-    fig.colorbar(im, ax=axes[1:].tolist(), shrink=0.8, label="dI/d(light x) (RGB summed)")
     err = np.abs(total - fd).sum() / np.abs(fd).sum()
     err_in = np.abs(inner - fd).sum() / np.abs(fd).sum()
-    fig.suptitle(f"d image / d (light x): sum|rs.grad - FD| / sum|FD| = {err:.3f} with edges, "
-                 f"{err_in:.3f} interior only", fontsize=9, y=1.0)
-    fig.savefig(path, bbox_inches="tight")
-    plt.close(fig)
+    four_panels(image, "the image (16x16 rays a pixel)",
+                [("rs.grad:\ninterior only", inner), ("rs.grad: interior\n+ edges (the outline)", total),
+                 ("finite differences\n(16x16 rays a pixel)", fd)], "dI/d(light x) (RGB summed)",
+                f"d image / d (light x): sum|rs.grad - FD| / sum|FD| = {err:.3f} with edges, "
+                f"{err_in:.3f} interior only", path, title_y=1.0)
 
 
 def main(argv=None):

@@ -145,8 +145,9 @@ def test_every_package_name_a_benchmark_imports_exists():
 # -- one suite: every benchmark registered, every figure script reachable ---------------------------
 
 FIGURES_DIR = os.path.join(ROOT, "docs", "figures")
-# The runner and the helpers (corpus_geometry: corpus_check.py's "geometry" subcommand, on a samples folder).
-NOT_BENCHMARKS = {"__init__", "__main__", "outputs", "corpus_geometry"}
+# The runner and the helpers (corpus_geometry: corpus_check.py's "geometry" subcommand, on a samples folder;
+# gradient_panels: what the per-pixel gradient figures share).
+NOT_BENCHMARKS = {"__init__", "__main__", "outputs", "corpus_geometry", "gradient_panels"}
 
 
 def _modules_in(folder, package):
