@@ -29,7 +29,7 @@ import sys
 import time
 import traceback
 
-from benchmarks.outputs import ROOT, doc_path, images_dir, results_dir, results_file
+from benchmarks.outputs import ROOT, doc_path, images_dir, results_dir, results_file, write_csv
 
 # name, module, title, CSV and chart name patterns (in results_dir(quick) and images_dir(quick))
 REGISTRY = [
@@ -117,11 +117,7 @@ def _write_rows(rows, path):
     keys = []
     for r in rows:
         keys += [k for k in r if k not in keys]
-    os.makedirs(os.path.dirname(path), exist_ok=True)
-    with open(path, "w", newline="") as fh:
-        wr = csv.DictWriter(fh, fieldnames=keys)
-        wr.writeheader()
-        wr.writerows(rows)
+    write_csv(path, rows)
 
 
 def _files(patterns, folder):

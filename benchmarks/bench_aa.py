@@ -22,13 +22,11 @@ fewer N and writes into the git-ignored ``out/quick/results/`` (:mod:`benchmarks
 from __future__ import annotations
 
 import argparse
-import csv
-import os
 import time
 
 import numpy as np
 
-from benchmarks.outputs import results_file
+from benchmarks.outputs import results_file, write_csv
 
 FIELDS = ["benchmark", "case", "backend", "samples", "value", "unit"]
 
@@ -145,11 +143,7 @@ def main(argv=None):
     else:
         rows = bench_cost(1920, 1080, (1, 4, 16), 5) + bench_edge((1, 2, 4, 8, 16, 32, 64, 128, 256))
     out, = outputs(args.quick)
-    os.makedirs(os.path.dirname(out), exist_ok=True)
-    with open(out, "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=FIELDS)
-        w.writeheader()
-        w.writerows(rows)
+    write_csv(out, rows, FIELDS)
     print(f"wrote {out}")
     return 0
 

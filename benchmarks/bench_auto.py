@@ -30,14 +30,12 @@ timings and the verdict).
 from __future__ import annotations
 
 import argparse
-import csv
-import os
 import statistics
 import time
 
 import numpy as np
 
-from benchmarks.outputs import results_file
+from benchmarks.outputs import results_file, write_csv
 
 MODES = ("auto", "flat", "gouraud", "phong")
 
@@ -206,11 +204,7 @@ def main(argv=None):
         # The suite runs the next benchmark in this process: it must not inherit one thread.
         numba.set_num_threads(saved)
     path = args.out or outputs(args.quick)[0]
-    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    with open(path, "w", newline="") as fh:
-        wr = csv.DictWriter(fh, fieldnames=FIELDS)
-        wr.writeheader()
-        wr.writerows(rows)
+    write_csv(path, rows, FIELDS)
     _print(rows)
     print(f"wrote {path}")
     return rows

@@ -33,14 +33,13 @@ and ``docs/images/batch_pool.png``
 from __future__ import annotations
 
 import argparse
-import csv
 import os
 import pickle
 import statistics
 import tempfile
 import time
 
-from benchmarks.outputs import ROOT, images_dir, results_file
+from benchmarks.outputs import ROOT, images_dir, results_file, write_csv
 
 FIELDS = ["benchmark", "mode", "workers", "numba_threads", "frames_per_task", "transfer", "width", "height",
           "frames", "seconds", "fps", "ms_per_frame", "speedup", "value", "unit", "load", "note"]
@@ -450,14 +449,6 @@ def run(quick: bool = False, only: str | None = None):
             + bench_cost(tiny, repeats, (640, 480)))
 
 
-def write(rows, path):
-    os.makedirs(os.path.dirname(path), exist_ok=True)
-    with open(path, "w", newline="") as fh:
-        wr = csv.DictWriter(fh, fieldnames=FIELDS)
-        wr.writeheader()
-        wr.writerows(rows)
-
-
 def outputs(quick: bool) -> list[str]:
     """The CSV and chart :func:`main` writes (see :mod:`benchmarks.outputs`)."""
     return [results_file("batch.csv", quick), os.path.join(images_dir(quick), "batch_scaling.png"),
@@ -475,7 +466,7 @@ def main(argv=None):
     path, png, pool_png, pool_csv = outputs(args.quick)
     if args.only:
         path = pool_csv
-    write(rows, path)
+    write_csv(path, rows, FIELDS)
     if not args.only:
         chart(rows, png)
     chart_pool(rows, pool_png)

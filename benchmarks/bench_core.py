@@ -21,7 +21,6 @@ Results: ``benchmarks/results/core.csv`` and ``docs/images/core_benchmark.png`` 
 from __future__ import annotations
 
 import argparse
-import csv
 import os
 import subprocess
 import sys
@@ -30,7 +29,7 @@ import time
 
 import numpy as np
 
-from benchmarks.outputs import image_file, results_file
+from benchmarks.outputs import image_file, results_file, write_csv
 
 
 def _median_ms(fn, repeats: int) -> float:
@@ -267,13 +266,7 @@ def run(quick: bool = False):
     return rows
 
 
-def write(rows, path):
-    os.makedirs(os.path.dirname(path), exist_ok=True)
-    keys = ["benchmark", "mesh", "triangles", "width", "height", "pipeline", "stage", "median_ms"]
-    with open(path, "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=keys)
-        w.writeheader()
-        w.writerows(rows)
+KEYS = ["benchmark", "mesh", "triangles", "width", "height", "pipeline", "stage", "median_ms"]
 
 
 def outputs(quick: bool) -> list[str]:
@@ -287,7 +280,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
     rows = run(args.quick)
     csv_path, png_path = outputs(args.quick)
-    write(rows, csv_path)
+    write_csv(csv_path, rows, KEYS)
     chart(rows, png_path)
     for r in rows:
         print(f"{r['benchmark']:8} {r['mesh']:11} {r['width']:>5}x{r['height']:<5} {r['pipeline']:14} {r['stage']:34} {r['median_ms']:>10}")

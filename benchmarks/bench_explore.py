@@ -23,14 +23,13 @@ a few frames, and writes into the git-ignored ``out/quick/results/``.
 from __future__ import annotations
 
 import argparse
-import csv
 import os
 import statistics
 import time
 
 import numpy as np
 
-from benchmarks.outputs import results_file
+from benchmarks.outputs import results_file, write_csv
 
 FIELDS = ["benchmark", "case", "width", "height", "frames", "fps", "ms_median", "ms_p90", "load", "note"]
 
@@ -126,11 +125,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
     rows = run(args.quick)
     path, = outputs(args.quick)
-    os.makedirs(os.path.dirname(path), exist_ok=True)
-    with open(path, "w", newline="") as fh:
-        writer = csv.DictWriter(fh, FIELDS)
-        writer.writeheader()
-        writer.writerows(rows)
+    write_csv(path, rows, FIELDS)
     print(f"wrote {path}")
     return 0
 

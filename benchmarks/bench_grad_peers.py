@@ -31,7 +31,6 @@ distribution for Linux and Python 3.11 (see docs/gradients.md). Results:
 from __future__ import annotations
 
 import argparse
-import csv
 import glob
 import os
 import re
@@ -41,7 +40,7 @@ import time
 
 import numpy as np
 
-from benchmarks.outputs import results_file
+from benchmarks.outputs import results_file, write_csv
 
 FIELDS = ["benchmark", "case", "width", "height", "repeats", "ms_median", "ratio", "load", "note"]
 KD, INTENSITY, LIGHT, EYE, FOV = 0.6, 20.0, (2.0, 3.0, 4.0), (0.0, 0.0, 4.0), 45.0
@@ -198,11 +197,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
     rows = run(args.quick)
     path, = outputs(args.quick)
-    os.makedirs(os.path.dirname(path), exist_ok=True)
-    with open(path, "w", newline="") as fh:
-        writer = csv.DictWriter(fh, FIELDS)
-        writer.writeheader()
-        writer.writerows(rows)
+    write_csv(path, rows, FIELDS)
     print(f"wrote {path}")
     return 0
 

@@ -84,7 +84,7 @@ from raycast_shade.common.parallel import KERNEL, in_parts, share
 from raycast_shade.visibility import embree
 from raycast_shade.visibility.rays import pixel_ray
 
-from benchmarks.outputs import results_file
+from benchmarks.outputs import results_file, write_csv
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
@@ -649,14 +649,6 @@ def run(quick=False, only=SECTIONS, repeats=None):
     return rows
 
 
-def write_csv(rows, path):
-    os.makedirs(os.path.dirname(path), exist_ok=True)
-    with open(path, "w", newline="") as fh:
-        wr = csv.DictWriter(fh, fieldnames=KEYS)
-        wr.writeheader()
-        wr.writerows(rows)
-
-
 def outputs(quick: bool) -> list[str]:
     """The CSV :func:`main` writes (see :mod:`benchmarks.outputs`)."""
     return [results_file("limits.csv", quick)]
@@ -676,7 +668,7 @@ def main(argv=None):
         with open(path, newline="") as fh:
             kept = [r for r in csv.DictReader(fh) if r["section"] not in only]
         rows = kept + rows
-    write_csv(rows, path)
+    write_csv(path, rows, KEYS)
     return rows
 
 

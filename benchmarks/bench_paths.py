@@ -79,7 +79,7 @@ import tempfile
 import time
 
 from benchmarks import outputs as where
-from benchmarks.outputs import ROOT, image_file, results_file
+from benchmarks.outputs import ROOT, image_file, results_file, write_csv
 
 FIELDS = ["mesh", "triangles", "width", "height", "path", "median_ms", "ratio", "size_MiB", "repeats", "note",
           "faults", "sys_ms"]
@@ -480,10 +480,7 @@ def _retime(cases, repeats, only, quick):
             else:
                 rows.append(r)
             print(r["mesh"], r["width"], r["path"], r["median_ms"], r["ratio"], flush=True)
-    with open(path, "w", newline="") as fh:
-        w = csv.DictWriter(fh, FIELDS)
-        w.writeheader()
-        w.writerows(rows)
+    write_csv(path, rows, FIELDS)
     chart(rows, image_file("paths.png", quick))
     write_table(rows, quick)
     return rows
@@ -524,11 +521,7 @@ def main(argv=None):
         for r in rows[-(len(LABELS) + 3):]:
             print(r["mesh"], r["width"], r["path"], r["median_ms"], r["ratio"], r["size_MiB"], flush=True)
     out = results_file("paths.csv", args.quick)
-    os.makedirs(os.path.dirname(out), exist_ok=True)
-    with open(out, "w", newline="") as fh:
-        w = csv.DictWriter(fh, FIELDS)
-        w.writeheader()
-        w.writerows(rows)
+    write_csv(out, rows, FIELDS)
     chart(rows, image_file("paths.png", args.quick))
     write_table(rows, args.quick)
     return rows

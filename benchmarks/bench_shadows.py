@@ -47,7 +47,7 @@ from numba import njit
 from raycast_shade.common.parallel import KERNEL, in_parts, share
 
 from benchmarks import outputs as where
-from benchmarks.outputs import ROOT, results_file
+from benchmarks.outputs import ROOT, results_file, write_csv
 from raycast_shade.shading import mirrors, shadows
 from raycast_shade.shading.illumination import _request_shadows
 from raycast_shade.shading.phong import _shading_point
@@ -346,11 +346,7 @@ def main(argv=None):
         for r in rows[-len(LABELS) - 1:]:
             print(r["mesh"], r["width"], r["path"], r["median_ms"], r["ratio"], r["ns_per_ray"], r["note"], flush=True)
     out = results_file("shadows.csv", args.quick)
-    os.makedirs(os.path.dirname(out), exist_ok=True)
-    with open(out, "w", newline="") as fh:
-        w = csv.DictWriter(fh, FIELDS)
-        w.writeheader()
-        w.writerows(rows)
+    write_csv(out, rows, FIELDS)
     write_table(rows, args.quick)
     return rows
 

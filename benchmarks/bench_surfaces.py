@@ -26,14 +26,13 @@ with ``--quick``: 640x480 only, as everywhere in this suite).
 from __future__ import annotations
 
 import argparse
-import csv
 import os
 import time
 from dataclasses import replace
 
 import numpy as np
 
-from benchmarks.outputs import results_file
+from benchmarks.outputs import results_file, write_csv
 
 
 def scene(width: int, height: int, surfaces: bool = True):
@@ -148,14 +147,6 @@ def run(quick: bool = False) -> list[dict]:
     return [bench(w, h, 5 if quick else 9) for w, h in sizes]
 
 
-def write(rows, path):
-    os.makedirs(os.path.dirname(path), exist_ok=True)
-    with open(path, "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
-
-
 def outputs(quick: bool) -> list[str]:
     """The CSV :func:`main` writes (see :mod:`benchmarks.outputs`)."""
     return [results_file("surfaces.csv", quick)]
@@ -167,7 +158,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     rows = run(args.quick)
     path, = outputs(args.quick)
-    write(rows, path)
+    write_csv(path, rows)
     for r in rows:
         print(f"{r['size']}: primary {r['primary_ms']:.1f} ms, shadows (2 lights) + mirror {r['surfaces_ms']:.1f} ms "
               f"({r['slowdown']:.2f}x); target 4x primary = {r['target_nominal_ms']:.1f} ms "

@@ -36,7 +36,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import csv
 import os
 import subprocess
 import sys
@@ -44,7 +43,7 @@ import time
 
 import numpy as np
 
-from benchmarks.outputs import results_file
+from benchmarks.outputs import results_file, write_csv
 
 KEYS = ["niceness", "condition", "width", "height", "threads", "parts_per_thread", "metric", "value", "unit", "load1"]
 CASES = [(640, 480), (320, 240)]
@@ -178,11 +177,7 @@ def main(argv=None):
         os.setpriority(os.PRIO_PROCESS, 0, -args.nice)
     rows = run(args.quick, args.repeats)
     path, = outputs(args.quick)
-    os.makedirs(os.path.dirname(path), exist_ok=True)
-    with open(path, "w", newline="") as fh:
-        wr = csv.DictWriter(fh, fieldnames=KEYS)
-        wr.writeheader()
-        wr.writerows(rows)
+    write_csv(path, rows, KEYS)
     return rows
 
 

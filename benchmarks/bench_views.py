@@ -53,7 +53,7 @@ import time
 
 import numpy as np
 
-from benchmarks.outputs import results_file
+from benchmarks.outputs import results_file, write_csv
 
 FIELDS = ["benchmark", "case", "width", "height", "value", "unit", "note"]
 
@@ -383,11 +383,7 @@ def main(argv=None):
     for r in rows:
         print(f"{r['benchmark']:<10} {r['case']:<32} {r['width']!s:>5}x{r['height']!s:<5} {r['value']:>10} {r['unit']:<8} "
               f"{r['note']}")
-    os.makedirs(os.path.dirname(out), exist_ok=True)
-    with open(out, "w", newline="") as fh:
-        w = csv.DictWriter(fh, FIELDS)
-        w.writeheader()
-        w.writerows(kept + rows)
+    write_csv(out, kept + rows, FIELDS)
     print(f"wrote {out}")
     return 0
 

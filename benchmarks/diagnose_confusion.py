@@ -43,7 +43,7 @@ import time
 
 import numpy as np
 
-from benchmarks.outputs import image_file, results_file
+from benchmarks.outputs import image_file, results_file, write_csv
 
 NAMES = ("diagnose_confusion.csv", "diagnose_summary.csv", "diagnose_classes.csv", "diagnose_timing.csv")
 
@@ -195,14 +195,6 @@ def timing(repeats: int, size=(640, 480)) -> list:
     return [dict(width=size[0], height=size[1], candidates=len(d.candidates), repeats=repeats,
                  median_s=round(statistics.median(times), 3), min_s=round(min(times), 3),
                  cpus=os.cpu_count(), note="shared machine, loaded")]
-
-
-def _write(rows, path):
-    os.makedirs(os.path.dirname(path), exist_ok=True)
-    with open(path, "w", newline="") as fh:
-        wr = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        wr.writeheader()
-        wr.writerows(rows)
 
 
 def figure(rows, path):
@@ -365,12 +357,13 @@ def main(argv=None) -> int:
     sizes = [(96, 72)] if quick else [(96, 72), (192, 144)]
     rows, classes = classify(sizes, 1 if quick else 3)
     cells = aggregate(rows)
-    _write(cells, results_file(NAMES[0], quick))
+    write_csv(results_file(NAMES[0], quick), cells)
     summ = summary(cells)
-    _write(summ, results_file(NAMES[1], quick))
-    _write([dict(scene=s, method=m, width=w, group="|".join(g)) for s, m, w, g in classes] or
-           [dict(scene="", method="", width="", group="")], results_file(NAMES[2], quick))
-    _write(timing(1 if quick else 3), results_file(NAMES[3], quick))
+    write_csv(results_file(NAMES[1], quick), summ)
+    write_csv(results_file(NAMES[2], quick), [dict(scene=s, method=m, width=w, group="|".join(g))
+                                              for s, m, w, g in classes] or [dict(scene="", method="", width="",
+                                                                                    group="")])
+    write_csv(results_file(NAMES[3], quick), timing(1 if quick else 3))
     figure(cells, image_file("diagnose_confusion.png", quick))
     print(doc_table(cells))
     for s in sorted(summ, key=lambda s: (s["right"], s["exact"]))[:8]:

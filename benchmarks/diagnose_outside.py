@@ -30,14 +30,13 @@ from __future__ import annotations
 
 import argparse
 import collections
-import csv
 import io
 import os
 import re
 
 import numpy as np
 
-from benchmarks.outputs import ROOT, results_file
+from benchmarks.outputs import ROOT, results_file, write_csv
 
 NOISE = 0.75  # levels of Gaussian noise before 8-bit rounding
 INVISIBLE = 2.0  # levels: a slip this small at every pixel is no slip on this scene
@@ -342,14 +341,6 @@ def table(rows) -> str:
     return "\n".join(lines)
 
 
-def _write_csv(rows, path):
-    os.makedirs(os.path.dirname(path), exist_ok=True)
-    with open(path, "w", newline="") as fh:
-        wr = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        wr.writeheader()
-        wr.writerows(rows)
-
-
 def put_table(doc: str, text: str) -> str:
     """``doc`` with the text between the markers replaced by ``text``."""
     a, b = doc.index(BEGIN) + len(BEGIN), doc.index(END)
@@ -363,7 +354,7 @@ def main(argv=None) -> int:
     rows = run(args.quick)
     text = table(rows)
     csv_path, md_path = outputs(args.quick)[:2]
-    _write_csv(rows, csv_path)
+    write_csv(csv_path, rows)
     with open(md_path, "w", encoding="utf-8") as fh:
         fh.write(text + "\n")
     if not args.quick:

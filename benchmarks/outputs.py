@@ -12,6 +12,7 @@ checks the folders with ``git check-ignore``).
 
 from __future__ import annotations
 
+import csv
 import os
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -64,4 +65,21 @@ def write_table(text: str, quick_name: str, begin: str, end: str, quick: bool) -
     start, stop = page.index(begin) + len(begin), page.index(end)
     with open(path, "w", encoding="utf-8") as fh:
         fh.write(page[:start] + "\n" + text + page[stop:])
+    return path
+
+
+def write_csv(path: str, rows, fields=None) -> str:
+    """Write ``rows`` (dicts) to the CSV ``path``, its folder made if missing; returns ``path``.
+
+    ``fields`` orders the columns; by default every key of the rows, in first-seen order.
+    """
+    if fields is None:
+        fields = []
+        for r in rows:
+            fields += [k for k in r if k not in fields]
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    with open(path, "w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(fields))
+        writer.writeheader()
+        writer.writerows(rows)
     return path
