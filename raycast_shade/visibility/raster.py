@@ -16,13 +16,16 @@ Pipeline (Numba kernels in :mod:`.scan`, no write races)
    pixel centre and stop here; a face whose box holds exactly one is tested
    against it at once. The rest are binned into bands of ``BAND_HEIGHT``
    rows, keeping face order within a band.
-3. **Scan conversion and resolve**, a few bands per part (``launch``'s parts
-   handed out one at a time): the band owns its rows and its own z-buffer, so no
-   two threads write the same pixel. Per face and row, the span of candidate
-   pixels is solved from the three edge functions and widened by a pixel;
-   each candidate is then tested exactly and depth-tested. Once the band's
-   faces are done, each pixel's ray is intersected with its winning face's
-   plane to give the barycentrics and the distance.
+3. **Scan conversion and resolve** (:mod:`.raster_band`), a few bands per part
+   (``launch``'s parts handed out one at a time): the band owns its rows and its
+   own z-buffer, so no two threads write the same pixel. Per face and row, the
+   span of candidate pixels is solved from the three edge functions and widened
+   by a pixel; each candidate is then tested exactly and depth-tested. The faces
+   turned to the eye are drawn first; the others then skip the tiles whose
+   z-buffer is surely nearer (ties go to the lower face index either way, so
+   the order changes no pixel). Once the band's faces are done, each pixel's ray
+   is intersected with its winning face's plane to give the barycentrics and
+   the distance.
 
 Meshes under ``50,000`` faces run stages 1-2 serially (a parallel region
 would cost more than the work).
