@@ -34,12 +34,14 @@ Usage::
     python benchmarks/bench_raster.py              # the full run (minutes)
     python benchmarks/bench_raster.py --quick      # small sizes, a smoke test
     python benchmarks/bench_raster.py --crossover  # backend="auto"'s threshold
+    python benchmarks/bench_raster.py --stages     # the 82k-face frame's stages beside llvmpipe
 """
 
 from __future__ import annotations
 
 import argparse
 import csv
+import math
 import os
 import sys
 import time
@@ -266,6 +268,94 @@ def outputs(quick: bool) -> list[str]:
     return [results_file("raster_vs_raycast.csv", quick), image_file("raster_vs_raycast.png", quick)]
 
 
+STAGE_CASES = ((6, 640, 480), (6, 1920, 1080))  # icosphere(6): 81,920 faces, the issue's frame
+QUICK_STAGE_CASES = ((4, 320, 240),)
+STAGE_FIELDS = ["triangles", "width", "height", "stage", "median_ms", "over_llvmpipe", "repeats", "threads", "load1"]
+
+
+def stage_rows(cases, repeats, log=print):
+    """Where the rasterized Phong frame's time goes, beside Mesa's llvmpipe frame of the same scene
+    (``bench_peers``' pipeline: draw plus read-back of the linear image), all timed interleaved in
+    this process: medians of ``repeats`` after two warm-up rounds, and each over llvmpipe's.
+
+    Stages: ``project``, ``setup``, ``bin``, ``scan_resolve`` (``rasterize``'s own clock:
+    :func:`raycast_shade.visibility.raster._run`'s ``stages``); ``resolve_alone``, the resolve re-run
+    serially on the frame's winners (one thread: its share of ``scan_resolve`` is about half of
+    it on two); ``raster``, the whole hit buffer; ``shade`` (Phong, the kernels both back ends share);
+    ``store_srgb``, ``rs.to_uint8`` of the image (``frame.save``'s, not in llvmpipe's frame);
+    ``frame_raster`` and ``frame_raycast``, ``rs.render(scene, "phong", backend=...)``; ``llvmpipe``.
+    """
+    import numba
+
+    from benchmarks import bench_peers
+    from raycast_shade.visibility import raster as raster_mod
+    from raycast_shade.visibility.raster_band import _resolve_rows
+
+    ctx = bench_peers.llvmpipe_context()
+    rows = []
+    for sub, width, height in cases:
+        load = os.getloadavg()[0]
+        scene = bench_peers.make_scene(bench_peers.make_mesh("icosphere", sub), width, height)
+        geo, camera = scene.geometry, scene.camera
+        embree_accel(geo)
+        near = raster_mod.NEAR_FRACTION * geo.scale
+        hits = rasterize(geo, camera)
+        image = rs.render(scene, "phong", backend="raster").image
+        fid = np.where(hits.prim >= 0, geo.face_offsets[np.maximum(hits.geom, 0)] + hits.prim, -1).astype(np.int32)
+        right, up, fwd = camera.basis
+        hw, hh = camera.half_extents()
+        cs = (geo.vertices - (camera.eye - geo.origin)) @ np.stack([right, up, fwd]).T
+        out = tuple(np.empty((height, width), dt) for dt in (np.int32, np.int32, np.float32, np.float32, np.float32))
+        screen = (False, float(width), float(height), hw, hh)
+        band = (fid, np.full((height, width), np.inf), *_columns(width, hw))
+        faces = np.ascontiguousarray(geo.faces, np.int64)
+        model = np.ascontiguousarray(geo.face_model, np.int32)
+        offsets = np.ascontiguousarray(geo.face_offsets, np.int64)
+        stages = {}
+        fns = {"raster": lambda: raster_mod._run(geo, camera, near, False, None, stages),
+               "resolve_alone": lambda: _resolve_rows((fid.copy(), *band[1:]), 0, faces, cs, model, offsets, screen,
+                                                      (0.0, 0.0), out),
+               "shade": lambda: shade(scene, camera, hits, "phong"),
+               "store_srgb": lambda: rs.to_uint8(image),
+               "frame_raster": lambda: rs.render(scene, "phong", backend="raster"),
+               "frame_raycast": lambda: rs.render(scene, "phong")}
+        if not isinstance(ctx, str):
+            fns["llvmpipe"] = bench_peers.llvmpipe_pipeline(ctx, scene, camera)[1]
+        else:
+            log(f"  llvmpipe skipped: {ctx}")
+        for _ in range(2):
+            for fn in fns.values():
+                fn()
+        times = {k: [] for k in (*fns, "project", "setup", "bin", "scan_resolve")}
+        names = list(fns)
+        for r in range(repeats):
+            for name in names[r % len(names):] + names[:r % len(names)]:
+                t0 = time.perf_counter()
+                fns[name]()
+                times[name].append(time.perf_counter() - t0)
+                if name == "raster":
+                    for k, key in (("project", "project"), ("setup", "setup"), ("bin", "bin"),
+                                   ("scan_resolve", "scan")):
+                        times[k].append(stages[key])
+        load = f"{load:.1f}-{os.getloadavg()[0]:.1f}"
+        med = {k: 1e3 * float(np.median(v)) for k, v in times.items()}
+        gl = med.get("llvmpipe", math.nan)
+        for name, ms in med.items():
+            rows.append(dict(triangles=len(geo.faces), width=width, height=height, stage=name, median_ms=round(ms, 3),
+                             over_llvmpipe=round(ms / gl, 3), repeats=repeats, threads=numba.get_num_threads(),
+                             load1=load))
+        log(f"  {len(geo.faces):,d} faces {width}x{height} (load {load}): "
+            + ", ".join(f"{k} {v:.1f} ms ({v / gl:.2f}x)" for k, v in med.items()))
+    return rows
+
+
+def _columns(width, hw):
+    """The resolve's per-column ray terms (raster_band._columns), without intrinsics."""
+    from raycast_shade.visibility.raster_band import _columns as columns
+
+    return columns(float(width), hw, 0.0)
+
+
 CROSS_SUBDIVISIONS = (3, 4, 5, 6, 7, 8)
 CROSS_RESOLUTIONS = ((640, 480), (1920, 1080))
 CROSS_DISTANCES = (3.0, 9.0)  # eye distance from the unit sphere's centre: it fills much, or little
@@ -396,7 +486,20 @@ def main(argv=None):
     ap.add_argument("--csv", default=None, help="output CSV (default benchmarks/results/[quick/]raster_vs_raycast.csv)")
     ap.add_argument("--png", default=None, help="output chart (default docs/images/[quick/]raster_vs_raycast.png)")
     ap.add_argument("--crossover", action="store_true", help="measure backend='auto''s threshold instead")
+    ap.add_argument("--stages", action="store_true",
+                    help="where the rasterized frame's time goes at 82k faces, beside llvmpipe, instead")
     args = ap.parse_args(argv)
+    if args.stages:
+        warm_up()
+        rows = stage_rows(QUICK_STAGE_CASES if args.quick else STAGE_CASES, args.repeats or (3 if args.quick else 9))
+        path = Path(results_file("raster_stages.csv", args.quick))
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with open(path, "w", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=STAGE_FIELDS)
+            w.writeheader()
+            w.writerows(rows)
+        print(f"wrote {os.path.relpath(path)}")
+        return
     if args.crossover:
         warm_up()
         rows = crossover_rows(QUICK_CROSS_SUBDIVISIONS if args.quick else CROSS_SUBDIVISIONS,

@@ -16,13 +16,16 @@ Pipeline (Numba kernels in :mod:`.scan`, no write races)
    pixel centre and stop here; a face whose box holds exactly one is tested
    against it at once. The rest are binned into bands of ``BAND_HEIGHT``
    rows, keeping face order within a band.
-3. **Scan conversion and resolve**, a few bands per part (``launch``'s parts
-   handed out one at a time): the band owns its rows and its own z-buffer, so no
-   two threads write the same pixel. Per face and row, the span of candidate
-   pixels is solved from the three edge functions and widened by a pixel;
-   each candidate is then tested exactly and depth-tested. Once the band's
-   faces are done, each pixel's ray is intersected with its winning face's
-   plane to give the barycentrics and the distance.
+3. **Scan conversion and resolve** (:mod:`.raster_band`), a few bands per part
+   (``launch``'s parts handed out one at a time): the band owns its rows and its
+   own z-buffer, so no two threads write the same pixel. Per face and row, the
+   span of candidate pixels is solved from the three edge functions and widened
+   by a pixel; each candidate is then tested exactly and depth-tested. The faces
+   turned to the eye are drawn first; the others then skip the tiles whose
+   z-buffer is surely nearer (ties go to the lower face index either way, so
+   the order changes no pixel). Once the band's faces are done, each pixel's ray
+   is intersected with its winning face's plane to give the barycentrics and
+   the distance.
 
 Meshes under ``50,000`` faces run stages 1-2 serially (a parallel region
 would cost more than the work).
@@ -67,6 +70,8 @@ and counts, per pixel, the faces that cover it (for watertightness checks).
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from ..common.parallel import launch
@@ -74,8 +79,8 @@ from ..scene.camera import Camera
 from .alpha import masked_geometries
 from .hits import HitBuffer, image_buffer
 from .rays import offset_pair, subpixel_camera
-from .scan import (_CHUNK, _bin_fill_par, _bin_fill_ser, _project_par, _project_ser, _raster_kernel, _setup_par,
-                   _setup_ser)
+from .raster_band import _raster_kernel
+from .scan import _CHUNK, _bin_fill_par, _bin_fill_ser, _project_par, _project_ser, _setup_par, _setup_ser
 
 __all__ = ["rasterize", "coverage_count", "choose_backend", "covered_pixels", "NEAR_FRACTION", "BAND_HEIGHT",
            "AUTO_FACES_PER_PIXEL"]
@@ -125,9 +130,12 @@ def _check(geometry, camera, near):
     return geometry, near
 
 
-def _run(geometry, camera, near, count_mode, hits=None):
+def _run(geometry, camera, near, count_mode, hits=None, stages=None):
     """The pipeline. Returns the hit buffer (``hits``, filled in place, when given),
-    or the coverage counts in count mode."""
+    or the coverage counts in count mode. ``stages``, a dict, receives each stage's
+    wall time in seconds (``project``, ``setup``, ``bin``, ``scan``: scan and resolve)."""
+    clock = time.perf_counter
+    t0 = clock()
     W, H = camera.width, camera.height
     ortho = camera.orthographic
     right, up, fwd = camera.basis
@@ -155,18 +163,23 @@ def _run(geometry, camera, near, count_mode, hits=None):
     cs = np.empty((nv, 3))
     vx = np.empty((nv, 4))
     (_project_ser if small else _project_par)(verts, view, near, ortho, Wf, Hf, hw, hh, cs, vx)
+    t1 = clock()
     band_h = BAND_HEIGHT
     nbands = (H + band_h - 1) // band_h
     nchunks = (nf + _CHUNK - 1) // _CHUNK
     ylo = np.empty(nf, np.int32)
     yhi = np.empty(nf, np.int32)
     counts = np.zeros((nchunks, nbands), np.int64)
-    (_setup_ser if small else _setup_par)(faces, vx, cs, near, ortho, Wf, Hf, hw, hh, band_h, ylo, yhi, counts)
+    first = np.empty(nf, np.int8)
+    (_setup_ser if small else _setup_par)(faces, vx, cs, near, ortho, Wf, Hf, hw, hh, band_h, ylo, yhi, counts,
+                                          first)
+    t2 = clock()
     band_start = np.zeros(nbands + 1, np.int64)
     np.cumsum(counts.sum(axis=0), out=band_start[1:])
     pos = np.ascontiguousarray(band_start[:-1][None, :] + np.cumsum(counts, axis=0) - counts)
     band_tris = np.empty(int(band_start[-1]), np.int32)
     (_bin_fill_ser if small else _bin_fill_par)(ylo, yhi, band_h, pos, band_tris)
+    t3 = clock()
     if count_mode:
         count = np.zeros((H, W), np.int32)
         out = [np.empty((1, 1), dt) for dt in (np.int32, np.int32, np.float32, np.float32, np.float32)]
@@ -176,9 +189,11 @@ def _run(geometry, camera, near, count_mode, hits=None):
     face_model = np.ascontiguousarray(geometry.face_model, dtype=np.int32)
     face_off = np.ascontiguousarray(geometry.face_offsets, dtype=np.int64)
     # Bands differ in cost: hand them out a few at a time (a part each), to the threads as they finish.
-    launch(_raster_kernel.kernel, faces, vx, cs, near, (ortho, Wf, Hf, hw, hh), (float(ox), float(oy)), band_h,
-           band_start, band_tris, count_mode, face_model, face_off, count, tuple(out),
+    launch(_raster_kernel.kernel, faces, vx, cs, near, (ortho, Wf, Hf, hw, hh), (float(ox), float(oy)),
+           (band_h, band_start, band_tris, first), count_mode, face_model, face_off, count, tuple(out),
            parts=max(1, (len(band_start) - 1 + _BANDS_A_PART - 1) // _BANDS_A_PART), dynamic=True)
+    if stages is not None:
+        stages.update(project=t1 - t0, setup=t2 - t1, bin=t3 - t2, scan=clock() - t3)
     if count_mode:
         return count
     return HitBuffer(prim=out[0], geom=out[1], u=out[2], v=out[3], t=out[4])

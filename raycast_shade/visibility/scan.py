@@ -1,9 +1,9 @@
 """The rasterizer's scan-conversion kernels (the driver is :mod:`.raster`).
 
 Vertex projection, per-face set-up and binning into bands, near-plane
-clipping, the edge-function scan of one triangle in one band and the resolve
-of a band's winners into barycentrics and ``t``; the conventions (fill rule,
-clipping, depth keys) are written down in :mod:`.raster`'s docstring.
+clipping and the edge-function scan of one triangle in one band (the band's
+kernel and the resolve are in :mod:`.raster_band`); the conventions (fill
+rule, clipping, depth keys) are written down in :mod:`.raster`'s docstring.
 """
 
 from __future__ import annotations
@@ -14,7 +14,6 @@ import numpy as np
 from numba import njit
 
 from ..common.parallel import KERNEL, in_parts, share
-from .hits import convex_uv
 
 
 _CHUNK = 4096  # faces per set-up and binning task
@@ -304,7 +303,10 @@ def _scan_triangle(corners, rlo, rhi, W, f, plane, band, count_mode):
                         z = kmin
                     elif z > kmax:
                         z = kmax
-                    if z < zbuf[y - rlo, x]:
+                    # Nearest first, then the lower face index: the order the faces come in
+                    # does not matter (raster_band draws them in two passes).
+                    zb = zbuf[y - rlo, x]
+                    if z < zb or (z == zb and f < fid[y - rlo, x]):
                         zbuf[y - rlo, x] = z
                         fid[y - rlo, x] = f
 
@@ -343,10 +345,13 @@ def _project_par(verts, view, near, ortho, W, H, hw, hh, cs, vx, part):
 
 @in_parts
 @njit(**KERNEL)
-def _setup_par(faces, vx, cs, near, ortho, W, H, hw, hh, band_h, ylo, yhi, counts, part):
+def _setup_par(faces, vx, cs, near, ortho, W, H, hw, hh, band_h, ylo, yhi, counts, first, part):
     """Rows ``ylo[f]..yhi[f]`` of pixel centres in face ``f``'s (clipped)
-    bounding box, or ``ylo[f] = -1`` when it holds no pixel centre; and
-    ``counts[c, b]``, the faces of chunk ``c`` that touch band ``b``."""
+    bounding box, or ``ylo[f] = -1`` when it holds no pixel centre;
+    ``counts[c, b]``, the faces of chunk ``c`` that touch band ``b``; and
+    ``first[f]``, 1 for a face the scan draws in its first pass (facing the
+    eye, by its screen winding, or clipped), 0 for one it draws after them
+    (see :mod:`.raster_band`; which pass changes no pixel, only the cost)."""
     nf = faces.shape[0]
     for c in range(*share(counts.shape[0], part)):  # this part's share (common.parallel)
         px = np.empty(4)
@@ -358,6 +363,7 @@ def _setup_par(faces, vx, cs, near, ortho, W, H, hw, hh, band_h, ylo, yhi, count
             i2 = faces[f, 2]
             ylo[f] = -1
             yhi[f] = -1
+            first[f] = 1
             if vx[i0, 2] > near and vx[i1, 2] > near and vx[i2, 2] > near:
                 x0 = vx[i0, 0]
                 y0 = vx[i0, 1]
@@ -365,6 +371,10 @@ def _setup_par(faces, vx, cs, near, ortho, W, H, hw, hh, band_h, ylo, yhi, count
                 y1 = vx[i1, 1]
                 x2 = vx[i2, 0]
                 y2 = vx[i2, 1]
+                # Counter-clockwise faces (the usual outward winding) turn clockwise with y down:
+                # they face the eye, and on a closed mesh hide the others; drawn first.
+                if (x0 - x2) * (y1 - y2) - (y0 - y2) * (x1 - x2) > 0.0:
+                    first[f] = 0
                 xa, xb = _pixel_range(min(x0, x1, x2), max(x0, x1, x2), W)
                 if xa > xb:
                     continue
@@ -416,159 +426,6 @@ def _bin_fill_par(ylo, yhi, band_h, pos, out, part):
                 for b in range(ylo[f] // band_h, yhi[f] // band_h + 1):
                     out[pos[c, b]] = f
                     pos[c, b] += 1
-
-
-@in_parts
-@njit(**KERNEL)
-def _raster_kernel(faces, vx, cs, near, screen, shear, band_h, band_start, band_tris, count_mode, face_model,
-                   face_off, count, hits, part):
-    """Scan-convert every band's faces into the band's own z-buffer, then
-    resolve the band's rows into the hit buffer (depth mode), or count the
-    covering faces (count mode). ``screen`` = ``(ortho, W, H, hw, hh)``,
-    ``shear`` = ``(ox, oy)`` (see :func:`_resolve_rows`), ``hits`` = the hit
-    buffer's ``(prim, geom, u, v, t)``."""
-    ortho, W, H, hw, hh = screen
-    nbands = band_start.shape[0] - 1
-    iw = int(W)
-    ih = int(H)
-    for b in range(*share(nbands, part)):  # this part's share (common.parallel)
-        px = np.empty(4)
-        py = np.empty(4)
-        pq = np.empty(4)
-        rlo = b * band_h
-        rhi = min(ih, rlo + band_h) - 1
-        rows = 0 if count_mode else rhi - rlo + 1
-        fid = np.full((rows, iw), -1, np.int32)
-        zbuf = np.full((rows, iw), np.inf)
-        for k in range(band_start[b], band_start[b + 1]):
-            f = band_tris[k]
-            i0 = faces[f, 0]
-            i1 = faces[f, 1]
-            i2 = faces[f, 2]
-            if vx[i0, 2] > near and vx[i1, 2] > near and vx[i2, 2] > near:
-                _scan_triangle(((vx[i0, 0], vx[i0, 1], vx[i0, 3]), (vx[i1, 0], vx[i1, 1], vx[i1, 3]),
-                                (vx[i2, 0], vx[i2, 1], vx[i2, 3])), rlo, rhi, W, f, (False, 0.0, 0.0, 0.0),
-                               (fid, zbuf, count), count_mode)
-                continue
-            n = _clip(faces, vx, cs, f, near, ortho, W, H, hw, hh, px, py, pq)
-            zA = 0.0
-            zB = 0.0
-            zC = 0.0
-            if not count_mode:
-                # Clip points may lie far off screen: take the depth plane from
-                # the triangle itself, not from the clipped polygon.
-                zA, zB, zC, ok = _plane3d(faces, cs, f, ortho, W, H, hw, hh)
-                if not ok:
-                    continue
-            for j in range(1, n - 1):
-                _scan_triangle(((px[0], py[0], pq[0]), (px[j], py[j], pq[j]), (px[j + 1], py[j + 1], pq[j + 1])),
-                               rlo, rhi, W, f, (True, zA, zB, zC), (fid, zbuf, count), count_mode)
-        if not count_mode:
-            _resolve_rows(fid, rlo, faces, cs, face_model, face_off, screen, shear, hits)
-
-
-@njit(cache=True)
-def _resolve_rows(fid, rlo, faces, cs, face_model, face_off, screen, shear, hits):
-    """Barycentrics and distance of each pixel's ray on its winning face, for
-    the rows ``rlo ..`` of a band (``fid`` holds the band's winners), into
-    ``hits`` = ``(prim, geom, u, v, t)``. ``screen`` = ``(ortho, W, H, hw, hh)``;
-    ``shear`` = ``(ox, oy)``: the perspective principal-point shear of camera space
-    (zero without intrinsics), undone in the ray length that turns ``z`` into ``t``."""
-    ortho, W, H, hw, hh = screen
-    ox, oy = shear
-    prim, geom, u, v, t = hits
-    i0 = i1 = i2 = 0
-    last = -1  # the face whose set-up below is current: neighbouring pixels mostly share their face
-    p0x = p0y = p0z = nx = ny = nz = 0.0
-    e1x = e1y = e1z = e2x = e2y = e2z = 0.0
-    c1x = c1y = c1z = c2x = c2y = c2z = qn = 0.0
-    for r in range(fid.shape[0]):
-        y = rlo + r
-        sy = 1.0 - 2.0 * (y + 0.5) / H
-        for x in range(fid.shape[1]):
-            f = fid[r, x]
-            if f < 0:
-                prim[y, x] = -1
-                geom[y, x] = -1
-                u[y, x] = 0.0
-                v[y, x] = 0.0
-                t[y, x] = np.inf
-                continue
-            sx = 2.0 * (x + 0.5) / W - 1.0
-            if f != last:
-                # The face's terms, the same operations in the same order whether set up here or
-                # reused: the results do not depend on the order the pixels come in.
-                last = f
-                i0 = faces[f, 0]
-                i1 = faces[f, 1]
-                i2 = faces[f, 2]
-                p0x = cs[i0, 0]
-                p0y = cs[i0, 1]
-                p0z = cs[i0, 2]
-                e1x = cs[i1, 0] - p0x
-                e1y = cs[i1, 1] - p0y
-                e1z = cs[i1, 2] - p0z
-                e2x = cs[i2, 0] - p0x
-                e2y = cs[i2, 1] - p0y
-                e2z = cs[i2, 2] - p0z
-                nx = e1y * e2z - e1z * e2y
-                ny = e1z * e2x - e1x * e2z
-                nz = e1x * e2y - e1y * e2x
-                if not ortho:  # q = P0 - o = P0: the crosses with q are the face's too
-                    c1x = e2y * p0z - e2z * p0y
-                    c1y = e2z * p0x - e2x * p0z
-                    c1z = e2x * p0y - e2y * p0x
-                    c2x = p0y * e1z - p0z * e1y
-                    c2y = p0z * e1x - p0x * e1z
-                    c2z = p0x * e1y - p0y * e1x
-                    qn = p0x * nx + p0y * ny + p0z * nz
-            # Ray o + s d against P0 + b1 e1 + b2 e2, with q = P0 - o.
-            if ortho:
-                dx = 0.0
-                dy = 0.0
-                qx = p0x - sx * hw
-                qy = p0y - sy * hh
-                qz = p0z
-                c1x = e2y * qz - e2z * qy
-                c1y = e2z * qx - e2x * qz
-                c1z = e2x * qy - e2y * qx
-                c2x = qy * e1z - qz * e1y
-                c2y = qz * e1x - qx * e1z
-                c2z = qx * e1y - qy * e1x
-                qn = qx * nx + qy * ny + qz * nz
-            else:
-                dx = sx * hw
-                dy = sy * hh
-            dz = 1.0
-            dn = dx * nx + dy * ny + dz * nz
-            if dn != 0.0:
-                # b1 = d.(e2 x q) / d.n, b2 = d.(q x e1) / d.n, s = q.n / d.n
-                inv = 1.0 / dn
-                b1 = (dx * c1x + dy * c1y + dz * c1z) * inv
-                b2 = (dx * c2x + dy * c2y + dz * c2z) * inv
-                s = qn * inv
-            else:  # edge-on: cannot win a pixel in exact arithmetic
-                b1 = 1.0 / 3.0
-                b2 = 1.0 / 3.0
-                s = (cs[i0, 2] + cs[i1, 2] + cs[i2, 2]) / 3.0
-            if b1 < 0.0:
-                b1 = 0.0
-            if b2 < 0.0:
-                b2 = 0.0
-            sb = b1 + b2
-            if sb > 1.0:
-                b1 /= sb
-                b2 /= sb
-            if not ortho:
-                s *= math.sqrt((dx + ox) * (dx + ox) + (dy + oy) * (dy + oy) + 1.0)
-            g = face_model[f]
-            geom[y, x] = g
-            prim[y, x] = f - face_off[g]
-            # float32 rounding can take b1 + b2 past 1 again: onto the triangle as the casters store theirs
-            fu, fv = convex_uv(np.float32(b1), np.float32(b2))
-            u[y, x] = fu
-            v[y, x] = fv
-            t[y, x] = s
 
 
 # The geometry stages of a small mesh run serially (raster.py): the same builds, their

@@ -1,0 +1,247 @@
+"""The rasterizer's band kernel: the z-buffer of a band of rows, and the resolve of its winners.
+
+The driver is :mod:`.raster`; the per-triangle scan, clipping and depth planes are in :mod:`.scan`.
+
+Two passes, and a coarse depth test in between
+---------------------------------------------
+The depth test keeps, per pixel, the nearest fragment and among equally near ones the lower
+face index (:func:`.scan._scan_triangle`): a lexicographic minimum, so the order the faces
+are drawn in changes no pixel. The kernel uses that freedom. It first draws the faces that
+face the eye (by their screen winding, set in :func:`.scan._setup_par`) and the clipped ones;
+then, per tile of ``TILE`` columns of the band, it takes the largest depth key left in the
+z-buffer (``inf`` where a pixel is still empty). A remaining face whose nearest vertex key is
+beyond the largest key of every tile its box touches cannot win a pixel there (its keys are
+clamped to its vertices' range, so each fragment is strictly behind the pixel's entry) and is
+skipped whole. On a closed mesh that is most of the faces turned away: the pixels drawn, the
+winners and the hit buffer are those of a single pass, bit for bit, at about half the scan.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ..common.parallel import KERNEL, in_parts, share
+from .hits import convex_uv
+from .scan import _clip, _pixel_range, _plane3d, _scan_triangle
+
+TILE = 16  # columns of a tile of the coarse depth test (a band's rows high)
+
+
+@njit(cache=True)
+def _tile_max(zbuf, tmax):
+    """``tmax[j]``: the largest entry of the band's z-buffer in columns ``j TILE .. (j + 1) TILE - 1``."""
+    rows, w = zbuf.shape
+    for j in range(tmax.shape[0]):
+        m = -np.inf
+        for r in range(rows):
+            for x in range(j * TILE, min(w, (j + 1) * TILE)):
+                if zbuf[r, x] > m:
+                    m = zbuf[r, x]
+        tmax[j] = m
+
+
+@njit(cache=True, inline="always")
+def _behind(tmax, x0, x1, x2, kmin, W):
+    """True when no fragment of a face with these vertex ``X`` and nearest key ``kmin`` can
+    pass the depth test in the band: ``kmin`` exceeds every touched tile's largest key."""
+    xa, xb = _pixel_range(min(x0, x1, x2), max(x0, x1, x2), W)
+    if xa > xb:
+        return True
+    for j in range(xa // TILE, xb // TILE + 1):
+        if not kmin > tmax[j]:
+            return False
+    return True
+
+
+@in_parts
+@njit(**KERNEL)
+def _raster_kernel(faces, vx, cs, near, screen, shear, bins, count_mode, face_model, face_off, count, hits, part):
+    """Scan-convert every band's faces into the band's own z-buffer, then
+    resolve the band's rows into the hit buffer (depth mode), or count the
+    covering faces (count mode). ``screen`` = ``(ortho, W, H, hw, hh)``,
+    ``shear`` = ``(ox, oy)`` (see :func:`_resolve_rows`), ``bins`` =
+    ``(band_h, band_start, band_tris, first)`` (band ``b``'s faces are
+    ``band_tris[band_start[b]:band_start[b + 1]]``; ``first[f]`` is 1 for a face of the
+    first pass), ``hits`` = the hit buffer's ``(prim, geom, u, v, t)``."""
+    ortho, W, H, hw, hh = screen
+    band_h, band_start, band_tris, first = bins
+    nbands = band_start.shape[0] - 1
+    iw = int(W)
+    ih = int(H)
+    tmax = np.full((iw + TILE - 1) // TILE, np.inf)
+    px = np.empty(4)
+    py = np.empty(4)
+    pq = np.empty(4)
+    # One band's z-buffer for the part's bands: the resolve empties each entry it reads.
+    rows = 0 if count_mode else band_h
+    fid_all = np.full((rows, iw), -1, np.int32)
+    zbuf_all = np.full((rows, iw), np.inf)
+    dxs, dx2 = _columns(W, hw, shear[0])
+    for b in range(*share(nbands, part)):  # this part's share (common.parallel)
+        rlo = b * band_h
+        rhi = min(ih, rlo + band_h) - 1
+        fid = fid_all[:rhi - rlo + 1]
+        zbuf = zbuf_all[:rhi - rlo + 1]
+        # Depth mode: faces of the first pass, then the others behind the coarse test; count
+        # mode has no depth test: one pass, every face.
+        for ps in range(1 if count_mode else 2):
+            if ps == 1:
+                _tile_max(zbuf, tmax)
+            for k in range(band_start[b], band_start[b + 1]):
+                f = band_tris[k]
+                if not count_mode and first[f] != 1 - ps:
+                    continue
+                i0 = faces[f, 0]
+                i1 = faces[f, 1]
+                i2 = faces[f, 2]
+                if vx[i0, 2] > near and vx[i1, 2] > near and vx[i2, 2] > near:
+                    if ps == 1 and _behind(tmax, vx[i0, 0], vx[i1, 0], vx[i2, 0],
+                                           min(vx[i0, 3], vx[i1, 3], vx[i2, 3]), W):
+                        continue
+                    _scan_triangle(((vx[i0, 0], vx[i0, 1], vx[i0, 3]), (vx[i1, 0], vx[i1, 1], vx[i1, 3]),
+                                    (vx[i2, 0], vx[i2, 1], vx[i2, 3])), rlo, rhi, W, f, (False, 0.0, 0.0, 0.0),
+                                   (fid, zbuf, count), count_mode)
+                    continue
+                n = _clip(faces, vx, cs, f, near, ortho, W, H, hw, hh, px, py, pq)
+                zA = 0.0
+                zB = 0.0
+                zC = 0.0
+                if not count_mode:
+                    # Clip points may lie far off screen: take the depth plane from
+                    # the triangle itself, not from the clipped polygon.
+                    zA, zB, zC, ok = _plane3d(faces, cs, f, ortho, W, H, hw, hh)
+                    if not ok:
+                        continue
+                for j in range(1, n - 1):
+                    _scan_triangle(((px[0], py[0], pq[0]), (px[j], py[j], pq[j]),
+                                    (px[j + 1], py[j + 1], pq[j + 1])),
+                                   rlo, rhi, W, f, (True, zA, zB, zC), (fid, zbuf, count), count_mode)
+        if not count_mode:
+            _resolve_rows((fid, zbuf, dxs, dx2), rlo, faces, cs, face_model, face_off, screen, shear, hits)
+
+
+@njit(cache=True)
+def _columns(W, hw, ox):
+    """Per column ``x``: the ray's ``dx = sx hw`` (``sx`` = ``2 (x + 0.5) / W - 1``) and
+    ``(dx + ox)**2``, the resolve's per-pixel terms that depend on ``x`` alone (the same
+    operations, so the same bits, as computing them at every pixel)."""
+    iw = int(W)
+    dxs = np.empty(iw)
+    dx2 = np.empty(iw)
+    for x in range(iw):
+        sx = 2.0 * (x + 0.5) / W - 1.0
+        dxs[x] = sx * hw
+        dx2[x] = (dxs[x] + ox) * (dxs[x] + ox)
+    return dxs, dx2
+
+
+@njit(cache=True)
+def _resolve_rows(band, rlo, faces, cs, face_model, face_off, screen, shear, hits):
+    """Barycentrics and distance of each pixel's ray on its winning face, for
+    the rows ``rlo ..`` of a band, into ``hits`` = ``(prim, geom, u, v, t)``.
+    ``band`` = ``(fid, zbuf, dxs, dx2)``: the band's winners and z-buffer (both reset to
+    empty on the way, for the next band) and :func:`_columns`. ``screen`` = ``(ortho, W, H,
+    hw, hh)``; ``shear`` = ``(ox, oy)``: the perspective principal-point shear of camera space
+    (zero without intrinsics), undone in the ray length that turns ``z`` into ``t``."""
+    ortho, W, H, hw, hh = screen
+    ox, oy = shear
+    prim, geom, u, v, t = hits
+    fid, zbuf, dxs, dx2 = band
+    i0 = i1 = i2 = 0
+    last = -1  # the face whose set-up below is current: neighbouring pixels mostly share their face
+    p0x = p0y = p0z = nx = ny = nz = 0.0
+    e1x = e1y = e1z = e2x = e2y = e2z = 0.0
+    c1x = c1y = c1z = c2x = c2y = c2z = qn = 0.0
+    for r in range(fid.shape[0]):
+        y = rlo + r
+        sy = 1.0 - 2.0 * (y + 0.5) / H
+        dyr = sy * hh  # the row's ray dy
+        dy2 = (dyr + oy) * (dyr + oy)
+        for x in range(fid.shape[1]):
+            f = fid[r, x]
+            if f < 0:
+                prim[y, x] = -1
+                geom[y, x] = -1
+                u[y, x] = 0.0
+                v[y, x] = 0.0
+                t[y, x] = np.inf
+                continue
+            fid[r, x] = -1
+            zbuf[r, x] = np.inf
+            if f != last:
+                # The face's terms, the same operations in the same order whether set up here or
+                # reused: the results do not depend on the order the pixels come in.
+                last = f
+                i0 = faces[f, 0]
+                i1 = faces[f, 1]
+                i2 = faces[f, 2]
+                p0x = cs[i0, 0]
+                p0y = cs[i0, 1]
+                p0z = cs[i0, 2]
+                e1x = cs[i1, 0] - p0x
+                e1y = cs[i1, 1] - p0y
+                e1z = cs[i1, 2] - p0z
+                e2x = cs[i2, 0] - p0x
+                e2y = cs[i2, 1] - p0y
+                e2z = cs[i2, 2] - p0z
+                nx = e1y * e2z - e1z * e2y
+                ny = e1z * e2x - e1x * e2z
+                nz = e1x * e2y - e1y * e2x
+                if not ortho:  # q = P0 - o = P0: the crosses with q are the face's too
+                    c1x = e2y * p0z - e2z * p0y
+                    c1y = e2z * p0x - e2x * p0z
+                    c1z = e2x * p0y - e2y * p0x
+                    c2x = p0y * e1z - p0z * e1y
+                    c2y = p0z * e1x - p0x * e1z
+                    c2z = p0x * e1y - p0y * e1x
+                    qn = p0x * nx + p0y * ny + p0z * nz
+            # Ray o + s d against P0 + b1 e1 + b2 e2, with q = P0 - o.
+            if ortho:
+                dx = 0.0
+                dy = 0.0
+                qx = p0x - dxs[x]
+                qy = p0y - dyr
+                qz = p0z
+                c1x = e2y * qz - e2z * qy
+                c1y = e2z * qx - e2x * qz
+                c1z = e2x * qy - e2y * qx
+                c2x = qy * e1z - qz * e1y
+                c2y = qz * e1x - qx * e1z
+                c2z = qx * e1y - qy * e1x
+                qn = qx * nx + qy * ny + qz * nz
+            else:
+                dx = dxs[x]
+                dy = dyr
+            dz = 1.0
+            dn = dx * nx + dy * ny + dz * nz
+            if dn != 0.0:
+                # b1 = d.(e2 x q) / d.n, b2 = d.(q x e1) / d.n, s = q.n / d.n
+                inv = 1.0 / dn
+                b1 = (dx * c1x + dy * c1y + dz * c1z) * inv
+                b2 = (dx * c2x + dy * c2y + dz * c2z) * inv
+                s = qn * inv
+            else:  # edge-on: cannot win a pixel in exact arithmetic
+                b1 = 1.0 / 3.0
+                b2 = 1.0 / 3.0
+                s = (cs[i0, 2] + cs[i1, 2] + cs[i2, 2]) / 3.0
+            if b1 < 0.0:
+                b1 = 0.0
+            if b2 < 0.0:
+                b2 = 0.0
+            sb = b1 + b2
+            if sb > 1.0:
+                b1 /= sb
+                b2 /= sb
+            if not ortho:
+                s *= math.sqrt(dx2[x] + dy2 + 1.0)
+            g = face_model[f]
+            geom[y, x] = g
+            prim[y, x] = f - face_off[g]
+            # float32 rounding can take b1 + b2 past 1 again: onto the triangle as the casters store theirs
+            fu, fv = convex_uv(np.float32(b1), np.float32(b2))
+            u[y, x] = fu
+            v[y, x] = fv
+            t[y, x] = s
