@@ -313,6 +313,9 @@ _PHONG = {r: _make_phong(r) for r in (False, True)}
 _FLAT = {r: _make_flat(r) for r in (False, True)}
 _GOURAUD_GATHER = {r: _make_gouraud_gather(r) for r in (False, True)}
 _GOURAUD = {r: _make_gouraud(r) for r in (False, True)}
+# The plain builds under the kernels' own names (other modules' notes refer to them).
+_phong_vjp_kernel, _flat_vjp_kernel = _PHONG[False], _FLAT[False]
+_gouraud_gather, _gouraud_vjp_kernel = _GOURAUD_GATHER[False], _GOURAUD[False]
 
 
 def _reduce(acc) -> np.ndarray:
