@@ -103,7 +103,7 @@ from .output.frame import Frame
 from .render import render
 from .scene.camera import Camera
 from .scene.scene import Scene
-from .shading.grad_bump import BUMPS, bump_gradients
+from .shading.grad_bump import BUMPS, bump_gradients, one_bent_pass
 from .shading.grad_edges import edge_vjp
 from .shading.grad_shadow_edges import shadow_edge_vjp
 from .visibility.cast import cast_camera
@@ -249,6 +249,7 @@ def _direction_gradient(gvec, lights, directional) -> np.ndarray:
     return np.where(directional[:, None], g, 0.0)
 
 
+@one_bent_pass  # the texels' and the normals' gradients share the bent normal's pass
 def grad(scene: Scene, dL_dimage, wrt=None, *, shading="phong", frame: Frame | None = None, edges: bool = False,
          edge_density: float = 4.0, seed: int = 0, samples: int = 1) -> dict:
     """``dL/dparameter`` for ``dL/dI`` given on the linear image of ``render(scene, shading)``.

@@ -62,24 +62,21 @@ def _bilinear(tex, base, rows, cols, clamp, x, y):
 
 
 @inline_jit(**HELPER)
-def _bump(n, B, at, tri, front):
-    """Blinn's perturbed normal N' = N + (Bu (N x Pv) - Bv (N x Pu)) / |N|,
-    with N = n |Pu x Pv| along the (oriented) unit shading normal ``n`` (3-tuple).
+def _bump_slopes(B, k, at, tri, front):
+    """Height map ``k``'s slopes at the hit, and the face's UV axes: what :func:`_bump` bends the
+    normal with, and what its gradient (:mod:`.grad_bump`) goes back through (one lookup for both).
 
-    The surface is displaced along its front (winding) normal ``front``, not
-    along ``Pu x Pv``: where the UV map is left-handed (``(Pu x Pv).front < 0``,
-    e.g. the spherical mapping seen from outside), the perturbation changes
-    sign, so a negative height is a dent on every mesh. ``B`` is the height-map
-    tuple of :class:`~raycast_shade.shading.inputs.FrameInputs`; ``at`` the hit
-    (:class:`~raycast_shade.shading.records.At`) on triangle ``tri = (i0, i1, i2)``."""
-    uvs, tangents, bump_index, texels, info = B.uvs, B.tangents, B.bump_index, B.bump_texels, B.bump_info
+    Returns ``(x, y, bu, bv, ku, kv, pu, pv, area)``: the texel coordinates ``(x, y)`` of the
+    hit's UV (texel centres at integers); ``bu = ku (h(x + 1/2, y) - h(x - 1/2, y))`` and
+    ``bv = kv (h(x, y + 1/2) - h(x, y - 1/2))``, the one-texel central differences of the bilinear
+    heights (exact for heights linear in u, v); ``ku = +-cols su scale``, ``kv = +-rows sv scale``,
+    negative where the UV map is left-handed (``(Pu x Pv).front < 0``); the face's ``Pu``, ``Pv``
+    (3-tuples) and ``area = |Pu x Pv|``. ``B`` as for :func:`_bump`; ``at`` the hit on triangle
+    ``tri``; ``front`` its front (winding) normal."""
+    uvs, tangents, texels, info = B.uvs, B.tangents, B.bump_texels, B.bump_info
     f, gm, b1, b2 = at
     i0, i1, i2 = tri
-    nx, ny, nz = n
     fx, fy, fz = front
-    k = bump_index[gm]
-    if k < 0:
-        return n
     b0 = 1.0 - b1 - b2
     tu = b0 * uvs[i0, 0] + b1 * uvs[i1, 0] + b2 * uvs[i2, 0]
     tv = b0 * uvs[i0, 1] + b1 * uvs[i1, 1] + b2 * uvs[i2, 1]
@@ -97,6 +94,8 @@ def _bump(n, B, at, tri, front):
           - _bilinear(texels, base, rows, cols, clamp, x - 0.5, y)) * cols * su * scale
     bv = (_bilinear(texels, base, rows, cols, clamp, x, y + 0.5)
           - _bilinear(texels, base, rows, cols, clamp, x, y - 0.5)) * rows * sv * scale
+    ku = cols * su * scale
+    kv = rows * sv * scale
     pux = tangents[f, 0]
     puy = tangents[f, 1]
     puz = tangents[f, 2]
@@ -110,6 +109,29 @@ def _bump(n, B, at, tri, front):
     if cx * fx + cy * fy + cz * fz < 0.0:  # left-handed UVs: Pu x Pv points inwards
         bu = -bu
         bv = -bv
+        ku = -ku
+        kv = -kv
+    return x, y, bu, bv, ku, kv, (pux, puy, puz), (pvx, pvy, pvz), area
+
+
+@inline_jit(**HELPER)
+def _bump(n, B, at, tri, front):
+    """Blinn's perturbed normal N' = N + (Bu (N x Pv) - Bv (N x Pu)) / |N|,
+    with N = n |Pu x Pv| along the (oriented) unit shading normal ``n`` (3-tuple).
+
+    The surface is displaced along its front (winding) normal ``front``, not
+    along ``Pu x Pv``: where the UV map is left-handed (``(Pu x Pv).front < 0``,
+    e.g. the spherical mapping seen from outside), the perturbation changes
+    sign, so a negative height is a dent on every mesh. ``B`` is the height-map
+    tuple of :class:`~raycast_shade.shading.inputs.FrameInputs`; ``at`` the hit
+    (:class:`~raycast_shade.shading.records.At`) on triangle ``tri = (i0, i1, i2)``."""
+    nx, ny, nz = n
+    k = B.bump_index[at.gm]
+    if k < 0:
+        return n
+    _, _, bu, bv, _, _, pu, pv, area = _bump_slopes(B, k, at, tri, front)
+    pux, puy, puz = pu
+    pvx, pvy, pvz = pv
     # (N x Pv) / |N| = n x Pv, likewise for Pu
     ax = area * nx + bu * (ny * pvz - nz * pvy) - bv * (ny * puz - nz * puy)
     ay = area * ny + bu * (nz * pvx - nx * pvz) - bv * (nz * pux - nx * puz)

@@ -36,7 +36,7 @@ from ..visibility.secondary import ray_scratch
 from .grad_bump import perturb_partials
 from .grad_geometry import faces_scatter, pixels_scatter, points_scatter, vertex_shades_kernel
 from .grad_normal import _normal_vjp
-from .grad_terms import _reflected_vjp, layout
+from .grad_terms import _plain_vjp, _reflected_vjp, _rich, layout
 from .jit import CHUNK, HELPER, JIT
 from .phong import _shading_point
 from .records import At, Hit, dot
@@ -96,36 +96,44 @@ def _point_grads(gvg, i, gr):
             gvg[i, 3 + c] += gr[2][c]
 
 
-@njit(nogil=True, **JIT)
-def _phong_vjp_kernel(hits, G, B, L, face_off, materials, cam, modes, gimg, lay, acc, gpx, part):
-    """Phong pixels: ``acc[k]`` (part ``k``) += ``dL/dparameters``; ``gpx`` (H, W, 9) the pixel's
-    ``dL/da`` of its interpolated normal, ``dL/dp`` of its point and ``dL/dv`` of its view vector
-    (for the normals and the geometry), or a (0, 0, 9) array for none."""
-    prim, geom, u, v = hits
-    want_n = gpx.shape[0] != 0
-    k = part[0]
-    h, w = prim.shape
-    for y in range(*share(h, part)):
-        S = ray_scratch()
-        for x in range(w):
-            p = prim[y, x]
-            if p < 0:
-                continue
-            gm = geom[y, x]
-            if modes[gm] != METHOD_PHONG:
-                continue
-            gI = (np.float64(gimg[y, x, 0]), np.float64(gimg[y, x, 1]), np.float64(gimg[y, x, 2]))
-            if gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0:
-                continue
-            at = At(face_off[gm] + p, gm, np.float64(u[y, x]), np.float64(v[y, x]))
-            hp = _shading_point(G, B, L, cam, at, np.bool_(False), (0.0, 0.0, 0.0))
-            gn, gp, gv = _reflected_vjp(hp, _row_coefficients(materials, gm), materials, gm, L, S, gI, acc, k, lay)
-            if want_n:
-                ga = _normal_vjp(G.normals, _triangle(G.faces, at.f), at.b1, at.b2, hp.g, hp.sgn, gn)
-                for c in range(3):
-                    gpx[y, x, c] = ga[c]
-                    gpx[y, x, 3 + c] = gp[c]
-                    gpx[y, x, 6 + c] = gv[c]
+def _make_phong(rich: bool):
+    """The Phong pixels' kernel (``rich``: :func:`~.grad_terms._make_reflected_vjp`'s)."""
+    @njit(nogil=True, **JIT)
+    def _phong_vjp_kernel(hits, G, B, L, face_off, materials, cam, modes, gimg, lay, acc, gpx, part):
+        """Phong pixels: ``acc[k]`` (part ``k``) += ``dL/dparameters``; ``gpx`` (H, W, 9) the pixel's
+        ``dL/da`` of its interpolated normal, ``dL/dp`` of its point and ``dL/dv`` of its view vector
+        (for the normals and the geometry), or a (0, 0, 9) array for none."""
+        prim, geom, u, v = hits
+        want_n = gpx.shape[0] != 0
+        k = part[0]
+        h, w = prim.shape
+        for y in range(*share(h, part)):
+            S = ray_scratch()
+            for x in range(w):
+                p = prim[y, x]
+                if p < 0:
+                    continue
+                gm = geom[y, x]
+                if modes[gm] != METHOD_PHONG:
+                    continue
+                gI = (np.float64(gimg[y, x, 0]), np.float64(gimg[y, x, 1]), np.float64(gimg[y, x, 2]))
+                if gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0:
+                    continue
+                at = At(face_off[gm] + p, gm, np.float64(u[y, x]), np.float64(v[y, x]))
+                hp = _shading_point(G, B, L, cam, at, np.bool_(False), (0.0, 0.0, 0.0))
+                coef = _row_coefficients(materials, gm)
+                if rich:  # a closure constant: the plain build compiles neither GGX nor light samples
+                    gn, gp, gv = _reflected_vjp(hp, coef, materials, gm, L, S, gI, acc, k, lay)
+                else:
+                    gn, gp, gv = _plain_vjp(hp, coef, materials, gm, L, S, gI, acc, k, lay)
+                if want_n:
+                    ga = _normal_vjp(G.normals, _triangle(G.faces, at.f), at.b1, at.b2, hp.g, hp.sgn, gn)
+                    for c in range(3):
+                        gpx[y, x, c] = ga[c]
+                        gpx[y, x, 3 + c] = gp[c]
+                        gpx[y, x, 6 + c] = gv[c]
+
+    return _phong_vjp_kernel
 
 
 @njit(**JIT)
@@ -161,111 +169,153 @@ def _flat_gather(prim, geom, face_off, modes, gimg, gface):
                 gface[f, c] += gimg[y, x, c]
 
 
-@njit(nogil=True, **JIT)
-def _flat_vjp_kernel(gface, G, face_model, materials, cam, L, lay, acc, gfg, part):
-    """Flat faces (the forward pass's point: the centre, its true normal): ``acc[k]`` += the
-    parameters' gradients; ``gfg`` (F, 9) the face's ``dL/dn``, ``dL/dp``, ``dL/dv`` for the
-    geometry (each face in one part), or a (0, 9) array for none."""
-    verts, _, faces, fnormals = G
-    k = part[0]
-    nchunk = (faces.shape[0] + CHUNK - 1) // CHUNK
-    for ch in range(*share(nchunk, part)):
-        S = ray_scratch()
-        for f in range(ch * CHUNK, min(faces.shape[0], (ch + 1) * CHUNK)):
-            gI = (gface[f, 0], gface[f, 1], gface[f, 2])
-            if gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0:
-                continue
-            third = 1.0 / 3.0
-            p = _hit_point(verts, _triangle(faces, f), third, third)
-            vv = _view(cam, p)
-            gn, sgn = _facing(fnormals, f, vv)
-            m = face_model[f]
-            gr = _reflected_vjp(Hit(p, vv, gn, sgn, gn, p), _row_coefficients(materials, m), materials, m, L, S,
-                                gI, acc, k, lay)
-            if gfg.shape[0] != 0:
-                for j in range(3):
-                    for c in range(3):
-                        gfg[f, 3 * j + c] = gr[j][c]
+def _make_flat(rich: bool):
+    """The flat faces' kernel (``rich`` as for :func:`_make_phong`)."""
 
-
-@njit(**JIT)
-def _gouraud_gather(hits, G, L, face_off, materials, cam, modes, gimg, lay, acc, gvert, gnormals, gvg):
-    """Serially, in row-major order: each Gouraud pixel's ``dL/dI`` onto its corners' stored shades
-    ``gvert`` (V, 2, 3) with the forward pass's weights and sides; a corner the forward pass shades on
-    the spot (a zero normal, or one reflected into the face's hemisphere) is differentiated here,
-    into ``acc[0]``, ``gnormals`` and ``gvg`` (V, 6: ``dL/dp``, ``dL/dv`` at the vertex; (0, 6) for
-    none)."""
-    prim, geom, u, v = hits
-    verts, normals, faces, fnormals = G
-    S = ray_scratch()
-    h, w = prim.shape
-    for y in range(h):
-        for x in range(w):
-            p = prim[y, x]
-            if p < 0:
-                continue
-            gm = geom[y, x]
-            if modes[gm] != METHOD_GOURAUD:
-                continue
-            f = face_off[gm] + p
-            b1 = np.float64(u[y, x])
-            b2 = np.float64(v[y, x])
-            tri = _triangle(faces, f)
-            view = _view(cam, _hit_point(verts, tri, b1, b2))
-            gn, sgn = _facing(fnormals, f, view)
-            side = 0 if sgn > 0.0 else 1
-            sg = 1.0 - 2.0 * side
-            wts = _convex_weights(b1, b2)
-            for corner in range(3):
-                i = tri[corner]
-                wk = wts[corner]
-                gI = (wk * gimg[y, x, 0], wk * gimg[y, x, 1], wk * gimg[y, x, 2])
-                n = (sg * normals[i, 0], sg * normals[i, 1], sg * normals[i, 2])
-                if n[0] == 0.0 and n[1] == 0.0 and n[2] == 0.0:  # lit with the face's normal: no normal gradient
-                    pv = (verts[i, 0], verts[i, 1], verts[i, 2])
-                    gr = _reflected_vjp(Hit(pv, _view(cam, pv), gn, 1.0, gn, pv), _row_coefficients(materials, gm),
-                                        materials, gm, L, S, gI, acc, 0, lay)
-                    _point_grads(gvg, i, gr)
-                elif dot(n, gn) < 0.0:  # reflected across the face's plane
-                    c = dot(n, gn)
-                    nr = (n[0] - 2.0 * c * gn[0], n[1] - 2.0 * c * gn[1], n[2] - 2.0 * c * gn[2])
-                    pv = (verts[i, 0], verts[i, 1], verts[i, 2])
-                    gr = _reflected_vjp(Hit(pv, _view(cam, pv), gn, 1.0, nr, pv), _row_coefficients(materials, gm),
-                                        materials, gm, L, S, gI, acc, 0, lay)
-                    _point_grads(gvg, i, gr)
-                    q = 2.0 * dot(gr[0], gn)
-                    for cc in range(3):
-                        gnormals[i, cc] += sg * (gr[0][cc] - q * gn[cc])
-                else:
-                    for cc in range(3):
-                        gvert[i, side, cc] += gI[cc]
-
-
-@njit(nogil=True, **JIT)
-def _gouraud_vjp_kernel(gvert, G, vertex_model, materials, cam, L, lay, acc, gnormals, gvg, part):
-    """Gouraud vertices (the forward pass's point: the vertex, lit with its own normal from the side
-    a face needs): ``acc[k]`` += the parameters' gradients, ``gnormals[i]`` += the normal's (each
-    vertex in one part only)."""
-    verts, normals, _, _ = G
-    k = part[0]
-    n = verts.shape[0]
-    nchunk = (n + CHUNK - 1) // CHUNK
-    for ch in range(*share(nchunk, part)):
-        S = ray_scratch()
-        for i in range(ch * CHUNK, min(n, (ch + 1) * CHUNK)):
-            for side in range(2):
-                gI = (gvert[i, side, 0], gvert[i, side, 1], gvert[i, side, 2])
+    @njit(nogil=True, **JIT)
+    def _flat_vjp_kernel(gface, G, face_model, materials, cam, L, lay, acc, gfg, part):
+        """Flat faces (the forward pass's point: the centre, its true normal): ``acc[k]`` += the
+        parameters' gradients; ``gfg`` (F, 9) the face's ``dL/dn``, ``dL/dp``, ``dL/dv`` for the
+        geometry (each face in one part), or a (0, 9) array for none."""
+        verts, _, faces, fnormals = G
+        k = part[0]
+        nchunk = (faces.shape[0] + CHUNK - 1) // CHUNK
+        for ch in range(*share(nchunk, part)):
+            S = ray_scratch()
+            for f in range(ch * CHUNK, min(faces.shape[0], (ch + 1) * CHUNK)):
+                gI = (gface[f, 0], gface[f, 1], gface[f, 2])
                 if gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0:
                     continue
+                third = 1.0 / 3.0
+                p = _hit_point(verts, _triangle(faces, f), third, third)
+                vv = _view(cam, p)
+                gn, sgn = _facing(fnormals, f, vv)
+                m = face_model[f]
+                hp = Hit(p, vv, gn, sgn, gn, p)
+                coef = _row_coefficients(materials, m)
+                if rich:  # a closure constant (see _make_phong)
+                    gr = _reflected_vjp(hp, coef, materials, m, L, S, gI, acc, k, lay)
+                else:
+                    gr = _plain_vjp(hp, coef, materials, m, L, S, gI, acc, k, lay)
+                if gfg.shape[0] != 0:
+                    for j in range(3):
+                        for c in range(3):
+                            gfg[f, 3 * j + c] = gr[j][c]
+
+    return _flat_vjp_kernel
+
+
+def _make_gouraud_gather(rich: bool):
+    """The Gouraud pixels' gather (``rich`` as for :func:`_make_phong`)."""
+
+    @njit(**JIT)
+    def _gouraud_gather(hits, G, L, face_off, materials, cam, modes, gimg, lay, acc, gvert, gnormals, gvg):
+        """Serially, in row-major order: each Gouraud pixel's ``dL/dI`` onto its corners' stored shades
+        ``gvert`` (V, 2, 3) with the forward pass's weights and sides; a corner the forward pass shades on
+        the spot (a zero normal, or one reflected into the face's hemisphere) is differentiated here,
+        into ``acc[0]``, ``gnormals`` and ``gvg`` (V, 6: ``dL/dp``, ``dL/dv`` at the vertex; (0, 6) for
+        none)."""
+        prim, geom, u, v = hits
+        verts, normals, faces, fnormals = G
+        S = ray_scratch()
+        h, w = prim.shape
+        for y in range(h):
+            for x in range(w):
+                p = prim[y, x]
+                if p < 0:
+                    continue
+                gm = geom[y, x]
+                if modes[gm] != METHOD_GOURAUD:
+                    continue
+                f = face_off[gm] + p
+                b1 = np.float64(u[y, x])
+                b2 = np.float64(v[y, x])
+                tri = _triangle(faces, f)
+                view = _view(cam, _hit_point(verts, tri, b1, b2))
+                gn, sgn = _facing(fnormals, f, view)
+                side = 0 if sgn > 0.0 else 1
                 sg = 1.0 - 2.0 * side
-                p = (verts[i, 0], verts[i, 1], verts[i, 2])
-                nv = (sg * normals[i, 0], sg * normals[i, 1], sg * normals[i, 2])
-                m = vertex_model[i]
-                gr = _reflected_vjp(Hit(p, _view(cam, p), nv, 1.0, nv, p), _row_coefficients(materials, m),
-                                    materials, m, L, S, gI, acc, k, lay)
-                _point_grads(gvg, i, gr)
-                for c in range(3):
-                    gnormals[i, c] += sg * gr[0][c]
+                wts = _convex_weights(b1, b2)
+                for corner in range(3):
+                    i = tri[corner]
+                    wk = wts[corner]
+                    gI = (wk * gimg[y, x, 0], wk * gimg[y, x, 1], wk * gimg[y, x, 2])
+                    n = (sg * normals[i, 0], sg * normals[i, 1], sg * normals[i, 2])
+                    if n[0] == 0.0 and n[1] == 0.0 and n[2] == 0.0:  # lit with the face's normal: no normal gradient
+                        pv = (verts[i, 0], verts[i, 1], verts[i, 2])
+                        hp = Hit(pv, _view(cam, pv), gn, 1.0, gn, pv)
+                        coef = _row_coefficients(materials, gm)
+                        if rich:  # a closure constant (see _make_phong)
+                            gr = _reflected_vjp(hp, coef, materials, gm, L, S, gI, acc, 0, lay)
+                        else:
+                            gr = _plain_vjp(hp, coef, materials, gm, L, S, gI, acc, 0, lay)
+                        _point_grads(gvg, i, gr)
+                    elif dot(n, gn) < 0.0:  # reflected across the face's plane
+                        c = dot(n, gn)
+                        nr = (n[0] - 2.0 * c * gn[0], n[1] - 2.0 * c * gn[1], n[2] - 2.0 * c * gn[2])
+                        pv = (verts[i, 0], verts[i, 1], verts[i, 2])
+                        hp = Hit(pv, _view(cam, pv), gn, 1.0, nr, pv)
+                        coef = _row_coefficients(materials, gm)
+                        if rich:  # a closure constant (see _make_phong)
+                            gr = _reflected_vjp(hp, coef, materials, gm, L, S, gI, acc, 0, lay)
+                        else:
+                            gr = _plain_vjp(hp, coef, materials, gm, L, S, gI, acc, 0, lay)
+                        _point_grads(gvg, i, gr)
+                        q = 2.0 * dot(gr[0], gn)
+                        for cc in range(3):
+                            gnormals[i, cc] += sg * (gr[0][cc] - q * gn[cc])
+                    else:
+                        for cc in range(3):
+                            gvert[i, side, cc] += gI[cc]
+
+    return _gouraud_gather
+
+
+def _make_gouraud(rich: bool):
+    """The Gouraud vertices' kernel (``rich`` as for :func:`_make_phong`)."""
+
+    @njit(nogil=True, **JIT)
+    def _gouraud_vjp_kernel(gvert, G, vertex_model, materials, cam, L, lay, acc, gnormals, gvg, part):
+        """Gouraud vertices (the forward pass's point: the vertex, lit with its own normal from the side
+        a face needs): ``acc[k]`` += the parameters' gradients, ``gnormals[i]`` += the normal's (each
+        vertex in one part only)."""
+        verts, normals, _, _ = G
+        k = part[0]
+        n = verts.shape[0]
+        nchunk = (n + CHUNK - 1) // CHUNK
+        for ch in range(*share(nchunk, part)):
+            S = ray_scratch()
+            for i in range(ch * CHUNK, min(n, (ch + 1) * CHUNK)):
+                for side in range(2):
+                    gI = (gvert[i, side, 0], gvert[i, side, 1], gvert[i, side, 2])
+                    if gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0:
+                        continue
+                    sg = 1.0 - 2.0 * side
+                    p = (verts[i, 0], verts[i, 1], verts[i, 2])
+                    nv = (sg * normals[i, 0], sg * normals[i, 1], sg * normals[i, 2])
+                    m = vertex_model[i]
+                    hp = Hit(p, _view(cam, p), nv, 1.0, nv, p)
+                    coef = _row_coefficients(materials, m)
+                    if rich:  # a closure constant (see _make_phong)
+                        gr = _reflected_vjp(hp, coef, materials, m, L, S, gI, acc, k, lay)
+                    else:
+                        gr = _plain_vjp(hp, coef, materials, m, L, S, gI, acc, k, lay)
+                    _point_grads(gvg, i, gr)
+                    for c in range(3):
+                        gnormals[i, c] += sg * gr[0][c]
+
+    return _gouraud_vjp_kernel
+
+
+# Each family's two builds, compiled on first use: a scene without GGX materials or area lights
+# never compiles the rich ones (``_rich``).
+_PHONG = {r: _make_phong(r) for r in (False, True)}
+_FLAT = {r: _make_flat(r) for r in (False, True)}
+_GOURAUD_GATHER = {r: _make_gouraud_gather(r) for r in (False, True)}
+_GOURAUD = {r: _make_gouraud(r) for r in (False, True)}
+# The plain builds under the kernels' own names (other modules' notes refer to them).
+_phong_vjp_kernel, _flat_vjp_kernel = _PHONG[False], _FLAT[False]
+_gouraud_gather, _gouraud_vjp_kernel = _GOURAUD_GATHER[False], _GOURAUD[False]
 
 
 def _reduce(acc) -> np.ndarray:
@@ -313,6 +363,7 @@ def frame_vjp(hits, inputs, modes, gimg, geo, want_normals: bool = False, want_g
     mats, cam, face_off = inputs.materials, inputs.cam, inputs.face_off
     amb, lb, size = layout(mats.shape[0], L.lights.shape[0])
     lay = (np.int64(amb), np.int64(lb))
+    rich = _rich(mats, L.lights)
     acc = np.zeros((PARTS, size))
     serial = np.zeros((1, size))
     nv, nf = G.verts.shape[0], G.faces.shape[0]
@@ -322,7 +373,7 @@ def frame_vjp(hits, inputs, modes, gimg, geo, want_normals: bool = False, want_g
     hit = (hits.prim, hits.geom, hits.u, hits.v)
     gpx = np.zeros(gimg.shape[:2] + (9,) if want_normals or want_geometry else (0, 0, 9))
     if np.any(modes == METHOD_PHONG):
-        launch(_phong_vjp_kernel, hit, G, B, L, face_off, mats, cam, modes, gimg, lay, acc, gpx, parts=PARTS,
+        launch(_PHONG[rich], hit, G, B, L, face_off, mats, cam, modes, gimg, lay, acc, gpx, parts=PARTS,
                dynamic=True)
         if want_normals and (np.any(B.bump_index >= 0) or np.any(B.nmap_index >= 0)):
             perturb_partials(hits, inputs, modes, gimg, gpx)  # bumped pixels' dL/da through the bent normal
@@ -332,15 +383,15 @@ def frame_vjp(hits, inputs, modes, gimg, geo, want_normals: bool = False, want_g
         gface = np.zeros((nf, 3))
         gfg = np.zeros((nf if want_geometry else 0, 9))
         _flat_gather(hits.prim, hits.geom, face_off, modes, gimg, gface)
-        launch(_flat_vjp_kernel, gface, G, geo.face_model, mats, cam, L, lay, acc, gfg, parts=PARTS, dynamic=True)
+        launch(_FLAT[rich], gface, G, geo.face_model, mats, cam, L, lay, acc, gfg, parts=PARTS, dynamic=True)
         if want_geometry:
             faces_scatter(gfg, G, cam, gverts, gcam)
     vcol = np.zeros((0, 2, 3))
     if np.any(modes == METHOD_GOURAUD):
         gvert = np.zeros((nv, 2, 3))
         gvg = np.zeros((nv if want_geometry else 0, 6))
-        _gouraud_gather(hit, G, L, face_off, mats, cam, modes, gimg, lay, serial, gvert, gnormals, gvg)
-        launch(_gouraud_vjp_kernel, gvert, G, geo.vertex_model, mats, cam, L, lay, acc, gnormals, gvg, parts=PARTS,
+        _GOURAUD_GATHER[rich](hit, G, L, face_off, mats, cam, modes, gimg, lay, serial, gvert, gnormals, gvg)
+        launch(_GOURAUD[rich], gvert, G, geo.vertex_model, mats, cam, L, lay, acc, gnormals, gvg, parts=PARTS,
                dynamic=True)
         if want_geometry:
             points_scatter(gvg, G.verts, cam, gverts, gcam)

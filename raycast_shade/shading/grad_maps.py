@@ -47,7 +47,7 @@ from ..common.parallel import launch, share
 from ..visibility.secondary import ray_scratch
 from .grad_frame import _flat_gather
 from .grad_texels import add_rows, face_rho, pixel_rho, texel_gradient
-from .grad_terms import GM_KA, GM_KD, GM_KS, GM_SIZE, _reflected_vjp, layout
+from .grad_terms import GM_KA, GM_KD, GM_KS, GM_SIZE, _plain_vjp, layout
 from .jit import CHUNK, HELPER, JIT
 from .phong import _shading_point
 from .records import At, Hit, dot
@@ -70,7 +70,7 @@ def _point_partials(hp, mats, mi, L, S, gI, scratch, lay, out, r):
     mb = mi * GM_SIZE
     for j in range(scratch.shape[1]):
         scratch[0, j] = 0.0
-    _reflected_vjp(hp, _row_coefficients(mats, mi), mats, mi, L, S, gI, scratch, 0, lay)
+    _plain_vjp(hp, _row_coefficients(mats, mi), mats, mi, L, S, gI, scratch, 0, lay)  # no GGX, no area lights here (refused)
     for c in range(3):
         out[r, c] += scratch[0, mb + GM_KA + c]
         out[r, 3 + c] += scratch[0, mb + GM_KD + c]

@@ -34,7 +34,7 @@ from numba import njit
 
 from ..common.layout import (ATT_HEURISTIC, ATT_INVERSE_SQUARE, LIGHT_AREA, LIGHT_ATT, LIGHT_AXIS, LIGHT_COS_INNER,
                              LIGHT_COS_OUTER, LIGHT_DIRECTIONAL, LIGHT_EDGE_U, LIGHT_EDGE_V, LIGHT_EXPONENT,
-                             LIGHT_KIND, LIGHT_RADIANCE, LIGHT_SHADOWS, LIGHT_SPOT, LIGHT_VEC, MAT_METALLIC,
+                             LIGHT_KIND, LIGHT_RADIANCE, LIGHT_SAMPLES, LIGHT_SHADOWS, LIGHT_SPOT, LIGHT_VEC, MAT_METALLIC,
                              MAT_MODEL, MAT_ROUGHNESS, MAT_SHININESS, MODEL_BLINN, MODEL_GGX)
 from .grad_ggx import _ggx_vjp
 from .illumination import _light_at, _light_point, _samples
@@ -175,96 +175,118 @@ def _axes_vjp(lights, i, j, gq, acc, row, ob):
         acc[row, ob + GL_EDGE_V + c] += b * gq[c]
 
 
-@njit(**HELPER)
-def _reflected_vjp(hp, coef, mats, mi, L, S, gI, acc, row, lay):
-    """Add ``dL/dparameter`` of the reflectance equation at ``hp`` into ``acc[row]`` and return
-    ``(dL/dn, dL/dp, dL/dv)`` (three 3-tuples: the unit shading normal, the shading point through
-    the lights' directions and distances, the unit view vector), for ``gI = dL/dI`` (3-tuple).
+def _rich(materials, lights) -> bool:
+    """Whether a frame needs :func:`_reflected_vjp` rather than :func:`_plain_vjp`: a GGX material,
+    or a light of more than one sample (an area light)."""
+    return bool(np.any(materials[:, MAT_MODEL] == MODEL_GGX) or np.any(lights[:, LIGHT_KIND] == LIGHT_AREA)
+                or np.any(lights[:, LIGHT_SAMPLES] > 1))
 
-    ``hp``, ``coef``, ``mats``, ``mi``, ``L``, ``S`` as for
-    :func:`~raycast_shade.shading.illumination._reflected`; ``acc`` (P, R) float64 with the
-    slots of :func:`layout`, ``lay = (ambient offset, first light's offset)``. Every light sample
-    (an area light's, each a point light at a fixed offset, its shadow ray held as traced), models
-    Phong, Blinn-Phong and GGX (:func:`~raycast_shade.shading.grad_ggx._ggx_vjp`)."""
-    ambient, lights, dmin, handle, unit, att_on = L.ambient, L.lights, L.dmin, L.handle, L.unit, L.att_on
-    amb, lb = lay
-    mb = mi * GM_SIZE
-    for c in range(3):
-        acc[row, mb + GM_KA + c] += gI[c] * ambient[c]
-        acc[row, amb + c] += gI[c] * coef[c]
-    n = hp.n
-    t = mats[mi, MAT_SHININESS]
-    model = mats[mi, MAT_MODEL]
-    gnx = gny = gnz = 0.0
-    gpx = gpy = gpz = 0.0
-    gvx = gvy = gvz = 0.0
-    prm = (t, mats[mi, MAT_METALLIC], mats[mi, MAT_ROUGHNESS])
-    for i in range(lights.shape[0]):
-        ob = lb + i * GL_SIZE
-        for j in range(_samples(lights, i)):  # an area light's samples: point lights at fixed offsets
-            s, d, law, cone = _light_at(lights, i, j, hp.p, dmin, np.bool_(att_on))
-            if d == 0.0 or cone == 0.0:
-                continue
-            att = law * cone
-            ndots = dot(n, s)
-            if ndots <= 0.0:
-                continue
-            if ndots > 1.0:
-                ndots = 1.0
-            if lights[i, LIGHT_SHADOWS] != 0.0 and handle != 0:  # visibility held fixed: the forward ray
-                if _occluded(handle, S, hp.o, hp.g, s, _light_point(lights, i, j), d < np.inf, unit):
+
+def _make_reflected_vjp(rich: bool):
+    """:func:`_reflected_vjp` (``rich``: every light sample, the GGX model) or :func:`_plain_vjp` (one
+    sample a light, Phong and Blinn-Phong only). ``rich`` is a closure constant, its branches dropped
+    before typing: the GGX branch and the samples' loop, present though not taken, slowed the plain
+    Phong gradient by a quarter and added 2-3 s to its compile (see the CHANGELOG)."""
+
+    @njit(**HELPER)
+    def reflected_vjp(hp, coef, mats, mi, L, S, gI, acc, row, lay):
+        """Add ``dL/dparameter`` of the reflectance equation at ``hp`` into ``acc[row]`` and return
+        ``(dL/dn, dL/dp, dL/dv)`` (three 3-tuples: the unit shading normal, the shading point through
+        the lights' directions and distances, the unit view vector), for ``gI = dL/dI`` (3-tuple).
+
+        ``hp``, ``coef``, ``mats``, ``mi``, ``L``, ``S`` as for
+        :func:`~raycast_shade.shading.illumination._reflected`; ``acc`` (P, R) float64 with the
+        slots of :func:`layout`, ``lay = (ambient offset, first light's offset)``. Every light sample
+        (an area light's, each a point light at a fixed offset, its shadow ray held as traced), models
+        Phong, Blinn-Phong and GGX (:func:`~raycast_shade.shading.grad_ggx._ggx_vjp`)."""
+        ambient, lights, dmin, handle, unit, att_on = L.ambient, L.lights, L.dmin, L.handle, L.unit, L.att_on
+        amb, lb = lay
+        mb = mi * GM_SIZE
+        for c in range(3):
+            acc[row, mb + GM_KA + c] += gI[c] * ambient[c]
+            acc[row, amb + c] += gI[c] * coef[c]
+        n = hp.n
+        t = mats[mi, MAT_SHININESS]
+        model = mats[mi, MAT_MODEL]
+        gnx = gny = gnz = 0.0
+        gpx = gpy = gpz = 0.0
+        gvx = gvy = gvz = 0.0
+        prm = (t, mats[mi, MAT_METALLIC], mats[mi, MAT_ROUGHNESS])
+        for i in range(lights.shape[0]):
+            ob = lb + i * GL_SIZE
+            ns = 1
+            if rich:
+                ns = _samples(lights, i)
+            for j in range(ns):  # an area light's samples: point lights at fixed offsets
+                s, d, law, cone = _light_at(lights, i, j, hp.p, dmin, np.bool_(att_on))
+                if d == 0.0 or cone == 0.0:
                     continue
-            w_att = 0.0
-            if model == MODEL_GGX:
-                gw = (gI[0] * att * lights[i, LIGHT_RADIANCE + 0], gI[1] * att * lights[i, LIGHT_RADIANCE + 1],
-                      gI[2] * att * lights[i, LIGHT_RADIANCE + 2])
-                val, gkd, gmet, grough, gm_n, gm_s, gm_v, gnd = _ggx_vjp(n, s, hp.v, ndots, coef, prm, gw)
+                att = law * cone
+                ndots = dot(n, s)
+                if ndots <= 0.0:
+                    continue
+                if ndots > 1.0:
+                    ndots = 1.0
+                if lights[i, LIGHT_SHADOWS] != 0.0 and handle != 0:  # visibility held fixed: the forward ray
+                    if _occluded(handle, S, hp.o, hp.g, s, _light_point(lights, i, j), d < np.inf, unit):
+                        continue
+                w_att = 0.0
+                if rich and model == MODEL_GGX:
+                    gw = (gI[0] * att * lights[i, LIGHT_RADIANCE + 0], gI[1] * att * lights[i, LIGHT_RADIANCE + 1],
+                          gI[2] * att * lights[i, LIGHT_RADIANCE + 2])
+                    val, gkd, gmet, grough, gm_n, gm_s, gm_v, gnd = _ggx_vjp(n, s, hp.v, ndots, coef, prm, gw)
+                    for c in range(3):
+                        acc[row, ob + GL_RAD + c] += gI[c] * att * val[c]
+                        acc[row, mb + GM_KD + c] += gkd[c]
+                        w_att += gI[c] * lights[i, LIGHT_RADIANCE + c] * val[c]
+                    acc[row, mb + GM_METALLIC] += gmet
+                    acc[row, mb + GM_ROUGHNESS] += grough
+                    gnx += gnd * s[0] + gm_n[0]
+                    gny += gnd * s[1] + gm_n[1]
+                    gnz += gnd * s[2] + gm_n[2]
+                    gs = (gnd * n[0] + gm_s[0], gnd * n[1] + gm_s[1], gnd * n[2] + gm_s[2])
+                    gvx += gm_v[0]
+                    gvy += gm_v[1]
+                    gvz += gm_v[2]
+                else:
+                    cs, dcdn, dcds, dcdv = _cosine_vjp(model, n, s, hp.v, ndots)
+                    spec, dspec, dspec_t = _lobe_vjp(cs, t)
+                    w_nd = w_sp = 0.0
+                    for c in range(3):
+                        rc = lights[i, LIGHT_RADIANCE + c]
+                        kd = coef[3 + c]
+                        ks = coef[6 + c]
+                        acc[row, ob + GL_RAD + c] += gI[c] * att * (kd * ndots + ks * spec)
+                        acc[row, mb + GM_KD + c] += gI[c] * att * rc * ndots
+                        acc[row, mb + GM_KS + c] += gI[c] * att * rc * spec
+                        w_att += gI[c] * rc * (kd * ndots + ks * spec)
+                        w_nd += gI[c] * att * rc * kd
+                        w_sp += gI[c] * att * rc * ks
+                    acc[row, mb + GM_T] += w_sp * dspec_t
+                    g_c = w_sp * dspec
+                    gnx += w_nd * s[0] + g_c * dcdn[0]
+                    gny += w_nd * s[1] + g_c * dcdn[1]
+                    gnz += w_nd * s[2] + g_c * dcdn[2]
+                    gs = (w_nd * n[0] + g_c * dcds[0], w_nd * n[1] + g_c * dcds[1], w_nd * n[2] + g_c * dcds[2])
+                    gvx += g_c * dcdv[0]
+                    gvy += g_c * dcdv[1]
+                    gvz += g_c * dcdv[2]
+                gq, g_k, g_cones = _light_vjp(lights, i, s, d, law, cone, dmin, att_on, w_att, gs)
                 for c in range(3):
-                    acc[row, ob + GL_RAD + c] += gI[c] * att * val[c]
-                    acc[row, mb + GM_KD + c] += gkd[c]
-                    w_att += gI[c] * lights[i, LIGHT_RADIANCE + c] * val[c]
-                acc[row, mb + GM_METALLIC] += gmet
-                acc[row, mb + GM_ROUGHNESS] += grough
-                gnx += gnd * s[0] + gm_n[0]
-                gny += gnd * s[1] + gm_n[1]
-                gnz += gnd * s[2] + gm_n[2]
-                gs = (gnd * n[0] + gm_s[0], gnd * n[1] + gm_s[1], gnd * n[2] + gm_s[2])
-                gvx += gm_v[0]
-                gvy += gm_v[1]
-                gvz += gm_v[2]
-            else:
-                cs, dcdn, dcds, dcdv = _cosine_vjp(model, n, s, hp.v, ndots)
-                spec, dspec, dspec_t = _lobe_vjp(cs, t)
-                w_nd = w_sp = 0.0
-                for c in range(3):
-                    rc = lights[i, LIGHT_RADIANCE + c]
-                    kd = coef[3 + c]
-                    ks = coef[6 + c]
-                    acc[row, ob + GL_RAD + c] += gI[c] * att * (kd * ndots + ks * spec)
-                    acc[row, mb + GM_KD + c] += gI[c] * att * rc * ndots
-                    acc[row, mb + GM_KS + c] += gI[c] * att * rc * spec
-                    w_att += gI[c] * rc * (kd * ndots + ks * spec)
-                    w_nd += gI[c] * att * rc * kd
-                    w_sp += gI[c] * att * rc * ks
-                acc[row, mb + GM_T] += w_sp * dspec_t
-                g_c = w_sp * dspec
-                gnx += w_nd * s[0] + g_c * dcdn[0]
-                gny += w_nd * s[1] + g_c * dcdn[1]
-                gnz += w_nd * s[2] + g_c * dcdn[2]
-                gs = (w_nd * n[0] + g_c * dcds[0], w_nd * n[1] + g_c * dcds[1], w_nd * n[2] + g_c * dcds[2])
-                gvx += g_c * dcdv[0]
-                gvy += g_c * dcdv[1]
-                gvz += g_c * dcdv[2]
-            gq, g_k, g_cones = _light_vjp(lights, i, s, d, law, cone, dmin, att_on, w_att, gs)
-            for c in range(3):
-                acc[row, ob + GL_VEC + c] += gq[c]
-            acc[row, ob + GL_K] += g_k
-            acc[row, ob + GL_COS_INNER] += g_cones[0]
-            acc[row, ob + GL_COS_OUTER] += g_cones[1]
-            if lights[i, LIGHT_KIND] == LIGHT_AREA:
-                _axes_vjp(lights, i, j, gq, acc, row, ob)
-            if lights[i, LIGHT_KIND] != LIGHT_DIRECTIONAL:  # s and d depend on q - p only
-                gpx -= gq[0]
-                gpy -= gq[1]
-                gpz -= gq[2]
-    return (gnx, gny, gnz), (gpx, gpy, gpz), (gvx, gvy, gvz)
+                    acc[row, ob + GL_VEC + c] += gq[c]
+                acc[row, ob + GL_K] += g_k
+                acc[row, ob + GL_COS_INNER] += g_cones[0]
+                acc[row, ob + GL_COS_OUTER] += g_cones[1]
+                if rich and lights[i, LIGHT_KIND] == LIGHT_AREA:
+                    _axes_vjp(lights, i, j, gq, acc, row, ob)
+                if lights[i, LIGHT_KIND] != LIGHT_DIRECTIONAL:  # s and d depend on q - p only
+                    gpx -= gq[0]
+                    gpy -= gq[1]
+                    gpz -= gq[2]
+        return (gnx, gny, gnz), (gpx, gpy, gpz), (gvx, gvy, gvz)
+
+    return reflected_vjp
+
+
+_reflected_vjp = _make_reflected_vjp(True)
+_plain_vjp = _make_reflected_vjp(False)

@@ -26,19 +26,15 @@ __all__ = []
 
 
 @inline_jit(**HELPER)
-def _normal_map(n, B, normals, at, tri, g, sgn):
-    """``n`` (the oriented unit shading normal, 3-tuple) bent by the model's normal map,
-    or ``n`` itself when the model has none. ``B`` is the height-map tuple of
-    :class:`~raycast_shade.shading.inputs.FrameInputs` (its normal-map fields from index 5);
-    ``normals`` the vertex normals; ``at`` the hit on triangle ``tri``; ``g, sgn`` the
-    geometric normal turned to the viewer and the sign that turned it."""
+def _nmap_sample(B, k, at, tri):
+    """Normal map ``k`` at the hit: what :func:`_normal_map` bends the normal with, and what its
+    gradient (:mod:`.grad_bump`) goes back through (one lookup for both).
+
+    Returns ``(tu, tv, x, y, z, t, w)``: the hit's UV; the texel's tangent-space normal
+    ``x = (2r - 1) s``, ``y = (2g - 1) s``, ``z = 2b - 1`` (level 0, bilinear; ``s`` the material's
+    ``normal_scale``); the interpolated vertex tangent ``t`` (3-tuple, not yet orthogonal to the
+    normal) and its handedness ``w`` (+-1). ``B``, ``at``, ``tri`` as for :func:`_normal_map`."""
     uvs = B.uvs
-    nmap_index = B.nmap_index
-    k = nmap_index[at.gm]
-    if k < 0:
-        return n
-    texels = B.nmap_texels
-    info = B.nmap_info
     scale = B.nmap_scale[at.gm]
     tangents = B.vertex_tangents
     i0, i1, i2 = tri
@@ -47,19 +43,34 @@ def _normal_map(n, B, normals, at, tri, g, sgn):
     b0 = 1.0 - b1 - b2
     tu = b0 * uvs[i0, 0] + b1 * uvs[i1, 0] + b2 * uvs[i2, 0]
     tv = b0 * uvs[i0, 1] + b1 * uvs[i1, 1] + b2 * uvs[i2, 1]
-    r, gg, bb = _sample_level(texels, info, k, tu, tv, 0)
+    r, gg, bb = _sample_level(B.nmap_texels, B.nmap_info, k, tu, tv, 0)
     x = (2.0 * r - 1.0) * scale
     y = (2.0 * gg - 1.0) * scale
     z = 2.0 * bb - 1.0
-    # The surface's own normal (the viewer's flip undone), and its tangent made orthogonal to it.
-    nx = sgn * n[0]
-    ny = sgn * n[1]
-    nz = sgn * n[2]
     tx = b0 * tangents[i0, 0] + b1 * tangents[i1, 0] + b2 * tangents[i2, 0]
     ty = b0 * tangents[i0, 1] + b1 * tangents[i1, 1] + b2 * tangents[i2, 1]
     tz = b0 * tangents[i0, 2] + b1 * tangents[i1, 2] + b2 * tangents[i2, 2]
     w = b0 * tangents[i0, 3] + b1 * tangents[i1, 3] + b2 * tangents[i2, 3]
     w = -1.0 if w < 0.0 else 1.0
+    return tu, tv, x, y, z, (tx, ty, tz), w
+
+
+@inline_jit(**HELPER)
+def _normal_map(n, B, normals, at, tri, g, sgn):
+    """``n`` (the oriented unit shading normal, 3-tuple) bent by the model's normal map,
+    or ``n`` itself when the model has none. ``B`` is the height-map tuple of
+    :class:`~raycast_shade.shading.inputs.FrameInputs` (its normal-map fields from index 5);
+    ``normals`` the vertex normals; ``at`` the hit on triangle ``tri``; ``g, sgn`` the
+    geometric normal turned to the viewer and the sign that turned it."""
+    k = B.nmap_index[at.gm]
+    if k < 0:
+        return n
+    _, _, x, y, z, t, w = _nmap_sample(B, k, at, tri)
+    tx, ty, tz = t
+    # The surface's own normal (the viewer's flip undone), and its tangent made orthogonal to it.
+    nx = sgn * n[0]
+    ny = sgn * n[1]
+    nz = sgn * n[2]
     c = tx * nx + ty * ny + tz * nz
     tx -= c * nx
     ty -= c * ny
