@@ -97,17 +97,14 @@ def _point_gcoef(scratch, mi, gI):
 
 
 @njit(nogil=True, **JIT)
-def _phong_tex_kernel(hits, G, B, L, T, face_off, materials, unit, cam, modes, gimg, lay, acc, out, part):
+def _phong_tex_kernel(hits, G, B, L, T, face_off, materials, unit, cam, modes, gimg, lay, acc, gpx, part):
     """Phong pixels with their textured coefficients: ``acc[k]`` (part ``k``) += ``dL/dparameters``;
-    ``out = (gpx, gbc)``: ``gpx`` (H, W, 9) as :func:`~raycast_shade.shading.grad_frame._phong_vjp_kernel`'s
-    (``dL/da``; with ``gbc`` also ``dL/dp``, ``dL/dv``), or (0, 0, 9) for none; ``gbc`` (H, W, 2)
-    ``dL/d(b1, b2)`` through the point's coefficients for the geometry
-    (:func:`~raycast_shade.shading.grad_geotex.coefficients_bary_vjp`), or (0, 0, 2) for none."""
+    ``gpx`` (H, W, 9) as :func:`~raycast_shade.shading.grad_frame._phong_vjp_kernel`'s (``dL/da``,
+    ``dL/dp``, ``dL/dv``), or (0, 0, 9) for none. The coefficients' ``dL/db`` for the geometry is
+    :func:`_phong_coefficients_kernel`'s pass (its own kernel: its compile is paid only when asked)."""
     prim, geom, u, v = hits
-    gpx, gbc = out
     cmode = T[2]
     want_n = gpx.shape[0] != 0
-    want_g = gbc.shape[0] != 0
     k = part[0]
     scratch = np.zeros((1, acc.shape[1]))
     h, w = prim.shape
@@ -128,11 +125,6 @@ def _phong_tex_kernel(hits, G, B, L, T, face_off, materials, unit, cam, modes, g
             fac = _point_coefficients(G, B.uvs, at, cam, x, y, True, unit, T)
             hp = _shading_point(G, B, L, cam, at, np.bool_(False), (0.0, 0.0, 0.0))
             gn, gp, gv = _reflected_vjp(hp, coef, materials, gm, L, S, gI, scratch, 0, lay)
-            if want_g:
-                gb = coefficients_bary_vjp(materials, T, at, _triangle(G.faces, at.f), B.uvs,
-                                           pixel_footprint(G, B.uvs, at, cam, x, y), _point_gcoef(scratch, gm, gI))
-                gbc[y, x, 0] = gb[0]
-                gbc[y, x, 1] = gb[1]
             _fold(scratch, acc, k, gm, lay[0], fac, cmode[gm] == COLOR_NONE)
             if want_n:
                 ga = _normal_vjp(G.normals, _triangle(G.faces, at.f), at.b1, at.b2, hp.g, hp.sgn, gn)
@@ -140,6 +132,37 @@ def _phong_tex_kernel(hits, G, B, L, T, face_off, materials, unit, cam, modes, g
                     gpx[y, x, c] = ga[c]
                     gpx[y, x, 3 + c] = gp[c]
                     gpx[y, x, 6 + c] = gv[c]
+
+
+@njit(nogil=True, **JIT)
+def _phong_coefficients_kernel(hits, G, B, L, T, face_off, materials, cam, modes, gimg, lay, size, gbc, part):
+    """Phong pixels, for the geometry: ``gbc[y, x]`` = ``dL/d(b1, b2)`` through the pixel's
+    coefficients (:func:`~raycast_shade.shading.grad_geotex.coefficients_bary_vjp`), their
+    ``dL/d(ka, kd, ks)`` read from :func:`_reflected_vjp`'s material slots (a scratch row per pixel)."""
+    prim, geom, u, v = hits
+    scratch = np.zeros((1, size))
+    h, w = prim.shape
+    for y in range(*share(h, part)):
+        S = ray_scratch()
+        for x in range(w):
+            p = prim[y, x]
+            if p < 0:
+                continue
+            gm = geom[y, x]
+            if modes[gm] != METHOD_PHONG:
+                continue
+            gI = (np.float64(gimg[y, x, 0]), np.float64(gimg[y, x, 1]), np.float64(gimg[y, x, 2]))
+            if gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0:
+                continue
+            at = At(face_off[gm] + p, gm, np.float64(u[y, x]), np.float64(v[y, x]))
+            coef = _point_coefficients(G, B.uvs, at, cam, x, y, True, materials, T)
+            hp = _shading_point(G, B, L, cam, at, np.bool_(False), (0.0, 0.0, 0.0))
+            scratch[0, :] = 0.0
+            _reflected_vjp(hp, coef, materials, gm, L, S, gI, scratch, 0, lay)
+            gb = coefficients_bary_vjp(materials, T, at, _triangle(G.faces, at.f), B.uvs,
+                                       pixel_footprint(G, B.uvs, at, cam, x, y), _point_gcoef(scratch, gm, gI))
+            gbc[y, x, 0] = gb[0]
+            gbc[y, x, 1] = gb[1]
 
 
 @njit(nogil=True, **JIT)
@@ -337,8 +360,11 @@ def textured_vjp(hits, inputs, modes, gimg, geo, want_normals: bool = False, wan
     gpx = np.zeros(gimg.shape[:2] + (9,) if want_normals or want_geometry else (0, 0, 9))
     gbc = np.zeros(gimg.shape[:2] + (2,) if want_geometry else (0, 0, 2))
     if np.any(modes == METHOD_PHONG):
-        launch(_phong_tex_kernel, hit, G, B, L, T, face_off, mats, unit, cam, modes, gimg, lay, acc, (gpx, gbc),
+        launch(_phong_tex_kernel, hit, G, B, L, T, face_off, mats, unit, cam, modes, gimg, lay, acc, gpx,
                parts=PARTS, dynamic=True)
+        if want_geometry:
+            launch(_phong_coefficients_kernel, hit, G, B, L, T, face_off, mats, cam, modes, gimg, lay, size, gbc,
+                   parts=PARTS, dynamic=True)
         if want_normals and (np.any(B.bump_index >= 0) or np.any(B.nmap_index >= 0)):
             perturb_partials(hits, inputs, modes, gimg, gpx)  # bumped pixels' dL/da through the bent normal
         if want_normals:
