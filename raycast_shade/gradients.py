@@ -53,9 +53,10 @@ roughness floor). Area lights: each sample is a point light at a fixed offset ``
 are the unconstrained per-component gradients (an ``AreaLight`` keeps ``u`` and ``v`` perpendicular:
 project a step). Mirrors (:mod:`raycast_shade.shading.grad_mirror`): a reflective pixel is
 ``(1 - rho) local + rho R``; ``R``, the colour one mirror ray meets, is differentiated with respect to
-the materials and lights it shows, with the ray and where it lands held: on a scene with mirrors
-``normals`` and the geometry are refused, and a mirror ray meeting another mirror is refused unless
-the frame was rendered with ``max_depth=1``.
+the materials and lights it shows and, through both hits (each on its held triangle) and the
+reflection about the mirror's interpolated normal, to the vertices, the camera and the vertex
+normals; a mirror ray meeting another mirror is refused unless the frame was rendered with
+``max_depth=1``.
 
 The geometry (``vertices``, ``camera_*``) is differentiated through the interior of each
 triangle: the pixel's triangle is held, its hit point and barycentrics move with the vertices
@@ -80,9 +81,11 @@ gradient is then 0), ka ``ka * [colour] * ka_map(uv) * occlusion``, ks ``ks * ks
 materials, area lights and one mirror bounce are :mod:`raycast_shade.shading.grad_ggx`',
 :mod:`raycast_shade.shading.grad_terms`' and :mod:`raycast_shade.shading.grad_mirror`'s. Not
 differentiated yet (refused with a ValueError naming what): geometry through lens distortion; the
-geometry on a scene with colours, colour maps, bump or normal maps; GGX materials, mirrors and area
-lights on a scene with colours or maps, and with the colour or texel families; on a scene with mirrors
-the vertex normals and the geometry, and more than one bounce. The kernels are
+geometry on a scene with bump or normal maps (on a scene with colours or colour maps it is given: the
+coefficients move with each hit's barycentrics, :mod:`raycast_shade.shading.grad_geotex`, a mip-mapped
+map's level held); GGX materials, mirrors and area
+lights on a scene with colours or maps, and with the colour or texel families; more than one mirror
+bounce. The kernels are
 :mod:`raycast_shade.shading.grad_terms` and
 :mod:`raycast_shade.shading.grad_frame`; :func:`raycast_shade.fit` fits parameters with them.
 """
@@ -158,10 +161,6 @@ def check_scene(scene, inputs, names=(), mirrors_ok: bool = False) -> None:
     problems = unsupported(inputs, [m.material.name for m in scene.models], [light.name for light in scene.lights],
                            maps_asked=any(n in MAPS or n in BUMPS for n in names),
                            geometry_asked=any(n in GEOMETRY for n in names), mirrors_ok=mirrors_ok)
-    held = [n for n in names if n == "normals" or n in GEOMETRY]
-    if mirrors_ok and scene.geometry.reflective and held:
-        problems.append(f"{', '.join(held)}: not differentiated on a scene with mirrors yet (the mirror rays' "
-                        "directions are held; the materials', lights' and reflectivities' gradients are done)")
     if problems:
         raise ValueError("scene: no gradients for this scene yet: " + "; ".join(problems))
 
@@ -392,9 +391,9 @@ def _zero_maps(scene, maps) -> dict:
 
 def _frame_vjp(hits, inputs, modes, gimg, geo, want_normals, want_geometry):
     """:func:`~raycast_shade.shading.grad_frame.frame_vjp`, or on a frame with colours or maps
-    :func:`~raycast_shade.shading.grad_textured.textured_vjp` (no geometry: refused before)."""
+    :func:`~raycast_shade.shading.grad_textured.textured_vjp`."""
     if inputs.tex_on:
-        return textured_vjp(hits, inputs, modes, gimg, geo, want_normals) + (None, None)
+        return textured_vjp(hits, inputs, modes, gimg, geo, want_normals, want_geometry)
     return frame_vjp(hits, inputs, modes, gimg, geo, want_normals, want_geometry)
 
 
@@ -439,13 +438,20 @@ def _vjp(scene, camera, hits, inputs, modes, gimg, mirrors, want_normals, want_g
         return _frame_vjp(hits, inputs, modes, gimg, scene.geometry, want_normals, want_geometry)
     amb, lb, size = layout(len(scene.models), inputs.lighting.lights.shape[0])
     local = shade(scene, camera, hits, shading)
-    g_local, bounce, nested, _ = mirror_vjp(hits, inputs, gimg, local, (np.int64(amb), np.int64(lb)), size,
-                                         int(embree_accel(scene.geometry).handle), float(scene.geometry.scale), PARTS)
+    g_local, bounce, nested, _, extra = mirror_vjp(hits, inputs, gimg, local, (np.int64(amb), np.int64(lb)), size,
+                                                int(embree_accel(scene.geometry).handle), float(scene.geometry.scale),
+                                                PARTS, want=(want_geometry, want_normals))
     if depth > 1 and np.any(nested):
         raise ValueError(f"scene: a mirror ray meets another reflective surface at {int(np.count_nonzero(nested))} "
                          "pixels: one mirror bounce is differentiated, not more (render with max_depth=1)")
-    out = _frame_vjp(hits, inputs, modes, g_local, scene.geometry, want_normals, want_geometry)
-    return (out[0] + bounce,) + tuple(out[1:])
+    params, gnormals, gverts, gcam = _frame_vjp(hits, inputs, modes, g_local, scene.geometry, want_normals,
+                                                want_geometry)
+    if want_geometry:  # the bounces' geometry: both hits and the reflection (grad_mirror.mirror_scatter)
+        gverts += extra[0]
+        gcam += extra[1]
+    if want_normals:
+        gnormals += extra[2]
+    return params + bounce, gnormals, gverts, gcam
 
 
 def _sampled_vjp(scene, centre, modes, gimg, samples, want_normals, want_geometry, mirrors):

@@ -71,9 +71,6 @@ def unsupported(inputs, material_names, light_names, maps_asked: bool = False, g
             out.append(f"material {name!r}: reflectivity > 0 (mirror bounces): " + (
                 "no gradients on a scene with colours, maps, bump or normal maps, nor colour or texel gradients, yet"
                 if mapped else "not differentiated here (rs.grad differentiates one bounce; rs.fit not yet)"))
-    if inputs.tex_on and geometry_asked:
-        out.append("mesh colours and colour maps: the geometry (vertices, camera_eye, camera_rotation) has no "
-                   "gradients on such a scene yet (every other parameter has)")
     if bumped and geometry_asked:
         out.append("bump and normal maps: the geometry (vertices, camera_eye, camera_rotation) has no "
                    "gradients on such a scene yet (every other parameter has)")

@@ -45,7 +45,7 @@ from .records import Hit, dot
 from .surface import _facing, _hit_point, _triangle, _view
 from .texture import _row_coefficients
 
-__all__ = ["pixel_hit_vjp", "rotate_vectors"]
+__all__ = ["pixel_hit_vjp", "ray_hit_vjp", "rotate_vectors"]
 
 
 @njit(**HELPER)
@@ -115,6 +115,36 @@ def pixel_hit_vjp(cam, x, y, P0, P1, P2, b1, b2, gp, gb1, gb2, gverts, tri, gcam
         w2 = cross((ox - cam[CAM_EYE + 0], oy - cam[CAM_EYE + 1], oz - cam[CAM_EYE + 2]), go)
         gw = (gw[0] + w2[0], gw[1] + w2[1], gw[2] + w2[2])
     _add_cam(gcam, go, gw)
+
+
+@njit(**HELPER)
+def ray_hit_vjp(o, d, P0, P1, P2, b1, b2, gp, gb1, gb2, gverts, tri):
+    """Back through the hit of any ray ``o + t d`` (a mirror ray: :mod:`.grad_mirror`) on triangle
+    ``(P0, P1, P2)`` at barycentrics ``(b1, b2)``, the same closed form as :func:`pixel_hit_vjp`:
+    ``dL/dP_k`` into ``gverts[tri[k]]``; returns ``(dL/do, dL/dd)``. ``t = (p - o).d / d.d``; a ray
+    parallel to the triangle adds nothing."""
+    p = (P0[0] + b1 * (P1[0] - P0[0]) + b2 * (P2[0] - P0[0]), P0[1] + b1 * (P1[1] - P0[1]) + b2 * (P2[1] - P0[1]),
+         P0[2] + b1 * (P1[2] - P0[2]) + b2 * (P2[2] - P0[2]))
+    t = ((p[0] - o[0]) * d[0] + (p[1] - o[1]) * d[1] + (p[2] - o[2]) * d[2]) / dot(d, d)
+    c0 = (-d[0], -d[1], -d[2])
+    c1 = (P1[0] - P0[0], P1[1] - P0[1], P1[2] - P0[2])
+    c2 = (P2[0] - P0[0], P2[1] - P0[1], P2[2] - P0[2])
+    k12 = cross(c1, c2)
+    det = dot(c0, k12)
+    if det == 0.0:
+        return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+    k20 = cross(c2, c0)
+    k01 = cross(c0, c1)
+    gt = dot(gp, d)
+    lam = ((gt * k12[0] + gb1 * k20[0] + gb2 * k01[0]) / det, (gt * k12[1] + gb1 * k20[1] + gb2 * k01[1]) / det,
+           (gt * k12[2] + gb1 * k20[2] + gb2 * k01[2]) / det)
+    b = (1.0 - b1 - b2, b1, b2)
+    for k in range(3):
+        i = tri[k]
+        for c in range(3):
+            gverts[i, c] -= b[k] * lam[c]
+    go = (gp[0] + lam[0], gp[1] + lam[1], gp[2] + lam[2])
+    return go, (t * go[0], t * go[1], t * go[2])
 
 
 @njit(nogil=True, **JIT)

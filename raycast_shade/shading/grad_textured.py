@@ -30,8 +30,11 @@ specular light interpolated: each corner's share ``w_k gI`` goes through ``_refl
 point the forward pass lights the corner, with the pixel's coefficients (their ambient parts sum to
 the pixel's ``Ia ka``, the weights summing to 1).
 
-Not here: the geometry (vertex positions, camera) on such a scene (the coefficients move with the
-hit's UV: refused by :func:`~raycast_shade.shading.grad_frame.unsupported`).
+The geometry (vertex positions, camera) on such a scene: :mod:`.grad_geometry`'s terms at each
+point's own coefficients, plus the coefficients' own motion with the hit's barycentrics
+(:mod:`.grad_geotex`: the vertex colours' differences, the maps' bilinear derivative times
+``d(uv)/d(b)``, a mip-mapped map's level held). Flat faces take their coefficients at the centre over
+the face's UV footprint, which do not move with the geometry.
 """
 
 from __future__ import annotations
@@ -44,10 +47,13 @@ from ..common.parallel import launch, share
 from ..visibility.secondary import ray_scratch
 from .gouraud import _vertex_kd
 from .grad_bump import perturb_partials
-from .grad_frame import PARTS, _flat_gather, _phong_normals_scatter, _reduce
+from .grad_frame import PARTS, _flat_gather, _phong_normals_scatter, _point_grads, _reduce
+from .grad_geometry import faces_scatter, points_scatter
+from .grad_geotex import coefficients_bary_vjp, pixel_footprint, tex_pixels_scatter
 from .grad_normal import _normal_vjp
 from .grad_maps import _corner_hit
 from .grad_terms import GM_KA, GM_KD, GM_KS, GM_SIZE, GM_T, _reflected_vjp, layout
+from .illumination import _illuminate
 from .jit import CHUNK, HELPER, JIT
 from .phong import _shading_point
 from .records import At, Hit, dot
@@ -79,11 +85,23 @@ def _fold(scratch, acc, k, mi, amb, fac, kd_free):
         scratch[0, j] = 0.0
 
 
+@njit(**HELPER)
+def _point_gcoef(scratch, mi, gI):
+    """The point's ``dL/d(ka, kd, ks, ke)`` (twelve floats): the material slots
+    :func:`_reflected_vjp` wrote into ``scratch`` (before :func:`_fold` scales them), and ``gI`` for
+    the emission (added once)."""
+    mb = mi * GM_SIZE
+    return (scratch[0, mb + GM_KA], scratch[0, mb + GM_KA + 1], scratch[0, mb + GM_KA + 2],
+            scratch[0, mb + GM_KD], scratch[0, mb + GM_KD + 1], scratch[0, mb + GM_KD + 2],
+            scratch[0, mb + GM_KS], scratch[0, mb + GM_KS + 1], scratch[0, mb + GM_KS + 2], gI[0], gI[1], gI[2])
+
+
 @njit(nogil=True, **JIT)
 def _phong_tex_kernel(hits, G, B, L, T, face_off, materials, unit, cam, modes, gimg, lay, acc, gpx, part):
     """Phong pixels with their textured coefficients: ``acc[k]`` (part ``k``) += ``dL/dparameters``;
-    ``gpx`` (H, W, 9) as :func:`~raycast_shade.shading.grad_frame._phong_vjp_kernel`'s (the first
-    three columns, ``dL/da``, used), or (0, 0, 9) for none."""
+    ``gpx`` (H, W, 9) as :func:`~raycast_shade.shading.grad_frame._phong_vjp_kernel`'s (``dL/da``,
+    ``dL/dp``, ``dL/dv``), or (0, 0, 9) for none. The coefficients' ``dL/db`` for the geometry is
+    :func:`_phong_coefficients_kernel`'s pass (its own kernel: its compile is paid only when asked)."""
     prim, geom, u, v = hits
     cmode = T[2]
     want_n = gpx.shape[0] != 0
@@ -106,18 +124,53 @@ def _phong_tex_kernel(hits, G, B, L, T, face_off, materials, unit, cam, modes, g
             coef = _point_coefficients(G, B.uvs, at, cam, x, y, True, materials, T)
             fac = _point_coefficients(G, B.uvs, at, cam, x, y, True, unit, T)
             hp = _shading_point(G, B, L, cam, at, np.bool_(False), (0.0, 0.0, 0.0))
-            gn, _, _ = _reflected_vjp(hp, coef, materials, gm, L, S, gI, scratch, 0, lay)
+            gn, gp, gv = _reflected_vjp(hp, coef, materials, gm, L, S, gI, scratch, 0, lay)
             _fold(scratch, acc, k, gm, lay[0], fac, cmode[gm] == COLOR_NONE)
             if want_n:
                 ga = _normal_vjp(G.normals, _triangle(G.faces, at.f), at.b1, at.b2, hp.g, hp.sgn, gn)
                 for c in range(3):
                     gpx[y, x, c] = ga[c]
+                    gpx[y, x, 3 + c] = gp[c]
+                    gpx[y, x, 6 + c] = gv[c]
 
 
 @njit(nogil=True, **JIT)
-def _flat_tex_kernel(gface, G, T, uvs, face_model, materials, unit, cam, L, lay, acc, part):
+def _phong_coefficients_kernel(hits, G, B, L, T, face_off, materials, cam, modes, gimg, lay, size, gbc, part):
+    """Phong pixels, for the geometry: ``gbc[y, x]`` = ``dL/d(b1, b2)`` through the pixel's
+    coefficients (:func:`~raycast_shade.shading.grad_geotex.coefficients_bary_vjp`), their
+    ``dL/d(ka, kd, ks)`` read from :func:`_reflected_vjp`'s material slots (a scratch row per pixel)."""
+    prim, geom, u, v = hits
+    scratch = np.zeros((1, size))
+    h, w = prim.shape
+    for y in range(*share(h, part)):
+        S = ray_scratch()
+        for x in range(w):
+            p = prim[y, x]
+            if p < 0:
+                continue
+            gm = geom[y, x]
+            if modes[gm] != METHOD_PHONG:
+                continue
+            gI = (np.float64(gimg[y, x, 0]), np.float64(gimg[y, x, 1]), np.float64(gimg[y, x, 2]))
+            if gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0:
+                continue
+            at = At(face_off[gm] + p, gm, np.float64(u[y, x]), np.float64(v[y, x]))
+            coef = _point_coefficients(G, B.uvs, at, cam, x, y, True, materials, T)
+            hp = _shading_point(G, B, L, cam, at, np.bool_(False), (0.0, 0.0, 0.0))
+            scratch[0, :] = 0.0
+            _reflected_vjp(hp, coef, materials, gm, L, S, gI, scratch, 0, lay)
+            gb = coefficients_bary_vjp(materials, T, at, _triangle(G.faces, at.f), B.uvs,
+                                       pixel_footprint(G, B.uvs, at, cam, x, y), _point_gcoef(scratch, gm, gI))
+            gbc[y, x, 0] = gb[0]
+            gbc[y, x, 1] = gb[1]
+
+
+@njit(nogil=True, **JIT)
+def _flat_tex_kernel(gface, G, T, uvs, face_model, materials, unit, cam, L, lay, acc, gfg, part):
     """Flat faces at their centres with the coefficients the forward pass gives them (the centre's,
-    filtered over the face's UV footprint): ``acc[k]`` += the parameters' gradients."""
+    filtered over the face's UV footprint: they do not move with the geometry): ``acc[k]`` += the
+    parameters' gradients; ``gfg`` (F, 9) the face's ``dL/dn``, ``dL/dp``, ``dL/dv`` for the
+    geometry, or (0, 9) for none."""
     verts, _, faces, fnormals = G
     cmode = T[2]
     k = part[0]
@@ -138,8 +191,12 @@ def _flat_tex_kernel(gface, G, T, uvs, face_model, materials, unit, cam, L, lay,
             at = At(f, m, third, third)
             coef = _coefficients(materials, T, at, tri, uvs, _face_footprint(uvs, tri))
             fac = _coefficients(unit, T, at, tri, uvs, _face_footprint(uvs, tri))
-            _reflected_vjp(Hit(p, vv, gn, sgn, gn, p), coef, materials, m, L, S, gI, scratch, 0, lay)
+            gr = _reflected_vjp(Hit(p, vv, gn, sgn, gn, p), coef, materials, m, L, S, gI, scratch, 0, lay)
             _fold(scratch, acc, k, m, lay[0], fac, cmode[m] == COLOR_NONE)
+            if gfg.shape[0] != 0:
+                for j in range(3):
+                    for c in range(3):
+                        gfg[f, 3 * j + c] = gr[j][c]
 
 
 @njit(**HELPER)
@@ -160,14 +217,23 @@ def _corner_normal_grad(G, i, side, gn, gr0, gnormals):
 
 
 @njit(**JIT)
-def _gouraud_tex_gather(hits, G, B, L, T, face_off, materials, unit, cam, modes, gimg, lay, serial, gvert, gnormals):
+def _gouraud_tex_gather(hits, G, B, L, T, face_off, materials, unit, cam, modes, gimg, lay, out):
     """Serially, in row-major order, the Gouraud pixels: a modulate-path pixel (``T``'s flag) is
     differentiated here, each corner at its point with the pixel's coefficients and its share
     ``w_k gI``, into ``serial[0]`` and ``gnormals``; another pixel's ``dL/dI`` goes onto its corners'
-    stored shades ``gvert`` (V, 2, 3), and a corner shaded on the spot is differentiated here."""
+    stored shades ``gvert`` (V, 2, 3), and a corner shaded on the spot is differentiated here.
+    ``out = (serial, gvert, gnormals, gvg, gbc)``; for the geometry (``gbc`` (H, W, 2), else
+    (0, 0, 2)) the corners' ``dL/dp``, ``dL/dv`` go into ``gvg`` (V, 6) and each pixel's
+    ``dL/d(b1, b2)`` into ``gbc``: ``gI . (shade_j - shade_0)`` of its corners' shades (modulate: each
+    corner lit with the pixel's coefficients), plus, on the modulate path, the coefficients' own
+    (:func:`~raycast_shade.shading.grad_geotex.coefficients_bary_vjp`)."""
     prim, geom, u, v = hits
+    serial, gvert, gnormals, gvg, gbc = out
     vcolors, _, cmode, _, _, _, modulate = T
+    want_g = gbc.shape[0] != 0
     scratch = np.zeros((1, serial.shape[1]))
+    gk = np.zeros(9)
+    shd = np.zeros((3, 3))
     S = ray_scratch()
     h, w = prim.shape
     for y in range(h):
@@ -186,15 +252,21 @@ def _gouraud_tex_gather(hits, G, B, L, T, face_off, materials, unit, cam, modes,
             side = 0 if sgn > 0.0 else 1
             wts = _convex_weights(b1, b2)
             split = modulate[gm] != 0
+            at = At(f, gm, b1, b2)
             if split:
-                at = At(f, gm, b1, b2)
                 coef = _point_coefficients(G, B.uvs, at, cam, x, y, True, materials, T)
                 fac = _point_coefficients(G, B.uvs, at, cam, x, y, True, unit, T)
+            gk[:] = 0.0
             for corner in range(3):
                 i = tri[corner]
                 wk = wts[corner]
                 gI = (wk * gimg[y, x, 0], wk * gimg[y, x, 1], wk * gimg[y, x, 2])
                 hp, stored = _corner_hit(G, cam, i, side, gn)
+                if want_g:  # the corner's shade, as the pixel interpolates it
+                    ck = coef if split else _vertex_kd(materials, gm, cmode, vcolors, i, True)
+                    sh = _illuminate(hp, ck, materials, gm, L, S, L.spec_on, L.att_on)
+                    for c in range(3):
+                        shd[corner, c] = sh[c]
                 if not split:
                     if stored:
                         for cc in range(3):
@@ -203,15 +275,34 @@ def _gouraud_tex_gather(hits, G, B, L, T, face_off, materials, unit, cam, modes,
                     coef = _vertex_kd(materials, gm, cmode, vcolors, i, True)
                     fac = _vertex_kd(unit, gm, cmode, vcolors, i, True)
                 gr = _reflected_vjp(hp, coef, materials, gm, L, S, gI, scratch, 0, lay)
+                if want_g:
+                    gc = _point_gcoef(scratch, gm, gI)
+                    for j in range(9):
+                        gk[j] += gc[j]
+                    _point_grads(gvg, i, gr)
                 _fold(scratch, serial, 0, gm, lay[0], fac, cmode[gm] == COLOR_NONE)
                 _corner_normal_grad(G, i, side, gn, gr[0], gnormals)
+            if want_g:
+                gI = (np.float64(gimg[y, x, 0]), np.float64(gimg[y, x, 1]), np.float64(gimg[y, x, 2]))
+                gb1 = gb2 = 0.0
+                for c in range(3):
+                    gb1 += gI[c] * (shd[1, c] - shd[0, c])
+                    gb2 += gI[c] * (shd[2, c] - shd[0, c])
+                if split:
+                    cb = coefficients_bary_vjp(materials, T, at, tri, B.uvs, pixel_footprint(G, B.uvs, at, cam, x, y),
+                                               (gk[0], gk[1], gk[2], gk[3], gk[4], gk[5], gk[6], gk[7], gk[8],
+                                                gI[0], gI[1], gI[2]))
+                    gb1 += cb[0]
+                    gb2 += cb[1]
+                gbc[y, x, 0] = gb1
+                gbc[y, x, 1] = gb2
 
 
 @njit(nogil=True, **JIT)
-def _gouraud_tex_vertices(gvert, G, T, vertex_model, materials, unit, cam, L, lay, acc, gnormals, part):
+def _gouraud_tex_vertices(gvert, G, T, vertex_model, materials, unit, cam, L, lay, acc, gnormals, gvg, part):
     """Gouraud vertices off the modulate path (lit with their own normal, their colour as kd):
     ``acc[k]`` += the parameters' gradients, ``gnormals[i]`` += the normal's (each vertex in one
-    part)."""
+    part); ``gvg`` (V, 6) the vertex's ``dL/dp``, ``dL/dv`` for the geometry, or (0, 6) for none."""
     verts, normals, _, _ = G
     vcolors, _, cmode, _, _, _, _ = T
     k = part[0]
@@ -234,6 +325,7 @@ def _gouraud_tex_vertices(gvert, G, T, vertex_model, materials, unit, cam, L, la
                 gr = _reflected_vjp(Hit(p, _view(cam, p), nv, 1.0, nv, p), coef, materials, m, L, S, gI, scratch, 0,
                                     lay)
                 _fold(scratch, acc, k, m, lay[0], fac, cmode[m] == COLOR_NONE)
+                _point_grads(gvg, i, gr)
                 for c in range(3):
                     gnormals[i, c] += sg * gr[0][c]
 
@@ -247,10 +339,12 @@ def unit_rows(materials) -> np.ndarray:
     return unit
 
 
-def textured_vjp(hits, inputs, modes, gimg, geo, want_normals: bool = False):
-    """:func:`~raycast_shade.shading.grad_frame.frame_vjp` (without the geometry) for a frame whose
-    models have colours or maps (``inputs.tex_on``): ``(params (R,), gnormals (V, 3) or None)``,
-    the material slots with respect to the rows' scalar factors (see the module docstring)."""
+def textured_vjp(hits, inputs, modes, gimg, geo, want_normals: bool = False, want_geometry: bool = False):
+    """:func:`~raycast_shade.shading.grad_frame.frame_vjp` for a frame whose models have colours or
+    maps (``inputs.tex_on``): ``(params (R,), gnormals (V, 3) or None, gverts (V, 3) or None,
+    gcam (6,) or None)``, the material slots with respect to the rows' scalar factors (see the module
+    docstring); the geometry's with the coefficients moving with each hit's barycentrics
+    (:mod:`.grad_geotex`)."""
     G, B, L, T = inputs.geometry, inputs.bumps, inputs.lighting, inputs.colours
     mats, cam, face_off = inputs.materials, inputs.cam, inputs.face_off
     unit = unit_rows(mats)
@@ -260,23 +354,39 @@ def textured_vjp(hits, inputs, modes, gimg, geo, want_normals: bool = False):
     serial = np.zeros((1, size))
     nv, nf = G.verts.shape[0], G.faces.shape[0]
     gnormals = np.zeros((nv, 3))
+    gverts = np.zeros((nv, 3))
+    gcam = np.zeros(6)
     hit = (hits.prim, hits.geom, hits.u, hits.v)
+    gpx = np.zeros(gimg.shape[:2] + (9,) if want_normals or want_geometry else (0, 0, 9))
+    gbc = np.zeros(gimg.shape[:2] + (2,) if want_geometry else (0, 0, 2))
     if np.any(modes == METHOD_PHONG):
-        gpx = np.zeros(gimg.shape[:2] + (9,) if want_normals else (0, 0, 9))
         launch(_phong_tex_kernel, hit, G, B, L, T, face_off, mats, unit, cam, modes, gimg, lay, acc, gpx,
                parts=PARTS, dynamic=True)
+        if want_geometry:
+            launch(_phong_coefficients_kernel, hit, G, B, L, T, face_off, mats, cam, modes, gimg, lay, size, gbc,
+                   parts=PARTS, dynamic=True)
         if want_normals and (np.any(B.bump_index >= 0) or np.any(B.nmap_index >= 0)):
             perturb_partials(hits, inputs, modes, gimg, gpx)  # bumped pixels' dL/da through the bent normal
         if want_normals:
             _phong_normals_scatter(*hit, G.faces, face_off, modes, gpx, gnormals)
     if np.any(modes == METHOD_FLAT):
         gface = np.zeros((nf, 3))
+        gfg = np.zeros((nf if want_geometry else 0, 9))
         _flat_gather(hits.prim, hits.geom, face_off, modes, gimg, gface)
-        launch(_flat_tex_kernel, gface, G, T, B.uvs, geo.face_model, mats, unit, cam, L, lay, acc, parts=PARTS,
+        launch(_flat_tex_kernel, gface, G, T, B.uvs, geo.face_model, mats, unit, cam, L, lay, acc, gfg, parts=PARTS,
                dynamic=True)
+        if want_geometry:
+            faces_scatter(gfg, G, cam, gverts, gcam)
     if np.any(modes == METHOD_GOURAUD):
         gvert = np.zeros((nv, 2, 3))
-        _gouraud_tex_gather(hit, G, B, L, T, face_off, mats, unit, cam, modes, gimg, lay, serial, gvert, gnormals)
-        launch(_gouraud_tex_vertices, gvert, G, T, geo.vertex_model, mats, unit, cam, L, lay, acc, gnormals,
+        gvg = np.zeros((nv if want_geometry else 0, 6))
+        _gouraud_tex_gather(hit, G, B, L, T, face_off, mats, unit, cam, modes, gimg, lay,
+                            (serial, gvert, gnormals, gvg, gbc))
+        launch(_gouraud_tex_vertices, gvert, G, T, geo.vertex_model, mats, unit, cam, L, lay, acc, gnormals, gvg,
                parts=PARTS, dynamic=True)
-    return serial[0] + _reduce(acc), (gnormals if want_normals else None)
+        if want_geometry:
+            points_scatter(gvg, G.verts, cam, gverts, gcam)
+    if want_geometry and (np.any(modes == METHOD_PHONG) or np.any(modes == METHOD_GOURAUD)):
+        tex_pixels_scatter(hit, G, face_off, cam, modes, gpx, gbc, gverts, gcam)
+    return (serial[0] + _reduce(acc), gnormals if want_normals else None, gverts if want_geometry else None,
+            gcam if want_geometry else None)

@@ -168,12 +168,13 @@ def test_grad_refuses_a_bad_dL_dimage(scene, bad, error):
 
 
 @pytest.mark.parametrize("change, wrt, words", [
-    (dict(kd_map=rs.Texture(np.full((4, 4, 3), 0.5))), "vertices", "colour maps: the geometry"),
+    (dict(bump=rs.HeightMap(np.linspace(0.0, 1.0, 16).reshape(4, 4), scale=0.05)), "vertices",
+     "bump and normal maps: the geometry"),
     (dict(kd_map=rs.Texture(np.full((4, 4, 3), 0.5)), reflectivity=0.5), "kd", "reflectivity > 0"),
 ])
 def test_grad_refuses_what_it_does_not_differentiate(change, wrt, words):
     mat = rs.Material(kd=0.5, ks=0.3, **change)
-    mesh = rs.shapes.uv_sphere(12, 8) if "kd_map" in change else rs.shapes.icosphere(1)
+    mesh = rs.shapes.uv_sphere(12, 8) if "kd_map" in change or "bump" in change else rs.shapes.icosphere(1)
     scene = rs.Scene([rs.Model(mesh, mat)], lights=[rs.PointLight((2.0, 3.0, 4.0))],
                      camera=rs.Camera(eye=(0.0, 0.0, 4.0), width=W, height=H))
     with pytest.raises(ValueError, match=words):

@@ -86,10 +86,13 @@ def test_normal_gradients_on_textured_scenes_match_central_differences(shading, 
             assert abs(g[i, c] - fd) <= RTOL * max(abs(fd), 1e-2 * top), f"normal {i}, {c}: {g[i, c]} vs {fd}"
 
 
-def test_geometry_on_a_textured_scene_is_refused_by_name(weights):
+def test_geometry_on_a_textured_scene_is_given_beside_the_other_families(weights):
+    """The geometry is no longer refused on a coloured, mapped scene (its checks against differences:
+    tests/shading/test_grad_geotex.py); asked with kd, both come back, and kd is the same as alone."""
     scene = _textured("vertex")
-    with pytest.raises(ValueError, match="colour maps: the geometry"):
-        rs.grad(scene, weights, ("kd", "vertices"))
+    g = rs.grad(scene, weights, ("kd", "ka", "vertices"))
+    assert np.any(g["vertices"] != 0.0)
+    assert np.array_equal(g["ka"], rs.grad(scene, weights, ("ka",))["ka"])
 
 
 def test_textured_gradients_are_bit_identical_across_thread_counts(weights):
