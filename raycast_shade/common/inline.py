@@ -16,8 +16,9 @@ each level re-optimised the same code once per level). Its disk-cache entry keep
 (:class:`_LinkOnlyCache`), so a process compiling a new kernel reads the helpers it links
 instead of building them; a kernel's entry holds its machine code with its helpers in it, so a
 warm process loads kernels and never reads a helper. On the demo's first picture from an empty
-cache the helpers' machine code and module passes were about 3.6 s of CPU, the first picture
-about 3 s less (see the CHANGELOG).
+cache this saved 12-16% of the CPU (back to back, loaded machine; see the CHANGELOG). The kernels'
+machine code changes with it (and with it where LLVM fuses a multiply and an add): arithmetic that
+two paths must round alike is fused explicitly (``shading.mirror_rays._fused``).
 
 A Python call of such a helper (the tests and benchmarks make some) still works:
 it runs a twin of the same function compiled with its wrappers (:meth:`InlineDispatcher.python`),
@@ -66,11 +67,13 @@ class _LinkOnlyLibrary(_codegen.JITCodeLibrary):
         return _NoEnv(self._codegen)
 
     # Whether the helper's module is optimised on its own before its callers link it (Numba's
-    # way). Kept: then every kernel links the IR it linked before and its machine code is byte for
-    # byte what it was, on every instruction set. Without it (False) the first picture costs about
-    # 1.6 s less, but the kernels optimise different IR: their code changes, and with it where
-    # LLVM contracts a multiply and an add into an FMA (see the CHANGELOG).
-    optimise_alone = True
+    # way; True: every kernel links the IR it linked before, its machine code byte for byte what it
+    # was). Not (False): each caller optimises the linked whole once (a helper's module holds every
+    # helper it calls, so optimising each level re-optimised the same code once per level), 12-16%
+    # of the demo's first picture against 0-5% with it (CHANGELOG). The kernels' code changes, and
+    # with it where LLVM contracts a multiply and an add: arithmetic that two paths must round
+    # alike is fused explicitly (mirror_rays._fused).
+    optimise_alone = False
 
     def _optimize_final_module(self):
         if self.optimise_alone:
