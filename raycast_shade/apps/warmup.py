@@ -3,7 +3,7 @@
 Numba compiles each kernel the first time a frame needs it and keeps the
 machine code in the package's ``__pycache__`` (``cache=True``); a fresh
 install or a new Python pays for it once: about two minutes of a first
-notebook run, the first render cell alone 40 s. Warm-up renders a set of tiny
+notebook run, the first render cell alone 35 s. Warm-up renders a set of tiny
 scenes that between them take every path the lecture uses (each shading
 method and interpolation, both specular models, every attenuation law, point,
 directional and spot lights, shadows, mirrors, bump maps, textures, vertex

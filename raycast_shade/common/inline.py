@@ -8,6 +8,18 @@ demo's first picture from an empty kernel cache the two wrappers of the inline h
 a fifth of the compile CPU (51.4 -> 41.0 s and 55.7 -> 44.5 s, side by side, 2026-12-05, 2-core
 AVX2 machine; see the CHANGELOG). :func:`inline_jit` compiles a helper without them.
 
+A helper's build is only ever linked into its callers' modules, as LLVM IR: nothing runs
+its own machine code. So its code library (:class:`_LinkOnlyLibrary`) is never handed to the
+JIT engine (no machine code emitted for it), and its module is not optimised on its own: each
+caller optimises the linked whole (a helper's module holds every helper it calls, so optimising
+each level re-optimised the same code once per level). Its disk-cache entry keeps that IR
+(:class:`_LinkOnlyCache`), so a process compiling a new kernel reads the helpers it links
+instead of building them; a kernel's entry holds its machine code with its helpers in it, so a
+warm process loads kernels and never reads a helper. On the demo's first picture from an empty
+cache this saved 12-16% of the CPU (back to back, loaded machine; see the CHANGELOG). The kernels'
+machine code changes with it (and with it where LLVM fuses a multiply and an add): arithmetic that
+two paths must round alike is fused explicitly (``shading.mirror_rays._fused``).
+
 A Python call of such a helper (the tests and benchmarks make some) still works:
 it runs a twin of the same function compiled with its wrappers (:meth:`InlineDispatcher.python`),
 cached on disk under a name of its own, so the wrapperless build is never entered from Python.
@@ -19,7 +31,10 @@ import threading
 import types
 
 import numba
-from numba.core.caching import NullCache
+from llvmlite import binding as ll
+from numba.core import codegen as _codegen
+from numba.core.caching import CompileResultCacheImpl, FunctionCache
+from numba.core.compiler import CompileResult, Compiler
 from numba.core.registry import CPUDispatcher
 
 __all__ = ["inline_jit", "InlineDispatcher", "TWIN_SUFFIX"]
@@ -28,6 +43,89 @@ __all__ = ["inline_jit", "InlineDispatcher", "TWIN_SUFFIX"]
 # name, not on the flags).
 TWIN_SUFFIX = "__from_python"
 _NO_WRAPPERS = {"no_cpython_wrapper": True, "no_cfunc_wrapper": True, "nopython": True}
+
+
+class _NoEnv:
+    """The codegen a helper's library shows Numba's ``get_executable``: setting the
+    environment's address is a no-op (the helper's module never reaches the engine)."""
+
+    def __init__(self, codegen):
+        self._codegen = codegen
+
+    def set_env(self, env_name, env):
+        pass
+
+    def __getattr__(self, name):
+        return getattr(self._codegen, name)
+
+
+class _LinkOnlyLibrary(_codegen.JITCodeLibrary):
+    """A helper's code library: LLVM IR for its callers to link and optimise, never machine code."""
+
+    @property
+    def codegen(self):
+        return _NoEnv(self._codegen)
+
+    # Whether the helper's module is optimised on its own before its callers link it (Numba's
+    # way; True: every kernel links the IR it linked before, its machine code byte for byte what it
+    # was). Not (False): each caller optimises the linked whole once (a helper's module holds every
+    # helper it calls, so optimising each level re-optimised the same code once per level), 12-16%
+    # of the demo's first picture against 0-5% with it (CHANGELOG). The kernels' code changes, and
+    # with it where LLVM contracts a multiply and an add: arithmetic that two paths must round
+    # alike is fused explicitly (mirror_rays._fused).
+    optimise_alone = False
+
+    def _optimize_final_module(self):
+        if self.optimise_alone:
+            super()._optimize_final_module()
+
+    def _finalize_final_module(self):
+        # Numba's, less handing the module to the engine (which emits its machine code).
+        self._finalize_dynamic_globals()
+        self._verify_declare_only_symbols()
+        self._finalized = True
+
+    def get_pointer_to_function(self, name):
+        self._ensure_finalized()
+        return 0
+
+    def serialize_using_object_code(self):
+        # What the disk cache keeps (Numba keeps machine code and IR): the IR callers link.
+        return self.name, "bitcode", self._get_module_for_linking().as_bitcode()
+
+
+class _LinkOnlyCacheImpl(CompileResultCacheImpl):
+    """Numba's disk cache of compile results, rebuilding a helper's into a :class:`_LinkOnlyLibrary`."""
+
+    def rebuild(self, target_context, payload):
+        libdata, fndesc, env, signature, objectmode, lifted, typeann, reload_init, _envs = payload
+        for fn in reload_init or ():
+            fn()
+        name, kind, data = libdata
+        if kind == "object":  # written before helpers were link-only: its IR for linking is kept beside
+            data = data[1]
+        library = _LinkOnlyLibrary(target_context.codegen(), name)
+        library._final_module = ll.parse_bitcode(data)
+        library._finalize_final_module()
+        return CompileResult(target_context=target_context, typing_context=target_context.typing_context,
+                             library=library, environment=env,
+                             entry_point=target_context.get_executable(library, fndesc, env), fndesc=fndesc,
+                             type_annotation=typeann, signature=signature, objectmode=objectmode, lifted=lifted,
+                             typing_error=None, call_helper=None, metadata=None, reload_init=reload_init,
+                             referenced_envs=_envs)
+
+
+class _LinkOnlyCache(FunctionCache):
+    _impl_class = _LinkOnlyCacheImpl
+
+
+class _LinkOnlyCompiler(Compiler):
+    """Numba's pipeline, lowering into a :class:`_LinkOnlyLibrary`."""
+
+    def compile_extra(self, func):
+        if self.state.library is None:
+            self.state.library = _LinkOnlyLibrary(self.state.targetctx.codegen(), func.__qualname__)
+        return super().compile_extra(func)
 
 
 class InlineDispatcher(CPUDispatcher):
@@ -39,6 +137,9 @@ class InlineDispatcher(CPUDispatcher):
     """
 
     _twin_lock = threading.Lock()
+
+    def enable_caching(self):
+        self._cache = _LinkOnlyCache(self.py_func)
 
     def add_overload(self, cres):
         # Kept for compiled callers (and their inlining); no Python entry point: it has no wrapper.
@@ -60,14 +161,15 @@ class InlineDispatcher(CPUDispatcher):
                     g.__qualname__ = f.__qualname__ + TWIN_SUFFIX
                     g.__module__, g.__doc__ = f.__module__, f.__doc__
                     opts = {k: v for k, v in self.targetoptions.items() if k not in _NO_WRAPPERS}
-                    twin = self._twin = numba.njit(cache=not isinstance(self._cache, NullCache), **opts)(g)
+                    twin = self._twin = numba.njit(cache=getattr(self, "_twin_cache", True), **opts)(g)
         return twin
 
 
 def inline_jit(*, cache: bool = True, **options):
     """``njit(**options)`` for a helper that only compiled code calls: no CPython or C
-    wrapper (:class:`InlineDispatcher`). Takes the flags of ``njit`` (``forceinline``,
-    ``_nrt``, ``fastmath``, ...).
+    wrapper (:class:`InlineDispatcher`), no machine code; its disk cache keeps LLVM IR (see
+    the module's notes). Takes the flags of ``njit`` (``forceinline``, ``_nrt``, ``fastmath``,
+    ``cache``, ...).
 
     Returns
     -------
@@ -77,7 +179,8 @@ def inline_jit(*, cache: bool = True, **options):
 
     def decorate(func):
         target = dict(options, **_NO_WRAPPERS)
-        disp = InlineDispatcher(py_func=func, targetoptions=target)
+        disp = InlineDispatcher(py_func=func, targetoptions=target, pipeline_class=_LinkOnlyCompiler)
+        disp._twin_cache = cache
         if cache:
             disp.enable_caching()
         return disp

@@ -47,6 +47,22 @@ def _from_bits(typingctx, b):
     return types.float64(types.int64), codegen
 
 
+@intrinsic
+def _fused(typingctx, a, b, c):
+    """``a * b + c`` rounded once (``llvm.fma``), whatever the optimiser makes of the code around it.
+
+    The origins' ``p + n * step`` are contracted under the kernels' ``contract`` flag only where
+    the multiply and the add end up in one basic block, which depends on how the code around them
+    was optimised: :func:`_mirror_ray` and :func:`lane_rays` must round alike (bit for bit), so
+    both fuse explicitly, as their contracted form did."""
+    def codegen(context, builder, signature, args):
+        f64 = ir.DoubleType()
+        fma = builder.module.declare_intrinsic("llvm.fma", [f64], ir.FunctionType(f64, [f64, f64, f64]))
+        return builder.call(fma, args)
+
+    return types.float64(types.float64, types.float64, types.float64), codegen
+
+
 @inline_jit(**HELPER)
 def _odd(p):
     """Whether :func:`_offset` leaves coordinate ``p`` to ``_nudge`` (exponent bits of a subnormal
@@ -69,7 +85,7 @@ def _offset(p, n, unit):
         return _nudge(p, n, unit)
     else:
         step = _from_bits((((_bits(p) >> 52) & 0x7FF) - 15) << 52)
-    return p + n * step  # one expression for both steps, contracted as _nudge's (an exact product or not)
+    return _fused(n, step, p)  # one expression for both steps, fused as _nudge's is contracted
 
 
 @inline_jit(**HELPER)
@@ -134,7 +150,7 @@ def lane_rays(S, n, unit):
             p = S[(_P + j) * LANES + k]
             e = (_bits(p) >> 52) & 0x7FF
             step = unit * (1.0 / 65536.0) if abs(p) < unit * (1.0 / 32.0) else _from_bits((e - 15) << 52)
-            S[(_A + j) * LANES + k] = p + S[(_G + j) * LANES + k] * step
+            S[(_A + j) * LANES + k] = _fused(S[(_G + j) * LANES + k], step, p)
     for k in range(n):
         for j in range(3):
             p = S[(_P + j) * LANES + k]

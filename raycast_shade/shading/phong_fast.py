@@ -541,9 +541,8 @@ def _make_phong_fast(terms_on: bool = False, shadows_on: bool = False):
             S = np.zeros(_FIELDS * LANES)
             XY = np.zeros(7 * LANES, np.int64)  # per lane: row, column, model, face, its three vertices
             Q = _packets(4 if shadows_on else 0)  # one shadow packet per 16 lanes (a stand-in without shadows)
-            n = 0
-            mixed = False
-            filled = -1
+            # Not the literals 0, False, -1: inference would also build the helpers for those (unused; 4-5 s)
+            n, mixed, filled = np.int64(0), np.bool_(False), np.int64(-1)
             ye = min(h, (blk + 1) * BLOCK_ROWS)
             for ty in range(blk * BLOCK_ROWS, ye, th):  # rows (tiles of rows: see above)
                 if shadows_on:
@@ -581,8 +580,7 @@ def _make_phong_fast(terms_on: bool = False, shadows_on: bool = False):
                                     _scatter_terms(S, XY, n, R, y0, L.ambient)
                                 else:
                                     hand_over_lanes(S, XY, n, materials, L.unit, rays)
-                                n = 0
-                                mixed = False
+                                n, mixed = np.int64(0), np.bool_(False)
             if n > 0:  # the lanes past n hold an earlier batch's pixels (or zeros): shaded, not written
                 _gather(S, XY, n, G, ahead)
                 _flush(S, XY, n, mixed, filled, materials, G, L, cam, (image, normal), Q, spec_on, att_on,

@@ -1,6 +1,6 @@
 """Helpers without wrappers (common/inline.py): the same results from compiled callers and
-from Python, no CPython wrapper in their builds, and no wrapperless build ever entered from
-Python, also when it comes from the disk cache."""
+from Python, no CPython wrapper in their builds, no machine code or disk cache of their own,
+and no wrapperless build ever entered from Python."""
 
 from __future__ import annotations
 
@@ -55,13 +55,25 @@ def test_the_build_for_compiled_callers_has_no_python_wrapper():
     assert _axpy.python() is twin
 
 
+def test_a_helpers_build_is_ir_for_its_callers_only():
+    # No machine code of its own: its module never reaches the JIT engine; its caller's does,
+    # with the helper linked in (the values above come from it).
+    _sum_axpy(np.ones(3))
+    (hres,) = _axpy.overloads.values()
+    (kres,) = _sum_axpy.overloads.values()
+    modules = kres.library.codegen._engine._ee._modules  # llvmlite's: every module handed to the engine
+    assert kres.library._final_module in modules
+    assert hres.library._final_module not in modules
+    assert hres.library.get_pointer_to_function(hres.fndesc.llvm_func_name) == 0
+
+
 def test_a_python_call_with_wrong_arguments_raises_as_numba_does():
     with pytest.raises(TypeError, match="argument"):
         _axpy(np.ones(3), 0)
 
 
 _SCRIPT = """
-import numpy as np, numba
+import os, numpy as np, numba
 from raycast_shade.common.inline import inline_jit
 
 @inline_jit(forceinline=True, _nrt=False)
@@ -75,23 +87,31 @@ def kernel(a):
         s += helper(a, i)
     return s
 
+@numba.njit(cache=True)
+def kernel2(a):
+    return helper(a, np.int64(1)) - helper(a, np.int64(0))
+
 a = np.arange(4.0)
 print(kernel(a), helper(a, 2), len(helper.overloads))
+if os.environ.get("SECOND"):
+    print(kernel2(a), sum(helper._cache_hits.values()), sum(helper._cache_misses.values()))
 """
 
 
-def test_a_cached_wrapperless_build_is_not_entered_from_python(tmp_path):
-    # The second process loads the kernel and the helper's build from the disk cache; its Python
-    # call must run the twin (a wrapperless build entered from Python would crash the process).
+def test_a_cached_kernel_needs_no_helper_build_and_a_new_kernel_reads_it(tmp_path):
+    # The second process loads the kernel from the disk cache and builds no helper; its Python
+    # call runs the twin (a wrapperless build entered from Python would crash the process). The
+    # third compiles a new kernel, linking the helper's IR read from the disk (no machine code).
     (tmp_path / "mod.py").write_text(textwrap.dedent(_SCRIPT))
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"),
                PYTHONPATH=os.pathsep.join([str(tmp_path), os.path.dirname(os.path.dirname(raycast_shade.__file__))]))
-    outs = [subprocess.run([sys.executable, "-c", "import mod"], cwd=tmp_path, env=env, capture_output=True,
-                           text=True, timeout=300) for _ in range(2)]
+    outs = [subprocess.run([sys.executable, "-c", "import mod"], cwd=tmp_path, env=dict(env, **extra),
+                           capture_output=True, text=True, timeout=300) for extra in ({}, {}, {"SECOND": "1"})]
     for out in outs:
         assert out.returncode == 0, out.stderr
     assert outs[0].stdout.split()[:2] == ["18.0", "6.0"]
     assert outs[1].stdout.split() == ["18.0", "6.0", "0"]  # the kernel came from the cache: no helper build
+    assert outs[2].stdout.split() == ["18.0", "6.0", "0", "3.0", "1", "0"]  # read from the disk, not built
     names = [p.name for p in (tmp_path / "cache").rglob("mod.*")]
     assert any("helper" + TWIN_SUFFIX in n for n in names), names
 

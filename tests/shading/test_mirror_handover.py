@@ -227,3 +227,33 @@ def test_a_wrong_rays_buffer_is_refused_and_the_stand_in_writes_nothing():
     assert np.array_equal(a.view(np.uint32), b.view(np.uint32))  # handing over leaves the image alone
     assert NO_RAYS[0].shape == (0, 0, 3) and NO_RAYS[1].dtype == np.float64
     assert mirror_rays.hand_over_buffers(4, 5)[0].shape == (4, 5, 3)
+
+
+def _fma(a, b, c):
+    """``a * b + c`` rounded once, exactly (rationals): the reference of the fused origin."""
+    from fractions import Fraction
+
+    return float(Fraction(a) * Fraction(b) + Fraction(c))
+
+
+def test_the_origins_offset_is_rounded_once_whatever_the_optimiser_does():
+    """``_offset``'s ``p + n * step`` near zero (the step ``unit / 65536`` is no power of two, so
+    the product is inexact) is the fused multiply-add, explicitly (``_fused``), in the scalar
+    helper and the vectorised lanes alike: before, each was contracted or not by where LLVM placed
+    the multiply (linking the helpers' IR unoptimised changed it for one of them)."""
+    rng = np.random.default_rng(5)
+    unit = 3.7e-3
+    S = np.zeros(_FIELDS * LANES)
+    g = rng.normal(size=(3, LANES))
+    g /= np.linalg.norm(g, axis=0)
+    p = rng.uniform(-4.0, 4.0, size=(3, LANES)) * unit / 65536.0  # near zero (the step unit / 65536), the size of the move
+    for field, vec in ((_V, g), (_G, g), (_N, g), (_P, p)):
+        S[field * LANES:(field + 3) * LANES] = vec.reshape(-1)
+    o, d = np.empty((LANES, 3)), np.empty((LANES, 3))
+    _lanes_both(S, LANES, unit, o, d)
+    step = unit * (1.0 / 65536.0)
+    want = np.array([[_fma(g[c, k], step, p[c, k]) for c in range(3)] for k in range(LANES)])
+    unfused = (p + g * step).T
+    assert np.array_equal(o, want)  # the scalar helper's
+    assert np.array_equal(S[_A * LANES:(_A + 3) * LANES].reshape(3, LANES).T, want)  # the lanes'
+    assert np.count_nonzero(want != unfused) > 0  # the case tells fused from unfused
