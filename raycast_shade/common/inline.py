@@ -66,14 +66,13 @@ class _LinkOnlyLibrary(_codegen.JITCodeLibrary):
     def codegen(self):
         return _NoEnv(self._codegen)
 
-    # Whether the helper's module is optimised on its own before its callers link it (Numba's
-    # way; True: every kernel links the IR it linked before, its machine code byte for byte what it
-    # was). Not (False): each caller optimises the linked whole once (a helper's module holds every
-    # helper it calls, so optimising each level re-optimised the same code once per level), 12-16%
-    # of the demo's first picture against 0-5% with it (CHANGELOG). The kernels' code changes, and
-    # with it where LLVM contracts a multiply and an add: arithmetic that two paths must round
-    # alike is fused explicitly (mirror_rays._fused).
-    optimise_alone = False
+    # Whether the helper's module is optimised on its own before its callers link it. True
+    # (Numba's way): every kernel links the IR it linked before, so its machine code is byte for
+    # byte what it was, and the golden images hold on every instruction set, AVX-512 included,
+    # whose hashes cannot be made on an AVX2 machine. False saves about 1.5 s more of the demo's
+    # cold first picture (32-33 against 34-35 s, CHANGELOG) but changes the kernels' code, and with
+    # it where LLVM contracts a multiply and an add: checked bit-identical on AVX2 only.
+    optimise_alone = True
 
     def _optimize_final_module(self):
         if self.optimise_alone:
