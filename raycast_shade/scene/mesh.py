@@ -87,9 +87,11 @@ class Mesh:
         Linear RGB per vertex (interpolated over each face) or per face (one
         per face), used as the diffuse coefficient kd in place of the
         material's (a ``kd_map`` still multiplies it). Values ``>= 0``.
-    color_mode : {"auto", "vertex", "face"}
+    color_mode : {"auto", "vertex", "face"} or None
         Which ``colors`` are; ``"auto"`` tells by the row count (an error
-        when the mesh has as many vertices as faces).
+        when the mesh has as many vertices as faces). None is ``"auto"``: it
+        is what a mesh without colours stores, so ``dataclasses.replace``
+        of such a mesh validates again.
     tangents : (V, 4) array_like of float, optional
         Per-vertex tangent ``xyz`` (along increasing u) and handedness ``w``
         (+1 or -1: the bitangent is ``w (n x t)``), as glTF's ``TANGENT``; read
@@ -517,7 +519,9 @@ def _set_colors(mesh, nv: int, nf: int) -> None:
     from .material import _warn_byte_range
 
     set_ = object.__setattr__
-    mode = as_choice(mesh.color_mode, f"{mesh.name}.color_mode", COLOR_MODES)
+    # None is what a mesh without colours stores: dataclasses.replace hands it back.
+    mode = as_choice("auto" if mesh.color_mode is None else mesh.color_mode, f"{mesh.name}.color_mode",
+                     COLOR_MODES)
     if mesh.colors is None:
         set_(mesh, "color_mode", None)
         return
