@@ -137,8 +137,9 @@ def test_a_banded_frame_with_packets_is_the_single_ray_frame(monkeypatch):
     np.testing.assert_array_equal(_tile_image(scene, monkeypatch), got)
 
 
-def test_alpha_masked_occluders_let_packet_rays_through_their_clear_texels(monkeypatch):
-    """The occlusion filter of a masked model sees packets too (Embree calls it with N lanes)."""
+def _masked_grid_and_floor():
+    """A 4 x 4 grid at y = 0.3 whose alpha map clears every other cell (a checkerboard), over a floor
+    at y = -0.7: the two models of the alpha-mask tests."""
     n = 4
     xs = np.linspace(-1.0, 1.0, n + 1)
     v = np.array([(x, 0.3, z) for z in xs for x in xs])
@@ -152,6 +153,12 @@ def test_alpha_masked_occluders_let_packet_rays_through_their_clear_texels(monke
     amap = rs.Texture(np.repeat(cov[..., None], 3, axis=2), wrap="clamp", name="alpha")
     grid = rs.Model(rs.Mesh(v, np.array(faces), uvs=uv), rs.Material(kd=0.6, alpha_map=amap, alpha_cutoff=0.5))
     floor = rs.Model(rs.shapes.plane(4.0, center=(0.0, -0.7, 0.0), normal="+y"), rs.Material(kd=0.8))
+    return grid, floor
+
+
+def test_alpha_masked_occluders_let_packet_rays_through_their_clear_texels(monkeypatch):
+    """The occlusion filter of a masked model sees packets too (Embree calls it with N lanes)."""
+    grid, floor = _masked_grid_and_floor()
     cam = rs.Camera(eye=(0.0, 3.0, 2.5), target=(0.0, -0.7, 0.0), width=64, height=48)
     scene = rs.Scene([grid, floor], lights=[rs.PointLight((0.1, 3.0, 0.2), intensity=8.0, shadows=True)],
                      camera=cam, ambient=0.1)
@@ -291,19 +298,7 @@ def test_light_falls_through_the_clear_texels_of_an_alpha_masked_occluder():
     """Seen from straight above, with the light straight above, the floor seen through the masked
     grid's holes is lit exactly as without shadows: the shadow rays pass the same holes. Were the
     mask applied to camera rays only, the grid would shadow all of that floor (none of it lit)."""
-    n = 4
-    xs = np.linspace(-1.0, 1.0, n + 1)
-    v = np.array([(x, 0.3, z) for z in xs for x in xs])
-    faces = []
-    for i in range(n):
-        for j in range(n):
-            a = i * (n + 1) + j
-            faces += [(a, a + n + 2, a + 1), (a, a + n + 1, a + n + 2)]
-    uv = (v[:, [0, 2]] + 1.0) / 2.0
-    cov = (np.indices((n, n)).sum(0) % 2 == 0).astype(np.float64)
-    amap = rs.Texture(np.repeat(cov[..., None], 3, axis=2), wrap="clamp", name="alpha")
-    grid = rs.Model(rs.Mesh(v, np.array(faces), uvs=uv), rs.Material(kd=0.6, alpha_map=amap, alpha_cutoff=0.5))
-    floor = rs.Model(rs.shapes.plane(4.0, center=(0.0, -0.7, 0.0), normal="+y"), rs.Material(kd=0.8))
+    grid, floor = _masked_grid_and_floor()
     cam = rs.Camera(eye=(0.0, 6.0, 0.01), target=(0.0, -0.7, 0.0), width=80, height=80)
     scene = rs.Scene([grid, floor], lights=[rs.DirectionalLight((0.0, -1.0, 0.0), intensity=0.9, shadows=True)],
                      camera=cam, ambient=0.1)
