@@ -34,7 +34,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_ORTHO, CAM_RIGHT, CAM_UP, METHOD_GOURAUD, METHOD_PHONG
+from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_ORTHO, METHOD_GOURAUD, METHOD_PHONG
 from ..common.parallel import share
 from ..visibility.rays import pixel_ray
 from ..visibility.secondary import ray_scratch
@@ -80,47 +80,9 @@ def _view_vjp(cam, p, gv):
 
 
 @njit(**HELPER)
-def pixel_hit_vjp(cam, x, y, P0, P1, P2, b1, b2, gp, gb1, gb2, gverts, tri, gcam):
-    """Back through the hit of pixel ``(x, y)``'s ray (through its centre, :func:`pixel_ray`) on
-    triangle ``(P0, P1, P2)`` at barycentrics ``(b1, b2)``: given ``dL/dp`` of the hit point and
-    ``dL/db1``, ``dL/db2``, add ``dL/dP_k`` into ``gverts[tri[k]]`` and the camera's into ``gcam``
-    (eye, rotation). A ray parallel to the triangle (``det = 0``) adds nothing."""
-    ox, oy, oz, dx, dy, dz = pixel_ray(cam, np.float64(x), np.float64(y))
-    o = (ox, oy, oz)
-    d = (dx, dy, dz)
-    p = (P0[0] + b1 * (P1[0] - P0[0]) + b2 * (P2[0] - P0[0]), P0[1] + b1 * (P1[1] - P0[1]) + b2 * (P2[1] - P0[1]),
-         P0[2] + b1 * (P1[2] - P0[2]) + b2 * (P2[2] - P0[2]))
-    t = (p[0] - ox) * dx + (p[1] - oy) * dy + (p[2] - oz) * dz
-    c0 = (-dx, -dy, -dz)
-    c1 = (P1[0] - P0[0], P1[1] - P0[1], P1[2] - P0[2])
-    c2 = (P2[0] - P0[0], P2[1] - P0[1], P2[2] - P0[2])
-    k12 = cross(c1, c2)
-    det = dot(c0, k12)
-    if det == 0.0:
-        return
-    k20 = cross(c2, c0)
-    k01 = cross(c0, c1)
-    gt = dot(gp, d)
-    lam = ((gt * k12[0] + gb1 * k20[0] + gb2 * k01[0]) / det, (gt * k12[1] + gb1 * k20[1] + gb2 * k01[1]) / det,
-           (gt * k12[2] + gb1 * k20[2] + gb2 * k01[2]) / det)
-    b = (1.0 - b1 - b2, b1, b2)
-    for k in range(3):
-        i = tri[k]
-        for c in range(3):
-            gverts[i, c] -= b[k] * lam[c]
-    go = (gp[0] + lam[0], gp[1] + lam[1], gp[2] + lam[2])
-    gd = (t * (gp[0] + lam[0]), t * (gp[1] + lam[1]), t * (gp[2] + lam[2]))
-    gw = cross(d, gd)
-    if cam[CAM_ORTHO] != 0.0:  # the origin turns about the eye with the camera too
-        w2 = cross((ox - cam[CAM_EYE + 0], oy - cam[CAM_EYE + 1], oz - cam[CAM_EYE + 2]), go)
-        gw = (gw[0] + w2[0], gw[1] + w2[1], gw[2] + w2[2])
-    _add_cam(gcam, go, gw)
-
-
-@njit(**HELPER)
 def ray_hit_vjp(o, d, P0, P1, P2, b1, b2, gp, gb1, gb2, gverts, tri):
     """Back through the hit of any ray ``o + t d`` (a mirror ray: :mod:`.grad_mirror`) on triangle
-    ``(P0, P1, P2)`` at barycentrics ``(b1, b2)``, the same closed form as :func:`pixel_hit_vjp`:
+    ``(P0, P1, P2)`` at barycentrics ``(b1, b2)`` (a camera ray: :func:`pixel_hit_vjp`, which calls it):
     ``dL/dP_k`` into ``gverts[tri[k]]``; returns ``(dL/do, dL/dd)``. ``t = (p - o).d / d.d``; a ray
     parallel to the triangle adds nothing."""
     p = (P0[0] + b1 * (P1[0] - P0[0]) + b2 * (P2[0] - P0[0]), P0[1] + b1 * (P1[1] - P0[1]) + b2 * (P2[1] - P0[1]),
@@ -145,6 +107,22 @@ def ray_hit_vjp(o, d, P0, P1, P2, b1, b2, gp, gb1, gb2, gverts, tri):
             gverts[i, c] -= b[k] * lam[c]
     go = (gp[0] + lam[0], gp[1] + lam[1], gp[2] + lam[2])
     return go, (t * go[0], t * go[1], t * go[2])
+
+
+@njit(**HELPER)
+def pixel_hit_vjp(cam, x, y, P0, P1, P2, b1, b2, gp, gb1, gb2, gverts, tri, gcam):
+    """Back through the hit of pixel ``(x, y)``'s ray (through its centre, :func:`pixel_ray`) on
+    triangle ``(P0, P1, P2)`` at barycentrics ``(b1, b2)``: given ``dL/dp`` of the hit point and
+    ``dL/db1``, ``dL/db2``, add ``dL/dP_k`` into ``gverts[tri[k]]`` and the camera's into ``gcam``
+    (eye, rotation). A ray parallel to the triangle (``det = 0``) adds nothing."""
+    ox, oy, oz, dx, dy, dz = pixel_ray(cam, np.float64(x), np.float64(y))
+    d = (dx, dy, dz)
+    go, gd = ray_hit_vjp((ox, oy, oz), d, P0, P1, P2, b1, b2, gp, gb1, gb2, gverts, tri)
+    gw = cross(d, gd)
+    if cam[CAM_ORTHO] != 0.0:  # the origin turns about the eye with the camera too
+        w2 = cross((ox - cam[CAM_EYE + 0], oy - cam[CAM_EYE + 1], oz - cam[CAM_EYE + 2]), go)
+        gw = (gw[0] + w2[0], gw[1] + w2[1], gw[2] + w2[2])
+    _add_cam(gcam, go, gw)
 
 
 @njit(nogil=True, **JIT)
