@@ -102,7 +102,9 @@ def _timings():
 
 def test_the_browser_table_is_the_timings_file():
     t, page = _timings(), _page("docs/teaching.md")
-    rows = [("lecture, Run All in a new kernel (kernel cache warm)", "lecture: Run All, new kernel"),
+    rows = [("lecture, Run All in a new kernel (kernel cache empty)", "lecture: Run All, new kernel"),
+            ("lecture, from Run All to its first picture on screen (kernel cache empty)",
+             "lecture, empty kernel cache: wall from Run All to the first picture (s)"),
             ("lecture, Run All again in the same kernel", "lecture: Run All again, same kernel"),
             ("exercise, Run All in a new kernel", "exercise: Run All, new kernel"),
             ("explorer, Run All in a new kernel", "explorer: Run All, new kernel"),
@@ -110,6 +112,21 @@ def test_the_browser_table_is_the_timings_file():
             ("explorer, click to explanation shown", "explorer: click to explanation (s)")]
     for label, key in rows:
         assert f"| {label} | {', '.join(t[key])} |" in page, (label, t[key])
+
+
+def test_the_cold_start_quoted_is_the_browser_tests():
+    """The lecture's cold start in its kernel's CPU, and the run's wall and load, as browser_timings.txt has them."""
+    t, page = _timings(), _page("docs/teaching.md")
+    cpu = {when: t[f"lecture, empty kernel cache: kernel CPU {when} (s)"][0]
+           for when in ("before Run All", "at the first picture", "after Run All")}
+    for label, when in (("before Run All (the kernel's start)", "before Run All"),
+                        ("at the first picture", "at the first picture"), ("after Run All", "after Run All")):
+        assert f"| {label} | {cpu[when]} |" in page, (label, cpu[when])
+    assert (f"first picture shows after {cpu['at the first picture']} s of the kernel's CPU and its "
+            f"whole Run All after {cpu['after Run All']} s") in page
+    (wall,), (start, end) = (t["browser test: wall from the module's import (s)"],
+                             t["load average, 1 minute, at the start and at the end"])
+    assert f"the whole test {wall} s" in page and f"load average {start} at its start and {end} at its end" in page
 
 
 def test_the_explorer_layout_quoted_is_the_measured_one():
