@@ -314,7 +314,7 @@ def _scroll_to(browser, css, index=0):
 @pytest.mark.parametrize("name, min_images", [("lecture", 15), ("exercise", 1)])
 def test_notebook_runs_and_shows_its_figures_as_images(browser, lab, name, min_images):
     _open(browser, lab, f"{name}.ipynb")
-    if name != "lecture":
+    if name != "lecture":  # (600 s: run alone, with -k, it is the lab's cold start)
         TIMINGS[f"{name}: Run All, new kernel"] = _run_all(browser, lab, f"{name}.ipynb", timeout=600)
     else:  # the first notebook this lab runs: a cold start
         cache = lab[2] / ".numba_cache"
@@ -400,7 +400,7 @@ def _projector_view(browser):
 def test_explorer_slider_and_click(browser, lab):
     _projector_view(browser)
     _open(browser, lab, "explorer.ipynb")
-    TIMINGS["explorer: Run All, new kernel"] = _run_all(browser, lab, "explorer.ipynb")
+    TIMINGS["explorer: Run All, new kernel"] = _run_all(browser, lab, "explorer.ipynb", timeout=600)  # see above
     WebDriverWait(browser, 60).until(lambda d: _image_src(d))
     errors, pngs, text = _outputs(browser)
     assert not errors and "Traceback" not in text
