@@ -173,6 +173,43 @@ def _load():
     return round(os.getloadavg()[0], 2)
 
 
+def packet_floor(geo, camera):
+    """The floor of any Embree-path frame of ``camera`` over the packed ``geo``: its 4x4 tiles as
+    16-ray packets made beforehand, and a preallocated store of what a frame writes.
+
+    Returns ``(restore, trace, store, hits)``: ``restore()`` puts the pristine packets back (untimed,
+    between repeats: a traced packet's ``tfar`` is its hit), ``trace()`` calls ``rtcIntersect16`` on
+    every packet, ``store()`` writes the (H, W, 3) float32 image and (H, W) mask,
+    ``hits()`` counts the traced packets' hits (for a check against the frame's).
+    """
+    from raycast_shade.visibility.accel import embree_accel
+    from raycast_shade.visibility.rays import camera_frame
+
+    w, h = camera.width, camera.height
+    cam = camera_frame(camera, geo.origin)
+    handle = embree_accel(geo).handle
+    args = _aligned(embree.ARGS_SLOTS, np.uint32, 8)
+    args[:] = 0
+    args[0] = embree.RAY_QUERY_FLAG_COHERENT
+    args[1] = embree.FEATURE_FLAG_ALL
+    tw, th = PACKETS["packets"]
+    n = tw * th
+    npk = ((w + tw - 1) // tw) * ((h + th - 1) // th)
+    pristine = _aligned(npk * _RAY * n, np.float32, 64)
+    valid = _aligned(npk * n, np.int32, 64)
+    _make_packets(cam, w, h, tw, th, pristine, valid)
+    work = _aligned(pristine.size, np.float32, 64)
+    np.copyto(work, pristine)
+    pre = _frame_outputs(h, w)
+
+    def hits():
+        hit_geom = work.view(np.uint32).reshape(npk, _RAY, n)[:, embree.HIT_GEOM_ID, :]
+        return int(np.count_nonzero(hit_geom[valid.reshape(npk, n) != 0] != embree.INVALID_ID))
+
+    return (lambda: np.copyto(work, pristine), lambda: _trace_packets(handle, work, valid, args, npk, n),
+            lambda: _store_frame(*pre), hits)
+
+
 def shade_cpu(scene, repeats):
     """The shade stage's Phong kernels over a whole frame's hits on one thread, in CPU time
     (``time.thread_time``: what a loaded machine's other processes add least to), the batched

@@ -1,31 +1,39 @@
-"""Ray casting against z-buffer rasterization, same Phong shading.
+"""Ray casting against z-buffer rasterization, beside Mesa's llvmpipe and Embree's packet floor.
 
 A rasterizer's cost grows with the triangles (every one is projected, set up
 and binned), a ray caster's with the pixels (one BVH descent each); this
-script measures where they cross over.
+script measures where they cross over, and where both stand against
+llvmpipe and against the floor of any Embree-path frame.
 
-For each icosphere (subdivisions 3..8: 1,280 to 1,310,720 triangles) and each
-resolution (640x480, 1920x1080) it times, as the median of ``--repeats``
-runs after a JIT warm-up:
-
-* ``visibility``: ``cast_camera`` (Embree) or ``rasterize`` (the hit buffer);
-* ``shade``: Phong shading of that hit buffer (the same kernel for both);
-* ``build``: the Embree BVH build, once per mesh (the rasterizer needs none),
-  which a one-shot frame pays and an animation amortises.
-
-JIT compilation is timed apart: from scratch in a fresh interpreter with an
-empty, temporary Numba cache (the project's cache is not touched), and the
-first calls of this process (cache loads) before any timing. Results go to a
-CSV and a two-panel log-log chart (visibility alone; the whole frame).
+The default run times, interleaved round by round in one process (medians
+of ``--repeats`` rounds after two warm-up rounds), on ``bench_peers``'
+icosphere Phong scene: the Embree frame (``rs.render(scene, "phong")``), the
+raster frame (``backend="raster"``), the raw Embree 16-ray packets plus the
+preallocated store (``bench_limits.packet_floor``: the floor of any
+Embree-path frame), llvmpipe's frame of the same scene (``bench_peers``'
+pipeline; skipped with a note without an EGL context), the two hit buffers
+alone, and the BVH build once per case; (a) against triangles (icosphere
+subdivisions 3..8 at 640x480 and 1920x1080) and (b) against pixels (81,920
+triangles, 320x240 to 3840x2160). Open3D is never loaded here: its OpenMP
+threads spin after each call and slow the next pipeline (``bench_limits``'
+``openmp`` section). JIT compilation is timed apart, in a fresh interpreter
+with an empty, temporary Numba cache. Results: ``raster_vs_raycast.csv``, a
+two-panel log-log chart (frame time against triangles and against pixels),
+the table between docs/raster.md's ``frame table`` markers and the floor's
+verdicts on issue 41's targets between docs/performance.md's ``raster
+floor`` markers. ``--replot`` redraws the chart and those blocks from the
+CSV; ``--cases`` times the given cases only (a spot check, written where a
+quick run writes).
 
 ``--crossover`` measures instead where ``backend="auto"`` should switch: for
 each resolution and two camera distances (the sphere filling much or little of
-the frame), the triangle count where the rasterizer's hit buffer stops being
-faster than Embree's (interleaved medians, the BVH built beforehand), divided
-by the pixels the scene's bounding box covers
+the frame), the triangle count where the rasterized Phong frame stops being
+faster than Embree's (``rs.render(..., backend=)``, interleaved medians, the
+BVH built beforehand), and the pixels the scene's bounding box covers
 (:func:`raycast_shade.visibility.raster.covered_pixels`). A least-squares fit
 (non-negative, relative error) of the crossovers to ``alpha * image pixels +
-beta * covered pixels`` gives ``AUTO_FACES_PER_PIXEL = (alpha, beta)``; the cases go to
+beta * covered pixels`` gives ``AUTO_FACES_PER_PIXEL = (alpha, beta)`` (set in
+the code by hand; a test holds the two equal); the cases go to
 ``raster_crossover.csv`` and to the table of ``docs/raster.md`` between its
 ``crossover`` markers (quick: under ``out/quick/``, no tracked file touched).
 
@@ -33,6 +41,8 @@ Usage::
 
     python benchmarks/bench_raster.py              # the full run (minutes)
     python benchmarks/bench_raster.py --quick      # small sizes, a smoke test
+    python benchmarks/bench_raster.py --cases 6:1920x1080   # a spot check, into out/quick/
+    python benchmarks/bench_raster.py --replot     # chart and docs' blocks from the CSV
     python benchmarks/bench_raster.py --crossover  # backend="auto"'s threshold
     python benchmarks/bench_raster.py --stages     # the 82k-face frame's stages beside llvmpipe
 """
@@ -59,16 +69,35 @@ from raycast_shade.shading.shade import shade  # noqa: E402
 
 from benchmarks.outputs import image_file, results_file  # noqa: E402
 
+# (a) frame time against triangles: icospheres at two image sizes; (b) against pixels: 81,920 faces.
 FULL_SUBDIVISIONS = (3, 4, 5, 6, 7, 8)
 FULL_RESOLUTIONS = ((640, 480), (1920, 1080))
+FULL_PIXEL_SUBDIVISION = 6
+FULL_PIXEL_RESOLUTIONS = ((320, 240), (640, 480), (1280, 720), (1920, 1080), (2560, 1440), (3840, 2160))
 QUICK_SUBDIVISIONS = (2, 3, 4)
 QUICK_RESOLUTIONS = ((160, 120), (320, 240))
+QUICK_PIXEL_SUBDIVISION = 3
+QUICK_PIXEL_RESOLUTIONS = ((80, 60), (160, 120), (320, 240))
 
-FIELDS = ["subdivisions", "triangles", "width", "height", "method", "visibility_s", "shade_s", "frame_s",
-          "build_s", "frame_with_build_s", "repeats", "threads", "compile_s", "shade_compile_s"]
+# Timed interleaved, round by round: the two visibility paths' frames, Embree's floor, llvmpipe's
+# frame, and the two hit buffers alone. ``bvh_build`` is timed once per case, apart.
+METHODS = ("frame_embree", "frame_raster", "packets_floor", "llvmpipe", "visibility_embree", "visibility_raster")
+LABELS = {"frame_embree": "Embree frame", "frame_raster": "raster frame",
+          "packets_floor": "Embree packets + store (floor)", "llvmpipe": "Mesa llvmpipe frame"}
+COLOURS = {"frame_embree": "tab:blue", "frame_raster": "tab:red", "packets_floor": "dimgrey", "llvmpipe": "tab:orange"}
+FIELDS = ["subdivisions", "triangles", "width", "height", "pixels", "sweep", "method", "median_ms", "min_ms",
+          "over_llvmpipe", "repeats", "threads", "load1", "utc", "machine", "compile_s", "note"]
+# Issue 41, item 2: the Embree frame over llvmpipe's, at most (the icosphere cases of these sizes).
+TARGETS = {(81920, 640, 480): 0.45, (81920, 1920, 1080): 0.75, (1310720, 640, 480): 0.3,
+           (1310720, 1920, 1080): 0.3}
+FRAME_BEGIN = "<!-- frame table: begin (bench_raster.py) -->"
+FRAME_END = "<!-- frame table: end -->"
+FLOOR_BEGIN = "<!-- raster floor: begin (bench_raster.py) -->"
+FLOOR_END = "<!-- raster floor: end -->"
 
 
 def make_scene(subdivisions):
+    """The crossover's scene (no camera: each case brings its own)."""
     mesh = rs.shapes.icosphere(subdivisions)
     material = rs.Material(kd=(0.8, 0.4, 0.2), ks=0.5, shininess=40.0)
     light = rs.PointLight((2.0, 3.0, 4.0), intensity=20.0, attenuation="inverse_square")
@@ -77,16 +106,6 @@ def make_scene(subdivisions):
 
 def make_camera(width, height):
     return rs.Camera(eye=(0.3, 0.5, 3.0), target=(0.0, 0.0, 0.0), width=width, height=height, fov=45.0)
-
-
-def median_time(fn, repeats):
-    times = []
-    out = None
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times)), out
 
 
 def warm_up():
@@ -117,6 +136,7 @@ import json, sys, time
 sys.path.insert(0, {root!r})
 t0 = time.perf_counter()
 import raycast_shade as rs
+from raycast_shade.visibility.accel import embree_accel
 from raycast_shade.visibility.raster import rasterize
 from raycast_shade.shading.shade import shade
 out = {{"import": time.perf_counter() - t0}}
@@ -149,54 +169,185 @@ def cold_compile():
     return json.loads(res.stdout.strip().splitlines()[-1])
 
 
-def run(subdivisions, resolutions, repeats, log=print):
+def machine():
+    """The CPU's model name, its widest vector ISA and its cores, for the CSV and the chart."""
+    model, flags = "unknown CPU", set()
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as fh:
+            for line in fh:
+                key, _, value = line.partition(":")
+                if key.strip() == "model name":
+                    model = " ".join(value.split()).replace("(R)", "")
+                elif key.strip() == "flags":
+                    flags = set(value.split())
+                    break
+    except OSError:
+        pass
+    isa = "AVX-512" if "avx512f" in flags else "AVX2" if "avx2" in flags else "no AVX2"
+    return f"{model}, {isa}, {os.cpu_count()} cores"
+
+
+def frame_cases(quick):
+    """``(subdivisions, width, height, sweep)`` once each: ``sweep`` is ``"triangles"``,
+    ``"pixels"`` or ``"both"`` (the chart's panels the case belongs to)."""
+    subs, res = (QUICK_SUBDIVISIONS, QUICK_RESOLUTIONS) if quick else (FULL_SUBDIVISIONS, FULL_RESOLUTIONS)
+    psub, pres = (QUICK_PIXEL_SUBDIVISION, QUICK_PIXEL_RESOLUTIONS) if quick else (FULL_PIXEL_SUBDIVISION,
+                                                                                   FULL_PIXEL_RESOLUTIONS)
+    tri = [(s, w, h) for s in subs for w, h in res]
+    pix = [(psub, w, h) for w, h in pres]
+    out = [(s, w, h, "both" if (s, w, h) in pix else "triangles") for s, w, h in tri]
+    return out + [(s, w, h, "pixels") for s, w, h in pix if (s, w, h) not in tri]
+
+
+def frame_case(sub, width, height, repeats, ctx, log=print):
+    """Rows (``FIELDS``) of one case of ``bench_peers``' icosphere scene: ``METHODS`` timed
+    interleaved (each round starts one further along), medians and minima of ``repeats`` rounds
+    after two warm-up rounds, each over llvmpipe's median; and the BVH build (once, first)."""
     import numba
 
-    threads = numba.get_num_threads()
-    rows = []
-    for sub in subdivisions:
-        scene = make_scene(sub)
-        geo = scene.geometry
-        t0 = time.perf_counter()
-        embree_accel(geo)  # the BVH, built once per mesh
-        build = time.perf_counter() - t0
-        ntri = len(geo.faces)
-        for width, height in resolutions:
-            camera = make_camera(width, height)
-            for method, fn in (("raycast", lambda: rs.cast_camera(geo, camera)),
-                               ("raster", lambda: rasterize(geo, camera))):
-                fn()  # first call at this size: page in the buffers
-                vis, hits = median_time(fn, repeats)
-                sh, _ = median_time(lambda: shade(scene, camera, hits, "phong"), repeats)
-                b = build if method == "raycast" else 0.0
-                rows.append(dict(subdivisions=sub, triangles=ntri, width=width, height=height, method=method,
-                                 visibility_s=vis, shade_s=sh, frame_s=vis + sh, build_s=b,
-                                 frame_with_build_s=vis + sh + b, repeats=repeats, threads=threads))
-                log(f"  {ntri:>9,d} tris {width}x{height} {method:8s} visibility {vis * 1e3:8.2f} ms"
-                    f"  shade {sh * 1e3:7.2f} ms  build {b * 1e3:7.2f} ms")
+    from benchmarks import bench_limits, bench_peers
+
+    load0 = os.getloadavg()[0]
+    scene = bench_peers.make_scene(bench_peers.make_mesh("icosphere", sub), width, height)
+    geo, camera = scene.geometry, scene.camera
+    t0 = time.perf_counter()
+    embree_accel(geo)
+    build = time.perf_counter() - t0
+    restore, trace, store, packet_hits = bench_limits.packet_floor(geo, camera)
+
+    def floor():
+        trace()
+        store()
+
+    fns = {"frame_embree": lambda: rs.render(scene, "phong"),
+           "frame_raster": lambda: rs.render(scene, "phong", backend="raster"),
+           "packets_floor": floor,
+           "visibility_embree": lambda: rs.cast_camera(geo, camera),
+           "visibility_raster": lambda: rasterize(geo, camera)}
+    note = ""
+    if isinstance(ctx, str):
+        note = f"llvmpipe skipped: {ctx}"
+    else:
+        fns["llvmpipe"] = bench_peers.llvmpipe_pipeline(ctx, scene, camera)[1]
+    names = [m for m in METHODS if m in fns]
+    for _ in range(2):  # warm-up: JIT or cache load, page faults, llvmpipe's shader variant
+        for name in names:
+            restore()
+            fns[name]()
+    times = {name: [] for name in names}
+    for r in range(repeats):
+        for name in names[r % len(names):] + names[:r % len(names)]:
+            if name == "packets_floor":
+                restore()  # untimed: a traced packet's tfar is its hit
+            t0 = time.perf_counter()
+            fns[name]()
+            times[name].append(time.perf_counter() - t0)
+    restore()
+    trace()
+    frame_hits, floor_hits = int(rs.render(scene, "phong").mask.sum()), packet_hits()
+    if floor_hits != frame_hits:  # the floor traces the frame's own rays: the same pixels must hit
+        note = (note + "; " if note else "") + f"packets hit {floor_hits} pixels, the frame {frame_hits}"
+    load = f"{load0:.1f}-{os.getloadavg()[0]:.1f}"
+    med = {k: 1e3 * float(np.median(v)) for k, v in times.items()}
+    gl = med.get("llvmpipe", math.nan)
+    base = dict(subdivisions=sub, triangles=len(geo.faces), width=width, height=height, pixels=width * height,
+                repeats=repeats, threads=numba.get_num_threads(), load1=load,
+                utc=time.strftime("%Y-%m-%d %H:%M", time.gmtime()), machine=machine(), note=note)
+    rows = [dict(base, method=name, median_ms=round(med[name], 3), min_ms=round(1e3 * min(times[name]), 3),
+                 over_llvmpipe=round(med[name] / gl, 3)) for name in names]
+    rows.append(dict(base, method="bvh_build", median_ms=round(1e3 * build, 3), min_ms=round(1e3 * build, 3),
+                     over_llvmpipe=round(1e3 * build / gl, 3), repeats=1))
+    log(f"  {len(geo.faces):>9,d} tris {width}x{height} (load {load}): "
+        + ", ".join(f"{k} {v:.1f} ms ({v / gl:.2f}x)" for k, v in med.items()) + (f" [{note}]" if note else ""))
     return rows
 
 
-def crossovers(rows, key="frame_s"):
-    """Triangle counts where the rasterizer stops winning, per resolution
-    (log-log interpolation between the measured sizes); None if it never
-    crosses in the range."""
+def run(cases, repeats, log=print):
+    """Rows of every case of :func:`frame_cases`, llvmpipe on one headless context (none: a note)."""
+    from benchmarks import bench_peers
+
+    ctx = bench_peers.llvmpipe_context()
+    if isinstance(ctx, str):
+        log(f"  llvmpipe skipped: {ctx}")
+    rows = []
+    for sub, width, height, sweep in cases:
+        rows += [dict(r, sweep=sweep) for r in frame_case(sub, width, height, repeats, ctx, log)]
+    # Open3D's OpenMP threads spin after each call and slow the next pipeline (bench_limits' openmp section).
+    assert "open3d" not in sys.modules, "bench_raster must not load Open3D"
+    return rows
+
+
+def _value(rows, triangles, width, height, method):
+    """``median_ms`` of one row, NaN if it was not measured."""
+    for r in rows:
+        if (int(r["triangles"]), int(r["width"]), int(r["height"]), r["method"]) == (triangles, width, height, method):
+            return float(r["median_ms"])
+    return math.nan
+
+
+def _sizes(rows, sweep):
+    """``(triangles, width, height)`` of the cases in one sweep (``"both"`` belongs to each)."""
+    keys = {(int(r["triangles"]), int(r["width"]), int(r["height"])) for r in rows if r["sweep"] in (sweep, "both")}
+    return sorted(keys, key=lambda k: (k[1] * k[2], k[0]))
+
+
+def crossovers(rows, a="frame_embree", b="frame_raster"):
+    """Per image size of the triangle sweep, the triangle count where ``b`` stops being faster than
+    ``a`` (log-log interpolation between the measured meshes); None if it does not cross there."""
     out = {}
-    for res in sorted({(r["width"], r["height"]) for r in rows}):
-        sel = [r for r in rows if (r["width"], r["height"]) == res]
-        tris = sorted({r["triangles"] for r in sel})
-        ratio = []
-        for n in tris:
-            rc = next(r[key] for r in sel if r["triangles"] == n and r["method"] == "raycast")
-            ra = next(r[key] for r in sel if r["triangles"] == n and r["method"] == "raster")
-            ratio.append(np.log(ra / rc))
-        out[res] = None
-        for i in range(len(tris) - 1):
-            if ratio[i] < 0 <= ratio[i + 1]:
-                a, b = np.log(tris[i]), np.log(tris[i + 1])
-                out[res] = float(np.exp(a + (b - a) * (-ratio[i]) / (ratio[i + 1] - ratio[i])))
-                break
+    sizes = _sizes(rows, "triangles")
+    for res in sorted({(w, h) for _, w, h in sizes}, key=lambda wh: wh[0] * wh[1]):
+        tris = sorted(t for t, w, h in sizes if (w, h) == res)
+        out[res] = _crossing(tris, [np.log(_value(rows, t, *res, b) / _value(rows, t, *res, a)) for t in tris])
     return out
+
+
+def frame_table(rows):
+    """The markdown table of every case (docs/raster.md, between the ``frame table`` markers)."""
+    ms = lambda v: "-" if math.isnan(v) else (f"{v:.1f} ms" if v < 100 else f"{v:,.0f} ms")  # noqa: E731
+    x = lambda v: "-" if math.isnan(v) else f"{v:.2f}x"  # noqa: E731
+    lines = ["| faces | image | Embree frame | raster frame | packets + store | llvmpipe | Embree / llvmpipe "
+             "| raster / llvmpipe | floor / llvmpipe | hit buffer: Embree, raster | BVH build | load |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    keys = sorted({(int(r["triangles"]), int(r["width"]), int(r["height"])) for r in rows},
+                  key=lambda k: (k[1] * k[2], k[0]))
+    for t, w, h in keys:
+        v = {m: _value(rows, t, w, h, m) for m in (*METHODS, "bvh_build")}
+        gl = v["llvmpipe"]
+        load = next(r["load1"] for r in rows if (int(r["triangles"]), int(r["width"]), int(r["height"])) == (t, w, h))
+        lines.append(f"| {t:,d} | {w}x{h} | {ms(v['frame_embree'])} | {ms(v['frame_raster'])} | "
+                     f"{ms(v['packets_floor'])} | {ms(gl)} | {x(v['frame_embree'] / gl)} | {x(v['frame_raster'] / gl)} "
+                     f"| {x(v['packets_floor'] / gl)} | {ms(v['visibility_embree'])}, {ms(v['visibility_raster'])} "
+                     f"| {ms(v['bvh_build'])} | {load} |")
+    r0 = rows[0]
+    lines += ["", f"`benchmarks/results/raster_vs_raycast.csv`, {r0['utc']} UTC, {r0['machine']}, {r0['threads']} "
+                  f"threads: medians of {r0['repeats']} interleaved rounds after two warm-up rounds; load average "
+                  "(1 minute) before and after each case in the last column."]
+    return "\n".join(lines) + "\n"
+
+
+def floor_text(rows):
+    """What the Embree floor leaves of issue 41's targets, case by case (docs/performance.md,
+    between the ``raster floor`` markers): a sentence per measured target case."""
+    out = []
+    for (t, w, h), target in TARGETS.items():
+        gl, floor = _value(rows, t, w, h, "llvmpipe"), _value(rows, t, w, h, "packets_floor")
+        embree, raster = _value(rows, t, w, h, "frame_embree"), _value(rows, t, w, h, "frame_raster")
+        if math.isnan(gl) or math.isnan(floor):
+            continue
+        f = floor / gl
+        verdict = (f"at or above the target of {target:.2f}x: the Embree path cannot reach it here, whatever its "
+                   "shading costs" if f >= target else
+                   f"under the target of {target:.2f}x: the Embree path has {target - f:.2f}x of llvmpipe's frame "
+                   "for all it does beyond the packets")
+        out.append(f"- {t:,d} faces, {w}x{h}: the packets and the store take {floor:.1f} ms, **{f:.2f}x** llvmpipe's "
+                   f"{gl:.1f} ms, {verdict}; the Embree frame is {embree / gl:.2f}x, the raster frame "
+                   f"{raster / gl:.2f}x.")
+    if not out:
+        return "_No target case (or no llvmpipe) in this run._\n"
+    r0 = rows[0]
+    out.append(f"\n(`bench_raster.py`, {r0['utc']} UTC, {r0['machine']}, load {r0['load1']} at its first case.)")
+    return "\n".join(out) + "\n"
 
 
 def write_csv(rows, path):
@@ -209,63 +360,103 @@ def write_csv(rows, path):
             w.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in r.items()})
 
 
-def plot(rows, path, first_calls=None, title_note=""):
-    """Two log-log panels: visibility alone, and the whole frame."""
+def read_csv(path):
+    with open(path, newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+def plot(rows, path, title_note=""):
+    """Two log-log panels of the frame time: against triangles (both image sizes) and against
+    pixels (the pixel sweep's mesh); lines for ``LABELS``' four pipelines."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from matplotlib.ticker import FuncFormatter
+    from matplotlib.ticker import FuncFormatter, NullLocator
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig, axes = plt.subplots(1, 2, figsize=(12.0, 5.2), dpi=110)
-    colours = {"raycast": "tab:blue", "raster": "tab:red"}
-    styles = ["-", "--", ":", "-."]
-    resolutions = sorted({(r["width"], r["height"]) for r in rows}, key=lambda wh: wh[0] * wh[1])
-    for ax, key, label in ((axes[0], "visibility_s", "visibility only (hit buffer), ms"),
-                           (axes[1], "frame_s", "frame: visibility + Phong shading, ms")):
-        for k, res in enumerate(resolutions):
-            ls = styles[k % len(styles)]
-            for method in ("raycast", "raster"):
-                sel = sorted((r for r in rows if (r["width"], r["height"]) == res and r["method"] == method),
-                             key=lambda r: r["triangles"])
-                x = [r["triangles"] for r in sel]
-                ax.plot(x, [r[key] * 1e3 for r in sel], ls, marker="o", ms=4, color=colours[method],
-                        label=f"{method} {res[0]}x{res[1]}")
-                if method == "raycast":
-                    ax.plot(x, [(r[key] + r["build_s"]) * 1e3 for r in sel], ls, color=colours[method],
-                            alpha=0.35, lw=1, label=f"raycast + BVH build {res[0]}x{res[1]}")
+    fig, (left, right) = plt.subplots(1, 2, figsize=(13.5, 6.0), dpi=110)
+    tri_sizes = _sizes(rows, "triangles")
+    styles = {0: ("-", "o"), 1: ("--", "s"), 2: (":", "^")}
+    for k, res in enumerate(sorted({(w, h) for _, w, h in tri_sizes}, key=lambda wh: wh[0] * wh[1])):
+        ls, mk = styles[k % 3]
+        tris = sorted(t for t, w, h in tri_sizes if (w, h) == res)
+        for m, label in LABELS.items():
+            y = [_value(rows, t, *res, m) for t in tris]
+            if not all(math.isnan(v) for v in y):
+                left.plot(tris, y, ls, marker=mk, ms=4, color=COLOURS[m], label=f"{label}, {res[0]}x{res[1]}")
+    left.set_xlabel("triangles (icosphere)")
+    left.set_title("against triangles", fontsize=10)
+    pix_sizes = _sizes(rows, "pixels")
+    if pix_sizes:
+        tri = pix_sizes[0][0]
+        px = [w * h for _, w, h in pix_sizes]
+        for m, label in LABELS.items():
+            y = [_value(rows, tri, w, h, m) for _, w, h in pix_sizes]
+            if not all(math.isnan(v) for v in y):
+                right.plot(px, y, "-", marker="o", ms=4, color=COLOURS[m], label=label)
+        gl = [_value(rows, tri, w, h, "llvmpipe") for _, w, h in pix_sizes]
+        if not all(math.isnan(v) for v in gl):
+            right.plot(px, [0.75 * v for v in gl], ":", color=COLOURS["llvmpipe"], lw=1,
+                       label="0.75x llvmpipe (issue 41's target at 1080p)")
+        right.set_xlabel("pixels (image size)")
+        right.set_title(f"against pixels, {tri:,d} triangles", fontsize=10)
+    for ax in (left, right):
         ax.set_xscale("log")
         ax.set_yscale("log")
-        fmt = FuncFormatter(lambda v, _: f"{v:g}")
-        ax.yaxis.set_major_formatter(fmt)
-        ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:,.0f}"))
-        bottom = ax.get_ylim()[0]
-        cross = crossovers(rows, key)
-        for k, res in enumerate(resolutions):
-            if cross.get(res):
-                ax.axvline(cross[res], color="grey", ls=styles[k % len(styles)], lw=0.8)
-                ax.annotate(f"crossover {res[0]}x{res[1]}\n~{cross[res]:,.0f} triangles", (cross[res], bottom),
-                            xytext=(4, 8 + 26 * k), textcoords="offset points", fontsize=7, color="dimgrey")
-        ax.set_xlabel("triangles (icosphere)")
-        ax.set_ylabel(label)
+        ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+        ax.yaxis.set_minor_formatter(FuncFormatter(lambda v, _: f"{v:g}" if f"{v:.0e}"[0] in "25" else ""))
+        ax.set_ylabel("frame time, ms (median)")
         ax.grid(True, which="both", alpha=0.3)
-    axes[0].legend(fontsize=7, ncol=2)
-    note = ""
-    if first_calls:
-        note = "; JIT compile apart: " + ", ".join(f"{k} {v:.1f} s" for k, v in first_calls.items())
-    threads = rows[0]["threads"] if rows else "?"
-    fig.suptitle(f"Ray casting (Embree) vs z-buffer rasterization{title_note}: median of repeats after warm-up, "
-                 f"{threads} threads{note}", fontsize=9)
+        ax.legend(fontsize=7.5, loc="upper left")
+    if pix_sizes:  # after the log scale, which would replace them
+        right.set_xticks(px, [f"{w}x{h}" for _, w, h in pix_sizes], rotation=30, fontsize=8)
+        right.xaxis.set_minor_locator(NullLocator())
+    all_tris = sorted({t for t, _, _ in tri_sizes})
+    if all_tris:  # the measured meshes, after the log scale (which would replace them)
+        left.set_xticks(all_tris, [f"{t:,d}" for t in all_tris], rotation=30, fontsize=8)
+        left.xaxis.set_minor_locator(NullLocator())
+    r0 = rows[0] if rows else {}
+    loads = [float(x) for r in rows for x in str(r.get("load1", "nan")).split("-")]
+    fig.suptitle(f"Phong frame of bench_peers' icosphere scene{title_note}: median of {r0.get('repeats', '?')} "
+                 f"interleaved rounds after warm-up\n{r0.get('machine', '?')}, {r0.get('threads', '?')} threads, "
+                 f"{r0.get('utc', '?')} UTC, load average {min(loads):.1f}-{max(loads):.1f}", fontsize=10)
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
 
 
 def outputs(quick: bool) -> list[str]:
-    """The CSV and the chart :func:`main` writes by default (see :mod:`benchmarks.outputs`)."""
-    return [results_file("raster_vs_raycast.csv", quick), image_file("raster_vs_raycast.png", quick)]
+    """The files :func:`main` writes by default (see :mod:`benchmarks.outputs`): the CSV, the chart,
+    and the docs' generated blocks (quick: alone, under out/quick/results/)."""
+    from benchmarks.outputs import page_file
+
+    if quick:
+        docs = [results_file("raster_frame_table.md", True), results_file("raster_floor.md", True)]
+    else:
+        docs = [page_file("raster.md", False), page_file("performance.md", False)]
+    return [results_file("raster_vs_raycast.csv", quick), image_file("raster_vs_raycast.png", quick), *docs]
+
+
+def write_docs(rows, quick):
+    """The frame table into docs/raster.md and the floor's verdicts into docs/performance.md,
+    between their markers (quick: each alone under out/quick/results/); returns the paths."""
+    from benchmarks.outputs import write_table
+
+    table, floor = frame_table(rows), floor_text(rows)
+    paths = [write_table(floor, "raster_floor.md", FLOOR_BEGIN, FLOOR_END, quick)]
+    if quick:
+        path = Path(results_file("raster_frame_table.md", True))
+        path.write_text(table, encoding="utf-8")
+    else:
+        from benchmarks.outputs import page_file
+
+        path = Path(page_file("raster.md", False))
+        text = path.read_text(encoding="utf-8")
+        start, stop = text.index(FRAME_BEGIN) + len(FRAME_BEGIN), text.index(FRAME_END)
+        path.write_text(text[:start] + "\n" + table + text[stop:], encoding="utf-8")
+    return [path, *paths]
 
 
 STAGE_CASES = ((6, 640, 480), (6, 1920, 1080))  # icosphere(6): 81,920 faces, the issue's frame
@@ -361,14 +552,15 @@ CROSS_RESOLUTIONS = ((640, 480), (1920, 1080))
 CROSS_DISTANCES = (3.0, 9.0)  # eye distance from the unit sphere's centre: it fills much, or little
 QUICK_CROSS_SUBDIVISIONS = (2, 3, 4, 5)
 QUICK_CROSS_RESOLUTIONS = ((160, 120), (320, 240))
-CROSS_FIELDS = ["width", "height", "distance", "covered_pixels", "triangles", "raycast_s", "raster_s", "repeats",
-                "crossover_triangles", "load1"]
+CROSS_FIELDS = ["width", "height", "distance", "covered_pixels", "triangles", "raycast_frame_s", "raster_frame_s",
+                "repeats", "crossover_triangles", "load1"]
 CROSS_BEGIN, CROSS_END = "<!-- crossover table: begin (bench_raster.py --crossover) -->", "<!-- crossover table: end -->"
 
 
 def crossover_rows(subdivisions, resolutions, repeats, log=print):
-    """One row per (resolution, distance, mesh): both hit buffers' medians, timed interleaved,
-    and per (resolution, distance) the crossover (on every row of the case)."""
+    """One row per (resolution, distance, mesh): both back ends' Phong frames (``rs.render(...,
+    backend=)``: what ``backend="auto"`` chooses between), medians timed interleaved, and per
+    (resolution, distance) the crossover (on every row of the case)."""
     from raycast_shade.visibility.raster import covered_pixels
 
     scenes = [make_scene(sub) for sub in subdivisions]
@@ -382,7 +574,8 @@ def crossover_rows(subdivisions, resolutions, repeats, log=print):
             case = []
             for sc in scenes:
                 geo = sc.geometry
-                fns = {"raycast": lambda: rs.cast_camera(geo, camera), "raster": lambda: rasterize(geo, camera)}
+                fns = {b: (lambda b=b, sc=sc: rs.render(sc, "phong", camera=camera, backend=b))
+                       for b in ("raycast", "raster")}
                 times = {k: [] for k in fns}
                 for fn in fns.values():
                     fn()
@@ -392,13 +585,15 @@ def crossover_rows(subdivisions, resolutions, repeats, log=print):
                         fns[k]()
                         times[k].append(time.perf_counter() - t0)
                 row = dict(width=width, height=height, distance=dist, covered_pixels=covered_pixels(geo, camera),
-                           triangles=len(geo.faces), raycast_s=float(np.median(times["raycast"])),
-                           raster_s=float(np.median(times["raster"])), repeats=repeats,
+                           triangles=len(geo.faces), raycast_frame_s=float(np.median(times["raycast"])),
+                           raster_frame_s=float(np.median(times["raster"])), repeats=repeats,
                            load1=round(os.getloadavg()[0], 2))
-                log(f"  {width}x{height} d={dist:g} {row['triangles']:>9,d} tris: raycast {row['raycast_s'] * 1e3:8.2f}"
-                    f" ms, raster {row['raster_s'] * 1e3:8.2f} ms (covered {row['covered_pixels']:,d} px)")
+                log(f"  {width}x{height} d={dist:g} {row['triangles']:>9,d} tris: frames raycast "
+                    f"{row['raycast_frame_s'] * 1e3:8.2f} ms, raster {row['raster_frame_s'] * 1e3:8.2f} ms "
+                    f"(covered {row['covered_pixels']:,d} px)")
                 case.append(row)
-            cross = _crossing([r["triangles"] for r in case], [np.log(r["raster_s"] / r["raycast_s"]) for r in case])
+            cross = _crossing([r["triangles"] for r in case],
+                              [np.log(r["raster_frame_s"] / r["raycast_frame_s"]) for r in case])
             for r in case:
                 r["crossover_triangles"] = cross
             rows += case
@@ -488,6 +683,10 @@ def main(argv=None):
     ap.add_argument("--crossover", action="store_true", help="measure backend='auto''s threshold instead")
     ap.add_argument("--stages", action="store_true",
                     help="where the rasterized frame's time goes at 82k faces, beside llvmpipe, instead")
+    ap.add_argument("--cases", default=None,
+                    help="a spot check of these cases only, e.g. 6:1920x1080,8:640x480 (written under out/quick/)")
+    ap.add_argument("--replot", action="store_true",
+                    help="redraw the chart and the docs' generated blocks from the CSV, measuring nothing")
     args = ap.parse_args(argv)
     if args.stages:
         warm_up()
@@ -509,15 +708,21 @@ def main(argv=None):
         print(f"AUTO_FACES_PER_PIXEL (image, covered) fitted: {fitted_faces_per_pixel(rows)}; wrote "
               + " and ".join(os.path.relpath(p) for p in paths))
         return
-    default_csv, default_png = outputs(args.quick)
+    spot = _spot_cases(ap, args.cases) if args.cases else None
+    quick = args.quick or spot is not None  # a spot check writes only where a quick run does
+    default_csv, default_png, *_ = outputs(quick)
     csv_path = Path(args.csv or default_csv)
     png_path = Path(args.png or default_png)
+    if args.replot:  # the chart and the docs' blocks again from the CSV, nothing measured
+        rows = read_csv(csv_path)
+        plot(rows, png_path, " (quick)" if quick else "")
+        paths = write_docs(rows, quick)
+        print("wrote " + ", ".join(os.path.relpath(p) for p in (png_path, *paths)))
+        return
     repeats = args.repeats or (3 if args.quick else 7)
     if repeats < 1:
         ap.error("--repeats: must be >= 1")
-    subs = QUICK_SUBDIVISIONS if args.quick else FULL_SUBDIVISIONS
-    resolutions = QUICK_RESOLUTIONS if args.quick else FULL_RESOLUTIONS
-    if args.compile or (not args.quick and not args.no_compile):
+    if args.compile or (not quick and not args.no_compile):
         cold = cold_compile()
         print("JIT compile from scratch (fresh process, empty cache): "
               + ", ".join(f"{k} {v:.1f} s" for k, v in cold.items() if k != "import"))
@@ -526,19 +731,32 @@ def main(argv=None):
     warm = warm_up()
     print("first calls in this process (cache load), apart from the timings: "
           + ", ".join(f"{k} {v:.2f} s" for k, v in warm.items()))
-    first = {k: v for k, v in cold.items() if k != "import"} if cold else None
-    rows = run(subs, resolutions, repeats)
+    rows = run(spot or frame_cases(args.quick), repeats)
     if cold:
         for r in rows:
-            r["compile_s"] = cold[r["method"]]
-            r["shade_compile_s"] = cold["shade"]
+            r["compile_s"] = {"visibility_embree": cold["raycast"], "visibility_raster": cold["raster"]}.get(r["method"], "")
     write_csv(rows, csv_path)
-    plot(rows, png_path, first, " (quick)" if args.quick else "")
+    plot(rows, png_path, " (quick)" if args.quick else " (spot check)" if spot else "")
+    paths = write_docs(rows, quick)
     for res, n in crossovers(rows).items():
         where = f"~{n:,.0f} triangles" if n else "not within the measured range"
-        print(f"crossover at {res[0]}x{res[1]}: {where}")
-    print(f"wrote {os.path.relpath(csv_path)} and {os.path.relpath(png_path)}")
+        print(f"frames cross over at {res[0]}x{res[1]}: {where}")
+    print("wrote " + ", ".join(os.path.relpath(p) for p in (csv_path, png_path, *paths)))
 
+
+def _spot_cases(ap, text):
+    """``--cases "6:1920x1080,8:640x480"`` as :func:`frame_cases`' tuples (one line, exit 2 if malformed)."""
+    out = []
+    for item in text.split(","):
+        try:
+            sub, size = item.split(":")
+            w, h = size.lower().split("x")
+            out.append((int(sub), int(w), int(h), "both"))
+        except ValueError:
+            ap.error(f"--cases: expected SUBDIVISIONS:WIDTHxHEIGHT[,...], got {item!r}")
+        if not (0 <= out[-1][0] <= 9 and out[-1][1] > 0 and out[-1][2] > 0):
+            ap.error(f"--cases: subdivisions 0..9 and positive sizes, got {item!r}")
+    return out
 
 if __name__ == "__main__":
     main()
