@@ -37,7 +37,7 @@ from .grad_bump import perturb_partials
 from .grad_geometry import faces_scatter, pixels_scatter, points_scatter, vertex_shades_kernel
 from .grad_normal import _normal_vjp
 from .grad_terms import _plain_vjp, _reflected_vjp, _rich, layout
-from .grad_walk import (chunk_items, chunks, corner_hit, corner_normal_grad, face_grad, gouraud_pixel, pixel_at,
+from .grad_walk import (chunk_items, chunks, corner_gather, corner_normal_grad, face_grad, gouraud_pixel, pixel_at,
                         pixel_grad, vertex_grad)
 from .jit import HELPER, JIT
 from .phong import _shading_point
@@ -133,15 +133,12 @@ def _phong_normals_scatter(prim, geom, u, v, faces, face_off, modes, gpx, gnorma
     h, w = prim.shape
     for y in range(h):
         for x in range(w):
-            p = prim[y, x]
-            if p < 0 or modes[geom[y, x]] != METHOD_PHONG:
+            shaded, at = pixel_at((prim, geom, u, v), face_off, modes, METHOD_PHONG, y, x)
+            if not shaded:
                 continue
-            f = face_off[geom[y, x]] + p
-            b1 = np.float64(u[y, x])
-            b2 = np.float64(v[y, x])
-            b = (1.0 - b1 - b2, b1, b2)
+            b = (1.0 - at.b1 - at.b2, at.b1, at.b2)
             for corner in range(3):
-                i = faces[f, corner]
+                i = faces[at.f, corner]
                 for c in range(3):
                     gnormals[i, c] += b[corner] * gpx[y, x, c]
 
@@ -211,12 +208,8 @@ def _make_gouraud_gather(rich: bool):
                 tri, gn, side, wts = gouraud_pixel(G, cam, at)
                 for corner in range(3):
                     i = tri[corner]
-                    wk = wts[corner]
-                    gI = (wk * gimg[y, x, 0], wk * gimg[y, x, 1], wk * gimg[y, x, 2])
-                    hp, stored = corner_hit(G, cam, i, side, gn)
-                    if stored:
-                        for cc in range(3):
-                            gvert[i, side, cc] += gI[cc]
+                    spot, hp, gI = corner_gather(G, cam, gimg, y, x, i, wts[corner], side, gn, gvert)
+                    if not spot:
                         continue
                     # shaded on the spot: a zero normal (lit with the face's, no normal gradient) or one
                     # reflected across the face's plane

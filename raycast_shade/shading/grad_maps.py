@@ -48,8 +48,8 @@ from ..visibility.secondary import ray_scratch
 from .grad_frame import _flat_gather
 from .grad_texels import add_rows, face_rho, pixel_rho, texel_gradient
 from .grad_terms import GM_KA, GM_KD, GM_KS, GM_SIZE, _plain_vjp, layout
-from .grad_walk import (chunk_items, chunks, corner_hit, face_grad, gouraud_pixel, pixel_at, pixel_grad,
-                        vertex_grad)
+from .grad_walk import (chunk_items, chunks, corner_gather, corner_hit, face_grad, gouraud_pixel, pixel_at,
+                        pixel_grad, vertex_grad)
 from .jit import HELPER, JIT
 from .phong import _shading_point
 from .records import At
@@ -138,13 +138,8 @@ def _gouraud_gather_partials(hits, G, L, face_off, materials, cam, modes, modula
             tri, gn, side, wts = gouraud_pixel(G, cam, at)
             for corner in range(3):
                 i = tri[corner]
-                wk = wts[corner]
-                gI = (wk * gimg[y, x, 0], wk * gimg[y, x, 1], wk * gimg[y, x, 2])
-                hp, stored = corner_hit(G, cam, i, side, gn)
-                if stored:
-                    for cc in range(3):
-                        gvert[i, side, cc] += gI[cc]
-                else:
+                spot, hp, gI = corner_gather(G, cam, gimg, y, x, i, wts[corner], side, gn, gvert)
+                if spot:
                     _point_partials(hp, materials, gm, L, S, gI, scratch, lay, out, i)
 
 

@@ -2,13 +2,19 @@
 vertices and corners.
 
 Each gradient kernel (:mod:`.grad_frame`, :mod:`.grad_textured`, :mod:`.grad_maps`,
-:mod:`.grad_bump`) visits the points where its method evaluates the reflectance equation and skips
-the ones with nothing to add. These helpers say, for one point, whether the kernel differentiates
-it and what it needs there; the kernel keeps its loops and its own step. They are inlined
+:mod:`.grad_bump`, :mod:`.grad_geometry`) visits the points where its method evaluates the
+reflectance equation and skips the ones with nothing to add. These helpers say, for one point,
+whether the kernel differentiates it and what it needs there (the hit, ``dL/dI``, the point lit);
+the kernel keeps its loops and its own step. They are inlined
 (:data:`~raycast_shade.shading.jit.HELPER`, :func:`~raycast_shade.common.inline.inline_jit`) and
-do no arithmetic of the step's, so the kernels' sums are the same, bit for bit. A point that is
-skipped comes back with a placeholder of the same types (not to be read).
-"""
+compute what the kernels computed in place, with the same functions and expressions: the
+gradients are the same, bit for bit. A point that is skipped comes back with a placeholder of the
+same types (not to be read).
+
+The geometry's pixel scatters (:func:`~.grad_geometry.pixels_scatter`,
+:func:`~.grad_geotex.tex_pixels_scatter`) keep their own reads of the hit: read through a helper
+like :func:`pixel_at` (placeholder and all), their code let LLVM fuse a multiply and an add
+differently (``contract``), and their vertex gradients moved by an ulp."""
 
 from __future__ import annotations
 
@@ -20,8 +26,8 @@ from .jit import CHUNK, HELPER
 from .records import At, Hit, dot
 from .surface import _convex_weights, _facing, _hit_point, _triangle, _view
 
-__all__ = ["pixel_at", "pixel_grad", "gouraud_pixel", "corner_hit", "corner_normal_grad", "chunks", "chunk_items",
-           "face_grad", "vertex_grad"]
+__all__ = ["pixel_at", "pixel_dI", "pixel_grad", "triangle_points", "gouraud_pixel", "corner_hit",
+           "corner_gather", "corner_normal_grad", "chunks", "chunk_items", "face_grad", "vertex_grad"]
 
 _NONE3 = (0.0, 0.0, 0.0)
 
@@ -41,14 +47,28 @@ def pixel_at(hits, face_off, modes, method, y, x):
 
 
 @inline_jit(**HELPER)
+def pixel_dI(gimg, y, x):
+    """Pixel ``(y, x)``'s ``gI = dL/dI`` (three float64): ``(nonzero, gI)``; a zero one adds nothing."""
+    gI = (np.float64(gimg[y, x, 0]), np.float64(gimg[y, x, 1]), np.float64(gimg[y, x, 2]))
+    return not (gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0), gI
+
+
+@inline_jit(**HELPER)
 def pixel_grad(hits, face_off, modes, method, gimg, y, x):
-    """:func:`pixel_at` and the pixel's ``gI = dL/dI`` (three float64): ``(shaded, at, gI)``, not
-    shaded also where ``gI`` is zero (it adds nothing)."""
+    """:func:`pixel_at` and :func:`pixel_dI`: ``(shaded, at, gI)``, not shaded where either says so."""
     shaded, at = pixel_at(hits, face_off, modes, method, y, x)
     if not shaded:
         return False, at, _NONE3
-    gI = (np.float64(gimg[y, x, 0]), np.float64(gimg[y, x, 1]), np.float64(gimg[y, x, 2]))
-    return not (gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0), at, gI
+    nonzero, gI = pixel_dI(gimg, y, x)
+    return nonzero, at, gI
+
+
+@inline_jit(**HELPER)
+def triangle_points(verts, tri):
+    """The triangle ``tri``'s three vertices ``(P0, P1, P2)``, 3-tuples."""
+    i0, i1, i2 = tri
+    return ((verts[i0, 0], verts[i0, 1], verts[i0, 2]), (verts[i1, 0], verts[i1, 1], verts[i1, 2]),
+            (verts[i2, 0], verts[i2, 1], verts[i2, 2]))
 
 
 @inline_jit(**HELPER)
@@ -77,6 +97,20 @@ def corner_hit(G, cam, i, side, gn):
     if c < 0.0:
         return Hit(p, view, gn, 1.0, (n[0] - 2.0 * c * gn[0], n[1] - 2.0 * c * gn[1], n[2] - 2.0 * c * gn[2]), p), False
     return Hit(p, view, n, 1.0, n, p), True
+
+
+@inline_jit(**HELPER)
+def corner_gather(G, cam, gimg, y, x, i, wk, side, gn, gvert):
+    """Corner ``i`` (weight ``wk``) of Gouraud pixel ``(y, x)`` lit from ``side``: ``(spot, hp, gI)``,
+    ``gI`` its share ``wk dL/dI`` of the pixel's. A corner with a stored shade (:func:`corner_hit`)
+    has its share added onto ``gvert[i, side]`` (V, 2, 3) here; one shaded on the spot (``spot``)
+    is the caller's to differentiate at ``hp``."""
+    gI = (wk * gimg[y, x, 0], wk * gimg[y, x, 1], wk * gimg[y, x, 2])
+    hp, stored = corner_hit(G, cam, i, side, gn)
+    if stored:
+        for c in range(3):
+            gvert[i, side, c] += gI[c]
+    return not stored, hp, gI
 
 
 @inline_jit(**HELPER)
