@@ -35,7 +35,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-
 from numba import njit
 
 from ..common.layout import (CAM_EYE, COLOR_FACE, COLOR_NONE, COLOR_VERTEX, MAT_AO_STRENGTH, MAT_KA, MAT_KA_COLORS, MAT_KD,
