@@ -46,10 +46,11 @@ from .bump import _bump, _bump_slopes
 from .grad_normal import _normal_vjp
 from .grad_terms import _plain_vjp, layout
 from .grad_texels import grid_scatter, texel_scatter
+from .grad_walk import pixel_grad
 from .jit import HELPER, JIT
 from .normalmap import _nmap_sample
 from .phong import _shading_point
-from .records import At, dot
+from .records import dot
 from .surface import _shading_normal, _triangle
 from .texture import _point_coefficients
 
@@ -163,23 +164,16 @@ def _perturb_kernel(hits, G, B, L, T, face_off, materials, cam, modes, gimg, lay
     (:data:`BUMP_COLUMNS`) at the pixel's shading point, its coefficients the forward pass's; and
     ``gpx[y, x]`` = ``dL/da`` of its interpolated normal through the bent one (``gpx`` (H, W, 3),
     or (0, 0, 3) for none)."""
-    prim, geom, u, v = hits
-    h, w = prim.shape
+    h, w = hits[0].shape
     _, _, size = lay
     scratch = np.zeros((1, size))  # the parameters' slots: not read (the driver's own pass has them)
     for y in range(*share(h, part)):
         S = ray_scratch()
         for x in range(w):
-            p = prim[y, x]
-            if p < 0:
+            shaded, at, gI = pixel_grad(hits, face_off, modes, METHOD_PHONG, gimg, y, x)
+            if not shaded or (B.bump_index[at.gm] < 0 and B.nmap_index[at.gm] < 0):
                 continue
-            gm = geom[y, x]
-            if modes[gm] != METHOD_PHONG or (B.bump_index[gm] < 0 and B.nmap_index[gm] < 0):
-                continue
-            gI = (np.float64(gimg[y, x, 0]), np.float64(gimg[y, x, 1]), np.float64(gimg[y, x, 2]))
-            if gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0:
-                continue
-            at = At(face_off[gm] + p, gm, np.float64(u[y, x]), np.float64(v[y, x]))
+            gm = at.gm
             coef = _point_coefficients(G, B.uvs, at, cam, x, y, True, materials, T)
             hp = _shading_point(G, B, L, cam, at, np.bool_(False), (0.0, 0.0, 0.0))
             gn, _, _ = _plain_vjp(hp, coef, materials, gm, L, S, gI, scratch, 0, (lay[0], lay[1]))

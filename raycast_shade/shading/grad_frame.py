@@ -37,10 +37,11 @@ from .grad_bump import perturb_partials
 from .grad_geometry import faces_scatter, pixels_scatter, points_scatter, vertex_shades_kernel
 from .grad_normal import _normal_vjp
 from .grad_terms import _plain_vjp, _reflected_vjp, _rich, layout
-from .jit import CHUNK, HELPER, JIT
+from .grad_walk import (chunk_items, chunks, corner_gather, corner_normal_grad, face_grad, gouraud_pixel, pixel_at,
+                        pixel_grad, vertex_grad)
+from .jit import HELPER, JIT
 from .phong import _shading_point
-from .records import At, Hit, dot
-from .surface import _convex_weights, _facing, _hit_point, _triangle, _view
+from .surface import _triangle
 from .texture import _row_coefficients
 
 __all__ = ["PARTS", "frame_vjp", "unsupported"]
@@ -100,23 +101,16 @@ def _make_phong(rich: bool):
         """Phong pixels: ``acc[k]`` (part ``k``) += ``dL/dparameters``; ``gpx`` (H, W, 9) the pixel's
         ``dL/da`` of its interpolated normal, ``dL/dp`` of its point and ``dL/dv`` of its view vector
         (for the normals and the geometry), or a (0, 0, 9) array for none."""
-        prim, geom, u, v = hits
         want_n = gpx.shape[0] != 0
         k = part[0]
-        h, w = prim.shape
+        h, w = hits[0].shape
         for y in range(*share(h, part)):
             S = ray_scratch()
             for x in range(w):
-                p = prim[y, x]
-                if p < 0:
+                shaded, at, gI = pixel_grad(hits, face_off, modes, METHOD_PHONG, gimg, y, x)
+                if not shaded:
                     continue
-                gm = geom[y, x]
-                if modes[gm] != METHOD_PHONG:
-                    continue
-                gI = (np.float64(gimg[y, x, 0]), np.float64(gimg[y, x, 1]), np.float64(gimg[y, x, 2]))
-                if gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0:
-                    continue
-                at = At(face_off[gm] + p, gm, np.float64(u[y, x]), np.float64(v[y, x]))
+                gm = at.gm
                 hp = _shading_point(G, B, L, cam, at, np.bool_(False), (0.0, 0.0, 0.0))
                 coef = _row_coefficients(materials, gm)
                 if rich:  # a closure constant: the plain build compiles neither GGX nor light samples
@@ -139,15 +133,12 @@ def _phong_normals_scatter(prim, geom, u, v, faces, face_off, modes, gpx, gnorma
     h, w = prim.shape
     for y in range(h):
         for x in range(w):
-            p = prim[y, x]
-            if p < 0 or modes[geom[y, x]] != METHOD_PHONG:
+            shaded, at = pixel_at((prim, geom, u, v), face_off, modes, METHOD_PHONG, y, x)
+            if not shaded:
                 continue
-            f = face_off[geom[y, x]] + p
-            b1 = np.float64(u[y, x])
-            b2 = np.float64(v[y, x])
-            b = (1.0 - b1 - b2, b1, b2)
+            b = (1.0 - at.b1 - at.b2, at.b1, at.b2)
             for corner in range(3):
-                i = faces[f, corner]
+                i = faces[at.f, corner]
                 for c in range(3):
                     gnormals[i, c] += b[corner] * gpx[y, x, c]
 
@@ -174,21 +165,15 @@ def _make_flat(rich: bool):
         """Flat faces (the forward pass's point: the centre, its true normal): ``acc[k]`` += the
         parameters' gradients; ``gfg`` (F, 9) the face's ``dL/dn``, ``dL/dp``, ``dL/dv`` for the
         geometry (each face in one part), or a (0, 9) array for none."""
-        verts, _, faces, fnormals = G
         k = part[0]
-        nchunk = (faces.shape[0] + CHUNK - 1) // CHUNK
-        for ch in range(*share(nchunk, part)):
+        nf = G.faces.shape[0]
+        for ch in range(*chunks(nf, part)):
             S = ray_scratch()
-            for f in range(ch * CHUNK, min(faces.shape[0], (ch + 1) * CHUNK)):
-                gI = (gface[f, 0], gface[f, 1], gface[f, 2])
-                if gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0:
+            for f in range(*chunk_items(nf, ch)):
+                shaded, hp, gI = face_grad(G, cam, gface, f)
+                if not shaded:
                     continue
-                third = 1.0 / 3.0
-                p = _hit_point(verts, _triangle(faces, f), third, third)
-                vv = _view(cam, p)
-                gn, sgn = _facing(fnormals, f, vv)
                 m = face_model[f]
-                hp = Hit(p, vv, gn, sgn, gn, p)
                 coef = _row_coefficients(materials, m)
                 if rich:  # a closure constant (see _make_phong)
                     gr = _reflected_vjp(hp, coef, materials, m, L, S, gI, acc, k, lay)
@@ -212,58 +197,29 @@ def _make_gouraud_gather(rich: bool):
         the spot (a zero normal, or one reflected into the face's hemisphere) is differentiated here,
         into ``acc[0]``, ``gnormals`` and ``gvg`` (V, 6: ``dL/dp``, ``dL/dv`` at the vertex; (0, 6) for
         none)."""
-        prim, geom, u, v = hits
-        verts, normals, faces, fnormals = G
         S = ray_scratch()
-        h, w = prim.shape
+        h, w = hits[0].shape
         for y in range(h):
             for x in range(w):
-                p = prim[y, x]
-                if p < 0:
+                shaded, at = pixel_at(hits, face_off, modes, METHOD_GOURAUD, y, x)
+                if not shaded:
                     continue
-                gm = geom[y, x]
-                if modes[gm] != METHOD_GOURAUD:
-                    continue
-                f = face_off[gm] + p
-                b1 = np.float64(u[y, x])
-                b2 = np.float64(v[y, x])
-                tri = _triangle(faces, f)
-                view = _view(cam, _hit_point(verts, tri, b1, b2))
-                gn, sgn = _facing(fnormals, f, view)
-                side = 0 if sgn > 0.0 else 1
-                sg = 1.0 - 2.0 * side
-                wts = _convex_weights(b1, b2)
+                gm = at.gm
+                tri, gn, side, wts = gouraud_pixel(G, cam, at)
                 for corner in range(3):
                     i = tri[corner]
-                    wk = wts[corner]
-                    gI = (wk * gimg[y, x, 0], wk * gimg[y, x, 1], wk * gimg[y, x, 2])
-                    n = (sg * normals[i, 0], sg * normals[i, 1], sg * normals[i, 2])
-                    if n[0] == 0.0 and n[1] == 0.0 and n[2] == 0.0:  # lit with the face's normal: no normal gradient
-                        pv = (verts[i, 0], verts[i, 1], verts[i, 2])
-                        hp = Hit(pv, _view(cam, pv), gn, 1.0, gn, pv)
-                        coef = _row_coefficients(materials, gm)
-                        if rich:  # a closure constant (see _make_phong)
-                            gr = _reflected_vjp(hp, coef, materials, gm, L, S, gI, acc, 0, lay)
-                        else:
-                            gr = _plain_vjp(hp, coef, materials, gm, L, S, gI, acc, 0, lay)
-                        _point_grads(gvg, i, gr)
-                    elif dot(n, gn) < 0.0:  # reflected across the face's plane
-                        c = dot(n, gn)
-                        nr = (n[0] - 2.0 * c * gn[0], n[1] - 2.0 * c * gn[1], n[2] - 2.0 * c * gn[2])
-                        pv = (verts[i, 0], verts[i, 1], verts[i, 2])
-                        hp = Hit(pv, _view(cam, pv), gn, 1.0, nr, pv)
-                        coef = _row_coefficients(materials, gm)
-                        if rich:  # a closure constant (see _make_phong)
-                            gr = _reflected_vjp(hp, coef, materials, gm, L, S, gI, acc, 0, lay)
-                        else:
-                            gr = _plain_vjp(hp, coef, materials, gm, L, S, gI, acc, 0, lay)
-                        _point_grads(gvg, i, gr)
-                        q = 2.0 * dot(gr[0], gn)
-                        for cc in range(3):
-                            gnormals[i, cc] += sg * (gr[0][cc] - q * gn[cc])
+                    spot, hp, gI = corner_gather(G, cam, gimg, y, x, i, wts[corner], side, gn, gvert)
+                    if not spot:
+                        continue
+                    # shaded on the spot: a zero normal (lit with the face's, no normal gradient) or one
+                    # reflected across the face's plane
+                    coef = _row_coefficients(materials, gm)
+                    if rich:  # a closure constant (see _make_phong)
+                        gr = _reflected_vjp(hp, coef, materials, gm, L, S, gI, acc, 0, lay)
                     else:
-                        for cc in range(3):
-                            gvert[i, side, cc] += gI[cc]
+                        gr = _plain_vjp(hp, coef, materials, gm, L, S, gI, acc, 0, lay)
+                    _point_grads(gvg, i, gr)
+                    corner_normal_grad(G, i, side, gn, gr[0], gnormals)
 
     return _gouraud_gather
 
@@ -276,28 +232,23 @@ def _make_gouraud(rich: bool):
         """Gouraud vertices (the forward pass's point: the vertex, lit with its own normal from the side
         a face needs): ``acc[k]`` += the parameters' gradients, ``gnormals[i]`` += the normal's (each
         vertex in one part only)."""
-        verts, normals, _, _ = G
         k = part[0]
-        n = verts.shape[0]
-        nchunk = (n + CHUNK - 1) // CHUNK
-        for ch in range(*share(nchunk, part)):
+        n = G.verts.shape[0]
+        for ch in range(*chunks(n, part)):
             S = ray_scratch()
-            for i in range(ch * CHUNK, min(n, (ch + 1) * CHUNK)):
+            for i in range(*chunk_items(n, ch)):
                 for side in range(2):
-                    gI = (gvert[i, side, 0], gvert[i, side, 1], gvert[i, side, 2])
-                    if gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0:
+                    shaded, hp, gI = vertex_grad(G, cam, gvert, i, side)
+                    if not shaded:
                         continue
-                    sg = 1.0 - 2.0 * side
-                    p = (verts[i, 0], verts[i, 1], verts[i, 2])
-                    nv = (sg * normals[i, 0], sg * normals[i, 1], sg * normals[i, 2])
                     m = vertex_model[i]
-                    hp = Hit(p, _view(cam, p), nv, 1.0, nv, p)
                     coef = _row_coefficients(materials, m)
                     if rich:  # a closure constant (see _make_phong)
                         gr = _reflected_vjp(hp, coef, materials, m, L, S, gI, acc, k, lay)
                     else:
                         gr = _plain_vjp(hp, coef, materials, m, L, S, gI, acc, k, lay)
                     _point_grads(gvg, i, gr)
+                    sg = 1.0 - 2.0 * side
                     for c in range(3):
                         gnormals[i, c] += sg * gr[0][c]
 

@@ -35,12 +35,12 @@ import numpy as np
 from numba import njit
 
 from ..common.layout import CAM_EYE, CAM_FORWARD, CAM_ORTHO, METHOD_GOURAUD, METHOD_PHONG
-from ..common.parallel import share
 from ..visibility.rays import pixel_ray
 from ..visibility.secondary import ray_scratch
 from .gouraud import _corner_shade
+from .grad_walk import chunk_items, chunks, pixel_dI, triangle_points
 from .illumination import _illuminate_call
-from .jit import CHUNK, HELPER, JIT
+from .jit import HELPER, JIT
 from .records import Hit, dot
 from .surface import _facing, _hit_point, _triangle, _view
 from .texture import _row_coefficients
@@ -131,10 +131,9 @@ def vertex_shades_kernel(G, vertex_model, materials, cam, L, vcol, part):
     forward evaluator: the barycentric gradient of a Gouraud pixel is ``gI . (S_k - S_0)``."""
     verts, normals, _, _ = G
     n = verts.shape[0]
-    nchunk = (n + CHUNK - 1) // CHUNK
-    for ch in range(*share(nchunk, part)):
+    for ch in range(*chunks(n, part)):
         S = ray_scratch()
-        for i in range(ch * CHUNK, min(n, (ch + 1) * CHUNK)):
+        for i in range(*chunk_items(n, ch)):
             p = (verts[i, 0], verts[i, 1], verts[i, 2])
             m = vertex_model[i]
             for side in range(2):
@@ -165,9 +164,7 @@ def pixels_scatter(hits, G, L, face_off, materials, cam, modes, gimg, gpx, vcol,
             f = face_off[gm] + pr
             tri = _triangle(faces, f)
             i0, i1, i2 = tri
-            P0 = (verts[i0, 0], verts[i0, 1], verts[i0, 2])
-            P1 = (verts[i1, 0], verts[i1, 1], verts[i1, 2])
-            P2 = (verts[i2, 0], verts[i2, 1], verts[i2, 2])
+            P0, P1, P2 = triangle_points(verts, tri)
             b1 = np.float64(u[y, x])
             b2 = np.float64(v[y, x])
             if modes[gm] == METHOD_PHONG:
@@ -183,8 +180,8 @@ def pixels_scatter(hits, G, L, face_off, materials, cam, modes, gimg, gpx, vcol,
                     gb2 += ga[c] * (normals[i2, c] - normals[i0, c])
                 pixel_hit_vjp(cam, x, y, P0, P1, P2, b1, b2, gp, gb1, gb2, gverts, tri, gcam)
             elif modes[gm] == METHOD_GOURAUD:
-                gI = (np.float64(gimg[y, x, 0]), np.float64(gimg[y, x, 1]), np.float64(gimg[y, x, 2]))
-                if gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0:
+                nonzero, gI = pixel_dI(gimg, y, x)
+                if not nonzero:
                     continue
                 view = _view(cam, _hit_point(verts, tri, b1, b2))
                 g, sgn = _facing(fnormals, f, view)

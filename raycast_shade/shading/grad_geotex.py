@@ -44,6 +44,7 @@ from ..common.layout import (CAM_EYE, COLOR_FACE, COLOR_NONE, COLOR_VERTEX, MAT_
                              TEXMAP_KE, TEXMAP_KS)
 from .bump import _texel_corners
 from .grad_geometry import _add_cam, _view_vjp, pixel_hit_vjp
+from .grad_walk import triangle_points
 from .jit import HELPER, JIT
 from .surface import _hit_point, _triangle
 from .texture import _level_rho, _sample, _uv_derivatives
@@ -212,9 +213,7 @@ def tex_pixels_scatter(hits, G, face_off, cam, modes, gpx, gbc, gverts, gcam):
                 continue
             tri = _triangle(faces, face_off[gm] + pr)
             i0, i1, i2 = tri
-            P0 = (verts[i0, 0], verts[i0, 1], verts[i0, 2])
-            P1 = (verts[i1, 0], verts[i1, 1], verts[i1, 2])
-            P2 = (verts[i2, 0], verts[i2, 1], verts[i2, 2])
+            P0, P1, P2 = triangle_points(verts, tri)
             b1 = np.float64(u[y, x])
             b2 = np.float64(v[y, x])
             gb1 = gbc[y, x, 0]

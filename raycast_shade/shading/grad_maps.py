@@ -48,10 +48,12 @@ from ..visibility.secondary import ray_scratch
 from .grad_frame import _flat_gather
 from .grad_texels import add_rows, face_rho, pixel_rho, texel_gradient
 from .grad_terms import GM_KA, GM_KD, GM_KS, GM_SIZE, _plain_vjp, layout
-from .jit import CHUNK, HELPER, JIT
+from .grad_walk import (chunk_items, chunks, corner_gather, corner_hit, face_grad, gouraud_pixel, pixel_at,
+                        pixel_grad, vertex_grad)
+from .jit import HELPER, JIT
 from .phong import _shading_point
-from .records import At, Hit, dot
-from .surface import _convex_weights, _facing, _hit_point, _triangle, _view
+from .records import At
+from .surface import _triangle
 from .texture import _coefficients, _face_footprint, _point_coefficients, _row_coefficients
 
 __all__ = ["MAPS", "map_partials", "maps_gradients"]
@@ -77,59 +79,29 @@ def _point_partials(hp, mats, mi, L, S, gI, scratch, lay, out, r):
         out[r, 6 + c] += scratch[0, mb + GM_KS + c]
 
 
-@njit(**HELPER)
-def _corner_hit(G, cam, i, side, gn):
-    """The point a Gouraud corner is lit at (:func:`~raycast_shade.shading.gouraud._corner_normal`):
-    vertex ``i`` with its normal from ``side``, the stored shade's (``True``), or shaded on the spot
-    with the face's normal ``gn`` (a zero normal) or its normal reflected across the face's plane."""
-    verts, normals, _, _ = G
-    sg = 1.0 - 2.0 * side
-    n = (sg * normals[i, 0], sg * normals[i, 1], sg * normals[i, 2])
-    p = (verts[i, 0], verts[i, 1], verts[i, 2])
-    view = _view(cam, p)
-    if n[0] == 0.0 and n[1] == 0.0 and n[2] == 0.0:
-        return Hit(p, view, gn, 1.0, gn, p), False
-    c = dot(n, gn)
-    if c < 0.0:
-        return Hit(p, view, gn, 1.0, (n[0] - 2.0 * c * gn[0], n[1] - 2.0 * c * gn[1], n[2] - 2.0 * c * gn[2]), p), False
-    return Hit(p, view, n, 1.0, n, p), True
-
-
 @njit(nogil=True, **JIT)
-def _pixel_partials_kernel(hits, G, B, L, face_off, materials, cam, modes, modulate, gimg, lay, size, out, part):
-    """The points that are pixels: ``out[y * W + x]`` = the pixel's ``dL/d(ka, kd, ks)`` (rows of
-    other pixels 0). Phong: at the pixel's shading point. Gouraud's modulate path (a model with a
-    map or face colours: ``Ia ka + D kd + S ks`` with the corners' diffuse and specular light ``D``,
-    ``S`` interpolated): each corner's, its ``dL/dI`` share ``w_k gI`` (the weights sum to 1)."""
-    prim, geom, u, v = hits
-    h, w = prim.shape
+def _pixel_partials_kernel(hits, G, B, L, face_off, materials, cam, modes, points, gimg, lay, size, out, part):
+    """The points that are pixels (of the models ``points`` flags: Phong's, and Gouraud's on the
+    modulate path): ``out[y * W + x]`` = the pixel's ``dL/d(ka, kd, ks)`` (rows of other pixels 0).
+    Phong: at the pixel's shading point. Gouraud's modulate path (a model with a map or face colours:
+    ``Ia ka + D kd + S ks`` with the corners' diffuse and specular light ``D``, ``S`` interpolated):
+    each corner's, its ``dL/dI`` share ``w_k gI`` (the weights sum to 1)."""
+    h, w = hits[0].shape
     scratch = np.zeros((1, size))
     for y in range(*share(h, part)):
         S = ray_scratch()
         for x in range(w):
-            p = prim[y, x]
-            if p < 0:
+            shaded, at, gI = pixel_grad(hits, face_off, points, 1, gimg, y, x)
+            if not shaded:
                 continue
-            gm = geom[y, x]
-            phong = modes[gm] == METHOD_PHONG
-            if not phong and not (modes[gm] == METHOD_GOURAUD and modulate[gm] != 0):
-                continue
-            gI = (np.float64(gimg[y, x, 0]), np.float64(gimg[y, x, 1]), np.float64(gimg[y, x, 2]))
-            if gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0:
-                continue
-            f = face_off[gm] + p
-            b1 = np.float64(u[y, x])
-            b2 = np.float64(v[y, x])
-            if phong:
-                hp = _shading_point(G, B, L, cam, At(f, gm, b1, b2), np.bool_(False), (0.0, 0.0, 0.0))
+            gm = at.gm
+            if modes[gm] == METHOD_PHONG:
+                hp = _shading_point(G, B, L, cam, at, np.bool_(False), (0.0, 0.0, 0.0))
                 _point_partials(hp, materials, gm, L, S, gI, scratch, lay, out, y * w + x)
                 continue
-            tri = _triangle(G.faces, f)
-            gn, sgn = _facing(G.face_normals, f, _view(cam, _hit_point(G.verts, tri, b1, b2)))
-            side = 0 if sgn > 0.0 else 1
-            wts = _convex_weights(b1, b2)
+            tri, gn, side, wts = gouraud_pixel(G, cam, at)
             for corner in range(3):
-                hp, _ = _corner_hit(G, cam, tri[corner], side, gn)
+                hp, _ = corner_hit(G, cam, tri[corner], side, gn)
                 wk = wts[corner]
                 _point_partials(hp, materials, gm, L, S, (wk * gI[0], wk * gI[1], wk * gI[2]), scratch, lay, out,
                                 y * w + x)
@@ -139,20 +111,14 @@ def _pixel_partials_kernel(hits, G, B, L, face_off, materials, cam, modes, modul
 def _flat_partials_kernel(gface, G, face_model, materials, cam, L, lay, size, out, part):
     """Flat faces (the centre, the true normal, as the forward pass): ``out[f]`` = ``dL/d(ka, kd, ks)``
     of the face's coefficients, ``gface`` (F, 3) its pixels' summed ``dL/dI``."""
-    verts, _, faces, fnormals = G
-    nchunk = (faces.shape[0] + CHUNK - 1) // CHUNK
+    nf = G.faces.shape[0]
     scratch = np.zeros((1, size))
-    for ch in range(*share(nchunk, part)):
+    for ch in range(*chunks(nf, part)):
         S = ray_scratch()
-        for f in range(ch * CHUNK, min(faces.shape[0], (ch + 1) * CHUNK)):
-            gI = (gface[f, 0], gface[f, 1], gface[f, 2])
-            if gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0:
-                continue
-            third = 1.0 / 3.0
-            p = _hit_point(verts, _triangle(faces, f), third, third)
-            vv = _view(cam, p)
-            gn, sgn = _facing(fnormals, f, vv)
-            _point_partials(Hit(p, vv, gn, sgn, gn, p), materials, face_model[f], L, S, gI, scratch, lay, out, f)
+        for f in range(*chunk_items(nf, ch)):
+            shaded, hp, gI = face_grad(G, cam, gface, f)
+            if shaded:
+                _point_partials(hp, materials, face_model[f], L, S, gI, scratch, lay, out, f)
 
 
 @njit(**JIT)
@@ -160,34 +126,20 @@ def _gouraud_gather_partials(hits, G, L, face_off, materials, cam, modes, modula
     """Serially, in row-major order: each Gouraud pixel's (not on the modulate path) ``dL/dI`` onto its
     corners' stored shades ``gvert`` (V, 2, 3) with the forward weights and sides; a corner the forward
     pass shades on the spot adds its ``dL/d(ka, kd, ks)`` into ``out[i]`` here."""
-    prim, geom, u, v = hits
     S = ray_scratch()
     scratch = np.zeros((1, size))
-    h, w = prim.shape
+    h, w = hits[0].shape
     for y in range(h):
         for x in range(w):
-            p = prim[y, x]
-            if p < 0:
+            shaded, at = pixel_at(hits, face_off, modes, METHOD_GOURAUD, y, x)
+            if not shaded or modulate[at.gm] != 0:
                 continue
-            gm = geom[y, x]
-            if modes[gm] != METHOD_GOURAUD or modulate[gm] != 0:
-                continue
-            f = face_off[gm] + p
-            b1 = np.float64(u[y, x])
-            b2 = np.float64(v[y, x])
-            tri = _triangle(G.faces, f)
-            gn, sgn = _facing(G.face_normals, f, _view(cam, _hit_point(G.verts, tri, b1, b2)))
-            side = 0 if sgn > 0.0 else 1
-            wts = _convex_weights(b1, b2)
+            gm = at.gm
+            tri, gn, side, wts = gouraud_pixel(G, cam, at)
             for corner in range(3):
                 i = tri[corner]
-                wk = wts[corner]
-                gI = (wk * gimg[y, x, 0], wk * gimg[y, x, 1], wk * gimg[y, x, 2])
-                hp, stored = _corner_hit(G, cam, i, side, gn)
-                if stored:
-                    for cc in range(3):
-                        gvert[i, side, cc] += gI[cc]
-                else:
+                spot, hp, gI = corner_gather(G, cam, gimg, y, x, i, wts[corner], side, gn, gvert)
+                if spot:
                     _point_partials(hp, materials, gm, L, S, gI, scratch, lay, out, i)
 
 
@@ -195,22 +147,15 @@ def _gouraud_gather_partials(hits, G, L, face_off, materials, cam, modes, modula
 def _gouraud_partials_kernel(gvert, G, vertex_model, materials, cam, L, lay, size, out, part):
     """Gouraud vertices (lit with their own normal from each side a face needs): ``out[i]`` +=
     ``dL/d(ka, kd, ks)`` of the vertex's coefficients (each vertex in one part)."""
-    verts, normals, _, _ = G
-    n = verts.shape[0]
-    nchunk = (n + CHUNK - 1) // CHUNK
+    n = G.verts.shape[0]
     scratch = np.zeros((1, size))
-    for ch in range(*share(nchunk, part)):
+    for ch in range(*chunks(n, part)):
         S = ray_scratch()
-        for i in range(ch * CHUNK, min(n, (ch + 1) * CHUNK)):
+        for i in range(*chunk_items(n, ch)):
             for side in range(2):
-                gI = (gvert[i, side, 0], gvert[i, side, 1], gvert[i, side, 2])
-                if gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0:
-                    continue
-                sg = 1.0 - 2.0 * side
-                p = (verts[i, 0], verts[i, 1], verts[i, 2])
-                nv = (sg * normals[i, 0], sg * normals[i, 1], sg * normals[i, 2])
-                _point_partials(Hit(p, _view(cam, p), nv, 1.0, nv, p), materials, vertex_model[i], L, S, gI, scratch,
-                                lay, out, i)
+                shaded, hp, gI = vertex_grad(G, cam, gvert, i, side)
+                if shaded:
+                    _point_partials(hp, materials, vertex_model[i], L, S, gI, scratch, lay, out, i)
 
 
 @njit(nogil=True, **JIT)
@@ -218,15 +163,12 @@ def _factors_kernel(hits, G, uvs, cam, face_off, unit_mats, Tn, need, fac, part)
     """Pixels of the models ``need`` flags: ``fac[y * W + x]`` = (the kd map's filtered sample, the ka
     map's times the occlusion), :func:`~raycast_shade.shading.texture._point_coefficients` with unit
     ka and kd rows and no colours (``unit_mats``, ``Tn``): what multiplies the mesh colour there."""
-    prim, geom, u, v = hits
-    h, w = prim.shape
+    h, w = hits[0].shape
     for y in range(*share(h, part)):
         for x in range(w):
-            p = prim[y, x]
-            if p < 0 or need[geom[y, x]] == 0:
+            shaded, at = pixel_at(hits, face_off, need, 1, y, x)
+            if not shaded:
                 continue
-            gm = geom[y, x]
-            at = At(face_off[gm] + p, gm, np.float64(u[y, x]), np.float64(v[y, x]))
             coef = _point_coefficients(G, uvs, at, cam, x, y, True, unit_mats, Tn)
             for c in range(3):
                 fac[y * w + x, c] = coef[3 + c]
@@ -264,7 +206,7 @@ def _unit_samples(hits, inputs, geo, partials, need, keep):
     tindex[:, list(keep)] = T.tex_index[:, list(keep)]
     Tn = T._replace(color_mode=np.zeros_like(T.color_mode), tex_index=tindex)
     G = inputs.geometry
-    need = need.astype(np.uint8)
+    need = need.astype(np.int8)  # int8 as the modes: the kernel's pixel_at takes the pixels of the 1s
     if "pixels" in partials:
         launch(_factors_kernel, (hits.prim, hits.geom, hits.u, hits.v), G, inputs.bumps.uvs, inputs.cam,
                inputs.face_off, unit, Tn, need, out["pixels"], parts=PARTS, dynamic=True)
@@ -323,7 +265,8 @@ def map_partials(hits, inputs, modes, gimg, geo) -> dict:
     modulate = inputs.colours.modulate
     if np.any(modes == METHOD_PHONG) or np.any((modes == METHOD_GOURAUD) & (modulate != 0)):
         out["pixels"] = np.zeros((hits.prim.size, 9))
-        launch(_pixel_partials_kernel, hit, G, B, L, face_off, mats, cam, modes, modulate, gimg, lay, size,
+        points = ((modes == METHOD_PHONG) | ((modes == METHOD_GOURAUD) & (modulate != 0))).astype(np.int8)
+        launch(_pixel_partials_kernel, hit, G, B, L, face_off, mats, cam, modes, points, gimg, lay, size,
                out["pixels"], parts=PARTS, dynamic=True)
     if np.any(modes == METHOD_FLAT):
         gface = np.zeros((nf, 3))

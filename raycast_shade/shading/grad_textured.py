@@ -51,13 +51,14 @@ from .grad_frame import PARTS, _flat_gather, _phong_normals_scatter, _point_grad
 from .grad_geometry import faces_scatter, points_scatter
 from .grad_geotex import coefficients_bary_vjp, pixel_footprint, tex_pixels_scatter
 from .grad_normal import _normal_vjp
-from .grad_maps import _corner_hit
 from .grad_terms import GM_KA, GM_KD, GM_KS, GM_SIZE, GM_T, _reflected_vjp, layout
+from .grad_walk import (chunk_items, chunks, corner_hit, corner_normal_grad, face_grad, gouraud_pixel, pixel_at,
+                        pixel_grad, vertex_grad)
 from .illumination import _illuminate
-from .jit import CHUNK, HELPER, JIT
+from .jit import HELPER, JIT
 from .phong import _shading_point
-from .records import At, Hit, dot
-from .surface import _convex_weights, _facing, _hit_point, _triangle, _view
+from .records import At
+from .surface import _triangle
 from .texture import _coefficients, _face_footprint, _point_coefficients
 
 __all__ = ["textured_vjp", "unit_rows"]
@@ -102,25 +103,18 @@ def _phong_tex_kernel(hits, G, B, L, T, face_off, materials, unit, cam, modes, g
     ``gpx`` (H, W, 9) as :func:`~raycast_shade.shading.grad_frame._phong_vjp_kernel`'s (``dL/da``,
     ``dL/dp``, ``dL/dv``), or (0, 0, 9) for none. The coefficients' ``dL/db`` for the geometry is
     :func:`_phong_coefficients_kernel`'s pass (its own kernel: its compile is paid only when asked)."""
-    prim, geom, u, v = hits
     cmode = T[2]
     want_n = gpx.shape[0] != 0
     k = part[0]
     scratch = np.zeros((1, acc.shape[1]))
-    h, w = prim.shape
+    h, w = hits[0].shape
     for y in range(*share(h, part)):
         S = ray_scratch()
         for x in range(w):
-            p = prim[y, x]
-            if p < 0:
+            shaded, at, gI = pixel_grad(hits, face_off, modes, METHOD_PHONG, gimg, y, x)
+            if not shaded:
                 continue
-            gm = geom[y, x]
-            if modes[gm] != METHOD_PHONG:
-                continue
-            gI = (np.float64(gimg[y, x, 0]), np.float64(gimg[y, x, 1]), np.float64(gimg[y, x, 2]))
-            if gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0:
-                continue
-            at = At(face_off[gm] + p, gm, np.float64(u[y, x]), np.float64(v[y, x]))
+            gm = at.gm
             coef = _point_coefficients(G, B.uvs, at, cam, x, y, True, materials, T)
             fac = _point_coefficients(G, B.uvs, at, cam, x, y, True, unit, T)
             hp = _shading_point(G, B, L, cam, at, np.bool_(False), (0.0, 0.0, 0.0))
@@ -139,22 +133,15 @@ def _phong_coefficients_kernel(hits, G, B, L, T, face_off, materials, cam, modes
     """Phong pixels, for the geometry: ``gbc[y, x]`` = ``dL/d(b1, b2)`` through the pixel's
     coefficients (:func:`~raycast_shade.shading.grad_geotex.coefficients_bary_vjp`), their
     ``dL/d(ka, kd, ks)`` read from :func:`_reflected_vjp`'s material slots (a scratch row per pixel)."""
-    prim, geom, u, v = hits
     scratch = np.zeros((1, size))
-    h, w = prim.shape
+    h, w = hits[0].shape
     for y in range(*share(h, part)):
         S = ray_scratch()
         for x in range(w):
-            p = prim[y, x]
-            if p < 0:
+            shaded, at, gI = pixel_grad(hits, face_off, modes, METHOD_PHONG, gimg, y, x)
+            if not shaded:
                 continue
-            gm = geom[y, x]
-            if modes[gm] != METHOD_PHONG:
-                continue
-            gI = (np.float64(gimg[y, x, 0]), np.float64(gimg[y, x, 1]), np.float64(gimg[y, x, 2]))
-            if gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0:
-                continue
-            at = At(face_off[gm] + p, gm, np.float64(u[y, x]), np.float64(v[y, x]))
+            gm = at.gm
             coef = _point_coefficients(G, B.uvs, at, cam, x, y, True, materials, T)
             hp = _shading_point(G, B, L, cam, at, np.bool_(False), (0.0, 0.0, 0.0))
             scratch[0, :] = 0.0
@@ -171,49 +158,28 @@ def _flat_tex_kernel(gface, G, T, uvs, face_model, materials, unit, cam, L, lay,
     filtered over the face's UV footprint: they do not move with the geometry): ``acc[k]`` += the
     parameters' gradients; ``gfg`` (F, 9) the face's ``dL/dn``, ``dL/dp``, ``dL/dv`` for the
     geometry, or (0, 9) for none."""
-    verts, _, faces, fnormals = G
     cmode = T[2]
     k = part[0]
     scratch = np.zeros((1, acc.shape[1]))
-    nchunk = (faces.shape[0] + CHUNK - 1) // CHUNK
+    nf = G.faces.shape[0]
     third = 1.0 / 3.0
-    for ch in range(*share(nchunk, part)):
+    for ch in range(*chunks(nf, part)):
         S = ray_scratch()
-        for f in range(ch * CHUNK, min(faces.shape[0], (ch + 1) * CHUNK)):
-            gI = (gface[f, 0], gface[f, 1], gface[f, 2])
-            if gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0:
+        for f in range(*chunk_items(nf, ch)):
+            shaded, hp, gI = face_grad(G, cam, gface, f)
+            if not shaded:
                 continue
-            tri = _triangle(faces, f)
-            p = _hit_point(verts, tri, third, third)
-            vv = _view(cam, p)
-            gn, sgn = _facing(fnormals, f, vv)
+            tri = _triangle(G.faces, f)
             m = face_model[f]
             at = At(f, m, third, third)
             coef = _coefficients(materials, T, at, tri, uvs, _face_footprint(uvs, tri))
             fac = _coefficients(unit, T, at, tri, uvs, _face_footprint(uvs, tri))
-            gr = _reflected_vjp(Hit(p, vv, gn, sgn, gn, p), coef, materials, m, L, S, gI, scratch, 0, lay)
+            gr = _reflected_vjp(hp, coef, materials, m, L, S, gI, scratch, 0, lay)
             _fold(scratch, acc, k, m, lay[0], fac, cmode[m] == COLOR_NONE)
             if gfg.shape[0] != 0:
                 for j in range(3):
                     for c in range(3):
                         gfg[f, 3 * j + c] = gr[j][c]
-
-
-@njit(**HELPER)
-def _corner_normal_grad(G, i, side, gn, gr0, gnormals):
-    """``gnormals[i] +=`` the vertex normal's share of ``dL/dn`` ``gr0`` at a corner lit from ``side``
-    (as :func:`~raycast_shade.shading.grad_frame._gouraud_gather`: none for a zero normal, which
-    borrows the face's; through the reflection across the face's plane for one turned away)."""
-    normals = G.normals
-    sg = 1.0 - 2.0 * side
-    n = (sg * normals[i, 0], sg * normals[i, 1], sg * normals[i, 2])
-    if n[0] == 0.0 and n[1] == 0.0 and n[2] == 0.0:
-        return
-    q = 0.0
-    if dot(n, gn) < 0.0:
-        q = 2.0 * dot(gr0, gn)
-    for c in range(3):
-        gnormals[i, c] += sg * (gr0[c] - q * gn[c])
 
 
 @njit(**JIT)
@@ -227,7 +193,6 @@ def _gouraud_tex_gather(hits, G, B, L, T, face_off, materials, unit, cam, modes,
     ``dL/d(b1, b2)`` into ``gbc``: ``gI . (shade_j - shade_0)`` of its corners' shades (modulate: each
     corner lit with the pixel's coefficients), plus, on the modulate path, the coefficients' own
     (:func:`~raycast_shade.shading.grad_geotex.coefficients_bary_vjp`)."""
-    prim, geom, u, v = hits
     serial, gvert, gnormals, gvg, gbc = out
     vcolors, _, cmode, _, _, _, modulate = T
     want_g = gbc.shape[0] != 0
@@ -235,24 +200,15 @@ def _gouraud_tex_gather(hits, G, B, L, T, face_off, materials, unit, cam, modes,
     gk = np.zeros(9)
     shd = np.zeros((3, 3))
     S = ray_scratch()
-    h, w = prim.shape
+    h, w = hits[0].shape
     for y in range(h):
         for x in range(w):
-            p = prim[y, x]
-            if p < 0:
+            shaded, at = pixel_at(hits, face_off, modes, METHOD_GOURAUD, y, x)
+            if not shaded:
                 continue
-            gm = geom[y, x]
-            if modes[gm] != METHOD_GOURAUD:
-                continue
-            f = face_off[gm] + p
-            b1 = np.float64(u[y, x])
-            b2 = np.float64(v[y, x])
-            tri = _triangle(G.faces, f)
-            gn, sgn = _facing(G.face_normals, f, _view(cam, _hit_point(G.verts, tri, b1, b2)))
-            side = 0 if sgn > 0.0 else 1
-            wts = _convex_weights(b1, b2)
+            gm = at.gm
+            tri, gn, side, wts = gouraud_pixel(G, cam, at)
             split = modulate[gm] != 0
-            at = At(f, gm, b1, b2)
             if split:
                 coef = _point_coefficients(G, B.uvs, at, cam, x, y, True, materials, T)
                 fac = _point_coefficients(G, B.uvs, at, cam, x, y, True, unit, T)
@@ -261,7 +217,7 @@ def _gouraud_tex_gather(hits, G, B, L, T, face_off, materials, unit, cam, modes,
                 i = tri[corner]
                 wk = wts[corner]
                 gI = (wk * gimg[y, x, 0], wk * gimg[y, x, 1], wk * gimg[y, x, 2])
-                hp, stored = _corner_hit(G, cam, i, side, gn)
+                hp, stored = corner_hit(G, cam, i, side, gn)
                 if want_g:  # the corner's shade, as the pixel interpolates it
                     ck = coef if split else _vertex_kd(materials, gm, cmode, vcolors, i, True)
                     sh = _illuminate(hp, ck, materials, gm, L, S, L.spec_on, L.att_on)
@@ -281,7 +237,7 @@ def _gouraud_tex_gather(hits, G, B, L, T, face_off, materials, unit, cam, modes,
                         gk[j] += gc[j]
                     _point_grads(gvg, i, gr)
                 _fold(scratch, serial, 0, gm, lay[0], fac, cmode[gm] == COLOR_NONE)
-                _corner_normal_grad(G, i, side, gn, gr[0], gnormals)
+                corner_normal_grad(G, i, side, gn, gr[0], gnormals)
             if want_g:
                 gI = (np.float64(gimg[y, x, 0]), np.float64(gimg[y, x, 1]), np.float64(gimg[y, x, 2]))
                 gb1 = gb2 = 0.0
@@ -303,29 +259,24 @@ def _gouraud_tex_vertices(gvert, G, T, vertex_model, materials, unit, cam, L, la
     """Gouraud vertices off the modulate path (lit with their own normal, their colour as kd):
     ``acc[k]`` += the parameters' gradients, ``gnormals[i]`` += the normal's (each vertex in one
     part); ``gvg`` (V, 6) the vertex's ``dL/dp``, ``dL/dv`` for the geometry, or (0, 6) for none."""
-    verts, normals, _, _ = G
     vcolors, _, cmode, _, _, _, _ = T
     k = part[0]
     scratch = np.zeros((1, acc.shape[1]))
-    n = verts.shape[0]
-    nchunk = (n + CHUNK - 1) // CHUNK
-    for ch in range(*share(nchunk, part)):
+    n = G.verts.shape[0]
+    for ch in range(*chunks(n, part)):
         S = ray_scratch()
-        for i in range(ch * CHUNK, min(n, (ch + 1) * CHUNK)):
+        for i in range(*chunk_items(n, ch)):
             for side in range(2):
-                gI = (gvert[i, side, 0], gvert[i, side, 1], gvert[i, side, 2])
-                if gI[0] == 0.0 and gI[1] == 0.0 and gI[2] == 0.0:
+                shaded, hp, gI = vertex_grad(G, cam, gvert, i, side)
+                if not shaded:
                     continue
-                sg = 1.0 - 2.0 * side
-                p = (verts[i, 0], verts[i, 1], verts[i, 2])
-                nv = (sg * normals[i, 0], sg * normals[i, 1], sg * normals[i, 2])
                 m = vertex_model[i]
                 coef = _vertex_kd(materials, m, cmode, vcolors, i, True)
                 fac = _vertex_kd(unit, m, cmode, vcolors, i, True)
-                gr = _reflected_vjp(Hit(p, _view(cam, p), nv, 1.0, nv, p), coef, materials, m, L, S, gI, scratch, 0,
-                                    lay)
+                gr = _reflected_vjp(hp, coef, materials, m, L, S, gI, scratch, 0, lay)
                 _fold(scratch, acc, k, m, lay[0], fac, cmode[m] == COLOR_NONE)
                 _point_grads(gvg, i, gr)
+                sg = 1.0 - 2.0 * side
                 for c in range(3):
                     gnormals[i, c] += sg * gr[0][c]
 
