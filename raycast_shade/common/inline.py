@@ -37,6 +37,8 @@ from numba.core.caching import CompileResultCacheImpl, FunctionCache
 from numba.core.compiler import CompileResult, Compiler
 from numba.core.registry import CPUDispatcher
 
+from . import overloads  # noqa: F401 - one build per overload and inherited flags (before any compile)
+
 __all__ = ["inline_jit", "InlineDispatcher", "TWIN_SUFFIX"]
 
 # The twin's qualified name: its disk-cache entries are not the helper's (Numba keys them on the
