@@ -37,6 +37,8 @@ from numba.core.caching import CompileResultCacheImpl, FunctionCache
 from numba.core.compiler import CompileResult, Compiler
 from numba.core.registry import CPUDispatcher
 
+from . import overloads  # noqa: F401 - one build per overload and inherited flags (before any compile)
+
 __all__ = ["inline_jit", "InlineDispatcher", "TWIN_SUFFIX"]
 
 # The twin's qualified name: its disk-cache entries are not the helper's (Numba keys them on the
@@ -66,13 +68,12 @@ class _LinkOnlyLibrary(_codegen.JITCodeLibrary):
     def codegen(self):
         return _NoEnv(self._codegen)
 
-    # Whether the helper's module is optimised on its own before its callers link it. True
-    # (Numba's way): every kernel links the IR it linked before, so its machine code is byte for
-    # byte what it was, and the golden images hold on every instruction set, AVX-512 included,
-    # whose hashes cannot be made on an AVX2 machine. False saves about 1.5 s more of the demo's
-    # cold first picture (32-33 against 34-35 s, CHANGELOG) but changes the kernels' code, and with
-    # it where LLVM contracts a multiply and an add: checked bit-identical on AVX2 only.
-    optimise_alone = True
+    # Whether the helper's module is optimised on its own before its callers link it. False: each
+    # caller optimises the linked whole, so optimising every level alone re-optimised the same code
+    # once per level. It changes the kernels' code (and where LLVM contracts a multiply and an add)
+    # against Numba's way (True), yet every golden image holds on AVX2 and on AVX-512 (checked on
+    # both; see the CHANGELOG).
+    optimise_alone = False
 
     def _optimize_final_module(self):
         if self.optimise_alone:

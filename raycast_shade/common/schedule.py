@@ -17,14 +17,14 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
+from .inline import inline_jit
 
 __all__ = ["spread_step", "BLOCK_ROWS"]
 
 BLOCK_ROWS = 8  # image rows (or ray chunks' worth of work) visited together
 
 
-@njit(cache=True)
+@inline_jit()  # called by kernels only: IR for them, no wrappers (common/inline.py)
 def spread_step(n):
     """A step coprime with ``n`` near ``n / phi``; 1 for ``n <= 2``.
 

@@ -20,6 +20,7 @@ import math
 import numpy as np
 from numba import njit
 
+from ..common.inline import inline_jit
 from ..common.parallel import KERNEL, in_parts, share
 
 __all__ = ["face_normals", "vertex_normals", "winding_conflicts", "reversed_duplicates", "WindingWarning", "WEIGHTINGS"]
@@ -30,7 +31,7 @@ from ..common.warnings import ShadingWarning
 _WEIGHT_CODE = {"uniform": 0, "area": 1, "angle": 2}
 
 
-@njit(cache=True)
+@inline_jit()  # called by kernels only: IR for them, no wrappers (common/inline.py)
 def _corner(vertices, p, q, r):
     """At corner ``p`` of triangle (p, q, r), with a = q - p and b = r - p:
     a x b (3 floats), |a|^2, |b|^2 and a.b."""

@@ -35,7 +35,7 @@ _INLINE = dict(cache=True, forceinline=True, _nrt=False)  # LLVM-inlined into th
 _VECTOR = dict(_INLINE, error_model="numpy")  # no zero-division branch in a loop that vectorises
 
 
-@njit(cache=True)
+@inline_jit()  # called by kernels only: IR for them, no wrappers (common/inline.py)
 def tile_columns(cam, ntx, ortho):
     """(ntx, 3 16) float64: for each column of tiles, lane ``k``'s ``forward + sx right``
     (orthographic: ``eye + sx right``) in component ``c`` at ``16 c + k``, with ``sx`` as

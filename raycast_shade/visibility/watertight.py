@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from ..common.inline import inline_jit
 from ..common.parallel import KERNEL, in_parts, share
 from .accel import embree_accel
 from .alpha import masked_geometries, masked_hits
@@ -98,7 +99,7 @@ def vertex_fans(geometry) -> VertexFans:
     return geometry.memo(_FANS, _build_fans)
 
 
-@njit(cache=True)
+@inline_jit()  # called by kernels only: IR for them, no wrappers (common/inline.py)
 def _sheared(p, o, kx, ky, kz, sx, sy, sz):
     """A vertex in the ray's frame: the ray becomes the +z axis through (0, 0).
     The same vertex always gives the same three numbers, whatever triangle asks."""
@@ -106,7 +107,7 @@ def _sheared(p, o, kx, ky, kz, sx, sy, sz):
     return (p[kx] - o[kx]) - sx * az, (p[ky] - o[ky]) - sy * az, sz * az
 
 
-@njit(cache=True)
+@inline_jit()  # called by kernels only: IR for them, no wrappers (common/inline.py)
 def _exact_hit(verts, face, o, kx, ky, kz, sx, sy, sz):
     """Woop-Benthin-Wald watertight test of one triangle: (t, u, v), ``t = inf`` on a miss."""
     ax, ay, az = _sheared(verts[face[0]], o, kx, ky, kz, sx, sy, sz)

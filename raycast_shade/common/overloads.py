@@ -1,0 +1,69 @@
+"""One build of each Numba overload per set of flags it inherits, not per caller's flags.
+
+Numba keeps the implementation it builds for an ``@overload`` (``min``, ``max``, ``np.empty``,
+array indexing, ...) under the argument types and the *whole* ``Flags`` of the function being
+compiled. Our kernels and helpers differ in flags no overload sees (``no_cpython_wrapper``,
+``no_cfunc_wrapper``, ``release_gil``, ``enable_looplift``, ``no_compile`` for type-only passes),
+so the same implementation was built and compiled again for each caller kind (``np.empty`` for
+``(int64, uint32)`` twice, scalar ``max`` of two ``int64`` four times on the demo's flat first
+picture; 1,294 overload builds there, 1,213 with the key below). An overload's
+build inherits only ``nrt``, ``fastmath``, ``error_model`` and ``forceinline`` from its caller
+(``CPUTargetOptions.finalize``); its other flags are its own. :func:`install` keys the cache on
+those four, so callers that would get the same build share it: the code each kernel links is
+what it was.
+
+Comparing whole ``Flags`` was itself a cost: their hash covers only the option names, so each
+look-up compared the flags of every build of the same types, option by option (about 48,000
+comparisons on the demo's first picture).
+"""
+
+from __future__ import annotations
+
+import numba
+from numba.core import targetconfig
+from numba.core.typing import templates
+
+__all__ = ["install", "INHERITED"]
+
+# The flags an overload's build takes from the function being compiled (Numba 0.68's
+# CPUTargetOptions.finalize); every other flag of the build is set by the overload itself.
+INHERITED = ("nrt", "fastmath", "error_model", "forceinline")
+_CHECKED = ("0.68",)
+
+
+def _inherited(flags):
+    if flags is None:
+        return None
+    fm = flags.fastmath
+    return flags.nrt, frozenset(fm.flags) if fm else frozenset(), flags.error_model, flags.forceinline
+
+
+def _get_impl(self, args, kws):
+    # Numba's _OverloadFunctionTemplate._get_impl, keyed on the inherited flags only.
+    cache_key = self.context, tuple(args), tuple(kws.items()), _inherited(targetconfig.ConfigStack.top_or_none())
+    try:
+        return self._impl_cache[cache_key]
+    except KeyError:
+        pass
+    return self._build_impl(cache_key, args, kws)
+
+
+def install() -> bool:
+    """Key Numba's overload cache on the inherited flags (only for the Numba versions whose
+    flag inheritance was checked; others keep Numba's own key).
+
+    Returns
+    -------
+    bool
+        Whether the key is ours.
+    """
+    cls = templates._OverloadFunctionTemplate
+    if cls._get_impl is _get_impl:
+        return True
+    if not numba.__version__.startswith(_CHECKED):
+        return False
+    cls._get_impl = _get_impl
+    return True
+
+
+INSTALLED = install()
