@@ -94,7 +94,7 @@ _MAX_SIDE = 1 << 24  # image sides beyond this are refused (float64 pixel arithm
 # (alpha, beta) = AUTO_FACES_PER_PIXEL: the fit of the crossovers `benchmarks/bench_raster.py
 # --crossover` measures (benchmarks/results/raster_crossover.csv; tests/visibility/test_raster_auto.py
 # holds the two equal).
-AUTO_FACES_PER_PIXEL = (0.86, 0.12)
+AUTO_FACES_PER_PIXEL = (0.056, 0.07)
 
 
 def check_raster_camera(camera) -> None:
