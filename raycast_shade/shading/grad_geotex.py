@@ -39,15 +39,15 @@ from numba import njit
 
 from ..common.layout import (CAM_EYE, COLOR_FACE, COLOR_NONE, COLOR_VERTEX, MAT_AO_STRENGTH, MAT_KA, MAT_KA_COLORS, MAT_KD,
                              MAT_KE, MAT_KS,
-                             METHOD_GOURAUD, METHOD_PHONG, TEX_CLAMP, TEX_HEIGHT, TEX_LEVELS, TEX_MIPMAP,
-                             TEX_OFFSET, TEX_TILE_U, TEX_TILE_V, TEX_WIDTH, TEXMAP_AO, TEXMAP_KA, TEXMAP_KD,
+                             METHOD_GOURAUD, METHOD_PHONG, TEX_LEVELS, TEX_MIPMAP,
+                             TEX_TILE_U, TEX_TILE_V, TEXMAP_AO, TEXMAP_KA, TEXMAP_KD,
                              TEXMAP_KE, TEXMAP_KS)
 from .bump import _texel_corners
 from .grad_geometry import _add_cam, _view_vjp, pixel_hit_vjp
 from .grad_walk import triangle_points
 from .jit import HELPER, JIT
 from .surface import _hit_point, _triangle
-from .texture import _level_rho, _sample, _uv_derivatives
+from .texture import _level_rho, _level_texel, _sample, _uv_derivatives
 
 __all__ = ["coefficients_bary_vjp", "pixel_footprint", "tex_pixels_scatter"]
 
@@ -75,19 +75,10 @@ def _bilinear_dxy(tex, base, w, h, clamp, x, y):
 def _level_duv(tex, info, k, u, v, lvl):
     """``d rgb/du``, ``d rgb/dv`` of level ``lvl`` of texture ``k`` at (u, v), as
     :func:`~raycast_shade.shading.texture._sample_level` samples it."""
-    w = int(info[k, TEX_WIDTH])
-    h = int(info[k, TEX_HEIGHT])
-    base = int(info[k, TEX_OFFSET])
-    for _ in range(lvl):
-        base += 3 * w * h
-        w = max(1, w >> 1)
-        h = max(1, h >> 1)
-    clamp = info[k, TEX_CLAMP] != 0.0
-    tu = info[k, TEX_TILE_U]
-    tv = info[k, TEX_TILE_V]
-    dx, dy = _bilinear_dxy(tex, base, w, h, clamp, u * tu * w - 0.5, v * tv * h - 0.5)
-    sx = tu * w
-    sy = tv * h
+    base, w, h, clamp, x, y = _level_texel(info, k, u, v, lvl)  # the forward's texel coordinates
+    dx, dy = _bilinear_dxy(tex, base, w, h, clamp, x, y)
+    sx = info[k, TEX_TILE_U] * w
+    sy = info[k, TEX_TILE_V] * h
     return (sx * dx[0], sx * dx[1], sx * dx[2]), (sy * dy[0], sy * dy[1], sy * dy[2])
 
 

@@ -74,8 +74,10 @@ def _level_rho(info, k, dudx, dvdx, dudy, dvdy):
 
 
 @inline_jit(**HELPER)
-def _sample_level(tex, info, k, u, v, lvl):
-    """Bilinear RGB of level ``lvl`` of texture ``k`` at (u, v)."""
+def _level_texel(info, k, u, v, lvl):
+    """Where (u, v) falls on level ``lvl`` of texture ``k``: ``(base, w, h, clamp, x, y)``, the
+    level's first texel in ``texels``, its size, its wrap, and the texel coordinates (centres at
+    integers) :func:`_sample_level` filters at and the gradients differentiate at."""
     w = int(info[k, TEX_WIDTH])
     h = int(info[k, TEX_HEIGHT])
     base = int(info[k, TEX_OFFSET])
@@ -91,8 +93,13 @@ def _sample_level(tex, info, k, u, v, lvl):
             su = 0.0
         if not abs(sv) < 4503599627370496.0:
             sv = 0.0
-    x = su * w - 0.5
-    y = sv * h - 0.5
+    return base, w, h, clamp, su * w - 0.5, sv * h - 0.5
+
+
+@inline_jit(**HELPER)
+def _sample_level(tex, info, k, u, v, lvl):
+    """Bilinear RGB of level ``lvl`` of texture ``k`` at (u, v)."""
+    base, w, h, clamp, x, y = _level_texel(info, k, u, v, lvl)
     return _bilinear3(tex, base, w, h, clamp, x, y)
 
 
