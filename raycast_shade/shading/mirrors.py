@@ -35,7 +35,8 @@ from ..visibility.accel import embree_accel
 from ..visibility.secondary import closest_hit, closest_packet, ray_scratch, set_closest_rays, trace_closest
 from .inputs import prepare
 from .jit import FLT32_MAX, HELPER, JIT, compile_variants, variant
-from .phong import _shade_surface, _surface
+from .illumination import _illuminate
+from .phong import _lifted, _surface
 from .lanes import _A, _B1, _B2, _FIELDS, _FN, _KD, LANES as _BATCH
 from .mirror_rays import NO_RAYS, _mirror_ray, lane_rays
 from .phong_fast import _gather, _geometry
@@ -106,19 +107,40 @@ def _add_pixel(image, y, x, weight, c0, c1, c2):
 
 
 @inline_jit(**HELPER)
-def _start_lane(hits, G, B, materials, face_off, cam, unit, image, y, x, lanes):
-    """Pixel ``(y, x)`` of ``hits`` as the next lane of ``lanes`` = ``(n, ys, xs, weight, org,
-    dr, act)`` when its surface reflects (its mirror ray, weight ``rho``, its local shade
-    scaled by ``1 - rho``). Returns the lanes now filled."""
-    prim, geom, u, v = hits
-    n = lanes[0]
+def _start_lane(hits, materials, image, y, x, lanes):
+    """Pixel ``(y, x)`` of ``hits`` as the next lane of ``lanes`` = ``(n, ys, xs, weight, org, dr,
+    act)`` when its surface reflects: weight ``rho``, its local shade scaled by ``1 - rho``; its
+    mirror ray is made by the kernel's bounce loop at depth 0 (:func:`_lane_ray`). Returns the
+    lanes now filled."""
+    prim, geom, _, _ = hits
+    n, ys, xs, weight, _, _, act = lanes
     p = prim[y, x]
     if p < 0 or materials[geom[y, x], MAT_REFLECTIVITY] <= 0.0:
         return n
+    rho = materials[geom[y, x], MAT_REFLECTIVITY]
+    _keep_pixel(image, y, x, rho)
+    ys[n] = y
+    xs[n] = x
+    weight[n] = rho
+    act[n] = True
+    return n + 1
+
+
+@inline_jit(**HELPER)
+def _pixel_at(hits, face_off, y, x):
+    """Where pixel ``(y, x)`` of ``hits`` lies (:class:`~raycast_shade.shading.records.At`)."""
+    prim, geom, u, v = hits
     gm = geom[y, x]
-    at = At(face_off[gm] + p, gm, np.float64(u[y, x]), np.float64(v[y, x]))
-    ray = _mirror_ray(_surface(G, B, cam, at, np.bool_(False), (0.0, 0.0, 0.0)), unit)
-    return _add_lane(image, y, x, materials[gm, MAT_REFLECTIVITY], ray, lanes)
+    return At(face_off[gm] + prim[y, x], gm, np.float64(u[y, x]), np.float64(v[y, x]))
+
+
+@inline_jit(**HELPER)
+def _lane_ray(hp, unit, k, org, dr):
+    """Lane ``k``'s mirror ray from its shading point ``hp``, into ``org`` and ``dr`` (3, 16)."""
+    o, r = _mirror_ray(hp, unit)
+    for c in range(3):
+        org[c, k] = o[c]
+        dr[c, k] = r[c]
 
 
 @inline_jit(**HELPER)
@@ -307,6 +329,7 @@ def _make_packets(tex_on: bool = False, batched: bool = False):
                     if ahead:
                         _prefetch_ahead(prim, hits[1], G, face_off, (ya, yb), w, tx, batched)
                     n = np.int64(0)  # not 0: _start_lane would compile for Literal[int](0) first, then int64
+                    started = not (handed or batched)  # the lanes' rays are made at depth 0
                     if handed:
                         n = _take_handed(hits, materials, image, rays, (ya, yb, tx * _TILE, min(w, (tx + 1) * _TILE)),
                                          (n, ys, xs, weight, org, dr, act))
@@ -317,38 +340,44 @@ def _make_packets(tex_on: bool = False, batched: bool = False):
                     else:
                         for y in range(ya, yb):
                             for x in range(tx * _TILE, min(w, (tx + 1) * _TILE)):
-                                n = _start_lane(hits, G, B, materials, face_off, cam, unit, image, y, x,
-                                                (n, ys, xs, weight, org, dr, act))
-                    for depth in range(1, max_depth + 1):
+                                n = _start_lane(hits, materials, image, y, x, (n, ys, xs, weight, org, dr, act))
+                    # Depth 0 (lanes started by _start_lane): each lane's shading point and mirror ray,
+                    # at the bounces' own call of _surface (one inlined copy of it in the kernel, not two).
+                    for depth in range(0 if started else 1, max_depth + 1):
                         if n == 0:
                             break
-                        set_closest_rays(Q, org, dr, act, n)
-                        trace_closest(handle, Q)
+                        if depth > 0:
+                            set_closest_rays(Q, org, dr, act, n)
+                            trace_closest(handle, Q)
                         more = 0
                         for k in range(n):
                             if not act[k]:
                                 continue
-                            gb, pb, ub, vb, _ = closest_hit(Q, k)
-                            act[k] = False
-                            if pb < 0:
-                                _add_pixel(image, ys[k], xs[k], weight[k], background[0], background[1],
-                                           background[2])
+                            if depth == 0:
+                                at = _pixel_at(hits, face_off, ys[k], xs[k])
+                            else:
+                                gb, pb, ub, vb, _ = closest_hit(Q, k)
+                                act[k] = False
+                                if pb < 0:
+                                    _add_pixel(image, ys[k], xs[k], weight[k], background[0], background[1],
+                                               background[2])
+                                    continue
+                                at = At(face_off[gb] + pb, gb, np.float64(ub), np.float64(vb))
+                            hp = _surface(G, B, cam, at, depth > 0, (dr[0, k], dr[1, k], dr[2, k]))
+                            if depth == 0:
+                                _lane_ray(hp, unit, k, org, dr)
+                                more += 1
                                 continue
-                            at = At(face_off[gb] + pb, gb, np.float64(ub), np.float64(vb))
                             if tex_on:
                                 coef = _point_coefficients(G, uvs, at, cam, 0, 0, False, materials, T)
                             else:
-                                coef = _row_coefficients(materials, gb)
-                            rgb, hp = _shade_surface(G, B, L, S, materials, cam, at, np.bool_(True),
-                                                     (dr[0, k], dr[1, k], dr[2, k]), coef, spec_on, att_on)
-                            rho = materials[gb, MAT_REFLECTIVITY]
+                                coef = _row_coefficients(materials, at.gm)
+                            rgb = _illuminate(_lifted(G, L, at, hp), coef, materials, at.gm, L, S, spec_on, att_on)
+                            rho = materials[at.gm, MAT_REFLECTIVITY]
                             keep = 1.0
                             if rho > 0.0 and depth < max_depth:
                                 keep = 1.0 - rho
-                                o, r = _mirror_ray(hp, unit)
-                                for c in range(3):
-                                    org[c, k] = o[c]
-                                    dr[c, k] = r[c]
+                                _lane_ray(hp, unit, k, org, dr)
                                 # A ray that can no longer change a float32 pixel of its own colour's size stops.
                                 act[k] = weight[k] * rho >= _MIN_WEIGHT
                             _add_pixel(image, ys[k], xs[k], weight[k], keep * rgb[0], keep * rgb[1], keep * rgb[2])

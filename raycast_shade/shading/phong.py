@@ -87,7 +87,13 @@ def _shade_surface(G, B, L, S, materials, cam, at, use_dir, d, coef, spec_on, at
 def _shading_point(G, B, L, cam, at, use_dir, d):
     """:func:`_surface`'s point with its shadow origin past the terminator when shadow rays will
     be traced (``L`` has a scene handle)."""
-    hp = _surface(G, B, cam, at, use_dir, d)
+    return _lifted(G, L, at, _surface(G, B, cam, at, use_dir, d))
+
+
+@inline_jit(**HELPER)
+def _lifted(G, L, at, hp):
+    """Shading point ``hp`` of hit ``at`` (:func:`_surface`'s) with its shadow origin past the
+    terminator when shadow rays will be traced (``L`` has a scene handle)."""
     o = hp.p
     if L.handle != 0:  # shadow rays will be traced (a scene handle): start them past the terminator
         verts, normals, faces, _ = G
