@@ -23,7 +23,7 @@ import numba
 from numba.core import targetconfig
 from numba.core.typing import templates
 
-__all__ = ["install", "INHERITED"]
+__all__ = ["install", "install_jitter", "INHERITED"]
 
 # The flags an overload's build takes from the function being compiled (Numba 0.68's
 # CPUTargetOptions.finalize); every other flag of the build is set by the overload itself.
@@ -63,6 +63,31 @@ def install() -> bool:
     if not numba.__version__.startswith(_CHECKED):
         return False
     cls._get_impl = _get_impl
+    return True
+
+
+def install_jitter(jitter) -> bool:
+    """Build every CPU overload's implementation with ``jitter`` (a ``numba.jit``-like decorator
+    factory, :func:`~raycast_shade.common.inline.overload_jit`) instead of ``numba.jit``: other
+    targets' keep theirs. Only for the Numba versions checked, as :func:`install`.
+
+    Returns
+    -------
+    bool
+        Whether ``jitter`` is installed.
+    """
+    cls = templates._OverloadFunctionTemplate
+    if not numba.__version__.startswith(_CHECKED):
+        return False
+    numbas = cls.__dict__.get("_numbas_jit_decorator", cls._get_jit_decorator)
+
+    def _get_jit_decorator(self):
+        found = numbas(self)
+        return jitter if found is numba.jit else found
+
+    _get_jit_decorator.jitter = jitter
+    cls._numbas_jit_decorator = numbas
+    cls._get_jit_decorator = _get_jit_decorator
     return True
 
 
