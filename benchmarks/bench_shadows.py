@@ -17,7 +17,7 @@ casting shadows), timed in turn, round after round, in one process after a warm-
 * ``mirror``: the plain frame's mesh as a mirror (reflectivity 0.5), one bounce (the ``mirror``
   row of :mod:`benchmarks.bench_paths`);
 * ``rays_bounce16``: that frame's very bounce rays (collected once as the mirror kernel packs
-  them, :func:`raycast_shade.shading.mirrors._start_lane` and
+  them: :func:`raycast_shade.shading.mirrors._start_lane`, the lanes' rays of its depth 0,
   :func:`raycast_shade.visibility.secondary.set_closest_rays`: the reflective pixels of a 4x4 tile
   in one packet) traced bare, one coherent ``rtcIntersect16`` per packet:
   the floor of the mirror frame is ``frame`` plus this.
@@ -50,7 +50,7 @@ from benchmarks import outputs as where
 from benchmarks.outputs import ROOT, results_file, write_csv
 from raycast_shade.shading import mirrors, shadows
 from raycast_shade.shading.illumination import _request_shadows
-from raycast_shade.shading.phong import _shading_point
+from raycast_shade.shading.phong import _shading_point, _surface
 from raycast_shade.shading.records import At
 from raycast_shade.visibility import embree, secondary
 
@@ -163,11 +163,14 @@ def _collect_bounces(hits, G, B, materials, face_off, cam, unit, image, rays, va
                  np.zeros((3, _LANES), np.float64), np.zeros((3, _LANES), np.float64), np.zeros(_LANES, np.bool_))
         ys, xs, weight, org, dr, act = lanes
         for tx in range(ntx):
-            n = 0
+            n = np.int64(0)
             for y in range(ty * 4, min(h, ty * 4 + 4)):
                 for x in range(tx * 4, min(w, tx * 4 + 4)):
-                    n = mirrors._start_lane(hits, G, B, materials, face_off, cam, unit, image, y, x,
-                                            (n, ys, xs, weight, org, dr, act))
+                    n = mirrors._start_lane(hits, materials, image, y, x, (n, ys, xs, weight, org, dr, act))
+            for k in range(n):  # the kernel's depth 0: each lane's shading point and mirror ray
+                hp = _surface(G, B, cam, mirrors._pixel_at(hits, face_off, ys[k], xs[k]), np.bool_(False),
+                              (0.0, 0.0, 0.0))
+                mirrors._lane_ray(hp, unit, k, org, dr)
             t = ty * ntx + tx
             if n > 0:
                 secondary.set_closest_rays(Q, org, dr, act, n)
