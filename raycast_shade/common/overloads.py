@@ -15,12 +15,20 @@ what it was.
 Comparing whole ``Flags`` was itself a cost: their hash covers only the option names, so each
 look-up compared the flags of every build of the same types, option by option (about 48,000
 comparisons on the demo's first picture).
+
+The overloads that only allocate and zero arrays (``np.empty``, ``np.zeros``, ...: ``_FLAG_FREE``)
+are keyed on ``nrt`` and ``forceinline`` alone: their code has nothing fast-math or the error model
+changes, and the kernels (fast-math, NumPy's error model) and the visibility code (neither) asked
+for the same arrays (7 of the flat first picture's 45 overload builds were such twins).
+:func:`install_jitter` builds every overload without a C wrapper or machine code
+(:func:`~raycast_shade.common.inline.overload_jit`).
 """
 
 from __future__ import annotations
 
 import numba
 from numba.core import targetconfig
+from numba.np import arrayobj
 from numba.core.typing import templates
 
 __all__ = ["install", "install_jitter", "INHERITED"]
@@ -38,9 +46,22 @@ def _inherited(flags):
     return flags.nrt, frozenset(fm.flags) if fm else frozenset(), flags.error_model, flags.forceinline
 
 
+# Overloads whose build does not depend on the caller's fast-math flags or error model: they
+# allocate and zero arrays, with integer arithmetic only (no float instruction to carry fast-math
+# flags, no division whose divisor is not a constant). Their builds for the kernels (fast-math, the
+# NumPy error model) and for the visibility code (neither) were built twice and compared equal,
+# optimised IR against optimised IR (2026-12-06, Numba 0.68): they are built once per NRT and
+# forceinline setting.
+_FLAG_FREE = frozenset(getattr(arrayobj, name, None) for name in (
+    "ol_np_empty", "ol_np_zeros", "ol_array_zero_fill", "ol_compatible_view")) - {None}
+
+
 def _get_impl(self, args, kws):
     # Numba's _OverloadFunctionTemplate._get_impl, keyed on the inherited flags only.
-    cache_key = self.context, tuple(args), tuple(kws.items()), _inherited(targetconfig.ConfigStack.top_or_none())
+    flags = _inherited(targetconfig.ConfigStack.top_or_none())
+    if flags is not None and self._overload_func in _FLAG_FREE:
+        flags = flags[0], flags[3]
+    cache_key = self.context, tuple(args), tuple(kws.items()), flags
     try:
         return self._impl_cache[cache_key]
     except KeyError:

@@ -4,6 +4,7 @@ whose flags differ otherwise; callers that differ in an inherited flag still get
 from __future__ import annotations
 
 import numba
+import numpy as np
 import pytest
 from numba.core.typing import templates
 from numba.extending import overload
@@ -74,3 +75,66 @@ def test_a_caller_differing_in_an_inherited_flag_gets_its_own_build(options):
 
     assert plain(2.5) == 6.0 and other(2.5) == 6.0
     assert [str(t) for t in builds] == ["float64", "float64"]
+
+
+def _builds_of(qualname, run):
+    """The argument types of every build of the compiled function ``qualname`` while ``run()`` runs."""
+    from numba.core import event
+
+    seen = []
+
+    class _Listener(event.Listener):
+        def on_start(self, e):
+            disp = e.data.get("dispatcher")
+            if disp is not None and disp.py_func.__qualname__ == qualname:
+                seen.append(e.data.get("args"))
+
+        def on_end(self, e):
+            pass
+
+    with event.install_listener("numba:compile", _Listener()):
+        run()
+    return seen
+
+
+def test_allocating_overloads_are_built_once_for_callers_of_other_fast_math_and_error_model():
+    # A shape type (five int64s) and a dtype nothing else in the suite asks np.empty for.
+    @numba.njit(cache=False)
+    def plain(n):
+        return np.empty((n, n, n, n, n), np.uint16).size
+
+    @numba.njit(cache=False, fastmath=True, error_model="numpy")
+    def fast(n):
+        return np.empty((n, n, n, n, n), np.uint16).size
+
+    def run():
+        assert plain(2) == 32 and fast(2) == 32
+
+    assert len(_builds_of("ol_np_empty.<locals>.impl", run)) == 1  # Numba's key: one per caller
+
+
+def test_overload_builds_have_no_c_wrapper_or_machine_code():
+    from raycast_shade.common import inline
+
+    twice, builds = _make()
+
+    @numba.njit(cache=False)
+    def calls(x):
+        return twice(x)
+
+    assert calls(4) == 9
+    ((impl, _),) = [v for k, v in _impl_caches(twice)]
+    cres = impl.overloads[(numba.types.int64,)]
+    assert isinstance(cres.library, inline._OverloadLibrary)
+    names = [f.name for f in cres.library._final_module.functions if not f.is_declaration]
+    assert names and not any(n.startswith("cfunc.") for n in names)  # Numba's C wrapper: cfunc.<name>
+    assert cres.library.get_pointer_to_function(cres.fndesc.llvm_func_name) == 0  # no machine code
+
+
+def _impl_caches(func):
+    """The ``(key, (dispatcher, args))`` builds of every overload template of ``func``."""
+    out = []
+    for tmpl in templates._OverloadFunctionTemplate.__subclasses__():
+        if getattr(tmpl, "key", None) is func:
+            out.extend((k, v) for k, v in tmpl._impl_cache.items() if v[0] is not None)
+    return out
