@@ -274,12 +274,15 @@ def _prefetch_ahead(prim, geom, G, face_off, rows, w, tx, batched):
         _prefetch_tile(prim, geom, G, face_off, ya, yb, t1 * _TILE, min(w, (t1 + 1) * _TILE), deep)
 
 
-def _make_packets(tex_on: bool = False, batched: bool = False):
+def _make_packets(tex_on: bool = False, batched: bool = False, ahead: bool = False):
     """The mirror kernel for one variant (see :mod:`.jit`; ``tex_on``: textured coefficients at the
     bounces, sampled at level 0: a bounced ray has no pixel footprint). ``batched``, a compile-time
     constant too (a frame compiles only the start it takes): the lanes start by :func:`_start_group`;
     else from the rays the Phong kernel handed over (:func:`_take_handed`) if any, else by
-    :func:`_start_lane` (one build for both: the demo's Phong and flat or Gouraud mirrors)."""
+    :func:`_start_lane` (one build for both: the demo's Phong and flat or Gouraud mirrors).
+    ``ahead``, compile-time as well: prefetch the gathers of the tiles ahead (a mesh beyond the
+    caches, :data:`~raycast_shade.common.prefetch.PREFETCH_BYTES`; never with rays handed over,
+    which gather nothing). The small meshes of the demo and the lecture compile no prefetching."""
 
     @in_parts
     @njit(nogil=True, **JIT)
@@ -288,8 +291,7 @@ def _make_packets(tex_on: bool = False, batched: bool = False):
 
         ``hits`` = ``(prim, geom, u, v)`` (R, W) and ``image`` (R, W, 3) float32: rows
         ``y0 ..`` of the frame (a band, or all of it: a pixel's bounces read nothing but its
-        own hit). ``trace`` = ``(scene handle, unit, max_depth, packet flags, y0, ahead)``, ``ahead``:
-        prefetch the gathers of the tiles ahead (:data:`~raycast_shade.common.prefetch.PREFETCH_BYTES`);
+        own hit). ``trace`` = ``(scene handle, unit, max_depth, packet flags, y0)``;
         ``rays``: the first rays handed over (:func:`_take_handed`), or ``NO_RAYS``. The
         reflective pixels of each 4x4 tile of the image (on the frame's grid of tiles, cut by
         the rows given) go as one ``rtcIntersect16`` packet per bounce; a lane whose ray met a
@@ -300,9 +302,8 @@ def _make_packets(tex_on: bool = False, batched: bool = False):
         the product of the reflectivities met before it."""
         spec_on, att_on = L.spec_on, L.att_on  # run-time flags of the frame (records.Lighting)
         prim = hits[0]
-        handle, unit, max_depth, flags, y0, ahead = trace
+        handle, unit, max_depth, flags, y0 = trace
         handed = False if batched else rays[0].shape[0] != 0
-        ahead = ahead and not handed  # (nothing is gathered)
         uvs = B.uvs
         h, w = prim.shape
         first = y0 // _TILE  # the frame's tile rows that meet rows y0 .. y0 + h
@@ -326,7 +327,7 @@ def _make_packets(tex_on: bool = False, batched: bool = False):
                 ya = max((first + tr) * _TILE - y0, 0)
                 yb = min((first + tr + 1) * _TILE - y0, h)
                 for tx in range(ntx):
-                    if ahead:
+                    if ahead and not handed:  # (handed: nothing is gathered)
                         _prefetch_ahead(prim, hits[1], G, face_off, (ya, yb), w, tx, batched)
                     n = np.int64(0)  # not 0: _start_lane would compile for Literal[int](0) first, then int64
                     started = not (handed or batched)  # the lanes' rays are made at depth 0
@@ -395,6 +396,9 @@ def _make_packets(tex_on: bool = False, batched: bool = False):
 # takes (the demo's frames compile neither _start_group nor the batched passes it inlines).
 _PACKETS = compile_variants(_make_packets)
 _PACKETS_BATCHED = compile_variants(functools.partial(_make_packets, batched=True))
+# The same, prefetching (a mesh beyond the caches).
+_PACKETS_AHEAD = compile_variants(functools.partial(_make_packets, ahead=True))
+_PACKETS_BATCHED_AHEAD = compile_variants(functools.partial(_make_packets, batched=True, ahead=True))
 
 
 def _batched_start(B) -> bool:
@@ -442,11 +446,13 @@ def trace_mirrors(scene, camera, hits, image, max_depth: int = 3, inputs=None, y
     if max_depth <= 0 or not geo.reflective:
         return image
     k = prepare(scene, camera) if inputs is None else inputs
-    ahead = beyond_caches(*k["G"])
     # The handle as the camera cast passes it (int64): the packets compile once.
-    trace = (int(embree_accel(geo).handle), float(geo.scale), int(max_depth), np.uint32(MIRROR_FLAGS),
-             int(y0), ahead)
-    family = _PACKETS_BATCHED if rays is None and _batched_start(k["B"]) else _PACKETS
+    trace = (int(embree_accel(geo).handle), float(geo.scale), int(max_depth), np.uint32(MIRROR_FLAGS), int(y0))
+    batched = rays is None and _batched_start(k["B"])
+    if rays is None and beyond_caches(*k["G"]):
+        family = _PACKETS_BATCHED_AHEAD if batched else _PACKETS_AHEAD
+    else:
+        family = _PACKETS_BATCHED if batched else _PACKETS
     variant(family, k)((hits.prim, hits.geom, hits.u, hits.v), k["G"], k["B"], k["L"], k["T"], k["face_off"],
                        k["materials"], k["cam"], k["background"], image, trace, NO_RAYS if rays is None else rays)
     return image

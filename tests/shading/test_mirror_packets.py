@@ -259,28 +259,38 @@ def test_lanes_started_in_groups_are_the_pixel_by_pixel_lanes(depth, projection,
 
 
 def test_each_start_of_the_lanes_is_a_build_of_its_own(monkeypatch):
-    """How the lanes start is a compile-time constant of the kernel (closure values, as the
-    variant flags): a frame runs, so compiles, only the build of the start it takes (the batched
-    start; else rays handed over by the Phong kernel or pixel by pixel, one build; the demo's
-    frames compile no ``_start_group``)."""
+    """How the lanes start, and whether the gathers ahead are prefetched, are compile-time
+    constants of the kernel (closure values, as the variant flags): a frame runs, so compiles,
+    only the build of the start it takes (the batched start; else rays handed over by the Phong
+    kernel or pixel by pixel, one build; the demo's frames compile no ``_start_group``), and
+    prefetches only on a mesh beyond the caches, never with rays handed over (the demo's and
+    the lecture's meshes compile no prefetching)."""
     import inspect
 
+    from raycast_shade.common import prefetch
     from raycast_shade.shading import mirrors
     from raycast_shade.shading.mirror_rays import hand_over_buffers
 
-    builds = {"_PACKETS": False, "_PACKETS_BATCHED": True}
-    for name, batched in builds.items():
+    builds = {"_PACKETS": (False, False), "_PACKETS_BATCHED": (True, False), "_PACKETS_AHEAD": (False, True),
+              "_PACKETS_BATCHED_AHEAD": (True, True)}
+    for name, (batched, ahead) in builds.items():
         registry = getattr(mirrors, name)
         assert len(registry) == 2  # textured or not
-        assert all(inspect.getclosurevars(fn.py_func).nonlocals["batched"] is batched for fn in registry.values())
+        for fn in registry.values():
+            closure = inspect.getclosurevars(fn.py_func).nonlocals
+            assert (closure["batched"], closure["ahead"]) == (batched, ahead)
     seen = []
     for name in builds:
         monkeypatch.setattr(mirrors, name, {key: lambda *a, n=name: seen.append(n) for key in getattr(mirrors, name)})
     k = prepare(_HALL, _HALL.camera)
-    for batched in (True, False):
-        monkeypatch.setattr(mirrors, "_batched_start", lambda B, b=batched: b)
-        trace_mirrors(_HALL, _HALL.camera, _HITS, _LOCAL.copy(), 2, k)
-    monkeypatch.setattr(mirrors, "_batched_start", lambda B: True)
-    rays = hand_over_buffers(*_HITS.shape)
-    trace_mirrors(_HALL, _HALL.camera, _HITS, _LOCAL.copy(), 2, k, rays=rays)
-    assert seen == ["_PACKETS_BATCHED", "_PACKETS", "_PACKETS"]  # handed rays: never the batched start
+    for threshold in (1 << 62, 0):  # the hall is below the caches, or (0) beyond
+        monkeypatch.setattr(prefetch, "PREFETCH_BYTES", threshold)
+        for batched in (True, False):
+            monkeypatch.setattr(mirrors, "_batched_start", lambda B, b=batched: b)
+            trace_mirrors(_HALL, _HALL.camera, _HITS, _LOCAL.copy(), 2, k)
+        monkeypatch.setattr(mirrors, "_batched_start", lambda B: True)
+        rays = hand_over_buffers(*_HITS.shape)
+        trace_mirrors(_HALL, _HALL.camera, _HITS, _LOCAL.copy(), 2, k, rays=rays)
+    # handed rays: never the batched start, never prefetching
+    assert seen == ["_PACKETS_BATCHED", "_PACKETS", "_PACKETS",
+                    "_PACKETS_BATCHED_AHEAD", "_PACKETS_AHEAD", "_PACKETS"]
