@@ -37,6 +37,7 @@ from numba.core.caching import CompileResultCacheImpl, FunctionCache
 from numba.core.compiler import CompileResult, Compiler
 from numba.core.registry import CPUDispatcher
 
+from . import frontend  # noqa: F401 - Numba's front end, cheaper (before any compile)
 from . import overloads  # noqa: F401 - one build per overload and inherited flags (before any compile)
 
 __all__ = ["inline_jit", "InlineDispatcher", "TWIN_SUFFIX", "overload_jit"]

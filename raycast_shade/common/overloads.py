@@ -27,11 +27,11 @@ for the same arrays (7 of the flat first picture's 45 overload builds were such 
 from __future__ import annotations
 
 import numba
-from numba.core import targetconfig, types
-from numba.core.typing import npydecl, templates
+from numba.core import targetconfig
+from numba.core.typing import templates
 from numba.np import arrayobj
 
-__all__ = ["install", "install_jitter", "install_scalar_operators", "INHERITED"]
+__all__ = ["install", "install_jitter", "INHERITED"]
 
 # The flags an overload's build takes from the function being compiled (Numba 0.68's
 # CPUTargetOptions.finalize); every other flag of the build is set by the overload itself.
@@ -112,41 +112,4 @@ def install_jitter(jitter) -> bool:
     return True
 
 
-def _no_array(args) -> bool:
-    return not any(isinstance(a.type if isinstance(a, types.Optional) else a, types.ArrayCompatible) for a in args)
-
-
-def install_scalar_operators() -> bool:
-    """Let NumPy's typing of the arithmetic and comparison operators (``a + b``, ``-a``, ``a < b``:
-    ``NumpyRulesArrayOperator``) decline operands without an array at once.
-
-    Type inference asks every template of an operator, in turn, for each ``+``, ``*``, ``<`` ...
-    of our code, and NumPy's template, asked about two scalars, first finds the NumPy loop the
-    ufunc would take (``ufunc_find_matching_loop``, casting rules and all), and only then declines
-    them because neither is an array: a tenth of the demo's type inference. It declines them
-    before that now; what it answers for operands with an array (an ``Optional`` of one
-    included: Numba types the loop on the array inside) is Numba's. Only for the Numba versions
-    checked, as :func:`install`.
-
-    Returns
-    -------
-    bool
-        Whether the shortcut is installed.
-    """
-    cls = npydecl.NumpyRulesArrayOperator
-    if not numba.__version__.startswith(_CHECKED):
-        return False
-    numbas = cls.__dict__.get("_numbas_generic", cls.generic)
-
-    def generic(self, args, kws):
-        if not kws and _no_array(args):
-            return None
-        return numbas(self, args, kws)
-
-    cls._numbas_generic = numbas
-    cls.generic = generic
-    return True
-
-
 INSTALLED = install()
-SCALAR_OPERATORS = install_scalar_operators()

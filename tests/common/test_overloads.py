@@ -3,8 +3,6 @@ whose flags differ otherwise; callers that differ in an inherited flag still get
 
 from __future__ import annotations
 
-import operator
-
 import numba
 import numpy as np
 import pytest
@@ -140,37 +138,3 @@ def _impl_caches(func):
         if getattr(tmpl, "key", None) is func:
             out.extend((k, v) for k, v in tmpl._impl_cache.items() if v[0] is not None)
     return out
-
-
-def test_numpys_operator_typing_declines_scalars_without_looking_for_a_ufunc_loop(monkeypatch):
-    from numba.core import types
-    from numba.core.typing import npydecl
-    from numba.core.registry import cpu_target
-
-    looked = []
-    numbas = npydecl.ufunc_find_matching_loop
-
-    def spy(ufunc, arg_types):
-        looked.append(ufunc.__name__)
-        return numbas(ufunc, arg_types)
-
-    monkeypatch.setattr(npydecl, "ufunc_find_matching_loop", spy)
-    ctx = cpu_target.typing_context
-    add = next(c for c in npydecl.NumpyRulesArrayOperator.__subclasses__() if getattr(c, "key", None) is operator.add)(ctx)
-    neg = next(c for c in npydecl.NumpyRulesUnaryArrayOperator.__subclasses__() if getattr(c, "key", None) is operator.neg)(ctx)
-    assert add.generic((types.float64, types.int64), {}) is None
-    assert neg.generic((types.float32,), {}) is None
-    assert looked == []  # Numba's: a loop for each, then declined
-    arr = types.Array(types.float64, 1, "C")
-    assert add.generic((arr, types.int64), {}).return_type == arr
-    assert add.generic((types.Optional(arr), types.float64), {}).return_type == arr
-    assert looked == ["add", "add"]
-
-
-def test_array_and_scalar_arithmetic_still_compiles():
-    @numba.njit(cache=False)
-    def f(a, x):
-        return -(a + x) * 2.0, x * 3 - 1
-
-    arr, s = f(np.arange(3.0), 2)
-    assert arr.tolist() == [-4.0, -6.0, -8.0] and s == 5

@@ -1,0 +1,91 @@
+"""common/frontend.py: Numba's front end, cheaper, with Numba's answers: NumPy's operator typing
+declines scalars before looking for a ufunc loop; an IR instruction's variables are listed in one
+pass, the same variables in the same order as Numba's."""
+
+from __future__ import annotations
+
+import operator
+
+import numba
+import numpy as np
+from numba.core import ir
+
+from raycast_shade.common import frontend
+
+
+def test_both_are_installed_on_this_numba():
+    assert frontend.SCALAR_OPERATORS and frontend.LIST_VARS
+    assert ir.Inst._rec_list_vars is frontend._rec_list_vars
+
+
+def test_numpys_operator_typing_declines_scalars_without_looking_for_a_ufunc_loop(monkeypatch):
+    from numba.core import types
+    from numba.core.typing import npydecl
+    from numba.core.registry import cpu_target
+
+    looked = []
+    numbas = npydecl.ufunc_find_matching_loop
+
+    def spy(ufunc, arg_types):
+        looked.append(ufunc.__name__)
+        return numbas(ufunc, arg_types)
+
+    monkeypatch.setattr(npydecl, "ufunc_find_matching_loop", spy)
+    ctx = cpu_target.typing_context
+    add = next(c for c in npydecl.NumpyRulesArrayOperator.__subclasses__() if getattr(c, "key", None) is operator.add)(ctx)
+    neg = next(c for c in npydecl.NumpyRulesUnaryArrayOperator.__subclasses__() if getattr(c, "key", None) is operator.neg)(ctx)
+    assert add.generic((types.float64, types.int64), {}) is None
+    assert neg.generic((types.float32,), {}) is None
+    assert looked == []  # Numba's: a loop for each, then declined
+    arr = types.Array(types.float64, 1, "C")
+    assert add.generic((arr, types.int64), {}).return_type == arr
+    assert add.generic((types.Optional(arr), types.float64), {}).return_type == arr
+    assert looked == ["add", "add"]
+
+
+def test_array_and_scalar_arithmetic_still_compiles():
+    @numba.njit(cache=False)
+    def f(a, x):
+        return -(a + x) * 2.0, x * 3 - 1
+
+    arr, s = f(np.arange(3.0), 2)
+    assert arr.tolist() == [-4.0, -6.0, -8.0] and s == 5
+
+
+def _statements(func):
+    """Every statement and expression of ``func``'s Numba IR (untyped, as the passes see it)."""
+    from numba.core import compiler
+
+    fir = compiler.run_frontend(func)
+    for block in fir.blocks.values():
+        for stmt in block.body:
+            yield stmt
+            for value in stmt.__dict__.values():
+                if isinstance(value, ir.Inst):
+                    yield value
+
+
+def _kernel_like(a, b, n):
+    s = 0.0
+    t = (a[0], (a[1], b[0]), [n, n + 1])
+    for i in range(n):
+        x, y = a[i], b[i]
+        s += x * y - min(x, y) if x > 0 else np.sqrt(abs(y)) + t[1][0]
+    d = {"k": s}
+    return s, t, d["k"], (lambda q: q + 1)(n)
+
+
+def test_the_variables_listed_are_numbas_in_numbas_order():
+    from raycast_shade.shading import mirrors, phong
+
+    numbas = ir.Inst._numbas_rec_list_vars
+    funcs = [_kernel_like, phong._surface.py_func, mirrors._make_packets(False).py_func]
+    checked = 0
+    for func in funcs:
+        for inst in _statements(func):
+            for val in (inst.__dict__, list(inst.__dict__.values()), tuple(inst.__dict__.items())):
+                ours, theirs = frontend._rec_list_vars(inst, val), numbas(inst, val)
+                assert [v.name for v in ours] == [v.name for v in theirs]
+                assert all(a is b for a, b in zip(ours, theirs))
+                checked += bool(theirs)
+    assert checked > 300
