@@ -65,9 +65,10 @@ _AHEAD_VERTS = 2
 
 @inline_jit(**HELPER)
 def _prefetch_tile(prim, geom, G, face_off, ya, yb, x0, x1, deep):
-    """Prefetch what :func:`_start_lane` gathers for the hit pixels of rows ``ya .. yb`` and
-    columns ``x0 .. x1``: their faces' rows, or (``deep``, once the faces have arrived) their
-    vertices, vertex normals and face normals."""
+    """Prefetch what the pixel-by-pixel start gathers (:func:`_pixel_at`, then ``_surface`` at the
+    kernel's depth 0) for the hit pixels of rows ``ya .. yb`` and columns ``x0 .. x1``: their
+    faces' rows, or (``deep``, once the faces have arrived) their vertices, vertex normals and face
+    normals."""
     verts, normals, faces, fnormals = G
     for y in range(ya, yb):
         for x in range(x0, x1):
@@ -167,8 +168,8 @@ _GROUP = _BATCH // _LANES  # tiles whose lanes _start_group starts together: one
 @inline_jit(**HELPER)
 def _start_group(hits, G, materials, face_off, cam, unit, image, box, F):
     """The reflective pixels of the :data:`_GROUP` tiles of rows ``box[0] .. box[1] - 1`` from column
-    ``box[2]`` (to ``box[3]``), tile after tile, as :func:`_start_lane` starts them, bit for bit, for
-    a frame without bump or normal maps: their points, view vectors and normals by the batched Phong
+    ``box[2]`` (to ``box[3]``), tile after tile, as the pixel-by-pixel start (:func:`_start_lane`, then
+    the kernel's depth 0) starts them, bit for bit, for a frame without bump or normal maps: their points, view vectors and normals by the batched Phong
     kernel's passes (:func:`.phong_fast._gather`, :func:`.phong_fast._geometry`, which vectorise)
     over the scratch ``F = (S, XY)``, not pixel by pixel. Kept in ``F`` for :func:`_take_tile`: lane
     ``k``'s row and column in ``XY[k]``, ``XY[B + k]`` (``B`` lanes a field), tile ``j``'s lane count
@@ -205,7 +206,7 @@ def _start_group(hits, G, materials, face_off, cam, unit, image, box, F):
 @inline_jit(**HELPER)
 def _take_tile(F, j, lanes):
     """Tile ``j`` of the group :func:`_start_group` started, as the lanes of ``lanes = (n, ys, xs,
-    weight, org, dr, act)`` from 0 (as :func:`_start_lane` fills them). Returns the lanes filled."""
+    weight, org, dr, act)`` from 0 (as the pixel-by-pixel start fills them). Returns the lanes filled."""
     _, ys, xs, weight, org, dr, act = lanes
     S, XY = F
     b = 0
@@ -226,13 +227,13 @@ def _take_tile(F, j, lanes):
 @inline_jit(**HELPER)
 def _take_handed(hits, materials, image, rays, box, lanes):
     """The reflective pixels of rows ``box[0] .. box[1] - 1`` and columns ``box[2] .. box[3] - 1`` (a
-    tile) as the lanes of ``lanes = (n, ys, xs, weight, org, dr, act)`` from 0, as :func:`_start_lane`
-    fills them, their rays read from ``rays`` (:mod:`.mirror_rays`: the Phong kernel handed them
+    tile) as the lanes of ``lanes = (n, ys, xs, weight, org, dr, act)`` from 0, as the pixel-by-pixel
+    start fills them, their rays read from ``rays`` (:mod:`.mirror_rays`: the Phong kernel handed them
     over as it shaded the pixels). Returns the lanes filled."""
     prim, geom, _, _ = hits
     given_org, given_dr = rays
     _, ys, xs, weight, org, dr, act = lanes
-    n = np.int64(0)  # not 0, and the origin widened (exactly): _add_lane compiles once, as _start_lane's
+    n = np.int64(0)  # not 0: _add_lane would compile for Literal[int](0) first, then int64
     for y in range(box[0], box[1]):
         for x in range(box[2], box[3]):
             if prim[y, x] < 0:

@@ -18,6 +18,11 @@ def test_both_are_installed_on_this_numba():
     assert ir.Inst._rec_list_vars is frontend._rec_list_vars
 
 
+def _template(base, op):
+    """NumPy's typing template of operator ``op`` (a subclass of ``base`` keyed on it)."""
+    return next(c for c in base.__subclasses__() if getattr(c, "key", None) is op)
+
+
 def test_numpys_operator_typing_declines_scalars_without_looking_for_a_ufunc_loop(monkeypatch):
     from numba.core import types
     from numba.core.typing import npydecl
@@ -32,11 +37,11 @@ def test_numpys_operator_typing_declines_scalars_without_looking_for_a_ufunc_loo
 
     monkeypatch.setattr(npydecl, "ufunc_find_matching_loop", spy)
     ctx = cpu_target.typing_context
-    add = next(c for c in npydecl.NumpyRulesArrayOperator.__subclasses__() if getattr(c, "key", None) is operator.add)(ctx)
-    neg = next(c for c in npydecl.NumpyRulesUnaryArrayOperator.__subclasses__() if getattr(c, "key", None) is operator.neg)(ctx)
+    add = _template(npydecl.NumpyRulesArrayOperator, operator.add)(ctx)
+    neg = _template(npydecl.NumpyRulesUnaryArrayOperator, operator.neg)(ctx)
     assert add.generic((types.float64, types.int64), {}) is None
     assert neg.generic((types.float32,), {}) is None
-    assert looked == []  # Numba's: a loop for each, then declined
+    assert looked == []  # Numba's: a ufunc loop looked for, then declined
     arr = types.Array(types.float64, 1, "C")
     assert add.generic((arr, types.int64), {}).return_type == arr
     assert add.generic((types.Optional(arr), types.float64), {}).return_type == arr
