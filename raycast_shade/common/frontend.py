@@ -50,7 +50,7 @@ def install_scalar_operators() -> bool:
     cls = npydecl.NumpyRulesArrayOperator
     if not numba.__version__.startswith(CHECKED):
         return False
-    numbas = cls.__dict__.get("_numbas_generic", cls.generic)
+    numbas = getattr(cls, "_numbas_generic", cls.generic)  # installed once
 
     def generic(self, args, kws):
         if not kws and _no_array(args):

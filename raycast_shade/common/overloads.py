@@ -100,13 +100,12 @@ def install_jitter(jitter) -> bool:
     cls = templates._OverloadFunctionTemplate
     if not numba.__version__.startswith(_CHECKED):
         return False
-    numbas = cls.__dict__.get("_numbas_jit_decorator", cls._get_jit_decorator)
+    numbas = getattr(cls, "_numbas_jit_decorator", cls._get_jit_decorator)  # installed once
 
     def _get_jit_decorator(self):
         found = numbas(self)
         return jitter if found is numba.jit else found
 
-    _get_jit_decorator.jitter = jitter
     cls._numbas_jit_decorator = numbas
     cls._get_jit_decorator = _get_jit_decorator
     return True
