@@ -438,15 +438,18 @@ def _accumulate(S, lights, i, terms):
 
 
 @inline_jit(**HELPER)
-def _shade_batch(S, XY, n, F, L, cam, Q, spec_on, att_on, shadows_on, terms):
+def _shade_batch(S, XY, n, mixed, F, L, cam, Q, spec_on, att_on, shadows_on, terms):
     """Shade the lanes (``n`` of them queued, the rest an earlier batch's or zeros); with
     ``shadows_on`` (a scene handle), the lights that cast shadows trace them (:func:`_shadow_pass`);
-    ``terms``: sum the diffuse and specular terms too (:func:`_accumulate`)."""
+    ``terms``: sum the diffuse and specular terms too (:func:`_accumulate`). Which reflectance
+    models and powers the batch needs is read from its lanes' material fields: from every queued
+    lane's if the batch is ``mixed``, else from lane 0's (every lane holds the one model's row)."""
     ambient, lights, dmin, handle, unit = L.ambient, L.lights, L.dmin, L.handle, L.unit
+    m = n if mixed else 1
     nblinn = 0
     npow = 0
     top = 0.0
-    for k in range(n):
+    for k in range(m):
         nblinn += 1 if S[_MODEL * LANES + k] == MODEL_BLINN else 0
         npow += 1 if S[_SHN * LANES + k] == 0.0 else 0  # shininess > 0: 0 marks the lanes of pow
         top = max(top, S[_SHN * LANES + k])
@@ -461,7 +464,7 @@ def _shade_batch(S, XY, n, F, L, cam, Q, spec_on, att_on, shadows_on, terms):
         _origins(S, XY, F)
     for i in range(lights.shape[0]):
         _direction(S, lights, i, dmin, att_on)
-        _cosines(S, spec_on, nblinn < n, nblinn > 0)
+        _cosines(S, spec_on, nblinn < m, nblinn > 0)
         if shadows_on and lights[i, LIGHT_SHADOWS] != 0.0:
             _shadow_pass(S, n, lights, i, handle, unit, Q)
         if spec_on:
@@ -481,7 +484,7 @@ def _flush(S, XY, n, mixed, filled, materials, F, L, cam, outs, Q, spec_on, att_
     elif XY[2 * LANES] != filled:
         filled = XY[2 * LANES]
         _material(S, 0, LANES, materials, filled)
-    _shade_batch(S, XY, n, F, L, cam, Q, spec_on, att_on, shadows_on, terms)
+    _shade_batch(S, XY, n, mixed, F, L, cam, Q, spec_on, att_on, shadows_on, terms)
     _scatter(S, XY, n, outs)
     return filled
 
@@ -558,6 +561,7 @@ def _make_phong_fast(terms_on: bool = False, shadows_on: bool = False):
         ahead = G.verts.nbytes + G.normals.nbytes + faces.nbytes + fnormals.nbytes > PREFETCH_BYTES
         many = modes.shape[0] > 1  # one model: every hit is model 0's (no model read per pixel)
         mixed_modes = (modes != METHOD_PHONG).any()  # other methods' pixels are other kernels'
+        f0 = face_off[0]  # one model: its faces' offset
         # The pixels are queued row by row; with shadows, by 4x4 tiles (each row-major: a packet's 16
         # lanes neighbours both ways, coherent rays), after their strip's background (_strip_background).
         th = _TILE if shadows_on else 1
@@ -585,23 +589,25 @@ def _make_phong_fast(terms_on: bool = False, shadows_on: bool = False):
                                     if terms_on:
                                         _miss(image, R, y, y0 + y, x)
                                 continue
-                            gm = geom[y, x] if many else 0
-                            if mixed_modes and modes[gm] != METHOD_PHONG:
-                                continue
-                            f = face_off[gm] + p
+                            # Unsigned lane indices: no wrap-around test per store. With one model
+                            # the model field stays 0 (zeroed with XY) and the batch is never mixed.
+                            if many:
+                                gm = geom[y, x]
+                                if mixed_modes and modes[gm] != METHOD_PHONG:
+                                    continue
+                                f = face_off[gm] + p
+                                XY[np.uint64(2 * LANES + n)] = gm
+                                mixed = mixed | ((n > 0) & (gm != XY[2 * LANES]))
+                            else:
+                                f = f0 + p
                             if ahead:  # the face's row a batch before it is read (_gather)
                                 prefetch(faces, f)
                                 prefetch(fnormals, f)
-                            # Unsigned lane indices: no wrap-around test per store. With one model
-                            # the model field stays 0 (zeroed with XY) and the batch is never mixed.
                             S[np.uint64(_B1 * LANES + n)] = u[y, x]
                             S[np.uint64(_B2 * LANES + n)] = v[y, x]
                             XY[np.uint64(n)] = y
                             XY[np.uint64(LANES + n)] = x
                             XY[np.uint64(3 * LANES + n)] = f
-                            if many:
-                                XY[np.uint64(2 * LANES + n)] = gm
-                                mixed = mixed | ((n > 0) & (gm != XY[2 * LANES]))
                             n += 1
                             if n == LANES:
                                 _gather(S, XY, n, F, ahead)
