@@ -11,14 +11,17 @@ on a Phong model — this kernel does the same arithmetic in passes:
    and interpolated normal (the sums of :mod:`.surface`, in their order) and copies its face
    normal in another, passes whose iterations are independent so that the lanes' cache misses
    overlap (on a large mesh the rows are also prefetched: the faces as they are queued, the
-   vertices a pass before they are read); the material row fills the lanes once per batch of one
-   model;
+   vertices a pass before they are read); the mesh is read through flat views (row ``i`` at
+   ``3 i``: an address computation, no multiplication by a run-time row length) and the lanes and
+   pixels at unsigned indices (no wrap-around test per access); the material row fills the lanes
+   once per batch of one model, and such a batch's lane 0 tells which models and powers it needs;
 2. branch-free passes over the lanes (selects, not ``continue``): the point, the view vector,
    the oriented normal; then per light its direction, distance and attenuation, ``n . s``, the
    specular cosine and the whole-number power by repeated squaring (one pass per bit, a bit
    applied to the lanes that have it), and the sum; these are the loops LLVM vectorises;
-3. a scatter pass writes the colours (and, when asked, the shading normals) to their pixels;
-   the ``terms_on`` build (``render(terms=True)``) also sums each light's diffuse and specular
+3. a pass over every lane sums each colour and its emission and saturates it
+   (:func:`.pixelstore.saturate`, vectorised), then the scatter writes the colours (and, when
+   asked, the shading normals) to their pixels; the ``terms_on`` build (``render(terms=True)``) also sums each light's diffuse and specular
    parts in the accumulate pass and writes the terms in a scatter pass of its own.
 
 Shadows (a variant of its own, :data:`_PHONG_FAST_SHADOWS`, for frames with a scene handle): the
