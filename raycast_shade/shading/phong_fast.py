@@ -11,18 +11,16 @@ on a Phong model — this kernel does the same arithmetic in passes:
    and interpolated normal (the sums of :mod:`.surface`, in their order) and copies its face
    normal in another, passes whose iterations are independent so that the lanes' cache misses
    overlap (on a large mesh the rows are also prefetched: the faces as they are queued, the
-   vertices a pass before they are read); the mesh is read through flat views (row ``i`` at
-   ``3 i``: an address computation, no multiplication by a run-time row length) and the lanes and
-   pixels at unsigned indices (no wrap-around test per access); the material row fills the lanes
-   once per batch of one model, and such a batch's lane 0 tells which models and powers it needs;
+   vertices a pass before they are read; flat views of the mesh, unsigned indices: no
+   multiplications by row lengths, no wrap-around tests); the material row fills the lanes once
+   per batch of one model, whose lane 0 then tells the models and powers the batch needs;
 2. branch-free passes over the lanes (selects, not ``continue``): the point, the view vector,
    the oriented normal; then per light its direction, distance and attenuation, ``n . s``, the
    specular cosine and the whole-number power by repeated squaring (one pass per bit, a bit
    applied to the lanes that have it), and the sum; these are the loops LLVM vectorises;
-3. a pass over every lane sums each colour and its emission and saturates it
-   (:func:`.pixelstore.saturate`, vectorised), then the scatter writes the colours (and, when
-   asked, the shading normals) to their pixels; the ``terms_on`` build (``render(terms=True)``) also sums each light's diffuse and specular
-   parts in the accumulate pass and writes the terms in a scatter pass of its own.
+3. a pass sums and saturates the colours (vectorised), a scatter writes them (and, when asked,
+   the shading normals); the ``terms_on`` build (``render(terms=True)``) also sums each light's
+   diffuse and specular parts in the accumulate pass and writes the terms in a pass of its own.
 
 Shadows (a variant of its own, :data:`_PHONG_FAST_SHADOWS`, for frames with a scene handle): the
 pixels are queued by 4x4 tiles, each lane's shadow origin is lifted past the terminator once per
@@ -70,8 +68,7 @@ from .lanes import (_A, _ATT, _B1, _B2, _CB, _CC, _CP, _D, _FIELDS, _FN, _G, _HA
 from .mirror_rays import hand_over_lanes
 from .pixelstore import saturate, store_background
 from .shadows import LANES as PACKET_LANES, _packets, _shadow_ray, _strip_background
-from .terms_kernel import (TERM_AMBIENT, TERM_DIFFUSE, TERM_EMISSIVE, TERM_SPECULAR, TERMS_EMIT_ON, TERMS_SHADOW,
-                           _hit_background, _miss, _store)
+from .terms_kernel import _miss, _scatter_terms
 
 __all__ = ["LANES", "applies", "HANDLES"]
 
@@ -113,9 +110,8 @@ def applies(modes, k) -> bool:
 
 @inline_jit(**CALLED)  # returns views: NRT on (a helper without it would hand out unowned references)
 def _flat_mesh(G):
-    """The mesh record ``G``'s (m, 3) arrays (vertices, vertex normals, faces, face normals) as flat
-    views, row ``i`` at ``3 i``: what :func:`_gather` and :func:`_origins` read (an index times 3 is
-    an address computation, not a multiplication by the run-time row length)."""
+    """The mesh record ``G``'s (m, 3) arrays as flat views, row ``i`` at ``3 i`` (an address
+    computation, not a multiplication by a run-time row length): what :func:`_gather` reads."""
     return G.verts.reshape(-1), G.normals.reshape(-1), G.faces.reshape(-1), G.face_normals.reshape(-1)
 
 
@@ -125,9 +121,8 @@ def _gather(S, XY, n, F, ahead):
     lane ``k``'s hit on face ``XY[3 * LANES + k]`` at ``(_B1, _B2)`` (surface._hit_point,
     surface._shading_normal's sums). Two passes whose iterations are independent, so that the
     lanes' cache misses overlap: the faces' vertex indices (``ahead``: then their rows
-    prefetched), then the sums. ``F``: the mesh's arrays flat (:func:`_flat`), so that a row's
-    offset is ``3 i`` (no multiplication by a run-time row length); the vertices' offsets go to
-    ``XY`` fields 4-6 (read again by :func:`_origins`)."""
+    prefetched), then the sums. ``F``: the mesh's flat views (:func:`_flat_mesh`); the vertices'
+    offsets (``3 i``) stay in ``XY`` fields 4-6 (for :func:`_origins`)."""
     verts, normals, faces, fnormals = F
     for k in range(n):
         f3 = 3 * XY[3 * LANES + k]
@@ -139,18 +134,13 @@ def _gather(S, XY, n, F, ahead):
                 prefetch(normals, i3)
     for k in range(n):
         f3 = 3 * XY[3 * LANES + k]
-        i0 = XY[4 * LANES + k]
-        i1 = XY[5 * LANES + k]
-        i2 = XY[6 * LANES + k]
-        b1 = S[_B1 * LANES + k]
-        b2 = S[_B2 * LANES + k]
+        i0, i1, i2 = XY[4 * LANES + k], XY[5 * LANES + k], XY[6 * LANES + k]
+        b1, b2 = S[_B1 * LANES + k], S[_B2 * LANES + k]
         b0 = 1.0 - b1 - b2
         for c in range(3):
-            S[(_P + c) * LANES + k] = (b0 * verts[np.uint64(i0 + c)] + b1 * verts[np.uint64(i1 + c)]
-                                       + b2 * verts[np.uint64(i2 + c)])
+            S[(_P + c) * LANES + k] = b0 * verts[np.uint64(i0 + c)] + b1 * verts[np.uint64(i1 + c)] + b2 * verts[np.uint64(i2 + c)]
         for c in range(3):
-            S[(_A + c) * LANES + k] = (b0 * normals[np.uint64(i0 + c)] + b1 * normals[np.uint64(i1 + c)]
-                                       + b2 * normals[np.uint64(i2 + c)])
+            S[(_A + c) * LANES + k] = b0 * normals[np.uint64(i0 + c)] + b1 * normals[np.uint64(i1 + c)] + b2 * normals[np.uint64(i2 + c)]
         for c in range(3):
             S[(_FN + c) * LANES + k] = fnormals[np.uint64(f3 + c)]
 
@@ -332,8 +322,8 @@ def _origins(S, XY, F):
         qy = py
         qz = pz
         for j in range(3):
-            i = XY[(4 + j) * LANES + k]
-            i0, i1, i2 = np.uint64(i), np.uint64(i + 1), np.uint64(i + 2)  # unsigned: no wrap-around test
+            i = XY[(4 + j) * LANES + k]  # the vertex's offset: unsigned reads, no wrap-around test
+            i0, i1, i2 = np.uint64(i), np.uint64(i + 1), np.uint64(i + 2)
             w = b0 if j == 0 else (b1 if j == 1 else b2)
             nx = sgn * normals[i0]
             ny = sgn * normals[i1]
@@ -444,9 +434,8 @@ def _accumulate(S, lights, i, terms):
 def _shade_batch(S, XY, n, mixed, F, L, cam, Q, spec_on, att_on, shadows_on, terms):
     """Shade the lanes (``n`` of them queued, the rest an earlier batch's or zeros); with
     ``shadows_on`` (a scene handle), the lights that cast shadows trace them (:func:`_shadow_pass`);
-    ``terms``: sum the diffuse and specular terms too (:func:`_accumulate`). Which reflectance
-    models and powers the batch needs is read from its lanes' material fields: from every queued
-    lane's if the batch is ``mixed``, else from lane 0's (every lane holds the one model's row)."""
+    ``terms``: sum the diffuse and specular terms too (:func:`_accumulate`). The models and powers
+    the batch needs: from each queued lane if it is ``mixed``, else from lane 0 (all hold one row)."""
     ambient, lights, dmin, handle, unit = L.ambient, L.lights, L.dmin, L.handle, L.unit
     m = n if mixed else 1
     nblinn = 0
@@ -494,46 +483,21 @@ def _flush(S, XY, n, mixed, filled, materials, F, L, cam, outs, Q, spec_on, att_
 
 @inline_jit(**HELPER)
 def _scatter(S, XY, n, outs):
-    """Write the first ``n`` lanes' colours (plus emission, :func:`.pixelstore.saturate`d) and, when
-    asked for, their shading normals. The colours are summed and saturated in place (``_R``) in a
-    pass over every lane (vectorised); the stores then only convert and write, at unsigned pixel
-    indices (no wrap-around test per store)."""
+    """Write the first ``n`` lanes' colours (plus emission, :func:`.pixelstore.saturate`d in place
+    in ``_R`` by a pass over every lane, vectorised) and, when asked for, their shading normals."""
     image, normal = outs
     for c in range(3):
         for k in range(LANES):
             S[(_R + c) * LANES + k] = saturate(S[(_R + c) * LANES + k] + S[(_KE + c) * LANES + k])
     for k in range(n):
-        y = np.uint64(XY[k])
-        x = np.uint64(XY[LANES + k])
+        y, x = np.uint64(XY[k]), np.uint64(XY[LANES + k])  # unsigned: no wrap-around test per store
         for c in range(3):
             image[y, x, c] = S[(_R + c) * LANES + k]
     if normal.shape[0] != 0:
         for k in range(n):
-            y = np.uint64(XY[k])
-            x = np.uint64(XY[LANES + k])
+            y, x = np.uint64(XY[k]), np.uint64(XY[LANES + k])
             for c in range(3):
                 normal[y, x, c] = S[(_N + c) * LANES + k]
-
-
-@inline_jit(**HELPER)
-def _scatter_terms(S, XY, n, R, y0, ambient):
-    """Write the first ``n`` lanes' terms to the terms record ``R`` at rows ``y0 + y``: ambient
-    ``Ia ka``, the summed diffuse and specular parts, the emission (with ``emit_on``), a zero
-    background term (with ``bg_on``) and an unshadowed mask (no light casts shadows here)."""
-    shadow = R[TERMS_SHADOW]
-    for k in range(n):
-        ty = y0 + XY[k]
-        x = XY[LANES + k]
-        _store(R[TERM_AMBIENT], ty, x, ambient[0] * S[(_KA + 0) * LANES + k], ambient[1] * S[(_KA + 1) * LANES + k],
-               ambient[2] * S[(_KA + 2) * LANES + k])
-        _store(R[TERM_DIFFUSE], ty, x, S[(_TD + 0) * LANES + k], S[(_TD + 1) * LANES + k], S[(_TD + 2) * LANES + k])
-        _store(R[TERM_SPECULAR], ty, x, S[(_TS + 0) * LANES + k], S[(_TS + 1) * LANES + k], S[(_TS + 2) * LANES + k])
-        if R[TERMS_EMIT_ON]:
-            _store(R[TERM_EMISSIVE], ty, x, S[(_KE + 0) * LANES + k], S[(_KE + 1) * LANES + k],
-                   S[(_KE + 2) * LANES + k])
-        _hit_background(R, ty, x)
-        for i in range(shadow.shape[0]):
-            shadow[i, ty, x] = 1.0
 
 
 def _make_phong_fast(terms_on: bool = False, shadows_on: bool = False):
@@ -592,8 +556,8 @@ def _make_phong_fast(terms_on: bool = False, shadows_on: bool = False):
                                     if terms_on:
                                         _miss(image, R, y, y0 + y, x)
                                 continue
-                            # Unsigned lane indices: no wrap-around test per store. With one model
-                            # the model field stays 0 (zeroed with XY) and the batch is never mixed.
+                            # Unsigned lane indices. One model: its field stays 0, the batch unmixed.
+                            f = f0 + p
                             if many:
                                 gm = geom[y, x]
                                 if mixed_modes and modes[gm] != METHOD_PHONG:
@@ -601,8 +565,6 @@ def _make_phong_fast(terms_on: bool = False, shadows_on: bool = False):
                                 f = face_off[gm] + p
                                 XY[np.uint64(2 * LANES + n)] = gm
                                 mixed = mixed | ((n > 0) & (gm != XY[2 * LANES]))
-                            else:
-                                f = f0 + p
                             if ahead:  # the face's row a batch before it is read (_gather)
                                 prefetch(faces, f)
                                 prefetch(fnormals, f)
