@@ -522,6 +522,7 @@ def _make_phong_fast(terms_on: bool = False, shadows_on: bool = False):
         else:
             image, normal, rays = outs
         bg = (np.float32(background[0]), np.float32(background[1]), np.float32(background[2]))
+        pix = (image, normal)  # once: a tuple of arrays built in the loops could keep reference counts there
         h, w = prim.shape
         faces, fnormals = G.faces, G.face_normals
         F = _flat_mesh(G)
@@ -545,14 +546,14 @@ def _make_phong_fast(terms_on: bool = False, shadows_on: bool = False):
             ye = min(h, (blk + 1) * BLOCK_ROWS)
             for ty in range(blk * BLOCK_ROWS, ye, th):  # rows (tiles of rows: see above)
                 if shadows_on:
-                    _strip_background((prim, geom, u, v), (image, normal), bg, ty, min(ty + th, ye))
+                    _strip_background((prim, geom, u, v), pix, bg, ty, min(ty + th, ye))
                 for tx in range(0, w, tw):
                     for y in range(ty, min(ty + th, ye)):
                         for x in range(tx, min(tx + tw, w)):
                             p = prim[y, x]
                             if p < 0:
                                 if not shadows_on:  # (a shadowed frame's strip wrote its background)
-                                    store_background((image, normal), y, x, bg)
+                                    store_background(pix, y, x, bg)
                                     if terms_on:
                                         _miss(image, R, y, y0 + y, x)
                                 continue
@@ -576,7 +577,7 @@ def _make_phong_fast(terms_on: bool = False, shadows_on: bool = False):
                             n += 1
                             if n == LANES:
                                 _gather(S, XY, n, F, ahead)
-                                filled = _flush(S, XY, n, mixed, filled, materials, F, L, cam, (image, normal), Q,
+                                filled = _flush(S, XY, n, mixed, filled, materials, F, L, cam, pix, Q,
                                                 spec_on, att_on, shadows_on, terms_on)
                                 if terms_on:
                                     _scatter_terms(S, XY, n, R, y0, L.ambient)
@@ -585,8 +586,7 @@ def _make_phong_fast(terms_on: bool = False, shadows_on: bool = False):
                                 n, mixed = np.int64(0), np.bool_(False)
             if n > 0:  # the lanes past n hold an earlier batch's pixels (or zeros): shaded, not written
                 _gather(S, XY, n, F, ahead)
-                _flush(S, XY, n, mixed, filled, materials, F, L, cam, (image, normal), Q, spec_on, att_on,
-                       shadows_on, terms_on)
+                _flush(S, XY, n, mixed, filled, materials, F, L, cam, pix, Q, spec_on, att_on, shadows_on, terms_on)
                 if terms_on:
                     _scatter_terms(S, XY, n, R, y0, L.ambient)
                 else:
