@@ -39,7 +39,7 @@ from .illumination import _illuminate
 from .phong import _lifted, _surface
 from .lanes import _A, _B1, _B2, _FIELDS, _FN, _KD, LANES as _BATCH
 from .mirror_rays import NO_RAYS, _mirror_ray, lane_rays
-from .phong_fast import _gather, _geometry
+from .phong_fast import _flat_mesh, _gather, _geometry
 from .records import At
 from .texture import _point_coefficients, _row_coefficients
 
@@ -166,12 +166,13 @@ _GROUP = _BATCH // _LANES  # tiles whose lanes _start_group starts together: one
 
 
 @inline_jit(**HELPER)
-def _start_group(hits, G, materials, face_off, cam, unit, image, box, F):
+def _start_group(hits, GF, materials, face_off, cam, unit, image, box, F):
     """The reflective pixels of the :data:`_GROUP` tiles of rows ``box[0] .. box[1] - 1`` from column
     ``box[2]`` (to ``box[3]``), tile after tile, as the pixel-by-pixel start (:func:`_start_lane`, then
     the kernel's depth 0) starts them, bit for bit, for a frame without bump or normal maps: their points, view vectors and normals by the batched Phong
     kernel's passes (:func:`.phong_fast._gather`, :func:`.phong_fast._geometry`, which vectorise)
-    over the scratch ``F = (S, XY)``, not pixel by pixel. Kept in ``F`` for :func:`_take_tile`: lane
+    over the scratch ``F = (S, XY)``, not pixel by pixel; ``GF``: the mesh's flat views
+    (:func:`.phong_fast._flat_mesh`). Kept in ``F`` for :func:`_take_tile`: lane
     ``k``'s row and column in ``XY[k]``, ``XY[B + k]`` (``B`` lanes a field), tile ``j``'s lane count
     in ``XY[2 B + j]``, its weight in field ``_KD``, its ray's origin and direction in the fields
     ``_A`` and ``_FN`` (free once ``_geometry`` has run)."""
@@ -198,7 +199,7 @@ def _start_group(hits, G, materials, face_off, cam, unit, image, box, F):
         XY[2 * _BATCH + j] = n - n0
     if n == 0:
         return
-    _gather(S, XY, n, G, False)
+    _gather(S, XY, n, GF, False)
     _geometry(S, cam, (0.0, 0.0, 0.0))
     lane_rays(S, n, unit)
 
@@ -313,6 +314,7 @@ def _make_packets(tex_on: bool = False, batched: bool = False, ahead: bool = Fal
         per = BLOCK_ROWS // _TILE
         nblk = (ntr + per - 1) // per
         step = spread_step(nblk)
+        GF = _flat_mesh(G)  # (_start_group's)
         for it in range(*share(nblk, part)):  # this part's blocks of tile rows, in a balanced order
             blk = (it * step) % nblk
             S = ray_scratch()
@@ -337,7 +339,7 @@ def _make_packets(tex_on: bool = False, batched: bool = False, ahead: bool = Fal
                                          (n, ys, xs, weight, org, dr, act))
                     elif batched:
                         if tx % _GROUP == 0:
-                            _start_group(hits, G, materials, face_off, cam, unit, image, (ya, yb, tx * _TILE, w), F)
+                            _start_group(hits, GF, materials, face_off, cam, unit, image, (ya, yb, tx * _TILE, w), F)
                         n = _take_tile(F, tx % _GROUP, (n, ys, xs, weight, org, dr, act))
                     else:
                         for y in range(ya, yb):

@@ -11,15 +11,16 @@ on a Phong model — this kernel does the same arithmetic in passes:
    and interpolated normal (the sums of :mod:`.surface`, in their order) and copies its face
    normal in another, passes whose iterations are independent so that the lanes' cache misses
    overlap (on a large mesh the rows are also prefetched: the faces as they are queued, the
-   vertices a pass before they are read); the material row fills the lanes once per batch of one
-   model;
+   vertices a pass before they are read; flat views of the mesh, unsigned indices: no
+   multiplications by row lengths, no wrap-around tests); the material row fills the lanes once
+   per batch of one model, whose lane 0 then tells the models and powers the batch needs;
 2. branch-free passes over the lanes (selects, not ``continue``): the point, the view vector,
    the oriented normal; then per light its direction, distance and attenuation, ``n . s``, the
    specular cosine and the whole-number power by repeated squaring (one pass per bit, a bit
    applied to the lanes that have it), and the sum; these are the loops LLVM vectorises;
-3. a scatter pass writes the colours (and, when asked, the shading normals) to their pixels;
-   the ``terms_on`` build (``render(terms=True)``) also sums each light's diffuse and specular
-   parts in the accumulate pass and writes the terms in a scatter pass of its own.
+3. a pass sums and saturates the colours (vectorised), a scatter writes them (and, when asked,
+   the shading normals); the ``terms_on`` build (``render(terms=True)``) also sums each light's
+   diffuse and specular parts in the accumulate pass and writes the terms in a pass of its own.
 
 Shadows (a variant of its own, :data:`_PHONG_FAST_SHADOWS`, for frames with a scene handle): the
 pixels are queued by 4x4 tiles, each lane's shadow origin is lifted past the terminator once per
@@ -61,14 +62,13 @@ from ..common.prefetch import PREFETCH_BYTES, prefetch
 from ..common.schedule import BLOCK_ROWS, spread_step
 from ..visibility.secondary import set_occlusion_lane, trace_occlusion
 from .illumination import _spot_factor
-from .jit import HELPER, JIT
+from .jit import CALLED, HELPER, JIT
 from .lanes import (_A, _ATT, _B1, _B2, _CB, _CC, _CP, _D, _FIELDS, _FN, _G, _HASSPEC, _KA, _KD, _KE, _KS, _LIT,
                     _MODEL, _N, _ND, _O, _P, _PW, _R, _S, _SG, _SHN, _SHT, _TD, _TS, _V, LANES, _pick)
 from .mirror_rays import hand_over_lanes
-from .pixelstore import store_background, store_pixel
+from .pixelstore import saturate, store_background
 from .shadows import LANES as PACKET_LANES, _packets, _shadow_ray, _strip_background
-from .terms_kernel import (TERM_AMBIENT, TERM_DIFFUSE, TERM_EMISSIVE, TERM_SPECULAR, TERMS_EMIT_ON, TERMS_SHADOW,
-                           _hit_background, _miss, _store)
+from .terms_kernel import _miss, _scatter_terms
 
 __all__ = ["LANES", "applies", "HANDLES"]
 
@@ -108,36 +108,41 @@ def applies(modes, k) -> bool:
             and all(float(c) in HANDLES["models"] for c in k.materials[phong, MAT_MODEL]))
 
 
+@inline_jit(**CALLED)  # returns views: NRT on (a helper without it would hand out unowned references)
+def _flat_mesh(G):
+    """The mesh record ``G``'s (m, 3) arrays as flat views, row ``i`` at ``3 i`` (an address
+    computation, not a multiplication by a run-time row length): what :func:`_gather` reads."""
+    return G.verts.reshape(-1), G.normals.reshape(-1), G.faces.reshape(-1), G.face_normals.reshape(-1)
+
+
 @inline_jit(**HELPER)
-def _gather(S, XY, n, G, ahead):
+def _gather(S, XY, n, F, ahead):
     """The queued lanes' points, interpolated (not yet renormalised) normals and face normals:
     lane ``k``'s hit on face ``XY[3 * LANES + k]`` at ``(_B1, _B2)`` (surface._hit_point,
     surface._shading_normal's sums). Two passes whose iterations are independent, so that the
     lanes' cache misses overlap: the faces' vertex indices (``ahead``: then their rows
-    prefetched), then the sums."""
-    verts, normals, faces, fnormals = G
+    prefetched), then the sums. ``F``: the mesh's flat views (:func:`_flat_mesh`); the vertices'
+    offsets (``3 i``) stay in ``XY`` fields 4-6 (for :func:`_origins`)."""
+    verts, normals, faces, fnormals = F
     for k in range(n):
-        fu = np.uint64(XY[3 * LANES + k])  # unsigned indices: no wrap-around test per read
+        f3 = 3 * XY[3 * LANES + k]
         for c in range(3):
-            i = faces[fu, c]
-            XY[(4 + c) * LANES + k] = i
+            i3 = 3 * np.int64(faces[np.uint64(f3 + c)])  # unsigned indices: no wrap-around test per read
+            XY[(4 + c) * LANES + k] = i3
             if ahead:
-                prefetch(verts, i)
-                prefetch(normals, i)
+                prefetch(verts, i3)
+                prefetch(normals, i3)
     for k in range(n):
-        fu = np.uint64(XY[3 * LANES + k])
-        i0 = np.uint64(XY[4 * LANES + k])
-        i1 = np.uint64(XY[5 * LANES + k])
-        i2 = np.uint64(XY[6 * LANES + k])
-        b1 = S[_B1 * LANES + k]
-        b2 = S[_B2 * LANES + k]
+        f3 = 3 * XY[3 * LANES + k]
+        i0, i1, i2 = XY[4 * LANES + k], XY[5 * LANES + k], XY[6 * LANES + k]
+        b1, b2 = S[_B1 * LANES + k], S[_B2 * LANES + k]
         b0 = 1.0 - b1 - b2
         for c in range(3):
-            S[(_P + c) * LANES + k] = b0 * verts[i0, c] + b1 * verts[i1, c] + b2 * verts[i2, c]
+            S[(_P + c) * LANES + k] = b0 * verts[np.uint64(i0 + c)] + b1 * verts[np.uint64(i1 + c)] + b2 * verts[np.uint64(i2 + c)]
         for c in range(3):
-            S[(_A + c) * LANES + k] = b0 * normals[i0, c] + b1 * normals[i1, c] + b2 * normals[i2, c]
+            S[(_A + c) * LANES + k] = b0 * normals[np.uint64(i0 + c)] + b1 * normals[np.uint64(i1 + c)] + b2 * normals[np.uint64(i2 + c)]
         for c in range(3):
-            S[(_FN + c) * LANES + k] = fnormals[fu, c]
+            S[(_FN + c) * LANES + k] = fnormals[np.uint64(f3 + c)]
 
 
 @inline_jit(**HELPER)
@@ -298,12 +303,13 @@ def _cosines(S, spec_on, phong, blinn):
 
 
 @inline_jit(**HELPER)
-def _origins(S, XY, G):
+def _origins(S, XY, F):
     """Per lane the shadow rays' origin ``_O``: the point lifted past the terminator as
     surface._terminator_point lifts it (phong._shading_point with shadow rays), the same operations
     in order, over every lane without branches (a select per vertex: on a noisy mesh the branches
-    mispredict), from the gather's vertices (``XY``); the lanes past the queued ones are not traced."""
-    verts, normals, _, _ = G
+    mispredict), from the gather's vertex offsets (``XY``) into the flat arrays ``F``; the lanes past
+    the queued ones are not traced."""
+    verts, normals, _, _ = F
     for k in range(LANES):
         b1 = S[_B1 * LANES + k]
         b2 = S[_B2 * LANES + k]
@@ -316,12 +322,13 @@ def _origins(S, XY, G):
         qy = py
         qz = pz
         for j in range(3):
-            i = np.uint64(XY[(4 + j) * LANES + k])  # unsigned: no wrap-around test per read
+            i = XY[(4 + j) * LANES + k]  # the vertex's offset: unsigned reads, no wrap-around test
+            i0, i1, i2 = np.uint64(i), np.uint64(i + 1), np.uint64(i + 2)
             w = b0 if j == 0 else (b1 if j == 1 else b2)
-            nx = sgn * normals[i, 0]
-            ny = sgn * normals[i, 1]
-            nz = sgn * normals[i, 2]
-            d = (px - verts[i, 0]) * nx + (py - verts[i, 1]) * ny + (pz - verts[i, 2]) * nz
+            nx = sgn * normals[i0]
+            ny = sgn * normals[i1]
+            nz = sgn * normals[i2]
+            d = (px - verts[i0]) * nx + (py - verts[i1]) * ny + (pz - verts[i2]) * nz
             below = d < 0.0
             qx = _pick(below, qx - w * d * nx, qx)
             qy = _pick(below, qy - w * d * ny, qy)
@@ -424,15 +431,17 @@ def _accumulate(S, lights, i, terms):
 
 
 @inline_jit(**HELPER)
-def _shade_batch(S, XY, n, G, L, cam, Q, spec_on, att_on, shadows_on, terms):
+def _shade_batch(S, XY, n, mixed, F, L, cam, Q, spec_on, att_on, shadows_on, terms):
     """Shade the lanes (``n`` of them queued, the rest an earlier batch's or zeros); with
     ``shadows_on`` (a scene handle), the lights that cast shadows trace them (:func:`_shadow_pass`);
-    ``terms``: sum the diffuse and specular terms too (:func:`_accumulate`)."""
+    ``terms``: sum the diffuse and specular terms too (:func:`_accumulate`). The models and powers
+    the batch needs: from each queued lane if it is ``mixed``, else from lane 0 (all hold one row)."""
     ambient, lights, dmin, handle, unit = L.ambient, L.lights, L.dmin, L.handle, L.unit
+    m = n if mixed else 1
     nblinn = 0
     npow = 0
     top = 0.0
-    for k in range(n):
+    for k in range(m):
         nblinn += 1 if S[_MODEL * LANES + k] == MODEL_BLINN else 0
         npow += 1 if S[_SHN * LANES + k] == 0.0 else 0  # shininess > 0: 0 marks the lanes of pow
         top = max(top, S[_SHN * LANES + k])
@@ -444,10 +453,10 @@ def _shade_batch(S, XY, n, G, L, cam, Q, spec_on, att_on, shadows_on, terms):
         for k in range(6 * LANES):
             S[_TD * LANES + k] = 0.0  # _TD and _TS: six fields from _TD on
     if shadows_on:
-        _origins(S, XY, G)
+        _origins(S, XY, F)
     for i in range(lights.shape[0]):
         _direction(S, lights, i, dmin, att_on)
-        _cosines(S, spec_on, nblinn < n, nblinn > 0)
+        _cosines(S, spec_on, nblinn < m, nblinn > 0)
         if shadows_on and lights[i, LIGHT_SHADOWS] != 0.0:
             _shadow_pass(S, n, lights, i, handle, unit, Q)
         if spec_on:
@@ -456,7 +465,7 @@ def _shade_batch(S, XY, n, G, L, cam, Q, spec_on, att_on, shadows_on, terms):
 
 
 @inline_jit(**HELPER)
-def _flush(S, XY, n, mixed, filled, materials, G, L, cam, outs, Q, spec_on, att_on, shadows_on, terms):
+def _flush(S, XY, n, mixed, filled, materials, F, L, cam, outs, Q, spec_on, att_on, shadows_on, terms):
     """Fill the material fields (once for a batch of one model that the lanes already hold),
     shade the batch and write it (``outs = (image, normal)``; with ``terms``, the kernel writes the
     terms, :func:`_scatter_terms`); returns the model whose row now fills every lane (-1: none)."""
@@ -467,40 +476,28 @@ def _flush(S, XY, n, mixed, filled, materials, G, L, cam, outs, Q, spec_on, att_
     elif XY[2 * LANES] != filled:
         filled = XY[2 * LANES]
         _material(S, 0, LANES, materials, filled)
-    _shade_batch(S, XY, n, G, L, cam, Q, spec_on, att_on, shadows_on, terms)
+    _shade_batch(S, XY, n, mixed, F, L, cam, Q, spec_on, att_on, shadows_on, terms)
     _scatter(S, XY, n, outs)
     return filled
 
 
 @inline_jit(**HELPER)
 def _scatter(S, XY, n, outs):
-    """Write the first ``n`` lanes' colours (plus emission) and shading normals (:func:`store_pixel`)."""
+    """Write the first ``n`` lanes' colours (plus emission, :func:`.pixelstore.saturate`d in place
+    in ``_R`` by a pass over every lane, vectorised) and, when asked for, their shading normals."""
+    image, normal = outs
+    for c in range(3):
+        for k in range(LANES):
+            S[(_R + c) * LANES + k] = saturate(S[(_R + c) * LANES + k] + S[(_KE + c) * LANES + k])
     for k in range(n):
-        store_pixel(outs, XY[k], XY[LANES + k],
-                    (S[(_R + 0) * LANES + k] + S[(_KE + 0) * LANES + k], S[(_R + 1) * LANES + k]
-                     + S[(_KE + 1) * LANES + k], S[(_R + 2) * LANES + k] + S[(_KE + 2) * LANES + k]),
-                    (S[(_N + 0) * LANES + k], S[(_N + 1) * LANES + k], S[(_N + 2) * LANES + k]))
-
-
-@inline_jit(**HELPER)
-def _scatter_terms(S, XY, n, R, y0, ambient):
-    """Write the first ``n`` lanes' terms to the terms record ``R`` at rows ``y0 + y``: ambient
-    ``Ia ka``, the summed diffuse and specular parts, the emission (with ``emit_on``), a zero
-    background term (with ``bg_on``) and an unshadowed mask (no light casts shadows here)."""
-    shadow = R[TERMS_SHADOW]
-    for k in range(n):
-        ty = y0 + XY[k]
-        x = XY[LANES + k]
-        _store(R[TERM_AMBIENT], ty, x, ambient[0] * S[(_KA + 0) * LANES + k], ambient[1] * S[(_KA + 1) * LANES + k],
-               ambient[2] * S[(_KA + 2) * LANES + k])
-        _store(R[TERM_DIFFUSE], ty, x, S[(_TD + 0) * LANES + k], S[(_TD + 1) * LANES + k], S[(_TD + 2) * LANES + k])
-        _store(R[TERM_SPECULAR], ty, x, S[(_TS + 0) * LANES + k], S[(_TS + 1) * LANES + k], S[(_TS + 2) * LANES + k])
-        if R[TERMS_EMIT_ON]:
-            _store(R[TERM_EMISSIVE], ty, x, S[(_KE + 0) * LANES + k], S[(_KE + 1) * LANES + k],
-                   S[(_KE + 2) * LANES + k])
-        _hit_background(R, ty, x)
-        for i in range(shadow.shape[0]):
-            shadow[i, ty, x] = 1.0
+        y, x = np.uint64(XY[k]), np.uint64(XY[LANES + k])  # unsigned: no wrap-around test per store
+        for c in range(3):
+            image[y, x, c] = S[(_R + c) * LANES + k]
+    if normal.shape[0] != 0:
+        for k in range(n):
+            y, x = np.uint64(XY[k]), np.uint64(XY[LANES + k])
+            for c in range(3):
+                normal[y, x, c] = S[(_N + c) * LANES + k]
 
 
 def _make_phong_fast(terms_on: bool = False, shadows_on: bool = False):
@@ -525,11 +522,14 @@ def _make_phong_fast(terms_on: bool = False, shadows_on: bool = False):
         else:
             image, normal, rays = outs
         bg = (np.float32(background[0]), np.float32(background[1]), np.float32(background[2]))
+        pix = (image, normal)  # once: a tuple of arrays built in the loops could keep reference counts there
         h, w = prim.shape
         faces, fnormals = G.faces, G.face_normals
+        F = _flat_mesh(G)
         ahead = G.verts.nbytes + G.normals.nbytes + faces.nbytes + fnormals.nbytes > PREFETCH_BYTES
         many = modes.shape[0] > 1  # one model: every hit is model 0's (no model read per pixel)
         mixed_modes = (modes != METHOD_PHONG).any()  # other methods' pixels are other kernels'
+        f0 = face_off[0]  # one model: its faces' offset
         # The pixels are queued row by row; with shadows, by 4x4 tiles (each row-major: a packet's 16
         # lanes neighbours both ways, coherent rays), after their strip's background (_strip_background).
         th = _TILE if shadows_on else 1
@@ -546,35 +546,38 @@ def _make_phong_fast(terms_on: bool = False, shadows_on: bool = False):
             ye = min(h, (blk + 1) * BLOCK_ROWS)
             for ty in range(blk * BLOCK_ROWS, ye, th):  # rows (tiles of rows: see above)
                 if shadows_on:
-                    _strip_background((prim, geom, u, v), (image, normal), bg, ty, min(ty + th, ye))
+                    _strip_background((prim, geom, u, v), pix, bg, ty, min(ty + th, ye))
                 for tx in range(0, w, tw):
                     for y in range(ty, min(ty + th, ye)):
                         for x in range(tx, min(tx + tw, w)):
                             p = prim[y, x]
                             if p < 0:
                                 if not shadows_on:  # (a shadowed frame's strip wrote its background)
-                                    store_background((image, normal), y, x, bg)
+                                    store_background(pix, y, x, bg)
                                     if terms_on:
                                         _miss(image, R, y, y0 + y, x)
                                 continue
-                            gm = geom[y, x] if many else 0
-                            if mixed_modes and modes[gm] != METHOD_PHONG:
-                                continue
-                            f = face_off[gm] + p
+                            # Unsigned lane indices. One model: its field stays 0, the batch unmixed.
+                            f = f0 + p
+                            if many:
+                                gm = geom[y, x]
+                                if mixed_modes and modes[gm] != METHOD_PHONG:
+                                    continue
+                                f = face_off[gm] + p
+                                XY[np.uint64(2 * LANES + n)] = gm
+                                mixed = mixed | ((n > 0) & (gm != XY[2 * LANES]))
                             if ahead:  # the face's row a batch before it is read (_gather)
                                 prefetch(faces, f)
                                 prefetch(fnormals, f)
-                            S[_B1 * LANES + n] = u[y, x]
-                            S[_B2 * LANES + n] = v[y, x]
-                            XY[n] = y
-                            XY[LANES + n] = x
-                            XY[2 * LANES + n] = gm
-                            XY[3 * LANES + n] = f
-                            mixed = mixed or (n > 0 and gm != XY[2 * LANES])
+                            S[np.uint64(_B1 * LANES + n)] = u[y, x]
+                            S[np.uint64(_B2 * LANES + n)] = v[y, x]
+                            XY[np.uint64(n)] = y
+                            XY[np.uint64(LANES + n)] = x
+                            XY[np.uint64(3 * LANES + n)] = f
                             n += 1
                             if n == LANES:
-                                _gather(S, XY, n, G, ahead)
-                                filled = _flush(S, XY, n, mixed, filled, materials, G, L, cam, (image, normal), Q,
+                                _gather(S, XY, n, F, ahead)
+                                filled = _flush(S, XY, n, mixed, filled, materials, F, L, cam, pix, Q,
                                                 spec_on, att_on, shadows_on, terms_on)
                                 if terms_on:
                                     _scatter_terms(S, XY, n, R, y0, L.ambient)
@@ -582,9 +585,8 @@ def _make_phong_fast(terms_on: bool = False, shadows_on: bool = False):
                                     hand_over_lanes(S, XY, n, materials, L.unit, rays)
                                 n, mixed = np.int64(0), np.bool_(False)
             if n > 0:  # the lanes past n hold an earlier batch's pixels (or zeros): shaded, not written
-                _gather(S, XY, n, G, ahead)
-                _flush(S, XY, n, mixed, filled, materials, G, L, cam, (image, normal), Q, spec_on, att_on,
-                       shadows_on, terms_on)
+                _gather(S, XY, n, F, ahead)
+                _flush(S, XY, n, mixed, filled, materials, F, L, cam, pix, Q, spec_on, att_on, shadows_on, terms_on)
                 if terms_on:
                     _scatter_terms(S, XY, n, R, y0, L.ambient)
                 else:

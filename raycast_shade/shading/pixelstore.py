@@ -1,4 +1,4 @@
-"""Where a Phong pixel is stored: one helper every Phong kernel (general, tile packets, batched) calls.
+"""Where a Phong pixel is stored: the helpers every Phong kernel (general, tile packets, batched) calls.
 
 A module of its own so that :mod:`.phong` and :mod:`.phong_fast` both import it without importing
 each other (the terms kernels import :mod:`.phong`, and the batched kernel the terms kernels).
@@ -10,18 +10,26 @@ from numba import njit
 
 from .jit import FLT32_MAX, HELPER
 
-__all__ = ["store_pixel", "store_background"]
+__all__ = ["saturate", "store_pixel", "store_background"]
+
+
+@njit(**HELPER)
+def saturate(c):
+    """Colour channel ``c`` (float64) saturated at the float32 maximum, as every Phong kernel stores it:
+    radiance beyond float32 becomes its maximum, not inf."""
+    return min(c, FLT32_MAX)
 
 
 @njit(**HELPER)
 def store_pixel(outs, y, x, rgb, n):
     """Write pixel ``(y, x)`` of ``outs = (image, normal)``: its colour ``rgb`` saturated at the
     float32 maximum and, when ``normal`` is an array (not the (0, 0, 3) stand-in), its shading
-    normal ``n``. Every Phong kernel (general, tile packets, batched) stores its pixels here."""
+    normal ``n``. The general and tile-packet kernels store their pixels here; the batched kernel
+    stores its lanes' (:func:`.phong_fast._scatter`) with the same :func:`saturate`."""
     image, normal = outs
-    image[y, x, 0] = min(rgb[0], FLT32_MAX)
-    image[y, x, 1] = min(rgb[1], FLT32_MAX)
-    image[y, x, 2] = min(rgb[2], FLT32_MAX)
+    image[y, x, 0] = saturate(rgb[0])
+    image[y, x, 1] = saturate(rgb[1])
+    image[y, x, 2] = saturate(rgb[2])
     if normal.shape[0] != 0:
         normal[y, x, 0] = n[0]
         normal[y, x, 1] = n[1]

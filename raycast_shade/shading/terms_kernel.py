@@ -36,7 +36,8 @@ row ``y`` (the whole frame: ``y0 = 0``), so the banded renderer and the whole-fr
 same compiled kernels. Flat shading stores each visible face's terms once, in face-sized arrays
 of the same layout (``(F, 1, 3)``: row ``f``, column 0), and its pixel kernel copies them
 (:func:`_face_terms`); its kernels are :mod:`.flat`'s, built with ``terms_on``. The batched
-Phong kernel (:mod:`.phong_fast`) writes the same terms where it applies.
+Phong kernel (:mod:`.phong_fast`) writes the same terms where it applies (its lanes':
+:func:`_scatter_terms`).
 """
 
 from __future__ import annotations
@@ -50,6 +51,7 @@ from ..common.layout import METHOD_PHONG
 from ..common.schedule import BLOCK_ROWS, spread_step
 from .illumination import _reflected
 from .jit import FLT32_MAX, HELPER, JIT, compile_variants
+from .lanes import _KA, _KE, _TD, _TS, LANES
 from .phong import _surface
 from .records import (TERM_AMBIENT, TERM_BACKGROUND, TERM_DIFFUSE, TERM_EMISSIVE, TERM_SLOTS, TERM_SPECULAR,
                       TERMS_BACKGROUND_RGB, TERMS_BG_ON, TERMS_EACH, TERMS_EMIT_ON, TERMS_SHADOW, At, Hit, store3)
@@ -99,6 +101,27 @@ def _hit_background(R, y, x):
     if R[TERMS_BG_ON]:
         for c in range(3):
             R[TERM_BACKGROUND][y, x, c] = 0.0
+
+
+@inline_jit(**HELPER)
+def _scatter_terms(S, XY, n, R, y0, ambient):
+    """Write the first ``n`` lanes' terms to the terms record ``R`` at rows ``y0 + y``: ambient
+    ``Ia ka``, the summed diffuse and specular parts, the emission (with ``emit_on``), a zero
+    background term (with ``bg_on``) and an unshadowed mask (no light casts shadows here)."""
+    shadow = R[TERMS_SHADOW]
+    for k in range(n):
+        ty = y0 + XY[k]
+        x = XY[LANES + k]
+        _store(R[TERM_AMBIENT], ty, x, ambient[0] * S[(_KA + 0) * LANES + k], ambient[1] * S[(_KA + 1) * LANES + k],
+               ambient[2] * S[(_KA + 2) * LANES + k])
+        _store(R[TERM_DIFFUSE], ty, x, S[(_TD + 0) * LANES + k], S[(_TD + 1) * LANES + k], S[(_TD + 2) * LANES + k])
+        _store(R[TERM_SPECULAR], ty, x, S[(_TS + 0) * LANES + k], S[(_TS + 1) * LANES + k], S[(_TS + 2) * LANES + k])
+        if R[TERMS_EMIT_ON]:
+            _store(R[TERM_EMISSIVE], ty, x, S[(_KE + 0) * LANES + k], S[(_KE + 1) * LANES + k],
+                   S[(_KE + 2) * LANES + k])
+        _hit_background(R, ty, x)
+        for i in range(shadow.shape[0]):
+            shadow[i, ty, x] = 1.0
 
 
 def _make_phong_terms(tex_on: bool = False):

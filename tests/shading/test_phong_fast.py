@@ -127,6 +127,35 @@ def test_full_and_partial_batches_and_rows_without_hits():
     assert _same_bits(general, fast)
 
 
+@pytest.mark.parametrize("material", [
+    rs.Material(ks=0.5, shininess=40.0),  # Phong, a whole power: six squaring passes
+    rs.Material(ks=0.5, shininess=13.0, specular="blinn"),  # Blinn-Phong, odd bits
+    rs.Material(ks=0.5, shininess=37.25),  # a fractional power: pow per lane
+    rs.Material(ks=0.5, shininess=5000.0, specular="blinn"),  # beyond 4096: pow per lane
+    rs.Material(ks=0.0, shininess=40.0, ke=(0.1, 0.0, 0.2)),  # no specular term; emission
+], ids=["phong-40", "blinn-13", "phong-37.25", "blinn-5000", "no-specular"])
+def test_one_model_batches_are_the_general_kernels_with_and_without_normals(material):
+    """A one-model frame: every batch holds one model's row, so the kernel reads which reflectance
+    models and powers the batch needs from lane 0 (not from each lane) and never reads a pixel's
+    model; full batches and a part-full last one, the image with the normals asked for and without
+    (the scatter's two stores) are the general kernel's bit for bit."""
+    cam = rs.Camera(eye=(0.3, 0.5, 1.9), width=2 * LANES + 7, height=23, fov=35)
+    scene = rs.Scene([rs.Model(rs.shapes.icosphere(2), material)],
+                     lights=[rs.PointLight((1.0, 2.0, 3.0), intensity=9.0, attenuation="inverse_square"),
+                             rs.DirectionalLight((-0.3, -1.0, -0.5), intensity=0.7)], camera=cam, ambient=0.1)
+    hits = rs.render(scene).hits
+    assert (hits.prim >= 0).sum() > 2 * LANES
+    general, fast = _both(scene, "phong", hits)
+    assert _same_bits(general, fast)
+    k = prepare(scene, scene.camera)
+    alone = np.full(hits.shape + (3,), np.nan, np.float32)
+    _PHONG_FAST(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["L"], k["face_off"], k["materials"], k["cam"],
+                k["background"], resolve_methods(scene, "phong"), (alone, _NO_NORMALS, NO_RAYS))
+    assert _same_bits(alone, general)
+    lit = fast[hits.prim >= 0]
+    assert np.isfinite(lit).all() and np.ptp(lit[:, 0]) > 0.0  # not vacuous: shaded, and not flat
+
+
 def test_the_normals_it_writes_are_those_the_frame_reports():
     """Given a normal array, the kernel writes each pixel's shading normal (zero on the background):
     ``frame.normal``'s values (:func:`shading_normals`) bit for bit, and the same image."""
