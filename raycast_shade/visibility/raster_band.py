@@ -30,16 +30,23 @@ from .scan import _clip, _pixel_range, _plane3d, _scan_triangle
 TILE = 16  # columns of a tile of the coarse depth test (a band's rows high)
 
 
-@njit(cache=True)
-def _tile_max(zbuf, tmax):
-    """``tmax[j]``: the largest entry of the band's z-buffer in columns ``j TILE .. (j + 1) TILE - 1``."""
+@njit(cache=True, _nrt=False)
+def _tile_max(zbuf, tmax, col):
+    """``tmax[j]``: the largest entry of the band's z-buffer in columns ``j TILE .. (j + 1) TILE - 1``.
+    ``col`` (``W``,) is scratch: first each column's largest over the rows, a select per entry that
+    LLVM vectorises (no reduction), then each tile's over its columns (entries are never NaN)."""
     rows, w = zbuf.shape
+    for x in range(w):
+        col[x] = zbuf[0, x]
+    for r in range(1, rows):
+        for x in range(w):
+            z = zbuf[r, x]
+            col[x] = z if z > col[x] else col[x]
     for j in range(tmax.shape[0]):
         m = -np.inf
-        for r in range(rows):
-            for x in range(j * TILE, min(w, (j + 1) * TILE)):
-                if zbuf[r, x] > m:
-                    m = zbuf[r, x]
+        for x in range(j * TILE, min(w, (j + 1) * TILE)):
+            if col[x] > m:
+                m = col[x]
         tmax[j] = m
 
 
@@ -72,6 +79,7 @@ def _raster_kernel(faces, vx, cs, near, screen, shear, bins, count_mode, face_mo
     iw = int(W)
     ih = int(H)
     tmax = np.full((iw + TILE - 1) // TILE, np.inf)
+    col = np.empty(iw)
     px = np.empty(4)
     py = np.empty(4)
     pq = np.empty(4)
@@ -80,6 +88,7 @@ def _raster_kernel(faces, vx, cs, near, screen, shear, bins, count_mode, face_mo
     fid_all = np.full((rows, iw), -1, np.int32)
     zbuf_all = np.full((rows, iw), np.inf)
     dxs, dx2 = _columns(W, hw, shear[0])
+    terms, flags = resolve_scratch()
     for b in range(*share(nbands, part)):  # this part's share (common.parallel)
         rlo = b * band_h
         rhi = min(ih, rlo + band_h) - 1
@@ -89,7 +98,7 @@ def _raster_kernel(faces, vx, cs, near, screen, shear, bins, count_mode, face_mo
         # mode has no depth test: one pass, every face.
         for ps in range(1 if count_mode else 2):
             if ps == 1:
-                _tile_max(zbuf, tmax)
+                _tile_max(zbuf, tmax, col)
             for k in range(band_start[b], band_start[b + 1]):
                 f = band_tris[k]
                 if not count_mode and first[f] != 1 - ps:
@@ -120,7 +129,7 @@ def _raster_kernel(faces, vx, cs, near, screen, shear, bins, count_mode, face_mo
                                     (px[j + 1], py[j + 1], pq[j + 1])),
                                    rlo, rhi, W, f, (True, zA, zB, zC), (fid, zbuf, count), count_mode)
         if not count_mode:
-            _resolve_rows((fid, zbuf, dxs, dx2), rlo, faces, cs, face_model, face_off, screen, shear, hits)
+            _resolve_rows((fid, zbuf, dxs, dx2, terms, flags), rlo, faces, cs, face_model, face_off, screen, shear, hits)
 
 
 @njit(cache=True)
@@ -138,18 +147,23 @@ def _columns(W, hw, ox):
     return dxs, dx2
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False, error_model="numpy")
 def _resolve_rows(band, rlo, faces, cs, face_model, face_off, screen, shear, hits):
     """Barycentrics and distance of each pixel's ray on its winning face, for
     the rows ``rlo ..`` of a band, into ``hits`` = ``(prim, geom, u, v, t)``.
-    ``band`` = ``(fid, zbuf, dxs, dx2)``: the band's winners and z-buffer (both reset to
-    empty on the way, for the next band) and :func:`_columns`. ``screen`` = ``(ortho, W, H,
-    hw, hh)``; ``shear`` = ``(ox, oy)``: the perspective principal-point shear of camera space
-    (zero without intrinsics), undone in the ray length that turns ``z`` into ``t``."""
+    ``band`` = ``(fid, zbuf, dxs, dx2, terms, flags)``: the band's winners and z-buffer (both
+    reset to empty, for the next band), :func:`_columns` and :func:`resolve_scratch`.
+    ``screen`` = ``(ortho, W, H, hw, hh)``; ``shear`` = ``(ox, oy)``: the perspective
+    principal-point shear of camera space (zero without intrinsics), undone in the ray length
+    that turns ``z`` into ``t``. A perspective camera's pixels go through
+    :func:`_resolve_perspective`; an orthographic one's, one at a time, through the loop below."""
+    if not screen[0]:
+        _resolve_perspective(band, rlo, faces, cs, face_model, face_off, screen, shear, hits)
+        return
     ortho, W, H, hw, hh = screen
     ox, oy = shear
     prim, geom, u, v, t = hits
-    fid, zbuf, dxs, dx2 = band
+    fid, zbuf, dxs, dx2, _, _ = band
     i0 = i1 = i2 = 0
     last = -1  # the face whose set-up below is current: neighbouring pixels mostly share their face
     p0x = p0y = p0z = nx = ny = nz = 0.0
@@ -245,3 +259,190 @@ def _resolve_rows(band, rlo, faces, cs, face_model, face_off, screen, shear, hit
             u[y, x] = fu
             v[y, x] = fv
             t[y, x] = s
+
+
+RUN = 256  # columns the perspective resolve takes at a time: its scratch (10 terms each) stays in L1
+_NTERMS = 10
+
+
+@njit(cache=True)
+def resolve_scratch():
+    """The perspective resolve's scratch: ``terms`` (``_NTERMS``, ``RUN``) float64 (zeros: a
+    column that holds no face's terms computes on zeros, never on stray denormals) and
+    ``flags`` (2, ``RUN``) uint8 (hit, redo)."""
+    return np.zeros((_NTERMS, RUN)), np.zeros((2, RUN), np.uint8)
+
+
+@njit(cache=True, _nrt=False, error_model="numpy")
+def _resolve_perspective(band, rlo, faces, cs, face_model, face_off, screen, shear, hits):
+    """:func:`_resolve_rows` for a perspective camera, in three passes over each run of ``RUN``
+    columns of a row, with the very operations of the one-pixel-at-a-time loop (so the same bits).
+
+    1. Per pixel, in order: ``prim, geom`` (a miss's ``u, v, t`` too) and the winning face's ray
+       terms (set up once per run of pixels that show it), copied into ``terms``.
+    2. Per hit pixel, the same operations in every pixel, which LLVM vectorises: ``d.n`` and its
+       reciprocal, ``u, v``, their clamp to zero, ``t``, the float32 ``u, v``. A pixel whose
+       ``d.n`` is zero, whose ``u + v`` exceeds 1, or whose float32 pair leaves the triangle is
+       flagged instead (a few pixels on edges: the one-pixel loop takes another branch there).
+    3. The flagged pixels, one at a time, through that loop's branches.
+    The error model is NumPy's: a division by zero is never reached (``d.n == 0`` is flagged
+    and redone), and Python's check of each divisor would keep the pass from vectorising."""
+    ortho, W, H, hw, hh = screen
+    ox, oy = shear
+    prim, geom, u, v, t = hits
+    fid, zbuf, dxs, dx2, terms, flags = band
+    iw = fid.shape[1]
+    hit = flags[0]
+    redo = flags[1]
+    Tnx = terms[0]
+    Tny = terms[1]
+    Tnz = terms[2]
+    Tc1x = terms[3]
+    Tc1y = terms[4]
+    Tc1z = terms[5]
+    Tc2x = terms[6]
+    Tc2y = terms[7]
+    Tc2z = terms[8]
+    Tqn = terms[9]
+    last = -1  # the face whose set-up below is current: neighbouring pixels mostly share their face
+    g = pf = 0
+    nx = ny = nz = c1x = c1y = c1z = c2x = c2y = c2z = qn = 0.0
+    for r in range(fid.shape[0]):
+        y = rlo + r
+        sy = 1.0 - 2.0 * (y + 0.5) / H
+        dyr = sy * hh  # the row's ray dy
+        dy2 = (dyr + oy) * (dyr + oy)
+        for x0 in range(0, iw, RUN):
+            n = min(RUN, iw - x0)
+            lo = n
+            hi = -1
+            for i in range(n):  # 1.
+                x = x0 + i
+                f = fid[r, x]
+                if f < 0:
+                    prim[y, x] = -1
+                    geom[y, x] = -1
+                    u[y, x] = 0.0
+                    v[y, x] = 0.0
+                    t[y, x] = np.inf
+                    hit[i] = 0
+                    continue
+                if f != last:
+                    # The face's terms, the same operations in the same order whether set up here
+                    # or reused: the results do not depend on the order the pixels come in.
+                    last = f
+                    i0 = faces[f, 0]
+                    i1 = faces[f, 1]
+                    i2 = faces[f, 2]
+                    p0x = cs[i0, 0]
+                    p0y = cs[i0, 1]
+                    p0z = cs[i0, 2]
+                    e1x = cs[i1, 0] - p0x
+                    e1y = cs[i1, 1] - p0y
+                    e1z = cs[i1, 2] - p0z
+                    e2x = cs[i2, 0] - p0x
+                    e2y = cs[i2, 1] - p0y
+                    e2z = cs[i2, 2] - p0z
+                    nx = e1y * e2z - e1z * e2y
+                    ny = e1z * e2x - e1x * e2z
+                    nz = e1x * e2y - e1y * e2x
+                    # q = P0 - o = P0: the crosses with q are the face's too
+                    c1x = e2y * p0z - e2z * p0y
+                    c1y = e2z * p0x - e2x * p0z
+                    c1z = e2x * p0y - e2y * p0x
+                    c2x = p0y * e1z - p0z * e1y
+                    c2y = p0z * e1x - p0x * e1z
+                    c2z = p0x * e1y - p0y * e1x
+                    qn = p0x * nx + p0y * ny + p0z * nz
+                    g = face_model[f]
+                    pf = f - face_off[g]
+                prim[y, x] = pf
+                geom[y, x] = g
+                hit[i] = 1
+                Tnx[i] = nx
+                Tny[i] = ny
+                Tnz[i] = nz
+                Tc1x[i] = c1x
+                Tc1y[i] = c1y
+                Tc1z[i] = c1z
+                Tc2x[i] = c2x
+                Tc2y[i] = c2y
+                Tc2z[i] = c2z
+                Tqn[i] = qn
+                if lo == n:
+                    lo = i
+                hi = i
+            if hi < 0:
+                continue
+            # 2. on views from the first to the last hit (indices from 0: LLVM sees them >= 0)
+            a = x0 + lo
+            b = x0 + hi + 1
+            _uvt_run(Tnx[lo:hi + 1], Tny[lo:hi + 1], Tnz[lo:hi + 1], Tc1x[lo:hi + 1], Tc1y[lo:hi + 1],
+                     Tc1z[lo:hi + 1], Tc2x[lo:hi + 1], Tc2y[lo:hi + 1], Tc2z[lo:hi + 1], Tqn[lo:hi + 1],
+                     hit[lo:hi + 1], redo[lo:hi + 1], dxs[a:b], dx2[a:b], dyr, dy2, u[y, a:b], v[y, a:b],
+                     t[y, a:b])
+            for i in range(lo, hi + 1):  # 3.
+                if redo[i] != 0:
+                    x = x0 + i
+                    gx = geom[y, x]
+                    f = prim[y, x] + face_off[gx]
+                    dx = dxs[x]
+                    dy = dyr
+                    dz = 1.0
+                    dn = dx * Tnx[i] + dy * Tny[i] + dz * Tnz[i]
+                    if dn != 0.0:
+                        # b1 = d.(e2 x q) / d.n, b2 = d.(q x e1) / d.n, s = q.n / d.n
+                        inv = 1.0 / dn
+                        b1 = (dx * Tc1x[i] + dy * Tc1y[i] + dz * Tc1z[i]) * inv
+                        b2 = (dx * Tc2x[i] + dy * Tc2y[i] + dz * Tc2z[i]) * inv
+                        s = Tqn[i] * inv
+                    else:  # edge-on: cannot win a pixel in exact arithmetic
+                        b1 = 1.0 / 3.0
+                        b2 = 1.0 / 3.0
+                        s = (cs[faces[f, 0], 2] + cs[faces[f, 1], 2] + cs[faces[f, 2], 2]) / 3.0
+                    if b1 < 0.0:
+                        b1 = 0.0
+                    if b2 < 0.0:
+                        b2 = 0.0
+                    sb = b1 + b2
+                    if sb > 1.0:
+                        b1 /= sb
+                        b2 /= sb
+                    s *= math.sqrt(dx2[x] + dy2 + 1.0)
+                    fu, fv = convex_uv(np.float32(b1), np.float32(b2))
+                    u[y, x] = fu
+                    v[y, x] = fv
+                    t[y, x] = s
+    for r in range(fid.shape[0]):  # the band's z-buffer emptied for the next band
+        for x in range(iw):
+            fid[r, x] = -1
+            zbuf[r, x] = np.inf
+
+
+@njit(cache=True, _nrt=False, error_model="numpy", forceinline=True)
+def _uvt_run(nx, ny, nz, c1x, c1y, c1z, c2x, c2y, c2z, qn, hit, redo, dxs, dx2, dy, dy2, u, v, t):
+    """Pass 2 of :func:`_resolve_perspective` over one run of columns: the one-pixel loop's
+    operations without its branches (selects instead), ``redo`` set where a branch would differ."""
+    for i in range(hit.shape[0]):
+        dx = dxs[i]
+        dz = 1.0
+        dn = dx * nx[i] + dy * ny[i] + dz * nz[i]
+        inv = 1.0 / dn
+        b1 = (dx * c1x[i] + dy * c1y[i] + dz * c1z[i]) * inv
+        b2 = (dx * c2x[i] + dy * c2y[i] + dz * c2z[i]) * inv
+        s = qn[i] * inv
+        b1 = 0.0 if b1 < 0.0 else b1
+        b2 = 0.0 if b2 < 0.0 else b2
+        sb = b1 + b2
+        s *= math.sqrt(dx2[i] + dy2 + 1.0)
+        fu = np.float32(b1)
+        fv = np.float32(b2)
+        a = np.float64(fu)
+        c = np.float64(fv)
+        # convex_uv's own test: a pair inside the triangle is stored as it is
+        ok = (dn != 0.0) & (sb <= 1.0) & (a >= 0.0) & (c >= 0.0) & (a + c <= 1.0)
+        h = hit[i]
+        redo[i] = 0 if ok else h
+        u[i] = fu if h != 0 else np.float32(0.0)
+        v[i] = fv if h != 0 else np.float32(0.0)
+        t[i] = s if h != 0 else np.inf
