@@ -50,7 +50,7 @@ def _tile_max(zbuf, tmax, col):
         tmax[j] = m
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, forceinline=True)  # inlined by LLVM: no references counted
 def _behind(tmax, x0, x1, x2, kmin, W):
     """True when no fragment of a face with these vertex ``X`` and nearest key ``kmin`` can
     pass the depth test in the band: ``kmin`` exceeds every touched tile's largest key."""
@@ -112,7 +112,7 @@ def _raster_kernel(faces, vx, cs, near, screen, shear, bins, count_mode, face_mo
                         continue
                     _scan_triangle(((vx[i0, 0], vx[i0, 1], vx[i0, 3]), (vx[i1, 0], vx[i1, 1], vx[i1, 3]),
                                     (vx[i2, 0], vx[i2, 1], vx[i2, 3])), rlo, rhi, W, f, (False, 0.0, 0.0, 0.0),
-                                   (fid, zbuf, count), count_mode)
+                                   fid, zbuf, count, count_mode)
                     continue
                 n = _clip(faces, vx, cs, f, near, ortho, W, H, hw, hh, px, py, pq)
                 zA = 0.0
@@ -127,7 +127,7 @@ def _raster_kernel(faces, vx, cs, near, screen, shear, bins, count_mode, face_mo
                 for j in range(1, n - 1):
                     _scan_triangle(((px[0], py[0], pq[0]), (px[j], py[j], pq[j]),
                                     (px[j + 1], py[j + 1], pq[j + 1])),
-                                   rlo, rhi, W, f, (True, zA, zB, zC), (fid, zbuf, count), count_mode)
+                                   rlo, rhi, W, f, (True, zA, zB, zC), fid, zbuf, count, count_mode)
         if not count_mode:
             _resolve_rows((fid, zbuf, dxs, dx2, terms, flags), rlo, faces, cs, face_model, face_off, screen, shear, hits)
 
@@ -314,18 +314,22 @@ def _resolve_perspective(band, rlo, faces, cs, face_model, face_off, screen, she
         dy2 = (dyr + oy) * (dyr + oy)
         for x0 in range(0, iw, RUN):
             n = min(RUN, iw - x0)
+            fr = fid[r, x0:x0 + n]
+            pr = prim[y, x0:x0 + n]
+            gr = geom[y, x0:x0 + n]
             lo = n
             hi = -1
-            for i in range(n):  # 1.
-                x = x0 + i
-                f = fid[r, x]
-                if f < 0:
-                    prim[y, x] = -1
-                    geom[y, x] = -1
-                    u[y, x] = 0.0
-                    v[y, x] = 0.0
-                    t[y, x] = np.inf
-                    hit[i] = 0
+            i = 0
+            while i < n:  # 1.
+                k = np.uint64(i)  # an unsigned index: no wraparound of negative indices to compute
+                f = fr[k]
+                if f < 0:  # a run of misses, filled at once (vectorised)
+                    j = i + 1
+                    while j < n and fr[np.uint64(j)] < 0:
+                        j += 1
+                    _fill_miss(pr[i:j], gr[i:j], u[y, x0 + i:x0 + j], v[y, x0 + i:x0 + j], t[y, x0 + i:x0 + j],
+                               hit[i:j])
+                    i = j
                     continue
                 if f != last:
                     # The face's terms, the same operations in the same order whether set up here
@@ -356,31 +360,33 @@ def _resolve_perspective(band, rlo, faces, cs, face_model, face_off, screen, she
                     qn = p0x * nx + p0y * ny + p0z * nz
                     g = face_model[f]
                     pf = f - face_off[g]
-                prim[y, x] = pf
-                geom[y, x] = g
-                hit[i] = 1
-                Tnx[i] = nx
-                Tny[i] = ny
-                Tnz[i] = nz
-                Tc1x[i] = c1x
-                Tc1y[i] = c1y
-                Tc1z[i] = c1z
-                Tc2x[i] = c2x
-                Tc2y[i] = c2y
-                Tc2z[i] = c2z
-                Tqn[i] = qn
+                pr[k] = pf
+                gr[k] = g
+                hit[k] = 1
+                Tnx[k] = nx
+                Tny[k] = ny
+                Tnz[k] = nz
+                Tc1x[k] = c1x
+                Tc1y[k] = c1y
+                Tc1z[k] = c1z
+                Tc2x[k] = c2x
+                Tc2y[k] = c2y
+                Tc2z[k] = c2z
+                Tqn[k] = qn
                 if lo == n:
                     lo = i
                 hi = i
+                i += 1
             if hi < 0:
                 continue
             # 2. on views from the first to the last hit (indices from 0: LLVM sees them >= 0)
             a = x0 + lo
             b = x0 + hi + 1
-            _uvt_run(Tnx[lo:hi + 1], Tny[lo:hi + 1], Tnz[lo:hi + 1], Tc1x[lo:hi + 1], Tc1y[lo:hi + 1],
+            if _uvt_run(Tnx[lo:hi + 1], Tny[lo:hi + 1], Tnz[lo:hi + 1], Tc1x[lo:hi + 1], Tc1y[lo:hi + 1],
                      Tc1z[lo:hi + 1], Tc2x[lo:hi + 1], Tc2y[lo:hi + 1], Tc2z[lo:hi + 1], Tqn[lo:hi + 1],
                      hit[lo:hi + 1], redo[lo:hi + 1], dxs[a:b], dx2[a:b], dyr, dy2, u[y, a:b], v[y, a:b],
-                     t[y, a:b])
+                     t[y, a:b]) == 0:
+                continue
             for i in range(lo, hi + 1):  # 3.
                 if redo[i] != 0:
                     x = x0 + i
@@ -419,10 +425,24 @@ def _resolve_perspective(band, rlo, faces, cs, face_model, face_off, screen, she
             zbuf[r, x] = np.inf
 
 
+@njit(cache=True, _nrt=False, forceinline=True)
+def _fill_miss(prim, geom, u, v, t, hit):
+    """A run of pixels that no face covers: the hit buffer's miss."""
+    for i in range(hit.shape[0]):
+        prim[i] = -1
+        geom[i] = -1
+        u[i] = 0.0
+        v[i] = 0.0
+        t[i] = np.inf
+        hit[i] = 0
+
+
 @njit(cache=True, _nrt=False, error_model="numpy", forceinline=True)
 def _uvt_run(nx, ny, nz, c1x, c1y, c1z, c2x, c2y, c2z, qn, hit, redo, dxs, dx2, dy, dy2, u, v, t):
     """Pass 2 of :func:`_resolve_perspective` over one run of columns: the one-pixel loop's
-    operations without its branches (selects instead), ``redo`` set where a branch would differ."""
+    operations without its branches (selects instead), ``redo`` set where a branch would differ.
+    Returns how many are set."""
+    nredo = 0
     for i in range(hit.shape[0]):
         dx = dxs[i]
         dz = 1.0
@@ -442,7 +462,10 @@ def _uvt_run(nx, ny, nz, c1x, c1y, c1z, c2x, c2y, c2z, qn, hit, redo, dxs, dx2, 
         # convex_uv's own test: a pair inside the triangle is stored as it is
         ok = (dn != 0.0) & (sb <= 1.0) & (a >= 0.0) & (c >= 0.0) & (a + c <= 1.0)
         h = hit[i]
-        redo[i] = 0 if ok else h
+        rd = 0 if ok else h
+        redo[i] = rd
+        nredo += rd
         u[i] = fu if h != 0 else np.float32(0.0)
         v[i] = fv if h != 0 else np.float32(0.0)
         t[i] = s if h != 0 else np.inf
+    return nredo
