@@ -89,20 +89,31 @@ def _raster_kernel(faces, vx, cs, near, screen, shear, bins, count_mode, face_mo
     zbuf_all = np.full((rows, iw), np.inf)
     dxs, dx2 = _columns(W, hw, shear[0])
     terms, flags = resolve_scratch()
-    for b in range(*share(nbands, part)):  # this part's share (common.parallel)
+    blo, bhi = share(nbands, part)  # this part's bands (common.parallel)
+    most = 0
+    for b in range(blo, bhi):
+        most = max(most, band_start[b + 1] - band_start[b])
+    later = np.empty(most, np.int32)  # a band's faces of the second pass, set aside by the first
+    for b in range(blo, bhi):
         rlo = b * band_h
         rhi = min(ih, rlo + band_h) - 1
         fid = fid_all[:rhi - rlo + 1]
         zbuf = zbuf_all[:rhi - rlo + 1]
         # Depth mode: faces of the first pass, then the others behind the coarse test; count
         # mode has no depth test: one pass, every face.
+        nlater = 0
         for ps in range(1 if count_mode else 2):
             if ps == 1:
                 _tile_max(zbuf, tmax, col)
-            for k in range(band_start[b], band_start[b + 1]):
-                f = band_tris[k]
-                if not count_mode and first[f] != 1 - ps:
-                    continue
+            for k in range(band_start[b] if ps == 0 else 0, band_start[b + 1] if ps == 0 else nlater):
+                if ps == 0:
+                    f = band_tris[k]
+                    if not count_mode and first[f] == 0:
+                        later[nlater] = f
+                        nlater += 1
+                        continue
+                else:
+                    f = later[k]
                 i0 = faces[f, 0]
                 i1 = faces[f, 1]
                 i2 = faces[f, 2]
