@@ -242,7 +242,10 @@ def _scan_triangle(corners, rlo, rhi, W, f, plane, fid, zbuf, count, count_mode)
     kmin = min(q0, q1, q2)
     kmax = max(q0, q1, q2)
     ready = given or count_mode  # the depth plane is set up at the first covered pixel
-    wide = xb - xa >= 1
+    # A box under 4 columns wide tests its few candidates exactly, without the edges' set-up (three
+    # divisions and bounds each): cheaper for the small faces of a dense mesh (640x480, 82k faces:
+    # the hit buffer about 5% faster than with the set-up from 2 columns on); the pixels are the same.
+    wide = xb - xa >= 3
     if wide:
         # Each edge's row roots and margins (_edge_setup), bounded over the triangle's box.
         Xa = xa + 0.5
