@@ -342,35 +342,10 @@ def _resolve_perspective(band, rlo, faces, cs, face_model, face_off, screen, she
                                hit[i:j])
                     i = j
                     continue
-                if f != last:
-                    # The face's terms, the same operations in the same order whether set up here
-                    # or reused: the results do not depend on the order the pixels come in.
+                if f != last:  # the face's terms, once per run of pixels that show it
                     last = f
-                    i0 = faces[f, 0]
-                    i1 = faces[f, 1]
-                    i2 = faces[f, 2]
-                    p0x = cs[i0, 0]
-                    p0y = cs[i0, 1]
-                    p0z = cs[i0, 2]
-                    e1x = cs[i1, 0] - p0x
-                    e1y = cs[i1, 1] - p0y
-                    e1z = cs[i1, 2] - p0z
-                    e2x = cs[i2, 0] - p0x
-                    e2y = cs[i2, 1] - p0y
-                    e2z = cs[i2, 2] - p0z
-                    nx = e1y * e2z - e1z * e2y
-                    ny = e1z * e2x - e1x * e2z
-                    nz = e1x * e2y - e1y * e2x
-                    # q = P0 - o = P0: the crosses with q are the face's too
-                    c1x = e2y * p0z - e2z * p0y
-                    c1y = e2z * p0x - e2x * p0z
-                    c1z = e2x * p0y - e2y * p0x
-                    c2x = p0y * e1z - p0z * e1y
-                    c2y = p0z * e1x - p0x * e1z
-                    c2z = p0x * e1y - p0y * e1x
-                    qn = p0x * nx + p0y * ny + p0z * nz
-                    g = face_model[f]
-                    pf = f - face_off[g]
+                    nx, ny, nz, c1x, c1y, c1z, c2x, c2y, c2z, qn, pf, g = _face_terms(faces, cs, face_model,
+                                                                                    face_off, f)
                 pr[k] = pf
                 gr[k] = g
                 hit[k] = 1
@@ -393,47 +368,82 @@ def _resolve_perspective(band, rlo, faces, cs, face_model, face_off, screen, she
             # 2. on views from the first to the last hit (indices from 0: LLVM sees them >= 0)
             a = x0 + lo
             b = x0 + hi + 1
-            if _uvt_run(Tnx[lo:hi + 1], Tny[lo:hi + 1], Tnz[lo:hi + 1], Tc1x[lo:hi + 1], Tc1y[lo:hi + 1],
-                     Tc1z[lo:hi + 1], Tc2x[lo:hi + 1], Tc2y[lo:hi + 1], Tc2z[lo:hi + 1], Tqn[lo:hi + 1],
-                     hit[lo:hi + 1], redo[lo:hi + 1], dxs[a:b], dx2[a:b], dyr, dy2, u[y, a:b], v[y, a:b],
-                     t[y, a:b]) == 0:
-                continue
-            for i in range(lo, hi + 1):  # 3.
-                if redo[i] != 0:
-                    x = x0 + i
-                    gx = geom[y, x]
-                    f = prim[y, x] + face_off[gx]
-                    dx = dxs[x]
-                    dy = dyr
-                    dz = 1.0
-                    dn = dx * Tnx[i] + dy * Tny[i] + dz * Tnz[i]
-                    if dn != 0.0:
-                        # b1 = d.(e2 x q) / d.n, b2 = d.(q x e1) / d.n, s = q.n / d.n
-                        inv = 1.0 / dn
-                        b1 = (dx * Tc1x[i] + dy * Tc1y[i] + dz * Tc1z[i]) * inv
-                        b2 = (dx * Tc2x[i] + dy * Tc2y[i] + dz * Tc2z[i]) * inv
-                        s = Tqn[i] * inv
-                    else:  # edge-on: cannot win a pixel in exact arithmetic
-                        b1 = 1.0 / 3.0
-                        b2 = 1.0 / 3.0
-                        s = (cs[faces[f, 0], 2] + cs[faces[f, 1], 2] + cs[faces[f, 2], 2]) / 3.0
-                    if b1 < 0.0:
-                        b1 = 0.0
-                    if b2 < 0.0:
-                        b2 = 0.0
-                    sb = b1 + b2
-                    if sb > 1.0:
-                        b1 /= sb
-                        b2 /= sb
-                    s *= math.sqrt(dx2[x] + dy2 + 1.0)
-                    fu, fv = convex_uv(np.float32(b1), np.float32(b2))
-                    u[y, x] = fu
-                    v[y, x] = fv
-                    t[y, x] = s
+            if _uvt_run((Tnx[lo:hi + 1], Tny[lo:hi + 1], Tnz[lo:hi + 1], Tc1x[lo:hi + 1], Tc1y[lo:hi + 1],
+                         Tc1z[lo:hi + 1], Tc2x[lo:hi + 1], Tc2y[lo:hi + 1], Tc2z[lo:hi + 1], Tqn[lo:hi + 1]),
+                        (hit[lo:hi + 1], redo[lo:hi + 1]), (dxs[a:b], dx2[a:b]), (dyr, dy2),
+                        (u[y, a:b], v[y, a:b], t[y, a:b])) > 0:
+                _redo(terms, redo, lo, hi, x0, y, dxs, dx2, (dyr, dy2), faces, cs, face_off, hits)
     for r in range(fid.shape[0]):  # the band's z-buffer emptied for the next band
         for x in range(iw):
             fid[r, x] = -1
             zbuf[r, x] = np.inf
+
+
+@njit(cache=True, _nrt=False, error_model="numpy")  # its divisions are guarded, as in the one-pixel loop
+def _redo(terms, redo, lo, hi, x0, y, dxs, dx2, ray, faces, cs, face_off, hits):
+    """Pass 3 of :func:`_resolve_perspective`: the pixels ``lo .. hi`` of a run of columns from
+    ``x0`` that pass 2 flagged in ``redo``, through the one-pixel loop's branches (``ray`` =
+    ``(dy, dy2)`` of the row ``y``)."""
+    dyr, dy2 = ray
+    prim, geom, u, v, t = hits
+    for i in range(lo, hi + 1):
+        if redo[i] != 0:
+            x = x0 + i
+            gx = geom[y, x]
+            f = prim[y, x] + face_off[gx]
+            dx = dxs[x]
+            dy = dyr
+            dz = 1.0
+            dn = dx * terms[0, i] + dy * terms[1, i] + dz * terms[2, i]
+            if dn != 0.0:
+                # b1 = d.(e2 x q) / d.n, b2 = d.(q x e1) / d.n, s = q.n / d.n
+                inv = 1.0 / dn
+                b1 = (dx * terms[3, i] + dy * terms[4, i] + dz * terms[5, i]) * inv
+                b2 = (dx * terms[6, i] + dy * terms[7, i] + dz * terms[8, i]) * inv
+                s = terms[9, i] * inv
+            else:  # edge-on: cannot win a pixel in exact arithmetic
+                b1 = 1.0 / 3.0
+                b2 = 1.0 / 3.0
+                s = (cs[faces[f, 0], 2] + cs[faces[f, 1], 2] + cs[faces[f, 2], 2]) / 3.0
+            if b1 < 0.0:
+                b1 = 0.0
+            if b2 < 0.0:
+                b2 = 0.0
+            sb = b1 + b2
+            if sb > 1.0:
+                b1 /= sb
+                b2 /= sb
+            s *= math.sqrt(dx2[x] + dy2 + 1.0)
+            fu, fv = convex_uv(np.float32(b1), np.float32(b2))
+            u[y, x] = fu
+            v[y, x] = fv
+            t[y, x] = s
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
+def _face_terms(faces, cs, face_model, face_off, f):
+    """Face ``f``'s terms for a perspective ray ``s d`` (``q = P0 - o = P0``: the crosses with ``q``
+    are the face's too): ``n = e1 x e2``, ``e2 x q``, ``q x e1``, ``q.n``, then ``prim`` (local to
+    its model) and ``geom``; the one-pixel loop's operations, in its order."""
+    i0 = faces[f, 0]
+    i1 = faces[f, 1]
+    i2 = faces[f, 2]
+    p0x = cs[i0, 0]
+    p0y = cs[i0, 1]
+    p0z = cs[i0, 2]
+    e1x = cs[i1, 0] - p0x
+    e1y = cs[i1, 1] - p0y
+    e1z = cs[i1, 2] - p0z
+    e2x = cs[i2, 0] - p0x
+    e2y = cs[i2, 1] - p0y
+    e2z = cs[i2, 2] - p0z
+    nx = e1y * e2z - e1z * e2y
+    ny = e1z * e2x - e1x * e2z
+    nz = e1x * e2y - e1y * e2x
+    g = face_model[f]
+    return (nx, ny, nz, e2y * p0z - e2z * p0y, e2z * p0x - e2x * p0z, e2x * p0y - e2y * p0x,
+            p0y * e1z - p0z * e1y, p0z * e1x - p0x * e1z, p0x * e1y - p0y * e1x, p0x * nx + p0y * ny + p0z * nz,
+            f - face_off[g], g)
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
@@ -449,10 +459,17 @@ def _fill_miss(prim, geom, u, v, t, hit):
 
 
 @njit(cache=True, _nrt=False, error_model="numpy", forceinline=True)
-def _uvt_run(nx, ny, nz, c1x, c1y, c1z, c2x, c2y, c2z, qn, hit, redo, dxs, dx2, dy, dy2, u, v, t):
+def _uvt_run(terms, flags, cols, ray, out):
     """Pass 2 of :func:`_resolve_perspective` over one run of columns: the one-pixel loop's
     operations without its branches (selects instead), ``redo`` set where a branch would differ.
-    Returns how many are set."""
+    ``terms`` = the ten face-term rows, ``flags`` = ``(hit, redo)``, ``cols`` = ``(dxs, dx2)``,
+    ``ray`` = ``(dy, dy2)``, ``out`` = ``(u, v, t)``, all views of the run. Returns how many
+    pixels are flagged."""
+    nx, ny, nz, c1x, c1y, c1z, c2x, c2y, c2z, qn = terms
+    hit, redo = flags
+    dxs, dx2 = cols
+    dy, dy2 = ray
+    u, v, t = out
     nredo = 0
     for i in range(hit.shape[0]):
         dx = dxs[i]
