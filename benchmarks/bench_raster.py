@@ -480,7 +480,7 @@ def stage_rows(cases, repeats, log=print):
 
     from benchmarks import bench_peers
     from raycast_shade.visibility import raster as raster_mod
-    from raycast_shade.visibility.raster_band import _resolve_rows
+    from raycast_shade.visibility.raster_band import _resolve_rows, resolve_scratch
 
     ctx = bench_peers.llvmpipe_context()
     rows = []
@@ -498,7 +498,7 @@ def stage_rows(cases, repeats, log=print):
         cs = (geo.vertices - (camera.eye - geo.origin)) @ np.stack([right, up, fwd]).T
         out = tuple(np.empty((height, width), dt) for dt in (np.int32, np.int32, np.float32, np.float32, np.float32))
         screen = (False, float(width), float(height), hw, hh)
-        band = (fid, np.full((height, width), np.inf), *_columns(width, hw))
+        band = (fid, np.full((height, width), np.inf), *_columns(width, hw), *resolve_scratch())
         faces = np.ascontiguousarray(geo.faces, np.int64)
         model = np.ascontiguousarray(geo.face_model, np.int32)
         offsets = np.ascontiguousarray(geo.face_offsets, np.int64)

@@ -86,8 +86,11 @@ __all__ = ["rasterize", "coverage_count", "choose_backend", "covered_pixels", "N
            "AUTO_FACES_PER_PIXEL"]
 
 NEAR_FRACTION = 1e-5  # default near plane, as a fraction of the scene's bounding-box diagonal
-BAND_HEIGHT = 8  # rows of the z-buffer owned by one parallel task
-_BANDS_A_PART = 4  # bands a part of the scan runs (one call each: a few keep the calls' cost small)
+# Rows of the z-buffer owned by one parallel task: a face is set up once per band it touches, so
+# taller bands set up fewer (16 rows: single-thread hit buffer of the 82k-face sphere 7% faster
+# than 8 at 1920x1080 and 640x480; the band's z-buffer, 16 x W x 12 bytes, stays in L2).
+BAND_HEIGHT = 16
+_BANDS_A_PART = 2  # bands a part of the scan runs (one call each: a few keep the calls' cost small)
 _SERIAL_BELOW = 50_000  # faces: fewer run the geometry stages serially
 _MAX_SIDE = 1 << 24  # image sides beyond this are refused (float64 pixel arithmetic stays exact)
 # backend="auto" rasterizes while faces <= alpha * image pixels + beta * covered pixels, with

@@ -214,8 +214,8 @@ def _plane3d(faces, cs, f, ortho, W, H, hw, hh):
 # scan conversion of one triangle in one band
 
 
-@njit(cache=True)
-def _scan_triangle(corners, rlo, rhi, W, f, plane, band, count_mode):
+@njit(cache=True, _nrt=False)
+def _scan_triangle(corners, rlo, rhi, W, f, plane, fid, zbuf, count, count_mode):
     """Fill the pixels of rows ``rlo..rhi`` whose centres the triangle covers.
 
     ``corners`` = ``((x0, y0, q0), (x1, y1, q1), (x2, y2, q2))``: pixel coordinates
@@ -223,11 +223,12 @@ def _scan_triangle(corners, rlo, rhi, W, f, plane, band, count_mode):
     ``(given, zA, zB, zC)``: the plane through the three ``(x, y, q)`` unless
     ``given``), clamped to the vertices' range, replaces the band's z-buffer entry
     (row ``y - rlo``) where smaller, and ``f`` goes to ``fid``. Count mode:
-    ``count[y, x]`` is incremented. ``band`` = ``(fid, zbuf, count)``.
+    ``count[y, x]`` is incremented. The arrays come one by one, not in a tuple, and the
+    function counts no references: a tuple built per call, and its references counted (atomic
+    increments and decrements), took a tenth of the band kernel's time.
     """
     (x0, y0, q0), (x1, y1, q1), (x2, y2, q2) = corners
     given, zA, zB, zC = plane
-    fid, zbuf, count = band
     ya, yb = _pixel_range(min(y0, y1, y2), max(y0, y1, y2), rhi + 1)
     ya = max(ya, rlo)
     if ya > yb:
@@ -241,7 +242,10 @@ def _scan_triangle(corners, rlo, rhi, W, f, plane, band, count_mode):
     kmin = min(q0, q1, q2)
     kmax = max(q0, q1, q2)
     ready = given or count_mode  # the depth plane is set up at the first covered pixel
-    wide = xb - xa >= 1
+    # A box under 4 columns wide tests its few candidates exactly, without the edges' set-up (three
+    # divisions and bounds each): cheaper for the small faces of a dense mesh (640x480, 82k faces:
+    # the hit buffer about 5% faster than with the set-up from 2 columns on); the pixels are the same.
+    wide = xb - xa >= 3
     if wide:
         # Each edge's row roots and margins (_edge_setup), bounded over the triangle's box.
         Xa = xa + 0.5
