@@ -462,6 +462,51 @@ def write_docs(rows, quick):
 STAGE_CASES = ((6, 640, 480), (6, 1920, 1080))  # icosphere(6): 81,920 faces, the issue's frame
 QUICK_STAGE_CASES = ((4, 320, 240),)
 STAGE_FIELDS = ["triangles", "width", "height", "stage", "median_ms", "over_llvmpipe", "repeats", "threads", "load1"]
+STAGE_BEGIN, STAGE_END = "<!-- stage table: begin (bench_raster.py --stages) -->", "<!-- stage table: end -->"
+# The table's lines: a stage of raster_stages.csv and what it is.
+STAGE_LINES = (("project", "project (vertices)"), ("setup", "set-up"), ("bin", "binning"),
+               ("scan_resolve", "scan and resolve"), ("raster", "the hit buffer, all stages"),
+               ("resolve_alone", "the resolve alone, serially (one thread; about half of it is in scan and resolve on two)"),
+               ("shade", "Phong shading of it (shared with the Embree path)"),
+               ("frame_raster", 'the whole frame, `render(backend="raster")`'),
+               ("frame_raycast", "the whole frame, `render()` (Embree)"),
+               ("store_srgb", "sRGB store (`rs.to_uint8`, not in llvmpipe's frame)"))
+
+
+def stage_table(rows):
+    """The markdown table of ``raster_stages.csv``'s rows: a line per stage, a column per image size,
+    each cell the stage's time over llvmpipe's frame and its milliseconds (docs/raster.md, between the
+    ``stage table`` markers)."""
+    sizes = sorted({(int(r["width"]), int(r["height"])) for r in rows}, key=lambda s: s[0] * s[1])
+    cell = {(r["stage"], int(r["width"]), int(r["height"])): r for r in rows}
+    out = ["| stage | " + " | ".join(f"{w}x{h}" for w, h in sizes) + " |", "|---" * (len(sizes) + 1) + "|"]
+    for key, label in STAGE_LINES:
+        cells = []
+        for w, h in sizes:
+            r = cell.get((key, w, h))
+            cells.append("-" if r is None else f"{float(r['over_llvmpipe']):.2f}x ({float(r['median_ms']):.1f} ms)")
+        out.append(f"| {label} | " + " | ".join(cells) + " |")
+    gl = [cell[("llvmpipe", w, h)] for w, h in sizes if ("llvmpipe", w, h) in cell]
+    if gl:
+        out.append("| llvmpipe's frame (the unit) | " + " | ".join(f"{float(r['median_ms']):.1f} ms" for r in gl) + " |")
+    loads = ", ".join(sorted({r["load1"] for r in rows}))
+    return "\n".join(out) + f"\n\nMedians of {rows[0]['repeats']} interleaved rounds, {rows[0]['threads']} threads, load average {loads}.\n"
+
+
+def write_stage_table(rows, quick):
+    """:func:`stage_table` between docs/raster.md's markers (quick: alone, under out/quick/results/)."""
+    table = stage_table(rows)
+    if quick:
+        path = Path(results_file("raster_stage_table.md", True))
+        path.write_text(table, encoding="utf-8")
+        return path
+    from benchmarks.outputs import page_file
+
+    path = Path(page_file("raster.md", False))
+    text = path.read_text(encoding="utf-8")
+    start, stop = text.index(STAGE_BEGIN) + len(STAGE_BEGIN), text.index(STAGE_END)
+    path.write_text(text[:start] + "\n" + table + text[stop:], encoding="utf-8")
+    return path
 
 
 def stage_rows(cases, repeats, log=print):
@@ -689,15 +734,19 @@ def main(argv=None):
                     help="redraw the chart and the docs' generated blocks from the CSV, measuring nothing")
     args = ap.parse_args(argv)
     if args.stages:
+        path = Path(results_file("raster_stages.csv", args.quick))
+        if args.replot:  # the docs' stage table again from the CSV, nothing measured
+            with open(path, newline="") as fh:
+                print(f"wrote {os.path.relpath(write_stage_table(list(csv.DictReader(fh)), args.quick))}")
+            return
         warm_up()
         rows = stage_rows(QUICK_STAGE_CASES if args.quick else STAGE_CASES, args.repeats or (3 if args.quick else 9))
-        path = Path(results_file("raster_stages.csv", args.quick))
         path.parent.mkdir(parents=True, exist_ok=True)
         with open(path, "w", newline="") as fh:
             w = csv.DictWriter(fh, fieldnames=STAGE_FIELDS)
             w.writeheader()
             w.writerows(rows)
-        print(f"wrote {os.path.relpath(path)}")
+        print(f"wrote {os.path.relpath(path)}, {os.path.relpath(write_stage_table(rows, args.quick))}")
         return
     if args.crossover:
         warm_up()

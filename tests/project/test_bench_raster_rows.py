@@ -109,3 +109,39 @@ def test_no_open3d_in_the_raster_benchmark():
     modules = {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
     for bad in ("open3d", "open3d_pipeline", "neighbour_rows"):
         assert bad not in names | attrs | imports | modules, bad
+
+
+def _stage_rows():
+    """Synthetic ``--stages`` rows: two sizes, every stage, llvmpipe 40 ms (640x480) and 80 ms."""
+    rows = []
+    for (w, h), gl in (((1920, 1080), 80.0), ((640, 480), 40.0)):  # the larger first: the table sorts them
+        for i, (stage, _) in enumerate(br.STAGE_LINES + (("llvmpipe", ""),)):
+            ms = gl if stage == "llvmpipe" else gl * (i + 1) / 100.0
+            rows.append(dict(triangles=81920, width=w, height=h, stage=stage, median_ms=ms, over_llvmpipe=ms / gl,
+                             repeats=9, threads=2, load1="1.1-1.2"))
+    return rows
+
+
+def test_stage_table_has_a_line_per_stage_and_a_column_per_size():
+    table = br.stage_table(_stage_rows())
+    lines = table.splitlines()
+    assert lines[0] == "| stage | 640x480 | 1920x1080 |"
+    body = [s for s in lines[2:] if s.startswith("| ")]
+    assert [s.split(" | ")[0][2:] for s in body[:len(br.STAGE_LINES)]] == [label for _, label in br.STAGE_LINES]
+    # scan and resolve is the 4th stage: 4 % of llvmpipe at both sizes, 1.6 ms and 3.2 ms
+    assert body[3] == "| scan and resolve | 0.04x (1.6 ms) | 0.04x (3.2 ms) |"
+    assert body[-1] == "| llvmpipe's frame (the unit) | 40.0 ms | 80.0 ms |"
+    assert "Medians of 9 interleaved rounds, 2 threads, load average 1.1-1.2." in table
+    missing = [r for r in _stage_rows() if not (r["stage"] == "shade" and r["width"] == 640)]
+    assert "| Phong shading of it (shared with the Embree path) | - |" in br.stage_table(missing)
+
+
+def test_the_docs_stage_table_is_the_committed_csvs():
+    import csv
+
+    with open(os.path.join(ROOT, "benchmarks", "results", "raster_stages.csv"), newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    with open(os.path.join(ROOT, "docs", "raster.md"), encoding="utf-8") as fh:
+        page = fh.read()
+    block = page[page.index(br.STAGE_BEGIN) + len(br.STAGE_BEGIN):page.index(br.STAGE_END)]
+    assert block == "\n" + br.stage_table(rows), "run `python -m benchmarks.bench_raster --stages --replot`"
