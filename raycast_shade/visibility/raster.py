@@ -97,7 +97,7 @@ _MAX_SIDE = 1 << 24  # image sides beyond this are refused (float64 pixel arithm
 # (alpha, beta) = AUTO_FACES_PER_PIXEL: the fit of the crossovers `benchmarks/bench_raster.py
 # --crossover` measures (benchmarks/results/raster_crossover.csv; tests/visibility/test_raster_auto.py
 # holds the two equal).
-AUTO_FACES_PER_PIXEL = (0.056, 0.07)
+AUTO_FACES_PER_PIXEL = (0.13, 0.071)
 
 
 def check_raster_camera(camera) -> None:
