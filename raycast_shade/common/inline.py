@@ -121,11 +121,13 @@ class _LinkOnlyCache(FunctionCache):
 
 
 class _LinkOnlyCompiler(Compiler):
-    """Numba's pipeline, lowering into a :class:`_LinkOnlyLibrary`."""
+    """Numba's pipeline, lowering into a :attr:`library_class` (a :class:`_LinkOnlyLibrary`)."""
+
+    library_class = _LinkOnlyLibrary
 
     def compile_extra(self, func):
         if self.state.library is None:
-            self.state.library = _LinkOnlyLibrary(self.state.targetctx.codegen(), func.__qualname__)
+            self.state.library = self.library_class(self.state.targetctx.codegen(), func.__qualname__)
         return super().compile_extra(func)
 
 
@@ -139,10 +141,7 @@ class _OverloadLibrary(_LinkOnlyLibrary):
 class _OverloadCompiler(_LinkOnlyCompiler):
     """Numba's pipeline, lowering into an :class:`_OverloadLibrary`."""
 
-    def compile_extra(self, func):
-        if self.state.library is None:
-            self.state.library = _OverloadLibrary(self.state.targetctx.codegen(), func.__qualname__)
-        return super().compile_extra(func)
+    library_class = _OverloadLibrary
 
 
 def overload_jit(**options):
