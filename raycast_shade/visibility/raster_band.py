@@ -167,24 +167,21 @@ def _resolve_rows(band, rlo, faces, cs, face_model, face_off, screen, shear, hit
     ``screen`` = ``(ortho, W, H, hw, hh)``; ``shear`` = ``(ox, oy)``: the perspective
     principal-point shear of camera space (zero without intrinsics), undone in the ray length
     that turns ``z`` into ``t``. A perspective camera's pixels go through
-    :func:`_resolve_perspective`; an orthographic one's, one at a time, through the loop below."""
+    :func:`_resolve_perspective`; an orthographic one's (every ray along ``+z``, from its pixel),
+    one at a time, through the loop below."""
     if not screen[0]:
         _resolve_perspective(band, rlo, faces, cs, face_model, face_off, screen, shear, hits)
         return
-    ortho, W, H, hw, hh = screen
-    ox, oy = shear
+    _, W, H, hw, hh = screen
     prim, geom, u, v, t = hits
-    fid, zbuf, dxs, dx2, _, _ = band
-    i0 = i1 = i2 = 0
+    fid, zbuf, dxs, _, _, _ = band
     last = -1  # the face whose set-up below is current: neighbouring pixels mostly share their face
     p0x = p0y = p0z = nx = ny = nz = 0.0
     e1x = e1y = e1z = e2x = e2y = e2z = 0.0
-    c1x = c1y = c1z = c2x = c2y = c2z = qn = 0.0
     for r in range(fid.shape[0]):
         y = rlo + r
         sy = 1.0 - 2.0 * (y + 0.5) / H
-        dyr = sy * hh  # the row's ray dy
-        dy2 = (dyr + oy) * (dyr + oy)
+        dyr = sy * hh  # the row's ray origin y
         for x in range(fid.shape[1]):
             f = fid[r, x]
             if f < 0:
@@ -200,46 +197,20 @@ def _resolve_rows(band, rlo, faces, cs, face_model, face_off, screen, shear, hit
                 # The face's terms, the same operations in the same order whether set up here or
                 # reused: the results do not depend on the order the pixels come in.
                 last = f
-                i0 = faces[f, 0]
-                i1 = faces[f, 1]
-                i2 = faces[f, 2]
-                p0x = cs[i0, 0]
-                p0y = cs[i0, 1]
-                p0z = cs[i0, 2]
-                e1x = cs[i1, 0] - p0x
-                e1y = cs[i1, 1] - p0y
-                e1z = cs[i1, 2] - p0z
-                e2x = cs[i2, 0] - p0x
-                e2y = cs[i2, 1] - p0y
-                e2z = cs[i2, 2] - p0z
-                nx = e1y * e2z - e1z * e2y
-                ny = e1z * e2x - e1x * e2z
-                nz = e1x * e2y - e1y * e2x
-                if not ortho:  # q = P0 - o = P0: the crosses with q are the face's too
-                    c1x = e2y * p0z - e2z * p0y
-                    c1y = e2z * p0x - e2x * p0z
-                    c1z = e2x * p0y - e2y * p0x
-                    c2x = p0y * e1z - p0z * e1y
-                    c2y = p0z * e1x - p0x * e1z
-                    c2z = p0x * e1y - p0y * e1x
-                    qn = p0x * nx + p0y * ny + p0z * nz
-            # Ray o + s d against P0 + b1 e1 + b2 e2, with q = P0 - o.
-            if ortho:
-                dx = 0.0
-                dy = 0.0
-                qx = p0x - dxs[x]
-                qy = p0y - dyr
-                qz = p0z
-                c1x = e2y * qz - e2z * qy
-                c1y = e2z * qx - e2x * qz
-                c1z = e2x * qy - e2y * qx
-                c2x = qy * e1z - qz * e1y
-                c2y = qz * e1x - qx * e1z
-                c2z = qx * e1y - qy * e1x
-                qn = qx * nx + qy * ny + qz * nz
-            else:
-                dx = dxs[x]
-                dy = dyr
+                p0x, p0y, p0z, e1x, e1y, e1z, e2x, e2y, e2z, nx, ny, nz = _face_frame(faces, cs, f)
+            # Ray o + s d, d = (0, 0, 1), against P0 + b1 e1 + b2 e2, with q = P0 - o.
+            qx = p0x - dxs[x]
+            qy = p0y - dyr
+            qz = p0z
+            c1x = e2y * qz - e2z * qy
+            c1y = e2z * qx - e2x * qz
+            c1z = e2x * qy - e2y * qx
+            c2x = qy * e1z - qz * e1y
+            c2y = qz * e1x - qx * e1z
+            c2z = qx * e1y - qy * e1x
+            qn = qx * nx + qy * ny + qz * nz
+            dx = 0.0
+            dy = 0.0
             dz = 1.0
             dn = dx * nx + dy * ny + dz * nz
             if dn != 0.0:
@@ -251,7 +222,7 @@ def _resolve_rows(band, rlo, faces, cs, face_model, face_off, screen, shear, hit
             else:  # edge-on: cannot win a pixel in exact arithmetic
                 b1 = 1.0 / 3.0
                 b2 = 1.0 / 3.0
-                s = (cs[i0, 2] + cs[i1, 2] + cs[i2, 2]) / 3.0
+                s = (cs[faces[f, 0], 2] + cs[faces[f, 1], 2] + cs[faces[f, 2], 2]) / 3.0
             if b1 < 0.0:
                 b1 = 0.0
             if b2 < 0.0:
@@ -260,8 +231,6 @@ def _resolve_rows(band, rlo, faces, cs, face_model, face_off, screen, shear, hit
             if sb > 1.0:
                 b1 /= sb
                 b2 /= sb
-            if not ortho:
-                s *= math.sqrt(dx2[x] + dy2 + 1.0)
             g = face_model[f]
             geom[y, x] = g
             prim[y, x] = f - face_off[g]
@@ -287,7 +256,8 @@ def resolve_scratch():
 @njit(cache=True, _nrt=False, error_model="numpy")
 def _resolve_perspective(band, rlo, faces, cs, face_model, face_off, screen, shear, hits):
     """:func:`_resolve_rows` for a perspective camera, in three passes over each run of ``RUN``
-    columns of a row, with the very operations of the one-pixel-at-a-time loop (so the same bits).
+    columns of a row, with the very operations of a one-pixel-at-a-time loop (so the same bits; that
+    loop, in Python, is the reference of ``tests/visibility/test_raster_resolve.py``).
 
     1. Per pixel, in order: ``prim, geom`` (a miss's ``u, v, t`` too) and the winning face's ray
        terms (set up once per run of pixels that show it), copied into ``terms``.
@@ -421,10 +391,9 @@ def _redo(terms, redo, lo, hi, x0, y, dxs, dx2, ray, faces, cs, face_off, hits):
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
-def _face_terms(faces, cs, face_model, face_off, f):
-    """Face ``f``'s terms for a perspective ray ``s d`` (``q = P0 - o = P0``: the crosses with ``q``
-    are the face's too): ``n = e1 x e2``, ``e2 x q``, ``q x e1``, ``q.n``, then ``prim`` (local to
-    its model) and ``geom``; the one-pixel loop's operations, in its order."""
+def _face_frame(faces, cs, f):
+    """Face ``f`` in camera space ``cs`` (V, 3) float64: its first vertex ``P0``, its edges
+    ``e1 = P1 - P0``, ``e2 = P2 - P0`` and ``n = e1 x e2``, as 12 floats (both resolves' set-up)."""
     i0 = faces[f, 0]
     i1 = faces[f, 1]
     i2 = faces[f, 2]
@@ -437,9 +406,16 @@ def _face_terms(faces, cs, face_model, face_off, f):
     e2x = cs[i2, 0] - p0x
     e2y = cs[i2, 1] - p0y
     e2z = cs[i2, 2] - p0z
-    nx = e1y * e2z - e1z * e2y
-    ny = e1z * e2x - e1x * e2z
-    nz = e1x * e2y - e1y * e2x
+    return (p0x, p0y, p0z, e1x, e1y, e1z, e2x, e2y, e2z,
+            e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x)
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
+def _face_terms(faces, cs, face_model, face_off, f):
+    """Face ``f``'s terms for a perspective ray ``s d`` (``q = P0 - o = P0``: the crosses with ``q``
+    are the face's too): ``n = e1 x e2``, ``e2 x q``, ``q x e1``, ``q.n``, then ``prim`` (local to
+    its model) and ``geom``; the one-pixel loop's operations, in its order."""
+    p0x, p0y, p0z, e1x, e1y, e1z, e2x, e2y, e2z, nx, ny, nz = _face_frame(faces, cs, f)
     g = face_model[f]
     return (nx, ny, nz, e2y * p0z - e2z * p0y, e2z * p0x - e2x * p0z, e2x * p0y - e2y * p0x,
             p0y * e1z - p0z * e1y, p0z * e1x - p0x * e1z, p0x * e1y - p0y * e1x, p0x * nx + p0y * ny + p0z * nz,
