@@ -686,6 +686,50 @@ def run(quick=False, only=SECTIONS, repeats=None):
     return rows
 
 
+LIMIT_BEGIN, LIMIT_END = "<!-- limits:begin (benchmarks/bench_limits.py --only limit) -->", "<!-- limits:end -->"
+FRAME_AIM = 1.25  # frame / (packets + store), every size (issue 41)
+SHADE_AIM_MS = (81920, 1920, 1080, 6.0)  # the shade stage at 82k/1080p (issue 41)
+
+
+def limit_table(rows) -> str:
+    """The ``limit`` section's rows (:func:`limit_case`'s or the CSV's) as the markdown table
+    ``docs/performance.md`` shows between its ``limits`` markers, with the aims' verdicts."""
+    rows = [r for r in rows if r["section"] == "limit"]
+    cases = list(dict.fromkeys((r["mesh"], int(r["triangles"]), int(r["width"]), int(r["height"])) for r in rows))
+    get = {(r["mesh"], int(r["width"]), int(r["height"]), r["variant"], r["metric"]): float(r["value"]) for r in rows}
+    out = ["| case | frame | packets + store | frame / (packets + store) | cast stage / packets | shade stage "
+           "| shade, one thread's CPU: batched / general kernel |", "|---|---|---|---|---|---|---|"]
+    verdicts, shade_verdict = [], None
+    for mesh, tri, w, h in cases:
+        def g(variant, metric):
+            return get.get((mesh, w, h, variant, metric), float("nan"))
+        floor = g("packets", "median_ms") + g("store_prealloc", "median_ms")
+        ratio = g("ratio", "frame_over_packets_plus_store")
+        shade = g("frame", "stage_shade_ms")
+        label = f"{mesh.rstrip('0123456789').replace('_', ' ')} ({tri:,} tris), {w}×{h}"
+        out.append(f"| {label} | {g('frame', 'median_ms'):.1f} ms | {floor:.1f} ms | **{ratio:.2f}** | "
+                   f"{g('ratio', 'stage_cast_over_packets'):.2f} | {shade:.1f} ms | "
+                   f"{g('shade_batched', 'cpu_ms_1thread'):.1f} / {g('shade_general', 'cpu_ms_1thread'):.1f} ms |")
+        verdicts.append(f"{ratio:.2f} at {label} ({'met' if ratio <= FRAME_AIM else 'not met'})")
+        if (tri, w, h) == SHADE_AIM_MS[:3]:
+            aim = SHADE_AIM_MS[3]
+            shade_verdict = (f"The shade stage at {label}: {shade:.1f} ms (aim ≤ {aim:.0f} ms: "
+                             f"{'met' if shade <= aim else 'not met'}).")
+    loads = [float(x) for r in rows for x in (str(r["load1"]).split("-") if r["load1"] else [])]
+    out += ["", f"Medians of interleaved rounds, load average {min(loads):.1f}–{max(loads):.1f}.", "",
+            f"Frame / (packets + store) against the aim of ≤ {FRAME_AIM}: " + "; ".join(verdicts) + "."]
+    if shade_verdict:
+        out += ["", shade_verdict]
+    return "\n".join(out) + "\n"
+
+
+def write_limit_table(rows, quick: bool) -> str:
+    """:func:`limit_table` between the markers of ``docs/performance.md`` (quick: ``out/quick/results/limits.md``)."""
+    from benchmarks import outputs as where
+
+    return where.write_table(limit_table(rows), "limits.md", LIMIT_BEGIN, LIMIT_END, quick)
+
+
 def outputs(quick: bool) -> list[str]:
     """The CSV :func:`main` writes (see :mod:`benchmarks.outputs`)."""
     return [results_file("limits.csv", quick)]
@@ -697,15 +741,23 @@ def main(argv=None):
     ap.add_argument("--only", nargs="+", choices=SECTIONS, default=None, help="sections to run (default: all; "
                     "quick: all but cold)")
     ap.add_argument("--repeats", type=int, default=None)
+    ap.add_argument("--table", action="store_true", help="only redo the docs table of the limit section from the CSV")
     args = ap.parse_args(argv)
+    path, = outputs(args.quick)
+    if args.table:
+        with open(path, newline="") as fh:
+            rows = list(csv.DictReader(fh))
+        write_limit_table(rows, args.quick)
+        return rows
     only = args.only or (tuple(s for s in SECTIONS if s != "cold") if args.quick else SECTIONS)
     rows = run(args.quick, only, args.repeats)
-    path, = outputs(args.quick)
     if os.path.exists(path):  # keep the rows of the sections that did not run
         with open(path, newline="") as fh:
             kept = [r for r in csv.DictReader(fh) if r["section"] not in only]
         rows = kept + rows
     write_csv(path, rows, KEYS)
+    if "limit" in only:
+        write_limit_table(rows, args.quick)
     return rows
 
 

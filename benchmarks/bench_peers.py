@@ -81,7 +81,11 @@ QUICK_CASES = [("icosphere", 4, 320, 240), ("noisy_sphere", 5, 320, 240)]
 PIPELINES = ("raycast_shade", "llvmpipe", "open3d")
 KEYS = ["mesh", "triangles", "width", "height", "pipeline", "median_ms", "min_ms", "repeats", "setup_s",
         "ours_over_peer", "agree_2_255", "max_diff_255", "n_common", "coverage_mismatch", "load1_before",
-        "load1_after", "note"]
+        "load1_after", "note", "utc"]
+
+# The aims for ours / llvmpipe (issue 41): at most this ratio, per (triangles, width, height).
+AIMS = {(81920, 640, 480): 0.45, (81920, 1920, 1080): 0.75, (1310720, 640, 480): 0.30, (1310720, 1920, 1080): 0.30}
+BEGIN, END = "<!-- peers:begin (benchmarks/bench_peers.py) -->", "<!-- peers:end -->"
 
 
 # -- the scene ------------------------------------------------------------------------------------------
@@ -450,7 +454,7 @@ def bench_case(kind, level, width, height, repeats, ctx, progress=True, face_nor
     """Rows (see ``KEYS``) for one mesh and frame size."""
     import raycast_shade as rs
 
-    load_before = os.getloadavg()[0]
+    load_before, started = os.getloadavg()[0], time.time()
     mesh = make_mesh(kind, level)
     scene = make_scene(mesh, width, height)
     cam = scene.camera
@@ -488,7 +492,8 @@ def bench_case(kind, level, width, height, repeats, ctx, progress=True, face_nor
     load_after = os.getloadavg()[0]
     tri = len(scene.geometry.faces)
     base = dict(mesh=f"{kind}{level}", triangles=tri, width=width, height=height, repeats=repeats,
-                load1_before=round(load_before, 2), load1_after=round(load_after, 2))
+                load1_before=round(load_before, 2), load1_after=round(load_after, 2),
+                utc=time.strftime("%Y-%m-%d %H:%M", time.gmtime(started)))
     ours_med = float(np.median(times["raycast_shade"]))
     ref_img, ref_cover = out["raycast_shade"]
     rows = []
@@ -577,6 +582,87 @@ def chart(rows, path):
     plt.close(fig)
 
 
+def _num(x) -> float:
+    """A row's number, from :func:`bench_case` or from the CSV (text; empty or ``nan``: NaN)."""
+    return float(x) if x not in ("", None) else math.nan
+
+
+def _mesh_label(mesh: str, tri) -> str:
+    return f"{re.sub(r'[0-9]+$', '', mesh).replace('_', ' ')}, {int(_num(tri)):,} tris"
+
+
+def _span(first: str, last: str) -> str:
+    """``2026-12-06 10:49–10:50`` (one day) or ``first to last``, from two ``YYYY-MM-DD HH:MM`` stamps."""
+    if first == last:
+        return first
+    if first[:10] == last[:10]:
+        return f"{first}–{last[11:]}"
+    return f"{first} to {last}"
+
+
+def table(rows) -> str:
+    """The markdown table of ``rows`` (one run: :func:`run`'s or the CSV's) and, per case, the ratio
+    ours / llvmpipe against its aim (:data:`AIMS`): what ``docs/performance.md`` shows between its
+    ``peers`` markers."""
+    cases = list(dict.fromkeys((r["mesh"], int(_num(r["triangles"])), int(_num(r["width"])), int(_num(r["height"])))
+                               for r in rows))
+    get = {(r["mesh"], int(_num(r["width"])), int(_num(r["height"])), r["pipeline"]): r for r in rows}
+
+    def ms(row, bold=False):
+        v = _num(row["median_ms"])
+        if not math.isfinite(v):
+            return "skipped"
+        return f"**{v:.1f} ms**" if bold else f"{v:.1f} ms"
+
+    def ratio(row):
+        v = _num(row["ours_over_peer"])
+        return f"{v:.2f}" if math.isfinite(v) else "-"
+
+    out = ["| mesh | size | ours | llvmpipe | Open3D + Numba | ours / llvmpipe | ours / Open3D "
+           "| within 2/255 of ours (llvmpipe) |", "|---|---|---|---|---|---|---|---|"]
+    verdicts = []
+    for mesh, tri, w, h in cases:
+        ours, gl, o3 = (get[(mesh, w, h, name)] for name in PIPELINES)
+        agree = _num(gl["agree_2_255"])
+        within = f"{100 * agree:.4f}".rstrip("0").rstrip(".") + f"% (max {int(_num(gl['max_diff_255']))}/255)" \
+            if math.isfinite(agree) else "-"
+        out.append(f"| {_mesh_label(mesh, tri)} | {w}×{h} | {ms(ours, True)} | {ms(gl)} | {ms(o3)} | "
+                   f"**{ratio(gl)}** | {ratio(o3)} | {within} |")
+        aim, got = AIMS.get((tri, w, h)), _num(gl["ours_over_peer"])
+        if aim is not None and math.isfinite(got):
+            verdicts.append(f"{_mesh_label(mesh, tri)} at {w}×{h}: {got:.3f} (aim ≤ {aim:.2f}: "
+                            f"{'met' if got <= aim else 'not met'})")
+    loads = [_num(r[k]) for r in rows for k in ("load1_before", "load1_after")]
+    when = sorted({r.get("utc") or "" for r in rows} - {""})
+    out += ["", f"Medians of {int(_num(rows[0]['repeats']))} interleaved rounds, load average "
+            f"{min(loads):.1f}–{max(loads):.1f}" + (f", {_span(when[0], when[-1])} UTC" if when else "") + "."]
+    if verdicts:
+        out += ["", "Ours / llvmpipe against the aims: " + "; ".join(verdicts) + "."]
+    return "\n".join(out) + "\n"
+
+
+def readme_quote(rows) -> str:
+    """The README's sentence of figures from ``rows`` (the CSV's): ours over llvmpipe at both sizes
+    of both meshes and the range over Open3D, each rounded half up to two places."""
+    from decimal import ROUND_HALF_UP, Decimal
+
+    def r2(x):
+        return Decimal(str(x)).quantize(Decimal("0.01"), ROUND_HALF_UP)
+
+    by = {(int(_num(r["triangles"])), int(_num(r["width"])), r["pipeline"]): _num(r["ours_over_peer"]) for r in rows}
+    gl = [r2(by[(t, w, "llvmpipe")]) for t in (81920, 1310720) for w in (640, 1920)]
+    o3 = [by[k] for k in by if k[2] == "open3d" and math.isfinite(by[k])]
+    return (f"{gl[0]}× and {gl[1]}× its frame time at 81,920 triangles (640×480, 1080p), {gl[2]}× and {gl[3]}× "
+            f"at 1.31 M; against Open3D's ray casting with the same shading, {r2(min(o3))}–{r2(max(o3))}×")
+
+
+def write_table(rows, quick: bool) -> str:
+    """Put :func:`table` between the markers of ``docs/performance.md`` (quick: ``out/quick/results/peers.md``)."""
+    from benchmarks import outputs as where
+
+    return where.write_table(table(rows), "peers.md", BEGIN, END, quick)
+
+
 def outputs(quick: bool) -> list[str]:
     """The CSV and the chart :func:`main` writes (see :mod:`benchmarks.outputs`)."""
     return [results_file("peers.csv", quick), image_file("peers.png", quick)]
@@ -588,11 +674,18 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=None, help="timed rounds per case (default 9, quick 3)")
     ap.add_argument("--gl-face-normals", choices=FACE_NORMALS, default="facing",
                     help="llvmpipe shader: orient by gl_FrontFacing (default) or read face normals (exact)")
+    ap.add_argument("--table", action="store_true", help="only redo the docs table from the CSV")
     args = ap.parse_args(argv)
-    rows = run(args.quick, args.repeats, face_normals=args.gl_face_normals)
     csv_path, png_path = outputs(args.quick)
+    if args.table:
+        with open(csv_path, newline="") as fh:
+            rows = list(csv.DictReader(fh))
+        write_table(rows, args.quick)
+        return rows
+    rows = run(args.quick, args.repeats, face_normals=args.gl_face_normals)
     write_csv(rows, csv_path)
     chart(rows, png_path)
+    write_table(rows, args.quick)
     return rows
 
 
