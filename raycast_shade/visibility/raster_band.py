@@ -213,24 +213,7 @@ def _resolve_rows(band, rlo, faces, cs, face_model, face_off, screen, shear, hit
             dy = 0.0
             dz = 1.0
             dn = dx * nx + dy * ny + dz * nz
-            if dn != 0.0:
-                # b1 = d.(e2 x q) / d.n, b2 = d.(q x e1) / d.n, s = q.n / d.n
-                inv = 1.0 / dn
-                b1 = (dx * c1x + dy * c1y + dz * c1z) * inv
-                b2 = (dx * c2x + dy * c2y + dz * c2z) * inv
-                s = qn * inv
-            else:  # edge-on: cannot win a pixel in exact arithmetic
-                b1 = 1.0 / 3.0
-                b2 = 1.0 / 3.0
-                s = (cs[faces[f, 0], 2] + cs[faces[f, 1], 2] + cs[faces[f, 2], 2]) / 3.0
-            if b1 < 0.0:
-                b1 = 0.0
-            if b2 < 0.0:
-                b2 = 0.0
-            sb = b1 + b2
-            if sb > 1.0:
-                b1 /= sb
-                b2 /= sb
+            b1, b2, s = _solve(dn, dx * c1x + dy * c1y + dz * c1z, dx * c2x + dy * c2y + dz * c2z, qn, faces, cs, f)
             g = face_model[f]
             geom[y, x] = g
             prim[y, x] = f - face_off[g]
@@ -365,29 +348,39 @@ def _redo(terms, redo, lo, hi, x0, y, dxs, dx2, ray, faces, cs, face_off, hits):
             dy = dyr
             dz = 1.0
             dn = dx * terms[0, i] + dy * terms[1, i] + dz * terms[2, i]
-            if dn != 0.0:
-                # b1 = d.(e2 x q) / d.n, b2 = d.(q x e1) / d.n, s = q.n / d.n
-                inv = 1.0 / dn
-                b1 = (dx * terms[3, i] + dy * terms[4, i] + dz * terms[5, i]) * inv
-                b2 = (dx * terms[6, i] + dy * terms[7, i] + dz * terms[8, i]) * inv
-                s = terms[9, i] * inv
-            else:  # edge-on: cannot win a pixel in exact arithmetic
-                b1 = 1.0 / 3.0
-                b2 = 1.0 / 3.0
-                s = (cs[faces[f, 0], 2] + cs[faces[f, 1], 2] + cs[faces[f, 2], 2]) / 3.0
-            if b1 < 0.0:
-                b1 = 0.0
-            if b2 < 0.0:
-                b2 = 0.0
-            sb = b1 + b2
-            if sb > 1.0:
-                b1 /= sb
-                b2 /= sb
+            b1, b2, s = _solve(dn, dx * terms[3, i] + dy * terms[4, i] + dz * terms[5, i],
+                               dx * terms[6, i] + dy * terms[7, i] + dz * terms[8, i], terms[9, i], faces, cs, f)
             s *= math.sqrt(dx2[x] + dy2 + 1.0)
             fu, fv = convex_uv(np.float32(b1), np.float32(b2))
             u[y, x] = fu
             v[y, x] = fv
             t[y, x] = s
+
+
+@njit(cache=True, _nrt=False, forceinline=True, error_model="numpy")  # the division is guarded
+def _solve(dn, n1, n2, qn, faces, cs, f):
+    """A ray against face ``f`` from its projections ``dn = d.n``, ``n1 = d.(e2 x q)``, ``n2 = d.(q x e1)``
+    and ``qn = q.n``: ``(b1, b2, s) = (n1, n2, qn) / dn``, clamped onto the triangle as the casters
+    store theirs; an edge-on face (``dn = 0``, which cannot win a pixel in exact arithmetic) gives its
+    centre at its vertices' mean depth in camera space ``cs``. Both resolves' arithmetic, in their order."""
+    if dn != 0.0:
+        inv = 1.0 / dn
+        b1 = n1 * inv
+        b2 = n2 * inv
+        s = qn * inv
+    else:
+        b1 = 1.0 / 3.0
+        b2 = 1.0 / 3.0
+        s = (cs[faces[f, 0], 2] + cs[faces[f, 1], 2] + cs[faces[f, 2], 2]) / 3.0
+    if b1 < 0.0:
+        b1 = 0.0
+    if b2 < 0.0:
+        b2 = 0.0
+    sb = b1 + b2
+    if sb > 1.0:
+        b1 /= sb
+        b2 /= sb
+    return b1, b2, s
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
