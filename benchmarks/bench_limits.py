@@ -84,6 +84,7 @@ from raycast_shade.common.parallel import KERNEL, in_parts, share
 from raycast_shade.visibility import embree
 from raycast_shade.visibility.rays import pixel_ray
 
+from benchmarks import outputs as where
 from benchmarks.outputs import results_file, write_csv
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -725,8 +726,6 @@ def limit_table(rows) -> str:
 
 def write_limit_table(rows, quick: bool) -> str:
     """:func:`limit_table` between the markers of ``docs/performance.md`` (quick: ``out/quick/results/limits.md``)."""
-    from benchmarks import outputs as where
-
     return where.write_table(limit_table(rows), "limits.md", LIMIT_BEGIN, LIMIT_END, quick)
 
 

@@ -64,6 +64,7 @@ import time
 
 import numpy as np
 
+from benchmarks import outputs as where
 from benchmarks.outputs import image_file, results_file
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -658,8 +659,6 @@ def readme_quote(rows) -> str:
 
 def write_table(rows, quick: bool) -> str:
     """Put :func:`table` between the markers of ``docs/performance.md`` (quick: ``out/quick/results/peers.md``)."""
-    from benchmarks import outputs as where
-
     return where.write_table(table(rows), "peers.md", BEGIN, END, quick)
 
 
