@@ -52,10 +52,12 @@ Sections (issue 16):
     loaded before or after us, spinning, or with the user's passive policy),
     one subprocess per variant (:func:`benchmarks.bench_peers.neighbour_rows`).
 ``cold``
-    ``python -m raycast_shade demo`` in a subprocess with an empty
-    ``NUMBA_CACHE_DIR`` (every kernel compiled), then again with the cache
-    it left (warm): wall time, the child's CPU time (user + sys, the measure
-    of record on a shared machine) and the demo's stage times.
+    The demo's flat first picture and the whole ``raycast-shade demo`` from an
+    empty ``NUMBA_CACHE_DIR`` (every kernel compiled), each run at the same
+    time as the code before issue 40 (``COLD_REFERENCE``), one per core: the
+    children's CPU (user + sys) and its ratio; then the demo with a warm cache
+    (:func:`cold`). ``docs/performance.md`` shows the table between its
+    ``cold`` markers.
 
 Every row carries the 1-minute load average when it was measured: this
 machine may be shared. Results: ``benchmarks/results/limits.csv``;
@@ -618,51 +620,116 @@ def recast(case, repeats):
     return rows
 
 
-def _children_cpu():
-    """User + sys CPU seconds of this process's reaped children so far."""
-    import resource
+# The code before issue 40 (one evaluator, compiled once): the reference of the cold start's aim,
+# "the demo's first picture <= 15 s of CPU" where this code took 44 s (the guide's figure).
+COLD_REFERENCE = "f316368"
+COLD_AIM = (15.0, 44.0)  # aim, and the reference's CPU when the aim was set: a ratio of 0.34
+COLD_ROUNDS = 3
+_COLD_CHILD = {
+    # The demo's first panel alone: what the first picture of a session costs.
+    "flat": "from raycast_shade.apps.demo import demo_scene\n"
+            "from raycast_shade.render import render\n"
+            "import warnings\nwarnings.simplefilter('ignore')\n"
+            "render(demo_scene(), 'flat')\n",
+    # raycast-shade demo: three panels and the PNG.
+    "demo": "import sys, runpy\nsys.argv = ['raycast_shade', 'demo', '-o', sys.argv[1]]\n"
+            "try:\n    runpy.run_module('raycast_shade', run_name='__main__')\nexcept SystemExit as e:\n"
+            "    assert not e.code, e.code\n",
+}
+_COLD_TAIL = ("import resource, json\nru = resource.getrusage(resource.RUSAGE_SELF)\n"
+              "print('COLD ' + json.dumps(ru.ru_utime + ru.ru_stime))\n")
 
-    ru = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return ru.ru_utime + ru.ru_stime
+
+def _reference_tree(commit, tmp):
+    """The package at ``commit`` (``git archive``) under ``tmp``, or ``None`` where git or the commit
+    is missing (a shallow clone, an unpacked archive)."""
+    dest = os.path.join(tmp, "reference")
+    try:
+        tar = subprocess.run(["git", "-C", ROOT, "archive", commit, "raycast_shade"], capture_output=True, check=True)
+    except (OSError, subprocess.CalledProcessError) as e:
+        print(f"limits: cold: no reference tree ({commit}): {getattr(e, 'stderr', b'') or e}", file=sys.stderr)
+        return None
+    os.makedirs(dest)
+    subprocess.run(["tar", "-x", "-C", dest], input=tar.stdout, check=True)
+    return dest
 
 
-def cold():
-    """Rows of the ``cold`` section: the demo with an empty, then a warm, kernel cache.
+def _cold_children(jobs):
+    """Run ``jobs`` (``(tree, what, cache, core)``) at once, each on its own core with one Numba thread
+    and an empty kernel cache; return each child's CPU seconds (user + sys, its threads included)
+    and stdout."""
+    procs = []
+    for tree, what, cache, core in jobs:
+        env = dict(os.environ, PYTHONPATH=tree, NUMBA_CACHE_DIR=cache, NUMBA_NUM_THREADS="1")
+        out = os.path.join(cache, "demo.png")
+        pre = (lambda c=core: os.sched_setaffinity(0, {c})) if core is not None else None
+        procs.append(subprocess.Popen([sys.executable, "-c", _COLD_CHILD[what] + _COLD_TAIL, out], cwd=cache, env=env,
+                                      stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=pre))
+    results = []
+    for p in procs:
+        stdout, stderr = p.communicate()
+        if p.returncode != 0:
+            raise RuntimeError(f"cold child failed: {stderr[-2000:]}")
+        cpu = next(float(x.split()[1]) for x in stdout.splitlines() if x.startswith("COLD "))
+        results.append((cpu, stdout))
+    return results
 
-    Each run is a fresh process; its CPU time (user + sys) is the measure of
-    record, since wall time on a shared machine carries the load. The demo's
-    own stage times (``build``, ``cast``, ``shade``, ``mirror``: mostly
-    compiling, when cold) come from its output line."""
+
+def _stages(stdout):
+    # "wrote ... (...): build 1478 ms, cast 4978 ms, shade 25948 ms, mirror 17081 ms, ..."
+    stages = {}
+    for part in stdout.replace(":", ",").split(","):
+        words = part.split()
+        if len(words) == 3 and words[0] in ("build", "cast", "shade", "mirror") and words[2] == "ms":
+            stages[words[0]] = float(words[1])
+    return stages
+
+
+def cold(rounds=COLD_ROUNDS, reference=COLD_REFERENCE):
+    """Rows of the ``cold`` section: the first picture from an empty kernel cache, against the code
+    before issue 40 in the same minutes.
+
+    Each round runs this code and the ``reference`` commit at the same time, each on its own core
+    (swapped every round) with one Numba thread and an empty ``NUMBA_CACHE_DIR``: the demo's flat
+    first picture (``render(demo_scene(), "flat")`` in a fresh process), then the whole
+    ``raycast-shade demo`` (three panels, the PNG). A child's CPU (user + sys, import included) is
+    the measure: the machine's speed drifts by a third within minutes, and two children measured
+    at once drift alike, so their ratio holds where either figure does not. Then the demo once more
+    with the cache it left (warm). Without a second core the two run one after the other."""
     rows = []
-    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    two = len(os.sched_getaffinity(0)) >= 2
     with tempfile.TemporaryDirectory() as tmp:
-        env["NUMBA_CACHE_DIR"] = os.path.join(tmp, "numba")
-        out = os.path.join(tmp, "demo.png")
-        for label in ("cold_cache", "warm_cache"):
-            load = _load()
-            cpu0 = _children_cpu()
-            t0 = time.perf_counter()
-            res = subprocess.run([sys.executable, "-m", "raycast_shade", "demo", "-o", out], cwd=tmp, env=env,
-                                 capture_output=True, text=True, check=True)
-            wall = time.perf_counter() - t0
-            cpu = _children_cpu() - cpu0  # the only child reaped meanwhile
-            base = dict(section="cold", mesh="demo", triangles=0, width=960, height=3 * 280 + 4, variant=label,
-                        load1=f"{load}-{_load()}")
-            rows.append(dict(base, metric="demo_wall_s", value=round(wall, 2), unit="s"))
-            rows.append(dict(base, metric="demo_cpu_s", value=round(cpu, 2), unit="s"))
-            # "wrote ... (...): build 1478 ms, cast 4978 ms, shade 25948 ms, mirror 17081 ms, ..."
-            stages = {}
-            for part in res.stdout.replace(":", ",").split(","):
-                words = part.split()
-                if len(words) == 3 and words[0] in ("build", "cast", "shade", "mirror") and words[2] == "ms":
-                    stages[words[0]] = float(words[1])
-            rows += [dict(base, metric=f"{k}_ms", value=v, unit="ms") for k, v in stages.items()]
-            print(f"limits: demo {label}: {wall:.1f} s wall, {cpu:.1f} s CPU (load {base['load1']}); "
-                  + ", ".join(f"{k} {v:.0f} ms" for k, v in stages.items()), file=sys.stderr)
+        ref = _reference_tree(reference, tmp)
+        for k in range(1, rounds + 1):
+            for what in ("flat", "demo"):
+                load = _load()
+                cores = (0, 1) if k % 2 else (1, 0)
+                jobs = [(ROOT, what, tempfile.mkdtemp(dir=tmp), cores[0] if two else None)]
+                if ref is not None:
+                    jobs.append((ref, what, tempfile.mkdtemp(dir=tmp), cores[1] if two else None))
+                runs = _cold_children(jobs) if two else [r for j in jobs for r in _cold_children([j])]
+                base = dict(section="cold", mesh="demo", triangles=0, width=960,
+                            height=280 if what == "flat" else 3 * 280 + 4, variant=f"{what}/{k}",
+                            load1=f"{load}-{_load()}", unit="s")
+                rows.append(dict(base, metric="ours_cpu_s", value=round(runs[0][0], 2)))
+                msg = f"limits: cold {what} round {k}: ours {runs[0][0]:.1f} s CPU"
+                if ref is not None:
+                    rows.append(dict(base, metric="reference_cpu_s", value=round(runs[1][0], 2)))
+                    msg += f", {reference} {runs[1][0]:.1f} s: {runs[0][0] / runs[1][0]:.3f}"
+                if what == "demo" and k == 1:
+                    rows += [dict(base, variant="cold_cache", metric=f"{st}_ms", value=v, unit="ms")
+                             for st, v in _stages(runs[0][1]).items()]
+                print(msg + f" (load {base['load1']})", file=sys.stderr)
+                if what == "demo" and k == rounds:
+                    warm = _cold_children([(ROOT, "demo", jobs[0][2], cores[0] if two else None)])[0][0]
+                    rows.append(dict(base, variant="warm_cache", metric="demo_cpu_s", value=round(warm, 2)))
+        ours = sorted(float(r["value"]) for r in rows if r["metric"] == "ours_cpu_s" and r["variant"][:5] == "demo/")
+        rows.append(dict(section="cold", mesh="demo", triangles=0, width=960, height=3 * 280 + 4, variant="cold_cache",
+                         metric="demo_cpu_s", value=round(float(np.median(ours)), 2), unit="s", load1=""))
     return rows
 
 
-def run(quick=False, only=SECTIONS, repeats=None):
+def run(quick=False, only=SECTIONS, repeats=None, cold_rounds=COLD_ROUNDS):
     from .bench_peers import CASES, QUICK_CASES
 
     repeats = repeats or (3 if quick else 9)
@@ -679,7 +746,7 @@ def run(quick=False, only=SECTIONS, repeats=None):
     if "recast" in only:
         rows += recast(cases[2] if not quick else cases[1], max(repeats, 15) * (1 if quick else 3))
     if "cold" in only:
-        rows += cold()
+        rows += cold(cold_rounds)
     if "openmp" in only:
         from .bench_peers import neighbour_rows  # next to the peers it loads
 
@@ -724,6 +791,49 @@ def limit_table(rows) -> str:
     return "\n".join(out) + "\n"
 
 
+COLD_BEGIN, COLD_END = "<!-- cold:begin (benchmarks/bench_limits.py --only cold) -->", "<!-- cold:end -->"
+
+
+def cold_table(rows) -> str:
+    """The ``cold`` section's rows (:func:`cold`'s or the CSV's) as the markdown table
+    ``docs/performance.md`` shows between its ``cold`` markers, with the aim's verdict."""
+    rows = [r for r in rows if r["section"] == "cold"]
+    label = {"flat": "the flat first picture (`render(demo_scene(), \"flat\")`)",
+             "demo": "the whole `raycast-shade demo` (three panels, the PNG)"}
+    aim = COLD_AIM[0] / COLD_AIM[1]
+    out = [f"| from an empty kernel cache | ours | the code before issue 40 ({COLD_REFERENCE}) | ours / before "
+           f"| rounds: ours / before |", "|---|---|---|---|---|"]
+    verdicts = []
+    for what in ("flat", "demo"):
+        by = {}
+        for r in rows:
+            if r["variant"].startswith(what + "/"):
+                by.setdefault(r["variant"], {})[r["metric"]] = float(r["value"])
+        pairs = [(v["ours_cpu_s"], v["reference_cpu_s"]) for v in by.values() if "reference_cpu_s" in v]
+        if not pairs:
+            continue
+        ratio = float(np.median([o / b for o, b in pairs]))
+        out.append(f"| {label[what]} | {np.median([o for o, _ in pairs]):.1f} s | "
+                   f"{np.median([b for _, b in pairs]):.1f} s | **{ratio:.2f}** | "
+                   + ", ".join(f"{o / b:.2f}" for o, b in pairs) + " |")
+        verdicts.append(f"{ratio:.2f} for {label[what].split(' (')[0]} ({'met' if ratio <= aim else 'not met'})")
+    warm = [float(r["value"]) for r in rows if (r["variant"], r["metric"]) == ("warm_cache", "demo_cpu_s")]
+    loads = [float(x) for r in rows for x in (str(r["load1"]).split("-") if r["load1"] else [])]
+    n = len({r["variant"] for r in rows if r["variant"].startswith("demo/")})
+    out += ["", f"CPU of the process (user + sys, import included), one Numba thread, medians of {n} rounds; "
+            "in each round the two ran at the same time, one per core (swapped every round), load average "
+            f"{min(loads):.1f}–{max(loads):.1f}."
+            + (f" With the kernel cache the first run left, the demo takes {warm[0]:.1f} s of CPU." if warm else ""),
+            "", f"Ours / before against issue 40's aim of {COLD_AIM[0]:.0f} s where the code before it took "
+            f"{COLD_AIM[1]:.0f} s (≤ {aim:.2f}): " + "; ".join(verdicts) + "."]
+    return "\n".join(out) + "\n"
+
+
+def write_cold_table(rows, quick: bool) -> str:
+    """:func:`cold_table` between the markers of ``docs/performance.md`` (quick: ``out/quick/results/cold.md``)."""
+    return where.write_table(cold_table(rows), "cold.md", COLD_BEGIN, COLD_END, quick)
+
+
 def write_limit_table(rows, quick: bool) -> str:
     """:func:`limit_table` between the markers of ``docs/performance.md`` (quick: ``out/quick/results/limits.md``)."""
     return where.write_table(limit_table(rows), "limits.md", LIMIT_BEGIN, LIMIT_END, quick)
@@ -740,16 +850,19 @@ def main(argv=None):
     ap.add_argument("--only", nargs="+", choices=SECTIONS, default=None, help="sections to run (default: all; "
                     "quick: all but cold)")
     ap.add_argument("--repeats", type=int, default=None)
-    ap.add_argument("--table", action="store_true", help="only redo the docs table of the limit section from the CSV")
+    ap.add_argument("--cold-rounds", type=int, default=COLD_ROUNDS, help="rounds of the cold section")
+    ap.add_argument("--table", action="store_true", help="only redo the docs tables (limit, cold) from the CSV")
     args = ap.parse_args(argv)
     path, = outputs(args.quick)
     if args.table:
         with open(path, newline="") as fh:
             rows = list(csv.DictReader(fh))
         write_limit_table(rows, args.quick)
+        if any(r["section"] == "cold" for r in rows):
+            write_cold_table(rows, args.quick)
         return rows
     only = args.only or (tuple(s for s in SECTIONS if s != "cold") if args.quick else SECTIONS)
-    rows = run(args.quick, only, args.repeats)
+    rows = run(args.quick, only, args.repeats, args.cold_rounds)
     if os.path.exists(path):  # keep the rows of the sections that did not run
         with open(path, newline="") as fh:
             kept = [r for r in csv.DictReader(fh) if r["section"] not in only]
@@ -757,6 +870,8 @@ def main(argv=None):
     write_csv(path, rows, KEYS)
     if "limit" in only:
         write_limit_table(rows, args.quick)
+    if "cold" in only:
+        write_cold_table(rows, args.quick)
     return rows
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import csv
 import os
+import statistics
 
 import pytest
 
@@ -16,6 +17,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 TABLES = {
     "peers": (bench_peers.table, "peers.csv", bench_peers.BEGIN, bench_peers.END),
     "limits": (bench_limits.limit_table, "limits.csv", bench_limits.LIMIT_BEGIN, bench_limits.LIMIT_END),
+    "cold": (bench_limits.cold_table, "limits.csv", bench_limits.COLD_BEGIN, bench_limits.COLD_END),
     "shadows": (bench_shadows.table, "shadows.csv", bench_shadows.BEGIN, bench_shadows.END),
     "paths": (bench_paths.table, "paths.csv", bench_paths.BEGIN, bench_paths.END),
 }
@@ -38,7 +40,7 @@ def test_the_docs_table_is_the_csv(name):
     table, csv_name, begin, end = TABLES[name]
     assert _block(begin, end) == "\n" + table(_rows(csv_name)), (
         f"docs/performance.md's {name} table is not benchmarks/results/{csv_name}: "
-        f"rewrite it with `python -m benchmarks.bench_{name} --table`")
+        f"rewrite it with `python -m benchmarks.bench_{'limits' if name == 'cold' else name} --table`")
 
 
 @pytest.mark.parametrize("ratio, verdict", [("0.4", "0.400 (aim ≤ 0.45: met)"), ("0.5", "0.500 (aim ≤ 0.45: not met)")])
@@ -59,6 +61,23 @@ def test_the_limits_verdicts_follow_the_aims():
     assert len(ratios) == 4
     assert table.count("met)") == 5  # a verdict for each of the four frames and the 82k 1080p shade stage
     assert table.count("(met)") == sum(x <= bench_limits.FRAME_AIM for x in ratios)
+
+
+@pytest.mark.parametrize("before, verdict", [(100.0, "met"), (20.0, "not met")])
+def test_the_cold_verdicts_read_the_rounds(before, verdict):
+    """Each figure of the cold table is the median of its rounds' ratios, and the verdict follows
+    it: the CSV's rounds with the reference's CPU replaced (ours / 100 s is under the aim's 0.34,
+    ours / 20 s over it)."""
+    rows = [dict(r) for r in _rows("limits.csv") if r["section"] == "cold"]
+    ours = [float(r["value"]) for r in rows if r["metric"] == "ours_cpu_s" and r["variant"].startswith("demo/")]
+    assert len(ours) >= 3  # rounds: a median, not one run
+    for r in rows:
+        if r["metric"] == "reference_cpu_s":
+            r["value"] = str(before)
+    table = bench_limits.cold_table(rows)
+    median = statistics.median(x / before for x in ours)
+    assert f"| **{median:.2f}** |" in table
+    assert f"{median:.2f} for the whole `raycast-shade demo` ({verdict})" in table
 
 
 def test_the_readme_quotes_the_peers_csv():
