@@ -132,3 +132,35 @@ def test_the_inlined_helpers_are_built_without_wrappers(name):
                if isinstance(v, CPUDispatcher) and v.targetoptions.get("forceinline") and v.py_func.__module__ == mod.__name__]
     wrapped = [v.py_func.__name__ for v in helpers if not isinstance(v, InlineDispatcher)]
     assert helpers and not wrapped, f"{name}: forceinline helpers built with wrappers: {wrapped}"
+
+
+def test_a_kernels_wrappers_are_left_to_the_module_passes(monkeypatch):
+    """``install_wrapper_passes``: LLVM's function passes run on a kernel's own module, not on its
+    CPython and C wrappers' (the module passes optimise them with the rest), and the kernel, entered
+    through the wrapper, still unboxes its records of arrays and computes what it did."""
+    from numba.core import codegen
+    from raycast_shade.common import inline
+
+    assert inline.WRAPPER_PASSES
+    seen = []
+    numbas = codegen.CPUCodeLibrary._numbas_optimize_functions
+
+    def spy(self, ll_module):
+        seen.append(ll_module.name)
+        return numbas(self, ll_module)
+
+    monkeypatch.setattr(codegen.CPUCodeLibrary, "_numbas_optimize_functions", spy)
+    inline.install_wrapper_passes()  # around the spy
+    try:
+        @numba.njit(cache=False)
+        def kernel(rec, k):
+            a, b = rec
+            return a[k] * b[k] + a.sum()
+
+        a, b = np.arange(4.0), np.array([2.0, 3.0, 4.0, 5.0])
+        assert kernel((a, b), 2) == 2.0 * 4.0 + 6.0
+    finally:
+        monkeypatch.undo()
+        inline.install_wrapper_passes()
+    assert "wrapper" not in seen and "cfunc_wrapper" not in seen
+    assert any(name not in inline._WRAPPER_MODULES for name in seen)  # the kernel's own module: Numba's passes
