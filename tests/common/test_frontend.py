@@ -8,6 +8,7 @@ import operator
 
 import numba
 import numpy as np
+import pytest
 from numba.core import ir
 
 from raycast_shade.common import frontend
@@ -94,3 +95,64 @@ def test_the_variables_listed_are_numbas_in_numbas_order():
                 assert all(a is b for a, b in zip(ours, theirs))
                 checked += bool(theirs)
     assert checked > 300
+
+
+def _questions():
+    """(function type, argument types) pairs as type inference asks them: operators, builtins,
+    math, and Numba overloads of NumPy (``np.empty``, ``np.sqrt``), with literals among them."""
+    import math
+
+    from numba.core import types
+    from numba.core.registry import cpu_target
+
+    ctx = cpu_target.typing_context
+    f64, i64, i32 = types.float64, types.int64, types.int32
+    arr = types.Array(types.float64, 2, "C")
+    tup = types.UniTuple(f64, 3)
+    asks = [(operator.add, (f64, i64)), (operator.add, (i32, i64)), (operator.mul, (arr, f64)),
+            (operator.lt, (f64, f64)), (operator.getitem, (arr, types.UniTuple(i64, 2))),
+            (operator.getitem, (tup, types.IntegerLiteral(1))), (operator.neg, (f64,)), (min, (f64, i64)),
+            (max, (i64, i64)), (abs, (f64,)), (math.sqrt, (f64,)), (np.sqrt, (f64,)),
+            (np.empty, (types.UniTuple(i64, 2), types.NumberClass(f64))), (len, (tup,))]
+    return ctx, [(ctx.resolve_value_type(fn), args) for fn, args in asks]
+
+
+def test_a_call_is_typed_as_numbas_search_types_it_first_and_again():
+    from numba.core import types
+
+    assert frontend.CALL_TEMPLATES
+    numbas = types.functions.BaseFunction._numbas_get_call_type
+    ctx, questions = _questions()
+    for fnty, args in questions:
+        theirs = numbas(fnty, ctx, args, {})
+        first = fnty.get_call_type(ctx, args, {})
+        again = fnty.get_call_type(ctx, args, {})  # from the template that answered
+        assert theirs is not None and first == theirs and again == theirs, (fnty, args)
+        assert fnty.get_impl_key(again) == fnty.get_impl_key(theirs)
+
+
+def test_asked_again_no_template_before_the_answering_one_is_asked(monkeypatch):
+    from numba.core import types
+
+    ctx, questions = _questions()
+    fnty, args = questions[0]  # a float plus an int: NumPy's and others' templates decline first
+    fnty.get_call_type(ctx, args, {})
+    declined = []
+    numbas = types.functions._ResolutionFailures.add_error
+    monkeypatch.setattr(types.functions._ResolutionFailures, "add_error",
+                        lambda self, *a: (declined.append(a[0]), numbas(self, *a))[1])
+    types.functions.BaseFunction._numbas_get_call_type(fnty, ctx, args, {})
+    assert declined  # Numba's search: templates decline before the answer
+    declined.clear()
+    assert fnty.get_call_type(ctx, args, {}) is not None
+    assert declined == []
+
+
+def test_a_call_no_template_answers_raises_numbas_error():
+    from numba.core import errors, types
+    from numba.core.registry import cpu_target
+
+    ctx = cpu_target.typing_context
+    fnty = ctx.resolve_value_type(operator.add)
+    with pytest.raises(errors.TypingError):
+        fnty.get_call_type(ctx, (types.unicode_type, types.float64), {})
