@@ -794,6 +794,15 @@ def limit_table(rows) -> str:
 COLD_BEGIN, COLD_END = "<!-- cold:begin (benchmarks/bench_limits.py --only cold) -->", "<!-- cold:end -->"
 
 
+def cold_ratios(rows, what="demo") -> list[float]:
+    """Ours / the reference per round of the ``cold`` section (``what``: ``"flat"`` or ``"demo"``)."""
+    by = {}
+    for r in rows:
+        if r["section"] == "cold" and r["variant"].startswith(what + "/"):
+            by.setdefault(r["variant"], {})[r["metric"]] = float(r["value"])
+    return [v["ours_cpu_s"] / v["reference_cpu_s"] for v in by.values() if "reference_cpu_s" in v]
+
+
 def cold_table(rows) -> str:
     """The ``cold`` section's rows (:func:`cold`'s or the CSV's) as the markdown table
     ``docs/performance.md`` shows between its ``cold`` markers, with the aim's verdict."""
@@ -812,7 +821,7 @@ def cold_table(rows) -> str:
         pairs = [(v["ours_cpu_s"], v["reference_cpu_s"]) for v in by.values() if "reference_cpu_s" in v]
         if not pairs:
             continue
-        ratio = float(np.median([o / b for o, b in pairs]))
+        ratio = float(np.median(cold_ratios(rows, what)))
         out.append(f"| {label[what]} | {np.median([o for o, _ in pairs]):.1f} s | "
                    f"{np.median([b for _, b in pairs]):.1f} s | **{ratio:.2f}** | "
                    + ", ".join(f"{o / b:.2f}" for o, b in pairs) + " |")

@@ -80,6 +80,14 @@ def test_the_cold_verdicts_read_the_rounds(before, verdict):
     assert f"{median:.2f} for the whole `raycast-shade demo` ({verdict})" in table
 
 
+def test_the_readme_quotes_the_cold_ratio():
+    ratio = f"{statistics.median(bench_limits.cold_ratios(_rows('limits.csv'))):.2f}"
+    with open(os.path.join(ROOT, "README.md"), encoding="utf-8") as fh:
+        readme = " ".join(fh.read().split())
+    for quote in (f"{ratio} of what the code before issue 40 took beside it", f"{ratio} of the code before issue 40"):
+        assert quote in readme, f"README.md should say {quote!r} (benchmarks/results/limits.csv, cold rows)"
+
+
 def test_the_readme_quotes_the_peers_csv():
     quote = bench_peers.readme_quote(_rows("peers.csv"))
     with open(os.path.join(ROOT, "README.md"), encoding="utf-8") as fh:
