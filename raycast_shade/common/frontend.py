@@ -10,6 +10,9 @@ their answers need, on every line, and are replaced here by equivalents that giv
 - :func:`install_list_vars`: the variables an IR statement uses, listed without a recursive call
   and four ``isinstance`` tests per attribute (Numba lists them again after every pass that
   changes the IR, for its use-def maps);
+- :func:`install_lazy_entry_vars`: the variables live on entry to each block, which Numba's IR
+  post-processor computes after every pass that changes the IR and only object-mode lowering and
+  generators read, computed when first read;
 - :func:`install_call_templates`: a call typed before (the same function, argument types,
   context and inherited flags) is asked of the template that answered it, not of every template
   in turn.
@@ -23,11 +26,12 @@ it, six rounds run side by side, one per core: 0.94-0.96).
 from __future__ import annotations
 
 import numba
-from numba.core import errors, ir, targetconfig, types, utils
+from numba.core import analysis, errors, ir, targetconfig, types, utils
 from numba.core.types import functions as _functions
 from numba.core.typing import npydecl
 
-__all__ = ["install_scalar_operators", "install_list_vars", "install_call_templates", "CHECKED"]
+__all__ = ["install_scalar_operators", "install_list_vars", "install_call_templates", "install_lazy_entry_vars",
+           "CHECKED"]
 
 CHECKED = ("0.68",)  # the Numba versions whose code the replacements were checked against
 
@@ -218,6 +222,123 @@ def install_call_templates() -> bool:
     return True
 
 
+class _EntryVars(dict):
+    """``FunctionIR.block_entry_vars`` whose entries for the blocks of the last post-processing are
+    computed when first read (Numba's :func:`~numba.core.analysis.compute_live_variables`, from that
+    post-processing's variable lifetimes). A write (an eager post-processing, Numba's, which sets
+    the entries of all its blocks) drops the pending ones."""
+
+    __slots__ = ("_pending",)
+
+    def __init__(self, entries, pending):
+        super().__init__(entries)
+        self._pending = pending
+
+    def _fill(self):
+        pending = self._pending
+        if pending is not None:
+            self._pending = None
+            vlt, blocks = pending
+            live = analysis.compute_live_variables(vlt.cfg, blocks, vlt.usedefs.defmap, vlt.deadmaps.combined)
+            for offset, block in blocks.items():
+                dict.__setitem__(self, block, live[offset])
+
+    def __setitem__(self, key, value):
+        self._pending = None  # an eager post-processing (Numba's) sets the entries of every block it has
+        dict.__setitem__(self, key, value)
+
+    def __getitem__(self, key):
+        self._fill()
+        return dict.__getitem__(self, key)
+
+    def __contains__(self, key):
+        self._fill()
+        return dict.__contains__(self, key)
+
+    def __iter__(self):
+        self._fill()
+        return dict.__iter__(self)
+
+    def __len__(self):
+        self._fill()
+        return dict.__len__(self)
+
+    def __eq__(self, other):
+        self._fill()
+        return dict.__eq__(self, other)
+
+    __hash__ = None
+
+    def get(self, key, default=None):
+        self._fill()
+        return dict.get(self, key, default)
+
+    def keys(self):
+        self._fill()
+        return dict.keys(self)
+
+    def values(self):
+        self._fill()
+        return dict.values(self)
+
+    def items(self):
+        self._fill()
+        return dict.items(self)
+
+    def copy(self):
+        self._fill()
+        return dict(self)
+
+    def __reduce__(self):
+        self._fill()
+        return dict, (dict(self),)
+
+
+def install_lazy_entry_vars() -> bool:
+    """Numba's IR post-processor (``PostProcessor.run``, after every pass that changes the IR)
+    leaves the variables live on entry to each block to be computed when first read.
+
+    The post-processor canonicalises the control flow, attaches the variables' lifetimes (lazy
+    already) and fills ``func_ir.block_entry_vars``, the variables live on entry to each block, which
+    needs the use-def, live and dead maps of the whole function, on every call: 838 times on the
+    demo's flat first picture, 3.6% of its CPU. Only object-mode lowering and generators read those
+    entries, and both come after a post-processing that emits ``del`` statements, which stays
+    Numba's own (as does every post-processing of a generator). Here the entries are filled when
+    first read, from that post-processing's lifetimes and blocks: a reader gets Numba's values.
+
+    Returns
+    -------
+    bool
+        Whether it is installed (only for the Numba versions checked).
+    """
+    from numba.core import postproc, transforms
+
+    cls = postproc.PostProcessor
+    if not numba.__version__.startswith(CHECKED):
+        return False
+    numbas = getattr(cls, "_numbas_run", cls.run)  # installed once
+
+    def run(self, emit_dels: bool = False, extend_lifetimes: bool = False):
+        fir = self.func_ir
+        if emit_dels or fir.is_generator:
+            return numbas(self, emit_dels, extend_lifetimes)
+        fir.blocks = transforms.canonicalize_cfg(fir.blocks)
+        vlt = postproc.VariableLifetime(fir.blocks)
+        fir.variable_lifetime = vlt
+        entries = fir.block_entry_vars
+        if isinstance(entries, _EntryVars):
+            entries._pending = (vlt, fir.blocks)  # supersedes a pending one: readers read the latest blocks
+        else:
+            fir.block_entry_vars = _EntryVars(entries, (vlt, fir.blocks))
+        fir.generator_info = None
+        return None
+
+    cls._numbas_run = numbas
+    cls.run = run
+    return True
+
+
 SCALAR_OPERATORS = install_scalar_operators()
 LIST_VARS = install_list_vars()
 CALL_TEMPLATES = install_call_templates()
+LAZY_ENTRY_VARS = install_lazy_entry_vars()

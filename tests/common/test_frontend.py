@@ -156,3 +156,86 @@ def test_a_call_no_template_answers_raises_numbas_error():
     fnty = ctx.resolve_value_type(operator.add)
     with pytest.raises(errors.TypingError):
         fnty.get_call_type(ctx, (types.unicode_type, types.float64), {})
+
+
+def _entry_vars(func, eager):
+    """``{block offset: live variables on entry}`` of ``func``'s IR post-processed by ours (lazy)
+    or by Numba's own post-processor (eager)."""
+    from numba.core import compiler, postproc
+
+    if eager:
+        ours = postproc.PostProcessor.run
+        postproc.PostProcessor.run = postproc.PostProcessor._numbas_run
+        try:
+            fir = compiler.run_frontend(func)
+        finally:
+            postproc.PostProcessor.run = ours
+        assert type(fir.block_entry_vars) is dict
+    else:
+        fir = compiler.run_frontend(func)
+        assert isinstance(fir.block_entry_vars, frontend._EntryVars) and fir.block_entry_vars._pending
+    return {k: set(fir.get_block_entry_vars(b)) for k, b in fir.blocks.items()}
+
+
+def test_entry_vars_are_numbas_when_read():
+    from raycast_shade.shading import mirrors, phong
+
+    assert frontend.LAZY_ENTRY_VARS
+    funcs = [_kernel_like, phong._surface.py_func, mirrors._make_packets(False).py_func]
+    live = 0
+    for func in funcs:
+        ours, theirs = _entry_vars(func, False), _entry_vars(func, True)
+        assert ours == theirs
+        live += sum(map(len, theirs.values()))
+    assert live > 100
+
+
+def test_a_nopython_compile_computes_live_variables_only_for_the_del_passes(monkeypatch):
+    from numba.core import analysis, postproc
+
+    counts = {"live": 0, "numbas": 0}
+    live, numbas = analysis.compute_live_variables, postproc.PostProcessor._numbas_run
+    monkeypatch.setattr(analysis, "compute_live_variables",
+                        lambda *a: (counts.__setitem__("live", counts["live"] + 1), live(*a))[1])
+    monkeypatch.setattr(postproc.PostProcessor, "_numbas_run",
+                        lambda self, *a: (counts.__setitem__("numbas", counts["numbas"] + 1), numbas(self, *a))[1])
+    frontend.install_lazy_entry_vars()  # around the spies
+    try:
+        @numba.njit(cache=False)
+        def f(a):
+            s = 0.0
+            for i in range(a.shape[0]):
+                s += a[i] if a[i] > 0 else -a[i]
+            return s
+
+        assert f(np.array([1.0, -2.0, 3.0])) == 6.0
+    finally:
+        monkeypatch.undo()
+        frontend.install_lazy_entry_vars()
+    assert counts["numbas"] >= 1 and counts["live"] == counts["numbas"]  # Numba's post-processor alone computed them
+
+
+def test_object_mode_generators_and_objmode_blocks_still_compile():
+    @numba.jit(forceobj=True, cache=False)
+    def obj(xs):
+        out = []
+        for x in xs:
+            if x > 1:
+                out.append(str(x))
+        return ",".join(out)
+
+    @numba.njit(cache=False)
+    def gen(n):
+        for i in range(n):
+            if i % 2:
+                yield i * i
+
+    @numba.njit(cache=False)
+    def with_objmode(x):
+        with numba.objmode(y="float64"):
+            y = float(np.round(x * 10.0)) / 10.0
+        return y + 1.0
+
+    assert obj([0, 2, 3]) == "2,3"
+    assert list(gen(6)) == [1, 9, 25]
+    assert with_objmode(1.234) == 2.2
