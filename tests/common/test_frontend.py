@@ -239,3 +239,23 @@ def test_object_mode_generators_and_objmode_blocks_still_compile():
     assert obj([0, 2, 3]) == "2,3"
     assert list(gen(6)) == [1, 9, 25]
     assert with_objmode(1.234) == 2.2
+
+
+def test_a_table_of_signatures_answers_again_without_choosing_again(monkeypatch):
+    """A call answered by a ConcreteTemplate (a table of signatures: ``a + b`` of two numbers) gets
+    the same signature again without the table being searched again; the lowering's key is set."""
+    from numba.core import types
+    from numba.core.registry import cpu_target
+
+    ctx = cpu_target.typing_context
+    fnty = ctx.resolve_value_type(operator.add)
+    args = (types.int32, types.float32)
+    first = fnty.get_call_type(ctx, args, {})
+    searched = []
+    numbas = type(ctx).resolve_overload
+    monkeypatch.setattr(type(ctx), "resolve_overload", lambda self, *a, **k: (searched.append(a[0]),
+                                                                              numbas(self, *a, **k))[1])
+    fnty._impl_keys.pop(first.args, None)
+    again = fnty.get_call_type(ctx, args, {})
+    assert again == first == types.float64(types.float64, types.float64) and searched == []
+    assert fnty.get_impl_key(again) is operator.add
