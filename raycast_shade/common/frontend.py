@@ -33,10 +33,31 @@ from numba.core.types import functions as _functions
 from numba.core.typing import npydecl
 from numba.core.typing.templates import ConcreteTemplate as _CONCRETE
 
-__all__ = ["install_scalar_operators", "install_list_vars", "install_call_templates", "install_lazy_entry_vars",
-           "CHECKED"]
+from .overloads import _inherited
+
+__all__ = ["replace", "install_scalar_operators", "install_list_vars", "install_call_templates",
+           "install_lazy_entry_vars", "CHECKED"]
 
 CHECKED = ("0.68",)  # the Numba versions whose code the replacements were checked against
+
+
+def replace(cls, name: str, make) -> bool:
+    """Put ``make(numbas)`` in place of ``cls.name``, Numba's own kept as ``cls._numbas_<name>``
+    (``name`` without its leading underscore) and handed to ``make``; installing again wraps
+    Numba's, not the last replacement. Only for the Numba versions checked (:data:`CHECKED`).
+
+    Returns
+    -------
+    bool
+        Whether it is installed.
+    """
+    if not numba.__version__.startswith(CHECKED):
+        return False
+    keep = "_numbas_" + name.lstrip("_")
+    numbas = getattr(cls, keep, getattr(cls, name))
+    setattr(cls, keep, numbas)
+    setattr(cls, name, make(numbas))
+    return True
 
 
 def _no_array(args) -> bool:
@@ -60,19 +81,14 @@ def install_scalar_operators() -> bool:
     bool
         Whether the shortcut is installed.
     """
-    cls = npydecl.NumpyRulesArrayOperator
-    if not numba.__version__.startswith(CHECKED):
-        return False
-    numbas = getattr(cls, "_numbas_generic", cls.generic)  # installed once
+    def make(numbas):
+        def generic(self, args, kws):
+            if not kws and _no_array(args):
+                return None
+            return numbas(self, args, kws)
+        return generic
 
-    def generic(self, args, kws):
-        if not kws and _no_array(args):
-            return None
-        return numbas(self, args, kws)
-
-    cls._numbas_generic = numbas
-    cls.generic = generic
-    return True
+    return replace(npydecl.NumpyRulesArrayOperator, "generic", make)
 
 
 def _kind(t) -> int:
@@ -128,20 +144,7 @@ def install_list_vars() -> bool:
     bool
         Whether it is installed (only for the Numba versions checked).
     """
-    if not numba.__version__.startswith(CHECKED):
-        return False
-    if not hasattr(ir.Inst, "_numbas_rec_list_vars"):
-        ir.Inst._numbas_rec_list_vars = ir.Inst._rec_list_vars
-    ir.Inst._rec_list_vars = _rec_list_vars
-    return True
-
-
-def _flags_key():
-    flags = targetconfig.ConfigStack.top_or_none()
-    if flags is None:
-        return None
-    fm = flags.fastmath
-    return flags.nrt, frozenset(fm.flags) if fm else frozenset(), flags.error_model, flags.forceinline
+    return replace(ir.Inst, "_rec_list_vars", lambda numbas: _rec_list_vars)
 
 
 def install_call_templates() -> bool:
@@ -162,10 +165,6 @@ def install_call_templates() -> bool:
     bool
         Whether it is installed (only for the Numba versions checked).
     """
-    cls = _functions.BaseFunction
-    if not numba.__version__.startswith(CHECKED):
-        return False
-    numbas = getattr(cls, "_numbas_get_call_type", cls.get_call_type)  # installed once
     winners: dict = {}
 
     def _ask(temp, args, kws, uselit):
@@ -176,10 +175,11 @@ def install_call_templates() -> bool:
 
     def get_call_type(self, context, args, kws):
         try:
-            key = (self, context, tuple(args), tuple(kws.items()), _flags_key())
+            flags = _inherited(targetconfig.ConfigStack.top_or_none())  # what an overload's build inherits
+            key = (self, context, tuple(args), tuple(kws.items()), flags)
             won = winners.get(key)
         except TypeError:  # an unhashable argument type: Numba's search
-            return numbas(self, context, args, kws)
+            return _functions.BaseFunction._numbas_get_call_type(self, context, args, kws)
         if won is not None and won[2] is not None:  # a table of signatures: the same answer
             sig = won[2]
             self._impl_keys[sig.args] = won[0](context).get_impl_key(sig)
@@ -228,9 +228,7 @@ def install_call_templates() -> bool:
                     failures.add_error(temp, True, msg, uselit)
         failures.raise_error()
 
-    cls._numbas_get_call_type = numbas
-    cls.get_call_type = get_call_type
-    return True
+    return replace(_functions.BaseFunction, "get_call_type", lambda numbas: get_call_type)
 
 
 class _EntryVars(dict):
@@ -324,29 +322,24 @@ def install_lazy_entry_vars() -> bool:
     """
     from numba.core import postproc, transforms
 
-    cls = postproc.PostProcessor
-    if not numba.__version__.startswith(CHECKED):
-        return False
-    numbas = getattr(cls, "_numbas_run", cls.run)  # installed once
+    def make(numbas):
+        def run(self, emit_dels: bool = False, extend_lifetimes: bool = False):
+            fir = self.func_ir
+            if emit_dels or fir.is_generator:
+                return numbas(self, emit_dels, extend_lifetimes)
+            fir.blocks = transforms.canonicalize_cfg(fir.blocks)
+            vlt = postproc.VariableLifetime(fir.blocks)
+            fir.variable_lifetime = vlt
+            entries = fir.block_entry_vars
+            if isinstance(entries, _EntryVars):
+                entries._pending = (vlt, fir.blocks)  # supersedes a pending one: readers read the latest blocks
+            else:
+                fir.block_entry_vars = _EntryVars(entries, (vlt, fir.blocks))
+            fir.generator_info = None
+            return None
+        return run
 
-    def run(self, emit_dels: bool = False, extend_lifetimes: bool = False):
-        fir = self.func_ir
-        if emit_dels or fir.is_generator:
-            return numbas(self, emit_dels, extend_lifetimes)
-        fir.blocks = transforms.canonicalize_cfg(fir.blocks)
-        vlt = postproc.VariableLifetime(fir.blocks)
-        fir.variable_lifetime = vlt
-        entries = fir.block_entry_vars
-        if isinstance(entries, _EntryVars):
-            entries._pending = (vlt, fir.blocks)  # supersedes a pending one: readers read the latest blocks
-        else:
-            fir.block_entry_vars = _EntryVars(entries, (vlt, fir.blocks))
-        fir.generator_info = None
-        return None
-
-    cls._numbas_run = numbas
-    cls.run = run
-    return True
+    return replace(postproc.PostProcessor, "run", make)
 
 
 SCALAR_OPERATORS = install_scalar_operators()

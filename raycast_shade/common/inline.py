@@ -245,20 +245,15 @@ def install_wrapper_passes() -> bool:
     bool
         Whether it is installed (only for the Numba versions checked).
     """
-    cls = _codegen.CPUCodeLibrary
-    if not numba.__version__.startswith(frontend.CHECKED):
-        return False
-    numbas = getattr(cls, "_numbas_optimize_functions", cls._optimize_functions)  # installed once
+    def make(numbas):
+        def _optimize_functions(self, ll_module):
+            if ll_module.name in _WRAPPER_MODULES:
+                ll_module.data_layout = self._codegen._data_layout  # what Numba's sets first
+                return
+            numbas(self, ll_module)
+        return _optimize_functions
 
-    def _optimize_functions(self, ll_module):
-        if ll_module.name in _WRAPPER_MODULES:
-            ll_module.data_layout = self._codegen._data_layout  # what Numba's sets first
-            return
-        numbas(self, ll_module)
-
-    cls._numbas_optimize_functions = numbas
-    cls._optimize_functions = _optimize_functions
-    return True
+    return frontend.replace(_codegen.CPUCodeLibrary, "_optimize_functions", make)
 
 
 WRAPPER_PASSES = install_wrapper_passes()
