@@ -794,13 +794,19 @@ def limit_table(rows) -> str:
 COLD_BEGIN, COLD_END = "<!-- cold:begin (benchmarks/bench_limits.py --only cold) -->", "<!-- cold:end -->"
 
 
-def cold_ratios(rows, what="demo") -> list[float]:
-    """Ours / the reference per round of the ``cold`` section (``what``: ``"flat"`` or ``"demo"``)."""
+def _cold_pairs(rows, what):
+    """``(ours, reference)`` CPU seconds per round of the ``cold`` section (``what``: ``"flat"`` or
+    ``"demo"``), for the rounds that ran the reference."""
     by = {}
     for r in rows:
         if r["section"] == "cold" and r["variant"].startswith(what + "/"):
             by.setdefault(r["variant"], {})[r["metric"]] = float(r["value"])
-    return [v["ours_cpu_s"] / v["reference_cpu_s"] for v in by.values() if "reference_cpu_s" in v]
+    return [(v["ours_cpu_s"], v["reference_cpu_s"]) for v in by.values() if "reference_cpu_s" in v]
+
+
+def cold_ratios(rows, what="demo") -> list[float]:
+    """Ours / the reference per round of the ``cold`` section (``what``: ``"flat"`` or ``"demo"``)."""
+    return [o / b for o, b in _cold_pairs(rows, what)]
 
 
 def cold_table(rows) -> str:
@@ -814,14 +820,10 @@ def cold_table(rows) -> str:
            f"| rounds: ours / before |", "|---|---|---|---|---|"]
     verdicts = []
     for what in ("flat", "demo"):
-        by = {}
-        for r in rows:
-            if r["variant"].startswith(what + "/"):
-                by.setdefault(r["variant"], {})[r["metric"]] = float(r["value"])
-        pairs = [(v["ours_cpu_s"], v["reference_cpu_s"]) for v in by.values() if "reference_cpu_s" in v]
+        pairs = _cold_pairs(rows, what)
         if not pairs:
             continue
-        ratio = float(np.median(cold_ratios(rows, what)))
+        ratio = float(np.median([o / b for o, b in pairs]))
         out.append(f"| {label[what]} | {np.median([o for o, _ in pairs]):.1f} s | "
                    f"{np.median([b for _, b in pairs]):.1f} s | **{ratio:.2f}** | "
                    + ", ".join(f"{o / b:.2f}" for o, b in pairs) + " |")
