@@ -130,7 +130,8 @@ def _cast_camera_parts(scene, cam, prim, geom, u, v, t, y0, top, lo, hi, counts,
         voff = ((64 - vbuf.ctypes.data % 64) % 64) // 4
         # RTCIntersectArguments (8-byte aligned): the coherent flag lets
         # Embree trace the tile's rays as one frustum.
-        abuf = np.zeros(embree.ARGS_SLOTS + 2, np.uint32)
+        abuf = np.empty(embree.ARGS_SLOTS + 2, np.uint32)
+        abuf[:] = 0  # (np.zeros would build two more of Numba's overloads at a cold start)
         aoff = ((8 - abuf.ctypes.data % 8) % 8) // 4
         abuf[aoff] = embree.RAY_QUERY_FLAG_COHERENT
         abuf[aoff + 1] = embree.FEATURE_FLAG_ALL

@@ -61,7 +61,7 @@ import glob
 import os
 
 import numpy as np
-from numba import njit, types
+from numba import types
 
 from ..common.inline import inline_jit
 
@@ -379,7 +379,12 @@ occluded16 = types.ExternalFunction(
 )
 
 
-@njit(cache=True)
+# The wrappers below and the struct helpers: inlined by LLVM into the kernels, they neither take
+# references on the arrays nor allocate (a Python call runs a twin with wrappers: common/inline.py).
+_INLINE = dict(cache=True, forceinline=True, _nrt=False)
+
+
+@inline_jit(**_INLINE)
 def intersect1_ray(scene, rayhit):
     """``rtcIntersect1(scene, rayhit, NULL)``.
 
@@ -396,7 +401,7 @@ def intersect1_ray(scene, rayhit):
     intersect1(scene, rayhit.ctypes.data, 0)
 
 
-@njit(cache=True)
+@inline_jit(**_INLINE)
 def intersect8_packet(valid, scene, rayhit, args):
     """``rtcIntersect8(valid, scene, rayhit, args)``.
 
@@ -414,7 +419,7 @@ def intersect8_packet(valid, scene, rayhit, args):
     intersect8(valid.ctypes.data, scene, rayhit.ctypes.data, args.ctypes.data)
 
 
-@njit(cache=True)
+@inline_jit(**_INLINE)
 def intersect16_packet(valid, scene, rayhit, args):
     """``rtcIntersect16(valid, scene, rayhit, args)``.
 
@@ -432,7 +437,7 @@ def intersect16_packet(valid, scene, rayhit, args):
     intersect16(valid.ctypes.data, scene, rayhit.ctypes.data, args.ctypes.data)
 
 
-@njit(cache=True)
+@inline_jit(**_INLINE)
 def occluded1_ray(scene, ray):
     """``rtcOccluded1(scene, ray, NULL)``: sets ``tfar`` (slot :data:`RAY_TFAR`) to ``-inf`` when blocked.
 
@@ -444,7 +449,7 @@ def occluded1_ray(scene, ray):
     occluded1(scene, ray.ctypes.data, 0)
 
 
-@njit(cache=True)
+@inline_jit(**_INLINE)
 def occluded16_packet(valid, scene, ray, args):
     """``rtcOccluded16(valid, scene, ray, args)``: sets each blocked active lane's ``tfar`` to ``-inf``.
 
@@ -468,8 +473,7 @@ def occluded16_packet(valid, scene, ray, args):
 # Helpers over the structs, for kernels and plain Python alike (``.py_func``). A ray or hit
 # lives in a float32 array and its uint32 view (the same memory); ``base`` is the slot of lane
 # 0 of the struct plus the lane, ``lanes`` 1 for RTCRay / RTCRayHit and 8 or 16 for a packet.
-# Inlined by LLVM into the kernels, they neither take references on the arrays nor allocate.
-_INLINE = dict(cache=True, forceinline=True, _nrt=False)
+# Inlined by LLVM into the kernels, they neither take references on the arrays nor allocate (_INLINE).
 
 
 @inline_jit(**_INLINE)

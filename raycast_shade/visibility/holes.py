@@ -43,7 +43,7 @@ _JUMP = 1e-3  # a hit farther than both neighbours by this fraction of their dep
 _refine_compiled = _refine_kernel.kernel  # called from compiled code, whole (SERIAL): a few rays
 
 
-@njit(cache=True, inline="always")  # called per pixel: a call costs more than the test
+@inline_jit(cache=True, forceinline=True, _nrt=False)  # LLVM-inlined per pixel (Numba's inlining copies its IR per caller)
 def _suspicious(prim, t, jump, y, x):
     """A miss between two hits, or a hit farther than both of them by ``jump`` of
     their depth: the two marks a ray leaves when it slips through a vertex."""
@@ -84,7 +84,7 @@ def row_suspicious(prim, t, far, y):
     return n
 
 
-@njit(cache=True)  # serial: a few rows per band
+@njit(cache=True, no_cfunc_wrapper=True)  # serial: a few rows per band
 def finish_counts(prim, t, far, counts, lo, hi):
     """Count the rows ``lo .. hi`` the camera kernel left undecided (``counts[q] < 0``: rows
     at its block boundaries), in place; see :func:`row_suspicious`."""
@@ -116,7 +116,7 @@ def _suspicious_rows_parts(prim, t, jump, rows, part):
         rows[y] = row
 
 
-@njit(cache=True)  # serial: it reads only the rows that have a flag, a parallel launch would cost more
+@njit(cache=True, no_cfunc_wrapper=True)  # serial: it reads only the rows that have a flag, a parallel launch would cost more
 def _gather_kernel(prim, t, jump, rows, ys, xs):
     """The flagged pixels' ``ys``, ``xs`` (n,) int64 in row-major order, as ``np.nonzero``
     of the mask of :func:`_suspicious` gives them."""

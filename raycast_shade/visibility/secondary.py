@@ -228,7 +228,8 @@ def closest_packet(flags):
     ib = buf.view(np.uint32)
     vbuf = np.empty(2 * LANES, np.int32)
     voff = ((64 - vbuf.ctypes.data % 64) % 64) // 4
-    abuf = np.zeros(embree.ARGS_SLOTS + 2, np.uint32)
+    abuf = np.empty(embree.ARGS_SLOTS + 2, np.uint32)
+    abuf[:] = 0  # (np.zeros would build two more of Numba's overloads at a cold start)
     aoff = ((8 - abuf.ctypes.data % 8) % 8) // 4
     abuf[aoff] = flags
     abuf[aoff + 1] = embree.FEATURE_FLAG_ALL

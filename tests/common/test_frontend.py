@@ -4,6 +4,7 @@ pass, the same variables in the same order as Numba's."""
 
 from __future__ import annotations
 
+import gc
 import operator
 
 import numba
@@ -259,3 +260,124 @@ def test_a_table_of_signatures_answers_again_without_choosing_again(monkeypatch)
     again = fnty.get_call_type(ctx, args, {})
     assert again == first == types.float64(types.float64, types.float64) and searched == []
     assert fnty.get_impl_key(again) is operator.add
+
+
+def test_an_llvm_types_size_and_alignment_are_llvmlites():
+    """The answers kept per type and layout equal llvmlite's own, asked again (parsing a module)."""
+    from llvmlite import ir as llvmir
+    from numba.core import base
+    from numba.core.registry import cpu_target
+
+    assert frontend.ABI_SIZES
+    ctx = cpu_target.target_context
+    i8p = llvmir.IntType(8).as_pointer()
+    kinds = [llvmir.IntType(1), llvmir.IntType(64), llvmir.DoubleType(), llvmir.ArrayType(llvmir.FloatType(), 3),
+             llvmir.LiteralStructType([i8p, i8p, llvmir.IntType(64), llvmir.IntType(64), llvmir.DoubleType().as_pointer(),
+                                       llvmir.ArrayType(llvmir.IntType(64), 2), llvmir.ArrayType(llvmir.IntType(64), 2)]),
+             llvmir.LiteralStructType([llvmir.IntType(8), llvmir.DoubleType(), llvmir.IntType(16)])]
+    for ty in kinds + kinds:  # the second time from the kept answers
+        assert ctx.get_abi_sizeof(ty) == ty.get_abi_size(ctx.target_data)
+        assert ctx.get_abi_alignment(ty) == ty.get_abi_alignment(ctx.target_data)
+    assert [ctx.get_abi_sizeof(t) for t in kinds] == [1, 8, 8, 12, 72, 24]
+    assert base.BaseContext._numbas_get_abi_sizeof is not base.BaseContext.get_abi_sizeof
+
+
+def test_a_literal_type_is_asked_once_a_named_struct_every_time(monkeypatch):
+    """A literal type's answer is kept; a named struct's text does not spell out its body, so
+    llvmlite is asked every time."""
+    from llvmlite import ir as llvmir
+    from numba.core import base
+    from numba.core.registry import cpu_target
+
+    asked = []
+    numbas = base.BaseContext._numbas_get_abi_sizeof
+
+    def spy(self, ty):
+        asked.append(str(ty))
+        return numbas(self, ty)
+
+    monkeypatch.setattr(base.BaseContext, "_numbas_get_abi_sizeof", spy)
+    frontend.install_abi_sizes()  # wraps the spy (Numba's, as installed)
+    try:
+        ctx = cpu_target.target_context
+        named = llvmir.global_context.get_identified_type("rs_test_named_struct")
+        if named.is_opaque:
+            named.set_body(llvmir.IntType(32), llvmir.DoubleType())
+        assert ctx.get_abi_sizeof(named) == ctx.get_abi_sizeof(named) == 16
+        assert asked.count(str(named)) == 2
+        odd = llvmir.LiteralStructType([llvmir.IntType(8), llvmir.IntType(8), llvmir.IntType(8), llvmir.FloatType()])
+        assert ctx.get_abi_sizeof(odd) == ctx.get_abi_sizeof(odd) == 8
+        assert asked.count(str(odd)) == 1
+    finally:
+        monkeypatch.undo()
+        frontend.install_abi_sizes()
+
+
+def _thresholds_while_compiling(fn, *args):
+    """The collector's thresholds seen from inside each compile of ``fn(*args)``."""
+    from numba.core import event
+
+    seen = []
+
+    class Seen(event.Listener):
+        def on_start(self, ev):
+            seen.append(gc.get_threshold())
+
+        def on_end(self, ev):
+            pass
+
+    with event.install_listener("numba:compile", Seen()):
+        try:
+            fn(*args)
+        except Exception as e:  # a compile that fails: the thresholds come back all the same
+            seen.append(type(e).__name__)
+    return seen
+
+
+def test_a_compile_runs_with_the_higher_threshold_and_gives_back_the_callers():
+    assert frontend.COMPILE_GC
+    kept = gc.get_threshold()
+    try:
+        gc.set_threshold(1234, 5, 6)
+
+        @numba.njit(cache=False)
+        def inner(x):
+            return x + 1
+
+        @numba.njit(cache=False)
+        def outer(x):
+            return inner(x) * 2
+
+        seen = _thresholds_while_compiling(outer, 3)
+        assert len(seen) >= 2  # outer, and inner inside it
+        assert all(t == (frontend.COMPILE_GC_THRESHOLD, 5, 6) for t in seen), seen
+        assert gc.get_threshold() == (1234, 5, 6)
+        assert outer(3) == 8
+
+        @numba.njit(cache=False)
+        def broken(x):
+            return x.no_such_attribute
+
+        seen = _thresholds_while_compiling(broken, 1)
+        assert seen[-1] == "TypingError" and seen[0] == (frontend.COMPILE_GC_THRESHOLD, 5, 6)
+        assert gc.get_threshold() == (1234, 5, 6)
+
+        gc.set_threshold(50_000, 7, 8)  # higher than ours: left alone
+
+        @numba.njit(cache=False)
+        def other(x):
+            return x - 1
+
+        assert set(_thresholds_while_compiling(other, 3)) == {(50_000, 7, 8)}
+        assert gc.get_threshold() == (50_000, 7, 8)
+    finally:
+        gc.set_threshold(*kept)
+
+
+def test_releasing_a_lock_not_held_raises_as_numba_does_and_keeps_the_thresholds():
+    from numba.core.compiler_lock import global_compiler_lock
+
+    kept = gc.get_threshold()
+    with pytest.raises(RuntimeError):
+        global_compiler_lock.release()
+    assert gc.get_threshold() == kept
