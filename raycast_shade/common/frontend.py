@@ -421,7 +421,7 @@ def install_compile_gc() -> bool:
     def make_acquire(numbas):
         def acquire(self):
             numbas(self)
-            depth = self.__dict__.get("_gc_depth", 0) + 1  # changed only by the thread holding the lock
+            depth = getattr(self, "_gc_depth", 0) + 1  # changed only by the thread holding the lock
             self._gc_depth = depth
             if depth == 1:
                 kept = gc.get_threshold()

@@ -322,16 +322,10 @@ def _make_packets(tex_on: bool = False, batched: bool = False, ahead: bool = Fal
             ys = np.empty(_LANES, np.int64)
             xs = np.empty(_LANES, np.int64)
             weight = np.empty(_LANES, np.float64)
-            # Zeroed by assignment: np.zeros would build two more of Numba's overloads per array
-            # kind at a cold start (it and its fill), for the same zeros.
-            org = np.empty((3, _LANES), np.float64)
-            dr = np.empty((3, _LANES), np.float64)
+            org, dr = np.empty((3, _LANES), np.float64), np.empty((3, _LANES), np.float64)
             act = np.empty(_LANES, np.bool_)
-            org[:] = 0.0
-            dr[:] = 0.0
-            act[:] = False
-            # _start_group's scratch (a compile-time branch, as GF's)
-            F = (np.zeros(_FIELDS * _BATCH), np.zeros(7 * _BATCH, np.int64)) if batched else None
+            org[:], dr[:], act[:] = 0.0, 0.0, False  # (np.zeros: two more overload builds per kind, cold)
+            F = (np.zeros(_FIELDS * _BATCH), np.zeros(7 * _BATCH, np.int64)) if batched else None  # _start_group's
             for tr in range(blk * per, min(ntr, (blk + 1) * per)):
                 ya = max((first + tr) * _TILE - y0, 0)
                 yb = min((first + tr + 1) * _TILE - y0, h)

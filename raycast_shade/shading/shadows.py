@@ -119,7 +119,8 @@ def _packets(nlights):
     voff, args, aoff, vis``), then ``points``, (LANES, LANE_SLOTS) float64, the lanes' shading
     points, kept between the request and the shading (:func:`store_point`)."""
     buf, ib, off, valid, voff, args, aoff, vis = occlusion_packets(nlights)
-    points = np.zeros((LANES, LANE_SLOTS), np.float64)
+    points = np.empty((LANES, LANE_SLOTS), np.float64)
+    points[:] = 0.0  # (np.zeros would build two more of Numba's overloads at a cold start)
     return buf, ib, off, valid, voff, args, aoff, vis, points
 
 

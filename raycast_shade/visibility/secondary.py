@@ -131,13 +131,17 @@ def occlusion_packets(ngroups):
     n = max(ngroups, 1)
     buf = np.empty(n * _STRIDE + 16, np.float32)
     off = ((64 - buf.ctypes.data % 64) % 64) // 4
-    valid = np.zeros(n * LANES + 16, np.int32)
+    # Zeroed by assignment (np.zeros would build two more of Numba's overloads at a cold start).
+    valid = np.empty(n * LANES + 16, np.int32)
+    valid[:] = 0
     voff = ((64 - valid.ctypes.data % 64) % 64) // 4
-    args = np.zeros(embree.ARGS_SLOTS + 2, np.uint32)
+    args = np.empty(embree.ARGS_SLOTS + 2, np.uint32)
+    args[:] = 0
     aoff = ((8 - args.ctypes.data % 8) % 8) // 4
     args[aoff] = embree.RAY_QUERY_FLAG_COHERENT  # neighbours' rays to one light: 1.9x faster than without
     args[aoff + 1] = embree.FEATURE_FLAG_ALL
-    vis = np.full((n, LANES), UNTRACED, np.int8)
+    vis = np.empty((n, LANES), np.int8)
+    vis[:] = UNTRACED
     ib = buf.view(np.uint32)
     for i in range(n):  # the slots no ray changes and Embree never writes, once
         for k in range(LANES):
