@@ -52,7 +52,7 @@ _CHUNK = 1 << 16  # values per parallel work item
 
 
 @in_parts
-@njit(nogil=True, cache=True, error_model="numpy")
+@njit(nogil=True, cache=True, error_model="numpy", no_cfunc_wrapper=True)
 def _to_uint8_kernel(x, exposure, curve, inv_gamma, out, part):
     """Tone-map ``x`` (N,) float32/float64 into ``out`` (N,) uint8.
 
@@ -145,7 +145,7 @@ def thresholds(exposure: float = 1.0, tonemap: str = "clamp", gamma="srgb") -> t
     return t, inf_code
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, no_cfunc_wrapper=True)  # (nothing takes its address)
 def _bucket_codes(t, shift):
     """(0x7F800000 >> shift + 1,) uint8: the code of each bucket's first pattern (``j << shift``)."""
     n = (_INF >> shift) + 1
@@ -159,7 +159,7 @@ def _bucket_codes(t, shift):
     return out
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, no_cfunc_wrapper=True)  # (nothing takes its address)
 def _quantize_kernel(bits, t, bucket, shift, inf_code, out):
     """``out[i]``: the code of pattern ``bits[i]`` (N,) int32 under thresholds ``t`` (257,) int32
     (``t[256]``: a sentinel above every finite pattern, so the walk needs no bound); returns how many

@@ -6,21 +6,20 @@ each other (the terms kernels import :mod:`.phong`, and the batched kernel the t
 
 from __future__ import annotations
 
-from numba import njit
-
+from ..common.inline import inline_jit
 from .jit import FLT32_MAX, HELPER
 
 __all__ = ["saturate", "store_pixel", "store_background"]
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def saturate(c):
     """Colour channel ``c`` (float64) saturated at the float32 maximum, as every Phong kernel stores it:
     radiance beyond float32 becomes its maximum, not inf."""
     return min(c, FLT32_MAX)
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def store_pixel(outs, y, x, rgb, n):
     """Write pixel ``(y, x)`` of ``outs = (image, normal)``: its colour ``rgb`` saturated at the
     float32 maximum and, when ``normal`` is an array (not the (0, 0, 3) stand-in), its shading
@@ -36,7 +35,7 @@ def store_pixel(outs, y, x, rgb, n):
         normal[y, x, 2] = n[2]
 
 
-@njit(**HELPER)
+@inline_jit(**HELPER)
 def store_background(outs, y, x, bg):
     """Write background pixel ``(y, x)`` of ``outs = (image, normal)``: the colour ``bg`` (three
     float32) and, when ``normal`` is an array, a zero normal. The batched kernel's queue loop and

@@ -122,8 +122,8 @@ def test_a_cached_kernel_needs_no_helper_build_and_a_new_kernel_reads_it(tmp_pat
 # The modules whose helpers are built by inline_jit (the gradient modules keep njit: not on a
 # frame's path).
 CONVERTED = ("shading.bump", "shading.gouraud", "shading.gouraud_sides", "shading.illumination", "shading.mirror_rays",
-             "shading.mirrors", "shading.normalmap", "shading.phong", "shading.phong_fast", "shading.records",
-             "shading.reflectance", "shading.shadows", "shading.surface", "shading.terms_gouraud",
+             "shading.mirrors", "shading.normalmap", "shading.phong", "shading.phong_fast", "shading.pixelstore",
+             "shading.records", "shading.reflectance", "shading.shadows", "shading.surface", "shading.terms_gouraud",
              "shading.terms_kernel", "shading.texture", "visibility.cast", "visibility.embree", "visibility.hits",
              "visibility.holes", "visibility.secondary", "visibility.tiles", "common.parallel")
 
