@@ -78,15 +78,17 @@ def test_a_caller_differing_in_an_inherited_flag_gets_its_own_build(options):
 
 
 def _builds_of(qualname, run):
-    """The argument types of every build of the compiled function ``qualname`` while ``run()`` runs."""
+    """The argument types of every build of the compiled function ``qualname`` (or of any of a
+    tuple of them) while ``run()`` runs."""
     from numba.core import event
 
+    names = (qualname,) if isinstance(qualname, str) else tuple(qualname)
     seen = []
 
     class _Listener(event.Listener):
         def on_start(self, e):
             disp = e.data.get("dispatcher")
-            if disp is not None and disp.py_func.__qualname__ == qualname:
+            if disp is not None and disp.py_func.__qualname__ in names:
                 seen.append(e.data.get("args"))
 
         def on_end(self, e):
@@ -111,6 +113,29 @@ def test_allocating_overloads_are_built_once_for_callers_of_other_fast_math_and_
         assert plain(2) == 32 and fast(2) == 32
 
     assert len(_builds_of("ol_np_empty.<locals>.impl", run)) == 1  # Numba's key: one per caller
+
+
+def test_integer_min_max_and_int_are_built_once_float_min_max_per_fast_math():
+    """``min``/``max`` of integers and ``int`` of a number have no instruction fast-math flags or the
+    error model change: one build for both callers; ``max`` of floats keeps a build per flag set."""
+    # Argument types nothing else in the suite asks these for.
+    @numba.njit(cache=False)
+    def plain(a, b, x, y):
+        return max(a, b), min(a, b), int(x), max(x, y)
+
+    @numba.njit(cache=False, fastmath=True, error_model="numpy")
+    def fast(a, b, x, y):
+        return max(a, b), min(a, b), int(x), max(x, y)
+
+    def run():
+        args = (np.uint16(3), np.uint16(9), np.float32(2.5), np.float32(-1.0))
+        assert plain(*args) == fast(*args) == (9, 3, 2, 2.5)
+
+    seen = _builds_of(("ol_max.<locals>.impl", "ol_min.<locals>.impl", "ol_int.<locals>.impl"), run)
+    kinds = sorted(str(a) for a in seen)
+    assert kinds.count("(UniTuple(uint16, 2),)") == 2  # max and min, once each
+    assert kinds.count("(float32,)") == 1  # int
+    assert kinds.count("(UniTuple(float32, 2),)") == 2  # max of floats: plain and fast-math
 
 
 def test_overload_builds_have_no_c_wrapper_or_machine_code():
