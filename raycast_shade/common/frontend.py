@@ -264,43 +264,7 @@ class _EntryVars(dict):
         self._pending = None  # an eager post-processing (Numba's) sets the entries of every block it has
         dict.__setitem__(self, key, value)
 
-    def __getitem__(self, key):
-        self._fill()
-        return dict.__getitem__(self, key)
-
-    def __contains__(self, key):
-        self._fill()
-        return dict.__contains__(self, key)
-
-    def __iter__(self):
-        self._fill()
-        return dict.__iter__(self)
-
-    def __len__(self):
-        self._fill()
-        return dict.__len__(self)
-
-    def __eq__(self, other):
-        self._fill()
-        return dict.__eq__(self, other)
-
-    __hash__ = None
-
-    def get(self, key, default=None):
-        self._fill()
-        return dict.get(self, key, default)
-
-    def keys(self):
-        self._fill()
-        return dict.keys(self)
-
-    def values(self):
-        self._fill()
-        return dict.values(self)
-
-    def items(self):
-        self._fill()
-        return dict.items(self)
+    __hash__ = None  # (a dict's: it defines __eq__)
 
     def copy(self):
         self._fill()
@@ -309,6 +273,24 @@ class _EntryVars(dict):
     def __reduce__(self):
         self._fill()
         return dict, (dict(self),)
+
+
+def _filled_first(name):
+    """``dict.<name>``, the pending entries filled first."""
+    read = getattr(dict, name)
+
+    def method(self, *args):
+        self._fill()
+        return read(self, *args)
+
+    method.__name__, method.__qualname__ = name, f"_EntryVars.{name}"
+    return method
+
+
+# Every read of the entries fills the pending ones first.
+for _read in ("__getitem__", "__contains__", "__iter__", "__len__", "__eq__", "get", "keys", "values", "items"):
+    setattr(_EntryVars, _read, _filled_first(_read))
+del _read
 
 
 def install_lazy_entry_vars() -> bool:
