@@ -277,7 +277,7 @@ class _Problem:
         st = self.state
         return dataclasses.replace(self.base, materials=st.mats.copy(),
                                    lighting=lighting(st.ambient.copy(), st.lights.copy(), st.mats, L.dmin, L.handle,
-                                                     L.unit))
+                                                     L.unit, L.ext))
 
     def image(self, x):
         inputs = self._apply(x)

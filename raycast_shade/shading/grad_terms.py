@@ -156,11 +156,11 @@ def _light_vjp(lights, i, s, d, law, cone, dmin, att_on, g_att, gs):
 
 
 @njit(**HELPER)
-def _axes_vjp(lights, i, j, gq, acc, row, ob):
+def _axes_vjp(lights, i, j, gq, acc, row, ob, ext):
     """``acc[row]`` += ``dL/d`` area light ``i``'s packed half-axes ``eu``, ``ev`` from ``gq = dL/dq`` of
     its sample ``j`` at ``q = centre + a eu + b ev``: ``a gq`` and ``b gq``, with ``(a, b)`` (fixed by
     the lattice, not by the axes) read back from ``q`` (the axes are perpendicular)."""
-    q = _light_point(lights, i, j)
+    q = _light_point(lights, i, j, ext)
     a = b = uu = vv = 0.0
     for c in range(3):
         e = q[c] - lights[i, LIGHT_VEC + c]
@@ -200,6 +200,7 @@ def _make_reflected_vjp(rich: bool):
         (an area light's, each a point light at a fixed offset, its shadow ray held as traced), models
         Phong, Blinn-Phong and GGX (:func:`~raycast_shade.shading.grad_ggx._ggx_vjp`)."""
         ambient, lights, dmin, handle, unit, att_on = L.ambient, L.lights, L.dmin, L.handle, L.unit, L.att_on
+        ext = L.ext  # None: the lean build (illumination.LEAN), its branches pruned in the callees
         amb, lb = lay
         mb = mi * GM_SIZE
         for c in range(3):
@@ -216,9 +217,9 @@ def _make_reflected_vjp(rich: bool):
             ob = lb + i * GL_SIZE
             ns = 1
             if rich:
-                ns = _samples(lights, i)
+                ns = _samples(lights, i, ext)
             for j in range(ns):  # an area light's samples: point lights at fixed offsets
-                s, d, law, cone = _light_at(lights, i, j, hp.p, dmin, np.bool_(att_on))
+                s, d, law, cone = _light_at(lights, i, j, hp.p, dmin, np.bool_(att_on), ext)
                 if d == 0.0 or cone == 0.0:
                     continue
                 att = law * cone
@@ -228,7 +229,7 @@ def _make_reflected_vjp(rich: bool):
                 if ndots > 1.0:
                     ndots = 1.0
                 if lights[i, LIGHT_SHADOWS] != 0.0 and handle != 0:  # visibility held fixed: the forward ray
-                    if _occluded(handle, S, hp.o, hp.g, s, _light_point(lights, i, j), d < np.inf, unit):
+                    if _occluded(handle, S, hp.o, hp.g, s, _light_point(lights, i, j, ext), d < np.inf, unit):
                         continue
                 w_att = 0.0
                 if rich and model == MODEL_GGX:
@@ -278,7 +279,7 @@ def _make_reflected_vjp(rich: bool):
                 acc[row, ob + GL_COS_INNER] += g_cones[0]
                 acc[row, ob + GL_COS_OUTER] += g_cones[1]
                 if rich and lights[i, LIGHT_KIND] == LIGHT_AREA:
-                    _axes_vjp(lights, i, j, gq, acc, row, ob)
+                    _axes_vjp(lights, i, j, gq, acc, row, ob, ext)
                 if lights[i, LIGHT_KIND] != LIGHT_DIRECTIONAL:  # s and d depend on q - p only
                     gpx -= gq[0]
                     gpy -= gq[1]

@@ -6,28 +6,56 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..common.layout import ATT_NONE, COLOR_FACE, LIGHT_ATT, LIGHT_DIRECTIONAL, LIGHT_KIND, LIGHT_SHADOWS, MAT_KS
+from ..common.layout import (ATT_NONE, COLOR_FACE, LIGHT_ATT, LIGHT_DIRECTIONAL, LIGHT_KIND, LIGHT_SHADOWS, MAT_KS,
+                             MAT_MODEL)
 from ..visibility.accel import embree_accel
 from ..visibility.rays import camera_frame
 from .records import Bumps, Colours, Geometry, Lighting
 
-__all__ = ["FrameInputs", "prepare", "kernel_inputs", "bump_tuple", "lighting", "colours"]
+__all__ = ["FrameInputs", "prepare", "kernel_inputs", "bump_tuple", "lighting", "colours", "extensions"]
 
 
-def bump_tuple(geo, bump_index, nmap_index) -> Bumps:
-    """``B``: the bump and normal maps of ``geo`` with the given per-model rows (-1: none)."""
+def extensions(lights, materials, nmap_index, tex_on: bool):
+    """A frame's extensions marker ``ext``: None when it needs nothing the lean build leaves out
+    (:data:`~raycast_shade.shading.illumination.LEAN`: only point lights and lights at infinity, Phong
+    and Blinn-Phong, no normal map, no texture), else True. The one place it is derived; it goes into
+    ``L.ext`` and ``B.ext``, and the kernels compile one build for each value.
+
+    Parameters
+    ----------
+    lights : (L, LIGHT_SIZE) float64
+    materials : (G, MAT_SIZE) float64
+    nmap_index : (G,) int
+        Each model's normal-map row (-1: none).
+    tex_on : bool
+        Whether any model has colours or maps (a textured frame takes the full build: its lookups
+        dwarf what the lean build saves, and one build fewer is compiled).
+    """
+    from .illumination import LEAN
+
+    kinds = {int(k) for k in lights[:, LIGHT_KIND]}
+    models = {int(m) for m in materials[:, MAT_MODEL]}
+    lean = (kinds <= LEAN["light_kinds"] and models <= LEAN["models"] and not bool(np.any(nmap_index >= 0))
+            and not tex_on)
+    return None if lean else True
+
+
+def bump_tuple(geo, bump_index, nmap_index, ext) -> Bumps:
+    """``B``: the bump and normal maps of ``geo`` with the given per-model rows (-1: none), and the
+    frame's extensions marker ``ext`` (:func:`extensions`)."""
     return Bumps(geo.uvs, geo.tangents, bump_index, geo.bump_texels, geo.bump_info, nmap_index, geo.nmap_texels,
-                 geo.nmap_info, geo.nmap_scale, geo.vertex_tangents)
+                 geo.nmap_info, geo.nmap_scale, geo.vertex_tangents, ext)
 
 
-def lighting(ambient, lights, materials, dmin, handle, unit) -> Lighting:
+def lighting(ambient, lights, materials, dmin, handle, unit, ext) -> Lighting:
     """``L`` for light rows ``lights`` (L, LIGHT_SIZE) and material rows ``materials`` (G, MAT_SIZE): the one
     place a frame's flags are derived. ``spec_on``: some material has a specular term; ``att_on``: some
-    light attenuates (a light at infinity never does)."""
+    light attenuates (a light at infinity never does); ``ext`` the frame's extensions marker
+    (:func:`extensions`)."""
     spec_on = bool(np.any(materials[:, MAT_KS:MAT_KS + 3] > 0))
     att_on = bool(np.any((lights[:, LIGHT_KIND] != LIGHT_DIRECTIONAL) & (lights[:, LIGHT_ATT] != ATT_NONE)))
     return Lighting(np.asarray(ambient, np.float64), lights, float(dmin), np.uintp(handle), float(unit),
-                    spec_on, att_on, np.zeros((1, 1), np.int8))
+                    spec_on, att_on, np.zeros((1, 1), np.int8), ext)
 
 
 def colours(vertex_colors, face_colors, color_mode, tex_index, tex_texels, tex_info) -> Colours:
@@ -121,10 +149,11 @@ def prepare(scene, camera) -> FrameInputs:
     geo = scene.geometry
     lights = scene.packed_lights()
     handle = embree_accel(geo).handle if lights[:, LIGHT_SHADOWS].any() else 0
+    ext = extensions(lights, geo.materials, geo.nmap_index, geo.textured)
     return FrameInputs(
         geometry=Geometry(geo.vertices, geo.normals, geo.memo(_FACES32, _faces32), geo.face_normals),
-        bumps=bump_tuple(geo, geo.bump_index, geo.nmap_index),
-        lighting=lighting(scene.ambient, lights, geo.materials, 1e-6 * geo.scale, handle, geo.scale),
+        bumps=bump_tuple(geo, geo.bump_index, geo.nmap_index, ext),
+        lighting=lighting(scene.ambient, lights, geo.materials, 1e-6 * geo.scale, handle, geo.scale, ext),
         colours=colours(geo.vertex_colors, geo.face_colors, geo.color_mode, geo.tex_index, geo.tex_texels,
                         geo.tex_info),
         face_off=geo.face_offsets, materials=geo.materials, cam=camera_frame(camera, geo.origin),

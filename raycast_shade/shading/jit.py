@@ -14,7 +14,11 @@ The other flags of a frame (``spec_on``: some material has a specular term;
 ``att_on``: some light attenuates) are run-time fields of the lighting record
 (:class:`~raycast_shade.shading.records.Lighting`): a branch per light that
 costs less than the noise of a frame, where each compile-time flag doubled
-every family's compile time.
+every family's compile time. What a frame holds beyond the lecture's models is a
+compile-time marker instead, ``L.ext`` (None or True, :data:`.illumination.LEAN`):
+each variant compiles one build per value, and a frame compiles only the one it
+takes (the lecture's and the demo's frames compile no spot or area light, GGX
+model or normal map).
 
 The helpers the kernels share are compiled with :data:`HELPER` (see there),
 the few that must stay calls with :data:`CALLED`.

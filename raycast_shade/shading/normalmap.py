@@ -56,12 +56,15 @@ def _nmap_sample(B, k, at, tri):
 
 
 @inline_jit(**HELPER)
-def _normal_map(n, B, normals, at, tri, g, sgn):
+def _normal_map(n, B, normals, at, tri, g, sgn, ext):
     """``n`` (the oriented unit shading normal, 3-tuple) bent by the model's normal map,
     or ``n`` itself when the model has none. ``B`` is the height-map tuple of
     :class:`~raycast_shade.shading.inputs.FrameInputs` (its normal-map fields from index 5);
     ``normals`` the vertex normals; ``at`` the hit on triangle ``tri``; ``g, sgn`` the
-    geometric normal turned to the viewer and the sign that turned it."""
+    geometric normal turned to the viewer and the sign that turned it; ``ext`` the frame's ``B.ext``
+    (None: no model has a normal map, nor any other extension, and this compiles to ``n``)."""
+    if ext is None:
+        return n
     k = B.nmap_index[at.gm]
     if k < 0:
         return n

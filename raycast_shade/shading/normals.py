@@ -9,7 +9,7 @@ from ..common.parallel import in_parts, share
 from ..common.layout import METHOD_FLAT, METHOD_PHONG
 from ..common.schedule import BLOCK_ROWS, spread_step
 from ..visibility.rays import camera_frame
-from .inputs import bump_tuple
+from .inputs import bump_tuple, extensions
 from .jit import JIT
 from .phong import _surface
 from .records import At
@@ -75,7 +75,9 @@ def normal_inputs(scene, camera, shading="phong") -> tuple:
     geo = scene.geometry
     # Bumps only apply where the normal is per pixel.
     bump_index = np.where(modes == METHOD_PHONG, geo.bump_index, -1).astype(np.int32)
-    B = bump_tuple(geo, bump_index, np.where(modes == METHOD_PHONG, geo.nmap_index, -1).astype(np.int32))
+    nmap_index = np.where(modes == METHOD_PHONG, geo.nmap_index, -1).astype(np.int32)
+    B = bump_tuple(geo, bump_index, nmap_index, extensions(scene.packed_lights(), geo.materials, nmap_index,
+                                                           geo.textured))
     return ((geo.vertices, geo.normals, geo.faces, geo.face_normals), B, geo.face_offsets,
             camera_frame(camera, geo.origin), modes)
 

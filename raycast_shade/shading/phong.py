@@ -67,7 +67,7 @@ def _surface(G, B, cam, at, use_dir, d):
     g, sgn = _facing(fnormals, f, v)
     n = _shading_normal(normals, tri, b1, b2, g, sgn)
     n = _bump(n, B, at, tri, (sgn * g[0], sgn * g[1], sgn * g[2]))
-    n = _normal_map(n, B, normals, at, tri, g, sgn)
+    n = _normal_map(n, B, normals, at, tri, g, sgn, B.ext)
     return Hit(p, v, g, sgn, n, p)
 
 
@@ -212,7 +212,7 @@ def _make_phong_packets(tex_on: bool = False):
                         pp, vv, gg, sg, nn, oo = stored_point(points, k)
                         coef = stored_coef(points, k) if tex_on else _row_coefficients(materials, gm)
                         rgb = _reflected(Hit(pp, vv, gg, sg, nn, oo), coef, materials, gm, L, S, vis, k,
-                                         spec_on, att_on, None, 0, 0)
+                                         spec_on, att_on, None, 0, 0, L.ext)
                         store_pixel((image, normal), ty + k // _TILE, tx + k % _TILE, rgb, nn)
 
     return _shade_phong_packets_kernel

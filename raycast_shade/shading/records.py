@@ -44,17 +44,22 @@ At = namedtuple("At", ["f", "gm", "b1", "b2"])
 Geometry = namedtuple("Geometry", ["verts", "normals", "faces", "face_normals"])
 """``G``: verts (V, 3) f8, normals (V, 3) f8, faces (F, 3) i4, face normals (F, 3) f8."""
 Bumps = namedtuple("Bumps", ["uvs", "tangents", "bump_index", "bump_texels", "bump_info", "nmap_index",
-                             "nmap_texels", "nmap_info", "nmap_scale", "vertex_tangents"])
+                             "nmap_texels", "nmap_info", "nmap_scale", "vertex_tangents", "ext"])
 """``B``: uvs (V, 2) f8, face tangents (F, 6) f8, height-map row per model (G,) i4 (-1 none), its
 texels (T,) f4 and rows (B, BUMP_SIZE) f8, normal-map row per model (G,) i4, its texels (N,) f4 and
-rows (K, TEX_SIZE) f8, normal scale per model (G,) f8, vertex tangents (V, 4) f8."""
-Lighting = namedtuple("Lighting", ["ambient", "lights", "dmin", "handle", "unit", "spec_on", "att_on", "no_vis"])
+rows (K, TEX_SIZE) f8, normal scale per model (G,) f8, vertex tangents (V, 4) f8; ``ext``, the frame's
+extensions marker (as ``Lighting.ext``)."""
+Lighting = namedtuple("Lighting", ["ambient", "lights", "dmin", "handle", "unit", "spec_on", "att_on", "no_vis",
+                                   "ext"])
 """``L``: ambient (3,) f8, light rows (L, LIGHT_SIZE) f8, the inverse-square clamp ``dmin`` f8, the
 Embree scene handle (uintp; 0 when no light casts shadows), the scene's size ``unit`` f8 (ray
 offsets), and the frame's flags ``spec_on`` (some material has a specular term) and ``att_on``
 (some light attenuates), run-time booleans that skip arithmetic no model or light needs; ``no_vis``
 (1, 1) i1, the packet answers of a point shaded without packets (never read: its lane is -1). A
-writable array of the packets' own type, so that the evaluator compiles once for both."""
+writable array of the packets' own type, so that the evaluator compiles once for both. ``ext``: None
+when the frame needs nothing beyond the lecture's models (:data:`.illumination.LEAN`), else True; a
+compile-time marker, not a flag: the kernels compile one build for each (Numba prunes the branches
+of spot and area lights, the GGX model and normal maps where it is None, before typing them)."""
 Colours = namedtuple("Colours", ["vertex_colors", "face_colors", "color_mode", "tex_index", "tex_texels",
                                  "tex_info", "modulate"])
 """``T``: vertex colours (V, 3) f8, face colours (F, 3) f8, colour mode per model (G,) i1, map rows

@@ -165,17 +165,19 @@ MODELS = {MODEL_PHONG: Reflectance(_lambert, _phong), MODEL_BLINN: Reflectance(_
 
 
 @inline_jit(**HELPER)
-def _diffuse(model, n, s, v, ndots, c, p):
-    """The diffuse term of :data:`MODELS` ``[model]``; unknown codes are Lambert's."""
-    if model == MODEL_GGX:
+def _diffuse(model, n, s, v, ndots, c, p, ext):
+    """The diffuse term of :data:`MODELS` ``[model]``; unknown codes are Lambert's. ``ext``: the
+    frame's ``L.ext`` (None: the lean build, Phong and Blinn only, GGX pruned at compile time)."""
+    if ext is not None and model == MODEL_GGX:
         return _ggx_diffuse(n, s, v, ndots, c, p)
     return _lambert(n, s, v, ndots, c, p)
 
 
 @inline_jit(**HELPER)
-def _specular(model, n, s, v, ndots, c, p):
-    """The specular term of :data:`MODELS` ``[model]``; unknown codes are Phong's."""
-    if model == MODEL_GGX:
+def _specular(model, n, s, v, ndots, c, p, ext):
+    """The specular term of :data:`MODELS` ``[model]``; unknown codes are Phong's. ``ext`` as for
+    :func:`_diffuse`."""
+    if ext is not None and model == MODEL_GGX:
         return _ggx_specular(n, s, v, ndots, c, p)
     if model == MODEL_BLINN:
         return _blinn(n, s, v, ndots, c, p)

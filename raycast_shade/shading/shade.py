@@ -35,7 +35,7 @@ from .inputs import prepare
 from .jit import JIT, variant
 from .mirror_rays import NO_RAYS
 from .phong import _PHONG, _PHONG_PACKETS
-from .phong_fast import _NO_NORMALS, _PHONG_FAST, _PHONG_FAST_SHADOWS, applies as _fast_applies
+from .phong_fast import _NO_NORMALS, _PHONG_FAST, _PHONG_FAST_SHADOWS, applies as _fast_applies, lean_lighting
 
 __all__ = ["SHADINGS", "METHODS", "shade", "shade_hits", "resolve_methods", "SampleShading", "accumulate",
            "sample_mean", "GROUP"]
@@ -286,7 +286,7 @@ class SampleShading:
         outs = (image, normals, NO_RAYS if rays is None else rays)
         if self.fast_phong:  # shadow rays (a scene handle) go as packets of 16 of its lanes
             fast = _PHONG_FAST_SHADOWS if k.lighting.handle != 0 else _PHONG_FAST
-            fast(hits.prim, hits.geom, hits.u, hits.v, k["G"], k["L"], k["face_off"],
+            fast(hits.prim, hits.geom, hits.u, hits.v, k["G"], lean_lighting(k["L"]), k["face_off"],
                                             k["materials"], k["cam"], k["background"], modes, outs)
         elif self.phong:  # textures or maps; shadow rays (a scene handle) go as packets of 4x4 pixels
             variant(_PHONG_PACKETS if k.lighting.handle != 0 else _PHONG, k)(

@@ -54,14 +54,14 @@ _SPLIT = (0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0)  # the mod
 
 
 @inline_jit(**HELPER)
-def _reach(lights, p, n, dmin, att_on, reach, row):
+def _reach(lights, p, n, dmin, att_on, reach, row, ext):
     """Each light's ``cone (n.s)`` at ``p`` with normal ``n``, summed over its samples, into
     ``reach[:, row, 0]`` (0 where it does not reach): what the shadow probe's unit light gives
-    there unshadowed."""
+    there unshadowed. ``ext``: the frame's ``L.ext`` (:func:`.illumination._light_at`)."""
     for i in range(lights.shape[0]):
         total = 0.0
-        for j in range(_samples(lights, i)):
-            s, d, att, cone = _light_at(lights, i, j, p, dmin, np.bool_(att_on))
+        for j in range(_samples(lights, i, ext)):
+            s, d, att, cone = _light_at(lights, i, j, p, dmin, np.bool_(att_on), ext)
             if d == 0.0 or cone == 0.0:
                 continue
             ndots = dot(n, s)
@@ -90,7 +90,7 @@ def _vertex_side(V, hp, coef, materials, m, L, S, spec_on, att_on, splitting, i,
     vcol[i, side, 1] = rgb[1]
     vcol[i, side, 2] = rgb[2]
     if L.handle != 0:  # the reach is read only for the mask of a light with shadow rays (_pixel_lights)
-        _reach(L.lights, hp.p, hp.n, L.dmin, att_on, V[VERT_REACH], row)
+        _reach(L.lights, hp.p, hp.n, L.dmin, att_on, V[VERT_REACH], row, L.ext)
 
 
 def _make_vertex_terms(tex_on: bool = False):
@@ -159,7 +159,7 @@ def _corner_terms(V, C, G, i, side, g, materials, m, cam, L, S, coef, spec_on, a
     p, v = _vertex_point(verts, cam, i)
     _illuminate_terms(Hit(p, v, g, 1.0, n, p), coef, materials, m, L, S, spec_on, att_on, C, k, 0)
     if L.handle != 0:
-        _reach(L.lights, p, n, L.dmin, att_on, C[VERT_REACH], k)
+        _reach(L.lights, p, n, L.dmin, att_on, C[VERT_REACH], k, L.ext)
 
 
 @inline_jit(**HELPER)

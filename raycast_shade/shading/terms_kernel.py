@@ -70,7 +70,7 @@ def _illuminate_terms(hp, coef, mats, mi, L, S, spec_on, att_on, R, y, x):
     """:func:`~raycast_shade.shading.illumination._reflected` at ``hp`` with the terms record ``R``:
     the same RGB (the same evaluator), its parts also stored at ``(y, x)`` of ``R`` (see the
     module docstring); shadow rays traced one at a time."""
-    return _reflected(hp, coef, mats, mi, L, S, L.no_vis, np.int64(-1), spec_on, att_on, R, y, x)
+    return _reflected(hp, coef, mats, mi, L, S, L.no_vis, np.int64(-1), spec_on, att_on, R, y, x, L.ext)
 
 
 @inline_jit(**HELPER)

@@ -32,7 +32,7 @@ from ..common.layout import MAT_KE, MAT_REFLECTIVITY, METHOD_FLAT, METHOD_GOURAU
 from ..common.schedule import BLOCK_ROWS
 from .jit import variant
 from .mirrors import trace_mirrors
-from .phong_fast import _NO_NORMALS, _PHONG_FAST_TERMS
+from .phong_fast import _NO_NORMALS, _PHONG_FAST_TERMS, lean_lighting
 from .phong_fast import applies as _fast_applies
 from .shade import Seen, resolve_methods
 from .gouraud import prefetch_distance
@@ -239,7 +239,7 @@ class TermShading:
             variant(_GOURAUD_TERMS, k)((hits.prim, hits.geom, hits.u, hits.v), k.geometry, k.bumps, k.face_off,
                                        k.materials, k.cam, k.lighting, k.colours, modes, image, self.R, V)
         if self.fast_phong:
-            _PHONG_FAST_TERMS(hits.prim, hits.geom, hits.u, hits.v, k.geometry, k.lighting,
+            _PHONG_FAST_TERMS(hits.prim, hits.geom, hits.u, hits.v, k.geometry, lean_lighting(k.lighting),
                                                    k.face_off, k.materials, k.cam, k.background, modes,
                                                    (image, _NO_NORMALS, self.R, y0))
         elif self.phong:

@@ -45,7 +45,7 @@ def test_one_sample_is_the_point_light_at_the_centre_bit_for_bit(shape, shadows)
 def _points(rows, i, n):
     out = np.empty((n, 3))
     for j in range(n):
-        out[j, 0], out[j, 1], out[j, 2] = _light_point(rows, i, j)
+        out[j, 0], out[j, 1], out[j, 2] = _light_point(rows, i, j, np.bool_(True))
     return out
 
 

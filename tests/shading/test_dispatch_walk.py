@@ -5,7 +5,11 @@ The batched Phong kernel declares what its passes implement (``phong_fast.HANDLE
 builds a frame for each combination (lights casting shadows or not) and requires that the dispatch
 takes the batched kernel only for declared codes, and that wherever it does, its image is the
 general kernel's (the one evaluator) bit for bit. A new light kind or model that is not declared
-therefore takes the general kernel; one that is declared but shaded as another kind fails here."""
+therefore takes the general kernel; one that is declared but shaded as another kind fails here.
+
+The general kernels' lean build declares its part too (``illumination.LEAN``): the walk requires that a
+frame takes it only when everything it holds is declared there, and that the lean build's image is the
+full build's, bit for bit."""
 
 from __future__ import annotations
 
@@ -19,11 +23,12 @@ import raycast_shade as rs
 from raycast_shade.common import layout as lay
 from raycast_shade.scene.lights import Light
 from raycast_shade.shading import reflectance
+from raycast_shade.shading.illumination import LEAN
 from raycast_shade.shading.inputs import prepare
 from raycast_shade.shading.jit import variant
 from raycast_shade.shading.mirror_rays import NO_RAYS
 from raycast_shade.shading.phong import _PHONG
-from raycast_shade.shading.phong_fast import _PHONG_FAST, _PHONG_FAST_SHADOWS, HANDLES, applies
+from raycast_shade.shading.phong_fast import _PHONG_FAST, _PHONG_FAST_SHADOWS, HANDLES, applies, lean_lighting
 from raycast_shade.shading.shade import resolve_methods
 
 W, H = 20, 16
@@ -61,6 +66,7 @@ def test_every_light_class_is_a_registered_kind_and_every_kind_has_a_class():
     assert HANDLES["light_kinds"] <= set(lay.LIGHT_KINDS.values())
     assert HANDLES["attenuations"] <= set(lay.ATT_CODE.values())
     assert HANDLES["models"] <= set(lay.MODEL_CODE.values())
+    assert LEAN["light_kinds"] <= set(lay.LIGHT_KINDS.values()) and LEAN["models"] <= set(lay.MODEL_CODE.values())
 
 
 COMBOS = list(itertools.product(_light_classes(), lay.ATT_CODE, lay.MODEL_CODE, (False, True)))
@@ -82,15 +88,26 @@ def test_the_batched_kernel_takes_only_what_it_declares_and_is_then_the_general_
                 and (not law_read or row[lay.LIGHT_ATT] in HANDLES["attenuations"])
                 and lay.MODEL_CODE[model] in HANDLES["models"])
     assert applies(modes, k) == declared
+    lean = row[lay.LIGHT_KIND] in LEAN["light_kinds"] and lay.MODEL_CODE[model] in LEAN["models"]
+    assert (k.lighting.ext is None) == lean and (k.bumps.ext is None) == lean
+    hits = rs.render(scene).hits
+
+    def general(L, B):
+        out = np.full((H, W, 3), np.nan, np.float32)
+        variant(_PHONG, k)((hits.prim, hits.geom, hits.u, hits.v), k.geometry, B, L, k.colours, k.face_off,
+                           k.materials, k.cam, k.background, modes, (out, np.empty((0, 0, 3), np.float32), NO_RAYS), 0)
+        return out
+
+    image = general(k.lighting, k.bumps)
+    if lean:  # the lean build shades as the full one
+        full = general(k.lighting._replace(ext=True), k.bumps._replace(ext=True))
+        assert np.array_equal(image.view(np.uint32), full.view(np.uint32))
     if not declared:
         return
-    hits = rs.render(scene).hits
-    general = np.full((H, W, 3), np.nan, np.float32)
-    fast = general.copy()
-    variant(_PHONG, k)((hits.prim, hits.geom, hits.u, hits.v), k.geometry, k.bumps, k.lighting, k.colours, k.face_off,
-                       k.materials, k.cam, k.background, modes, (general, np.empty((0, 0, 3), np.float32), NO_RAYS), 0)
+    fast = np.full((H, W, 3), np.nan, np.float32)
     kernel = _PHONG_FAST_SHADOWS if k.lighting.handle != 0 else _PHONG_FAST
-    kernel(hits.prim, hits.geom, hits.u, hits.v, k.geometry, k.lighting, k.face_off, k.materials, k.cam, k.background,
-           modes, (fast, np.empty((0, 0, 3), np.float32), NO_RAYS))
+    kernel(hits.prim, hits.geom, hits.u, hits.v, k.geometry, lean_lighting(k.lighting), k.face_off, k.materials,
+           k.cam, k.background, modes, (fast, np.empty((0, 0, 3), np.float32), NO_RAYS))
+    general = image
     assert np.array_equal(general.view(np.uint32), fast.view(np.uint32))
     assert np.nanmax(general) > 0.05  # the light reaches what the camera sees

@@ -33,8 +33,8 @@ def _terms_many(n, S, v, c, p):
         if ndots <= 0.0:
             continue
         ndots = min(ndots, 1.0)
-        d = reflectance._diffuse(lay.MODEL_GGX, n, s, v, ndots, c, p)
-        t = reflectance._specular(lay.MODEL_GGX, n, s, v, ndots, c, p)
+        d = reflectance._diffuse(lay.MODEL_GGX, n, s, v, ndots, c, p, np.bool_(True))
+        t = reflectance._specular(lay.MODEL_GGX, n, s, v, ndots, c, p, np.bool_(True))
         out[i, 0], out[i, 1], out[i, 2] = d
         out[i, 3], out[i, 4], out[i, 5] = t
     return out

@@ -32,7 +32,7 @@ def _light_at_all(lights, p, dmin, att_on):
     s = np.empty((n, 3))
     rest = np.empty((n, 3))
     for i in range(n):
-        si, d, att, cone = _light_at(lights, i, 0, (p[0], p[1], p[2]), dmin, att_on)
+        si, d, att, cone = _light_at(lights, i, 0, (p[0], p[1], p[2]), dmin, att_on, np.bool_(True))
         s[i, 0], s[i, 1], s[i, 2] = si
         rest[i, 0], rest[i, 1], rest[i, 2] = d, att, cone
     return s, rest
@@ -91,7 +91,8 @@ def test_a_light_on_the_point_gives_no_light():
 
 @njit(cache=False)
 def _terms(model, n, s, v, ndots, c, p):
-    return reflectance._diffuse(model, n, s, v, ndots, c, p), reflectance._specular(model, n, s, v, ndots, c, p)
+    return (reflectance._diffuse(model, n, s, v, ndots, c, p, np.bool_(True)),
+            reflectance._specular(model, n, s, v, ndots, c, p, np.bool_(True)))
 
 
 @njit(cache=False)
