@@ -12,7 +12,8 @@ from ..visibility.accel import embree_accel
 from ..visibility.rays import camera_frame
 from .records import Bumps, Colours, Geometry, Lighting
 
-__all__ = ["FrameInputs", "prepare", "kernel_inputs", "bump_tuple", "lighting", "colours", "extensions"]
+__all__ = ["FrameInputs", "prepare", "kernel_inputs", "bump_tuple", "lighting", "colours", "extensions",
+           "lean_lighting"]
 
 
 def extensions(lights, materials, nmap_index, tex_on: bool):
@@ -38,6 +39,12 @@ def extensions(lights, materials, nmap_index, tex_on: bool):
     lean = (kinds <= LEAN["light_kinds"] and models <= LEAN["models"] and not bool(np.any(nmap_index >= 0))
             and not tex_on)
     return None if lean else True
+
+
+def lean_lighting(L) -> Lighting:
+    """``L`` with the lean marker (``ext`` None), for a kernel that reads no marker (the batched Phong
+    kernel, whose passes implement its spot lights themselves): every frame it takes shares one build."""
+    return L if L.ext is None else L._replace(ext=None)
 
 
 def bump_tuple(geo, bump_index, nmap_index, ext) -> Bumps:

@@ -70,7 +70,7 @@ from .pixelstore import saturate, store_background
 from .shadows import LANES as PACKET_LANES, _packets, _shadow_ray, _strip_background
 from .terms_kernel import _miss, _scatter_terms
 
-__all__ = ["LANES", "applies", "HANDLES", "lean_lighting"]
+__all__ = ["LANES", "applies", "HANDLES"]
 
 _TILE = 4  # a shadowed frame's pixels are queued by tiles of 4x4 (BLOCK_ROWS is a multiple of it)
 _NO_NORMALS = np.empty((0, 0, 3), np.float32)  # the kernel's normal output when none is asked for
@@ -80,21 +80,6 @@ _NO_NORMALS = np.empty((0, 0, 3), np.float32)  # the kernel's normal output when
 HANDLES = dict(light_kinds=frozenset({LIGHT_POINT, LIGHT_DIRECTIONAL, LIGHT_SPOT}),
                attenuations=frozenset({ATT_NONE, ATT_INVERSE_SQUARE, ATT_HEURISTIC}),
                models=frozenset({MODEL_PHONG, MODEL_BLINN}))
-
-
-def lean_lighting(L):
-    """``L`` with the lean extensions marker (``ext`` None): the batched kernel's passes implement its
-    spot lights themselves and read no marker, so every frame it takes shares one build.
-
-    Parameters
-    ----------
-    L : Lighting
-
-    Returns
-    -------
-    Lighting
-    """
-    return L if L.ext is None else L._replace(ext=None)
 
 
 def applies(modes, k) -> bool:

@@ -31,11 +31,11 @@ from ..visibility.hits import check_hits
 from .flat import _FLAT, _lookup_flat_kernel
 from .gouraud import _INTERPOLATE, _VERTICES, prefetch_distance
 from .gouraud_sides import _face_sides_kernel, _near_face, face_planes
-from .inputs import prepare
+from .inputs import lean_lighting, prepare
 from .jit import JIT, variant
 from .mirror_rays import NO_RAYS
 from .phong import _PHONG, _PHONG_PACKETS
-from .phong_fast import _NO_NORMALS, _PHONG_FAST, _PHONG_FAST_SHADOWS, applies as _fast_applies, lean_lighting
+from .phong_fast import _NO_NORMALS, _PHONG_FAST, _PHONG_FAST_SHADOWS, applies as _fast_applies
 
 __all__ = ["SHADINGS", "METHODS", "shade", "shade_hits", "resolve_methods", "SampleShading", "accumulate",
            "sample_mean", "GROUP"]

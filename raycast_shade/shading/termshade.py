@@ -32,7 +32,8 @@ from ..common.layout import MAT_KE, MAT_REFLECTIVITY, METHOD_FLAT, METHOD_GOURAU
 from ..common.schedule import BLOCK_ROWS
 from .jit import variant
 from .mirrors import trace_mirrors
-from .phong_fast import _NO_NORMALS, _PHONG_FAST_TERMS, lean_lighting
+from .inputs import lean_lighting
+from .phong_fast import _NO_NORMALS, _PHONG_FAST_TERMS
 from .phong_fast import applies as _fast_applies
 from .shade import Seen, resolve_methods
 from .gouraud import prefetch_distance

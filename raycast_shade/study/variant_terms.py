@@ -25,7 +25,7 @@ import numpy as np
 
 from ..common.layout import LIGHT_SHADOWS, LIGHT_SIZE, MAT_KA, MAT_KD, MAT_KE, MAT_KS, TEXMAP_KD
 from ..scene.lights import PointLight
-from ..shading.inputs import colours, lighting, prepare
+from ..shading.inputs import colours, extensions, lighting, prepare
 from ..shading.shade import SampleShading
 
 __all__ = ["variant_inputs", "coefficient_rows", "shadow_probe", "shadow_mask", "variant_terms"]
@@ -76,7 +76,10 @@ def variant_inputs(inputs, origin, materials=None, colors=None, lights=None):
             rows[i] = light.pack(origin)
         # prepare() passes the BVH only when a light casts shadows (it moves the shadow-ray origin).
         handle = handle if rows[:, LIGHT_SHADOWS].any() else np.uintp(0)
-    changes["lighting"] = lighting(L.ambient, rows, mats, L.dmin, handle, L.unit)  # the flags, as prepare()'s
+    # the flags and the extensions marker, as prepare()'s (other lights or materials may need the full build)
+    ext = extensions(rows, mats, inputs.bumps.nmap_index, inputs.tex_on)
+    changes["lighting"] = lighting(L.ambient, rows, mats, L.dmin, handle, L.unit, ext)
+    changes["bumps"] = inputs.bumps._replace(ext=ext)
     return dataclasses.replace(inputs, **changes)
 
 

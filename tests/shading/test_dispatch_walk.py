@@ -24,11 +24,11 @@ from raycast_shade.common import layout as lay
 from raycast_shade.scene.lights import Light
 from raycast_shade.shading import reflectance
 from raycast_shade.shading.illumination import LEAN
-from raycast_shade.shading.inputs import prepare
+from raycast_shade.shading.inputs import lean_lighting, prepare
 from raycast_shade.shading.jit import variant
 from raycast_shade.shading.mirror_rays import NO_RAYS
 from raycast_shade.shading.phong import _PHONG
-from raycast_shade.shading.phong_fast import _PHONG_FAST, _PHONG_FAST_SHADOWS, HANDLES, applies, lean_lighting
+from raycast_shade.shading.phong_fast import _PHONG_FAST, _PHONG_FAST_SHADOWS, HANDLES, applies
 from raycast_shade.shading.shade import resolve_methods
 
 W, H = 20, 16
