@@ -79,7 +79,8 @@ def variant_inputs(inputs, origin, materials=None, colors=None, lights=None):
     # the flags and the extensions marker, as prepare()'s (other lights or materials may need the full build)
     ext = extensions(rows, mats, inputs.bumps.nmap_index, inputs.tex_on)
     changes["lighting"] = lighting(L.ambient, rows, mats, L.dmin, handle, L.unit, ext)
-    changes["bumps"] = inputs.bumps._replace(ext=ext)
+    if ext is not inputs.bumps.ext:  # (else the frame's record, shared)
+        changes["bumps"] = inputs.bumps._replace(ext=ext)
     return dataclasses.replace(inputs, **changes)
 
 
