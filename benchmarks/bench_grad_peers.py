@@ -65,12 +65,13 @@ def _load():
     return round(os.getloadavg()[0], 2)
 
 
-def _newest_llvm():
+def _newest_llvm() -> bool:
     """Set ``DRJIT_LIBLLVM_PATH`` (unless set) to the newest system libLLVM of major version 16 or more:
     drjit 1.5's kernels use ``llvm.minimum``, which LLVM 15's x86 back end cannot select (it aborts
-    the process: "LLVM ERROR: Cannot select ... fminimum"), and drjit may find 15 first."""
+    the process: "LLVM ERROR: Cannot select ... fminimum"), and drjit may find 15 first. Returns
+    whether a path is set (False: none found, and drjit must not be loaded)."""
     if "DRJIT_LIBLLVM_PATH" in os.environ:
-        return
+        return True
     found = []
     for path in glob.glob("/usr/lib/*/libLLVM*.so*") + glob.glob("/usr/lib/llvm-*/lib/libLLVM*.so*"):
         m = re.search(r"libLLVM(?:-|\.so\.)(\d+)", os.path.basename(path))
@@ -78,11 +79,14 @@ def _newest_llvm():
             found.append((int(m.group(1)), path))
     if found:
         os.environ["DRJIT_LIBLLVM_PATH"] = max(found)[1]
+    return bool(found)
 
 
 def _mitsuba_cases(mesh, width, height, weights, folder):
     """``{case: callable}`` for Mitsuba 3's llvm_ad_rgb, or a string saying why it cannot run."""
-    _newest_llvm()
+    if not _newest_llvm():  # an older LLVM would abort the whole process inside drjit, not raise
+        return ("drjit needs libLLVM 16 or newer and none was found (apt-get install libllvm19, or set "
+                "DRJIT_LIBLLVM_PATH)")
     try:
         import drjit as dr
         import mitsuba as mi
@@ -91,7 +95,7 @@ def _mitsuba_cases(mesh, width, height, weights, folder):
     try:
         mi.set_variant("llvm_ad_rgb")
     except Exception as exc:  # noqa: BLE001 - drjit says why LLVM is missing; the row quotes it
-        return f"llvm_ad_rgb unavailable: {type(exc).__name__}: {exc} (apt-get install libllvm15; DRJIT_LIBLLVM_PATH)"
+        return f"llvm_ad_rgb unavailable: {type(exc).__name__}: {exc} (apt-get install libllvm19; DRJIT_LIBLLVM_PATH)"
     obj = os.path.join(folder, "sphere.obj")
     with open(obj, "w") as fh:
         fh.writelines(f"v {x:.17g} {y:.17g} {z:.17g}\n" for x, y, z in mesh.vertices)
