@@ -31,8 +31,8 @@ kernel (:mod:`.phong_fast`) evaluates the same equation lane-parallel for the li
 laws and models it declares (``phong_fast.HANDLES``); every other frame comes here.
 
 The evaluator models no more than a frame needs: :data:`LEAN` declares the lecture's part (point
-lights and lights at infinity, Phong and Blinn-Phong, no normal maps, no textures). A frame within
-it carries ``L.ext = None`` (:func:`~raycast_shade.shading.inputs.extensions`), and every helper
+lights and lights at infinity, Phong and Blinn-Phong). A frame within it, without normal maps or
+textures, carries ``L.ext = None`` (:func:`~raycast_shade.shading.inputs.extensions`), and every helper
 that holds an extension's branch (:func:`_light_at`, :func:`_light_point`, :func:`_samples`, the
 models' ``_diffuse`` and ``_specular``, ``normalmap._normal_map``) takes it as its argument ``ext``,
 so Numba prunes the spot and area lights, the GGX model and normal maps before typing them: the
@@ -45,11 +45,11 @@ from __future__ import annotations
 import numpy as np
 from ..common.inline import inline_jit
 
-from ..common.layout import (AREA_DISC, LIGHT_POINT, MODEL_BLINN, MODEL_PHONG, ATT_HEURISTIC, ATT_INVERSE_SQUARE, LIGHT_AREA, LIGHT_ATT, LIGHT_AXIS,
+from ..common.layout import (AREA_DISC, ATT_HEURISTIC, ATT_INVERSE_SQUARE, LIGHT_AREA, LIGHT_ATT, LIGHT_AXIS,
                              LIGHT_COS_INNER, LIGHT_COS_OUTER, LIGHT_DIRECTIONAL, LIGHT_EDGE_U, LIGHT_EDGE_V,
                              LIGHT_EXPONENT, LIGHT_K, LIGHT_KIND, LIGHT_RADIANCE, LIGHT_SAMPLES, LIGHT_SHADOWS,
                              LIGHT_SHAPE, LIGHT_SPOT, LIGHT_VEC, MAT_KS, MAT_METALLIC, MAT_MODEL, MAT_ROUGHNESS,
-                             MAT_SHININESS)
+                             MAT_SHININESS, LIGHT_POINT, MODEL_BLINN, MODEL_PHONG)
 from .jit import CALLED, HELPER
 from .records import (TERM_AMBIENT, TERM_DIFFUSE, TERM_EMISSIVE, TERM_SPECULAR, TERMS_EACH, TERMS_EMIT_ON,
                       TERMS_SHADOW, dot, store3)
@@ -60,10 +60,10 @@ __all__ = ["GOLDEN", "LEAN"]
 
 GOLDEN = 0.6180339887498949  # the golden ratio's fractional part: the sample lattice's second axis
 
-# What the lean build implements (layout codes): the light kinds and reflectance models of the lecture,
-# without normal maps or textures. Every other frame takes the full build (L.ext True).
-LEAN = dict(light_kinds=frozenset({LIGHT_POINT, LIGHT_DIRECTIONAL}), models=frozenset({MODEL_PHONG, MODEL_BLINN}),
-            normal_maps=False, textures=False)
+# What the lean build implements (layout codes): the light kinds and reflectance models of the lecture.
+# A frame with anything else, or with a normal map or a texture, takes the full build (L.ext True;
+# inputs.extensions decides).
+LEAN = dict(light_kinds=frozenset({LIGHT_POINT, LIGHT_DIRECTIONAL}), models=frozenset({MODEL_PHONG, MODEL_BLINN}))
 
 
 @inline_jit(**HELPER)

@@ -10,6 +10,7 @@ from ..common.layout import (ATT_NONE, COLOR_FACE, LIGHT_ATT, LIGHT_DIRECTIONAL,
                              MAT_MODEL)
 from ..visibility.accel import embree_accel
 from ..visibility.rays import camera_frame
+from .illumination import LEAN
 from .records import Bumps, Colours, Geometry, Lighting
 
 __all__ = ["FrameInputs", "prepare", "kernel_inputs", "bump_tuple", "lighting", "colours", "extensions",
@@ -32,8 +33,6 @@ def extensions(lights, materials, nmap_index, tex_on: bool):
         Whether any model has colours or maps (a textured frame takes the full build: its lookups
         dwarf what the lean build saves, and one build fewer is compiled).
     """
-    from .illumination import LEAN
-
     kinds = {int(k) for k in lights[:, LIGHT_KIND]}
     models = {int(m) for m in materials[:, MAT_MODEL]}
     lean = (kinds <= LEAN["light_kinds"] and models <= LEAN["models"] and not bool(np.any(nmap_index >= 0))

@@ -43,7 +43,8 @@ _JUMP = 1e-3  # a hit farther than both neighbours by this fraction of their dep
 _refine_compiled = _refine_kernel.kernel  # called from compiled code, whole (SERIAL): a few rays
 
 
-@inline_jit(cache=True, forceinline=True, _nrt=False)  # LLVM-inlined per pixel (Numba's inlining copies its IR per caller)
+# LLVM-inlined per pixel (Numba's own inlining copied its IR into each caller)
+@inline_jit(cache=True, forceinline=True, _nrt=False)
 def _suspicious(prim, t, jump, y, x):
     """A miss between two hits, or a hit farther than both of them by ``jump`` of
     their depth: the two marks a ray leaves when it slips through a vertex."""
@@ -116,7 +117,8 @@ def _suspicious_rows_parts(prim, t, jump, rows, part):
         rows[y] = row
 
 
-@njit(cache=True, no_cfunc_wrapper=True)  # serial: it reads only the rows that have a flag, a parallel launch would cost more
+# Serial: it reads only the rows that have a flag, a parallel launch would cost more.
+@njit(cache=True, no_cfunc_wrapper=True)
 def _gather_kernel(prim, t, jump, rows, ys, xs):
     """The flagged pixels' ``ys``, ``xs`` (n,) int64 in row-major order, as ``np.nonzero``
     of the mask of :func:`_suspicious` gives them."""
