@@ -115,9 +115,15 @@ def _step_screen():
 
 
 def _step_spot():
+    """A spot light: the kernels' full build (``shading.illumination.LEAN`` holds only point lights and
+    lights at infinity), which area lights and the GGX model take too; with mirrors and terms, as the
+    other steps take the lean build's."""
     spot = SpotLight(position=(0.0, 3.0, 0.0), direction=(0.0, -1.0, 0.0), intensity=2.2, exponent=8,
                         inner_angle=22, outer_angle=32, shadows=True)
     _methods(_scene(lights=[spot]))
+    mirror = Material(kd=0.6, reflectivity=0.4)
+    _methods(_scene(lights=[spot], floor=mirror), max_depth=3)
+    _methods(_scene(lights=[spot], floor=mirror), terms=True)
 
 
 def _step_mirror():
@@ -185,7 +191,7 @@ STEPS = (
     ("batched Phong (no shadows or maps)", _step_batched),
     ("heuristic and no attenuation, Blinn", _step_laws),
     ("2D (screen-space) interpolation", _step_screen),
-    ("spot light", _step_spot),
+    ("spot light (the full build), mirrors, terms", _step_spot),
     ("mirrors", _step_mirror),
     ("bump map above a mirror", _step_bump),
     ("textures and vertex colours", _step_textures),
